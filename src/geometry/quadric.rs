@@ -1,0 +1,505 @@
+//! Second-order surfaces, the one primitive of the roks geometry kernel.
+//!
+//! A [`Quadric`] is the zero set of
+//! `f(p) = A x² + B y² + C z² + D xy + E yz + F xz + G x + H y + J z + K`
+//! where `(x, y, z) = p - origin`. Keeping a local origin (rather than folding
+//! a translation into G, H, J, K) keeps `f` accurate for small surfaces far
+//! from the coordinate origin: a bump of radius 3e-5 at x = 30 loses no digits.
+//! Translating a quadric moves its origin and is exact.
+//!
+//! Lengths are in the scene's (relative) units; geometric optics has no scale.
+//!
+//! # Ray crossings without a fudge epsilon
+//! Along a ray `p(t) = o + t d`, `f(p(t)) = a t² + 2 b t + c`. The roots are
+//! found with the cancellation-free form `q = -(b + sign(b) sqrt(b² - a c))`,
+//! `t = q / a, c / q`. The side of the surface at any `t` is then derived from
+//! the roots alone (it starts at `sign(a)` at `t = -inf` and flips at each
+//! root), so sides and crossings can never disagree. A photon standing on the
+//! surface (it was just reflected there) passes `on_surface = true`: `c` is set
+//! to exactly 0, so one root is exactly `t = 0` and the other `-2b/a`. This is
+//! how OpenMC treats the surface a particle stands on; no offset, no lost or
+//! doubled hits.
+
+use glam::DVec3;
+
+/// A general second-order surface with a local origin.
+///
+/// Coefficients act on `p - origin`; names follow OpenMC / the scene format:
+/// `A x² + B y² + C z² + D xy + E yz + F xz + G x + H y + J z + K`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quadric {
+    /// Reference point of the coefficients (length units).
+    pub origin: DVec3,
+    /// `[A, B, C, D, E, F, G, H, J, K]`.
+    pub coef: [f64; 10],
+}
+
+/// Crossings of a ray with a quadric within `(0, t_max]`.
+///
+/// The side of the surface is `positive_at_start` just after `t = 0` and flips
+/// at each entry of `t` (ascending). A tangent touch gives two equal entries,
+/// i.e. no net change of side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossings {
+    /// Crossing distances (units of `|d|`), ascending; only `t[..n]` are valid.
+    pub t: [f64; 2],
+    /// Number of valid crossings (0, 1 or 2).
+    pub n: usize,
+    /// True when the ray is on the positive side (`f > 0`) just after `t = 0`.
+    pub positive_at_start: bool,
+}
+
+impl Quadric {
+    /// A quadric from its ten coefficients about the coordinate origin.
+    #[must_use]
+    pub const fn general(coef: [f64; 10]) -> Self {
+        Self {
+            origin: DVec3::ZERO,
+            coef,
+        }
+    }
+
+    /// The plane `a x + b y + c z - d = 0` (the scene's `plane = [a, b, c, d]`).
+    ///
+    /// The negative side is where `a x + b y + c z < d`.
+    #[must_use]
+    pub const fn plane(a: f64, b: f64, c: f64, d: f64) -> Self {
+        Self::general([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, a, b, c, -d])
+    }
+
+    /// The horizontal plane `z = z0`; negative below it.
+    #[must_use]
+    pub fn plane_z(z0: f64) -> Self {
+        Self {
+            origin: DVec3::new(0.0, 0.0, z0),
+            coef: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        }
+    }
+
+    /// An axis-aligned ellipsoid with the given centre and semi-axes; negative inside.
+    #[must_use]
+    pub fn ellipsoid(center: DVec3, semi_axes: DVec3) -> Self {
+        let s = semi_axes.recip() * semi_axes.recip();
+        Self {
+            origin: center,
+            coef: [s.x, s.y, s.z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0],
+        }
+    }
+
+    /// A sphere; negative inside.
+    #[must_use]
+    pub fn sphere(center: DVec3, radius: f64) -> Self {
+        Self::ellipsoid(center, DVec3::splat(radius))
+    }
+
+    /// An infinite circular cylinder of radius `r` along coordinate `axis`
+    /// (0 = x, 1 = y, 2 = z) through `point`; negative inside.
+    #[must_use]
+    pub fn cylinder(axis: usize, point: DVec3, r: f64) -> Self {
+        let mut coef = [1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -r * r];
+        coef[axis.min(2)] = 0.0;
+        Self {
+            origin: point,
+            coef,
+        }
+    }
+
+    /// A double circular cone along coordinate `axis` with apex `apex`:
+    /// `rho² - t2 (s - s_apex)² = 0`, `t2` = tan² of the half-angle; negative inside.
+    #[must_use]
+    pub fn cone(axis: usize, apex: DVec3, t2: f64) -> Self {
+        let mut coef = [1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        coef[axis.min(2)] = -t2;
+        Self { origin: apex, coef }
+    }
+
+    /// An elliptic paraboloid opening downward from `apex`, reaching radii
+    /// `(rx, ry)` at depth `depth` below it:
+    /// `(x/rx)² + (y/ry)² + (z - z_apex)/depth = 0`; negative inside (below).
+    #[must_use]
+    pub fn paraboloid_down(apex: DVec3, rx: f64, ry: f64, depth: f64) -> Self {
+        Self {
+            origin: apex,
+            coef: [
+                1.0 / (rx * rx),
+                1.0 / (ry * ry),
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                1.0 / depth,
+                0.0,
+            ],
+        }
+    }
+
+    /// An elliptic cone with apex at `apex`, opening downward, reaching radii
+    /// `(rx, ry)` at depth `depth` below the apex (both nappes; cut it with a plane).
+    #[must_use]
+    pub fn cone_down(apex: DVec3, rx: f64, ry: f64, depth: f64) -> Self {
+        Self {
+            origin: apex,
+            coef: [
+                1.0 / (rx * rx),
+                1.0 / (ry * ry),
+                -1.0 / (depth * depth),
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+            ],
+        }
+    }
+
+    /// An elliptic hyperboloid of one sheet with vertical axis and waist at
+    /// `waist` (semi-axes `rx, ry` there): `(x/rx)² + (y/ry)² - (z/c)² - 1 = 0`;
+    /// negative inside.
+    #[must_use]
+    pub fn hyperboloid_one_sheet(waist: DVec3, rx: f64, ry: f64, c: f64) -> Self {
+        Self {
+            origin: waist,
+            coef: [
+                1.0 / (rx * rx),
+                1.0 / (ry * ry),
+                -1.0 / (c * c),
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                -1.0,
+            ],
+        }
+    }
+
+    /// The same surface translated by `delta` (exact: only the origin moves).
+    #[must_use]
+    pub fn translated(&self, delta: DVec3) -> Self {
+        Self {
+            origin: self.origin + delta,
+            coef: self.coef,
+        }
+    }
+
+    /// The same surface with all lengths multiplied by `s > 0` (sides preserved).
+    ///
+    /// Coefficients of degree n are divided by `s^n`; the constant term is kept,
+    /// so `f` keeps its sign everywhere.
+    #[must_use]
+    pub fn scaled(&self, s: f64) -> Self {
+        let [a, b, c, d, e, f, g, h, j, k] = self.coef;
+        let s2 = s * s;
+        Self {
+            origin: self.origin * s,
+            coef: [
+                a / s2,
+                b / s2,
+                c / s2,
+                d / s2,
+                e / s2,
+                f / s2,
+                g / s,
+                h / s,
+                j / s,
+                k,
+            ],
+        }
+    }
+
+    /// `f(p)`.
+    #[must_use]
+    #[inline]
+    pub fn eval(&self, p: DVec3) -> f64 {
+        let [a, b, c, d, e, f, g, h, j, k] = self.coef;
+        let q = p - self.origin;
+        let (x, y, z) = (q.x, q.y, q.z);
+        x * (a * x + d * y + f * z + g) + y * (b * y + e * z + h) + z * (c * z + j) + k
+    }
+
+    /// `grad f(p)` (not normalised; units of f per length).
+    #[must_use]
+    #[inline]
+    pub fn gradient(&self, p: DVec3) -> DVec3 {
+        let [a, b, c, d, e, f, g, h, j, _] = self.coef;
+        let q = p - self.origin;
+        let (x, y, z) = (q.x, q.y, q.z);
+        DVec3::new(
+            2.0 * a * x + d * y + f * z + g,
+            2.0 * b * y + d * x + e * z + h,
+            2.0 * c * z + e * y + f * x + j,
+        )
+    }
+
+    /// Unit normal at `p`, oriented against the direction `d` (so that `n . d <= 0`).
+    ///
+    /// Returns `None` where the gradient vanishes (a cone apex) or is not finite.
+    #[must_use]
+    #[inline]
+    pub fn facing_normal(&self, p: DVec3, d: DVec3) -> Option<DVec3> {
+        let n = self.gradient(p).try_normalize()?;
+        Some(if n.dot(d) > 0.0 { -n } else { n })
+    }
+
+    /// Coefficients `(a, b, c)` of `f(o + t d) = a t² + 2 b t + c`.
+    #[must_use]
+    #[inline]
+    pub fn ray_coefficients(&self, o: DVec3, d: DVec3) -> (f64, f64, f64) {
+        let [a, b, c, dd, e, f, _, _, _, _] = self.coef;
+        let qa = d.x * (a * d.x + dd * d.y + f * d.z) + d.y * (b * d.y + e * d.z) + c * d.z * d.z;
+        let half_b = 0.5 * self.gradient(o).dot(d);
+        (qa, half_b, self.eval(o))
+    }
+
+    /// A root `t` of the ray `o + t d` polished by one correction step solved at
+    /// the point `o + t d` itself.
+    ///
+    /// When the ray starts far from a small surface, `b² - a c` cancels and the
+    /// root loses digits (relative error ~ eps (distance / size)²); at the
+    /// nearby point the constant term is tiny and the small root of the local
+    /// quadratic recovers them. Returns `t` unchanged if the step is not finite
+    /// or would not stay positive.
+    #[must_use]
+    #[inline]
+    pub fn refine_root(&self, o: DVec3, d: DVec3, t: f64) -> f64 {
+        let (a, b, c) = self.ray_coefficients(o + t * d, d);
+        let disc = (b * b - a * c).max(0.0);
+        let q = -(b + disc.sqrt().copysign(b));
+        let step = if a == 0.0 && b != 0.0 {
+            -c / (2.0 * b)
+        } else {
+            c / q
+        };
+        let refined = t + step;
+        if step.is_finite() && refined > 0.0 {
+            refined
+        } else {
+            t
+        }
+    }
+
+    /// Crossings of the ray `o + t d`, `t` in `(0, t_max]`, with this surface.
+    ///
+    /// `on_surface`: the ray starts on this surface (sets `c = 0` exactly).
+    #[must_use]
+    #[inline]
+    pub fn crossings(&self, o: DVec3, d: DVec3, t_max: f64, on_surface: bool) -> Crossings {
+        let (a, b, c) = self.ray_coefficients(o, d);
+        let c = if on_surface { 0.0 } else { c };
+        crossings_of_quadratic(a, b, c, t_max)
+    }
+}
+
+/// Crossings in `(0, t_max]` of `a t² + 2 b t + c`, and its side just after 0.
+///
+/// The side is derived from the roots (see the module docs), so a root at or
+/// below zero is consistently "already crossed". Non-finite input gives no
+/// crossings and the sign of `c` (callers guard against NaN rays).
+#[must_use]
+#[inline]
+pub fn crossings_of_quadratic(a: f64, b: f64, c: f64, t_max: f64) -> Crossings {
+    let mut out = Crossings {
+        t: [f64::INFINITY; 2],
+        n: 0,
+        positive_at_start: c > 0.0,
+    };
+    let (roots, n_roots, sign_at_minus_inf) = real_roots(a, b, c);
+    let Some(mut positive) = sign_at_minus_inf else {
+        return out;
+    };
+    for &r in &roots[..n_roots] {
+        if r <= 0.0 {
+            positive = !positive;
+        } else if r <= t_max {
+            out.t[out.n] = r;
+            out.n += 1;
+        }
+    }
+    out.positive_at_start = positive;
+    out
+}
+
+/// Real roots of `a t² + 2 b t + c` (ascending) and the sign of the polynomial
+/// as `t -> -inf` (`Some(true)` = positive). `None` for the sign when the
+/// polynomial is identically constant zero or not finite.
+#[inline]
+fn real_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize, Option<bool>) {
+    if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+        return ([0.0; 2], 0, None);
+    }
+    if a == 0.0 {
+        if b == 0.0 {
+            // Constant polynomial: no crossing; side from c (c = 0: on a degenerate surface).
+            return ([0.0; 2], 0, if c == 0.0 { None } else { Some(c > 0.0) });
+        }
+        // Linear: single root; negative at -inf when b > 0.
+        return ([-c / (2.0 * b), 0.0], 1, Some(b < 0.0));
+    }
+    let disc = b * b - a * c;
+    if disc < 0.0 {
+        return ([0.0; 2], 0, Some(a > 0.0));
+    }
+    let q = -(b + disc.sqrt().copysign(b));
+    if q == 0.0 {
+        // b = 0 and a c = 0 with a != 0, so c = 0: a double root at t = 0.
+        return ([0.0, 0.0], 2, Some(a > 0.0));
+    }
+    let (r1, r2) = (q / a, c / q);
+    let roots = if r1 <= r2 { [r1, r2] } else { [r2, r1] };
+    ([roots[0], roots[1]], 2, Some(a > 0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn side_by_eval(q: &Quadric, o: DVec3, d: DVec3, t: f64) -> bool {
+        q.eval(o + t * d) > 0.0
+    }
+
+    #[test]
+    fn unit_sphere_from_outside_hits_at_distance_r_minus_one() {
+        let s = Quadric::sphere(DVec3::ZERO, 1.0);
+        let c = s.crossings(
+            DVec3::new(0.0, 0.0, 5.0),
+            DVec3::NEG_Z,
+            f64::INFINITY,
+            false,
+        );
+        assert_eq!(c.n, 2);
+        assert!(c.positive_at_start);
+        assert_eq!(c.t, [4.0, 6.0]);
+    }
+
+    #[test]
+    fn on_surface_has_exactly_one_root_at_zero_and_one_at_minus_2b_over_a() {
+        // Start on a sphere of radius 3 at (3,0,0), heading inward along -x: other root at 6.
+        let s = Quadric::sphere(DVec3::new(10.0, -4.0, 2.0), 3.0);
+        let o = DVec3::new(13.0, -4.0, 2.0);
+        let inward = s.crossings(o, DVec3::NEG_X, f64::INFINITY, true);
+        assert!(!inward.positive_at_start);
+        assert_eq!(inward.n, 1);
+        assert_eq!(inward.t[0], 6.0);
+        let outward = s.crossings(o, DVec3::X, f64::INFINITY, true);
+        assert!(outward.positive_at_start);
+        assert_eq!(outward.n, 0);
+        // Tangent on the surface: stays outside, no crossing.
+        let tangent = s.crossings(o, DVec3::Y, f64::INFINITY, true);
+        assert!(tangent.positive_at_start);
+        assert_eq!(tangent.n, 0);
+    }
+
+    #[test]
+    fn tangent_ray_gives_double_root_or_nothing_never_a_single_flip() {
+        let s = Quadric::sphere(DVec3::ZERO, 1.0);
+        let c = s.crossings(DVec3::new(-5.0, 1.0, 0.0), DVec3::X, f64::INFINITY, false);
+        assert!(c.positive_at_start);
+        assert!(c.n == 0 || c.n == 2, "{c:?}");
+        if c.n == 2 {
+            assert_eq!(c.t[0], c.t[1]);
+        }
+    }
+
+    #[test]
+    fn stable_roots_for_nearly_linear_quadratic() {
+        // a tiny: the naive formula loses the small root to cancellation.
+        let c = crossings_of_quadratic(1e-20, -1.0, 1.0, f64::INFINITY);
+        assert_eq!(c.n, 2);
+        assert!((c.t[0] - 0.5).abs() < 1e-15, "{c:?}");
+        let lin = crossings_of_quadratic(0.0, -1.0, 1.0, f64::INFINITY);
+        assert_eq!((lin.n, lin.t[0], lin.positive_at_start), (1, 0.5, true));
+    }
+
+    #[test]
+    fn plane_and_paraboloid_sides_match_evaluation() {
+        let p = Quadric::plane(-1.0, 0.0, 1.0, 0.0); // z < x is negative
+        assert!(p.eval(DVec3::new(1.0, 0.0, 0.5)) < 0.0);
+        let par = Quadric::paraboloid_down(DVec3::new(1.0, 2.0, 3.0), 2.0, 2.0, 3.0);
+        assert_eq!(par.eval(DVec3::new(3.0, 2.0, 0.0)), 0.0);
+        assert!(par.eval(DVec3::new(1.0, 2.0, 2.0)) < 0.0);
+    }
+
+    #[test]
+    fn translation_and_scaling_keep_values_to_rounding() {
+        let e = Quadric::ellipsoid(DVec3::new(0.3, 0.1, -0.2), DVec3::new(2.0, 1.0, 0.5));
+        let p = DVec3::new(1.1, 0.4, 0.1);
+        // A whole-period shift of a power of two is exact in binary.
+        let shift = DVec3::new(32.0, -32.0, 0.0);
+        assert_eq!(e.translated(shift).eval(p + shift), e.eval(p));
+        for s in [1e-3, 1e3, 1e-9, 1e9] {
+            let es = e.scaled(s);
+            let rel = (es.eval(p * s) - e.eval(p)).abs() / e.eval(p).abs();
+            assert!(rel < 1e-14, "scale {s}: {rel}");
+        }
+    }
+
+    #[test]
+    fn small_far_surface_keeps_precision_after_refinement() {
+        // A sphere of radius 3e-5 seen from distance 1: the plain root is off by
+        // ~eps (1/r)² r; the refined one by a few ulps of t.
+        let r = 3e-5;
+        let s = Quadric::sphere(DVec3::new(30.0, 30.0, 0.0), r);
+        for (o, d) in [
+            (DVec3::new(30.0, 30.0, 1.0), DVec3::NEG_Z),
+            (DVec3::new(29.0, 30.0, 0.0), DVec3::X),
+        ] {
+            let c = s.crossings(o, d, f64::INFINITY, false);
+            assert_eq!(c.n, 2);
+            let plain_error = (c.t[0] - (1.0 - r)).abs();
+            let t = s.refine_root(o, d, c.t[0]);
+            // Exact to the rounding of coordinates near 30 (the hit point's own precision).
+            let ulp30 = 30.0 * f64::EPSILON;
+            assert!((t - (1.0 - r)).abs() <= ulp30, "{}", t - (1.0 - r));
+            assert!(
+                plain_error > 100.0 * ulp30,
+                "the test must exercise the cancellation"
+            );
+        }
+    }
+
+    #[test]
+    fn sides_from_roots_agree_with_evaluation_away_from_roots() {
+        // Deterministic sweep of rays against assorted quadrics.
+        let quadrics = [
+            Quadric::sphere(DVec3::new(0.2, -0.1, 0.3), 0.7),
+            Quadric::cone(2, DVec3::new(0.0, 0.0, 1.0), 0.25),
+            Quadric::cylinder(0, DVec3::ZERO, 0.5),
+            Quadric::hyperboloid_one_sheet(DVec3::ZERO, 0.5, 0.8, 0.3),
+            Quadric::plane(0.3, -0.2, 1.0, 0.1),
+            Quadric::paraboloid_down(DVec3::ZERO, 1.0, 0.5, 2.0),
+        ];
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for q in &quadrics {
+            for _ in 0..2000 {
+                let o = DVec3::new(next(), next(), next()) * 2.0;
+                let Some(d) = DVec3::new(next(), next(), next()).try_normalize() else {
+                    continue;
+                };
+                let c = q.crossings(o, d, 10.0, false);
+                // Probe midway between consecutive crossings.
+                let mut edges = vec![0.0];
+                edges.extend_from_slice(&c.t[..c.n]);
+                edges.push(10.0);
+                let mut positive = c.positive_at_start;
+                for w in edges.windows(2) {
+                    if w[1] - w[0] > 1e-6 {
+                        let mid = 0.5 * (w[0] + w[1]);
+                        assert_eq!(side_by_eval(q, o, d, mid), positive, "{q:?} {o} {d} {c:?}");
+                    }
+                    positive = !positive;
+                }
+            }
+        }
+    }
+}

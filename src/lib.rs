@@ -1,0 +1,21 @@
+//! roks: Monte Carlo reflection of light from rough surfaces and rough 3-D
+//! objects in geometric optics, after the program ROKS-RG (Klass, Shakhovsky,
+//! Badyuk, Ulyanov, J. Opt. Technol. 2014).
+//!
+//! Layout, by physics:
+//! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
+//! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables).
+//! * [`micro`]: the explicit rough surface (substrate, bumps, edges) and its statistics.
+//! * [`transport`]: photon histories, random streams, the BRDF generator.
+//! * [`tally`]: angular grids (Carlson, in-plane) and accumulators with standard errors.
+//! * [`scene`]: TOML scene files, validated with one-line errors.
+//! * [`output`]: result files (JSON, CSV), written atomically.
+#![forbid(unsafe_code)]
+
+pub mod geometry;
+pub mod micro;
+pub mod optics;
+pub mod output;
+pub mod scene;
+pub mod tally;
+pub mod transport;

@@ -1,0 +1,208 @@
+//! Bump shapes: small solids on the substrate, each a region over quadrics.
+//!
+//! Every shape stands on the substrate `z = 0` with its top at `height`.
+//! Horizontal semi-axes are `radius` (x) and `radius_y` (y). Parts below the
+//! substrate are hidden by it, so shapes may extend below `z = 0`; their
+//! bounds only need to hold the part at `z >= 0`.
+//!
+//! | shape | body |
+//! |---|---|
+//! | `ellipsoid` | ellipsoid centred `depth` below the substrate, vertical semi-axis `height + depth` |
+//! | `ellipsoid_on_hyperboloid` | ellipsoid cap (top `cap * height`) on a one-sheet hyperboloid base whose waist matches the cap's equator (tangent-continuous) and whose radius at the substrate is `base` times the waist |
+//! | `paraboloid` | paraboloid of revolution, apex at `height`, radius `radius` at the substrate |
+//! | `cone` | cone, apex at `height`, radius `radius` at the substrate |
+//! | `cylinder` | flat-topped elliptic post of height `height` |
+
+use glam::{DVec2, DVec3};
+use serde::Deserialize;
+
+use super::Placed;
+use crate::geometry::body::{Aabb, Body};
+use crate::geometry::quadric::Quadric;
+use crate::geometry::region;
+
+/// The shapes a bump population can have.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Shape {
+    /// Ellipsoid (cap) on the substrate.
+    Ellipsoid,
+    /// Ellipsoid top on an elliptic one-sheet hyperboloid base (the paper's Li & Torrance fit).
+    EllipsoidOnHyperboloid,
+    /// Paraboloid of revolution (elliptic if `radius_y` differs).
+    Paraboloid,
+    /// Cone (elliptic if `radius_y` differs).
+    Cone,
+    /// Flat-topped cylinder (post).
+    Cylinder,
+}
+
+/// The parameters of one bump (lengths in scene units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bump {
+    /// Centre on the substrate.
+    pub center: DVec2,
+    /// Horizontal semi-axis along x (the waist for `ellipsoid_on_hyperboloid`).
+    pub radius: f64,
+    /// Horizontal semi-axis along y.
+    pub radius_y: f64,
+    /// Height of the top above the substrate.
+    pub height: f64,
+    /// Ellipsoid: depth of the centre below the substrate (>= 0).
+    pub depth: f64,
+    /// Ellipsoid on hyperboloid: fraction of the height in the cap, (0, 1].
+    pub cap: f64,
+    /// Ellipsoid on hyperboloid: radius at the substrate / waist radius (> 1).
+    pub base: f64,
+}
+
+impl Shape {
+    /// The solid for one bump, with its bounds and top.
+    #[must_use]
+    pub fn body(self, b: &Bump, material: usize) -> Placed {
+        let c = DVec3::new(b.center.x, b.center.y, 0.0);
+        let (rx, ry, h) = (b.radius, b.radius_y, b.height);
+        let single = |q: Quadric| (vec![q], "-a");
+        let (surfaces, expr, foot) = match self {
+            Self::Ellipsoid => {
+                let center = c - DVec3::Z * b.depth;
+                let q = Quadric::ellipsoid(center, DVec3::new(rx, ry, h + b.depth));
+                let (s, e) = single(q);
+                (s, e, DVec2::new(rx, ry))
+            }
+            Self::Paraboloid => {
+                let (s, e) = single(Quadric::paraboloid_down(c + DVec3::Z * h, rx, ry, h));
+                (s, e, DVec2::new(rx, ry))
+            }
+            Self::Cone => (
+                vec![
+                    Quadric::cone_down(c + DVec3::Z * h, rx, ry, h),
+                    Quadric::plane_z(h),
+                ],
+                "-a -b",
+                DVec2::new(rx, ry),
+            ),
+            Self::Cylinder => {
+                let wall = Quadric {
+                    origin: c,
+                    coef: [
+                        1.0 / (rx * rx),
+                        1.0 / (ry * ry),
+                        0.0,
+                        0.0,
+                        0.0,
+                        0.0,
+                        0.0,
+                        0.0,
+                        0.0,
+                        -1.0,
+                    ],
+                };
+                (vec![wall, Quadric::plane_z(h)], "-a -b", DVec2::new(rx, ry))
+            }
+            Self::EllipsoidOnHyperboloid => {
+                // Junction (waist) height, cap semi-axis and hyperboloid c from
+                // radius(z = 0) = waist * base: base² = 1 + zj² / c².
+                let cap = (b.cap * h).min(h);
+                let zj = h - cap;
+                let waist = c + DVec3::Z * zj;
+                let top = Quadric::ellipsoid(waist, DVec3::new(rx, ry, cap));
+                if zj <= 0.0 {
+                    let (s, e) = single(top);
+                    (s, e, DVec2::new(rx, ry))
+                } else {
+                    let ch = zj / (b.base * b.base - 1.0).sqrt();
+                    (
+                        vec![
+                            top,
+                            Quadric::hyperboloid_one_sheet(waist, rx, ry, ch),
+                            Quadric::plane_z(zj),
+                        ],
+                        "-a | (-b -c)",
+                        DVec2::new(rx, ry) * b.base,
+                    )
+                }
+            }
+        };
+        // Surfaces are named a, b, c by position.
+        let names = ["a", "b", "c"];
+        let region = region::parse(expr, |n| names.iter().position(|m| *m == n))
+            .expect("bump regions are fixed and valid");
+        // Relative pad so rounding in the bounds never clips a real hit.
+        let pad = 1e-9 * foot.max_element().max(h);
+        let bounds = Aabb {
+            min: DVec3::new(c.x - foot.x - pad, c.y - foot.y - pad, -h - pad),
+            max: DVec3::new(c.x + foot.x + pad, c.y + foot.y + pad, h + pad),
+        };
+        Placed {
+            body: Body::new(surfaces, region, bounds, material),
+            max_height: h,
+            wraps: true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bump(h: f64) -> Bump {
+        Bump {
+            center: DVec2::new(5.0, 5.0),
+            radius: 2.0,
+            radius_y: 1.5,
+            height: h,
+            depth: 0.5,
+            cap: 0.4,
+            base: 1.5,
+        }
+    }
+
+    /// The top of every shape is at `height` above the centre, and the body
+    /// contains points just below it but not just above.
+    #[test]
+    fn every_shape_peaks_at_its_height_over_its_centre() {
+        for shape in [
+            Shape::Ellipsoid,
+            Shape::EllipsoidOnHyperboloid,
+            Shape::Paraboloid,
+            Shape::Cone,
+            Shape::Cylinder,
+        ] {
+            let p = shape.body(&bump(1.7), 0);
+            assert_eq!(p.max_height, 1.7);
+            let e = p
+                .body
+                .first_entry(DVec3::new(5.0, 5.0, 10.0), DVec3::NEG_Z, 100.0, None)
+                .unwrap();
+            assert!(
+                (10.0 - e.t - 1.7).abs() < 1e-12,
+                "{shape:?}: {}",
+                10.0 - e.t
+            );
+            assert!(p.body.contains(DVec3::new(5.0, 5.0, 1.69)));
+            assert!(!p.body.contains(DVec3::new(5.0, 5.0, 1.71)));
+        }
+    }
+
+    /// Footprints at the substrate: the bounds hold the body at z >= 0.
+    #[test]
+    fn footprint_radii_at_the_substrate() {
+        let b = bump(2.0);
+        // Ellipsoid centred 0.5 below: footprint radius rx sqrt(1 - (0.5/2.5)²).
+        let e = Shape::Ellipsoid.body(&b, 0);
+        let r = 2.0 * (1.0 - (0.5_f64 / 2.5).powi(2)).sqrt();
+        assert!(e.body.contains(DVec3::new(5.0 + r - 1e-9, 5.0, 1e-12)));
+        assert!(!e.body.contains(DVec3::new(5.0 + r + 1e-9, 5.0, 1e-12)));
+        // Hyperboloid base: radius waist * base at z = 0.
+        let hb = Shape::EllipsoidOnHyperboloid.body(&b, 0);
+        assert!(hb.body.contains(DVec3::new(5.0 + 3.0 - 1e-9, 5.0, 0.0)));
+        assert!(!hb.body.contains(DVec3::new(5.0 + 3.0 + 1e-9, 5.0, 0.0)));
+        // ... and the cap's equator joins the waist at zj = h (1 - cap) = 1.2 with radius rx.
+        assert!(hb.body.contains(DVec3::new(5.0 + 2.0 - 1e-9, 5.0, 1.2)));
+        assert!(!hb.body.contains(DVec3::new(5.0 + 2.0 + 1e-9, 5.0, 1.2)));
+        for p in [e, hb] {
+            assert!(p.body.bounds.max.x >= 5.0 + 3.0 || p.body.bounds.max.x >= 5.0 + r);
+        }
+    }
+}

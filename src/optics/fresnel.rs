@@ -1,0 +1,287 @@
+//! Fresnel reflectance of a smooth interface between vacuum (or air, refractive
+//! index 1) and a medium with complex refractive index `n + i k`.
+//!
+//! The formulas are the classic real-arithmetic closed form (Born & Wolf,
+//! *Principles of Optics*, §14.2; also pbrt's conductor Fresnel term). With
+//! `c = cos θi`, `s = sin θi` and
+//!
+//! ```text
+//! a² + b² = sqrt((n² − k² − s²)² + 4 n² k²)
+//! a²      = (a² + b² + n² − k² − s²) / 2
+//! b²      = (a² + b² − n² + k² + s²) / 2
+//! ```
+//!
+//! (`a + i b = sqrt((n + i k)² − s²)`, the principal branch, which is the
+//! physical one: `a, b ≥ 0` for `k ≥ 0`), the power reflectances are
+//!
+//! ```text
+//! Rs = ((a − c)² + b²) / ((a + c)² + b²)
+//! Rp = Rs · ((a c − s²)² + b² c²) / ((a c + s²)² + b² c²)
+//! ```
+//!
+//! The `Rp` factor is the textbook `(a² + b² − 2 a s tan θ + s² tan² θ) /
+//! (a² + b² + 2 a s tan θ + s² tan² θ)` multiplied through by `c²`, so it never
+//! divides by `cos θi` and is exact at grazing incidence (`R = 1`). Numerators
+//! and denominators are written as sums of squares, so they are never
+//! negative and do not suffer from cancellation when `a ≈ c` (e.g. `n ≈ 1`).
+//!
+//! Dielectrics with `n < 1`, `k = 0` (e.g. X-ray-like indices, or an index
+//! ratio seen from the optically denser side) are handled by the same
+//! formula: beyond the critical angle `a = 0` and both `Rs` and `Rp` are
+//! exactly 1.
+
+/// Reflectances `(Rs, Rp)` for s- and p-polarised light (dimensionless, in
+/// `[0, 1]`) at a smooth interface from index 1 into a medium of complex
+/// refractive index `n + i k`.
+///
+/// * `cos_i` — cosine of the angle of incidence measured from the surface
+///   normal (dimensionless); values outside `[0, 1]` are clamped to it.
+/// * `n` — real part of the refractive index (dimensionless, `> 0`).
+/// * `k` — extinction coefficient (dimensionless, `≥ 0`; `0` for a lossless
+///   dielectric).
+///
+/// Never panics. For physically meaningless parameters (non-finite values,
+/// `n ≤ 0`, `k < 0`) the result is unspecified and may be NaN; validate
+/// parameters first (see [`crate::optics::Reflectance::validate`]). A NaN
+/// `cos_i` gives NaN.
+#[must_use]
+pub fn fresnel_sp(cos_i: f64, n: f64, k: f64) -> (f64, f64) {
+    let c = cos_i.clamp(0.0, 1.0);
+    // sin²θ computed as (1 − c)(1 + c) is accurate near normal incidence.
+    let s2 = ((1.0 - c) * (1.0 + c)).max(0.0);
+    // n² − k² − sin²θ written as (n − 1)(n + 1) − k² + c²: accurate near
+    // grazing incidence and for n ≈ 1 (index-matched interfaces give a = c
+    // and hence R = 0 at every angle).
+    let t0 = (n - 1.0) * (n + 1.0) - k * k + c * c;
+    // hypot avoids overflow/underflow of (t0² + 4 n² k²).
+    let a2b2 = t0.hypot(2.0 * n * k);
+    let a2 = (0.5 * (a2b2 + t0)).max(0.0);
+    let b2 = (0.5 * (a2b2 - t0)).max(0.0);
+    let a = a2.sqrt();
+
+    let ac = a - c;
+    let apc = a + c;
+    // Denominator is zero only for a = b = c = 0, i.e. n = 1, k = 0 at
+    // grazing incidence: no interface at all, so R = 0 (the limit value).
+    let rs = ratio((ac * ac) + b2, (apc * apc) + b2, 0.0);
+
+    let acs_m = a * c - s2;
+    let acs_p = a * c + s2;
+    let b2c2 = b2 * c * c;
+    // Denominator is zero only for s = 0 and a = b = 0 (n = k = 0, invalid):
+    // fall back to Rp = Rs, the normal-incidence identity.
+    let factor = ratio(acs_m * acs_m + b2c2, acs_p * acs_p + b2c2, 1.0);
+    let rp = rs * factor;
+    (unit(rs), unit(rp))
+}
+
+/// Reflectance of unpolarised light, `(Rs + Rp) / 2` (dimensionless, in
+/// `[0, 1]`), at a smooth interface from index 1 into a medium of complex
+/// refractive index `n + i k`.
+///
+/// Parameters are as for [`fresnel_sp`]: `cos_i` is the cosine of the angle
+/// of incidence (clamped to `[0, 1]`), `n > 0` the real index and `k ≥ 0`
+/// the extinction coefficient. At normal incidence this is
+/// `((n − 1)² + k²) / ((n + 1)² + k²)`; at grazing incidence (`cos_i = 0`) it
+/// is exactly 1 for any interface with `(n, k) ≠ (1, 0)`.
+///
+/// Never panics; invalid parameters may give NaN (see [`fresnel_sp`]).
+#[must_use]
+pub fn fresnel_unpolarised(cos_i: f64, n: f64, k: f64) -> f64 {
+    let (rs, rp) = fresnel_sp(cos_i, n, k);
+    0.5 * (rs + rp)
+}
+
+/// `num / den`, or `fallback` when `den == 0`.
+fn ratio(num: f64, den: f64, fallback: f64) -> f64 {
+    if den == 0.0 { fallback } else { num / den }
+}
+
+/// Clamp rounding excursions into `[0, 1]`; NaN passes through.
+fn unit(x: f64) -> f64 {
+    x.clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_complex::Complex64;
+
+    /// Independent textbook implementation in complex arithmetic.
+    ///
+    /// `rs = (cos_i − η cos_t) / (cos_i + η cos_t)`,
+    /// `rp = (η cos_i − cos_t) / (η cos_i + cos_t)` with
+    /// `η cos_t = sqrt(η² − sin²θi)` (principal branch: Re ≥ 0, and Im ≥ 0
+    /// because Im(η²) = 2 n k ≥ 0, i.e. a wave decaying into the medium).
+    fn reference(cos_i: f64, n: f64, k: f64) -> (f64, f64) {
+        let eta = Complex64::new(n, k);
+        // η² − sin²θi, with sin²θi = 1 − cos²θi folded in for accuracy near
+        // grazing incidence (the result would otherwise jump for η ≈ 1).
+        let eta_cos_t = (eta * eta - 1.0 + cos_i * cos_i).sqrt();
+        assert!(eta_cos_t.re >= 0.0 && eta_cos_t.im >= 0.0, "branch");
+        let cos_t = eta_cos_t / eta;
+        let ci = Complex64::new(cos_i, 0.0);
+        let rs = (ci - eta_cos_t) / (ci + eta_cos_t);
+        let rp = (eta * ci - cos_t) / (eta * ci + cos_t);
+        (rs.norm_sqr(), rp.norm_sqr())
+    }
+
+    fn close(a: f64, b: f64, rel: f64) -> bool {
+        (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-15
+    }
+
+    const MATERIALS: &[(f64, f64)] = &[
+        (1.5, 0.0),
+        (1.33, 0.0),
+        (2.4, 0.0),
+        (1.0, 0.0),
+        (0.7, 0.0),
+        (0.95, 0.0),
+        (1.015, 6.627),
+        (0.43, 2.455),
+        (0.06, 3.586),
+        (27.16, 89.89),
+        (1.5, 0.01),
+        (0.5, 0.5),
+        (3.0, 1e-6),
+        (0.2, 1e-3),
+    ];
+
+    #[test]
+    fn matches_complex_reference_on_grid() {
+        for &(n, k) in MATERIALS {
+            for deg10 in 0..=900 {
+                let theta = (f64::from(deg10) / 10.0).to_radians();
+                let c = theta.cos().max(0.0);
+                let (rs, rp) = fresnel_sp(c, n, k);
+                let (rs_ref, rp_ref) = reference(c, n, k);
+                assert!(
+                    close(rs, rs_ref, 1e-12),
+                    "Rs n={n} k={k} θ={}: {rs} vs {rs_ref}",
+                    f64::from(deg10) / 10.0
+                );
+                assert!(
+                    close(rp, rp_ref, 1e-12),
+                    "Rp n={n} k={k} θ={}: {rp} vs {rp_ref}",
+                    f64::from(deg10) / 10.0
+                );
+                let r = fresnel_unpolarised(c, n, k);
+                assert!(close(r, 0.5 * (rs_ref + rp_ref), 1e-12));
+                assert!((0.0..=1.0).contains(&r));
+            }
+        }
+    }
+
+    #[test]
+    fn normal_incidence_closed_form() {
+        for &(n, k) in MATERIALS {
+            let expect = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
+            let (rs, rp) = fresnel_sp(1.0, n, k);
+            assert!(close(rs, expect, 1e-14), "{n} {k}");
+            assert_eq!(rs, rp);
+        }
+    }
+
+    #[test]
+    fn published_normal_incidence_values() {
+        let r4 = |n, k| (fresnel_unpolarised(1.0, n, k) * 1e4).round() / 1e4;
+        assert_eq!(r4(1.015, 6.627), 0.9154); // Al (Rakic), visible
+        assert_eq!(r4(0.43, 2.455), 0.7869); // Au
+        assert_eq!(r4(0.06, 3.586), 0.9828); // Ag
+        assert_eq!(r4(27.16, 89.89), 0.9878); // Al at 10.6 µm
+    }
+
+    #[test]
+    fn glass_normal_incidence_is_exactly_four_percent() {
+        assert_eq!(fresnel_unpolarised(1.0, 1.5, 0.0), 0.04);
+        assert_eq!(fresnel_sp(1.0, 1.5, 0.0), (0.04, 0.04));
+    }
+
+    #[test]
+    fn glass_brewster_angle() {
+        let theta_b = 1.5f64.atan();
+        let (rs, rp) = fresnel_sp(theta_b.cos(), 1.5, 0.0);
+        assert!(rp.abs() < 1e-15, "Rp at Brewster = {rp}");
+        // Rs at Brewster: ((n² − 1) / (n² + 1))² for incidence from index 1.
+        let rs_exact = ((1.5f64 * 1.5 - 1.0) / (1.5 * 1.5 + 1.0)).powi(2);
+        assert!(close(rs, rs_exact, 1e-13));
+        let r = fresnel_unpolarised(theta_b.cos(), 1.5, 0.0);
+        assert!(close(r, rs / 2.0, 1e-12));
+    }
+
+    #[test]
+    fn grazing_incidence_is_total() {
+        for &(n, k) in MATERIALS {
+            if n == 1.0 && k == 0.0 {
+                continue;
+            }
+            assert_eq!(fresnel_sp(0.0, n, k), (1.0, 1.0), "{n} {k}");
+            assert_eq!(fresnel_unpolarised(0.0, n, k), 1.0);
+        }
+    }
+
+    #[test]
+    fn index_matched_interface_reflects_nothing() {
+        for c in [0.0, 1e-300, 0.3, 0.5, 1.0] {
+            assert_eq!(fresnel_sp(c, 1.0, 0.0), (0.0, 0.0), "c = {c}");
+        }
+    }
+
+    #[test]
+    fn n_below_one_total_reflection_beyond_critical_angle() {
+        let n: f64 = 0.7;
+        let crit = n.asin();
+        for deg in 0..=90 {
+            let theta = f64::from(deg).to_radians();
+            let (rs, rp) = fresnel_sp(theta.cos(), n, 0.0);
+            if theta > crit + 1e-9 {
+                assert_eq!((rs, rp), (1.0, 1.0), "θ = {deg}");
+            } else {
+                assert!(rs < 1.0 && rp < 1.0, "θ = {deg}");
+            }
+        }
+        // Exactly at the critical angle R = 1 as well (a = b = 0).
+        let c = (1.0 - n * n).sqrt();
+        let (rs, _) = fresnel_sp(c, n, 0.0);
+        assert!(close(rs, 1.0, 1e-7));
+    }
+
+    #[test]
+    fn cos_is_clamped() {
+        assert_eq!(fresnel_sp(1.5, 1.5, 0.0), fresnel_sp(1.0, 1.5, 0.0));
+        assert_eq!(fresnel_sp(-0.2, 1.5, 0.3), fresnel_sp(0.0, 1.5, 0.3));
+    }
+
+    #[test]
+    fn bad_input_does_not_panic() {
+        assert!(fresnel_unpolarised(f64::NAN, 1.5, 0.0).is_nan());
+        let _ = fresnel_sp(0.5, f64::NAN, 0.0);
+        let _ = fresnel_sp(0.5, f64::INFINITY, f64::INFINITY);
+        let _ = fresnel_sp(1.0, 0.0, 0.0);
+        let _ = fresnel_sp(0.5, -1.0, -2.0);
+        // Huge but finite indices do not overflow to NaN.
+        let r = fresnel_unpolarised(0.5, 1e200, 1e200);
+        assert!(close(r, 1.0, 1e-12));
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+
+        /// Random media and angles: agreement with the complex reference,
+        /// results in [0, 1], and Rp <= Rs (the factor multiplying Rs is
+        /// ((ac - s²)² + b²c²) / ((ac + s²)² + b²c²) <= 1 since a, c >= 0).
+        #[test]
+        fn random_media_match_reference(
+            c in 0.0f64..=1.0,
+            n in 0.05f64..50.0,
+            k in proptest::prop_oneof![proptest::strategy::Just(0.0), 0.0f64..100.0],
+        ) {
+            let (rs, rp) = fresnel_sp(c, n, k);
+            let (rs_ref, rp_ref) = reference(c, n, k);
+            proptest::prop_assert!((rs - rs_ref).abs() <= 1e-10 * rs_ref + 1e-13, "Rs {} vs {}", rs, rs_ref);
+            proptest::prop_assert!((rp - rp_ref).abs() <= 1e-10 * rp_ref + 1e-13, "Rp {} vs {}", rp, rp_ref);
+            proptest::prop_assert!((0.0..=1.0).contains(&rs) && (0.0..=1.0).contains(&rp));
+            proptest::prop_assert!(rp <= rs);
+        }
+    }
+}

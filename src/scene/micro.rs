@@ -1,0 +1,610 @@
+//! Micro scenes: a rough surface for `roks brdf` and `roks stats`.
+//!
+//! ```toml
+//! name = "default"          # optional; output goes to out/<name>/ (default: file stem)
+//!
+//! [surface]
+//! size = [30.0, 30.0]       # cell Lx, Ly (relative units)
+//! edges = "periodic"        # "periodic" | "absorbing" | "reflecting"
+//! material = "paint"        # substrate (and reflecting walls)
+//!
+//! [materials.paint]
+//! reflectance = 0.8         # or n = .., k = ..; or table = "r.csv"
+//!
+//! [[bumps]]                 # a random population; several tables allowed
+//! shape = "ellipsoid"       # ellipsoid | ellipsoid_on_hyperboloid | paraboloid | cone | cylinder
+//! count = 100
+//! radius = [2.5, 3.5]       # x semi-axis (waist for ellipsoid_on_hyperboloid): value or range
+//! # radius_y = [2.5, 3.5]   # y semi-axis (default: equal to radius)
+//! height = [1.5, 3.0]       # top above the substrate
+//! # depth = 0.0             # ellipsoid: centre depth below the substrate
+//! # cap = 0.5               # ellipsoid_on_hyperboloid: fraction of the height in the cap
+//! # base = 1.5              # ellipsoid_on_hyperboloid: radius at the substrate / waist
+//! seed = 1                  # geometry seed of this population
+//! # material = "paint"      # default: the surface material
+//!
+//! [quadrics]                # named surfaces for explicit bodies (see scene::QuadricSpec)
+//! left = { plane = [-1.0, 0.0, 1.0, 0.0] }
+//!
+//! [[bodies]]
+//! region = "-left -right"   # OpenMC region syntax over [quadrics]
+//! # material = "paint"
+//!
+//! [light]
+//! theta_deg = [0, 10, 20, 30, 40, 50, 60, 70, 80, 85]
+//! phi_deg = 0.0             # omega_i = (sin t cos p, sin t sin p, cos t) points to the light
+//! photons = 1000000         # per incidence angle
+//! seed = 1                  # tracing seed
+//!
+//! [tally]
+//! bands = 32                # Carlson grid bands
+//! inplane_step_deg = 1.0    # in-plane bin width
+//! inplane_width_deg = 1.0   # in-plane detector full width out of the plane
+//!
+//! [transport]
+//! max_bounces = 100000      # bounce cap (cut photons are reported as lost)
+//! roulette_weight = 0.01    # Russian roulette below this weight (survival weight 10x)
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::{DVec2, DVec3};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use serde::Deserialize;
+
+use super::{
+    MaterialSpec, QuadricSpec, Range, SceneError, Source, build_materials, material_index,
+    parse_toml,
+};
+use crate::geometry::body::{Aabb, Body};
+use crate::geometry::quadric::Quadric;
+use crate::geometry::region;
+use crate::micro::bumps::{Bump, Shape};
+use crate::micro::{Edges, MicroSurface, Placed};
+
+/// The embedded default scene (also `scenes/default.toml`).
+pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
+
+/// The micro scene as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MicroSceneSpec {
+    /// Scene name (output folder); default: file stem.
+    pub name: Option<String>,
+    /// The substrate cell.
+    pub surface: SurfaceSpec,
+    /// Named materials.
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialSpec>,
+    /// Random bump populations.
+    #[serde(default)]
+    pub bumps: Vec<BumpSpec>,
+    /// Named surfaces for explicit bodies.
+    #[serde(default)]
+    pub quadrics: BTreeMap<String, QuadricSpec>,
+    /// Explicit bodies.
+    #[serde(default)]
+    pub bodies: Vec<BodySpec>,
+    /// Illumination.
+    #[serde(default)]
+    pub light: LightSpec,
+    /// Tallies.
+    #[serde(default)]
+    pub tally: TallySpec,
+    /// Transport controls.
+    #[serde(default)]
+    pub transport: TransportSpec,
+}
+
+/// `[surface]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceSpec {
+    /// Cell size `[Lx, Ly]`.
+    pub size: [f64; 2],
+    /// Side behaviour (default periodic).
+    #[serde(default = "default_edges")]
+    pub edges: EdgesSpec,
+    /// Substrate material name.
+    pub material: String,
+}
+
+/// `edges` values.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum EdgesSpec {
+    /// Tiled cell.
+    Periodic,
+    /// Absorbing walls.
+    Absorbing,
+    /// Reflecting walls.
+    Reflecting,
+}
+
+fn default_edges() -> EdgesSpec {
+    EdgesSpec::Periodic
+}
+
+/// `[[bumps]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BumpSpec {
+    /// Shape.
+    pub shape: Shape,
+    /// Number of bumps.
+    pub count: usize,
+    /// x semi-axis (waist radius for `ellipsoid_on_hyperboloid`).
+    pub radius: Range,
+    /// y semi-axis; default equal to `radius` (circular).
+    pub radius_y: Option<Range>,
+    /// Top above the substrate.
+    pub height: Range,
+    /// Ellipsoid: centre depth below the substrate (default 0).
+    pub depth: Option<Range>,
+    /// Ellipsoid on hyperboloid: cap fraction of the height (default 0.5).
+    pub cap: Option<Range>,
+    /// Ellipsoid on hyperboloid: substrate radius / waist radius (default 1.5).
+    pub base: Option<Range>,
+    /// Geometry seed (default: 1 + table index).
+    pub seed: Option<u64>,
+    /// Material (default: the surface material).
+    pub material: Option<String>,
+}
+
+/// `[[bodies]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// OpenMC region expression over `[quadrics]` names.
+    pub region: String,
+    /// Material (default: the surface material).
+    pub material: Option<String>,
+}
+
+/// `[light]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    /// Incidence angles from the normal (degrees, in [0, 90)).
+    #[serde(default = "default_thetas")]
+    pub theta_deg: Vec<f64>,
+    /// Incidence azimuth (degrees).
+    #[serde(default)]
+    pub phi_deg: f64,
+    /// Photons per incidence angle.
+    #[serde(default = "default_photons")]
+    pub photons: u64,
+    /// Tracing seed.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+}
+
+impl Default for LightSpec {
+    fn default() -> Self {
+        Self {
+            theta_deg: default_thetas(),
+            phi_deg: 0.0,
+            photons: default_photons(),
+            seed: default_seed(),
+        }
+    }
+}
+
+fn default_thetas() -> Vec<f64> {
+    vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0]
+}
+fn default_photons() -> u64 {
+    1_000_000
+}
+fn default_seed() -> u64 {
+    1
+}
+
+/// `[tally]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TallySpec {
+    /// Carlson grid bands M.
+    #[serde(default = "default_bands")]
+    pub bands: usize,
+    /// In-plane bin width (degrees).
+    #[serde(default = "default_one")]
+    pub inplane_step_deg: f64,
+    /// In-plane detector full width out of the plane (degrees).
+    #[serde(default = "default_one")]
+    pub inplane_width_deg: f64,
+}
+
+impl Default for TallySpec {
+    fn default() -> Self {
+        Self {
+            bands: default_bands(),
+            inplane_step_deg: 1.0,
+            inplane_width_deg: 1.0,
+        }
+    }
+}
+
+fn default_bands() -> usize {
+    32
+}
+fn default_one() -> f64 {
+    1.0
+}
+
+/// `[transport]`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransportSpec {
+    /// Most reflections per photon; cut photons are reported as lost.
+    #[serde(default = "default_max_bounces")]
+    pub max_bounces: u32,
+    /// Russian roulette threshold weight.
+    #[serde(default = "default_roulette")]
+    pub roulette_weight: f64,
+}
+
+impl Default for TransportSpec {
+    fn default() -> Self {
+        Self {
+            max_bounces: default_max_bounces(),
+            roulette_weight: default_roulette(),
+        }
+    }
+}
+
+fn default_max_bounces() -> u32 {
+    100_000
+}
+fn default_roulette() -> f64 {
+    0.01
+}
+
+/// A micro scene ready to trace.
+#[derive(Debug, Clone)]
+pub struct MicroScene {
+    /// Scene name.
+    pub name: String,
+    /// Where it came from.
+    pub source: Source,
+    /// The geometry and materials.
+    pub surface: MicroSurface,
+    /// Material names, in the order of `surface.materials`.
+    pub material_names: Vec<String>,
+    /// Illumination.
+    pub light: LightSpec,
+    /// Tallies.
+    pub tally: TallySpec,
+    /// Transport controls.
+    pub transport: TransportSpec,
+}
+
+impl MicroScene {
+    /// Load a scene file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = super::read_scene_text(path)?;
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())
+    }
+
+    /// The embedded default scene.
+    #[must_use]
+    pub fn default_scene() -> Self {
+        let source = Source {
+            file: "<default scene>".into(),
+            dir: ".".into(),
+        };
+        Self::from_str(DEFAULT_SCENE, source, "default".into()).expect("the default scene is valid")
+    }
+
+    /// Parse and build from TOML text.
+    pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
+        let spec: MicroSceneSpec = parse_toml(&source, text)?;
+        spec.build(source, fallback_name)
+    }
+}
+
+impl MicroSceneSpec {
+    /// Check everything and build the scene.
+    pub fn build(self, source: Source, fallback_name: String) -> Result<MicroScene, SceneError> {
+        let [lx, ly] = self.surface.size;
+        for (i, l) in [lx, ly].into_iter().enumerate() {
+            if !(l.is_finite() && l > 0.0) {
+                return Err(source.error(
+                    format!("surface.size[{i}]"),
+                    format!("must be > 0, got {l}"),
+                ));
+            }
+        }
+        let size = DVec2::new(lx, ly);
+        let (names, materials) = build_materials(&source, &self.materials)?;
+        let substrate =
+            material_index(&source, &names, &self.surface.material, "surface.material")?;
+        let edges = match self.surface.edges {
+            EdgesSpec::Periodic => Edges::Periodic,
+            EdgesSpec::Absorbing => Edges::Absorbing,
+            EdgesSpec::Reflecting => Edges::Reflecting,
+        };
+
+        let mut placed = Vec::new();
+        for (t, spec) in self.bumps.iter().enumerate() {
+            let material = match &spec.material {
+                Some(m) => material_index(&source, &names, m, &format!("bumps[{t}].material"))?,
+                None => substrate,
+            };
+            placed.extend(spec.populate(&source, t, size, material)?);
+        }
+
+        let mut quadrics = BTreeMap::new();
+        for (name, q) in &self.quadrics {
+            quadrics.insert(name.clone(), q.build(&source, &format!("quadrics.{name}"))?);
+        }
+        for (b, spec) in self.bodies.iter().enumerate() {
+            let key = format!("bodies[{b}]");
+            let material = match &spec.material {
+                Some(m) => material_index(&source, &names, m, &format!("{key}.material"))?,
+                None => substrate,
+            };
+            placed.push(explicit_body(
+                &source, &key, spec, &quadrics, size, material,
+            )?);
+        }
+
+        let light = self.light;
+        if light.theta_deg.is_empty() {
+            return Err(source.error("light.theta_deg", "needs at least one angle"));
+        }
+        for (i, t) in light.theta_deg.iter().enumerate() {
+            if !(t.is_finite() && (0.0..90.0).contains(t)) {
+                return Err(source.error(
+                    format!("light.theta_deg[{i}]"),
+                    format!("must be in [0, 90), got {t}"),
+                ));
+            }
+        }
+        if !light.phi_deg.is_finite() {
+            return Err(source.error("light.phi_deg", "must be finite"));
+        }
+        if light.photons == 0 {
+            return Err(source.error("light.photons", "must be > 0"));
+        }
+        let tally = self.tally;
+        if !(1..=1000).contains(&tally.bands) {
+            return Err(source.error(
+                "tally.bands",
+                format!("must be in 1..=1000, got {}", tally.bands),
+            ));
+        }
+        let step = tally.inplane_step_deg;
+        if !(step > 0.0 && (180.0 / step - (180.0 / step).round()).abs() < 1e-9) {
+            return Err(source.error(
+                "tally.inplane_step_deg",
+                format!("must divide 180, got {step}"),
+            ));
+        }
+        let width = tally.inplane_width_deg;
+        if !(width > 0.0 && width <= 180.0) {
+            return Err(source.error(
+                "tally.inplane_width_deg",
+                format!("must be in (0, 180], got {width}"),
+            ));
+        }
+        let transport = self.transport;
+        if transport.max_bounces == 0 {
+            return Err(source.error("transport.max_bounces", "must be > 0"));
+        }
+        if !(transport.roulette_weight >= 0.0 && transport.roulette_weight < 1.0) {
+            return Err(source.error("transport.roulette_weight", "must be in [0, 1)"));
+        }
+
+        let surface = MicroSurface::new(size, edges, placed, materials, substrate);
+        Ok(MicroScene {
+            name: self.name.unwrap_or(fallback_name),
+            source,
+            surface,
+            material_names: names,
+            light,
+            tally,
+            transport,
+        })
+    }
+}
+
+impl BumpSpec {
+    /// Draw the bumps of this table (deterministic from its seed).
+    fn populate(
+        &self,
+        source: &Source,
+        t: usize,
+        size: DVec2,
+        material: usize,
+    ) -> Result<Vec<Placed>, SceneError> {
+        let key = |k: &str| format!("bumps[{t}].{k}");
+        self.radius.check(source, &key("radius"), 0.0, false)?;
+        self.height.check(source, &key("height"), 0.0, false)?;
+        if let Some(r) = &self.radius_y {
+            r.check(source, &key("radius_y"), 0.0, false)?;
+        }
+        let depth = self.depth.unwrap_or(Range::One(0.0));
+        depth.check(source, &key("depth"), 0.0, true)?;
+        let cap = self.cap.unwrap_or(Range::One(0.5));
+        cap.check(source, &key("cap"), 0.0, false)?;
+        if cap.bounds().1 > 1.0 {
+            return Err(source.error(key("cap"), "must be <= 1"));
+        }
+        let base = self.base.unwrap_or(Range::One(1.5));
+        base.check(source, &key("base"), 1.0, false)?;
+        let used = |name: &str, given: bool, shape_ok: bool| {
+            if given && !shape_ok {
+                Err(source.error(
+                    key(name),
+                    format!("does not apply to shape {:?}", self.shape),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        used(
+            "depth",
+            self.depth.is_some(),
+            self.shape == Shape::Ellipsoid,
+        )?;
+        let eoh = self.shape == Shape::EllipsoidOnHyperboloid;
+        used("cap", self.cap.is_some(), eoh)?;
+        used("base", self.base.is_some(), eoh)?;
+        if self.count > 10_000_000 {
+            return Err(source.error(key("count"), "more than 10 million bumps"));
+        }
+
+        let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));
+        let mut out = Vec::with_capacity(self.count);
+        for _ in 0..self.count {
+            // Fixed draw order: every parameter draws whether or not it is a range.
+            let u: [f64; 7] = std::array::from_fn(|_| rng.random::<f64>());
+            let radius = self.radius.at(u[2]);
+            let bump = Bump {
+                center: DVec2::new(u[0] * size.x, u[1] * size.y),
+                radius,
+                radius_y: self.radius_y.map_or(radius, |r| r.at(u[3])),
+                height: self.height.at(u[4]),
+                depth: depth.at(u[5]),
+                cap: cap.at(u[6]),
+                base: base.at(u[6]),
+            };
+            out.push(self.shape.body(&bump, material));
+        }
+        Ok(out)
+    }
+}
+
+/// An explicit `[[bodies]]` entry: tested for every flight, its top found by
+/// sampling vertical rays and refining the highest.
+fn explicit_body(
+    source: &Source,
+    key: &str,
+    spec: &BodySpec,
+    quadrics: &BTreeMap<String, Quadric>,
+    size: DVec2,
+    material: usize,
+) -> Result<Placed, SceneError> {
+    // The body's own surface list: the named quadrics it uses, in order of appearance.
+    let mut used: Vec<String> = Vec::new();
+    let mut unknown = None;
+    let parsed = region::parse(&spec.region, |name| {
+        if !quadrics.contains_key(name) {
+            unknown.get_or_insert_with(|| name.to_string());
+            return None;
+        }
+        Some(used.iter().position(|u| u == name).unwrap_or_else(|| {
+            used.push(name.to_string());
+            used.len() - 1
+        }))
+    });
+    let region = match parsed {
+        Ok(r) => r,
+        Err(e) => {
+            let msg = match unknown {
+                Some(name) => format!("unknown surface `{name}` (not in [quadrics])"),
+                None => e.to_string(),
+            };
+            return Err(source.error(format!("{key}.region"), msg));
+        }
+    };
+    if used.len() > crate::geometry::body::MAX_SURFACES {
+        return Err(source.error(
+            format!("{key}.region"),
+            format!(
+                "uses {} surfaces; at most {}",
+                used.len(),
+                crate::geometry::body::MAX_SURFACES
+            ),
+        ));
+    }
+    let surfaces: Vec<Quadric> = used.iter().map(|n| quadrics[n]).collect();
+    let body = Body::new(surfaces, region, Aabb::EVERYTHING, material);
+
+    // Unbounded above? Probe far above the cell (relative to its size).
+    let scale = size.max_element();
+    let z_far = 1e6 * scale;
+    for (fx, fy) in [
+        (0.5, 0.5),
+        (0.0, 0.0),
+        (1.0, 0.0),
+        (0.0, 1.0),
+        (1.0, 1.0),
+        (0.25, 0.75),
+    ] {
+        if body.contains(DVec3::new(fx * size.x, fy * size.y, z_far)) {
+            return Err(source.error(
+                format!("{key}.region"),
+                "the body is unbounded above (photons must start above the surface)",
+            ));
+        }
+    }
+    let max_height = explicit_max_height(&body, size, z_far);
+    if !max_height.is_finite() {
+        return Err(source.error(
+            format!("{key}.region"),
+            "the body never rises into the cell (empty or below everything)",
+        ));
+    }
+    Ok(Placed {
+        body,
+        max_height: max_height.max(0.0),
+        wraps: false,
+    })
+}
+
+/// Highest point of `body` over the cell: vertical rays on a grid, then a
+/// compass search from the best sample down to 1e-13 of the cell size.
+fn explicit_max_height(body: &Body, size: DVec2, z_far: f64) -> f64 {
+    let height = |x: f64, y: f64| {
+        let x = x.clamp(0.0, size.x);
+        let y = y.clamp(0.0, size.y);
+        body.first_entry(DVec3::new(x, y, z_far), DVec3::NEG_Z, f64::INFINITY, None)
+            .map_or(f64::NEG_INFINITY, |e| z_far - e.t)
+    };
+    let n = 256;
+    let mut best = (f64::NEG_INFINITY, 0.0, 0.0);
+    for iy in 0..=n {
+        for ix in 0..=n {
+            let (x, y) = (size.x * ix as f64 / n as f64, size.y * iy as f64 / n as f64);
+            let h = height(x, y);
+            if h > best.0 {
+                best = (h, x, y);
+            }
+        }
+    }
+    if !best.0.is_finite() {
+        return best.0;
+    }
+    let mut step = size / n as f64;
+    let floor = 1e-13 * size.max_element();
+    while step.max_element() > floor {
+        let mut improved = false;
+        for (dx, dy) in [
+            (1.0, 0.0),
+            (-1.0, 0.0),
+            (0.0, 1.0),
+            (0.0, -1.0),
+            (1.0, 1.0),
+            (-1.0, -1.0),
+            (1.0, -1.0),
+            (-1.0, 1.0),
+        ] {
+            let (x, y) = (best.1 + dx * step.x, best.2 + dy * step.y);
+            let h = height(x, y);
+            if h > best.0 {
+                best = (h, x.clamp(0.0, size.x), y.clamp(0.0, size.y));
+                improved = true;
+            }
+        }
+        if !improved {
+            step *= 0.5;
+        }
+    }
+    // The vertical rays start at z_far: their heights carry its rounding error.
+    best.0 + 4.0 * f64::EPSILON * z_far
+}

@@ -1,0 +1,380 @@
+//! Scene files (TOML): what users write, checked before anything runs.
+//!
+//! Every error is one line naming the file and the key, e.g.
+//! `scenes/x.toml: bumps[0].shape: unknown variant `blob`, expected one of ...`.
+//! The binary turns a [`SceneError`] into exit status 2 before any output is
+//! written. Pieces shared by micro and macro scenes (named quadrics,
+//! materials, ranges) live here; [`micro`] holds the micro scene.
+
+pub mod micro;
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use serde::Deserialize;
+
+use crate::geometry::quadric::Quadric;
+use crate::optics::material::{AngleTable, Reflectance};
+
+/// A problem with a scene file: which file, which key, what is wrong.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneError {
+    /// The scene file (or `<default>` for the embedded scene).
+    pub file: String,
+    /// Dotted key path, e.g. `bumps[0].radius` (empty for syntax errors).
+    pub key: String,
+    /// What is wrong (one line).
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "{}: {}", self.file, self.message)
+        } else {
+            write!(f, "{}: {}: {}", self.file, self.key, self.message)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Where a scene came from: the file name for messages and the folder for relative paths.
+#[derive(Debug, Clone)]
+pub struct Source {
+    /// Name used in messages.
+    pub file: String,
+    /// Folder that relative paths in the scene (tables, micro scenes) are read from.
+    pub dir: PathBuf,
+}
+
+impl Source {
+    /// A scene read from `path`.
+    #[must_use]
+    pub fn from_path(path: &Path) -> Self {
+        Self {
+            file: path.display().to_string(),
+            dir: path
+                .parent()
+                .map_or_else(|| PathBuf::from("."), Path::to_path_buf),
+        }
+    }
+
+    /// An error at `key`.
+    #[must_use]
+    pub fn error(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError {
+            file: self.file.clone(),
+            key: key.into(),
+            message: one_line(&message.into()),
+        }
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// Deserialize `text` as `T`, reporting the key path of the first problem.
+pub fn parse_toml<T: serde::de::DeserializeOwned>(
+    source: &Source,
+    text: &str,
+) -> Result<T, SceneError> {
+    let line_of = |span: Option<std::ops::Range<usize>>| {
+        span.map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+    };
+    let de = toml::Deserializer::parse(text).map_err(|e| {
+        let at = line_of(e.span()).map_or(String::new(), |l| format!("line {l}: "));
+        source.error("", format!("{at}invalid TOML: {}", e.message()))
+    })?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = e.path().to_string();
+        let key = if key == "." { String::new() } else { key };
+        let inner = e.inner();
+        let at = line_of(inner.span()).map_or(String::new(), |l| format!(" (line {l})"));
+        source.error(key, format!("{}{at}", inner.message()))
+    })
+}
+
+/// Read a scene file to a string; a missing file is a scene error.
+pub fn read_scene_text(path: &Path) -> Result<String, SceneError> {
+    std::fs::read_to_string(path).map_err(|e| SceneError {
+        file: path.display().to_string(),
+        key: String::new(),
+        message: format!("cannot read: {e}"),
+    })
+}
+
+/// A number, or a `[lo, hi]` range sampled uniformly.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Range {
+    /// A fixed value.
+    One(f64),
+    /// Uniform in `[lo, hi]`.
+    Two([f64; 2]),
+}
+
+impl Range {
+    /// `(lo, hi)`.
+    #[must_use]
+    pub fn bounds(&self) -> (f64, f64) {
+        match *self {
+            Self::One(v) => (v, v),
+            Self::Two([a, b]) => (a, b),
+        }
+    }
+
+    /// Check finite, `lo <= hi`, and `lo > min` (or `>=` when `inclusive`).
+    pub fn check(
+        &self,
+        source: &Source,
+        key: &str,
+        min: f64,
+        inclusive: bool,
+    ) -> Result<(), SceneError> {
+        let (lo, hi) = self.bounds();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err(source.error(key, "must be finite"));
+        }
+        if lo > hi {
+            return Err(source.error(key, format!("range [{lo}, {hi}] is reversed")));
+        }
+        let ok = if inclusive { lo >= min } else { lo > min };
+        if !ok {
+            let rel = if inclusive { ">=" } else { ">" };
+            return Err(source.error(key, format!("must be {rel} {min}, got {lo}")));
+        }
+        Ok(())
+    }
+
+    /// A value for uniform `u` in `[0, 1)`.
+    #[must_use]
+    pub fn at(&self, u: f64) -> f64 {
+        let (lo, hi) = self.bounds();
+        lo + (hi - lo) * u
+    }
+}
+
+/// A named surface in `[quadrics]`: exactly one constructor key.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum QuadricSpec {
+    /// `a x + b y + c z - d`.
+    Plane([f64; 4]),
+    /// `A x² + B y² + C z² + D xy + E yz + F xz + G x + H y + J z + K`.
+    Quadric([f64; 10]),
+    /// Sphere: `|p - center|² - r²`.
+    Sphere {
+        /// Centre.
+        center: [f64; 3],
+        /// Radius (> 0).
+        r: f64,
+    },
+    /// Axis-aligned ellipsoid.
+    Ellipsoid {
+        /// Centre.
+        center: [f64; 3],
+        /// Semi-axes (> 0).
+        semi_axes: [f64; 3],
+    },
+    /// Cylinder along x through `center` (default origin).
+    CylinderX(CylinderSpec),
+    /// Cylinder along y.
+    CylinderY(CylinderSpec),
+    /// Cylinder along z.
+    CylinderZ(CylinderSpec),
+    /// Double cone along x: `rho² - t2 (x - apex_x)²`.
+    ConeX(ConeSpec),
+    /// Double cone along y.
+    ConeY(ConeSpec),
+    /// Double cone along z.
+    ConeZ(ConeSpec),
+    /// Paraboloid of revolution about z: `rho² - k (z - vertex_z)`.
+    ParaboloidZ {
+        /// Vertex.
+        vertex: [f64; 3],
+        /// `k`: positive opens upward.
+        k: f64,
+    },
+}
+
+/// Parameters of an axis cylinder.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderSpec {
+    /// Radius (> 0).
+    pub r: f64,
+    /// A point on the axis (default the origin).
+    #[serde(default)]
+    pub center: [f64; 3],
+}
+
+/// Parameters of an axis cone.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ConeSpec {
+    /// Apex.
+    pub apex: [f64; 3],
+    /// tan² of the half-angle (> 0).
+    pub t2: f64,
+}
+
+impl QuadricSpec {
+    /// The surface, or an error at `key`.
+    pub fn build(&self, source: &Source, key: &str) -> Result<Quadric, SceneError> {
+        let v = |a: [f64; 3]| DVec3::from_array(a);
+        let positive = |x: f64, what: &str| {
+            if x.is_finite() && x > 0.0 {
+                Ok(x)
+            } else {
+                Err(source.error(format!("{key}.{what}"), format!("must be > 0, got {x}")))
+            }
+        };
+        let q = match self {
+            Self::Plane([a, b, c, d]) => {
+                if *a == 0.0 && *b == 0.0 && *c == 0.0 {
+                    return Err(source.error(format!("{key}.plane"), "normal (a, b, c) is zero"));
+                }
+                Quadric::plane(*a, *b, *c, *d)
+            }
+            Self::Quadric(c) => {
+                if c[..9].iter().all(|&x| x == 0.0) {
+                    return Err(source.error(
+                        format!("{key}.quadric"),
+                        "all non-constant coefficients are zero",
+                    ));
+                }
+                Quadric::general(*c)
+            }
+            Self::Sphere { center, r } => Quadric::sphere(v(*center), positive(*r, "r")?),
+            Self::Ellipsoid { center, semi_axes } => {
+                for (i, s) in semi_axes.iter().enumerate() {
+                    positive(*s, &format!("semi_axes[{i}]"))?;
+                }
+                Quadric::ellipsoid(v(*center), v(*semi_axes))
+            }
+            Self::CylinderX(c) => Quadric::cylinder(0, v(c.center), positive(c.r, "r")?),
+            Self::CylinderY(c) => Quadric::cylinder(1, v(c.center), positive(c.r, "r")?),
+            Self::CylinderZ(c) => Quadric::cylinder(2, v(c.center), positive(c.r, "r")?),
+            Self::ConeX(c) => Quadric::cone(0, v(c.apex), positive(c.t2, "t2")?),
+            Self::ConeY(c) => Quadric::cone(1, v(c.apex), positive(c.t2, "t2")?),
+            Self::ConeZ(c) => Quadric::cone(2, v(c.apex), positive(c.t2, "t2")?),
+            Self::ParaboloidZ { vertex, k } => {
+                if !(k.is_finite() && *k != 0.0) {
+                    return Err(source.error(format!("{key}.k"), "must be finite and non-zero"));
+                }
+                Quadric {
+                    origin: v(*vertex),
+                    coef: [1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -k, 0.0],
+                }
+            }
+        };
+        if q.coef
+            .iter()
+            .chain(q.origin.to_array().iter())
+            .any(|x| !x.is_finite())
+        {
+            return Err(source.error(key, "coefficients must be finite"));
+        }
+        Ok(q)
+    }
+}
+
+/// A material: exactly one of `reflectance`, `n` (+ `k`), `table`.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Constant per-bounce reflectance in [0, 1].
+    pub reflectance: Option<f64>,
+    /// Real part of the complex refractive index (unpolarised Fresnel).
+    pub n: Option<f64>,
+    /// Imaginary part (extinction coefficient, default 0).
+    pub k: Option<f64>,
+    /// CSV of reflectance vs incidence angle in degrees (relative to the scene file).
+    pub table: Option<String>,
+}
+
+impl MaterialSpec {
+    /// The reflectance model, or an error at `key`.
+    pub fn build(&self, source: &Source, key: &str) -> Result<Reflectance, SceneError> {
+        let given = [
+            self.reflectance.is_some(),
+            self.n.is_some(),
+            self.table.is_some(),
+        ];
+        if given.iter().filter(|&&g| g).count() != 1 {
+            return Err(source.error(
+                key,
+                "give exactly one of `reflectance`, `n` (with `k`), `table`",
+            ));
+        }
+        if self.k.is_some() && self.n.is_none() {
+            return Err(source.error(format!("{key}.k"), "`k` needs `n`"));
+        }
+        if let Some(r) = self.reflectance {
+            if !(0.0..=1.0).contains(&r) {
+                return Err(source.error(
+                    format!("{key}.reflectance"),
+                    format!("must be in [0, 1], got {r}"),
+                ));
+            }
+            return Ok(Reflectance::Constant(r));
+        }
+        if let Some(n) = self.n {
+            let k = self.k.unwrap_or(0.0);
+            if !(n.is_finite() && n > 0.0) {
+                return Err(source.error(format!("{key}.n"), format!("must be > 0, got {n}")));
+            }
+            if !(k.is_finite() && k >= 0.0) {
+                return Err(source.error(format!("{key}.k"), format!("must be >= 0, got {k}")));
+            }
+            return Ok(Reflectance::Fresnel { n, k });
+        }
+        let file = self.table.as_deref().unwrap_or_default();
+        let path = source.dir.join(file);
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            source.error(
+                format!("{key}.table"),
+                format!("cannot read {}: {e}", path.display()),
+            )
+        })?;
+        let table = AngleTable::parse_csv(&text).map_err(|e| {
+            source.error(format!("{key}.table"), format!("{}: {e}", path.display()))
+        })?;
+        Ok(Reflectance::Table(table))
+    }
+}
+
+/// Build every material of a `[materials]` table; returns names and models in order.
+pub fn build_materials(
+    source: &Source,
+    specs: &BTreeMap<String, MaterialSpec>,
+) -> Result<(Vec<String>, Vec<Reflectance>), SceneError> {
+    let mut names = Vec::new();
+    let mut models = Vec::new();
+    for (name, spec) in specs {
+        models.push(spec.build(source, &format!("materials.{name}"))?);
+        names.push(name.clone());
+    }
+    Ok((names, models))
+}
+
+/// Index of material `name`, or an error at `key`.
+pub fn material_index(
+    source: &Source,
+    names: &[String],
+    name: &str,
+    key: &str,
+) -> Result<usize, SceneError> {
+    names.iter().position(|n| n == name).ok_or_else(|| {
+        let known = if names.is_empty() {
+            "none defined".to_string()
+        } else {
+            names.join(", ")
+        };
+        source.error(key, format!("unknown material `{name}` (known: {known})"))
+    })
+}

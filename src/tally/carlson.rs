@@ -1,0 +1,450 @@
+//! Carlson (1976) equal-solid-angle grid on the upper hemisphere.
+//!
+//! With `M` bands and `K = M (M + 1)`, band `j = 1..=M` (counted from the
+//! pole) spans `mu = cos(theta)` in
+//! `[1 - j (j + 1) / K, 1 - (j - 1) j / K]` and is split into `4 j` equal
+//! azimuth cells. Every cell then has solid angle `pi / K` sr and there are
+//! `2 K` cells in all. Azimuth cell `k` is centred on `phi = k 2 pi / (4 j)`,
+//! so cell 0 straddles `phi = 0`.
+//!
+//! Flat cell indices run band by band from the pole, and within a band by
+//! increasing `k`: band `j` starts at flat index `2 j (j - 1)`.
+//!
+//! Boundary convention: a band holds `mu_bot <= mu < mu_top` (band 1 also
+//! holds the pole, `mu = 1`); a cell holds `phi_lo <= phi < phi_hi`.
+
+use glam::DVec3;
+use std::f64::consts::{PI, TAU};
+
+/// The Carlson equal-solid-angle grid with a given number of polar bands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CarlsonGrid {
+    bands: usize,
+}
+
+impl CarlsonGrid {
+    /// A grid with `bands` polar bands; `None` if `bands == 0`.
+    #[must_use]
+    pub fn new(bands: usize) -> Option<Self> {
+        (bands > 0).then_some(Self { bands })
+    }
+
+    /// Number of polar bands `M`.
+    #[must_use]
+    pub fn bands(&self) -> usize {
+        self.bands
+    }
+
+    /// `K = M (M + 1)`, the number of cells per steradian times `pi`.
+    fn k(&self) -> usize {
+        self.bands * (self.bands + 1)
+    }
+
+    /// Total number of cells, `2 M (M + 1)`.
+    #[must_use]
+    pub fn n_cells(&self) -> usize {
+        2 * self.k()
+    }
+
+    /// Number of azimuth cells in `band` (1-based), `4 band`.
+    #[must_use]
+    pub fn cells_in_band(&self, band: usize) -> usize {
+        4 * band
+    }
+
+    /// Flat index of azimuth cell `cell` (0-based) in `band` (1-based).
+    ///
+    /// # Panics
+    /// If `band` is not in `1..=M` or `cell >= 4 band`.
+    #[must_use]
+    pub fn index(&self, band: usize, cell: usize) -> usize {
+        assert!(
+            (1..=self.bands).contains(&band) && cell < 4 * band,
+            "CarlsonGrid::index: (band {band}, cell {cell}) out of range for {} bands",
+            self.bands
+        );
+        2 * band * (band - 1) + cell
+    }
+
+    /// Inverse of [`index`](Self::index): `(band, cell)` of a flat index.
+    ///
+    /// # Panics
+    /// If `flat >= self.n_cells()`.
+    #[must_use]
+    pub fn band_cell(&self, flat: usize) -> (usize, usize) {
+        assert!(
+            flat < self.n_cells(),
+            "CarlsonGrid::band_cell: index {flat} out of range"
+        );
+        // Band j starts at 2 j (j - 1); solve for j, then fix any rounding.
+        let mut j = ((1.0 + (1.0 + 2.0 * flat as f64).sqrt()) / 2.0).floor() as usize;
+        j = j.clamp(1, self.bands);
+        while 2 * j * (j + 1) <= flat {
+            j += 1;
+        }
+        while 2 * j * (j - 1) > flat {
+            j -= 1;
+        }
+        (j, flat - 2 * j * (j - 1))
+    }
+
+    /// `(mu_bot, mu_top)`, the cosines of the polar edges of `band`.
+    ///
+    /// Each is computed as an integer ratio rounded once, so e.g. `M = 4`
+    /// gives edges 1, 0.9, 0.7, 0.4, 0 correctly rounded.
+    ///
+    /// # Panics
+    /// If `band` is not in `1..=M`.
+    #[must_use]
+    pub fn mu_edges(&self, band: usize) -> (f64, f64) {
+        assert!(
+            (1..=self.bands).contains(&band),
+            "CarlsonGrid::mu_edges: band {band} out of range"
+        );
+        let k = self.k();
+        let bot = (k - band * (band + 1)) as f64 / k as f64;
+        let top = (k - (band - 1) * band) as f64 / k as f64;
+        (bot, top)
+    }
+
+    /// Azimuth width of every cell in `band`, `2 pi / (4 band)` (radians).
+    fn dphi(band: usize) -> f64 {
+        TAU / (4 * band) as f64
+    }
+
+    /// `(phi_lo, phi_hi)` of a cell in radians: `(k -/+ 1/2) 2 pi / (4 band)`.
+    ///
+    /// Cell 0 is reported as `[-h, +h]`, so `phi_lo` may be negative.
+    ///
+    /// # Panics
+    /// If `band` or `cell` is out of range.
+    #[must_use]
+    pub fn phi_edges(&self, band: usize, cell: usize) -> (f64, f64) {
+        let _ = self.index(band, cell);
+        let dphi = Self::dphi(band);
+        let centre = cell as f64 * dphi;
+        (centre - 0.5 * dphi, centre + 0.5 * dphi)
+    }
+
+    /// `(theta, phi)` of a cell's centre in radians.
+    ///
+    /// `theta = acos((mu_top + mu_bot) / 2)` splits the cell's solid angle in
+    /// half; `phi = cell 2 pi / (4 band)` is the centre azimuth, in `[0, 2 pi)`.
+    ///
+    /// # Panics
+    /// If `band` or `cell` is out of range.
+    #[must_use]
+    pub fn centre(&self, band: usize, cell: usize) -> (f64, f64) {
+        let _ = self.index(band, cell);
+        let (bot, top) = self.mu_edges(band);
+        ((0.5 * (top + bot)).acos(), cell as f64 * Self::dphi(band))
+    }
+
+    /// Solid angle of every cell, `pi / (M (M + 1))` sr.
+    #[must_use]
+    pub fn solid_angle(&self) -> f64 {
+        PI / self.k() as f64
+    }
+
+    /// Projected solid angle of a cell, the exact integral of `cos(theta)`
+    /// over it: `dphi (mu_top^2 - mu_bot^2) / 2` sr.
+    ///
+    /// With `dphi = pi / (2 j)` and the edges above this equals
+    /// `pi (K - j^2) / K^2` (`K = M (M + 1)`, `j = band`), which is how it is
+    /// evaluated: the difference of squares cancels badly near the pole.
+    ///
+    /// # Panics
+    /// If `band` or `cell` is out of range.
+    #[must_use]
+    pub fn projected_solid_angle(&self, band: usize, cell: usize) -> f64 {
+        let _ = self.index(band, cell);
+        let k = self.k() as f64;
+        PI * (self.k() - band * band) as f64 / (k * k)
+    }
+
+    /// Flat index of the cell holding the unit direction `dir`, or `None` if
+    /// `dir.z <= 0` or any component is not finite.
+    ///
+    /// The band is exact with respect to [`mu_edges`](Self::mu_edges):
+    /// a closed-form guess is corrected against those edges.
+    #[must_use]
+    pub fn locate(&self, dir: DVec3) -> Option<usize> {
+        if !dir.is_finite() || dir.z <= 0.0 {
+            return None;
+        }
+        let band = self.band_of_mu(dir.z);
+        let cell = Self::cell_of_phi(band, dir.y.atan2(dir.x));
+        Some(self.index(band, cell))
+    }
+
+    /// Band (1-based) holding `mu > 0`; `mu >= 1` goes to band 1.
+    fn band_of_mu(&self, mu: f64) -> usize {
+        // Closed form: band j holds j (j - 1) < x <= j (j + 1), x = (1 - mu) K.
+        let x = (1.0 - mu) * self.k() as f64;
+        let guess = ((-1.0 + (1.0 + 4.0 * x).sqrt()) / 2.0).ceil();
+        // `as` saturates and maps NaN (from mu > 1) to 0, then we clamp.
+        let mut j = (guess as usize).clamp(1, self.bands);
+        // Correct the rounding against the exact, once-rounded edges.
+        while j < self.bands && mu < self.mu_edges(j).0 {
+            j += 1;
+        }
+        while j > 1 && mu >= self.mu_edges(j).1 {
+            j -= 1;
+        }
+        j
+    }
+
+    /// Azimuth cell in `band` holding `phi` (radians, any range).
+    fn cell_of_phi(band: usize, phi: f64) -> usize {
+        let n = 4 * band as i64;
+        let k = (phi / Self::dphi(band) + 0.5).floor() as i64;
+        k.rem_euclid(n) as usize
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    fn dir_from(mu: f64, phi: f64) -> DVec3 {
+        let s = (1.0 - mu * mu).max(0.0).sqrt();
+        DVec3::new(s * phi.cos(), s * phi.sin(), mu)
+    }
+
+    /// Cosine-weighted direction: P(mu < m) = m^2, phi uniform in `[0, phi_max)`.
+    fn sample_cosine(rng: &mut Pcg64Mcg, phi_max: f64) -> DVec3 {
+        let mu = rng.random::<f64>().sqrt();
+        let phi = phi_max * rng.random::<f64>();
+        dir_from(mu, phi)
+    }
+
+    #[test]
+    fn zero_bands_rejected() {
+        assert!(CarlsonGrid::new(0).is_none());
+        assert_eq!(CarlsonGrid::new(1).unwrap().n_cells(), 4);
+    }
+
+    #[test]
+    fn m4_edges_and_counts() {
+        let g = CarlsonGrid::new(4).unwrap();
+        let expected = [1.0, 0.9, 0.7, 0.4, 0.0];
+        for band in 1..=4 {
+            let (bot, top) = g.mu_edges(band);
+            assert!((top - expected[band - 1]).abs() <= 1e-15);
+            assert!((bot - expected[band]).abs() <= 1e-15);
+            assert_eq!(g.cells_in_band(band), 4 * band);
+        }
+        assert_eq!(
+            (1..=4).map(|b| g.cells_in_band(b)).collect::<Vec<_>>(),
+            vec![4, 8, 12, 16]
+        );
+        assert_eq!(g.n_cells(), 40);
+        assert!((g.solid_angle() - PI / 20.0).abs() < 1e-16);
+    }
+
+    #[test]
+    fn index_round_trips() {
+        for m in 1..=30 {
+            let g = CarlsonGrid::new(m).unwrap();
+            let mut flat = 0;
+            for band in 1..=m {
+                for cell in 0..4 * band {
+                    assert_eq!(g.index(band, cell), flat);
+                    assert_eq!(g.band_cell(flat), (band, cell));
+                    flat += 1;
+                }
+            }
+            assert_eq!(flat, g.n_cells());
+        }
+    }
+
+    #[test]
+    fn solid_angles_sum_to_two_pi_and_match_edges() {
+        for m in 1..=40 {
+            let g = CarlsonGrid::new(m).unwrap();
+            let mut total = 0.0;
+            for band in 1..=m {
+                let (bot, top) = g.mu_edges(band);
+                for cell in 0..4 * band {
+                    let (lo, hi) = g.phi_edges(band, cell);
+                    let omega = (hi - lo) * (top - bot);
+                    assert!((omega - g.solid_angle()).abs() < 1e-13 * g.solid_angle());
+                    total += omega;
+                }
+            }
+            assert!((total - TAU).abs() < 1e-12, "M = {m}: {total}");
+            assert!((g.n_cells() as f64 * g.solid_angle() - TAU).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn projected_solid_angles_sum_to_pi_and_match_closed_form() {
+        for m in 1..=40 {
+            let g = CarlsonGrid::new(m).unwrap();
+            let k = (m * (m + 1)) as f64;
+            let mut total = 0.0;
+            for band in 1..=m {
+                // The defining formula, dphi (mu_top^2 - mu_bot^2) / 2; it loses
+                // a few digits to cancellation, hence the looser tolerance.
+                let (bot, top) = g.mu_edges(band);
+                let dphi = TAU / (4 * band) as f64;
+                let by_edges = dphi * (top * top - bot * bot) / 2.0;
+                // Exact rational form pi (K - j^2) / K^2.
+                let exact = PI * (k - (band * band) as f64) / (k * k);
+                for cell in 0..4 * band {
+                    let p = g.projected_solid_angle(band, cell);
+                    assert!((p - exact).abs() <= 1e-15 * exact, "M {m} band {band}");
+                    assert!((p - by_edges).abs() <= 1e-12 * exact, "M {m} band {band}");
+                    total += p;
+                }
+            }
+            assert!((total - PI).abs() < 1e-12, "M = {m}: {total}");
+        }
+    }
+
+    #[test]
+    fn phi_edges_and_centres() {
+        let g = CarlsonGrid::new(3).unwrap();
+        let h = TAU / 12.0; // band 3: 12 cells of width h
+        let (lo, hi) = g.phi_edges(3, 0);
+        assert!((lo + h / 2.0).abs() < 1e-15 && (hi - h / 2.0).abs() < 1e-15);
+        let (lo, hi) = g.phi_edges(3, 5);
+        assert!((lo - 4.5 * h).abs() < 1e-15 && (hi - 5.5 * h).abs() < 1e-15);
+        let (theta, phi) = g.centre(3, 5);
+        let (bot, top) = g.mu_edges(3);
+        assert!((theta.cos() - (top + bot) / 2.0).abs() < 1e-15);
+        assert!((phi - 5.0 * h).abs() < 1e-15);
+    }
+
+    #[test]
+    fn locate_cell_centres() {
+        for m in 1..=40 {
+            let g = CarlsonGrid::new(m).unwrap();
+            for band in 1..=m {
+                for cell in 0..4 * band {
+                    let (theta, phi) = g.centre(band, cell);
+                    let d = DVec3::new(
+                        theta.sin() * phi.cos(),
+                        theta.sin() * phi.sin(),
+                        theta.cos(),
+                    );
+                    assert_eq!(
+                        g.locate(d),
+                        Some(g.index(band, cell)),
+                        "M {m} {band} {cell}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn locate_band_edges_exactly() {
+        for m in 1..=200 {
+            let g = CarlsonGrid::new(m).unwrap();
+            let band_of = |mu: f64| g.band_cell(g.locate(dir_from(mu, 0.0)).unwrap()).0;
+            for band in 1..m {
+                // mu_bot of `band` is the edge between `band` and `band + 1`.
+                let edge = g.mu_edges(band).0;
+                assert_eq!(g.mu_edges(band + 1).1, edge);
+                assert_eq!(band_of(edge), band, "M {m} at edge of band {band}");
+                assert_eq!(band_of(edge.next_up()), band, "M {m} above {band}");
+                assert_eq!(band_of(edge.next_down()), band + 1, "M {m} below {band}");
+                assert_eq!(band_of(edge + 1e-12), band);
+                assert_eq!(band_of(edge - 1e-12), band + 1);
+            }
+            // Pole and horizon.
+            assert_eq!(g.locate(DVec3::Z), Some(0));
+            assert_eq!(band_of(1e-300), m);
+        }
+    }
+
+    #[test]
+    fn locate_azimuth_edges() {
+        let g = CarlsonGrid::new(2).unwrap(); // band 2: 8 cells, h = pi/8
+        let mu = g.centre(2, 0).0.cos();
+        let h = PI / 8.0;
+        let cell_of = |phi: f64| g.band_cell(g.locate(dir_from(mu, phi)).unwrap()).1;
+        assert_eq!(cell_of(0.0), 0);
+        assert_eq!(cell_of(h - 1e-9), 0);
+        assert_eq!(cell_of(h + 1e-9), 1);
+        assert_eq!(cell_of(-h + 1e-9), 0);
+        assert_eq!(cell_of(-h - 1e-9), 7);
+        assert_eq!(cell_of(TAU - 1e-9), 0);
+        assert_eq!(cell_of(PI), 4);
+    }
+
+    #[test]
+    fn locate_rejects_lower_hemisphere_and_non_finite() {
+        let g = CarlsonGrid::new(5).unwrap();
+        assert_eq!(g.locate(DVec3::X), None);
+        assert_eq!(g.locate(DVec3::new(0.0, 0.6, -0.8)), None);
+        assert_eq!(g.locate(DVec3::new(f64::NAN, 0.0, 0.5)), None);
+        assert_eq!(g.locate(DVec3::new(0.0, f64::INFINITY, 0.5)), None);
+        // Slightly non-unit pole still lands in band 1.
+        assert_eq!(g.locate(DVec3::new(0.0, 0.0, 1.0 + 1e-12)), Some(0));
+    }
+
+    #[test]
+    fn lambertian_band_fractions() {
+        for m in [3, 10] {
+            let g = CarlsonGrid::new(m).unwrap();
+            let mut rng = Pcg64Mcg::seed_from_u64(0x5eed + m as u64);
+            let n = 200_000;
+            // counts[j - 1] is the number of samples in band j.
+            let mut counts = vec![0u64; m];
+            for _ in 0..n {
+                let flat = g.locate(sample_cosine(&mut rng, TAU)).unwrap();
+                counts[g.band_cell(flat).0 - 1] += 1;
+            }
+            for (band, &count) in (1..=m).zip(&counts) {
+                let (bot, top) = g.mu_edges(band);
+                let p = top * top - bot * bot;
+                let frac = count as f64 / n as f64;
+                let sigma = (p * (1.0 - p) / n as f64).sqrt();
+                assert!(
+                    (frac - p).abs() < 4.0 * sigma,
+                    "M {m} band {band}: {frac} vs {p} (sigma {sigma})"
+                );
+            }
+        }
+    }
+
+    /// Chi-square over cells for a cosine-weighted source confined to the
+    /// quadrant `phi in [0, pi/2)`, which also checks the half-cell azimuth
+    /// offset (cell 0 and cell `band` are only half lit).
+    #[test]
+    fn lambertian_quadrant_chi_square() {
+        let m = 10;
+        let g = CarlsonGrid::new(m).unwrap();
+        let mut rng = Pcg64Mcg::seed_from_u64(1976);
+        let n = 200_000;
+        let mut counts = vec![0u64; g.n_cells()];
+        for _ in 0..n {
+            counts[g.locate(sample_cosine(&mut rng, PI / 2.0)).unwrap()] += 1;
+        }
+        let mut chi2 = 0.0;
+        let mut dof = 0usize;
+        for (flat, &count) in counts.iter().enumerate() {
+            let (band, cell) = g.band_cell(flat);
+            let (bot, top) = g.mu_edges(band);
+            let (lo, hi) = g.phi_edges(band, cell);
+            let overlap = (hi.min(PI / 2.0) - lo.max(0.0)).max(0.0);
+            let p = (top * top - bot * bot) * overlap / (PI / 2.0);
+            if p == 0.0 {
+                assert_eq!(count, 0, "cell {flat} outside the quadrant was hit");
+                continue;
+            }
+            let expected = p * n as f64;
+            chi2 += (count as f64 - expected).powi(2) / expected;
+            dof += 1;
+        }
+        let dof = (dof - 1) as f64;
+        assert!(
+            chi2 < dof + 5.0 * (2.0 * dof).sqrt(),
+            "chi2 {chi2} for {dof} dof"
+        );
+    }
+}

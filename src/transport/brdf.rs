@@ -1,0 +1,282 @@
+//! The BRDF generator: photons from each incidence direction, tallied on the
+//! Carlson grid and in the plane of incidence, with standard errors.
+//!
+//! Photons start at uniform random points of the cell on the launch plane,
+//! travelling along `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
+//! photons are traced in fixed batches of [`BATCH`] and the batch tallies are
+//! summed in batch order, so results are bit-identical for any thread count.
+//! `fraction` in a cell is the photon weight leaving through it per launched
+//! photon; BRDF = fraction / projected solid angle (sr⁻¹).
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rand::RngExt;
+use rayon::prelude::*;
+
+use super::micro::{Controls, Fate, trace};
+use super::rng::photon_rng;
+use crate::micro::{MicroSurface, Scratch};
+use crate::tally::{Accumulator, CarlsonGrid, InPlaneTally};
+
+/// Photons per batch: the unit of parallel work and of summation order.
+pub const BATCH: u64 = 4096;
+
+/// Bounce counts tallied individually; longer histories share the last bin.
+pub const BOUNCE_BINS: usize = 64;
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct BrdfRun {
+    /// Incidence polar angles (degrees).
+    pub theta_deg: Vec<f64>,
+    /// Incidence azimuth (degrees).
+    pub phi_deg: f64,
+    /// Photons per incidence angle.
+    pub photons: u64,
+    /// Index of the first photon (shards run disjoint index ranges).
+    pub first_photon: u64,
+    /// Tracing seed.
+    pub seed: u64,
+    /// Carlson bands.
+    pub bands: usize,
+    /// In-plane bin width (degrees).
+    pub inplane_step_deg: f64,
+    /// In-plane detector full width out of the plane (degrees).
+    pub inplane_width_deg: f64,
+    /// History limits.
+    pub controls: Controls,
+}
+
+/// Everything tallied for one incidence direction (sums; see [`IncidenceResult`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tallies {
+    /// Photons launched.
+    pub photons: u64,
+    /// Reflected weight (one bin).
+    pub reflected: Accumulator,
+    /// Reflected weight per Carlson cell.
+    pub carlson: Accumulator,
+    /// Reflected weight per in-plane bin.
+    pub inplane: Accumulator,
+    /// Reflected weight by number of reflections (last bin: `>= BOUNCE_BINS - 1`).
+    pub by_bounces: Vec<f64>,
+    /// Sum of reflections over all histories.
+    pub bounces: u64,
+    /// Straight flights traced.
+    pub segments: u64,
+    /// Weight absorbed by walls.
+    pub lost_walls: f64,
+    /// Weight cut by the bounce or segment cap.
+    pub lost_cap: f64,
+    /// Weight stopped by numerical guards.
+    pub lost_numeric: f64,
+    /// Histories cut by the caps.
+    pub capped_histories: u64,
+    /// Histories stopped by numerical guards.
+    pub numeric_histories: u64,
+}
+
+impl Tallies {
+    fn new(grid: &CarlsonGrid, inplane: &InPlaneTally) -> Self {
+        Self {
+            photons: 0,
+            reflected: Accumulator::new(1),
+            carlson: Accumulator::new(grid.n_cells()),
+            inplane: Accumulator::new(inplane.n_bins()),
+            by_bounces: vec![0.0; BOUNCE_BINS],
+            bounces: 0,
+            segments: 0,
+            lost_walls: 0.0,
+            lost_cap: 0.0,
+            lost_numeric: 0.0,
+            capped_histories: 0,
+            numeric_histories: 0,
+        }
+    }
+
+    /// Add `other` (in a fixed order for reproducibility).
+    pub fn merge(&mut self, other: &Self) {
+        self.photons += other.photons;
+        self.reflected.merge(&other.reflected);
+        self.carlson.merge(&other.carlson);
+        self.inplane.merge(&other.inplane);
+        for (a, b) in self.by_bounces.iter_mut().zip(&other.by_bounces) {
+            *a += b;
+        }
+        self.bounces += other.bounces;
+        self.segments += other.segments;
+        self.lost_walls += other.lost_walls;
+        self.lost_cap += other.lost_cap;
+        self.lost_numeric += other.lost_numeric;
+        self.capped_histories += other.capped_histories;
+        self.numeric_histories += other.numeric_histories;
+    }
+}
+
+/// The result for one incidence direction.
+#[derive(Debug, Clone)]
+pub struct IncidenceResult {
+    /// Incidence polar angle (degrees).
+    pub theta_i_deg: f64,
+    /// Incidence azimuth (degrees).
+    pub phi_i_deg: f64,
+    /// Sums.
+    pub tallies: Tallies,
+    /// Wall-clock time (s).
+    pub seconds: f64,
+}
+
+impl IncidenceResult {
+    /// Directional-hemispherical reflectance and its standard error.
+    #[must_use]
+    pub fn reflectance(&self) -> (f64, f64) {
+        let n = self.tallies.photons;
+        (
+            self.tallies.reflected.mean(0, n),
+            self.tallies.reflected.stderr(0, n),
+        )
+    }
+
+    /// Lost weight per launched photon (walls + caps + numerical guards).
+    #[must_use]
+    pub fn lost(&self) -> f64 {
+        let t = &self.tallies;
+        (t.lost_walls + t.lost_cap + t.lost_numeric) / t.photons as f64
+    }
+
+    /// Mean reflections per launched photon.
+    #[must_use]
+    pub fn mean_bounces(&self) -> f64 {
+        self.tallies.bounces as f64 / self.tallies.photons as f64
+    }
+
+    /// Straight flights per second of wall time.
+    #[must_use]
+    pub fn segments_per_second(&self) -> f64 {
+        self.tallies.segments as f64 / self.seconds.max(1e-9)
+    }
+}
+
+/// The unit vector toward the light, `(sin t cos p, sin t sin p, cos t)`.
+#[must_use]
+pub fn toward_light(theta_deg: f64, phi_deg: f64) -> DVec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+}
+
+impl BrdfRun {
+    /// The Carlson grid of this run.
+    #[must_use]
+    pub fn grid(&self) -> CarlsonGrid {
+        CarlsonGrid::new(self.bands).expect("bands >= 1 checked by the scene")
+    }
+
+    /// The in-plane tally of this run.
+    #[must_use]
+    pub fn inplane(&self) -> InPlaneTally {
+        InPlaneTally::new(
+            self.inplane_step_deg,
+            0.5 * self.inplane_width_deg,
+            self.phi_deg.to_radians(),
+        )
+        .expect("in-plane settings checked by the scene")
+    }
+
+    /// Trace every incidence angle; `progress` is called with photons done.
+    pub fn run(
+        &self,
+        surface: &MicroSurface,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<IncidenceResult> {
+        self.theta_deg
+            .iter()
+            .map(|&theta| self.run_one(surface, theta, progress))
+            .collect()
+    }
+
+    /// Trace one incidence angle.
+    pub fn run_one(
+        &self,
+        surface: &MicroSurface,
+        theta_deg: f64,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> IncidenceResult {
+        let clock = Instant::now();
+        let grid = self.grid();
+        let inplane = self.inplane();
+        let dir = -toward_light(theta_deg, self.phi_deg);
+        let n_batches = self.photons.div_ceil(BATCH);
+        let mut total = Tallies::new(&grid, &inplane);
+        // Chunks of batches bound the memory of pending batch tallies.
+        let chunk = 64;
+        let mut b0 = 0;
+        while b0 < n_batches {
+            let b1 = (b0 + chunk).min(n_batches);
+            let parts: Vec<Tallies> = (b0..b1)
+                .into_par_iter()
+                .map(|b| {
+                    let lo = b * BATCH;
+                    let hi = ((b + 1) * BATCH).min(self.photons);
+                    let t = self.trace_batch(surface, &grid, &inplane, dir, lo..hi);
+                    progress(hi - lo);
+                    t
+                })
+                .collect();
+            for p in &parts {
+                total.merge(p);
+            }
+            b0 = b1;
+        }
+        IncidenceResult {
+            theta_i_deg: theta_deg,
+            phi_i_deg: self.phi_deg,
+            tallies: total,
+            seconds: clock.elapsed().as_secs_f64(),
+        }
+    }
+
+    fn trace_batch(
+        &self,
+        surface: &MicroSurface,
+        grid: &CarlsonGrid,
+        inplane: &InPlaneTally,
+        dir: DVec3,
+        photons: std::ops::Range<u64>,
+    ) -> Tallies {
+        let mut t = Tallies::new(grid, inplane);
+        let mut scratch = Scratch::new(surface);
+        for n in photons {
+            let mut rng = photon_rng(self.seed, self.first_photon + n);
+            let (u, v): (f64, f64) = (rng.random(), rng.random());
+            let start = DVec3::new(u * surface.size.x, v * surface.size.y, surface.top);
+            let h = trace(surface, start, dir, &self.controls, &mut rng, &mut scratch);
+            t.photons += 1;
+            t.bounces += u64::from(h.bounces);
+            t.segments += u64::from(h.segments);
+            match h.fate {
+                Fate::Escaped { dir: out, weight } => {
+                    t.reflected.score(0, weight);
+                    if let Some(c) = grid.locate(out) {
+                        t.carlson.score(c, weight);
+                    }
+                    if let Some(c) = inplane.locate(out) {
+                        t.inplane.score(c, weight);
+                    }
+                    t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
+                }
+                Fate::Absorbed => {}
+                Fate::Wall { weight } => t.lost_walls += weight,
+                Fate::Capped { weight } => {
+                    t.lost_cap += weight;
+                    t.capped_histories += 1;
+                }
+                Fate::Numeric { weight } => {
+                    t.lost_numeric += weight;
+                    t.numeric_histories += 1;
+                }
+            }
+        }
+        t
+    }
+}

@@ -1,0 +1,167 @@
+//! One photon history in a micro surface.
+//!
+//! A photon carries a statistical weight (start 1). Every hit on a body is a
+//! specular reflection about the local normal; the weight is multiplied by the
+//! material's reflectance at the local incidence angle. Low weights play
+//! Russian roulette (unbiased). The history ends when the photon crosses the
+//! launch plane going up (it escapes with its direction and weight), or it is
+//! absorbed (weight 0 or roulette), or it is lost: absorbed by a wall, cut by
+//! the bounce cap, or stopped by a numerical guard. Lost weight is reported,
+//! never dropped silently.
+
+use glam::DVec3;
+use rand::RngExt;
+
+use crate::micro::{Edges, Event, MicroSurface, Scratch};
+
+/// Limits of a history.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Controls {
+    /// Most reflections before the photon is cut (reported as lost).
+    pub max_bounces: u32,
+    /// Russian roulette below this weight; survivors carry `min(10 w_rr, 1)`.
+    pub roulette_weight: f64,
+    /// Most straight flights (including periodic wraps) before the photon is cut.
+    pub max_segments: u32,
+}
+
+impl Default for Controls {
+    fn default() -> Self {
+        Self {
+            max_bounces: 100_000,
+            roulette_weight: 0.01,
+            max_segments: 10_000_000,
+        }
+    }
+}
+
+/// How a history ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fate {
+    /// Left through the launch plane with this direction (unit, z > 0) and weight.
+    Escaped {
+        /// Outgoing direction.
+        dir: DVec3,
+        /// Weight on leaving.
+        weight: f64,
+    },
+    /// Absorbed by the materials (weight reached 0 or lost the roulette): physics, not loss.
+    Absorbed,
+    /// Absorbed by an absorbing wall (edge effect), with the weight it carried.
+    Wall {
+        /// Weight carried into the wall.
+        weight: f64,
+    },
+    /// Cut by the bounce or segment cap, with the weight it carried.
+    Capped {
+        /// Weight carried when cut.
+        weight: f64,
+    },
+    /// Stopped by a numerical guard (degenerate normal, non-finite direction).
+    Numeric {
+        /// Weight carried when stopped.
+        weight: f64,
+    },
+}
+
+/// A finished history.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct History {
+    /// How it ended.
+    pub fate: Fate,
+    /// Reflections (bodies and reflecting walls).
+    pub bounces: u32,
+    /// Straight flights traced (queries of the geometry).
+    pub segments: u32,
+}
+
+/// Trace a photon entering the micro surface at `start` (on or above the
+/// launch plane, inside the cell) travelling along unit `dir` (z < 0).
+pub fn trace(
+    surface: &MicroSurface,
+    start: DVec3,
+    dir: DVec3,
+    controls: &Controls,
+    rng: &mut impl rand::Rng,
+    scratch: &mut Scratch,
+) -> History {
+    let mut p = start;
+    let mut d = dir;
+    let mut w = 1.0_f64;
+    let mut standing: Option<(usize, usize)> = None;
+    let mut bounces = 0_u32;
+    let mut segments = 0_u32;
+    let end = |fate, bounces, segments| History {
+        fate,
+        bounces,
+        segments,
+    };
+    loop {
+        if segments >= controls.max_segments {
+            return end(Fate::Capped { weight: w }, bounces, segments);
+        }
+        segments += 1;
+        match surface.next_event(p, d, standing, scratch) {
+            Event::Top { .. } => {
+                return end(Fate::Escaped { dir: d, weight: w }, bounces, segments);
+            }
+            Event::Trapped => return end(Fate::Capped { weight: w }, bounces, segments),
+            Event::Hit {
+                t,
+                solid,
+                surface: s,
+            } => {
+                if bounces >= controls.max_bounces {
+                    return end(Fate::Capped { weight: w }, bounces, segments);
+                }
+                p += t * d;
+                let body = &surface.solids[solid].body;
+                let Some(n) = body.surfaces[s].facing_normal(p, d) else {
+                    return end(Fate::Numeric { weight: w }, bounces, segments);
+                };
+                // Specular reflection, weighted by the reflectance at the local angle.
+                let cos_i = -d.dot(n);
+                let r = surface.materials[body.material].reflectance(cos_i);
+                w *= r;
+                d = (d + 2.0 * cos_i * n).normalize_or_zero();
+                if !(p.is_finite() && d.is_finite()) || d == DVec3::ZERO {
+                    return end(Fate::Numeric { weight: w }, bounces, segments);
+                }
+                standing = Some((solid, s));
+            }
+            Event::Side { t, axis, upper } => {
+                p += t * d;
+                let boundary = if upper { surface.size[axis] } else { 0.0 };
+                p[axis] = boundary;
+                standing = None;
+                match surface.edges {
+                    Edges::Periodic => {
+                        p[axis] = surface.size[axis] - boundary;
+                        continue;
+                    }
+                    Edges::Absorbing => return end(Fate::Wall { weight: w }, bounces, segments),
+                    Edges::Reflecting => {
+                        if bounces >= controls.max_bounces {
+                            return end(Fate::Capped { weight: w }, bounces, segments);
+                        }
+                        let cos_i = d[axis].abs();
+                        w *= surface.materials[surface.substrate_material].reflectance(cos_i);
+                        d[axis] = -d[axis];
+                    }
+                }
+            }
+        }
+        bounces += 1;
+        if w <= 0.0 {
+            return end(Fate::Absorbed, bounces, segments);
+        }
+        if w < controls.roulette_weight {
+            let survival = (10.0 * controls.roulette_weight).min(1.0);
+            if rng.random::<f64>() * survival < w {
+                w = survival;
+            } else {
+                return end(Fate::Absorbed, bounces, segments);
+            }
+        }
+    }
+}
