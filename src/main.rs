@@ -1,1 +1,312 @@
-fn main() {}
+//! The `roks` command line.
+//!
+//! Exit status: 0 success; 2 bad input (scene file or arguments: one line on
+//! stderr naming the file and key, nothing written); 1 other failures (I/O).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use roks::micro::surface_stats::surface_stats;
+use roks::output;
+use roks::scene::SceneError;
+use roks::scene::micro::MicroScene;
+use roks::transport::brdf::BrdfRun;
+use roks::transport::micro::Controls;
+
+/// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
+///
+/// A rough surface is modelled explicitly: a substrate with bumps bounded by
+/// planes and quadrics, in which photons reflect specularly as often as the
+/// geometry makes them. Scene files are TOML; see `scenes/` and the README.
+#[derive(Parser, Debug)]
+#[command(name = "roks", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Generate the tabulated BRDF of a micro scene (default: the embedded scene).
+    ///
+    /// Writes DIR/summary.json (reflectance per incidence with standard
+    /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid)
+    /// and DIR/inplane.csv (plane of incidence). DIR defaults to out/<scene name>/.
+    Brdf(BrdfArgs),
+    /// Print the surface statistics of a micro scene: RMS height sigma,
+    /// autocorrelation length tau, sigma/tau, RMS slope, heights.
+    Stats(StatsArgs),
+}
+
+#[derive(Args, Debug)]
+struct BrdfArgs {
+    /// Micro scene file (TOML); omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Output folder (default: out/<scene name>/).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Photons per incidence angle (overrides [light] photons).
+    #[arg(long)]
+    photons: Option<u64>,
+    /// Tracing seed (overrides [light] seed). Same seed, same result, for any thread count.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). Does not change results.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    theta: Option<Vec<f64>>,
+    /// Height-map resolution for the surface statistics in the summary.
+    #[arg(long, default_value_t = 512)]
+    stats_resolution: usize,
+    /// No progress bar and no table on stderr.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(Args, Debug)]
+struct StatsArgs {
+    /// Micro scene file (TOML); omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Height-map samples per side of the cell.
+    #[arg(long, default_value_t = 1024)]
+    resolution: usize,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Failures, by exit status.
+enum Failure {
+    /// Bad input: exit 2.
+    Input(String),
+    /// Anything else: exit 1.
+    Other(anyhow::Error),
+}
+
+impl From<SceneError> for Failure {
+    fn from(e: SceneError) -> Self {
+        Self::Input(e.to_string())
+    }
+}
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Self::Other(e)
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Brdf(a) => brdf(a),
+        Command::Stats(a) => stats(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Input(msg)) => {
+            eprintln!("roks: {msg}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Other(e)) => {
+            eprintln!("roks: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn load_scene(path: Option<&Path>) -> Result<MicroScene, Failure> {
+    Ok(match path {
+        Some(p) => MicroScene::load(p)?,
+        None => MicroScene::default_scene(),
+    })
+}
+
+fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+    if let Some(t) = threads {
+        if t == 0 {
+            return Err(Failure::Input("--threads: must be >= 1".into()));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build_global()
+            .map_err(|e| Failure::Other(e.into()))?;
+    }
+    Ok(())
+}
+
+fn brdf(a: BrdfArgs) -> Result<(), Failure> {
+    let scene = load_scene(a.scene.as_deref())?;
+    let mut light = scene.light.clone();
+    if let Some(p) = a.photons {
+        if p == 0 {
+            return Err(Failure::Input("--photons: must be > 0".into()));
+        }
+        light.photons = p;
+    }
+    if let Some(s) = a.seed {
+        light.seed = s;
+    }
+    if let Some(t) = &a.theta {
+        if t.is_empty() {
+            return Err(Failure::Input("--theta: needs at least one angle".into()));
+        }
+        if let Some(bad) = t
+            .iter()
+            .find(|t| !(t.is_finite() && (0.0..90.0).contains(*t)))
+        {
+            return Err(Failure::Input(format!(
+                "--theta: angles must be in [0, 90), got {bad}"
+            )));
+        }
+        light.theta_deg.clone_from(t);
+    }
+    if a.stats_resolution < 2 {
+        return Err(Failure::Input("--stats-resolution: must be >= 2".into()));
+    }
+    set_threads(a.threads)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(&scene.name));
+
+    let run = BrdfRun {
+        theta_deg: light.theta_deg.clone(),
+        phi_deg: light.phi_deg,
+        photons: light.photons,
+        first_photon: 0,
+        seed: light.seed,
+        bands: scene.tally.bands,
+        inplane_step_deg: scene.tally.inplane_step_deg,
+        inplane_width_deg: scene.tally.inplane_width_deg,
+        controls: Controls {
+            max_bounces: scene.transport.max_bounces,
+            roulette_weight: scene.transport.roulette_weight,
+            ..Controls::default()
+        },
+    };
+    let total = run.photons * run.theta_deg.len() as u64;
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} photons, {per_sec}, eta {eta}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar.set_message(scene.name.clone());
+    let clock = Instant::now();
+    let results = run.run(&scene.surface, &|n| bar.inc(n));
+    bar.finish_and_clear();
+    let seconds = clock.elapsed().as_secs_f64();
+
+    let r = a.stats_resolution;
+    let stats = surface_stats(&scene.surface.height_map(r, r));
+    let summary = json!({
+        "scene": scene.source.file,
+        "name": scene.name,
+        "version": env!("CARGO_PKG_VERSION"),
+        "seed": run.seed,
+        "photons_per_incidence": run.photons,
+        "bands": run.bands,
+        "edges": format!("{:?}", scene.surface.edges).to_lowercase(),
+        "incidence": results.iter().map(output::incidence_json).collect::<Vec<_>>(),
+        "surface": output::surface_json(&stats, r),
+        "seconds": seconds,
+    });
+
+    std::fs::create_dir_all(&out)
+        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    let write = |name: &str, bytes: &[u8]| {
+        let path = out.join(name);
+        output::write_atomic(&path, bytes)
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+    };
+    write("brdf.csv", output::brdf_csv(&run, &results).as_bytes())?;
+    write(
+        "inplane.csv",
+        output::inplane_csv(&run, &results).as_bytes(),
+    )?;
+    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
+    text.push('\n');
+    write("summary.json", text.as_bytes())?;
+
+    if !a.quiet {
+        eprintln!(
+            "{:>9} {:>12} {:>10} {:>8} {:>9} {:>12}",
+            "theta_i", "reflectance", "stderr", "bounces", "lost", "Msegments/s"
+        );
+        for r in &results {
+            let (refl, se) = r.reflectance();
+            eprintln!(
+                "{:>9.2} {:>12.6} {:>10.2e} {:>8.3} {:>9.2e} {:>12.2}",
+                r.theta_i_deg,
+                refl,
+                se,
+                r.mean_bounces(),
+                r.lost(),
+                r.segments_per_second() / 1e6
+            );
+        }
+        eprintln!("wrote {} ({seconds:.1} s)", out.display());
+    }
+    Ok(())
+}
+
+fn stats(a: StatsArgs) -> Result<(), Failure> {
+    let scene = load_scene(a.scene.as_deref())?;
+    if a.resolution < 2 {
+        return Err(Failure::Input("--resolution: must be >= 2".into()));
+    }
+    let r = a.resolution;
+    let s = surface_stats(&scene.surface.height_map(r, r));
+    if a.json {
+        let v = output::surface_json(&s, r);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&v).map_err(anyhow::Error::from)?
+        );
+        return Ok(());
+    }
+    let size = scene.surface.size;
+    println!("scene            {}", scene.source.file);
+    println!(
+        "cell             {} x {} ({:?} edges)",
+        size.x, size.y, scene.surface.edges
+    );
+    println!("height map       {r} x {r}");
+    println!(
+        "sigma            {:.6}   RMS height about the mean",
+        s.sigma
+    );
+    println!(
+        "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
+        s.tau
+    );
+    println!("sigma_over_tau   {:.6}", s.sigma_over_tau);
+    println!(
+        "rms_slope        {:.6}   sqrt(mean |grad h|^2)",
+        s.rms_slope
+    );
+    println!("mean_height      {:.6}", s.mean);
+    println!("max_height       {:.6}", s.max_height);
+    println!("min_height       {:.6}", s.min_height);
+    let (global, per_cell) = scene.surface.acceleration_stats();
+    println!(
+        "solids           {} ({} tested per flight, {:.1} per grid cell)",
+        scene.surface.solids.len(),
+        global,
+        per_cell
+    );
+    Ok(())
+}

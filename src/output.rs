@@ -1,1 +1,150 @@
-//! Result files.
+//! Result files, written atomically (a temporary file in the same folder, then
+//! a rename), so a reader never sees half a file.
+//!
+//! `roks brdf` writes, in its output folder:
+//! * `summary.json`: per incidence `theta_deg`, `phi_deg`, `photons`,
+//!   `reflectance`, `reflectance_stderr`, `mean_bounces`, `lost`, `seconds`,
+//!   `segments_per_second` (and the breakdown of losses, reflectance by bounce
+//!   count); `surface` statistics; the seed, scene file and roks version.
+//! * `brdf.csv`: one row per incidence and Carlson cell (see [`BRDF_HEADER`]).
+//! * `inplane.csv`: the in-plane BRDF, `theta_o_deg` signed (positive on the
+//!   specular side, negative toward the light).
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+use serde_json::{Value, json};
+
+use crate::micro::surface_stats::SurfaceStats;
+use crate::tally::{CarlsonGrid, InPlaneTally};
+use crate::transport::brdf::{BrdfRun, IncidenceResult};
+
+/// Columns of `brdf.csv`.
+pub const BRDF_HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// Columns of `inplane.csv`.
+pub const INPLANE_HEADER: &str = "theta_i_deg,theta_o_deg,brdf,brdf_stderr";
+
+/// Write `bytes` to `path` atomically (temporary sibling, then rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let name = path
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// `brdf.csv` for all incidences.
+#[must_use]
+pub fn brdf_csv(run: &BrdfRun, results: &[IncidenceResult]) -> String {
+    let grid: CarlsonGrid = run.grid();
+    let omega = grid.solid_angle();
+    let mut s = String::with_capacity(200 * grid.n_cells() * results.len());
+    s.push_str(BRDF_HEADER);
+    s.push('\n');
+    for r in results {
+        let n = r.tallies.photons;
+        for flat in 0..grid.n_cells() {
+            let (band, cell) = grid.band_cell(flat);
+            let (mu_bot, mu_top) = grid.mu_edges(band);
+            let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
+            let (theta, phi) = grid.centre(band, cell);
+            let proj = grid.projected_solid_angle(band, cell);
+            let f = r.tallies.carlson.mean(flat, n);
+            let fe = r.tallies.carlson.stderr(flat, n);
+            let _ = writeln!(
+                s,
+                "{},{},{band},{cell},{},{},{},{},{},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
+                r.theta_i_deg,
+                r.phi_i_deg,
+                mu_top.acos().to_degrees(),
+                mu_bot.acos().to_degrees(),
+                phi_lo.to_degrees(),
+                phi_hi.to_degrees(),
+                theta.to_degrees(),
+                phi.to_degrees(),
+                f / proj,
+                fe / proj,
+            );
+        }
+    }
+    s
+}
+
+/// `inplane.csv` for all incidences.
+#[must_use]
+pub fn inplane_csv(run: &BrdfRun, results: &[IncidenceResult]) -> String {
+    let tally: InPlaneTally = run.inplane();
+    let mut s = String::new();
+    s.push_str(INPLANE_HEADER);
+    s.push('\n');
+    for r in results {
+        let n = r.tallies.photons;
+        for bin in 0..tally.n_bins() {
+            let proj = tally.projected_solid_angle(bin);
+            let f = r.tallies.inplane.mean(bin, n);
+            let fe = r.tallies.inplane.stderr(bin, n);
+            let _ = writeln!(
+                s,
+                "{},{},{:.9e},{:.9e}",
+                r.theta_i_deg,
+                tally.centre_deg(bin),
+                f / proj,
+                fe / proj
+            );
+        }
+    }
+    s
+}
+
+/// Surface statistics as JSON.
+#[must_use]
+pub fn surface_json(stats: &SurfaceStats, resolution: usize) -> Value {
+    let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    json!({
+        "sigma": num(stats.sigma),
+        "tau": num(stats.tau),
+        "sigma_over_tau": num(stats.sigma_over_tau),
+        "rms_slope": num(stats.rms_slope),
+        "max_height": num(stats.max_height),
+        "mean_height": num(stats.mean),
+        "min_height": num(stats.min_height),
+        "height_map_resolution": resolution,
+    })
+}
+
+/// One incidence's entry in `summary.json`.
+#[must_use]
+pub fn incidence_json(r: &IncidenceResult) -> Value {
+    let t = &r.tallies;
+    let (refl, refl_se) = r.reflectance();
+    let n = t.photons as f64;
+    json!({
+        "theta_deg": r.theta_i_deg,
+        "phi_deg": r.phi_i_deg,
+        "photons": t.photons,
+        "reflectance": refl,
+        "reflectance_stderr": refl_se,
+        "mean_bounces": r.mean_bounces(),
+        "lost": r.lost(),
+        "lost_walls": t.lost_walls / n,
+        "lost_cap": t.lost_cap / n,
+        "lost_numeric": t.lost_numeric / n,
+        "capped_photons": t.capped_histories,
+        "numeric_guard_photons": t.numeric_histories,
+        "reflectance_by_bounces": t.by_bounces.iter().map(|w| w / n).collect::<Vec<_>>(),
+        "segments": t.segments,
+        "seconds": r.seconds,
+        "segments_per_second": r.segments_per_second(),
+    })
+}

@@ -15,6 +15,30 @@ use super::region::Region;
 /// Most surfaces a body may have (keeps the per-ray work on the stack).
 pub const MAX_SURFACES: usize = 16;
 
+/// A ray `o + t d` with its reciprocal direction precomputed for box tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin (length units).
+    pub o: DVec3,
+    /// Direction (unit for distances in length units).
+    pub d: DVec3,
+    /// `1 / d` per component (infinite where `d` is 0).
+    pub inv_d: DVec3,
+}
+
+impl Ray {
+    /// A ray from `o` along `d`.
+    #[must_use]
+    #[inline]
+    pub fn new(o: DVec3, d: DVec3) -> Self {
+        Self {
+            o,
+            d,
+            inv_d: d.recip(),
+        }
+    }
+}
+
 /// An axis-aligned box, possibly unbounded (infinite extents allowed).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -31,32 +55,25 @@ impl Aabb {
         max: DVec3::splat(f64::INFINITY),
     };
 
-    /// Parameter interval `[t0, t1]` of the ray `o + t d` inside the box,
-    /// intersected with `[0, t_max]`; `None` if empty.
+    /// Parameter interval `[t0, t1]` of `ray` inside the box, intersected with
+    /// `[0, t_max]`; `None` if empty.
     #[must_use]
     #[inline]
-    pub fn clip(&self, o: DVec3, d: DVec3, t_max: f64) -> Option<(f64, f64)> {
+    pub fn clip(&self, ray: &Ray, t_max: f64) -> Option<(f64, f64)> {
         let (mut t0, mut t1) = (0.0_f64, t_max);
         for k in 0..3 {
-            let (lo, hi, ok, dk) = (self.min[k], self.max[k], o[k], d[k]);
-            if dk == 0.0 {
+            let (lo, hi, ok, inv) = (self.min[k], self.max[k], ray.o[k], ray.inv_d[k]);
+            if inv.is_infinite() {
                 if ok < lo || ok > hi {
                     return None;
                 }
                 continue;
             }
-            let inv = 1.0 / dk;
-            let (mut a, mut b) = ((lo - ok) * inv, (hi - ok) * inv);
-            if a > b {
-                std::mem::swap(&mut a, &mut b);
-            }
-            // NaN-safe: an infinite slab gives (-inf, inf).
-            if a > t0 {
-                t0 = a;
-            }
-            if b < t1 {
-                t1 = b;
-            }
+            // Infinite slabs give (-inf, inf): never NaN for a finite origin.
+            let (a, b) = ((lo - ok) * inv, (hi - ok) * inv);
+            let (a, b) = if a > b { (b, a) } else { (a, b) };
+            t0 = t0.max(a);
+            t1 = t1.min(b);
             if t0 > t1 {
                 return None;
             }
@@ -154,14 +171,9 @@ impl Body {
     /// another body) enters at its next entry after leaving.
     #[must_use]
     #[inline]
-    pub fn first_entry(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        t_max: f64,
-        standing: Option<usize>,
-    ) -> Option<Entry> {
-        let (_, t_hi) = self.bounds.clip(o, d, t_max)?;
+    pub fn first_entry(&self, ray: &Ray, t_max: f64, standing: Option<usize>) -> Option<Entry> {
+        let (o, d) = (ray.o, ray.d);
+        let (_, t_hi) = self.bounds.clip(ray, t_max)?;
         let entry = if let Some(i) = self.single {
             let c = self.surfaces[i].crossings(o, d, t_hi, standing == Some(i));
             single_entry(&c, i)
@@ -262,14 +274,20 @@ mod tests {
         };
         let (t0, t1) = b.clip(DVec3::new(-1.0, 0.5, 0.5), DVec3::X, 10.0).unwrap();
         assert_eq!((t0, t1), (1.0, 2.0));
-        assert!(b.clip(DVec3::new(-1.0, 2.0, 0.5), DVec3::X, 10.0).is_none());
-        assert!(b.clip(DVec3::new(-1.0, 0.5, 0.5), DVec3::X, 0.5).is_none());
+        assert!(
+            b.clip(&r(DVec3::new(-1.0, 2.0, 0.5), DVec3::X), 10.0)
+                .is_none()
+        );
+        assert!(
+            b.clip(&r(DVec3::new(-1.0, 0.5, 0.5), DVec3::X), 0.5)
+                .is_none()
+        );
         let slab = Aabb {
             min: DVec3::new(0.0, f64::NEG_INFINITY, f64::NEG_INFINITY),
             max: DVec3::new(1.0, f64::INFINITY, f64::INFINITY),
         };
         assert_eq!(
-            slab.clip(DVec3::new(-1.0, 0.0, 0.0), DVec3::X, 5.0),
+            slab.clip(&r(DVec3::new(-1.0, 0.0, 0.0), DVec3::X), 5.0),
             Some((1.0, 2.0))
         );
     }
@@ -281,24 +299,29 @@ mod tests {
         let right = Quadric::plane(1.0, 0.0, 1.0, 2.0);
         let b = body(vec![left, right], "-left -right", &["left", "right"]);
         let e = b
-            .first_entry(DVec3::new(0.5, 0.3, 2.0), DVec3::NEG_Z, 10.0, None)
+            .first_entry(
+                &Ray::new(DVec3::new(0.5, 0.3, 2.0), DVec3::NEG_Z),
+                10.0,
+                None,
+            )
             .unwrap();
         assert_eq!(e, Entry { t: 1.5, surface: 0 });
         let e = b
-            .first_entry(DVec3::new(1.5, 0.3, 2.0), DVec3::NEG_Z, 10.0, None)
+            .first_entry(
+                &Ray::new(DVec3::new(1.5, 0.3, 2.0), DVec3::NEG_Z),
+                10.0,
+                None,
+            )
             .unwrap();
         assert_eq!(e, Entry { t: 1.5, surface: 1 });
-        // Reflected off the left wall at (0.5, 0.5) straight down -> heads along +x... and
-        // standing on the left wall heading away: no re-entry into the ridge.
-        assert!(
-            b.first_entry(
-                DVec3::new(0.5, 0.3, 0.5),
-                DVec3::new(-1.0, 0.0, 0.0),
-                10.0,
-                Some(0)
-            )
-            .is_none()
-        );
+        // Standing on the left wall (z = x) at x = 0.5 and leaving along -x,
+        // away from the ridge: no re-entry.
+        let away = Ray::new(DVec3::new(0.5, 0.3, 0.5), DVec3::NEG_X);
+        assert!(b.first_entry(&away, 10.0, Some(0)).is_none());
+        // ... but leaving along +x, into the ridge, enters at once (t = 0 is excluded,
+        // so it must report no spurious entry at 0 and, since it is then inside, none at all).
+        let into = Ray::new(DVec3::new(0.5, 0.3, 0.5), DVec3::X);
+        assert!(b.first_entry(&into, 10.0, Some(0)).is_none());
     }
 
     #[test]
@@ -308,7 +331,11 @@ mod tests {
         let b = body(vec![k, top], "-k -top", &["k", "top"]);
         // From above through the apex region of the upper nappe: must enter the lower one.
         let e = b
-            .first_entry(DVec3::new(0.25, 0.0, 3.0), DVec3::NEG_Z, 10.0, None)
+            .first_entry(
+                &Ray::new(DVec3::new(0.25, 0.0, 3.0), DVec3::NEG_Z),
+                10.0,
+                None,
+            )
             .unwrap();
         // |x| = 0.25 meets the lower nappe at z = 0.75 (the upper one at 1.25 is outside).
         assert!((e.t - 2.25).abs() < 1e-15, "{e:?}");
@@ -325,8 +352,8 @@ mod tests {
             let o = DVec3::new(3.0 * a.cos(), 3.0 * a.sin(), 0.5 * (a * 0.7).sin());
             let d = (DVec3::new(0.1 * (a * 1.3).sin(), 0.05, 0.0) - o).normalize();
             assert_eq!(
-                fast.first_entry(o, d, 10.0, None),
-                slow.first_entry(o, d, 10.0, None)
+                fast.first_entry(&Ray::new(o, d), 10.0, None),
+                slow.first_entry(&Ray::new(o, d), 10.0, None)
             );
         }
     }

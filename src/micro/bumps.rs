@@ -17,6 +17,8 @@ use glam::{DVec2, DVec3};
 use serde::Deserialize;
 
 use super::Placed;
+#[cfg(test)]
+use crate::geometry::body::Ray;
 use crate::geometry::body::{Aabb, Body};
 use crate::geometry::quadric::Quadric;
 use crate::geometry::region;
@@ -57,6 +59,45 @@ pub struct Bump {
 }
 
 impl Shape {
+    /// Height of the bump's top surface at scaled radial distance
+    /// `s = sqrt(((x - cx)/rx)² + ((y - cy)/ry)²)` from its centre
+    /// (`-inf` outside its footprint). Non-increasing in `s` for every shape.
+    #[must_use]
+    pub fn profile(self, b: &Bump, s: f64) -> f64 {
+        let h = b.height;
+        let z = match self {
+            Self::Ellipsoid => -b.depth + (h + b.depth) * (1.0 - s * s).max(0.0).sqrt(),
+            Self::Paraboloid => h * (1.0 - s * s),
+            Self::Cone => h * (1.0 - s),
+            Self::Cylinder => h,
+            Self::EllipsoidOnHyperboloid => {
+                let cap = (b.cap * h).min(h);
+                let zj = h - cap;
+                if s <= 1.0 || zj <= 0.0 {
+                    zj + cap * (1.0 - s * s).max(0.0).sqrt()
+                } else {
+                    let ch = zj / (b.base * b.base - 1.0).sqrt();
+                    zj - ch * (s * s - 1.0).sqrt()
+                }
+            }
+        };
+        let outside = match self {
+            Self::EllipsoidOnHyperboloid => s > b.base.max(1.0),
+            _ => s > 1.0,
+        };
+        if outside { f64::NEG_INFINITY } else { z }
+    }
+
+    /// The highest point of the bump over the rectangle `[lo, hi]` of the
+    /// plane (length units): its height at the rectangle's point nearest the
+    /// centre in scaled coordinates (exact, since heights fall with `s`).
+    #[must_use]
+    pub fn max_height_over(self, b: &Bump, lo: DVec2, hi: DVec2) -> f64 {
+        let nearest = b.center.clamp(lo, hi);
+        let q = (nearest - b.center) / DVec2::new(b.radius, b.radius_y);
+        self.profile(b, q.length())
+    }
+
     /// The solid for one bump, with its bounds and top.
     #[must_use]
     pub fn body(self, b: &Bump, material: usize) -> Placed {
@@ -138,6 +179,7 @@ impl Shape {
             body: Body::new(surfaces, region, bounds, material),
             max_height: h,
             wraps: true,
+            bump: Some((self, *b)),
         }
     }
 }
@@ -173,7 +215,11 @@ mod tests {
             assert_eq!(p.max_height, 1.7);
             let e = p
                 .body
-                .first_entry(DVec3::new(5.0, 5.0, 10.0), DVec3::NEG_Z, 100.0, None)
+                .first_entry(
+                    &Ray::new(DVec3::new(5.0, 5.0, 10.0), DVec3::NEG_Z),
+                    100.0,
+                    None,
+                )
                 .unwrap();
             assert!(
                 (10.0 - e.t - 1.7).abs() < 1e-12,
@@ -182,6 +228,43 @@ mod tests {
             );
             assert!(p.body.contains(DVec3::new(5.0, 5.0, 1.69)));
             assert!(!p.body.contains(DVec3::new(5.0, 5.0, 1.71)));
+        }
+    }
+
+    /// The profile is the body's top: a vertical ray at scaled distance s meets
+    /// the body at profile(s), for every shape and a sweep of s.
+    #[test]
+    fn profile_matches_vertical_rays() {
+        let b = bump(1.7);
+        for shape in [
+            Shape::Ellipsoid,
+            Shape::EllipsoidOnHyperboloid,
+            Shape::Paraboloid,
+            Shape::Cone,
+            Shape::Cylinder,
+        ] {
+            let p = shape.body(&b, 0);
+            for k in 0..40 {
+                let s = k as f64 * 0.04;
+                for dir in [DVec2::X, DVec2::Y, DVec2::new(0.6, 0.8)] {
+                    let xy = b.center + dir * s / (dir / DVec2::new(b.radius, b.radius_y)).length();
+                    let ray = Ray::new(DVec3::new(xy.x, xy.y, 10.0), DVec3::NEG_Z);
+                    let hit = p.body.first_entry(&ray, 100.0, None).map(|e| 10.0 - e.t);
+                    let want = shape.profile(&b, s);
+                    match hit {
+                        Some(z) if z >= 0.0 => {
+                            assert!(
+                                (z - want).abs() < 1e-9,
+                                "{shape:?} s={s}: ray {z}, profile {want}"
+                            );
+                        }
+                        _ => assert!(
+                            want <= 1e-9,
+                            "{shape:?} s={s}: no hit above 0, profile {want}"
+                        ),
+                    }
+                }
+            }
         }
     }
 

@@ -20,7 +20,7 @@ pub mod surface_stats;
 
 use glam::{DVec2, DVec3};
 
-use crate::geometry::body::{Aabb, Body};
+use crate::geometry::body::{Aabb, Body, Ray};
 use crate::optics::material::Reflectance;
 
 /// What happens where a photon reaches a side of the cell below the top.
@@ -41,6 +41,23 @@ pub struct Solid {
     pub body: Body,
     /// Index of the scene body or bump this solid is a copy of.
     pub source: usize,
+    /// For bumps: the shape and parameters, which give exact heights over
+    /// grid cells (tighter than the bounds).
+    pub bump: Option<(bumps::Shape, bumps::Bump)>,
+}
+
+impl Solid {
+    /// Highest point of the solid over the rectangle `[lo, hi]` (an upper bound).
+    fn max_height_over(&self, lo: DVec2, hi: DVec2) -> f64 {
+        match &self.bump {
+            Some((shape, b)) => {
+                // A relative pad keeps the bound above rounding in the body's own test.
+                let z = shape.max_height_over(b, lo, hi);
+                z + 1e-9 * b.height
+            }
+            None => self.body.bounds.max.z,
+        }
+    }
 }
 
 /// The next thing a straight flight meets.
@@ -108,7 +125,9 @@ struct Grid {
     pitch: DVec2,
     /// CSR offsets into `items`, one per grid cell plus one.
     start: Vec<u32>,
-    items: Vec<u32>,
+    /// Solid index and the top of its bounds, so solids below a flight are
+    /// skipped without touching them.
+    items: Vec<(u32, f64)>,
     /// Highest `bounds.max.z` of the items of each grid cell (`-inf` if empty).
     zmax: Vec<f64>,
 }
@@ -142,8 +161,13 @@ impl Grid {
             let b = &solids[i].body.bounds;
             for iy in range(b.min.y, b.max.y, pitch.y, ny) {
                 for ix in range(b.min.x, b.max.x, pitch.x, nx) {
-                    lists[iy * nx + ix].push(i as u32);
-                    zmax[iy * nx + ix] = zmax[iy * nx + ix].max(b.max.z);
+                    let lo = DVec2::new(ix as f64, iy as f64) * pitch;
+                    let top = solids[i].max_height_over(lo, lo + pitch);
+                    if top == f64::NEG_INFINITY {
+                        continue;
+                    }
+                    lists[iy * nx + ix].push((i as u32, top));
+                    zmax[iy * nx + ix] = zmax[iy * nx + ix].max(top);
                 }
             }
         }
@@ -163,7 +187,7 @@ impl Grid {
         }
     }
 
-    fn cell_items(&self, cell: usize) -> &[u32] {
+    fn cell_items(&self, cell: usize) -> &[(u32, f64)] {
         &self.items[self.start[cell] as usize..self.start[cell + 1] as usize]
     }
 }
@@ -199,6 +223,8 @@ pub struct Placed {
     pub max_height: f64,
     /// Copy into neighbouring periods when it crosses a side (bumps do).
     pub wraps: bool,
+    /// For bumps: shape and parameters (exact heights for the grid).
+    pub bump: Option<(bumps::Shape, bumps::Bump)>,
 }
 
 impl MicroSurface {
@@ -228,6 +254,7 @@ impl MicroSurface {
         let mut solids = vec![Solid {
             body: substrate,
             source: usize::MAX,
+            bump: None,
         }];
         let mut max_height: f64 = 0.0;
         let cell = Aabb {
@@ -250,9 +277,14 @@ impl MicroSurface {
                     for jx in -kx..=kx {
                         let shift = DVec3::new(jx as f64 * size.x, jy as f64 * size.y, 0.0);
                         if overlaps_xy(&b.translated(shift), &cell) {
+                            let bump = placed.bump.map(|(shape, mut bump)| {
+                                bump.center += shift.truncate();
+                                (shape, bump)
+                            });
                             solids.push(Solid {
                                 body: placed.body.translated(shift),
                                 source,
+                                bump,
                             });
                         }
                     }
@@ -261,6 +293,7 @@ impl MicroSurface {
                 solids.push(Solid {
                     body: placed.body,
                     source,
+                    bump: placed.bump,
                 });
             }
         }
@@ -321,10 +354,11 @@ impl MicroSurface {
                 exit = Event::Side { t, axis, upper };
             }
         }
+        let ray = Ray::new(o, d);
         let mut best: Option<(f64, usize, usize)> = None;
         let test = |i: usize, t_best: &mut f64, best: &mut Option<(f64, usize, usize)>| {
             let on = standing.and_then(|(s, f)| (s == i).then_some(f));
-            if let Some(e) = self.solids[i].body.first_entry(o, d, *t_best, on) {
+            if let Some(e) = self.solids[i].body.first_entry(&ray, *t_best, on) {
                 *t_best = e.t;
                 *best = Some((e.t, i, e.surface));
             }
@@ -363,9 +397,9 @@ impl MicroSurface {
                 o.z + t_leave.min(t_best) * d.z
             };
             if z_low <= g.zmax[idx] {
-                for &i in g.cell_items(idx) {
+                for &(i, zmax) in g.cell_items(idx) {
                     let i = i as usize;
-                    if scratch.stamp[i] != q {
+                    if z_low <= zmax && scratch.stamp[i] != q {
                         scratch.stamp[i] = q;
                         test(i, &mut t_best, &mut best);
                     }

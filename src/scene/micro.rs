@@ -58,7 +58,7 @@ use super::{
     MaterialSpec, QuadricSpec, Range, SceneError, Source, build_materials, material_index,
     parse_toml,
 };
-use crate::geometry::body::{Aabb, Body};
+use crate::geometry::body::{Aabb, Body, Ray};
 use crate::geometry::quadric::Quadric;
 use crate::geometry::region;
 use crate::micro::bumps::{Bump, Shape};
@@ -554,6 +554,7 @@ fn explicit_body(
         body,
         max_height: max_height.max(0.0),
         wraps: false,
+        bump: None,
     })
 }
 
@@ -563,8 +564,12 @@ fn explicit_max_height(body: &Body, size: DVec2, z_far: f64) -> f64 {
     let height = |x: f64, y: f64| {
         let x = x.clamp(0.0, size.x);
         let y = y.clamp(0.0, size.y);
-        body.first_entry(DVec3::new(x, y, z_far), DVec3::NEG_Z, f64::INFINITY, None)
-            .map_or(f64::NEG_INFINITY, |e| z_far - e.t)
+        body.first_entry(
+            &Ray::new(DVec3::new(x, y, z_far), DVec3::NEG_Z),
+            f64::INFINITY,
+            None,
+        )
+        .map_or(f64::NEG_INFINITY, |e| z_far - e.t)
     };
     let n = 256;
     let mut best = (f64::NEG_INFINITY, 0.0, 0.0);
