@@ -174,12 +174,15 @@ impl Body {
     pub fn first_entry(&self, ray: &Ray, t_max: f64, standing: Option<usize>) -> Option<Entry> {
         let (o, d) = (ray.o, ray.d);
         let (_, t_hi) = self.bounds.clip(ray, t_max)?;
-        let entry = if let Some(i) = self.single {
+        let (entry, ill_conditioned) = if let Some(i) = self.single {
             let c = self.surfaces[i].crossings(o, d, t_hi, standing == Some(i));
-            single_entry(&c, i)
+            (single_entry(&c, i)?, c.ill_conditioned)
         } else {
-            self.first_entry_csg(o, d, t_hi, standing)
-        }?;
+            self.first_entry_csg(o, d, t_hi, standing)?
+        };
+        if !ill_conditioned {
+            return Some(entry);
+        }
         // Polish the distance where it is used (see Quadric::refine_root).
         let t = self.surfaces[entry.surface].refine_root(o, d, entry.t);
         Some(Entry { t, ..entry })
@@ -191,15 +194,17 @@ impl Body {
         d: DVec3,
         t_max: f64,
         standing: Option<usize>,
-    ) -> Option<Entry> {
+    ) -> Option<(Entry, bool)> {
         let n = self.surfaces.len();
         let mut positive = [false; MAX_SURFACES];
+        let mut ill = [false; MAX_SURFACES];
         // Events (t, surface), at most two per surface.
         let mut events = [(0.0_f64, 0_usize); 2 * MAX_SURFACES];
         let mut n_events = 0;
         for (i, q) in self.surfaces.iter().enumerate() {
             let c = q.crossings(o, d, t_max, standing == Some(i));
             positive[i] = c.positive_at_start;
+            ill[i] = c.ill_conditioned;
             for &t in &c.t[..c.n] {
                 events[n_events] = (t, i);
                 n_events += 1;
@@ -228,7 +233,7 @@ impl Body {
             }
             let now_inside = inside(&positive);
             if now_inside && !was_inside {
-                return Some(Entry { t, surface: last });
+                return Some((Entry { t, surface: last }, ill[last]));
             }
             was_inside = now_inside;
         }
@@ -272,7 +277,10 @@ mod tests {
             min: DVec3::ZERO,
             max: DVec3::ONE,
         };
-        let (t0, t1) = b.clip(DVec3::new(-1.0, 0.5, 0.5), DVec3::X, 10.0).unwrap();
+        let r = |o: DVec3, d: DVec3| Ray::new(o, d);
+        let (t0, t1) = b
+            .clip(&r(DVec3::new(-1.0, 0.5, 0.5), DVec3::X), 10.0)
+            .unwrap();
         assert_eq!((t0, t1), (1.0, 2.0));
         assert!(
             b.clip(&r(DVec3::new(-1.0, 2.0, 0.5), DVec3::X), 10.0)

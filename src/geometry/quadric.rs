@@ -47,6 +47,9 @@ pub struct Crossings {
     pub n: usize,
     /// True when the ray is on the positive side (`f > 0`) just after `t = 0`.
     pub positive_at_start: bool,
+    /// True when `b² - a c` cancelled by more than about 10 bits: the roots
+    /// should be polished with [`Quadric::refine_root`] before use.
+    pub ill_conditioned: bool,
 }
 
 impl Quadric {
@@ -250,10 +253,22 @@ impl Quadric {
     #[must_use]
     #[inline]
     pub fn ray_coefficients(&self, o: DVec3, d: DVec3) -> (f64, f64, f64) {
-        let [a, b, c, dd, e, f, _, _, _, _] = self.coef;
-        let qa = d.x * (a * d.x + dd * d.y + f * d.z) + d.y * (b * d.y + e * d.z) + c * d.z * d.z;
-        let half_b = 0.5 * self.gradient(o).dot(d);
-        (qa, half_b, self.eval(o))
+        let [a, b, c, dd, e, f, g, h, j, k] = self.coef;
+        let q = o - self.origin;
+        // M p with M the symmetric matrix of the quadratic part (off-diagonals halved).
+        let m = |p: DVec3| {
+            DVec3::new(
+                a * p.x + 0.5 * (dd * p.y + f * p.z),
+                b * p.y + 0.5 * (dd * p.x + e * p.z),
+                c * p.z + 0.5 * (e * p.y + f * p.x),
+            )
+        };
+        let (mq, md) = (m(q), m(d));
+        let lin = DVec3::new(g, h, j);
+        let qa = d.dot(md);
+        let half_b = d.dot(mq) + 0.5 * lin.dot(d);
+        let qc = q.dot(mq) + lin.dot(q) + k;
+        (qa, half_b, qc)
     }
 
     /// A root `t` of the ray `o + t d` polished by one correction step solved at
@@ -307,6 +322,7 @@ pub fn crossings_of_quadratic(a: f64, b: f64, c: f64, t_max: f64) -> Crossings {
         t: [f64::INFINITY; 2],
         n: 0,
         positive_at_start: c > 0.0,
+        ill_conditioned: a != 0.0 && (b * b).max((a * c).abs()) > 1024.0 * (b * b - a * c).abs(),
     };
     let (roots, n_roots, sign_at_minus_inf) = real_roots(a, b, c);
     let Some(mut positive) = sign_at_minus_inf else {
