@@ -9,7 +9,7 @@
 
 use glam::DVec3;
 
-use super::quadric::{Crossings, Quadric};
+use super::quadric::{Quadric, entry_negative};
 use super::region::Region;
 
 /// Most surfaces a body may have (keeps the per-ray work on the stack).
@@ -111,8 +111,9 @@ pub struct Body {
     pub bounds: Aabb,
     /// Index into the scene's material list.
     pub material: usize,
-    /// `Some(i)` when the region is exactly `-i` (fast path).
-    single: Option<usize>,
+    /// `Some((i, surfaces[i]))` when the region is exactly `-i`: the fast
+    /// path, with the quadric stored inline (no pointer chase in the hot loop).
+    single: Option<(usize, Quadric)>,
 }
 
 impl Body {
@@ -121,7 +122,7 @@ impl Body {
     #[must_use]
     pub fn new(surfaces: Vec<Quadric>, region: Region, bounds: Aabb, material: usize) -> Self {
         debug_assert!(surfaces.len() <= MAX_SURFACES);
-        let single = region.single_negative();
+        let single = region.single_negative().map(|i| (i, surfaces[i]));
         Self {
             surfaces,
             region,
@@ -139,7 +140,7 @@ impl Body {
             region: self.region.clone(),
             bounds: self.bounds.translated(delta),
             material: self.material,
-            single: self.single,
+            single: self.single.map(|(i, q)| (i, q.translated(delta))),
         }
     }
 
@@ -154,7 +155,7 @@ impl Body {
                 max: self.bounds.max * s,
             },
             material: self.material,
-            single: self.single,
+            single: self.single.map(|(i, q)| (i, q.scaled(s))),
         }
     }
 
@@ -170,14 +171,18 @@ impl Body {
     /// A ray that starts inside (only possible within rounding of a surface of
     /// another body) enters at its next entry after leaving.
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn first_entry(&self, ray: &Ray, t_max: f64, standing: Option<usize>) -> Option<Entry> {
         let (o, d) = (ray.o, ray.d);
-        let (_, t_hi) = self.bounds.clip(ray, t_max)?;
-        let (entry, ill_conditioned) = if let Some(i) = self.single {
-            let c = self.surfaces[i].crossings(o, d, t_hi, standing == Some(i));
-            (single_entry(&c, i)?, c.ill_conditioned)
+        let (entry, ill_conditioned) = if let Some((i, quadric)) = &self.single {
+            let i = *i;
+            // One quadric: its own test is as cheap as a box test, so no box.
+            let (a, b, c) = quadric.ray_coefficients(o, d);
+            let c = if standing == Some(i) { 0.0 } else { c };
+            let (t, ill) = entry_negative(a, b, c, t_max)?;
+            (Entry { t, surface: i }, ill)
         } else {
+            let (_, t_hi) = self.bounds.clip(ray, t_max)?;
             self.first_entry_csg(o, d, t_hi, standing)?
         };
         if !ill_conditioned {
@@ -240,25 +245,6 @@ impl Body {
         debug_assert!(n <= MAX_SURFACES);
         None
     }
-}
-
-/// Entry into the region `-i` from the crossings of surface `i`.
-#[inline]
-fn single_entry(c: &Crossings, i: usize) -> Option<Entry> {
-    // Negative after crossing k iff positive_at_start flips an odd number of times.
-    let mut positive = c.positive_at_start;
-    for &t in &c.t[..c.n] {
-        let was_positive = positive;
-        positive = !positive;
-        if was_positive && !positive {
-            if c.n == 2 && c.t[0] == c.t[1] {
-                // Tangent touch: no entry.
-                return None;
-            }
-            return Some(Entry { t, surface: i });
-        }
-    }
-    None
 }
 
 #[cfg(test)]

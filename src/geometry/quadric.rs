@@ -251,10 +251,21 @@ impl Quadric {
 
     /// Coefficients `(a, b, c)` of `f(o + t d) = a t² + 2 b t + c`.
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn ray_coefficients(&self, o: DVec3, d: DVec3) -> (f64, f64, f64) {
         let [a, b, c, dd, e, f, g, h, j, k] = self.coef;
         let q = o - self.origin;
+        let lin = DVec3::new(g, h, j);
+        if dd == 0.0 && e == 0.0 && f == 0.0 {
+            // Axis-aligned (every bump, plane and axis cylinder): diagonal M.
+            let diag = DVec3::new(a, b, c);
+            let (mq, md) = (diag * q, diag * d);
+            return (
+                d.dot(md),
+                d.dot(mq) + 0.5 * lin.dot(d),
+                q.dot(mq) + lin.dot(q) + k,
+            );
+        }
         // M p with M the symmetric matrix of the quadratic part (off-diagonals halved).
         let m = |p: DVec3| {
             DVec3::new(
@@ -264,7 +275,6 @@ impl Quadric {
             )
         };
         let (mq, md) = (m(q), m(d));
-        let lin = DVec3::new(g, h, j);
         let qa = d.dot(md);
         let half_b = d.dot(mq) + 0.5 * lin.dot(d);
         let qc = q.dot(mq) + lin.dot(q) + k;
@@ -308,6 +318,47 @@ impl Quadric {
         let c = if on_surface { 0.0 } else { c };
         crossings_of_quadratic(a, b, c, t_max)
     }
+}
+
+/// Where the ray enters the negative side of `a t² + 2 b t + c` for the
+/// first time in `(0, t_max]`, and whether the root is ill-conditioned.
+///
+/// The fast path for bodies made of one quadric (`-q`). It gives exactly
+/// the answer of [`crossings_of_quadratic`] followed by a scan for the first
+/// positive-to-negative flip (see the test that compares them): roots at or
+/// below zero count as already crossed, tangent (double) roots do not enter.
+#[must_use]
+#[inline(always)]
+pub fn entry_negative(a: f64, b: f64, c: f64, t_max: f64) -> Option<(f64, bool)> {
+    let ill = a != 0.0 && (b * b).max((a * c).abs()) > 1024.0 * (b * b - a * c).abs();
+    if a == 0.0 {
+        // Linear: positive before the root when b < 0.
+        if b < 0.0 {
+            let t = -c / (2.0 * b);
+            return (t > 0.0 && t <= t_max).then_some((t, false));
+        }
+        return None;
+    }
+    let disc = b * b - a * c;
+    if !(disc > 0.0) {
+        return None;
+    }
+    let q = -(b + disc.sqrt().copysign(b));
+    if q == 0.0 {
+        return None;
+    }
+    let (r1, r2) = (q / a, c / q);
+    let (lo, hi) = if r1 <= r2 { (r1, r2) } else { (r2, r1) };
+    // a > 0: negative between the roots, entered at the lower one if it is ahead.
+    // a < 0: negative outside them, (re-)entered at the upper one if it is ahead.
+    let t = if a > 0.0 {
+        if lo > 0.0 { lo } else { return None }
+    } else if hi > 0.0 {
+        hi
+    } else {
+        return None;
+    };
+    (t <= t_max).then_some((t, ill))
 }
 
 /// Crossings in `(0, t_max]` of `a t² + 2 b t + c`, and its side just after 0.
@@ -359,6 +410,11 @@ fn real_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize, Option<bool>) {
     let disc = b * b - a * c;
     if disc < 0.0 {
         return ([0.0; 2], 0, Some(a > 0.0));
+    }
+    if disc == 0.0 {
+        // A tangent: one double root, exactly equal so that it flips twice.
+        let r = -b / a;
+        return ([r, r], 2, Some(a > 0.0));
     }
     let q = -(b + disc.sqrt().copysign(b));
     if q == 0.0 {
@@ -429,6 +485,50 @@ mod tests {
         assert!((c.t[0] - 0.5).abs() < 1e-15, "{c:?}");
         let lin = crossings_of_quadratic(0.0, -1.0, 1.0, f64::INFINITY);
         assert_eq!((lin.n, lin.t[0], lin.positive_at_start), (1, 0.5, true));
+    }
+
+    /// The one-quadric fast path agrees with the general crossing logic on
+    /// random quadratics, including rays standing on the surface (c = 0),
+    /// linear ones (a = 0) and tangents (disc = 0).
+    #[test]
+    fn entry_negative_matches_general_crossings() {
+        let mut state = 99u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * 4.0
+        };
+        let general = |a: f64, b: f64, c: f64, t_max: f64| {
+            let cr = crossings_of_quadratic(a, b, c, t_max);
+            let mut positive = cr.positive_at_start;
+            for &t in &cr.t[..cr.n] {
+                if positive && cr.n == 2 && cr.t[0] == cr.t[1] {
+                    return None;
+                }
+                if positive {
+                    return Some(t);
+                }
+                positive = !positive;
+            }
+            None
+        };
+        for k in 0..20000 {
+            let (mut a, mut b, mut c) = (next(), next(), next());
+            match k % 5 {
+                0 => c = 0.0,
+                1 => a = 0.0,
+                2 => c = b * b / a, // tangent (up to rounding)
+                3 => a = a.round(),
+                _ => {}
+            }
+            let t_max = next().abs() * 3.0;
+            assert_eq!(
+                entry_negative(a, b, c, t_max).map(|e| e.0),
+                general(a, b, c, t_max),
+                "a={a} b={b} c={c} t_max={t_max}"
+            );
+        }
     }
 
     #[test]

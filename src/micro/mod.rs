@@ -123,6 +123,7 @@ impl Scratch {
 struct Grid {
     n: [usize; 2],
     pitch: DVec2,
+    inv_pitch: DVec2,
     /// CSR offsets into `items`, one per grid cell plus one.
     start: Vec<u32>,
     /// Solid index and the top of its bounds, so solids below a flight are
@@ -181,6 +182,7 @@ impl Grid {
         Self {
             n: [nx, ny],
             pitch,
+            inv_pitch: pitch.recip(),
             start,
             items,
             zmax,
@@ -332,19 +334,21 @@ impl MicroSurface {
         standing: Option<(usize, usize)>,
         scratch: &mut Scratch,
     ) -> Event {
+        let ray = Ray::new(o, d);
+        let inv = ray.inv_d;
         // Where the flight leaves the cell box: the top or a side.
         let mut exit = Event::Trapped;
         let mut t_best = f64::INFINITY;
         if d.z > 0.0 {
-            t_best = ((self.top - o.z) / d.z).max(0.0);
+            t_best = ((self.top - o.z) * inv.z).max(0.0);
             exit = Event::Top { t: t_best };
         }
         for axis in 0..2 {
             let (dk, ok, len) = (d[axis], o[axis], self.size[axis]);
             let (t, upper) = if dk > 0.0 {
-                ((len - ok) / dk, true)
+                ((len - ok) * inv[axis], true)
             } else if dk < 0.0 {
-                (-ok / dk, false)
+                (-ok * inv[axis], false)
             } else {
                 continue;
             };
@@ -354,7 +358,6 @@ impl MicroSurface {
                 exit = Event::Side { t, axis, upper };
             }
         }
-        let ray = Ray::new(o, d);
         let mut best: Option<(f64, usize, usize)> = None;
         let test = |i: usize, t_best: &mut f64, best: &mut Option<(f64, usize, usize)>| {
             let on = standing.and_then(|(s, f)| (s == i).then_some(f));
@@ -364,6 +367,10 @@ impl MicroSurface {
             }
         };
         for &i in &self.global {
+            // A rising flight above a solid's top cannot enter it (the substrate, mostly).
+            if d.z >= 0.0 && o.z > self.solids[i].body.bounds.max.z {
+                continue;
+            }
             test(i, &mut t_best, &mut best);
         }
         // Walk the grid cells under the flight (Amanatides & Woo), nearest first.
@@ -374,16 +381,17 @@ impl MicroSurface {
         let mut t_delta = [f64::INFINITY; 2];
         let mut step = [0isize; 2];
         for k in 0..2 {
-            let c = ((o[k] / g.pitch[k]).floor().max(0.0) as usize).min(g.n[k] - 1);
+            // o is inside the cell, so truncation is the floor (and `as` saturates).
+            let c = ((o[k] * g.inv_pitch[k]) as usize).min(g.n[k] - 1);
             cell[k] = c;
             if d[k] > 0.0 {
                 step[k] = 1;
-                t_next[k] = ((c + 1) as f64 * g.pitch[k] - o[k]) / d[k];
-                t_delta[k] = g.pitch[k] / d[k];
+                t_next[k] = ((c + 1) as f64 * g.pitch[k] - o[k]) * inv[k];
+                t_delta[k] = g.pitch[k] * inv[k];
             } else if d[k] < 0.0 {
                 step[k] = -1;
-                t_next[k] = (c as f64 * g.pitch[k] - o[k]) / d[k];
-                t_delta[k] = -g.pitch[k] / d[k];
+                t_next[k] = (c as f64 * g.pitch[k] - o[k]) * inv[k];
+                t_delta[k] = -g.pitch[k] * inv[k];
             }
         }
         let mut t_enter = 0.0_f64;

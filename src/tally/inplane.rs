@@ -110,6 +110,12 @@ impl InPlaneTally {
         if !dir.is_finite() || dir.z <= 0.0 {
             return None;
         }
+        // Cheap rejection of directions clearly out of the detector (most of
+        // them) before the trigonometry; the exact test follows.
+        let s = dir.dot(self.v).abs();
+        if s > 1.000_001 * self.half_width_deg.to_radians().sin() {
+            return None;
+        }
         let (theta_p, psi) = self.in_plane_angles(dir);
         if psi.abs() > self.half_width_deg {
             return None;
