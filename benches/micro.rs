@@ -1,1 +1,74 @@
-fn main() {}
+//! Benchmarks of the micro level (`cargo bench`).
+//!
+//! * `brdf/default_60deg`: photons of the embedded default scene (100
+//!   overlapping ellipsoids, rho = 0.8) at 60 degrees incidence, the
+//!   figure the README quotes. Throughput is in photons; the number of
+//!   straight flights per photon is printed once so the criterion time
+//!   converts to segments per second.
+//! * `entry/*`: one ray-body entry test, single quadric vs CSG body.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::DVec3;
+use roks::geometry::body::{Aabb, Body, Ray};
+use roks::geometry::quadric::Quadric;
+use roks::geometry::region;
+use roks::scene::micro::MicroScene;
+use std::hint::black_box;
+
+fn brdf(c: &mut Criterion) {
+    let scene = MicroScene::default_scene();
+    let mut run = scene.brdf_run();
+    run.photons = 20_000;
+    let probe = run.run_one(&scene.surface, 60.0, &|_| {});
+    eprintln!(
+        "default scene, 60 deg: {:.3} segments per photon",
+        probe.tallies.segments as f64 / probe.tallies.photons as f64
+    );
+    let mut g = c.benchmark_group("brdf");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(run.photons));
+    g.bench_function("default_60deg", |b| {
+        b.iter(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {})));
+    });
+    g.finish();
+}
+
+fn entry(c: &mut Criterion) {
+    let e = Quadric::ellipsoid(DVec3::new(0.3, -0.2, 0.0), DVec3::new(3.0, 2.5, 2.0));
+    let names = ["a", "b", "c"];
+    let single = Body::new(
+        vec![e],
+        region::parse("-a", |n| names.iter().position(|m| *m == n)).unwrap(),
+        Aabb::EVERYTHING,
+        0,
+    );
+    let csg = Body::new(
+        vec![e, Quadric::plane_z(1.0), Quadric::plane_z(-5.0)],
+        region::parse("-a -b +c", |n| names.iter().position(|m| *m == n)).unwrap(),
+        Aabb::EVERYTHING,
+        0,
+    );
+    let rays: Vec<Ray> = (0..256)
+        .map(|k| {
+            let a = k as f64 * 0.37;
+            let o = DVec3::new(4.0 * a.cos(), 4.0 * a.sin(), 3.0);
+            Ray::new(o, (DVec3::new(0.2 * a.sin(), 0.1, 0.0) - o).normalize())
+        })
+        .collect();
+    let mut g = c.benchmark_group("entry");
+    g.throughput(Throughput::Elements(rays.len() as u64));
+    for (name, body) in [("single_ellipsoid", &single), ("csg_3_surfaces", &csg)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                rays.iter()
+                    .filter_map(|r| body.first_entry(black_box(r), 100.0, None))
+                    .map(|e| e.t)
+                    .sum::<f64>()
+            });
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, brdf, entry);
+criterion_main!(benches);

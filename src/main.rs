@@ -15,8 +15,6 @@ use roks::micro::surface_stats::surface_stats;
 use roks::output;
 use roks::scene::SceneError;
 use roks::scene::micro::MicroScene;
-use roks::transport::brdf::BrdfRun;
-use roks::transport::micro::Controls;
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
 ///
@@ -143,15 +141,15 @@ fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
 
 fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
-    let mut light = scene.light.clone();
+    let mut run = scene.brdf_run();
     if let Some(p) = a.photons {
         if p == 0 {
             return Err(Failure::Input("--photons: must be > 0".into()));
         }
-        light.photons = p;
+        run.photons = p;
     }
     if let Some(s) = a.seed {
-        light.seed = s;
+        run.seed = s;
     }
     if let Some(t) = &a.theta {
         if t.is_empty() {
@@ -165,7 +163,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
                 "--theta: angles must be in [0, 90), got {bad}"
             )));
         }
-        light.theta_deg.clone_from(t);
+        run.theta_deg.clone_from(t);
     }
     if a.stats_resolution < 2 {
         return Err(Failure::Input("--stats-resolution: must be >= 2".into()));
@@ -176,21 +174,6 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
 
-    let run = BrdfRun {
-        theta_deg: light.theta_deg.clone(),
-        phi_deg: light.phi_deg,
-        photons: light.photons,
-        first_photon: 0,
-        seed: light.seed,
-        bands: scene.tally.bands,
-        inplane_step_deg: scene.tally.inplane_step_deg,
-        inplane_width_deg: scene.tally.inplane_width_deg,
-        controls: Controls {
-            max_bounces: scene.transport.max_bounces,
-            roulette_weight: scene.transport.roulette_weight,
-            ..Controls::default()
-        },
-    };
     let total = run.photons * run.theta_deg.len() as u64;
     let bar = if a.quiet {
         ProgressBar::hidden()

@@ -514,7 +514,7 @@ mod tests {
             None
         };
         for k in 0..20000 {
-            let (mut a, mut b, mut c) = (next(), next(), next());
+            let (mut a, b, mut c) = (next(), next(), next());
             match k % 5 {
                 0 => c = 0.0,
                 1 => a = 0.0,

@@ -63,6 +63,8 @@ use crate::geometry::quadric::Quadric;
 use crate::geometry::region;
 use crate::micro::bumps::{Bump, Shape};
 use crate::micro::{Edges, MicroSurface, Placed};
+use crate::transport::brdf::BrdfRun;
+use crate::transport::micro::Controls;
 
 /// The embedded default scene (also `scenes/default.toml`).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
@@ -282,6 +284,26 @@ pub struct MicroScene {
 }
 
 impl MicroScene {
+    /// The BRDF run this scene describes (`[light]`, `[tally]`, `[transport]`).
+    #[must_use]
+    pub fn brdf_run(&self) -> BrdfRun {
+        BrdfRun {
+            theta_deg: self.light.theta_deg.clone(),
+            phi_deg: self.light.phi_deg,
+            photons: self.light.photons,
+            first_photon: 0,
+            seed: self.light.seed,
+            bands: self.tally.bands,
+            inplane_step_deg: self.tally.inplane_step_deg,
+            inplane_width_deg: self.tally.inplane_width_deg,
+            controls: Controls {
+                max_bounces: self.transport.max_bounces,
+                roulette_weight: self.transport.roulette_weight,
+                ..Controls::default()
+            },
+        }
+    }
+
     /// Load a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
