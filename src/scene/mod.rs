@@ -83,7 +83,13 @@ pub fn parse_toml<T: serde::de::DeserializeOwned>(
     text: &str,
 ) -> Result<T, SceneError> {
     let line_of = |span: Option<std::ops::Range<usize>>| {
-        span.map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+        span.map(|s| {
+            text.as_bytes()[..s.start.min(text.len())]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1
+        })
     };
     let de = toml::Deserializer::parse(text).map_err(|e| {
         let at = line_of(e.span()).map_or(String::new(), |l| format!("line {l}: "));
