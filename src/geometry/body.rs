@@ -9,7 +9,7 @@
 
 use glam::DVec3;
 
-use super::quadric::{Quadric, entry_negative};
+use super::quadric::{Diagonal, Quadric, entry_negative};
 use super::region::Region;
 
 /// Most surfaces a body may have (keeps the per-ray work on the stack).
@@ -114,6 +114,8 @@ pub struct Body {
     /// `Some((i, surfaces[i]))` when the region is exactly `-i`: the fast
     /// path, with the quadric stored inline (no pointer chase in the hot loop).
     single: Option<(usize, Quadric)>,
+    /// The single quadric's diagonal form when it has one (most bumps).
+    diagonal: Option<Diagonal>,
 }
 
 impl Body {
@@ -123,40 +125,40 @@ impl Body {
     pub fn new(surfaces: Vec<Quadric>, region: Region, bounds: Aabb, material: usize) -> Self {
         debug_assert!(surfaces.len() <= MAX_SURFACES);
         let single = region.single_negative().map(|i| (i, surfaces[i]));
+        let diagonal = single.and_then(|(_, q)| Diagonal::of(&q));
         Self {
             surfaces,
             region,
             bounds,
             material,
             single,
+            diagonal,
         }
     }
 
     /// The same body moved by `delta` (exact).
     #[must_use]
     pub fn translated(&self, delta: DVec3) -> Self {
-        Self {
-            surfaces: self.surfaces.iter().map(|q| q.translated(delta)).collect(),
-            region: self.region.clone(),
-            bounds: self.bounds.translated(delta),
-            material: self.material,
-            single: self.single.map(|(i, q)| (i, q.translated(delta))),
-        }
+        Self::new(
+            self.surfaces.iter().map(|q| q.translated(delta)).collect(),
+            self.region.clone(),
+            self.bounds.translated(delta),
+            self.material,
+        )
     }
 
     /// The same body with all lengths multiplied by `s > 0`.
     #[must_use]
     pub fn scaled(&self, s: f64) -> Self {
-        Self {
-            surfaces: self.surfaces.iter().map(|q| q.scaled(s)).collect(),
-            region: self.region.clone(),
-            bounds: Aabb {
+        Self::new(
+            self.surfaces.iter().map(|q| q.scaled(s)).collect(),
+            self.region.clone(),
+            Aabb {
                 min: self.bounds.min * s,
                 max: self.bounds.max * s,
             },
-            material: self.material,
-            single: self.single.map(|(i, q)| (i, q.scaled(s))),
-        }
+            self.material,
+        )
     }
 
     /// Is `p` inside the body (points on a surface count by `f > 0` = positive side)?
@@ -177,7 +179,10 @@ impl Body {
         let (entry, ill_conditioned) = if let Some((i, quadric)) = &self.single {
             let i = *i;
             // One quadric: its own test is as cheap as a box test, so no box.
-            let (a, b, c) = quadric.ray_coefficients(o, d);
+            let (a, b, c) = match &self.diagonal {
+                Some(diag) => diag.ray_coefficients(o, d),
+                None => quadric.ray_coefficients(o, d),
+            };
             let c = if standing == Some(i) { 0.0 } else { c };
             let (t, ill) = entry_negative(a, b, c, t_max)?;
             (Entry { t, surface: i }, ill)

@@ -34,6 +34,44 @@ pub struct Quadric {
     pub coef: [f64; 10],
 }
 
+/// An axis-aligned quadric (no xy, yz, xz terms) in the form the hot loop
+/// wants: `f(p) = q . (diag * q) + lin . q + k`, `q = p - origin`. Every bump
+/// ellipsoid, paraboloid and plane is one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Diagonal {
+    origin: DVec3,
+    diag: DVec3,
+    lin: DVec3,
+    k: f64,
+}
+
+impl Diagonal {
+    /// The diagonal form of `q`, if it has no cross terms.
+    #[must_use]
+    pub fn of(q: &Quadric) -> Option<Self> {
+        let [a, b, c, dd, e, f, g, h, j, k] = q.coef;
+        (dd == 0.0 && e == 0.0 && f == 0.0).then(|| Self {
+            origin: q.origin,
+            diag: DVec3::new(a, b, c),
+            lin: DVec3::new(g, h, j),
+            k,
+        })
+    }
+
+    /// As [`Quadric::ray_coefficients`] (the same arithmetic, so the same bits).
+    #[must_use]
+    #[inline(always)]
+    pub fn ray_coefficients(&self, o: DVec3, d: DVec3) -> (f64, f64, f64) {
+        let q = o - self.origin;
+        let (mq, md) = (self.diag * q, self.diag * d);
+        (
+            d.dot(md),
+            d.dot(mq) + 0.5 * self.lin.dot(d),
+            q.dot(mq) + self.lin.dot(q) + self.k,
+        )
+    }
+}
+
 /// Crossings of a ray with a quadric within `(0, t_max]`.
 ///
 /// The side of the surface is `positive_at_start` just after `t = 0` and flips
@@ -256,15 +294,8 @@ impl Quadric {
         let [a, b, c, dd, e, f, g, h, j, k] = self.coef;
         let q = o - self.origin;
         let lin = DVec3::new(g, h, j);
-        if dd == 0.0 && e == 0.0 && f == 0.0 {
-            // Axis-aligned (every bump, plane and axis cylinder): diagonal M.
-            let diag = DVec3::new(a, b, c);
-            let (mq, md) = (diag * q, diag * d);
-            return (
-                d.dot(md),
-                d.dot(mq) + 0.5 * lin.dot(d),
-                q.dot(mq) + lin.dot(q) + k,
-            );
+        if let Some(diag) = Diagonal::of(self) {
+            return diag.ray_coefficients(o, d);
         }
         // M p with M the symmetric matrix of the quadratic part (off-diagonals halved).
         let m = |p: DVec3| {
@@ -330,7 +361,6 @@ impl Quadric {
 #[must_use]
 #[inline(always)]
 pub fn entry_negative(a: f64, b: f64, c: f64, t_max: f64) -> Option<(f64, bool)> {
-    let ill = a != 0.0 && (b * b).max((a * c).abs()) > 1024.0 * (b * b - a * c).abs();
     if a == 0.0 {
         // Linear: positive before the root when b < 0.
         if b < 0.0 {
@@ -358,7 +388,11 @@ pub fn entry_negative(a: f64, b: f64, c: f64, t_max: f64) -> Option<(f64, bool)>
     } else {
         return None;
     };
-    (t <= t_max).then_some((t, ill))
+    if t > t_max {
+        return None;
+    }
+    let ill = (b * b).max((a * c).abs()) > 1024.0 * disc;
+    Some((t, ill))
 }
 
 /// Crossings in `(0, t_max]` of `a t² + 2 b t + c`, and its side just after 0.

@@ -135,7 +135,10 @@ struct Grid {
 
 impl Grid {
     fn build(size: DVec2, solids: &[Solid], gridded: &[usize]) -> Self {
-        // Grid pitch: half the median footprint side, so a bump spans a few cells.
+        // Grid pitch: a fifth of the median footprint side, so a bump spans
+        // about 6 x 6 grid cells and its exact height over each is a tight
+        // bound (pitches of 1/4 to 1/6 measured best on the default scene:
+        // 13 % fewer instructions than 1/2).
         let mut sides: Vec<f64> = gridded
             .iter()
             .map(|&i| {
@@ -147,7 +150,7 @@ impl Grid {
         sides.sort_by(f64::total_cmp);
         let target = sides
             .get(sides.len() / 2)
-            .map_or(size.max_element(), |s| 0.5 * s);
+            .map_or(size.max_element(), |s| s / 5.0);
         let nx = ((size.x / target).ceil() as usize).clamp(1, 2048);
         let ny = ((size.y / target).ceil() as usize).clamp(1, 2048);
         let pitch = DVec2::new(size.x / nx as f64, size.y / ny as f64);
@@ -175,7 +178,9 @@ impl Grid {
         let mut start = Vec::with_capacity(nx * ny + 1);
         let mut items = Vec::new();
         start.push(0);
-        for l in lists {
+        for mut l in lists {
+            // Tallest first, so a flight stops scanning at the first solid below it.
+            l.sort_by(|a, b| b.1.total_cmp(&a.1));
             items.extend(l);
             start.push(items.len() as u32);
         }
@@ -406,8 +411,11 @@ impl MicroSurface {
             };
             if z_low <= g.zmax[idx] {
                 for &(i, zmax) in g.cell_items(idx) {
+                    if zmax < z_low {
+                        break;
+                    }
                     let i = i as usize;
-                    if z_low <= zmax && scratch.stamp[i] != q {
+                    if scratch.stamp[i] != q {
                         scratch.stamp[i] = q;
                         test(i, &mut t_best, &mut best);
                     }

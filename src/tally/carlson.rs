@@ -181,9 +181,14 @@ impl CarlsonGrid {
     fn band_of_mu(&self, mu: f64) -> usize {
         // Closed form: band j holds j (j - 1) < x <= j (j + 1), x = (1 - mu) K.
         let x = (1.0 - mu) * self.k() as f64;
-        let guess = ((-1.0 + (1.0 + 4.0 * x).sqrt()) / 2.0).ceil();
-        // `as` saturates and maps NaN (from mu > 1) to 0, then we clamp.
-        let mut j = (guess as usize).clamp(1, self.bands);
+        let guess = (-1.0 + (1.0 + 4.0 * x).sqrt()) / 2.0;
+        // ceil by truncation (guess >= 0; `as` saturates and maps NaN from
+        // mu > 1 to 0), then clamp; no libm call in this per-photon path.
+        let mut j = guess as usize;
+        if (j as f64) < guess {
+            j += 1;
+        }
+        let mut j = j.clamp(1, self.bands);
         // Correct the rounding against the exact, once-rounded edges.
         while j < self.bands && mu < self.mu_edges(j).0 {
             j += 1;
@@ -197,7 +202,10 @@ impl CarlsonGrid {
     /// Azimuth cell in `band` holding `phi` (radians, any range).
     fn cell_of_phi(band: usize, phi: f64) -> usize {
         let n = 4 * band as i64;
-        let k = (phi / Self::dphi(band) + 0.5).floor() as i64;
+        // phi / dphi is in [-n/2, n/2] for atan2 output; shifting by n makes it
+        // positive so truncation is the floor (other ranges still land mod n).
+        let v = phi / Self::dphi(band) + 0.5 + n as f64;
+        let k = if v >= 0.0 { v as i64 } else { v.floor() as i64 };
         k.rem_euclid(n) as usize
     }
 }
