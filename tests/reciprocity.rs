@@ -13,8 +13,8 @@
 //! * forward side:  BRDF(a, p=0 -> +b) = BRDF(b, p=180 -> +a).
 //!
 //! Bin averaging: bins are 6 deg wide in the plane and 6 deg across
-//! (`inplane_step_deg = 6`, `inplane_width_deg = 6`, bin centres at 3 mod 6
-//! degrees), and every incidence angle used is a bin centre, so both sides of
+//! (`inplane_step_deg = 6`, `inplane_width_deg = 6`, bin centres at multiples
+//! of 6 degrees), and every incidence angle used is a bin centre, so both sides of
 //! a pair average f over the same-shaped window centred on the exact
 //! reciprocal directions. The difference of the two averages is then second
 //! order in the bin width, ~(0.105 rad)² / 24 f'' ≈ 5e-4 f''/f relative,
@@ -84,9 +84,9 @@ fn brdf_at(r: &IncidenceResult, tally: &InPlaneTally, theta_o_deg: f64) -> (f64,
 
 #[test]
 fn inplane_brdf_is_reciprocal() {
-    // Bin centres (3 mod 6 degrees).
-    let thetas = [9.0, 21.0, 33.0, 51.0, 69.0];
-    let fwd_thetas = [51.0, 69.0];
+    // Bin centres (multiples of 6 degrees).
+    let thetas = [12.0, 24.0, 36.0, 48.0, 66.0];
+    let fwd_thetas = [48.0, 66.0];
     let s0 = scene(0.0, &thetas);
     let s180 = scene(180.0, &fwd_thetas);
     let (run0, run180) = (common::brdf_run(&s0), common::brdf_run(&s180));

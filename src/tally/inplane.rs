@@ -10,9 +10,14 @@
 //! `dir = (cos psi sin theta_p, sin psi, cos psi cos theta_p)`, for which
 //! `d omega = cos psi d psi d theta_p` and `cos theta = cos psi cos theta_p`.
 //!
-//! Bin `i` covers `theta_p` in `[-90 + i step, -90 + (i + 1) step)` degrees
-//! (the last bin is closed) and only directions with `|psi| <= half_width`
-//! are accepted, so each bin is a `step x 2 half_width` detector.
+//! Bin `i` is centred on `theta_p = -90 + i step` degrees and covers
+//! `[centre - step/2, centre + step/2)` clipped to `[-90, 90]`, for
+//! `i = 0..=180/step`: the end bins are half bins. Centring bins on whole
+//! multiples of the step puts the specular direction of a whole-degree
+//! incidence angle at a bin centre (not on an edge) and matches measured
+//! BRDFs, which are given at whole angles. Only directions with
+//! `|psi| <= half_width` are accepted, so each bin is a `step x 2 half_width`
+//! detector.
 
 use glam::DVec3;
 
@@ -28,7 +33,7 @@ pub struct InPlaneTally {
     half_width_deg: f64,
     /// Incidence azimuth (radians).
     phi_i: f64,
-    /// Number of bins, `180 / step_deg`.
+    /// Number of bins, `180 / step_deg + 1`.
     n_bins: usize,
     /// Horizontal unit vector toward the specular side.
     u: DVec3,
@@ -63,7 +68,7 @@ impl InPlaneTally {
             step_deg: 180.0 / n,
             half_width_deg,
             phi_i: phi_i_rad,
-            n_bins: n as usize,
+            n_bins: n as usize + 1,
             u,
             v: DVec3::Z.cross(u),
         })
@@ -87,7 +92,7 @@ impl InPlaneTally {
         self.phi_i
     }
 
-    /// Number of bins, `180 / step_deg`.
+    /// Number of bins, `180 / step_deg + 1`.
     #[must_use]
     pub fn n_bins(&self) -> usize {
         self.n_bins
@@ -120,7 +125,7 @@ impl InPlaneTally {
         if psi.abs() > self.half_width_deg {
             return None;
         }
-        let bin = ((theta_p + 90.0) / self.step_deg).floor().max(0.0) as usize;
+        let bin = ((theta_p + 90.0) / self.step_deg + 0.5).floor().max(0.0) as usize;
         Some(bin.min(self.n_bins - 1))
     }
 
@@ -131,14 +136,14 @@ impl InPlaneTally {
     #[must_use]
     pub fn edges_deg(&self, bin: usize) -> (f64, f64) {
         assert!(bin < self.n_bins, "InPlaneTally: bin {bin} out of range");
-        (
-            -90.0 + bin as f64 * self.step_deg,
-            -90.0 + (bin + 1) as f64 * self.step_deg,
-        )
+        let centre = -90.0 + bin as f64 * self.step_deg;
+        let half = 0.5 * self.step_deg;
+        ((centre - half).max(-90.0), (centre + half).min(90.0))
     }
 
     /// Signed centre of `bin` (degrees): `theta_o`, positive on the
-    /// specular side.
+    /// specular side; `-90 + bin step`, except the half bins at the ends
+    /// whose centres are `±(90 - step/4)`.
     ///
     /// # Panics
     /// If `bin >= self.n_bins()`.
@@ -198,13 +203,13 @@ mod tests {
 
     #[test]
     fn constructor_validation() {
-        assert_eq!(InPlaneTally::new(1.0, 0.5, 0.0).unwrap().n_bins(), 180);
-        assert_eq!(InPlaneTally::new(0.1, 0.5, 0.0).unwrap().n_bins(), 1800);
+        assert_eq!(InPlaneTally::new(1.0, 0.5, 0.0).unwrap().n_bins(), 181);
+        assert_eq!(InPlaneTally::new(0.1, 0.5, 0.0).unwrap().n_bins(), 1801);
         assert_eq!(
             InPlaneTally::new(180.0 / 7.0, 0.5, 0.0).unwrap().n_bins(),
-            7
+            8
         );
-        assert_eq!(InPlaneTally::new(180.0, 90.0, 0.0).unwrap().n_bins(), 1);
+        assert_eq!(InPlaneTally::new(180.0, 90.0, 0.0).unwrap().n_bins(), 2);
         assert!(InPlaneTally::new(0.7, 0.5, 0.0).is_none());
         assert!(InPlaneTally::new(0.0, 0.5, 0.0).is_none());
         assert!(InPlaneTally::new(-1.0, 0.5, 0.0).is_none());
@@ -227,10 +232,13 @@ mod tests {
     #[test]
     fn centres_and_edges() {
         let t = InPlaneTally::new(1.0, 0.5, 0.0).unwrap();
-        assert_eq!(t.centre_deg(0), -89.5);
-        assert_eq!(t.centre_deg(130), 40.5);
-        assert_eq!(t.centre_deg(179), 89.5);
-        assert_eq!(t.edges_deg(130), (40.0, 41.0));
+        // Whole-degree centres; half bins at the ends.
+        assert_eq!(t.centre_deg(0), -89.75);
+        assert_eq!(t.edges_deg(0), (-90.0, -89.5));
+        assert_eq!(t.centre_deg(130), 40.0);
+        assert_eq!(t.centre_deg(180), 89.75);
+        assert_eq!(t.edges_deg(180), (89.5, 90.0));
+        assert_eq!(t.edges_deg(130), (39.5, 40.5));
     }
 
     #[test]
@@ -270,21 +278,20 @@ mod tests {
         let (tp, psi) = t.in_plane_angles(omega_i);
         assert!((tp + 40.0).abs() < 1e-12 && psi.abs() < 1e-12);
 
-        // Specular side at theta = 40.5 deg lands in bin [40, 41].
-        let forward = polar(40.5f64.to_radians(), phi_i + PI);
-        let bin = t.locate(forward).unwrap();
-        assert_eq!(t.edges_deg(bin), (40.0, 41.0));
-        assert_eq!(t.centre_deg(bin), 40.5);
+        // The specular direction itself lands at the centre of bin [39.5, 40.5].
+        let bin = t.locate(specular).unwrap();
+        assert_eq!(t.edges_deg(bin), (39.5, 40.5));
+        assert_eq!(t.centre_deg(bin), 40.0);
 
-        // Toward the light at theta = 40.5 deg lands in bin [-41, -40].
-        let back = polar(40.5f64.to_radians(), phi_i);
+        // Toward the light at theta = 40 deg lands in bin [-40.5, -39.5].
+        let back = polar(40f64.to_radians(), phi_i);
         let bin = t.locate(back).unwrap();
-        assert_eq!(t.edges_deg(bin), (-41.0, -40.0));
-        assert_eq!(t.centre_deg(bin), -40.5);
+        assert_eq!(t.edges_deg(bin), (-40.5, -39.5));
+        assert_eq!(t.centre_deg(bin), -40.0);
 
         // Rotating the forward direction about the normal by dphi moves it
         // out of plane by psi = asin(sin(theta) sin(dphi)).
-        let theta = 40.5f64.to_radians();
+        let theta = 40f64.to_radians();
         let off_plane = |psi_deg: f64| {
             let dphi = (psi_deg.to_radians().sin() / theta.sin()).asin();
             polar(theta, phi_i + PI + dphi)
@@ -299,7 +306,7 @@ mod tests {
     fn solid_angle_formulas() {
         let t = InPlaneTally::new(1.0, 0.5, 0.0).unwrap();
         let w = 0.5f64.to_radians();
-        let (lo, hi) = (40f64.to_radians(), 41f64.to_radians());
+        let (lo, hi) = (39.5f64.to_radians(), 40.5f64.to_radians());
         let proj = (w + (2.0 * w).sin() / 2.0) * (hi.sin() - lo.sin());
         assert!((t.projected_solid_angle(130) - proj).abs() < 1e-18);
         let omega = 2.0 * w.sin() * (hi - lo);

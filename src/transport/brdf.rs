@@ -257,7 +257,13 @@ impl BrdfRun {
             match h.fate {
                 Fate::Escaped { dir: out, weight } => {
                     t.reflected.score(0, weight);
-                    if let Some(c) = grid.locate(out) {
+                    if out.x == 0.0 && out.y == 0.0 {
+                        // Exactly at the pole (a flat facet at normal incidence) the
+                        // azimuth is undefined: share the score among band 1's cells.
+                        for cell in 0..4 {
+                            t.carlson.score(grid.index(1, cell), 0.25 * weight);
+                        }
+                    } else if let Some(c) = grid.locate(out) {
                         t.carlson.score(c, weight);
                     }
                     if let Some(c) = inplane.locate(out) {
