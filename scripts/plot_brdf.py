@@ -231,7 +231,7 @@ def panel_inplane(ax, inplane: dict[str, np.ndarray], thetas: list[float]) -> No
     labels.append("tick at top: specular θₒ = θᵢ")
     ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(0.0, 0.91), fontsize=8)
     step = float(np.median(np.diff(np.unique(inplane["theta_o_deg"]))))
-    ax.text(0.99, 0.015, f"bins {step:g}° wide in θₒ; a narrow spike at θₒ = θᵢ (bin [θᵢ, θᵢ+{step:g}°))\n"
+    ax.text(0.99, 0.015, f"bins {step:g}° wide, centred on whole multiples; the narrow spike at θₒ = θᵢ\n"
             "is mirror reflection off flat substrate between the bumps",
             transform=ax.transAxes, fontsize=7, color="0.35", ha="right", va="bottom")
 
