@@ -3,17 +3,21 @@
 //! Badyuk, Ulyanov, J. Opt. Technol. 2014).
 //!
 //! Layout, by physics:
+//! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
 //! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
 //! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables).
 //! * [`micro`]: the explicit rough surface (substrate, bumps, edges) and its statistics.
+//! * [`object`]: the macro level: 3-D objects of quadric cells with rough walls.
 //! * [`transport`]: photon histories, random streams, the BRDF generator.
 //! * [`tally`]: angular grids (Carlson, in-plane) and accumulators with standard errors.
 //! * [`scene`]: TOML scene files, validated with one-line errors.
 //! * [`output`]: result files (JSON, CSV), written atomically.
 #![forbid(unsafe_code)]
 
+pub mod fit;
 pub mod geometry;
 pub mod micro;
+pub mod object;
 pub mod optics;
 pub mod output;
 pub mod scene;

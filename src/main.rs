@@ -15,6 +15,7 @@ use roks::micro::surface_stats::surface_stats;
 use roks::output;
 use roks::scene::SceneError;
 use roks::scene::micro::MicroScene;
+use roks::scene::object::ObjectScene;
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
 ///
@@ -39,6 +40,34 @@ enum Command {
     /// Print the surface statistics of a micro scene: RMS height sigma,
     /// autocorrelation length tau, sigma/tau, RMS slope, heights.
     Stats(StatsArgs),
+    /// Trace a 3-D object of quadric cells with rough walls (the macro level).
+    ///
+    /// Writes DIR/summary.json (per beam position: reflectance with standard
+    /// error, missed, absorbed per surface, bounces, losses), DIR/reflectance.csv
+    /// (x,y,z,reflectance,reflectance_stderr) and, with [tally] farfield = true,
+    /// DIR/farfield.csv. DIR defaults to out/<scene name>/.
+    Trace(TraceArgs),
+}
+
+#[derive(Args, Debug)]
+struct TraceArgs {
+    /// Object scene file (TOML).
+    scene: PathBuf,
+    /// Output folder (default: out/<scene name>/).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Photons per beam position (overrides each source's `photons`).
+    #[arg(long)]
+    photons: Option<u64>,
+    /// Tracing seed (overrides the scene's `seed`).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). Does not change results.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// No progress bar and no table on stderr.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -105,6 +134,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Brdf(a) => brdf(a),
         Command::Stats(a) => stats(a),
+        Command::Trace(a) => trace(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -239,6 +269,117 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
                 r.mean_bounces(),
                 r.lost(),
                 r.segments_per_second() / 1e6
+            );
+        }
+        eprintln!("wrote {} ({seconds:.1} s)", out.display());
+    }
+    Ok(())
+}
+
+fn progress_bar(total: u64, quiet: bool, name: &str) -> ProgressBar {
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} photons, {per_sec}, eta {eta}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar.set_message(name.to_string());
+    bar
+}
+
+fn write_outputs(out: &Path, files: &[(&str, &[u8])]) -> Result<(), Failure> {
+    std::fs::create_dir_all(out)
+        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    for (name, bytes) in files {
+        let path = out.join(name);
+        output::write_atomic(&path, bytes)
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn trace(a: TraceArgs) -> Result<(), Failure> {
+    let scene = ObjectScene::load(&a.scene)?;
+    let mut run = scene.run.clone();
+    let mut photons = scene.photons.clone();
+    if let Some(p) = a.photons {
+        if p == 0 {
+            return Err(Failure::Input("--photons: must be > 0".into()));
+        }
+        photons.iter_mut().for_each(|n| *n = p);
+    }
+    if let Some(s) = a.seed {
+        run.seed = s;
+    }
+    set_threads(a.threads)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(&scene.name));
+    let bar = progress_bar(photons.iter().sum(), a.quiet, &scene.name);
+    let clock = Instant::now();
+    let results = run.run(
+        &scene.object,
+        &scene.walls,
+        &scene.models,
+        &scene.beams,
+        &photons,
+        &|n| bar.inc(n),
+    );
+    bar.finish_and_clear();
+    let seconds = clock.elapsed().as_secs_f64();
+
+    // A photon met a wall without a model: a scene error, before any output.
+    if let Some(r) = results.iter().find(|r| r.tallies.unmodelled.0 > 0) {
+        let name = &scene.object.surface_names[r.tallies.unmodelled.1];
+        return Err(Failure::Input(format!(
+            "{}: walls.{name}: photons hit surface `{name}` ({} of them from beam position {}), which has no model in [walls]",
+            scene.source.file, r.tallies.unmodelled.0, r.beam.position
+        )));
+    }
+    let names = &scene.object.surface_names;
+    let summary = json!({
+        "scene": scene.source.file,
+        "name": scene.name,
+        "version": env!("CARGO_PKG_VERSION"),
+        "seed": run.seed,
+        "sources": results.iter().map(|r| output::position_json(r, names)).collect::<Vec<_>>(),
+        "seconds": seconds,
+    });
+    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
+    text.push('\n');
+    let refl = output::reflectance_csv(&results);
+    let farfield = run.farfield.then(|| output::farfield_csv(&run, &results));
+    let mut files: Vec<(&str, &[u8])> = vec![("reflectance.csv", refl.as_bytes())];
+    if let Some(f) = &farfield {
+        files.push(("farfield.csv", f.as_bytes()));
+    }
+    files.push(("summary.json", text.as_bytes()));
+    write_outputs(&out, &files)?;
+
+    if !a.quiet {
+        eprintln!(
+            "{:>28} {:>12} {:>10} {:>9} {:>8} {:>9}",
+            "beam position", "reflectance", "stderr", "missed", "bounces", "lost"
+        );
+        for r in &results {
+            let (refl, se) = r.reflectance();
+            let n = r.tallies.photons as f64;
+            let p = r.beam.position;
+            eprintln!(
+                "{:>28} {:>12.6} {:>10.2e} {:>9.4} {:>8.3} {:>9.2e}",
+                format!("({:.3}, {:.3}, {:.3})", p.x, p.y, p.z),
+                refl,
+                se,
+                r.tallies.missed / n,
+                r.tallies.bounces as f64 / n,
+                r.tallies.lost / n
             );
         }
         eprintln!("wrote {} ({seconds:.1} s)", out.display());

@@ -148,3 +148,115 @@ pub fn incidence_json(r: &IncidenceResult) -> Value {
         "segments_per_second": r.segments_per_second(),
     })
 }
+
+/// Columns of `reflectance.csv` (`roks trace`).
+pub const REFLECTANCE_HEADER: &str = "x,y,z,reflectance,reflectance_stderr";
+
+/// Columns of `farfield.csv` (`roks trace`): `brdf.csv`'s cell columns with
+/// `source` first; bands `-1..-M` are the mirror images below the horizon
+/// (theta measured from +z, 90-180 degrees there).
+pub const FARFIELD_HEADER: &str = "source,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// `reflectance.csv`: one row per beam position.
+#[must_use]
+pub fn reflectance_csv(results: &[crate::transport::object::PositionResult]) -> String {
+    let mut s = String::from(REFLECTANCE_HEADER);
+    s.push('\n');
+    for r in results {
+        let p = r.beam.position;
+        let (refl, se) = r.reflectance();
+        let _ = writeln!(s, "{},{},{},{refl:.9e},{se:.9e}", p.x, p.y, p.z);
+    }
+    s
+}
+
+/// `farfield.csv`: per beam position and cell of the full-sphere grid, the
+/// share of the source's flux leaving through the cell; `brdf` is that share
+/// per projected solid angle about the z axis (for a flat plate lit along
+/// -omega_i this is the plate's BRDF, comparable with `brdf.csv`).
+#[must_use]
+pub fn farfield_csv(
+    run: &crate::transport::object::ObjectRun,
+    results: &[crate::transport::object::PositionResult],
+) -> String {
+    let grid = run.farfield_grid().grid;
+    let half = grid.n_cells();
+    let omega = grid.solid_angle();
+    let mut s = String::from(FARFIELD_HEADER);
+    s.push('\n');
+    for (k, r) in results.iter().enumerate() {
+        let n = r.tallies.photons;
+        for flat in 0..2 * half {
+            let lower = flat >= half;
+            let (band, cell) = grid.band_cell(flat % half);
+            let (mu_bot, mu_top) = grid.mu_edges(band);
+            let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
+            let (theta, phi) = grid.centre(band, cell);
+            let (t_lo, t_hi, t_c) = if lower {
+                (
+                    180.0 - mu_bot.acos().to_degrees(),
+                    180.0 - mu_top.acos().to_degrees(),
+                    180.0 - theta.to_degrees(),
+                )
+            } else {
+                (
+                    mu_top.acos().to_degrees(),
+                    mu_bot.acos().to_degrees(),
+                    theta.to_degrees(),
+                )
+            };
+            let band_label = if lower { -(band as i64) } else { band as i64 };
+            let proj = grid.projected_solid_angle(band, cell);
+            let f = r.tallies.farfield.mean(flat, n);
+            let fe = r.tallies.farfield.stderr(flat, n);
+            let _ = writeln!(
+                s,
+                "{k},{band_label},{cell},{t_lo},{t_hi},{},{},{t_c},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
+                phi_lo.to_degrees(),
+                phi_hi.to_degrees(),
+                phi.to_degrees(),
+                f / proj,
+                fe / proj,
+            );
+        }
+    }
+    s
+}
+
+/// One beam position's entry in `summary.json` of `roks trace`.
+#[must_use]
+pub fn position_json(
+    r: &crate::transport::object::PositionResult,
+    surface_names: &[String],
+) -> Value {
+    let t = &r.tallies;
+    let n = t.photons as f64;
+    let (refl, se) = r.reflectance();
+    let absorbed: serde_json::Map<String, Value> = surface_names
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| t.absorbed.sum[*i] != 0.0)
+        .map(|(i, name)| (name.clone(), json!(t.absorbed.mean(i, t.photons))))
+        .collect();
+    let absorbed_se: serde_json::Map<String, Value> = surface_names
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| t.absorbed.sum[*i] != 0.0)
+        .map(|(i, name)| (name.clone(), json!(t.absorbed.stderr(i, t.photons))))
+        .collect();
+    json!({
+        "position": r.beam.position.to_array(),
+        "direction": r.beam.direction.to_array(),
+        "diameter": r.beam.diameter,
+        "photons": t.photons,
+        "reflectance": refl,
+        "reflectance_stderr": se,
+        "missed": t.missed / n,
+        "absorbed": absorbed,
+        "absorbed_stderr": absorbed_se,
+        "mean_bounces": t.bounces as f64 / n,
+        "lost": t.lost / n,
+        "segments": t.segments,
+        "seconds": r.seconds,
+    })
+}

@@ -5,6 +5,7 @@
 //! are given either as cosines (dimensionless) or in degrees where the name
 //! says so.
 
+pub mod brdf_table;
 pub mod fresnel;
 pub mod material;
 

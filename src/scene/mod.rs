@@ -7,6 +7,7 @@
 //! materials, ranges) live here; [`micro`] holds the micro scene.
 
 pub mod micro;
+pub mod object;
 
 use std::collections::BTreeMap;
 use std::fmt;

@@ -1,0 +1,1625 @@
+//! Fitting a micro scene to a measured in-plane BRDF (`roks fit`).
+//!
+//! The paper (Klass et al. 2014, validation 3) fitted the Z-302 micro geometry
+//! so that the computed BRDF of a flat Z-302 layer matched measured BRDFs at
+//! 30 and 60 degrees incidence. This module does that for any micro scene:
+//! it adjusts chosen numbers of the scene file until the scene's in-plane
+//! BRDF matches a measured one.
+//!
+//! # Inputs
+//! * The micro scene as TOML text, with its [`Source`] (file name for
+//!   messages, folder for relative paths such as reflectance tables).
+//! * The measured in-plane BRDF ([`Measured`]): a CSV with the header
+//!   `theta_i_deg,theta_o_deg,brdf` and optionally a fourth column
+//!   `brdf_stderr`; `theta_o_deg` is signed exactly like roks's own
+//!   `inplane.csv` (positive on the specular side, negative toward the light),
+//!   so an `inplane.csv` is itself a valid measured file.
+//! * The parameters ([`FitParam`], written `key=lo:hi`): TOML key paths into
+//!   the scene with bounds, e.g. `bumps[0].radius=1:4`,
+//!   `materials.z302.n=1:3`, `materials.z302.k=0:1`. A key whose value is a
+//!   range `[lo, hi]` is fitted one end at a time, `bumps[0].height[1]=0.5:5`
+//!   (a whole range cannot be one parameter: fix it to `[h, h]` to fit a
+//!   single height). Keys are bare TOML keys (`A-Z a-z 0-9 _ -`) joined by
+//!   `.` with `[i]` array indices.
+//!
+//! # Method
+//! 1. **Model.** The parameter values are written into the parsed TOML table
+//!    (as floats), and the scene is rebuilt from the table's text with
+//!    [`MicroScene::from_str`], so every check of the scene file applies. The
+//!    scene's [`BrdfRun`](crate::transport::brdf::BrdfRun) is run at only the
+//!    distinct measured incidence angles, with [`FitOptions::photons`] photons
+//!    and the **fixed** seed [`FitOptions::seed`]. The in-plane BRDF of each
+//!    bin is `inplane.mean(bin, n) / projected_solid_angle(bin)`, and the
+//!    model value at a measured `theta_o` is the linear interpolation between
+//!    the two nearest bin centres (beyond the outermost centres, the outermost
+//!    bin's value). The in-plane bins are the scene's `[tally]
+//!    inplane_step_deg` and `inplane_width_deg`, unless
+//!    [`FitOptions::inplane_step_deg`] / [`FitOptions::inplane_width_deg`]
+//!    override them. **The bins must hold enough photons**: the misfit is
+//!    only useful where the model noise is small against the change being
+//!    fitted. With 30 000 photons per angle, 1 degree x 1 degree bins hold a
+//!    few photons each and the misfit of a 20-bump test scene is pure noise
+//!    0.01 away from the true height; 5 degree x 10 degree bins (~100 photons
+//!    each) give a misfit that falls steadily to 0 at the truth. Raise the
+//!    photons (cost linear) or widen the bins (cost: angular resolution, and
+//!    the detector then averages out of the plane), and compare like with
+//!    like: the measurement's own detector size is the natural choice.
+//! 2. **Common random numbers.** With the seed fixed, photon `n` starts at the
+//!    same point with the same random stream at every parameter value, so
+//!    the misfit changes only through the geometry and the materials: it is a
+//!    (piecewise) smooth function of the parameters instead of a fresh
+//!    Monte Carlo draw at every evaluation, and a direct search can converge
+//!    on it. The fitted values are then the best values *for this sample of
+//!    photons*; their Monte Carlo uncertainty can be judged by refitting with
+//!    other seeds.
+//! 3. **Misfit.** The mean over the measured points of
+//!    `(ln(model + eps) - ln(measured + eps))^2`, `eps = 1e-3 * max measured
+//!    BRDF`. BRDFs span decades (a specular peak over a diffuse floor); a
+//!    linear least-squares misfit would fit the peak and ignore the rest. The
+//!    log weighs relative errors equally everywhere; `eps` keeps empty model
+//!    bins and zero measurements finite and stops values 1000 times below the
+//!    peak (mostly noise) from dominating. A point whose parameter values the
+//!    scene rejects (a reversed range `lo > hi`, `cap > 1`, `n <= 0`, ...)
+//!    has an infinite misfit. The measured `brdf_stderr` is read but not used
+//!    as a weight.
+//! 4. **Search.** Nelder-Mead (reflection 1, expansion 2, contraction 1/2,
+//!    shrink 1/2) in the unit cube: parameter `j` is `lo_j + x_j (hi_j -
+//!    lo_j)`. Simplex vertices may leave the cube; the model is evaluated at
+//!    the clamped point and the squared distance outside the cube is added as
+//!    a penalty, which keeps the simplex from collapsing onto a face and
+//!    pulls it back. The start is the scene's current values, clamped into
+//!    the bounds; the initial simplex steps each coordinate by 10 % of its
+//!    range (away from the nearer bound). The search stops when the spread of
+//!    the misfit over the simplex is at most [`FitOptions::tolerance`] and the
+//!    simplex fits in a box of [`FitOptions::x_tolerance`] (in units of each
+//!    range), or after [`FitOptions::max_evaluations`] model runs. Repeated
+//!    points are not rerun. [`FitResult::at_bounds`] flags parameters that
+//!    ended on a bound, within `x_tolerance` (the optimum may lie beyond it).
+//!
+//! # Limitations
+//! * Only numbers can be fitted; integer keys (`count`, `seed`) are written
+//!   as floats and the scene rejects them.
+//! * The fitted scene text ([`Problem::apply`]) is re-serialised from the
+//!   TOML table: comments and formatting of the original file are lost.
+//! * The misfit is piecewise constant on a fine scale (a photon changes bin
+//!   or bounce count discontinuously). Nelder-Mead copes, but gradients would
+//!   not; the minimum found is local.
+
+use std::fmt;
+use std::str::FromStr;
+
+use thiserror::Error;
+use toml::{Table, Value};
+
+use crate::scene::micro::MicroScene;
+use crate::scene::{SceneError, Source};
+use crate::tally::InPlaneTally;
+
+/// Why a fit cannot run. Every message is one line naming the file or key.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum FitError {
+    /// The scene file is invalid (at its current values).
+    #[error("{0}")]
+    Scene(#[from] SceneError),
+    /// A parameter key path does not lead to a number in the scene.
+    #[error("{file}: {key}: {message}")]
+    Key {
+        /// Scene file.
+        file: String,
+        /// The key path as given.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A parameter specification `key=lo:hi` is malformed.
+    #[error("parameter `{spec}`: {message}")]
+    Param {
+        /// The specification as given.
+        spec: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The measured BRDF file is malformed.
+    #[error("{file}: line {line}: {message}")]
+    Measured {
+        /// Measured file name.
+        file: String,
+        /// Line number (1-based; 0: the file as a whole).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A bad fit option.
+    #[error("fit option {option}: {message}")]
+    Options {
+        /// Option name.
+        option: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+// ---------------------------------------------------------------- key paths
+
+/// One step of a key path.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Segment {
+    /// A table key.
+    Key(String),
+    /// An array index.
+    Index(usize),
+}
+
+/// A TOML key path such as `bumps[0].height[1]` or `materials.z302.n`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct KeyPath {
+    /// The steps, starting with a key.
+    pub segments: Vec<Segment>,
+}
+
+impl fmt::Display for KeyPath {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, s) in self.segments.iter().enumerate() {
+            match s {
+                Segment::Key(k) if i == 0 => write!(f, "{k}")?,
+                Segment::Key(k) => write!(f, ".{k}")?,
+                Segment::Index(n) => write!(f, "[{n}]")?,
+            }
+        }
+        Ok(())
+    }
+}
+
+impl FromStr for KeyPath {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bare = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+        let b = s.as_bytes();
+        let mut segments = Vec::new();
+        let mut i = 0;
+        let mut expect_key = true;
+        while i < b.len() {
+            if expect_key {
+                let start = i;
+                while i < b.len() && bare(b[i] as char) {
+                    i += 1;
+                }
+                if i == start {
+                    return Err(format!("expected a key at position {} of `{s}`", start + 1));
+                }
+                segments.push(Segment::Key(s[start..i].to_string()));
+                expect_key = false;
+            } else if b[i] == b'.' {
+                i += 1;
+                expect_key = true;
+            } else if b[i] == b'[' {
+                let close = s[i..]
+                    .find(']')
+                    .ok_or_else(|| format!("unclosed `[` in `{s}`"))?;
+                let digits = &s[i + 1..i + close];
+                let n = digits
+                    .parse::<usize>()
+                    .map_err(|_| format!("bad index `[{digits}]` in `{s}`"))?;
+                segments.push(Segment::Index(n));
+                i += close + 1;
+            } else {
+                return Err(format!(
+                    "unexpected `{}` at position {} of `{s}` (keys are A-Z a-z 0-9 _ -, joined by `.`, with `[i]` indices)",
+                    &s[i..=i],
+                    i + 1
+                ));
+            }
+        }
+        if expect_key {
+            return Err(if s.is_empty() {
+                "empty key".to_string()
+            } else {
+                format!("`{s}` ends with `.`")
+            });
+        }
+        Ok(Self { segments })
+    }
+}
+
+fn type_name(v: &Value) -> &'static str {
+    match v {
+        Value::String(_) => "a string",
+        Value::Integer(_) => "an integer",
+        Value::Float(_) => "a float",
+        Value::Boolean(_) => "a boolean",
+        Value::Datetime(_) => "a datetime",
+        Value::Array(_) => "an array",
+        Value::Table(_) => "a table",
+    }
+}
+
+fn keys_of(t: &Table) -> String {
+    if t.is_empty() {
+        "none".to_string()
+    } else {
+        t.keys().cloned().collect::<Vec<_>>().join(", ")
+    }
+}
+
+impl KeyPath {
+    /// The value at this path, or a message naming the first step that fails.
+    pub fn get<'a>(&self, root: &'a Table) -> Result<&'a Value, String> {
+        let mut segs = self.segments.iter();
+        let Some(Segment::Key(first)) = segs.next() else {
+            return Err("a key path starts with a key".into());
+        };
+        let mut here = root.get(first).ok_or_else(|| {
+            format!(
+                "no key `{first}` at the top level (keys: {})",
+                keys_of(root)
+            )
+        })?;
+        let mut done = first.clone();
+        for seg in segs {
+            here = match (seg, here) {
+                (Segment::Key(k), Value::Table(t)) => {
+                    let v = t.get(k).ok_or_else(|| {
+                        format!("no key `{k}` in `{done}` (keys: {})", keys_of(t))
+                    })?;
+                    done.push('.');
+                    done.push_str(k);
+                    v
+                }
+                (Segment::Index(n), Value::Array(a)) => {
+                    let len = a.len();
+                    let v = a.get(*n).ok_or_else(|| {
+                        format!(
+                            "index [{n}] out of range: `{done}` has {len} element{}",
+                            if len == 1 { "" } else { "s" }
+                        )
+                    })?;
+                    done.push_str(&format!("[{n}]"));
+                    v
+                }
+                (Segment::Key(k), v) => {
+                    return Err(format!(
+                        "`{done}` is {}, not a table (no key `{k}`)",
+                        type_name(v)
+                    ));
+                }
+                (Segment::Index(n), v) => {
+                    return Err(format!(
+                        "`{done}` is {}, not an array (no index [{n}])",
+                        type_name(v)
+                    ));
+                }
+            };
+        }
+        Ok(here)
+    }
+
+    /// As [`get`](Self::get), mutably.
+    pub fn get_mut<'a>(&self, root: &'a mut Table) -> Result<&'a mut Value, String> {
+        self.get(root)?;
+        let mut segs = self.segments.iter();
+        let Some(Segment::Key(first)) = segs.next() else {
+            unreachable!("checked by get")
+        };
+        let mut here = root.get_mut(first).expect("checked by get");
+        for seg in segs {
+            here = match (seg, here) {
+                (Segment::Key(k), Value::Table(t)) => t.get_mut(k).expect("checked by get"),
+                (Segment::Index(n), Value::Array(a)) => &mut a[*n],
+                _ => unreachable!("checked by get"),
+            };
+        }
+        Ok(here)
+    }
+
+    /// The number at this path (integers are read as floats).
+    pub fn get_number(&self, root: &Table) -> Result<f64, String> {
+        number_of(self, self.get(root)?)
+    }
+
+    /// Write `value` (as a float) at this path; the old value must be a number.
+    pub fn set_number(&self, root: &mut Table, value: f64) -> Result<(), String> {
+        let v = self.get_mut(root)?;
+        number_of(self, v)?;
+        *v = Value::Float(value);
+        Ok(())
+    }
+}
+
+fn number_of(path: &KeyPath, v: &Value) -> Result<f64, String> {
+    match v {
+        Value::Float(x) => Ok(*x),
+        Value::Integer(i) => Ok(*i as f64),
+        Value::Array(a) if a.len() == 2 && a.iter().all(|x| x.is_float() || x.is_integer()) => {
+            let show = |x: &Value| x.to_string();
+            Err(format!(
+                "is a range [{}, {}]; fit one end: {path}[0] or {path}[1]",
+                show(&a[0]),
+                show(&a[1])
+            ))
+        }
+        other => Err(format!("is {}, not a number", type_name(other))),
+    }
+}
+
+/// Scene keys whose two-element arrays are `[lo, hi]` ranges (inside `bumps[i]`).
+const RANGE_KEYS: [&str; 6] = ["radius", "radius_y", "height", "depth", "cap", "base"];
+
+/// If `path` addresses one end of a range, the path of the range itself.
+fn range_parent(path: &KeyPath) -> Option<KeyPath> {
+    let s = &path.segments;
+    let n = s.len();
+    if n >= 2
+        && matches!(s[n - 1], Segment::Index(0 | 1))
+        && matches!(&s[n - 2], Segment::Key(k) if RANGE_KEYS.contains(&k.as_str()))
+    {
+        Some(KeyPath {
+            segments: s[..n - 1].to_vec(),
+        })
+    } else {
+        None
+    }
+}
+
+// ---------------------------------------------------------------- parameters
+
+/// A fitted parameter: a key path into the scene and its bounds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitParam {
+    /// The key path as given, e.g. `bumps[0].height[1]`.
+    pub key: String,
+    /// Lower bound.
+    pub lo: f64,
+    /// Upper bound (> `lo`).
+    pub hi: f64,
+}
+
+impl FromStr for FitParam {
+    type Err = FitError;
+
+    /// `key=lo:hi`, e.g. `materials.z302.n=1:3`.
+    fn from_str(spec: &str) -> Result<Self, FitError> {
+        let err = |m: String| FitError::Param {
+            spec: spec.to_string(),
+            message: m,
+        };
+        let (key, bounds) = spec
+            .split_once('=')
+            .ok_or_else(|| err("expected key=lo:hi".into()))?;
+        let key = key.trim();
+        key.parse::<KeyPath>().map_err(err)?;
+        let (lo, hi) = bounds
+            .split_once(':')
+            .ok_or_else(|| err("expected bounds lo:hi after `=`".into()))?;
+        let num = |t: &str| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| err(format!("bound `{}` is not a number", t.trim())))
+        };
+        let p = Self {
+            key: key.to_string(),
+            lo: num(lo)?,
+            hi: num(hi)?,
+        };
+        p.check().map_err(err)?;
+        Ok(p)
+    }
+}
+
+impl FitParam {
+    fn check(&self) -> Result<(), String> {
+        if !(self.lo.is_finite() && self.hi.is_finite()) {
+            return Err("bounds must be finite".into());
+        }
+        if self.lo >= self.hi {
+            return Err(format!("bounds {}:{} must have lo < hi", self.lo, self.hi));
+        }
+        Ok(())
+    }
+
+    /// The value at unit coordinate `x` (clamped into [0, 1]).
+    #[must_use]
+    pub fn value_at(&self, x: f64) -> f64 {
+        let x = x.clamp(0.0, 1.0);
+        if x == 1.0 {
+            self.hi
+        } else {
+            self.lo + x * (self.hi - self.lo)
+        }
+    }
+
+    /// The unit coordinate of `v` (not clamped).
+    #[must_use]
+    pub fn unit(&self, v: f64) -> f64 {
+        (v - self.lo) / (self.hi - self.lo)
+    }
+}
+
+// ---------------------------------------------------------------- measured
+
+/// A measured in-plane BRDF.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measured {
+    /// `(theta_i_deg, theta_o_deg, brdf, brdf_stderr)`, in file order.
+    pub points: Vec<(f64, f64, f64, Option<f64>)>,
+}
+
+impl Measured {
+    /// Parse a CSV with header `theta_i_deg,theta_o_deg,brdf[,brdf_stderr]`
+    /// (blank lines and `#` comments allowed). `name` is used in messages.
+    pub fn parse(text: &str, name: &str) -> Result<Self, FitError> {
+        let err = |line: usize, message: String| FitError::Measured {
+            file: name.to_string(),
+            line,
+            message,
+        };
+        let mut ncols = None;
+        let mut points = Vec::new();
+        for (i, raw) in text.lines().enumerate() {
+            let line = i + 1;
+            let content = raw.trim_start_matches('\u{feff}').trim();
+            if content.is_empty() || content.starts_with('#') {
+                continue;
+            }
+            let fields: Vec<&str> = content.split(',').map(str::trim).collect();
+            let Some(n) = ncols else {
+                let three = ["theta_i_deg", "theta_o_deg", "brdf"];
+                let ok = fields[..] == three
+                    || (fields.len() == 4 && fields[..3] == three && fields[3] == "brdf_stderr");
+                if !ok {
+                    return Err(err(
+                        line,
+                        format!(
+                            "header must be `theta_i_deg,theta_o_deg,brdf` or `theta_i_deg,theta_o_deg,brdf,brdf_stderr`, got `{content}`"
+                        ),
+                    ));
+                }
+                ncols = Some(fields.len());
+                continue;
+            };
+            if fields.len() != n {
+                return Err(err(
+                    line,
+                    format!("expected {n} fields, found {}", fields.len()),
+                ));
+            }
+            let mut v = [0.0; 4];
+            for (j, f) in fields.iter().enumerate() {
+                v[j] = f
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| {
+                        err(
+                            line,
+                            format!("field {} `{f}` is not a finite number", j + 1),
+                        )
+                    })?;
+            }
+            if !(0.0..90.0).contains(&v[0]) {
+                return Err(err(
+                    line,
+                    format!("theta_i_deg must be in [0, 90), got {}", v[0]),
+                ));
+            }
+            if !(-90.0..=90.0).contains(&v[1]) {
+                return Err(err(
+                    line,
+                    format!("theta_o_deg must be in [-90, 90], got {}", v[1]),
+                ));
+            }
+            if v[2] < 0.0 {
+                return Err(err(line, format!("brdf must be >= 0, got {}", v[2])));
+            }
+            if n == 4 && v[3] < 0.0 {
+                return Err(err(line, format!("brdf_stderr must be >= 0, got {}", v[3])));
+            }
+            points.push((v[0], v[1], v[2], (n == 4).then_some(v[3])));
+        }
+        if ncols.is_none() {
+            return Err(err(0, "empty file (no header)".into()));
+        }
+        if points.is_empty() {
+            return Err(err(0, "no data rows".into()));
+        }
+        if points.iter().all(|p| p.2 == 0.0) {
+            return Err(err(0, "every brdf is 0".into()));
+        }
+        Ok(Self { points })
+    }
+
+    /// The distinct incidence angles, in order of first appearance.
+    #[must_use]
+    pub fn incidence_angles(&self) -> Vec<f64> {
+        let mut out: Vec<f64> = Vec::new();
+        for p in &self.points {
+            if !out.contains(&p.0) {
+                out.push(p.0);
+            }
+        }
+        out
+    }
+}
+
+// ---------------------------------------------------------------- options, result
+
+/// How to fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOptions {
+    /// Photons per incidence angle and evaluation.
+    pub photons: u64,
+    /// Tracing seed, the same at every evaluation (common random numbers).
+    pub seed: u64,
+    /// Most model runs.
+    pub max_evaluations: usize,
+    /// Stop when the misfit spread over the simplex is at most this ...
+    pub tolerance: f64,
+    /// ... and the simplex fits in a box this wide in every unit coordinate
+    /// (a fraction of each parameter's range).
+    pub x_tolerance: f64,
+    /// Restarts from the best point after convergence (stops early when a
+    /// restart gains less than `tolerance`).
+    pub restarts: usize,
+    /// In-plane bin width (degrees, must divide 180); `None`: the scene's.
+    pub inplane_step_deg: Option<f64>,
+    /// In-plane detector full width out of the plane (degrees); `None`: the scene's.
+    pub inplane_width_deg: Option<f64>,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            photons: 200_000,
+            seed: 1,
+            max_evaluations: 200,
+            tolerance: 1e-6,
+            x_tolerance: 1e-3,
+            restarts: 3,
+            inplane_step_deg: None,
+            inplane_width_deg: None,
+        }
+    }
+}
+
+/// Where a parameter ended relative to its bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bound {
+    /// Strictly inside.
+    Inside,
+    /// At the lower bound.
+    Lower,
+    /// At the upper bound.
+    Upper,
+}
+
+/// The outcome of a fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitResult {
+    /// Best parameter values, in the order of the parameters.
+    pub values: Vec<f64>,
+    /// Misfit at `values`.
+    pub misfit: f64,
+    /// Start values (the scene's, clamped into the bounds).
+    pub start: Vec<f64>,
+    /// Misfit at `start`.
+    pub start_misfit: f64,
+    /// Model runs made.
+    pub evaluations: usize,
+    /// True if the tolerances were met (false: `max_evaluations` ran out).
+    pub converged: bool,
+    /// Per parameter: did it end on a bound (within `x_tolerance` of its range)?
+    pub at_bounds: Vec<Bound>,
+    /// Every model run: parameter values and misfit (infinite: rejected by the scene).
+    pub history: Vec<(Vec<f64>, f64)>,
+    /// Model in-plane BRDF at `values`, one per measured point.
+    pub model: Vec<f64>,
+}
+
+// ---------------------------------------------------------------- the problem
+
+/// A prepared fit: the parsed scene, parameters and measurement.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    table: Table,
+    source: Source,
+    name: String,
+    params: Vec<FitParam>,
+    paths: Vec<KeyPath>,
+    measured: Measured,
+    thetas: Vec<f64>,
+    eps: f64,
+    opts: FitOptions,
+}
+
+/// Why a point cannot be evaluated: its parameter values make the scene invalid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Infeasible(pub FitError);
+
+impl Problem {
+    /// Check everything: the scene builds, every key leads to a number, the
+    /// bounds and the options are valid.
+    pub fn new(
+        scene_text: &str,
+        source: &Source,
+        params: &[FitParam],
+        measured: &Measured,
+        opts: &FitOptions,
+    ) -> Result<Self, FitError> {
+        let name = std::path::Path::new(&source.file)
+            .file_stem()
+            .map_or_else(|| "fit".to_string(), |s| s.to_string_lossy().into_owned());
+        // The scene as given must be valid (this also reports TOML syntax errors).
+        MicroScene::from_str(scene_text, source.clone(), name.clone())?;
+        let table: Table = toml::from_str(scene_text)
+            .map_err(|e| source.error("", format!("invalid TOML: {}", e.message())))?;
+        let opt = |option: &str, message: String| FitError::Options {
+            option: option.into(),
+            message,
+        };
+        if params.is_empty() {
+            return Err(opt("parameters", "give at least one parameter".into()));
+        }
+        let mut paths = Vec::new();
+        for p in params {
+            let key_err = |message: String| FitError::Key {
+                file: source.file.clone(),
+                key: p.key.clone(),
+                message,
+            };
+            p.check().map_err(|m| FitError::Param {
+                spec: format!("{}={}:{}", p.key, p.lo, p.hi),
+                message: m,
+            })?;
+            let path: KeyPath = p.key.parse().map_err(key_err)?;
+            path.get_number(&table).map_err(key_err)?;
+            if paths.contains(&path) {
+                return Err(key_err("given twice".into()));
+            }
+            paths.push(path);
+        }
+        if opts.photons == 0 {
+            return Err(opt("photons", "must be > 0".into()));
+        }
+        if opts.max_evaluations == 0 {
+            return Err(opt("max_evaluations", "must be > 0".into()));
+        }
+        if opts.tolerance.is_nan() || opts.tolerance < 0.0 {
+            return Err(opt(
+                "tolerance",
+                format!("must be >= 0, got {}", opts.tolerance),
+            ));
+        }
+        if opts.x_tolerance.is_nan() || opts.x_tolerance < 0.0 {
+            return Err(opt(
+                "x_tolerance",
+                format!("must be >= 0, got {}", opts.x_tolerance),
+            ));
+        }
+        if let Some(s) = opts.inplane_step_deg {
+            if InPlaneTally::new(s, 0.5, 0.0).is_none() {
+                return Err(opt("inplane_step_deg", format!("must divide 180, got {s}")));
+            }
+        }
+        if let Some(w) = opts.inplane_width_deg {
+            if !(w > 0.0 && w <= 180.0) {
+                return Err(opt(
+                    "inplane_width_deg",
+                    format!("must be in (0, 180], got {w}"),
+                ));
+            }
+        }
+        let max = measured.points.iter().map(|p| p.2).fold(0.0, f64::max);
+        if measured.points.is_empty() || max <= 0.0 || max.is_nan() {
+            return Err(FitError::Measured {
+                file: "measured".into(),
+                line: 0,
+                message: "no positive brdf values".into(),
+            });
+        }
+        Ok(Self {
+            table,
+            source: source.clone(),
+            name,
+            params: params.to_vec(),
+            paths,
+            measured: measured.clone(),
+            thetas: measured.incidence_angles(),
+            eps: 1e-3 * max,
+            opts: opts.clone(),
+        })
+    }
+
+    /// The parameters.
+    #[must_use]
+    pub fn params(&self) -> &[FitParam] {
+        &self.params
+    }
+
+    /// The scene's current values of the parameters (not clamped).
+    #[must_use]
+    pub fn current(&self) -> Vec<f64> {
+        self.paths
+            .iter()
+            .map(|p| p.get_number(&self.table).expect("checked in new"))
+            .collect()
+    }
+
+    /// `eps` of the log misfit: 1e-3 of the largest measured BRDF.
+    #[must_use]
+    pub fn eps(&self) -> f64 {
+        self.eps
+    }
+
+    /// The scene table with `values` written in; ranges touched must stay `lo <= hi`.
+    fn table_with(&self, values: &[f64]) -> Result<Table, Infeasible> {
+        assert_eq!(values.len(), self.paths.len(), "one value per parameter");
+        let mut t = self.table.clone();
+        for (path, &v) in self.paths.iter().zip(values) {
+            path.set_number(&mut t, v).expect("checked in new");
+        }
+        for path in &self.paths {
+            if let Some(range) = range_parent(path) {
+                let v = range.get_mut(&mut t).expect("checked in new");
+                if let Value::Array(a) = v {
+                    let num = |x: &Value| x.as_float().or_else(|| x.as_integer().map(|i| i as f64));
+                    if let (Some(lo), Some(hi)) = (a.first().and_then(num), a.get(1).and_then(num))
+                    {
+                        if lo > hi {
+                            return Err(Infeasible(FitError::Key {
+                                file: self.source.file.clone(),
+                                key: range.to_string(),
+                                message: format!("range [{lo}, {hi}] is reversed"),
+                            }));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(t)
+    }
+
+    /// The scene text with `values` written in (comments and layout are not kept).
+    pub fn apply(&self, values: &[f64]) -> Result<String, FitError> {
+        self.table_with(values)
+            .map(|t| t.to_string())
+            .map_err(|e| e.0)
+    }
+
+    /// The model in-plane BRDF at every measured point, for `values`.
+    pub fn model(&self, values: &[f64]) -> Result<Vec<f64>, Infeasible> {
+        let text = self.table_with(values)?.to_string();
+        let scene = MicroScene::from_str(&text, self.source.clone(), self.name.clone())
+            .map_err(|e| Infeasible(e.into()))?;
+        let mut run = scene.brdf_run();
+        run.theta_deg.clone_from(&self.thetas);
+        run.photons = self.opts.photons;
+        run.seed = self.opts.seed;
+        run.first_photon = 0;
+        if let Some(s) = self.opts.inplane_step_deg {
+            run.inplane_step_deg = s;
+        }
+        if let Some(w) = self.opts.inplane_width_deg {
+            run.inplane_width_deg = w;
+        }
+        let results = run.run(&scene.surface, &|_| {});
+        let tally = run.inplane();
+        let centres: Vec<f64> = (0..tally.n_bins()).map(|b| tally.centre_deg(b)).collect();
+        let curves: Vec<Vec<f64>> = results
+            .iter()
+            .map(|r| {
+                let n = r.tallies.photons;
+                (0..tally.n_bins())
+                    .map(|b| r.tallies.inplane.mean(b, n) / tally.projected_solid_angle(b))
+                    .collect()
+            })
+            .collect();
+        Ok(self
+            .measured
+            .points
+            .iter()
+            .map(|&(ti, to, _, _)| {
+                let k = self
+                    .thetas
+                    .iter()
+                    .position(|&t| t == ti)
+                    .expect("distinct angles");
+                interpolate(&centres, &curves[k], to)
+            })
+            .collect())
+    }
+
+    /// The log misfit of a model curve against the measurement.
+    #[must_use]
+    pub fn misfit_of(&self, model: &[f64]) -> f64 {
+        let sum: f64 = self
+            .measured
+            .points
+            .iter()
+            .zip(model)
+            .map(|(p, &m)| {
+                let d = (m + self.eps).ln() - (p.2 + self.eps).ln();
+                d * d
+            })
+            .sum();
+        sum / self.measured.points.len() as f64
+    }
+
+    /// The misfit at `values` (infinite where the scene rejects them).
+    #[must_use]
+    pub fn misfit(&self, values: &[f64]) -> f64 {
+        self.model(values)
+            .map_or(f64::INFINITY, |m| self.misfit_of(&m))
+    }
+
+    /// Nelder-Mead from the scene's current values (see the module doc).
+    pub fn fit(&self) -> Result<FitResult, FitError> {
+        self.fit_observed(&mut |_, _, _| {})
+    }
+
+    /// As [`fit`](Self::fit), calling `observe(evaluation, values, misfit)` after every model run.
+    pub fn fit_observed(
+        &self,
+        observe: &mut dyn FnMut(usize, &[f64], f64),
+    ) -> Result<FitResult, FitError> {
+        let d = self.params.len();
+        let x0: Vec<f64> = self
+            .params
+            .iter()
+            .zip(self.current())
+            .map(|(p, v)| p.unit(v).clamp(0.0, 1.0))
+            .collect();
+        let to_values = |x: &[f64]| -> Vec<f64> {
+            self.params
+                .iter()
+                .zip(x)
+                .map(|(p, &u)| p.value_at(u))
+                .collect()
+        };
+        let start = to_values(&x0);
+        // The start must be a valid scene: its rejection is the user's error.
+        let start_model = self.model(&start).map_err(|e| e.0)?;
+        let start_misfit = self.misfit_of(&start_model);
+        let mut history: Vec<(Vec<f64>, f64)> = vec![(start.clone(), start_misfit)];
+        observe(1, &start, start_misfit);
+
+        let max_evals = self.opts.max_evaluations;
+        let calls = std::cell::Cell::new(0_usize);
+        // f on unconstrained unit coordinates: misfit at the clamped point + penalty.
+        let mut f = |x: &[f64], history: &mut Vec<(Vec<f64>, f64)>| -> f64 {
+            calls.set(calls.get() + 1);
+            let outside: f64 = x.iter().map(|&u| (u - u.clamp(0.0, 1.0)).powi(2)).sum();
+            let values = to_values(x);
+            let g = match history.iter().find(|(v, _)| *v == values) {
+                Some((_, g)) => *g,
+                None => {
+                    let g = self.misfit(&values);
+                    history.push((values.clone(), g));
+                    observe(history.len(), &values, g);
+                    g
+                }
+            };
+            g + outside
+        };
+
+        let order = |s: &mut Vec<(Vec<f64>, f64)>| {
+            s.sort_by(|a, b| a.1.total_cmp(&b.1));
+        };
+        let mut converged;
+        let mut restarts_done = 0;
+        let mut simplex: Vec<(Vec<f64>, f64)>;
+        let (mut from, mut from_misfit) = (x0.clone(), start_misfit);
+        loop {
+            // A fresh simplex: 10 % of each range, away from the nearer bound.
+            simplex = vec![(from.clone(), from_misfit)];
+            for j in 0..d {
+                let mut x = from.clone();
+                x[j] += if from[j] + 0.1 <= 1.0 { 0.1 } else { -0.1 };
+                let fx = f(&x, &mut history);
+                simplex.push((x, fx));
+            }
+            converged = false;
+            loop {
+                order(&mut simplex);
+                let spread = simplex[d].1 - simplex[0].1;
+                let size = simplex
+                    .iter()
+                    .flat_map(|(x, _)| x.iter().zip(&simplex[0].0).map(|(a, b)| (a - b).abs()))
+                    .fold(0.0, f64::max);
+                if (spread <= self.opts.tolerance && size <= self.opts.x_tolerance) || size < 1e-12
+                {
+                    converged = true;
+                    break;
+                }
+                if history.len() >= max_evals || calls.get() >= 20 * max_evals + 100 {
+                    break;
+                }
+                let centroid: Vec<f64> = (0..d)
+                    .map(|j| simplex[..d].iter().map(|(x, _)| x[j]).sum::<f64>() / d as f64)
+                    .collect();
+                let worst = simplex[d].clone();
+                let along = |t: f64| -> Vec<f64> {
+                    centroid
+                        .iter()
+                        .zip(&worst.0)
+                        .map(|(c, w)| c + t * (c - w))
+                        .collect()
+                };
+                let xr = along(1.0);
+                let fr = f(&xr, &mut history);
+                if fr < simplex[0].1 {
+                    let xe = along(2.0);
+                    let fe = f(&xe, &mut history);
+                    simplex[d] = if fe < fr { (xe, fe) } else { (xr, fr) };
+                    continue;
+                }
+                if fr < simplex[d - 1].1 {
+                    simplex[d] = (xr, fr);
+                    continue;
+                }
+                let (xc, fc, accept) = if fr < worst.1 {
+                    let xc = along(0.5);
+                    let fc = f(&xc, &mut history);
+                    let ok = fc <= fr;
+                    (xc, fc, ok)
+                } else {
+                    let xc = along(-0.5);
+                    let fc = f(&xc, &mut history);
+                    let ok = fc < worst.1;
+                    (xc, fc, ok)
+                };
+                if accept {
+                    simplex[d] = (xc, fc);
+                    continue;
+                }
+                let best = simplex[0].0.clone();
+                for v in simplex.iter_mut().skip(1) {
+                    let x: Vec<f64> = best
+                        .iter()
+                        .zip(&v.0)
+                        .map(|(b, x)| b + 0.5 * (x - b))
+                        .collect();
+                    let fx = f(&x, &mut history);
+                    *v = (x, fx);
+                }
+            }
+            order(&mut simplex);
+            // Restart from the best point: Nelder-Mead can stall on a
+            // degenerate simplex; a restart that gains nothing confirms it.
+            let improved = simplex[0].1 < from_misfit - self.opts.tolerance;
+            if !converged || restarts_done >= self.opts.restarts || (restarts_done > 0 && !improved)
+            {
+                break;
+            }
+            restarts_done += 1;
+            from = simplex[0].0.iter().map(|u| u.clamp(0.0, 1.0)).collect();
+            let values = to_values(&from);
+            from_misfit = history
+                .iter()
+                .find(|(v, _)| *v == values)
+                .map_or(simplex[0].1, |h| h.1);
+        }
+        order(&mut simplex);
+        let values = to_values(&simplex[0].0);
+        let misfit = history
+            .iter()
+            .find(|(v, _)| *v == values)
+            .map_or(simplex[0].1, |h| h.1);
+        let model = self.model(&values).map_err(|e| e.0)?;
+        // Within the stopping box of a bound counts as on it.
+        let near = self.opts.x_tolerance.max(1e-9);
+        let at_bounds = self
+            .params
+            .iter()
+            .zip(&values)
+            .map(|(p, &v)| {
+                let u = p.unit(v);
+                if u <= near {
+                    Bound::Lower
+                } else if u >= 1.0 - near {
+                    Bound::Upper
+                } else {
+                    Bound::Inside
+                }
+            })
+            .collect();
+        Ok(FitResult {
+            values,
+            misfit,
+            start,
+            start_misfit,
+            evaluations: history.len(),
+            converged,
+            at_bounds,
+            history,
+            model,
+        })
+    }
+}
+
+/// Linear interpolation of per-bin values `bins` at signed in-plane angle
+/// `theta_o` between the bin centres `centres` (increasing); constant beyond
+/// the outermost centres.
+fn interpolate(centres: &[f64], bins: &[f64], theta_o: f64) -> f64 {
+    let n = bins.len();
+    if theta_o <= centres[0] {
+        return bins[0];
+    }
+    if theta_o >= centres[n - 1] {
+        return bins[n - 1];
+    }
+    // First centre above theta_o: in 1..n.
+    let hi = centres.partition_point(|&c| c <= theta_o);
+    let lo = hi - 1;
+    let t = (theta_o - centres[lo]) / (centres[hi] - centres[lo]);
+    if t == 0.0 {
+        bins[lo]
+    } else {
+        (1.0 - t) * bins[lo] + t * bins[hi]
+    }
+}
+
+/// Fit `params` of the micro scene `scene_text` to `measured` (see the module doc).
+pub fn fit(
+    scene_text: &str,
+    source: &Source,
+    params: &[FitParam],
+    measured: &Measured,
+    opts: &FitOptions,
+) -> Result<FitResult, FitError> {
+    Problem::new(scene_text, source, params, measured, opts)?.fit()
+}
+
+/// The misfit at `values` of `params` (infinite where the scene rejects them).
+pub fn misfit(
+    scene_text: &str,
+    source: &Source,
+    params: &[FitParam],
+    values: &[f64],
+    measured: &Measured,
+    opts: &FitOptions,
+) -> Result<f64, FitError> {
+    let p = Problem::new(scene_text, source, params, measured, opts)?;
+    if values.len() != params.len() {
+        return Err(FitError::Options {
+            option: "values".into(),
+            message: format!("{} values for {} parameters", values.len(), params.len()),
+        });
+    }
+    Ok(p.misfit(values))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::inplane_csv;
+
+    fn source() -> Source {
+        Source {
+            file: "test.toml".into(),
+            dir: ".".into(),
+        }
+    }
+
+    fn table(text: &str) -> Table {
+        toml::from_str(text).unwrap()
+    }
+
+    fn path(s: &str) -> KeyPath {
+        s.parse().unwrap()
+    }
+
+    // ------------------------------------------------------------ key paths
+
+    #[test]
+    fn key_path_syntax() {
+        let p = path("bumps[0].height[1]");
+        assert_eq!(
+            p.segments,
+            vec![
+                Segment::Key("bumps".into()),
+                Segment::Index(0),
+                Segment::Key("height".into()),
+                Segment::Index(1)
+            ]
+        );
+        assert_eq!(p.to_string(), "bumps[0].height[1]");
+        assert_eq!(path("materials.z302.n").to_string(), "materials.z302.n");
+        for bad in [
+            "", "a.", ".a", "a..b", "a[", "a[x]", "a[-1]", "a b", "[0]", "a.[0]",
+        ] {
+            assert!(bad.parse::<KeyPath>().is_err(), "`{bad}` should not parse");
+        }
+    }
+
+    #[test]
+    fn key_path_get_and_set_nested() {
+        let mut t = table(
+            "x = 1\n[a.b]\nc = 2.5\nd = [1.0, 2.0]\n[[arr]]\nv = 3.0\n[[arr]]\nv = 4\nw = [[1.0, 2.0], [3.0, 5.0]]\n",
+        );
+        assert_eq!(path("x").get_number(&t), Ok(1.0));
+        assert_eq!(path("a.b.c").get_number(&t), Ok(2.5));
+        assert_eq!(path("a.b.d[1]").get_number(&t), Ok(2.0));
+        assert_eq!(path("arr[0].v").get_number(&t), Ok(3.0));
+        assert_eq!(path("arr[1].v").get_number(&t), Ok(4.0)); // integer read as float
+        assert_eq!(path("arr[1].w[1][1]").get_number(&t), Ok(5.0));
+
+        path("a.b.c").set_number(&mut t, -7.25).unwrap();
+        path("a.b.d[0]").set_number(&mut t, 0.5).unwrap();
+        path("arr[1].v")
+            .set_number(&mut t, 1.8000488281250009)
+            .unwrap();
+        path("arr[1].w[0][1]").set_number(&mut t, 9.0).unwrap();
+        // Through text and back, bit for bit.
+        let back = table(&t.to_string());
+        assert_eq!(path("a.b.c").get_number(&back), Ok(-7.25));
+        assert_eq!(path("a.b.d[0]").get_number(&back), Ok(0.5));
+        assert_eq!(path("a.b.d[1]").get_number(&back), Ok(2.0));
+        assert_eq!(path("arr[1].v").get_number(&back), Ok(1.8000488281250009));
+        assert_eq!(path("arr[0].v").get_number(&back), Ok(3.0));
+        assert_eq!(path("arr[1].w[0][1]").get_number(&back), Ok(9.0));
+        assert_eq!(path("x").get_number(&back), Ok(1.0));
+    }
+
+    #[test]
+    fn key_path_errors() {
+        let mut t = table("s = \"text\"\n[a.b]\nc = 2.5\nr = [1.0, 2.0]\n[[arr]]\nv = 3.0\n");
+        let err = |p: &str| path(p).get_number(&t).unwrap_err();
+        assert_eq!(err("zz"), "no key `zz` at the top level (keys: a, arr, s)");
+        assert_eq!(err("a.x.c"), "no key `x` in `a` (keys: b)");
+        assert_eq!(err("a.b.cc"), "no key `cc` in `a.b` (keys: c, r)");
+        assert_eq!(
+            err("arr[1].v"),
+            "index [1] out of range: `arr` has 1 element"
+        );
+        assert_eq!(err("arr[0].w"), "no key `w` in `arr[0]` (keys: v)");
+        assert_eq!(
+            err("a.b.c.d"),
+            "`a.b.c` is a float, not a table (no key `d`)"
+        );
+        assert_eq!(err("a[0]"), "`a` is a table, not an array (no index [0])");
+        assert_eq!(err("s"), "is a string, not a number");
+        assert_eq!(err("a.b"), "is a table, not a number");
+        assert_eq!(
+            err("a.b.r"),
+            "is a range [1.0, 2.0]; fit one end: a.b.r[0] or a.b.r[1]"
+        );
+        assert!(path("a.b.r[2]").set_number(&mut t, 1.0).is_err());
+        assert!(path("s").set_number(&mut t, 1.0).is_err());
+        // Failed sets leave the table unchanged.
+        assert_eq!(
+            t,
+            table("s = \"text\"\n[a.b]\nc = 2.5\nr = [1.0, 2.0]\n[[arr]]\nv = 3.0\n")
+        );
+    }
+
+    #[test]
+    fn fit_param_parse() {
+        let p: FitParam = "bumps[0].height[1]=0.5:5".parse().unwrap();
+        assert_eq!(
+            (p.key.as_str(), p.lo, p.hi),
+            ("bumps[0].height[1]", 0.5, 5.0)
+        );
+        let p: FitParam = " materials.z302.k = -1e-3 : 1 ".parse().unwrap();
+        assert_eq!(
+            (p.key.as_str(), p.lo, p.hi),
+            ("materials.z302.k", -1e-3, 1.0)
+        );
+        assert_eq!(p.value_at(0.0), -1e-3);
+        assert_eq!(p.value_at(1.0), 1.0);
+        assert_eq!(p.value_at(2.0), 1.0);
+        for (bad, msg) in [
+            ("height", "expected key=lo:hi"),
+            ("height=1", "expected bounds lo:hi after `=`"),
+            ("height=a:2", "bound `a` is not a number"),
+            ("height=2:1", "bounds 2:1 must have lo < hi"),
+            ("height=1:1", "bounds 1:1 must have lo < hi"),
+            ("height=1:inf", "bounds must be finite"),
+            ("a..b=1:2", "expected a key at position 3 of `a..b`"),
+        ] {
+            let e = bad.parse::<FitParam>().unwrap_err();
+            assert_eq!(e.to_string(), format!("parameter `{bad}`: {msg}"));
+        }
+    }
+
+    #[test]
+    fn interpolation_between_centres() {
+        let c = [-88.75, -85.0, -80.0, 0.0, 88.75];
+        let b = [1.0, 2.0, 4.0, 8.0, 16.0];
+        assert_eq!(interpolate(&c, &b, -90.0), 1.0);
+        assert_eq!(interpolate(&c, &b, -88.75), 1.0);
+        assert_eq!(interpolate(&c, &b, -85.0), 2.0);
+        assert_eq!(interpolate(&c, &b, -82.5), 3.0);
+        assert_eq!(interpolate(&c, &b, -40.0), 6.0);
+        assert_eq!(interpolate(&c, &b, 0.0), 8.0);
+        assert_eq!(interpolate(&c, &b, 90.0), 16.0);
+    }
+
+    // ------------------------------------------------------------ measured file
+
+    #[test]
+    fn measured_parse() {
+        let m = Measured::parse(
+            "# Z-302 at 10.6 um\ntheta_i_deg,theta_o_deg,brdf\n30,-10,0.5\n\n30, 25.5 ,1e-2\n60,80,0\n",
+            "z.csv",
+        )
+        .unwrap();
+        assert_eq!(
+            m.points,
+            vec![
+                (30.0, -10.0, 0.5, None),
+                (30.0, 25.5, 0.01, None),
+                (60.0, 80.0, 0.0, None)
+            ]
+        );
+        assert_eq!(m.incidence_angles(), vec![30.0, 60.0]);
+        let m = Measured::parse(
+            "theta_i_deg,theta_o_deg,brdf,brdf_stderr\n0,0,1,0.1\n",
+            "z.csv",
+        )
+        .unwrap();
+        assert_eq!(m.points, vec![(0.0, 0.0, 1.0, Some(0.1))]);
+
+        let h = "theta_i_deg,theta_o_deg,brdf\n";
+        for (text, msg) in [
+            ("", "z.csv: line 0: empty file (no header)"),
+            (
+                "theta_i,theta_o,brdf\n30,0,1\n",
+                "z.csv: line 1: header must be",
+            ),
+            ("30,0,1\n", "z.csv: line 1: header must be"),
+            (h, "z.csv: line 0: no data rows"),
+            (
+                &format!("{h}30,0,abc\n"),
+                "z.csv: line 2: field 3 `abc` is not a finite number",
+            ),
+            (
+                &format!("{h}30,0,NaN\n"),
+                "z.csv: line 2: field 3 `NaN` is not a finite number",
+            ),
+            (
+                &format!("{h}30,0\n"),
+                "z.csv: line 2: expected 3 fields, found 2",
+            ),
+            (
+                &format!("{h}30,0,1,0.1\n"),
+                "z.csv: line 2: expected 3 fields, found 4",
+            ),
+            (
+                &format!("{h}90,0,1\n"),
+                "z.csv: line 2: theta_i_deg must be in [0, 90), got 90",
+            ),
+            (
+                &format!("{h}-5,0,1\n"),
+                "z.csv: line 2: theta_i_deg must be in [0, 90), got -5",
+            ),
+            (
+                &format!("{h}30,95,1\n"),
+                "z.csv: line 2: theta_o_deg must be in [-90, 90], got 95",
+            ),
+            (
+                &format!("{h}30,0,1\n30,5,-0.1\n"),
+                "z.csv: line 3: brdf must be >= 0, got -0.1",
+            ),
+            (&format!("{h}30,0,0\n"), "z.csv: line 0: every brdf is 0"),
+            (
+                "theta_i_deg,theta_o_deg,brdf,brdf_stderr\n30,0,1,-1\n",
+                "z.csv: line 2: brdf_stderr must be >= 0, got -1",
+            ),
+        ] {
+            let e = Measured::parse(text, "z.csv").unwrap_err().to_string();
+            assert!(e.starts_with(msg), "`{text}`: got `{e}`, want `{msg}...`");
+            assert!(!e.contains('\n'), "one line: {e}");
+        }
+    }
+
+    // ------------------------------------------------------------ the fit
+
+    /// 20 ellipsoid bumps of radius `r` and height `h` on a 12 x 12 periodic
+    /// cell; `material` is the body of `[materials.m]`. The in-plane tally is
+    /// 5 degree bins with a 10 degree detector: with 30 000 photons per angle
+    /// that is ~100 photons per bin, enough for a misfit that falls steadily
+    /// toward the truth (1 degree bins hold a few photons each and the misfit
+    /// is noise a few hundredths away from the true value).
+    fn scene(material: &str, h: &str, r: f64) -> String {
+        format!(
+            "[surface]\nsize = [12.0, 12.0]\nedges = \"periodic\"\nmaterial = \"m\"\n\
+             [materials.m]\n{material}\n\
+             [[bumps]]\nshape = \"ellipsoid\"\ncount = 20\nradius = {r:?}\nheight = {h}\nseed = 3\n\
+             [light]\ntheta_deg = [0.0]\n\
+             [tally]\ninplane_step_deg = 5.0\ninplane_width_deg = 10.0\n"
+        )
+    }
+
+    const PHOTONS: u64 = 30_000;
+
+    fn opts() -> FitOptions {
+        FitOptions {
+            photons: PHOTONS,
+            seed: 7,
+            ..FitOptions::default()
+        }
+    }
+
+    /// The "measurement": roks's own `inplane.csv` of the true scene at 30
+    /// and 60 degrees (same photons and seed as the fit), read back and
+    /// sampled every 5 degrees from -80 to 80 by linear interpolation between
+    /// its rows (independent of the fit's model code).
+    fn measured_from(truth: &str) -> Measured {
+        let scene = MicroScene::from_str(truth, source(), "truth".into()).unwrap();
+        let mut run = scene.brdf_run();
+        run.theta_deg = vec![30.0, 60.0];
+        run.photons = PHOTONS;
+        run.seed = 7;
+        let results = run.run(&scene.surface, &|_| {});
+        let csv = inplane_csv(&run, &results);
+        let rows: Vec<[f64; 4]> = csv
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let v: Vec<f64> = l.split(',').map(|f| f.parse().unwrap()).collect();
+                [v[0], v[1], v[2], v[3]]
+            })
+            .collect();
+        // Linear interpolation between the CSV rows around `to`.
+        let at = |ti: f64, to: f64| {
+            let curve: Vec<&[f64; 4]> = rows.iter().filter(|r| r[0] == ti).collect();
+            let k = curve.iter().position(|r| r[1] >= to).unwrap();
+            if curve[k][1] == to {
+                return curve[k][2];
+            }
+            let (a, b) = (curve[k - 1], curve[k]);
+            let t = (to - a[1]) / (b[1] - a[1]);
+            a[2] + t * (b[2] - a[2])
+        };
+        let mut text = String::from("theta_i_deg,theta_o_deg,brdf\n");
+        for ti in [30.0, 60.0] {
+            for k in -16..=16 {
+                let to = 5.0 * f64::from(k);
+                text.push_str(&format!("{ti},{to},{:e}\n", at(ti, to)));
+            }
+        }
+        let m = Measured::parse(&text, "synthetic.csv").unwrap();
+        assert_eq!(m.points.len(), 66);
+        // Not a trivial measurement: the curve spans a decade or more.
+        let (lo, hi) = m.points.iter().fold((f64::INFINITY, 0.0_f64), |(a, b), p| {
+            (a.min(p.2), b.max(p.2))
+        });
+        assert!(hi > 10.0 * lo.max(1e-3 * hi), "flat curve {lo} .. {hi}");
+        m
+    }
+
+    const PAINT: &str = "reflectance = 0.8";
+
+    #[test]
+    fn misfit_at_the_true_parameters_is_zero() {
+        let truth = scene(PAINT, "[1.0, 1.8]", 2.5);
+        let params: Vec<FitParam> = vec![
+            "bumps[0].height[1]=0.5:3".parse().unwrap(),
+            "bumps[0].radius=1:4".parse().unwrap(),
+        ];
+        let probe = Measured {
+            points: vec![
+                (30.0, 0.0, 1.0, None),
+                (60.0, 7.0, 1.0, None),
+                (60.0, 89.0, 1.0, None),
+            ],
+        };
+        // Model points from the fit's own model; then the misfit there is exactly 0.
+        let p = Problem::new(&truth, &source(), &params, &probe, &opts()).unwrap();
+        assert_eq!(p.current(), vec![1.8, 2.5]);
+        let model = p.model(&[1.8, 2.5]).unwrap();
+        assert!(model.iter().all(|&b| b > 0.0), "{model:?}");
+        let m = Measured {
+            points: probe
+                .points
+                .iter()
+                .zip(&model)
+                .map(|(q, &b)| (q.0, q.1, b, None))
+                .collect(),
+        };
+        let zero = misfit(&truth, &source(), &params, &[1.8, 2.5], &m, &opts()).unwrap();
+        assert_eq!(zero, 0.0);
+        let off = misfit(&truth, &source(), &params, &[1.7, 2.5], &m, &opts()).unwrap();
+        assert!(off > 1e-4, "{off}");
+        // Against roks's own inplane.csv route (9-digit CSV values): 0 to rounding.
+        let m = measured_from(&truth);
+        let p = Problem::new(&truth, &source(), &params, &m, &opts()).unwrap();
+        let near_zero = p.misfit(&[1.8, 2.5]);
+        assert!(near_zero < 1e-15, "{near_zero}");
+        // The model at every measured point, to the CSV's 9 digits.
+        let model = p.model(&[1.8, 2.5]).unwrap();
+        for (q, b) in m.points.iter().zip(&model) {
+            assert!((b - q.2).abs() <= 1e-8 * q.2.max(1e-12), "{q:?} vs {b}");
+        }
+    }
+
+    #[test]
+    fn infeasible_points_have_infinite_misfit() {
+        let truth = scene(PAINT, "[1.0, 1.8]", 2.5);
+        let m = Measured {
+            points: vec![(30.0, 0.0, 1.0, None)],
+        };
+        let hi: FitParam = "bumps[0].height[1]=0.5:3".parse().unwrap();
+        let p = Problem::new(&truth, &source(), &[hi], &m, &opts()).unwrap();
+        // hi < lo: a reversed range.
+        assert_eq!(p.misfit(&[0.9]), f64::INFINITY);
+        let e = p.apply(&[0.9]).unwrap_err().to_string();
+        assert_eq!(e, "test.toml: bumps[0].height: range [1, 0.9] is reversed");
+        assert!(p.misfit(&[1.0]).is_finite());
+        // Values the scene itself rejects.
+        let r: FitParam = "materials.m.reflectance=0:2".parse().unwrap();
+        let p = Problem::new(&truth, &source(), &[r], &m, &opts()).unwrap();
+        assert_eq!(p.misfit(&[1.5]), f64::INFINITY);
+        assert!(matches!(
+            p.model(&[1.5]),
+            Err(Infeasible(FitError::Scene(_)))
+        ));
+        // The fitted scene text carries the value.
+        let text = p.apply(&[0.25]).unwrap();
+        let back = MicroScene::from_str(&text, source(), "x".into()).unwrap();
+        assert_eq!(back.surface.materials.len(), 1);
+        assert_eq!(
+            path("materials.m.reflectance").get_number(&table(&text)),
+            Ok(0.25)
+        );
+    }
+
+    #[test]
+    fn problem_errors_name_file_and_key() {
+        let truth = scene(PAINT, "[1.0, 1.8]", 2.5);
+        let m = Measured {
+            points: vec![(30.0, 0.0, 1.0, None)],
+        };
+        let new = |spec: &str| {
+            let p: FitParam = spec.parse().unwrap();
+            Problem::new(&truth, &source(), &[p], &m, &opts())
+                .unwrap_err()
+                .to_string()
+        };
+        assert_eq!(
+            new("bumps[0].hieght=1:2"),
+            "test.toml: bumps[0].hieght: no key `hieght` in `bumps[0]` (keys: count, height, radius, seed, shape)"
+        );
+        assert_eq!(
+            new("bumps[1].height=1:2"),
+            "test.toml: bumps[1].height: index [1] out of range: `bumps` has 1 element"
+        );
+        assert_eq!(
+            new("bumps[0].shape=1:2"),
+            "test.toml: bumps[0].shape: is a string, not a number"
+        );
+        assert_eq!(
+            new("bumps[0].height=1:2"),
+            "test.toml: bumps[0].height: is a range [1.0, 1.8]; fit one end: bumps[0].height[0] or bumps[0].height[1]"
+        );
+        let bad_scene = truth.replace("\"ellipsoid\"", "\"blob\"");
+        let p: FitParam = "bumps[0].radius=1:2".parse().unwrap();
+        let e =
+            Problem::new(&bad_scene, &source(), std::slice::from_ref(&p), &m, &opts()).unwrap_err();
+        assert!(matches!(e, FitError::Scene(_)));
+        assert!(
+            e.to_string()
+                .starts_with("test.toml: bumps[0].shape: unknown variant `blob`"),
+            "{e}"
+        );
+        let e = Problem::new(&truth, &source(), &[p.clone(), p.clone()], &m, &opts()).unwrap_err();
+        assert_eq!(e.to_string(), "test.toml: bumps[0].radius: given twice");
+        let e = Problem::new(&truth, &source(), &[], &m, &opts()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "fit option parameters: give at least one parameter"
+        );
+        let o = FitOptions {
+            inplane_step_deg: Some(7.0),
+            ..opts()
+        };
+        let e = Problem::new(&truth, &source(), &[p], &m, &o).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "fit option inplane_step_deg: must divide 180, got 7"
+        );
+    }
+
+    #[test]
+    fn recovers_one_height() {
+        // Truth h = 1.8; start at 1.0 in bounds 0.5:3. With common random
+        // numbers the misfit is exactly 0 at h = 1.8 and already ~1e-3 at
+        // 1.8 -+ 0.001-0.01 (a scan of this scene), rising steadily to 0.9 at
+        // h = 1.0; the search stops on a simplex 1e-3 of the range wide
+        // (0.0025 in h). So h must come back to a few thousandths: we ask 0.01
+        // (0.6 %).
+        let truth = scene(PAINT, "1.8", 2.5);
+        let m = measured_from(&truth);
+        let start = scene(PAINT, "1.0", 2.5);
+        let params = vec!["bumps[0].height=0.5:3".parse::<FitParam>().unwrap()];
+        let clock = std::time::Instant::now();
+        let r = fit(&start, &source(), &params, &m, &opts()).unwrap();
+        eprintln!(
+            "one height: {:?} misfit {:.2e} (start {:.2e}) in {} runs, {:.2} s",
+            r.values,
+            r.misfit,
+            r.start_misfit,
+            r.evaluations,
+            clock.elapsed().as_secs_f64()
+        );
+        assert_eq!(r.start, vec![1.0]);
+        assert!(r.start_misfit > 0.1, "{}", r.start_misfit);
+        assert!(r.converged);
+        assert!((r.values[0] - 1.8).abs() < 0.01, "{:?}", r.values);
+        assert!(r.misfit < 1e-4, "{}", r.misfit);
+        assert_eq!(r.at_bounds, vec![Bound::Inside]);
+        assert_eq!(r.evaluations, r.history.len());
+        assert!(r.evaluations <= FitOptions::default().max_evaluations);
+        assert_eq!(r.model.len(), m.points.len());
+        // The best point is the least misfit of the history.
+        let least = r.history.iter().map(|h| h.1).fold(f64::INFINITY, f64::min);
+        assert_eq!(r.misfit, least);
+    }
+
+    #[test]
+    fn recovers_one_end_of_a_range_past_infeasible_points() {
+        // height = [1.2, 2.2]; fit the top end from 1.5 in 0.5:3, where
+        // everything below 1.2 is a reversed range (infinite misfit).
+        let truth = scene(PAINT, "[1.2, 2.2]", 2.5);
+        let m = measured_from(&truth);
+        let start = scene(PAINT, "[1.2, 1.5]", 2.5);
+        let params = vec!["bumps[0].height[1]=0.5:3".parse::<FitParam>().unwrap()];
+        let r = fit(&start, &source(), &params, &m, &opts()).unwrap();
+        eprintln!(
+            "range end: {:?} misfit {:.2e} in {} runs",
+            r.values, r.misfit, r.evaluations
+        );
+        assert!((r.values[0] - 2.2).abs() < 0.01, "{:?}", r.values);
+        assert!(r.misfit < 1e-4, "{}", r.misfit);
+    }
+
+    #[test]
+    fn recovers_height_and_refractive_index() {
+        // Fresnel dielectric n = 1.5 (k = 0), h = 1.8; start n = 1.2, h = 1.0.
+        // Same argument as for one height; n's range 1.05:3 gives a stopping
+        // box of 0.002 in n: ask 1 % for both.
+        let truth = scene("n = 1.5\nk = 0.0", "1.8", 2.5);
+        let m = measured_from(&truth);
+        let start = scene("n = 1.2\nk = 0.0", "1.0", 2.5);
+        let params: Vec<FitParam> = vec![
+            "bumps[0].height=0.5:3".parse().unwrap(),
+            "materials.m.n=1.05:3".parse().unwrap(),
+        ];
+        let clock = std::time::Instant::now();
+        let r = fit(&start, &source(), &params, &m, &opts()).unwrap();
+        eprintln!(
+            "height and n: {:?} misfit {:.2e} (start {:.2e}) in {} runs, {:.2} s",
+            r.values,
+            r.misfit,
+            r.start_misfit,
+            r.evaluations,
+            clock.elapsed().as_secs_f64()
+        );
+        assert!(r.converged);
+        assert!((r.values[0] - 1.8).abs() < 0.018, "{:?}", r.values);
+        assert!((r.values[1] - 1.5).abs() < 0.015, "{:?}", r.values);
+        assert!(r.misfit < 1e-4, "{}", r.misfit);
+        assert_eq!(r.at_bounds, vec![Bound::Inside, Bound::Inside]);
+    }
+
+    #[test]
+    fn reports_bounds() {
+        // The truth (h = 1.8) lies above the bounds 0.5:1.5: the fit ends on
+        // the upper bound and says so.
+        let truth = scene(PAINT, "1.8", 2.5);
+        let m = measured_from(&truth);
+        let params = vec!["bumps[0].height=0.5:1.5".parse::<FitParam>().unwrap()];
+        let start = scene(PAINT, "1.0", 2.5);
+        let o = FitOptions {
+            restarts: 0,
+            ..opts()
+        };
+        let r = fit(&start, &source(), &params, &m, &o).unwrap();
+        assert_eq!(r.at_bounds, vec![Bound::Upper], "{:?}", r.values);
+        assert!(
+            r.values[0] >= 1.5 - 1e-3 * 1.0 && r.values[0] <= 1.5,
+            "{:?}",
+            r.values
+        );
+    }
+}

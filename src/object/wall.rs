@@ -1,0 +1,213 @@
+//! Wall models: what happens where a photon meets a wall of the object.
+//!
+//! Users pick one per surface (`[walls]` maps surface names to `[models]`),
+//! modelling only what a scene needs:
+//!
+//! | model | keys | cost | error |
+//! |---|---|---|---|
+//! | micro descent (ROKS-RG) | `micro = "scene.toml"` | a micro trace per hit | none beyond Monte Carlo |
+//! | tabulated BRDF | `brdf = "brdf.csv"` | a table lookup | the table's (binning, interpolation in incidence angle, its own noise) |
+//! | ideal specular + diffuse | `specular = s`, `diffuse = d` | trivial | model error |
+//! | Fresnel specular | `n = .., k = ..` | trivial | smooth surface only |
+//! | specular vs angle | `table = "r.csv"` or `reflectance = r` | trivial | smooth surface only |
+//!
+//! **Micro descent.** At the hit the macro surface's local frame is built
+//! (normal `n` toward the photon's side, a tangent pair turned by a uniform
+//! random angle about `n`); the photon enters the periodic micro cell at a
+//! uniform random point of its launch plane, with its direction expressed in
+//! that frame, is traced until it leaves the top, and its direction and weight
+//! are mapped back.
+
+use glam::DVec3;
+use rand::RngExt;
+
+use crate::micro::{Edges, Scratch};
+use crate::optics::brdf_table::BrdfTable;
+use crate::optics::material::Reflectance;
+use crate::scene::micro::MicroScene;
+use crate::transport::micro::{Controls, Fate, trace};
+
+/// How a wall reflects.
+#[derive(Debug, Clone)]
+pub enum WallModel {
+    /// Descend into an explicit micro geometry (periodic) at every hit.
+    Micro {
+        /// The micro scene (its surface and materials are used).
+        scene: Box<MicroScene>,
+        /// History limits inside the micro geometry.
+        controls: Controls,
+    },
+    /// Sample a BRDF table written by `roks brdf`.
+    Table(Box<BrdfTable>),
+    /// Ideal reflection: specular with probability `specular`, Lambertian
+    /// with probability `diffuse`, absorbed otherwise.
+    Ideal {
+        /// Specular reflectance.
+        specular: f64,
+        /// Diffuse (Lambertian) reflectance.
+        diffuse: f64,
+    },
+    /// Specular reflection weighted by a reflectance model (Fresnel, table, constant).
+    Specular(Reflectance),
+}
+
+/// The outcome of one wall interaction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Interaction {
+    /// Reflected into `dir` (unit, on the photon's side), weight multiplied by `factor`.
+    Reflected {
+        /// New direction.
+        dir: DVec3,
+        /// Weight factor (>= 0; may exceed 1 after Russian roulette in a micro descent).
+        factor: f64,
+    },
+    /// Absorbed by the wall (physics).
+    Absorbed,
+    /// Lost inside a micro descent (bounce cap or numerical guard).
+    Lost,
+}
+
+/// A unit vector uniformly distributed in cosine about +z (Lambertian).
+#[must_use]
+pub fn cosine_local(u: f64, v: f64) -> DVec3 {
+    let r = u.sqrt();
+    let a = std::f64::consts::TAU * v;
+    DVec3::new(r * a.cos(), r * a.sin(), (1.0 - u).max(0.0).sqrt())
+}
+
+impl WallModel {
+    /// Reflect a photon travelling along unit `d` at a wall whose unit normal
+    /// `n` faces it (`n . d <= 0`). `scratch` is this model's micro scratch.
+    pub fn interact(
+        &self,
+        d: DVec3,
+        n: DVec3,
+        rng: &mut impl rand::Rng,
+        scratch: &mut Option<Scratch>,
+    ) -> Interaction {
+        let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
+        let mirror = || (d + 2.0 * cos_i * n).normalize();
+        match self {
+            Self::Specular(r) => Interaction::Reflected {
+                dir: mirror(),
+                factor: r.reflectance(cos_i),
+            },
+            Self::Ideal { specular, diffuse } => {
+                let total = specular + diffuse;
+                if total <= 0.0 {
+                    return Interaction::Absorbed;
+                }
+                let dir = if rng.random::<f64>() * total < *specular {
+                    mirror()
+                } else {
+                    let (t1, t2) = n.any_orthonormal_pair();
+                    let l = cosine_local(rng.random(), rng.random());
+                    l.x * t1 + l.y * t2 + l.z * n
+                };
+                Interaction::Reflected { dir, factor: total }
+            }
+            Self::Table(table) => {
+                // Local frame: x toward the light's side of the plane of incidence.
+                let toward_light = -d;
+                let tangential = toward_light - toward_light.dot(n) * n;
+                let t1 = tangential.try_normalize().unwrap_or_else(|| {
+                    let (e1, e2) = n.any_orthonormal_pair();
+                    let a = std::f64::consts::TAU * rng.random::<f64>();
+                    a.cos() * e1 + a.sin() * e2
+                });
+                let t2 = n.cross(t1);
+                let u: [f64; 4] = std::array::from_fn(|_| rng.random());
+                match table.sample(cos_i.acos(), u) {
+                    Some((l, factor)) => Interaction::Reflected {
+                        dir: (l.x * t1 + l.y * t2 + l.z * n).normalize(),
+                        factor,
+                    },
+                    None => Interaction::Absorbed,
+                }
+            }
+            Self::Micro { scene, controls } => {
+                let surface = &scene.surface;
+                // Frame turned by a uniform random angle about n.
+                let (e1, e2) = n.any_orthonormal_pair();
+                let a = std::f64::consts::TAU * rng.random::<f64>();
+                let t1 = a.cos() * e1 + a.sin() * e2;
+                let t2 = n.cross(t1);
+                let local = DVec3::new(d.dot(t1), d.dot(t2), d.dot(n));
+                let Some(local) = local.try_normalize().filter(|l| l.z < 0.0) else {
+                    return Interaction::Lost;
+                };
+                let start = DVec3::new(
+                    rng.random::<f64>() * surface.size.x,
+                    rng.random::<f64>() * surface.size.y,
+                    surface.top,
+                );
+                let scratch = scratch.get_or_insert_with(|| Scratch::new(surface));
+                let h = trace(surface, start, local, controls, rng, scratch);
+                match h.fate {
+                    Fate::Escaped { dir: l, weight } => Interaction::Reflected {
+                        dir: (l.x * t1 + l.y * t2 + l.z * n).normalize(),
+                        factor: weight,
+                    },
+                    Fate::Absorbed => Interaction::Absorbed,
+                    Fate::Wall { .. } | Fate::Capped { .. } | Fate::Numeric { .. } => {
+                        Interaction::Lost
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether the model needs a micro scratch.
+    #[must_use]
+    pub fn is_micro(&self) -> bool {
+        matches!(self, Self::Micro { .. })
+    }
+
+    /// Check a micro scene is usable for descent (periodic edges).
+    #[must_use]
+    pub fn micro_is_periodic(scene: &MicroScene) -> bool {
+        scene.surface.edges == Edges::Periodic
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_pcg::Pcg64Mcg;
+
+    #[test]
+    fn cosine_sampling_has_the_lambertian_moments() {
+        // E[mu] = 2/3, E[mu^2] = 1/2 for a cosine-weighted hemisphere.
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        let n = 200_000;
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for _ in 0..n {
+            let l = cosine_local(rng.random(), rng.random());
+            assert!((l.length() - 1.0).abs() < 1e-12 && l.z >= 0.0);
+            s1 += l.z;
+            s2 += l.z * l.z;
+        }
+        let (m1, m2) = (s1 / n as f64, s2 / n as f64);
+        // Standard errors: sd(mu) = sqrt(1/2 - 4/9) = 0.236; sd(mu^2) = sqrt(1/3 - 1/4) = 0.289.
+        assert!(
+            (m1 - 2.0 / 3.0).abs() < 4.0 * 0.236 / (n as f64).sqrt(),
+            "{m1}"
+        );
+        assert!((m2 - 0.5).abs() < 4.0 * 0.289 / (n as f64).sqrt(), "{m2}");
+    }
+
+    #[test]
+    fn specular_wall_mirrors_and_weights() {
+        let wall = WallModel::Specular(Reflectance::Constant(0.3));
+        let mut rng = Pcg64Mcg::seed_from_u64(1);
+        let d = DVec3::new(1.0, 0.0, -1.0).normalize();
+        match wall.interact(d, DVec3::Z, &mut rng, &mut None) {
+            Interaction::Reflected { dir, factor } => {
+                assert!((dir - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-15);
+                assert_eq!(factor, 0.3);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}

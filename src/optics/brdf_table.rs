@@ -1,0 +1,1616 @@
+//! A tabulated BRDF read from the `brdf.csv` written by `roks brdf`, for the
+//! macro level: a rough wall samples an outgoing direction from the table
+//! instead of tracing its micro geometry at every hit.
+//!
+//! # Frame and units
+//!
+//! Directions are unit vectors in the **local frame** of the surface: `z` is
+//! the surface normal, the plane of incidence is the x-z plane with the light
+//! on the `+x` side, i.e. `omega_i = (sin theta_i, 0, cos theta_i)` points
+//! toward the light and the specular direction is
+//! `(-sin theta_i, 0, cos theta_i)`. Incidence angles passed to the methods
+//! are polar angles in **radians**; angles in the file are in degrees; solid
+//! angles are in sr; fractions and reflectances are dimensionless (weight per
+//! launched photon); BRDF values are in sr⁻¹.
+//!
+//! # The file
+//!
+//! `brdf.csv` has the header [`BRDF_TABLE_HEADER`] (exactly) and one row per
+//! incidence and cell of the Carlson equal-solid-angle grid of `M` bands
+//! (see [`CarlsonGrid`]): band `j = 1..=M` from the pole holds `4 j` cells, so
+//! an incidence block has `2 M (M + 1)` rows, band by band, cells in order.
+//! `phi` columns are **absolute** azimuths; the block's light azimuth is
+//! `phi_i_deg`. Loading requires: the header, every block complete and in
+//! grid order with the same `M`, the edge and solid-angle columns matching
+//! the grid of `M` bands (to 1e-6 deg or 1e-6 relative), finite numbers,
+//! `0 <= theta_i_deg < 90`, non-negative fractions, BRDFs and standard
+//! errors, and no incidence angle twice. Blocks may come in any order; they
+//! are sorted by `theta_i_deg`. Errors are one line naming the file, the line
+//! and (where there is one) the column.
+//!
+//! **Isotropy.** A block's cells are rotated by `-phi_i_deg` into the local
+//! frame, so a table traced at any light azimuth can be used; this assumes
+//! the surface is statistically isotropic (its BRDF depends on the azimuth
+//! difference only), which is also what lets one table serve every azimuth
+//! of incidence.
+//!
+//! # Sampling
+//!
+//! [`BrdfTable::sample`] takes four uniform numbers `u` in `[0, 1)`:
+//! 1. **Incidence** (`u[0]`): with `theta_a <= theta_i < theta_b` the two
+//!    tabulated angles bracketing `theta_i` and
+//!    `w = (theta_i - theta_a) / (theta_b - theta_a)`, the table at `theta_b`
+//!    is used with probability `w`, the one at `theta_a` otherwise
+//!    (stochastic interpolation: the expected result is exactly that of the
+//!    BRDF interpolated linearly in `theta_i`). Outside the tabulated range
+//!    the nearest end table is used (clamping).
+//! 2. **Cell** (`u[1]`): cell `c` with probability `fraction_c / R`, where `R`
+//!    is the table's reflectance, the sum of its fractions, by binary search
+//!    in a cumulative table built at load time. Cells with zero fraction are
+//!    never chosen.
+//! 3. **Direction in the cell** (`u[2]`, `u[3]`): `mu² = cos² theta` uniform
+//!    over `(mu_bot², mu_top²]` and `phi` uniform over `[phi_lo, phi_hi)`
+//!    (the cell's edges from the grid), i.e. uniform in projected solid
+//!    angle, which is what a BRDF constant over the cell means. Then
+//!    `phi - phi_i` gives the local azimuth. The direction has `z > 0`.
+//! 4. **Weight**: the returned factor is `R` of the table chosen in step 1;
+//!    the caller multiplies the photon weight by it. For every set `A` of
+//!    directions, `E[factor * 1{dir in A}] = ∫_A eval cos(theta) dω` with
+//!    [`BrdfTable::eval`]: the sampler is unbiased for the table interpolated
+//!    linearly in `theta_i`, constant over each cell.
+//!
+//! A chosen table whose fractions are all 0 returns `None` (absorbed).
+//!
+//! # Errors of the table
+//!
+//! [`BrdfTable::reflectance_stderr`] gives the standard error of the
+//! reflectance. `brdf.csv` alone does not determine it: a photon leaves
+//! through one cell, so the cells are negatively correlated, and the tally
+//! shares a photon leaving exactly at the pole among band 1's four cells
+//! (positively correlated), so the file lacks the covariances. From the file
+//! alone `reflectance_stderr` is `sqrt(sum fraction_stderr²)`, which ignores
+//! the covariances: for photon weights of similar size it overestimates the
+//! error, by a factor 5 to 18 for the default scene at 0-80 degrees (it can
+//! underestimate only when much of the weight leaves exactly at the pole). The exact value is the
+//! `reflectance_stderr` that `roks brdf` writes to `summary.json` beside the
+//! table; [`BrdfTable::with_summary`] reads it (and checks that the
+//! summary's reflectances are the table's). Between tabulated angles the
+//! errors are interpolated linearly, which bounds the error of the
+//! interpolated reflectance whatever the correlation of the two runs (they
+//! share random streams).
+
+use std::path::Path;
+
+use glam::DVec3;
+use thiserror::Error;
+
+use crate::tally::CarlsonGrid;
+
+/// The header line `brdf.csv` must start with (the columns written by
+/// [`crate::output::brdf_csv`]).
+pub const BRDF_TABLE_HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// Column names, in order (1-based column `i + 1` is `COLUMNS[i]`).
+const COLUMNS: [&str; 16] = [
+    "theta_i_deg",
+    "phi_i_deg",
+    "band",
+    "cell",
+    "theta_lo_deg",
+    "theta_hi_deg",
+    "phi_lo_deg",
+    "phi_hi_deg",
+    "theta_deg",
+    "phi_deg",
+    "solid_angle_sr",
+    "projected_solid_angle_sr",
+    "fraction",
+    "fraction_stderr",
+    "brdf",
+    "brdf_stderr",
+];
+
+/// Zero-based column indices.
+const C_THETA_I: usize = 0;
+const C_PHI_I: usize = 1;
+const C_BAND: usize = 2;
+const C_CELL: usize = 3;
+const C_THETA_LO: usize = 4;
+const C_THETA_HI: usize = 5;
+const C_PHI_LO: usize = 6;
+const C_PHI_HI: usize = 7;
+const C_OMEGA: usize = 10;
+const C_PROJ: usize = 11;
+const C_FRACTION: usize = 12;
+const C_FRACTION_SE: usize = 13;
+const C_BRDF: usize = 14;
+const C_BRDF_SE: usize = 15;
+
+/// Tolerance of the grid check: degrees for angles, relative for solid angles.
+const GRID_TOL: f64 = 1e-6;
+
+/// The largest `f64` below 1, `1 - 2^-53`.
+const BELOW_ONE: f64 = 1.0 - f64::EPSILON / 2.0;
+
+/// Why a `brdf.csv` could not be loaded. Every message is one line naming
+/// the file, and the line and column where there is one (lines and columns
+/// are 1-based; line 1 is the header).
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum BrdfTableError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {message}")]
+    Io {
+        /// File name.
+        file: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The first line is not [`BRDF_TABLE_HEADER`].
+    #[error("{file}: line 1: header must be exactly `{expected}`, found `{found}`")]
+    Header {
+        /// File name.
+        file: String,
+        /// The expected header.
+        expected: &'static str,
+        /// What the file has (shortened to 200 characters).
+        found: String,
+    },
+    /// A row does not have 16 columns.
+    #[error("{file}: line {line}: expected 16 columns, found {found}")]
+    Columns {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// Number of columns found.
+        found: usize,
+    },
+    /// A field is not a finite number (or, for `band` and `cell`, not a
+    /// non-negative integer).
+    #[error("{file}: line {line}, column {column} ({name}): `{text}` is not a {what}")]
+    Number {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// Column number.
+        column: usize,
+        /// Column name.
+        name: &'static str,
+        /// The field (shortened to 40 characters).
+        text: String,
+        /// "finite number" or "non-negative integer".
+        what: &'static str,
+    },
+    /// A number outside its allowed range.
+    #[error("{file}: line {line}, column {column} ({name}): {value} {requirement}")]
+    OutOfRange {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// Column number.
+        column: usize,
+        /// Column name.
+        name: &'static str,
+        /// The value.
+        value: f64,
+        /// What it must satisfy, e.g. "must be >= 0".
+        requirement: &'static str,
+    },
+    /// `band` or `cell` out of the grid order of an incidence block.
+    #[error(
+        "{file}: line {line}, column {column} ({name}): found {found}, expected {expected} (an incidence block lists the Carlson cells band by band from the pole, cells in order)"
+    )]
+    Order {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// Column number.
+        column: usize,
+        /// Column name.
+        name: &'static str,
+        /// The value found.
+        found: usize,
+        /// The value expected.
+        expected: usize,
+    },
+    /// An incidence block stops in the middle of a band.
+    #[error(
+        "{file}: line {line}: incomplete incidence block theta_i_deg = {theta_i_deg} (from line {start}): {rows} rows, a complete block of {bands} bands has {expected}"
+    )]
+    Incomplete {
+        /// File name.
+        file: String,
+        /// Line of the block's last row.
+        line: usize,
+        /// Line of the block's first row.
+        start: usize,
+        /// The block's incidence angle (degrees).
+        theta_i_deg: f64,
+        /// Rows found.
+        rows: usize,
+        /// Bands of a complete block (those of the first block, if known).
+        bands: usize,
+        /// Rows of a complete block, `2 M (M + 1)`.
+        expected: usize,
+    },
+    /// Two incidence blocks with different numbers of bands.
+    #[error(
+        "{file}: line {line}: incidence block theta_i_deg = {theta_i_deg} (from line {start}) has {bands} bands ({rows} rows) but the first block has {first_bands} ({first_rows} rows)"
+    )]
+    Bands {
+        /// File name.
+        file: String,
+        /// Line of the block's last row.
+        line: usize,
+        /// Line of the block's first row.
+        start: usize,
+        /// The block's incidence angle (degrees).
+        theta_i_deg: f64,
+        /// Its bands.
+        bands: usize,
+        /// Its rows.
+        rows: usize,
+        /// Bands of the first block.
+        first_bands: usize,
+        /// Rows of the first block.
+        first_rows: usize,
+    },
+    /// An edge or solid-angle column that does not match the Carlson grid.
+    #[error(
+        "{file}: line {line}, column {column} ({name}): {found} does not match the Carlson grid of {bands} bands, which has {expected}"
+    )]
+    Grid {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// Column number.
+        column: usize,
+        /// Column name.
+        name: &'static str,
+        /// Value in the file.
+        found: f64,
+        /// Value of the grid.
+        expected: f64,
+        /// Bands of the grid.
+        bands: usize,
+    },
+    /// The same incidence angle in two blocks.
+    #[error(
+        "{file}: line {line}: incidence theta_i_deg = {theta_i_deg} already tabulated from line {first}"
+    )]
+    Duplicate {
+        /// File name.
+        file: String,
+        /// First line of the second block.
+        line: usize,
+        /// First line of the first block.
+        first: usize,
+        /// The angle (degrees).
+        theta_i_deg: f64,
+    },
+    /// The fractions of a block sum to infinity.
+    #[error(
+        "{file}: line {line}: the fractions of incidence theta_i_deg = {theta_i_deg} sum to a non-finite reflectance"
+    )]
+    Sum {
+        /// File name.
+        file: String,
+        /// First line of the block.
+        line: usize,
+        /// The angle (degrees).
+        theta_i_deg: f64,
+    },
+    /// A `summary.json` that does not fit the table.
+    #[error("{file}: {message}")]
+    Summary {
+        /// File name.
+        file: String,
+        /// What is wrong (one line).
+        message: String,
+    },
+    /// A header and no data rows.
+    #[error("{file}: line {line}: no data rows after the header")]
+    Empty {
+        /// File name.
+        file: String,
+        /// Last line of the file.
+        line: usize,
+    },
+}
+
+/// Fixed geometry of one Carlson cell (radians, sr).
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    /// `cos² theta` at the cell's lower (horizon-side) edge.
+    mu2_bot: f64,
+    /// `cos² theta` at the cell's upper (pole-side) edge.
+    mu2_top: f64,
+    /// Absolute azimuth edges (radians; cell 0 has `phi_lo < 0`).
+    phi_lo: f64,
+    phi_hi: f64,
+    /// Exact projected solid angle (sr).
+    proj: f64,
+}
+
+/// One tabulated incidence.
+#[derive(Debug, Clone)]
+struct Incidence {
+    /// Incidence polar angle (radians).
+    theta: f64,
+    /// Light azimuth of the block (radians).
+    phi_i: f64,
+    /// Fraction per flat cell (dimensionless).
+    fractions: Vec<f64>,
+    /// Inclusive cumulative sums of `fractions`.
+    cdf: Vec<f64>,
+    /// Reflectance `R`, the sum of the fractions (the last `cdf` entry).
+    reflectance: f64,
+    /// Last cell with a positive fraction (`None`: all zero).
+    last_positive: Option<usize>,
+    /// `sqrt(sum fraction_stderr²)`.
+    cell_stderr: f64,
+    /// Incidence angle and light azimuth as written (degrees), to match
+    /// `summary.json`.
+    theta_deg: f64,
+    phi_i_deg: f64,
+    /// `reflectance_stderr` from `summary.json`, if attached.
+    stated_stderr: Option<f64>,
+}
+
+/// A BRDF tabulated on a Carlson grid at several incidence angles, read from
+/// `brdf.csv`; see the [module documentation](self) for the frame, the file
+/// checks and the sampling method.
+#[derive(Debug, Clone)]
+pub struct BrdfTable {
+    grid: CarlsonGrid,
+    cells: Vec<Cell>,
+    /// Incidences sorted by angle.
+    incidences: Vec<Incidence>,
+    /// Their angles in degrees, as in the file.
+    thetas_deg: Vec<f64>,
+}
+
+/// One parsed data row (the fields the table uses).
+struct Row {
+    line: usize,
+    theta_i: f64,
+    phi_i: f64,
+    band: usize,
+    cell: usize,
+    /// Edge and solid-angle columns, by column index.
+    geometry: [(usize, f64); 6],
+    fraction: f64,
+    fraction_se: f64,
+}
+
+/// Rows of one incidence block, in file order.
+struct Block {
+    start: usize,
+    theta_i: f64,
+    phi_i: f64,
+    rows: Vec<Row>,
+}
+
+fn shorten(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_owned()
+    } else {
+        let mut t: String = s.chars().take(n).collect();
+        t.push_str("...");
+        t
+    }
+}
+
+/// Clamp a uniform number into `[0, 1)` (NaN to 0).
+fn unit(u: f64) -> f64 {
+    if u.is_nan() {
+        0.0
+    } else {
+        u.clamp(0.0, BELOW_ONE)
+    }
+}
+
+/// Rotate `d` about `z` by `angle` (radians).
+fn rotate_z(d: DVec3, angle: f64) -> DVec3 {
+    if angle == 0.0 {
+        return d;
+    }
+    let (s, c) = angle.sin_cos();
+    DVec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z)
+}
+
+impl BrdfTable {
+    /// Read and check a `brdf.csv` file.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`parse`](Self::parse), naming the file by `path`.
+    pub fn load(path: &Path) -> Result<Self, BrdfTableError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
+            file: name.clone(),
+            message: e.to_string(),
+        })?;
+        Self::parse(&text, &name)
+    }
+
+    /// Parse and check the text of a `brdf.csv`; `name` names the file in
+    /// error messages. Blank lines are skipped, `\r\n` line ends and a byte
+    /// order mark are accepted.
+    ///
+    /// # Errors
+    /// The first problem found, as a [`BrdfTableError`] naming `name`, the
+    /// line and the column.
+    pub fn parse(text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let file = || name.to_owned();
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+        let header = lines.next().map_or("", |(_, l)| l);
+        let header = header.strip_prefix('\u{feff}').unwrap_or(header);
+        if header.trim_end() != BRDF_TABLE_HEADER {
+            return Err(BrdfTableError::Header {
+                file: file(),
+                expected: BRDF_TABLE_HEADER,
+                found: shorten(header, 200),
+            });
+        }
+
+        // Group consecutive rows with the same incidence into blocks.
+        let mut blocks: Vec<Block> = Vec::new();
+        let mut last_line = 1;
+        for (line, text) in lines {
+            last_line = line;
+            if text.trim().is_empty() {
+                continue;
+            }
+            let row = parse_row(text, line, name)?;
+            let same = blocks
+                .last()
+                .is_some_and(|b| b.theta_i == row.theta_i && b.phi_i == row.phi_i);
+            if !same {
+                blocks.push(Block {
+                    start: line,
+                    theta_i: row.theta_i,
+                    phi_i: row.phi_i,
+                    rows: Vec::new(),
+                });
+            }
+            if let Some(b) = blocks.last_mut() {
+                check_order(b, &row, name)?;
+                b.rows.push(row);
+            }
+        }
+        if blocks.is_empty() {
+            return Err(BrdfTableError::Empty {
+                file: file(),
+                line: last_line,
+            });
+        }
+
+        // Every block complete, all with the first block's bands.
+        let mut first: Option<(usize, usize)> = None; // (bands, rows)
+        for b in &blocks {
+            let (bands, rows) = check_complete(b, first, name)?;
+            first.get_or_insert((bands, rows));
+        }
+        let bands = first.map_or(1, |(m, _)| m);
+        let grid = CarlsonGrid::new(bands).ok_or_else(|| BrdfTableError::Empty {
+            file: file(),
+            line: last_line,
+        })?;
+        let cells: Vec<Cell> = (0..grid.n_cells())
+            .map(|flat| {
+                let (band, cell) = grid.band_cell(flat);
+                let (mu_bot, mu_top) = grid.mu_edges(band);
+                let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
+                Cell {
+                    mu2_bot: mu_bot * mu_bot,
+                    mu2_top: mu_top * mu_top,
+                    phi_lo,
+                    phi_hi,
+                    proj: grid.projected_solid_angle(band, cell),
+                }
+            })
+            .collect();
+
+        // Geometry columns against the grid.
+        let omega = grid.solid_angle();
+        for b in &blocks {
+            for (flat, row) in b.rows.iter().enumerate() {
+                let (band, _) = grid.band_cell(flat);
+                let (mu_bot, mu_top) = grid.mu_edges(band);
+                let c = &cells[flat];
+                for &(col, found) in &row.geometry {
+                    let (expected, relative) = match col {
+                        C_THETA_LO => (mu_top.acos().to_degrees(), false),
+                        C_THETA_HI => (mu_bot.acos().to_degrees(), false),
+                        C_PHI_LO => (c.phi_lo.to_degrees(), false),
+                        C_PHI_HI => (c.phi_hi.to_degrees(), false),
+                        C_OMEGA => (omega, true),
+                        _ => (c.proj, true),
+                    };
+                    let tol = if relative {
+                        GRID_TOL * expected
+                    } else {
+                        GRID_TOL
+                    };
+                    if (found - expected).abs() > tol {
+                        return Err(BrdfTableError::Grid {
+                            file: file(),
+                            line: row.line,
+                            column: col + 1,
+                            name: COLUMNS[col],
+                            found,
+                            expected,
+                            bands,
+                        });
+                    }
+                }
+            }
+        }
+
+        // Sort by angle; no angle twice.
+        blocks.sort_by(|a, b| a.theta_i.total_cmp(&b.theta_i));
+        for pair in blocks.windows(2) {
+            if pair[0].theta_i == pair[1].theta_i {
+                let (a, b) = if pair[0].start < pair[1].start {
+                    (&pair[0], &pair[1])
+                } else {
+                    (&pair[1], &pair[0])
+                };
+                return Err(BrdfTableError::Duplicate {
+                    file: file(),
+                    line: b.start,
+                    first: a.start,
+                    theta_i_deg: b.theta_i,
+                });
+            }
+        }
+
+        let mut incidences = Vec::with_capacity(blocks.len());
+        for b in &blocks {
+            let fractions: Vec<f64> = b.rows.iter().map(|r| r.fraction).collect();
+            let mut cdf = Vec::with_capacity(fractions.len());
+            let mut total = 0.0;
+            for &f in &fractions {
+                total += f;
+                cdf.push(total);
+            }
+            if !total.is_finite() {
+                return Err(BrdfTableError::Sum {
+                    file: file(),
+                    line: b.start,
+                    theta_i_deg: b.theta_i,
+                });
+            }
+            incidences.push(Incidence {
+                theta: b.theta_i.to_radians(),
+                phi_i: b.phi_i.to_radians(),
+                last_positive: fractions.iter().rposition(|&f| f > 0.0),
+                cell_stderr: b
+                    .rows
+                    .iter()
+                    .map(|r| r.fraction_se * r.fraction_se)
+                    .sum::<f64>()
+                    .sqrt(),
+                theta_deg: b.theta_i,
+                phi_i_deg: b.phi_i,
+                stated_stderr: None,
+                fractions,
+                cdf,
+                reflectance: total,
+            });
+        }
+        Ok(Self {
+            grid,
+            cells,
+            thetas_deg: blocks.iter().map(|b| b.theta_i).collect(),
+            incidences,
+        })
+    }
+
+    /// The same table with the exact reflectance standard errors of the
+    /// `summary.json` at `path` (written by `roks brdf` beside `brdf.csv`).
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`with_summary_text`](Self::with_summary_text).
+    pub fn with_summary(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
+            file: name.clone(),
+            message: e.to_string(),
+        })?;
+        self.with_summary_text(&text, &name)
+    }
+
+    /// As [`with_summary`](Self::with_summary), from the text of
+    /// `summary.json`; `name` names it in error messages. Every tabulated
+    /// incidence must have an entry of `incidence` with the same `theta_deg`
+    /// and `phi_deg`, a finite `reflectance_stderr >= 0`, and a
+    /// `reflectance` within 1e-7 of the table's sum of fractions (the table
+    /// rounds fractions to 10 digits).
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Summary`] naming the file and what is wrong.
+    pub fn with_summary_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let fail = |message: String| BrdfTableError::Summary {
+            file: name.to_owned(),
+            message,
+        };
+        let json: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON: {e}")))?;
+        let entries = json
+            .get("incidence")
+            .and_then(serde_json::Value::as_array)
+            .ok_or_else(|| fail("no `incidence` list".into()))?;
+        let num = |e: &serde_json::Value, key: &str| e.get(key).and_then(serde_json::Value::as_f64);
+        for inc in &mut self.incidences {
+            let theta = inc.theta_deg;
+            let entry = entries
+                .iter()
+                .find(|e| {
+                    num(e, "theta_deg").is_some_and(|t| t == theta)
+                        && num(e, "phi_deg").is_some_and(|p| p == inc.phi_i_deg)
+                })
+                .ok_or_else(|| {
+                    fail(format!(
+                        "no `incidence` entry with theta_deg = {theta}, phi_deg = {} (the table's)",
+                        inc.phi_i_deg
+                    ))
+                })?;
+            let se = num(entry, "reflectance_stderr")
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or_else(|| {
+                    fail(format!(
+                        "incidence theta_deg = {theta}: `reflectance_stderr` is not a finite number >= 0"
+                    ))
+                })?;
+            let r = num(entry, "reflectance").unwrap_or(f64::NAN);
+            let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
+            if !close {
+                return Err(fail(format!(
+                    "incidence theta_deg = {theta}: reflectance {r} is not the table's {} (a summary of another run?)",
+                    inc.reflectance
+                )));
+            }
+            inc.stated_stderr = Some(se);
+        }
+        Ok(self)
+    }
+
+    /// Tabulated incidence polar angles (degrees), ascending.
+    #[must_use]
+    pub fn thetas_deg(&self) -> &[f64] {
+        &self.thetas_deg
+    }
+
+    /// Number of Carlson bands `M` of the table's grid.
+    #[must_use]
+    pub fn bands(&self) -> usize {
+        self.grid.bands()
+    }
+
+    /// Incidence blocks bracketing `theta` (radians) and the weight of the
+    /// upper one: the value at `theta` is `(1 - w) v[i0] + w v[i1]`.
+    /// Clamped at the ends; `None` for NaN.
+    fn bracket(&self, theta: f64) -> Option<(usize, usize, f64)> {
+        if theta.is_nan() {
+            return None;
+        }
+        let n = self.incidences.len();
+        let i1 = self.incidences.partition_point(|inc| inc.theta <= theta);
+        if i1 == 0 {
+            return Some((0, 0, 0.0));
+        }
+        if i1 >= n {
+            return Some((n - 1, n - 1, 0.0));
+        }
+        let (a, b) = (self.incidences[i1 - 1].theta, self.incidences[i1].theta);
+        let w = ((theta - a) / (b - a)).clamp(0.0, 1.0);
+        Some((i1 - 1, i1, w))
+    }
+
+    /// Interpolate a per-incidence value linearly in `theta` (radians).
+    fn interpolate(&self, theta: f64, value: impl Fn(&Incidence) -> f64) -> f64 {
+        match self.bracket(theta) {
+            None => f64::NAN,
+            Some((i0, i1, w)) => {
+                let v0 = value(&self.incidences[i0]);
+                if w == 0.0 {
+                    v0
+                } else {
+                    (1.0 - w) * v0 + w * value(&self.incidences[i1])
+                }
+            }
+        }
+    }
+
+    /// Directional-hemispherical reflectance (dimensionless) at incidence
+    /// `theta_i_rad` (radians): the sum of the fractions of each tabulated
+    /// incidence, interpolated linearly in `theta_i` and clamped to the end
+    /// values outside the tabulated range. NaN for a NaN angle.
+    #[must_use]
+    pub fn reflectance(&self, theta_i_rad: f64) -> f64 {
+        self.interpolate(theta_i_rad, |inc| inc.reflectance)
+    }
+
+    /// Standard error (dimensionless) of [`reflectance`](Self::reflectance),
+    /// interpolated linearly in `theta_i`: per tabulated incidence the value
+    /// of `summary.json` after [`with_summary`](Self::with_summary), else
+    /// `sqrt(sum fraction_stderr²)`, usually an overestimate (see the module
+    /// documentation). NaN for a NaN angle.
+    #[must_use]
+    pub fn reflectance_stderr(&self, theta_i_rad: f64) -> f64 {
+        self.interpolate(theta_i_rad, |inc| {
+            inc.stated_stderr.unwrap_or(inc.cell_stderr)
+        })
+    }
+
+    /// True when the standard errors come from `summary.json` (exact).
+    #[must_use]
+    pub fn has_stated_stderr(&self) -> bool {
+        self.incidences
+            .iter()
+            .all(|inc| inc.stated_stderr.is_some())
+    }
+
+    /// Sample an outgoing direction for incidence `theta_i_rad` (radians) by
+    /// the method of the module documentation, from four uniform numbers `u`
+    /// in `[0, 1)` (out-of-range values are clamped, NaN taken as 0).
+    ///
+    /// Returns the unit direction (local frame, `z > 0`) and the weight
+    /// factor, the reflectance of the tabulated incidence chosen; `None` if
+    /// that incidence reflects nothing (all fractions 0) or `theta_i_rad` is
+    /// NaN.
+    #[must_use]
+    pub fn sample(&self, theta_i_rad: f64, u: [f64; 4]) -> Option<(DVec3, f64)> {
+        let (i0, i1, w) = self.bracket(theta_i_rad)?;
+        let inc = &self.incidences[if unit(u[0]) < w { i1 } else { i0 }];
+        let last = inc.last_positive?;
+        let x = unit(u[1]) * inc.reflectance;
+        let flat = inc.cdf.partition_point(|&c| c <= x).min(last);
+        let c = &self.cells[flat];
+        // mu² in (mu2_bot, mu2_top]: z > 0 even in the horizon band.
+        let mu2 = c.mu2_top - unit(u[2]) * (c.mu2_top - c.mu2_bot);
+        let mu = mu2.sqrt();
+        let s = (1.0 - mu2).max(0.0).sqrt();
+        let phi = c.phi_lo + unit(u[3]) * (c.phi_hi - c.phi_lo) - inc.phi_i;
+        let (sp, cp) = phi.sin_cos();
+        Some((DVec3::new(s * cp, s * sp, mu), inc.reflectance))
+    }
+
+    /// BRDF (sr⁻¹) of the tabulated cell holding `dir` (local frame; need not
+    /// be normalised), `fraction / projected solid angle`, interpolated
+    /// linearly in `theta_i` between the two bracketing incidences (each
+    /// rotated by its own `phi_i`) and clamped outside the range.
+    ///
+    /// 0 for directions with `z <= 0` or of zero length; NaN for a NaN angle
+    /// or a non-finite `dir`. `∫ eval cos(theta) dω` over the hemisphere is
+    /// [`reflectance`](Self::reflectance).
+    #[must_use]
+    pub fn eval(&self, theta_i_rad: f64, dir: DVec3) -> f64 {
+        if !dir.is_finite() {
+            return f64::NAN;
+        }
+        let len = dir.length();
+        let d = if dir.z > 0.0 && len > 0.0 {
+            Some(dir / len)
+        } else {
+            None
+        };
+        self.interpolate(theta_i_rad, |inc| {
+            d.and_then(|d| self.grid.locate(rotate_z(d, inc.phi_i)))
+                .map_or(0.0, |flat| inc.fractions[flat] / self.cells[flat].proj)
+        })
+    }
+}
+
+/// Parse one data row.
+fn parse_row(text: &str, line: usize, name: &str) -> Result<Row, BrdfTableError> {
+    let fields: Vec<&str> = text.split(',').map(str::trim).collect();
+    if fields.len() != COLUMNS.len() {
+        return Err(BrdfTableError::Columns {
+            file: name.to_owned(),
+            line,
+            found: fields.len(),
+        });
+    }
+    let number = |col: usize| -> Result<f64, BrdfTableError> {
+        match fields[col].parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(BrdfTableError::Number {
+                file: name.to_owned(),
+                line,
+                column: col + 1,
+                name: COLUMNS[col],
+                text: shorten(fields[col], 40),
+                what: "finite number",
+            }),
+        }
+    };
+    let integer = |col: usize| -> Result<usize, BrdfTableError> {
+        fields[col]
+            .parse::<usize>()
+            .map_err(|_| BrdfTableError::Number {
+                file: name.to_owned(),
+                line,
+                column: col + 1,
+                name: COLUMNS[col],
+                text: shorten(fields[col], 40),
+                what: "non-negative integer",
+            })
+    };
+    let range = |col: usize, value: f64, requirement: &'static str| BrdfTableError::OutOfRange {
+        file: name.to_owned(),
+        line,
+        column: col + 1,
+        name: COLUMNS[col],
+        value,
+        requirement,
+    };
+    // Every numeric column must be finite, in column order.
+    let mut v = [0.0; 16];
+    for (col, slot) in v.iter_mut().enumerate() {
+        if col != C_BAND && col != C_CELL {
+            *slot = number(col)?;
+        }
+    }
+    let band = integer(C_BAND)?;
+    let cell = integer(C_CELL)?;
+    if !(0.0..90.0).contains(&v[C_THETA_I]) {
+        return Err(range(C_THETA_I, v[C_THETA_I], "must be in [0, 90)"));
+    }
+    for col in [C_FRACTION, C_FRACTION_SE, C_BRDF, C_BRDF_SE] {
+        if v[col] < 0.0 {
+            return Err(range(col, v[col], "must be >= 0"));
+        }
+    }
+    Ok(Row {
+        line,
+        theta_i: v[C_THETA_I],
+        phi_i: v[C_PHI_I],
+        band,
+        cell,
+        geometry: [C_THETA_LO, C_THETA_HI, C_PHI_LO, C_PHI_HI, C_OMEGA, C_PROJ].map(|c| (c, v[c])),
+        fraction: v[C_FRACTION],
+        fraction_se: v[C_FRACTION_SE],
+    })
+}
+
+/// `row` must be the next cell of `block` in grid order.
+fn check_order(block: &Block, row: &Row, name: &str) -> Result<(), BrdfTableError> {
+    let (band, cell) = match block.rows.last() {
+        None => (1, 0),
+        Some(p) if p.cell + 1 >= 4 * p.band => (p.band + 1, 0),
+        Some(p) => (p.band, p.cell + 1),
+    };
+    let err = |col: usize, found: usize, expected: usize| BrdfTableError::Order {
+        file: name.to_owned(),
+        line: row.line,
+        column: col + 1,
+        name: COLUMNS[col],
+        found,
+        expected,
+    };
+    if row.band != band {
+        return Err(err(C_BAND, row.band, band));
+    }
+    if row.cell != cell {
+        return Err(err(C_CELL, row.cell, cell));
+    }
+    Ok(())
+}
+
+/// A block in grid order is complete when its last band is; all blocks must
+/// have the first block's bands. Returns `(bands, rows)`.
+fn check_complete(
+    block: &Block,
+    first: Option<(usize, usize)>,
+    name: &str,
+) -> Result<(usize, usize), BrdfTableError> {
+    let rows = block.rows.len();
+    let last = block
+        .rows
+        .last()
+        .map_or((1, 0, block.start), |r| (r.band, r.cell, r.line));
+    let (band, cell, line) = last;
+    if cell + 1 != 4 * band {
+        let bands = first.map_or(band, |(m, _)| m);
+        return Err(BrdfTableError::Incomplete {
+            file: name.to_owned(),
+            line,
+            start: block.start,
+            theta_i_deg: block.theta_i,
+            rows,
+            bands,
+            expected: 2 * bands * (bands + 1),
+        });
+    }
+    match first {
+        Some((m, first_rows)) if m != band => Err(BrdfTableError::Bands {
+            file: name.to_owned(),
+            line,
+            start: block.start,
+            theta_i_deg: block.theta_i,
+            bands: band,
+            rows,
+            first_bands: m,
+            first_rows,
+        }),
+        _ => Ok((band, rows)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+    use std::f64::consts::{PI, TAU};
+    use std::fmt::Write as _;
+
+    /// One block of a test table: angle, light azimuth (degrees), fraction
+    /// per flat cell.
+    struct TestBlock {
+        theta: f64,
+        phi_i: f64,
+        fractions: Vec<f64>,
+    }
+
+    /// `brdf.csv` text for `blocks` on a grid of `m` bands, written like
+    /// `output::brdf_csv` but with full-precision numbers.
+    fn csv(m: usize, blocks: &[TestBlock]) -> String {
+        format!("{BRDF_TABLE_HEADER}\n{}", rows(m, blocks))
+    }
+
+    /// The data rows of [`csv`], without the header.
+    fn rows(m: usize, blocks: &[TestBlock]) -> String {
+        let g = CarlsonGrid::new(m).unwrap();
+        let mut s = String::new();
+        for b in blocks {
+            assert_eq!(b.fractions.len(), g.n_cells());
+            for (flat, &f) in b.fractions.iter().enumerate() {
+                let (band, cell) = g.band_cell(flat);
+                let (bot, top) = g.mu_edges(band);
+                let (lo, hi) = g.phi_edges(band, cell);
+                let (t, p) = g.centre(band, cell);
+                let proj = g.projected_solid_angle(band, cell);
+                writeln!(
+                    s,
+                    "{},{},{band},{cell},{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e}",
+                    b.theta,
+                    b.phi_i,
+                    top.acos().to_degrees(),
+                    bot.acos().to_degrees(),
+                    lo.to_degrees(),
+                    hi.to_degrees(),
+                    t.to_degrees(),
+                    p.to_degrees(),
+                    g.solid_angle(),
+                    proj,
+                    f,
+                    0.01 * f,
+                    f / proj,
+                    0.01 * f / proj
+                )
+                .unwrap();
+            }
+        }
+        s
+    }
+
+    fn lambertian(m: usize, albedo: f64) -> Vec<f64> {
+        let g = CarlsonGrid::new(m).unwrap();
+        (0..g.n_cells())
+            .map(|flat| {
+                let (band, cell) = g.band_cell(flat);
+                albedo * g.projected_solid_angle(band, cell) / PI
+            })
+            .collect()
+    }
+
+    fn dir(theta_deg: f64, phi_deg: f64) -> DVec3 {
+        let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+        DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+    }
+
+    /// Upper `p = 1e-4` point of chi-square with `dof` degrees of freedom
+    /// (Wilson-Hilferty).
+    fn chi2_crit(dof: f64) -> f64 {
+        let z = 3.719; // one-sided normal quantile of 1e-4
+        let h = 2.0 / (9.0 * dof);
+        dof * (1.0 - h + z * h.sqrt()).powi(3)
+    }
+
+    /// Kolmogorov-Smirnov distance of samples from uniform on [0, 1].
+    fn ks_uniform(mut x: Vec<f64>) -> f64 {
+        x.sort_by(f64::total_cmp);
+        let n = x.len() as f64;
+        x.iter()
+            .enumerate()
+            .map(|(i, &v)| (v - i as f64 / n).abs().max(((i + 1) as f64 / n - v).abs()))
+            .fold(0.0, f64::max)
+    }
+
+    fn uniforms(rng: &mut Pcg64Mcg) -> [f64; 4] {
+        [rng.random(), rng.random(), rng.random(), rng.random()]
+    }
+
+    #[test]
+    fn header_matches_writer() {
+        assert_eq!(BRDF_TABLE_HEADER, crate::output::BRDF_HEADER);
+        assert_eq!(COLUMNS.join(","), BRDF_TABLE_HEADER);
+    }
+
+    fn lambert_table() -> BrdfTable {
+        let m = 8;
+        let blocks: Vec<TestBlock> = [0.0, 30.0, 60.0]
+            .iter()
+            .map(|&theta| TestBlock {
+                theta,
+                phi_i: 0.0,
+                fractions: lambertian(m, 0.7),
+            })
+            .collect();
+        BrdfTable::parse(&csv(m, &blocks), "lambert.csv").unwrap()
+    }
+
+    #[test]
+    fn lambertian_reflectance_and_eval() {
+        let t = lambert_table();
+        assert_eq!(t.thetas_deg(), &[0.0, 30.0, 60.0]);
+        assert_eq!(t.bands(), 8);
+        let mut rng = Pcg64Mcg::seed_from_u64(7);
+        for theta in [-0.3, 0.0, 0.2, 30f64.to_radians(), 0.9, 1.2, 1.5] {
+            assert!((t.reflectance(theta) - 0.7).abs() < 1e-14, "{theta}");
+            // From the file alone: sqrt(sum (0.01 f)^2).
+            let sum_f2: f64 = lambertian(8, 0.7).iter().map(|f| f * f).sum();
+            let bound = 0.01 * sum_f2.sqrt();
+            assert!((t.reflectance_stderr(theta) - bound).abs() < 1e-15);
+            for _ in 0..200 {
+                let d = dir(90.0 * rng.random::<f64>(), 360.0 * rng.random::<f64>());
+                assert!((t.eval(theta, d) - 0.7 / PI).abs() < 1e-14);
+                // Not normalised: same value.
+                assert!((t.eval(theta, 3.0 * d) - 0.7 / PI).abs() < 1e-14);
+            }
+            assert_eq!(t.eval(theta, DVec3::new(0.3, 0.1, -0.5)), 0.0);
+            assert_eq!(t.eval(theta, DVec3::ZERO), 0.0);
+        }
+    }
+
+    /// 2e5 samples at an angle between tables: mu² and phi uniform (KS) and
+    /// cell counts proportional to projected solid angle (chi-square), all at
+    /// p = 1e-4; weight 0.7 every time.
+    #[test]
+    fn lambertian_sampling() {
+        let t = lambert_table();
+        let g = CarlsonGrid::new(8).unwrap();
+        let n = 200_000;
+        let mut rng = Pcg64Mcg::seed_from_u64(2024);
+        let mut mu2 = Vec::with_capacity(n);
+        let mut phi = Vec::with_capacity(n);
+        let mut counts = vec![0u64; g.n_cells()];
+        for _ in 0..n {
+            let (d, w) = t.sample(45f64.to_radians(), uniforms(&mut rng)).unwrap();
+            assert!((w - 0.7).abs() < 1e-14);
+            assert!(d.z > 0.0 && (d.length() - 1.0).abs() < 1e-14);
+            mu2.push(d.z * d.z);
+            phi.push((d.y.atan2(d.x) + PI) / (2.0 * PI));
+            counts[g.locate(d).unwrap()] += 1;
+        }
+        let crit = (-(1e-4f64 / 2.0).ln() / (2.0 * n as f64)).sqrt();
+        let (d_mu, d_phi) = (ks_uniform(mu2), ks_uniform(phi));
+        assert!(d_mu < crit, "KS mu^2: {d_mu} >= {crit}");
+        assert!(d_phi < crit, "KS phi: {d_phi} >= {crit}");
+        let chi2: f64 = counts
+            .iter()
+            .enumerate()
+            .map(|(flat, &c)| {
+                let (band, cell) = g.band_cell(flat);
+                let e = n as f64 * g.projected_solid_angle(band, cell) / PI;
+                (c as f64 - e).powi(2) / e
+            })
+            .sum();
+        let dof = (g.n_cells() - 1) as f64;
+        assert!(chi2 < chi2_crit(dof), "chi2 {chi2} for {dof} dof");
+    }
+
+    /// All the weight in one cell per incidence (the specular cell), with a
+    /// different reflectance per incidence.
+    fn mirror_blocks(m: usize, phi_i: f64) -> (Vec<TestBlock>, Vec<usize>) {
+        let g = CarlsonGrid::new(m).unwrap();
+        let mut cells = Vec::new();
+        let blocks = [(0.0, 0.5), (30.0, 0.6), (60.0, 0.9)]
+            .iter()
+            .map(|&(theta, r)| {
+                // Specular direction in absolute azimuth phi_i + 180.
+                // (At normal incidence the azimuth still follows phi_i.)
+                let c = g.locate(dir(f64::max(theta, 1e-6), phi_i + 180.0)).unwrap();
+                cells.push(c);
+                let mut fractions = vec![0.0; g.n_cells()];
+                fractions[c] = r;
+                TestBlock {
+                    theta,
+                    phi_i,
+                    fractions,
+                }
+            })
+            .collect();
+        (blocks, cells)
+    }
+
+    #[test]
+    fn mirror_cells_and_interpolation_weights() {
+        let m = 10;
+        let g = CarlsonGrid::new(m).unwrap();
+        let (blocks, cells) = mirror_blocks(m, 0.0);
+        let t = BrdfTable::parse(&csv(m, &blocks), "mirror.csv").unwrap();
+        let mut rng = Pcg64Mcg::seed_from_u64(99);
+        // At, below and above the tabulated angles: one cell, one weight.
+        for (theta, k) in [(0.0, 0), (-0.2, 0), (30.0, 1), (60.0, 2), (85.0, 2)] {
+            let r = [0.5, 0.6, 0.9][k];
+            for _ in 0..2000 {
+                let (d, w) = t
+                    .sample(f64::to_radians(theta), uniforms(&mut rng))
+                    .unwrap();
+                assert_eq!(g.locate(d), Some(cells[k]), "theta {theta}");
+                assert_eq!(w, r);
+            }
+            assert_eq!(t.reflectance(f64::to_radians(theta)), r);
+        }
+        // Between 30 and 60: the 60 table with probability w (binomial, 4 sigma).
+        for (theta, w) in [(40.0, 1.0 / 3.0), (55.0, 5.0 / 6.0), (15.0, 0.5)] {
+            let (lo, hi) = if theta < 30.0 { (0, 1) } else { (1, 2) };
+            let n = 100_000;
+            let mut upper = 0u64;
+            for _ in 0..n {
+                let (d, wt) = t
+                    .sample(f64::to_radians(theta), uniforms(&mut rng))
+                    .unwrap();
+                let c = g.locate(d).unwrap();
+                if c == cells[hi] {
+                    upper += 1;
+                    assert_eq!(wt, [0.5, 0.6, 0.9][hi]);
+                } else {
+                    assert_eq!(c, cells[lo]);
+                    assert_eq!(wt, [0.5, 0.6, 0.9][lo]);
+                }
+            }
+            let sigma = (n as f64 * w * (1.0 - w)).sqrt();
+            assert!(
+                (upper as f64 - n as f64 * w).abs() < 4.0 * sigma,
+                "theta {theta}: {upper} of {n}, expected {w}"
+            );
+            let r = [0.5, 0.6, 0.9];
+            let expect = (1.0 - w) * r[lo] + w * r[hi];
+            assert!((t.reflectance(f64::to_radians(theta)) - expect).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn all_zero_is_absorbed() {
+        let m = 3;
+        let g = CarlsonGrid::new(m).unwrap();
+        let mut half = vec![0.0; g.n_cells()];
+        half[5] = 0.4;
+        let blocks = [
+            TestBlock {
+                theta: 10.0,
+                phi_i: 0.0,
+                fractions: vec![0.0; g.n_cells()],
+            },
+            TestBlock {
+                theta: 20.0,
+                phi_i: 0.0,
+                fractions: half,
+            },
+        ];
+        let t = BrdfTable::parse(&csv(m, &blocks), "zero.csv").unwrap();
+        assert_eq!(t.sample(0.1, [0.5; 4]), None);
+        assert_eq!(t.reflectance(0.0), 0.0);
+        assert_eq!(t.reflectance_stderr(0.0), 0.0);
+        // 15 degrees: absorbed exactly when u[0] >= 0.5.
+        let th = 15f64.to_radians();
+        assert_eq!(t.sample(th, [0.6, 0.5, 0.5, 0.5]), None);
+        let (d, w) = t.sample(th, [0.4, 0.5, 0.5, 0.5]).unwrap();
+        assert_eq!((g.locate(d), w), (Some(5), 0.4));
+        assert!((t.reflectance(th) - 0.2).abs() < 1e-15);
+    }
+
+    /// A table traced with the light at phi_i = 90 deg, i.e. the phi_i = 0
+    /// table turned by 90 deg (cell k of band j -> k + j), samples the same
+    /// local directions and has the same BRDF in the local frame.
+    #[test]
+    fn rotation_to_the_incidence_azimuth() {
+        let m = 6;
+        let g = CarlsonGrid::new(m).unwrap();
+        // Mirror tables: the same u give the same direction.
+        let (b0, _) = mirror_blocks(m, 0.0);
+        let (b90, _) = mirror_blocks(m, 90.0);
+        let t0 = BrdfTable::parse(&csv(m, &b0), "phi0.csv").unwrap();
+        let t90 = BrdfTable::parse(&csv(m, &b90), "phi90.csv").unwrap();
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        for _ in 0..10_000 {
+            let theta = 1.5 * rng.random::<f64>();
+            let u = uniforms(&mut rng);
+            let (d0, w0) = t0.sample(theta, u).unwrap();
+            let (d90, w90) = t90.sample(theta, u).unwrap();
+            assert!((d0 - d90).length() < 1e-12, "{d0} vs {d90}");
+            assert_eq!(w0, w90);
+        }
+        // A structured table: eval agrees everywhere, and samples from the
+        // turned table follow the fractions of the unturned one in the local
+        // frame (chi-square, p = 1e-4).
+        let turn = |f: &[f64]| -> Vec<f64> {
+            let mut out = vec![0.0; f.len()];
+            for (flat, &v) in f.iter().enumerate() {
+                let (band, cell) = g.band_cell(flat);
+                out[g.index(band, (cell + band) % (4 * band))] = v;
+            }
+            out
+        };
+        let mut r = Pcg64Mcg::seed_from_u64(11);
+        let f0: Vec<Vec<f64>> = (0..2)
+            .map(|_| (0..g.n_cells()).map(|_| r.random::<f64>() * 0.02).collect())
+            .collect();
+        let mk = |phi_i: f64, turned: bool| -> BrdfTable {
+            let blocks: Vec<TestBlock> = [20.0, 50.0]
+                .iter()
+                .zip(&f0)
+                .map(|(&theta, f)| TestBlock {
+                    theta,
+                    phi_i,
+                    fractions: if turned { turn(f) } else { f.clone() },
+                })
+                .collect();
+            BrdfTable::parse(&csv(m, &blocks), "t.csv").unwrap()
+        };
+        let (t0, t90) = (mk(0.0, false), mk(90.0, true));
+        for _ in 0..2000 {
+            let d = dir(89.9 * rng.random::<f64>(), 360.0 * rng.random::<f64>());
+            let theta = 1.4 * rng.random::<f64>();
+            let (a, b) = (t0.eval(theta, d), t90.eval(theta, d));
+            assert!((a - b).abs() <= 1e-12 * a.abs().max(1.0), "{a} vs {b}");
+        }
+        let n = 200_000;
+        let mut counts = vec![0u64; g.n_cells()];
+        for _ in 0..n {
+            let (d, _) = t90.sample(20f64.to_radians(), uniforms(&mut rng)).unwrap();
+            counts[g.locate(d).unwrap()] += 1;
+        }
+        let total: f64 = f0[0].iter().sum();
+        let chi2: f64 = counts
+            .iter()
+            .zip(&f0[0])
+            .map(|(&c, &f)| {
+                let e = n as f64 * f / total;
+                (c as f64 - e).powi(2) / e
+            })
+            .sum();
+        let dof = (g.n_cells() - 1) as f64;
+        assert!(chi2 < chi2_crit(dof), "chi2 {chi2} for {dof} dof");
+    }
+
+    /// `∫ eval cos dω = reflectance` at any angle, with tables turned to
+    /// azimuths that do not align their cells with the local grid. The
+    /// rotation keeps `z`, so within a band `eval` is piecewise constant in
+    /// `phi` with breaks at the cell edges of each table, shifted by its
+    /// `-phi_i`: the integral over the band is exact as a sum over those
+    /// intervals.
+    #[test]
+    fn eval_integrates_to_reflectance() {
+        let m = 5;
+        let g = CarlsonGrid::new(m).unwrap();
+        let mut r = Pcg64Mcg::seed_from_u64(3);
+        let phis = [0.0, 30.0, 200.0];
+        let blocks: Vec<TestBlock> = [0.0, 45.0, 80.0]
+            .iter()
+            .zip(phis)
+            .map(|(&theta, phi_i)| TestBlock {
+                theta,
+                phi_i,
+                fractions: (0..g.n_cells()).map(|_| r.random::<f64>() * 0.02).collect(),
+            })
+            .collect();
+        let t = BrdfTable::parse(&csv(m, &blocks), "t.csv").unwrap();
+        for theta in [-0.1, 0.0, 0.3, 45f64.to_radians(), 1.0, 1.4, 1.5] {
+            let mut integral = 0.0;
+            for band in 1..=m {
+                let (bot, top) = g.mu_edges(band);
+                let mu = 0.5 * (bot + top);
+                let dphi = TAU / (4 * band) as f64;
+                let mut breaks: Vec<f64> = phis
+                    .iter()
+                    .flat_map(|p| {
+                        (0..4 * band).map(move |k| {
+                            ((k as f64 - 0.5) * dphi - p.to_radians()).rem_euclid(TAU)
+                        })
+                    })
+                    .collect();
+                breaks.sort_by(f64::total_cmp);
+                breaks.push(breaks[0] + TAU);
+                for w in breaks.windows(2) {
+                    let p = 0.5 * (w[0] + w[1]);
+                    let s = (1.0 - mu * mu).sqrt();
+                    let d = DVec3::new(s * p.cos(), s * p.sin(), mu);
+                    integral += t.eval(theta, d) * (w[1] - w[0]) * 0.5 * (top * top - bot * bot);
+                }
+            }
+            let refl = t.reflectance(theta);
+            assert!((integral - refl).abs() < 1e-12, "{integral} vs {refl}");
+        }
+    }
+
+    /// Bad input: no panics, NaN or None.
+    #[test]
+    fn bad_arguments() {
+        let t = lambert_table();
+        assert!(t.reflectance(f64::NAN).is_nan());
+        assert!(t.reflectance_stderr(f64::NAN).is_nan());
+        assert!(t.eval(f64::NAN, DVec3::Z).is_nan());
+        assert!(t.eval(0.1, DVec3::new(f64::NAN, 0.0, 1.0)).is_nan());
+        assert_eq!(t.sample(f64::NAN, [0.5; 4]), None);
+        for u in [
+            [f64::NAN; 4],
+            [1.0; 4],
+            [-3.0; 4],
+            [f64::INFINITY; 4],
+            [0.0; 4],
+        ] {
+            let (d, w) = t.sample(0.4, u).unwrap();
+            assert!(d.z > 0.0 && d.is_finite() && (d.length() - 1.0).abs() < 1e-14);
+            assert_eq!(w, t.incidences[0].reflectance);
+        }
+        assert!(t.sample(f64::INFINITY, [0.5; 4]).is_some());
+        assert!(t.sample(f64::NEG_INFINITY, [0.5; 4]).is_some());
+    }
+
+    fn err(text: &str) -> String {
+        BrdfTable::parse(text, "bad.csv").unwrap_err().to_string()
+    }
+
+    /// Replace field `col` (0-based) of physical line `line` (1-based).
+    fn edit(text: &str, line: usize, col: usize, value: &str) -> String {
+        text.lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if i + 1 == line {
+                    let mut f: Vec<&str> = l.split(',').collect();
+                    f[col] = value;
+                    f.join(",")
+                } else {
+                    l.to_owned()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+
+    #[test]
+    fn parse_errors_name_file_line_and_column() {
+        let m = 2; // 12 rows per block
+        let blocks: Vec<TestBlock> = [0.0, 40.0]
+            .iter()
+            .map(|&theta| TestBlock {
+                theta,
+                phi_i: 0.0,
+                fractions: lambertian(m, 0.7),
+            })
+            .collect();
+        let good = csv(m, &blocks);
+        assert!(BrdfTable::parse(&good, "good.csv").is_ok());
+        let check = |e: String, needles: &[&str]| {
+            assert!(!e.contains('\n'), "{e}");
+            assert!(e.starts_with("bad.csv: "), "{e}");
+            for n in needles {
+                assert!(e.contains(n), "`{n}` not in: {e}");
+            }
+        };
+
+        // Header.
+        check(
+            err(&good.replacen("fraction,", "fractions,", 1)),
+            &["line 1", "header"],
+        );
+        check(err(""), &["line 1", "header"]);
+        check(
+            err(&format!("{BRDF_TABLE_HEADER}\n\n")),
+            &["line 2", "no data"],
+        );
+        // Incomplete blocks: the last row of block 1 removed (line 13), or
+        // the last row of the file.
+        let lines: Vec<&str> = good.lines().collect();
+        let mut cut = lines.clone();
+        cut.remove(12);
+        check(
+            err(&cut.join("\n")),
+            &["line 12", "incomplete", "11 rows", "has 12"],
+        );
+        check(
+            err(&lines[..lines.len() - 1].join("\n")),
+            &["line 24", "incomplete", "theta_i_deg = 40", "11 rows"],
+        );
+        // A missing row in the middle: out of grid order at line 6.
+        let mut gap = lines.clone();
+        gap.remove(5);
+        check(
+            err(&gap.join("\n")),
+            &["line 6", "column 4 (cell)", "found 1, expected 0"],
+        );
+        // Block 2 with a whole band missing: band count differs.
+        let short = format!("{}\n", lines[..17].join("\n"));
+        check(err(&short), &["line 17", "1 bands", "first block has 2"]);
+        // NaN, inf, text, negative fraction, negative stderr.
+        check(
+            err(&edit(&good, 5, 12, "NaN")),
+            &["line 5", "column 13 (fraction)", "`NaN`"],
+        );
+        check(
+            err(&edit(&good, 9, 14, "inf")),
+            &["line 9", "column 15 (brdf)", "finite"],
+        );
+        check(
+            err(&edit(&good, 3, 0, "abc")),
+            &["line 3", "column 1 (theta_i_deg)"],
+        );
+        check(
+            err(&edit(&good, 7, 12, "-1e-3")),
+            &["line 7", "column 13 (fraction)", ">= 0"],
+        );
+        check(
+            err(&edit(&good, 8, 13, "-1")),
+            &["line 8", "column 14 (fraction_stderr)"],
+        );
+        check(
+            err(&edit(&good, 4, 2, "-1")),
+            &["line 4", "column 3 (band)", "integer"],
+        );
+        // Angles and columns.
+        let all_90 = good.replace("\n40,", "\n90,");
+        check(err(&all_90), &["line 14", "column 1", "[0, 90)"]);
+        check(err(&edit(&good, 6, 15, "1,2")), &["line 6", "found 17"]);
+        // Geometry that is not the grid.
+        check(
+            err(&edit(&good, 10, 6, "12.5")),
+            &["line 10", "column 7 (phi_lo_deg)", "Carlson"],
+        );
+        check(
+            err(&edit(&good, 2, 11, "0.3")),
+            &["line 2", "column 12 (projected_solid_angle_sr)"],
+        );
+        // Same angle twice (different azimuth).
+        let again = TestBlock {
+            theta: 0.0,
+            phi_i: 45.0,
+            fractions: lambertian(m, 0.7),
+        };
+        let twice = format!("{good}{}", rows(m, &[again]));
+        check(err(&twice), &["line 26", "already tabulated from line 2"]);
+        // File not found.
+        let e = BrdfTable::load(Path::new("/nonexistent/brdf.csv"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("/nonexistent/brdf.csv: cannot read"), "{e}");
+        // Accepted variations: CRLF, BOM, unsorted blocks, trailing blanks.
+        let crlf = format!("\u{feff}{}\r\n\r\n", good.trim_end().replace('\n', "\r\n"));
+        assert_eq!(
+            BrdfTable::parse(&crlf, "x").unwrap().thetas_deg(),
+            &[0.0, 40.0]
+        );
+        let half = TestBlock {
+            theta: 0.0,
+            phi_i: 0.0,
+            fractions: lambertian(m, 0.5),
+        };
+        let swapped = format!(
+            "{BRDF_TABLE_HEADER}\n{}{}",
+            rows(m, &blocks[1..]),
+            rows(m, &[half])
+        );
+        let t = BrdfTable::parse(&swapped, "x").unwrap();
+        assert_eq!(t.thetas_deg(), &[0.0, 40.0]);
+        assert!((t.reflectance(0.0) - 0.5).abs() < 1e-14);
+        assert!((t.reflectance(1.0) - 0.7).abs() < 1e-14);
+    }
+
+    #[test]
+    fn summary_errors() {
+        let t = lambert_table();
+        let entry = |theta: f64, r: f64, se: f64| serde_json::json!({"theta_deg": theta, "phi_deg": 0.0, "reflectance": r, "reflectance_stderr": se});
+        let good = serde_json::json!({"incidence": [entry(60.0, 0.7, 3e-4), entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 2e-4)]});
+        let ts = t
+            .clone()
+            .with_summary_text(&good.to_string(), "s.json")
+            .unwrap();
+        assert!((ts.reflectance_stderr(0.0) - 1e-4).abs() < 1e-18);
+        assert!((ts.reflectance_stderr(45f64.to_radians()) - 2.5e-4).abs() < 1e-15);
+        let bad = |json: String, needle: &str| {
+            let e = t
+                .clone()
+                .with_summary_text(&json, "s.json")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with("s.json: ") && e.contains(needle) && !e.contains('\n'),
+                "{e}"
+            );
+        };
+        bad("{".into(), "invalid JSON");
+        bad("{}".into(), "no `incidence`");
+        bad(
+            serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4)]})
+                .to_string(),
+            "theta_deg = 60",
+        );
+        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.71, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "not the table's");
+        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, -1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "reflectance_stderr");
+        let e = t
+            .with_summary(Path::new("/nonexistent/summary.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("/nonexistent/summary.json: cannot read"),
+            "{e}"
+        );
+    }
+
+    /// Round trip through the real writer: a short run of the default scene,
+    /// `output::brdf_csv`, parse. The table's reflectance is the run's to
+    /// 1e-9 at every tabulated angle, its exact standard error (with the
+    /// photon count) the run's to 1e-6 relative, and the bound above it.
+    #[test]
+    fn round_trip_with_the_writer() {
+        let scene = crate::scene::micro::MicroScene::default_scene();
+        let mut run = scene.brdf_run();
+        run.photons = 20_000;
+        run.theta_deg = vec![0.0, 40.0, 80.0];
+        let results = run.run(&scene.surface, &|_| {});
+        let text = crate::output::brdf_csv(&run, &results);
+        let t = BrdfTable::parse(&text, "roundtrip.csv").unwrap();
+        // Through a file too.
+        let path = std::env::temp_dir().join(format!("roks-brdf-table-{}.csv", std::process::id()));
+        std::fs::write(&path, &text).unwrap();
+        let loaded = BrdfTable::load(&path);
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(loaded.unwrap().thetas_deg(), t.thetas_deg());
+        let summary = serde_json::json!({
+            "incidence": results.iter().map(crate::output::incidence_json).collect::<Vec<_>>(),
+        })
+        .to_string();
+        assert!(!t.has_stated_stderr());
+        let te = t
+            .clone()
+            .with_summary_text(&summary, "summary.json")
+            .unwrap();
+        assert!(te.has_stated_stderr());
+        assert_eq!(t.thetas_deg(), &[0.0, 40.0, 80.0]);
+        assert_eq!(t.bands(), run.bands);
+        for r in &results {
+            let theta = r.theta_i_deg.to_radians();
+            let (refl, se) = r.reflectance();
+            assert!(
+                (t.reflectance(theta) - refl).abs() < 1e-9,
+                "{} vs {refl}",
+                t.reflectance(theta)
+            );
+            let exact = te.reflectance_stderr(theta);
+            assert!((exact - se).abs() <= 1e-12 * se, "stderr {exact} vs {se}");
+            assert!(t.reflectance_stderr(theta) >= exact);
+            // Sampling returns the reflectance as weight and a direction in a
+            // cell with weight.
+            let mut rng = Pcg64Mcg::seed_from_u64(1);
+            for _ in 0..1000 {
+                let (d, w) = t.sample(theta, uniforms(&mut rng)).unwrap();
+                assert_eq!(w, t.reflectance(theta));
+                assert!(t.eval(theta, d) > 0.0);
+            }
+        }
+    }
+}

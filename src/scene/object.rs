@@ -1,0 +1,554 @@
+//! Object scenes: a 3-D object of quadric zones with rough walls (`roks trace`).
+//!
+//! ```toml
+//! name = "cavity"                  # optional; output goes to out/<name>/ (default: file stem)
+//! seed = 1                         # tracing seed (optional)
+//!
+//! [quadrics]                       # named surfaces (see scene::QuadricSpec): plane, quadric,
+//! wall  = { cylinder_z = { r = 25.0 } }              # sphere, ellipsoid, cylinder_x/y/z,
+//! front = { plane = [0.0, 0.0, 1.0, 0.0] }           # cone_x/y/z, paraboloid_z
+//! back  = { cone_z = { apex = [0.0, 0.0, -150.0], t2 = 0.25 } }
+//! tip   = { plane = [0.0, 0.0, 1.0, -150.0] }
+//! outer = { cylinder_z = { r = 30.0 } }
+//!
+//! [[cells]]
+//! name = "cavity"
+//! region = "-wall -front -back +tip"   # OpenMC region syntax
+//! fill = "void"                        # "void": photons fly; "solid": they reflect at its boundary
+//! [[cells]]
+//! name = "body"
+//! region = "-outer -front +tip ~(-wall -back)"
+//! fill = "solid"
+//!
+//! [walls]                              # model of each surface, as seen from a void cell
+//! wall = "z302"
+//! back = "z302"
+//!
+//! [models.z302]                        # exactly one kind:
+//! micro = "z302-micro.toml"            #   descend into a micro scene (periodic) at every hit
+//! # brdf = "out/z302/brdf.csv"         #   sample a table written by `roks brdf`
+//! # specular = 0.03                    #   ideal reflection: specular and Lambertian parts
+//! # diffuse = 0.02
+//! # n = 1.5                            #   Fresnel-weighted specular (k optional)
+//! # k = 0.1
+//! # table = "r.csv"                    #   specular, reflectance vs angle
+//! # reflectance = 0.9                  #   specular, constant reflectance
+//!
+//! [[sources]]
+//! beam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }           # parallel circular beam
+//! sweep = { from = [0.0, 0.0, 10.0], to = [24.0, 0.0, 10.0], steps = 49 }
+//! # position = [0.0, 0.0, 10.0]        # or one beam position
+//! photons = 200000                     # per position
+//!
+//! [tally]
+//! bands = 32                           # far field: Carlson grid mirrored to the full sphere
+//! farfield = true
+//!
+//! [transport]
+//! max_bounces = 100000
+//! roulette_weight = 0.01
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::DVec3;
+use serde::Deserialize;
+
+use super::micro::{MicroScene, TransportSpec};
+use super::{MaterialSpec, QuadricSpec, SceneError, Source, parse_toml};
+use crate::geometry::body::{Aabb, Body, MAX_SURFACES};
+use crate::geometry::quadric::Quadric;
+use crate::geometry::region;
+use crate::object::source::Beam;
+use crate::object::wall::WallModel;
+use crate::object::{Object, SolidCell, VoidCell};
+use crate::optics::brdf_table::BrdfTable;
+use crate::optics::material::Reflectance;
+use crate::transport::micro::Controls;
+use crate::transport::object::{ObjectRun, Walls};
+
+/// The object scene as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSceneSpec {
+    /// Scene name (output folder); default: file stem.
+    pub name: Option<String>,
+    /// Tracing seed (default 1).
+    pub seed: Option<u64>,
+    /// Named surfaces.
+    #[serde(default)]
+    pub quadrics: BTreeMap<String, QuadricSpec>,
+    /// Cells.
+    #[serde(default)]
+    pub cells: Vec<CellSpec>,
+    /// Surface name -> model name.
+    #[serde(default)]
+    pub walls: BTreeMap<String, String>,
+    /// Wall models.
+    #[serde(default)]
+    pub models: BTreeMap<String, ModelSpec>,
+    /// Light sources.
+    #[serde(default)]
+    pub sources: Vec<SourceSpec>,
+    /// Far-field tally.
+    #[serde(default)]
+    pub tally: ObjectTallySpec,
+    /// History limits.
+    #[serde(default)]
+    pub transport: TransportSpec,
+}
+
+/// `[[cells]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CellSpec {
+    /// Cell name.
+    pub name: String,
+    /// OpenMC region over `[quadrics]`.
+    pub region: String,
+    /// `void` or `solid`.
+    pub fill: Fill,
+}
+
+/// Cell fill.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Fill {
+    /// Photons fly here.
+    Void,
+    /// Photons reflect at its boundary.
+    Solid,
+}
+
+/// `[models.NAME]`: exactly one kind of model.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSpec {
+    /// Micro scene file for on-the-fly descent.
+    pub micro: Option<String>,
+    /// BRDF table written by `roks brdf`.
+    pub brdf: Option<String>,
+    /// Ideal specular reflectance.
+    pub specular: Option<f64>,
+    /// Ideal diffuse (Lambertian) reflectance.
+    pub diffuse: Option<f64>,
+    /// Fresnel: real part of the refractive index.
+    pub n: Option<f64>,
+    /// Fresnel: extinction coefficient.
+    pub k: Option<f64>,
+    /// Specular with reflectance vs angle (CSV).
+    pub table: Option<String>,
+    /// Specular with constant reflectance.
+    pub reflectance: Option<f64>,
+}
+
+/// `[[sources]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SourceSpec {
+    /// The beam.
+    pub beam: BeamSpec,
+    /// A sweep of the beam axis.
+    pub sweep: Option<SweepSpec>,
+    /// One beam position.
+    pub position: Option<[f64; 3]>,
+    /// Photons per position.
+    #[serde(default = "default_photons")]
+    pub photons: u64,
+}
+
+fn default_photons() -> u64 {
+    100_000
+}
+
+/// `beam = { .. }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BeamSpec {
+    /// Direction of travel.
+    pub direction: [f64; 3],
+    /// Diameter (length units, >= 0).
+    pub diameter: f64,
+}
+
+/// `sweep = { .. }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    /// First beam position.
+    pub from: [f64; 3],
+    /// Last beam position.
+    pub to: [f64; 3],
+    /// Number of positions (>= 1).
+    pub steps: usize,
+}
+
+/// `[tally]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectTallySpec {
+    /// Carlson bands of the far field (per hemisphere).
+    #[serde(default = "default_bands")]
+    pub bands: usize,
+    /// Write farfield.csv.
+    #[serde(default)]
+    pub farfield: bool,
+}
+
+impl Default for ObjectTallySpec {
+    fn default() -> Self {
+        Self {
+            bands: default_bands(),
+            farfield: false,
+        }
+    }
+}
+
+fn default_bands() -> usize {
+    32
+}
+
+/// An object scene ready to trace.
+#[derive(Debug, Clone)]
+pub struct ObjectScene {
+    /// Scene name.
+    pub name: String,
+    /// Where it came from.
+    pub source: Source,
+    /// The geometry.
+    pub object: Object,
+    /// Model of each surface id.
+    pub walls: Walls,
+    /// Models, indexed by `walls`.
+    pub models: Vec<WallModel>,
+    /// Model names.
+    pub model_names: Vec<String>,
+    /// Beam positions, source by source.
+    pub beams: Vec<Beam>,
+    /// Which `[[sources]]` entry each beam comes from.
+    pub beam_source: Vec<usize>,
+    /// Photons per position, per beam.
+    pub photons: Vec<u64>,
+    /// What to run (photons per position is per source; see `photons`).
+    pub run: ObjectRun,
+}
+
+impl ObjectScene {
+    /// Load a scene file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = super::read_scene_text(path)?;
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())
+    }
+
+    /// Parse and build from TOML text.
+    pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
+        let spec: ObjectSceneSpec = parse_toml(&source, text)?;
+        spec.build(source, fallback_name)
+    }
+}
+
+impl ObjectSceneSpec {
+    /// Check everything and build the scene.
+    pub fn build(self, source: Source, fallback_name: String) -> Result<ObjectScene, SceneError> {
+        let surface_names: Vec<String> = self.quadrics.keys().cloned().collect();
+        let mut quadrics = Vec::new();
+        for (name, q) in &self.quadrics {
+            quadrics.push(q.build(&source, &format!("quadrics.{name}"))?);
+        }
+        if self.cells.is_empty() {
+            return Err(source.error("cells", "the object needs at least one cell"));
+        }
+        let mut solids = Vec::new();
+        let mut voids = Vec::new();
+        for (c, cell) in self.cells.iter().enumerate() {
+            let key = format!("cells[{c}].region");
+            let (body, ids) = cell_body(&source, &key, &cell.region, &surface_names, &quadrics)?;
+            match cell.fill {
+                Fill::Solid => solids.push(SolidCell {
+                    name: cell.name.clone(),
+                    body,
+                    surface_ids: ids,
+                }),
+                Fill::Void => voids.push(VoidCell {
+                    name: cell.name.clone(),
+                    body,
+                }),
+            }
+        }
+        if solids.is_empty() {
+            return Err(source.error("cells", "no solid cell: nothing to reflect from"));
+        }
+        let object = Object {
+            surface_names: surface_names.clone(),
+            solids,
+            voids,
+        };
+
+        let transport = self.transport;
+        if transport.max_bounces == 0 {
+            return Err(source.error("transport.max_bounces", "must be > 0"));
+        }
+        if !(transport.roulette_weight >= 0.0 && transport.roulette_weight < 1.0) {
+            return Err(source.error("transport.roulette_weight", "must be in [0, 1)"));
+        }
+        let controls = Controls {
+            max_bounces: transport.max_bounces,
+            roulette_weight: transport.roulette_weight,
+            ..Controls::default()
+        };
+
+        let model_names: Vec<String> = self.models.keys().cloned().collect();
+        let mut models = Vec::new();
+        for (name, m) in &self.models {
+            models.push(m.build(&source, &format!("models.{name}"), controls)?);
+        }
+        let mut walls: Walls = vec![None; surface_names.len()];
+        for (surface, model) in &self.walls {
+            let key = format!("walls.{surface}");
+            let sid = surface_names
+                .iter()
+                .position(|s| s == surface)
+                .ok_or_else(|| {
+                    source.error(
+                        &key,
+                        format!("unknown surface `{surface}` (not in [quadrics])"),
+                    )
+                })?;
+            let mid = model_names.iter().position(|m| m == model).ok_or_else(|| {
+                source.error(
+                    &key,
+                    format!(
+                        "unknown model `{model}` (known: {})",
+                        model_names.join(", ")
+                    ),
+                )
+            })?;
+            walls[sid] = Some(mid);
+        }
+
+        let tally = self.tally;
+        if !(1..=1000).contains(&tally.bands) {
+            return Err(source.error(
+                "tally.bands",
+                format!("must be in 1..=1000, got {}", tally.bands),
+            ));
+        }
+        if self.sources.is_empty() {
+            return Err(source.error("sources", "needs at least one [[sources]] entry"));
+        }
+        let mut beams = Vec::new();
+        let mut beam_source = Vec::new();
+        let mut photons = Vec::new();
+        for (i, s) in self.sources.iter().enumerate() {
+            let key = |k: &str| format!("sources[{i}].{k}");
+            let dir = DVec3::from_array(s.beam.direction);
+            let Some(direction) = dir.try_normalize().filter(|d| d.is_finite()) else {
+                return Err(source.error(key("beam.direction"), "must be a non-zero finite vector"));
+            };
+            if !(s.beam.diameter.is_finite() && s.beam.diameter >= 0.0) {
+                return Err(source.error(key("beam.diameter"), "must be >= 0"));
+            }
+            if s.photons == 0 {
+                return Err(source.error(key("photons"), "must be > 0"));
+            }
+            let positions: Vec<DVec3> = match (&s.sweep, &s.position) {
+                (Some(_), Some(_)) | (None, None) => {
+                    return Err(source.error(
+                        format!("sources[{i}]"),
+                        "give exactly one of `sweep`, `position`",
+                    ));
+                }
+                (None, Some(p)) => vec![DVec3::from_array(*p)],
+                (Some(sw), None) => {
+                    if sw.steps == 0 {
+                        return Err(source.error(key("sweep.steps"), "must be >= 1"));
+                    }
+                    let (a, b) = (DVec3::from_array(sw.from), DVec3::from_array(sw.to));
+                    (0..sw.steps)
+                        .map(|j| {
+                            let f = if sw.steps == 1 {
+                                0.0
+                            } else {
+                                j as f64 / (sw.steps - 1) as f64
+                            };
+                            a + (b - a) * f
+                        })
+                        .collect()
+                }
+            };
+            for p in positions {
+                if !p.is_finite() {
+                    return Err(source.error(key("position"), "must be finite"));
+                }
+                // Photons must start in open space or in exactly one void cell.
+                let (in_solids, in_voids) = object.cells_at(p);
+                if let Some(&c) = in_solids.first() {
+                    return Err(source.error(
+                        key("position"),
+                        format!(
+                            "beam position {p} is inside solid cell `{}`",
+                            object.solids[c].name
+                        ),
+                    ));
+                }
+                if in_voids.len() > 1 {
+                    let names: Vec<&str> = in_voids
+                        .iter()
+                        .map(|&v| object.voids[v].name.as_str())
+                        .collect();
+                    return Err(source.error(
+                        "cells",
+                        format!(
+                            "void cells {} overlap at beam position {p}",
+                            names.join(" and ")
+                        ),
+                    ));
+                }
+                beams.push(Beam {
+                    position: p,
+                    direction,
+                    diameter: s.beam.diameter,
+                });
+                beam_source.push(i);
+                photons.push(s.photons);
+            }
+        }
+        let run = ObjectRun {
+            seed: self.seed.unwrap_or(1),
+            bands: tally.bands,
+            farfield: tally.farfield,
+            controls,
+        };
+        Ok(ObjectScene {
+            name: self.name.unwrap_or(fallback_name),
+            source,
+            object,
+            walls,
+            models,
+            model_names,
+            beams,
+            beam_source,
+            photons,
+            run,
+        })
+    }
+}
+
+/// A cell's body over the named quadrics it uses.
+fn cell_body(
+    source: &Source,
+    key: &str,
+    expr: &str,
+    names: &[String],
+    quadrics: &[Quadric],
+) -> Result<(Body, Vec<usize>), SceneError> {
+    let mut used: Vec<usize> = Vec::new();
+    let mut unknown = None;
+    let parsed = region::parse(expr, |name| match names.iter().position(|n| n == name) {
+        None => {
+            unknown.get_or_insert_with(|| name.to_string());
+            None
+        }
+        Some(g) => Some(used.iter().position(|&u| u == g).unwrap_or_else(|| {
+            used.push(g);
+            used.len() - 1
+        })),
+    });
+    let region = parsed.map_err(|e| {
+        let msg = match &unknown {
+            Some(name) => format!("unknown surface `{name}` (not in [quadrics])"),
+            None => e.to_string(),
+        };
+        source.error(key, msg)
+    })?;
+    if used.len() > MAX_SURFACES {
+        return Err(source.error(
+            key,
+            format!("uses {} surfaces; at most {MAX_SURFACES}", used.len()),
+        ));
+    }
+    let surfaces = used.iter().map(|&g| quadrics[g]).collect();
+    Ok((Body::new(surfaces, region, Aabb::EVERYTHING, 0), used))
+}
+
+impl ModelSpec {
+    fn build(
+        &self,
+        source: &Source,
+        key: &str,
+        controls: Controls,
+    ) -> Result<WallModel, SceneError> {
+        let ideal = self.specular.is_some() || self.diffuse.is_some();
+        let kinds = [
+            self.micro.is_some(),
+            self.brdf.is_some(),
+            ideal,
+            self.n.is_some() || self.k.is_some(),
+            self.table.is_some(),
+            self.reflectance.is_some(),
+        ];
+        if kinds.iter().filter(|&&k| k).count() != 1 {
+            return Err(source.error(
+                key,
+                "give exactly one kind: `micro`, `brdf`, `specular`/`diffuse`, `n`/`k`, `table` or `reflectance`",
+            ));
+        }
+        if let Some(file) = &self.micro {
+            let path = source.dir.join(file);
+            let scene = MicroScene::load(&path)
+                .map_err(|e| source.error(format!("{key}.micro"), e.to_string()))?;
+            if !WallModel::micro_is_periodic(&scene) {
+                return Err(source.error(
+                    format!("{key}.micro"),
+                    "the micro scene must have periodic edges",
+                ));
+            }
+            return Ok(WallModel::Micro {
+                scene: Box::new(scene),
+                controls,
+            });
+        }
+        if let Some(file) = &self.brdf {
+            let path = source.dir.join(file);
+            let mut table = BrdfTable::load(&path)
+                .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
+            // The run's summary beside the table carries the exact reflectance errors.
+            let summary = path.with_file_name("summary.json");
+            if summary.exists() {
+                table = table
+                    .with_summary(&summary)
+                    .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
+            }
+            return Ok(WallModel::Table(Box::new(table)));
+        }
+        if ideal {
+            let (s, d) = (self.specular.unwrap_or(0.0), self.diffuse.unwrap_or(0.0));
+            for (v, name) in [(s, "specular"), (d, "diffuse")] {
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(source.error(
+                        format!("{key}.{name}"),
+                        format!("must be in [0, 1], got {v}"),
+                    ));
+                }
+            }
+            if s + d > 1.0 {
+                return Err(source.error(key, format!("specular + diffuse = {} exceeds 1", s + d)));
+            }
+            return Ok(WallModel::Ideal {
+                specular: s,
+                diffuse: d,
+            });
+        }
+        // Fresnel, table and constant reflectance share the material builder.
+        let material = MaterialSpec {
+            reflectance: self.reflectance,
+            n: self.n,
+            k: self.k,
+            table: self.table.clone(),
+        };
+        let r: Reflectance = material.build(source, key)?;
+        Ok(WallModel::Specular(r))
+    }
+}

@@ -1,0 +1,336 @@
+//! Photon histories through a 3-D object, and the run over beam positions
+//! (`roks trace`).
+//!
+//! A photon starts on its beam's disc and flies until it enters a solid cell;
+//! there the wall model of the surface it crosses reflects it (or absorbs
+//! it), and it flies on from the hit point, standing on that surface, until
+//! it meets no solid: it then escapes. Escaping after at least one reflection
+//! counts as reflected (tallied on the full-sphere far-field grid); escaping
+//! without any is `missed`. Weight removed at a wall is tallied as absorbed
+//! by that surface. Photon `n` of position `k` draws from the stream
+//! `(seed, k 2^40 + n)`; batches are summed in order, so results are
+//! bit-identical for any thread count.
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rand::RngExt;
+use rayon::prelude::*;
+
+use super::micro::Controls;
+use super::rng::photon_rng;
+use crate::micro::Scratch;
+use crate::object::Object;
+use crate::object::source::Beam;
+use crate::object::wall::{Interaction, WallModel};
+use crate::tally::{Accumulator, CarlsonGrid};
+
+/// Photons per batch (unit of parallel work and of summation order).
+pub const BATCH: u64 = 4096;
+
+/// A far-field grid over the full sphere: the Carlson hemisphere grid for
+/// `z > 0` and its mirror image for `z < 0` (cell `i + n_cells`).
+#[derive(Debug, Clone, Copy)]
+pub struct FarField {
+    /// The hemisphere grid.
+    pub grid: CarlsonGrid,
+}
+
+impl FarField {
+    /// Number of cells over the sphere.
+    #[must_use]
+    pub fn n_cells(&self) -> usize {
+        2 * self.grid.n_cells()
+    }
+
+    /// Cell of a unit direction (directions exactly horizontal go up;
+    /// exactly at a pole, the weight is shared among the band-1 cells by the caller).
+    #[must_use]
+    pub fn locate(&self, dir: DVec3) -> Option<usize> {
+        if dir.z >= 0.0 {
+            let up = if dir.z == 0.0 {
+                DVec3::new(dir.x, dir.y, f64::MIN_POSITIVE)
+            } else {
+                dir
+            };
+            self.grid.locate(up)
+        } else {
+            self.grid
+                .locate(DVec3::new(dir.x, dir.y, -dir.z))
+                .map(|c| c + self.grid.n_cells())
+        }
+    }
+}
+
+/// Wall model of every surface id (`None`: no model).
+pub type Walls = Vec<Option<usize>>;
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct ObjectRun {
+    /// Tracing seed.
+    pub seed: u64,
+    /// Carlson bands of the far field.
+    pub bands: usize,
+    /// Tally the far field.
+    pub farfield: bool,
+    /// History limits at the macro level.
+    pub controls: Controls,
+}
+
+/// Sums for one beam position.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tallies {
+    /// Photons launched.
+    pub photons: u64,
+    /// Weight escaping after at least one reflection.
+    pub reflected: Accumulator,
+    /// Weight escaping without a reflection.
+    pub missed: f64,
+    /// Weight absorbed per surface id.
+    pub absorbed: Accumulator,
+    /// Far-field weight per full-sphere cell (empty if not tallied).
+    pub farfield: Accumulator,
+    /// Macro reflections, summed.
+    pub bounces: u64,
+    /// Straight flights at the macro level.
+    pub segments: u64,
+    /// Weight cut by caps or guards (macro or inside micro descents).
+    pub lost: f64,
+    /// Histories that hit a surface without a model: (count, surface id of the first).
+    pub unmodelled: (u64, usize),
+}
+
+impl Tallies {
+    fn new(n_surfaces: usize, farfield_cells: usize) -> Self {
+        Self {
+            photons: 0,
+            reflected: Accumulator::new(1),
+            missed: 0.0,
+            absorbed: Accumulator::new(n_surfaces),
+            farfield: Accumulator::new(farfield_cells),
+            bounces: 0,
+            segments: 0,
+            lost: 0.0,
+            unmodelled: (0, usize::MAX),
+        }
+    }
+
+    fn merge(&mut self, o: &Self) {
+        self.photons += o.photons;
+        self.reflected.merge(&o.reflected);
+        self.missed += o.missed;
+        self.absorbed.merge(&o.absorbed);
+        self.farfield.merge(&o.farfield);
+        self.bounces += o.bounces;
+        self.segments += o.segments;
+        self.lost += o.lost;
+        if o.unmodelled.0 > 0 && self.unmodelled.0 == 0 {
+            self.unmodelled.1 = o.unmodelled.1;
+        }
+        self.unmodelled.0 += o.unmodelled.0;
+    }
+}
+
+/// The result for one beam position.
+#[derive(Debug, Clone)]
+pub struct PositionResult {
+    /// The beam.
+    pub beam: Beam,
+    /// Sums.
+    pub tallies: Tallies,
+    /// Wall-clock time (s).
+    pub seconds: f64,
+}
+
+impl PositionResult {
+    /// Reflectance (fraction of the beam's flux leaving after >= 1 reflection) and its standard error.
+    #[must_use]
+    pub fn reflectance(&self) -> (f64, f64) {
+        let n = self.tallies.photons;
+        (
+            self.tallies.reflected.mean(0, n),
+            self.tallies.reflected.stderr(0, n),
+        )
+    }
+}
+
+impl ObjectRun {
+    /// The far-field grid.
+    #[must_use]
+    pub fn farfield_grid(&self) -> FarField {
+        FarField {
+            grid: CarlsonGrid::new(self.bands).expect("bands >= 1 checked by the scene"),
+        }
+    }
+
+    /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
+    /// receives photons done.
+    pub fn run(
+        &self,
+        object: &Object,
+        walls: &Walls,
+        models: &[WallModel],
+        beams: &[Beam],
+        photons: &[u64],
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<PositionResult> {
+        beams
+            .iter()
+            .zip(photons)
+            .enumerate()
+            .map(|(k, (beam, &n_photons))| {
+                let clock = Instant::now();
+                let n_batches = n_photons.div_ceil(BATCH);
+                let ff = self.farfield_grid();
+                let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
+                let mut total = Tallies::new(object.surface_names.len(), ff_cells);
+                let chunk = 64;
+                let mut b0 = 0;
+                while b0 < n_batches {
+                    let b1 = (b0 + chunk).min(n_batches);
+                    let parts: Vec<Tallies> = (b0..b1)
+                        .into_par_iter()
+                        .map(|b| {
+                            let lo = b * BATCH;
+                            let hi = ((b + 1) * BATCH).min(n_photons);
+                            let t = self.trace_batch(
+                                object,
+                                walls,
+                                models,
+                                beam,
+                                k as u64,
+                                &ff,
+                                lo..hi,
+                            );
+                            progress(hi - lo);
+                            t
+                        })
+                        .collect();
+                    for p in &parts {
+                        total.merge(p);
+                    }
+                    b0 = b1;
+                }
+                PositionResult {
+                    beam: *beam,
+                    tallies: total,
+                    seconds: clock.elapsed().as_secs_f64(),
+                }
+            })
+            .collect()
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn trace_batch(
+        &self,
+        object: &Object,
+        walls: &Walls,
+        models: &[WallModel],
+        beam: &Beam,
+        position: u64,
+        ff: &FarField,
+        photons: std::ops::Range<u64>,
+    ) -> Tallies {
+        let n_surfaces = object.surface_names.len();
+        let mut t = Tallies::new(n_surfaces, if self.farfield { ff.n_cells() } else { 0 });
+        let mut scratch: Vec<Option<Scratch>> = vec![None; models.len()];
+        let mut absorbed = vec![0.0; n_surfaces];
+        let mut touched: Vec<usize> = Vec::new();
+        for n in photons {
+            let mut rng = photon_rng(self.seed, (position << 40) | n);
+            let mut p = beam.start(rng.random(), rng.random());
+            let mut d = beam.direction;
+            let mut w = 1.0_f64;
+            let mut standing = None;
+            let mut bounces = 0_u32;
+            t.photons += 1;
+            loop {
+                t.segments += 1;
+                let Some(hit) = object.next_hit(p, d, standing) else {
+                    if bounces == 0 {
+                        t.missed += w;
+                    } else {
+                        t.reflected.score(0, w);
+                        if self.farfield {
+                            score_farfield(&mut t.farfield, ff, d, w);
+                        }
+                    }
+                    break;
+                };
+                let sid = object.surface_id(hit.cell, hit.surface);
+                let Some(m) = walls[sid] else {
+                    t.unmodelled.0 += 1;
+                    if t.unmodelled.1 == usize::MAX {
+                        t.unmodelled.1 = sid;
+                    }
+                    break;
+                };
+                if bounces >= self.controls.max_bounces {
+                    t.lost += w;
+                    break;
+                }
+                p += hit.t * d;
+                let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
+                let Some(normal) = quadric.facing_normal(p, d) else {
+                    t.lost += w;
+                    break;
+                };
+                bounces += 1;
+                match models[m].interact(d, normal, &mut rng, &mut scratch[m]) {
+                    Interaction::Reflected { dir, factor } => {
+                        if absorbed[sid] == 0.0 {
+                            touched.push(sid);
+                        }
+                        absorbed[sid] += w * (1.0 - factor);
+                        w *= factor;
+                        d = dir;
+                    }
+                    Interaction::Absorbed => {
+                        if absorbed[sid] == 0.0 {
+                            touched.push(sid);
+                        }
+                        absorbed[sid] += w;
+                        w = 0.0;
+                    }
+                    Interaction::Lost => {
+                        t.lost += w;
+                        w = 0.0;
+                    }
+                }
+                if w <= 0.0 || !d.is_finite() {
+                    break;
+                }
+                standing = Some((hit.cell, hit.surface));
+                if w < self.controls.roulette_weight {
+                    let survival = (10.0 * self.controls.roulette_weight).min(1.0);
+                    if rng.random::<f64>() * survival < w {
+                        w = survival;
+                    } else {
+                        break;
+                    }
+                }
+            }
+            t.bounces += u64::from(bounces);
+            // One score per surface per history (for the standard errors).
+            for sid in touched.drain(..) {
+                t.absorbed.score(sid, absorbed[sid]);
+                absorbed[sid] = 0.0;
+            }
+        }
+        t
+    }
+}
+
+/// Score a far-field direction; exactly at a pole the weight is shared among
+/// the four cells of that hemisphere's band 1.
+fn score_farfield(acc: &mut Accumulator, ff: &FarField, d: DVec3, w: f64) {
+    if d.x == 0.0 && d.y == 0.0 {
+        let offset = if d.z > 0.0 { 0 } else { ff.grid.n_cells() };
+        for cell in 0..4 {
+            acc.score(offset + ff.grid.index(1, cell), 0.25 * w);
+        }
+    } else if let Some(c) = ff.locate(d) {
+        acc.score(c, w);
+    }
+}
