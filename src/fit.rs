@@ -564,6 +564,9 @@ pub struct FitOptions {
     pub inplane_step_deg: Option<f64>,
     /// In-plane detector full width out of the plane (degrees); `None`: the scene's.
     pub inplane_width_deg: Option<f64>,
+    /// Points per parameter of the coarse global scan that picks the
+    /// simplex's starting point (at most 256 points in all; 0 or 1: none).
+    pub scan: usize,
 }
 
 impl Default for FitOptions {
@@ -577,6 +580,7 @@ impl Default for FitOptions {
             restarts: 3,
             inplane_step_deg: None,
             inplane_width_deg: None,
+            scan: 8,
         }
     }
 }
@@ -908,6 +912,31 @@ impl Problem {
         let mut restarts_done = 0;
         let mut simplex: Vec<(Vec<f64>, f64)>;
         let (mut from, mut from_misfit) = (x0.clone(), start_misfit);
+        // A coarse global scan first: the misfit is rough on a fine scale (it is
+        // piecewise constant in the photon paths), so a simplex started far
+        // from the minimum can stall in a local one. Start from the best of a
+        // stratified grid of `scan` points per parameter (at most 256 in all).
+        if self.opts.scan > 1 && d > 0 {
+            let mut m = self.opts.scan;
+            while d > 0 && m > 2 && m.pow(d as u32) > 256 {
+                m -= 1;
+            }
+            let total = m.pow(d as u32);
+            for k in 0..total {
+                let mut rem = k;
+                let x: Vec<f64> = (0..d)
+                    .map(|_| {
+                        let i = rem % m;
+                        rem /= m;
+                        (i as f64 + 0.5) / m as f64
+                    })
+                    .collect();
+                let fx = f(&x, &mut history);
+                if fx < from_misfit {
+                    (from, from_misfit) = (x, fx);
+                }
+            }
+        }
         loop {
             // A fresh simplex: 10 % of each range, away from the nearer bound.
             simplex = vec![(from.clone(), from_misfit)];

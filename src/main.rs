@@ -47,6 +47,63 @@ enum Command {
     /// (x,y,z,reflectance,reflectance_stderr) and, with [tally] farfield = true,
     /// DIR/farfield.csv. DIR defaults to out/<scene name>/.
     Trace(TraceArgs),
+    /// Fit micro-scene parameters to a measured in-plane BRDF.
+    ///
+    /// MEASURED is a CSV with header theta_i_deg,theta_o_deg,brdf (optionally
+    /// brdf_stderr), theta_o signed (positive on the specular side), like the
+    /// inplane.csv of `roks brdf`. Each --param KEY=LO:HI names a number in the
+    /// scene by its TOML key path (e.g. bumps[0].height, bumps[0].radius[1],
+    /// materials.paint.n) and its bounds. Nelder-Mead on the log misfit with a
+    /// fixed seed (common random numbers). Writes DIR/fit.json, DIR/fitted.toml
+    /// and DIR/fit_inplane.csv (default DIR: out/<scene name>-fit/).
+    Fit(FitArgs),
+}
+
+#[derive(Args, Debug)]
+struct FitArgs {
+    /// Micro scene file (TOML) whose parameters are adjusted.
+    scene: PathBuf,
+    /// Measured in-plane BRDF (CSV: theta_i_deg,theta_o_deg,brdf[,brdf_stderr]).
+    measured: PathBuf,
+    /// A parameter to fit: KEY=LO:HI (repeat for several).
+    #[arg(long = "param", required = true)]
+    params: Vec<String>,
+    /// Photons per incidence angle per evaluation.
+    #[arg(long, default_value_t = 200_000)]
+    photons: u64,
+    /// Seed (fixed through the fit).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Most model evaluations.
+    #[arg(long, default_value_t = 200)]
+    max_evals: usize,
+    /// Stop when the misfit spread of the simplex is below this.
+    #[arg(long, default_value_t = 1e-6)]
+    tolerance: f64,
+    /// ... and the simplex is narrower than this fraction of each range.
+    #[arg(long, default_value_t = 1e-3)]
+    x_tolerance: f64,
+    /// Restarts from the best point.
+    #[arg(long, default_value_t = 3)]
+    restarts: usize,
+    /// Points per parameter of the coarse scan before the simplex (0: none).
+    #[arg(long, default_value_t = 8)]
+    scan: usize,
+    /// In-plane bin width for the model (degrees; wider bins, less noise).
+    #[arg(long)]
+    inplane_step: Option<f64>,
+    /// In-plane detector width out of the plane (degrees).
+    #[arg(long)]
+    inplane_width: Option<f64>,
+    /// Worker threads (default: all cores). Does not change results.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Output folder (default: out/<scene name>-fit/).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// No progress lines on stderr.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -135,6 +192,7 @@ fn main() -> ExitCode {
         Command::Brdf(a) => brdf(a),
         Command::Stats(a) => stats(a),
         Command::Trace(a) => trace(a),
+        Command::Fit(a) => fit(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -373,7 +431,7 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
             let n = r.tallies.photons as f64;
             let p = r.beam.position;
             eprintln!(
-                "{:>28} {:>12.6} {:>10.2e} {:>9.4} {:>8.3} {:>9.2e}",
+                "{:>28} {:>12.4e} {:>10.2e} {:>9.4} {:>8.3} {:>9.2e}",
                 format!("({:.3}, {:.3}, {:.3})", p.x, p.y, p.z),
                 refl,
                 se,
@@ -383,6 +441,100 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
             );
         }
         eprintln!("wrote {} ({seconds:.1} s)", out.display());
+    }
+    Ok(())
+}
+
+fn fit(a: FitArgs) -> Result<(), Failure> {
+    use roks::fit::{FitOptions, FitParam, Measured, Problem};
+    let input = |e: roks::fit::FitError| Failure::Input(e.to_string());
+    let text = roks::scene::read_scene_text(&a.scene)?;
+    let source = roks::scene::Source::from_path(&a.scene);
+    let measured_text = std::fs::read_to_string(&a.measured)
+        .map_err(|e| Failure::Input(format!("{}: cannot read: {e}", a.measured.display())))?;
+    let measured =
+        Measured::parse(&measured_text, &a.measured.display().to_string()).map_err(input)?;
+    let params = a
+        .params
+        .iter()
+        .map(|p| p.parse::<FitParam>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(input)?;
+    let opts = FitOptions {
+        photons: a.photons,
+        seed: a.seed,
+        max_evaluations: a.max_evals,
+        tolerance: a.tolerance,
+        x_tolerance: a.x_tolerance,
+        restarts: a.restarts,
+        inplane_step_deg: a.inplane_step,
+        inplane_width_deg: a.inplane_width,
+        scan: a.scan,
+    };
+    set_threads(a.threads)?;
+    let problem = Problem::new(&text, &source, &params, &measured, &opts).map_err(input)?;
+    let quiet = a.quiet;
+    let result = problem
+        .fit_observed(&mut |k, values, misfit| {
+            if !quiet {
+                eprintln!("evaluation {k:>4}: misfit {misfit:.6e} at {values:?}");
+            }
+        })
+        .map_err(input)?;
+    let fitted = problem.apply(&result.values).map_err(input)?;
+    let name = a
+        .scene
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
+    let summary = json!({
+        "scene": source.file,
+        "measured": a.measured.display().to_string(),
+        "version": env!("CARGO_PKG_VERSION"),
+        "seed": a.seed,
+        "photons": a.photons,
+        "parameters": params.iter().enumerate().map(|(i, p)| json!({
+            "key": p.key, "lo": p.lo, "hi": p.hi,
+            "start": result.start[i], "fitted": result.values[i],
+            "at_bound": format!("{:?}", result.at_bounds[i]).to_lowercase(),
+        })).collect::<Vec<_>>(),
+        "start_misfit": result.start_misfit,
+        "misfit": result.misfit,
+        "evaluations": result.evaluations,
+        "converged": result.converged,
+        "history": result.history.iter().map(|(v, m)| json!({"values": v, "misfit": m})).collect::<Vec<_>>(),
+    });
+    let mut csv = String::from("theta_i_deg,theta_o_deg,measured,model\n");
+    for ((ti, to, b, _), m) in measured.points.iter().zip(&result.model) {
+        csv.push_str(&format!("{ti},{to},{b:.9e},{m:.9e}\n"));
+    }
+    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
+    text.push('\n');
+    write_outputs(
+        &out,
+        &[
+            ("fit_inplane.csv", csv.as_bytes()),
+            ("fitted.toml", fitted.as_bytes()),
+            ("fit.json", text.as_bytes()),
+        ],
+    )?;
+    if !quiet {
+        for (i, p) in params.iter().enumerate() {
+            eprintln!(
+                "{} = {:.6} (start {:.6}, bounds {}:{})",
+                p.key, result.values[i], result.start[i], p.lo, p.hi
+            );
+        }
+        eprintln!(
+            "misfit {:.3e} (start {:.3e}), {} evaluations; wrote {}",
+            result.misfit,
+            result.start_misfit,
+            result.evaluations,
+            out.display()
+        );
     }
     Ok(())
 }
