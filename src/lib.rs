@@ -12,6 +12,7 @@
 //! * [`tally`]: angular grids (Carlson, in-plane) and accumulators with standard errors.
 //! * [`scene`]: TOML scene files, validated with one-line errors.
 //! * [`output`]: result files (JSON, CSV), written atomically.
+//! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
 #![forbid(unsafe_code)]
 
 pub mod fit;
@@ -20,6 +21,7 @@ pub mod micro;
 pub mod object;
 pub mod optics;
 pub mod output;
+pub mod plot;
 pub mod scene;
 pub mod tally;
 pub mod transport;

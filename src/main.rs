@@ -362,6 +362,51 @@ fn write_outputs(out: &Path, files: &[(&str, &[u8])]) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Reflectance vs beam position, one curve per `[[sources]]` entry; the x axis
+/// is the distance of the beam axis from the first position of its source.
+fn reflectance_plot(
+    scene: &ObjectScene,
+    results: &[roks::transport::object::PositionResult],
+) -> roks::plot::LinePlot {
+    use roks::plot::{LinePlot, Series};
+    let mut series: Vec<Series> = Vec::new();
+    for (k, r) in results.iter().enumerate() {
+        let src = scene.beam_source[k];
+        let first = scene.beams[scene
+            .beam_source
+            .iter()
+            .position(|&s| s == src)
+            .unwrap_or(0)]
+        .position;
+        if series.len() <= src {
+            series.resize_with(src + 1, || Series {
+                label: String::new(),
+                points: Vec::new(),
+            });
+            series[src].label = format!("source {src} (beam {} mm)", r.beam.diameter);
+        }
+        let (refl, se) = r.reflectance();
+        series[src]
+            .points
+            .push(((r.beam.position - first).length(), refl, 2.0 * se));
+    }
+    let positive = results.iter().all(|r| r.reflectance().0 > 0.0);
+    let spread = results
+        .iter()
+        .map(|r| r.reflectance().0)
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(v), b.max(v)));
+    LinePlot {
+        title: format!(
+            "{}: reflectance vs beam position (error bars: 2 standard errors)",
+            scene.name
+        ),
+        x_label: "beam axis offset from the first position (scene units)".into(),
+        y_label: "reflectance (fraction of the beam's flux)".into(),
+        log_y: positive && spread.1 > 20.0 * spread.0,
+        series,
+    }
+}
+
 fn trace(a: TraceArgs) -> Result<(), Failure> {
     let scene = ObjectScene::load(&a.scene)?;
     let mut run = scene.run.clone();
@@ -413,8 +458,14 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
     let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
     text.push('\n');
     let refl = output::reflectance_csv(&results);
+    let png = reflectance_plot(&scene, &results)
+        .to_png(900, 560)
+        .map_err(Failure::Other)?;
     let farfield = run.farfield.then(|| output::farfield_csv(&run, &results));
-    let mut files: Vec<(&str, &[u8])> = vec![("reflectance.csv", refl.as_bytes())];
+    let mut files: Vec<(&str, &[u8])> = vec![
+        ("reflectance.csv", refl.as_bytes()),
+        ("reflectance.png", &png),
+    ];
     if let Some(f) = &farfield {
         files.push(("farfield.csv", f.as_bytes()));
     }
