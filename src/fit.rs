@@ -1551,6 +1551,10 @@ mod tests {
 
     #[test]
     fn recovers_one_height() {
+        // Same seed for data and fit: this tests the search and the pipeline
+        // exactly (a wrong key path, interpolation or bound mapping misses
+        // the exact zero), not the statistics; tests/fit_recovery.rs fits
+        // data with independent noise.
         // Truth h = 1.8; start at 1.0 in bounds 0.5:3. With common random
         // numbers the misfit is exactly 0 at h = 1.8 and already ~1e-3 at
         // 1.8 -+ 0.001-0.01 (a scan of this scene), rising steadily to 0.9 at
