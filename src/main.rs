@@ -446,6 +446,16 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
             scene.source.file, r.tallies.unmodelled.0, r.beam.position
         )));
     }
+    if let Some((k, r)) = results
+        .iter()
+        .enumerate()
+        .find(|(_, r)| r.tallies.started_inside > 0)
+    {
+        return Err(Failure::Input(format!(
+            "{}: sources[{}].beam.diameter: {} photons of beam position {} started inside a solid cell",
+            scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
+        )));
+    }
     let names = &scene.object.surface_names;
     let summary = json!({
         "scene": scene.source.file,

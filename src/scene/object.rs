@@ -406,11 +406,29 @@ impl ObjectSceneSpec {
                         ),
                     ));
                 }
-                beams.push(Beam {
+                let beam = Beam {
                     position: p,
                     direction,
                     diameter: s.beam.diameter,
-                });
+                };
+                // The whole launch disc must be in open space or void: check
+                // rings of it (photons starting inside a solid are also
+                // counted at run time and reported).
+                for ring in 1..=4 {
+                    for k in 0..32 {
+                        let q = beam.start(f64::from(ring) * 0.25, f64::from(k) / 32.0);
+                        if let Some(&c) = object.cells_at(q).0.first() {
+                            return Err(source.error(
+                                key("beam.diameter"),
+                                format!(
+                                    "the beam's disc at {p} reaches into solid cell `{}` (at {q})",
+                                    object.solids[c].name
+                                ),
+                            ));
+                        }
+                    }
+                }
+                beams.push(beam);
                 beam_source.push(i);
                 photons.push(s.photons);
             }

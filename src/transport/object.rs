@@ -99,6 +99,8 @@ pub struct Tallies {
     pub lost: f64,
     /// Histories that hit a surface without a model: (count, surface id of the first).
     pub unmodelled: (u64, usize),
+    /// Photons whose start point lies inside a solid (not traced; a scene error).
+    pub started_inside: u64,
 }
 
 impl Tallies {
@@ -113,6 +115,7 @@ impl Tallies {
             segments: 0,
             lost: 0.0,
             unmodelled: (0, usize::MAX),
+            started_inside: 0,
         }
     }
 
@@ -129,6 +132,7 @@ impl Tallies {
             self.unmodelled.1 = o.unmodelled.1;
         }
         self.unmodelled.0 += o.unmodelled.0;
+        self.started_inside += o.started_inside;
     }
 }
 
@@ -240,6 +244,11 @@ impl ObjectRun {
         for n in photons {
             let mut rng = photon_rng(self.seed, (position << 40) | n);
             let mut p = beam.start(rng.random(), rng.random());
+            if object.solids.iter().any(|s| s.body.contains(p)) {
+                t.photons += 1;
+                t.started_inside += 1;
+                continue;
+            }
             let mut d = beam.direction;
             let mut w = 1.0_f64;
             let mut standing = None;
