@@ -370,6 +370,8 @@ pub fn entry_negative(a: f64, b: f64, c: f64, t_max: f64) -> Option<(f64, bool)>
         return None;
     }
     let disc = b * b - a * c;
+    // Also rejects a NaN discriminant.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(disc > 0.0) {
         return None;
     }

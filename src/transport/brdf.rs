@@ -12,15 +12,13 @@ use std::time::Instant;
 
 use glam::DVec3;
 use rand::RngExt;
-use rayon::prelude::*;
 
 use super::micro::{Controls, Fate, trace};
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::tally::{Accumulator, CarlsonGrid, InPlaneTally};
 
-/// Photons per batch: the unit of parallel work and of summation order.
-pub const BATCH: u64 = 4096;
+pub use super::BATCH;
 
 /// Bounce counts tallied individually; longer histories share the last bin.
 pub const BOUNCE_BINS: usize = 64;
@@ -206,28 +204,13 @@ impl BrdfRun {
         let grid = self.grid();
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
-        let n_batches = self.photons.div_ceil(BATCH);
-        let mut total = Tallies::new(&grid, &inplane);
-        // Chunks of batches bound the memory of pending batch tallies.
-        let chunk = 64;
-        let mut b0 = 0;
-        while b0 < n_batches {
-            let b1 = (b0 + chunk).min(n_batches);
-            let parts: Vec<Tallies> = (b0..b1)
-                .into_par_iter()
-                .map(|b| {
-                    let lo = b * BATCH;
-                    let hi = ((b + 1) * BATCH).min(self.photons);
-                    let t = self.trace_batch(surface, &grid, &inplane, dir, lo..hi);
-                    progress(hi - lo);
-                    t
-                })
-                .collect();
-            for p in &parts {
-                total.merge(p);
-            }
-            b0 = b1;
-        }
+        let total = super::run_batches(
+            self.photons,
+            Tallies::new(&grid, &inplane),
+            |range| self.trace_batch(surface, &grid, &inplane, dir, range),
+            Tallies::merge,
+            progress,
+        );
         IncidenceResult {
             theta_i_deg: theta_deg,
             phi_i_deg: self.phi_deg,

@@ -10,7 +10,6 @@
 //! never dropped silently.
 
 use glam::DVec3;
-use rand::RngExt;
 
 use crate::micro::{Edges, Event, MicroSurface, Scratch};
 
@@ -155,13 +154,9 @@ pub fn trace(
         if w <= 0.0 {
             return end(Fate::Absorbed, bounces, segments);
         }
-        if w < controls.roulette_weight {
-            let survival = (10.0 * controls.roulette_weight).min(1.0);
-            if rng.random::<f64>() * survival < w {
-                w = survival;
-            } else {
-                return end(Fate::Absorbed, bounces, segments);
-            }
+        match super::roulette(w, controls.roulette_weight, rng) {
+            Some(survivor) => w = survivor,
+            None => return end(Fate::Absorbed, bounces, segments),
         }
     }
 }

@@ -9,3 +9,56 @@ pub mod brdf;
 pub mod micro;
 pub mod object;
 pub mod rng;
+
+use rand::RngExt;
+use rayon::prelude::*;
+
+/// Photons per batch: the unit of parallel work and of summation order.
+pub const BATCH: u64 = 4096;
+
+/// Trace `photons` photons in fixed batches of [`BATCH`] in parallel and sum
+/// the batch tallies in batch order, so the result is bit-identical for any
+/// number of threads. `trace(range)` traces the photons of one index range
+/// into a fresh tally; `merge(total, part)` adds a part; `progress` receives
+/// the photons done. Pending batch tallies are bounded by working in chunks.
+pub fn run_batches<T: Send>(
+    photons: u64,
+    mut total: T,
+    trace: impl Fn(std::ops::Range<u64>) -> T + Sync,
+    merge: impl Fn(&mut T, &T),
+    progress: &(dyn Fn(u64) + Sync),
+) -> T {
+    const CHUNK: u64 = 64;
+    let n_batches = photons.div_ceil(BATCH);
+    let mut b0 = 0;
+    while b0 < n_batches {
+        let b1 = (b0 + CHUNK).min(n_batches);
+        let parts: Vec<T> = (b0..b1)
+            .into_par_iter()
+            .map(|b| {
+                let range = b * BATCH..((b + 1) * BATCH).min(photons);
+                let n = range.end - range.start;
+                let t = trace(range);
+                progress(n);
+                t
+            })
+            .collect();
+        for p in &parts {
+            merge(&mut total, p);
+        }
+        b0 = b1;
+    }
+    total
+}
+
+/// Russian roulette (unbiased): below `threshold` a weight survives with
+/// probability `w / s` and then carries `s = min(10 threshold, 1)`; returns
+/// the new weight, or `None` if the photon is absorbed.
+#[inline]
+pub fn roulette(w: f64, threshold: f64, rng: &mut impl rand::Rng) -> Option<f64> {
+    if w >= threshold {
+        return Some(w);
+    }
+    let survival = (10.0 * threshold).min(1.0);
+    (rng.random::<f64>() * survival < w).then_some(survival)
+}

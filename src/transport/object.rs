@@ -15,7 +15,6 @@ use std::time::Instant;
 
 use glam::DVec3;
 use rand::RngExt;
-use rayon::prelude::*;
 
 use super::micro::Controls;
 use super::rng::photon_rng;
@@ -25,8 +24,7 @@ use crate::object::source::Beam;
 use crate::object::wall::{Interaction, WallModel};
 use crate::tally::{Accumulator, CarlsonGrid};
 
-/// Photons per batch (unit of parallel work and of summation order).
-pub const BATCH: u64 = 4096;
+pub use super::BATCH;
 
 /// A far-field grid over the full sphere: the Carlson hemisphere grid for
 /// `z > 0` and its mirror image for `z < 0` (cell `i + n_cells`).
@@ -185,37 +183,15 @@ impl ObjectRun {
             .enumerate()
             .map(|(k, (beam, &n_photons))| {
                 let clock = Instant::now();
-                let n_batches = n_photons.div_ceil(BATCH);
                 let ff = self.farfield_grid();
                 let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
-                let mut total = Tallies::new(object.surface_names.len(), ff_cells);
-                let chunk = 64;
-                let mut b0 = 0;
-                while b0 < n_batches {
-                    let b1 = (b0 + chunk).min(n_batches);
-                    let parts: Vec<Tallies> = (b0..b1)
-                        .into_par_iter()
-                        .map(|b| {
-                            let lo = b * BATCH;
-                            let hi = ((b + 1) * BATCH).min(n_photons);
-                            let t = self.trace_batch(
-                                object,
-                                walls,
-                                models,
-                                beam,
-                                k as u64,
-                                &ff,
-                                lo..hi,
-                            );
-                            progress(hi - lo);
-                            t
-                        })
-                        .collect();
-                    for p in &parts {
-                        total.merge(p);
-                    }
-                    b0 = b1;
-                }
+                let total = super::run_batches(
+                    n_photons,
+                    Tallies::new(object.surface_names.len(), ff_cells),
+                    |range| self.trace_batch(object, walls, models, beam, k as u64, &ff, range),
+                    Tallies::merge,
+                    progress,
+                );
                 PositionResult {
                     beam: *beam,
                     tallies: total,
@@ -311,13 +287,9 @@ impl ObjectRun {
                     break;
                 }
                 standing = Some((hit.cell, hit.surface));
-                if w < self.controls.roulette_weight {
-                    let survival = (10.0 * self.controls.roulette_weight).min(1.0);
-                    if rng.random::<f64>() * survival < w {
-                        w = survival;
-                    } else {
-                        break;
-                    }
+                match super::roulette(w, self.controls.roulette_weight, &mut rng) {
+                    Some(survivor) => w = survivor,
+                    None => break,
                 }
             }
             t.bounces += u64::from(bounces);
