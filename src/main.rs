@@ -262,20 +262,11 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
 
-    let total = run.photons * run.theta_deg.len() as u64;
-    let bar = if a.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(total)
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} photons, {per_sec}, eta {eta}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
+    let bar = progress_bar(
+        run.photons * run.theta_deg.len() as u64,
+        a.quiet,
+        &scene.name,
     );
-    bar.set_message(scene.name.clone());
     let clock = Instant::now();
     let results = run.run(&scene.surface, &|n| bar.inc(n));
     bar.finish_and_clear();
@@ -296,21 +287,18 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         "seconds": seconds,
     });
 
-    std::fs::create_dir_all(&out)
-        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
-    let write = |name: &str, bytes: &[u8]| {
-        let path = out.join(name);
-        output::write_atomic(&path, bytes)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
-    };
-    write("brdf.csv", output::brdf_csv(&run, &results).as_bytes())?;
-    write(
-        "inplane.csv",
-        output::inplane_csv(&run, &results).as_bytes(),
-    )?;
+    let brdf_csv = output::brdf_csv(&run, &results);
+    let inplane_csv = output::inplane_csv(&run, &results);
     let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
     text.push('\n');
-    write("summary.json", text.as_bytes())?;
+    write_outputs(
+        &out,
+        &[
+            ("brdf.csv", brdf_csv.as_bytes()),
+            ("inplane.csv", inplane_csv.as_bytes()),
+            ("summary.json", text.as_bytes()),
+        ],
+    )?;
 
     if !a.quiet {
         eprintln!(
