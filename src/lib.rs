@@ -3,6 +3,7 @@
 //! Badyuk, Ulyanov, J. Opt. Technol. 2014).
 //!
 //! Layout, by physics:
+//! * [`export`]: a micro surface as a triangle mesh (binary PLY for Mitsuba 3).
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
 //! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
 //! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables).
@@ -15,6 +16,7 @@
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
 #![forbid(unsafe_code)]
 
+pub mod export;
 pub mod fit;
 pub mod geometry;
 pub mod micro;

@@ -57,6 +57,25 @@ enum Command {
     /// fixed seed (common random numbers). Writes DIR/fit.json, DIR/fitted.toml
     /// and DIR/fit_inplane.csv (default DIR: out/<scene name>-fit/).
     Fit(FitArgs),
+    /// Write the top surface of a micro scene as a triangulated height field
+    /// over one period (binary PLY, as Mitsuba's `ply` shape reads it).
+    ///
+    /// Heights are sampled at (N+1) x (N+1) vertices; for periodic cells the
+    /// last row and column repeat the first exactly, so tiled copies are
+    /// seamless. Coordinates are float32 (Mitsuba's precision).
+    ExportMesh(ExportMeshArgs),
+}
+
+#[derive(Args, Debug)]
+struct ExportMeshArgs {
+    /// Micro scene file (TOML); omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Output PLY file.
+    #[arg(long)]
+    out: PathBuf,
+    /// Grid cells per side of the period.
+    #[arg(long, default_value_t = 512)]
+    resolution: usize,
 }
 
 #[derive(Args, Debug)]
@@ -193,6 +212,7 @@ fn main() -> ExitCode {
         Command::Stats(a) => stats(a),
         Command::Trace(a) => trace(a),
         Command::Fit(a) => fit(a),
+        Command::ExportMesh(a) => export_mesh(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -585,6 +605,34 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
             out.display()
         );
     }
+    Ok(())
+}
+
+fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
+    if !(1..=roks::export::MAX_CELLS_PER_SIDE).contains(&a.resolution) {
+        return Err(Failure::Input(format!(
+            "--resolution: must be in 1..={}, got {}",
+            roks::export::MAX_CELLS_PER_SIDE,
+            a.resolution
+        )));
+    }
+    let scene = load_scene(a.scene.as_deref())?;
+    let mesh = roks::export::height_field_mesh(&scene.surface, a.resolution);
+    let bytes = roks::export::write_ply(&mesh);
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    output::write_atomic(&a.out, &bytes)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", a.out.display()))?;
+    eprintln!(
+        "wrote {} ({} vertices, {} triangles, one {} x {} period)",
+        a.out.display(),
+        mesh.vertices.len(),
+        mesh.faces.len(),
+        scene.surface.size.x,
+        scene.surface.size.y
+    );
     Ok(())
 }
 
