@@ -14,6 +14,7 @@
 //! * [`scene`]: TOML scene files, validated with one-line errors.
 //! * [`output`]: result files (JSON, CSV), written atomically.
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
+//! * [`render`]: radiance maps of a micro surface (EXR, PNG preview).
 #![forbid(unsafe_code)]
 
 pub mod export;
@@ -24,6 +25,7 @@ pub mod object;
 pub mod optics;
 pub mod output;
 pub mod plot;
+pub mod render;
 pub mod scene;
 pub mod tally;
 pub mod transport;

@@ -1,0 +1,494 @@
+//! Radiance maps of a micro surface (`roks render`, issue 4), written as
+//! OpenEXR with a tone-mapped PNG preview.
+//!
+//! Camera: orthographic, its footprint exactly one period `Lx x Ly` of the
+//! substrate on the launch plane `z = surface.top`. Pixel `(i, j)` (column
+//! `i`, row `j`, row 0 at the top of the image) covers
+//! `[i Lx/w, (i+1) Lx/w] x [Ly - (j+1) Ly/h, Ly - j Ly/h]`, so the image's x
+//! axis is the cell's x axis and the image's up is the cell's +y. Each pixel
+//! takes `spp` jittered sub-pixel positions, all drawn from the random stream
+//! `photon_rng(seed, pixel index)` (pixel index `j w + i`): the image is the
+//! same, bit for bit, for any number of threads.
+//!
+//! A camera ray starts on the launch plane and travels along `-v`, `v` the
+//! view direction (toward the camera), through the periodic geometry with
+//! specular reflections weighted by the materials
+//! ([`crate::transport::micro::trace`] with default [`Controls`]).
+//!
+//! Light: a disc of angular radius `r` around `omega_l` (toward the light) of
+//! uniform radiance `L`, nothing elsewhere. A path that escapes
+//! ([`Fate::Escaped`]) in a direction within `r` of `omega_l` (cosine test,
+//! `dir . omega_l >= cos r`) contributes `weight * L`; every other path
+//! contributes 0.
+//!
+//! Units: pixel values are radiance in the units of `L` (with the default
+//! `L = 1`, radiance relative to the disc's radiance). Grey: all three
+//! channels are equal. A flat mirror of reflectance `rho` seen in the mirror
+//! direction of the disc is `rho L` everywhere.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::micro::{MicroSurface, Scratch};
+use crate::transport::micro::{Controls, Fate, trace};
+use crate::transport::rng::photon_rng;
+
+/// What to render. Angles in degrees; directions are
+/// `(sin t cos p, sin t sin p, cos t)`, pointing away from the surface.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderSettings {
+    /// Image width (pixels, >= 1).
+    pub width: usize,
+    /// Image height (pixels, >= 1).
+    pub height: usize,
+    /// Samples per pixel (>= 1).
+    pub spp: u32,
+    /// Polar angle of the view direction (toward the camera), in `[0, 90)`.
+    pub view_theta_deg: f64,
+    /// Azimuth of the view direction.
+    pub view_phi_deg: f64,
+    /// Polar angle of the direction toward the light's centre, in `[0, 90]`.
+    pub light_theta_deg: f64,
+    /// Azimuth of the direction toward the light's centre.
+    pub light_phi_deg: f64,
+    /// Angular radius of the light disc (degrees, in `(0, 180]`; default 5).
+    pub light_radius_deg: f64,
+    /// Radiance of the disc (finite, >= 0; default 1): the unit of the image.
+    pub light_radiance: f64,
+    /// Seed of the per-pixel random streams.
+    pub seed: u64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            width: 256,
+            height: 256,
+            spp: 16,
+            view_theta_deg: 0.0,
+            view_phi_deg: 0.0,
+            light_theta_deg: 0.0,
+            light_phi_deg: 0.0,
+            light_radius_deg: 5.0,
+            light_radiance: 1.0,
+            seed: 1,
+        }
+    }
+}
+
+impl RenderSettings {
+    /// Check the settings; `Err` names the offending field in one line.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.width == 0 || self.height == 0 {
+            return Err(format!(
+                "image size {}x{} must be at least 1x1",
+                self.width, self.height
+            ));
+        }
+        if self.spp == 0 {
+            return Err("spp must be at least 1".into());
+        }
+        let fin = |name: &str, x: f64| {
+            if x.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{name} = {x} is not finite"))
+            }
+        };
+        fin("view phi", self.view_phi_deg)?;
+        fin("light phi", self.light_phi_deg)?;
+        if !(0.0..90.0).contains(&self.view_theta_deg) {
+            return Err(format!(
+                "view theta = {} degrees must be in [0, 90)",
+                self.view_theta_deg
+            ));
+        }
+        if !(0.0..=90.0).contains(&self.light_theta_deg) {
+            return Err(format!(
+                "light theta = {} degrees must be in [0, 90]",
+                self.light_theta_deg
+            ));
+        }
+        if !(self.light_radius_deg > 0.0 && self.light_radius_deg <= 180.0) {
+            return Err(format!(
+                "light radius = {} degrees must be in (0, 180]",
+                self.light_radius_deg
+            ));
+        }
+        if !(self.light_radiance.is_finite() && self.light_radiance >= 0.0) {
+            return Err(format!(
+                "light radiance = {} must be finite and >= 0",
+                self.light_radiance
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// An RGB image of f32 radiances, row-major, row 0 at the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Width (pixels).
+    pub width: usize,
+    /// Height (pixels).
+    pub height: usize,
+    /// `width * height` pixels; pixel `(i, j)` is `rgb[j * width + i]`.
+    pub rgb: Vec<[f32; 3]>,
+}
+
+/// Unit direction from polar angle and azimuth in degrees.
+fn direction(theta_deg: f64, phi_deg: f64) -> DVec3 {
+    let (st, ct) = theta_deg.to_radians().sin_cos();
+    let (sp, cp) = phi_deg.to_radians().sin_cos();
+    DVec3::new(st * cp, st * sp, ct)
+}
+
+/// The largest f64 below a positive finite `x` (`f64::next_down` needs Rust 1.86).
+fn below(x: f64) -> f64 {
+    f64::from_bits(x.to_bits() - 1)
+}
+
+/// Radiance map of a micro scene (see the module documentation for the
+/// camera, the light and the units).
+///
+/// # Panics
+/// If `s` fails [`RenderSettings::validate`].
+#[must_use]
+pub fn render(surface: &MicroSurface, s: &RenderSettings) -> Image {
+    if let Err(e) = s.validate() {
+        panic!("render: {e}");
+    }
+    let (w, h) = (s.width, s.height);
+    let view = direction(s.view_theta_deg, s.view_phi_deg);
+    let dir = -view;
+    let light = direction(s.light_theta_deg, s.light_phi_deg);
+    let cos_r = s.light_radius_deg.to_radians().cos();
+    let controls = Controls::default();
+    let (lx, ly) = (surface.size.x, surface.size.y);
+    let (px, py) = (lx / w as f64, ly / h as f64);
+    let spp = s.spp;
+
+    let rows: Vec<Vec<[f32; 3]>> = (0..h)
+        .into_par_iter()
+        .map(|j| {
+            use rand::RngExt;
+            let mut scratch = Scratch::new(surface);
+            (0..w)
+                .map(|i| {
+                    let mut rng = photon_rng(s.seed, (j * w + i) as u64);
+                    let mut sum = 0.0_f64;
+                    for _ in 0..spp {
+                        let u: f64 = rng.random();
+                        let v: f64 = rng.random();
+                        // x in [i px, (i+1) px), y in [Ly - (j+1) py, Ly - j py):
+                        // both strictly inside the cell's half-open range.
+                        let x = ((i as f64 + u) * px).clamp(0.0, lx);
+                        let y = (ly - (j as f64 + 1.0 - v) * py).clamp(0.0, ly);
+                        // Rounding can reach the far side: step just inside.
+                        let x = if x >= lx { below(lx) } else { x };
+                        let y = if y >= ly { below(ly) } else { y };
+                        let start = DVec3::new(x, y, surface.top);
+                        let hist = trace(surface, start, dir, &controls, &mut rng, &mut scratch);
+                        if let Fate::Escaped { dir: out, weight } = hist.fate {
+                            if out.dot(light) >= cos_r {
+                                sum += weight * s.light_radiance;
+                            }
+                        }
+                    }
+                    let value = (sum / f64::from(spp)) as f32;
+                    [value; 3]
+                })
+                .collect()
+        })
+        .collect();
+    Image {
+        width: w,
+        height: h,
+        rgb: rows.into_iter().flatten().collect(),
+    }
+}
+
+/// The image as an OpenEXR file in memory: one layer, scanline blocks, ZIP
+/// compression (16 lines per block), f32 channels R, G, B, increasing line
+/// order. Write the bytes to a path with `crate::output`'s atomic writer.
+pub fn write_exr(img: &Image) -> Result<Vec<u8>, String> {
+    use exr::prelude::*;
+    if img.width == 0 || img.height == 0 || img.rgb.len() != img.width * img.height {
+        return Err(format!(
+            "image of {}x{} with {} pixels cannot be written",
+            img.width,
+            img.height,
+            img.rgb.len()
+        ));
+    }
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let w = img.width;
+    let layer = Layer::new(
+        (img.width, img.height),
+        LayerAttributes::named("radiance"),
+        encoding,
+        SpecificChannels::rgb(|p: Vec2<usize>| {
+            let [r, g, b] = img.rgb[p.y() * w + p.x()];
+            (r, g, b)
+        }),
+    );
+    let image = exr::image::Image::from_layer(layer);
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image
+        .write()
+        .to_buffered(&mut buf)
+        .map_err(|e| format!("writing EXR: {e}"))?;
+    Ok(buf.into_inner())
+}
+
+/// sRGB transfer function (IEC 61966-2-1) of a linear value in `[0, 1]`.
+fn srgb_encode(x: f64) -> f64 {
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Tone-mapped 8-bit RGB PNG preview, in memory: every channel is scaled so
+/// that the 99th percentile of the pixels' luminance (Rec. 709 weights) maps
+/// to 1 (the maximum if that percentile is 0; an all-black image stays
+/// black), clamped to `[0, 1]`, sRGB-encoded.
+pub fn write_png_preview(img: &Image) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
+    if img.width == 0 || img.height == 0 || img.rgb.len() != img.width * img.height {
+        return Err(format!(
+            "image of {}x{} with {} pixels cannot be written",
+            img.width,
+            img.height,
+            img.rgb.len()
+        ));
+    }
+    let lum = |p: &[f32; 3]| {
+        0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])
+    };
+    let mut l: Vec<f64> = img
+        .rgb
+        .iter()
+        .map(lum)
+        .map(|x| if x.is_finite() { x } else { 0.0 })
+        .collect();
+    l.sort_by(f64::total_cmp);
+    let n = l.len();
+    let k = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
+    let mut white = l[k];
+    if white <= 0.0 {
+        white = l[n - 1];
+    }
+    let scale = if white > 0.0 { 1.0 / white } else { 0.0 };
+    let bytes: Vec<u8> = img
+        .rgb
+        .iter()
+        .flat_map(|p| {
+            p.map(|c| {
+                let x = f64::from(c) * scale;
+                let x = if x.is_finite() {
+                    x.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (srgb_encode(x) * 255.0).round() as u8
+            })
+        })
+        .collect();
+    let mut out = Vec::new();
+    let width = u32::try_from(img.width).map_err(|_| "image too wide for PNG".to_string())?;
+    let height = u32::try_from(img.height).map_err(|_| "image too tall for PNG".to_string())?;
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| format!("writing PNG: {e}"))?;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::micro::Edges;
+    use crate::optics::material::Reflectance;
+    use glam::DVec2;
+
+    fn flat(rho: f64) -> MicroSurface {
+        MicroSurface::new(
+            DVec2::new(30.0, 20.0),
+            Edges::Periodic,
+            vec![],
+            vec![Reflectance::Constant(rho)],
+            0,
+        )
+    }
+
+    fn settings() -> RenderSettings {
+        RenderSettings {
+            width: 16,
+            height: 12,
+            spp: 4,
+            view_theta_deg: 30.0,
+            view_phi_deg: 180.0,
+            light_theta_deg: 30.0,
+            light_phi_deg: 0.0,
+            light_radius_deg: 5.0,
+            // rho L = 1.5 and every partial sum of it are exact in f64 and f32.
+            light_radiance: 2.0,
+            seed: 3,
+        }
+    }
+
+    #[test]
+    fn flat_mirror_in_the_mirror_direction_is_rho_l() {
+        let img = render(&flat(0.75), &settings());
+        assert_eq!((img.width, img.height, img.rgb.len()), (16, 12, 16 * 12));
+        for p in &img.rgb {
+            assert_eq!(*p, [1.5_f32; 3]);
+        }
+    }
+
+    #[test]
+    fn flat_mirror_away_from_the_disc_is_black() {
+        let mut s = settings();
+        s.view_theta_deg = 50.0; // 20 degrees from the mirror direction
+        let img = render(&flat(0.75), &s);
+        assert!(img.rgb.iter().all(|p| *p == [0.0; 3]));
+        let mut s = settings();
+        s.view_theta_deg = 10.0; // 20 degrees from the mirror direction, other side
+        let img = render(&flat(0.75), &s);
+        assert!(img.rgb.iter().all(|p| *p == [0.0; 3]));
+    }
+
+    #[test]
+    fn same_image_for_any_thread_count() {
+        let scene = crate::scene::micro::MicroScene::default_scene();
+        let s = RenderSettings {
+            width: 24,
+            height: 16,
+            spp: 2,
+            view_theta_deg: 20.0,
+            view_phi_deg: 180.0,
+            light_theta_deg: 20.0,
+            light_phi_deg: 0.0,
+            light_radius_deg: 10.0,
+            ..RenderSettings::default()
+        };
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| render(&scene.surface, &s))
+        };
+        let a = run(1);
+        let b = run(3);
+        assert_eq!(a, b);
+        assert!(a.rgb.iter().any(|p| p[0] > 0.0), "some light is seen");
+        assert!(
+            a.rgb
+                .iter()
+                .all(|p| p[0] >= 0.0 && p[0] == p[1] && p[1] == p[2])
+        );
+    }
+
+    #[test]
+    fn exr_round_trip() {
+        use exr::prelude::*;
+        let (w, h) = (7, 5);
+        let rgb: Vec<[f32; 3]> = (0..w * h)
+            .map(|k| {
+                [
+                    k as f32 * 0.25,
+                    1.0 / (k as f32 + 1.0),
+                    -(k as f32) * 3.5e-3,
+                ]
+            })
+            .collect();
+        let img = super::Image {
+            width: w,
+            height: h,
+            rgb,
+        };
+        let bytes = write_exr(&img).unwrap();
+        let read = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgb_channels(
+                |res, _| vec![[0.0_f32; 3]; res.width() * res.height()],
+                move |px: &mut Vec<[f32; 3]>, pos, (r, g, b): (f32, f32, f32)| {
+                    px[pos.y() * w + pos.x()] = [r, g, b];
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(&bytes))
+            .unwrap();
+        let layer = &read.layer_data;
+        assert_eq!(layer.size, Vec2(w, h));
+        assert_eq!(layer.encoding.compression, Compression::ZIP16);
+        assert_eq!(layer.encoding.blocks, Blocks::ScanLines);
+        assert_eq!(layer.channel_data.pixels, img.rgb);
+    }
+
+    #[test]
+    fn png_preview_has_the_requested_size() {
+        let img = render(&flat(0.75), &settings());
+        let png = write_png_preview(&img).unwrap();
+        let dec = image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap();
+        assert_eq!((dec.width(), dec.height()), (16, 12));
+        // A uniform image maps to white.
+        assert!(dec.to_rgb8().pixels().all(|p| p.0 == [255, 255, 255]));
+        // All black stays black.
+        let black = Image {
+            width: 3,
+            height: 2,
+            rgb: vec![[0.0; 3]; 6],
+        };
+        let dec = image::load_from_memory(&write_png_preview(&black).unwrap()).unwrap();
+        assert_eq!((dec.width(), dec.height()), (3, 2));
+        assert!(dec.to_rgb8().pixels().all(|p| p.0 == [0, 0, 0]));
+    }
+
+    #[test]
+    fn bad_settings_are_refused() {
+        let mut s = settings();
+        s.view_theta_deg = 90.0;
+        assert!(s.validate().is_err());
+        let mut s = settings();
+        s.spp = 0;
+        assert!(s.validate().is_err());
+        assert!(settings().validate().is_ok());
+    }
+
+    /// Timing of a full-size render of the default scene:
+    /// `cargo test --lib render::tests::time_default_scene -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "timing only"]
+    fn time_default_scene() {
+        let scene = crate::scene::micro::MicroScene::default_scene();
+        let s = RenderSettings {
+            view_theta_deg: 30.0,
+            view_phi_deg: 180.0,
+            light_theta_deg: 30.0,
+            light_phi_deg: 0.0,
+            ..RenderSettings::default()
+        };
+        let t = std::time::Instant::now();
+        let img = render(&scene.surface, &s);
+        let dt = t.elapsed().as_secs_f64();
+        let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
+        let lit = img.rgb.iter().filter(|p| p[0] > 0.0).count();
+        eprintln!(
+            "{}x{}x{} spp: {dt:.2} s on {} threads ({:.2} M paths/s); mean {mean:.4} L, {lit} lit pixels",
+            s.width,
+            s.height,
+            s.spp,
+            rayon::current_num_threads(),
+            (s.width * s.height) as f64 * f64::from(s.spp) / dt / 1e6
+        );
+    }
+}
