@@ -2,6 +2,7 @@
 //! the scene-error contract (exit status 2, one stderr line naming the scene
 //! file and the offending key, nothing on stdout, no output folder).
 
+mod cli_common;
 mod object_common;
 
 use std::path::{Path, PathBuf};
@@ -222,34 +223,7 @@ fn check(case: &str, text: &str, expect: &[&str]) {
     let scene = write_scene(&dir, case, text);
     let out = dir.join("out");
     let o = trace(&scene, &out, &[]);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "{case}: status {}, stderr {stderr}",
-        o.status
-    );
-    assert!(!stderr.contains("panicked"), "{case}: {stderr}");
-    assert!(stderr.ends_with('\n'), "{case}: {stderr:?}");
-    let line = stderr.trim_end_matches('\n');
-    assert!(
-        !line.is_empty() && !line.contains('\n'),
-        "{case}: not one line: {stderr:?}"
-    );
-    let path = scene.display().to_string();
-    assert!(
-        line.contains(&path),
-        "{case}: no file path `{path}` in {line:?}"
-    );
-    for e in expect {
-        assert!(line.contains(e), "{case}: no `{e}` in {line:?}");
-    }
-    assert!(
-        o.stdout.is_empty(),
-        "{case}: stdout {:?}",
-        String::from_utf8_lossy(&o.stdout)
-    );
-    assert!(!out.exists(), "{case}: output folder was created");
+    cli_common::assert_input_error(case, &o, &scene, &out, expect);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
