@@ -12,6 +12,7 @@
 //! * [`transport`]: photon histories, random streams, the BRDF generator.
 //! * [`tally`]: angular grids (Carlson, in-plane) and accumulators with standard errors.
 //! * [`scene`]: TOML scene files, validated with one-line errors.
+//! * [`shard`]: splitting a BRDF run across machines and merging it exactly.
 //! * [`output`]: result files (JSON, CSV), written atomically.
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
 //! * [`render`]: radiance maps of a micro surface (EXR, PNG preview).
@@ -27,5 +28,6 @@ pub mod output;
 pub mod plot;
 pub mod render;
 pub mod scene;
+pub mod shard;
 pub mod tally;
 pub mod transport;

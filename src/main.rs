@@ -16,6 +16,7 @@ use roks::output;
 use roks::scene::SceneError;
 use roks::scene::micro::MicroScene;
 use roks::scene::object::ObjectScene;
+use roks::shard::{self, Shard};
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
 ///
@@ -73,6 +74,27 @@ enum Command {
     /// units of the disc's. Writes OUT (EXR: scanline, ZIP, f32 RGB) and OUT
     /// with the extension .png (tone-mapped preview).
     Render(RenderArgs),
+    /// Merge the shards of one `roks brdf --shard I/N` run into one result.
+    ///
+    /// Reads DIR/tallies.json of every shard folder, checks they come from the
+    /// same run (scene, seed, settings) and that their photon ranges are
+    /// disjoint and cover the run, sums them in shard order and writes
+    /// OUT/brdf.csv, OUT/inplane.csv, OUT/summary.json and OUT/tallies.json,
+    /// exactly as the single run would (only timings differ).
+    Merge(MergeArgs),
+}
+
+#[derive(Args, Debug)]
+struct MergeArgs {
+    /// Shard result folders (each with tallies.json), in any order.
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// No table on stderr.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -207,6 +229,11 @@ struct BrdfArgs {
     /// Height-map resolution for the surface statistics in the summary.
     #[arg(long, default_value_t = 512)]
     stats_resolution: usize,
+    /// Run only photon block I of N (0-based; whole batches of 4096 photons)
+    /// of every incidence angle and also write DIR/tallies.json, the raw sums
+    /// that `roks merge` adds up exactly.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     quiet: bool,
@@ -253,6 +280,7 @@ fn main() -> ExitCode {
         Command::Fit(a) => fit(a),
         Command::ExportMesh(a) => export_mesh(a),
         Command::Render(a) => render(a),
+        Command::Merge(a) => merge(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -316,68 +344,332 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     if a.stats_resolution < 2 {
         return Err(Failure::Input("--stats-resolution: must be >= 2".into()));
     }
+    let shard = a
+        .shard
+        .as_deref()
+        .map(|s| {
+            s.parse::<Shard>()
+                .map_err(|e| Failure::Input(format!("--shard: {e}")))
+        })
+        .transpose()?;
+    let range = shard
+        .map(|s| s.photon_range(run.photons))
+        .transpose()
+        .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
     set_threads(a.threads)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
 
+    let r = a.stats_resolution;
+    let stats = surface_stats(&scene.surface.height_map(r, r));
+    let edges = format!("{:?}", scene.surface.edges).to_lowercase();
+    let settings = shard::settings_json(
+        &scene.source.file,
+        &scene.name,
+        &edges,
+        &run,
+        &output::surface_json(&stats, r),
+    );
+    let mut fields = shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e))?;
+
+    let total_photons = run.photons;
+    if let Some((first, last)) = range {
+        run.first_photon = first;
+        run.photons = last - first;
+    }
     let bar = progress_bar(
         run.photons * run.theta_deg.len() as u64,
         a.quiet,
         &scene.name,
     );
     let clock = Instant::now();
-    let results = run.run(&scene.surface, &|n| bar.inc(n));
+    let mut tallies_json = None;
+    let results = if let (Some(sh), Some(range)) = (shard, range) {
+        let mut results = Vec::new();
+        let mut parts = Vec::new();
+        for &theta in &run.theta_deg {
+            let (nodes, secs) =
+                run.run_shard_one(&scene.surface, theta, total_photons, &|n| bar.inc(n));
+            // This shard's own sums, for its own files (left to right).
+            let mut t = roks::transport::brdf::Tallies::new(&run.grid(), &run.inplane());
+            for n in &nodes {
+                t.merge(&n.value);
+            }
+            results.push(roks::transport::brdf::IncidenceResult {
+                theta_i_deg: theta,
+                phi_i_deg: run.phi_deg,
+                tallies: t,
+                seconds: secs,
+            });
+            parts.push((theta, secs, nodes));
+        }
+        let incidence: Vec<shard::ShardIncidence<'_>> = parts
+            .iter()
+            .map(|(theta, secs, nodes)| shard::ShardIncidence {
+                theta_deg: *theta,
+                seconds: *secs,
+                nodes,
+            })
+            .collect();
+        let v = shard::tallies_file(
+            &settings,
+            sh,
+            range,
+            &incidence,
+            clock.elapsed().as_secs_f64(),
+        );
+        tallies_json = Some(v);
+        fields.insert("photons_per_incidence".into(), json!(run.photons));
+        fields.insert(
+            "shard".into(),
+            json!({"index": sh.index, "count": sh.count, "first_photon": range.0, "last_photon": range.1}),
+        );
+        results
+    } else {
+        run.run(&scene.surface, &|n| bar.inc(n))
+    };
     bar.finish_and_clear();
     let seconds = clock.elapsed().as_secs_f64();
 
-    let r = a.stats_resolution;
-    let stats = surface_stats(&scene.surface.height_map(r, r));
-    let summary = json!({
-        "scene": scene.source.file,
-        "name": scene.name,
-        "version": env!("CARGO_PKG_VERSION"),
-        "seed": run.seed,
-        "photons_per_incidence": run.photons,
-        "bands": run.bands,
-        "edges": format!("{:?}", scene.surface.edges).to_lowercase(),
-        "incidence": results.iter().map(output::incidence_json).collect::<Vec<_>>(),
-        "surface": output::surface_json(&stats, r),
-        "seconds": seconds,
-    });
-
+    let summary = output::brdf_summary(&fields, &results, seconds);
     let brdf_csv = output::brdf_csv(&run, &results);
     let inplane_csv = output::inplane_csv(&run, &results);
     let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
     text.push('\n');
+    let tallies_text = tallies_json
+        .map(|v| serde_json::to_string(&v).map(|t| t + "\n"))
+        .transpose()
+        .map_err(anyhow::Error::from)?;
+    let mut files: Vec<(&str, &[u8])> = vec![
+        ("brdf.csv", brdf_csv.as_bytes()),
+        ("inplane.csv", inplane_csv.as_bytes()),
+    ];
+    if let Some(t) = &tallies_text {
+        files.push((shard::TALLIES_FILE, t.as_bytes()));
+    }
+    files.push(("summary.json", text.as_bytes()));
+    write_outputs(&out, &files)?;
+
+    if !a.quiet {
+        print_brdf_table(&results);
+        eprintln!("wrote {} ({seconds:.1} s)", out.display());
+    }
+    Ok(())
+}
+
+fn print_brdf_table(results: &[roks::transport::brdf::IncidenceResult]) {
+    eprintln!(
+        "{:>9} {:>12} {:>10} {:>8} {:>9} {:>12}",
+        "theta_i", "reflectance", "stderr", "bounces", "lost", "Msegments/s"
+    );
+    for r in results {
+        let (refl, se) = r.reflectance();
+        eprintln!(
+            "{:>9.2} {:>12.6} {:>10.2e} {:>8.3} {:>9.2e} {:>12.2}",
+            r.theta_i_deg,
+            refl,
+            se,
+            r.mean_bounces(),
+            r.lost(),
+            r.segments_per_second() / 1e6
+        );
+    }
+}
+
+/// One shard folder read by `roks merge`.
+struct ShardDir {
+    dir: PathBuf,
+    v: serde_json::Value,
+    first: u64,
+    last: u64,
+}
+
+fn read_shard(dir: &Path) -> Result<ShardDir, Failure> {
+    let d = dir.display();
+    let path = dir.join(shard::TALLIES_FILE);
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| Failure::Input(format!("{d}: cannot read {}: {e}", shard::TALLIES_FILE)))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Failure::Input(format!("{d}: {}: {e}", shard::TALLIES_FILE)))?;
+    if v["format"] != shard::FORMAT || v["format_version"] != shard::FORMAT_VERSION {
+        return Err(Failure::Input(format!(
+            "{d}: {} is not a roks tallies file of format version {}",
+            shard::TALLIES_FILE,
+            shard::FORMAT_VERSION
+        )));
+    }
+    let bad = |e: String| Failure::Input(format!("{d}: {}: {e}", shard::TALLIES_FILE));
+    let first = shard::get_u64(&v, "first_photon").map_err(bad)?;
+    let last = shard::get_u64(&v, "last_photon").map_err(bad)?;
+    Ok(ShardDir {
+        dir: dir.to_path_buf(),
+        v,
+        first,
+        last,
+    })
+}
+
+fn merge(a: MergeArgs) -> Result<(), Failure> {
+    use roks::transport::BATCH;
+    use roks::transport::brdf::{IncidenceResult, Tallies};
+    let mut parts = a
+        .dirs
+        .iter()
+        .map(|d| read_shard(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let settings = parts[0].v["settings"].clone();
+    let d0 = parts[0].dir.display().to_string();
+    for p in &parts[1..] {
+        if p.v["settings"] != settings {
+            let key = settings
+                .as_object()
+                .and_then(|m| {
+                    m.keys()
+                        .find(|k| p.v["settings"][k.as_str()] != m[k.as_str()])
+                })
+                .cloned()
+                .unwrap_or_else(|| "settings".into());
+            return Err(Failure::Input(format!(
+                "{}: not a shard of the same run as {d0} (`{key}` differs)",
+                p.dir.display()
+            )));
+        }
+    }
+    let run = shard::run_from_settings(&settings)
+        .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
+    let total = run.photons;
+    parts.sort_by_key(|p| (p.first, p.last));
+    let mut next = 0;
+    for (k, p) in parts.iter().enumerate() {
+        let d = p.dir.display();
+        if p.first % BATCH != 0 || p.last < p.first || p.last > total {
+            return Err(Failure::Input(format!(
+                "{d}: photons [{}, {}) are not a block of whole batches of the run's {total}",
+                p.first, p.last
+            )));
+        }
+        if p.first < next {
+            return Err(Failure::Input(format!(
+                "{d}: photons [{}, {}) overlap those of {}",
+                p.first,
+                p.last,
+                parts[k - 1].dir.display()
+            )));
+        }
+        if p.first > next {
+            return Err(Failure::Input(format!(
+                "{d}: photons [{next}, {}) are missing before this shard",
+                p.first
+            )));
+        }
+        next = p.last;
+    }
+    if next != total {
+        return Err(Failure::Input(format!(
+            "{}: photons [{next}, {total}) are missing after this shard",
+            parts[parts.len() - 1].dir.display()
+        )));
+    }
+
+    let grid = run.grid();
+    let inplane = run.inplane();
+    let batches = total.div_ceil(BATCH);
+    let mut results = Vec::new();
+    let mut roots = Vec::new();
+    for (i, &theta) in run.theta_deg.iter().enumerate() {
+        let mut sum = shard::DyadicSum::new(batches);
+        let mut seconds = 0.0;
+        for p in &parts {
+            let d = p.dir.display();
+            let bad = |e: String| {
+                Failure::Input(format!("{d}: {}: incidence[{i}]: {e}", shard::TALLIES_FILE))
+            };
+            let inc = &p.v["incidence"][i];
+            if shard::text_f64(&inc["theta_deg"], "theta_deg")
+                .map_err(bad)?
+                .to_bits()
+                != theta.to_bits()
+            {
+                return Err(bad(format!("theta_deg is not {theta}")));
+            }
+            seconds += shard::text_f64(&inc["seconds"], "seconds").map_err(bad)?;
+            let nodes =
+                shard::json_nodes(&inc["nodes"], grid.n_cells(), inplane.n_bins()).map_err(bad)?;
+            for n in nodes {
+                sum.push(n, &Tallies::merge).map_err(bad)?;
+            }
+        }
+        let t = sum.finish().map_err(|e| {
+            Failure::Input(format!(
+                "{}: incidence[{i}]: {e}",
+                parts[parts.len() - 1].dir.display()
+            ))
+        })?;
+        if t.photons != total {
+            return Err(Failure::Input(format!(
+                "{d0}: incidence[{i}]: {} photons summed, expected {total}",
+                t.photons
+            )));
+        }
+        roots.push((
+            theta,
+            seconds,
+            vec![shard::Node {
+                level: batches.next_power_of_two().trailing_zeros(),
+                index: 0,
+                value: t.clone(),
+            }],
+        ));
+        results.push(IncidenceResult {
+            theta_i_deg: theta,
+            phi_i_deg: run.phi_deg,
+            tallies: t,
+            seconds,
+        });
+    }
+    let seconds: f64 = parts
+        .iter()
+        .map(|p| shard::text_f64(&p.v["seconds"], "seconds").unwrap_or(0.0))
+        .sum();
+    let fields = shard::summary_fields(&settings)
+        .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
+    let summary = output::brdf_summary(&fields, &results, seconds);
+    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
+    text.push('\n');
+    let incidence: Vec<shard::ShardIncidence<'_>> = roots
+        .iter()
+        .map(|(theta, secs, nodes)| shard::ShardIncidence {
+            theta_deg: *theta,
+            seconds: *secs,
+            nodes,
+        })
+        .collect();
+    let whole = Shard { index: 0, count: 1 };
+    let mut tallies = serde_json::to_string(&shard::tallies_file(
+        &settings,
+        whole,
+        (0, total),
+        &incidence,
+        seconds,
+    ))
+    .map_err(anyhow::Error::from)?;
+    tallies.push('\n');
+    let brdf_csv = output::brdf_csv(&run, &results);
+    let inplane_csv = output::inplane_csv(&run, &results);
     write_outputs(
-        &out,
+        &a.out,
         &[
             ("brdf.csv", brdf_csv.as_bytes()),
             ("inplane.csv", inplane_csv.as_bytes()),
+            (shard::TALLIES_FILE, tallies.as_bytes()),
             ("summary.json", text.as_bytes()),
         ],
     )?;
-
     if !a.quiet {
-        eprintln!(
-            "{:>9} {:>12} {:>10} {:>8} {:>9} {:>12}",
-            "theta_i", "reflectance", "stderr", "bounces", "lost", "Msegments/s"
-        );
-        for r in &results {
-            let (refl, se) = r.reflectance();
-            eprintln!(
-                "{:>9.2} {:>12.6} {:>10.2e} {:>8.3} {:>9.2e} {:>12.2}",
-                r.theta_i_deg,
-                refl,
-                se,
-                r.mean_bounces(),
-                r.lost(),
-                r.segments_per_second() / 1e6
-            );
-        }
-        eprintln!("wrote {} ({seconds:.1} s)", out.display());
+        print_brdf_table(&results);
+        eprintln!("merged {} shards into {}", parts.len(), a.out.display());
     }
     Ok(())
 }

@@ -9,6 +9,8 @@
 //! * `brdf.csv`: one row per incidence and Carlson cell (see [`BRDF_HEADER`]).
 //! * `inplane.csv`: the in-plane BRDF, `theta_o_deg` signed (positive on the
 //!   specular side, negative toward the light).
+//! * `tallies.json` (with `--shard`, and from `roks merge`): the raw sums,
+//!   exactly, for merging shards (see [`crate::shard`]).
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -147,6 +149,23 @@ pub fn incidence_json(r: &IncidenceResult) -> Value {
         "seconds": r.seconds,
         "segments_per_second": r.segments_per_second(),
     })
+}
+
+/// `summary.json` of `roks brdf` (and `roks merge`): the run-level `fields`
+/// plus `incidence` and the total `seconds`.
+#[must_use]
+pub fn brdf_summary(
+    fields: &serde_json::Map<String, Value>,
+    results: &[IncidenceResult],
+    seconds: f64,
+) -> Value {
+    let mut m = fields.clone();
+    m.insert(
+        "incidence".into(),
+        Value::Array(results.iter().map(incidence_json).collect()),
+    );
+    m.insert("seconds".into(), json!(seconds));
+    Value::Object(m)
 }
 
 /// Columns of `reflectance.csv` (`roks trace`).

@@ -4,7 +4,9 @@
 //! Photons start at uniform random points of the cell on the launch plane,
 //! travelling along `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
 //! photons are traced in fixed batches of [`BATCH`] and the batch tallies are
-//! summed in batch order, so results are bit-identical for any thread count.
+//! summed over a fixed binary tree on batch indices ([`crate::shard`]), so
+//! results are bit-identical for any thread count, and shards of a run
+//! (`--shard I/N`) merge to exactly the single run's sums.
 //! `fraction` in a cell is the photon weight leaving through it per launched
 //! photon; BRDF = fraction / projected solid angle (sr⁻¹).
 
@@ -16,6 +18,7 @@ use rand::RngExt;
 use super::micro::{Controls, Fate, trace};
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
+use crate::shard::{DyadicSum, Node};
 use crate::tally::{Accumulator, CarlsonGrid, InPlaneTally};
 
 pub use super::BATCH;
@@ -76,7 +79,9 @@ pub struct Tallies {
 }
 
 impl Tallies {
-    fn new(grid: &CarlsonGrid, inplane: &InPlaneTally) -> Self {
+    /// All sums zero, bins for `grid` and `inplane`.
+    #[must_use]
+    pub fn new(grid: &CarlsonGrid, inplane: &InPlaneTally) -> Self {
         Self {
             photons: 0,
             reflected: Accumulator::new(1),
@@ -193,7 +198,8 @@ impl BrdfRun {
             .collect()
     }
 
-    /// Trace one incidence angle.
+    /// Trace one incidence angle: all `photons` (indices from `first_photon`),
+    /// reduced over the fixed batch tree of this run alone.
     pub fn run_one(
         &self,
         surface: &MicroSurface,
@@ -201,22 +207,98 @@ impl BrdfRun {
         progress: &(dyn Fn(u64) + Sync),
     ) -> IncidenceResult {
         let clock = Instant::now();
+        let batches = self.photons.div_ceil(BATCH);
+        let nodes = self.run_nodes(surface, theta_deg, 0, batches, progress);
+        let mut sum = DyadicSum::new(batches);
+        for n in nodes {
+            sum.push(n, &Tallies::merge)
+                .expect("complete nodes in order");
+        }
         let grid = self.grid();
         let inplane = self.inplane();
-        let dir = -toward_light(theta_deg, self.phi_deg);
-        let total = super::run_batches(
-            self.photons,
-            Tallies::new(&grid, &inplane),
-            |range| self.trace_batch(surface, &grid, &inplane, dir, range),
-            Tallies::merge,
-            progress,
-        );
         IncidenceResult {
             theta_i_deg: theta_deg,
             phi_i_deg: self.phi_deg,
-            tallies: total,
+            tallies: sum
+                .finish()
+                .unwrap_or_else(|_| Tallies::new(&grid, &inplane)),
             seconds: clock.elapsed().as_secs_f64(),
         }
+    }
+
+    /// Trace one incidence angle as a shard: this run's photons are the indices
+    /// `[first_photon, first_photon + photons)` of a run of `total_photons`;
+    /// `first_photon` must be a multiple of [`BATCH`]. Returns the complete
+    /// nodes of the full run's batch tree (see [`crate::shard`]) and the time.
+    ///
+    /// # Panics
+    /// If `first_photon` is not a multiple of [`BATCH`] or the range exceeds
+    /// `total_photons`.
+    pub fn run_shard_one(
+        &self,
+        surface: &MicroSurface,
+        theta_deg: f64,
+        total_photons: u64,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> (Vec<Node<Tallies>>, f64) {
+        assert!(self.first_photon % BATCH == 0, "shards start on a batch");
+        assert!(self.first_photon + self.photons <= total_photons);
+        let clock = Instant::now();
+        let nodes = self.run_nodes(
+            surface,
+            theta_deg,
+            self.first_photon / BATCH,
+            total_photons.div_ceil(BATCH),
+            progress,
+        );
+        (nodes, clock.elapsed().as_secs_f64())
+    }
+
+    /// Trace this run's photons in batches (batch `k` of this run is batch
+    /// `base + k` of a run of `total_batches`), in parallel, and reduce them
+    /// in batch order over the fixed tree; returns its complete nodes.
+    fn run_nodes(
+        &self,
+        surface: &MicroSurface,
+        theta_deg: f64,
+        base: u64,
+        total_batches: u64,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<Node<Tallies>> {
+        use rayon::prelude::*;
+        const CHUNK: u64 = 64;
+        let grid = self.grid();
+        let inplane = self.inplane();
+        let dir = -toward_light(theta_deg, self.phi_deg);
+        let n_batches = self.photons.div_ceil(BATCH);
+        let mut sum = DyadicSum::new(total_batches);
+        let mut k0 = 0;
+        while k0 < n_batches {
+            let k1 = (k0 + CHUNK).min(n_batches);
+            let parts: Vec<Tallies> = (k0..k1)
+                .into_par_iter()
+                .map(|k| {
+                    let range = k * BATCH..((k + 1) * BATCH).min(self.photons);
+                    let n = range.end - range.start;
+                    let t = self.trace_batch(surface, &grid, &inplane, dir, range);
+                    progress(n);
+                    t
+                })
+                .collect();
+            for (k, value) in (k0..k1).zip(parts) {
+                sum.push(
+                    Node {
+                        level: 0,
+                        index: base + k,
+                        value,
+                    },
+                    &Tallies::merge,
+                )
+                .expect("batches in order");
+            }
+            k0 = k1;
+        }
+        sum.into_nodes()
     }
 
     fn trace_batch(
