@@ -442,9 +442,13 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .map(|v| serde_json::to_string(&v).map(|t| t + "\n"))
         .transpose()
         .map_err(anyhow::Error::from)?;
+    let inplane_png = output::inplane_plot(&scene.name, &run, &results)
+        .to_png(1000, 620)
+        .map_err(Failure::Other)?;
     let mut files: Vec<(&str, &[u8])> = vec![
         ("brdf.csv", brdf_csv.as_bytes()),
         ("inplane.csv", inplane_csv.as_bytes()),
+        ("inplane.png", &inplane_png),
     ];
     if let Some(t) = &tallies_text {
         files.push((shard::TALLIES_FILE, t.as_bytes()));

@@ -279,3 +279,45 @@ pub fn position_json(
         "seconds": r.seconds,
     })
 }
+
+/// The in-plane BRDF curves of a run as a plot (`inplane.png`): one curve
+/// per incidence angle, log BRDF vs signed theta_o, 2-sigma error bars.
+#[must_use]
+pub fn inplane_plot(
+    name: &str,
+    run: &BrdfRun,
+    results: &[IncidenceResult],
+) -> crate::plot::LinePlot {
+    use crate::plot::{LinePlot, Series};
+    let tally: InPlaneTally = run.inplane();
+    let series = results
+        .iter()
+        .map(|r| {
+            let n = r.tallies.photons;
+            let points = (0..tally.n_bins())
+                .map(|bin| {
+                    let proj = tally.projected_solid_angle(bin);
+                    (
+                        tally.centre_deg(bin),
+                        r.tallies.inplane.mean(bin, n) / proj,
+                        2.0 * r.tallies.inplane.stderr(bin, n) / proj,
+                    )
+                })
+                .collect();
+            Series {
+                label: format!("theta_i = {} deg", r.theta_i_deg),
+                points,
+            }
+        })
+        .collect();
+    LinePlot {
+        title: format!(
+            "{name}: BRDF in the plane of incidence ({} photons per angle)",
+            run.photons
+        ),
+        x_label: "theta_o (deg): negative toward the light, positive on the specular side".into(),
+        y_label: "BRDF (1/sr), error bars 2 standard errors".into(),
+        log_y: true,
+        series,
+    }
+}
