@@ -58,9 +58,8 @@ use super::{
     MaterialSpec, QuadricSpec, Range, SceneError, Source, build_materials, material_index,
     parse_toml,
 };
-use crate::geometry::body::{Aabb, Body, Ray};
+use crate::geometry::body::{Body, Ray};
 use crate::geometry::quadric::Quadric;
-use crate::geometry::region;
 use crate::micro::bumps::{Bump, Shape};
 use crate::micro::{Edges, MicroSurface, Placed};
 use crate::transport::brdf::BrdfRun;
@@ -511,41 +510,16 @@ fn explicit_body(
     size: DVec2,
     material: usize,
 ) -> Result<Placed, SceneError> {
-    // The body's own surface list: the named quadrics it uses, in order of appearance.
-    let mut used: Vec<String> = Vec::new();
-    let mut unknown = None;
-    let parsed = region::parse(&spec.region, |name| {
-        if !quadrics.contains_key(name) {
-            unknown.get_or_insert_with(|| name.to_string());
-            return None;
-        }
-        Some(used.iter().position(|u| u == name).unwrap_or_else(|| {
-            used.push(name.to_string());
-            used.len() - 1
-        }))
-    });
-    let region = match parsed {
-        Ok(r) => r,
-        Err(e) => {
-            let msg = match unknown {
-                Some(name) => format!("unknown surface `{name}` (not in [quadrics])"),
-                None => e.to_string(),
-            };
-            return Err(source.error(format!("{key}.region"), msg));
-        }
-    };
-    if used.len() > crate::geometry::body::MAX_SURFACES {
-        return Err(source.error(
-            format!("{key}.region"),
-            format!(
-                "uses {} surfaces; at most {}",
-                used.len(),
-                crate::geometry::body::MAX_SURFACES
-            ),
-        ));
-    }
-    let surfaces: Vec<Quadric> = used.iter().map(|n| quadrics[n]).collect();
-    let body = Body::new(surfaces, region, Aabb::EVERYTHING, material);
+    let names: Vec<String> = quadrics.keys().cloned().collect();
+    let list: Vec<Quadric> = quadrics.values().copied().collect();
+    let (body, _) = super::region_body(
+        source,
+        &format!("{key}.region"),
+        &spec.region,
+        &names,
+        &list,
+        material,
+    )?;
 
     // Unbounded above? Probe far above the cell (relative to its size).
     let scale = size.max_element();

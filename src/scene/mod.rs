@@ -16,7 +16,9 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use serde::Deserialize;
 
+use crate::geometry::body::{Aabb, Body, MAX_SURFACES};
 use crate::geometry::quadric::Quadric;
+use crate::geometry::region;
 use crate::optics::material::{AngleTable, Reflectance};
 
 /// A problem with a scene file: which file, which key, what is wrong.
@@ -384,4 +386,47 @@ pub fn material_index(
         };
         source.error(key, format!("unknown material `{name}` (known: {known})"))
     })
+}
+
+/// A body over the named quadrics its region expression uses (micro bodies and
+/// object cells): the region over the used surfaces in order of appearance, and
+/// their indices into `names`. `key` names the region in messages.
+pub fn region_body(
+    source: &Source,
+    key: &str,
+    expr: &str,
+    names: &[String],
+    quadrics: &[Quadric],
+    material: usize,
+) -> Result<(Body, Vec<usize>), SceneError> {
+    let mut used: Vec<usize> = Vec::new();
+    let mut unknown = None;
+    let parsed = region::parse(expr, |name| match names.iter().position(|n| n == name) {
+        None => {
+            unknown.get_or_insert_with(|| name.to_string());
+            None
+        }
+        Some(g) => Some(used.iter().position(|&u| u == g).unwrap_or_else(|| {
+            used.push(g);
+            used.len() - 1
+        })),
+    });
+    let region = parsed.map_err(|e| {
+        let msg = match &unknown {
+            Some(name) => format!("unknown surface `{name}` (not in [quadrics])"),
+            None => e.to_string(),
+        };
+        source.error(key, msg)
+    })?;
+    if used.len() > MAX_SURFACES {
+        return Err(source.error(
+            key,
+            format!("uses {} surfaces; at most {MAX_SURFACES}", used.len()),
+        ));
+    }
+    let surfaces = used.iter().map(|&g| quadrics[g]).collect();
+    Ok((
+        Body::new(surfaces, region, Aabb::EVERYTHING, material),
+        used,
+    ))
 }

@@ -57,9 +57,6 @@ use serde::Deserialize;
 
 use super::micro::{MicroScene, TransportSpec};
 use super::{MaterialSpec, QuadricSpec, SceneError, Source, parse_toml};
-use crate::geometry::body::{Aabb, Body, MAX_SURFACES};
-use crate::geometry::quadric::Quadric;
-use crate::geometry::region;
 use crate::object::source::Beam;
 use crate::object::wall::WallModel;
 use crate::object::{Object, SolidCell, VoidCell};
@@ -264,7 +261,8 @@ impl ObjectSceneSpec {
         let mut voids = Vec::new();
         for (c, cell) in self.cells.iter().enumerate() {
             let key = format!("cells[{c}].region");
-            let (body, ids) = cell_body(&source, &key, &cell.region, &surface_names, &quadrics)?;
+            let (body, ids) =
+                super::region_body(&source, &key, &cell.region, &surface_names, &quadrics, 0)?;
             match cell.fill {
                 Fill::Solid => solids.push(SolidCell {
                     name: cell.name.clone(),
@@ -452,43 +450,6 @@ impl ObjectSceneSpec {
             run,
         })
     }
-}
-
-/// A cell's body over the named quadrics it uses.
-fn cell_body(
-    source: &Source,
-    key: &str,
-    expr: &str,
-    names: &[String],
-    quadrics: &[Quadric],
-) -> Result<(Body, Vec<usize>), SceneError> {
-    let mut used: Vec<usize> = Vec::new();
-    let mut unknown = None;
-    let parsed = region::parse(expr, |name| match names.iter().position(|n| n == name) {
-        None => {
-            unknown.get_or_insert_with(|| name.to_string());
-            None
-        }
-        Some(g) => Some(used.iter().position(|&u| u == g).unwrap_or_else(|| {
-            used.push(g);
-            used.len() - 1
-        })),
-    });
-    let region = parsed.map_err(|e| {
-        let msg = match &unknown {
-            Some(name) => format!("unknown surface `{name}` (not in [quadrics])"),
-            None => e.to_string(),
-        };
-        source.error(key, msg)
-    })?;
-    if used.len() > MAX_SURFACES {
-        return Err(source.error(
-            key,
-            format!("uses {} surfaces; at most {MAX_SURFACES}", used.len()),
-        ));
-    }
-    let surfaces = used.iter().map(|&g| quadrics[g]).collect();
-    Ok((Body::new(surfaces, region, Aabb::EVERYTHING, 0), used))
 }
 
 impl ModelSpec {

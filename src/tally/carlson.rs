@@ -177,6 +177,20 @@ impl CarlsonGrid {
         Some(self.index(band, cell))
     }
 
+    /// Score weight `w` of a unit direction (`dir.z > 0`) into `acc` at
+    /// `offset` + its cell. Exactly at the pole (`x = y = 0`, e.g. a flat
+    /// facet at normal incidence) the azimuth is undefined: the weight is
+    /// shared equally among the four cells of band 1.
+    pub fn score(&self, acc: &mut crate::tally::Accumulator, offset: usize, dir: DVec3, w: f64) {
+        if dir.x == 0.0 && dir.y == 0.0 {
+            for cell in 0..4 {
+                acc.score(offset + self.index(1, cell), 0.25 * w);
+            }
+        } else if let Some(c) = self.locate(dir) {
+            acc.score(offset + c, w);
+        }
+    }
+
     /// Band (1-based) holding `mu > 0`; `mu >= 1` goes to band 1.
     fn band_of_mu(&self, mu: f64) -> usize {
         // Closed form: band j holds j (j - 1) < x <= j (j + 1), x = (1 - mu) K.

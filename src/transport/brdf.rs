@@ -265,27 +265,14 @@ impl BrdfRun {
         total_batches: u64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Node<Tallies>> {
-        use rayon::prelude::*;
-        const CHUNK: u64 = 64;
         let grid = self.grid();
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
-        let n_batches = self.photons.div_ceil(BATCH);
         let mut sum = DyadicSum::new(total_batches);
-        let mut k0 = 0;
-        while k0 < n_batches {
-            let k1 = (k0 + CHUNK).min(n_batches);
-            let parts: Vec<Tallies> = (k0..k1)
-                .into_par_iter()
-                .map(|k| {
-                    let range = k * BATCH..((k + 1) * BATCH).min(self.photons);
-                    let n = range.end - range.start;
-                    let t = self.trace_batch(surface, &grid, &inplane, dir, range);
-                    progress(n);
-                    t
-                })
-                .collect();
-            for (k, value) in (k0..k1).zip(parts) {
+        super::run_batches(
+            self.photons,
+            |range| self.trace_batch(surface, &grid, &inplane, dir, range),
+            |k, value| {
                 sum.push(
                     Node {
                         level: 0,
@@ -295,9 +282,9 @@ impl BrdfRun {
                     &Tallies::merge,
                 )
                 .expect("batches in order");
-            }
-            k0 = k1;
-        }
+            },
+            progress,
+        );
         sum.into_nodes()
     }
 
@@ -322,15 +309,7 @@ impl BrdfRun {
             match h.fate {
                 Fate::Escaped { dir: out, weight } => {
                     t.reflected.score(0, weight);
-                    if out.x == 0.0 && out.y == 0.0 {
-                        // Exactly at the pole (a flat facet at normal incidence) the
-                        // azimuth is undefined: share the score among band 1's cells.
-                        for cell in 0..4 {
-                            t.carlson.score(grid.index(1, cell), 0.25 * weight);
-                        }
-                    } else if let Some(c) = grid.locate(out) {
-                        t.carlson.score(c, weight);
-                    }
+                    grid.score(&mut t.carlson, 0, out, weight);
                     if let Some(c) = inplane.locate(out) {
                         t.inplane.score(c, weight);
                     }

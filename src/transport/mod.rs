@@ -16,18 +16,17 @@ use rayon::prelude::*;
 /// Photons per batch: the unit of parallel work and of summation order.
 pub const BATCH: u64 = 4096;
 
-/// Trace `photons` photons in fixed batches of [`BATCH`] in parallel and sum
-/// the batch tallies in batch order, so the result is bit-identical for any
-/// number of threads. `trace(range)` traces the photons of one index range
-/// into a fresh tally; `merge(total, part)` adds a part; `progress` receives
-/// the photons done. Pending batch tallies are bounded by working in chunks.
+/// Trace `photons` photons in fixed batches of [`BATCH`] in parallel and hand
+/// each batch's tally to `consume(batch index, tally)` in batch order, so the
+/// result is bit-identical for any number of threads. `trace(range)` traces
+/// the photons of one index range into a fresh tally; `progress` receives the
+/// photons done. Pending batch tallies are bounded by working in chunks.
 pub fn run_batches<T: Send>(
     photons: u64,
-    mut total: T,
     trace: impl Fn(std::ops::Range<u64>) -> T + Sync,
-    merge: impl Fn(&mut T, &T),
+    mut consume: impl FnMut(u64, T),
     progress: &(dyn Fn(u64) + Sync),
-) -> T {
+) {
     const CHUNK: u64 = 64;
     let n_batches = photons.div_ceil(BATCH);
     let mut b0 = 0;
@@ -43,12 +42,11 @@ pub fn run_batches<T: Send>(
                 t
             })
             .collect();
-        for p in &parts {
-            merge(&mut total, p);
+        for (b, part) in (b0..b1).zip(parts) {
+            consume(b, part);
         }
         b0 = b1;
     }
-    total
 }
 
 /// Russian roulette (unbiased): below `threshold` a weight survives with

@@ -41,21 +41,24 @@ impl FarField {
         2 * self.grid.n_cells()
     }
 
-    /// Cell of a unit direction (directions exactly horizontal go up;
-    /// exactly at a pole, the weight is shared among the band-1 cells by the caller).
-    #[must_use]
-    pub fn locate(&self, dir: DVec3) -> Option<usize> {
+    /// Score weight `w` of a unit direction into `acc`: the upper grid for
+    /// `z >= 0` (exactly horizontal goes up), the mirrored grid below; at a
+    /// pole shared among band 1's cells (see [`CarlsonGrid::score`]).
+    pub fn score(&self, acc: &mut Accumulator, dir: DVec3, w: f64) {
         if dir.z >= 0.0 {
             let up = if dir.z == 0.0 {
                 DVec3::new(dir.x, dir.y, f64::MIN_POSITIVE)
             } else {
                 dir
             };
-            self.grid.locate(up)
+            self.grid.score(acc, 0, up, w);
         } else {
-            self.grid
-                .locate(DVec3::new(dir.x, dir.y, -dir.z))
-                .map(|c| c + self.grid.n_cells())
+            self.grid.score(
+                acc,
+                self.grid.n_cells(),
+                DVec3::new(dir.x, dir.y, -dir.z),
+                w,
+            );
         }
     }
 }
@@ -185,11 +188,11 @@ impl ObjectRun {
                 let clock = Instant::now();
                 let ff = self.farfield_grid();
                 let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
-                let total = super::run_batches(
+                let mut total = Tallies::new(object.surface_names.len(), ff_cells);
+                super::run_batches(
                     n_photons,
-                    Tallies::new(object.surface_names.len(), ff_cells),
                     |range| self.trace_batch(object, walls, models, beam, k as u64, &ff, range),
-                    Tallies::merge,
+                    |_, part| total.merge(&part),
                     progress,
                 );
                 PositionResult {
@@ -238,7 +241,7 @@ impl ObjectRun {
                     } else {
                         t.reflected.score(0, w);
                         if self.farfield {
-                            score_farfield(&mut t.farfield, ff, d, w);
+                            ff.score(&mut t.farfield, d, w);
                         }
                     }
                     break;
@@ -300,18 +303,5 @@ impl ObjectRun {
             }
         }
         t
-    }
-}
-
-/// Score a far-field direction; exactly at a pole the weight is shared among
-/// the four cells of that hemisphere's band 1.
-fn score_farfield(acc: &mut Accumulator, ff: &FarField, d: DVec3, w: f64) {
-    if d.x == 0.0 && d.y == 0.0 {
-        let offset = if d.z > 0.0 { 0 } else { ff.grid.n_cells() };
-        for cell in 0..4 {
-            acc.score(offset + ff.grid.index(1, cell), 0.25 * w);
-        }
-    } else if let Some(c) = ff.locate(d) {
-        acc.score(c, w);
     }
 }
