@@ -1,16 +1,19 @@
 #!/usr/bin/env python3
 """Compare two `roks brdf`-format output folders (e.g. roks vs scripts/mitsuba_brdf.py).
 
-    compare_brdf.py DIR_A DIR_B [--min-sigma 0]
+    compare_brdf.py DIR_A DIR_B
 
 For every incidence angle present in both: the reflectances with the z-score
 (difference over the combined standard error), and over the Carlson cells
 where either side has weight the chi-square per degree of freedom of the cell
 fractions and the largest |z|. Cells where both standard errors are zero
-must agree exactly (to 1e-9) and are counted apart ('exact' column). Exit
-status 1 if any |z| > 5 or the chi-square exceeds its p = 1e-3 point
-(Wilson-Hilferty) (a rough verdict; the markdown report of issue 4 is still
-to be written).
+must agree exactly (to 1e-9) and are counted apart ('exact' column).
+
+Verdict per angle (`verdict()`): fail if the reflectance |z| > 4, or any cell
+|z| > 4 + a Bonferroni allowance for the number of cells (`cell_z_limit`), or
+the cell chi-square exceeds its p = 1e-3 point (Wilson-Hilferty), or an exact
+cell differs. Exit status 1 on any failure. `scripts/crosscheck.py` uses
+`compare()` for its markdown report.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from pathlib import Path
 
 
 def load(d: Path):
+    """summary entries by theta, and {theta: {(band, cell): (fraction, stderr)}}."""
     summ = {e["theta_deg"]: e for e in json.load(open(d / "summary.json"))["incidence"]}
     cells = defaultdict(dict)
     for r in csv.DictReader(open(d / "brdf.csv")):
@@ -33,15 +37,33 @@ def load(d: Path):
     return summ, cells
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("a", type=Path)
-    ap.add_argument("b", type=Path)
-    a = ap.parse_args()
-    sa, ca = load(a.a)
-    sb, cb = load(a.b)
-    ok = True
-    print(f"{'theta':>6} {'R_a':>10} {'R_b':>10} {'z':>7} {'cells':>6} {'chi2/dof':>9} {'max|z|':>7} {'exact':>6}")
+def cell_z_limit(n: int, p: float = 1e-3) -> float:
+    """|z| that n independent standard normals all stay below with probability 1 - p."""
+    # two-sided tail per cell q = p / n; invert erfc by bisection (no scipy)
+    q = p / max(n, 1)
+    lo, hi = 0.0, 40.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if math.erfc(mid / math.sqrt(2.0)) > q:
+            lo = mid
+        else:
+            hi = mid
+    return max(4.0, hi)
+
+
+def wilson_hilferty(chi2_per_dof: float, dof: int) -> float:
+    """Normal deviate of a chi-square per degree of freedom (Wilson-Hilferty)."""
+    if dof <= 0:
+        return 0.0
+    v = 2.0 / (9.0 * dof)
+    return (chi2_per_dof ** (1.0 / 3.0) - (1.0 - v)) / math.sqrt(v)
+
+
+def compare(dir_a: Path, dir_b: Path) -> list[dict]:
+    """One dict per incidence angle present in both folders."""
+    sa, ca = load(Path(dir_a))
+    sb, cb = load(Path(dir_b))
+    rows = []
     for th in sorted(set(sa) & set(sb)):
         ea, eb = sa[th], sb[th]
         se = math.hypot(ea["reflectance_stderr"], eb["reflectance_stderr"])
@@ -63,15 +85,39 @@ def main() -> int:
             dof += 1
             zmax = max(zmax, abs(zc))
         red = chi2 / dof if dof else 0.0
-        # chi-square tail by Wilson-Hilferty: fail beyond about 3.1 sigma (p < 1e-3)
-        zwh = 0.0
-        if dof:
-            v = 2.0 / (9.0 * dof)
-            zwh = (red ** (1.0 / 3.0) - (1.0 - v)) / math.sqrt(v)
-        bad = abs(z) > 5 or zmax > 5 or zwh > 3.1 or exact_bad
-        ok &= not bad
-        print(f"{th:6g} {ea['reflectance']:10.6f} {eb['reflectance']:10.6f} {z:7.2f} {dof:6d} {red:9.3f} "
-              f"{zmax:7.2f} {exact_n - exact_bad:>3d}/{exact_n:<2d}{'  FAIL' if bad else ''}")
+        rows.append({
+            "theta": th, "r_a": ea["reflectance"], "se_a": ea["reflectance_stderr"],
+            "r_b": eb["reflectance"], "se_b": eb["reflectance_stderr"], "diff": d, "z": z,
+            "cells": dof, "chi2_dof": red, "chi2_z": wilson_hilferty(red, dof), "max_cell_z": zmax,
+            "cell_z_limit": cell_z_limit(dof), "exact": exact_n, "exact_bad": exact_bad,
+        })
+    for r in rows:
+        r["pass"] = verdict(r)
+    return rows
+
+
+def verdict(r: dict) -> bool:
+    return (abs(r["z"]) <= 4.0 and r["max_cell_z"] <= r["cell_z_limit"]
+            and r["chi2_z"] <= 3.1 and r["exact_bad"] == 0)
+
+
+def table(rows: list[dict]) -> str:
+    out = [f"{'theta':>6} {'R_a':>10} {'R_b':>10} {'z':>7} {'cells':>6} {'chi2/dof':>9} {'max|z|':>7} {'exact':>6}"]
+    for r in rows:
+        out.append(f"{r['theta']:6g} {r['r_a']:10.6f} {r['r_b']:10.6f} {r['z']:7.2f} {r['cells']:6d} "
+                   f"{r['chi2_dof']:9.3f} {r['max_cell_z']:7.2f} {r['exact'] - r['exact_bad']:>3d}/{r['exact']:<2d}"
+                   f"{'' if r['pass'] else '  FAIL'}")
+    return "\n".join(out)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("a", type=Path)
+    ap.add_argument("b", type=Path)
+    a = ap.parse_args()
+    rows = compare(a.a, a.b)
+    print(table(rows))
+    ok = bool(rows) and all(r["pass"] for r in rows)
     print("verdict:", "pass" if ok else "FAIL")
     return 0 if ok else 1
 
