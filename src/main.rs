@@ -99,7 +99,8 @@ struct MergeArgs {
 
 #[derive(Args, Debug)]
 struct RenderArgs {
-    /// Micro scene file (TOML); omitted: the embedded default scene.
+    /// Micro or object scene file (TOML; an object scene has [[cells]]);
+    /// omitted: the embedded default micro scene.
     scene: Option<PathBuf>,
     /// Output EXR file.
     #[arg(long)]
@@ -125,6 +126,20 @@ struct RenderArgs {
     /// Worker threads (default: all cores). Does not change results.
     #[arg(long)]
     threads: Option<usize>,
+    /// Object scenes: pinhole camera position X,Y,Z (default: on the first
+    /// beam's axis, 2.5 beam-sweep lengths before its start, at least 50 units).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    camera: Option<Vec<f64>>,
+    /// Object scenes: point the camera looks at X,Y,Z (default: the first
+    /// beam's start point moved 100 units along the beam).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    look_at: Option<Vec<f64>>,
+    /// Object scenes: up direction X,Y,Z of the image.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = [0.0, 1.0, 0.0])]
+    up: Vec<f64>,
+    /// Object scenes: vertical field of view (degrees).
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
 }
 
 #[derive(Args, Debug)]
@@ -973,7 +988,7 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
 }
 
 fn render(a: RenderArgs) -> Result<(), Failure> {
-    use roks::render::{RenderSettings, write_exr, write_png_preview};
+    use roks::render::RenderSettings;
     for (name, n) in [
         ("--view", a.view.len()),
         ("--size", a.size.len()),
@@ -984,6 +999,9 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
                 "{name}: give two comma-separated values"
             )));
         }
+    }
+    if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
+        return render_object(&a, path);
     }
     let scene = load_scene(a.scene.as_deref())?;
     let (light_theta, light_phi) = match &a.light {
@@ -1007,21 +1025,118 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
         .map_err(|e| Failure::Input(format!("render: {e}")))?;
     set_threads(a.threads)?;
     let img = roks::render::render(&scene.surface, &settings);
-    let exr = write_exr(&img).map_err(|e| anyhow::anyhow!("{e}"))?;
+    write_images(&a.out, &img)
+}
+
+/// Whether a scene file describes an object (has `[[cells]]`); unreadable or
+/// malformed files are left to the micro loader's error messages.
+fn is_object_scene(path: &Path) -> bool {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| t.parse::<toml::Table>().ok())
+        .is_some_and(|t| t.contains_key("cells"))
+}
+
+/// `roks render` of an object scene: a pinhole camera view.
+fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
+    use roks::render::{PinholeCamera, RenderSettings};
+    let scene = ObjectScene::load(path)?;
+    for (name, v) in [("--camera", &a.camera), ("--look-at", &a.look_at)] {
+        if v.as_ref().is_some_and(|v| v.len() != 3) {
+            return Err(Failure::Input(format!(
+                "{name}: give three comma-separated values"
+            )));
+        }
+    }
+    if a.up.len() != 3 {
+        return Err(Failure::Input("--up: give three comma-separated values".into()));
+    }
+    let beam = scene.beams[0];
+    let v3 = |v: &Vec<f64>| glam::DVec3::new(v[0], v[1], v[2]);
+    let sweep = scene
+        .beams
+        .iter()
+        .map(|b| (b.position - beam.position).length())
+        .fold(0.0_f64, f64::max);
+    let look_at = a
+        .look_at
+        .as_ref()
+        .map_or(beam.position + 100.0 * beam.direction, v3);
+    let position = a
+        .camera
+        .as_ref()
+        .map_or(beam.position - (2.5 * sweep).max(50.0) * beam.direction, v3);
+    let camera = PinholeCamera {
+        position,
+        look_at,
+        up: v3(&a.up),
+        fov_deg: a.fov,
+    };
+    let (light_theta, light_phi) = match &a.light {
+        Some(l) => (l[0], l[1]),
+        None => {
+            // Toward the light: against the first beam.
+            let t = -beam.direction;
+            (t.z.clamp(-1.0, 1.0).acos().to_degrees(), t.y.atan2(t.x).to_degrees())
+        }
+    };
+    let settings = RenderSettings {
+        width: a.size[0],
+        height: a.size[1],
+        spp: a.spp,
+        light_theta_deg: light_theta,
+        light_phi_deg: light_phi,
+        light_radius_deg: a.disc,
+        light_radiance: 1.0,
+        seed: a.seed,
+        ..RenderSettings::default()
+    };
+    settings
+        .validate()
+        .and_then(|()| camera.validate())
+        .map_err(|e| Failure::Input(format!("{}: render: {e}", scene.source.file)))?;
+    if scene.object.solids.iter().any(|s| s.body.contains(camera.position)) {
+        return Err(Failure::Input(format!(
+            "{}: --camera: the camera position {} lies inside a solid cell",
+            scene.source.file, camera.position
+        )));
+    }
+    set_threads(a.threads)?;
+    let (img, losses) = roks::render::render_object(&scene, &camera, &settings);
+    if losses.unmodelled > 0 {
+        return Err(Failure::Input(format!(
+            "{}: walls: {} camera paths hit a surface without a model in [walls]",
+            scene.source.file, losses.unmodelled
+        )));
+    }
+    if losses.lost > 0 {
+        eprintln!(
+            "roks: render: {} of {} camera paths lost (bounce cap, numerical guard or micro descent); they add 0",
+            losses.lost,
+            settings.width * settings.height * settings.spp as usize
+        );
+    }
+    write_images(&a.out, &img)
+}
+
+/// Write `img` as OUT (EXR) and OUT.png (preview), and report the mean.
+fn write_images(out: &Path, img: &roks::render::Image) -> Result<(), Failure> {
+    use roks::render::{write_exr, write_png_preview};
+    let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
     let png = write_png_preview(&img).map_err(|e| anyhow::anyhow!("{e}"))?;
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
     }
-    let png_path = a.out.with_extension("png");
-    for (path, bytes) in [(&a.out, &exr), (&png_path, &png)] {
+    let png_path = out.with_extension("png");
+    for (path, bytes) in [(&out.to_path_buf(), &exr), (&png_path, &png)] {
         output::write_atomic(path, bytes)
             .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
     }
     let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
     eprintln!(
         "wrote {} and {} (mean radiance {mean:.4} of the disc's)",
-        a.out.display(),
+        out.display(),
         png_path.display()
     );
     Ok(())

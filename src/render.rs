@@ -47,7 +47,8 @@ pub struct RenderSettings {
     pub view_theta_deg: f64,
     /// Azimuth of the view direction.
     pub view_phi_deg: f64,
-    /// Polar angle of the direction toward the light's centre, in `[0, 90]`.
+    /// Polar angle of the direction toward the light's centre, in `[0, 180]`
+    /// (measured from +z: the micro surface's normal, the world's +z for objects).
     pub light_theta_deg: f64,
     /// Azimuth of the direction toward the light's centre.
     pub light_phi_deg: f64,
@@ -103,9 +104,11 @@ impl RenderSettings {
                 self.view_theta_deg
             ));
         }
-        if !(0.0..=90.0).contains(&self.light_theta_deg) {
+        // Above 90 degrees (object scenes: light from below) is allowed; a
+        // micro surface is then simply dark.
+        if !(0.0..=180.0).contains(&self.light_theta_deg) {
             return Err(format!(
-                "light theta = {} degrees must be in [0, 90]",
+                "light theta = {} degrees must be in [0, 180]",
                 self.light_theta_deg
             ));
         }
@@ -206,6 +209,152 @@ pub fn render(surface: &MicroSurface, s: &RenderSettings) -> Image {
         height: h,
         rgb: rows.into_iter().flatten().collect(),
     }
+}
+
+/// A pinhole camera for object scenes (macro level). Lengths in the scene's
+/// units; `fov_deg` is the vertical full angle of view in degrees.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PinholeCamera {
+    /// Eye position.
+    pub position: DVec3,
+    /// Point the optical axis passes through.
+    pub look_at: DVec3,
+    /// Approximate up direction of the image (made orthogonal to the axis).
+    pub up: DVec3,
+    /// Vertical full field of view (degrees, in `(0, 180)`).
+    pub fov_deg: f64,
+}
+
+impl PinholeCamera {
+    /// Check the camera; `Err` names the offending field in one line.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.position.is_finite() && self.look_at.is_finite() && self.up.is_finite()) {
+            return Err("camera, look-at and up must be finite".into());
+        }
+        let f = self.look_at - self.position;
+        if f.length() == 0.0 {
+            return Err("look-at must differ from the camera position".into());
+        }
+        if f.normalize().cross(self.up).length() < 1e-9 {
+            return Err("up must not be parallel to the viewing axis".into());
+        }
+        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            return Err(format!("fov = {} degrees must be in (0, 180)", self.fov_deg));
+        }
+        Ok(())
+    }
+
+    /// Unit direction of the ray through image point `(x, y)` in pixels
+    /// (`x` right in `[0, w]`, `y` down in `[0, h]`).
+    #[must_use]
+    pub fn ray(&self, x: f64, y: f64, w: usize, h: usize) -> DVec3 {
+        let f = (self.look_at - self.position).normalize();
+        let r = f.cross(self.up).normalize();
+        let u = r.cross(f);
+        let t = (0.5 * self.fov_deg).to_radians().tan();
+        let sx = (2.0 * x / w as f64 - 1.0) * t * (w as f64 / h as f64);
+        let sy = (1.0 - 2.0 * y / h as f64) * t;
+        (f + sx * r + sy * u).normalize()
+    }
+}
+
+/// Radiance map of an object scene seen through a pinhole camera.
+///
+/// Each camera ray is followed backward through the object by the macro
+/// history loop ([`crate::transport::object::follow`], the same wall models
+/// as `roks trace`); by reciprocity of the walls' BRDFs a path that leaves
+/// the object (or misses it) in a direction within `light_radius_deg` of the
+/// light direction contributes `weight * light_radiance`. The light is a disc
+/// at infinity in world direction `(light_theta_deg, light_phi_deg)` (polar
+/// angle from world +z). `view_*` of `s` are not used. Pixel `(i, j)` draws
+/// from `photon_rng(seed, j w + i)`: the same image for any thread count.
+/// Histories cut by caps or guards, or hitting unmodelled surfaces, add 0
+/// and are counted in the returned [`RenderLosses`].
+///
+/// # Panics
+/// If `s` or `camera` fail their `validate`.
+#[must_use]
+pub fn render_object(
+    scene: &crate::scene::object::ObjectScene,
+    camera: &PinholeCamera,
+    s: &RenderSettings,
+) -> (Image, RenderLosses) {
+    use crate::transport::object::{MacroFate, follow};
+    if let Err(e) = s.validate().and_then(|()| camera.validate()) {
+        panic!("render_object: {e}");
+    }
+    let (w, h) = (s.width, s.height);
+    let light = direction(s.light_theta_deg, s.light_phi_deg);
+    let cos_r = s.light_radius_deg.to_radians().cos();
+    let controls = scene.run.controls;
+    let spp = s.spp;
+    let rows: Vec<(Vec<[f32; 3]>, RenderLosses)> = (0..h)
+        .into_par_iter()
+        .map(|j| {
+            use rand::RngExt;
+            let mut scratch: Vec<Option<Scratch>> = vec![None; scene.models.len()];
+            let mut losses = RenderLosses::default();
+            let row = (0..w)
+                .map(|i| {
+                    let mut rng = photon_rng(s.seed, (j * w + i) as u64);
+                    let mut sum = 0.0_f64;
+                    for _ in 0..spp {
+                        let x = i as f64 + rng.random::<f64>();
+                        let y = j as f64 + rng.random::<f64>();
+                        let d = camera.ray(x, y, w, h);
+                        let hist = follow(
+                            &scene.object,
+                            &scene.walls,
+                            &scene.models,
+                            &controls,
+                            camera.position,
+                            d,
+                            &mut rng,
+                            &mut scratch,
+                            |_, _| {},
+                        );
+                        match hist.fate {
+                            MacroFate::Escaped { dir, weight } => {
+                                if dir.dot(light) >= cos_r {
+                                    sum += weight * s.light_radiance;
+                                }
+                            }
+                            MacroFate::Absorbed => {}
+                            MacroFate::Lost { .. } => losses.lost += 1,
+                            MacroFate::Unmodelled { .. } => losses.unmodelled += 1,
+                        }
+                    }
+                    let value = (sum / f64::from(spp)) as f32;
+                    [value; 3]
+                })
+                .collect();
+            (row, losses)
+        })
+        .collect();
+    let mut losses = RenderLosses::default();
+    let mut rgb = Vec::with_capacity(w * h);
+    for (row, l) in rows {
+        rgb.extend(row);
+        losses.lost += l.lost;
+        losses.unmodelled += l.unmodelled;
+    }
+    (
+        Image {
+            width: w,
+            height: h,
+            rgb,
+        },
+        losses,
+    )
+}
+
+/// Camera paths of an object render that ended without a physical outcome.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RenderLosses {
+    /// Cut by the bounce cap, a numerical guard, or lost in a micro descent.
+    pub lost: u64,
+    /// Met a surface without a wall model.
+    pub unmodelled: u64,
 }
 
 /// The image as an OpenEXR file in memory: one layer, scanline blocks, ZIP

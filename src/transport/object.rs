@@ -222,80 +222,51 @@ impl ObjectRun {
         let mut touched: Vec<usize> = Vec::new();
         for n in photons {
             let mut rng = photon_rng(self.seed, (position << 40) | n);
-            let mut p = beam.start(rng.random(), rng.random());
+            let p = beam.start(rng.random(), rng.random());
             if object.solids.iter().any(|s| s.body.contains(p)) {
                 t.photons += 1;
                 t.started_inside += 1;
                 continue;
             }
-            let mut d = beam.direction;
-            let mut w = 1.0_f64;
-            let mut standing = None;
-            let mut bounces = 0_u32;
             t.photons += 1;
-            loop {
-                t.segments += 1;
-                let Some(hit) = object.next_hit(p, d, standing) else {
-                    if bounces == 0 {
-                        t.missed += w;
+            let end = follow(
+                object,
+                walls,
+                models,
+                &self.controls,
+                p,
+                beam.direction,
+                &mut rng,
+                &mut scratch,
+                |sid, a| {
+                    if absorbed[sid] == 0.0 {
+                        touched.push(sid);
+                    }
+                    absorbed[sid] += a;
+                },
+            );
+            match end.fate {
+                MacroFate::Escaped { dir, weight } => {
+                    if end.bounces == 0 {
+                        t.missed += weight;
                     } else {
-                        t.reflected.score(0, w);
+                        t.reflected.score(0, weight);
                         if self.farfield {
-                            ff.score(&mut t.farfield, d, w);
+                            ff.score(&mut t.farfield, dir, weight);
                         }
                     }
-                    break;
-                };
-                let sid = object.surface_id(hit.cell, hit.surface);
-                let Some(m) = walls[sid] else {
+                }
+                MacroFate::Unmodelled { surface } => {
                     t.unmodelled.0 += 1;
                     if t.unmodelled.1 == usize::MAX {
-                        t.unmodelled.1 = sid;
-                    }
-                    break;
-                };
-                if bounces >= self.controls.max_bounces {
-                    t.lost += w;
-                    break;
-                }
-                p += hit.t * d;
-                let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
-                let Some(normal) = quadric.facing_normal(p, d) else {
-                    t.lost += w;
-                    break;
-                };
-                bounces += 1;
-                match models[m].interact(d, normal, &mut rng, &mut scratch[m]) {
-                    Interaction::Reflected { dir, factor } => {
-                        if absorbed[sid] == 0.0 {
-                            touched.push(sid);
-                        }
-                        absorbed[sid] += w * (1.0 - factor);
-                        w *= factor;
-                        d = dir;
-                    }
-                    Interaction::Absorbed => {
-                        if absorbed[sid] == 0.0 {
-                            touched.push(sid);
-                        }
-                        absorbed[sid] += w;
-                        w = 0.0;
-                    }
-                    Interaction::Lost => {
-                        t.lost += w;
-                        w = 0.0;
+                        t.unmodelled.1 = surface;
                     }
                 }
-                if w <= 0.0 || !d.is_finite() {
-                    break;
-                }
-                standing = Some((hit.cell, hit.surface));
-                match super::roulette(w, self.controls.roulette_weight, &mut rng) {
-                    Some(survivor) => w = survivor,
-                    None => break,
-                }
+                MacroFate::Lost { weight } => t.lost += weight,
+                MacroFate::Absorbed => {}
             }
-            t.bounces += u64::from(bounces);
+            t.segments += u64::from(end.segments);
+            t.bounces += u64::from(end.bounces);
             // One score per surface per history (for the standard errors).
             for sid in touched.drain(..) {
                 t.absorbed.score(sid, absorbed[sid]);
@@ -303,5 +274,111 @@ impl ObjectRun {
             }
         }
         t
+    }
+}
+
+/// How a history through an object ended (see [`follow`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MacroFate {
+    /// Met no solid any more: leaves to infinity along unit `dir` with `weight`.
+    Escaped {
+        /// Direction of flight.
+        dir: DVec3,
+        /// Weight on leaving.
+        weight: f64,
+    },
+    /// Weight reached 0 at a wall, or the photon lost the roulette (physics).
+    Absorbed,
+    /// Hit surface id `surface`, which has no wall model (a scene error; counted).
+    Unmodelled {
+        /// Global surface id.
+        surface: usize,
+    },
+    /// Cut by the bounce cap, stopped by a numerical guard (degenerate
+    /// normal, non-finite direction), or lost inside a micro descent.
+    Lost {
+        /// Weight carried when lost.
+        weight: f64,
+    },
+}
+
+/// A finished macro history.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MacroHistory {
+    /// How it ended.
+    pub fate: MacroFate,
+    /// Reflections at walls (0 for an escape: the photon missed the object).
+    pub bounces: u32,
+    /// Straight flights traced.
+    pub segments: u32,
+}
+
+/// Follow one photon (or camera ray, by reciprocity) from `p` along unit `d`
+/// through `object`: the one history loop of the macro level, used by
+/// `roks trace` and by `roks render` of object scenes. At each wall the
+/// model of the surface reflects it; `absorbed(surface id, weight)` receives
+/// the weight each wall removes. `scratch` holds one micro scratch per model.
+#[allow(clippy::too_many_arguments)]
+pub fn follow(
+    object: &Object,
+    walls: &Walls,
+    models: &[WallModel],
+    controls: &Controls,
+    mut p: DVec3,
+    mut d: DVec3,
+    rng: &mut impl rand::Rng,
+    scratch: &mut [Option<Scratch>],
+    mut absorbed: impl FnMut(usize, f64),
+) -> MacroHistory {
+    let mut w = 1.0_f64;
+    let mut standing = None;
+    let mut bounces = 0_u32;
+    let mut segments = 0_u32;
+    let end = |fate, bounces, segments| MacroHistory {
+        fate,
+        bounces,
+        segments,
+    };
+    loop {
+        segments += 1;
+        let Some(hit) = object.next_hit(p, d, standing) else {
+            return end(MacroFate::Escaped { dir: d, weight: w }, bounces, segments);
+        };
+        let sid = object.surface_id(hit.cell, hit.surface);
+        let Some(m) = walls[sid] else {
+            return end(MacroFate::Unmodelled { surface: sid }, bounces, segments);
+        };
+        if bounces >= controls.max_bounces {
+            return end(MacroFate::Lost { weight: w }, bounces, segments);
+        }
+        p += hit.t * d;
+        let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
+        let Some(normal) = quadric.facing_normal(p, d) else {
+            return end(MacroFate::Lost { weight: w }, bounces, segments);
+        };
+        bounces += 1;
+        match models[m].interact(d, normal, rng, &mut scratch[m]) {
+            Interaction::Reflected { dir, factor } => {
+                absorbed(sid, w * (1.0 - factor));
+                w *= factor;
+                d = dir;
+            }
+            Interaction::Absorbed => {
+                absorbed(sid, w);
+                return end(MacroFate::Absorbed, bounces, segments);
+            }
+            Interaction::Lost => return end(MacroFate::Lost { weight: w }, bounces, segments),
+        }
+        if w <= 0.0 {
+            return end(MacroFate::Absorbed, bounces, segments);
+        }
+        if !d.is_finite() {
+            return end(MacroFate::Lost { weight: w }, bounces, segments);
+        }
+        standing = Some((hit.cell, hit.surface));
+        match super::roulette(w, controls.roulette_weight, rng) {
+            Some(survivor) => w = survivor,
+            None => return end(MacroFate::Absorbed, bounces, segments),
+        }
     }
 }
