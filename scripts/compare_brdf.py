@@ -9,6 +9,11 @@ where either side has weight the chi-square per degree of freedom of the cell
 fractions and the largest |z|. Cells where both standard errors are zero
 must agree exactly (to 1e-9) and are counted apart ('exact' column).
 
+Lost weight (`lost` in summary.json: bounce caps, numerical guards) is
+weight whose fate is unknown: the true reflectance of a run lies in
+[R, R + lost]. The reflectance difference used for z is the gap between the
+two intervals (0 where they overlap); with nothing lost it is R_a - R_b.
+
 Verdict per angle (`verdict()`): fail if the reflectance |z| > 4, or any cell
 |z| > 4 + a Bonferroni allowance for the number of cells (`cell_z_limit`), or
 the cell chi-square exceeds its p = 1e-3 point (Wilson-Hilferty), or an exact
@@ -59,6 +64,15 @@ def wilson_hilferty(chi2_per_dof: float, dof: int) -> float:
     return (chi2_per_dof ** (1.0 / 3.0) - (1.0 - v)) / math.sqrt(v)
 
 
+def gap(ra: float, lost_a: float, rb: float, lost_b: float) -> float:
+    """Signed distance between the intervals [ra, ra + lost_a] and [rb, rb + lost_b] (0 if they overlap)."""
+    if ra > rb + lost_b:
+        return ra - (rb + lost_b)
+    if rb > ra + lost_a:
+        return ra + lost_a - rb
+    return 0.0
+
+
 def compare(dir_a: Path, dir_b: Path) -> list[dict]:
     """One dict per incidence angle present in both folders."""
     sa, ca = load(Path(dir_a))
@@ -67,7 +81,7 @@ def compare(dir_a: Path, dir_b: Path) -> list[dict]:
     for th in sorted(set(sa) & set(sb)):
         ea, eb = sa[th], sb[th]
         se = math.hypot(ea["reflectance_stderr"], eb["reflectance_stderr"])
-        d = ea["reflectance"] - eb["reflectance"]
+        d = gap(ea["reflectance"], ea.get("lost", 0.0), eb["reflectance"], eb.get("lost", 0.0))
         z = d / se if se > 0 else (0.0 if abs(d) < 1e-9 else math.inf)
         chi2, dof, zmax, exact_bad, exact_n = 0.0, 0, 0.0, 0, 0
         for key in set(ca[th]) | set(cb[th]):
@@ -88,6 +102,7 @@ def compare(dir_a: Path, dir_b: Path) -> list[dict]:
         rows.append({
             "theta": th, "r_a": ea["reflectance"], "se_a": ea["reflectance_stderr"],
             "r_b": eb["reflectance"], "se_b": eb["reflectance_stderr"], "diff": d, "z": z,
+            "lost_a": ea.get("lost", 0.0), "lost_b": eb.get("lost", 0.0),
             "cells": dof, "chi2_dof": red, "chi2_z": wilson_hilferty(red, dof), "max_cell_z": zmax,
             "cell_z_limit": cell_z_limit(dof), "exact": exact_n, "exact_bad": exact_bad,
         })
