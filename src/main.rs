@@ -144,14 +144,20 @@ struct RenderArgs {
 
 #[derive(Args, Debug)]
 struct ExportMeshArgs {
-    /// Micro scene file (TOML); omitted: the embedded default scene.
+    /// Micro or object scene file (TOML; an object scene has [[cells]]);
+    /// omitted: the embedded default micro scene.
     scene: Option<PathBuf>,
     /// Output PLY file.
     #[arg(long)]
     out: PathBuf,
-    /// Grid cells per side of the period.
+    /// Grid cells per side of the period (micro); voxels along the longest
+    /// side of --bounds (object).
     #[arg(long, default_value_t = 512)]
     resolution: usize,
+    /// Object scenes (required there): the box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX
+    /// whose solid walls are meshed (solids cut by it are capped).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    bounds: Option<Vec<f64>>,
 }
 
 #[derive(Args, Debug)]
@@ -960,6 +966,9 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
 }
 
 fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
+    if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
+        return export_object_mesh(&a, path);
+    }
     if !(1..=roks::export::MAX_CELLS_PER_SIDE).contains(&a.resolution) {
         return Err(Failure::Input(format!(
             "--resolution: must be in 1..={}, got {}",
@@ -1123,7 +1132,7 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
 fn write_images(out: &Path, img: &roks::render::Image) -> Result<(), Failure> {
     use roks::render::{write_exr, write_png_preview};
     let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let png = write_png_preview(&img).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let png = write_png_preview(img).map_err(|e| anyhow::anyhow!("{e}"))?;
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
@@ -1138,6 +1147,49 @@ fn write_images(out: &Path, img: &roks::render::Image) -> Result<(), Failure> {
         "wrote {} and {} (mean radiance {mean:.4} of the disc's)",
         out.display(),
         png_path.display()
+    );
+    Ok(())
+}
+
+/// `roks export-mesh` of an object scene: its solid walls in a box.
+fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
+    use roks::export::object_mesh::{MAX_VOXELS_PER_SIDE, object_mesh};
+    let scene = ObjectScene::load(path)?;
+    let Some(b) = a.bounds.as_ref().filter(|b| b.len() == 6) else {
+        return Err(Failure::Input(format!(
+            "{}: --bounds: an object scene needs the box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX to mesh",
+            scene.source.file
+        )));
+    };
+    if !(1..=MAX_VOXELS_PER_SIDE).contains(&a.resolution) {
+        return Err(Failure::Input(format!(
+            "--resolution: must be in 1..={MAX_VOXELS_PER_SIDE} for object scenes, got {}",
+            a.resolution
+        )));
+    }
+    let lo = glam::DVec3::new(b[0], b[1], b[2]);
+    let hi = glam::DVec3::new(b[3], b[4], b[5]);
+    let mesh = object_mesh(&scene.object, lo, hi, a.resolution)
+        .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
+    if mesh.faces.is_empty() {
+        return Err(Failure::Input(format!(
+            "{}: --bounds: no solid wall inside the box {lo} .. {hi}",
+            scene.source.file
+        )));
+    }
+    let bytes = roks::export::write_ply(&mesh);
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    output::write_atomic(&a.out, &bytes)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", a.out.display()))?;
+    eprintln!(
+        "wrote {} ({} vertices, {} triangles: the solid walls of {} in the box)",
+        a.out.display(),
+        mesh.vertices.len(),
+        mesh.faces.len(),
+        scene.name
     );
     Ok(())
 }

@@ -1,4 +1,5 @@
-//! Export of micro surfaces as triangle meshes (`roks export-mesh`).
+//! Export of micro surfaces as triangle meshes (`roks export-mesh`); the
+//! walls of object scenes are meshed by [`object_mesh`].
 //!
 //! [`height_field_mesh`] samples the top surface of a [`MicroSurface`] on a
 //! regular grid over one period and triangulates it; [`write_ply`] encodes the
@@ -37,6 +38,8 @@
 //! value: a relative error of at most `2^-24` (about `6e-8`), for example
 //! `1.8e-6` at `x = 30`. The vertices `x = Lx` and `y = Ly` are computed as
 //! `Lx * (n / n)` and so are exactly `Lx` and `Ly` (rounded to `f32`).
+
+pub mod object_mesh;
 
 use glam::DVec2;
 
