@@ -148,3 +148,25 @@ fn cli_renders_an_object_scene_and_rejects_a_camera_inside_a_solid() {
     cli_common::assert_input_error("camera inside", &o, &path, &bad, &["--camera", "inside a solid"]);
     assert!(!bad.with_extension("png").exists());
 }
+
+#[test]
+fn lambertian_plate_has_radiance_rho_sin2_r() {
+    // Every camera ray meets the top face once; it leaves cosine-distributed,
+    // into the disc (half-angle r, overhead) with probability sin^2 r.
+    let dir = scratch("render-diffuse");
+    let text = PLATE.replace("reflectance = 0.75", "diffuse = 0.6");
+    let s = scene("plate", &text, &dir);
+    let mut st = settings(0.0);
+    st.light_radius_deg = 20.0;
+    st.spp = 16;
+    let (img, losses) = render_object(&s, &camera(), &st);
+    assert_eq!(losses.lost + losses.unmodelled, 0);
+    let px: Vec<f64> = img.rgb.iter().map(|p| f64::from(p[0])).collect();
+    let n = px.len() as f64;
+    let mean = px.iter().sum::<f64>() / n;
+    let var = px.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let se = (var / n).sqrt();
+    let exact = 0.6 * 20f64.to_radians().sin().powi(2);
+    assert!((mean - exact).abs() < 4.0 * se, "{mean} ± {se} vs {exact}");
+    assert!(se < 0.05 * exact, "too noisy to test: se {se}");
+}
