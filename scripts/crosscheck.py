@@ -23,14 +23,14 @@ Verdict. With `--exact-mesh` (the mesh represents the scene exactly, e.g.
 V-grooves on grid lines, or a height field) every comparison must pass at
 every N: agreement is purely statistical. Otherwise (curved bumps) a mesh is
 a faceted approximation whose bias shrinks with the mesh spacing; then
-Mitsuba's reflectances, Carlson cell fractions and image means are each
-extrapolated to N -> infinity by weighted least squares in 1/N and 1/N^2
-(1/N only with three resolutions), and compared with roks's (whose single
-run enters once): reflectance |z| <= 4, cells chi-square and max |z| as in
-`compare_brdf`, image mean |z| <= 4. Lost weight (float32 seams in Mitsuba)
-is handled as an interval: a run's true reflectance lies in [R, R + lost].
-Per-N verdicts are
-reported too (they should fail at coarse N where the bias exceeds the noise:
+Mitsuba's reflectances and image means are extrapolated to N -> infinity by
+weighted least squares in 1/N and 1/N^2 (1/N only with three resolutions)
+and compared with roks's (whose single run enters once): |z| <= 4 each; and
+the Carlson cells' chi-square per degree of freedom must fall with every
+doubling of N. (Cells extrapolated one by one are reported but not judged:
+faceting moves weight between neighbouring cells irregularly with N.) Lost
+weight (float32 seams in Mitsuba) is handled as an interval: a run's true
+reflectance lies in [R, R + lost]. Per-N verdicts are reported too (they should fail at coarse N where the bias exceeds the noise:
 that is the test's power, not a defect).
 
 Writes OUT/report.md, OUT/crosscheck.json, OUT/convergence.png,
@@ -73,6 +73,8 @@ def parse_args(argv=None):
     ap.add_argument("--rho", default="0.8,1", help="per-bounce reflectances, or 'scene'")
     ap.add_argument("--resolutions", default="256,512,1024,2048")
     ap.add_argument("--theta", default="0,30,60")
+    ap.add_argument("--phi", type=float, default=0.0,
+                    help="azimuth of the light (deg) relative to the mesh grid's x axis")
     ap.add_argument("--photons", type=int, default=2_000_000, help="Mitsuba photons per angle")
     ap.add_argument("--roks-photons", type=int, default=4_000_000)
     ap.add_argument("--view", default="30,180")
@@ -86,6 +88,8 @@ def parse_args(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "crosscheck")
     ap.add_argument("--keep-runs", action="store_true")
+    ap.add_argument("--reuse", action="store_true",
+                    help="keep the outputs of an earlier --keep-runs run found in OUT/runs (report only)")
     ap.add_argument("--perturb-rho", type=float, default=1.0,
                     help="testing only: Mitsuba's rho times this factor (the verdict must then fail)")
     ap.add_argument("-q", "--quiet", action="store_true")
@@ -97,12 +101,15 @@ def parse_args(argv=None):
 
 
 class Runner:
-    def __init__(self, quiet: bool):
-        self.quiet = quiet
+    def __init__(self, quiet: bool, reuse: bool):
+        self.quiet, self.reuse = quiet, reuse
         self.seconds: dict[str, float] = {}
 
     def __call__(self, name: str, cmd: list) -> None:
         cmd = [str(c) for c in cmd]
+        out = Path(cmd[cmd.index("--out") + 1])
+        if self.reuse and out.exists():
+            return
         if not self.quiet:
             print("+", " ".join(cmd), file=sys.stderr, flush=True)
         t0 = time.perf_counter()
@@ -142,6 +149,24 @@ def scene_with_rho(text: str, rho: float) -> str:
     return "\n".join(out) + "\n"
 
 
+def scene_with_phi(text: str, phi: float) -> str:
+    """The scene with `[light] phi_deg` set to `phi`."""
+    out, section, done = [], "", False
+    for line in text.splitlines():
+        head = re.match(r"\s*\[([^\]]+)\]", line)
+        if head:
+            if section == "light" and not done:
+                out.append(f"phi_deg = {phi!r}")
+                done = True
+            section = head.group(1)
+        elif section == "light" and re.match(r"\s*phi_deg\s*=", line):
+            line, done = f"phi_deg = {phi!r}", True
+        out.append(line)
+    if not done:
+        out += (["[light]"] if section != "light" else []) + [f"phi_deg = {phi!r}"]
+    return "\n".join(out) + "\n"
+
+
 def extrapolate(n: list[int], y: np.ndarray, s: np.ndarray) -> tuple[float, float, float]:
     """Mitsuba's value at N -> infinity: weighted least squares y = m + b/N (+ c/N^2 with
     four or more resolutions); returns m, SE(m) and the fit's chi2 per degree of freedom."""
@@ -158,8 +183,8 @@ def extrapolate(n: list[int], y: np.ndarray, s: np.ndarray) -> tuple[float, floa
 
 def extrapolated_cells(roks_dir: Path, mi_dirs: list[tuple[int, Path]]) -> dict:
     """Per incidence: every Carlson cell's Mitsuba fraction extrapolated to N -> infinity
-    (`extrapolate`) against roks's, as z-scores; cells with zero standard error on some
-    side (empty at some N) are left out and counted."""
+    (`extrapolate`) against roks's, as z-scores; sparse cells (relative standard error
+    above 20 % or zero on some side: a few photons, far from normal) are left out and counted."""
     _, ca = cb.load(roks_dir)
     mis = [(n, cb.load(d)[1]) for n, d in mi_dirs]
     out = {}
@@ -169,7 +194,8 @@ def extrapolated_cells(roks_dir: Path, mi_dirs: list[tuple[int, Path]]) -> dict:
             vals = [m[th].get(key, (0.0, 0.0)) for _, m in mis]
             if fa == 0 and all(v[0] == 0 for v in vals):
                 continue
-            if sa == 0 or any(v[1] == 0 for v in vals):
+            # sparse: a few photons, whose z is far from normal (relative SE > 20 % somewhere)
+            if sa == 0 or sa > 0.2 * fa or any(v[1] == 0 or v[1] > 0.2 * v[0] for v in vals):
                 skipped += 1
                 continue
             m, sm, _ = extrapolate([n for n, _ in mis], np.array([v[0] for v in vals]),
@@ -263,7 +289,7 @@ def variant(work: Path) -> str:
 
 def main(argv=None) -> int:
     a = parse_args(argv)
-    run = Runner(a.quiet)
+    run = Runner(a.quiet, a.reuse)
     py = sys.executable
     out = a.out
     work = out / "runs"
@@ -287,12 +313,16 @@ def main(argv=None) -> int:
     overall = True
     for rho in a.rhos:
         key = "scene" if rho == "scene" else f"{rho:g}"
-        if rho == "scene":
+        if rho == "scene" and a.phi == 0.0:
             scene_path = a.scene
+            mat = scene_material(spec)
+        elif rho == "scene":
+            scene_path = work / "scene.toml"
+            scene_path.write_text(scene_with_phi(text, a.phi))
             mat = scene_material(spec)
         else:
             scene_path = work / f"scene_rho{key}.toml"
-            scene_path.write_text(scene_with_rho(text, rho))
+            scene_path.write_text(scene_with_phi(scene_with_rho(text, rho), a.phi))
             mat = {"rho": rho * a.perturb_rho}
         mat_args = [x for k_, v in mat.items() for x in (f"--{k_}", v)]
         roks_dir = work / f"roks_rho{key}"
@@ -303,7 +333,7 @@ def main(argv=None) -> int:
             mi_dir = work / f"mitsuba_rho{key}_N{n}"
             run(f"mitsuba brdf rho {key} N {n}",
                 [py, HERE / "mitsuba_brdf.py", meshes[n], "--size", f"{lx},{ly}", "--theta", theta,
-                 "--photons", a.photons, "--seed", a.seed + 1000 + n, "--bands", spec.get("tally", {}).get("bands", 32),
+                 "--photons", a.photons, "--phi", a.phi, "--seed", a.seed + 1000 + n, "--bands", spec.get("tally", {}).get("bands", 32),
                  "--variant", a.variant, "--out", mi_dir, "-q", *mat_args])
             for r in cb.compare(roks_dir, mi_dir):
                 r["N"] = n
@@ -335,10 +365,14 @@ def main(argv=None) -> int:
             lines += ["Mitsuba extrapolated to N -> infinity (weighted least squares in 1/N"
                       + (" and 1/N^2" if len(ns) >= 4 else "") + "; roks's run is shared by all N, so "
                       "its error enters once). Reflectance: the gap between the intervals [R, R + lost] "
-                      "of both sides; cells: every Carlson cell extrapolated alike.", "",
+                      "of both sides. Verdict: reflectance |z| <= 4 and the cells' chi2/dof falling with "
+                      "every doubling of N. The cells extrapolated one by one are shown but not judged: "
+                      "faceting moves weight between neighbouring cells irregularly with N (grid-aligned "
+                      "facet normals), so a smooth fit per cell is not a valid model; cell-level agreement "
+                      "is judged on exact meshes (`--exact-mesh`).", "",
                       "| theta | roks R | Mitsuba R (N -> inf) | difference | z | fit chi2/dof "
-                      "| cells | cell chi2/dof | max cell z (limit) | verdict |",
-                      "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+                      "| cell chi2/dof at each N | cells extrapolated | their chi2/dof | max z (limit) | verdict |",
+                      "|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---|"]
             ok = True
             cells_x = extrapolated_cells(roks_dir, [(n, work / f"mitsuba_rho{key}_N{n}") for n in ns])
             for th, pts in per_theta.items():
@@ -351,13 +385,17 @@ def main(argv=None) -> int:
                 se = math.hypot(sa, slo)
                 z = d / se if se > 0 else (0.0 if d == 0 else math.inf)
                 cx = cells_x[th]
-                good = abs(z) <= 4 and cx["pass"]
+                chis = [p["chi2_dof"] for p in pts]
+                falling = all(b < a_ for a_, b in zip(chis, chis[1:]))
+                good = abs(z) <= 4 and falling
                 ok &= good
                 res.setdefault("extrapolated", {}).setdefault(key, {})[th] = {
-                    "mitsuba": lo, "se": slo, "diff": d, "z": z, "fit_chi2_dof": fchi, "cells": cx}
+                    "mitsuba": lo, "se": slo, "diff": d, "z": z, "fit_chi2_dof": fchi, "cells": cx,
+                    "cell_chi2_by_N": chis, "cell_chi2_falling": falling}
                 lines.append(f"| {th:g} | {ra:.5f} | {lo:.5f} ± {slo:.5f} | {d:+.6f} | {z:+.2f} | {fchi:.2f} "
-                             f"| {cx['cells']} (+{cx['skipped']} sparse) | {cx['chi2_dof']:.3f} "
-                             f"| {cx['max_z']:.2f} ({cx['limit']:.2f}) | {'pass' if good else 'FAIL'} |")
+                             f"| {' > '.join(f'{c:.2f}' for c in chis)} | {cx['cells']} (+{cx['skipped']} sparse) "
+                             f"| {cx['chi2_dof']:.3f} | {cx['max_z']:.2f} ({cx['limit']:.2f}) "
+                             f"| {'pass' if good else 'FAIL'} |")
             lines += ["", f"BRDF verdict (rho = {key}): **{'PASS' if ok else 'FAIL'}**", ""]
         overall &= ok
         lines += [f"![in-plane BRDF, rho {key}](inplane_rho{key}.png)", ""]
