@@ -246,38 +246,55 @@ def plot_inplane(roks_dir: Path, mi_dir: Path, label: str, path: Path) -> None:
 
 
 def plot_convergence(res: dict, path: Path, exact: bool) -> None:
+    """Three panels against N: reflectance difference, image-mean difference, cell chi2/dof."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.8))
     k = 0
     for rho_key, per in res["brdf"].items():
         for th, pts in per.items():
             n = np.array([p["N"] for p in pts], dtype=float)
-            d = np.array([-p["diff"] for p in pts])      # Mitsuba - roks
+            d = np.array([p["r_b"] - p["r_a"] for p in pts])
             s = np.array([math.hypot(p["se_a"], p["se_b"]) for p in pts])
-            ax.errorbar(n * (1 + 0.02 * k), d, yerr=2 * s, fmt="o-", ms=4, capsize=2,
-                        label=f"reflectance, rho {rho_key}, {th:g} deg")
+            ax[0].errorbar(n * (1 + 0.015 * k), d, yerr=2 * s, fmt="o-", ms=4, capsize=2,
+                           label=f"rho {rho_key}, {th:g} deg")
+            ax[2].plot(n, [p["chi2_dof"] for p in pts], "o-", ms=4, label=f"rho {rho_key}, {th:g} deg")
             k += 1
-    for rho_key, pts in res.get("images", {}).items():
+    for j, (rho_key, pts) in enumerate(res.get("images", {}).items()):
         n = np.array([p["N"] for p in pts], dtype=float)
         scale = np.array([p["mean_a"] if p["mean_a"] > 0 else 1.0 for p in pts])
-        rel = np.array([-p["diff"] for p in pts]) / scale
-        s = np.array([math.hypot(p["se_a"], p["se_b"]) for p in pts]) / scale
-        ax.errorbar(n * (1 + 0.02 * k), rel, yerr=2 * s, fmt="s:", ms=4, capsize=2,
-                    label=f"image mean (relative), rho {rho_key}")
-        k += 1
-    ax.axhline(0, color="k", lw=0.8)
-    ax.set_xscale("log", base=2)
-    ax.set_xlabel("mesh resolution N (grid cells per side of the period)")
-    ax.set_ylabel("Mitsuba on the mesh - roks on the exact scene")
-    ax.set_title("Mitsuba cross-check: difference vs mesh resolution (2-sigma bars)"
-                 + (" [exact mesh]" if exact else ""))
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+        rel = 100 * np.array([-p["diff"] for p in pts]) / scale
+        s = 100 * np.array([math.hypot(p["se_a"], p["se_b"]) for p in pts]) / scale
+        ax[1].errorbar(n * (1 + 0.015 * j), rel, yerr=2 * s, fmt="s-", ms=4, capsize=2, label=f"rho {rho_key}")
+    for a_ in ax:
+        a_.set_xscale("log", base=2)
+        a_.set_xlabel("mesh resolution N (grid cells per side)")
+        a_.grid(alpha=0.3)
+        if a_.get_legend_handles_labels()[0]:
+            a_.legend(fontsize=7)
+    ax[0].axhline(0, color="k", lw=0.8)
+    ax[1].axhline(0, color="k", lw=0.8)
+    ax[2].axhline(1, color="k", lw=0.8)
+    ax[0].set_ylabel("reflectance: Mitsuba (mesh) - roks (exact)")
+    ax[1].set_ylabel("image mean: (Mitsuba - roks) / roks (%)")
+    ax[2].set_ylabel("Carlson cells: chi2 per degree of freedom")
+    ax[2].set_yscale("log")
+    ax[0].set_title("Reflectance (2-sigma bars)")
+    ax[1].set_title("Rendered image mean (2-sigma bars)")
+    ax[2].set_title("BRDF cells (1 = statistical agreement)")
+    fig.suptitle("Mitsuba on the exported mesh vs roks on the exact scene" + (" [exact mesh]" if exact else ""))
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def rel(p: Path) -> str:
+    """`p` relative to the repository when inside it (reports stay machine-independent)."""
+    try:
+        return str(Path(p).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(p)
 
 
 def variant(work: Path) -> str:
@@ -298,7 +315,7 @@ def main(argv=None) -> int:
     spec = tomllib.loads(text)
     lx, ly = (float(v) for v in spec["surface"]["size"])
     theta = ",".join(f"{t:g}" for t in a.thetas)
-    res: dict = {"scene": str(a.scene), "resolutions": a.resolutions, "thetas": a.thetas,
+    res: dict = {"scene": rel(a.scene), "resolutions": a.resolutions, "thetas": a.thetas,
                  "photons": a.photons, "roks_photons": a.roks_photons, "exact_mesh": a.exact_mesh,
                  "brdf": {}, "images": {}, "seconds": {}}
     if not a.roks.exists():
@@ -459,7 +476,7 @@ def main(argv=None) -> int:
     plot_convergence(res, out / "convergence.png", a.exact_mesh)
     head = [f"**Verdict: {res['verdict']}**" + (" (exact mesh: every comparison statistical)" if a.exact_mesh
                                               else " (faceted mesh: differences extrapolated to N -> infinity)"),
-            "", f"* scene: `{a.scene}`; incidence {theta} deg; mesh resolutions {a.resolutions}",
+            "", f"* scene: `{rel(a.scene)}`; incidence {theta} deg; mesh resolutions {a.resolutions}",
             f"* Mitsuba variant: {variant(work)}", "",
             "![convergence](convergence.png)", ""]
     lines[2:2] = head
