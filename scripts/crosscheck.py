@@ -307,6 +307,9 @@ def variant(work: Path) -> str:
 def main(argv=None) -> int:
     a = parse_args(argv)
     run = Runner(a.quiet, a.reuse)
+    if a.reuse and (a.out / "crosscheck.json").is_file():
+        # timings of the steps that are reused come from the earlier run
+        run.seconds.update(json.loads((a.out / "crosscheck.json").read_text()).get("seconds", {}))
     py = sys.executable
     out = a.out
     work = out / "runs"
@@ -415,6 +418,17 @@ def main(argv=None) -> int:
                              f"| {'pass' if good else 'FAIL'} |")
             lines += ["", f"BRDF verdict (rho = {key}): **{'PASS' if ok else 'FAIL'}**", ""]
         overall &= ok
+        lines += ["Speed and losses of the runs (from their summary.json; the machine may be shared):", "",
+                  "| run | photons | seconds | M segments/s | lost weight (max over angles) |",
+                  "|---|---:|---:|---:|---:|"]
+        for label, d in [("roks, exact scene", roks_dir)] + [(f"Mitsuba, mesh {n}", work / f"mitsuba_rho{key}_N{n}")
+                                                             for n in a.resolutions]:
+            inc = json.loads((d / "summary.json").read_text())["incidence"]
+            secs = sum(e["seconds"] for e in inc)
+            segs = sum(e["segments"] for e in inc)
+            lines.append(f"| {label} | {sum(e['photons'] for e in inc):,} | {secs:.1f} | "
+                         f"{segs / secs / 1e6 if secs > 0 else 0:.2f} | {max(e['lost'] for e in inc):.1e} |")
+        lines += [""]
         lines += [f"![in-plane BRDF, rho {key}](inplane_rho{key}.png)", ""]
 
         # ---- images
@@ -480,9 +494,9 @@ def main(argv=None) -> int:
             f"* Mitsuba variant: {variant(work)}", "",
             "![convergence](convergence.png)", ""]
     lines[2:2] = head
-    secs = ["## Timings (seconds, this machine)", "", "| step | s |", "|---|---:|"]
-    secs += [f"| {k} | {v:.1f} |" for k, v in run.seconds.items()]
-    lines += secs + [""]
+    if run.seconds:
+        lines += ["## Wall time of each step (seconds, this machine)", "", "| step | s |", "|---|---:|"]
+        lines += [f"| {k} | {v:.1f} |" for k, v in run.seconds.items()] + [""]
     (out / "report.md").write_text("\n".join(lines))
 
     def clean(o):
