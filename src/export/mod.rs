@@ -1,4 +1,6 @@
-//! Export of micro surfaces as triangle meshes (`roks export-mesh`).
+//! Exports for other programs: micro surfaces as triangle meshes (`roks
+//! export-mesh`, this file) and BRDF tables in the Zemax and MERL formats
+//! (`roks export-brdf`: [`brdf_formats`], [`zemax`], [`merl`]).
 //!
 //! [`height_field_mesh`] samples the top surface of a [`MicroSurface`] on a
 //! regular grid over one period and triangulates it; [`write_ply`] encodes the
@@ -39,6 +41,10 @@
 //! `Lx * (n / n)` and so are exactly `Lx` and `Ly` (rounded to `f32`).
 
 use glam::DVec2;
+
+pub mod brdf_formats;
+pub mod merl;
+pub mod zemax;
 
 use crate::micro::{Edges, MicroSurface, Scratch};
 
