@@ -543,6 +543,18 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     let inplane_png = output::inplane_plot(&scene.name, &run, &results)
         .to_png(1000, 620)
         .map_err(Failure::Other)?;
+    let maps: Vec<(String, Vec<u8>)> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .map(|r| {
+                output::hemisphere_map(&scene.name, &run, r)
+                    .to_png()
+                    .map(|png| (output::hemisphere_file(r.theta_i_deg), png))
+            })
+            .collect::<anyhow::Result<_>>()
+            .map_err(Failure::Other)?
+    };
     let mut exported = Vec::new();
     if !exports.is_empty() {
         let table = BrdfTable::parse(&brdf_csv, "brdf.csv")
@@ -557,6 +569,9 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         ("inplane.csv", inplane_csv.as_bytes()),
         ("inplane.png", &inplane_png),
     ];
+    for (name, bytes) in &maps {
+        files.push((name, bytes));
+    }
     for (name, bytes) in &exported {
         files.push((name, bytes));
     }
