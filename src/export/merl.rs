@@ -118,7 +118,8 @@ fn above_horizon(d: DVec3) -> DVec3 {
 fn table_frame(light: DVec3, view: DVec3) -> (f64, DVec3) {
     let (s, c) = (-light.y.atan2(light.x)).sin_cos();
     (
-        light.z.clamp(-1.0, 1.0).acos(),
+        // atan2 keeps the polar angle's digits near the normal (acos does not).
+        light.x.hypot(light.y).atan2(light.z),
         DVec3::new(c * view.x - s * view.y, s * view.x + c * view.y, view.z),
     )
 }
@@ -131,13 +132,16 @@ fn table_frame(light: DVec3, view: DVec3) -> (f64, DVec3) {
 /// tabulated incidence angle. See the module documentation.
 #[must_use]
 pub fn reciprocal_eval(table: &BrdfTable, wi: DVec3, wo: DVec3) -> f64 {
+    // Within 1e-9 degrees (the rounding of a computed polar angle) an angle
+    // counts as tabulated.
     let distance = |theta: f64| {
         let deg = theta.to_degrees();
-        table
+        let d = table
             .thetas_deg()
             .iter()
             .map(|t| (t - deg).abs())
-            .fold(f64::INFINITY, f64::min)
+            .fold(f64::INFINITY, f64::min);
+        if d < 1e-9 { 0.0 } else { d }
     };
     let (ti, out) = table_frame(wi, wo);
     let (to, inc) = table_frame(wo, wi);
