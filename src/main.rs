@@ -370,12 +370,17 @@ fn export_table(
 ) -> Result<Vec<u8>, Failure> {
     let bytes = format.export(table, comment);
     if !quiet {
-        let check = roks::export::brdf_formats::reflectance_check(table, format, &bytes)
-            .map_err(|e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}")))?;
+        let check =
+            roks::export::brdf_formats::reflectance_check(table, format, &bytes).map_err(|e| {
+                Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}"))
+            })?;
         eprintln!(
             "{format}: reflectance of the file (read back, integrated over the hemisphere) vs the table"
         );
-        eprintln!("{:>9} {:>10} {:>10} {:>10}", "theta_i", "table", "file", "relative");
+        eprintln!(
+            "{:>9} {:>10} {:>10} {:>10}",
+            "theta_i", "table", "file", "relative"
+        );
         for c in &check {
             eprintln!(
                 "{:>9.2} {:>10.6} {:>10.6} {:>+10.2e}",
@@ -407,7 +412,11 @@ fn export_brdf(a: ExportBrdfArgs) -> Result<(), Failure> {
     output::write_atomic(&a.out, &bytes)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", a.out.display()))?;
     if !a.quiet {
-        eprintln!("wrote {} ({format}, {} bytes)", a.out.display(), bytes.len());
+        eprintln!(
+            "wrote {} ({format}, {} bytes)",
+            a.out.display(),
+            bytes.len()
+        );
     }
     Ok(())
 }

@@ -283,7 +283,11 @@ pub fn position_json(
 /// The BRDF of one incidence of a run as an equal-area hemisphere map
 /// (`hemisphere_<theta>deg.png`).
 #[must_use]
-pub fn hemisphere_map(name: &str, run: &BrdfRun, r: &IncidenceResult) -> crate::plot::HemisphereMap {
+pub fn hemisphere_map(
+    name: &str,
+    run: &BrdfRun,
+    r: &IncidenceResult,
+) -> crate::plot::HemisphereMap {
     let grid = run.grid();
     let n = r.tallies.photons;
     let brdf = (0..grid.n_cells())

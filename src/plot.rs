@@ -193,10 +193,14 @@ const VIRIDIS: [(f64, [u8; 3]); 9] = [
 #[must_use]
 pub fn viridis(t: f64) -> [u8; 3] {
     let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
-    let k = VIRIDIS.partition_point(|s| s.0 <= t).clamp(1, VIRIDIS.len() - 1);
+    let k = VIRIDIS
+        .partition_point(|s| s.0 <= t)
+        .clamp(1, VIRIDIS.len() - 1);
     let ((t0, c0), (t1, c1)) = (VIRIDIS[k - 1], VIRIDIS[k]);
     let w = (t - t0) / (t1 - t0);
-    std::array::from_fn(|i| (f64::from(c0[i]) + w * (f64::from(c1[i]) - f64::from(c0[i]))).round() as u8)
+    std::array::from_fn(|i| {
+        (f64::from(c0[i]) + w * (f64::from(c1[i]) - f64::from(c0[i]))).round() as u8
+    })
 }
 
 /// A BRDF over the hemisphere of outgoing directions as an equal-area polar
@@ -248,13 +252,21 @@ impl HemisphereMap {
     /// decades below it, down to the smallest positive value; one decade
     /// about a constant; `(-1, 0)` if nothing is positive.
     fn log_range(&self) -> (f64, f64) {
-        let pos = self.brdf.iter().copied().filter(|v| *v > 0.0 && v.is_finite());
+        let pos = self
+            .brdf
+            .iter()
+            .copied()
+            .filter(|v| *v > 0.0 && v.is_finite());
         let (lo, hi) = pos.fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(v), b.max(v)));
         if hi <= 0.0 {
             return (-1.0, 0.0);
         }
         let (lo, hi) = (lo.max(hi * 1e-4).log10(), hi.log10());
-        if hi - lo < 1e-9 { (lo - 0.5, hi + 0.5) } else { (lo, hi) }
+        if hi - lo < 1e-9 {
+            (lo - 0.5, hi + 0.5)
+        } else {
+            (lo, hi)
+        }
     }
 
     /// Colour of a BRDF value on the range `(lo, hi)` of log10.
@@ -296,7 +308,10 @@ impl HemisphereMap {
     fn pixel(theta_deg: f64, phi_deg: f64) -> (i32, i32) {
         let rho = MAP_R * equal_area_radius(theta_deg.to_radians());
         let (s, c) = phi_deg.to_radians().sin_cos();
-        ((MAP_CX + rho * c).round() as i32, (MAP_CY - rho * s).round() as i32)
+        (
+            (MAP_CX + rho * c).round() as i32,
+            (MAP_CY - rho * s).round() as i32,
+        )
     }
 
     /// Render to PNG bytes (760 x 720 pixels).
@@ -331,7 +346,8 @@ impl HemisphereMap {
         }
         self.overlay(&mut buf, range)
             .map_err(|e| anyhow::anyhow!("hemisphere map: {e}"))?;
-        image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow::anyhow!("hemisphere map: buffer size"))
+        image::RgbImage::from_raw(w, h, buf)
+            .ok_or_else(|| anyhow::anyhow!("hemisphere map: buffer size"))
     }
 
     /// Rings, ticks, markers, labels, title and the colour bar's scale.
@@ -349,37 +365,70 @@ impl HemisphereMap {
         // Rings of constant theta; labels along phi = 90 degrees.
         for (deg, colour) in [(30.0, WHITE), (60.0, WHITE), (90.0, BLACK)] {
             let r = (MAP_R * equal_area_radius(f64::to_radians(deg))).round() as i32;
-            root.draw(&Circle::new((cx, cy), r, colour.stroke_width(1))).map_err(e)?;
-            root.draw(&Text::new(format!("θ = {deg}°"), (cx, cy - r + 11), text(13, WHITE, HPos::Center)))
+            root.draw(&Circle::new((cx, cy), r, colour.stroke_width(1)))
                 .map_err(e)?;
+            root.draw(&Text::new(
+                format!("θ = {deg}°"),
+                (cx, cy - r + 11),
+                text(13, WHITE, HPos::Center),
+            ))
+            .map_err(e)?;
         }
         // Azimuth ticks and labels outside the rim.
         for k in 0..12 {
             let phi = f64::from(k) * 30.0;
             let (s, c) = phi.to_radians().sin_cos();
-            let at = |rr: f64| ((MAP_CX + rr * c).round() as i32, (MAP_CY - rr * s).round() as i32);
-            root.draw(&PathElement::new(vec![at(MAP_R), at(MAP_R + 9.0)], BLACK.stroke_width(2)))
-                .map_err(e)?;
-            let h = if c > 0.3 { HPos::Left } else if c < -0.3 { HPos::Right } else { HPos::Center };
-            root.draw(&Text::new(format!("{phi}°"), at(MAP_R + 14.0), text(14, BLACK, h))).map_err(e)?;
+            let at = |rr: f64| {
+                (
+                    (MAP_CX + rr * c).round() as i32,
+                    (MAP_CY - rr * s).round() as i32,
+                )
+            };
+            root.draw(&PathElement::new(
+                vec![at(MAP_R), at(MAP_R + 9.0)],
+                BLACK.stroke_width(2),
+            ))
+            .map_err(e)?;
+            let h = if c > 0.3 {
+                HPos::Left
+            } else if c < -0.3 {
+                HPos::Right
+            } else {
+                HPos::Center
+            };
+            root.draw(&Text::new(
+                format!("{phi}°"),
+                at(MAP_R + 14.0),
+                text(14, BLACK, h),
+            ))
+            .map_err(e)?;
         }
         // Specular direction and the direction toward the light.
         let spec = Self::pixel(self.theta_i_deg, self.phi_i_deg + 180.0);
-        root.draw(&Circle::new(spec, 15, BLACK.stroke_width(4))).map_err(e)?;
-        root.draw(&Circle::new(spec, 15, WHITE.stroke_width(2))).map_err(e)?;
+        root.draw(&Circle::new(spec, 15, BLACK.stroke_width(4)))
+            .map_err(e)?;
+        root.draw(&Circle::new(spec, 15, WHITE.stroke_width(2)))
+            .map_err(e)?;
         let light = Self::pixel(self.theta_i_deg, self.phi_i_deg);
         if self.theta_i_deg > 0.0 {
             for (a, b) in [((-7, -7), (7, 7)), ((-7, 7), (7, -7))] {
                 let p = |d: (i32, i32)| (light.0 + d.0, light.1 + d.1);
-                root.draw(&PathElement::new(vec![p(a), p(b)], BLACK.stroke_width(4))).map_err(e)?;
-                root.draw(&PathElement::new(vec![p(a), p(b)], WHITE.stroke_width(2))).map_err(e)?;
+                root.draw(&PathElement::new(vec![p(a), p(b)], BLACK.stroke_width(4)))
+                    .map_err(e)?;
+                root.draw(&PathElement::new(vec![p(a), p(b)], WHITE.stroke_width(2)))
+                    .map_err(e)?;
             }
         }
         // Title and legend.
-        root.draw(&Text::new(self.title.clone(), (MAP_W as i32 / 2, 22), text(19, BLACK, HPos::Center)))
-            .map_err(e)?;
+        root.draw(&Text::new(
+            self.title.clone(),
+            (MAP_W as i32 / 2, 22),
+            text(19, BLACK, HPos::Center),
+        ))
+        .map_err(e)?;
         let lines = [
-            "outgoing directions over the hemisphere, equal-area projection (radius ∝ sin(θ/2));".to_string(),
+            "outgoing directions over the hemisphere, equal-area projection (radius ∝ sin(θ/2));"
+                .to_string(),
             format!(
                 "θ from the surface normal (centre), azimuth φ from the x axis; light at θ = {}°, φ = {}°",
                 self.theta_i_deg, self.phi_i_deg
@@ -387,18 +436,33 @@ impl HemisphereMap {
             "ring: specular direction, cross: toward the light".to_string(),
         ];
         for (k, l) in lines.iter().enumerate() {
-            root.draw(&Text::new(l.clone(), (MAP_W as i32 / 2, 50 + 18 * k as i32), text(13, BLACK, HPos::Center)))
-                .map_err(e)?;
+            root.draw(&Text::new(
+                l.clone(),
+                (MAP_W as i32 / 2, 50 + 18 * k as i32),
+                text(13, BLACK, HPos::Center),
+            ))
+            .map_err(e)?;
         }
         // Colour bar frame, decade ticks and label.
         let (bx0, bx1) = (BAR_X.0 as i32, BAR_X.1 as i32);
         let (by0, by1) = (BAR_Y.0 as i32, BAR_Y.1 as i32);
-        root.draw(&Rectangle::new([(bx0 - 1, by0 - 1), (bx1 + 1, by1 + 1)], BLACK.stroke_width(1)))
-            .map_err(e)?;
-        root.draw(&Text::new("BRDF (1/sr)".to_string(), ((bx0 + bx1) / 2, by0 - 28), text(14, BLACK, HPos::Center)))
-            .map_err(e)?;
-        root.draw(&Text::new("log scale".to_string(), ((bx0 + bx1) / 2, by0 - 12), text(12, BLACK, HPos::Center)))
-            .map_err(e)?;
+        root.draw(&Rectangle::new(
+            [(bx0 - 1, by0 - 1), (bx1 + 1, by1 + 1)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(e)?;
+        root.draw(&Text::new(
+            "BRDF (1/sr)".to_string(),
+            ((bx0 + bx1) / 2, by0 - 28),
+            text(14, BLACK, HPos::Center),
+        ))
+        .map_err(e)?;
+        root.draw(&Text::new(
+            "log scale".to_string(),
+            ((bx0 + bx1) / 2, by0 - 12),
+            text(12, BLACK, HPos::Center),
+        ))
+        .map_err(e)?;
         let y_of = |l: f64| by1 - ((l - lo) / (hi - lo) * f64::from(by1 - by0)).round() as i32;
         let mut decade = lo.ceil() as i32;
         let mut ticks: Vec<f64> = Vec::new();
@@ -412,13 +476,18 @@ impl HemisphereMap {
         }
         for l in ticks {
             let y = y_of(l);
-            root.draw(&PathElement::new(vec![(bx1 + 1, y), (bx1 + 6, y)], BLACK.stroke_width(1))).map_err(e)?;
+            root.draw(&PathElement::new(
+                vec![(bx1 + 1, y), (bx1 + 6, y)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?;
             let label = if (l - l.round()).abs() < 1e-9 {
                 format!("1e{}", l.round() as i32)
             } else {
                 format!("{:.3}", 10f64.powf(l))
             };
-            root.draw(&Text::new(label, (bx1 + 9, y), text(13, BLACK, HPos::Left))).map_err(e)?;
+            root.draw(&Text::new(label, (bx1 + 9, y), text(13, BLACK, HPos::Left)))
+                .map_err(e)?;
         }
         root.present().map_err(e)?;
         Ok(())
@@ -475,7 +544,11 @@ mod tests {
             for k in 0..=160 {
                 let phi = 190.0 + f64::from(k); // 190..350 degrees
                 let (x, y) = HemisphereMap::pixel(theta, phi);
-                assert_eq!(img.get_pixel(x as u32, y as u32).0, expect, "theta {theta} phi {phi}");
+                assert_eq!(
+                    img.get_pixel(x as u32, y as u32).0,
+                    expect,
+                    "theta {theta} phi {phi}"
+                );
                 n += 1;
             }
         }
@@ -514,8 +587,16 @@ mod tests {
         let area = std::f64::consts::PI * MAP_R * MAP_R;
         let bound_in = 4.0 * (2.0 * r_in + 2.0);
         let bound_all = bound_in + 4.0 * (2.0 * MAP_R + 2.0);
-        assert!((nh - frac * area).abs() <= bound_in, "{nh} vs {}", frac * area);
-        assert!((nh + nl - area).abs() <= 4.0 * (2.0 * MAP_R + 2.0), "{} vs {area}", nh + nl);
+        assert!(
+            (nh - frac * area).abs() <= bound_in,
+            "{nh} vs {}",
+            frac * area
+        );
+        assert!(
+            (nh + nl - area).abs() <= 4.0 * (2.0 * MAP_R + 2.0),
+            "{} vs {area}",
+            nh + nl
+        );
         assert!((nl - (1.0 - frac) * area).abs() <= bound_all);
     }
 }

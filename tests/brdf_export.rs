@@ -100,7 +100,10 @@ fn lambertian_table_exports_rho_over_pi_to_zemax() {
             for (r, &rad) in z.radial_deg.iter().enumerate() {
                 let v = z.brdf[k][a * z.radial_deg.len() + r];
                 if zemax::direction(aoi, psi, rad).z > 1e-12 {
-                    assert!((v - rho / PI).abs() <= PRINTED * rho / PI, "{aoi} {psi} {rad}: {v}");
+                    assert!(
+                        (v - rho / PI).abs() <= PRINTED * rho / PI,
+                        "{aoi} {psi} {rad}: {v}"
+                    );
                     above += 1;
                 } else {
                     assert_eq!(v, 0.0, "{aoi} {psi} {rad}");
@@ -112,10 +115,16 @@ fn lambertian_table_exports_rho_over_pi_to_zemax() {
     assert!(above > 0 && below > 0);
     let d = 5f64.sqrt().to_radians() + 0.1f64.to_radians();
     let bound = rho * d.sin().powi(2);
-    let check = reflectance_check(&t, BrdfFormat::Zemax, &BrdfFormat::Zemax.export(&t, "")).unwrap();
+    let check =
+        reflectance_check(&t, BrdfFormat::Zemax, &BrdfFormat::Zemax.export(&t, "")).unwrap();
     for c in check {
         assert!((c.table - rho).abs() < 1e-14);
-        assert!((c.file - rho).abs() <= bound, "{}: {} vs {rho} (bound {bound})", c.theta_i_deg, c.file);
+        assert!(
+            (c.file - rho).abs() <= bound,
+            "{}: {} vs {rho} (bound {bound})",
+            c.theta_i_deg,
+            c.file
+        );
     }
 }
 
@@ -133,14 +142,22 @@ fn lambertian_table_exports_rho_over_pi_to_merl() {
         let at = 12 + 8 * (c * merl::N + 12_345);
         let stored = f64::from_le_bytes(bytes[at..at + 8].try_into().unwrap());
         let expect = rho / PI / merl::SCALES[c];
-        assert!((stored - expect).abs() <= 1e-15 * expect, "channel {c}: {stored}");
+        assert!(
+            (stored - expect).abs() <= 1e-15 * expect,
+            "channel {c}: {stored}"
+        );
     }
     let m = Merl::parse(&bytes, "t.binary").unwrap();
     for (n, v) in m.values.iter().enumerate() {
         assert!((v - rho / PI).abs() <= 1e-15, "value {n}: {v}");
     }
     for c in reflectance_check(&t, BrdfFormat::Merl, &bytes).unwrap() {
-        assert!((c.file - rho).abs() < 1e-12, "{}: {}", c.theta_i_deg, c.file);
+        assert!(
+            (c.file - rho).abs() < 1e-12,
+            "{}: {}",
+            c.theta_i_deg,
+            c.file
+        );
     }
 }
 
@@ -162,7 +179,11 @@ fn zemax_round_trip_to_printed_precision() {
     for (k, &aoi) in z.aoi_deg.iter().enumerate() {
         let theta = aoi.to_radians();
         let r = t.reflectance(theta);
-        assert!((z.tis[k] - r).abs() <= PRINTED * r, "TIS {} vs {r}", z.tis[k]);
+        assert!(
+            (z.tis[k] - r).abs() <= PRINTED * r,
+            "TIS {} vs {r}",
+            z.tis[k]
+        );
         for (a, &psi) in z.azimuth_deg.iter().enumerate() {
             for (i, &rad) in z.radial_deg.iter().enumerate() {
                 let d = zemax::direction(aoi, psi, rad);
@@ -173,10 +194,16 @@ fn zemax_round_trip_to_printed_precision() {
                     0.0
                 };
                 let v = z.brdf[k][a * nr + i];
-                assert!((v - expect).abs() <= PRINTED * expect, "{aoi} {psi} {rad}: {v} vs {expect}");
+                assert!(
+                    (v - expect).abs() <= PRINTED * expect,
+                    "{aoi} {psi} {rad}: {v} vs {expect}"
+                );
                 if (psi == 0.0 || psi == 180.0) && d.z > 1e-12 && d.y.abs() < 1e-12 {
                     let own = t.eval(theta, d);
-                    assert!((v - own).abs() <= PRINTED * own, "in plane {aoi} {psi} {rad}");
+                    assert!(
+                        (v - own).abs() <= PRINTED * own,
+                        "in plane {aoi} {psi} {rad}"
+                    );
                 }
             }
         }
@@ -207,7 +234,10 @@ fn merl_round_trip_and_lookups() {
                     m.values[merl::index(i, j, k)],
                     m.values[merl::index(i, j, merl::PHI_D - 1 - k)],
                 );
-                assert!((a - b).abs() <= 1e-12 * scale, "bin {i} {j} {k}: {a} vs {b}");
+                assert!(
+                    (a - b).abs() <= 1e-12 * scale,
+                    "bin {i} {j} {k}: {a} vs {b}"
+                );
             }
         }
     }
@@ -225,8 +255,11 @@ fn merl_round_trip_and_lookups() {
         }
         let expect = merl::reciprocal_eval(&t, wi, wo);
         let got = m.lookup(wi, wo);
-        for c in 0..3 {
-            assert!((got[c] - expect).abs() <= 4.0 * f64::EPSILON * expect, "bin {i} {j} {k} channel {c}");
+        for (c, g) in got.iter().enumerate() {
+            assert!(
+                (g - expect).abs() <= 4.0 * f64::EPSILON * expect,
+                "bin {i} {j} {k} channel {c}"
+            );
         }
         checked += 1;
     }
@@ -234,12 +267,21 @@ fn merl_round_trip_and_lookups() {
         let theta = deg.to_radians();
         let wi = DVec3::new(theta.sin(), 0.0, theta.cos());
         for _ in 0..200 {
-            let (ct, p) = (rng.random::<f64>(), rng.random::<f64>() * std::f64::consts::TAU);
+            let (ct, p) = (
+                rng.random::<f64>(),
+                rng.random::<f64>() * std::f64::consts::TAU,
+            );
             let st = (1.0 - ct * ct).sqrt();
             let wo = DVec3::new(st * p.cos(), st * p.sin(), ct);
-            let off_table = t.thetas_deg().iter().all(|a| (a - ct.acos().to_degrees()).abs() > 1e-9);
+            let off_table = t
+                .thetas_deg()
+                .iter()
+                .all(|a| (a - ct.acos().to_degrees()).abs() > 1e-9);
             if ct > 0.0 && off_table {
-                let (r, e) = (merl::reciprocal_eval(&t, wi, wo), symmetric_eval(&t, theta, wo));
+                let (r, e) = (
+                    merl::reciprocal_eval(&t, wi, wo),
+                    symmetric_eval(&t, theta, wo),
+                );
                 assert!((r - e).abs() <= 1e-12 * scale, "{r} vs {e}");
                 // Swapped: the same bin, or at normal incidence (phi_diff
                 // exactly 0 or 180 degrees, the fold's two ends) its mirror
@@ -274,8 +316,15 @@ fn exports_integrate_back_to_the_table_reflectance() {
         let check = reflectance_check(&t, format, &format.export(&t, "")).unwrap();
         for c in &check {
             let rel = c.file / c.table - 1.0;
-            eprintln!("{format} {:>5} table {:.6} file {:.6} relative {rel:+.2e}", c.theta_i_deg, c.table, c.file);
-            assert!(rel.abs() < bound, "{format} at {}: {rel:+.2e}", c.theta_i_deg);
+            eprintln!(
+                "{format} {:>5} table {:.6} file {:.6} relative {rel:+.2e}",
+                c.theta_i_deg, c.table, c.file
+            );
+            assert!(
+                rel.abs() < bound,
+                "{format} at {}: {rel:+.2e}",
+                c.theta_i_deg
+            );
         }
     }
 }
@@ -284,7 +333,10 @@ fn exports_integrate_back_to_the_table_reflectance() {
 #[test]
 fn exports_are_deterministic() {
     let t = lambertian(0.3);
-    let a = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let a = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     for f in [BrdfFormat::Zemax, BrdfFormat::Merl] {
         let one = a.install(|| f.export(&t, "x"));
         assert!(one == f.export(&t, "x"), "{f}");
@@ -303,10 +355,22 @@ fn readers_name_file_and_key() {
             assert!(e.contains(n), "`{n}` not in {e}");
         }
     };
-    check(err(&text.replace("PlaneSymmetrical", "Asymmetrical")), &["Symmetry", "Asymmetrical"]);
-    check(err(&text.replace("AngleOfIncidence  3", "AngleOfIncidence  4")), &["ScatterAzimuth"]);
-    check(err(&text.replacen("TIS 5.000000E-01", "TIS x", 1)), &["TIS", "`x`"]);
-    check(err(&text.replace("DataEnd\n", "")), &["DataEnd", "end of file"]);
+    check(
+        err(&text.replace("PlaneSymmetrical", "Asymmetrical")),
+        &["Symmetry", "Asymmetrical"],
+    );
+    check(
+        err(&text.replace("AngleOfIncidence  3", "AngleOfIncidence  4")),
+        &["ScatterAzimuth"],
+    );
+    check(
+        err(&text.replacen("TIS 5.000000E-01", "TIS x", 1)),
+        &["TIS", "`x`"],
+    );
+    check(
+        err(&text.replace("DataEnd\n", "")),
+        &["DataEnd", "end of file"],
+    );
     check(err(&text.replacen("1.591549E-01", "-1", 1)), &["negative"]);
     let bytes = BrdfFormat::Merl.export(&lambertian(0.5), "");
     let merr = |b: &[u8]| Merl::parse(b, "bad.binary").unwrap_err().to_string();
@@ -314,6 +378,10 @@ fn readers_name_file_and_key() {
     let mut dims = bytes.clone();
     dims[8] = 104; // 360 phi_diff bins (low byte)
     dims[9] = 1;
-    assert!(merr(&dims).contains("dimensions 90 x 90 x 360"), "{}", merr(&dims));
+    assert!(
+        merr(&dims).contains("dimensions 90 x 90 x 360"),
+        "{}",
+        merr(&dims)
+    );
     assert!(merr(&bytes[..5]).starts_with("bad.binary: 5 bytes"));
 }

@@ -146,7 +146,11 @@ pub fn reciprocal_eval(table: &BrdfTable, wi: DVec3, wo: DVec3) -> f64 {
     let (ti, out) = table_frame(wi, wo);
     let (to, inc) = table_frame(wo, wi);
     let (di, d_o) = (distance(ti), distance(to));
-    let w = if di + d_o > 0.0 { d_o / (di + d_o) } else { 0.5 };
+    let w = if di + d_o > 0.0 {
+        d_o / (di + d_o)
+    } else {
+        0.5
+    };
     let mut v = 0.0;
     if w > 0.0 {
         v += w * symmetric_eval(table, ti, out);
@@ -301,7 +305,11 @@ mod tests {
                     let (wi, wo) = bin_directions(i, j, k);
                     assert!((wi.length() - 1.0).abs() < 1e-14 && (wo.length() - 1.0).abs() < 1e-14);
                     if wi.z > 0.0 && wo.z > 0.0 {
-                        assert_eq!(m.lookup(wi, wo)[0], index(i, j, k) as f64, "bin {i} {j} {k}");
+                        assert_eq!(
+                            m.lookup(wi, wo)[0],
+                            index(i, j, k) as f64,
+                            "bin {i} {j} {k}"
+                        );
                         checked += 1;
                     }
                 }
