@@ -5,7 +5,6 @@
 //! resampling errors stated in the README.
 
 use std::f64::consts::PI;
-use std::fmt::Write as _;
 
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
@@ -13,7 +12,7 @@ use rand_pcg::Pcg64Mcg;
 use roks::export::brdf_formats::{BrdfFormat, reflectance_check, symmetric_eval};
 use roks::export::merl::{self, Merl};
 use roks::export::zemax::{self, ZemaxBsdf};
-use roks::optics::brdf_table::{BRDF_TABLE_HEADER, BrdfTable};
+use roks::optics::brdf_table::{BRDF_TABLE_HEADER, BrdfTable, table_rows};
 use roks::scene::micro::MicroScene;
 use roks::tally::CarlsonGrid;
 
@@ -23,30 +22,11 @@ const PRINTED: f64 = 5e-7;
 /// `brdf.csv` text (full precision) for blocks `(theta_i_deg, fractions)` on
 /// a grid of `m` bands, light azimuth 0.
 fn table_csv(m: usize, blocks: &[(f64, Vec<f64>)]) -> String {
-    let g = CarlsonGrid::new(m).unwrap();
-    let mut s = format!("{BRDF_TABLE_HEADER}\n");
-    for (theta, fractions) in blocks {
-        for (flat, &f) in fractions.iter().enumerate() {
-            let (band, cell) = g.band_cell(flat);
-            let (bot, top) = g.mu_edges(band);
-            let (lo, hi) = g.phi_edges(band, cell);
-            let (t, p) = g.centre(band, cell);
-            let proj = g.projected_solid_angle(band, cell);
-            let _ = writeln!(
-                s,
-                "{theta},0,{band},{cell},{},{},{},{},{},{},{},{proj},{f},0,{},0",
-                top.acos().to_degrees(),
-                bot.acos().to_degrees(),
-                lo.to_degrees(),
-                hi.to_degrees(),
-                t.to_degrees(),
-                p.to_degrees(),
-                g.solid_angle(),
-                f / proj
-            );
-        }
-    }
-    s
+    let rows: String = blocks
+        .iter()
+        .map(|(t, f)| table_rows(m, *t, 0.0, f, 0.0))
+        .collect();
+    format!("{BRDF_TABLE_HEADER}\n{rows}")
 }
 
 /// A Lambertian table of albedo `rho` (fraction of a cell = rho proj / pi)

@@ -25,6 +25,13 @@ fn roks(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// `roks brdf` of the default scene with one batch per angle into `out`.
+fn brdf(out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["brdf", "--out", s(out), "--photons", "4096"];
+    args.extend_from_slice(extra);
+    roks(&args)
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
@@ -36,18 +43,7 @@ fn s(p: &Path) -> &str {
 fn brdf_export_option_and_export_command_agree() {
     let dir = scratch("agree");
     let out = dir.join("run");
-    let o = roks(&[
-        "brdf",
-        "--out",
-        s(&out),
-        "--photons",
-        "4096",
-        "--theta",
-        "0,45",
-        "--export",
-        "zemax,merl",
-        "-q",
-    ]);
+    let o = brdf(&out, &["--theta", "0,45", "--export", "zemax,merl", "-q"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let table = BrdfTable::load(&out.join("brdf.csv")).unwrap();
     for f in [BrdfFormat::Zemax, BrdfFormat::Merl] {
@@ -177,15 +173,7 @@ fn bad_input_exits_2_naming_the_file() {
     );
     // roks brdf --export with an unknown format: nothing traced, nothing written.
     let out = dir.join("run");
-    let o = roks(&[
-        "brdf",
-        "--out",
-        s(&out),
-        "--photons",
-        "4096",
-        "--export",
-        "zemax,obj",
-    ]);
+    let o = brdf(&out, &["--export", "zemax,obj"]);
     cli_common::assert_input_error("brdf --export", &o, Path::new("--export"), &out, &["`obj`"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
