@@ -37,8 +37,11 @@ enum Command {
     /// Generate the tabulated BRDF of a micro scene (default: the embedded scene).
     ///
     /// Writes DIR/summary.json (reflectance per incidence with standard
-    /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid)
-    /// and DIR/inplane.csv (plane of incidence). DIR defaults to out/<scene name>/.
+    /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid),
+    /// DIR/inplane.csv (plane of incidence), DIR/inplane.png (in-plane curves),
+    /// DIR/hemisphere_<theta>deg.png (equal-area map of the BRDF per incidence)
+    /// and, with --export, DIR/brdf.bsdf and DIR/brdf.binary. DIR defaults to
+    /// out/<scene name>/.
     Brdf(BrdfArgs),
     /// Print the surface statistics of a micro scene: RMS height sigma,
     /// autocorrelation length tau, sigma/tau, RMS slope, heights.
