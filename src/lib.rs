@@ -3,7 +3,8 @@
 //! Badyuk, Ulyanov, J. Opt. Technol. 2014).
 //!
 //! Layout, by physics:
-//! * [`export`]: a micro surface as a triangle mesh (binary PLY for Mitsuba 3).
+//! * [`export`]: a micro surface as a triangle mesh (binary PLY for Mitsuba 3);
+//!   BRDF tables as Zemax tabular BSDF and MERL binary files.
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
 //! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
 //! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables).

@@ -11,7 +11,9 @@ use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
+use roks::export::brdf_formats::BrdfFormat;
 use roks::micro::surface_stats::surface_stats;
+use roks::optics::brdf_table::BrdfTable;
 use roks::output;
 use roks::scene::SceneError;
 use roks::scene::micro::MicroScene;
@@ -35,8 +37,11 @@ enum Command {
     /// Generate the tabulated BRDF of a micro scene (default: the embedded scene).
     ///
     /// Writes DIR/summary.json (reflectance per incidence with standard
-    /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid)
-    /// and DIR/inplane.csv (plane of incidence). DIR defaults to out/<scene name>/.
+    /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid),
+    /// DIR/inplane.csv (plane of incidence), DIR/inplane.png (in-plane curves),
+    /// DIR/hemisphere_<theta>deg.png (equal-area map of the BRDF per incidence)
+    /// and, with --export, DIR/brdf.bsdf and DIR/brdf.binary. DIR defaults to
+    /// out/<scene name>/.
     Brdf(BrdfArgs),
     /// Print the surface statistics of a micro scene: RMS height sigma,
     /// autocorrelation length tau, sigma/tau, RMS slope, heights.
@@ -82,6 +87,30 @@ enum Command {
     /// OUT/brdf.csv, OUT/inplane.csv, OUT/summary.json and OUT/tallies.json,
     /// exactly as the single run would (only timings differ).
     Merge(MergeArgs),
+    /// Export the BRDF table of a `roks brdf` result folder for other programs.
+    ///
+    /// Reads RESULT_DIR/brdf.csv and writes OUT in FORMAT: `zemax` (Zemax /
+    /// Radiant tabular BSDF text, as OpticStudio's tabular BSDF scatter model
+    /// reads it: BRDF in 1/sr about the specular direction, TIS per angle of
+    /// incidence) or `merl` (MERL binary, 90 x 90 x 180 half/difference-angle
+    /// bins, three equal channels). Prints the file's reflectance, read back
+    /// and integrated over the hemisphere, beside the table's.
+    ExportBrdf(ExportBrdfArgs),
+}
+
+#[derive(Args, Debug)]
+struct ExportBrdfArgs {
+    /// Result folder of `roks brdf` (with brdf.csv).
+    dir: PathBuf,
+    /// Output format: zemax or merl.
+    #[arg(long)]
+    format: String,
+    /// Output file.
+    #[arg(long)]
+    out: PathBuf,
+    /// No reflectance check on stderr.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -255,6 +284,10 @@ struct BrdfArgs {
     /// that `roks merge` adds up exactly.
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
+    /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf),
+    /// merl (DIR/brdf.binary); see `roks export-brdf`.
+    #[arg(long, value_delimiter = ',')]
+    export: Vec<String>,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     quiet: bool,
@@ -302,6 +335,7 @@ fn main() -> ExitCode {
         Command::ExportMesh(a) => export_mesh(a),
         Command::Render(a) => render(a),
         Command::Merge(a) => merge(a),
+        Command::ExportBrdf(a) => export_brdf(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -336,7 +370,83 @@ fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Parse export format names (`--export`, `--format`).
+fn parse_formats(names: &[String], option: &str) -> Result<Vec<BrdfFormat>, Failure> {
+    let mut formats: Vec<BrdfFormat> = Vec::new();
+    for n in names {
+        let f = n
+            .parse::<BrdfFormat>()
+            .map_err(|e| Failure::Input(format!("{option}: {e}")))?;
+        if !formats.contains(&f) {
+            formats.push(f);
+        }
+    }
+    Ok(formats)
+}
+
+/// The export of `table` in `format` (with the reflectance check on stderr
+/// unless `quiet`).
+fn export_table(
+    table: &BrdfTable,
+    format: BrdfFormat,
+    comment: &str,
+    quiet: bool,
+) -> Result<Vec<u8>, Failure> {
+    let bytes = format.export(table, comment);
+    if !quiet {
+        let check =
+            roks::export::brdf_formats::reflectance_check(table, format, &bytes).map_err(|e| {
+                Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}"))
+            })?;
+        eprintln!(
+            "{format}: reflectance of the file (read back, integrated over the hemisphere) vs the table"
+        );
+        eprintln!(
+            "{:>9} {:>10} {:>10} {:>10}",
+            "theta_i", "table", "file", "relative"
+        );
+        for c in &check {
+            eprintln!(
+                "{:>9.2} {:>10.6} {:>10.6} {:>+10.2e}",
+                c.theta_i_deg,
+                c.table,
+                c.file,
+                c.file / c.table - 1.0
+            );
+        }
+    }
+    Ok(bytes)
+}
+
+fn export_brdf(a: ExportBrdfArgs) -> Result<(), Failure> {
+    let format = parse_formats(std::slice::from_ref(&a.format), "--format")?[0];
+    let csv = a.dir.join("brdf.csv");
+    if !a.dir.is_dir() {
+        return Err(Failure::Input(format!(
+            "{}: not a folder (expected the result folder of `roks brdf`, with brdf.csv)",
+            a.dir.display()
+        )));
+    }
+    let table = BrdfTable::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    let bytes = export_table(&table, format, &format!("from {}", csv.display()), a.quiet)?;
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    output::write_atomic(&a.out, &bytes)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", a.out.display()))?;
+    if !a.quiet {
+        eprintln!(
+            "wrote {} ({format}, {} bytes)",
+            a.out.display(),
+            bytes.len()
+        );
+    }
+    Ok(())
+}
+
 fn brdf(a: BrdfArgs) -> Result<(), Failure> {
+    let exports = parse_formats(&a.export, "--export")?;
     let scene = load_scene(a.scene.as_deref())?;
     let mut run = scene.brdf_run();
     if let Some(p) = a.photons {
@@ -466,11 +576,38 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     let inplane_png = output::inplane_plot(&scene.name, &run, &results)
         .to_png(1000, 620)
         .map_err(Failure::Other)?;
+    let maps: Vec<(String, Vec<u8>)> = {
+        use rayon::prelude::*;
+        results
+            .par_iter()
+            .map(|r| {
+                output::hemisphere_map(&scene.name, &run, r)
+                    .to_png()
+                    .map(|png| (output::hemisphere_file(r.theta_i_deg), png))
+            })
+            .collect::<anyhow::Result<_>>()
+            .map_err(Failure::Other)?
+    };
+    let mut exported = Vec::new();
+    if !exports.is_empty() {
+        let table = BrdfTable::parse(&brdf_csv, "brdf.csv")
+            .map_err(|e| Failure::Other(anyhow::anyhow!("the run's own table: {e}")))?;
+        for &f in &exports {
+            let comment = format!("scene {}, {} photons per angle", scene.name, run.photons);
+            exported.push((f.file_name(), export_table(&table, f, &comment, a.quiet)?));
+        }
+    }
     let mut files: Vec<(&str, &[u8])> = vec![
         ("brdf.csv", brdf_csv.as_bytes()),
         ("inplane.csv", inplane_csv.as_bytes()),
         ("inplane.png", &inplane_png),
     ];
+    for (name, bytes) in &maps {
+        files.push((name, bytes));
+    }
+    for (name, bytes) in &exported {
+        files.push((name, bytes));
+    }
     if let Some(t) = &tallies_text {
         files.push((shard::TALLIES_FILE, t.as_bytes()));
     }

@@ -280,6 +280,40 @@ pub fn position_json(
     })
 }
 
+/// The BRDF of one incidence of a run as an equal-area hemisphere map
+/// (`hemisphere_<theta>deg.png`).
+#[must_use]
+pub fn hemisphere_map(
+    name: &str,
+    run: &BrdfRun,
+    r: &IncidenceResult,
+) -> crate::plot::HemisphereMap {
+    let grid = run.grid();
+    let n = r.tallies.photons;
+    let brdf = (0..grid.n_cells())
+        .map(|flat| {
+            let (band, cell) = grid.band_cell(flat);
+            r.tallies.carlson.mean(flat, n) / grid.projected_solid_angle(band, cell)
+        })
+        .collect();
+    crate::plot::HemisphereMap {
+        title: format!(
+            "{name}: BRDF at incidence θi = {}° ({} photons)",
+            r.theta_i_deg, n
+        ),
+        grid,
+        brdf,
+        theta_i_deg: r.theta_i_deg,
+        phi_i_deg: r.phi_i_deg,
+    }
+}
+
+/// File name of the hemisphere map of incidence `theta_i_deg`.
+#[must_use]
+pub fn hemisphere_file(theta_i_deg: f64) -> String {
+    format!("hemisphere_{theta_i_deg}deg.png")
+}
+
 /// The in-plane BRDF curves of a run as a plot (`inplane.png`): one curve
 /// per incidence angle, log BRDF vs signed theta_o, 2-sigma error bars.
 #[must_use]

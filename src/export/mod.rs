@@ -1,5 +1,7 @@
-//! Export of micro surfaces as triangle meshes (`roks export-mesh`); the
-//! walls of object scenes are meshed by [`object_mesh`].
+//! Exports for other programs: micro surfaces as triangle meshes (`roks
+//! export-mesh`, this file), the walls of object scenes as meshes
+//! ([`object_mesh`]) and BRDF tables in the Zemax and MERL formats
+//! (`roks export-brdf`: [`brdf_formats`], [`zemax`], [`merl`]).
 //!
 //! [`height_field_mesh`] samples the top surface of a [`MicroSurface`] on a
 //! regular grid over one period and triangulates it; [`write_ply`] encodes the
@@ -39,7 +41,10 @@
 //! `1.8e-6` at `x = 30`. The vertices `x = Lx` and `y = Ly` are computed as
 //! `Lx * (n / n)` and so are exactly `Lx` and `Ly` (rounded to `f32`).
 
+pub mod brdf_formats;
+pub mod merl;
 pub mod object_mesh;
+pub mod zemax;
 
 use glam::DVec2;
 

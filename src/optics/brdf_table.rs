@@ -812,6 +812,54 @@ impl BrdfTable {
     }
 }
 
+/// The rows of `brdf.csv` (no header) for one incidence `theta_i_deg`,
+/// `phi_i_deg` (degrees) given by its `fractions` per flat cell of the
+/// Carlson grid of `bands` bands, with `fraction_stderr = stderr_ratio *
+/// fraction`, all numbers at full precision: a synthetic table (an analytic
+/// BRDF, a test) in the layout [`BrdfTable::parse`] reads.
+///
+/// # Panics
+/// If `bands` is 0 or `fractions` does not have one value per cell.
+#[must_use]
+pub fn table_rows(
+    bands: usize,
+    theta_i_deg: f64,
+    phi_i_deg: f64,
+    fractions: &[f64],
+    stderr_ratio: f64,
+) -> String {
+    use std::fmt::Write as _;
+    let g = CarlsonGrid::new(bands).expect("table_rows: bands must be > 0");
+    assert_eq!(
+        fractions.len(),
+        g.n_cells(),
+        "table_rows: one fraction per cell"
+    );
+    let mut s = String::new();
+    for (flat, &f) in fractions.iter().enumerate() {
+        let (band, cell) = g.band_cell(flat);
+        let (bot, top) = g.mu_edges(band);
+        let (lo, hi) = g.phi_edges(band, cell);
+        let (t, p) = g.centre(band, cell);
+        let proj = g.projected_solid_angle(band, cell);
+        let fe = stderr_ratio * f;
+        let _ = writeln!(
+            s,
+            "{theta_i_deg},{phi_i_deg},{band},{cell},{},{},{},{},{},{},{:e},{proj:e},{f:e},{fe:e},{:e},{:e}",
+            top.acos().to_degrees(),
+            bot.acos().to_degrees(),
+            lo.to_degrees(),
+            hi.to_degrees(),
+            t.to_degrees(),
+            p.to_degrees(),
+            g.solid_angle(),
+            f / proj,
+            fe / proj
+        );
+    }
+    s
+}
+
 /// Parse one data row.
 fn parse_row(text: &str, line: usize, name: &str) -> Result<Row, BrdfTableError> {
     let fields: Vec<&str> = text.split(',').map(str::trim).collect();
@@ -954,7 +1002,6 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
     use std::f64::consts::{PI, TAU};
-    use std::fmt::Write as _;
 
     /// One block of a test table: angle, light azimuth (degrees), fraction
     /// per flat cell.
@@ -972,38 +1019,10 @@ mod tests {
 
     /// The data rows of [`csv`], without the header.
     fn rows(m: usize, blocks: &[TestBlock]) -> String {
-        let g = CarlsonGrid::new(m).unwrap();
-        let mut s = String::new();
-        for b in blocks {
-            assert_eq!(b.fractions.len(), g.n_cells());
-            for (flat, &f) in b.fractions.iter().enumerate() {
-                let (band, cell) = g.band_cell(flat);
-                let (bot, top) = g.mu_edges(band);
-                let (lo, hi) = g.phi_edges(band, cell);
-                let (t, p) = g.centre(band, cell);
-                let proj = g.projected_solid_angle(band, cell);
-                writeln!(
-                    s,
-                    "{},{},{band},{cell},{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e}",
-                    b.theta,
-                    b.phi_i,
-                    top.acos().to_degrees(),
-                    bot.acos().to_degrees(),
-                    lo.to_degrees(),
-                    hi.to_degrees(),
-                    t.to_degrees(),
-                    p.to_degrees(),
-                    g.solid_angle(),
-                    proj,
-                    f,
-                    0.01 * f,
-                    f / proj,
-                    0.01 * f / proj
-                )
-                .unwrap();
-            }
-        }
-        s
+        blocks
+            .iter()
+            .map(|b| table_rows(m, b.theta, b.phi_i, &b.fractions, 0.01))
+            .collect()
     }
 
     fn lambertian(m: usize, albedo: f64) -> Vec<f64> {

@@ -1,0 +1,311 @@
+#!/usr/bin/env python3
+"""Mitsuba 3 BSDF plugin `roks_table`: render with a BRDF table written by `roks brdf`.
+
+Register it, then use it like any BSDF:
+
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")            # or llvm_ad_rgb, see below
+    import roks_bsdf                        # scripts/ on sys.path
+    roks_bsdf.register()
+    bsdf = mi.load_dict({"type": "roks_table", "filename": "out/default/brdf.csv"})
+
+Parameters
+
+* ``filename`` (string): a ``brdf.csv`` written by ``roks brdf`` (columns and
+  conventions: src/optics/brdf_table.rs; the checks here are those of
+  ``BrdfTable::parse`` that matter for rendering: header, complete blocks of
+  one Carlson grid, finite non-negative fractions, incidence in [0, 90)).
+* ``scale`` (float, default 1): multiplies the BRDF (a tinted or dimmed copy).
+
+What it computes (the same table as roks's ``BrdfTable``, grey, reflection
+only, front side only):
+
+* ``eval(wi, wo)`` = f(theta_i; wo) cos(theta_o), Mitsuba's convention (the
+  BSDF times the foreshortening of ``wo``). f is the table's BRDF (1/sr):
+  the fraction of the Carlson cell holding ``wo`` divided by the cell's exact
+  projected solid angle, linear in theta_i between the two tabulated
+  incidences that bracket theta_i (clamped outside), each block turned by its
+  light azimuth; ``wo`` is taken relative to the azimuth of ``wi``. The table
+  is indexed by ``wi``, the direction Mitsuba arrives from (the camera side
+  in radiance transport): this assumes reciprocity, f(a -> b) = f(b -> a),
+  which the roks BRDF obeys (tests/reciprocity.rs) and which makes ``sample``
+  draw from the table that ``eval`` reads.
+* ``sample(wi, sample1, sample2)``: as ``BrdfTable::sample`` -- the upper
+  bracketing table with probability w (the linear weight), else the lower
+  (``sample1`` decides, then is reused, rescaled, for the cell); a cell with
+  probability fraction / R (R the table's reflectance); a direction uniform
+  in projected solid angle inside the cell (mu^2 uniform between the cell's
+  edges by ``sample2.x``, phi uniform by ``sample2.y``). Its pdf (solid
+  angle) is the mixture sum_t w_t fraction_t / (R_t proj) cos(theta_o), which
+  ``pdf`` returns too, and the weight is eval / pdf (equal to R of the table
+  when wi is at a tabulated angle). Integrated over the hemisphere ``eval``
+  gives the table's reflectance R(theta_i); the expected weight is R(theta_i).
+
+Variants: the arithmetic is numpy on whole arrays, so the plugin runs in
+``scalar_rgb`` and in the LLVM/CUDA variants in wavefront mode, i.e. with
+``dr.set_flag(dr.JitFlag.SymbolicLoops, False)`` and
+``dr.set_flag(dr.JitFlag.SymbolicCalls, False)`` (Python code called from a
+recorded loop cannot read values). Tests: scripts/test_roks_bsdf.py.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+BRDF_HEADER = (
+    "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,"
+    "theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,"
+    "brdf,brdf_stderr"
+)
+C_THETA_I, C_PHI_I, C_BAND, C_CELL, C_PROJ, C_FRACTION = 0, 1, 2, 3, 11, 12
+
+
+class TableError(ValueError):
+    """A brdf.csv this plugin cannot use (message names the file)."""
+
+
+class CarlsonTable:
+    """The BRDF table of a brdf.csv as numpy arrays, with eval / pdf / sample
+    on arrays of directions (local frame, z the normal). Pure numpy: the
+    Mitsuba plugin wraps it, the tests call it directly too."""
+
+    def __init__(self, path: str | Path):
+        path = Path(path)
+        try:
+            with path.open() as f:
+                header = f.readline().lstrip("\ufeff").strip()
+                if header != BRDF_HEADER:
+                    raise TableError(f"{path}: line 1: not the brdf.csv header of roks")
+                data = np.loadtxt(f, delimiter=",", ndmin=2)
+        except (OSError, ValueError) as e:
+            raise TableError(f"{path}: cannot read: {e}") from e
+        if data.shape[0] == 0 or data.shape[1] != 16 or not np.all(np.isfinite(data)):
+            raise TableError(f"{path}: no data rows, or not 16 finite columns")
+        # Blocks of consecutive rows with the same (theta_i, phi_i).
+        key = data[:, [C_THETA_I, C_PHI_I]]
+        starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
+        sizes = np.diff(np.r_[starts, len(data)])
+        rows = int(sizes[0])
+        m = int(round((-1 + math.sqrt(1 + 2 * rows)) / 2))
+        if np.any(sizes != rows) or 2 * m * (m + 1) != rows:
+            raise TableError(f"{path}: incidence blocks are not complete Carlson grids of one size")
+        self.bands = m
+        k = m * (m + 1)
+        self.k = k
+        band = np.concatenate([np.full(4 * j, j) for j in range(1, m + 1)])
+        cell = np.concatenate([np.arange(4 * j) for j in range(1, m + 1)])
+        for s in starts:
+            block = data[s : s + rows]
+            if np.any(block[:, C_BAND] != band) or np.any(block[:, C_CELL] != cell):
+                raise TableError(f"{path}: line {s + 2}: band/cell not in Carlson grid order")
+        theta_deg = key[starts, 0]
+        if np.any((theta_deg < 0) | (theta_deg >= 90)) or len(np.unique(theta_deg)) != len(theta_deg):
+            raise TableError(f"{path}: theta_i_deg must be distinct and in [0, 90)")
+        fractions = np.stack([data[s : s + rows, C_FRACTION] for s in starts])
+        if np.any(fractions < 0):
+            raise TableError(f"{path}: negative fraction")
+        order = np.argsort(theta_deg)
+        self.theta = np.radians(theta_deg[order])
+        self.phi_i = np.radians(key[starts, 1][order])
+        self.fractions = fractions[order]
+        self.cdf = np.cumsum(self.fractions, axis=1)
+        self.reflectance = self.cdf[:, -1].copy()
+        positive = self.fractions > 0
+        self.last_positive = np.where(positive.any(axis=1), rows - 1 - np.argmax(positive[:, ::-1], axis=1), -1)
+        # Cell geometry from the grid (as CarlsonGrid): mu edges as integer
+        # ratios, projected solid angle pi (K - j^2) / K^2.
+        self.band = band
+        self.mu_bot = (k - band * (band + 1)) / k
+        self.mu_top = (k - (band - 1) * band) / k
+        dphi = 2 * math.pi / (4 * band)
+        self.phi_lo = (cell - 0.5) * dphi
+        self.phi_hi = (cell + 0.5) * dphi
+        self.proj = math.pi * (k - band * band) / (k * k)
+        if np.any(np.abs(data[:rows, C_PROJ] - self.proj) > 1e-6 * self.proj):
+            raise TableError(f"{path}: projected_solid_angle_sr does not match the Carlson grid of {m} bands")
+
+    # -- geometry ---------------------------------------------------------
+
+    def locate(self, d: np.ndarray) -> np.ndarray:
+        """Flat Carlson cell of unit directions d (N, 3) with z > 0."""
+        mu = d[:, 2]
+        m, k = self.bands, self.k
+        x = (1.0 - mu) * k
+        j = np.clip(np.ceil((-1.0 + np.sqrt(1.0 + 4.0 * x)) / 2.0).astype(np.int64), 1, m)
+        for _ in range(2):  # correct the closed form against the exact edges
+            bot = (k - j * (j + 1)) / k
+            top = (k - (j - 1) * j) / k
+            j = np.where((j < m) & (mu < bot), j + 1, j)
+            j = np.where((j > 1) & (mu >= top), j - 1, j)
+        n = 4 * j
+        v = np.arctan2(d[:, 1], d[:, 0]) / (2 * math.pi / n) + 0.5 + n
+        c = np.mod(np.floor(v).astype(np.int64), n)
+        return 2 * j * (j - 1) + c
+
+    def bracket(self, theta: np.ndarray):
+        """(i0, i1, w): the value at theta is (1 - w) v[i0] + w v[i1]; clamped."""
+        n = len(self.theta)
+        i1 = np.searchsorted(self.theta, theta, side="right")
+        lo = i1 == 0
+        hi = i1 >= n
+        i0 = np.clip(i1 - 1, 0, n - 1)
+        i1c = np.clip(i1, 0, n - 1)
+        span = np.where(i1c > i0, self.theta[i1c] - self.theta[i0], 1.0)
+        w = np.clip((theta - self.theta[i0]) / span, 0.0, 1.0)
+        w = np.where(lo | hi, 0.0, w)
+        i0 = np.where(lo, 0, i0)
+        i1c = np.where(lo, 0, np.where(hi, n - 1, i1c))
+        return i0, i1c, w
+
+    @staticmethod
+    def _turn(d: np.ndarray, angle: np.ndarray) -> np.ndarray:
+        """Rotate directions d (N, 3) about z by angle (N,) radians."""
+        c, s = np.cos(angle), np.sin(angle)
+        return np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1], d[:, 2]], axis=1)
+
+    @staticmethod
+    def _frame(wi: np.ndarray):
+        """Polar angle and azimuth of wi (N, 3)."""
+        return np.arctan2(np.hypot(wi[:, 0], wi[:, 1]), wi[:, 2]), np.arctan2(wi[:, 1], wi[:, 0])
+
+    def _terms(self, wi: np.ndarray, wo: np.ndarray):
+        """Per bracketing table t (two): weight w_t, table index, and the
+        cell of wo in that table's frame; valid = both above the horizon."""
+        valid = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+        theta, phi = self._frame(wi)
+        i0, i1, w = self.bracket(theta)
+        local = self._turn(wo, -phi)
+        out = []
+        for idx, wt in ((i0, 1.0 - w), (i1, w)):
+            d = self._turn(local, self.phi_i[idx])
+            d[:, 2] = np.where(valid, d[:, 2], 1.0)  # any cell; masked below
+            out.append((np.where(valid, wt, 0.0), idx, self.locate(d)))
+        return valid, out
+
+    # -- BSDF -------------------------------------------------------------
+
+    def brdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """f(theta_i; wo) in 1/sr (0 below the horizon)."""
+        _, terms = self._terms(wi, wo)
+        return sum(wt * self.fractions[idx, c] / self.proj[c] for wt, idx, c in terms)
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """f cos(theta_o), as Mitsuba's BSDF.eval."""
+        return self.brdf(wi, wo) * np.maximum(wo[:, 2], 0.0)
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """Solid-angle density of sample(): sum_t w_t f_t / (R_t proj) cos."""
+        _, terms = self._terms(wi, wo)
+        p = np.zeros(len(wi))
+        for wt, idx, c in terms:
+            r = self.reflectance[idx]
+            p += np.where(r > 0, wt * self.fractions[idx, c] / (np.where(r > 0, r, 1.0) * self.proj[c]), 0.0)
+        return p * np.maximum(wo[:, 2], 0.0)
+
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray):
+        """(wo, pdf, weight, valid) for uniforms u1 (N,), u2 (N, 2)."""
+        theta, phi = self._frame(wi)
+        i0, i1, w = self.bracket(theta)
+        u1 = np.clip(u1, 0.0, 1.0 - 2.0**-53)
+        upper = u1 < w
+        idx = np.where(upper, i1, i0)
+        # Reuse u1 for the cell: uniform again within the chosen branch.
+        u = np.where(upper, u1 / np.where(w > 0, w, 1.0), (u1 - w) / np.where(w < 1, 1.0 - w, 1.0))
+        u = np.clip(u, 0.0, 1.0 - 2.0**-53)
+        r = self.reflectance[idx]
+        x = u * r
+        c = np.zeros(len(x), dtype=np.int64)
+        for t in np.unique(idx):
+            sel = idx == t
+            c[sel] = np.searchsorted(self.cdf[t], x[sel], side="right")
+        c = np.minimum(c, np.maximum(self.last_positive[idx], 0))
+        mu2_top, mu2_bot = self.mu_top[c] ** 2, self.mu_bot[c] ** 2
+        mu2 = mu2_top - np.clip(u2[:, 0], 0.0, 1.0 - 2.0**-53) * (mu2_top - mu2_bot)
+        mu = np.sqrt(mu2)
+        s = np.sqrt(np.maximum(1.0 - mu2, 0.0))
+        ph = self.phi_lo[c] + np.clip(u2[:, 1], 0.0, 1.0 - 2.0**-53) * (self.phi_hi[c] - self.phi_lo[c]) - self.phi_i[idx]
+        local = np.stack([s * np.cos(ph), s * np.sin(ph), mu], axis=1)
+        wo = self._turn(local, phi)
+        valid = (wi[:, 2] > 0) & (r > 0) & (self.last_positive[idx] >= 0)
+        pdf = np.where(valid, self.pdf(wi, wo), 0.0)
+        valid &= pdf > 0
+        weight = np.where(valid, self.eval(wi, wo) / np.where(valid, pdf, 1.0), 0.0)
+        return wo, pdf, weight, valid
+
+
+def register(name: str = "roks_table") -> None:
+    """Register the plugin with the current Mitsuba variant (call after
+    mi.set_variant)."""
+    import drjit as dr
+    import mitsuba as mi
+
+    scalar = not dr.is_array_v(mi.Float)
+
+    def arr(x) -> np.ndarray:
+        return np.atleast_1d(np.asarray(x, dtype=np.float64))
+
+    def vec(v) -> np.ndarray:
+        return np.stack([arr(v.x), arr(v.y), arr(v.z)], axis=1)
+
+    def back_f(a: np.ndarray):
+        return mi.Float(float(a[0])) if scalar else mi.Float(a.astype(np.float32))
+
+    def back_b(a: np.ndarray):
+        return mi.Bool(bool(a[0])) if scalar else mi.Bool(a)
+
+    def back_v(a: np.ndarray):
+        return mi.Vector3f(back_f(a[:, 0]), back_f(a[:, 1]), back_f(a[:, 2]))
+
+    def mask(active, n: int) -> np.ndarray:
+        return np.broadcast_to(np.atleast_1d(np.asarray(active, dtype=bool)), (n,))
+
+    class RoksTableBSDF(mi.BSDF):
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.filename = str(props["filename"])
+            self.scale = float(props["scale"]) if props.has_property("scale") else 1.0
+            self.table = CarlsonTable(self.filename)
+            flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
+            self.m_components = [flags]
+            self.m_flags = flags
+
+        def eval(self, ctx, si, wo, active=True):
+            wi, o = vec(si.wi), vec(wo)
+            v = self.scale * self.table.eval(wi, o) * mask(active, len(wi))
+            return mi.Color3f(back_f(v))
+
+        def pdf(self, ctx, si, wo, active=True):
+            wi, o = vec(si.wi), vec(wo)
+            return back_f(self.table.pdf(wi, o) * mask(active, len(wi)))
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            wi = vec(si.wi)
+            u2 = np.stack([arr(sample2.x), arr(sample2.y)], axis=1)
+            wo, pdf, weight, valid = self.table.sample(wi, np.broadcast_to(arr(sample1), (len(wi),)), u2)
+            valid &= mask(active, len(wi))
+            bs = mi.BSDFSample3f()
+            bs.wo = back_v(wo)
+            bs.pdf = back_f(np.where(valid, pdf, 0.0))
+            bs.eta = 1.0
+            bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
+            bs.sampled_component = mi.UInt32(0)
+            w = np.where(valid, self.scale * weight, 0.0)
+            return bs, dr.select(back_b(valid), mi.Color3f(back_f(w)), mi.Color3f(0.0))
+
+        def traverse(self, callback):
+            pass
+
+        def to_string(self):
+            t = self.table
+            return (
+                f"RoksTableBSDF[filename={self.filename!r}, bands={t.bands}, "
+                f"theta_i_deg={np.degrees(t.theta).round(6).tolist()}, scale={self.scale}]"
+            )
+
+    mi.register_bsdf(name, lambda props: RoksTableBSDF(props))

@@ -1,0 +1,335 @@
+//! The MERL binary BRDF format (Matusik, Pfister, Brand, McMillan 2003), as
+//! graphics BRDF tools read it: writer ([`Merl::from_table`],
+//! [`Merl::to_bytes`]) and reader ([`Merl::parse`], [`Merl::lookup`]).
+//!
+//! # Layout
+//!
+//! Little-endian: three `int32` dimensions `90, 90, 180` (theta_half,
+//! theta_diff, phi_diff), then `3 x 90 x 90 x 180` `float64`, channel by
+//! channel (red, green, blue), each channel with `phi_diff` fastest, then
+//! `theta_diff`, then `theta_half`: index `k + 180 j + 180 90 i`. A stored
+//! value times the channel scale [`SCALES`] (`1/1500`, `1.15/1500`,
+//! `1.66/1500`) is the BRDF in sr⁻¹; roks tables are grey, so the three
+//! channels hold the same BRDF (different stored numbers).
+//!
+//! # Coordinates (Rusinkiewicz half/difference angles)
+//!
+//! With `omega_i` toward the light and `omega_o` toward the viewer, the half
+//! vector `h = normalize(omega_i + omega_o)` has polar angle `theta_half`;
+//! `omega_i` turned by `-phi_half` about the normal and by `-theta_half`
+//! about `y` has polar angle `theta_diff` and azimuth `phi_diff`. The format
+//! assumes an isotropic BRDF (no `phi_half`) obeying reciprocity
+//! (`phi_diff` and `phi_diff + 180` degrees give the same value), so only
+//! `phi_diff` in `[0, 180)` degrees is stored. Bins, as the reference reader
+//! `BRDFRead.cpp` looks them up (truncation, clamped to the last bin):
+//! `i = floor(sqrt(theta_half / 90 deg) 90)` (finer near the specular peak),
+//! `j = floor(theta_diff / 90 deg 90)`, `k = floor(phi_diff / 180 deg 180)`.
+//!
+//! # Resampling
+//!
+//! [`Merl::from_table`] stores in each bin the table's BRDF at the bin's
+//! centre in index space (`theta_half = ((i + 1/2) / 90)² 90 deg`,
+//! `theta_diff = j + 1/2 deg`, `phi_diff = k + 1/2 deg`), the point that
+//! the reference reader's truncation represents by the whole bin.
+//!
+//! The format needs a reciprocal BRDF, `f(omega_i, omega_o) =
+//! f(omega_o, omega_i)` (one bin serves both), and the table is exact only
+//! at its tabulated incidence angles: between them it is interpolated
+//! linearly in `theta_i`, which smears a narrow specular peak into two and
+//! is not reciprocal (for the default scene, `∫ f(theta_o; omega_i)
+//! cos(theta_o) dω_o` differs from the reflectance by up to 4 %). Each bin
+//! therefore holds the [`reciprocal_eval`] blend
+//! `w f(theta_i; omega_o) + (1 - w) f(theta_o; omega_i)`, weighted toward the
+//! direction whose polar angle is nearer a tabulated incidence angle
+//! (`w = d_o / (d_i + d_o)`, `d` the distance in degrees to the nearest
+//! tabulated angle): where the light is at a tabulated angle the file holds
+//! the table's own BRDF, and it is reciprocal by construction. `f` is the
+//! table's [`symmetric_eval`]. Bins whose centre puts a direction below the horizon hold the value at the
+//! same azimuth just above the horizon, so that a valid direction pair that
+//! falls into such a bin gets the table's value there. Incidences beyond the
+//! table's largest angle take that angle's BRDF (the table clamps).
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::brdf_formats::{FormatError, symmetric_eval};
+use crate::optics::brdf_table::BrdfTable;
+
+/// Bins in theta_half.
+pub const THETA_H: usize = 90;
+/// Bins in theta_diff.
+pub const THETA_D: usize = 90;
+/// Bins in phi_diff (half of 360: reciprocity).
+pub const PHI_D: usize = 180;
+/// Values per channel.
+pub const N: usize = THETA_H * THETA_D * PHI_D;
+/// Stored value times scale = BRDF (sr⁻¹), red, green, blue.
+pub const SCALES: [f64; 3] = [1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0];
+
+/// Directions whose `z` is at most this are raised to it (horizon).
+const HORIZON_Z: f64 = 1e-9;
+
+/// A MERL BRDF: three channels of `N` values in sr⁻¹ (already scaled).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Merl {
+    /// BRDF (sr⁻¹), channel-major: `values[c * N + k + 180 j + 180 90 i]`.
+    pub values: Vec<f64>,
+}
+
+/// Flat index of bin `(i, j, k)` within a channel.
+#[must_use]
+pub fn index(i: usize, j: usize, k: usize) -> usize {
+    k + PHI_D * (j + THETA_D * i)
+}
+
+/// Rotate `v` by `angle` (radians) about the unit `axis` (Rodrigues, as the
+/// reference reader's `rotate_vector`).
+fn rotate(v: DVec3, axis: DVec3, angle: f64) -> DVec3 {
+    let (s, c) = angle.sin_cos();
+    v * c + axis * axis.dot(v) * (1.0 - c) + axis.cross(v) * s
+}
+
+/// `(omega_i, omega_o)` at the centre of bin `(i, j, k)` in index space,
+/// with `phi_half = 0`; either may point below the horizon.
+#[must_use]
+pub fn bin_directions(i: usize, j: usize, k: usize) -> (DVec3, DVec3) {
+    let th = ((i as f64 + 0.5) / THETA_H as f64).powi(2) * std::f64::consts::FRAC_PI_2;
+    let td = (j as f64 + 0.5) / THETA_D as f64 * std::f64::consts::FRAC_PI_2;
+    let pd = (k as f64 + 0.5) / PHI_D as f64 * std::f64::consts::PI;
+    let diff = DVec3::new(td.sin() * pd.cos(), td.sin() * pd.sin(), td.cos());
+    let wi = rotate(diff, DVec3::Y, th);
+    let h = DVec3::new(th.sin(), 0.0, th.cos());
+    let wo = 2.0 * wi.dot(h) * h - wi;
+    (wi, wo)
+}
+
+/// `d` with `z` raised to the horizon threshold (same azimuth), unit length.
+fn above_horizon(d: DVec3) -> DVec3 {
+    if d.z > HORIZON_Z {
+        return d;
+    }
+    let flat = DVec3::new(d.x, d.y, 0.0).normalize_or(DVec3::X);
+    (flat + DVec3::Z * HORIZON_Z).normalize()
+}
+
+/// `(theta, d)` of `light` toward `view` in the table's frame: the polar
+/// angle of `light` (radians) and `view` turned about the normal so that
+/// `light` is at azimuth 0.
+fn table_frame(light: DVec3, view: DVec3) -> (f64, DVec3) {
+    let (s, c) = (-light.y.atan2(light.x)).sin_cos();
+    (
+        // atan2 keeps the polar angle's digits near the normal (acos does not).
+        light.x.hypot(light.y).atan2(light.z),
+        DVec3::new(c * view.x - s * view.y, s * view.x + c * view.y, view.z),
+    )
+}
+
+/// The reciprocal blend stored by [`Merl::from_table`] for light from `wi`
+/// seen from `wo` (unit vectors above the horizon):
+/// `w f(theta_i; omega_o) + (1 - w) f(theta_o; omega_i)` with `f` the
+/// table's [`symmetric_eval`] and `w = d_o / (d_i + d_o)` (1/2 if both are
+/// 0), `d_i`, `d_o` the distances of `theta_i`, `theta_o` from the nearest
+/// tabulated incidence angle. See the module documentation.
+#[must_use]
+pub fn reciprocal_eval(table: &BrdfTable, wi: DVec3, wo: DVec3) -> f64 {
+    // Within 1e-9 degrees (the rounding of a computed polar angle) an angle
+    // counts as tabulated.
+    let distance = |theta: f64| {
+        let deg = theta.to_degrees();
+        let d = table
+            .thetas_deg()
+            .iter()
+            .map(|t| (t - deg).abs())
+            .fold(f64::INFINITY, f64::min);
+        if d < 1e-9 { 0.0 } else { d }
+    };
+    let (ti, out) = table_frame(wi, wo);
+    let (to, inc) = table_frame(wo, wi);
+    let (di, d_o) = (distance(ti), distance(to));
+    let w = if di + d_o > 0.0 {
+        d_o / (di + d_o)
+    } else {
+        0.5
+    };
+    let mut v = 0.0;
+    if w > 0.0 {
+        v += w * symmetric_eval(table, ti, out);
+    }
+    if w < 1.0 {
+        v += (1.0 - w) * symmetric_eval(table, to, inc);
+    }
+    v
+}
+
+impl Merl {
+    /// Resample `table` at the bin centres (see the module documentation).
+    /// Bins are computed in parallel; the result does not depend on the
+    /// number of threads.
+    #[must_use]
+    pub fn from_table(table: &BrdfTable) -> Self {
+        let grey: Vec<f64> = (0..THETA_H)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                (0..THETA_D).flat_map(move |j| {
+                    (0..PHI_D).map(move |k| {
+                        let (wi, wo) = bin_directions(i, j, k);
+                        reciprocal_eval(table, above_horizon(wi), above_horizon(wo))
+                    })
+                })
+            })
+            .collect();
+        let mut values = Vec::with_capacity(3 * N);
+        for _ in 0..3 {
+            values.extend_from_slice(&grey);
+        }
+        Self { values }
+    }
+
+    /// The file's bytes.
+    #[must_use]
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(12 + 8 * self.values.len());
+        for d in [THETA_H, THETA_D, PHI_D] {
+            b.extend_from_slice(&(d as i32).to_le_bytes());
+        }
+        for (c, chunk) in self.values.chunks(N).enumerate() {
+            for v in chunk {
+                b.extend_from_slice(&(v / SCALES[c]).to_le_bytes());
+            }
+        }
+        b
+    }
+
+    /// Read a MERL file's bytes; `name` names it in errors. The dimensions
+    /// must be `90 x 90 x 180` and the length exactly theirs; values must be
+    /// finite (MERL's own measurements mark invalid bins with negative
+    /// values, which are kept).
+    ///
+    /// # Errors
+    /// A [`FormatError`] naming `name` and what is wrong.
+    pub fn parse(bytes: &[u8], name: &str) -> Result<Self, FormatError> {
+        let fail = |message: String| FormatError {
+            file: name.to_owned(),
+            message,
+        };
+        if bytes.len() < 12 {
+            return Err(fail(format!(
+                "{} bytes: too short for the three int32 dimensions",
+                bytes.len()
+            )));
+        }
+        let dim = |k: usize| {
+            let mut four = [0u8; 4];
+            four.copy_from_slice(&bytes[4 * k..4 * k + 4]);
+            i32::from_le_bytes(four)
+        };
+        let dims = [dim(0), dim(1), dim(2)];
+        if dims != [THETA_H as i32, THETA_D as i32, PHI_D as i32] {
+            return Err(fail(format!(
+                "dimensions {} x {} x {}, expected {THETA_H} x {THETA_D} x {PHI_D}",
+                dims[0], dims[1], dims[2]
+            )));
+        }
+        let expected = 12 + 8 * 3 * N;
+        if bytes.len() != expected {
+            return Err(fail(format!(
+                "{} bytes, expected {expected} (12 + 8 x 3 x {N})",
+                bytes.len()
+            )));
+        }
+        let mut values = Vec::with_capacity(3 * N);
+        for (n, b) in bytes[12..].chunks_exact(8).enumerate() {
+            let mut eight = [0u8; 8];
+            eight.copy_from_slice(b);
+            let v = f64::from_le_bytes(eight);
+            if !v.is_finite() {
+                return Err(fail(format!(
+                    "value {n} (channel {}, bin {}) is not finite",
+                    n / N,
+                    n % N
+                )));
+            }
+            values.push(v * SCALES[n / N]);
+        }
+        Ok(Self { values })
+    }
+
+    /// The BRDF (sr⁻¹, red, green, blue) for light from `wi` seen from `wo`
+    /// (unit vectors, local frame, `z` the normal), looked up as the
+    /// reference reader `BRDFRead.cpp` does: half/difference angles, then
+    /// the bin by truncation, `phi_diff < 0` folded by `+180` degrees.
+    #[must_use]
+    pub fn lookup(&self, wi: DVec3, wo: DVec3) -> [f64; 3] {
+        let h = ((wi + wo) * 0.5).normalize();
+        let theta_h = h.z.clamp(-1.0, 1.0).acos();
+        let phi_h = h.y.atan2(h.x);
+        let tmp = rotate(wi, DVec3::Z, -phi_h);
+        let diff = rotate(tmp, DVec3::Y, -theta_h);
+        let theta_d = diff.z.clamp(-1.0, 1.0).acos();
+        let mut phi_d = diff.y.atan2(diff.x);
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let i = if theta_h <= 0.0 {
+            0
+        } else {
+            ((theta_h / half_pi * THETA_H as f64 * THETA_H as f64).sqrt() as usize).min(THETA_H - 1)
+        };
+        let j = ((theta_d / half_pi * THETA_D as f64).max(0.0) as usize).min(THETA_D - 1);
+        if phi_d < 0.0 {
+            phi_d += std::f64::consts::PI;
+        }
+        let k = ((phi_d / std::f64::consts::PI * PHI_D as f64).max(0.0) as usize).min(PHI_D - 1);
+        let at = index(i, j, k);
+        [0, 1, 2].map(|c| self.values[c * N + at])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lookup of a bin centre's own directions finds that bin, for every
+    /// bin whose directions are above the horizon (the two are independent
+    /// code paths: rotations forward and back).
+    #[test]
+    fn bin_centres_look_up_their_own_bin() {
+        let mut m = Merl {
+            values: vec![0.0; 3 * N],
+        };
+        for (n, v) in m.values[..N].iter_mut().enumerate() {
+            *v = n as f64;
+        }
+        let mut checked = 0;
+        for i in 0..THETA_H {
+            for j in 0..THETA_D {
+                for k in (0..PHI_D).step_by(7) {
+                    let (wi, wo) = bin_directions(i, j, k);
+                    assert!((wi.length() - 1.0).abs() < 1e-14 && (wo.length() - 1.0).abs() < 1e-14);
+                    if wi.z > 0.0 && wo.z > 0.0 {
+                        assert_eq!(
+                            m.lookup(wi, wo)[0],
+                            index(i, j, k) as f64,
+                            "bin {i} {j} {k}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > N / 7 / 2, "{checked}");
+    }
+
+    /// Reciprocity fold: swapping light and viewer is phi_diff + 180 deg,
+    /// the same bin.
+    #[test]
+    fn swapped_directions_share_a_bin() {
+        let mut m = Merl {
+            values: vec![0.0; 3 * N],
+        };
+        for (n, v) in m.values.iter_mut().enumerate() {
+            *v = n as f64;
+        }
+        let wi = DVec3::new(0.3, 0.2, 0.9).normalize();
+        let wo = DVec3::new(-0.5, 0.1, 0.7).normalize();
+        assert_eq!(m.lookup(wi, wo), m.lookup(wo, wi));
+    }
+}

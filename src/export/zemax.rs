@@ -1,0 +1,513 @@
+//! The Zemax / Radiant tabular BSDF text format (`.bsdf`), as OpticStudio's
+//! tabular BSDF scatter model and other stray-light tools read it: writer
+//! ([`ZemaxBsdf::from_table`], [`ZemaxBsdf::to_text`]) and reader
+//! ([`ZemaxBsdf::parse`], [`ZemaxBsdf::eval`]).
+//!
+//! # Layout written
+//!
+//! ```text
+//! # comment lines
+//! Source  Measured
+//! Symmetry  PlaneSymmetrical
+//! SpectralContent  Monochrome
+//! ScatterType  BRDF
+//! SampleRotation  1
+//! 0
+//! AngleOfIncidence  <n>
+//! <n angles, degrees>
+//! ScatterAzimuth  <n>
+//! <n angles, degrees, 0..180>
+//! ScatterRadial  <n>
+//! <n angles, degrees, from 0>
+//!
+//! Monochrome
+//! DataBegin
+//! TIS <reflectance>                 (per angle of incidence:)
+//! <one line per azimuth: the BRDF (1/sr) at every radial angle>
+//! DataEnd
+//! ```
+//!
+//! `Source` can only be `Measured` in this format; a comment line says the
+//! data are a roks Monte Carlo table. Numbers are printed with 7 significant
+//! digits (`1.234567E-01`).
+//!
+//! # Angles
+//!
+//! `AngleOfIncidence` is the polar angle of the specular direction, equal to
+//! the incidence angle `theta_i` for a BRDF; the blocks are the table's
+//! tabulated incidence angles. `ScatterRadial` and `ScatterAzimuth` are
+//! measured **from the specular direction** `s = (-sin theta_i, 0, cos
+//! theta_i)` (local frame of [`BrdfTable`]: the light on the `+x` side): the
+//! radial angle `r` is the angle between the scattered direction and `s`; the
+//! azimuth `psi` turns counter-clockwise (seen from outside, looking back
+//! along `-s`) from `e0 = (cos theta_i, 0, sin theta_i)`, the direction from
+//! `s` toward the surface normal (toward `+x` at normal incidence), to
+//! `e1 = (0, 1, 0)`:
+//! `omega = cos r s + sin r (cos psi e0 + sin psi e1)`.
+//! `PlaneSymmetrical` holds `psi` in `[0, 180]` degrees; `psi` and `-psi` are
+//! mirror images in the plane of incidence.
+//!
+//! # Values
+//!
+//! The BRDF in sr⁻¹ (radiance per irradiance), sampled at the grid's
+//! directions from the table by
+//! [`symmetric_eval`](super::brdf_formats::symmetric_eval) (no averaging over
+//! the grid cell: the table is piecewise constant on cells about 3 degrees
+//! wide, the default grid steps are 2 degrees in azimuth and 1 degree in
+//! radial angle); 0 at grid directions on or below the horizon (the default
+//! radial angles run to 180 degrees so that every angle of incidence covers
+//! the whole hemisphere). `TIS` is the table's directional-hemispherical
+//! reflectance at that incidence, `∫ f cos(theta_o) dω` (dimensionless).
+//!
+//! [`ZemaxBsdf::eval`] interpolates bilinearly in `(psi, r)` within a block;
+//! it does not interpolate between angles of incidence.
+
+use std::fmt::Write as _;
+
+use glam::DVec3;
+
+use super::brdf_formats::{FormatError, symmetric_eval};
+use crate::optics::brdf_table::BrdfTable;
+
+/// Default azimuth step of [`ZemaxBsdf::from_table`] (degrees).
+pub const AZIMUTH_STEP_DEG: f64 = 2.0;
+/// Default radial step of [`ZemaxBsdf::from_table`] (degrees).
+pub const RADIAL_STEP_DEG: f64 = 1.0;
+
+/// Grid directions with `z` at most this are on or below the horizon.
+const HORIZON_Z: f64 = 1e-12;
+
+/// A plane-symmetric, monochrome tabular BRDF in the Zemax layout.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZemaxBsdf {
+    /// `AngleOfIncidence` values (degrees), ascending.
+    pub aoi_deg: Vec<f64>,
+    /// `ScatterAzimuth` values (degrees, in `[0, 180]`), ascending.
+    pub azimuth_deg: Vec<f64>,
+    /// `ScatterRadial` values (degrees, `>= 0`), ascending.
+    pub radial_deg: Vec<f64>,
+    /// `TIS` per angle of incidence (dimensionless).
+    pub tis: Vec<f64>,
+    /// BRDF (sr⁻¹) per angle of incidence, azimuth-major:
+    /// `brdf[k][a * radial_deg.len() + r]`.
+    pub brdf: Vec<Vec<f64>>,
+}
+
+/// `0, step, 2 step, ... , max` (degrees).
+fn steps(step: f64, max: f64) -> Vec<f64> {
+    let n = (max / step).round() as usize;
+    (0..=n).map(|i| i as f64 * step).collect()
+}
+
+/// `v` with 7 significant digits in the C form `d.ddddddE+XX`.
+fn sci(v: f64) -> String {
+    let s = format!("{v:.6e}");
+    match s.split_once('e') {
+        Some((m, e)) => {
+            let e: i32 = e.parse().unwrap_or(0);
+            format!("{m}E{e:+03}")
+        }
+        None => s,
+    }
+}
+
+/// Specular direction `s`, and the azimuth axes `e0`, `e1` at incidence
+/// `theta` (radians).
+fn axes(theta: f64) -> (DVec3, DVec3, DVec3) {
+    let (st, ct) = theta.sin_cos();
+    (DVec3::new(-st, 0.0, ct), DVec3::new(ct, 0.0, st), DVec3::Y)
+}
+
+/// The unit direction (local frame) at azimuth `psi_deg` and radial angle
+/// `r_deg` about the specular direction of incidence `aoi_deg` (degrees).
+#[must_use]
+pub fn direction(aoi_deg: f64, psi_deg: f64, r_deg: f64) -> DVec3 {
+    let (s, e0, e1) = axes(aoi_deg.to_radians());
+    let (sp, cp) = psi_deg.to_radians().sin_cos();
+    let (sr, cr) = r_deg.to_radians().sin_cos();
+    cr * s + sr * (cp * e0 + sp * e1)
+}
+
+/// `(psi, r)` in degrees of the direction `dir` (local frame, need not be
+/// normalised) about the specular direction of incidence `aoi_deg`; `psi`
+/// folded into `[0, 180]` (plane symmetry).
+#[must_use]
+pub fn angles(aoi_deg: f64, dir: DVec3) -> (f64, f64) {
+    let d = dir.normalize_or_zero();
+    let (s, e0, e1) = axes(aoi_deg.to_radians());
+    let r = d.dot(s).clamp(-1.0, 1.0).acos().to_degrees();
+    let psi = d.dot(e1).atan2(d.dot(e0)).to_degrees().abs();
+    (psi, r)
+}
+
+/// Index `i` and weight `w` of `x` in the ascending `grid`: the value is
+/// `(1 - w) v[i] + w v[i + 1]`; clamped at the ends.
+fn locate(grid: &[f64], x: f64) -> (usize, f64) {
+    let n = grid.len();
+    if n < 2 || x <= grid[0] {
+        return (0, 0.0);
+    }
+    if x >= grid[n - 1] {
+        return (n - 2, 1.0);
+    }
+    let i = grid.partition_point(|&g| g <= x) - 1;
+    (i, (x - grid[i]) / (grid[i + 1] - grid[i]))
+}
+
+impl ZemaxBsdf {
+    /// Resample `table` on the default grid: azimuth 0-180 degrees in steps
+    /// of [`AZIMUTH_STEP_DEG`], radial 0-180 degrees in steps of
+    /// [`RADIAL_STEP_DEG`], one block per tabulated incidence angle.
+    #[must_use]
+    pub fn from_table(table: &BrdfTable) -> Self {
+        Self::from_table_on(
+            table,
+            steps(AZIMUTH_STEP_DEG, 180.0),
+            steps(RADIAL_STEP_DEG, 180.0),
+        )
+    }
+
+    /// Resample `table` on the given azimuth and radial angles (degrees,
+    /// ascending; azimuths in `[0, 180]`).
+    #[must_use]
+    pub fn from_table_on(table: &BrdfTable, azimuth_deg: Vec<f64>, radial_deg: Vec<f64>) -> Self {
+        let aoi_deg = table.thetas_deg().to_vec();
+        let brdf = aoi_deg
+            .iter()
+            .map(|&aoi| {
+                let theta = aoi.to_radians();
+                azimuth_deg
+                    .iter()
+                    .flat_map(|&psi| radial_deg.iter().map(move |&r| (psi, r)))
+                    .map(|(psi, r)| {
+                        let d = direction(aoi, psi, r);
+                        if d.z <= HORIZON_Z {
+                            0.0
+                        } else {
+                            symmetric_eval(table, theta, d)
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        Self {
+            tis: aoi_deg
+                .iter()
+                .map(|a| table.reflectance(a.to_radians()))
+                .collect(),
+            aoi_deg,
+            azimuth_deg,
+            radial_deg,
+            brdf,
+        }
+    }
+
+    /// The file's text; `comment` (one line, may be empty) is written as a
+    /// `#` line after the roks line.
+    #[must_use]
+    pub fn to_text(&self, comment: &str) -> String {
+        let list = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{x}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let mut s = String::with_capacity(
+            14 * self.brdf.len() * self.brdf.first().map_or(0, Vec::len) + 1024,
+        );
+        s.push_str(
+            "# BRDF table generated by roks (Monte Carlo ray tracing of a rough surface), not measured\n",
+        );
+        if !comment.trim().is_empty() {
+            let _ = writeln!(s, "# {}", comment.replace(['\n', '\r'], " "));
+        }
+        s.push_str("# ScatterAzimuth and ScatterRadial are measured from the specular direction; BRDF in 1/sr\n");
+        s.push_str("Source  Measured\nSymmetry  PlaneSymmetrical\nSpectralContent  Monochrome\nScatterType  BRDF\nSampleRotation  1\n0\n");
+        let _ = writeln!(
+            s,
+            "AngleOfIncidence  {}\n{}",
+            self.aoi_deg.len(),
+            list(&self.aoi_deg)
+        );
+        let _ = writeln!(
+            s,
+            "ScatterAzimuth  {}\n{}",
+            self.azimuth_deg.len(),
+            list(&self.azimuth_deg)
+        );
+        let _ = writeln!(
+            s,
+            "ScatterRadial  {}\n{}",
+            self.radial_deg.len(),
+            list(&self.radial_deg)
+        );
+        s.push_str("\nMonochrome\nDataBegin\n");
+        let nr = self.radial_deg.len();
+        for (tis, block) in self.tis.iter().zip(&self.brdf) {
+            let _ = writeln!(s, "TIS {}", sci(*tis));
+            for row in block.chunks(nr.max(1)) {
+                let line: Vec<String> = row.iter().map(|&v| sci(v)).collect();
+                s.push_str(&line.join(" "));
+                s.push('\n');
+            }
+        }
+        s.push_str("DataEnd\n");
+        s
+    }
+
+    /// Read the text of a `.bsdf` file; `name` names it in errors. Accepts
+    /// what [`to_text`](Self::to_text) writes and the layout of the format
+    /// description in general (comment lines, numbers spread over lines,
+    /// keywords in any letter case), restricted to one sample rotation,
+    /// `PlaneSymmetrical`, `Monochrome` and `BRDF`.
+    ///
+    /// # Errors
+    /// A [`FormatError`] naming `name`, the line and the keyword.
+    pub fn parse(text: &str, name: &str) -> Result<Self, FormatError> {
+        let mut tokens = Tokens::new(text, name);
+        for (key, value) in [
+            ("Source", None),
+            ("Symmetry", Some("PlaneSymmetrical")),
+            ("SpectralContent", Some("Monochrome")),
+            ("ScatterType", Some("BRDF")),
+        ] {
+            tokens.keyword(key)?;
+            let (line, v) = tokens.word(key)?;
+            if let Some(want) = value.filter(|w| !v.eq_ignore_ascii_case(w)) {
+                return Err(tokens.error(
+                    line,
+                    &format!("{key}: `{v}` is not supported (only {want})"),
+                ));
+            }
+        }
+        tokens.keyword("SampleRotation")?;
+        let (line, n) = tokens.count("SampleRotation")?;
+        if n != 1 {
+            return Err(tokens.error(
+                line,
+                &format!("SampleRotation: {n} rotations, only 1 is supported (isotropic)"),
+            ));
+        }
+        tokens.numbers("SampleRotation", 1)?;
+        let mut lists = Vec::new();
+        for (key, lo, hi) in [
+            ("AngleOfIncidence", 0.0, 90.0),
+            ("ScatterAzimuth", 0.0, 180.0),
+            ("ScatterRadial", 0.0, 180.0),
+        ] {
+            tokens.keyword(key)?;
+            let (line, n) = tokens.count(key)?;
+            let v = tokens.numbers(key, n)?;
+            let ascending = v.windows(2).all(|w| w[0] < w[1]);
+            if n == 0 || !ascending || v.iter().any(|x| !(lo..=hi).contains(x)) {
+                return Err(tokens.error(
+                    line,
+                    &format!("{key}: the {n} angles must be ascending and in [{lo}, {hi}] degrees"),
+                ));
+            }
+            lists.push(v);
+        }
+        let radial_deg = lists.pop().unwrap_or_default();
+        let azimuth_deg = lists.pop().unwrap_or_default();
+        let aoi_deg = lists.pop().unwrap_or_default();
+        tokens.keyword("Monochrome")?;
+        tokens.keyword("DataBegin")?;
+        let per_block = azimuth_deg.len() * radial_deg.len();
+        let (mut tis, mut brdf) = (Vec::new(), Vec::new());
+        for aoi in &aoi_deg {
+            let key = format!("TIS (AngleOfIncidence {aoi})");
+            tokens.keyword("TIS")?;
+            let t = tokens.numbers(&key, 1)?[0];
+            let block = tokens.numbers(&format!("data (AngleOfIncidence {aoi})"), per_block)?;
+            if let Some(bad) = block.iter().chain([&t]).find(|v| **v < 0.0) {
+                return Err(tokens.error(tokens.line(), &format!("{key}: negative value {bad}")));
+            }
+            tis.push(t);
+            brdf.push(block);
+        }
+        tokens.keyword("DataEnd")?;
+        Ok(Self {
+            aoi_deg,
+            azimuth_deg,
+            radial_deg,
+            tis,
+            brdf,
+        })
+    }
+
+    /// The BRDF (sr⁻¹) of block `k` (the `k`-th angle of incidence) toward
+    /// `dir` (local frame, need not be normalised): bilinear in `(psi, r)`,
+    /// clamped at the grid's ends; 0 for `dir.z <= 0`.
+    ///
+    /// # Panics
+    /// If `k` is not a block index.
+    #[must_use]
+    pub fn eval(&self, k: usize, dir: DVec3) -> f64 {
+        if dir.z <= 0.0 {
+            return 0.0;
+        }
+        let (psi, r) = angles(self.aoi_deg[k], dir);
+        let (ia, wa) = locate(&self.azimuth_deg, psi);
+        let (ir, wr) = locate(&self.radial_deg, r);
+        let nr = self.radial_deg.len();
+        let b = &self.brdf[k];
+        let at = |a: usize, r: usize| {
+            let a = a.min(self.azimuth_deg.len() - 1);
+            b[a * nr + r.min(nr - 1)]
+        };
+        let row = |a: usize| (1.0 - wr) * at(a, ir) + wr * at(a, ir + 1);
+        (1.0 - wa) * row(ia) + wa * row(ia + 1)
+    }
+}
+
+/// Whitespace-separated tokens with their line numbers, `#` lines skipped.
+struct Tokens<'a> {
+    name: &'a str,
+    items: Vec<(usize, &'a str)>,
+    pos: usize,
+    last_line: usize,
+}
+
+impl<'a> Tokens<'a> {
+    fn new(text: &'a str, name: &'a str) -> Self {
+        let mut items = Vec::new();
+        let mut last_line = 1;
+        for (i, l) in text.lines().enumerate() {
+            last_line = i + 1;
+            let l = l.trim_start_matches('\u{feff}');
+            if l.trim_start().starts_with('#') {
+                continue;
+            }
+            items.extend(l.split_whitespace().map(|t| (i + 1, t)));
+        }
+        Self {
+            name,
+            items,
+            pos: 0,
+            last_line,
+        }
+    }
+
+    fn error(&self, line: usize, message: &str) -> FormatError {
+        FormatError {
+            file: self.name.to_owned(),
+            message: format!("line {line}: {message}"),
+        }
+    }
+
+    /// Line of the last token read (or of the end of the file).
+    fn line(&self) -> usize {
+        self.pos
+            .checked_sub(1)
+            .and_then(|p| self.items.get(p))
+            .map_or(self.last_line, |t| t.0)
+    }
+
+    fn next(&mut self, key: &str) -> Result<(usize, &'a str), FormatError> {
+        let t =
+            self.items.get(self.pos).copied().ok_or_else(|| {
+                self.error(self.last_line, &format!("{key}: unexpected end of file"))
+            })?;
+        self.pos += 1;
+        Ok(t)
+    }
+
+    fn keyword(&mut self, key: &str) -> Result<(), FormatError> {
+        let (line, t) = self.next(key)?;
+        if t.eq_ignore_ascii_case(key) {
+            Ok(())
+        } else {
+            Err(self.error(line, &format!("expected keyword {key}, found `{t}`")))
+        }
+    }
+
+    fn word(&mut self, key: &str) -> Result<(usize, &'a str), FormatError> {
+        self.next(key)
+    }
+
+    fn count(&mut self, key: &str) -> Result<(usize, usize), FormatError> {
+        let (line, t) = self.next(key)?;
+        t.parse::<usize>()
+            .map(|n| (line, n))
+            .map_err(|_| self.error(line, &format!("{key}: `{t}` is not a count")))
+    }
+
+    fn numbers(&mut self, key: &str, n: usize) -> Result<Vec<f64>, FormatError> {
+        (0..n)
+            .map(|i| {
+                let (line, t) = self.next(key)?;
+                match t.parse::<f64>() {
+                    Ok(v) if v.is_finite() => Ok(v),
+                    _ => Err(self.error(
+                        line,
+                        &format!(
+                            "{key}: value {} of {n}: `{t}` is not a finite number",
+                            i + 1
+                        ),
+                    )),
+                }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_in_c_form() {
+        assert_eq!(sci(0.0), "0.000000E+00");
+        assert_eq!(sci(0.063_75), "6.375000E-02");
+        assert_eq!(sci(1234.5678), "1.234568E+03");
+        assert_eq!(sci(3.0e-105), "3.000000E-105");
+    }
+
+    /// `direction` and `angles` invert each other; radial angle 0 is the
+    /// specular direction, azimuth 0 turns toward the normal, 90 toward +y.
+    #[test]
+    fn angles_about_the_specular_direction() {
+        for aoi in [0.0, 30.0, 85.0] {
+            let s = direction(aoi, 0.0, 0.0);
+            let t = aoi.to_radians();
+            assert!((s - DVec3::new(-t.sin(), 0.0, t.cos())).length() < 1e-15);
+            // Radial aoi at azimuth 0 reaches the normal (toward +x at 0).
+            if aoi > 0.0 {
+                assert!((direction(aoi, 0.0, aoi) - DVec3::Z).length() < 1e-14);
+            }
+            assert!(direction(aoi, 90.0, 10.0).y > 0.0);
+            for psi in [0.0, 45.0, 120.0, 180.0] {
+                for r in [1.0, 20.0, 89.0, 150.0] {
+                    let (p, q) = angles(aoi, direction(aoi, psi, r));
+                    assert!(
+                        (p - psi).abs() < 1e-9 && (q - r).abs() < 1e-9,
+                        "{aoi} {psi} {r}: {p} {q}"
+                    );
+                }
+            }
+            // Plane symmetry: the mirror image has the same angles.
+            let d = direction(aoi, 60.0, 40.0);
+            let m = DVec3::new(d.x, -d.y, d.z);
+            let (a, b) = (angles(aoi, d), angles(aoi, m));
+            assert!((a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn bilinear_between_nodes() {
+        let z = ZemaxBsdf {
+            aoi_deg: vec![0.0],
+            azimuth_deg: vec![0.0, 180.0],
+            radial_deg: vec![0.0, 10.0, 90.0],
+            tis: vec![0.5],
+            brdf: vec![vec![1.0, 2.0, 3.0, 1.0, 4.0, 5.0]],
+        };
+        // Azimuth 90 (halfway), radial 5 (halfway between 1 and 2 / 1 and 4).
+        let d = direction(0.0, 90.0, 5.0);
+        let expect = 0.5 * (1.5 + 2.5);
+        assert!((z.eval(0, d) - expect).abs() < 1e-12, "{}", z.eval(0, d));
+        assert_eq!(z.eval(0, DVec3::new(1.0, 0.0, -0.1)), 0.0);
+        let back = ZemaxBsdf::parse(&z.to_text("x"), "z.bsdf").unwrap();
+        assert_eq!(back, z);
+    }
+}

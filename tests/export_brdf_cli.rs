@@ -1,0 +1,179 @@
+//! `roks export-brdf` and `roks brdf --export` through the binary: the files
+//! are the library's exports of the result's table, byte for byte, and bad
+//! input (missing folder, bad format name, malformed brdf.csv) exits with
+//! status 2 and one line naming the file and key, writing nothing.
+
+mod cli_common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use roks::export::brdf_formats::BrdfFormat;
+use roks::optics::brdf_table::BrdfTable;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("roks-export-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn roks(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_roks"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// `roks brdf` of the default scene with one batch per angle into `out`.
+fn brdf(out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["brdf", "--out", s(out), "--photons", "4096"];
+    args.extend_from_slice(extra);
+    roks(&args)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// One short run with exports (the default scene, 2 angles, one batch each),
+/// then `export-brdf` of its folder: the same bytes, equal to the library's
+/// export of the folder's brdf.csv; the hemisphere maps are there too.
+#[test]
+fn brdf_export_option_and_export_command_agree() {
+    let dir = scratch("agree");
+    let out = dir.join("run");
+    let o = brdf(&out, &["--theta", "0,45", "--export", "zemax,merl", "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = BrdfTable::load(&out.join("brdf.csv")).unwrap();
+    for f in [BrdfFormat::Zemax, BrdfFormat::Merl] {
+        let written = std::fs::read(out.join(f.file_name())).unwrap();
+        let again = dir.join(format!("again-{f}"));
+        let o = roks(&[
+            "export-brdf",
+            s(&out),
+            "--format",
+            f.name(),
+            "--out",
+            s(&again),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            stderr.contains("reflectance of the file") && stderr.contains("wrote"),
+            "{stderr}"
+        );
+        let exported = std::fs::read(&again).unwrap();
+        let library = f.export(&table, &format!("from {}", out.join("brdf.csv").display()));
+        assert!(
+            exported == library,
+            "{f}: export-brdf differs from the library"
+        );
+        if f == BrdfFormat::Merl {
+            assert!(
+                written == exported,
+                "merl: brdf --export differs from export-brdf"
+            );
+        } else {
+            // Only the comment line differs (scene and photons vs source file).
+            let strip = |b: &[u8]| -> String {
+                String::from_utf8_lossy(b)
+                    .lines()
+                    .filter(|l| !l.starts_with('#'))
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            };
+            assert_eq!(strip(&written), strip(&exported));
+        }
+    }
+    for theta in ["0", "45"] {
+        assert!(
+            out.join(format!("hemisphere_{theta}deg.png")).is_file(),
+            "no map for {theta}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_exits_2_naming_the_file() {
+    let dir = scratch("bad");
+    let target = dir.join("x").join("out.bsdf");
+    // Missing result folder.
+    let missing = dir.join("nowhere");
+    let o = roks(&[
+        "export-brdf",
+        s(&missing),
+        "--format",
+        "zemax",
+        "--out",
+        s(&target),
+    ]);
+    cli_common::assert_input_error("missing folder", &o, &missing, &target, &["not a folder"]);
+    // A folder without brdf.csv.
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let o = roks(&[
+        "export-brdf",
+        s(&empty),
+        "--format",
+        "merl",
+        "--out",
+        s(&target),
+    ]);
+    cli_common::assert_input_error(
+        "no brdf.csv",
+        &o,
+        &empty.join("brdf.csv"),
+        &target,
+        &["cannot read"],
+    );
+    // Malformed brdf.csv: the table's error names the line and column.
+    let bad = dir.join("bad");
+    std::fs::create_dir_all(&bad).unwrap();
+    let csv = bad.join("brdf.csv");
+    std::fs::write(
+        &csv,
+        format!(
+            "{}\n0,0,1,0,0,3,-45,45,2,0,1,1,abc,0,1,0\n",
+            roks::optics::brdf_table::BRDF_TABLE_HEADER
+        ),
+    )
+    .unwrap();
+    let o = roks(&[
+        "export-brdf",
+        s(&bad),
+        "--format",
+        "zemax",
+        "--out",
+        s(&target),
+    ]);
+    cli_common::assert_input_error(
+        "malformed",
+        &o,
+        &csv,
+        &target,
+        &["line 2", "column 13 (fraction)"],
+    );
+    // Unknown format: one line naming the option, before reading anything.
+    let o = roks(&[
+        "export-brdf",
+        s(&bad),
+        "--format",
+        "pbrt",
+        "--out",
+        s(&target),
+    ]);
+    cli_common::assert_input_error(
+        "format",
+        &o,
+        Path::new("--format"),
+        &target,
+        &["`pbrt`", "zemax, merl"],
+    );
+    // roks brdf --export with an unknown format: nothing traced, nothing written.
+    let out = dir.join("run");
+    let o = brdf(&out, &["--export", "zemax,obj"]);
+    cli_common::assert_input_error("brdf --export", &o, Path::new("--export"), &out, &["`obj`"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
