@@ -13,7 +13,7 @@ light a disc of angular radius --disc at infinity toward world direction
 (THETA, PHI) (polar angle from +z), radiance 1; pixel values are radiance
 in the disc's units. Walls: Lambertian (`diffuse`, reflectance R), a mirror
 of constant reflectance R (`conductor`, material none), or a roks BRDF
-table through the `roks_table` plugin of scripts/roks_bsdf.py (when present).
+table through the `roks_table` plugin of scripts/roks_bsdf.py.
 Integrator `path`, no Russian roulette, max depth 1025. The disc is an
 `area` emitter on a `disk` 1e5 x the mesh extent away (as
 scripts/mitsuba_render.py), so the cone test is exact to ~1e-5 rad. The
@@ -73,14 +73,19 @@ def parse_args(argv=None):
     return a
 
 
-def bsdf(a):
+def bsdf(a, mi):
     if a.diffuse is not None:
         return {"type": "twosided", "material": {"type": "diffuse",
                                                  "reflectance": {"type": "rgb", "value": [a.diffuse] * 3}}}
     if a.mirror is not None:
         return {"type": "twosided", "material": {"type": "conductor", "material": "none",
                                                  "specular_reflectance": {"type": "rgb", "value": [a.mirror] * 3}}}
-    import roks_bsdf  # the issue-7 plugin: registers `roks_table`
+    import drjit as dr
+    import roks_bsdf  # registers `roks_table` (Python plugin)
+    if "llvm" in mi.variant():
+        # a Python BSDF inside JIT-compiled loops: see scripts/roks_bsdf.py
+        dr.set_flag(dr.JitFlag.SymbolicLoops, False)
+        dr.set_flag(dr.JitFlag.SymbolicCalls, False)
     roks_bsdf.register()
     return {"type": "twosided", "material": {"type": "roks_table", "filename": str(a.brdf)}}
 
@@ -100,7 +105,7 @@ def main(argv=None) -> int:
     scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "path", "max_depth": a.max_depth, "rr_depth": a.max_depth},
-        "walls": {"type": "ply", "filename": str(a.mesh), "face_normals": True, "bsdf": bsdf(a)},
+        "walls": {"type": "ply", "filename": str(a.mesh), "face_normals": True, "bsdf": bsdf(a, mi)},
         "light": {"type": "disk", "to_world": T(m.tolist()),
                   "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}}},
         "sensor": {"type": "perspective", "fov": a.fov, "fov_axis": "y", "near_clip": 1e-3 * extent,
