@@ -86,6 +86,17 @@ fn assert_furnace(what: &str, results: &[IncidenceResult]) {
     }
 }
 
+/// A periodic square micro scene of side `size` in one material (given by
+/// its TOML keys, e.g. `reflectance = 1.0`), with `rest` (bodies, light).
+fn square_scene(name: &str, size: f64, material: &str, rest: &str) -> MicroScene {
+    common::scene(
+        name,
+        &format!(
+            "[surface]\nsize = [{size:?}, {size:?}]\nmaterial = \"m\"\n[materials.m]\n{material}\n{rest}"
+        ),
+    )
+}
+
 /// A white periodic micro surface made of `bodies`.
 fn white_surface(size: DVec2, bodies: Vec<Placed>) -> MicroSurface {
     MicroSurface::new(
@@ -114,20 +125,20 @@ fn bump(shape: Shape, center: DVec2, radius: f64, height: f64) -> Placed {
     )
 }
 
-/// A floating ball (an explicit body, not touching the substrate).
-fn ball(center: DVec3, r: f64) -> Placed {
+/// A floating ellipsoid (an explicit body, not touching the substrate).
+fn floating_ellipsoid(center: DVec3, semi: DVec3) -> Placed {
     let region = region::parse("-a", |n| (n == "a").then_some(0)).expect("fixed region");
     Placed {
         body: Body::new(
-            vec![Quadric::sphere(center, r)],
+            vec![Quadric::ellipsoid(center, semi)],
             region,
             Aabb {
-                min: center - r,
-                max: center + r,
+                min: center - semi,
+                max: center + semi,
             },
             0,
         ),
-        max_height: center.z + r,
+        max_height: center.z + semi.z,
         wraps: true,
         bump: None,
     }
@@ -301,28 +312,11 @@ fn vertical_rays_through_bump_apexes() {
 #[test]
 fn rays_tangent_to_ball_and_ellipsoid() {
     let c = DVec3::new(10.0, 10.0, 2.0);
-    let ellipsoid = |c: DVec3, semi: DVec3| {
-        let region = region::parse("-a", |n| (n == "a").then_some(0)).expect("fixed region");
-        Placed {
-            body: Body::new(
-                vec![Quadric::ellipsoid(c, semi)],
-                region,
-                Aabb {
-                    min: c - semi,
-                    max: c + semi,
-                },
-                0,
-            ),
-            max_height: c.z + semi.z,
-            wraps: true,
-            bump: None,
-        }
-    };
     let cases = [
-        ("ball", ball(c, 1.0), DVec3::ONE),
+        ("ball", floating_ellipsoid(c, DVec3::ONE), DVec3::ONE),
         (
             "ellipsoid",
-            ellipsoid(c, DVec3::new(1.5, 0.75, 1.0)),
+            floating_ellipsoid(c, DVec3::new(1.5, 0.75, 1.0)),
             DVec3::new(1.5, 0.75, 1.0),
         ),
     ];
@@ -367,14 +361,9 @@ fn rays_tangent_to_ball_and_ellipsoid() {
 /// plane x = 5 (tangent to both balls at once) escape with weight 1.
 #[test]
 fn touching_balls() {
-    let text = |phi: f64| {
-        format!(
+    let scene = |phi: f64| {
+        let rest = format!(
             r#"
-[surface]
-size = [10.0, 10.0]
-material = "white"
-[materials.white]
-reflectance = 1.0
 [quadrics]
 a = {{ sphere = {{ center = [3.0, 5.0, 1.5], r = 2.0 }} }}
 b = {{ sphere = {{ center = [7.0, 5.0, 1.5], r = 2.0 }} }}
@@ -387,15 +376,15 @@ theta_deg = [0.0, 30.0, 60.0, 85.0]
 phi_deg = {phi:?}
 photons = 20000
 "#
-        )
+        );
+        square_scene("touching", 10.0, "reflectance = 1.0", &rest)
     };
     for phi in [0.0, 90.0] {
-        let scene = common::scene("touching", &text(phi));
-        let results = common::run(&scene);
+        let results = common::run(&scene(phi));
         assert_furnace(&format!("touching balls phi {phi}"), &results);
         assert!(results.iter().all(|r| r.mean_bounces() > 1.0), "not rough");
     }
-    let surface = common::scene("touching", &text(0.0)).surface;
+    let surface = scene(0.0).surface;
     let t = DVec3::new(5.0, 5.0, 1.5);
     for theta_deg in [0.0_f64, 30.0, 60.0] {
         let (s, c) = theta_deg.to_radians().sin_cos();
@@ -430,14 +419,9 @@ radius = [1.0, 2.0]
 height = [1.0, 3.0]
 seed = 4
 "#;
-    let text = |copies: usize| {
-        format!(
+    let scene = |copies: usize| {
+        let rest = format!(
             r#"
-[surface]
-size = [15.0, 15.0]
-material = "paint"
-[materials.paint]
-reflectance = 0.8
 {}
 [light]
 theta_deg = [0.0, 45.0, 80.0]
@@ -446,10 +430,11 @@ photons = 20000
 bands = 8
 "#,
             population.repeat(copies)
-        )
+        );
+        square_scene("duplicates", 15.0, "reflectance = 0.8", &rest)
     };
-    let single = common::run(&common::scene("single", &text(1)));
-    let double = common::run(&common::scene("double", &text(2)));
+    let single = common::run(&scene(1));
+    let double = common::run(&scene(2));
     for (a, b) in single.iter().zip(&double) {
         let what = format!("duplicates theta {}", a.theta_i_deg);
         assert_eq!(b.lost(), 0.0, "{what}: {}", common::losses(b));
@@ -466,15 +451,12 @@ bands = 8
 #[test]
 fn bump_the_size_of_the_cell() {
     for radius in [5.0, 10.0] {
-        let scene = common::scene(
+        let scene = square_scene(
             "cell_bump",
+            10.0,
+            "reflectance = 1.0",
             &format!(
                 r#"
-[surface]
-size = [10.0, 10.0]
-material = "white"
-[materials.white]
-reflectance = 1.0
 [[bumps]]
 shape = "ellipsoid"
 count = 1
@@ -520,16 +502,12 @@ region = "-top +bot +x0 -x1 +y0 -y1"
 "#,
     ];
     for (k, b) in bodies.iter().enumerate() {
-        let scene = common::scene(
+        let scene = square_scene(
             "coincident",
+            8.0,
+            "n = 1.015\nk = 6.627",
             &format!(
                 r#"
-[surface]
-size = [8.0, 8.0]
-material = "al"
-[materials.al]
-n = 1.015
-k = 6.627
 {b}
 [light]
 theta_deg = [0.0, 30.0, 60.0, 85.0, 89.0]
@@ -567,15 +545,12 @@ photons = 20000
 #[test]
 fn box_on_the_substrate_is_a_corner_reflector() {
     let (l, w, h) = (20.0_f64, 4.0_f64, 1.0_f64);
-    let scene = common::scene(
+    let scene = square_scene(
         "box",
+        l,
+        "reflectance = 1.0",
         &format!(
             r#"
-[surface]
-size = [{l:?}, {l:?}]
-material = "white"
-[materials.white]
-reflectance = 1.0
 [quadrics]
 top = {{ plane = [0.0, 0.0, 1.0, {h:?}] }}
 bot = {{ plane = [0.0, 0.0, 1.0, 0.0] }}
@@ -736,7 +711,7 @@ fn groove_unfolding_matches_zipin_at_normal_incidence() {
         (60.0, 3, 0.0),
     ];
     for (alpha, n0, p) in zipin {
-        let gamma = (90.0 - alpha as f64).to_radians();
+        let gamma = (90.0_f64 - alpha).to_radians();
         let (m0, q) = groove_distribution(gamma);
         assert_eq!(m0, n0, "alpha {alpha}");
         assert!((q - p).abs() < 5e-6, "alpha {alpha}: {q} vs {p}");
