@@ -1,6 +1,6 @@
 //! Similarity: geometric optics has no length scale, so scaling every length
-//! of a scene (cell size, bump radii and heights, quadric constants) by 1e-3
-//! or 1e3 must leave the reflectance and the Carlson BRDF unchanged, with no
+//! of a scene (cell size, bump radii and heights, quadric constants) by 1e-3,
+//! 1e3, 1e-9 or 1e9 must leave the reflectance and the Carlson BRDF unchanged, with no
 //! photon lost. Ratios (cap, base, plane normals) are not lengths and stay.
 //!
 //! Expectations, two levels:
@@ -165,7 +165,7 @@ fn check_scale_invariance(name: &str, text: fn(f64) -> String) {
         base.iter().all(|r| r.mean_bounces() > 1.0),
         "{name}: not rough"
     );
-    for l in [1e-3, 1e3] {
+    for l in [1e-3, 1e3, 1e-9, 1e9] {
         let scaled = common::run(&common::scene(name, &text(l)));
         compare(name, &base, &scaled, l);
     }

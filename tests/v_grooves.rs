@@ -56,37 +56,9 @@ const PHOTONS: u64 = 200_000;
 
 /// The V-groove scene for wall slope `alpha_deg` with constant wall reflectance `rho`.
 fn grooves(alpha_deg: f64, theta_deg: f64, rho: f64) -> MicroScene {
-    let a = alpha_deg.to_radians();
-    let (s, c) = a.sin_cos();
-    let width = 2.0 / a.tan();
     common::scene(
         &format!("grooves_{alpha_deg}"),
-        &format!(
-            r#"
-[surface]
-size = [{width:?}, 1.0]
-edges = "periodic"
-material = "wall"
-
-[materials.wall]
-reflectance = {rho:?}
-
-[quadrics]
-left = {{ plane = [{:?}, 0.0, {c:?}, 0.0] }}
-right = {{ plane = [{s:?}, 0.0, {c:?}, {:?}] }}
-
-[[bodies]]
-region = "-left -right"
-
-[light]
-theta_deg = [{theta_deg:?}]
-phi_deg = 0.0
-photons = {PHOTONS}
-seed = 7
-"#,
-            -s,
-            2.0 * c
-        ),
+        &common::grooves_toml(alpha_deg, theta_deg, rho, PHOTONS, 7),
     )
 }
 
