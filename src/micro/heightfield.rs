@@ -575,3 +575,313 @@ fn step_out(
         (i, j)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::micro::surface_stats::{HeightMap, surface_stats};
+    use proptest::prelude::*;
+
+    /// Möller-Trumbore (independent of the walk): distance along `d` from `o`
+    /// to the triangle `v`, if the ray meets it from above (`d . n < 0`, `n`
+    /// the counter-clockwise normal) with barycentrics inside up to `slack`.
+    fn moller_trumbore(o: DVec3, d: DVec3, v: [DVec3; 3], slack: f64) -> Option<f64> {
+        let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+        if d.dot(e1.cross(e2)) >= 0.0 {
+            return None;
+        }
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        let s = o - v[0];
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let w = d.dot(q) / det;
+        let t = e2.dot(q) / det;
+        (u >= -slack && w >= -slack && u + w <= 1.0 + slack).then_some(t)
+    }
+
+    /// Every copy of triangle `tri` in the periods `[kx0, kx1] x [ky0, ky1]`:
+    /// the nearest hit with `t > t_min`.
+    fn nearest_copy(
+        f: &HeightField,
+        tri: usize,
+        o: DVec3,
+        d: DVec3,
+        tiles: ([i64; 2], [i64; 2]),
+        t_min: f64,
+        slack: f64,
+    ) -> Option<f64> {
+        let v = f.triangle_vertices(tri);
+        let mut best: Option<f64> = None;
+        for ky in tiles.1[0]..=tiles.1[1] {
+            for kx in tiles.0[0]..=tiles.0[1] {
+                let shift = DVec3::new(kx as f64 * f.size.x, ky as f64 * f.size.y, 0.0);
+                let w = [v[0] + shift, v[1] + shift, v[2] + shift];
+                if let Some(t) = moller_trumbore(o, d, w, slack) {
+                    if t > t_min && best.is_none_or(|b| t < b) {
+                        best = Some(t);
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    /// Brute force: the nearest hit over all triangles of all periods the
+    /// flight can reach before it falls below the lowest vertex (or rises
+    /// above the highest), excluding `standing`.
+    fn brute_force(
+        f: &HeightField,
+        o: DVec3,
+        d: DVec3,
+        standing: Option<usize>,
+        t_min: f64,
+    ) -> Option<(f64, usize)> {
+        let t_end = if d.z < 0.0 {
+            (f.min - o.z) / d.z
+        } else {
+            (f.max - o.z) / d.z
+        }
+        .max(0.0);
+        let (a, b) = (o, o + t_end * d);
+        let tile = |x: f64, len: f64| (x / len).floor() as i64;
+        let tiles = (
+            [
+                tile(a.x.min(b.x), f.size.x) - 1,
+                tile(a.x.max(b.x), f.size.x) + 1,
+            ],
+            [
+                tile(a.y.min(b.y), f.size.y) - 1,
+                tile(a.y.max(b.y), f.size.y) + 1,
+            ],
+        );
+        let mut best: Option<(f64, usize)> = None;
+        for tri in 0..2 * f.nx * f.ny {
+            if standing == Some(tri) {
+                continue;
+            }
+            if let Some(t) = nearest_copy(f, tri, o, d, tiles, t_min, 1e-12) {
+                if best.is_none_or(|(b, _)| t < b) {
+                    best = Some((t, tri));
+                }
+            }
+        }
+        best
+    }
+
+    fn field_strategy() -> impl Strategy<Value = HeightField> {
+        (2usize..=13, 2usize..=11, 0.1f64..0.6, 0.1f64..0.6).prop_flat_map(|(nx, ny, px, py)| {
+            prop::collection::vec(-1.0f64..1.0, nx * ny).prop_map(move |h| {
+                HeightField::new(nx, ny, DVec2::new(nx as f64 * px, ny as f64 * py), h)
+            })
+        })
+    }
+
+    fn direction(phi: f64, cos_theta: f64) -> DVec3 {
+        let s = (1.0 - cos_theta * cos_theta).sqrt();
+        DVec3::new(s * phi.cos(), s * phi.sin(), cos_theta)
+    }
+
+    /// The walk's answer against brute force: the same first distance to
+    /// 1e-9 relative, and the same triangle or one the flight meets at the
+    /// same distance (a tie on a shared edge, checked with a 1e-9 slack).
+    fn check_against_brute_force(
+        f: &HeightField,
+        o: DVec3,
+        d: DVec3,
+        standing: Option<usize>,
+        t_min: f64,
+    ) -> Result<(), TestCaseError> {
+        let walk = f.first_hit(o, d, standing);
+        let brute = brute_force(f, o, d, standing, t_min);
+        match (walk, brute) {
+            (FieldEvent::Hit { t, triangle }, Some((tb, tri_b))) => {
+                prop_assert!(
+                    (t - tb).abs() <= 1e-9 * tb.max(1.0),
+                    "walk t {t} (triangle {triangle}), brute force {tb} (triangle {tri_b})"
+                );
+                if triangle != tri_b {
+                    let big = ([-1000, 1000], [-1000, 1000]);
+                    let tie = nearest_copy(f, triangle, o, d, big, t_min - 1e-9, 1e-9);
+                    prop_assert!(
+                        tie.is_some_and(|tt| (tt - tb).abs() <= 1e-9 * tb.max(1.0)),
+                        "walk triangle {triangle} at {t} is not met at {tb} ({tie:?})"
+                    );
+                }
+            }
+            (FieldEvent::Escapes, None) => prop_assert!(d.z > 0.0),
+            (w, b) => prop_assert!(false, "walk {w:?}, brute force {b:?}"),
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        /// Flights from above the surface, downwards.
+        #[test]
+        fn walk_matches_brute_force_from_above(
+            f in field_strategy(),
+            fx in 0.0f64..1.0, fy in 0.0f64..1.0, lift in 0.001f64..2.0,
+            phi in 0.0f64..std::f64::consts::TAU, cos_theta in -1.0f64..-0.35,
+        ) {
+            let (x, y) = (fx * f.size.x, fy * f.size.y);
+            let o = DVec3::new(x, y, f.height_at(x, y) + lift);
+            check_against_brute_force(&f, o, direction(phi, cos_theta), None, 0.0)?;
+        }
+
+        /// Flights aimed exactly at a point of a shared edge (a square side
+        /// or a diagonal) or at a vertex: they must not slip through.
+        #[test]
+        fn walk_does_not_slip_between_triangles(
+            f in field_strategy(),
+            square in 0usize..10_000, edge in 0usize..4, s in 0.0f64..1.0, back in 0.01f64..3.0,
+            phi in 0.0f64..std::f64::consts::TAU, cos_theta in -1.0f64..-0.35,
+        ) {
+            let sq = square % (f.nx * f.ny);
+            let (i, j) = ((sq % f.nx) as f64, (sq / f.nx) as f64);
+            // Side u = i, side v = j, the diagonal, or the vertex (i, j).
+            let (a, b) = [(0.0, s), (s, 0.0), (s, s), (0.0, 0.0)][edge];
+            let (x, y) = ((i + a) * f.pitch.x, (j + b) * f.pitch.y);
+            let target = DVec3::new(x, y, f.height_at(x, y));
+            let d = direction(phi, cos_theta);
+            let o = target - back * d;
+            // The start must be above the surface for the flight to be valid,
+            // and the flight must go below it right after the point (not
+            // touch a peak or a ridge from above, a tie brute force may count).
+            prop_assume!(o.z > f.height_at(o.x, o.y) + 1e-9);
+            let after = target + 1e-6 * d;
+            prop_assume!(after.z < f.height_at(after.x, after.y) - 1e-12);
+            let o = f.fold(o);
+            check_against_brute_force(&f, o, d, None, 0.0)?;
+            if let FieldEvent::Hit { t, .. } = f.first_hit(o, d, None) {
+                prop_assert!(t <= back * (1.0 + 1e-9) + 1e-9, "passed the aimed point: {t} > {back}");
+            }
+        }
+
+        /// Flights leaving a point of a triangle (the standing one, excluded),
+        /// in any direction rising relative to it: concave neighbours can be
+        /// hit at any distance, nothing is hit behind the start.
+        #[test]
+        fn walk_matches_brute_force_from_the_surface(
+            f in field_strategy(),
+            square in 0usize..10_000, half in 0usize..2,
+            ba in 0.0f64..1.0, bb in 0.0f64..1.0,
+            phi in 0.0f64..std::f64::consts::TAU, cos_theta in 0.35f64..1.0, flip in any::<bool>(),
+        ) {
+            let tri = 2 * (square % (f.nx * f.ny)) + half;
+            let v = f.triangle_vertices(tri);
+            let (ba, bb) = if ba + bb > 1.0 { (1.0 - ba, 1.0 - bb) } else { (ba, bb) };
+            let o = v[0] + ba * (v[1] - v[0]) + bb * (v[2] - v[0]);
+            let mut d = direction(phi, if flip { -cos_theta } else { cos_theta });
+            let n = f.normal(tri);
+            if d.dot(n) <= 0.0 {
+                d -= 2.0 * d.dot(n) * n;
+            }
+            prop_assume!(d.z.abs() >= 0.3 && d.dot(n) > 1e-3);
+            check_against_brute_force(&f, o, d, Some(tri), 1e-12)?;
+        }
+    }
+
+    #[test]
+    fn vertical_flights_give_the_triangle_heights() {
+        let f = HeightField::new(3, 2, DVec2::new(3.0, 2.0), vec![0.0, 1.0, 2.0, 3.0, 5.0, 4.0]);
+        // Square (0, 0): h00 = 0, h10 = 1, h01 = 3, h11 = 5; at (a, b) = (0.75, 0.25)
+        // (triangle A) the height is 0 + 1 * 0.75 + (5 - 1) * 0.25 = 1.75.
+        for (x, y, want) in [(0.75, 0.25, 1.75), (0.25, 0.75, 0.0 + 2.0 * 0.25 + 3.0 * 0.75)] {
+            assert_eq!(f.height_at(x, y), want);
+            match f.first_hit(DVec3::new(x, y, 10.0), DVec3::NEG_Z, None) {
+                FieldEvent::Hit { t, .. } => assert!((10.0 - t - want).abs() < 1e-14),
+                e => panic!("{e:?}"),
+            }
+        }
+        // Periodic: vertex (3, 0) is vertex (0, 0), and one period away is the same point.
+        for (x, y) in [(-0.5, 0.1), (5.5, 2.1)] {
+            assert!((f.height_at(2.5, 0.1) - f.height_at(x, y)).abs() < 1e-14);
+        }
+        assert_eq!(f.fold(DVec3::new(-0.5, 4.25, 1.0)), DVec3::new(2.5, 0.25, 1.0));
+    }
+
+    #[test]
+    fn hierarchy_nodes_cover_odd_sizes() {
+        // 5 squares: level 1 nodes [0, 2), [2, 4), [4, 5); level 2 [0, 4), [4, 5).
+        assert_eq!(node_span(4, 1, 5), (4, 5, 2));
+        assert_eq!(node_span(-1, 1, 5), (-1, 0, 2));
+        assert_eq!(node_span(7, 2, 5), (5, 9, 0));
+        let h: Vec<f64> = (0..35).map(|k| ((k * 7) % 11) as f64).collect();
+        let f = HeightField::new(7, 5, DVec2::new(7.0, 5.0), h);
+        let top = f.levels.last().unwrap();
+        assert_eq!((top.w, top.max.len()), (1, 1));
+        assert_eq!(top.max[0], f.max);
+    }
+
+    /// Normal deviates of the spectrum weight `w_k = exp(-|k|² tau² / 4)` on the
+    /// period lattice, as the synthesis uses (its k = 0 term included).
+    fn spectrum(n: usize, len: f64, tau: f64) -> Vec<(f64, f64, f64)> {
+        let k = |m: usize| {
+            let s = if 2 * m < n { m as f64 } else { m as f64 - n as f64 };
+            std::f64::consts::TAU * s / len
+        };
+        (0..n * n)
+            .map(|i| {
+                let (kx, ky) = (k(i % n), k(i / n));
+                (kx, ky, (-(kx * kx + ky * ky) * tau * tau / 4.0).exp())
+            })
+            .collect()
+    }
+
+    /// Gaussian synthesis over 8 seeds: RMS height exactly sigma (to the f32
+    /// rounding of the heights), mean 0, and the estimated tau and RMS slope
+    /// agree with their expectations for this spectrum within 4 standard
+    /// errors of the mean, the standard error taken from the spread over the
+    /// seeds. Expectations: the estimator removes the mean, so it sees the
+    /// spectrum without its k = 0 share s0 = w_0 / sum w: the normalised
+    /// autocorrelation is (exp(-r²/tau²) - s0) / (1 - s0), which falls to
+    /// 1/e at r = tau sqrt(-ln(s0 + (1 - s0)/e)); central differences of
+    /// pitch p see per axis sum_k w_k sin²(k_x p) / p² / sum_(k != 0) w_k
+    /// times sigma².
+    #[test]
+    fn gaussian_synthesis_gives_back_sigma_and_tau() {
+        let (n, len, sigma, tau) = (256usize, 64.0, 0.7, 3.0);
+        let spec = spectrum(n, len, tau);
+        let total: f64 = spec.iter().map(|s| s.2).sum();
+        let s0 = 1.0 / total;
+        let tau_expected = tau * (-(s0 + (1.0 - s0) / std::f64::consts::E).ln()).sqrt();
+        let p = len / n as f64;
+        let gx2: f64 = spec.iter().map(|&(kx, _, w)| w * (kx * p).sin().powi(2)).sum::<f64>()
+            / (p * p)
+            / (total - 1.0);
+        let slope_expected = sigma * (2.0 * gx2).sqrt();
+        let (mut taus, mut slopes) = (Vec::new(), Vec::new());
+        for seed in 1..=8 {
+            let f = HeightField::gaussian(n, n, DVec2::splat(len), sigma, tau, seed);
+            let again = HeightField::gaussian(n, n, DVec2::splat(len), sigma, tau, seed);
+            assert_eq!(f.h, again.h, "seed {seed}: not deterministic");
+            let map = HeightMap { nx: n, ny: n, dx: p, dy: p, h: f.h.clone(), periodic: true };
+            let s = surface_stats(&map);
+            assert!((s.sigma - sigma).abs() < 1e-7 * sigma, "seed {seed}: sigma {}", s.sigma);
+            assert!(s.mean.abs() < 1e-7 * sigma, "seed {seed}: mean {}", s.mean);
+            taus.push(s.tau);
+            slopes.push(s.rms_slope);
+        }
+        let mean_and_error = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64;
+            (m, (var / v.len() as f64).sqrt())
+        };
+        let (tau_mean, tau_se) = mean_and_error(&taus);
+        assert!(
+            (tau_mean - tau_expected).abs() <= 4.0 * tau_se,
+            "tau {tau_mean} +- {tau_se}, expected {tau_expected} (taus {taus:?})"
+        );
+        let (slope_mean, slope_se) = mean_and_error(&slopes);
+        assert!(
+            (slope_mean - slope_expected).abs() <= 4.0 * slope_se,
+            "rms slope {slope_mean} +- {slope_se}, expected {slope_expected}"
+        );
+        // A different seed is a different surface.
+        let a = HeightField::gaussian(16, 16, DVec2::splat(8.0), 1.0, 2.0, 1);
+        let b = HeightField::gaussian(16, 16, DVec2::splat(8.0), 1.0, 2.0, 2);
+        assert_ne!(a.h, b.h);
+    }
+}
