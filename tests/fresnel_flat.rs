@@ -43,10 +43,13 @@ fn carlson_cell(bands: usize, theta: f64, phi: f64) -> usize {
 }
 
 fn flat_al_scene(thetas: &[f64], phi_deg: f64) -> roks::scene::micro::MicroScene {
+    common::scene("flat_al", &substrate_text(thetas, phi_deg))
+}
+
+/// The TOML of the flat Al substrate lit from `thetas` at azimuth `phi_deg`.
+fn substrate_text(thetas: &[f64], phi_deg: f64) -> String {
     let thetas: Vec<String> = thetas.iter().map(|t| format!("{t:?}")).collect();
-    common::scene(
-        "flat_al",
-        &format!(
+    format!(
             r#"
 [surface]
 size = [1.0, 1.0]
@@ -65,8 +68,7 @@ seed = 3
 [tally]
 bands = 32
 "#,
-            thetas.join(", ")
-        ),
+        thetas.join(", ")
     )
 }
 
@@ -165,5 +167,37 @@ fn flat_reflection_lands_in_the_specular_carlson_cell() {
             );
             assert_eq!(hit[0], want, "theta {}", r.theta_i_deg);
         }
+    }
+}
+
+/// A height field of zeros (a 4 x 4 text map) is the flat substrate: exact
+/// Fresnel reflectance to 1e-12 at 0-89 degrees, one reflection per photon,
+/// and the very same tallies, bit for bit, as the flat substrate scene
+/// (same photons, same normal, same arithmetic).
+#[test]
+fn flat_height_field_is_the_flat_substrate() {
+    let thetas = [0.0, 10.0, 30.0, 45.0, 60.0, 80.0, 89.0];
+    let map = std::env::temp_dir().join(format!("roks-it-{}-zeros.txt", std::process::id()));
+    std::fs::write(&map, "0 0 0 0\n".repeat(4)).unwrap();
+    let substrate = flat_al_scene(&thetas, 30.0);
+    let text = substrate_text(&thetas, 30.0).replace(
+        "size = [1.0, 1.0]",
+        &format!("heightfield = {{ file = {:?}, pixel = 0.25 }}", map.display().to_string()),
+    );
+    let field = common::scene("flat_field", &text);
+    assert!(field.surface.heightfield.is_some());
+    let (a, b) = (common::run(&substrate), common::run(&field));
+    for (s, f) in a.iter().zip(&b) {
+        let expect = fresnel_textbook(f.theta_i_deg.to_radians(), AL_N, AL_K);
+        let (mean, _) = f.reflectance();
+        assert!(
+            (mean - expect).abs() < 1e-12,
+            "theta {}: reflectance {mean}, exact Fresnel {expect}",
+            f.theta_i_deg
+        );
+        assert_eq!(f.lost(), 0.0, "theta {}: {}", f.theta_i_deg, common::losses(f));
+        assert_eq!(f.tallies.bounces, f.tallies.photons, "theta {}", f.theta_i_deg);
+        assert_eq!(f.tallies.carlson.sum, s.tallies.carlson.sum, "theta {}", f.theta_i_deg);
+        assert_eq!(f.tallies.inplane.sum, s.tallies.inplane.sum, "theta {}", f.theta_i_deg);
     }
 }
