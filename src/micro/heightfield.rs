@@ -34,7 +34,9 @@
 //! node of the current level containing the current square, and if the
 //! lowest point of the flight over that node (at its entry or exit) is above
 //! the node's maximum it jumps to the node's exit and moves one level up;
-//! otherwise it moves one level down, and at level 0 it tests the square.
+//! otherwise it moves one level down, and at
+//! level 0 it tests the square (level 0 is not stored: a square's test is
+//! as cheap as a look-up of its highest corner).
 //! Far from the surface a flight takes `O(log n)` steps; near the hit it
 //! tests the few squares where it is lower than their highest corner.
 //!
@@ -121,7 +123,8 @@ pub struct HeightField {
     pub max: f64,
     /// Lowest vertex (length units).
     pub min: f64,
-    /// Max-height mip levels; level 0 per square, the last one node for the period.
+    /// Max-height mip levels 1, 2, ... (`levels[L - 1]`: nodes of `2^L x 2^L`
+    /// squares); the last one is one node for the period.
     levels: Vec<Level>,
 }
 
@@ -157,34 +160,34 @@ impl HeightField {
                 (lo.min(z), hi.max(z))
             });
         let at = |i: usize, j: usize| h[(j % ny) * nx + i % nx];
-        let mut levels = vec![Level {
-            w: nx,
-            max: (0..nx * ny)
-                .map(|k| {
-                    let (i, j) = (k % nx, k / nx);
-                    at(i, j)
-                        .max(at(i + 1, j))
-                        .max(at(i, j + 1))
-                        .max(at(i + 1, j + 1))
-                })
-                .collect(),
-        }];
+        // Level 0 (the squares' highest corners) is not stored: the walk tests
+        // squares directly. Level 1 onwards, each from the one below.
+        let mut below: Vec<f64> = (0..nx * ny)
+            .map(|k| {
+                let (i, j) = (k % nx, k / nx);
+                at(i, j)
+                    .max(at(i + 1, j))
+                    .max(at(i, j + 1))
+                    .max(at(i + 1, j + 1))
+            })
+            .collect();
+        let mut levels: Vec<Level> = Vec::new();
         let (mut w, mut hgt) = (nx, ny);
         while w > 1 || hgt > 1 {
             let (w2, h2) = (w.div_ceil(2), hgt.div_ceil(2));
-            let below = levels.last().expect("level 0");
-            let max = (0..w2 * h2)
+            let max: Vec<f64> = (0..w2 * h2)
                 .map(|k| {
                     let (i, j) = (k % w2, k / w2);
                     let mut m = f64::NEG_INFINITY;
                     for cj in (2 * j)..(2 * j + 2).min(hgt) {
                         for ci in (2 * i)..(2 * i + 2).min(w) {
-                            m = m.max(below.max[cj * w + ci]);
+                            m = m.max(below[cj * w + ci]);
                         }
                     }
                     m
                 })
                 .collect();
+            below.clone_from(&max);
             levels.push(Level { w: w2, max });
             (w, hgt) = (w2, h2);
         }
@@ -209,15 +212,13 @@ impl HeightField {
         self.h[j * self.nx + i]
     }
 
-    /// Corner heights `[h00, h10, h01, h11]` of square `(i, j)` (any integers).
+    /// Corner heights `[h00, h10, h01, h11]` of square `(i, j)` of the period.
     #[inline]
-    fn corners(&self, i: i64, j: i64) -> [f64; 4] {
-        let (nx, ny) = (self.nx as i64, self.ny as i64);
-        let (i0, j0) = (i.rem_euclid(nx) as usize, j.rem_euclid(ny) as usize);
-        let i1 = if i0 + 1 == self.nx { 0 } else { i0 + 1 };
-        let j1 = if j0 + 1 == self.ny { 0 } else { j0 + 1 };
-        let (r0, r1) = (j0 * self.nx, j1 * self.nx);
-        [self.h[r0 + i0], self.h[r0 + i1], self.h[r1 + i0], self.h[r1 + i1]]
+    fn corners(&self, i: usize, j: usize) -> [f64; 4] {
+        let i1 = if i + 1 == self.nx { 0 } else { i + 1 };
+        let j1 = if j + 1 == self.ny { 0 } else { j + 1 };
+        let (r0, r1) = (j * self.nx, j1 * self.nx);
+        [self.h[r0 + i], self.h[r0 + i1], self.h[r1 + i], self.h[r1 + i1]]
     }
 
     /// Gradient `(dh/dx, dh/dy)` of triangle `half` of a square with corners `c`.
@@ -235,8 +236,7 @@ impl HeightField {
     #[must_use]
     pub fn normal(&self, triangle: usize) -> DVec3 {
         let square = triangle / 2;
-        let (i, j) = ((square % self.nx) as i64, (square / self.nx) as i64);
-        let g = self.gradient(self.corners(i, j), triangle % 2);
+        let g = self.gradient(self.corners(square % self.nx, square / self.nx), triangle % 2);
         DVec3::new(-g.x, -g.y, 1.0).normalize()
     }
 
@@ -267,7 +267,9 @@ impl HeightField {
     pub fn height_at(&self, x: f64, y: f64) -> f64 {
         let (u, v) = (x / self.pitch.x, y / self.pitch.y);
         let (i, j) = (u.floor(), v.floor());
-        surface_height(self.corners(i as i64, j as i64), u - i, v - j)
+        let (ii, _) = wrap(i as i64, self.nx);
+        let (jj, _) = wrap(j as i64, self.ny);
+        surface_height(self.corners(ii, jj), u - i, v - j)
     }
 
     /// `p` shifted by whole periods into the cell `[0, Lx] x [0, Ly]`.
@@ -290,76 +292,78 @@ impl HeightField {
                 FieldEvent::Trapped
             };
         }
-        let (ou, ov) = (o.x / self.pitch.x, o.y / self.pitch.y);
-        let (du, dv) = (d.x / self.pitch.x, d.y / self.pitch.y);
-        let (inv_u, inv_v) = (1.0 / du, 1.0 / dv);
-        let z_at = |t: f64| if d.z == 0.0 { o.z } else { o.z + t * d.z };
-        let top = self.levels.len() - 1;
-        let mut level = top;
+        let ray = GridRay {
+            o,
+            d,
+            ou: o.x / self.pitch.x,
+            ov: o.y / self.pitch.y,
+            du: d.x / self.pitch.x,
+            dv: d.y / self.pitch.y,
+        };
+        let (inv_u, inv_v) = (1.0 / ray.du, 1.0 / ray.dv);
+        let top = self.levels.len();
+        // A flight leaving the surface is below every node holding its start:
+        // begin at its square instead of descending to it.
+        let mut level = if standing.is_some() { 0 } else { top };
         let mut t = 0.0_f64;
         // f at t when carried from the square just tested (None after a skip).
         let mut f_carried: Option<f64> = None;
-        let mut i = ou.floor() as i64;
-        let mut j = ov.floor() as i64;
+        // Square (i, j) of the period whose square 0 has unbounded index (bi, bj).
+        let (mut i, mut bi) = wrap(floor_i64(ray.ou), self.nx);
+        let (mut j, mut bj) = wrap(floor_i64(ray.ov), self.ny);
         let mut steps = 0_u32;
         loop {
             steps += 1;
             if steps > MAX_STEPS {
                 return FieldEvent::Trapped;
             }
-            let z = z_at(t);
+            let z = ray.z_at(t);
             if d.z > 0.0 && z > self.max {
                 return FieldEvent::Escapes;
             }
-            // The node of this level holding square (i, j), in unbounded square indices.
-            let (u0, u1, ni) = node_span(i, level, self.nx);
-            let (v0, v1, nj) = node_span(j, level, self.ny);
-            let tu = if du > 0.0 {
-                (u1 as f64 - ou) * inv_u
-            } else if du < 0.0 {
-                (u0 as f64 - ou) * inv_u
+            // The node of this level holding square (i, j): squares [u0, u1) x [v0, v1).
+            let (u0, u1) = node_span(i, level, self.nx);
+            let (v0, v1) = node_span(j, level, self.ny);
+            let side = |k: usize, base: i64| (base + k as i64) as f64;
+            let tu = if ray.du > 0.0 {
+                (side(u1, bi) - ray.ou) * inv_u
+            } else if ray.du < 0.0 {
+                (side(u0, bi) - ray.ou) * inv_u
             } else {
                 f64::INFINITY
             };
-            let tv = if dv > 0.0 {
-                (v1 as f64 - ov) * inv_v
-            } else if dv < 0.0 {
-                (v0 as f64 - ov) * inv_v
+            let tv = if ray.dv > 0.0 {
+                (side(v1, bj) - ray.ov) * inv_v
+            } else if ray.dv < 0.0 {
+                (side(v0, bj) - ray.ov) * inv_v
             } else {
                 f64::INFINITY
             };
             let t_exit = tu.min(tv).max(t);
-            let lv = &self.levels[level];
-            if z.min(z_at(t_exit)) > lv.max[nj * lv.w + ni] {
-                // The flight passes above the whole node: skip it.
-                if t_exit == f64::INFINITY {
-                    return if d.z > 0.0 {
-                        FieldEvent::Escapes
-                    } else {
-                        FieldEvent::Trapped
-                    };
-                }
-                t = t_exit;
-                f_carried = None;
-                (i, j) = step_out(tu <= tv, (u0, u1, v0, v1), (du, dv), (ou, ov), t);
-                level = (level + 1).min(top);
-                continue;
-            }
+            let exit_u = tu <= tv;
             if level > 0 {
-                level -= 1;
-                continue;
-            }
-            let f_in = f_carried.unwrap_or_else(|| {
-                let a = (ou - i as f64 + t * du).clamp(0.0, 1.0);
-                let b = (ov - j as f64 + t * dv).clamp(0.0, 1.0);
-                z - surface_height(self.corners(i, j), a, b)
-            });
-            match self.square(i, j, (o, d, ou, ov, du, dv), t, t_exit, tu <= tv, f_in, standing) {
-                Ok(t_hit_tri) => return t_hit_tri,
-                Err(f_out) => f_carried = Some(f_out),
+                let lv = &self.levels[level - 1];
+                let node_max = lv.max[(j >> level) * lv.w + (i >> level)];
+                if z.min(ray.z_at(t_exit)) <= node_max {
+                    level -= 1;
+                    continue;
+                }
+                // The flight passes above the whole node: skip it.
+                f_carried = None;
+            } else {
+                let f_in = f_carried.unwrap_or_else(|| {
+                    let a = (ray.ou - side(i, bi) + t * ray.du).clamp(0.0, 1.0);
+                    let b = (ray.ov - side(j, bj) + t * ray.dv).clamp(0.0, 1.0);
+                    z - surface_height(self.corners(i, j), a, b)
+                });
+                let local = (ray.ou - side(i, bi), ray.ov - side(j, bj));
+                match self.square(i, j, &ray, local, (t, t_exit), exit_u, f_in, standing) {
+                    Ok(hit) => return hit,
+                    Err(f_out) => f_carried = Some(f_out),
+                }
             }
             if t_exit == f64::INFINITY {
-                // A vertical flight that rose out of its square's reach.
+                // A vertical flight above its column, or rising out of its square.
                 return if d.z > 0.0 {
                     FieldEvent::Escapes
                 } else {
@@ -367,34 +371,47 @@ impl HeightField {
                 };
             }
             t = t_exit;
-            (i, j) = step_out(tu <= tv, (u0, u1, v0, v1), (du, dv), (ou, ov), t);
-            level = 1.min(top);
+            // Step into the neighbouring node across the exit side; the other
+            // index comes from the exit point, kept within the node's range so
+            // the walk always advances.
+            if exit_u {
+                (i, bi) = step(i, bi, u0, u1, ray.du > 0.0, self.nx);
+                let k = floor_i64(ray.ov + t * ray.dv) - bj;
+                j = k.clamp(v0 as i64, v1 as i64 - 1) as usize;
+            } else {
+                (j, bj) = step(j, bj, v0, v1, ray.dv > 0.0, self.ny);
+                let k = floor_i64(ray.ou + t * ray.du) - bi;
+                i = k.clamp(u0 as i64, u1 as i64 - 1) as usize;
+            }
+            // One level up again (measured: fewer steps than staying down
+            // within the same parent node, since rising flights climb sooner).
+            level = (level + 1).min(top);
         }
     }
 
-    /// Test square `(i, j)` over `[t0, t1]` with the carried `f_in` at `t0`.
-    /// `exit_u`: the flight leaves through a side `u = const` (else `v = const`).
-    /// Returns the hit, or `Err(f at t1)` computed on the edge shared with
-    /// the next square.
+    /// Test square `(i, j)` (of the period) over `[t0, t1]` with the carried
+    /// `f_in` at `t0`; `(a0, b0)`: the flight's local coordinates in the square
+    /// at `t = 0`. `exit_u`: the flight leaves through a side `u = const`
+    /// (else `v = const`). Returns the hit, or `Err(f at t1)` computed on the
+    /// edge shared with the next square.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn square(
         &self,
-        i: i64,
-        j: i64,
-        (o, d, ou, ov, du, dv): (DVec3, DVec3, f64, f64, f64, f64),
-        t0: f64,
-        t1: f64,
+        i: usize,
+        j: usize,
+        ray: &GridRay,
+        (a0, b0): (f64, f64),
+        (t0, t1): (f64, f64),
         exit_u: bool,
         f_in: f64,
         standing: Option<usize>,
     ) -> Result<FieldEvent, f64> {
         let c = self.corners(i, j);
         let [h00, h10, h01, h11] = c;
-        let (a0, b0) = (ou - i as f64, ov - j as f64);
-        let z_at = |t: f64| if d.z == 0.0 { o.z } else { o.z + t * d.z };
-        let square = (j.rem_euclid(self.ny as i64) as usize) * self.nx
-            + i.rem_euclid(self.nx as i64) as usize;
+        let GridRay { d, du, dv, .. } = *ray;
+        let z_at = |t: f64| ray.z_at(t);
+        let square = j * self.nx + i;
         // Where the flight crosses the diagonal a = b, if inside (t0, t1).
         let ds = du - dv;
         let t_diag = if ds == 0.0 {
@@ -540,39 +557,64 @@ fn surface_height(c: [f64; 4], a: f64, b: f64) -> f64 {
     }
 }
 
-/// The node of `level` holding square `k` (any integer) on an axis of `n`
-/// squares: its first and one-past-last square (unbounded indices) and its
-/// index within the level.
-#[inline]
-fn node_span(k: i64, level: usize, n: usize) -> (i64, i64, usize) {
-    let km = k.rem_euclid(n as i64) as usize;
-    let node = km >> level;
-    let first = node << level;
-    let start = k - km as i64 + first as i64;
-    let len = (1usize << level).min(n - first);
-    (start, start + len as i64, node)
+/// A flight in grid units: `u = x / px`, `v = y / py`, same `t`.
+#[derive(Clone, Copy, Debug)]
+struct GridRay {
+    o: DVec3,
+    d: DVec3,
+    ou: f64,
+    ov: f64,
+    du: f64,
+    dv: f64,
 }
 
-/// The square entered when the flight leaves the node `[u0, u1) x [v0, v1)`
-/// at `t`, through a side `u = const` when `exit_u` (else `v = const`). The
-/// other index is taken from the exit point, kept inside the node's range so
-/// the walk always advances to a neighbour.
+impl GridRay {
+    /// Height of the flight at `t` (also for horizontal flights and infinite `t`).
+    #[inline]
+    fn z_at(&self, t: f64) -> f64 {
+        if self.d.z == 0.0 {
+            self.o.z
+        } else {
+            self.o.z + t * self.d.z
+        }
+    }
+}
+
+/// `floor(x)` as an integer (`x` well inside the `i64` range).
 #[inline]
-fn step_out(
-    exit_u: bool,
-    (u0, u1, v0, v1): (i64, i64, i64, i64),
-    (du, dv): (f64, f64),
-    (ou, ov): (f64, f64),
-    t: f64,
-) -> (i64, i64) {
-    if exit_u {
-        let i = if du > 0.0 { u1 } else { u0 - 1 };
-        let j = ((ov + t * dv).floor() as i64).clamp(v0, v1 - 1);
-        (i, j)
+fn floor_i64(x: f64) -> i64 {
+    let k = x as i64;
+    k - i64::from(k as f64 > x)
+}
+
+/// Unbounded square index `k` as `(square of the period, unbounded index of
+/// the period's square 0)` on an axis of `n` squares.
+#[inline]
+fn wrap(k: i64, n: usize) -> (usize, i64) {
+    let r = k.rem_euclid(n as i64);
+    (r as usize, k - r)
+}
+
+/// The squares `[first, end)` of the node of `level` holding square `k` of a
+/// period of `n` squares (the last node of a level may be partial). Level 0
+/// is the square itself.
+#[inline]
+fn node_span(k: usize, level: usize, n: usize) -> (usize, usize) {
+    let first = (k >> level) << level;
+    (first, (first + (1 << level)).min(n))
+}
+
+/// The square entered across the far (`forward`) or near side of the node
+/// `[first, end)`, with the period base `base` updated when it wraps.
+#[inline]
+fn step(k: usize, base: i64, first: usize, end: usize, forward: bool, n: usize) -> (usize, i64) {
+    debug_assert!(first <= k && k < end);
+    if forward {
+        if end == n { (0, base + n as i64) } else { (end, base) }
+    } else if first == 0 {
+        (n - 1, base - n as i64)
     } else {
-        let j = if dv > 0.0 { v1 } else { v0 - 1 };
-        let i = ((ou + t * du).floor() as i64).clamp(u0, u1 - 1);
-        (i, j)
+        (first - 1, base)
     }
 }
 
@@ -805,14 +847,27 @@ mod tests {
     #[test]
     fn hierarchy_nodes_cover_odd_sizes() {
         // 5 squares: level 1 nodes [0, 2), [2, 4), [4, 5); level 2 [0, 4), [4, 5).
-        assert_eq!(node_span(4, 1, 5), (4, 5, 2));
-        assert_eq!(node_span(-1, 1, 5), (-1, 0, 2));
-        assert_eq!(node_span(7, 2, 5), (5, 9, 0));
+        assert_eq!(node_span(4, 1, 5), (4, 5));
+        assert_eq!(node_span(3, 1, 5), (2, 4));
+        assert_eq!(node_span(4, 2, 5), (4, 5));
+        assert_eq!(node_span(3, 0, 5), (3, 4));
+        assert_eq!(wrap(-1, 5), (4, -5));
+        assert_eq!(wrap(7, 5), (2, 5));
+        assert_eq!(step(4, 0, 4, 5, true, 5), (0, 5));
+        assert_eq!(step(0, 5, 0, 2, false, 5), (4, 0));
+        assert_eq!((floor_i64(-0.5), floor_i64(2.0), floor_i64(2.5)), (-1, 2, 2));
         let h: Vec<f64> = (0..35).map(|k| ((k * 7) % 11) as f64).collect();
         let f = HeightField::new(7, 5, DVec2::new(7.0, 5.0), h);
         let top = f.levels.last().unwrap();
         assert_eq!((top.w, top.max.len()), (1, 1));
         assert_eq!(top.max[0], f.max);
+        // Level 1 node (3, 2) is the partial node of square (6, 4), whose
+        // corners wrap to vertices (6, 4), (0, 4), (6, 0), (0, 0).
+        let want = [(6, 4), (0, 4), (6, 0), (0, 0)]
+            .iter()
+            .map(|&(i, j)| f.vertex(i, j))
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!(f.levels[0].max[2 * 4 + 3], want);
     }
 
     /// Normal deviates of the spectrum weight `w_k = exp(-|k|² tau² / 4)` on the
