@@ -1078,11 +1078,17 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     );
     let bytes = heightfield_io::write(&grid, format, &comment).map_err(|e| anyhow::anyhow!(e))?;
     write_file(&a.out, &bytes)?;
-    let file = a.out.file_name().map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+    let file = a
+        .out
+        .file_name()
+        .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     let keys = if px == py {
         format!("heightfield = {{ file = {file:?}, pixel = {px:?} }}")
     } else {
-        format!("size = [{:?}, {:?}]\nheightfield = {{ file = {file:?} }}", size.x, size.y)
+        format!(
+            "size = [{:?}, {:?}]\nheightfield = {{ file = {file:?} }}",
+            size.x, size.y
+        )
     };
     eprintln!(
         "wrote {} ({} x {} heights); load it with, in [surface]:\n{keys}",

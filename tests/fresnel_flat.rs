@@ -50,7 +50,7 @@ fn flat_al_scene(thetas: &[f64], phi_deg: f64) -> roks::scene::micro::MicroScene
 fn substrate_text(thetas: &[f64], phi_deg: f64) -> String {
     let thetas: Vec<String> = thetas.iter().map(|t| format!("{t:?}")).collect();
     format!(
-            r#"
+        r#"
 [surface]
 size = [1.0, 1.0]
 material = "al"
@@ -182,7 +182,10 @@ fn flat_height_field_is_the_flat_substrate() {
     let substrate = flat_al_scene(&thetas, 30.0);
     let text = substrate_text(&thetas, 30.0).replace(
         "size = [1.0, 1.0]",
-        &format!("heightfield = {{ file = {:?}, pixel = 0.25 }}", map.display().to_string()),
+        &format!(
+            "heightfield = {{ file = {:?}, pixel = 0.25 }}",
+            map.display().to_string()
+        ),
     );
     let field = common::scene("flat_field", &text);
     assert!(field.surface.heightfield.is_some());
@@ -195,9 +198,27 @@ fn flat_height_field_is_the_flat_substrate() {
             "theta {}: reflectance {mean}, exact Fresnel {expect}",
             f.theta_i_deg
         );
-        assert_eq!(f.lost(), 0.0, "theta {}: {}", f.theta_i_deg, common::losses(f));
-        assert_eq!(f.tallies.bounces, f.tallies.photons, "theta {}", f.theta_i_deg);
-        assert_eq!(f.tallies.carlson.sum, s.tallies.carlson.sum, "theta {}", f.theta_i_deg);
-        assert_eq!(f.tallies.inplane.sum, s.tallies.inplane.sum, "theta {}", f.theta_i_deg);
+        assert_eq!(
+            f.lost(),
+            0.0,
+            "theta {}: {}",
+            f.theta_i_deg,
+            common::losses(f)
+        );
+        assert_eq!(
+            f.tallies.bounces, f.tallies.photons,
+            "theta {}",
+            f.theta_i_deg
+        );
+        assert_eq!(
+            f.tallies.carlson.sum, s.tallies.carlson.sum,
+            "theta {}",
+            f.theta_i_deg
+        );
+        assert_eq!(
+            f.tallies.inplane.sum, s.tallies.inplane.sum,
+            "theta {}",
+            f.theta_i_deg
+        );
     }
 }

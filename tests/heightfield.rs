@@ -53,7 +53,11 @@ fn furnace_on_a_rough_gaussian_field() {
         assert_eq!(stderr, 0.0, "{what}");
         let carlson: f64 = r.tallies.carlson.sum.iter().sum();
         assert!((carlson - r.tallies.photons as f64).abs() < 1e-9, "{what}");
-        assert!(r.mean_bounces() > 1.0, "{what}: {} bounces", r.mean_bounces());
+        assert!(
+            r.mean_bounces() > 1.0,
+            "{what}: {} bounces",
+            r.mean_bounces()
+        );
     }
 }
 
@@ -105,8 +109,17 @@ fn generated_field_round_trips_through_files() {
     let brdf = |scene: &Path, out: &str| {
         let out = dir.join(out);
         roks(&[
-            "brdf", path(scene), "--out", path(&out), "--photons", "20000", "--theta", "0,60,85",
-            "--threads", "2", "-q",
+            "brdf",
+            path(scene),
+            "--out",
+            path(&out),
+            "--photons",
+            "20000",
+            "--theta",
+            "0,60,85",
+            "--threads",
+            "2",
+            "-q",
         ]);
         out
     };
@@ -151,7 +164,14 @@ fn generated_field_round_trips_through_files() {
     }
     // Another resolution than the field's own is refused (exit 2, one line).
     let o = Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(["export-mesh", path(&generated), "--out", path(&ply), "--resolution", "64"])
+        .args([
+            "export-mesh",
+            path(&generated),
+            "--out",
+            path(&ply),
+            "--resolution",
+            "64",
+        ])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));

@@ -251,14 +251,18 @@ fn field_broken(from: &str, to: &str) -> String {
     FIELD.replacen(from, to, 1)
 }
 
-const GAUSSIAN: &str = "heightfield = { gaussian = { sigma = 0.5, tau = 2.0 }, resolution = 32, seed = 4 }";
+const GAUSSIAN: &str =
+    "heightfield = { gaussian = { sigma = 0.5, tau = 2.0 }, resolution = 32, seed = 4 }";
 
 #[test]
 fn height_field_and_bumps() {
-    let text = format!(
-        "{FIELD}\n[[bumps]]\nshape = \"cone\"\ncount = 3\nradius = 1.0\nheight = 1.0\n"
+    let text =
+        format!("{FIELD}\n[[bumps]]\nshape = \"cone\"\ncount = 3\nradius = 1.0\nheight = 1.0\n");
+    check(
+        "field_bumps",
+        &text,
+        &["bumps", "cannot be combined", "surface.heightfield"],
     );
-    check("field_bumps", &text, &["bumps", "cannot be combined", "surface.heightfield"]);
 }
 
 #[test]
@@ -274,7 +278,10 @@ fn height_field_unknown_key() {
 fn height_field_missing_file() {
     check(
         "field_file",
-        &field_broken(GAUSSIAN, r#"heightfield = { file = "nowhere.exr", pixel = 0.25 }"#),
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "nowhere.exr", pixel = 0.25 }"#,
+        ),
         &["surface.heightfield.file", "nowhere.exr", "cannot read"],
     );
 }
@@ -283,7 +290,10 @@ fn height_field_missing_file() {
 fn height_field_ragged_text_map() {
     check_with_files(
         "field_ragged",
-        &field_broken(GAUSSIAN, r#"heightfield = { file = "map.txt", pixel = 4.0 }"#),
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "map.txt", pixel = 4.0 }"#,
+        ),
         &[("map.txt", b"0 1\n2\n")],
         &["surface.heightfield.file", "map.txt", "line 2"],
     );
@@ -294,7 +304,10 @@ fn height_field_size_contradicts_the_map() {
     // 2 x 2 pixels of 1.0 make a 2 x 2 cell, not 8 x 8.
     check_with_files(
         "field_size",
-        &field_broken(GAUSSIAN, r#"heightfield = { file = "map.txt", pixel = 1.0 }"#),
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "map.txt", pixel = 1.0 }"#,
+        ),
         &[("map.txt", b"0 1\n2 3\n")],
         &["surface.size", "contradicts", "2 x 2 pixels"],
     );
@@ -304,7 +317,10 @@ fn height_field_size_contradicts_the_map() {
 fn height_field_png_needs_a_height_scale() {
     check(
         "field_png",
-        &field_broken(GAUSSIAN, r#"heightfield = { file = "map.png", pixel = 0.25 }"#),
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "map.png", pixel = 0.25 }"#,
+        ),
         &["surface.heightfield.height_scale", "PNG"],
     );
 }
@@ -313,7 +329,10 @@ fn height_field_png_needs_a_height_scale() {
 fn height_field_needs_periodic_edges() {
     check(
         "field_edges",
-        &field_broken("material = \"paint\"\nheightfield", "edges = \"absorbing\"\nmaterial = \"paint\"\nheightfield"),
+        &field_broken(
+            "material = \"paint\"\nheightfield",
+            "edges = \"absorbing\"\nmaterial = \"paint\"\nheightfield",
+        ),
         &["surface.edges", "periodic"],
     );
 }
@@ -322,7 +341,10 @@ fn height_field_needs_periodic_edges() {
 fn height_field_tau_below_the_pitch() {
     check(
         "field_tau",
-        &field_broken("tau = 2.0 }, resolution = 32", "tau = 0.1 }, resolution = 32"),
+        &field_broken(
+            "tau = 2.0 }, resolution = 32",
+            "tau = 0.1 }, resolution = 32",
+        ),
         &["surface.heightfield.gaussian.tau", "pitch"],
     );
 }

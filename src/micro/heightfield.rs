@@ -147,9 +147,15 @@ impl HeightField {
     /// finite, or the size is not finite and positive.
     #[must_use]
     pub fn new(nx: usize, ny: usize, size: DVec2, h: Vec<f64>) -> Self {
-        assert!(nx >= 2 && ny >= 2, "height field of {nx} x {ny}: need 2 x 2");
+        assert!(
+            nx >= 2 && ny >= 2,
+            "height field of {nx} x {ny}: need 2 x 2"
+        );
         assert_eq!(h.len(), nx * ny, "height field: {nx} x {ny} heights");
-        assert!(h.iter().all(|z| z.is_finite()), "height field: non-finite height");
+        assert!(
+            h.iter().all(|z| z.is_finite()),
+            "height field: non-finite height"
+        );
         assert!(
             size.is_finite() && size.min_element() > 0.0,
             "height field: size {size}"
@@ -218,7 +224,12 @@ impl HeightField {
         let i1 = if i + 1 == self.nx { 0 } else { i + 1 };
         let j1 = if j + 1 == self.ny { 0 } else { j + 1 };
         let (r0, r1) = (j * self.nx, j1 * self.nx);
-        [self.h[r0 + i], self.h[r0 + i1], self.h[r1 + i], self.h[r1 + i1]]
+        [
+            self.h[r0 + i],
+            self.h[r0 + i1],
+            self.h[r1 + i],
+            self.h[r1 + i1],
+        ]
     }
 
     /// Gradient `(dh/dx, dh/dy)` of triangle `half` of a square with corners `c`.
@@ -236,7 +247,10 @@ impl HeightField {
     #[must_use]
     pub fn normal(&self, triangle: usize) -> DVec3 {
         let square = triangle / 2;
-        let g = self.gradient(self.corners(square % self.nx, square / self.nx), triangle % 2);
+        let g = self.gradient(
+            self.corners(square % self.nx, square / self.nx),
+            triangle % 2,
+        );
         DVec3::new(-g.x, -g.y, 1.0).normalize()
     }
 
@@ -414,11 +428,7 @@ impl HeightField {
         let square = j * self.nx + i;
         // Where the flight crosses the diagonal a = b, if inside (t0, t1).
         let ds = du - dv;
-        let t_diag = if ds == 0.0 {
-            f64::NAN
-        } else {
-            (b0 - a0) / ds
-        };
+        let t_diag = if ds == 0.0 { f64::NAN } else { (b0 - a0) / ds };
         let split = t_diag > t0 && t_diag < t1;
         let t_first_end = if split { t_diag } else { t1 };
         // Which triangle the first piece lies in: the sign of a - b at its middle.
@@ -518,7 +528,11 @@ impl HeightField {
         let mut planner = FftPlanner::new();
         super::surface_stats::fft2(&mut planner, &mut buf, nx, ny, false);
         let k = |m: usize, n: usize, len: f64| {
-            let s = if 2 * m < n { m as f64 } else { m as f64 - n as f64 };
+            let s = if 2 * m < n {
+                m as f64
+            } else {
+                m as f64 - n as f64
+            };
             std::f64::consts::TAU * s / len
         };
         for (idx, b) in buf.iter_mut().enumerate() {
@@ -610,7 +624,11 @@ fn node_span(k: usize, level: usize, n: usize) -> (usize, usize) {
 fn step(k: usize, base: i64, first: usize, end: usize, forward: bool, n: usize) -> (usize, i64) {
     debug_assert!(first <= k && k < end);
     if forward {
-        if end == n { (0, base + n as i64) } else { (end, base) }
+        if end == n {
+            (0, base + n as i64)
+        } else {
+            (end, base)
+        }
     } else if first == 0 {
         (n - 1, base - n as i64)
     } else {
@@ -827,10 +845,18 @@ mod tests {
 
     #[test]
     fn vertical_flights_give_the_triangle_heights() {
-        let f = HeightField::new(3, 2, DVec2::new(3.0, 2.0), vec![0.0, 1.0, 2.0, 3.0, 5.0, 4.0]);
+        let f = HeightField::new(
+            3,
+            2,
+            DVec2::new(3.0, 2.0),
+            vec![0.0, 1.0, 2.0, 3.0, 5.0, 4.0],
+        );
         // Square (0, 0): h00 = 0, h10 = 1, h01 = 3, h11 = 5; at (a, b) = (0.75, 0.25)
         // (triangle A) the height is 0 + 1 * 0.75 + (5 - 1) * 0.25 = 1.75.
-        for (x, y, want) in [(0.75, 0.25, 1.75), (0.25, 0.75, 0.0 + 2.0 * 0.25 + 3.0 * 0.75)] {
+        for (x, y, want) in [
+            (0.75, 0.25, 1.75),
+            (0.25, 0.75, 0.0 + 2.0 * 0.25 + 3.0 * 0.75),
+        ] {
             assert_eq!(f.height_at(x, y), want);
             match f.first_hit(DVec3::new(x, y, 10.0), DVec3::NEG_Z, None) {
                 FieldEvent::Hit { t, .. } => assert!((10.0 - t - want).abs() < 1e-14),
@@ -841,7 +867,10 @@ mod tests {
         for (x, y) in [(-0.5, 0.1), (5.5, 2.1)] {
             assert!((f.height_at(2.5, 0.1) - f.height_at(x, y)).abs() < 1e-14);
         }
-        assert_eq!(f.fold(DVec3::new(-0.5, 4.25, 1.0)), DVec3::new(2.5, 0.25, 1.0));
+        assert_eq!(
+            f.fold(DVec3::new(-0.5, 4.25, 1.0)),
+            DVec3::new(2.5, 0.25, 1.0)
+        );
     }
 
     #[test]
@@ -855,7 +884,10 @@ mod tests {
         assert_eq!(wrap(7, 5), (2, 5));
         assert_eq!(step(4, 0, 4, 5, true, 5), (0, 5));
         assert_eq!(step(0, 5, 0, 2, false, 5), (4, 0));
-        assert_eq!((floor_i64(-0.5), floor_i64(2.0), floor_i64(2.5)), (-1, 2, 2));
+        assert_eq!(
+            (floor_i64(-0.5), floor_i64(2.0), floor_i64(2.5)),
+            (-1, 2, 2)
+        );
         let h: Vec<f64> = (0..35).map(|k| ((k * 7) % 11) as f64).collect();
         let f = HeightField::new(7, 5, DVec2::new(7.0, 5.0), h);
         let top = f.levels.last().unwrap();
@@ -874,7 +906,11 @@ mod tests {
     /// period lattice, as the synthesis uses (its k = 0 term included).
     fn spectrum(n: usize, len: f64, tau: f64) -> Vec<(f64, f64, f64)> {
         let k = |m: usize| {
-            let s = if 2 * m < n { m as f64 } else { m as f64 - n as f64 };
+            let s = if 2 * m < n {
+                m as f64
+            } else {
+                m as f64 - n as f64
+            };
             std::f64::consts::TAU * s / len
         };
         (0..n * n)
@@ -903,7 +939,10 @@ mod tests {
         let s0 = 1.0 / total;
         let tau_expected = tau * (-(s0 + (1.0 - s0) / std::f64::consts::E).ln()).sqrt();
         let p = len / n as f64;
-        let gx2: f64 = spec.iter().map(|&(kx, _, w)| w * (kx * p).sin().powi(2)).sum::<f64>()
+        let gx2: f64 = spec
+            .iter()
+            .map(|&(kx, _, w)| w * (kx * p).sin().powi(2))
+            .sum::<f64>()
             / (p * p)
             / (total - 1.0);
         let slope_expected = sigma * (2.0 * gx2).sqrt();
@@ -912,9 +951,20 @@ mod tests {
             let f = HeightField::gaussian(n, n, DVec2::splat(len), sigma, tau, seed);
             let again = HeightField::gaussian(n, n, DVec2::splat(len), sigma, tau, seed);
             assert_eq!(f.h, again.h, "seed {seed}: not deterministic");
-            let map = HeightMap { nx: n, ny: n, dx: p, dy: p, h: f.h.clone(), periodic: true };
+            let map = HeightMap {
+                nx: n,
+                ny: n,
+                dx: p,
+                dy: p,
+                h: f.h.clone(),
+                periodic: true,
+            };
             let s = surface_stats(&map);
-            assert!((s.sigma - sigma).abs() < 1e-7 * sigma, "seed {seed}: sigma {}", s.sigma);
+            assert!(
+                (s.sigma - sigma).abs() < 1e-7 * sigma,
+                "seed {seed}: sigma {}",
+                s.sigma
+            );
             assert!(s.mean.abs() < 1e-7 * sigma, "seed {seed}: mean {}", s.mean);
             taus.push(s.tau);
             slopes.push(s.rms_slope);

@@ -95,9 +95,10 @@ fn read_text(bytes: &[u8]) -> Result<HeightGrid, String> {
             if word.is_empty() {
                 continue;
             }
-            h.push(word.parse::<f64>().map_err(|_| {
-                format!("line {}: `{word}` is not a number", line_no + 1)
-            })?);
+            h.push(
+                word.parse::<f64>()
+                    .map_err(|_| format!("line {}: `{word}` is not a number", line_no + 1))?,
+            );
         }
         let n = h.len() - before;
         if ny == 0 {

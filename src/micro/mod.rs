@@ -355,10 +355,7 @@ impl MicroSurface {
     ) -> Self {
         let size = field.size;
         let max_height = field.max;
-        let scale = size
-            .max_element()
-            .max(field.max.abs())
-            .max(field.min.abs());
+        let scale = size.max_element().max(field.max.abs()).max(field.min.abs());
         Self {
             size,
             edges: Edges::Periodic,

@@ -570,7 +570,10 @@ impl HeightFieldSpec {
                 refuse("pixel", self.pixel.is_some(), "file maps")?;
                 refuse("height_scale", self.height_scale.is_some(), "file maps")?;
                 let size = size.ok_or_else(|| {
-                    source.error("surface.size", "missing (a gaussian height field needs the cell)")
+                    source.error(
+                        "surface.size",
+                        "missing (a gaussian height field needs the cell)",
+                    )
                 })?;
                 let (nx, ny) = match self.resolution {
                     Some(Resolution::One(n)) => (n, n),
