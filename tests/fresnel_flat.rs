@@ -99,29 +99,11 @@ fn flat_fresnel_reflectance_is_exact() {
     let scene = flat_al_scene(&thetas, 30.0);
     let results = common::run(&scene);
     for r in &results {
-        let expect = fresnel_textbook(r.theta_i_deg.to_radians(), AL_N, AL_K);
+        assert_exact_fresnel(r);
         let (mean, stderr) = r.reflectance();
-        assert!(
-            (mean - expect).abs() < 1e-12,
-            "theta {}: reflectance {mean}, exact Fresnel {expect}",
-            r.theta_i_deg
-        );
         assert!(
             stderr <= f64::EPSILON.sqrt() * mean,
             "theta {}: stderr {stderr}",
-            r.theta_i_deg
-        );
-        assert_eq!(
-            r.lost(),
-            0.0,
-            "theta {}: {}",
-            r.theta_i_deg,
-            common::losses(r)
-        );
-        // Exactly one reflection per photon.
-        assert_eq!(
-            r.tallies.bounces, r.tallies.photons,
-            "theta {}",
             r.theta_i_deg
         );
         assert_eq!(r.tallies.by_bounces[1], r.tallies.reflected.sum[0]);
@@ -129,6 +111,20 @@ fn flat_fresnel_reflectance_is_exact() {
             assert!((mean - 0.9154).abs() < 5e-5, "R(0) = {mean}");
         }
     }
+}
+
+/// Reflectance equal to the textbook Fresnel reflectance to 1e-12, nothing
+/// lost, exactly one reflection per photon.
+fn assert_exact_fresnel(r: &roks::transport::brdf::IncidenceResult) {
+    let theta = r.theta_i_deg;
+    let expect = fresnel_textbook(theta.to_radians(), AL_N, AL_K);
+    let (mean, _) = r.reflectance();
+    assert!(
+        (mean - expect).abs() < 1e-12,
+        "theta {theta}: reflectance {mean}, exact Fresnel {expect}"
+    );
+    assert_eq!(r.lost(), 0.0, "theta {theta}: {}", common::losses(r));
+    assert_eq!(r.tallies.bounces, r.tallies.photons, "theta {theta}");
 }
 
 /// All reflected weight lands in the one Carlson cell that holds the mirror
@@ -191,25 +187,7 @@ fn flat_height_field_is_the_flat_substrate() {
     assert!(field.surface.heightfield.is_some());
     let (a, b) = (common::run(&substrate), common::run(&field));
     for (s, f) in a.iter().zip(&b) {
-        let expect = fresnel_textbook(f.theta_i_deg.to_radians(), AL_N, AL_K);
-        let (mean, _) = f.reflectance();
-        assert!(
-            (mean - expect).abs() < 1e-12,
-            "theta {}: reflectance {mean}, exact Fresnel {expect}",
-            f.theta_i_deg
-        );
-        assert_eq!(
-            f.lost(),
-            0.0,
-            "theta {}: {}",
-            f.theta_i_deg,
-            common::losses(f)
-        );
-        assert_eq!(
-            f.tallies.bounces, f.tallies.photons,
-            "theta {}",
-            f.theta_i_deg
-        );
+        assert_exact_fresnel(f);
         assert_eq!(
             f.tallies.carlson.sum, s.tallies.carlson.sum,
             "theta {}",

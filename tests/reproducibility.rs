@@ -93,6 +93,21 @@ fn summary_without_timing(dir: &Path) -> Value {
     v
 }
 
+/// Byte-identical brdf.csv and inplane.csv, and summary.json but for timings.
+fn assert_same_run(one: &Path, two: &Path) {
+    for f in ["brdf.csv", "inplane.csv"] {
+        assert!(
+            read(one, f) == read(two, f),
+            "{f} differs between 1 and 2 threads"
+        );
+    }
+    assert_eq!(
+        summary_without_timing(one),
+        summary_without_timing(two),
+        "summary.json differs between 1 and 2 threads"
+    );
+}
+
 #[test]
 fn same_seed_same_bytes_for_any_thread_count() {
     let dir = scratch("repro");
@@ -102,14 +117,8 @@ fn same_seed_same_bytes_for_any_thread_count() {
     let two = brdf(&scene, &dir.join("t2"), 2, 17);
     let other = brdf(&scene, &dir.join("seed18"), 2, 18);
 
-    for f in ["brdf.csv", "inplane.csv"] {
-        assert!(
-            read(&one, f) == read(&two, f),
-            "{f} differs between 1 and 2 threads"
-        );
-    }
-    let (s1, s2) = (summary_without_timing(&one), summary_without_timing(&two));
-    assert_eq!(s1, s2, "summary.json differs between 1 and 2 threads");
+    assert_same_run(&one, &two);
+    let s1 = summary_without_timing(&one);
     // The timing fields really were there (and nothing else was stripped).
     let raw: Value = serde_json::from_slice(&read(&one, "summary.json")).unwrap();
     assert!(raw["seconds"].is_number());
@@ -154,12 +163,6 @@ bands = 8
     .unwrap();
     let one = brdf(&scene, &dir.join("t1"), 1, 17);
     let two = brdf(&scene, &dir.join("t2"), 2, 17);
-    for f in ["brdf.csv", "inplane.csv"] {
-        assert!(
-            read(&one, f) == read(&two, f),
-            "{f} differs between 1 and 2 threads"
-        );
-    }
-    assert_eq!(summary_without_timing(&one), summary_without_timing(&two));
+    assert_same_run(&one, &two);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -59,6 +59,13 @@ fn cases() -> Vec<Case> {
 
 const PHOTONS: u64 = 200_000;
 
+/// The `[light]` table: `PHOTONS` from `theta_deg` across the grooves.
+fn light(theta_deg: f64) -> String {
+    format!(
+        "\n[light]\ntheta_deg = [{theta_deg:?}]\nphi_deg = 0.0\nphotons = {PHOTONS}\nseed = 7\n"
+    )
+}
+
 /// The V-groove scene for wall slope `alpha_deg` with constant wall reflectance `rho`.
 fn grooves(alpha_deg: f64, theta_deg: f64, rho: f64) -> MicroScene {
     let a = alpha_deg.to_radians();
@@ -82,15 +89,10 @@ right = {{ plane = [{s:?}, 0.0, {c:?}, {:?}] }}
 
 [[bodies]]
 region = "-left -right"
-
-[light]
-theta_deg = [{theta_deg:?}]
-phi_deg = 0.0
-photons = {PHOTONS}
-seed = 7
-"#,
+{}"#,
             -s,
-            2.0 * c
+            2.0 * c,
+            light(theta_deg)
         ),
     )
 }
@@ -115,21 +117,27 @@ fn bounce_fractions_match_zipin() {
     for c in cases() {
         let r = trace(c.alpha_deg, c.theta_deg, 1.0);
         let what = format!("alpha {} theta {}", c.alpha_deg, c.theta_deg);
-        assert_eq!(r.lost(), 0.0, "{what}: {}", common::losses(&r));
-        let n = r.tallies.photons as f64;
-        for (k, &w) in r.tallies.by_bounces.iter().enumerate() {
-            let p = c
-                .fractions
-                .iter()
-                .find(|&&(kk, _)| kk == k)
-                .map_or(0.0, |&(_, p)| p);
-            let measured = w / n;
-            let sigma = (p * (1.0 - p) / n).sqrt();
-            assert!(
-                (measured - p).abs() <= 4.0 * sigma,
-                "{what}: {k} bounces: measured {measured}, Zipin {p} (sigma {sigma})"
-            );
-        }
+        assert_zipin_fractions(&c, &r, &what);
+    }
+}
+
+/// Nothing lost, and the weight leaving after k bounces (rho = 1: the photon
+/// fraction) within 4 binomial standard errors of the Zipin fraction.
+fn assert_zipin_fractions(c: &Case, r: &IncidenceResult, what: &str) {
+    assert_eq!(r.lost(), 0.0, "{what}: {}", common::losses(r));
+    let n = r.tallies.photons as f64;
+    for (k, &w) in r.tallies.by_bounces.iter().enumerate() {
+        let p = c
+            .fractions
+            .iter()
+            .find(|&&(kk, _)| kk == k)
+            .map_or(0.0, |&(_, p)| p);
+        let measured = w / n;
+        let sigma = (p * (1.0 - p) / n).sqrt();
+        assert!(
+            (measured - p).abs() <= 4.0 * sigma,
+            "{what}: {k} bounces: measured {measured}, Zipin {p} (sigma {sigma})"
+        );
     }
 }
 
@@ -196,14 +204,9 @@ heightfield = {{ file = {:?} }}
 
 [materials.wall]
 reflectance = 1.0
-
-[light]
-theta_deg = [{theta_deg:?}]
-phi_deg = 0.0
-photons = {PHOTONS}
-seed = 7
-"#,
-            map.display().to_string()
+{}"#,
+            map.display().to_string(),
+            light(theta_deg)
         ),
     )
 }
@@ -219,21 +222,7 @@ fn height_field_grooves_match_zipin() {
             assert_eq!(scene.surface.max_height, 1.0);
             let r = common::run(&scene).remove(0);
             let what = format!("{nx} columns, alpha {} theta {}", c.alpha_deg, c.theta_deg);
-            assert_eq!(r.lost(), 0.0, "{what}: {}", common::losses(&r));
-            let n = r.tallies.photons as f64;
-            for (k, &w) in r.tallies.by_bounces.iter().enumerate() {
-                let p = c
-                    .fractions
-                    .iter()
-                    .find(|&&(kk, _)| kk == k)
-                    .map_or(0.0, |&(_, p)| p);
-                let measured = w / n;
-                let sigma = (p * (1.0 - p) / n).sqrt();
-                assert!(
-                    (measured - p).abs() <= 4.0 * sigma,
-                    "{what}: {k} bounces: measured {measured}, Zipin {p} (sigma {sigma})"
-                );
-            }
+            assert_zipin_fractions(&c, &r, &what);
         }
     }
 }

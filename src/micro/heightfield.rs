@@ -339,20 +339,18 @@ impl HeightField {
             let (u0, u1) = node_span(i, level, self.nx);
             let (v0, v1) = node_span(j, level, self.ny);
             let side = |k: usize, base: i64| (base + k as i64) as f64;
-            let tu = if ray.du > 0.0 {
-                (side(u1, bi) - ray.ou) * inv_u
-            } else if ray.du < 0.0 {
-                (side(u0, bi) - ray.ou) * inv_u
-            } else {
-                f64::INFINITY
+            // Where the flight leaves [lo, hi) along one axis (infinite if parallel).
+            let leave = |dk: f64, ok: f64, inv: f64, lo: f64, hi: f64| {
+                if dk > 0.0 {
+                    (hi - ok) * inv
+                } else if dk < 0.0 {
+                    (lo - ok) * inv
+                } else {
+                    f64::INFINITY
+                }
             };
-            let tv = if ray.dv > 0.0 {
-                (side(v1, bj) - ray.ov) * inv_v
-            } else if ray.dv < 0.0 {
-                (side(v0, bj) - ray.ov) * inv_v
-            } else {
-                f64::INFINITY
-            };
+            let tu = leave(ray.du, ray.ou, inv_u, side(u0, bi), side(u1, bi));
+            let tv = leave(ray.dv, ray.ov, inv_v, side(v0, bj), side(v1, bj));
             let t_exit = tu.min(tv).max(t);
             let exit_u = tu <= tv;
             if level > 0 {
