@@ -70,6 +70,15 @@ enum Command {
     /// last row and column repeat the first exactly, so tiled copies are
     /// seamless. Coordinates are float32 (Mitsuba's precision).
     ExportMesh(ExportMeshArgs),
+    /// Write the heights of a micro scene as a height map file, for
+    /// `heightfield = { file = ..., pixel = ... }` (a height-field scene: its
+    /// own vertex heights; a scene of bumps: heights sampled at the vertices
+    /// of an N x N grid).
+    ///
+    /// OUT's extension picks the format: .exr (one f32 channel Y) or .txt
+    /// (text grid, shortest exact decimals). Row j of the file is y = j pixel.
+    /// The scene line to load it is printed on stderr.
+    ExportHeightfield(ExportHeightfieldArgs),
     /// Render a radiance map of a micro scene to OpenEXR (plus a PNG preview).
     ///
     /// An orthographic camera whose footprint is exactly one period of the
@@ -179,14 +188,29 @@ struct ExportMeshArgs {
     /// Output PLY file.
     #[arg(long)]
     out: PathBuf,
-    /// Grid cells per side of the period (micro); voxels along the longest
-    /// side of --bounds (object).
-    #[arg(long, default_value_t = 512)]
-    resolution: usize,
+    /// Grid cells per side of the period (default 512; a height-field scene
+    /// writes its own grid and triangles, and only accepts its own
+    /// resolution); for object scenes, voxels along the longest side of
+    /// --bounds (default 512).
+    #[arg(long)]
+    resolution: Option<usize>,
     /// Object scenes (required there): the box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX
     /// whose solid walls are meshed (solids cut by it are capped).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     bounds: Option<Vec<f64>>,
+}
+
+#[derive(Args, Debug)]
+struct ExportHeightfieldArgs {
+    /// Micro scene file (TOML); omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Output file: .exr (one f32 channel Y) or .txt (text grid, exact).
+    #[arg(long)]
+    out: PathBuf,
+    /// Vertices per side for a scene of bumps (default 512); a height-field
+    /// scene writes its own grid and only accepts its own resolution.
+    #[arg(long)]
+    resolution: Option<usize>,
 }
 
 #[derive(Args, Debug)]
@@ -276,9 +300,10 @@ struct BrdfArgs {
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     theta: Option<Vec<f64>>,
-    /// Height-map resolution for the surface statistics in the summary.
-    #[arg(long, default_value_t = 512)]
-    stats_resolution: usize,
+    /// Height-map resolution for the surface statistics in the summary
+    /// (default 512; a height field: its own grid).
+    #[arg(long)]
+    stats_resolution: Option<usize>,
     /// Run only photon block I of N (0-based; whole batches of 4096 photons)
     /// of every incidence angle and also write DIR/tallies.json, the raw sums
     /// that `roks merge` adds up exactly.
@@ -297,9 +322,10 @@ struct BrdfArgs {
 struct StatsArgs {
     /// Micro scene file (TOML); omitted: the embedded default scene.
     scene: Option<PathBuf>,
-    /// Height-map samples per side of the cell.
-    #[arg(long, default_value_t = 1024)]
-    resolution: usize,
+    /// Height-map samples per side of the cell (default 1024; a height
+    /// field: its own grid, whose vertex heights are used exactly).
+    #[arg(long)]
+    resolution: Option<usize>,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -333,6 +359,7 @@ fn main() -> ExitCode {
         Command::Trace(a) => trace(a),
         Command::Fit(a) => fit(a),
         Command::ExportMesh(a) => export_mesh(a),
+        Command::ExportHeightfield(a) => export_heightfield(a),
         Command::Render(a) => render(a),
         Command::Merge(a) => merge(a),
         Command::ExportBrdf(a) => export_brdf(a),
@@ -472,9 +499,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         }
         run.theta_deg.clone_from(t);
     }
-    if a.stats_resolution < 2 {
-        return Err(Failure::Input("--stats-resolution: must be >= 2".into()));
-    }
+    let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
     let shard = a
         .shard
         .as_deref()
@@ -493,8 +518,8 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
 
-    let r = a.stats_resolution;
-    let stats = surface_stats(&scene.surface.height_map(r, r));
+    let r = rx;
+    let stats = surface_stats(&scene.surface.height_map(rx, ry));
     let edges = format!("{:?}", scene.surface.edges).to_lowercase();
     let settings = shard::settings_json(
         &scene.source.file,
@@ -1102,26 +1127,62 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The height-map grid for statistics: `requested` (checked), or the
+/// height field's own grid, or `default`.
+fn stats_grid(
+    scene: &MicroScene,
+    requested: Option<usize>,
+    default: usize,
+    option: &str,
+) -> Result<(usize, usize), Failure> {
+    match (requested, &scene.surface.heightfield) {
+        (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
+        (Some(r), _) => Ok((r, r)),
+        (None, Some(f)) => Ok((f.nx, f.ny)),
+        (None, None) => Ok((default, default)),
+    }
+}
+
+/// A height-field scene's own grid, refusing any other `--resolution`.
+fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Failure> {
+    match (&scene.surface.heightfield, resolution) {
+        (Some(f), Some(r)) if (r, r) != (f.nx, f.ny) => Err(Failure::Input(format!(
+            "--resolution: {}: a height field is written on its own {} x {} grid, got {r}",
+            scene.source.file, f.nx, f.ny
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Write `bytes` to `path`, creating its folder.
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    output::write_atomic(path, bytes)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    Ok(())
+}
+
 fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
     if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
         return export_object_mesh(&a, path);
     }
-    if !(1..=roks::export::MAX_CELLS_PER_SIDE).contains(&a.resolution) {
+    let resolution = a.resolution.unwrap_or(512);
+    if !(1..=roks::export::MAX_CELLS_PER_SIDE).contains(&resolution) {
         return Err(Failure::Input(format!(
-            "--resolution: must be in 1..={}, got {}",
+            "--resolution: must be in 1..={}, got {resolution}",
             roks::export::MAX_CELLS_PER_SIDE,
-            a.resolution
         )));
     }
     let scene = load_scene(a.scene.as_deref())?;
-    let mesh = roks::export::height_field_mesh(&scene.surface, a.resolution);
-    let bytes = roks::export::write_ply(&mesh);
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
-    }
-    output::write_atomic(&a.out, &bytes)
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", a.out.display()))?;
+    own_grid(&scene, a.resolution)?;
+    let mesh = match &scene.surface.heightfield {
+        Some(field) => roks::export::field_mesh(field),
+        None => roks::export::height_field_mesh(&scene.surface, resolution),
+    };
+    write_file(&a.out, &roks::export::write_ply(&mesh))?;
     eprintln!(
         "wrote {} ({} vertices, {} triangles, one {} x {} period)",
         a.out.display(),
@@ -1129,6 +1190,73 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
         mesh.faces.len(),
         scene.surface.size.x,
         scene.surface.size.y
+    );
+    Ok(())
+}
+
+fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
+    use roks::micro::heightfield_io::{self, Format, HeightGrid};
+    let format = Format::of(&a.out);
+    if format == Format::Png {
+        return Err(Failure::Input(
+            "--out: PNG height maps are read, not written; use .exr or .txt".into(),
+        ));
+    }
+    let scene = load_scene(a.scene.as_deref())?;
+    own_grid(&scene, a.resolution)?;
+    let grid = match &scene.surface.heightfield {
+        Some(f) => HeightGrid {
+            nx: f.nx,
+            ny: f.ny,
+            h: f.h.clone(),
+        },
+        None => {
+            let n = a.resolution.unwrap_or(512);
+            if !(2..=16384).contains(&n) {
+                return Err(Failure::Input(format!(
+                    "--resolution: must be in 2..=16384, got {n}"
+                )));
+            }
+            let s = scene.surface.size;
+            let mut scratch = roks::micro::Scratch::new(&scene.surface);
+            let h: Vec<f64> = (0..n * n)
+                .map(|k| {
+                    let (i, j) = ((k % n) as f64, (k / n) as f64);
+                    scene.surface.height_at(
+                        s.x * (i / n as f64),
+                        s.y * (j / n as f64),
+                        &mut scratch,
+                    )
+                })
+                .collect();
+            HeightGrid { nx: n, ny: n, h }
+        }
+    };
+    let size = scene.surface.size;
+    let (px, py) = (size.x / grid.nx as f64, size.y / grid.ny as f64);
+    let comment = format!(
+        "roks height map of {}: {} x {} vertices, pitch {px:?} x {py:?} (length units); row j is y = j * pitch",
+        scene.source.file, grid.nx, grid.ny
+    );
+    let bytes = heightfield_io::write(&grid, format, &comment).map_err(|e| anyhow::anyhow!(e))?;
+    write_file(&a.out, &bytes)?;
+    let file = a
+        .out
+        .file_name()
+        .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
+    let keys = if px == py {
+        format!("heightfield = {{ file = {file:?}, pixel = {px:?} }}")
+    } else {
+        format!(
+            "size = [{:?}, {:?}]\nheightfield = {{ file = {file:?} }}",
+            size.x, size.y
+        )
+    };
+    eprintln!(
+        "wrote {} ({} x {} heights); load it with, in [surface]:\n{keys}",
+        a.out.display(),
+        grid.nx,
+        grid.ny
     );
     Ok(())
 }
@@ -1298,15 +1426,15 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
             scene.source.file
         )));
     };
-    if !(1..=MAX_VOXELS_PER_SIDE).contains(&a.resolution) {
+    let resolution = a.resolution.unwrap_or(512);
+    if !(1..=MAX_VOXELS_PER_SIDE).contains(&resolution) {
         return Err(Failure::Input(format!(
-            "--resolution: must be in 1..={MAX_VOXELS_PER_SIDE} for object scenes, got {}",
-            a.resolution
+            "--resolution: must be in 1..={MAX_VOXELS_PER_SIDE} for object scenes, got {resolution}"
         )));
     }
     let lo = glam::DVec3::new(b[0], b[1], b[2]);
     let hi = glam::DVec3::new(b[3], b[4], b[5]);
-    let mesh = object_mesh(&scene.object, lo, hi, a.resolution)
+    let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
     if mesh.faces.is_empty() {
         return Err(Failure::Input(format!(
@@ -1333,11 +1461,8 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
 
 fn stats(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
-    if a.resolution < 2 {
-        return Err(Failure::Input("--resolution: must be >= 2".into()));
-    }
-    let r = a.resolution;
-    let s = surface_stats(&scene.surface.height_map(r, r));
+    let (r, ry) = stats_grid(&scene, a.resolution, 1024, "--resolution")?;
+    let s = surface_stats(&scene.surface.height_map(r, ry));
     if a.json {
         let v = output::surface_json(&s, r);
         println!(
@@ -1352,7 +1477,7 @@ fn stats(a: StatsArgs) -> Result<(), Failure> {
         "cell             {} x {} ({:?} edges)",
         size.x, size.y, scene.surface.edges
     );
-    println!("height map       {r} x {r}");
+    println!("height map       {r} x {ry}");
     println!(
         "sigma            {:.6}   RMS height about the mean",
         s.sigma

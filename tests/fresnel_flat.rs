@@ -28,11 +28,14 @@ fn carlson_cell(bands: usize, theta: f64, phi: f64) -> usize {
 }
 
 fn flat_al_scene(thetas: &[f64], phi_deg: f64) -> roks::scene::micro::MicroScene {
+    common::scene("flat_al", &substrate_text(thetas, phi_deg))
+}
+
+/// The TOML of the flat Al substrate lit from `thetas` at azimuth `phi_deg`.
+fn substrate_text(thetas: &[f64], phi_deg: f64) -> String {
     let thetas: Vec<String> = thetas.iter().map(|t| format!("{t:?}")).collect();
-    common::scene(
-        "flat_al",
-        &format!(
-            r#"
+    format!(
+        r#"
 [surface]
 size = [1.0, 1.0]
 material = "al"
@@ -50,8 +53,7 @@ seed = 3
 [tally]
 bands = 32
 "#,
-            thetas.join(", ")
-        ),
+        thetas.join(", ")
     )
 }
 
@@ -84,29 +86,11 @@ fn flat_fresnel_reflectance_is_exact() {
     let scene = flat_al_scene(&thetas, 30.0);
     let results = common::run(&scene);
     for r in &results {
-        let expect = common::fresnel_textbook(r.theta_i_deg.to_radians(), AL_N, AL_K);
+        assert_exact_fresnel(r);
         let (mean, stderr) = r.reflectance();
-        assert!(
-            (mean - expect).abs() < 1e-12,
-            "theta {}: reflectance {mean}, exact Fresnel {expect}",
-            r.theta_i_deg
-        );
         assert!(
             stderr <= f64::EPSILON.sqrt() * mean,
             "theta {}: stderr {stderr}",
-            r.theta_i_deg
-        );
-        assert_eq!(
-            r.lost(),
-            0.0,
-            "theta {}: {}",
-            r.theta_i_deg,
-            common::losses(r)
-        );
-        // Exactly one reflection per photon.
-        assert_eq!(
-            r.tallies.bounces, r.tallies.photons,
-            "theta {}",
             r.theta_i_deg
         );
         assert_eq!(r.tallies.by_bounces[1], r.tallies.reflected.sum[0]);
@@ -114,6 +98,20 @@ fn flat_fresnel_reflectance_is_exact() {
             assert!((mean - 0.9154).abs() < 5e-5, "R(0) = {mean}");
         }
     }
+}
+
+/// Reflectance equal to the textbook Fresnel reflectance to 1e-12, nothing
+/// lost, exactly one reflection per photon.
+fn assert_exact_fresnel(r: &roks::transport::brdf::IncidenceResult) {
+    let theta = r.theta_i_deg;
+    let expect = common::fresnel_textbook(theta.to_radians(), AL_N, AL_K);
+    let (mean, _) = r.reflectance();
+    assert!(
+        (mean - expect).abs() < 1e-12,
+        "theta {theta}: reflectance {mean}, exact Fresnel {expect}"
+    );
+    assert_eq!(r.lost(), 0.0, "theta {theta}: {}", common::losses(r));
+    assert_eq!(r.tallies.bounces, r.tallies.photons, "theta {theta}");
 }
 
 /// All reflected weight lands in the one Carlson cell that holds the mirror
@@ -152,5 +150,40 @@ fn flat_reflection_lands_in_the_specular_carlson_cell() {
             );
             assert_eq!(hit[0], want, "theta {}", r.theta_i_deg);
         }
+    }
+}
+
+/// A height field of zeros (a 4 x 4 text map) is the flat substrate: exact
+/// Fresnel reflectance to 1e-12 at 0-89 degrees, one reflection per photon,
+/// and the very same tallies, bit for bit, as the flat substrate scene
+/// (same photons, same normal, same arithmetic).
+#[test]
+fn flat_height_field_is_the_flat_substrate() {
+    let thetas = [0.0, 10.0, 30.0, 45.0, 60.0, 80.0, 89.0];
+    let map = std::env::temp_dir().join(format!("roks-it-{}-zeros.txt", std::process::id()));
+    std::fs::write(&map, "0 0 0 0\n".repeat(4)).unwrap();
+    let substrate = flat_al_scene(&thetas, 30.0);
+    let text = substrate_text(&thetas, 30.0).replace(
+        "size = [1.0, 1.0]",
+        &format!(
+            "heightfield = {{ file = {:?}, pixel = 0.25 }}",
+            map.display().to_string()
+        ),
+    );
+    let field = common::scene("flat_field", &text);
+    assert!(field.surface.heightfield.is_some());
+    let (a, b) = (common::run(&substrate), common::run(&field));
+    for (s, f) in a.iter().zip(&b) {
+        assert_exact_fresnel(f);
+        assert_eq!(
+            f.tallies.carlson.sum, s.tallies.carlson.sum,
+            "theta {}",
+            f.theta_i_deg
+        );
+        assert_eq!(
+            f.tallies.inplane.sum, s.tallies.inplane.sum,
+            "theta {}",
+            f.theta_i_deg
+        );
     }
 }

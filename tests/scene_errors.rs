@@ -52,9 +52,17 @@ fn broken(from: &str, to: &str) -> String {
 /// contract; `expect` are substrings the stderr line must contain besides
 /// the file path.
 fn check(case: &str, text: &str, expect: &[&str]) {
+    check_with_files(case, text, &[], expect);
+}
+
+/// [`check`], with extra files `(name, bytes)` beside the scene.
+fn check_with_files(case: &str, text: &str, files: &[(&str, &[u8])], expect: &[&str]) {
     let dir = scratch(case);
     let scene = dir.join(format!("{case}.toml"));
     std::fs::write(&scene, text).unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.join(name), bytes).unwrap();
+    }
     let out = dir.join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_roks"))
         .arg("brdf")
@@ -220,5 +228,132 @@ fn unknown_key_line_number() {
         "key_line",
         &text,
         &["surface.colour", &format!("(line {line})")],
+    );
+}
+
+/// A valid height-field scene; the cases below break one thing in it.
+const FIELD: &str = r#"
+[surface]
+size = [8.0, 8.0]
+material = "paint"
+heightfield = { gaussian = { sigma = 0.5, tau = 2.0 }, resolution = 32, seed = 4 }
+
+[materials.paint]
+reflectance = 0.8
+
+[light]
+theta_deg = [0, 30]
+photons = 1000
+"#;
+
+fn field_broken(from: &str, to: &str) -> String {
+    assert!(FIELD.contains(from), "`{from}` not in the field scene");
+    FIELD.replacen(from, to, 1)
+}
+
+const GAUSSIAN: &str =
+    "heightfield = { gaussian = { sigma = 0.5, tau = 2.0 }, resolution = 32, seed = 4 }";
+
+#[test]
+fn height_field_and_bumps() {
+    let text =
+        format!("{FIELD}\n[[bumps]]\nshape = \"cone\"\ncount = 3\nradius = 1.0\nheight = 1.0\n");
+    check(
+        "field_bumps",
+        &text,
+        &["bumps", "cannot be combined", "surface.heightfield"],
+    );
+}
+
+#[test]
+fn height_field_unknown_key() {
+    check(
+        "field_key",
+        &field_broken("seed = 4", "seed = 4, smooth = true"),
+        &["surface.heightfield.smooth", "unknown field"],
+    );
+}
+
+#[test]
+fn height_field_missing_file() {
+    check(
+        "field_file",
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "nowhere.exr", pixel = 0.25 }"#,
+        ),
+        &["surface.heightfield.file", "nowhere.exr", "cannot read"],
+    );
+}
+
+#[test]
+fn height_field_ragged_text_map() {
+    check_with_files(
+        "field_ragged",
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "map.txt", pixel = 4.0 }"#,
+        ),
+        &[("map.txt", b"0 1\n2\n")],
+        &["surface.heightfield.file", "map.txt", "line 2"],
+    );
+}
+
+#[test]
+fn height_field_size_contradicts_the_map() {
+    // 2 x 2 pixels of 1.0 make a 2 x 2 cell, not 8 x 8.
+    check_with_files(
+        "field_size",
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "map.txt", pixel = 1.0 }"#,
+        ),
+        &[("map.txt", b"0 1\n2 3\n")],
+        &["surface.size", "contradicts", "2 x 2 pixels"],
+    );
+}
+
+#[test]
+fn height_field_png_needs_a_height_scale() {
+    check(
+        "field_png",
+        &field_broken(
+            GAUSSIAN,
+            r#"heightfield = { file = "map.png", pixel = 0.25 }"#,
+        ),
+        &["surface.heightfield.height_scale", "PNG"],
+    );
+}
+
+#[test]
+fn height_field_needs_periodic_edges() {
+    check(
+        "field_edges",
+        &field_broken(
+            "material = \"paint\"\nheightfield",
+            "edges = \"absorbing\"\nmaterial = \"paint\"\nheightfield",
+        ),
+        &["surface.edges", "periodic"],
+    );
+}
+
+#[test]
+fn height_field_tau_below_the_pitch() {
+    check(
+        "field_tau",
+        &field_broken(
+            "tau = 2.0 }, resolution = 32",
+            "tau = 0.1 }, resolution = 32",
+        ),
+        &["surface.heightfield.gaussian.tau", "pitch"],
+    );
+}
+
+#[test]
+fn height_field_gaussian_needs_a_size() {
+    check(
+        "field_nosize",
+        &field_broken("size = [8.0, 8.0]\n", ""),
+        &["surface.size", "missing"],
     );
 }

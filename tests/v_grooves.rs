@@ -11,6 +11,11 @@
 //! the groove bottoms at x = 0 = W (periodic). The light comes from
 //! phi = 0, i.e. in the x-z plane, across the grooves; the y period is
 //! irrelevant (photons never move in y).
+//!
+//! The same grooves as a height field (a text map of `nx` columns, the apex
+//! and the groove bottoms on grid vertices, so the triangulated field IS the
+//! grooves) test the height-field traversal: flights cross many squares,
+//! skip mip nodes, wrap across the cell and bounce between facets.
 
 mod common;
 
@@ -54,6 +59,13 @@ fn cases() -> Vec<Case> {
 
 const PHOTONS: u64 = 200_000;
 
+/// The `[light]` table: `PHOTONS` from `theta_deg` across the grooves.
+fn light(theta_deg: f64) -> String {
+    format!(
+        "\n[light]\ntheta_deg = [{theta_deg:?}]\nphi_deg = 0.0\nphotons = {PHOTONS}\nseed = 7\n"
+    )
+}
+
 /// The V-groove scene for wall slope `alpha_deg` with constant wall reflectance `rho`.
 fn grooves(alpha_deg: f64, theta_deg: f64, rho: f64) -> MicroScene {
     common::scene(
@@ -82,21 +94,27 @@ fn bounce_fractions_match_zipin() {
     for c in cases() {
         let r = trace(c.alpha_deg, c.theta_deg, 1.0);
         let what = format!("alpha {} theta {}", c.alpha_deg, c.theta_deg);
-        assert_eq!(r.lost(), 0.0, "{what}: {}", common::losses(&r));
-        let n = r.tallies.photons as f64;
-        for (k, &w) in r.tallies.by_bounces.iter().enumerate() {
-            let p = c
-                .fractions
-                .iter()
-                .find(|&&(kk, _)| kk == k)
-                .map_or(0.0, |&(_, p)| p);
-            let measured = w / n;
-            let sigma = (p * (1.0 - p) / n).sqrt();
-            assert!(
-                (measured - p).abs() <= 4.0 * sigma,
-                "{what}: {k} bounces: measured {measured}, Zipin {p} (sigma {sigma})"
-            );
-        }
+        assert_zipin_fractions(&c, &r, &what);
+    }
+}
+
+/// Nothing lost, and the weight leaving after k bounces (rho = 1: the photon
+/// fraction) within 4 binomial standard errors of the Zipin fraction.
+fn assert_zipin_fractions(c: &Case, r: &IncidenceResult, what: &str) {
+    assert_eq!(r.lost(), 0.0, "{what}: {}", common::losses(r));
+    let n = r.tallies.photons as f64;
+    for (k, &w) in r.tallies.by_bounces.iter().enumerate() {
+        let p = c
+            .fractions
+            .iter()
+            .find(|&&(kk, _)| kk == k)
+            .map_or(0.0, |&(_, p)| p);
+        let measured = w / n;
+        let sigma = (p * (1.0 - p) / n).sqrt();
+        assert!(
+            (measured - p).abs() <= 4.0 * sigma,
+            "{what}: {k} bounces: measured {measured}, Zipin {p} (sigma {sigma})"
+        );
     }
 }
 
@@ -135,6 +153,53 @@ fn reflectance_with_constant_rho_is_sum_of_powers() {
                 (g - w * rho.powi(k as i32)).abs() <= 1e-12 * w,
                 "{what}: {k} bounces: weight {g} vs {w} photons"
             );
+        }
+    }
+}
+
+/// The grooves as a height field of `nx` columns (even) and 4 rows: vertex
+/// `i` at `x = i W / nx` has height `2 min(i, nx - i) / nx` (exact decimals),
+/// the apex (height 1) at `i = nx / 2`, the bottoms at `i = 0` (= `nx`).
+fn grooves_field(alpha_deg: f64, theta_deg: f64, nx: usize) -> MicroScene {
+    let width = 2.0 / alpha_deg.to_radians().tan();
+    let row: Vec<String> = (0..nx)
+        .map(|i| format!("{:?}", 2.0 * i.min(nx - i) as f64 / nx as f64))
+        .collect();
+    let map = std::env::temp_dir().join(format!(
+        "roks-it-{}-grooves-{alpha_deg}-{nx}.txt",
+        std::process::id()
+    ));
+    std::fs::write(&map, format!("{}\n", row.join(" ")).repeat(4)).unwrap();
+    common::scene(
+        &format!("grooves_field_{alpha_deg}"),
+        &format!(
+            r#"
+[surface]
+size = [{width:?}, 1.0]
+material = "wall"
+heightfield = {{ file = {:?} }}
+
+[materials.wall]
+reflectance = 1.0
+{}"#,
+            map.display().to_string(),
+            light(theta_deg)
+        ),
+    )
+}
+
+/// The height-field grooves, with the grooves on 2 and on 16 grid columns,
+/// leave after k bounces in the Zipin fractions (4 binomial sigma; exact
+/// where the table says 0 or 1), with nothing lost.
+#[test]
+fn height_field_grooves_match_zipin() {
+    for nx in [2, 16] {
+        for c in cases() {
+            let scene = grooves_field(c.alpha_deg, c.theta_deg, nx);
+            assert_eq!(scene.surface.max_height, 1.0);
+            let r = common::run(&scene).remove(0);
+            let what = format!("{nx} columns, alpha {} theta {}", c.alpha_deg, c.theta_deg);
+            assert_zipin_fractions(&c, &r, &what);
         }
     }
 }

@@ -4,7 +4,8 @@
 //! (`roks export-brdf`: [`brdf_formats`], [`zemax`], [`merl`]).
 //!
 //! [`height_field_mesh`] samples the top surface of a [`MicroSurface`] on a
-//! regular grid over one period and triangulates it; [`write_ply`] encodes the
+//! regular grid over one period and triangulates it; [`field_mesh`] writes
+//! a height-field surface's own grid and triangles exactly; [`write_ply`] encodes the
 //! mesh as binary little-endian PLY, the form Mitsuba 3's `ply` shape reads,
 //! and [`read_ply`] decodes it again (tests, round trips).
 //!
@@ -48,6 +49,7 @@ pub mod zemax;
 
 use glam::DVec2;
 
+use crate::micro::heightfield::HeightField;
 use crate::micro::{Edges, MicroSurface, Scratch};
 
 /// An indexed triangle mesh (single precision, as in PLY and Mitsuba 3).
@@ -117,19 +119,54 @@ pub fn height_field_mesh(surface: &MicroSurface, n: usize) -> Mesh {
     }
     debug_assert_eq!(heights.len(), side * side);
 
+    grid_mesh(size, n, n, &heights)
+}
+
+/// The mesh of a height field's own grid: its `(nx + 1) x (ny + 1)` vertices
+/// (the last row and column repeat the first: one period, tiling without
+/// cracks) with its heights, and its triangles, the same diagonal and
+/// winding as [`HeightField`] traces, so that a renderer sees the very
+/// triangles roks traces (to the `f32` rounding of the coordinates; none at
+/// all when the pitch and heights are `f32` numbers, as for generated fields
+/// on power-of-two grids of power-of-two cells).
+///
+/// # Panics
+///
+/// If the grid has more than [`MAX_CELLS_PER_SIDE`] squares per side.
+#[must_use]
+pub fn field_mesh(field: &HeightField) -> Mesh {
+    let (nx, ny) = (field.nx, field.ny);
+    assert!(
+        nx.max(ny) <= MAX_CELLS_PER_SIDE,
+        "field_mesh: {nx} x {ny} squares, at most {MAX_CELLS_PER_SIDE} per side"
+    );
+    let heights: Vec<f64> = (0..=ny)
+        .flat_map(|j| (0..=nx).map(move |i| field.vertex(i as i64, j as i64)))
+        .collect();
+    grid_mesh(field.size, nx, ny, &heights)
+}
+
+/// Triangulate `(nx + 1) x (ny + 1)` vertex heights (row-major, `j (nx + 1) + i`)
+/// over `[0, Lx] x [0, Ly]`: vertex `(i, j)` at `(Lx i / nx, Ly j / ny)`, two
+/// triangles per square split along the diagonal `(i, j)`-`(i + 1, j + 1)`,
+/// counter-clockwise seen from `+z`.
+fn grid_mesh(size: DVec2, nx: usize, ny: usize, heights: &[f64]) -> Mesh {
+    let side = nx + 1;
+    debug_assert_eq!(heights.len(), side * (ny + 1));
+    let coord = |k: usize, n: usize, len: f64| len * (k as f64 / n as f64);
     let vertices = heights
         .iter()
         .enumerate()
         .map(|(k, &z)| {
-            let p = DVec2::new(coord(k % side, size.x), coord(k / side, size.y));
+            let p = DVec2::new(coord(k % side, nx, size.x), coord(k / side, ny, size.y));
             [p.x as f32, p.y as f32, z as f32]
         })
         .collect();
 
-    let mut faces = Vec::with_capacity(2 * n * n);
+    let mut faces = Vec::with_capacity(2 * nx * ny);
     let index = |i: usize, j: usize| (j * side + i) as u32;
-    for j in 0..n {
-        for i in 0..n {
+    for j in 0..ny {
+        for i in 0..nx {
             let (a, b, c, d) = (
                 index(i, j),
                 index(i + 1, j),

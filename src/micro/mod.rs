@@ -14,14 +14,26 @@
 //! store the highest point of what they hold, so rays that pass above a grid
 //! cell skip it. The cost per segment stays flat as the bump count grows at
 //! constant density.
+//!
+//! Instead of the substrate and solids, a surface may be a periodic
+//! [`heightfield::HeightField`] (a triangulated grid of heights); then
+//! [`MicroSurface::next_event`] walks the field, [`Event::Hit`] names it by
+//! `solid = HEIGHT_FIELD` and a triangle id, and [`MicroSurface::hit_normal`]
+//! gives the normal for either kind, so the photon history has one loop.
 
 pub mod bumps;
+pub mod heightfield;
+pub mod heightfield_io;
 pub mod surface_stats;
 
 use glam::{DVec2, DVec3};
 
 use crate::geometry::body::{Aabb, Body, Ray};
 use crate::optics::material::Reflectance;
+use heightfield::{FieldEvent, HeightField};
+
+/// `solid` of an [`Event::Hit`] on the height field (its `surface` is the triangle id).
+pub const HEIGHT_FIELD: usize = usize::MAX;
 
 /// What happens where a photon reaches a side of the cell below the top.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,9 +79,9 @@ pub enum Event {
     Hit {
         /// Distance (units of `|d|`).
         t: f64,
-        /// Index into [`MicroSurface::solids`].
+        /// Index into [`MicroSurface::solids`], or [`HEIGHT_FIELD`].
         solid: usize,
-        /// Index into that solid's surfaces.
+        /// Index into that solid's surfaces, or the height field's triangle id.
         surface: usize,
     },
     /// Leaves through the launch plane at distance `t` (escapes).
@@ -216,6 +228,9 @@ pub struct MicroSurface {
     pub materials: Vec<Reflectance>,
     /// Material of the substrate and of reflecting walls.
     pub substrate_material: usize,
+    /// A height field replacing substrate and solids (then `solids` is empty
+    /// and the edges are periodic).
+    pub heightfield: Option<HeightField>,
     /// Solids tested for every flight (unbounded in x or y).
     global: Vec<usize>,
     grid: Grid,
@@ -324,9 +339,60 @@ impl MicroSurface {
             max_height,
             materials,
             substrate_material,
+            heightfield: None,
             global,
             grid,
         }
+    }
+
+    /// A periodic surface made of the height field `field` alone, of
+    /// material `material` (an index into `materials`).
+    #[must_use]
+    pub fn from_height_field(
+        field: HeightField,
+        materials: Vec<Reflectance>,
+        material: usize,
+    ) -> Self {
+        let size = field.size;
+        let max_height = field.max;
+        let scale = size.max_element().max(field.max.abs()).max(field.min.abs());
+        Self {
+            size,
+            edges: Edges::Periodic,
+            solids: Vec::new(),
+            top: max_height + 1e-9 * scale,
+            max_height,
+            materials,
+            substrate_material: material,
+            heightfield: Some(field),
+            global: Vec::new(),
+            grid: Grid::build(size, &[], &[]),
+        }
+    }
+
+    /// The unit normal facing the flight (`n . d <= 0`) and the material
+    /// where a flight along `d` ended in `Event::Hit { solid, surface, .. }`
+    /// at `p`. A height-field hit may lie in a neighbouring period: `p` is
+    /// then moved back into the cell by whole periods. `None` where the
+    /// normal is undefined (a cone apex).
+    #[must_use]
+    #[inline]
+    pub fn hit_normal(
+        &self,
+        p: &mut DVec3,
+        d: DVec3,
+        solid: usize,
+        surface: usize,
+    ) -> Option<(DVec3, usize)> {
+        if solid == HEIGHT_FIELD {
+            let field = self.heightfield.as_ref()?;
+            *p = field.fold(*p);
+            // Hits are only taken while the flight descends onto the triangle.
+            return Some((field.normal(surface), self.substrate_material));
+        }
+        let body = &self.solids[solid].body;
+        let n = body.surfaces[surface].facing_normal(*p, d)?;
+        Some((n, body.material))
     }
 
     /// The next event of the flight from `o` along unit `d`, which starts inside
@@ -339,6 +405,20 @@ impl MicroSurface {
         standing: Option<(usize, usize)>,
         scratch: &mut Scratch,
     ) -> Event {
+        if let Some(field) = &self.heightfield {
+            let standing = standing.and_then(|(s, tri)| (s == HEIGHT_FIELD).then_some(tri));
+            return match field.first_hit(o, d, standing) {
+                FieldEvent::Hit { t, triangle } => Event::Hit {
+                    t,
+                    solid: HEIGHT_FIELD,
+                    surface: triangle,
+                },
+                FieldEvent::Escapes => Event::Top {
+                    t: ((self.top - o.z) / d.z).max(0.0),
+                },
+                FieldEvent::Trapped => Event::Trapped,
+            };
+        }
         let ray = Ray::new(o, d);
         let inv = ray.inv_d;
         // Where the flight leaves the cell box: the top or a side.
@@ -450,11 +530,33 @@ impl MicroSurface {
     }
 
     /// The height map on an `nx x ny` grid of pixel centres over the cell.
+    ///
+    /// For a height field whose grid is a multiple of `nx x ny` the samples
+    /// are its vertex heights themselves (every `k`-th vertex), exact and
+    /// offset by half a pixel from the centres (which changes no statistic of
+    /// a periodic map); otherwise vertical rays sample the surface.
     #[must_use]
     pub fn height_map(&self, nx: usize, ny: usize) -> surface_stats::HeightMap {
         use rayon::prelude::*;
         let dx = self.size.x / nx as f64;
         let dy = self.size.y / ny as f64;
+        if let Some(f) = self
+            .heightfield
+            .as_ref()
+            .filter(|f| nx > 0 && ny > 0 && f.nx % nx == 0 && f.ny % ny == 0)
+        {
+            let (kx, ky) = (f.nx / nx, f.ny / ny);
+            return surface_stats::HeightMap {
+                nx,
+                ny,
+                dx,
+                dy,
+                h: (0..nx * ny)
+                    .map(|k| f.h[(k / nx) * ky * f.nx + (k % nx) * kx])
+                    .collect(),
+                periodic: true,
+            };
+        }
         let h: Vec<f64> = (0..ny)
             .into_par_iter()
             .flat_map_iter(|iy| {
@@ -480,6 +582,9 @@ impl MicroSurface {
     /// listed per grid cell (for reports).
     #[must_use]
     pub fn acceleration_stats(&self) -> (usize, f64) {
+        if self.heightfield.is_some() {
+            return (0, 0.0);
+        }
         let cells = self.grid.n[0] * self.grid.n[1];
         (
             self.global.len(),

@@ -260,7 +260,7 @@ fn slope_square_sums(map: &HeightMap) -> (f64, f64) {
 }
 
 /// In-place 2-D FFT (unnormalised) of a row-major `nx × ny` complex grid.
-fn fft2(
+pub(crate) fn fft2(
     planner: &mut FftPlanner<f64>,
     data: &mut [Complex<f64>],
     nx: usize,

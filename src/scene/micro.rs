@@ -7,6 +7,9 @@
 //! size = [30.0, 30.0]       # cell Lx, Ly (relative units)
 //! edges = "periodic"        # "periodic" | "absorbing" | "reflecting"
 //! material = "paint"        # substrate (and reflecting walls)
+//! # heightfield = { gaussian = { sigma = 1.0, tau = 11.9 }, resolution = 1024, seed = 3 }
+//! # heightfield = { file = "sample.exr", pixel = 0.5 }   # instead of substrate and bumps;
+//! #                         # see HeightFieldSpec (EXR, 16-bit PNG + height_scale, text)
 //!
 //! [materials.paint]
 //! reflectance = 0.8         # or n = .., k = ..; or table = "r.csv"
@@ -61,6 +64,8 @@ use super::{
 use crate::geometry::body::{Body, Ray};
 use crate::geometry::quadric::Quadric;
 use crate::micro::bumps::{Bump, Shape};
+use crate::micro::heightfield::HeightField;
+use crate::micro::heightfield_io::{self, Format};
 use crate::micro::{Edges, MicroSurface, Placed};
 use crate::transport::brdf::BrdfRun;
 use crate::transport::micro::Controls;
@@ -103,13 +108,74 @@ pub struct MicroSceneSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SurfaceSpec {
-    /// Cell size `[Lx, Ly]`.
-    pub size: [f64; 2],
+    /// Cell size `[Lx, Ly]` (may be omitted for a height-field file with `pixel`).
+    pub size: Option<[f64; 2]>,
     /// Side behaviour (default periodic).
     #[serde(default = "default_edges")]
     pub edges: EdgesSpec,
-    /// Substrate material name.
+    /// Substrate material name (the height field's material).
     pub material: String,
+    /// A height field replacing substrate, bumps and bodies.
+    pub heightfield: Option<HeightFieldSpec>,
+}
+
+/// `[surface] heightfield`: a Gaussian random surface or a measured map.
+///
+/// ```toml
+/// heightfield = { gaussian = { sigma = 1.0, tau = 11.9 }, resolution = 1024, seed = 3 }
+/// heightfield = { file = "sample.exr", pixel = 0.5 }              # EXR (channel Y or the first)
+/// heightfield = { file = "sample.png", pixel = 0.5, height_scale = 1e-4 }  # 16-bit PNG
+/// heightfield = { file = "sample.txt", pixel = 0.5 }              # text grid
+/// ```
+///
+/// * `gaussian`: `sigma` (RMS height) and `tau` (autocorrelation length:
+///   `C(r) = sigma² exp(-r² / tau²)`), length units; needs `[surface] size`;
+///   `resolution`: grid squares per side, `N` or `[Nx, Ny]` (2..=16384);
+///   `seed` (default 1). See [`HeightField::gaussian`].
+/// * `file`: path relative to the scene file; the format by extension (see
+///   [`crate::micro::heightfield_io`]); row `j` is `y = j pixel`. `pixel`:
+///   grid pitch (length units); the cell is `nx pixel x ny pixel`. With
+///   `pixel` omitted, `[surface] size` gives the cell; with both, they must
+///   agree (to 1e-9). `height_scale`: length units per file unit (required
+///   for PNG, whose heights are counts 0..=65535; default 1 otherwise).
+///
+/// The field is periodic (`edges = "periodic"`), of the surface material,
+/// and cannot be combined with `[[bumps]]`, `[[bodies]]` or `[quadrics]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeightFieldSpec {
+    /// Gaussian random surface statistics.
+    pub gaussian: Option<GaussianSpec>,
+    /// Gaussian: grid squares per side.
+    pub resolution: Option<Resolution>,
+    /// Gaussian: synthesis seed (default 1).
+    pub seed: Option<u64>,
+    /// Measured map file.
+    pub file: Option<String>,
+    /// File: grid pitch (length units).
+    pub pixel: Option<f64>,
+    /// File: length units per file height unit.
+    pub height_scale: Option<f64>,
+}
+
+/// `gaussian = { sigma, tau }` (length units).
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaussianSpec {
+    /// RMS height.
+    pub sigma: f64,
+    /// Autocorrelation length (1/e of the correlation coefficient).
+    pub tau: f64,
+}
+
+/// Grid squares per side: one number or `[nx, ny]`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(untagged)]
+pub enum Resolution {
+    /// Square grid.
+    One(usize),
+    /// `[nx, ny]`.
+    Two([usize; 2]),
 }
 
 /// `edges` values.
@@ -330,16 +396,11 @@ impl MicroScene {
 impl MicroSceneSpec {
     /// Check everything and build the scene.
     pub fn build(self, source: Source, fallback_name: String) -> Result<MicroScene, SceneError> {
-        let [lx, ly] = self.surface.size;
-        for (i, l) in [lx, ly].into_iter().enumerate() {
-            if !(l.is_finite() && l > 0.0) {
-                return Err(source.error(
-                    format!("surface.size[{i}]"),
-                    format!("must be > 0, got {l}"),
-                ));
-            }
-        }
-        let size = DVec2::new(lx, ly);
+        let given_size = self
+            .surface
+            .size
+            .map(|size| check_size(&source, size))
+            .transpose()?;
         let (names, materials) = build_materials(&source, &self.materials)?;
         let substrate =
             material_index(&source, &names, &self.surface.material, "surface.material")?;
@@ -347,6 +408,35 @@ impl MicroSceneSpec {
             EdgesSpec::Periodic => Edges::Periodic,
             EdgesSpec::Absorbing => Edges::Absorbing,
             EdgesSpec::Reflecting => Edges::Reflecting,
+        };
+        let field = match &self.surface.heightfield {
+            Some(hf) => {
+                for (key, given) in [
+                    ("bumps", !self.bumps.is_empty()),
+                    ("bodies", !self.bodies.is_empty()),
+                    ("quadrics", !self.quadrics.is_empty()),
+                ] {
+                    if given {
+                        return Err(source.error(
+                            key,
+                            "cannot be combined with surface.heightfield (the height field is the whole surface)",
+                        ));
+                    }
+                }
+                if edges != Edges::Periodic {
+                    return Err(source.error(
+                        "surface.edges",
+                        "a height field is periodic: edges must be \"periodic\"",
+                    ));
+                }
+                Some(hf.build(&source, given_size)?)
+            }
+            None => None,
+        };
+        let size = match (given_size, &field) {
+            (_, Some(f)) => f.size,
+            (Some(size), None) => size,
+            (None, None) => return Err(source.error("surface.size", "missing")),
         };
 
         let mut placed = Vec::new();
@@ -420,7 +510,10 @@ impl MicroSceneSpec {
             return Err(source.error("transport.roulette_weight", "must be in [0, 1)"));
         }
 
-        let surface = MicroSurface::new(size, edges, placed, materials, substrate);
+        let surface = match field {
+            Some(field) => MicroSurface::from_height_field(field, materials, substrate),
+            None => MicroSurface::new(size, edges, placed, materials, substrate),
+        };
         Ok(MicroScene {
             name: self.name.unwrap_or(fallback_name),
             source,
@@ -430,6 +523,135 @@ impl MicroSceneSpec {
             tally,
             transport,
         })
+    }
+}
+
+/// A checked cell size.
+fn check_size(source: &Source, [lx, ly]: [f64; 2]) -> Result<DVec2, SceneError> {
+    for (i, l) in [lx, ly].into_iter().enumerate() {
+        if !(l.is_finite() && l > 0.0) {
+            return Err(source.error(
+                format!("surface.size[{i}]"),
+                format!("must be > 0, got {l}"),
+            ));
+        }
+    }
+    Ok(DVec2::new(lx, ly))
+}
+
+impl HeightFieldSpec {
+    /// Synthesise or load the field; `size`: the checked `[surface] size`, if given.
+    fn build(&self, source: &Source, size: Option<DVec2>) -> Result<HeightField, SceneError> {
+        let key = |k: &str| format!("surface.heightfield.{k}");
+        let refuse = |k: &str, given: bool, what: &str| {
+            if given {
+                Err(source.error(key(k), format!("applies to {what} only")))
+            } else {
+                Ok(())
+            }
+        };
+        let positive = |k: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(source.error(key(k), format!("must be > 0, got {v}")))
+            }
+        };
+        match (&self.gaussian, &self.file) {
+            (Some(_), Some(_)) => Err(source.error(
+                "surface.heightfield",
+                "give either gaussian or file, not both",
+            )),
+            (None, None) => Err(source.error(
+                "surface.heightfield",
+                "needs gaussian = { sigma, tau } or file = \"...\"",
+            )),
+            (Some(g), None) => {
+                refuse("pixel", self.pixel.is_some(), "file maps")?;
+                refuse("height_scale", self.height_scale.is_some(), "file maps")?;
+                let size = size.ok_or_else(|| {
+                    source.error(
+                        "surface.size",
+                        "missing (a gaussian height field needs the cell)",
+                    )
+                })?;
+                let (nx, ny) = match self.resolution {
+                    Some(Resolution::One(n)) => (n, n),
+                    Some(Resolution::Two([nx, ny])) => (nx, ny),
+                    None => return Err(source.error(key("resolution"), "missing")),
+                };
+                if ![nx, ny].iter().all(|n| (2..=16384).contains(n)) {
+                    return Err(source.error(
+                        key("resolution"),
+                        format!("must be in 2..=16384, got {nx} x {ny}"),
+                    ));
+                }
+                let sigma = positive("gaussian.sigma", g.sigma)?;
+                let tau = positive("gaussian.tau", g.tau)?;
+                let pitch = (size.x / nx as f64).max(size.y / ny as f64);
+                if tau < pitch {
+                    return Err(source.error(
+                        key("gaussian.tau"),
+                        format!("{tau} is below the grid pitch {pitch}: raise the resolution"),
+                    ));
+                }
+                Ok(HeightField::gaussian(
+                    nx,
+                    ny,
+                    size,
+                    sigma,
+                    tau,
+                    self.seed.unwrap_or(1),
+                ))
+            }
+            (None, Some(file)) => {
+                refuse("resolution", self.resolution.is_some(), "gaussian fields")?;
+                refuse("seed", self.seed.is_some(), "gaussian fields")?;
+                let path = source.dir.join(file);
+                let format = Format::of(&path);
+                let scale = match self.height_scale {
+                    Some(s) => positive("height_scale", s)?,
+                    None if format == Format::Png => {
+                        return Err(source.error(
+                            key("height_scale"),
+                            "missing: a PNG map holds counts 0..=65535; give the height of one count (length units)",
+                        ));
+                    }
+                    None => 1.0,
+                };
+                let grid = heightfield_io::read(&path)
+                    .map_err(|e| source.error(key("file"), format!("{}: {e}", path.display())))?;
+                let (nx, ny) = (grid.nx, grid.ny);
+                let size = match (self.pixel, size) {
+                    (None, None) => {
+                        return Err(source.error(
+                            "surface.size",
+                            "missing: give surface.size or surface.heightfield.pixel",
+                        ));
+                    }
+                    (None, Some(size)) => size,
+                    (Some(p), given) => {
+                        let p = positive("pixel", p)?;
+                        let derived = DVec2::new(nx as f64 * p, ny as f64 * p);
+                        match given {
+                            Some(s) if ((s - derived).abs().cmpgt(1e-9 * derived)).any() => {
+                                return Err(source.error(
+                                    "surface.size",
+                                    format!(
+                                        "[{}, {}] contradicts the height map: {nx} x {ny} pixels of {p} make [{}, {}]",
+                                        s.x, s.y, derived.x, derived.y
+                                    ),
+                                ));
+                            }
+                            Some(s) => s,
+                            None => derived,
+                        }
+                    }
+                };
+                let h = grid.h.into_iter().map(|z| z * scale).collect();
+                Ok(HeightField::new(nx, ny, size, h))
+            }
+        }
     }
 }
 

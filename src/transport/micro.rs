@@ -114,13 +114,12 @@ pub fn trace(
                     return end(Fate::Capped { weight: w }, bounces, segments);
                 }
                 p += t * d;
-                let body = &surface.solids[solid].body;
-                let Some(n) = body.surfaces[s].facing_normal(p, d) else {
+                let Some((n, material)) = surface.hit_normal(&mut p, d, solid, s) else {
                     return end(Fate::Numeric { weight: w }, bounces, segments);
                 };
                 // Specular reflection, weighted by the reflectance at the local angle.
                 let cos_i = -d.dot(n);
-                let r = surface.materials[body.material].reflectance(cos_i);
+                let r = surface.materials[material].reflectance(cos_i);
                 w *= r;
                 d = (d + 2.0 * cos_i * n).normalize_or_zero();
                 if !(p.is_finite() && d.is_finite()) || d == DVec3::ZERO {
