@@ -185,14 +185,14 @@ def albedo_ss(theta_i: float, alpha: float, fresnel: Callable | None = None,
     return float(2.0 * np.sum(f * MU * np.outer(wm, wp)))
 
 
-def albedo_facets(theta_i: float, slopes: np.ndarray, alpha_lambda: float | None = None,
+def albedo_facets(theta_i: float, slopes: np.ndarray, lam: Callable,
                   correlated: bool = True, fresnel: Callable | None = None) -> float:
     """Smith single-scattering albedo for an empirical slope distribution.
 
-    slopes: (N, 2) surface gradients of N facets of equal projected area. Lambda is
-    computed from the same facets (Smith's Lambda for any slope distribution:
-    Lambda(w) = E[(q - mu)_+] / mu, q the slope along w's azimuth, mu = cot theta)
-    unless alpha_lambda is given (then Beckmann's Lambda with that alpha)."""
+    slopes: (N, 2) surface gradients of N facets of equal projected area (the
+    triangles of a height field); lam(cos_theta): the Lambda function to use (e.g.
+    ``empirical_lambda(slopes)`` or Beckmann's). E = mean over facets of
+    F(wi.m) G2(wi, wo) (1 - s_x tan theta_i)_+, wo the mirror of wi about the facet."""
     fresnel = fresnel or make_fresnel()
     sx, sy = slopes[:, 0], slopes[:, 1]
     wi = np.array([math.sin(theta_i), 0.0, math.cos(theta_i)])
@@ -201,47 +201,54 @@ def albedo_facets(theta_i: float, slopes: np.ndarray, alpha_lambda: float | None
     cim = m @ wi
     wo = -wi + 2.0 * cim[:, None] * m
     vis = np.clip(1.0 - sx * math.tan(theta_i), 0.0, None)
-    if alpha_lambda is not None:
-        lam = lambda w: smith_lambda(w[..., 2], alpha_lambda)  # noqa: E731
-    else:
-        lam = lambda w: empirical_lambda(w, slopes)  # noqa: E731
-    li = lam(wi[None, :])[0]
     up = wo[:, 2] > 0
+    li = float(lam(np.array([wi[2]]))[0])
     lo = np.full(len(sx), np.inf)
-    # Lambda of each outgoing direction (batched: the empirical form costs O(N) each).
-    idx = np.flatnonzero(up & (vis > 0))
-    lo_vals = np.empty(len(idx))
-    for a in range(0, len(idx), 4096):
-        b = idx[a:a + 4096]
-        lo_vals[a:a + len(b)] = lam(wo[b])
-    lo[idx] = lo_vals
-    if correlated:
-        g = 1.0 / (1.0 + li + lo)
-    else:
-        g = 1.0 / (1.0 + li) / (1.0 + lo)
-    return float(np.mean(fresnel(cim) * vis * np.where(np.isfinite(lo), g, 0.0)))
+    lo[up] = lam(wo[up, 2])
+    g = 1.0 / (1.0 + li + lo) if correlated else 1.0 / (1.0 + li) / (1.0 + lo)
+    return float(np.mean(fresnel(cim) * vis * np.where(up, g, 0.0)))
 
 
-def empirical_lambda(w: np.ndarray, slopes: np.ndarray, bins: int = 4096) -> np.ndarray:
-    """Smith Lambda from an empirical slope sample, for directions w (..., 3), z > 0.
+def empirical_lambda(slopes: np.ndarray, azimuths: int = 16) -> Callable:
+    """Smith's Lambda of an empirical, statistically isotropic slope sample.
 
-    Lambda(w) = integral over q > mu of (q - mu) P2(q) dq / mu, P2 the distribution of
-    the slope q = s . (cos phi, sin phi) along w's azimuth, mu = cot theta. Azimuths
-    are binned (bins over 2 pi) and the projected slopes sorted once per bin."""
-    w = np.atleast_2d(w)
-    phi = np.arctan2(w[:, 1], w[:, 0])
-    mu = w[:, 2] / np.hypot(w[:, 0], w[:, 1])
-    out = np.empty(len(w))
-    k = np.round(phi / (2 * math.pi) * bins).astype(int) % bins
-    for kb in np.unique(k):
-        sel = k == kb
-        ph = kb * 2 * math.pi / bins
-        q = np.sort(slopes[:, 0] * math.cos(ph) + slopes[:, 1] * math.sin(ph))
-        tail = np.concatenate([np.cumsum(q[::-1])[::-1], [0.0]])  # sum of q[j:]
-        j = np.searchsorted(q, mu[sel], side="right")
-        cnt = len(q) - j
-        out[sel] = (tail[j] - cnt * mu[sel]) / len(q) / mu[sel]
-    return out
+    Lambda(theta) = integral over q > mu of (q - mu) P2(q) dq / mu (Smith 1967; Heitz
+    2014 eq. 15), P2 the distribution of the slope along a direction's azimuth,
+    mu = cot theta; P2 is pooled over `azimuths` equally spaced azimuths. Returns a
+    function of cos theta (upper hemisphere)."""
+    ph = np.arange(azimuths) * 2 * math.pi / azimuths
+    q = np.sort((slopes[:, :1] * np.cos(ph) + slopes[:, 1:] * np.sin(ph)).ravel())
+    tail = np.concatenate([np.cumsum(q[::-1])[::-1], [0.0]])  # sum of q[j:]
+    n = len(q)
+
+    def lam(cos_t):
+        c = np.clip(np.asarray(cos_t, dtype=float), 1e-12, 1.0)
+        with np.errstate(divide="ignore"):
+            mu = c / np.sqrt(np.maximum(0.0, 1.0 - c * c))
+        fin = np.isfinite(mu)
+        muf = np.where(fin, mu, 1.0)
+        j = np.searchsorted(q, muf, side="right")
+        out = (tail[j] - (n - j) * muf) / n / muf
+        return np.where(fin, out, 0.0)
+
+    return lam
+
+
+def heightfield_slopes(h: np.ndarray, pitch_x: float = 1.0, pitch_y: float = 1.0) -> np.ndarray:
+    """Gradients (N, 2) of the triangles of a periodic height field as roks traces it.
+
+    h[j, i] is the height at (i px, j py); each grid square is split along the diagonal
+    from (i, j) to (i + 1, j + 1): triangle (i,j),(i+1,j),(i+1,j+1) has slopes
+    (h[i+1,j] - h[i,j]) / px, (h[i+1,j+1] - h[i+1,j]) / py; triangle
+    (i,j),(i,j+1),(i+1,j+1) has (h[i+1,j+1] - h[i,j+1]) / px, (h[i,j+1] - h[i,j]) / py.
+    Both have the same projected area."""
+    h00 = h
+    h10 = np.roll(h, -1, axis=1)       # (i + 1, j)
+    h01 = np.roll(h, -1, axis=0)       # (i, j + 1)
+    h11 = np.roll(h10, -1, axis=0)     # (i + 1, j + 1)
+    a = np.stack([(h10 - h00) / pitch_x, (h11 - h10) / pitch_y], axis=-1).reshape(-1, 2)
+    b = np.stack([(h11 - h01) / pitch_x, (h01 - h00) / pitch_y], axis=-1).reshape(-1, 2)
+    return np.concatenate([a, b])
 
 
 def inplane(theta_i: float, theta_o_deg, alpha: float, fresnel: Callable | None = None,
