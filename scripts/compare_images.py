@@ -19,7 +19,11 @@ Tests (`compare()`; each must hold for PASS):
   being the root sum of its pixel variances over the pixel count.
 * **Blocks**: the image is cut into blocks of `--block` x `--block` pixels;
   per block z = (block mean difference) / sqrt(sum of the pixel variances of
-  both sides / pixels^2). Pixel variances pooled over a block have many
+  both sides / pixels^2). With seeds and --spp both given, a pixel's variance
+  is at least the bound x (1 - x) / (2 spp) at the pooled mean x of the
+  four renders: a pixel lit by a rare glint can show no spread between two
+  renders of one side, and one degree of freedom per pixel misses such
+  heavy tails. Pixel variances pooled over a block have many
   degrees of freedom, so z is close to a standard normal when the two
   renderers agree. The block chi-square per degree of freedom must stay below
   its p = 1e-3 point (Wilson-Hilferty), and max |z| below the limit that
@@ -84,11 +88,20 @@ def compare(a1, b1, a2=None, b2=None, spp=None, block=8) -> dict:
     comb = math.hypot(sea, seb)
     diff = ma - mb
     z = diff / comb if comb > 0 else (0.0 if diff == 0 else math.inf)
-    # blocks
+    # blocks: with seeds and spp both known, each pixel's variance is the larger
+    # of the seed-difference estimate and the [0, 1] bound at the pooled mean
+    # (a pixel lit by a rare glint can show no spread in two renders of one
+    # side: one degree of freedom per pixel misses heavy tails)
+    vpa, vpb = va, vb
+    if a2 is not None and spp:
+        x = np.clip(0.5 * (A + B), 0.0, 1.0)
+        bound = x * (1.0 - x) / (2 * spp)
+        vpa, vpb = np.maximum(va, bound), np.maximum(vb, bound)
+        noise += f"; blocks: at least the bound x (1 - x) / (2 spp) at the pooled mean, spp = {spp}"
     k = block
     npx = k * k
     db = block_sums(A - B, k) / npx
-    vbk = block_sums(va + vb, k) / npx ** 2
+    vbk = block_sums(vpa + vpb, k) / npx ** 2
     tiny = 1e-6 * max(abs(ma), abs(mb), 1e-300)
     exact = vbk == 0
     exact_bad = int(np.sum(exact & (np.abs(db) > tiny)))
@@ -99,7 +112,7 @@ def compare(a1, b1, a2=None, b2=None, spp=None, block=8) -> dict:
     limit = cell_z_limit(dof)
     # per pixel (reported)
     rel = (A - B) / np.maximum(0.5 * (A + B), 0.05 * max(0.5 * (ma + mb), 1e-30))
-    sig = np.sqrt(va + vb)
+    sig = np.sqrt(vpa + vpb)
     with np.errstate(divide="ignore", invalid="ignore"):
         zmap = np.where(sig > 0, (A - B) / sig, np.where(np.abs(A - B) <= tiny, 0.0, np.inf))
     res = {

@@ -447,7 +447,7 @@ def main(argv=None) -> int:
                         [py, HERE / "mitsuba_render.py", meshes[n], "--size", f"{lx},{ly}", "--view", a.view,
                          "--light", a.light, "--disc", a.disc, "--res", f"{w},{h_}", "--spp", a.spp,
                          "--rho", rho * a.perturb_rho, "--seed", s + 1000 + 10 * n, "--variant", a.variant, "--out", path])
-                r = ci.compare(ra[0], mb_[0], ra[1], mb_[1], block=8)
+                r = ci.compare(ra[0], mb_[0], ra[1], mb_[1], spp=a.spp, block=8)
                 r["N"] = n
                 if n == max(a.resolutions):
                     ci.figures(r, out / f"images_rho{key}", "roks", f"Mitsuba, mesh {n}")
