@@ -386,7 +386,6 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
 
-    let r = rx;
     let stats = surface_stats(&scene.surface.height_map(rx, ry));
     let edges = format!("{:?}", scene.surface.edges).to_lowercase();
     let settings = shard::settings_json(
@@ -394,7 +393,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         &scene.name,
         &edges,
         &run,
-        &output::surface_json(&stats, r),
+        &output::surface_json(&stats, rx),
     );
     let mut fields = shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e))?;
 
@@ -1136,14 +1135,9 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
     let img = roks::render::render(&scene.surface, &settings);
     let exr = write_exr(&img).map_err(|e| anyhow::anyhow!("{e}"))?;
     let png = write_png_preview(&img).map_err(|e| anyhow::anyhow!("{e}"))?;
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
-    }
     let png_path = a.out.with_extension("png");
     for (path, bytes) in [(&a.out, &exr), (&png_path, &png)] {
-        output::write_atomic(path, bytes)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+        write_file(path, bytes)?;
     }
     let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
     eprintln!(
