@@ -18,15 +18,21 @@ use roks::geometry::region;
 use roks::scene::micro::MicroScene;
 use std::hint::black_box;
 
-fn brdf(c: &mut Criterion) {
-    let scene = MicroScene::default_scene();
+/// The scene's run with 20 000 photons, after printing its segments per photon at 60 degrees.
+fn probe_run(scene: &MicroScene, label: &str) -> roks::transport::brdf::BrdfRun {
     let mut run = scene.brdf_run();
     run.photons = 20_000;
     let probe = run.run_one(&scene.surface, 60.0, &|_| {});
     eprintln!(
-        "default scene, 60 deg: {:.3} segments per photon",
+        "{label}, 60 deg: {:.3} segments per photon",
         probe.tallies.segments as f64 / probe.tallies.photons as f64
     );
+    run
+}
+
+fn brdf(c: &mut Criterion) {
+    let scene = MicroScene::default_scene();
+    let run = probe_run(&scene, "default scene");
     let mut g = c.benchmark_group("brdf");
     g.sample_size(20);
     g.throughput(Throughput::Elements(run.photons));
@@ -84,13 +90,7 @@ fn heightfield(c: &mut Criterion) {
         };
         let scene_text = text.replace("resolution = 1024", &format!("resolution = {n}"));
         let scene = MicroScene::from_str(&scene_text, source, "gaussian".into()).unwrap();
-        let mut run = scene.brdf_run();
-        run.photons = 20_000;
-        let probe = run.run_one(&scene.surface, 60.0, &|_| {});
-        eprintln!(
-            "gaussian {n}², 60 deg: {:.3} segments per photon",
-            probe.tallies.segments as f64 / probe.tallies.photons as f64
-        );
+        let run = probe_run(&scene, &format!("gaussian {n}²"));
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(format!("gaussian_{n}_60deg"), |b| {
             b.iter(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {})));
