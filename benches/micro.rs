@@ -6,6 +6,9 @@
 //!   straight flights per photon is printed once so the criterion time
 //!   converts to segments per second.
 //! * `entry/*`: one ray-body entry test, single quadric vs CSG body.
+//! * `heightfield/gaussian_{256,1024}_60deg`: photons of `scenes/gaussian.toml`
+//!   (a Gaussian height field of Al, sigma 1, tau 11.9 on 64 x 64) at 60
+//!   degrees on 256² and 1024² grids (segments per photon printed once).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
@@ -15,15 +18,21 @@ use roks::geometry::region;
 use roks::scene::micro::MicroScene;
 use std::hint::black_box;
 
-fn brdf(c: &mut Criterion) {
-    let scene = MicroScene::default_scene();
+/// The scene's run with 20 000 photons, after printing its segments per photon at 60 degrees.
+fn probe_run(scene: &MicroScene, label: &str) -> roks::transport::brdf::BrdfRun {
     let mut run = scene.brdf_run();
     run.photons = 20_000;
     let probe = run.run_one(&scene.surface, 60.0, &|_| {});
     eprintln!(
-        "default scene, 60 deg: {:.3} segments per photon",
+        "{label}, 60 deg: {:.3} segments per photon",
         probe.tallies.segments as f64 / probe.tallies.photons as f64
     );
+    run
+}
+
+fn brdf(c: &mut Criterion) {
+    let scene = MicroScene::default_scene();
+    let run = probe_run(&scene, "default scene");
     let mut g = c.benchmark_group("brdf");
     g.sample_size(20);
     g.throughput(Throughput::Elements(run.photons));
@@ -70,5 +79,25 @@ fn entry(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, brdf, entry);
+fn heightfield(c: &mut Criterion) {
+    let text = include_str!("../scenes/gaussian.toml");
+    let mut g = c.benchmark_group("heightfield");
+    g.sample_size(10);
+    for n in [256, 1024] {
+        let source = roks::scene::Source {
+            file: "gaussian.toml".into(),
+            dir: ".".into(),
+        };
+        let scene_text = text.replace("resolution = 1024", &format!("resolution = {n}"));
+        let scene = MicroScene::from_str(&scene_text, source, "gaussian".into()).unwrap();
+        let run = probe_run(&scene, &format!("gaussian {n}²"));
+        g.throughput(Throughput::Elements(run.photons));
+        g.bench_function(format!("gaussian_{n}_60deg"), |b| {
+            b.iter(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {})));
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, brdf, entry, heightfield);
 criterion_main!(benches);

@@ -518,7 +518,6 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
 
-    let r = rx;
     let stats = surface_stats(&scene.surface.height_map(rx, ry));
     let edges = format!("{:?}", scene.surface.edges).to_lowercase();
     let settings = shard::settings_json(
@@ -526,7 +525,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         &scene.name,
         &edges,
         &run,
-        &output::surface_json(&stats, r),
+        &output::surface_json(&stats, rx),
     );
     let mut fields = shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e))?;
 
@@ -1398,14 +1397,9 @@ fn write_images(out: &Path, img: &roks::render::Image) -> Result<(), Failure> {
     use roks::render::{write_exr, write_png_preview};
     let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
     let png = write_png_preview(img).map_err(|e| anyhow::anyhow!("{e}"))?;
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
-    }
     let png_path = out.with_extension("png");
-    for (path, bytes) in [(&out.to_path_buf(), &exr), (&png_path, &png)] {
-        output::write_atomic(path, bytes)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    for (path, bytes) in [(out, &exr), (png_path.as_path(), &png)] {
+        write_file(path, bytes)?;
     }
     let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
     eprintln!(
@@ -1442,13 +1436,7 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
             scene.source.file
         )));
     }
-    let bytes = roks::export::write_ply(&mesh);
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
-    }
-    output::write_atomic(&a.out, &bytes)
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", a.out.display()))?;
+    write_file(&a.out, &roks::export::write_ply(&mesh))?;
     eprintln!(
         "wrote {} ({} vertices, {} triangles: the solid walls of {} in the box)",
         a.out.display(),

@@ -187,3 +187,52 @@ fn scene_field_is_the_synthesised_field() {
     assert_eq!(field.h, direct.h);
     assert_eq!(scene.surface.max_height, direct.max);
 }
+
+/// Similarity: the same field with pitch and heights scaled by 2^10 or 2^-10
+/// (`pixel` and `height_scale`) gives the very same photon paths, since
+/// every operation of the walk commutes with a power-of-two scale: the
+/// tallies are equal bit for bit.
+#[test]
+fn scaled_field_gives_identical_tallies() {
+    use roks::micro::heightfield_io::{Format, HeightGrid, write};
+    let field = HeightField::gaussian(64, 64, glam::DVec2::splat(8.0), 0.5, 1.0, 9);
+    let grid = HeightGrid {
+        nx: 64,
+        ny: 64,
+        h: field.h.clone(),
+    };
+    let map = std::env::temp_dir().join(format!("roks-it-{}-scaled.txt", std::process::id()));
+    std::fs::write(&map, write(&grid, Format::Text, "").unwrap()).unwrap();
+    let scene = |scale: f64| {
+        common::scene(
+            "scaled",
+            &format!(
+                r#"
+[surface]
+material = "m"
+heightfield = {{ file = {:?}, pixel = {:?}, height_scale = {scale:?} }}
+
+[materials.m]
+reflectance = 0.6
+
+[light]
+theta_deg = [0.0, 50.0, 80.0]
+photons = 20000
+"#,
+                map.display().to_string(),
+                0.125 * scale
+            ),
+        )
+    };
+    let reference = common::run(&scene(1.0));
+    assert!(reference[0].mean_bounces() > 1.0);
+    for scale in [1024.0, 1.0 / 1024.0] {
+        for (a, b) in reference.iter().zip(common::run(&scene(scale))) {
+            let what = format!("scale {scale}, theta {}", a.theta_i_deg);
+            assert_eq!(a.tallies.carlson.sum, b.tallies.carlson.sum, "{what}");
+            assert_eq!(a.tallies.inplane.sum, b.tallies.inplane.sum, "{what}");
+            assert_eq!(a.tallies.by_bounces, b.tallies.by_bounces, "{what}");
+            assert_eq!(a.tallies.segments, b.tallies.segments, "{what}");
+        }
+    }
+}

@@ -25,20 +25,23 @@
 //! # Traversal
 //!
 //! A flight `o + t d` walks the grid squares under it in order (a 2-D DDA in
-//! grid units `u = x / px`, `v = y / py`, on unbounded integer square indices
-//! taken modulo `nx`, `ny` only to read heights, so the walk crosses the cell's
-//! sides as if they were not there: no seam). A max-height mip hierarchy
-//! (level 0: the highest corner of each square; level `L`: the highest of
-//! the `2^L x 2^L` squares of a node, partial nodes at the ends for any `n`)
-//! skips every node the flight passes above: at each step the walk takes the
-//! node of the current level containing the current square, and if the
-//! lowest point of the flight over that node (at its entry or exit) is above
-//! the node's maximum it jumps to the node's exit and moves one level up;
-//! otherwise it moves one level down, and at
-//! level 0 it tests the square (level 0 is not stored: a square's test is
-//! as cheap as a look-up of its highest corner).
-//! Far from the surface a flight takes `O(log n)` steps; near the hit it
-//! tests the few squares where it is lower than their highest corner.
+//! grid units `u = x / px`, `v = y / py`). It keeps the square's index
+//! within the period and the period's offset apart, so the walk crosses the
+//! cell's sides as if they were not there (no seam); the hit point, which
+//! may lie in a neighbouring period, is moved back into the cell by
+//! [`HeightField::fold`]. A max-height mip hierarchy (level `L >= 1`: the
+//! highest vertex of the `2^L x 2^L` squares of a node, corners included,
+//! partial nodes at the ends for any `n`; level 0 is the square itself and
+//! is not stored) skips every node the flight passes above: at each step
+//! the walk takes the node of the current level containing the current
+//! square, and if the lowest point of the flight over that node (at its
+//! entry or its exit) is above the node's maximum it jumps to the node's
+//! exit and moves one level up; otherwise it moves one level down, and at
+//! level 0 it tests the square's two triangles. A flight starting from the
+//! launch plane starts at the top level; a reflected flight starts at its
+//! own square (every node holding it is above it). Far from the surface a
+//! flight takes `O(log n)` steps; near the hit it tests the few squares
+//! where it is lower than the nodes around them.
 //!
 //! # Watertightness: one function along the flight
 //!
@@ -49,7 +52,11 @@
 //! breakpoint lies on) and hands that same value to the next piece, so two
 //! triangles sharing an edge can never disagree about which side of the
 //! surface the ray is on there: a sign change of `f` cannot fall between two
-//! triangles. The flight hits the first piece (a triangle over a `t`
+//! triangles. Within a square, the diagonal crossing `t_diag` is computed
+//! once and decides both where the square's two pieces meet and which
+//! triangle comes first (from the sign of the crossing), so a piece is never
+//! given the triangle on the other side of the diagonal, even for a flight
+//! through a corner. The flight hits the first piece (a triangle over a `t`
 //! interval) whose end value is negative while the ray descends relative to
 //! that triangle (`d . n < 0`); the hit distance is the exact ray-plane
 //! intersection with that triangle, `t_in + f_in / (-slope)`, clamped to the

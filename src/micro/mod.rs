@@ -406,18 +406,7 @@ impl MicroSurface {
         scratch: &mut Scratch,
     ) -> Event {
         if let Some(field) = &self.heightfield {
-            let standing = standing.and_then(|(s, tri)| (s == HEIGHT_FIELD).then_some(tri));
-            return match field.first_hit(o, d, standing) {
-                FieldEvent::Hit { t, triangle } => Event::Hit {
-                    t,
-                    solid: HEIGHT_FIELD,
-                    surface: triangle,
-                },
-                FieldEvent::Escapes => Event::Top {
-                    t: ((self.top - o.z) / d.z).max(0.0),
-                },
-                FieldEvent::Trapped => Event::Trapped,
-            };
+            return self.next_field_event(field, o, d, standing);
         }
         let ray = Ray::new(o, d);
         let inv = ray.inv_d;
@@ -516,6 +505,30 @@ impl MicroSurface {
         match best {
             Some((t, solid, surface)) => Event::Hit { t, solid, surface },
             None => exit,
+        }
+    }
+
+    /// [`Self::next_event`] on the height field (kept out of line, so the
+    /// bump path's code stays as it was).
+    #[inline(never)]
+    fn next_field_event(
+        &self,
+        field: &HeightField,
+        o: DVec3,
+        d: DVec3,
+        standing: Option<(usize, usize)>,
+    ) -> Event {
+        let standing = standing.and_then(|(s, tri)| (s == HEIGHT_FIELD).then_some(tri));
+        match field.first_hit(o, d, standing) {
+            FieldEvent::Hit { t, triangle } => Event::Hit {
+                t,
+                solid: HEIGHT_FIELD,
+                surface: triangle,
+            },
+            FieldEvent::Escapes => Event::Top {
+                t: ((self.top - o.z) / d.z).max(0.0),
+            },
+            FieldEvent::Trapped => Event::Trapped,
         }
     }
 
