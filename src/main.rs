@@ -1322,7 +1322,9 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
         }
     }
     if a.up.len() != 3 {
-        return Err(Failure::Input("--up: give three comma-separated values".into()));
+        return Err(Failure::Input(
+            "--up: give three comma-separated values".into(),
+        ));
     }
     let beam = scene.beams[0];
     let v3 = |v: &Vec<f64>| glam::DVec3::new(v[0], v[1], v[2]);
@@ -1350,7 +1352,10 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
         None => {
             // Toward the light: against the first beam.
             let t = -beam.direction;
-            (t.z.clamp(-1.0, 1.0).acos().to_degrees(), t.y.atan2(t.x).to_degrees())
+            (
+                t.z.clamp(-1.0, 1.0).acos().to_degrees(),
+                t.y.atan2(t.x).to_degrees(),
+            )
         }
     };
     let settings = RenderSettings {
@@ -1368,7 +1373,12 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
         .validate()
         .and_then(|()| camera.validate())
         .map_err(|e| Failure::Input(format!("{}: render: {e}", scene.source.file)))?;
-    if scene.object.solids.iter().any(|s| s.body.contains(camera.position)) {
+    if scene
+        .object
+        .solids
+        .iter()
+        .any(|s| s.body.contains(camera.position))
+    {
         return Err(Failure::Input(format!(
             "{}: --camera: the camera position {} lies inside a solid cell",
             scene.source.file, camera.position

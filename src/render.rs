@@ -239,7 +239,10 @@ impl PinholeCamera {
             return Err("up must not be parallel to the viewing axis".into());
         }
         if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            return Err(format!("fov = {} degrees must be in (0, 180)", self.fov_deg));
+            return Err(format!(
+                "fov = {} degrees must be in (0, 180)",
+                self.fov_deg
+            ));
         }
         Ok(())
     }

@@ -73,7 +73,13 @@ fn pixel_angles(i: usize, j: usize, w: usize, h: usize, fov: f64) -> (f64, f64) 
     let sy = |y: f64| (1.0 - 2.0 * y / h as f64) * t;
     let (x0, x1) = (sx(i as f64), sx(i as f64 + 1.0));
     let (y0, y1) = (sy(j as f64 + 1.0), sy(j as f64));
-    let near = |a: f64, b: f64| if a <= 0.0 && b >= 0.0 { 0.0 } else { a.abs().min(b.abs()) };
+    let near = |a: f64, b: f64| {
+        if a <= 0.0 && b >= 0.0 {
+            0.0
+        } else {
+            a.abs().min(b.abs())
+        }
+    };
     let far = |a: f64, b: f64| a.abs().max(b.abs());
     let smin = near(x0, x1).hypot(near(y0, y1));
     let smax = far(x0, x1).hypot(far(y0, y1));
@@ -101,11 +107,18 @@ fn mirror_plate_is_rho_inside_the_disc_image_and_zero_outside() {
                 assert_eq!(v[0], 0.0, "pixel ({i}, {j}) outside the disc's image");
                 outside += 1;
             } else {
-                assert!((0.0..=0.75).contains(&v[0]), "edge pixel ({i}, {j}) = {}", v[0]);
+                assert!(
+                    (0.0..=0.75).contains(&v[0]),
+                    "edge pixel ({i}, {j}) = {}",
+                    v[0]
+                );
             }
         }
     }
-    assert!(inside >= 16 && outside > 2000, "{inside} inside, {outside} outside");
+    assert!(
+        inside >= 16 && outside > 2000,
+        "{inside} inside, {outside} outside"
+    );
     // Light from below the plate: nothing reaches the camera.
     let (dark, _) = render_object(&s, &camera(), &settings(180.0));
     assert!(dark.rgb.iter().all(|p| p[0] == 0.0));
@@ -117,8 +130,14 @@ fn object_render_is_the_same_for_any_thread_count() {
     let s = scene("plate", PLATE, &dir);
     let mut cam = camera();
     cam.position = DVec3::new(2.0, -3.0, 8.0);
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let two = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
     let a = one.install(|| render_object(&s, &cam, &settings(20.0)));
     let b = two.install(|| render_object(&s, &cam, &settings(20.0)));
     assert_eq!(a, b);
@@ -132,7 +151,12 @@ fn cli_renders_an_object_scene_and_rejects_a_camera_inside_a_solid() {
     let exe = env!("CARGO_BIN_EXE_roks");
     let out = dir.join("img.exr");
     let o = Command::new(exe)
-        .args(["render", path.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .args(["--camera", "0,0,10", "--look-at", "0,0,0", "--light", "0,0"])
         .args(["--size", "32,24", "--spp", "2"])
         .output()
@@ -141,11 +165,22 @@ fn cli_renders_an_object_scene_and_rejects_a_camera_inside_a_solid() {
     assert!(out.exists() && out.with_extension("png").exists());
     let bad = dir.join("bad.exr");
     let o = Command::new(exe)
-        .args(["render", path.to_str().unwrap(), "--out", bad.to_str().unwrap()])
+        .args([
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            bad.to_str().unwrap(),
+        ])
         .args(["--camera", "0,0,-0.5", "--look-at", "0,0,-10"])
         .output()
         .unwrap();
-    cli_common::assert_input_error("camera inside", &o, &path, &bad, &["--camera", "inside a solid"]);
+    cli_common::assert_input_error(
+        "camera inside",
+        &o,
+        &path,
+        &bad,
+        &["--camera", "inside a solid"],
+    );
     assert!(!bad.with_extension("png").exists());
 }
 

@@ -41,10 +41,14 @@ pub const MAX_VOXELS_PER_SIDE: usize = 2048;
 /// [`MAX_VOXELS_PER_SIDE`], or the grid would exceed 2^31 vertices.
 pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Mesh, String> {
     if !(lo.is_finite() && hi.is_finite()) || (hi - lo).min_element() <= 0.0 {
-        return Err(format!("box {lo} .. {hi} must be finite with positive sides"));
+        return Err(format!(
+            "box {lo} .. {hi} must be finite with positive sides"
+        ));
     }
     if n == 0 || n > MAX_VOXELS_PER_SIDE {
-        return Err(format!("resolution {n} must be in 1..={MAX_VOXELS_PER_SIDE}"));
+        return Err(format!(
+            "resolution {n} must be in 1..={MAX_VOXELS_PER_SIDE}"
+        ));
     }
     let size = hi - lo;
     let h = size.max_element() / n as f64;
@@ -59,7 +63,9 @@ pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Me
     let dims = cells.map(|c| c + 3);
     let total = dims[0] * dims[1] * dims[2];
     if total > i32::MAX as usize {
-        return Err(format!("{total} grid vertices are too many: lower the resolution"));
+        return Err(format!(
+            "{total} grid vertices are too many: lower the resolution"
+        ));
     }
     let point = |i: usize, j: usize, k: usize| {
         lo + DVec3::new(
@@ -226,7 +232,10 @@ photons = 1
         };
         m.faces.iter().fold((0.0, 0.0), |(vol, area), f| {
             let (a, b, c) = (v(f[0]), v(f[1]), v(f[2]));
-            (vol + a.dot(b.cross(c)) / 6.0, area + 0.5 * (b - a).cross(c - a).length())
+            (
+                vol + a.dot(b.cross(c)) / 6.0,
+                area + 0.5 * (b - a).cross(c - a).length(),
+            )
         })
     }
 
@@ -263,7 +272,10 @@ photons = 1
             errors.push(((vol - exact_v) / exact_v, (area - exact_a) / exact_a));
         }
         // Volume error shrinks at least like h (roughly h^2 for smooth walls).
-        assert!(errors[2].0.abs() < 0.6 * errors[0].0.abs() && errors[2].0.abs() < 0.01, "{errors:?}");
+        assert!(
+            errors[2].0.abs() < 0.6 * errors[0].0.abs() && errors[2].0.abs() < 0.01,
+            "{errors:?}"
+        );
     }
 
     #[test]
