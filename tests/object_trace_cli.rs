@@ -8,8 +8,8 @@ mod object_common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use cli_common::{read, summary_without_timing};
 use object_common::scratch;
-use serde_json::Value;
 
 /// A periodic micro scene for the `micro` wall model.
 const MICRO: &str = r#"
@@ -94,27 +94,6 @@ fn trace(scene: &Path, out: &Path, extra: &[&str]) -> Output {
         .args(extra)
         .output()
         .expect("run roks")
-}
-
-fn read(dir: &Path, name: &str) -> Vec<u8> {
-    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
-}
-
-/// summary.json without the wall-clock fields `seconds` (at any depth).
-fn summary_without_timing(dir: &Path) -> Value {
-    fn strip(v: &mut Value) {
-        match v {
-            Value::Object(m) => {
-                m.remove("seconds");
-                m.values_mut().for_each(strip);
-            }
-            Value::Array(a) => a.iter_mut().for_each(strip),
-            _ => {}
-        }
-    }
-    let mut v: Value = serde_json::from_slice(&read(dir, "summary.json")).unwrap();
-    strip(&mut v);
-    v
 }
 
 /// Photon n of beam position k draws from its own stream and batch tallies

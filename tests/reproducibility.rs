@@ -4,9 +4,12 @@
 //! wall-clock fields `seconds` and `segments_per_second`), and a different
 //! seed must give different results.
 
+mod cli_common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use cli_common::{read, summary_without_timing};
 use serde_json::Value;
 
 const SCENE: &str = r#"
@@ -69,28 +72,6 @@ fn brdf(scene: &Path, out: &Path, threads: usize, seed: u64) -> PathBuf {
         .expect("run roks");
     assert!(status.success(), "roks brdf failed: {status}");
     out.to_path_buf()
-}
-
-fn read(dir: &Path, name: &str) -> Vec<u8> {
-    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
-}
-
-/// summary.json without the wall-clock fields (at any depth).
-fn summary_without_timing(dir: &Path) -> Value {
-    fn strip(v: &mut Value) {
-        match v {
-            Value::Object(m) => {
-                m.remove("seconds");
-                m.remove("segments_per_second");
-                m.values_mut().for_each(strip);
-            }
-            Value::Array(a) => a.iter_mut().for_each(strip),
-            _ => {}
-        }
-    }
-    let mut v: Value = serde_json::from_slice(&read(dir, "summary.json")).unwrap();
-    strip(&mut v);
-    v
 }
 
 /// Byte-identical brdf.csv and inplane.csv, and summary.json but for timings.

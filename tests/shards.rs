@@ -1,10 +1,12 @@
 //! `roks brdf --shard I/N` + `roks merge` reproduce the single run exactly:
 //! byte-identical brdf.csv and inplane.csv, summary.json equal but for timings.
 
+mod cli_common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use serde_json::Value;
+use cli_common::{read, summary_without_timing};
 
 const PHOTONS: &str = "50000"; // 13 batches of 4096: the last one partial
 
@@ -40,28 +42,6 @@ fn brdf(out: &Path, seed: &str, shard: Option<&str>) {
     }
     let o = roks(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
-
-fn summary_without_timing(dir: &Path) -> Value {
-    fn strip(v: &mut Value) {
-        match v {
-            Value::Object(m) => {
-                m.remove("seconds");
-                m.remove("segments_per_second");
-                m.values_mut().for_each(strip);
-            }
-            Value::Array(a) => a.iter_mut().for_each(strip),
-            _ => {}
-        }
-    }
-    let mut v: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    strip(&mut v);
-    v
-}
-
-fn read(dir: &Path, name: &str) -> Vec<u8> {
-    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}: {e}", dir.join(name).display()))
 }
 
 /// A one-line input error (exit 2) naming `dir`.

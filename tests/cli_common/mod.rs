@@ -1,7 +1,36 @@
-//! The command line's contract for bad input, shared by the CLI tests.
+//! Shared by the CLI tests: the command line's contract for bad input, and
+//! reading output folders for byte-for-byte comparisons.
+#![allow(dead_code)]
 
 use std::path::Path;
 use std::process::Output;
+
+use serde_json::Value;
+
+/// The bytes of `dir/name` (panics naming the file).
+pub fn read(dir: &Path, name: &str) -> Vec<u8> {
+    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}/{name}: {e}", dir.display()))
+}
+
+/// `dir/summary.json` without its wall-clock fields `seconds` and
+/// `segments_per_second` (at any depth): what must be identical between
+/// runs of the same seed.
+pub fn summary_without_timing(dir: &Path) -> Value {
+    fn strip(v: &mut Value) {
+        match v {
+            Value::Object(m) => {
+                m.remove("seconds");
+                m.remove("segments_per_second");
+                m.values_mut().for_each(strip);
+            }
+            Value::Array(a) => a.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut v: Value = serde_json::from_slice(&read(dir, "summary.json")).unwrap();
+    strip(&mut v);
+    v
+}
 
 /// Bad input: exit status 2, exactly one line on stderr containing the scene
 /// file's path and every string of `expect` (the key, the reason), no panic,
