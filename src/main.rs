@@ -1297,8 +1297,9 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
         .validate()
         .map_err(|e| Failure::Input(format!("render: {e}")))?;
     set_threads(a.threads)?;
-    let img = roks::render::render(&scene.surface, &settings);
-    write_images(&a.out, &img)
+    let (img, losses) = roks::render::render(&scene.surface, &settings);
+    let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
+    write_images(&a.out, &img, losses.lost, paths)
 }
 
 /// Whether a scene file describes an object (has `[[cells]]`); unreadable or
@@ -1392,18 +1393,23 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
             scene.source.file, losses.unmodelled
         )));
     }
-    if losses.lost > 0 {
-        eprintln!(
-            "roks: render: {} of {} camera paths lost (bounce cap, numerical guard or micro descent); they add 0",
-            losses.lost,
-            settings.width * settings.height * settings.spp as usize
-        );
-    }
-    write_images(&a.out, &img)
+    let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
+    write_images(&a.out, &img, losses.lost, paths)
 }
 
-/// Write `img` as OUT (EXR) and OUT.png (preview), and report the mean.
-fn write_images(out: &Path, img: &roks::render::Image) -> Result<(), Failure> {
+/// Write `img` as OUT (EXR) and OUT.png (preview), and report the mean and
+/// the `lost` camera paths (caps, guards, edge walls, micro descents).
+fn write_images(
+    out: &Path,
+    img: &roks::render::Image,
+    lost: u64,
+    paths: u64,
+) -> Result<(), Failure> {
+    if lost > 0 {
+        eprintln!(
+            "roks: render: {lost} of {paths} camera paths lost (bounce cap, numerical guard, absorbing edge or micro descent); they add 0"
+        );
+    }
     use roks::render::{write_exr, write_png_preview};
     let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
     let png = write_png_preview(img).map_err(|e| anyhow::anyhow!("{e}"))?;

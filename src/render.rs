@@ -139,6 +139,21 @@ pub struct Image {
     pub rgb: Vec<[f32; 3]>,
 }
 
+impl Image {
+    /// `Err` unless the image has at least one pixel and `width * height` of them.
+    fn check(&self) -> Result<(), String> {
+        if self.width == 0 || self.height == 0 || self.rgb.len() != self.width * self.height {
+            return Err(format!(
+                "image of {}x{} with {} pixels cannot be written",
+                self.width,
+                self.height,
+                self.rgb.len()
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Unit direction from polar angle and azimuth in degrees.
 fn direction(theta_deg: f64, phi_deg: f64) -> DVec3 {
     let (st, ct) = theta_deg.to_radians().sin_cos();
@@ -151,64 +166,114 @@ fn below(x: f64) -> f64 {
     f64::from_bits(x.to_bits() - 1)
 }
 
+/// How a camera path ended, for [`render_pixels`].
+enum PathEnd {
+    /// Left the scene along `dir` with `weight`.
+    Escaped { dir: DVec3, weight: f64 },
+    /// Absorbed (physics): adds 0.
+    Absorbed,
+    /// Cut by a cap or guard, or absorbed by an edge wall: adds 0, counted.
+    Lost,
+    /// Met a surface without a wall model: adds 0, counted.
+    Unmodelled,
+}
+
+/// The pixel loop of both renders. Pixel `(i, j)` draws its `spp` sub-pixel
+/// positions `(u, v)` in `[0, 1)²` (u first) and every path from
+/// `photon_rng(seed, j w + i)`; `path(scratch, i, j, u, v, rng)` follows one
+/// camera path. A path that escapes within the light disc adds
+/// `weight * light_radiance`. Rows run in parallel with one `scratch` each;
+/// the image does not depend on the thread count.
+fn render_pixels<S>(
+    s: &RenderSettings,
+    scratch: impl Fn() -> S + Sync,
+    path: impl Fn(&mut S, usize, usize, f64, f64, &mut rand_pcg::Pcg64Mcg) -> PathEnd + Sync,
+) -> (Image, RenderLosses) {
+    use rand::RngExt;
+    let (w, h) = (s.width, s.height);
+    let light = direction(s.light_theta_deg, s.light_phi_deg);
+    let cos_r = s.light_radius_deg.to_radians().cos();
+    let rows: Vec<(Vec<[f32; 3]>, RenderLosses)> = (0..h)
+        .into_par_iter()
+        .map(|j| {
+            let mut state = scratch();
+            let mut losses = RenderLosses::default();
+            let row = (0..w)
+                .map(|i| {
+                    let mut rng = photon_rng(s.seed, (j * w + i) as u64);
+                    let mut sum = 0.0_f64;
+                    for _ in 0..s.spp {
+                        let u: f64 = rng.random();
+                        let v: f64 = rng.random();
+                        match path(&mut state, i, j, u, v, &mut rng) {
+                            PathEnd::Escaped { dir, weight } => {
+                                if dir.dot(light) >= cos_r {
+                                    sum += weight * s.light_radiance;
+                                }
+                            }
+                            PathEnd::Absorbed => {}
+                            PathEnd::Lost => losses.lost += 1,
+                            PathEnd::Unmodelled => losses.unmodelled += 1,
+                        }
+                    }
+                    let value = (sum / f64::from(s.spp)) as f32;
+                    [value; 3]
+                })
+                .collect();
+            (row, losses)
+        })
+        .collect();
+    let mut losses = RenderLosses::default();
+    let mut rgb = Vec::with_capacity(w * h);
+    for (row, l) in rows {
+        rgb.extend(row);
+        losses.lost += l.lost;
+        losses.unmodelled += l.unmodelled;
+    }
+    (
+        Image {
+            width: w,
+            height: h,
+            rgb,
+        },
+        losses,
+    )
+}
+
 /// Radiance map of a micro scene (see the module documentation for the
-/// camera, the light and the units).
+/// camera, the light and the units), and the camera paths lost (bounce or
+/// segment cap, numerical guard, absorbing edge wall; they add 0).
 ///
 /// # Panics
 /// If `s` fails [`RenderSettings::validate`].
 #[must_use]
-pub fn render(surface: &MicroSurface, s: &RenderSettings) -> Image {
+pub fn render(surface: &MicroSurface, s: &RenderSettings) -> (Image, RenderLosses) {
     if let Err(e) = s.validate() {
         panic!("render: {e}");
     }
-    let (w, h) = (s.width, s.height);
-    let view = direction(s.view_theta_deg, s.view_phi_deg);
-    let dir = -view;
-    let light = direction(s.light_theta_deg, s.light_phi_deg);
-    let cos_r = s.light_radius_deg.to_radians().cos();
+    let dir = -direction(s.view_theta_deg, s.view_phi_deg);
     let controls = Controls::default();
     let (lx, ly) = (surface.size.x, surface.size.y);
-    let (px, py) = (lx / w as f64, ly / h as f64);
-    let spp = s.spp;
-
-    let rows: Vec<Vec<[f32; 3]>> = (0..h)
-        .into_par_iter()
-        .map(|j| {
-            use rand::RngExt;
-            let mut scratch = Scratch::new(surface);
-            (0..w)
-                .map(|i| {
-                    let mut rng = photon_rng(s.seed, (j * w + i) as u64);
-                    let mut sum = 0.0_f64;
-                    for _ in 0..spp {
-                        let u: f64 = rng.random();
-                        let v: f64 = rng.random();
-                        // x in [i px, (i+1) px), y in [Ly - (j+1) py, Ly - j py):
-                        // both strictly inside the cell's half-open range.
-                        let x = ((i as f64 + u) * px).clamp(0.0, lx);
-                        let y = (ly - (j as f64 + 1.0 - v) * py).clamp(0.0, ly);
-                        // Rounding can reach the far side: step just inside.
-                        let x = if x >= lx { below(lx) } else { x };
-                        let y = if y >= ly { below(ly) } else { y };
-                        let start = DVec3::new(x, y, surface.top);
-                        let hist = trace(surface, start, dir, &controls, &mut rng, &mut scratch);
-                        if let Fate::Escaped { dir: out, weight } = hist.fate {
-                            if out.dot(light) >= cos_r {
-                                sum += weight * s.light_radiance;
-                            }
-                        }
-                    }
-                    let value = (sum / f64::from(spp)) as f32;
-                    [value; 3]
-                })
-                .collect()
-        })
-        .collect();
-    Image {
-        width: w,
-        height: h,
-        rgb: rows.into_iter().flatten().collect(),
-    }
+    let (px, py) = (lx / s.width as f64, ly / s.height as f64);
+    render_pixels(
+        s,
+        || Scratch::new(surface),
+        |scratch, i, j, u, v, rng| {
+            // x in [i px, (i+1) px), y in [Ly - (j+1) py, Ly - j py):
+            // both strictly inside the cell's half-open range.
+            let x = ((i as f64 + u) * px).clamp(0.0, lx);
+            let y = (ly - (j as f64 + 1.0 - v) * py).clamp(0.0, ly);
+            // Rounding can reach the far side: step just inside.
+            let x = if x >= lx { below(lx) } else { x };
+            let y = if y >= ly { below(ly) } else { y };
+            let start = DVec3::new(x, y, surface.top);
+            match trace(surface, start, dir, &controls, rng, scratch).fate {
+                Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
+                Fate::Absorbed => PathEnd::Absorbed,
+                Fate::Wall { .. } | Fate::Capped { .. } | Fate::Numeric { .. } => PathEnd::Lost,
+            }
+        },
+    )
 }
 
 /// A pinhole camera for object scenes (macro level). Lengths in the scene's
@@ -286,72 +351,34 @@ pub fn render_object(
     if let Err(e) = s.validate().and_then(|()| camera.validate()) {
         panic!("render_object: {e}");
     }
-    let (w, h) = (s.width, s.height);
-    let light = direction(s.light_theta_deg, s.light_phi_deg);
-    let cos_r = s.light_radius_deg.to_radians().cos();
     let controls = scene.run.controls;
-    let spp = s.spp;
-    let rows: Vec<(Vec<[f32; 3]>, RenderLosses)> = (0..h)
-        .into_par_iter()
-        .map(|j| {
-            use rand::RngExt;
-            let mut scratch: Vec<Option<Scratch>> = vec![None; scene.models.len()];
-            let mut losses = RenderLosses::default();
-            let row = (0..w)
-                .map(|i| {
-                    let mut rng = photon_rng(s.seed, (j * w + i) as u64);
-                    let mut sum = 0.0_f64;
-                    for _ in 0..spp {
-                        let x = i as f64 + rng.random::<f64>();
-                        let y = j as f64 + rng.random::<f64>();
-                        let d = camera.ray(x, y, w, h);
-                        let hist = follow(
-                            &scene.object,
-                            &scene.walls,
-                            &scene.models,
-                            &controls,
-                            camera.position,
-                            d,
-                            &mut rng,
-                            &mut scratch,
-                            |_, _| {},
-                        );
-                        match hist.fate {
-                            MacroFate::Escaped { dir, weight } => {
-                                if dir.dot(light) >= cos_r {
-                                    sum += weight * s.light_radiance;
-                                }
-                            }
-                            MacroFate::Absorbed => {}
-                            MacroFate::Lost { .. } => losses.lost += 1,
-                            MacroFate::Unmodelled { .. } => losses.unmodelled += 1,
-                        }
-                    }
-                    let value = (sum / f64::from(spp)) as f32;
-                    [value; 3]
-                })
-                .collect();
-            (row, losses)
-        })
-        .collect();
-    let mut losses = RenderLosses::default();
-    let mut rgb = Vec::with_capacity(w * h);
-    for (row, l) in rows {
-        rgb.extend(row);
-        losses.lost += l.lost;
-        losses.unmodelled += l.unmodelled;
-    }
-    (
-        Image {
-            width: w,
-            height: h,
-            rgb,
+    render_pixels(
+        s,
+        || vec![None; scene.models.len()],
+        |scratch: &mut Vec<Option<Scratch>>, i, j, u, v, rng| {
+            let d = camera.ray(i as f64 + u, j as f64 + v, s.width, s.height);
+            let hist = follow(
+                &scene.object,
+                &scene.walls,
+                &scene.models,
+                &controls,
+                camera.position,
+                d,
+                rng,
+                scratch,
+                |_, _| {},
+            );
+            match hist.fate {
+                MacroFate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
+                MacroFate::Absorbed => PathEnd::Absorbed,
+                MacroFate::Lost { .. } => PathEnd::Lost,
+                MacroFate::Unmodelled { .. } => PathEnd::Unmodelled,
+            }
         },
-        losses,
     )
 }
 
-/// Camera paths of an object render that ended without a physical outcome.
+/// Camera paths of a render that ended without a physical outcome.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RenderLosses {
     /// Cut by the bounce cap, a numerical guard, or lost in a micro descent.
@@ -365,14 +392,7 @@ pub struct RenderLosses {
 /// order. Write the bytes to a path with `crate::output`'s atomic writer.
 pub fn write_exr(img: &Image) -> Result<Vec<u8>, String> {
     use exr::prelude::*;
-    if img.width == 0 || img.height == 0 || img.rgb.len() != img.width * img.height {
-        return Err(format!(
-            "image of {}x{} with {} pixels cannot be written",
-            img.width,
-            img.height,
-            img.rgb.len()
-        ));
-    }
+    img.check()?;
     let encoding = Encoding {
         compression: Compression::ZIP16,
         blocks: Blocks::ScanLines,
@@ -412,14 +432,7 @@ fn srgb_encode(x: f64) -> f64 {
 /// black), clamped to `[0, 1]`, sRGB-encoded.
 pub fn write_png_preview(img: &Image) -> Result<Vec<u8>, String> {
     use image::ImageEncoder;
-    if img.width == 0 || img.height == 0 || img.rgb.len() != img.width * img.height {
-        return Err(format!(
-            "image of {}x{} with {} pixels cannot be written",
-            img.width,
-            img.height,
-            img.rgb.len()
-        ));
-    }
+    img.check()?;
     let lum = |p: &[f32; 3]| {
         0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])
     };
@@ -496,7 +509,7 @@ mod tests {
 
     #[test]
     fn flat_mirror_in_the_mirror_direction_is_rho_l() {
-        let img = render(&flat(0.75), &settings());
+        let (img, _) = render(&flat(0.75), &settings());
         assert_eq!((img.width, img.height, img.rgb.len()), (16, 12, 16 * 12));
         for p in &img.rgb {
             assert_eq!(*p, [1.5_f32; 3]);
@@ -507,11 +520,11 @@ mod tests {
     fn flat_mirror_away_from_the_disc_is_black() {
         let mut s = settings();
         s.view_theta_deg = 50.0; // 20 degrees from the mirror direction
-        let img = render(&flat(0.75), &s);
+        let (img, _) = render(&flat(0.75), &s);
         assert!(img.rgb.iter().all(|p| *p == [0.0; 3]));
         let mut s = settings();
         s.view_theta_deg = 10.0; // 20 degrees from the mirror direction, other side
-        let img = render(&flat(0.75), &s);
+        let (img, _) = render(&flat(0.75), &s);
         assert!(img.rgb.iter().all(|p| *p == [0.0; 3]));
     }
 
@@ -534,7 +547,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| render(&scene.surface, &s))
+                .install(|| render(&scene.surface, &s).0)
         };
         let a = run(1);
         let b = run(3);
@@ -588,7 +601,7 @@ mod tests {
 
     #[test]
     fn png_preview_has_the_requested_size() {
-        let img = render(&flat(0.75), &settings());
+        let (img, _) = render(&flat(0.75), &settings());
         let png = write_png_preview(&img).unwrap();
         let dec = image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap();
         assert_eq!((dec.width(), dec.height()), (16, 12));
@@ -630,7 +643,7 @@ mod tests {
             ..RenderSettings::default()
         };
         let t = std::time::Instant::now();
-        let img = render(&scene.surface, &s);
+        let (img, _) = render(&scene.surface, &s);
         let dt = t.elapsed().as_secs_f64();
         let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
         let lit = img.rgb.iter().filter(|p| p[0] > 0.0).count();
