@@ -28,11 +28,9 @@ OUT/data.json.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import shutil
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -46,6 +44,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import microfacet as mf  # noqa: E402
+import roks_io  # noqa: E402
 
 THETAS = [10, 30, 45, 60]
 RATIOS = [0.084, 0.84]
@@ -103,13 +102,8 @@ seed = 1
 {tail(photons, max_bounces)}"""
 
 
-def run(cmd: list[str]) -> str:
-    print("+ " + " ".join(cmd), file=sys.stderr, flush=True)
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if p.returncode != 0:
-        sys.stderr.write(p.stdout + p.stderr)
-        sys.exit(f"li_torrance: failed: {' '.join(cmd)}")
-    return p.stdout
+def run(cmd: list) -> str:
+    return roks_io.run(cmd, "li_torrance")[0]
 
 
 def stats(roks: str, path: Path, text: str) -> dict:
@@ -129,11 +123,6 @@ def tune_bumps(roks: str, d: Path, ratio: float) -> tuple[float, list, dict]:
     final = stats(roks, d / "scan.toml", bump_scene(ratio, h0, 1000))
     return h0, scan, final
 
-
-def read_inplane(path: Path) -> dict:
-    with path.open(newline="") as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
 def main(argv=None) -> int:
@@ -161,7 +150,7 @@ def main(argv=None) -> int:
                 sc.write_text(make(mb))
                 o = d / f"{surf}-{tag}"
                 run([a.roks, "brdf", str(sc), "--out", str(o), "-q"])
-                ip = read_inplane(o / "inplane.csv")
+                ip = roks_io.read_columns(o / "inplane.csv")
                 summ = json.loads((o / "summary.json").read_text())
                 entry[f"{surf}-{tag}"] = {
                     "inplane": {k: v.tolist() for k, v in ip.items()},

@@ -28,11 +28,9 @@ output folders go to OUT/runs/ (deleted unless --keep-runs).
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import shutil
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -46,6 +44,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import microfacet as mf  # noqa: E402
+import roks_io  # noqa: E402
 
 THETAS = [0, 10, 20, 30, 40, 50, 60, 70, 80]
 N = 512          # grid squares per side, pitch 1
@@ -88,19 +87,9 @@ bands = 24
 {tr}"""
 
 
-def run(cmd: list[str]) -> str:
-    print("+ " + " ".join(cmd), file=sys.stderr, flush=True)
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if p.returncode != 0:
-        sys.stderr.write(p.stdout + p.stderr)
-        sys.exit(f"microfacet_study: failed: {' '.join(cmd)}")
-    return p.stdout
+def run(cmd: list) -> str:
+    return roks_io.run(cmd, "microfacet_study")[0]
 
-
-def read_csv(path: Path) -> dict[str, np.ndarray]:
-    with path.open(newline="") as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
 def measure_case(roks: str, runs: Path, label: str, s_over_t: float, tau: float, seed: int,
@@ -161,7 +150,7 @@ def heitz(case: dict, paths: int) -> None:
 
 def cell_comparison(case: dict) -> dict:
     """Single-bounce BRDF per Carlson cell: roks vs the model with the measured alpha."""
-    b = read_csv(Path(case["brdf_dir"]) / "brdf.csv")
+    b = roks_io.read_columns(Path(case["brdf_dir"]) / "brdf.csv")
     res = {}
     for t in case["theta"]:
         sel = b["theta_i_deg"] == t
@@ -226,7 +215,7 @@ def plots(out: Path, cases: dict, cells: dict) -> None:
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
     for ax, lab in zip(axes, MAIN):
         c = cases[lab]
-        ip = read_csv(Path(c["brdf_dir"]) / "inplane.csv")
+        ip = roks_io.read_columns(Path(c["brdf_dir"]) / "inplane.csv")
         for t, col in zip((0, 30, 60, 80), ("k", "tab:blue", "tab:green", "tab:red")):
             sel = (ip["theta_i_deg"] == t) & (ip["brdf"] > 0)
             ax.errorbar(ip["theta_o_deg"][sel], ip["brdf"][sel], yerr=ip["brdf_stderr"][sel], fmt=".",

@@ -38,9 +38,7 @@ import argparse
 import csv
 import json
 import math
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -49,20 +47,15 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 import compare_brdf as cb  # noqa: E402
+import roks_io  # noqa: E402
 
 CELL_FLOOR = 1e-4      # fraction of the incident power in a cell
 INPLANE_FLOOR = 0.1    # 1/sr
 
 
-def timed(cmd: list, cwd=ROOT) -> float:
-    cmd = [str(c) for c in cmd]
-    t0 = time.perf_counter()
-    p = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
-    dt = time.perf_counter() - t0
-    if p.returncode != 0:
-        sys.stderr.write(p.stdout + p.stderr)
-        raise SystemExit(f"speed_error: failed: {' '.join(cmd)}")
-    return dt
+def timed(cmd: list) -> float:
+    """Wall seconds of `cmd`, run from the repository root."""
+    return roks_io.run(cmd, "speed_error", echo=False, cwd=ROOT)[1]
 
 
 def inplane(d: Path) -> dict:
