@@ -45,12 +45,9 @@ import argparse
 import csv
 import json
 import math
-import os
 import re
 import shutil
-import subprocess
 import sys
-import time
 import tomllib
 from pathlib import Path
 
@@ -61,6 +58,7 @@ ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 import compare_brdf as cb  # noqa: E402
 import compare_images as ci  # noqa: E402
+import roks_io  # noqa: E402
 
 
 def floats(s: str) -> list[float]:
@@ -110,14 +108,7 @@ class Runner:
         out = Path(cmd[cmd.index("--out") + 1])
         if self.reuse and out.exists():
             return
-        if not self.quiet:
-            print("+", " ".join(cmd), file=sys.stderr, flush=True)
-        t0 = time.perf_counter()
-        p = subprocess.run(cmd, capture_output=True, text=True)
-        self.seconds[name] = time.perf_counter() - t0
-        if p.returncode != 0:
-            sys.stderr.write(p.stdout + p.stderr)
-            raise SystemExit(f"crosscheck: step '{name}' failed with status {p.returncode}")
+        self.seconds[name] = roks_io.run(cmd, f"crosscheck: step '{name}'", echo=not self.quiet)[1]
 
 
 def scene_material(spec: dict) -> dict:
