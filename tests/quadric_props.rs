@@ -230,18 +230,11 @@ proptest! {
     /// `contains`, from outside and standing on the surface after a
     /// reflection.
     ///
-    /// Ignored (run with `cargo test -- --ignored`): with the fixed seed it
-    /// finds an entry on a flat ellipsoid (semi-axes 10, 94, 81; "+a") whose
-    /// |f| = 7.7e-14 exceeds the heuristic rounding bound `tol` = 6.3e-14 by
-    /// 1.2x, on the flight that stands on the surface after a reflection.
-    /// Likely cause (open, issue 6): `Quadric::crossings` with `on_surface`
-    /// takes c = f(o) as exactly 0, so the far root -2b/a ignores the
-    /// rounding of the standing point, and |f| there is about
-    /// |f(o)| |grad f(p).d| / |grad f(o).d|, a term `tol` lacks; the
-    /// correction t += f(o) / (2 b) would remove most of it. The test is
-    /// kept, not loosened.
+    /// With the fixed seed this finds a flight standing on a flat ellipsoid
+    /// (semi-axes 10, 94, 81; "+a") whose far root, computed with f(o) taken
+    /// as exactly 0, was off the surface by 1.2x the rounding bound; the far
+    /// root now carries the correction f(o)/(2b) (`standing_far_root`).
     #[test]
-    #[ignore = "open: an entry 1.2x over the rounding bound, see the doc comment"]
     fn first_entry_agrees_with_marching(
         kinds in prop::array::uniform3(0usize..8),
         p in prop::array::uniform3(coef()),

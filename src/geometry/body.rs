@@ -9,7 +9,7 @@
 
 use glam::DVec3;
 
-use super::quadric::{Diagonal, Quadric, entry_negative};
+use super::quadric::{Diagonal, Quadric, entry_negative, standing_far_root};
 use super::region::Region;
 
 /// Most surfaces a body may have (keeps the per-ray work on the stack).
@@ -183,8 +183,13 @@ impl Body {
                 Some(diag) => diag.ray_coefficients(o, d),
                 None => quadric.ray_coefficients(o, d),
             };
-            let c = if standing == Some(i) { 0.0 } else { c };
-            let (t, ill) = entry_negative(a, b, c, t_max)?;
+            let (t, ill) = if standing == Some(i) {
+                let (t, ill) = entry_negative(a, b, 0.0, t_max)?;
+                let t = standing_far_root(t, b, c);
+                (t <= t_max).then_some((t, ill))?
+            } else {
+                entry_negative(a, b, c, t_max)?
+            };
             (Entry { t, surface: i }, ill)
         } else {
             let (_, t_hi) = self.bounds.clip(ray, t_max)?;

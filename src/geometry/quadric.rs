@@ -16,9 +16,10 @@
 //! the roots alone (it starts at `sign(a)` at `t = -inf` and flips at each
 //! root), so sides and crossings can never disagree. A photon standing on the
 //! surface (it was just reflected there) passes `on_surface = true`: `c` is set
-//! to exactly 0, so one root is exactly `t = 0` and the other `-2b/a`. This is
-//! how OpenMC treats the surface a particle stands on; no offset, no lost or
-//! doubled hits.
+//! to exactly 0 for the side and the root at the start, so one root is exactly
+//! `t = 0`; the other, `-2b/a`, then gets the first-order correction for the
+//! standing point's rounding, `+f(o)/(2b)`. This is how OpenMC treats the
+//! surface a particle stands on; no offset, no lost or doubled hits.
 
 use glam::DVec3;
 
@@ -341,13 +342,42 @@ impl Quadric {
 
     /// Crossings of the ray `o + t d`, `t` in `(0, t_max]`, with this surface.
     ///
-    /// `on_surface`: the ray starts on this surface (sets `c = 0` exactly).
+    /// `on_surface`: the ray starts on this surface. The side and the root at
+    /// the start are taken from `c = 0` exactly (see the module docs); the far
+    /// root is then moved by the rounding of the standing point, see
+    /// [`standing_far_root`].
     #[must_use]
     #[inline]
     pub fn crossings(&self, o: DVec3, d: DVec3, t_max: f64, on_surface: bool) -> Crossings {
         let (a, b, c) = self.ray_coefficients(o, d);
-        let c = if on_surface { 0.0 } else { c };
-        crossings_of_quadratic(a, b, c, t_max)
+        if !on_surface {
+            return crossings_of_quadratic(a, b, c, t_max);
+        }
+        let mut out = crossings_of_quadratic(a, b, 0.0, t_max);
+        for t in &mut out.t[..out.n] {
+            *t = standing_far_root(*t, b, c);
+        }
+        out
+    }
+}
+
+/// The far root `t` of a ray standing on a surface, computed with `c = 0`
+/// (where it is `-2b/a`), corrected for the actual `c = f(o)`.
+///
+/// The standing point is on the surface only to rounding, `f(o) = c ≠ 0`.
+/// The roots of `a t² + 2 b t + c` are then `-c/(2b) + O(c²)` (kept at exactly
+/// 0, so the side at the start stays consistent) and `-2b/a + c/(2b)`. Without
+/// the correction the far hit is off its surface by about
+/// `|c| |∇f(p)·d| / |∇f(o)·d|`. The correction is dropped if it is not finite
+/// or would move the root to or behind the start.
+#[must_use]
+#[inline(always)]
+pub fn standing_far_root(t: f64, b: f64, c: f64) -> f64 {
+    let corrected = t + c / (2.0 * b);
+    if corrected > 0.0 && corrected.is_finite() {
+        corrected
+    } else {
+        t
     }
 }
 
@@ -500,6 +530,22 @@ mod tests {
         let tangent = s.crossings(o, DVec3::Y, f64::INFINITY, true);
         assert!(tangent.positive_at_start);
         assert_eq!(tangent.n, 0);
+    }
+
+    #[test]
+    fn standing_far_root_is_corrected_for_the_rounding_of_the_start() {
+        // Standing 1e-9 outside a unit sphere, heading through its centre:
+        // the actual crossings are r0 - 1 (the "start", taken as 0) and r0 + 1.
+        let s = Quadric::sphere(DVec3::ZERO, 1.0);
+        let r0 = 1.0 + 1e-9;
+        let c = s.crossings(DVec3::new(r0, 0.0, 0.0), DVec3::NEG_X, 10.0, true);
+        assert!(!c.positive_at_start);
+        assert_eq!(c.n, 1);
+        // Uncorrected -2b/a = 2 r0 would be 1e-9 too far.
+        assert!((c.t[0] - (r0 + 1.0)).abs() < 1e-15, "{c:?}");
+        // Exactly on the surface nothing changes.
+        let on = s.crossings(DVec3::X, DVec3::NEG_X, 10.0, true);
+        assert_eq!(on.t[0], 2.0);
     }
 
     #[test]
