@@ -4,7 +4,8 @@
 //! `roks brdf` writes, in its output folder:
 //! * `summary.json`: per incidence `theta_deg`, `phi_deg`, `photons`,
 //!   `reflectance`, `reflectance_stderr`, `mean_bounces`, `lost`, `seconds`,
-//!   `segments_per_second` (and the breakdown of losses, reflectance by bounce
+//!   `segments_per_second`, `intersection_tests` and `tests_per_segment`
+//!   (quadrics, or height-field squares; and the breakdown of losses, reflectance by bounce
 //!   count); `surface` statistics; the seed, scene file and roks version.
 //! * `brdf.csv`: one row per incidence and Carlson cell (see [`BRDF_HEADER`]).
 //! * `inplane.csv`: the in-plane BRDF, `theta_o_deg` signed (positive on the
@@ -146,6 +147,8 @@ pub fn incidence_json(r: &IncidenceResult) -> Value {
         "numeric_guard_photons": t.numeric_histories,
         "reflectance_by_bounces": t.by_bounces.iter().map(|w| w / n).collect::<Vec<_>>(),
         "segments": t.segments,
+        "intersection_tests": t.intersection_tests,
+        "tests_per_segment": r.tests_per_segment(),
         "seconds": r.seconds,
         "segments_per_second": r.segments_per_second(),
     })

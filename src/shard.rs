@@ -53,7 +53,8 @@
 //! transport controls, edges, surface statistics), and per incidence angle
 //! `theta_deg`, `photons`, `seconds` and `nodes`: `{level, index, tallies}`
 //! with the raw sums (`photons`, `reflected`/`carlson`/`inplane` as
-//! `{sum, sum_sq}`, `by_bounces`, `bounces`, `segments`, `lost_walls`,
+//! `{sum, sum_sq}`, `by_bounces`, `bounces`, `segments`,
+//! `intersection_tests`, `lost_walls`,
 //! `lost_cap`, `lost_numeric`, `capped_histories`, `numeric_histories`).
 //! Floating-point numbers are written as decimal strings (Rust's shortest
 //! round-trip form, e.g. `"0.123"`, `"1e-7"`), so they read back bit for bit.
@@ -311,6 +312,7 @@ pub fn tallies_json(t: &Tallies) -> Value {
         "by_bounces": f64s_text(&t.by_bounces),
         "bounces": t.bounces,
         "segments": t.segments,
+        "intersection_tests": t.intersection_tests,
         "lost_walls": f64_text(t.lost_walls),
         "lost_cap": f64_text(t.lost_cap),
         "lost_numeric": f64_text(t.lost_numeric),
@@ -336,6 +338,7 @@ pub fn json_tallies(
         by_bounces: text_f64s(get(v, "by_bounces")?, "by_bounces", BOUNCE_BINS)?,
         bounces: get_u64(v, "bounces")?,
         segments: get_u64(v, "segments")?,
+        intersection_tests: get_u64(v, "intersection_tests")?,
         lost_walls: text_f64(get(v, "lost_walls")?, "lost_walls")?,
         lost_cap: text_f64(get(v, "lost_cap")?, "lost_cap")?,
         lost_numeric: text_f64(get(v, "lost_numeric")?, "lost_numeric")?,

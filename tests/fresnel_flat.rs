@@ -156,7 +156,8 @@ fn flat_reflection_lands_in_the_specular_carlson_cell() {
 /// A height field of zeros (a 4 x 4 text map) is the flat substrate: exact
 /// Fresnel reflectance to 1e-12 at 0-89 degrees, one reflection per photon,
 /// and the very same tallies, bit for bit, as the flat substrate scene
-/// (same photons, same normal, same arithmetic).
+/// (same photons, same normal, same arithmetic); both count one
+/// intersection test per flight.
 #[test]
 fn flat_height_field_is_the_flat_substrate() {
     let thetas = [0.0, 10.0, 30.0, 45.0, 60.0, 80.0, 89.0];
@@ -175,6 +176,13 @@ fn flat_height_field_is_the_flat_substrate() {
     let (a, b) = (common::run(&substrate), common::run(&field));
     for (s, f) in a.iter().zip(&b) {
         assert_exact_fresnel(f);
+        // The work counters: each flight tests the substrate's one quadric,
+        // or the one square of the field under it.
+        // Two flights per photon: down to the surface and up out of the cell.
+        for t in [&s.tallies, &f.tallies] {
+            assert_eq!(t.segments, 2 * t.photons, "theta {}", f.theta_i_deg);
+            assert_eq!(t.intersection_tests, t.segments, "theta {}", f.theta_i_deg);
+        }
         assert_eq!(
             f.tallies.carlson.sum, s.tallies.carlson.sum,
             "theta {}",

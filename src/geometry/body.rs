@@ -175,9 +175,25 @@ impl Body {
     #[must_use]
     #[inline(always)]
     pub fn first_entry(&self, ray: &Ray, t_max: f64, standing: Option<usize>) -> Option<Entry> {
+        self.first_entry_counting(ray, t_max, standing, &mut 0)
+    }
+
+    /// [`Body::first_entry`], adding to `quadric_tests` the number of this
+    /// body's quadrics whose ray polynomial was formed (none when the flight
+    /// misses the bounding box).
+    #[must_use]
+    #[inline(always)]
+    pub fn first_entry_counting(
+        &self,
+        ray: &Ray,
+        t_max: f64,
+        standing: Option<usize>,
+        quadric_tests: &mut u64,
+    ) -> Option<Entry> {
         let (o, d) = (ray.o, ray.d);
         let (entry, ill_conditioned) = if let Some((i, quadric)) = &self.single {
             let i = *i;
+            *quadric_tests += 1;
             // One quadric: its own test is as cheap as a box test, so no box.
             let (a, b, c) = match &self.diagonal {
                 Some(diag) => diag.ray_coefficients(o, d),
@@ -193,6 +209,7 @@ impl Body {
             (Entry { t, surface: i }, ill)
         } else {
             let (_, t_hi) = self.bounds.clip(ray, t_max)?;
+            *quadric_tests += self.surfaces.len() as u64;
             self.first_entry_csg(o, d, t_hi, standing)?
         };
         if !ill_conditioned {

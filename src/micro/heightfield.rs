@@ -306,6 +306,20 @@ impl HeightField {
     /// See the module docs for the walk and its robustness rules.
     #[must_use]
     pub fn first_hit(&self, o: DVec3, d: DVec3, standing: Option<usize>) -> FieldEvent {
+        self.first_hit_counting(o, d, standing, &mut 0)
+    }
+
+    /// [`HeightField::first_hit`], adding to `square_tests` the number of
+    /// squares (two triangles each) whose surface was tested.
+    #[must_use]
+    #[inline]
+    pub fn first_hit_counting(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        standing: Option<usize>,
+        square_tests: &mut u64,
+    ) -> FieldEvent {
         if d.z >= 0.0 && o.z > self.max {
             return if d.z > 0.0 {
                 FieldEvent::Escapes
@@ -376,6 +390,7 @@ impl HeightField {
                     z - surface_height(self.corners(i, j), a, b)
                 });
                 let local = (ray.ou - side(i, bi), ray.ov - side(j, bj));
+                *square_tests += 1;
                 match self.square(i, j, &ray, local, (t, t_exit), exit_u, f_in, standing) {
                     Ok(hit) => return hit,
                     Err(f_out) => f_carried = Some(f_out),

@@ -108,6 +108,9 @@ pub enum Event {
 pub struct Scratch {
     stamp: Vec<u32>,
     query: u32,
+    /// Intersection tests so far: quadrics whose ray polynomial was formed
+    /// (bodies), or squares of two triangles tested (height fields).
+    pub tests: u64,
 }
 
 impl Scratch {
@@ -117,6 +120,7 @@ impl Scratch {
         Self {
             stamp: vec![0; surface.solids.len()],
             query: 0,
+            tests: 0,
         }
     }
 
@@ -406,7 +410,7 @@ impl MicroSurface {
         scratch: &mut Scratch,
     ) -> Event {
         if let Some(field) = &self.heightfield {
-            return self.next_field_event(field, o, d, standing);
+            return self.next_field_event(field, o, d, standing, &mut scratch.tests);
         }
         let ray = Ray::new(o, d);
         let inv = ray.inv_d;
@@ -433,9 +437,16 @@ impl MicroSurface {
             }
         }
         let mut best: Option<(f64, usize, usize)> = None;
-        let test = |i: usize, t_best: &mut f64, best: &mut Option<(f64, usize, usize)>| {
+        let mut tests = 0_u64;
+        let test = |i: usize,
+                    t_best: &mut f64,
+                    best: &mut Option<(f64, usize, usize)>,
+                    tests: &mut u64| {
             let on = standing.and_then(|(s, f)| (s == i).then_some(f));
-            if let Some(e) = self.solids[i].body.first_entry(&ray, *t_best, on) {
+            if let Some(e) = self.solids[i]
+                .body
+                .first_entry_counting(&ray, *t_best, on, tests)
+            {
                 *t_best = e.t;
                 *best = Some((e.t, i, e.surface));
             }
@@ -445,7 +456,7 @@ impl MicroSurface {
             if d.z >= 0.0 && o.z > self.solids[i].body.bounds.max.z {
                 continue;
             }
-            test(i, &mut t_best, &mut best);
+            test(i, &mut t_best, &mut best, &mut tests);
         }
         // Walk the grid cells under the flight (Amanatides & Woo), nearest first.
         let q = scratch.next_query();
@@ -486,7 +497,7 @@ impl MicroSurface {
                     let i = i as usize;
                     if scratch.stamp[i] != q {
                         scratch.stamp[i] = q;
-                        test(i, &mut t_best, &mut best);
+                        test(i, &mut t_best, &mut best, &mut tests);
                     }
                 }
             }
@@ -502,6 +513,7 @@ impl MicroSurface {
             t_enter = t_next[k];
             t_next[k] += t_delta[k];
         }
+        scratch.tests += tests;
         match best {
             Some((t, solid, surface)) => Event::Hit { t, solid, surface },
             None => exit,
@@ -517,9 +529,10 @@ impl MicroSurface {
         o: DVec3,
         d: DVec3,
         standing: Option<(usize, usize)>,
+        tests: &mut u64,
     ) -> Event {
         let standing = standing.and_then(|(s, tri)| (s == HEIGHT_FIELD).then_some(tri));
-        match field.first_hit(o, d, standing) {
+        match field.first_hit_counting(o, d, standing, tests) {
             FieldEvent::Hit { t, triangle } => Event::Hit {
                 t,
                 solid: HEIGHT_FIELD,

@@ -66,6 +66,8 @@ pub struct Tallies {
     pub bounces: u64,
     /// Straight flights traced.
     pub segments: u64,
+    /// Intersection tests ([`Scratch::tests`]: quadrics, or height-field squares).
+    pub intersection_tests: u64,
     /// Weight absorbed by walls.
     pub lost_walls: f64,
     /// Weight cut by the bounce or segment cap.
@@ -90,6 +92,7 @@ impl Tallies {
             by_bounces: vec![0.0; BOUNCE_BINS],
             bounces: 0,
             segments: 0,
+            intersection_tests: 0,
             lost_walls: 0.0,
             lost_cap: 0.0,
             lost_numeric: 0.0,
@@ -109,6 +112,7 @@ impl Tallies {
         }
         self.bounces += other.bounces;
         self.segments += other.segments;
+        self.intersection_tests += other.intersection_tests;
         self.lost_walls += other.lost_walls;
         self.lost_cap += other.lost_cap;
         self.lost_numeric += other.lost_numeric;
@@ -152,6 +156,12 @@ impl IncidenceResult {
     #[must_use]
     pub fn mean_bounces(&self) -> f64 {
         self.tallies.bounces as f64 / self.tallies.photons as f64
+    }
+
+    /// Intersection tests per straight flight.
+    #[must_use]
+    pub fn tests_per_segment(&self) -> f64 {
+        self.tallies.intersection_tests as f64 / self.tallies.segments.max(1) as f64
     }
 
     /// Straight flights per second of wall time.
@@ -327,6 +337,7 @@ impl BrdfRun {
                 }
             }
         }
+        t.intersection_tests = scratch.tests;
         t
     }
 }
