@@ -9,8 +9,9 @@ of side 3 sqrt(N) (30 for 100 bumps). Height fields: Gaussian, sigma 1,
 tau 8 pitches, 256² to 4096² squares of pitch 0.25. Each scene is traced at
 60 degrees with `roks brdf` (10^6 photons; 2x10^5 for the largest) with
 `--threads 1` and `--threads 2`. Recorded: segments per second (from
-summary.json), peak memory (maximum resident set size from /usr/bin/time),
-and for bumps the candidate solids per acceleration-grid cell (`roks stats`,
+summary.json), intersection tests per segment (summary.json: quadrics whose
+ray polynomial was formed, or height-field squares tested), peak memory
+(maximum resident set size from /usr/bin/time), and for bumps the candidate solids per acceleration-grid cell (`roks stats`,
 the quadric bodies a flight through one grid cell may test). Writes
 OUT/report.md and OUT/scaling.json. Wall-clock speeds depend on what else
 the machine runs; compare within one run.
@@ -77,7 +78,8 @@ def run(roks: Path, scene: Path, threads: int, photons: int, out: Path) -> dict:
     rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", p.stderr).group(1))
     inc = json.loads((out / "summary.json").read_text())["incidence"][0]
     return {"segments_per_second": inc["segments_per_second"], "seconds": inc["seconds"],
-            "segments_per_photon": inc["segments"] / inc["photons"], "max_rss_mb": rss / 1024}
+            "segments_per_photon": inc["segments"] / inc["photons"], "max_rss_mb": rss / 1024,
+            "tests_per_segment": inc["tests_per_segment"]}
 
 
 def candidates(roks: Path, scene: Path) -> float | None:
@@ -116,17 +118,19 @@ def main() -> int:
     lines = ["# Scaling of the micro tracer", "",
              "`scripts/scaling.py`: 60 degrees, `roks brdf`, segments per second from summary.json, peak "
              "memory from /usr/bin/time. Bumps at constant density (cell side 3 sqrt(N)); height fields "
-             "Gaussian, tau = 8 pitches.", "",
+             "Gaussian, tau = 8 pitches. Tests/segment: quadrics whose ray polynomial was formed (bumps) "
+             "or squares of two triangles tested (height fields).", "",
              "| surface | size | photons | segments/photon | M segments/s, 1 thread | 2 threads | speed-up "
-             "| peak memory (MB) | candidate solids per grid cell |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| peak memory (MB) | tests/segment | candidate solids per grid cell |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         t1, t2 = r["threads_1"], r["threads_2"]
         size = f"{r['n']} bumps" if r["kind"] == "bumps" else f"{r['n']}²"
         cand = f"{r['candidates_per_cell']:.1f}" if r["candidates_per_cell"] is not None else "-"
         lines.append(f"| {r['kind']} | {size} | {r['photons']:.0e} | {t1['segments_per_photon']:.2f} | "
                      f"{t1['segments_per_second'] / 1e6:.2f} | {t2['segments_per_second'] / 1e6:.2f} | "
-                     f"{t2['segments_per_second'] / t1['segments_per_second']:.2f} | {t2['max_rss_mb']:.0f} | {cand} |")
+                     f"{t2['segments_per_second'] / t1['segments_per_second']:.2f} | {t2['max_rss_mb']:.0f} | "
+                     f"{t1['tests_per_segment']:.2f} | {cand} |")
     (a.out / "report.md").write_text("\n".join(lines) + "\n")
     (a.out / "scaling.json").write_text(json.dumps(rows, indent=1))
     print("\n".join(lines))
