@@ -300,6 +300,11 @@ struct BrdfArgs {
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     theta: Option<Vec<f64>>,
+    /// Entry points (overrides [light] launch): random, or lattice (16
+    /// randomly shifted R2 lattices; standard errors from their spread;
+    /// photons a multiple of 16).
+    #[arg(long, value_parser = ["random", "lattice"])]
+    launch: Option<String>,
     /// Height-map resolution for the surface statistics in the summary
     /// (default 512; a height field: its own grid).
     #[arg(long)]
@@ -485,6 +490,11 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     if let Some(s) = a.seed {
         run.seed = s;
     }
+    if let Some(l) = &a.launch {
+        run.launch = roks::transport::launch::Launch::from_name(l).expect("clap checked the name");
+    }
+    roks::transport::launch::check_photons(run.launch, run.photons)
+        .map_err(|e| Failure::Input(format!("--photons: {e}")))?;
     if let Some(t) = &a.theta {
         if t.is_empty() {
             return Err(Failure::Input("--theta: needs at least one angle".into()));
@@ -548,7 +558,11 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
             let (nodes, secs) =
                 run.run_shard_one(&scene.surface, theta, total_photons, &|n| bar.inc(n));
             // This shard's own sums, for its own files (left to right).
-            let mut t = roks::transport::brdf::Tallies::new(&run.grid(), &run.inplane());
+            let mut t = roks::transport::brdf::Tallies::new(
+                &run.grid(),
+                &run.inplane(),
+                run.launch.replicates(),
+            );
             for n in &nodes {
                 t.merge(&n.value);
             }

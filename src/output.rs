@@ -64,7 +64,7 @@ pub fn brdf_csv(run: &BrdfRun, results: &[IncidenceResult]) -> String {
             let (theta, phi) = grid.centre(band, cell);
             let proj = grid.projected_solid_angle(band, cell);
             let f = r.tallies.carlson.mean(flat, n);
-            let fe = r.tallies.carlson.stderr(flat, n);
+            let fe = r.carlson_stderr(flat);
             let _ = writeln!(
                 s,
                 "{},{},{band},{cell},{},{},{},{},{},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
@@ -96,7 +96,7 @@ pub fn inplane_csv(run: &BrdfRun, results: &[IncidenceResult]) -> String {
         for bin in 0..tally.n_bins() {
             let proj = tally.projected_solid_angle(bin);
             let f = r.tallies.inplane.mean(bin, n);
-            let fe = r.tallies.inplane.stderr(bin, n);
+            let fe = r.inplane_stderr(bin);
             let _ = writeln!(
                 s,
                 "{},{},{:.9e},{:.9e}",
@@ -337,7 +337,7 @@ pub fn inplane_plot(
                     (
                         tally.centre_deg(bin),
                         r.tallies.inplane.mean(bin, n) / proj,
-                        2.0 * r.tallies.inplane.stderr(bin, n) / proj,
+                        2.0 * r.inplane_stderr(bin) / proj,
                     )
                 })
                 .collect();

@@ -55,7 +55,9 @@
 //! with the raw sums (`photons`, `reflected`/`carlson`/`inplane` as
 //! `{sum, sum_sq}`, `by_bounces`, `bounces`, `segments`,
 //! `intersection_tests`, `lost_walls`,
-//! `lost_cap`, `lost_numeric`, `capped_histories`, `numeric_histories`).
+//! `lost_cap`, `lost_numeric`, `capped_histories`, `numeric_histories`, and
+//! `replicates`: null, or for a lattice run `{count, reflected, carlson,
+//! inplane}` with the sums per replicate).
 //! Floating-point numbers are written as decimal strings (Rust's shortest
 //! round-trip form, e.g. `"0.123"`, `"1e-7"`), so they read back bit for bit.
 
@@ -63,7 +65,8 @@ use serde_json::{Map, Value, json};
 
 use crate::tally::Accumulator;
 use crate::transport::BATCH;
-use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, Tallies};
+use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, Replicates, Tallies};
+use crate::transport::launch::Launch;
 use crate::transport::micro::Controls;
 
 /// `format` of `tallies.json`.
@@ -318,6 +321,12 @@ pub fn tallies_json(t: &Tallies) -> Value {
         "lost_numeric": f64_text(t.lost_numeric),
         "capped_histories": t.capped_histories,
         "numeric_histories": t.numeric_histories,
+        "replicates": t.replicates.as_ref().map(|r| json!({
+            "count": r.count,
+            "reflected": acc_json(&r.reflected),
+            "carlson": acc_json(&r.carlson),
+            "inplane": acc_json(&r.inplane),
+        })),
     })
 }
 
@@ -344,6 +353,18 @@ pub fn json_tallies(
         lost_numeric: text_f64(get(v, "lost_numeric")?, "lost_numeric")?,
         capped_histories: get_u64(v, "capped_histories")?,
         numeric_histories: get_u64(v, "numeric_histories")?,
+        replicates: match v.get("replicates") {
+            None | Some(Value::Null) => None,
+            Some(r) => {
+                let k = usize::try_from(get_u64(r, "count")?).map_err(|e| e.to_string())?;
+                Some(Replicates {
+                    count: k,
+                    reflected: json_acc(get(r, "reflected")?, "replicates.reflected", k)?,
+                    carlson: json_acc(get(r, "carlson")?, "replicates.carlson", k * carlson_cells)?,
+                    inplane: json_acc(get(r, "inplane")?, "replicates.inplane", k * inplane_bins)?,
+                })
+            }
+        },
     })
 }
 
@@ -444,6 +465,7 @@ pub fn settings_json(
         "max_bounces": run.controls.max_bounces,
         "roulette_weight": f64_text(run.controls.roulette_weight),
         "max_segments": run.controls.max_segments,
+        "launch": run.launch.name(),
         "edges": edges,
         "surface": exact_object(surface),
     })
@@ -477,6 +499,10 @@ pub fn run_from_settings(s: &Value) -> Result<BrdfRun, String> {
             roulette_weight: text_f64(get(s, "roulette_weight")?, "roulette_weight")?,
             max_segments: u32_of("max_segments")?,
         },
+        launch: {
+            let name = get(s, "launch")?.as_str().unwrap_or("");
+            Launch::from_name(name).ok_or_else(|| format!("`launch`: unknown `{name}`"))?
+        },
     })
 }
 
@@ -493,6 +519,7 @@ pub fn summary_fields(s: &Value) -> Result<Map<String, Value>, String> {
         "seed",
         "photons_per_incidence",
         "bands",
+        "launch",
         "edges",
     ] {
         m.insert(key.into(), get(s, key)?.clone());

@@ -186,6 +186,24 @@ fn incidence_out_of_range() {
 }
 
 #[test]
+fn lattice_photons_not_a_multiple_of_16() {
+    check(
+        "lattice_photons",
+        &broken("photons = 1000", "photons = 1000\nlaunch = \"lattice\""),
+        &["light.photons", "multiple of 16"],
+    );
+}
+
+#[test]
+fn unknown_launch() {
+    check(
+        "launch",
+        &broken("photons = 1000", "photons = 1024\nlaunch = \"sobol\""),
+        &["launch", "sobol"],
+    );
+}
+
+#[test]
 fn inplane_step_not_dividing_180() {
     check(
         "step",

@@ -38,6 +38,7 @@
 //! phi_deg = 0.0             # omega_i = (sin t cos p, sin t sin p, cos t) points to the light
 //! photons = 1000000         # per incidence angle
 //! seed = 1                  # tracing seed
+//! launch = "random"         # entry points: "random" or "lattice" (replicated R2 lattice)
 //!
 //! [tally]
 //! bands = 32                # Carlson grid bands
@@ -68,6 +69,7 @@ use crate::micro::heightfield::HeightField;
 use crate::micro::heightfield_io::{self, Format};
 use crate::micro::{Edges, MicroSurface, Placed};
 use crate::transport::brdf::BrdfRun;
+use crate::transport::launch::{Launch, check_photons};
 use crate::transport::micro::Controls;
 
 /// The embedded default scene (also `scenes/default.toml`).
@@ -246,6 +248,10 @@ pub struct LightSpec {
     /// Tracing seed.
     #[serde(default = "default_seed")]
     pub seed: u64,
+    /// Entry points: `"random"` (default) or `"lattice"` (see
+    /// [`crate::transport::launch`]; photons must then be a multiple of 16).
+    #[serde(default)]
+    pub launch: Launch,
 }
 
 impl Default for LightSpec {
@@ -255,6 +261,7 @@ impl Default for LightSpec {
             phi_deg: 0.0,
             photons: default_photons(),
             seed: default_seed(),
+            launch: Launch::Random,
         }
     }
 }
@@ -358,6 +365,7 @@ impl MicroScene {
             photons: self.light.photons,
             first_photon: 0,
             seed: self.light.seed,
+            launch: self.light.launch,
             bands: self.tally.bands,
             inplane_step_deg: self.tally.inplane_step_deg,
             inplane_width_deg: self.tally.inplane_width_deg,
@@ -480,6 +488,9 @@ impl MicroSceneSpec {
         }
         if light.photons == 0 {
             return Err(source.error("light.photons", "must be > 0"));
+        }
+        if let Err(e) = check_photons(light.launch, light.photons) {
+            return Err(source.error("light.photons", e));
         }
         let tally = self.tally;
         if !(1..=1000).contains(&tally.bands) {

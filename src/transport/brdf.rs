@@ -1,8 +1,8 @@
 //! The BRDF generator: photons from each incidence direction, tallied on the
 //! Carlson grid and in the plane of incidence, with standard errors.
 //!
-//! Photons start at uniform random points of the cell on the launch plane,
-//! travelling along `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
+//! Photons start at uniform points of the cell on the launch plane, random
+//! or on randomised lattices ([`super::launch`]), travelling along `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
 //! photons are traced in fixed batches of [`BATCH`] and the batch tallies are
 //! summed over a fixed binary tree on batch indices ([`crate::shard`]), so
 //! results are bit-identical for any thread count, and shards of a run
@@ -15,6 +15,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rand::RngExt;
 
+use super::launch::{Launch, lattice_point, replicate_stderr};
 use super::micro::{Controls, Fate, trace};
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
@@ -47,6 +48,8 @@ pub struct BrdfRun {
     pub inplane_width_deg: f64,
     /// History limits.
     pub controls: Controls,
+    /// Entry points: random, or lattice replicates.
+    pub launch: Launch,
 }
 
 /// Everything tallied for one incidence direction (sums; see [`IncidenceResult`]).
@@ -78,12 +81,57 @@ pub struct Tallies {
     pub capped_histories: u64,
     /// Histories stopped by numerical guards.
     pub numeric_histories: u64,
+    /// With [`Launch::Lattice`]: the reflected weight summed per replicate.
+    pub replicates: Option<Replicates>,
+}
+
+/// Reflected weight summed per lattice replicate, from which the standard
+/// errors of a lattice run come. Bins are replicate-major: bin `b` of
+/// replicate `r` is `r * bins + b` (only the `sum`s are used).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Replicates {
+    /// Number of replicates.
+    pub count: usize,
+    /// Reflected weight, one bin per replicate.
+    pub reflected: Accumulator,
+    /// Per replicate and Carlson cell.
+    pub carlson: Accumulator,
+    /// Per replicate and in-plane bin.
+    pub inplane: Accumulator,
+}
+
+impl Replicates {
+    /// Zero sums for `count` replicates of `cells` Carlson cells and `bins` in-plane bins.
+    #[must_use]
+    pub fn new(count: usize, cells: usize, bins: usize) -> Self {
+        Self {
+            count,
+            reflected: Accumulator::new(count),
+            carlson: Accumulator::new(count * cells),
+            inplane: Accumulator::new(count * bins),
+        }
+    }
+
+    fn merge(&mut self, other: &Self) {
+        self.reflected.merge(&other.reflected);
+        self.carlson.merge(&other.carlson);
+        self.inplane.merge(&other.inplane);
+    }
+
+    /// Standard error of the mean of `bin` of `sums` over `photons` photons
+    /// split equally between the replicates.
+    fn stderr(&self, sums: &Accumulator, bin: usize, photons: u64) -> f64 {
+        let bins = sums.len() / self.count;
+        let per = photons / self.count as u64;
+        replicate_stderr((0..self.count).map(|r| sums.sum[r * bins + bin]), per)
+    }
 }
 
 impl Tallies {
-    /// All sums zero, bins for `grid` and `inplane`.
+    /// All sums zero, bins for `grid` and `inplane`, replicate sums for
+    /// `replicates` (see [`Launch::replicates`]).
     #[must_use]
-    pub fn new(grid: &CarlsonGrid, inplane: &InPlaneTally) -> Self {
+    pub fn new(grid: &CarlsonGrid, inplane: &InPlaneTally, replicates: Option<u64>) -> Self {
         Self {
             photons: 0,
             reflected: Accumulator::new(1),
@@ -98,6 +146,8 @@ impl Tallies {
             lost_numeric: 0.0,
             capped_histories: 0,
             numeric_histories: 0,
+            replicates: replicates
+                .map(|k| Replicates::new(k as usize, grid.n_cells(), inplane.n_bins())),
         }
     }
 
@@ -118,6 +168,11 @@ impl Tallies {
         self.lost_numeric += other.lost_numeric;
         self.capped_histories += other.capped_histories;
         self.numeric_histories += other.numeric_histories;
+        match (&mut self.replicates, &other.replicates) {
+            (Some(a), Some(b)) => a.merge(b),
+            (None, None) => {}
+            _ => panic!("Tallies::merge: random and lattice tallies mixed"),
+        }
     }
 }
 
@@ -141,8 +196,34 @@ impl IncidenceResult {
         let n = self.tallies.photons;
         (
             self.tallies.reflected.mean(0, n),
-            self.tallies.reflected.stderr(0, n),
+            self.stderr(|t| &t.reflected, |r| &r.reflected, 0),
         )
+    }
+
+    /// Standard error of the weight fraction in Carlson cell `cell`.
+    #[must_use]
+    pub fn carlson_stderr(&self, cell: usize) -> f64 {
+        self.stderr(|t| &t.carlson, |r| &r.carlson, cell)
+    }
+
+    /// Standard error of the weight fraction in in-plane bin `bin`.
+    #[must_use]
+    pub fn inplane_stderr(&self, bin: usize) -> f64 {
+        self.stderr(|t| &t.inplane, |r| &r.inplane, bin)
+    }
+
+    /// Per photon, or from the replicate spread for a lattice run.
+    fn stderr(
+        &self,
+        per_photon: impl Fn(&Tallies) -> &Accumulator,
+        per_replicate: impl Fn(&Replicates) -> &Accumulator,
+        bin: usize,
+    ) -> f64 {
+        let t = &self.tallies;
+        match &t.replicates {
+            Some(r) => r.stderr(per_replicate(r), bin, t.photons),
+            None => per_photon(t).stderr(bin, t.photons),
+        }
     }
 
     /// Lost weight per launched photon (walls + caps + numerical guards).
@@ -231,7 +312,7 @@ impl BrdfRun {
             phi_i_deg: self.phi_deg,
             tallies: sum
                 .finish()
-                .unwrap_or_else(|_| Tallies::new(&grid, &inplane)),
+                .unwrap_or_else(|_| Tallies::new(&grid, &inplane, self.launch.replicates())),
             seconds: clock.elapsed().as_secs_f64(),
         }
     }
@@ -306,11 +387,17 @@ impl BrdfRun {
         dir: DVec3,
         photons: std::ops::Range<u64>,
     ) -> Tallies {
-        let mut t = Tallies::new(grid, inplane);
+        let mut t = Tallies::new(grid, inplane, self.launch.replicates());
         let mut scratch = Scratch::new(surface);
         for n in photons {
-            let mut rng = photon_rng(self.seed, self.first_photon + n);
-            let (u, v): (f64, f64) = (rng.random(), rng.random());
+            let g = self.first_photon + n;
+            let mut rng = photon_rng(self.seed, g);
+            let (mut u, mut v): (f64, f64) = (rng.random(), rng.random());
+            let mut replicate = 0;
+            if self.launch == Launch::Lattice {
+                let (r, [lu, lv]) = lattice_point(self.seed, g);
+                (replicate, u, v) = (r, lu, lv);
+            }
             let start = DVec3::new(u * surface.size.x, v * surface.size.y, surface.top);
             let h = trace(surface, start, dir, &self.controls, &mut rng, &mut scratch);
             t.photons += 1;
@@ -320,8 +407,16 @@ impl BrdfRun {
                 Fate::Escaped { dir: out, weight } => {
                     t.reflected.score(0, weight);
                     grid.score(&mut t.carlson, 0, out, weight);
-                    if let Some(c) = inplane.locate(out) {
+                    let bin = inplane.locate(out);
+                    if let Some(c) = bin {
                         t.inplane.score(c, weight);
+                    }
+                    if let Some(r) = &mut t.replicates {
+                        r.reflected.score(replicate, weight);
+                        grid.score(&mut r.carlson, replicate * grid.n_cells(), out, weight);
+                        if let Some(c) = bin {
+                            r.inplane.score(replicate * inplane.n_bins() + c, weight);
+                        }
                     }
                     t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
                 }

@@ -2,10 +2,12 @@
 //!
 //! * [`rng`]: one reproducible stream per photon.
 //! * [`micro`]: one history in a micro surface (specular reflections, weights, roulette).
+//! * [`launch`]: where photons enter the micro cell (random or lattice).
 //! * [`brdf`]: the BRDF generator (`roks brdf`).
 //! * [`object`]: histories through a 3-D object (`roks trace`).
 
 pub mod brdf;
+pub mod launch;
 pub mod micro;
 pub mod object;
 pub mod rng;

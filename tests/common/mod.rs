@@ -35,6 +35,7 @@ pub fn brdf_run(scene: &MicroScene) -> BrdfRun {
             roulette_weight: scene.transport.roulette_weight,
             ..Controls::default()
         },
+        launch: scene.light.launch,
     }
 }
 
