@@ -830,3 +830,50 @@ fn radiator_with_white_walls_reflects_everything() {
         }
     }
 }
+
+/// A reflectance that is not a number (a scene file cannot give one, the
+/// scene is validated; here the material is built directly) stops the
+/// photon at its first hit as a counted numerical loss with the weight it
+/// carried: no NaN reaches a tally, and every output number stays finite.
+#[test]
+fn nan_reflectance_is_a_counted_numerical_loss() {
+    let nan_surface = || {
+        MicroSurface::new(
+            DVec2::new(1.0, 1.0),
+            Edges::Periodic,
+            Vec::new(),
+            vec![Reflectance::Constant(f64::NAN)],
+            0,
+        )
+    };
+    let surface = nan_surface();
+    let mut scratch = Scratch::new(&surface);
+    let start = DVec3::new(0.5, 0.5, surface.top);
+    let h = trace(
+        &surface,
+        start,
+        DVec3::NEG_Z,
+        &Controls::default(),
+        &mut photon_rng(1, 0),
+        &mut scratch,
+    );
+    assert_eq!(h.fate, Fate::Numeric { weight: 1.0 });
+    assert_eq!(h.bounces, 0);
+
+    let mut scene = square_scene(
+        "nan",
+        1.0,
+        "reflectance = 1.0",
+        "[light]\ntheta_deg = [0, 60]\nphotons = 5000\n",
+    );
+    scene.surface = nan_surface();
+    let results = common::run(&scene);
+    for r in &results {
+        let t = &r.tallies;
+        assert_eq!(t.numeric_histories, t.photons, "theta {}", r.theta_i_deg);
+        assert_eq!(t.lost_numeric, t.photons as f64, "theta {}", r.theta_i_deg);
+        assert_eq!(r.reflectance(), (0.0, 0.0), "theta {}", r.theta_i_deg);
+        assert_eq!(r.lost(), 1.0);
+    }
+    assert_outputs_finite("NaN reflectance", &scene, &results);
+}

@@ -22,6 +22,21 @@ pub struct CarlsonGrid {
     bands: usize,
 }
 
+/// Up to four Carlson cell indices (see [`CarlsonGrid::cells_of`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Cells {
+    cells: [usize; 4],
+    len: usize,
+}
+
+impl Cells {
+    /// The indices.
+    #[must_use]
+    pub fn as_slice(&self) -> &[usize] {
+        &self.cells[..self.len]
+    }
+}
+
 impl CarlsonGrid {
     /// A grid with `bands` polar bands; `None` if `bands == 0`.
     #[must_use]
@@ -182,12 +197,38 @@ impl CarlsonGrid {
     /// facet at normal incidence) the azimuth is undefined: the weight is
     /// shared equally among the four cells of band 1.
     pub fn score(&self, acc: &mut crate::tally::Accumulator, offset: usize, dir: DVec3, w: f64) {
+        let (cells, share) = self.cells_of(dir);
+        for &c in cells.as_slice() {
+            acc.score(offset + c, share * w);
+        }
+    }
+
+    /// The cells [`CarlsonGrid::score`] puts a direction's weight in and the
+    /// share each gets: its own cell (share 1), the four cells of band 1 at
+    /// the pole (share 1/4), or none (not a finite upward direction).
+    #[must_use]
+    #[inline]
+    pub fn cells_of(&self, dir: DVec3) -> (Cells, f64) {
         if dir.x == 0.0 && dir.y == 0.0 {
-            for cell in 0..4 {
-                acc.score(offset + self.index(1, cell), 0.25 * w);
-            }
-        } else if let Some(c) = self.locate(dir) {
-            acc.score(offset + c, w);
+            let cells = Cells {
+                cells: [0, 1, 2, 3].map(|c| self.index(1, c)),
+                len: 4,
+            };
+            return if dir.z > 0.0 {
+                (cells, 0.25)
+            } else {
+                (Cells::default(), 0.0)
+            };
+        }
+        match self.locate(dir) {
+            Some(c) => (
+                Cells {
+                    cells: [c, 0, 0, 0],
+                    len: 1,
+                },
+                1.0,
+            ),
+            None => (Cells::default(), 0.0),
         }
     }
 

@@ -406,14 +406,20 @@ impl BrdfRun {
             match h.fate {
                 Fate::Escaped { dir: out, weight } => {
                     t.reflected.score(0, weight);
-                    grid.score(&mut t.carlson, 0, out, weight);
+                    let (cells, share) = grid.cells_of(out);
+                    for &c in cells.as_slice() {
+                        t.carlson.score(c, share * weight);
+                    }
                     let bin = inplane.locate(out);
                     if let Some(c) = bin {
                         t.inplane.score(c, weight);
                     }
                     if let Some(r) = &mut t.replicates {
                         r.reflected.score(replicate, weight);
-                        grid.score(&mut r.carlson, replicate * grid.n_cells(), out, weight);
+                        for &c in cells.as_slice() {
+                            r.carlson
+                                .score(replicate * grid.n_cells() + c, share * weight);
+                        }
                         if let Some(c) = bin {
                             r.inplane.score(replicate * inplane.n_bins() + c, weight);
                         }

@@ -56,7 +56,8 @@ pub enum Fate {
         /// Weight carried when cut.
         weight: f64,
     },
-    /// Stopped by a numerical guard (degenerate normal, non-finite direction).
+    /// Stopped by a numerical guard (degenerate normal, non-finite direction
+    /// or position, a reflectance that is not a finite number >= 0).
     Numeric {
         /// Weight carried when stopped.
         weight: f64,
@@ -120,6 +121,10 @@ pub fn trace(
                 // Specular reflection, weighted by the reflectance at the local angle.
                 let cos_i = -d.dot(n);
                 let r = surface.materials[material].reflectance(cos_i);
+                if !(r >= 0.0 && r.is_finite()) {
+                    // Also NaN: a weight that is not a number never reaches a tally.
+                    return end(Fate::Numeric { weight: w }, bounces, segments);
+                }
                 w *= r;
                 d = (d + 2.0 * cos_i * n).normalize_or_zero();
                 if !(p.is_finite() && d.is_finite()) || d == DVec3::ZERO {
@@ -143,7 +148,11 @@ pub fn trace(
                             return end(Fate::Capped { weight: w }, bounces, segments);
                         }
                         let cos_i = d[axis].abs();
-                        w *= surface.materials[surface.substrate_material].reflectance(cos_i);
+                        let r = surface.materials[surface.substrate_material].reflectance(cos_i);
+                        if !(r >= 0.0 && r.is_finite()) {
+                            return end(Fate::Numeric { weight: w }, bounces, segments);
+                        }
+                        w *= r;
                         d[axis] = -d[axis];
                     }
                 }

@@ -359,6 +359,10 @@ pub fn follow(
         bounces += 1;
         match models[m].interact(d, normal, rng, &mut scratch[m]) {
             Interaction::Reflected { dir, factor } => {
+                if !(factor >= 0.0 && factor.is_finite()) {
+                    // Also NaN: such a weight never reaches a tally.
+                    return end(MacroFate::Lost { weight: w }, bounces, segments);
+                }
                 absorbed(sid, w * (1.0 - factor));
                 w *= factor;
                 d = dir;
