@@ -323,9 +323,9 @@ pub fn tallies_json(t: &Tallies) -> Value {
         "numeric_histories": t.numeric_histories,
         "replicates": t.replicates.as_ref().map(|r| json!({
             "count": r.count,
-            "reflected": acc_json(&r.reflected),
-            "carlson": acc_json(&r.carlson),
-            "inplane": acc_json(&r.inplane),
+            "reflected": f64s_text(&r.reflected),
+            "carlson": f64s_text(&r.carlson),
+            "inplane": f64s_text(&r.inplane),
         })),
     })
 }
@@ -359,9 +359,13 @@ pub fn json_tallies(
                 let k = usize::try_from(get_u64(r, "count")?).map_err(|e| e.to_string())?;
                 Some(Replicates {
                     count: k,
-                    reflected: json_acc(get(r, "reflected")?, "replicates.reflected", k)?,
-                    carlson: json_acc(get(r, "carlson")?, "replicates.carlson", k * carlson_cells)?,
-                    inplane: json_acc(get(r, "inplane")?, "replicates.inplane", k * inplane_bins)?,
+                    reflected: text_f64s(get(r, "reflected")?, "replicates.reflected", k)?,
+                    carlson: text_f64s(
+                        get(r, "carlson")?,
+                        "replicates.carlson",
+                        k * carlson_cells,
+                    )?,
+                    inplane: text_f64s(get(r, "inplane")?, "replicates.inplane", k * inplane_bins)?,
                 })
             }
         },

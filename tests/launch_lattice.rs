@@ -95,7 +95,7 @@ seed = 2
         let reps = r.tallies.replicates.as_ref().expect("replicate sums");
         assert_eq!(reps.count as u64, REPLICATES);
         let per = (r.tallies.photons / REPLICATES) as f64;
-        assert!(reps.reflected.sum.iter().all(|&s| s == per));
+        assert!(reps.reflected.iter().all(|&s| s == per));
     }
 }
 

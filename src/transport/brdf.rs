@@ -15,7 +15,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rand::RngExt;
 
-use super::launch::{Launch, lattice_point, replicate_stderr};
+use super::launch::{Lattices, Launch, replicate_stderr};
 use super::micro::{Controls, Fate, trace};
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
@@ -87,17 +87,17 @@ pub struct Tallies {
 
 /// Reflected weight summed per lattice replicate, from which the standard
 /// errors of a lattice run come. Bins are replicate-major: bin `b` of
-/// replicate `r` is `r * bins + b` (only the `sum`s are used).
+/// replicate `r` is `r * bins + b`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Replicates {
     /// Number of replicates.
     pub count: usize,
-    /// Reflected weight, one bin per replicate.
-    pub reflected: Accumulator,
+    /// Reflected weight, one per replicate.
+    pub reflected: Vec<f64>,
     /// Per replicate and Carlson cell.
-    pub carlson: Accumulator,
+    pub carlson: Vec<f64>,
     /// Per replicate and in-plane bin.
-    pub inplane: Accumulator,
+    pub inplane: Vec<f64>,
 }
 
 impl Replicates {
@@ -106,24 +106,31 @@ impl Replicates {
     pub fn new(count: usize, cells: usize, bins: usize) -> Self {
         Self {
             count,
-            reflected: Accumulator::new(count),
-            carlson: Accumulator::new(count * cells),
-            inplane: Accumulator::new(count * bins),
+            reflected: vec![0.0; count],
+            carlson: vec![0.0; count * cells],
+            inplane: vec![0.0; count * bins],
         }
     }
 
     fn merge(&mut self, other: &Self) {
-        self.reflected.merge(&other.reflected);
-        self.carlson.merge(&other.carlson);
-        self.inplane.merge(&other.inplane);
+        for (a, b) in [
+            (&mut self.reflected, &other.reflected),
+            (&mut self.carlson, &other.carlson),
+            (&mut self.inplane, &other.inplane),
+        ] {
+            assert_eq!(a.len(), b.len(), "Replicates::merge: bin counts differ");
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
+            }
+        }
     }
 
     /// Standard error of the mean of `bin` of `sums` over `photons` photons
     /// split equally between the replicates.
-    fn stderr(&self, sums: &Accumulator, bin: usize, photons: u64) -> f64 {
+    fn stderr(&self, sums: &[f64], bin: usize, photons: u64) -> f64 {
         let bins = sums.len() / self.count;
         let per = photons / self.count as u64;
-        replicate_stderr((0..self.count).map(|r| sums.sum[r * bins + bin]), per)
+        replicate_stderr((0..self.count).map(|r| sums[r * bins + bin]), per)
     }
 }
 
@@ -216,7 +223,7 @@ impl IncidenceResult {
     fn stderr(
         &self,
         per_photon: impl Fn(&Tallies) -> &Accumulator,
-        per_replicate: impl Fn(&Replicates) -> &Accumulator,
+        per_replicate: impl Fn(&Replicates) -> &[f64],
         bin: usize,
     ) -> f64 {
         let t = &self.tallies;
@@ -389,13 +396,14 @@ impl BrdfRun {
     ) -> Tallies {
         let mut t = Tallies::new(grid, inplane, self.launch.replicates());
         let mut scratch = Scratch::new(surface);
+        let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
         for n in photons {
             let g = self.first_photon + n;
             let mut rng = photon_rng(self.seed, g);
             let (mut u, mut v): (f64, f64) = (rng.random(), rng.random());
             let mut replicate = 0;
-            if self.launch == Launch::Lattice {
-                let (r, [lu, lv]) = lattice_point(self.seed, g);
+            if let Some(lattices) = &lattices {
+                let (r, [lu, lv]) = lattices.point(g);
                 (replicate, u, v) = (r, lu, lv);
             }
             let start = DVec3::new(u * surface.size.x, v * surface.size.y, surface.top);
@@ -415,13 +423,12 @@ impl BrdfRun {
                         t.inplane.score(c, weight);
                     }
                     if let Some(r) = &mut t.replicates {
-                        r.reflected.score(replicate, weight);
+                        r.reflected[replicate] += weight;
                         for &c in cells.as_slice() {
-                            r.carlson
-                                .score(replicate * grid.n_cells() + c, share * weight);
+                            r.carlson[replicate * grid.n_cells() + c] += share * weight;
                         }
                         if let Some(c) = bin {
-                            r.inplane.score(replicate * inplane.n_bins() + c, weight);
+                            r.inplane[replicate * inplane.n_bins() + c] += weight;
                         }
                     }
                     t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;

@@ -103,21 +103,46 @@ pub fn check_photons(launch: Launch, photons: u64) -> Result<(), String> {
     }
 }
 
-/// The lattice point of photon `g` (index in the run) for tracing seed `seed`:
-/// its replicate and `(u, v)` in `[0, 1)²`.
+/// The random shifts of the [`REPLICATES`] lattices of one tracing seed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lattices {
+    shifts: [[f64; 2]; REPLICATES as usize],
+}
+
+impl Lattices {
+    /// The shifts for tracing seed `seed` (replicate `r` draws from the
+    /// stream `(seed ^ salt, r)`).
+    #[must_use]
+    pub fn new(seed: u64) -> Self {
+        Self {
+            shifts: std::array::from_fn(|r| {
+                let mut shift = photon_rng(seed ^ SHIFT_SALT, r as u64);
+                [shift.random(), shift.random()]
+            }),
+        }
+    }
+
+    /// The entry point of photon `g` (index in the run): its replicate and
+    /// `(u, v)` in `[0, 1)²`.
+    #[must_use]
+    #[inline]
+    pub fn point(&self, g: u64) -> (usize, [f64; 2]) {
+        let r = (g % REPLICATES) as usize;
+        let j = (g / REPLICATES) as f64;
+        let s = self.shifts[r];
+        let point = [0, 1].map(|k| {
+            // j * step exactly enough: j < 2^53 and the fraction keeps 2^-53 j.
+            let x = s[k] + (j * R2_STEP[k]).fract();
+            if x >= 1.0 { x - 1.0 } else { x }
+        });
+        (r, point)
+    }
+}
+
+/// [`Lattices::point`] for tracing seed `seed`.
 #[must_use]
-#[inline]
 pub fn lattice_point(seed: u64, g: u64) -> (usize, [f64; 2]) {
-    let r = g % REPLICATES;
-    let j = (g / REPLICATES) as f64;
-    let mut shift = photon_rng(seed ^ SHIFT_SALT, r);
-    let s: [f64; 2] = [shift.random(), shift.random()];
-    let point = [0, 1].map(|k| {
-        // j * step exactly enough: j < 2^53 and the fraction keeps 2^-53 j.
-        let x = s[k] + (j * R2_STEP[k]).fract();
-        if x >= 1.0 { x - 1.0 } else { x }
-    });
-    (r as usize, point)
+    Lattices::new(seed).point(g)
 }
 
 /// Standard error of a mean from `K` replicate sums `sums` (each over the
