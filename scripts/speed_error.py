@@ -18,6 +18,13 @@ bias is the cross-check's subject, results/crosscheck):
 * in-plane BRDF: the same over the in-plane bins with reference BRDF >= 0.1 / sr;
 * reflectance: |R - R_ref|.
 
+roks runs twice: with random entry points, and with the lattice launch
+(`--launch lattice`: 16 randomly shifted R2 lattices; photon counts rounded
+up to a multiple of 16). The lattice ladder is compared with a lattice
+reference of the same length (other seed) and its measured error is used
+as it is, without removing the reference's share: that overstates its error,
+so its time to 1 % is an upper bound.
+
 Part 2, macro level: `roks trace` of the radiator with the apex defect,
 `micro` walls (descent into the Z-302 micro geometry at every hit,
 scenes/radiator-defect.toml) and `brdf` walls (sampling its table,
@@ -49,6 +56,7 @@ sys.path.insert(0, str(HERE))
 import compare_brdf as cb  # noqa: E402
 import roks_io  # noqa: E402
 
+WHO = ("roks", "roks_lattice", "mitsuba")
 CELL_FLOOR = 1e-4      # fraction of the incident power in a cell
 INPLANE_FLOOR = 0.1    # 1/sr
 
@@ -109,6 +117,8 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "speed_error")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--skip-radiator", action="store_true")
+    ap.add_argument("--reuse-radiator", action="store_true",
+                    help="keep the radiator part of OUT/speed_error.json instead of rerunning it")
     ap.add_argument("--report-only", action="store_true", help="redo the report from OUT/speed_error.json")
     a = ap.parse_args()
     if a.report_only:
@@ -121,8 +131,9 @@ def main() -> int:
     roks_ladder = [10 ** k for k in range(3, 6 if q else 8)]
     mi_ladder = [10 ** k for k in range(3, 5 if q else 7)]
     roks_ref_n, mi_ref_n = (10 ** 6, 10 ** 5) if q else (3 * 10 ** 7, 10 ** 7)
-    res: dict = {"micro": {"roks": [], "mitsuba": [], "roks_ref_photons": roks_ref_n,
-                           "mitsuba_ref_photons": mi_ref_n}, "radiator": {}}
+    res: dict = {"micro": {"roks": [], "roks_lattice": [], "mitsuba": [], "roks_ref_photons": roks_ref_n,
+                           "roks_lattice_ref_photons": None, "mitsuba_ref_photons": mi_ref_n},
+                 "radiator": {}}
 
     # ---------- micro level
     mesh = work / "default_1024.ply"
@@ -133,11 +144,21 @@ def main() -> int:
     mref = work / "mitsuba_ref"
     mi_args = [py, HERE / "mitsuba_brdf.py", mesh, "--size", "30,30", "--theta", "30,60", "--rho", 0.8, "-q"]
     res["micro"]["mitsuba_ref_seconds"] = timed(mi_args + ["--photons", mi_ref_n, "--seed", 999, "--out", mref])
+    lref = work / "roks_lattice_ref"
+    res["micro"]["roks_lattice_ref_seconds"] = timed(
+        [a.roks, "brdf", "--theta", "30,60", "--photons", roks_ref_n, "--launch", "lattice",
+         "--seed", 998, "--out", lref, "-q"])
     for k, n in enumerate(roks_ladder):
         d = work / f"roks_{n}"
         t = timed([a.roks, "brdf", "--theta", "30,60", "--photons", n, "--seed", k + 1, "--out", d, "-q"])
         res["micro"]["roks"].append({"photons": n, "seconds": t, "errors": micro_errors(d, ref)})
         print(f"roks {n}: {t:.2f} s", file=sys.stderr)
+        n16 = -(-n // 16) * 16
+        d = work / f"roks_lattice_{n16}"
+        t = timed([a.roks, "brdf", "--theta", "30,60", "--photons", n16, "--launch", "lattice",
+                   "--seed", k + 1, "--out", d, "-q"])
+        res["micro"]["roks_lattice"].append({"photons": n16, "seconds": t, "errors": micro_errors(d, lref)})
+        print(f"roks lattice {n16}: {t:.2f} s", file=sys.stderr)
     for k, n in enumerate(mi_ladder):
         d = work / f"mitsuba_{n}"
         t = timed(mi_args + ["--photons", n, "--seed", k + 1, "--out", d])
@@ -145,7 +166,9 @@ def main() -> int:
         print(f"mitsuba {n}: {t:.2f} s", file=sys.stderr)
 
     # ---------- radiator
-    if not a.skip_radiator:
+    if a.reuse_radiator:
+        res["radiator"] = json.loads((a.out / "speed_error.json").read_text())["radiator"]
+    elif not a.skip_radiator:
         if not (ROOT / "out" / "z302" / "brdf.csv").exists():
             timed([a.roks, "brdf", "scenes/z302-micro.toml", "--out", "out/z302", "-q"])
         rad_ladder = [10 ** k for k in range(2, 4 if q else 6)]
@@ -171,8 +194,8 @@ def main() -> int:
 def report_only(out: Path) -> None:
     """Rewrite the report from OUT/speed_error.json (no runs)."""
     res = json.loads((out / "speed_error.json").read_text())
-    for who in ("roks", "mitsuba"):
-        for r in res["micro"][who]:
+    for who in WHO:
+        for r in res["micro"].get(who, []):
             r["errors"] = {float(k): v for k, v in r["errors"].items()}
     write_report(out, res)
 
@@ -191,14 +214,15 @@ def write_report(out: Path, res: dict) -> None:
                ("reflectance", "reflectance: absolute error"))
     summary = {}
     for j, (m, title) in enumerate(metrics):
-        for who, style in (("roks", "o-"), ("mitsuba", "s--")):
-            runs = res["micro"][who]
+        for who, style in (("roks", "o-"), ("roks_lattice", "^-"), ("mitsuba", "s--")):
+            runs = res["micro"].get(who, [])
             for th in (30.0, 60.0):
                 t = [r["seconds"] for r in runs]
                 e = [r["errors"][th][m] for r in runs]
                 ax[j].loglog(t, e, style, label=f"{who}, {th:g} deg")
                 if m == "cells":
-                    n_ref = res["micro"][f"{who}_ref_photons"]
+                    # No reference-noise correction for the lattice (an upper bound).
+                    n_ref = res["micro"][f"{who}_ref_photons"] or math.inf
                     summary[(who, th)] = time_to([(r["photons"], r["seconds"], r["errors"][th][m]) for r in runs],
                                                  n_ref, 0.01)
         tt = np.logspace(-1, 3, 10)
@@ -219,22 +243,27 @@ def write_report(out: Path, res: dict) -> None:
     lines += ["## Micro level: default scene, 30 and 60 degrees", "", "![micro](micro.png)", "",
               "| tracer | photons per angle | wall s | cells 30° | cells 60° | in-plane 30° | in-plane 60° "
               "| dR 30° | dR 60° |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for who in ("roks", "mitsuba"):
-        for r in res["micro"][who]:
+    for who in WHO:
+        for r in res["micro"].get(who, []):
             e = r["errors"]
             lines.append(f"| {who} | {r['photons']:.0e} | {r['seconds']:.2f} | {e[30.0]['cells']:.3g} | "
                          f"{e[60.0]['cells']:.3g} | {e[30.0]['inplane']:.3g} | {e[60.0]['inplane']:.3g} | "
                          f"{e[30.0]['reflectance']:.1e} | {e[60.0]['reflectance']:.1e} |")
     lines += ["", "Wall time to reach 1 % RMS relative error of the BRDF cells, extrapolated from the "
               "largest run (its error corrected for the reference's own noise, e² (1 + n/n_ref); start-up "
-              "time = the smallest run's, fixed; tracing time growing as 1/e²):", "", "| angle | roks (s) | Mitsuba (s) | ratio |",
-              "|---:|---:|---:|---:|"]
+              "time = the smallest run's, fixed; tracing time growing as 1/e²):", "",
+              "| angle | roks (s) | roks lattice (s) | Mitsuba (s) | ratio Mitsuba/roks | ratio Mitsuba/lattice |",
+              "|---:|---:|---:|---:|---:|---:|"]
     res["time_to_1pct"] = {}
     for th in (30.0, 60.0):
-        r_, m_ = summary.get(("roks", th)), summary.get(("mitsuba", th))
+        r_, l_, m_ = (summary.get((w, th)) for w in WHO)
         ratio = m_ / r_ if r_ and m_ else float("nan")
-        res["time_to_1pct"][str(th)] = {"roks": r_, "mitsuba": m_, "ratio": ratio}
-        lines.append(f"| {th:g} | {r_ or float('nan'):.3g} | {m_ or float('nan'):.3g} | {ratio:.1f} |")
+        ratio_l = m_ / l_ if l_ and m_ else float("nan")
+        res["time_to_1pct"][str(th)] = {"roks": r_, "roks_lattice": l_, "mitsuba": m_, "ratio": ratio,
+                                        "ratio_lattice": ratio_l}
+        nan = float("nan")
+        lines.append(f"| {th:g} | {r_ or nan:.3g} | {l_ or nan:.3g} | {m_ or nan:.3g} | {ratio:.1f} | "
+                     f"{ratio_l:.1f} |")
     lines += [""]
 
     if res["radiator"]:
