@@ -295,7 +295,8 @@ pub enum MacroFate {
         surface: usize,
     },
     /// Cut by the bounce cap, stopped by a numerical guard (degenerate
-    /// normal, non-finite direction), or lost inside a micro descent.
+    /// normal, non-finite direction or position, a wall factor that is not a
+    /// finite number >= 0), or lost inside a micro descent.
     Lost {
         /// Weight carried when lost.
         weight: f64,
@@ -352,6 +353,9 @@ pub fn follow(
             return end(MacroFate::Lost { weight: w }, bounces, segments);
         }
         p += hit.t * d;
+        if !p.is_finite() {
+            return end(MacroFate::Lost { weight: w }, bounces, segments);
+        }
         let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
         let Some(normal) = quadric.facing_normal(p, d) else {
             return end(MacroFate::Lost { weight: w }, bounces, segments);
