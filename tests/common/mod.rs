@@ -19,8 +19,21 @@ pub fn scene(name: &str, toml: &str) -> MicroScene {
 }
 
 /// The run described by the scene's `[light]`, `[tally]` and `[transport]`.
+///
+/// With `ROKS_TEST_LAUNCH=lattice` in the environment every physics test
+/// runs with the lattice launch instead (photons rounded up to a multiple of
+/// 16): the exact tests then check that the lattice is unbiased too.
 #[must_use]
 pub fn brdf_run(scene: &MicroScene) -> BrdfRun {
+    let mut run = scene_run(scene);
+    if std::env::var("ROKS_TEST_LAUNCH").as_deref() == Ok("lattice") {
+        run.launch = roks::transport::launch::Launch::Lattice;
+        run.photons = run.photons.next_multiple_of(roks::transport::launch::REPLICATES);
+    }
+    run
+}
+
+fn scene_run(scene: &MicroScene) -> BrdfRun {
     BrdfRun {
         theta_deg: scene.light.theta_deg.clone(),
         phi_deg: scene.light.phi_deg,
