@@ -28,7 +28,9 @@ pub fn brdf_run(scene: &MicroScene) -> BrdfRun {
     let mut run = scene_run(scene);
     if std::env::var("ROKS_TEST_LAUNCH").as_deref() == Ok("lattice") {
         run.launch = roks::transport::launch::Launch::Lattice;
-        run.photons = run.photons.next_multiple_of(roks::transport::launch::REPLICATES);
+        run.photons = run
+            .photons
+            .next_multiple_of(roks::transport::launch::REPLICATES);
     }
     run
 }
