@@ -305,6 +305,11 @@ struct BrdfArgs {
     /// photons a multiple of 16).
     #[arg(long, value_parser = ["random", "lattice"])]
     launch: Option<String>,
+    /// Fold mirror images in the plane of incidence into the Carlson cells
+    /// (overrides [tally] symmetry): none, or mirror (only for surfaces whose
+    /// statistics are mirror symmetric; halves the variance off the plane).
+    #[arg(long, value_parser = ["none", "mirror"])]
+    symmetry: Option<String>,
     /// Height-map resolution for the surface statistics in the summary
     /// (default 512; a height field: its own grid).
     #[arg(long)]
@@ -492,6 +497,9 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     }
     if let Some(l) = &a.launch {
         run.launch = roks::transport::launch::Launch::from_name(l).expect("clap checked the name");
+    }
+    if let Some(s) = &a.symmetry {
+        run.symmetry = roks::tally::Symmetry::from_name(s).expect("clap checked the name");
     }
     roks::transport::launch::check_photons(run.launch, run.photons)
         .map_err(|e| Failure::Input(format!("--photons: {e}")))?;

@@ -63,7 +63,7 @@
 
 use serde_json::{Map, Value, json};
 
-use crate::tally::Accumulator;
+use crate::tally::{Accumulator, Symmetry};
 use crate::transport::BATCH;
 use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, Replicates, Tallies};
 use crate::transport::launch::Launch;
@@ -470,6 +470,7 @@ pub fn settings_json(
         "roulette_weight": f64_text(run.controls.roulette_weight),
         "max_segments": run.controls.max_segments,
         "launch": run.launch.name(),
+        "symmetry": run.symmetry.name(),
         "edges": edges,
         "surface": exact_object(surface),
     })
@@ -507,6 +508,10 @@ pub fn run_from_settings(s: &Value) -> Result<BrdfRun, String> {
             let name = get(s, "launch")?.as_str().unwrap_or("");
             Launch::from_name(name).ok_or_else(|| format!("`launch`: unknown `{name}`"))?
         },
+        symmetry: {
+            let name = get(s, "symmetry")?.as_str().unwrap_or("");
+            Symmetry::from_name(name).ok_or_else(|| format!("`symmetry`: unknown `{name}`"))?
+        },
     })
 }
 
@@ -524,6 +529,7 @@ pub fn summary_fields(s: &Value) -> Result<Map<String, Value>, String> {
         "photons_per_incidence",
         "bands",
         "launch",
+        "symmetry",
         "edges",
     ] {
         m.insert(key.into(), get(s, key)?.clone());

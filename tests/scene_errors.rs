@@ -204,6 +204,15 @@ fn unknown_launch() {
 }
 
 #[test]
+fn unknown_symmetry() {
+    check(
+        "symmetry",
+        &format!("{GOOD}\n[tally]\nsymmetry = \"rotation\"\n"),
+        &["symmetry", "rotation"],
+    );
+}
+
+#[test]
 fn inplane_step_not_dividing_180() {
     check(
         "step",

@@ -44,6 +44,7 @@
 //! bands = 32                # Carlson grid bands
 //! inplane_step_deg = 1.0    # in-plane bin width
 //! inplane_width_deg = 1.0   # in-plane detector full width out of the plane
+//! symmetry = "none"         # "mirror": fold mirror images in the plane of incidence
 //!
 //! [transport]
 //! max_bounces = 100000      # bounce cap (cut photons are reported as lost)
@@ -68,6 +69,7 @@ use crate::micro::bumps::{Bump, Shape};
 use crate::micro::heightfield::HeightField;
 use crate::micro::heightfield_io::{self, Format};
 use crate::micro::{Edges, MicroSurface, Placed};
+use crate::tally::Symmetry;
 use crate::transport::brdf::BrdfRun;
 use crate::transport::launch::{Launch, check_photons};
 use crate::transport::micro::Controls;
@@ -289,6 +291,11 @@ pub struct TallySpec {
     /// In-plane detector full width out of the plane (degrees).
     #[serde(default = "default_one")]
     pub inplane_width_deg: f64,
+    /// `"none"` (default) or `"mirror"`: fold mirror images in the plane of
+    /// incidence (only for mirror-symmetric statistics; see
+    /// [`crate::tally::symmetry`]).
+    #[serde(default)]
+    pub symmetry: Symmetry,
 }
 
 impl Default for TallySpec {
@@ -297,6 +304,7 @@ impl Default for TallySpec {
             bands: default_bands(),
             inplane_step_deg: 1.0,
             inplane_width_deg: 1.0,
+            symmetry: Symmetry::None,
         }
     }
 }
@@ -369,6 +377,7 @@ impl MicroScene {
             bands: self.tally.bands,
             inplane_step_deg: self.tally.inplane_step_deg,
             inplane_width_deg: self.tally.inplane_width_deg,
+            symmetry: self.tally.symmetry,
             controls: Controls {
                 max_bounces: self.transport.max_bounces,
                 roulette_weight: self.transport.roulette_weight,

@@ -10,11 +10,14 @@
 //!   and standard error per history.
 //! - [`CarlsonGrid`]: the Carlson (1976) equal-solid-angle hemisphere grid.
 //! - [`InPlaneTally`]: a fine goniometer tally in the plane of incidence.
+//! - [`Symmetry`]: folding mirror images in the plane of incidence.
 
 pub mod accumulator;
 pub mod carlson;
 pub mod inplane;
+pub mod symmetry;
 
 pub use accumulator::Accumulator;
 pub use carlson::CarlsonGrid;
 pub use inplane::InPlaneTally;
+pub use symmetry::Symmetry;

@@ -20,7 +20,7 @@ use super::micro::{Controls, Fate, trace};
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::shard::{DyadicSum, Node};
-use crate::tally::{Accumulator, CarlsonGrid, InPlaneTally};
+use crate::tally::{Accumulator, CarlsonGrid, InPlaneTally, Symmetry, symmetry};
 
 pub use super::BATCH;
 
@@ -50,6 +50,8 @@ pub struct BrdfRun {
     pub controls: Controls,
     /// Entry points: random, or lattice replicates.
     pub launch: Launch,
+    /// Fold mirror images in the plane of incidence into the Carlson cells.
+    pub symmetry: Symmetry,
 }
 
 /// Everything tallied for one incidence direction (sums; see [`IncidenceResult`]).
@@ -397,6 +399,7 @@ impl BrdfRun {
         let mut t = Tallies::new(grid, inplane, self.launch.replicates());
         let mut scratch = Scratch::new(surface);
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
+        let phi = self.phi_deg.to_radians();
         for n in photons {
             let g = self.first_photon + n;
             let mut rng = photon_rng(self.seed, g);
@@ -414,9 +417,24 @@ impl BrdfRun {
             match h.fate {
                 Fate::Escaped { dir: out, weight } => {
                     t.reflected.score(0, weight);
+                    // Carlson cells and the weight each gets (see tally::symmetry).
                     let (cells, share) = grid.cells_of(out);
-                    for &c in cells.as_slice() {
-                        t.carlson.score(c, share * weight);
+                    let (mirrored, mshare) = match self.symmetry {
+                        Symmetry::Mirror => grid.cells_of(symmetry::mirror(out, phi)),
+                        Symmetry::None => (cells, share),
+                    };
+                    let halves = if mirrored == cells {
+                        [(cells, share * weight), (cells, 0.0)]
+                    } else {
+                        [
+                            (cells, 0.5 * share * weight),
+                            (mirrored, 0.5 * mshare * weight),
+                        ]
+                    };
+                    for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
+                        for &c in cs.as_slice() {
+                            t.carlson.score(c, *w);
+                        }
                     }
                     let bin = inplane.locate(out);
                     if let Some(c) = bin {
@@ -424,8 +442,10 @@ impl BrdfRun {
                     }
                     if let Some(r) = &mut t.replicates {
                         r.reflected[replicate] += weight;
-                        for &c in cells.as_slice() {
-                            r.carlson[replicate * grid.n_cells() + c] += share * weight;
+                        for (cs, w) in &halves {
+                            for &c in cs.as_slice() {
+                                r.carlson[replicate * grid.n_cells() + c] += w;
+                            }
                         }
                         if let Some(c) = bin {
                             r.inplane[replicate * inplane.n_bins() + c] += weight;

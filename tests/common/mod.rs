@@ -51,6 +51,7 @@ fn scene_run(scene: &MicroScene) -> BrdfRun {
             ..Controls::default()
         },
         launch: scene.light.launch,
+        symmetry: scene.tally.symmetry,
     }
 }
 

@@ -1,0 +1,98 @@
+//! Reuse of the mirror symmetry of the plane of incidence.
+//!
+//! When the surface *statistics* are unchanged by reflection in the plane of
+//! incidence (statistically isotropic surfaces at any azimuth, such as the
+//! Gaussian height fields; populations of axis-aligned bumps at azimuth 0 or
+//! 90 degrees, such as the default scene), the BRDF is symmetric under that
+//! reflection, `f(theta, phi_i + a) = f(theta, phi_i - a)`. With
+//! [`Symmetry::Mirror`] every escaping photon is scored half in its own
+//! direction and half in its mirror image (once, with its full weight, when
+//! both fall in the same cell). Each cell then sees the photons of its
+//! mirror region too: an unbiased estimate of the symmetrised BRDF, with
+//! half the variance off the plane of incidence for a symmetric BRDF. The
+//! reflectance, the in-plane tally (its detector is symmetric) and the
+//! bounce statistics are unchanged.
+//!
+//! For a single realisation of a random surface the symmetrised BRDF differs
+//! from the unsymmetrised one by the realisation's own asymmetry; it is the
+//! better estimate of the ensemble's BRDF, and it is what plane-symmetric
+//! formats (the Zemax export) store anyway. Do not use it for surfaces whose
+//! statistics are not mirror symmetric (tilted grooves, oriented bumps at an
+//! oblique azimuth).
+
+use glam::DVec3;
+
+/// Whether the tallies fold mirror images in the plane of incidence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Symmetry {
+    /// Score every photon in its own direction only.
+    #[default]
+    None,
+    /// Score half in its own direction and half in its mirror image.
+    Mirror,
+}
+
+impl Symmetry {
+    /// The name used in scene files, on the command line and in summaries.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Mirror => "mirror",
+        }
+    }
+
+    /// Parse [`Symmetry::name`].
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "none" => Some(Self::None),
+            "mirror" => Some(Self::Mirror),
+            _ => None,
+        }
+    }
+}
+
+/// The mirror image of `dir` in the vertical plane at azimuth `phi` (radians):
+/// the plane of incidence for light at azimuth `phi`.
+#[must_use]
+#[inline]
+pub fn mirror(dir: DVec3, phi: f64) -> DVec3 {
+    // Unit normal of the plane: (-sin phi, cos phi, 0).
+    let (s, c) = phi.sin_cos();
+    let along = -dir.x * s + dir.y * c;
+    DVec3::new(dir.x + 2.0 * along * s, dir.y - 2.0 * along * c, dir.z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mirror_flips_the_side_of_the_plane_and_keeps_the_plane() {
+        let d = DVec3::new(0.3, 0.4, 0.866_025_403_784_438_6);
+        // Plane x-z (azimuth 0): y changes sign.
+        let m = mirror(d, 0.0);
+        assert_eq!(m, DVec3::new(0.3, -0.4, d.z));
+        // Plane y-z (azimuth 90 degrees): x changes sign.
+        let m = mirror(d, std::f64::consts::FRAC_PI_2);
+        assert!((m - DVec3::new(-0.3, 0.4, d.z)).length() < 1e-15);
+        // A direction in the plane stays; mirroring twice is the identity;
+        // the length is kept.
+        let phi = 0.7_f64;
+        let inplane = DVec3::new(0.5 * phi.cos(), 0.5 * phi.sin(), 0.75_f64.sqrt());
+        assert!((mirror(inplane, phi) - inplane).length() < 1e-15);
+        assert!((mirror(mirror(d, phi), phi) - d).length() < 1e-15);
+        assert!((mirror(d, phi).length() - d.length()).abs() < 1e-15);
+        // The azimuth is reflected: 2 phi - atan2(y, x).
+        let m = mirror(d, phi);
+        let expect = 2.0 * phi - d.y.atan2(d.x);
+        let got = m.y.atan2(m.x);
+        let diff = (got - expect).rem_euclid(std::f64::consts::TAU);
+        assert!(
+            diff.min(std::f64::consts::TAU - diff) < 1e-14,
+            "{got} vs {expect}"
+        );
+    }
+}
