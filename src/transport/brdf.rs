@@ -2,13 +2,16 @@
 //! Carlson grid and in the plane of incidence, with standard errors.
 //!
 //! Photons start at uniform points of the cell on the launch plane, random
-//! or on randomised lattices ([`super::launch`]), travelling along `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
+//! or on randomised lattices ([`super::launch`]), travelling along
+//! `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
 //! photons are traced in fixed batches of [`BATCH`] and the batch tallies are
 //! summed over a fixed binary tree on batch indices ([`crate::shard`]), so
 //! results are bit-identical for any thread count, and shards of a run
 //! (`--shard I/N`) merge to exactly the single run's sums.
 //! `fraction` in a cell is the photon weight leaving through it per launched
-//! photon; BRDF = fraction / projected solid angle (sr⁻¹).
+//! photon; BRDF = fraction / projected solid angle (sr⁻¹). With
+//! [`Symmetry::Mirror`] each escaping photon counts half in its mirror
+//! image in the plane of incidence ([`crate::tally::symmetry`]).
 
 use std::time::Instant;
 
