@@ -51,7 +51,7 @@
 //!
 //! The BRDF in sr⁻¹ (radiance per irradiance), sampled at the grid's
 //! directions from the table by
-//! [`symmetric_eval`](super::brdf_formats::symmetric_eval) (no averaging over
+//! [`super::brdf_formats::symmetric_eval`] (no averaging over
 //! the grid cell: the table is piecewise constant on cells about 3 degrees
 //! wide, the default grid steps are 2 degrees in azimuth and 1 degree in
 //! radial angle); 0 at grid directions on or below the horizon (the default

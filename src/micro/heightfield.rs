@@ -109,7 +109,7 @@ pub enum FieldEvent {
     },
     /// Rises above the highest point: nothing more to meet.
     Escapes,
-    /// Horizontal above everything, or walked [`MAX_STEPS`] steps.
+    /// Horizontal above everything, or walked `MAX_STEPS` (2^24) steps.
     Trapped,
 }
 
