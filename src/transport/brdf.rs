@@ -391,6 +391,31 @@ impl BrdfRun {
         sum.into_nodes()
     }
 
+    /// The Carlson cells an escaping photon (direction `out`, weight `w`)
+    /// is scored in, as up to two sets with the weight each cell of the set
+    /// gets: its own cells, and with [`Symmetry::Mirror`] half in the cells
+    /// of its mirror image in the plane of incidence at azimuth `phi`
+    /// (radians; the whole weight once when both are the same cells). An
+    /// unused set has weight 0.
+    fn cell_weights(
+        &self,
+        grid: &CarlsonGrid,
+        out: DVec3,
+        w: f64,
+        phi: f64,
+    ) -> [(crate::tally::carlson::Cells, f64); 2] {
+        let (cells, share) = grid.cells_of(out);
+        let (mirrored, mshare) = match self.symmetry {
+            Symmetry::Mirror => grid.cells_of(symmetry::mirror(out, phi)),
+            Symmetry::None => (cells, share),
+        };
+        if mirrored == cells {
+            [(cells, share * w), (cells, 0.0)]
+        } else {
+            [(cells, 0.5 * share * w), (mirrored, 0.5 * mshare * w)]
+        }
+    }
+
     fn trace_batch(
         &self,
         surface: &MicroSurface,
@@ -420,20 +445,7 @@ impl BrdfRun {
             match h.fate {
                 Fate::Escaped { dir: out, weight } => {
                     t.reflected.score(0, weight);
-                    // Carlson cells and the weight each gets (see tally::symmetry).
-                    let (cells, share) = grid.cells_of(out);
-                    let (mirrored, mshare) = match self.symmetry {
-                        Symmetry::Mirror => grid.cells_of(symmetry::mirror(out, phi)),
-                        Symmetry::None => (cells, share),
-                    };
-                    let halves = if mirrored == cells {
-                        [(cells, share * weight), (cells, 0.0)]
-                    } else {
-                        [
-                            (cells, 0.5 * share * weight),
-                            (mirrored, 0.5 * mshare * weight),
-                        ]
-                    };
+                    let halves = self.cell_weights(grid, out, weight, phi);
                     for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
                         for &c in cs.as_slice() {
                             t.carlson.score(c, *w);
