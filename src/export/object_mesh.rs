@@ -327,31 +327,10 @@ mod tests {
     use crate::scene::object::ObjectScene;
 
     fn sphere_object(r: f64) -> Object {
-        let text = format!(
-            r#"
-[quadrics]
-s = {{ sphere = {{ center = [0.0, 0.0, 0.0], r = {r} }} }}
-[[cells]]
-name = "ball"
-region = "-s"
-fill = "solid"
-[walls]
-s = "m"
-[models.m]
-reflectance = 0.5
-[[sources]]
-beam = {{ direction = [0.0, 0.0, -1.0], diameter = 0.1 }}
-position = [0.0, 0.0, 10.0]
-photons = 1
-"#
-        );
-        let source = Source {
-            file: "sphere.toml".into(),
-            dir: std::env::temp_dir(),
-        };
-        ObjectScene::from_str(&text, source, "sphere".into())
-            .unwrap()
-            .object
+        object(
+            &format!("s = {{ sphere = {{ center = [0.0, 0.0, 0.0], r = {r} }} }}"),
+            "-s",
+        )
     }
 
     /// Signed volume (divergence theorem) and area of a closed mesh.
@@ -408,6 +387,8 @@ photons = 1
         );
     }
 
+    /// An object of one solid cell `region` over the `[quadrics]` lines
+    /// `quadrics` (walls and source only as the scene format needs them).
     fn object(quadrics: &str, region: &str) -> Object {
         let text = format!(
             r#"
