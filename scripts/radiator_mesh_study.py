@@ -104,9 +104,8 @@ def main() -> int:
     for r in rows:
         vox = f"{r['resolution']}" if r["resolution"] else "-"
         size = f"{r['voxel_mm']:.3f}" if r["resolution"] else "exact"
-        z = {k: (r[k] - ref[k]) / np.hypot(r[f"{k}_se"], ref[f"{k}_se"]) if r is not ref else float("nan")
-             for k in ("mean", "centre")}
-        zs = {k: "-" if r is ref else f"{v:.1f}" for k, v in z.items()}
+        zs = {k: "-" if r is ref else f"{(r[k] - ref[k]) / np.hypot(r[f'{k}_se'], ref[f'{k}_se']):.1f}"
+              for k in ("mean", "centre")}
         lines.append(f"| {r['renderer']} | {vox} | {size} | {r['mean']:.4g} ± {r['mean_se']:.1g} | "
                      f"{zs['mean']} | {r['centre']:.3g} ± {r['centre_se']:.1g} | "
                      f"{r['centre'] / ref['centre']:.2f} | {zs['centre']} | {r['seconds']:.0f} |")
