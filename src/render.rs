@@ -267,7 +267,7 @@ pub fn render(surface: &MicroSurface, s: &RenderSettings) -> (Image, RenderLosse
             let x = if x >= lx { below(lx) } else { x };
             let y = if y >= ly { below(ly) } else { y };
             let start = DVec3::new(x, y, surface.top);
-            match trace(surface, start, dir, &controls, rng, scratch).fate {
+            match trace(surface, start, dir, 1.0, &controls, rng, scratch).fate {
                 Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
                 Fate::Absorbed => PathEnd::Absorbed,
                 Fate::Wall { .. } | Fate::Capped { .. } | Fate::Numeric { .. } => PathEnd::Lost,
@@ -364,6 +364,7 @@ pub fn render_object(
                 &controls,
                 camera.position,
                 d,
+                1.0,
                 rng,
                 scratch,
                 |_, _| {},

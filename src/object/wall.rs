@@ -25,6 +25,7 @@ use crate::micro::{Edges, Scratch};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
 use crate::scene::micro::MicroScene;
+use crate::transport::carrier::Carrier;
 use crate::transport::micro::{Controls, Fate, trace};
 
 /// How a wall reflects.
@@ -51,19 +52,23 @@ pub enum WallModel {
     Specular(Reflectance),
 }
 
-/// The outcome of one wall interaction.
+/// The outcome of one wall interaction; `C` is the photon's [`Carrier`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Interaction {
-    /// Reflected into `dir` (unit, on the photon's side), weight multiplied by `factor`.
+pub enum Interaction<C = f64> {
+    /// Reflected into `dir` (unit, on the photon's side); `weight` is what
+    /// the wall made of the carrier it was given (intensity 1): the
+    /// intensity factor, >= 0, which may exceed 1 after Russian roulette in
+    /// a micro descent.
     Reflected {
         /// New direction.
         dir: DVec3,
-        /// Weight factor (>= 0; may exceed 1 after Russian roulette in a micro descent).
-        factor: f64,
+        /// The carrier leaving the wall.
+        weight: C,
     },
     /// Absorbed by the wall (physics).
     Absorbed,
-    /// Lost inside a micro descent (bounce cap or numerical guard).
+    /// Lost: a reflectance that is not a finite number >= 0, or inside a
+    /// micro descent (bounce cap or numerical guard).
     Lost,
 }
 
@@ -77,34 +82,49 @@ pub fn cosine_local(u: f64, v: f64) -> DVec3 {
 
 impl WallModel {
     /// Reflect a photon travelling along unit `d` at a wall whose unit normal
-    /// `n` faces it (`n . d <= 0`). `scratch` is this model's micro scratch.
-    pub fn interact(
+    /// `n` faces it (`n . d <= 0`), carrying `w` (intensity 1, its reference
+    /// vector in the object's coordinates). `scratch` is this model's micro
+    /// scratch. Polarisation (see [`crate::transport::carrier`]): Fresnel
+    /// walls apply their Mueller matrix; constant and angle-table walls and
+    /// the specular part of ideal walls are non-polarising mirrors; the
+    /// Lambertian part and BRDF tables depolarise; a micro descent carries
+    /// the state through the micro geometry.
+    pub fn interact<C: Carrier>(
         &self,
         d: DVec3,
         n: DVec3,
+        mut w: C,
         rng: &mut impl rand::Rng,
         scratch: &mut Option<Scratch>,
-    ) -> Interaction {
+    ) -> Interaction<C> {
         let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
         let mirror = || (d + 2.0 * cos_i * n).normalize();
         match self {
-            Self::Specular(r) => Interaction::Reflected {
-                dir: mirror(),
-                factor: r.reflectance(cos_i),
-            },
+            Self::Specular(r) => {
+                if !w.reflect(r, d, n, cos_i) {
+                    return Interaction::Lost;
+                }
+                Interaction::Reflected {
+                    dir: mirror(),
+                    weight: w,
+                }
+            }
             Self::Ideal { specular, diffuse } => {
                 let total = specular + diffuse;
                 if total <= 0.0 {
                     return Interaction::Absorbed;
                 }
                 let dir = if rng.random::<f64>() * total < *specular {
+                    w.mirror(total, d, n);
                     mirror()
                 } else {
                     let (t1, t2) = n.any_orthonormal_pair();
                     let l = cosine_local(rng.random(), rng.random());
-                    l.x * t1 + l.y * t2 + l.z * n
+                    let dir = l.x * t1 + l.y * t2 + l.z * n;
+                    w.depolarise(total, dir);
+                    dir
                 };
-                Interaction::Reflected { dir, factor: total }
+                Interaction::Reflected { dir, weight: w }
             }
             Self::Table(table) => {
                 // Local frame: x toward the light's side of the plane of incidence.
@@ -118,10 +138,11 @@ impl WallModel {
                 let t2 = n.cross(t1);
                 let u: [f64; 4] = std::array::from_fn(|_| rng.random());
                 match table.sample(cos_i.acos(), u) {
-                    Some((l, factor)) => Interaction::Reflected {
-                        dir: (l.x * t1 + l.y * t2 + l.z * n).normalize(),
-                        factor,
-                    },
+                    Some((l, factor)) => {
+                        let dir = (l.x * t1 + l.y * t2 + l.z * n).normalize();
+                        w.depolarise(factor, dir);
+                        Interaction::Reflected { dir, weight: w }
+                    }
                     None => Interaction::Absorbed,
                 }
             }
@@ -142,12 +163,19 @@ impl WallModel {
                     surface.top,
                 );
                 let scratch = scratch.get_or_insert_with(|| Scratch::new(surface));
-                let h = trace(surface, start, local, controls, rng, scratch);
+                w.map_frame(|x| DVec3::new(x.dot(t1), x.dot(t2), x.dot(n)));
+                let h = trace(surface, start, local, w, controls, rng, scratch);
                 match h.fate {
-                    Fate::Escaped { dir: l, weight } => Interaction::Reflected {
-                        dir: (l.x * t1 + l.y * t2 + l.z * n).normalize(),
-                        factor: weight,
-                    },
+                    Fate::Escaped {
+                        dir: l,
+                        mut weight,
+                    } => {
+                        weight.map_frame(|x| x.x * t1 + x.y * t2 + x.z * n);
+                        Interaction::Reflected {
+                            dir: (l.x * t1 + l.y * t2 + l.z * n).normalize(),
+                            weight,
+                        }
+                    }
                     Fate::Absorbed => Interaction::Absorbed,
                     Fate::Wall { .. } | Fate::Capped { .. } | Fate::Numeric { .. } => {
                         Interaction::Lost
@@ -202,8 +230,8 @@ mod tests {
         let wall = WallModel::Specular(Reflectance::Constant(0.3));
         let mut rng = Pcg64Mcg::seed_from_u64(1);
         let d = DVec3::new(1.0, 0.0, -1.0).normalize();
-        match wall.interact(d, DVec3::Z, &mut rng, &mut None) {
-            Interaction::Reflected { dir, factor } => {
+        match wall.interact(d, DVec3::Z, 1.0, &mut rng, &mut None) {
+            Interaction::Reflected { dir, weight: factor } => {
                 assert!((dir - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-15);
                 assert_eq!(factor, 0.3);
             }

@@ -7,6 +7,7 @@
 
 pub mod brdf_table;
 pub mod fresnel;
+pub mod polarisation;
 pub mod material;
 
 pub use fresnel::{fresnel_sp, fresnel_unpolarised};

@@ -438,7 +438,7 @@ impl BrdfRun {
                 (replicate, u, v) = (r, lu, lv);
             }
             let start = DVec3::new(u * surface.size.x, v * surface.size.y, surface.top);
-            let h = trace(surface, start, dir, &self.controls, &mut rng, &mut scratch);
+            let h = trace(surface, start, dir, 1.0, &self.controls, &mut rng, &mut scratch);
             t.photons += 1;
             t.bounces += u64::from(h.bounces);
             t.segments += u64::from(h.segments);

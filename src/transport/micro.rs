@@ -1,8 +1,10 @@
 //! One photon history in a micro surface.
 //!
-//! A photon carries a statistical weight (start 1). Every hit on a body is a
-//! specular reflection about the local normal; the weight is multiplied by the
-//! material's reflectance at the local incidence angle. Low weights play
+//! A photon carries a statistical weight (start 1): a scalar, or a Stokes
+//! vector or Mueller matrix with its reference frame ([`super::carrier`]).
+//! Every hit on a body is a specular reflection about the local normal; the
+//! weight is multiplied by the material's reflectance at the local incidence
+//! angle (for polarised carriers: its Mueller matrix in the s frames). Low weights play
 //! Russian roulette (unbiased). The history ends when the photon crosses the
 //! launch plane going up (it escapes with its direction and weight), or it is
 //! absorbed (weight 0 or roulette), or it is lost: absorbed by a wall, cut by
@@ -11,6 +13,7 @@
 
 use glam::DVec3;
 
+use super::carrier::Carrier;
 use crate::micro::{Edges, Event, MicroSurface, Scratch};
 
 /// Limits of a history.
@@ -34,41 +37,41 @@ impl Default for Controls {
     }
 }
 
-/// How a history ended.
+/// How a history ended; `C` is what the photon carried ([`Carrier`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Fate {
+pub enum Fate<C = f64> {
     /// Left through the launch plane with this direction (unit, z > 0) and weight.
     Escaped {
         /// Outgoing direction.
         dir: DVec3,
         /// Weight on leaving.
-        weight: f64,
+        weight: C,
     },
     /// Absorbed by the materials (weight reached 0 or lost the roulette): physics, not loss.
     Absorbed,
     /// Absorbed by an absorbing wall (edge effect), with the weight it carried.
     Wall {
         /// Weight carried into the wall.
-        weight: f64,
+        weight: C,
     },
     /// Cut by the bounce or segment cap, with the weight it carried.
     Capped {
         /// Weight carried when cut.
-        weight: f64,
+        weight: C,
     },
     /// Stopped by a numerical guard (degenerate normal, non-finite direction
     /// or position, a reflectance that is not a finite number >= 0).
     Numeric {
         /// Weight carried when stopped.
-        weight: f64,
+        weight: C,
     },
 }
 
 /// A finished history.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct History {
+pub struct History<C = f64> {
     /// How it ended.
-    pub fate: Fate,
+    pub fate: Fate<C>,
     /// Reflections (bodies and reflecting walls).
     pub bounces: u32,
     /// Straight flights traced (queries of the geometry).
@@ -76,18 +79,19 @@ pub struct History {
 }
 
 /// Trace a photon entering the micro surface at `start` (on or above the
-/// launch plane, inside the cell) travelling along unit `dir` (z < 0).
-pub fn trace(
+/// launch plane, inside the cell) travelling along unit `dir` (z < 0),
+/// carrying `w` (its reference vector, if any, in the cell's coordinates).
+pub fn trace<C: Carrier>(
     surface: &MicroSurface,
     start: DVec3,
     dir: DVec3,
+    mut w: C,
     controls: &Controls,
     rng: &mut impl rand::Rng,
     scratch: &mut Scratch,
-) -> History {
+) -> History<C> {
     let mut p = start;
     let mut d = dir;
-    let mut w = 1.0_f64;
     let mut standing: Option<(usize, usize)> = None;
     let mut bounces = 0_u32;
     let mut segments = 0_u32;
@@ -118,14 +122,13 @@ pub fn trace(
                 let Some((n, material)) = surface.hit_normal(&mut p, d, solid, s) else {
                     return end(Fate::Numeric { weight: w }, bounces, segments);
                 };
-                // Specular reflection, weighted by the reflectance at the local angle.
+                // Specular reflection, weighted by the reflectance at the local
+                // angle (a reflectance that is not a finite number >= 0, also
+                // NaN, never reaches a tally).
                 let cos_i = -d.dot(n);
-                let r = surface.materials[material].reflectance(cos_i);
-                if !(r >= 0.0 && r.is_finite()) {
-                    // Also NaN: a weight that is not a number never reaches a tally.
+                if !w.reflect(&surface.materials[material], d, n, cos_i) {
                     return end(Fate::Numeric { weight: w }, bounces, segments);
                 }
-                w *= r;
                 d = (d + 2.0 * cos_i * n).normalize_or_zero();
                 if !(p.is_finite() && d.is_finite()) || d == DVec3::ZERO {
                     return end(Fate::Numeric { weight: w }, bounces, segments);
@@ -148,22 +151,23 @@ pub fn trace(
                             return end(Fate::Capped { weight: w }, bounces, segments);
                         }
                         let cos_i = d[axis].abs();
-                        let r = surface.materials[surface.substrate_material].reflectance(cos_i);
-                        if !(r >= 0.0 && r.is_finite()) {
+                        let mut n = DVec3::ZERO;
+                        n[axis] = -d[axis].signum();
+                        let wall = &surface.materials[surface.substrate_material];
+                        if !w.reflect(wall, d, n, cos_i) {
                             return end(Fate::Numeric { weight: w }, bounces, segments);
                         }
-                        w *= r;
                         d[axis] = -d[axis];
                     }
                 }
             }
         }
         bounces += 1;
-        if w <= 0.0 {
+        if w.intensity() <= 0.0 {
             return end(Fate::Absorbed, bounces, segments);
         }
-        match super::roulette(w, controls.roulette_weight, rng) {
-            Some(survivor) => w = survivor,
+        match super::roulette(w.intensity(), controls.roulette_weight, rng) {
+            Some(survivor) => w.survive(survivor),
             None => return end(Fate::Absorbed, bounces, segments),
         }
     }

@@ -1,12 +1,14 @@
 //! Photon transport: random streams, histories, and the runs built on them.
 //!
 //! * [`rng`]: one reproducible stream per photon.
+//! * [`carrier`]: what a photon carries: a weight, or a Stokes vector or Mueller matrix with its frame.
 //! * [`micro`]: one history in a micro surface (specular reflections, weights, roulette).
 //! * [`launch`]: where photons enter the micro cell (random or lattice).
 //! * [`brdf`]: the BRDF generator (`roks brdf`).
 //! * [`object`]: histories through a 3-D object (`roks trace`).
 
 pub mod brdf;
+pub mod carrier;
 pub mod launch;
 pub mod micro;
 pub mod object;

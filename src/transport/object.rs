@@ -16,6 +16,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rand::RngExt;
 
+use super::carrier::Carrier;
 use super::micro::Controls;
 use super::rng::photon_rng;
 use crate::micro::Scratch;
@@ -236,6 +237,7 @@ impl ObjectRun {
                 &self.controls,
                 p,
                 beam.direction,
+                1.0,
                 &mut rng,
                 &mut scratch,
                 |sid, a| {
@@ -277,15 +279,16 @@ impl ObjectRun {
     }
 }
 
-/// How a history through an object ended (see [`follow`]).
+/// How a history through an object ended (see [`follow`]); `C` is what
+/// the photon carried ([`Carrier`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum MacroFate {
+pub enum MacroFate<C = f64> {
     /// Met no solid any more: leaves to infinity along unit `dir` with `weight`.
     Escaped {
         /// Direction of flight.
         dir: DVec3,
         /// Weight on leaving.
-        weight: f64,
+        weight: C,
     },
     /// Weight reached 0 at a wall, or the photon lost the roulette (physics).
     Absorbed,
@@ -298,16 +301,16 @@ pub enum MacroFate {
     /// normal, non-finite direction or position, a wall factor that is not a
     /// finite number >= 0), or lost inside a micro descent.
     Lost {
-        /// Weight carried when lost.
+        /// Weight (intensity) carried when lost.
         weight: f64,
     },
 }
 
 /// A finished macro history.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MacroHistory {
+pub struct MacroHistory<C = f64> {
     /// How it ended.
-    pub fate: MacroFate,
+    pub fate: MacroFate<C>,
     /// Reflections at walls (0 for an escape: the photon missed the object).
     pub bounces: u32,
     /// Straight flights traced.
@@ -319,19 +322,20 @@ pub struct MacroHistory {
 /// `roks trace` and by `roks render` of object scenes. At each wall the
 /// model of the surface reflects it; `absorbed(surface id, weight)` receives
 /// the weight each wall removes. `scratch` holds one micro scratch per model.
+/// The photon starts carrying `w` (see [`Carrier`]; `1.0` unpolarised).
 #[allow(clippy::too_many_arguments)]
-pub fn follow(
+pub fn follow<C: Carrier>(
     object: &Object,
     walls: &Walls,
     models: &[WallModel],
     controls: &Controls,
     mut p: DVec3,
     mut d: DVec3,
+    mut w: C,
     rng: &mut impl rand::Rng,
     scratch: &mut [Option<Scratch>],
     mut absorbed: impl FnMut(usize, f64),
-) -> MacroHistory {
-    let mut w = 1.0_f64;
+) -> MacroHistory<C> {
     let mut standing = None;
     let mut bounces = 0_u32;
     let mut segments = 0_u32;
@@ -350,42 +354,43 @@ pub fn follow(
             return end(MacroFate::Unmodelled { surface: sid }, bounces, segments);
         };
         if bounces >= controls.max_bounces {
-            return end(MacroFate::Lost { weight: w }, bounces, segments);
+            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
         }
         p += hit.t * d;
         if !p.is_finite() {
-            return end(MacroFate::Lost { weight: w }, bounces, segments);
+            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
         }
         let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
         let Some(normal) = quadric.facing_normal(p, d) else {
-            return end(MacroFate::Lost { weight: w }, bounces, segments);
+            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
         };
         bounces += 1;
-        match models[m].interact(d, normal, rng, &mut scratch[m]) {
-            Interaction::Reflected { dir, factor } => {
-                if !(factor >= 0.0 && factor.is_finite()) {
+        match models[m].interact(d, normal, w.unit(), rng, &mut scratch[m]) {
+            Interaction::Reflected { dir, weight } => {
+                if !weight.is_valid() {
                     // Also NaN: such a weight never reaches a tally.
-                    return end(MacroFate::Lost { weight: w }, bounces, segments);
+                    return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
                 }
-                absorbed(sid, w * (1.0 - factor));
-                w *= factor;
+                let (after, removed) = w.rescaled(weight);
+                absorbed(sid, removed);
+                w = after;
                 d = dir;
             }
             Interaction::Absorbed => {
-                absorbed(sid, w);
+                absorbed(sid, w.intensity());
                 return end(MacroFate::Absorbed, bounces, segments);
             }
-            Interaction::Lost => return end(MacroFate::Lost { weight: w }, bounces, segments),
+            Interaction::Lost => return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments),
         }
-        if w <= 0.0 {
+        if w.intensity() <= 0.0 {
             return end(MacroFate::Absorbed, bounces, segments);
         }
         if !d.is_finite() {
-            return end(MacroFate::Lost { weight: w }, bounces, segments);
+            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
         }
         standing = Some((hit.cell, hit.surface));
-        match super::roulette(w, controls.roulette_weight, rng) {
-            Some(survivor) => w = survivor,
+        match super::roulette(w.intensity(), controls.roulette_weight, rng) {
+            Some(survivor) => w.survive(survivor),
             None => return end(MacroFate::Absorbed, bounces, segments),
         }
     }

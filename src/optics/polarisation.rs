@@ -1,0 +1,471 @@
+//! Polarisation in geometric optics: Stokes vectors, Mueller matrices, the
+//! Fresnel reflection of a smooth interface as a Mueller matrix, and the
+//! reference frames Stokes vectors are expressed in.
+//!
+//! # Conventions (Mitsuba 3's, `include/mitsuba/render/mueller.h`)
+//!
+//! * A Stokes vector `S = (S0, S1, S2, S3)` (intensity, linear 0/90, linear
+//!   ±45, circular) is only meaningful with its **reference vector** `x`: a
+//!   unit vector perpendicular to the direction of flight `d`. `S1 > 0` is
+//!   light linearly polarised along `x`; the frame's second axis is
+//!   `y = d × x`, so `(x, y, d)` is right-handed and `S2 > 0` is light
+//!   polarised along `(x + y)/√2`. `S3 > 0` is right circular as Mitsuba
+//!   defines it (its `right_circular_polarizer` passes `(1, 0, 0, 1)`; the
+//!   ellipse is seen by the sensor looking back along the beam).
+//! * Changing the reference vector from `x` to `x'` (both ⟂ `d`) by the angle
+//!   `a` (positive when `d · (x × x') > 0`, counter-clockwise about `d`)
+//!   applies the rotator `[[1,0,0,0],[0,C,S,0],[0,-S,C,0],[0,0,0,1]]`,
+//!   `C = cos 2a`, `S = sin 2a` ([`rotate_columns`]; Mitsuba's
+//!   `rotate_stokes_basis`). The sign of `x` does not matter (a half turn is
+//!   the identity on Stokes vectors).
+//! * **Specular reflection** at a facet with unit normal `n` (facing the
+//!   photon): the s axis is `s = normalize(n × d_in)` (Mitsuba's
+//!   `cross(n, -wo)`), perpendicular to the plane of incidence and shared by
+//!   the incoming and outgoing flights. In the s frames the Fresnel Mueller
+//!   matrix is ([`FresnelMueller`])
+//!
+//!   ```text
+//!   M = [[a, b, 0, 0], [b, a, 0, 0], [0, 0, c, -d], [0, 0, d, c]]
+//!   a = (Rs + Rp)/2, b = (Rs - Rp)/2, c + i d = rs rp*
+//!   ```
+//!
+//!   with the amplitudes `rs = (cos θ - m cos θt)/(cos θ + m cos θt)`,
+//!   `rp = (m cos θ - cos θt)/(m cos θ + cos θt)` (the Verdet sign of `rp`:
+//!   `rp = -rs` at normal incidence), `m = n + i k`, `m cos θt` the principal
+//!   root of `m² - sin² θ` (a wave decaying into the medium). Mitsuba writes
+//!   the same matrix as `c = sqrt(Rs Rp) cos δ`, `d = sqrt(Rs Rp) sin δ`,
+//!   `δ = arg(a_p) - arg(a_s)` with its amplitudes for `n - i k` (the
+//!   complex conjugates of ours). Azzam & Bashara's form with the opposite
+//!   handedness is the transpose (the sign of the `c, d` block's
+//!   off-diagonal flips). At normal incidence the plane of incidence is
+//!   undefined and any s axis gives the same result: the photon's own
+//!   reference vector is kept. At grazing incidence `M` is the identity.
+//! * **Frames of directions on the hemisphere** (tallies, incident states):
+//!   the reference vector of a flight `d` is `normalize(ẑ × d)` (the s axis
+//!   of the mean plane, `e_phi` of `d` for upward flights), and for `d` along
+//!   `±ẑ` the azimuthal unit vector of the pole azimuth `(-sin φ, cos φ, 0)`
+//!   ([`hemisphere_reference`]). For the light arriving along `-omega_i` of a
+//!   micro scene this is the s direction of the plane of incidence (the pole
+//!   azimuth is `phi_i`), so `"s"` light is `(1, 1, 0, 0)` there.
+//!
+//! A Mueller matrix `m[i][j]` maps incident Stokes component `j` to outgoing
+//! component `i` (row index first).
+
+use glam::DVec3;
+
+use super::fresnel::fresnel_sp;
+
+/// A Stokes vector `(S0, S1, S2, S3)` (intensity units of the carrier).
+pub type Stokes = [f64; 4];
+
+/// A 4 x 4 Mueller matrix, `m[row][column]`.
+pub type Mueller = [[f64; 4]; 4];
+
+/// Unpolarised light of unit intensity.
+pub const UNPOLARISED: Stokes = [1.0, 0.0, 0.0, 0.0];
+
+/// The 4 x 4 identity.
+pub const IDENTITY: Mueller = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+
+/// Signs of the Stokes components under a mirror reflection of the whole
+/// configuration (the handedness of every frame flips): `S2`, `S3` change sign.
+pub const MIRROR_SIGNS: [f64; 4] = [1.0, 1.0, -1.0, -1.0];
+
+/// The Fresnel reflection of a smooth interface as a Mueller matrix in the
+/// s frames of the plane of incidence (see the module docs):
+/// `[[a, b, 0, 0], [b, a, 0, 0], [0, 0, c, -d], [0, 0, d, c]]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FresnelMueller {
+    /// `(Rs + Rp) / 2`, the unpolarised reflectance.
+    pub a: f64,
+    /// `(Rs - Rp) / 2`, the diattenuation term.
+    pub b: f64,
+    /// `Re(rs rp*) = sqrt(Rs Rp) cos δ`.
+    pub c: f64,
+    /// `Im(rs rp*) = sqrt(Rs Rp) sin δ`, the retardance term.
+    pub d: f64,
+}
+
+impl FresnelMueller {
+    /// The matrix at incidence cosine `cos_i` (clamped to `[0, 1]`) from
+    /// index 1 into `n + i k` (`n > 0`, `k >= 0`). `a` and `b` come from
+    /// [`fresnel_sp`] (so `a` is bit for bit the unpolarised reflectance);
+    /// `c`, `d` are `sqrt(Rs Rp)` times the phase of `rs rp*`, computed from
+    /// unit phasors so that nothing overflows for huge indices and
+    /// `c² + d² = Rs Rp` holds to rounding. Never panics; NaN in gives NaN out.
+    #[must_use]
+    pub fn new(cos_i: f64, n: f64, k: f64) -> Self {
+        let cos = cos_i.clamp(0.0, 1.0);
+        let (rs, rp) = fresnel_sp(cos, n, k);
+        let a = 0.5 * (rs + rp);
+        let b = 0.5 * (rs - rp);
+        let amplitude = (rs * rp).sqrt();
+        if amplitude == 0.0 {
+            return Self { a, b, c: 0.0, d: 0.0 };
+        }
+        let (cos_d, sin_d) = phase_rs_rp(cos, n, k);
+        Self {
+            a,
+            b,
+            c: amplitude * cos_d,
+            d: amplitude * sin_d,
+        }
+    }
+
+    /// The full matrix.
+    #[must_use]
+    pub fn matrix(&self) -> Mueller {
+        let Self { a, b, c, d } = *self;
+        [
+            [a, b, 0.0, 0.0],
+            [b, a, 0.0, 0.0],
+            [0.0, 0.0, c, -d],
+            [0.0, 0.0, d, c],
+        ]
+    }
+
+    /// Apply to a Stokes vector in the incoming s frame; the result is in
+    /// the outgoing s frame.
+    #[must_use]
+    #[inline]
+    pub fn apply(&self, s: Stokes) -> Stokes {
+        let Self { a, b, c, d } = *self;
+        [
+            a * s[0] + b * s[1],
+            b * s[0] + a * s[1],
+            c * s[2] - d * s[3],
+            d * s[2] + c * s[3],
+        ]
+    }
+}
+
+/// `(cos, sin)` of `arg(rs rp*)` for incidence cosine `cos` in `[0, 1]`.
+fn phase_rs_rp(cos: f64, n: f64, k: f64) -> (f64, f64) {
+    // u = m cos θt = sqrt(m² - sin² θ), principal root (Re, Im >= 0), from
+    // the same real closed form as `fresnel_sp`.
+    let t0 = (n - 1.0) * (n + 1.0) - k * k + cos * cos;
+    let a2b2 = t0.hypot(2.0 * n * k);
+    let ua = (0.5 * (a2b2 + t0)).max(0.0).sqrt();
+    let ub = (0.5 * (a2b2 - t0)).max(0.0).sqrt();
+    // rs = (c - u)/(c + u): phase of the numerator minus that of the denominator.
+    let ps = mul_conj(unit(cos - ua, -ub), unit(cos + ua, ub));
+    // cos θt = u / m; rp = (m c - cos θt)/(m c + cos θt).
+    let (mu, mm) = (ua.hypot(ub), n.hypot(k));
+    let ct_phase = mul_conj(unit(ua, ub), unit(n, k));
+    let ratio = if mm > 0.0 { mu / mm } else { 0.0 };
+    let ct = (ratio * ct_phase.0, ratio * ct_phase.1);
+    let mc = (n * cos, k * cos);
+    let pp = mul_conj(
+        unit(mc.0 - ct.0, mc.1 - ct.1),
+        unit(mc.0 + ct.0, mc.1 + ct.1),
+    );
+    // rs rp*: phase ps - pp.
+    let z = mul_conj(ps, pp);
+    let norm = z.0.hypot(z.1);
+    if norm > 0.0 && norm.is_finite() {
+        (z.0 / norm, z.1 / norm)
+    } else {
+        (z.0, z.1)
+    }
+}
+
+/// The unit phasor of `x + i y` (1 for zero).
+fn unit(x: f64, y: f64) -> (f64, f64) {
+    let r = x.hypot(y);
+    if r > 0.0 { (x / r, y / r) } else { (1.0, 0.0) }
+}
+
+/// `p q*` of two complex numbers.
+fn mul_conj(p: (f64, f64), q: (f64, f64)) -> (f64, f64) {
+    (p.0 * q.0 + p.1 * q.1, p.1 * q.0 - p.0 * q.1)
+}
+
+/// `(cos 2a, sin 2a)` of the angle `a` that turns reference vector `from`
+/// into `to` about the direction of flight `forward` (all unit, `from` and
+/// `to` perpendicular to `forward`); positive counter-clockwise about
+/// `forward` (Mitsuba's `rotate_stokes_basis`).
+#[must_use]
+#[inline]
+pub fn rotation(forward: DVec3, from: DVec3, to: DVec3) -> (f64, f64) {
+    let c = from.dot(to);
+    let s = forward.dot(from.cross(to));
+    let r2 = c * c + s * s;
+    if r2 > 0.0 {
+        ((c * c - s * s) / r2, 2.0 * s * c / r2)
+    } else {
+        (1.0, 0.0)
+    }
+}
+
+/// Apply the rotator `(cos 2a, sin 2a)` of [`rotation`] to a Stokes vector.
+#[must_use]
+#[inline]
+pub fn rotate(s: Stokes, (c2, s2): (f64, f64)) -> Stokes {
+    [s[0], c2 * s[1] + s2 * s[2], -s2 * s[1] + c2 * s[2], s[3]]
+}
+
+/// Apply the rotator `(cos 2a, sin 2a)` to each of `columns`.
+#[inline]
+pub fn rotate_columns<const N: usize>(columns: &mut [Stokes; N], r: (f64, f64)) {
+    for c in columns.iter_mut() {
+        *c = rotate(*c, r);
+    }
+}
+
+/// Reference vector of a flight along unit `d` in the hemisphere frame:
+/// `normalize(ẑ × d)`, or `(-sin φ, cos φ, 0)` of the pole azimuth
+/// `pole_phi` (radians) when `d` is along `±ẑ` (see the module docs).
+#[must_use]
+pub fn hemisphere_reference(d: DVec3, pole_phi: f64) -> DVec3 {
+    let r2 = d.x * d.x + d.y * d.y;
+    if r2 > 1e-280 {
+        let r = r2.sqrt();
+        DVec3::new(-d.y / r, d.x / r, 0.0)
+    } else {
+        DVec3::new(-pole_phi.sin(), pole_phi.cos(), 0.0)
+    }
+}
+
+/// A polarisation state of incident light, as written in scene files
+/// (`[light] polarisation`, `[[sources]] polarisation`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Incident {
+    /// Natural light `(1, 0, 0, 0)` (the default).
+    Unpolarised,
+    /// Linear along the reference vector (s for a micro scene): `(1, 1, 0, 0)`.
+    S,
+    /// Linear across it (p for a micro scene): `(1, -1, 0, 0)`.
+    P,
+    /// Linear at `angle_deg` from the reference vector toward `y = d × x`:
+    /// `(1, cos 2a, sin 2a, 0)`.
+    Linear(f64),
+    /// Right circular, `(1, 0, 0, 1)`.
+    Right,
+    /// Left circular, `(1, 0, 0, -1)`.
+    Left,
+    /// A given Stokes vector (normalised to `S0 = 1` by [`Incident::stokes`]).
+    Stokes(Stokes),
+}
+
+impl Incident {
+    /// The Stokes vector of unit intensity.
+    #[must_use]
+    pub fn stokes(&self) -> Stokes {
+        match *self {
+            Self::Unpolarised => UNPOLARISED,
+            Self::S => [1.0, 1.0, 0.0, 0.0],
+            Self::P => [1.0, -1.0, 0.0, 0.0],
+            Self::Linear(deg) => {
+                let a = 2.0 * deg.to_radians();
+                [1.0, a.cos(), a.sin(), 0.0]
+            }
+            Self::Right => [1.0, 0.0, 0.0, 1.0],
+            Self::Left => [1.0, 0.0, 0.0, -1.0],
+            Self::Stokes(s) => [1.0, s[1] / s[0], s[2] / s[0], s[3] / s[0]],
+        }
+    }
+
+    /// Whether the state is unpolarised.
+    #[must_use]
+    pub fn is_unpolarised(&self) -> bool {
+        let s = self.stokes();
+        s[1] == 0.0 && s[2] == 0.0 && s[3] == 0.0
+    }
+
+    /// Whether a mirror reflection in the plane of incidence maps the state
+    /// to itself (`S2 = S3 = 0`).
+    #[must_use]
+    pub fn is_mirror_symmetric(&self) -> bool {
+        let s = self.stokes();
+        s[2] == 0.0 && s[3] == 0.0
+    }
+
+    /// Checks a given Stokes vector: finite, `S0 > 0`, degree of
+    /// polarisation at most 1 (to 1e-12).
+    ///
+    /// # Errors
+    /// A one-line reason.
+    pub fn validate(&self) -> Result<(), String> {
+        match *self {
+            Self::Stokes(s) => {
+                if !s.iter().all(|x| x.is_finite()) || !(s[0] > 0.0) {
+                    return Err(format!(
+                        "Stokes vector {s:?} must be finite with S0 > 0"
+                    ));
+                }
+                let p2 = s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
+                if p2 > s[0] * s[0] * (1.0 + 1e-12) {
+                    return Err(format!(
+                        "Stokes vector {s:?} has a degree of polarisation {} > 1",
+                        p2.sqrt() / s[0]
+                    ));
+                }
+                Ok(())
+            }
+            Self::Linear(a) if !a.is_finite() => {
+                Err(format!("linear polarisation angle {a} is not finite"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// A short name for summaries: `unpolarised`, `s`, `p`, `linear 30 deg`,
+    /// `right`, `left`, or the Stokes vector.
+    #[must_use]
+    pub fn name(&self) -> String {
+        match *self {
+            Self::Unpolarised => "unpolarised".into(),
+            Self::S => "s".into(),
+            Self::P => "p".into(),
+            Self::Linear(a) => format!("linear {a} deg"),
+            Self::Right => "right".into(),
+            Self::Left => "left".into(),
+            Self::Stokes(s) => format!("stokes {s:?}"),
+        }
+    }
+}
+
+/// Degree of polarisation `sqrt(S1² + S2² + S3²) / S0` (0 for `S0 <= 0`).
+#[must_use]
+pub fn degree_of_polarisation(s: Stokes) -> f64 {
+    if s[0] > 0.0 {
+        (s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt() / s[0]
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_complex::Complex64;
+
+    /// Textbook amplitudes in complex arithmetic (independent of the phasor code).
+    fn amplitudes(cos: f64, n: f64, k: f64) -> (Complex64, Complex64) {
+        let m = Complex64::new(n, k);
+        let u = (m * m - 1.0 + cos * cos).sqrt();
+        let ct = u / m;
+        let c = Complex64::new(cos, 0.0);
+        ((c - u) / (c + u), (m * c - ct) / (m * c + ct))
+    }
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn matches_complex_amplitudes() {
+        for &(n, k) in &[
+            (1.015, 6.627),
+            (0.43, 2.455),
+            (1.6, 0.2),
+            (1.5, 0.0),
+            (0.7, 0.0),
+            (27.16, 89.89),
+            (0.06, 3.586),
+        ] {
+            for deg in 0..=90 {
+                let c = f64::from(deg).to_radians().cos().max(0.0);
+                let (rs, rp) = amplitudes(c, n, k);
+                let z = rs * rp.conj();
+                let f = FresnelMueller::new(c, n, k);
+                assert!(close(f.a, 0.5 * (rs.norm_sqr() + rp.norm_sqr()), 1e-13));
+                assert!(close(f.b, 0.5 * (rs.norm_sqr() - rp.norm_sqr()), 1e-13));
+                assert!(close(f.c, z.re, 1e-12), "{n} {k} {deg}: {} vs {}", f.c, z.re);
+                assert!(close(f.d, z.im, 1e-12), "{n} {k} {deg}: {} vs {}", f.d, z.im);
+            }
+        }
+    }
+
+    /// REFERENCE.md (Azzam & Bashara with Python's cmath): c/a and d/a.
+    #[test]
+    fn published_retardance_values() {
+        let rows = [
+            (1.015, 6.627, 45.0, 0.939707, 0.883049, -0.978225, 0.205205),
+            (1.015, 6.627, 60.0, 0.957092, 0.843598, -0.906081, 0.418384),
+            (1.015, 6.627, 80.0, 0.984919, 0.734633, -0.190484, 0.970840),
+            (0.43, 2.455, 45.0, 0.849414, 0.721504, -0.860808, 0.502374),
+            (0.43, 2.455, 60.0, 0.892820, 0.683443, -0.509375, 0.850231),
+        ];
+        for (n, k, deg, rs, rp, re, im) in rows {
+            let f = FresnelMueller::new(f64::to_radians(deg).cos(), n, k);
+            assert!(close(f.a + f.b, rs, 1e-6) && close(f.a - f.b, rp, 1e-6));
+            assert!(close(f.c / f.a, re, 1e-6), "{}", f.c / f.a);
+            assert!(close(f.d / f.a, im, 1e-6), "{}", f.d / f.a);
+        }
+    }
+
+    #[test]
+    fn normal_and_grazing_incidence_are_exact() {
+        for &(n, k) in &[(1.015, 6.627), (1.5, 0.0), (1.6, 0.2), (1e200, 1e200)] {
+            let f = FresnelMueller::new(1.0, n, k);
+            assert_eq!(f.b, 0.0);
+            assert!(close(f.c, -f.a, 1e-15 * f.a.max(1.0)) && f.d.abs() < 1e-15);
+            let g = FresnelMueller::new(0.0, n, k);
+            assert_eq!((g.a, g.b), (1.0, 0.0));
+            assert!(close(g.c, 1.0, 1e-15) && g.d.abs() < 1e-15, "{g:?}");
+            assert!(f.matrix().iter().flatten().all(|x| x.is_finite()));
+        }
+        // Brewster angle of glass: Rp = 0, so no c, d term and no NaN.
+        let f = FresnelMueller::new(1.5f64.atan().cos(), 1.5, 0.0);
+        assert!(f.c.abs() < 1e-9 && f.d.abs() < 1e-9);
+        // Index matched: nothing reflected.
+        assert_eq!(FresnelMueller::new(0.5, 1.0, 0.0).matrix(), [[0.0; 4]; 4]);
+    }
+
+    #[test]
+    fn rotation_follows_mitsuba_docstring() {
+        // Horizontal light in basis x reads as +45 deg linear in basis (1,-1,0)/√2.
+        let to = DVec3::new(1.0, -1.0, 0.0).normalize();
+        let r = rotation(DVec3::Z, DVec3::X, to);
+        let s = rotate([1.0, 1.0, 0.0, 0.0], r);
+        assert!(close(s[1], 0.0, 1e-15) && close(s[2], 1.0, 1e-15));
+        // A half turn is the identity.
+        let r = rotation(DVec3::Z, DVec3::X, -DVec3::X);
+        assert_eq!(rotate([1.0, 0.3, -0.2, 0.1], r), [1.0, 0.3, -0.2, 0.1]);
+    }
+
+    #[test]
+    fn hemisphere_reference_is_perpendicular_and_s_like() {
+        let d = DVec3::new(0.3, -0.4, 0.5).normalize();
+        let x = hemisphere_reference(d, 0.0);
+        assert!(x.dot(d).abs() < 1e-15 && (x.length() - 1.0).abs() < 1e-15 && x.z == 0.0);
+        assert_eq!(hemisphere_reference(DVec3::Z, 0.0), DVec3::Y);
+        let x = hemisphere_reference(-DVec3::Z, std::f64::consts::FRAC_PI_2);
+        assert!(close(x.x, -1.0, 1e-15) && x.y.abs() < 1e-15);
+    }
+
+    #[test]
+    fn incident_states() {
+        assert_eq!(Incident::S.stokes(), [1.0, 1.0, 0.0, 0.0]);
+        let l = Incident::Linear(45.0).stokes();
+        assert!(close(l[1], 0.0, 1e-15) && close(l[2], 1.0, 1e-15));
+        assert_eq!(Incident::Stokes([2.0, 1.0, 0.0, 0.0]).stokes(), [1.0, 0.5, 0.0, 0.0]);
+        assert!(Incident::Stokes([1.0, 1.0, 1.0, 0.0]).validate().is_err());
+        assert!(Incident::Stokes([0.0, 0.0, 0.0, 0.0]).validate().is_err());
+        assert!(Incident::Stokes([1.0, 0.6, 0.8, 0.0]).validate().is_ok());
+        assert!(Incident::P.is_mirror_symmetric() && !Incident::Right.is_mirror_symmetric());
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+        /// The Fresnel matrix is a pure (non-depolarising) Mueller matrix:
+        /// c² + d² = Rs Rp, so it maps fully polarised light to fully polarised light.
+        #[test]
+        fn fresnel_keeps_pure_states_pure(
+            c in 0.0f64..=1.0, n in 0.05f64..50.0, k in 0.0f64..100.0,
+            t in 0.0f64..std::f64::consts::PI, p in 0.0f64..std::f64::consts::TAU,
+        ) {
+            let f = FresnelMueller::new(c, n, k);
+            let s = [1.0, t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
+            let o = f.apply(s);
+            let pol = (o[1] * o[1] + o[2] * o[2] + o[3] * o[3]).sqrt();
+            proptest::prop_assert!((pol - o[0]).abs() <= 1e-12 * o[0].max(1e-300) + 1e-300);
+        }
+    }
+}

@@ -1,0 +1,374 @@
+//! What a photon carries through its history: a scalar weight, or a Stokes
+//! vector (or the columns of a Mueller matrix) with its reference vector.
+//!
+//! * `f64`: the unpolarised weight. A Fresnel facet multiplies it by
+//!   `(Rs + Rp) / 2`: exact for one bounce of unpolarised light, an
+//!   approximation beyond (`[transport] polarisation = false`). Scenes
+//!   without a Fresnel material use it: every other model is non-polarising,
+//!   so the result is exact there.
+//! * [`Polarised<1>`]: a Stokes vector for one incident state.
+//! * [`Polarised<4>`]: the four columns of the path's Mueller matrix
+//!   (the responses to the incident basis states `(1,0,0,0)` ... `(0,0,0,1)`),
+//!   for the Mueller-matrix BRDF of every incident state in one trace.
+//!
+//! Conventions (frames, signs) are those of [`crate::optics::polarisation`].
+//! Per reflection:
+//!
+//! | model | Mueller matrix in the s frames |
+//! |---|---|
+//! | Fresnel `n + i k` | [`FresnelMueller`] |
+//! | constant, angle table, ideal specular | `rho diag(1, 1, -1, -1)`: the perfect mirror (the Fresnel matrix of a perfect conductor, and of every material at normal incidence) scaled by `rho`: non-polarising, the state is kept |
+//! | Lambertian, unpolarised BRDF table | `rho diag(1, 0, 0, 0)`: depolarising |
+//!
+//! Intensity for Russian roulette and for "absorbed" is `S0` of the first
+//! column (for `Polarised<4>`: `M00`, the response to unpolarised light;
+//! `|m_ij| <= M00` for a physical matrix, so `M00 = 0` ends everything).
+
+use glam::DVec3;
+
+use crate::optics::material::Reflectance;
+use crate::optics::polarisation::{FresnelMueller, Stokes, rotate_columns, rotation};
+
+/// The weight a photon carries (see the module docs).
+pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
+    /// The carrier at launch: `incident` is the incident Stokes vector
+    /// (`S0 = 1`), `reference` its reference vector (⟂ the flight).
+    fn launch(incident: Stokes, reference: DVec3) -> Self;
+
+    /// Intensity for roulette and bookkeeping (see the module docs).
+    fn intensity(&self) -> f64;
+
+    /// The intensity scored for `incident` (the `brdf.csv` weight).
+    fn weight_for(&self, incident: &Stokes) -> f64;
+
+    /// Specular reflection off a facet of `material`: unit incoming `d`,
+    /// unit normal `n` facing it, `cos_i = -d · n`. Returns false, leaving
+    /// the carrier unchanged, when the reflectance is not a finite number >= 0.
+    fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool;
+
+    /// Non-polarising specular reflection with reflectance `rho` (>= 0).
+    fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3);
+
+    /// Multiply by `factor` and depolarise; `d_out` is the new flight.
+    fn depolarise(&mut self, factor: f64, d_out: DVec3);
+
+    /// A roulette survivor: the intensity becomes `s`.
+    fn survive(&mut self, s: f64);
+
+    /// The same state with intensity 1 (a wall's local history starts from it).
+    #[must_use]
+    fn unit(&self) -> Self;
+
+    /// This carrier after a wall whose history, started from [`Carrier::unit`],
+    /// ended as `local`; and the intensity the wall removed.
+    #[must_use]
+    fn rescaled(&self, local: Self) -> (Self, f64);
+
+    /// Map the reference vector into other coordinates (a wall's local frame and back).
+    fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3);
+
+    /// Finite, with intensity >= 0.
+    fn is_valid(&self) -> bool;
+}
+
+impl Carrier for f64 {
+    #[inline]
+    fn launch(_: Stokes, _: DVec3) -> Self {
+        1.0
+    }
+    #[inline]
+    fn intensity(&self) -> f64 {
+        *self
+    }
+    #[inline]
+    fn weight_for(&self, _: &Stokes) -> f64 {
+        *self
+    }
+    #[inline]
+    fn reflect(&mut self, material: &Reflectance, _: DVec3, _: DVec3, cos_i: f64) -> bool {
+        let r = material.reflectance(cos_i);
+        if !(r >= 0.0 && r.is_finite()) {
+            // Also NaN: a weight that is not a number never reaches a tally.
+            return false;
+        }
+        *self *= r;
+        true
+    }
+    #[inline]
+    fn mirror(&mut self, rho: f64, _: DVec3, _: DVec3) {
+        *self *= rho;
+    }
+    #[inline]
+    fn depolarise(&mut self, factor: f64, _: DVec3) {
+        *self *= factor;
+    }
+    #[inline]
+    fn survive(&mut self, s: f64) {
+        *self = s;
+    }
+    #[inline]
+    fn unit(&self) -> Self {
+        1.0
+    }
+    #[inline]
+    fn rescaled(&self, local: Self) -> (Self, f64) {
+        (self * local, self * (1.0 - local))
+    }
+    #[inline]
+    fn map_frame(&mut self, _: impl Fn(DVec3) -> DVec3) {}
+    #[inline]
+    fn is_valid(&self) -> bool {
+        *self >= 0.0 && self.is_finite()
+    }
+}
+
+/// Stokes columns with their common reference vector `x` (unit, ⟂ the
+/// flight): `N = 1` a Stokes vector, `N = 4` a Mueller matrix by columns.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Polarised<const N: usize> {
+    /// Column `j`: the Stokes vector leaving for incident basis state `j`
+    /// (`N = 4`), or for the incident state (`N = 1`).
+    pub columns: [Stokes; N],
+    /// Reference vector of the columns.
+    pub x: DVec3,
+}
+
+impl<const N: usize> Polarised<N> {
+    /// Turn the columns into the s frame of a reflection about `n` of a
+    /// flight along `d`; returns the s axis (the photon's own reference
+    /// vector at normal incidence, where any axis is exact).
+    #[inline]
+    fn to_s_frame(&mut self, d: DVec3, n: DVec3) -> DVec3 {
+        let s = n.cross(d);
+        let len2 = s.length_squared();
+        if len2 > 1e-24 {
+            let s = s / len2.sqrt();
+            rotate_columns(&mut self.columns, rotation(d, self.x, s));
+            s
+        } else {
+            self.x
+        }
+    }
+
+    /// Scale every column by `f`.
+    #[inline]
+    fn scale(&mut self, f: f64) {
+        for c in &mut self.columns {
+            for v in c.iter_mut() {
+                *v *= f;
+            }
+        }
+    }
+
+    /// The columns re-expressed about reference vector `to` (⟂ the flight `d`).
+    #[must_use]
+    pub fn columns_in(&self, d: DVec3, to: DVec3) -> [Stokes; N] {
+        let mut c = self.columns;
+        rotate_columns(&mut c, rotation(d, self.x, to));
+        c
+    }
+}
+
+impl<const N: usize> Carrier for Polarised<N> {
+    fn launch(incident: Stokes, reference: DVec3) -> Self {
+        let mut columns = [[0.0; 4]; N];
+        if N == 1 {
+            columns[0] = incident;
+        } else {
+            for (j, c) in columns.iter_mut().enumerate() {
+                c[j] = 1.0;
+            }
+        }
+        Self {
+            columns,
+            x: reference,
+        }
+    }
+
+    #[inline]
+    fn intensity(&self) -> f64 {
+        self.columns[0][0]
+    }
+
+    #[inline]
+    fn weight_for(&self, incident: &Stokes) -> f64 {
+        if N == 1 {
+            self.columns[0][0]
+        } else {
+            (0..N).map(|j| self.columns[j][0] * incident[j]).sum()
+        }
+    }
+
+    fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool {
+        match material {
+            Reflectance::Fresnel { n: re, k } => {
+                let f = FresnelMueller::new(cos_i, *re, *k);
+                if !(f.a >= 0.0 && [f.a, f.b, f.c, f.d].iter().all(|v| v.is_finite())) {
+                    return false;
+                }
+                let s = self.to_s_frame(d, n);
+                for c in &mut self.columns {
+                    *c = f.apply(*c);
+                }
+                self.x = s;
+                true
+            }
+            other => {
+                let r = other.reflectance(cos_i);
+                if !(r >= 0.0 && r.is_finite()) {
+                    return false;
+                }
+                self.mirror(r, d, n);
+                true
+            }
+        }
+    }
+
+    fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3) {
+        let s = self.to_s_frame(d, n);
+        for c in &mut self.columns {
+            *c = [rho * c[0], rho * c[1], -rho * c[2], -rho * c[3]];
+        }
+        self.x = s;
+    }
+
+    fn depolarise(&mut self, factor: f64, d_out: DVec3) {
+        for c in &mut self.columns {
+            *c = [factor * c[0], 0.0, 0.0, 0.0];
+        }
+        self.x = d_out.any_orthonormal_vector();
+    }
+
+    #[inline]
+    fn survive(&mut self, s: f64) {
+        let i = self.intensity();
+        if s != i && i > 0.0 {
+            self.scale(s / i);
+        }
+    }
+
+    fn unit(&self) -> Self {
+        let mut u = *self;
+        let i = self.intensity();
+        if i > 0.0 && i != 1.0 {
+            u.scale(1.0 / i);
+            u.columns[0][0] = 1.0;
+        }
+        u
+    }
+
+    fn rescaled(&self, mut local: Self) -> (Self, f64) {
+        let i = self.intensity();
+        local.scale(i);
+        (local, i - local.intensity())
+    }
+
+    fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3) {
+        self.x = f(self.x);
+    }
+
+    fn is_valid(&self) -> bool {
+        self.intensity() >= 0.0
+            && self.x.is_finite()
+            && self.columns.iter().flatten().all(|v| v.is_finite())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optics::polarisation::degree_of_polarisation;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    fn random_unit(rng: &mut Pcg64Mcg) -> DVec3 {
+        loop {
+            let v = DVec3::new(
+                rng.random::<f64>() * 2.0 - 1.0,
+                rng.random::<f64>() * 2.0 - 1.0,
+                rng.random::<f64>() * 2.0 - 1.0,
+            );
+            if let Some(u) = v.try_normalize().filter(|_| v.length() <= 1.0) {
+                return u;
+            }
+        }
+    }
+
+    /// Many random chains of reflections (Fresnel of random media, mirrors,
+    /// depolarisers): every Stokes column keeps S1² + S2² + S3² <= S0², the
+    /// reference vector stays a unit vector perpendicular to the flight.
+    #[test]
+    fn random_paths_stay_physical() {
+        let mut rng = Pcg64Mcg::seed_from_u64(12);
+        for path in 0..20_000 {
+            let mut d = random_unit(&mut rng);
+            let a = TAUF * rng.random::<f64>();
+            let t = std::f64::consts::PI * rng.random::<f64>();
+            let state = [1.0, t.sin() * a.cos(), t.sin() * a.sin(), t.cos()];
+            let mut p = Polarised::<1>::launch(state, d.any_orthonormal_vector());
+            let mut m = Polarised::<4>::launch(state, p.x);
+            for bounce in 0..30 {
+                let mut n = random_unit(&mut rng);
+                if n.dot(d) > 0.0 {
+                    n = -n;
+                }
+                let cos_i = -d.dot(n);
+                let material = Reflectance::Fresnel {
+                    n: 0.05 + 5.0 * rng.random::<f64>(),
+                    k: if rng.random::<f64>() < 0.3 { 0.0 } else { 10.0 * rng.random::<f64>() },
+                };
+                let out = (d + 2.0 * cos_i * n).normalize();
+                match (path + bounce) % 7 {
+                    0 => {
+                        p.mirror(0.9, d, n);
+                        m.mirror(0.9, d, n);
+                    }
+                    _ => {
+                        assert!(p.reflect(&material, d, n, cos_i));
+                        assert!(m.reflect(&material, d, n, cos_i));
+                    }
+                }
+                d = out;
+                for s in p.columns.iter().chain(m.columns.iter().take(1)) {
+                    assert!(degree_of_polarisation(*s) <= 1.0 + 1e-9, "{s:?}");
+                }
+                assert!(p.x.dot(d).abs() < 1e-9 && (p.x.length() - 1.0).abs() < 1e-9);
+                // The matrix applied to the state equals the carried vector.
+                let via_m = m.weight_for(&state);
+                assert!((via_m - p.intensity()).abs() <= 1e-9 * p.intensity().max(1e-300));
+                let i = p.intensity();
+                if i < 1e-6 {
+                    p.survive(1.0);
+                    m.survive(1.0 / i * m.intensity());
+                }
+            }
+        }
+    }
+
+    const TAUF: f64 = std::f64::consts::TAU;
+
+    #[test]
+    fn flat_fresnel_is_the_textbook_matrix() {
+        // Light along -omega_i in the x-z plane onto z = 0: the s axis is ±y.
+        let d = DVec3::new(0.5, 0.0, -(0.75f64).sqrt());
+        let mut m = Polarised::<4>::launch([1.0, 0.0, 0.0, 0.0], DVec3::Y);
+        let mat = Reflectance::Fresnel { n: 1.015, k: 6.627 };
+        assert!(m.reflect(&mat, d, DVec3::Z, -d.z));
+        let f = FresnelMueller::new(-d.z, 1.015, 6.627).matrix();
+        for j in 0..4 {
+            for i in 0..4 {
+                assert!((m.columns[j][i] - f[i][j]).abs() < 1e-15);
+            }
+        }
+    }
+
+    #[test]
+    fn scalar_carrier_is_the_old_arithmetic() {
+        let mut w = 0.7_f64;
+        let mat = Reflectance::Fresnel { n: 1.5, k: 0.1 };
+        assert!(w.reflect(&mat, DVec3::NEG_Z, DVec3::Z, 0.6));
+        assert_eq!(w, 0.7 * mat.reflectance(0.6));
+        assert_eq!(0.7.rescaled(0.3), (0.7 * 0.3, 0.7 * (1.0 - 0.3)));
+        assert!(!w.reflect(&Reflectance::Constant(f64::NAN), DVec3::NEG_Z, DVec3::Z, 1.0));
+    }
+}
