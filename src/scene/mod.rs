@@ -19,6 +19,7 @@ use serde::Deserialize;
 use crate::geometry::body::{Aabb, Body, MAX_SURFACES};
 use crate::geometry::quadric::Quadric;
 use crate::geometry::region;
+use crate::optics::polarisation::Incident;
 use crate::optics::material::{AngleTable, Reflectance};
 
 /// A problem with a scene file: which file, which key, what is wrong.
@@ -429,4 +430,55 @@ pub fn region_body(
         Body::new(surfaces, region, Aabb::EVERYTHING, material),
         used,
     ))
+}
+
+/// A polarisation state as written in scene files (`[light] polarisation`,
+/// `[[sources]] polarisation`):
+///
+/// ```toml
+/// polarisation = "unpolarised"     # default; or "s", "p", "right", "left"
+/// polarisation = { linear = 30.0 } # linear at 30 deg from the reference vector (s) toward p
+/// polarisation = [1.0, 0.0, 0.6, 0.8]   # a Stokes vector (S0 > 0, DoP <= 1; scaled to S0 = 1)
+/// ```
+///
+/// Frames and signs: [`crate::optics::polarisation`].
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum PolarisationSpec {
+    /// A named state.
+    Name(String),
+    /// `{ linear = angle_deg }`.
+    Linear {
+        /// Angle from the reference vector (degrees).
+        linear: f64,
+    },
+    /// A Stokes vector.
+    Stokes([f64; 4]),
+}
+
+impl PolarisationSpec {
+    /// The incident state, or an error at `key`.
+    pub fn build(&self, source: &Source, key: &str) -> Result<Incident, SceneError> {
+        let state = match self {
+            Self::Name(n) => match n.as_str() {
+                "unpolarised" | "unpolarized" | "natural" => Incident::Unpolarised,
+                "s" => Incident::S,
+                "p" => Incident::P,
+                "right" => Incident::Right,
+                "left" => Incident::Left,
+                other => {
+                    return Err(source.error(
+                        key,
+                        format!(
+                            "unknown state `{other}` (known: unpolarised, s, p, right, left, {{ linear = deg }}, [S0, S1, S2, S3])"
+                        ),
+                    ));
+                }
+            },
+            Self::Linear { linear } => Incident::Linear(*linear),
+            Self::Stokes(s) => Incident::Stokes(*s),
+        };
+        state.validate().map_err(|e| source.error(key, e))?;
+        Ok(state)
+    }
 }
