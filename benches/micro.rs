@@ -6,6 +6,12 @@
 //!   straight flights per photon is printed once so the criterion time
 //!   converts to segments per second.
 //! * `entry/*`: one ray-body entry test, single quadric vs CSG body.
+//! * `polarisation/{scalar,stokes,stokes_tally,mueller_tally}`: the default
+//!   scene's geometry with aluminium walls (Fresnel, n = 1.015 + 6.627i) at
+//!   60 degrees: the unpolarised weight against a Stokes vector through
+//!   every bounce, with and without the Stokes tally, and the Mueller
+//!   columns with the Mueller tally (segments per photon printed for each:
+//!   compare the time per segment).
 //! * `heightfield/gaussian_{256,1024}_60deg`: photons of `scenes/gaussian.toml`
 //!   (a Gaussian height field of Al, sigma 1, tau 11.9 on 64 x 64) at 60
 //!   degrees on 256² and 1024² grids (segments per photon printed once).
@@ -99,5 +105,42 @@ fn heightfield(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, brdf, entry, heightfield);
+fn polarisation(c: &mut Criterion) {
+    use roks::tally::PolarTally;
+    use roks::transport::brdf::Polarisation;
+    let text = roks::scene::micro::DEFAULT_SCENE.replace("reflectance = 0.8", "n = 1.015\nk = 6.627");
+    let source = roks::scene::Source {
+        file: "default.toml".into(),
+        dir: ".".into(),
+    };
+    let scene = MicroScene::from_str(&text, source, "default-al".into()).unwrap();
+    let mut g = c.benchmark_group("polarisation");
+    g.sample_size(20);
+    for (name, transport, tally) in [
+        ("scalar", false, PolarTally::None),
+        ("stokes", true, PolarTally::None),
+        ("stokes_tally", true, PolarTally::Stokes),
+        ("mueller_tally", true, PolarTally::Mueller),
+    ] {
+        let mut run = scene.brdf_run();
+        run.photons = 20_000;
+        run.polarisation = Polarisation {
+            transport,
+            tally,
+            ..run.polarisation
+        };
+        let probe = run.run_one(&scene.surface, 60.0, &|_| {});
+        eprintln!(
+            "default scene, Al, {name}, 60 deg: {:.4} segments per photon",
+            probe.tallies.segments as f64 / probe.tallies.photons as f64
+        );
+        g.throughput(Throughput::Elements(run.photons));
+        g.bench_function(name, |b| {
+            b.iter(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {})));
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, brdf, entry, polarisation, heightfield);
 criterion_main!(benches);
