@@ -26,15 +26,18 @@ the llvm variant.
    at azimuth 90 it is across them, where the matrix is D F(45)^2 D,
    D = diag(1, -1, -1, 1) (s light now gets Rp^2).
 4. roks against Mitsuba on the exact mesh of a Gaussian height field
-   (`roks export-mesh`; sigma/tau = 1/3, 32 x 32 grid squares), aluminium
+   (`roks export-mesh`; sigma/tau = 0.4, 32 x 32 grid squares), aluminium
    and 1.6 + 0.2i, incidence 0 and 50 deg: `roks brdf --polarisation mueller`
    and `mitsuba_brdf.py --polarisation mueller`, compared by
    `compare_brdf.compare` (reflectance, cells) and
    `compare_brdf.compare_polarised` (reflected Mueller matrix z <= 4 per
    component; chi2 per dof of every Mueller component over the cells with
-   signal; largest cell |z| under the Bonferroni limit): all must pass, the
-   multiple-scattering share must be large enough for polarisation to
-   matter (mean bounces > 1.2) and the cells many.
+   signal; largest cell |z| under the Bonferroni limit); and the same for
+   Stokes tallies of light linearly polarised at 45 deg (elliptical after
+   one bounce), incidence 50 deg. All must pass, with many cells, and the
+   weight of two or more bounces above 10 % (polarisation matters). Power:
+   Mitsuba's Mueller cells in the mirror-image handedness (S2, S3 flipped)
+   must fail.
 """
 
 from __future__ import annotations
@@ -60,6 +63,7 @@ from roks_io import run  # noqa: E402
 AL = (1.015, 6.627)
 ABSORBER = (1.6, 0.2)
 F32 = 3e-6  # Mitsuba's matrices are float32
+BANDS = 16  # Carlson bands of the Gaussian comparison
 
 
 def fresnel_mueller(cos_i: float, n: float, k: float) -> np.ndarray:
@@ -155,7 +159,7 @@ GAUSSIAN_SCENE = """name = "gaussian_polarised"
 size = [16.0, 16.0]
 edges = "periodic"
 material = "m"
-heightfield = {{ gaussian = {{ sigma = 1.0, tau = 3.0 }}, resolution = 32, seed = 3 }}
+heightfield = {{ gaussian = {{ sigma = 1.0, tau = 2.5 }}, resolution = 32, seed = 3 }}
 [materials.m]
 n = {n}
 k = {k}
@@ -164,37 +168,75 @@ theta_deg = [{thetas}]
 phi_deg = 0.0
 photons = {photons}
 seed = 1
+polarisation = {incident}
+[tally]
+bands = {bands}
 """
+
+# (tally, incident state as the scene writes it, as mitsuba_brdf.py takes it, incidence angles)
+GAUSSIAN_CASES = [
+    ("mueller", '"unpolarised"', "unpolarised", [0.0, 50.0]),
+    ("stokes", "{ linear = 45.0 }", "linear=45", [50.0]),
+]
+
+
+def handedness_flipped(src: Path, dst: Path) -> None:
+    """A copy of a mueller.csv result folder in the mirror-image convention (S2, S3 -> -S2, -S3
+    on both sides: M -> D M D, D = diag(1, 1, -1, -1)), the error a wrong frame handedness makes."""
+    import json
+    import shutil
+
+    shutil.copytree(src, dst)
+    sign = np.outer([1, 1, -1, -1], [1, 1, -1, -1]).ravel()
+    summ = json.loads((src / "summary.json").read_text())
+    for e in summ["incidence"]:
+        e["reflected_mueller"] = list(np.array(e["reflected_mueller"]) * sign)
+    (dst / "summary.json").write_text(json.dumps(summ))
+    lines = (src / "mueller.csv").read_text().splitlines()
+    out = [lines[0]]
+    for line in lines[1:]:
+        f = line.split(",")
+        for c in range(16):
+            if sign[c] < 0:
+                f[6 + 2 * c] = mb.re_(-float(f[6 + 2 * c]))
+        out.append(",".join(f))
+    (dst / "mueller.csv").write_text("\n".join(out) + "\n")
 
 
 def check_gaussian(roks: str, tmp: Path, photons: int, mitsuba_photons: int) -> None:
-    thetas = [0.0, 50.0]
+    who = "test_mitsuba_polarised"
     for n, k in (AL, ABSORBER):
-        work = tmp / f"gauss_{n:g}_{k:g}"
-        work.mkdir()
-        scene = work / "scene.toml"
-        scene.write_text(GAUSSIAN_SCENE.format(n=n, k=k, thetas=", ".join(f"{t:g}" for t in thetas),
-                                               photons=photons))
-        run([roks, "export-mesh", scene, "--out", work / "mesh.ply"], "test_mitsuba_polarised", echo=False)
-        _, t_roks = run([roks, "brdf", scene, "--polarisation", "mueller", "--bands", "16",
-                         "--out", work / "roks"], "test_mitsuba_polarised", echo=False)
-        _, t_mi = run([sys.executable, HERE / "mitsuba_brdf.py", work / "mesh.ply", "--size", "16,16",
-                       "--theta", ",".join(f"{t:g}" for t in thetas), "--photons", mitsuba_photons,
-                       "--n", n, "--k", k, "--bands", "16", "--polarisation", "mueller",
-                       "--out", work / "mitsuba", "-q"], "test_mitsuba_polarised", echo=False)
-        rows = cb.compare(work / "roks", work / "mitsuba")
-        prow = cb.compare_polarised(work / "roks", work / "mitsuba")
-        print(f"n + ik = {n} + {k}i (roks {t_roks:.1f} s, Mitsuba {t_mi:.1f} s)")
-        print(cb.table(rows))
-        print(cb.table_polarised(prow))
-        assert [r["theta"] for r in rows] == thetas and [r["theta"] for r in prow] == thetas
-        for r, p in zip(rows, prow):
-            assert r["pass"], r
-            assert p["pass"], p
-            assert p["cells"] >= 20 and p["terms"] >= 16 * 20, p
-        summ = cb.load(work / "mitsuba")[0]
-        assert all(e["mean_bounces"] > 1.2 for e in summ.values()), summ
-    print("Gaussian height field, roks vs Mitsuba, Mueller cells: ok")
+        for mode, inc_scene, inc, thetas in GAUSSIAN_CASES:
+            work = tmp / f"gauss_{n:g}_{k:g}_{mode}"
+            work.mkdir()
+            scene = work / "scene.toml"
+            scene.write_text(GAUSSIAN_SCENE.format(n=n, k=k, thetas=", ".join(f"{t:g}" for t in thetas),
+                                                   photons=photons, incident=inc_scene, bands=BANDS))
+            run([roks, "export-mesh", scene, "--out", work / "mesh.ply"], who, echo=False)
+            _, t_roks = run([roks, "brdf", scene, "--polarisation", mode, "-q", "--out", work / "roks"],
+                            who, echo=False)
+            _, t_mi = run([sys.executable, HERE / "mitsuba_brdf.py", work / "mesh.ply", "--size", "16,16",
+                           "--theta", ",".join(f"{t:g}" for t in thetas), "--photons", mitsuba_photons,
+                           "--n", n, "--k", k, "--bands", BANDS, "--polarisation", mode,
+                           "--incident", inc, "--out", work / "mitsuba", "-q"], who, echo=False)
+            rows = cb.compare(work / "roks", work / "mitsuba")
+            prow = cb.compare_polarised(work / "roks", work / "mitsuba")
+            print(f"n + ik = {n} + {k}i, {mode}, incident {inc} (roks {t_roks:.1f} s, Mitsuba {t_mi:.1f} s)")
+            print(cb.table(rows))
+            print(cb.table_polarised(prow))
+            assert [r["theta"] for r in rows] == thetas and [r["theta"] for r in prow] == thetas
+            for r, p in zip(rows, prow):
+                assert r["pass"], r
+                assert p["pass"], p
+                assert p["cells"] >= 50 and p["terms"] >= len(p["names"]) * 50, p
+            for e in cb.load(work / "mitsuba")[0].values():
+                # enough multiple scattering for polarisation to matter
+                assert sum(e["reflectance_by_bounces"][2:]) > 0.1 * e["reflectance"], e
+            if mode == "mueller":
+                handedness_flipped(work / "mitsuba", work / "flipped")
+                bad = cb.compare_polarised(work / "roks", work / "flipped")
+                assert not any(p["pass"] for p in bad), cb.table_polarised(bad)
+    print("Gaussian height field, roks vs Mitsuba (Mueller, Stokes): ok; flipped handedness: fails")
 
 
 def main() -> int:
