@@ -310,6 +310,17 @@ struct BrdfArgs {
     /// statistics are mirror symmetric; halves the variance off the plane).
     #[arg(long, value_parser = ["none", "mirror"])]
     symmetry: Option<String>,
+    /// Polarisation tally (overrides [tally] polarisation): none, stokes
+    /// (DIR/stokes.csv: the Stokes BRDF per cell for the incident state, and
+    /// DIR/dop_<theta>deg.png) or mueller (DIR/mueller.csv: the Mueller-matrix
+    /// BRDF per cell). Implies polarised transport.
+    #[arg(long, value_parser = ["none", "stokes", "mueller"])]
+    polarisation: Option<String>,
+    /// The unpolarised approximation: the weight times (Rs + Rp)/2 at every
+    /// Fresnel bounce (overrides [transport] polarisation; default: Stokes
+    /// vectors through every bounce when a material is Fresnel).
+    #[arg(long)]
+    no_polarisation: bool,
     /// Height-map resolution for the surface statistics in the summary
     /// (default 512; a height field: its own grid).
     #[arg(long)]
@@ -501,6 +512,34 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     if let Some(s) = &a.symmetry {
         run.symmetry = roks::tally::Symmetry::from_name(s).expect("clap checked the name");
     }
+    if a.polarisation.is_some() || a.no_polarisation || a.symmetry.is_some() {
+        let tally = a
+            .polarisation
+            .as_deref()
+            .map_or(scene.tally.polarisation, |p| {
+                roks::tally::PolarTally::from_name(p).expect("clap checked the name")
+            });
+        let transport = if a.no_polarisation {
+            Some(false)
+        } else {
+            scene.transport.polarisation
+        };
+        run.polarisation = roks::transport::brdf::Polarisation::resolve(
+            scene.has_fresnel(),
+            transport,
+            run.polarisation.incident,
+            tally,
+            run.symmetry,
+        )
+        .map_err(|(key, e)| {
+            let option = match key {
+                "tally.symmetry" => "--symmetry",
+                _ if a.no_polarisation => "--no-polarisation",
+                _ => "--polarisation",
+            };
+            Failure::Input(format!("{option}: {e}"))
+        })?;
+    }
     roks::transport::launch::check_photons(run.launch, run.photons)
         .map_err(|e| Failure::Input(format!("--photons: {e}")))?;
     if let Some(t) = &a.theta {
@@ -566,11 +605,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
             let (nodes, secs) =
                 run.run_shard_one(&scene.surface, theta, total_photons, &|n| bar.inc(n));
             // This shard's own sums, for its own files (left to right).
-            let mut t = roks::transport::brdf::Tallies::new(
-                &run.grid(),
-                &run.inplane(),
-                run.launch.replicates(),
-            );
+            let mut t = run.empty_tallies(&run.grid(), &run.inplane());
             for n in &nodes {
                 t.merge(&n.value);
             }
@@ -613,6 +648,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     let summary = output::brdf_summary(&fields, &results, seconds);
     let brdf_csv = output::brdf_csv(&run, &results);
     let inplane_csv = output::inplane_csv(&run, &results);
+    let polar_csv = output::polar_csv(&run, &results);
     let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
     text.push('\n');
     let tallies_text = tallies_json
@@ -648,6 +684,9 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         ("inplane.csv", inplane_csv.as_bytes()),
         ("inplane.png", &inplane_png),
     ];
+    if let Some((name, text)) = &polar_csv {
+        files.push((name, text.as_bytes()));
+    }
     for (name, bytes) in &maps {
         files.push((name, bytes));
     }
@@ -803,8 +842,13 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
                 return Err(bad(format!("theta_deg is not {theta}")));
             }
             seconds += shard::text_f64(&inc["seconds"], "seconds").map_err(bad)?;
-            let nodes =
-                shard::json_nodes(&inc["nodes"], grid.n_cells(), inplane.n_bins()).map_err(bad)?;
+            let nodes = shard::json_nodes(
+                &inc["nodes"],
+                grid.n_cells(),
+                inplane.n_bins(),
+                run.polarisation.tally,
+            )
+            .map_err(bad)?;
             for n in nodes {
                 sum.push(n, &Tallies::merge).map_err(bad)?;
             }
@@ -866,15 +910,17 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
     tallies.push('\n');
     let brdf_csv = output::brdf_csv(&run, &results);
     let inplane_csv = output::inplane_csv(&run, &results);
-    write_outputs(
-        &a.out,
-        &[
-            ("brdf.csv", brdf_csv.as_bytes()),
-            ("inplane.csv", inplane_csv.as_bytes()),
-            (shard::TALLIES_FILE, tallies.as_bytes()),
-            ("summary.json", text.as_bytes()),
-        ],
-    )?;
+    let polar_csv = output::polar_csv(&run, &results);
+    let mut files: Vec<(&str, &[u8])> = vec![
+        ("brdf.csv", brdf_csv.as_bytes()),
+        ("inplane.csv", inplane_csv.as_bytes()),
+    ];
+    if let Some((name, text)) = &polar_csv {
+        files.push((name, text.as_bytes()));
+    }
+    files.push((shard::TALLIES_FILE, tallies.as_bytes()));
+    files.push(("summary.json", text.as_bytes()));
+    write_outputs(&a.out, &files)?;
     if !a.quiet {
         print_brdf_table(&results);
         eprintln!("merged {} shards into {}", parts.len(), a.out.display());

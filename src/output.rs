@@ -12,6 +12,12 @@
 //!   specular side, negative toward the light).
 //! * `tallies.json` (with `--shard`, and from `roks merge`): the raw sums,
 //!   exactly, for merging shards (see [`crate::shard`]).
+//! * With `[tally] polarisation = "stokes"`: `stokes.csv` (see
+//!   [`STOKES_HEADER`]) and `dop_<theta>deg.png`; with `"mueller"`:
+//!   `mueller.csv` ([`MUELLER_HEADER`]). Frames: every outgoing direction's
+//!   Stokes reference vector is `normalize(z × d)` (see
+//!   [`crate::optics::polarisation`]), the incident one that of the incident
+//!   flight (the s axis of the plane of incidence).
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -20,11 +26,73 @@ use std::path::Path;
 use serde_json::{Value, json};
 
 use crate::micro::surface_stats::SurfaceStats;
-use crate::tally::{CarlsonGrid, InPlaneTally};
+use crate::optics::polarisation::degree_of_polarisation;
+use crate::tally::{CarlsonGrid, InPlaneTally, PolarTally};
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
 
 /// Columns of `brdf.csv`.
 pub const BRDF_HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// Columns of `stokes.csv`: per incidence and Carlson cell, the Stokes BRDF
+/// `s_i` (1/sr) of the reflected light for the incident state in the cell
+/// direction's frame, with standard errors; `s0` equals `brdf` of
+/// `brdf.csv`; `dop = sqrt(s1² + s2² + s3²) / s0` of the means (0 where
+/// `s0 = 0`).
+pub const STOKES_HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg,s0,s0_stderr,s1,s1_stderr,s2,s2_stderr,s3,s3_stderr,dop";
+
+/// Columns of `mueller.csv`: per incidence and Carlson cell, the Mueller
+/// matrix BRDF `m_ij` (1/sr, row = outgoing component `i`, column = incident
+/// component `j`) with standard errors; `m00` is the BRDF for unpolarised light.
+pub const MUELLER_HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg,m00,m00_stderr,m01,m01_stderr,m02,m02_stderr,m03,m03_stderr,m10,m10_stderr,m11,m11_stderr,m12,m12_stderr,m13,m13_stderr,m20,m20_stderr,m21,m21_stderr,m22,m22_stderr,m23,m23_stderr,m30,m30_stderr,m31,m31_stderr,m32,m32_stderr,m33,m33_stderr";
+
+/// The polarisation table of a run with a polarisation tally: its file name
+/// (`stokes.csv` or `mueller.csv`) and text; `None` without one.
+#[must_use]
+pub fn polar_csv(run: &BrdfRun, results: &[IncidenceResult]) -> Option<(&'static str, String)> {
+    let (name, header) = match run.polarisation.tally {
+        PolarTally::None => return None,
+        PolarTally::Stokes => ("stokes.csv", STOKES_HEADER),
+        PolarTally::Mueller => ("mueller.csv", MUELLER_HEADER),
+    };
+    let k = run.polarisation.tally.components();
+    let grid: CarlsonGrid = run.grid();
+    let mut s = String::with_capacity(40 * (k + 1) * grid.n_cells() * results.len());
+    s.push_str(header);
+    s.push('\n');
+    for r in results {
+        let Some(p) = &r.tallies.polar else {
+            continue;
+        };
+        for flat in 0..grid.n_cells() {
+            let (band, cell) = grid.band_cell(flat);
+            let (theta, phi) = grid.centre(band, cell);
+            let proj = grid.projected_solid_angle(band, cell);
+            let _ = write!(
+                s,
+                "{},{},{band},{cell},{},{}",
+                r.theta_i_deg,
+                r.phi_i_deg,
+                theta.to_degrees(),
+                phi.to_degrees()
+            );
+            let mut means = [0.0; 16];
+            for (i, m) in means.iter_mut().enumerate().take(k) {
+                let (mean, se) = r.polar(p.cell_bin(flat, i)).unwrap_or_default();
+                *m = mean / proj;
+                let _ = write!(s, ",{:.9e},{:.9e}", mean / proj, se / proj);
+            }
+            if k == 4 {
+                let _ = write!(
+                    s,
+                    ",{:.9e}",
+                    degree_of_polarisation([means[0], means[1], means[2], means[3]])
+                );
+            }
+            s.push('\n');
+        }
+    }
+    Some((name, s))
+}
 
 /// Columns of `inplane.csv`.
 pub const INPLANE_HEADER: &str = "theta_i_deg,theta_o_deg,brdf,brdf_stderr";
@@ -132,7 +200,7 @@ pub fn incidence_json(r: &IncidenceResult) -> Value {
     let t = &r.tallies;
     let (refl, refl_se) = r.reflectance();
     let n = t.photons as f64;
-    json!({
+    let mut v = json!({
         "theta_deg": r.theta_i_deg,
         "phi_deg": r.phi_i_deg,
         "photons": t.photons,
@@ -151,7 +219,26 @@ pub fn incidence_json(r: &IncidenceResult) -> Value {
         "tests_per_segment": r.tests_per_segment(),
         "seconds": r.seconds,
         "segments_per_second": r.segments_per_second(),
-    })
+    });
+    if let (Some(p), Value::Object(m)) = (&t.polar, &mut v) {
+        let key = if p.components == 4 {
+            "reflected_stokes"
+        } else {
+            "reflected_mueller"
+        };
+        let pairs: Vec<(f64, f64)> = (0..p.components)
+            .map(|i| r.polar(i).unwrap_or_default())
+            .collect();
+        m.insert(
+            key.into(),
+            json!(pairs.iter().map(|x| x.0).collect::<Vec<_>>()),
+        );
+        m.insert(
+            format!("{key}_stderr"),
+            json!(pairs.iter().map(|x| x.1).collect::<Vec<_>>()),
+        );
+    }
+    v
 }
 
 /// `summary.json` of `roks brdf` (and `roks merge`): the run-level `fields`

@@ -57,15 +57,19 @@
 //! `intersection_tests`, `lost_walls`,
 //! `lost_cap`, `lost_numeric`, `capped_histories`, `numeric_histories`, and
 //! `replicates`: null, or for a lattice run `{count, reflected, carlson,
-//! inplane}` with the sums per replicate).
+//! inplane}` with the sums per replicate), and with a polarisation tally
+//! `polar`: `{components, sums {sum, sum_sq}, replicates}` (bins of
+//! [`crate::tally::polar`]). Polarised runs add `polarisation` to the
+//! settings (`transport`, `incident`, `incident_stokes`, `tally`).
 //! Floating-point numbers are written as decimal strings (Rust's shortest
 //! round-trip form, e.g. `"0.123"`, `"1e-7"`), so they read back bit for bit.
 
 use serde_json::{Map, Value, json};
 
-use crate::tally::{Accumulator, Symmetry};
+use crate::optics::polarisation::Incident;
+use crate::tally::{Accumulator, PolarTallies, PolarTally, Symmetry};
 use crate::transport::BATCH;
-use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, Replicates, Tallies};
+use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, Polarisation, Replicates, Tallies};
 use crate::transport::launch::Launch;
 use crate::transport::micro::Controls;
 
@@ -307,7 +311,7 @@ fn json_acc(v: &Value, what: &str, len: usize) -> Result<Accumulator, String> {
 /// The raw sums of one tally, exactly.
 #[must_use]
 pub fn tallies_json(t: &Tallies) -> Value {
-    json!({
+    let mut v = json!({
         "photons": t.photons,
         "reflected": acc_json(&t.reflected),
         "carlson": acc_json(&t.carlson),
@@ -327,10 +331,23 @@ pub fn tallies_json(t: &Tallies) -> Value {
             "carlson": f64s_text(&r.carlson),
             "inplane": f64s_text(&r.inplane),
         })),
-    })
+    });
+    if let (Some(p), Value::Object(m)) = (&t.polar, &mut v) {
+        m.insert(
+            "polar".into(),
+            json!({
+                "components": p.components,
+                "sums": acc_json(&p.sums),
+                "replicates": p.replicates.as_deref().map(f64s_text),
+            }),
+        );
+    }
+    v
 }
 
-/// Read [`tallies_json`] back, checking bin counts.
+/// Read [`tallies_json`] back, checking bin counts (`polar`: the run's
+/// polarisation tally, whose sums must be present exactly when it is not
+/// `None`).
 ///
 /// # Errors
 /// On a missing field, a bad number or a wrong bin count.
@@ -338,8 +355,34 @@ pub fn json_tallies(
     v: &Value,
     carlson_cells: usize,
     inplane_bins: usize,
+    polar: PolarTally,
 ) -> Result<Tallies, String> {
+    let replicates = match v.get("replicates") {
+        None | Some(Value::Null) => None,
+        Some(r) => Some(usize::try_from(get_u64(r, "count")?).map_err(|e| e.to_string())?),
+    };
+    let polar = match (polar, v.get("polar")) {
+        (PolarTally::None, None) => None,
+        (PolarTally::None, Some(_)) => return Err("`polar`: not expected for this run".into()),
+        (_, None) => return Err("missing `polar`".into()),
+        (kind, Some(p)) => {
+            let k = kind.components();
+            if get_u64(p, "components")? != k as u64 {
+                return Err(format!("`polar.components`: expected {k}"));
+            }
+            let mut t = PolarTallies::new(k, carlson_cells, replicates);
+            let bins = t.bins();
+            t.sums = json_acc(get(p, "sums")?, "polar.sums", bins)?;
+            t.replicates = match (replicates, p.get("replicates")) {
+                (None, None | Some(Value::Null)) => None,
+                (Some(r), Some(x)) => Some(text_f64s(x, "polar.replicates", r * bins)?),
+                _ => return Err("`polar.replicates`: does not match `replicates`".into()),
+            };
+            Some(t)
+        }
+    };
     Ok(Tallies {
+        polar,
         photons: get_u64(v, "photons")?,
         reflected: json_acc(get(v, "reflected")?, "reflected", 1)?,
         carlson: json_acc(get(v, "carlson")?, "carlson", carlson_cells)?,
@@ -383,7 +426,7 @@ pub fn nodes_json(nodes: &[Node<Tallies>]) -> Value {
     )
 }
 
-/// Nodes from JSON.
+/// Nodes from JSON (see [`json_tallies`]).
 ///
 /// # Errors
 /// On a malformed node.
@@ -391,6 +434,7 @@ pub fn json_nodes(
     v: &Value,
     carlson_cells: usize,
     inplane_bins: usize,
+    polar: PolarTally,
 ) -> Result<Vec<Node<Tallies>>, String> {
     v.as_array()
         .ok_or("`nodes`: expected an array")?
@@ -399,7 +443,7 @@ pub fn json_nodes(
             Ok(Node {
                 level: u32::try_from(get_u64(n, "level")?).map_err(|e| e.to_string())?,
                 index: get_u64(n, "index")?,
-                value: json_tallies(get(n, "tallies")?, carlson_cells, inplane_bins)?,
+                value: json_tallies(get(n, "tallies")?, carlson_cells, inplane_bins, polar)?,
             })
         })
         .collect()
@@ -455,7 +499,7 @@ pub fn settings_json(
     run: &BrdfRun,
     surface: &Value,
 ) -> Value {
-    json!({
+    let mut v = json!({
         "version": env!("CARGO_PKG_VERSION"),
         "scene": scene_file,
         "name": name,
@@ -473,6 +517,43 @@ pub fn settings_json(
         "symmetry": run.symmetry.name(),
         "edges": edges,
         "surface": exact_object(surface),
+    });
+    let p = &run.polarisation;
+    if let (true, Value::Object(m)) = (p.transport, &mut v) {
+        m.insert(
+            "polarisation".into(),
+            json!({
+                "transport": "stokes",
+                "incident": p.incident.name(),
+                "incident_stokes": f64s_text(&p.incident.stokes()),
+                "tally": p.tally.name(),
+            }),
+        );
+    }
+    v
+}
+
+/// The polarisation of settings written by [`settings_json`] (scalar
+/// transport when absent).
+fn polarisation_from_settings(s: &Value) -> Result<Polarisation, String> {
+    let Some(p) = s.get("polarisation") else {
+        return Ok(Polarisation::default());
+    };
+    let stokes = text_f64s(
+        get(p, "incident_stokes")?,
+        "polarisation.incident_stokes",
+        4,
+    )?;
+    let incident = Incident::Stokes([stokes[0], stokes[1], stokes[2], stokes[3]]);
+    incident
+        .validate()
+        .map_err(|e| format!("`polarisation.incident_stokes`: {e}"))?;
+    let name = get(p, "tally")?.as_str().unwrap_or("");
+    Ok(Polarisation {
+        transport: true,
+        incident,
+        tally: PolarTally::from_name(name)
+            .ok_or_else(|| format!("`polarisation.tally`: unknown `{name}`"))?,
     })
 }
 
@@ -512,6 +593,7 @@ pub fn run_from_settings(s: &Value) -> Result<BrdfRun, String> {
             let name = get(s, "symmetry")?.as_str().unwrap_or("");
             Symmetry::from_name(name).ok_or_else(|| format!("`symmetry`: unknown `{name}`"))?
         },
+        polarisation: polarisation_from_settings(s)?,
     })
 }
 
@@ -535,6 +617,12 @@ pub fn summary_fields(s: &Value) -> Result<Map<String, Value>, String> {
         m.insert(key.into(), get(s, key)?.clone());
     }
     m.insert("surface".into(), unexact_object(get(s, "surface")?));
+    if let Some(p) = s.get("polarisation") {
+        let mut p = p.clone();
+        let stokes = text_f64s(get(&p, "incident_stokes")?, "incident_stokes", 4)?;
+        p["incident_stokes"] = json!(stokes);
+        m.insert("polarisation".into(), p);
+    }
     Ok(m)
 }
 

@@ -145,7 +145,7 @@ fn micro_rotation_averaged(
             rng.random::<f64>() * surface.size.y,
             surface.top,
         );
-        let h = trace(surface, start, dir, &controls, &mut rng, &mut scratch);
+        let h = trace(surface, start, dir, 1.0, &controls, &mut rng, &mut scratch);
         match h.fate {
             Fate::Escaped { dir: l, weight } => {
                 refl.score(0, weight);

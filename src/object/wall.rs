@@ -166,10 +166,7 @@ impl WallModel {
                 w.map_frame(|x| DVec3::new(x.dot(t1), x.dot(t2), x.dot(n)));
                 let h = trace(surface, start, local, w, controls, rng, scratch);
                 match h.fate {
-                    Fate::Escaped {
-                        dir: l,
-                        mut weight,
-                    } => {
+                    Fate::Escaped { dir: l, mut weight } => {
                         weight.map_frame(|x| x.x * t1 + x.y * t2 + x.z * n);
                         Interaction::Reflected {
                             dir: (l.x * t1 + l.y * t2 + l.z * n).normalize(),
@@ -231,7 +228,10 @@ mod tests {
         let mut rng = Pcg64Mcg::seed_from_u64(1);
         let d = DVec3::new(1.0, 0.0, -1.0).normalize();
         match wall.interact(d, DVec3::Z, 1.0, &mut rng, &mut None) {
-            Interaction::Reflected { dir, weight: factor } => {
+            Interaction::Reflected {
+                dir,
+                weight: factor,
+            } => {
                 assert!((dir - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-15);
                 assert_eq!(factor, 0.3);
             }

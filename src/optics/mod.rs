@@ -7,8 +7,8 @@
 
 pub mod brdf_table;
 pub mod fresnel;
-pub mod polarisation;
 pub mod material;
+pub mod polarisation;
 
 pub use fresnel::{fresnel_sp, fresnel_unpolarised};
 pub use material::{AngleTable, Reflectance, ReflectanceError, TableError};

@@ -106,7 +106,12 @@ impl FresnelMueller {
         let b = 0.5 * (rs - rp);
         let amplitude = (rs * rp).sqrt();
         if amplitude == 0.0 {
-            return Self { a, b, c: 0.0, d: 0.0 };
+            return Self {
+                a,
+                b,
+                c: 0.0,
+                d: 0.0,
+            };
         }
         let (cos_d, sin_d) = phase_rs_rp(cos, n, k);
         Self {
@@ -294,9 +299,7 @@ impl Incident {
         match *self {
             Self::Stokes(s) => {
                 if !s.iter().all(|x| x.is_finite()) || !(s[0] > 0.0) {
-                    return Err(format!(
-                        "Stokes vector {s:?} must be finite with S0 > 0"
-                    ));
+                    return Err(format!("Stokes vector {s:?} must be finite with S0 > 0"));
                 }
                 let p2 = s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
                 if p2 > s[0] * s[0] * (1.0 + 1e-12) {
@@ -376,8 +379,18 @@ mod tests {
                 let f = FresnelMueller::new(c, n, k);
                 assert!(close(f.a, 0.5 * (rs.norm_sqr() + rp.norm_sqr()), 1e-13));
                 assert!(close(f.b, 0.5 * (rs.norm_sqr() - rp.norm_sqr()), 1e-13));
-                assert!(close(f.c, z.re, 1e-12), "{n} {k} {deg}: {} vs {}", f.c, z.re);
-                assert!(close(f.d, z.im, 1e-12), "{n} {k} {deg}: {} vs {}", f.d, z.im);
+                assert!(
+                    close(f.c, z.re, 1e-12),
+                    "{n} {k} {deg}: {} vs {}",
+                    f.c,
+                    z.re
+                );
+                assert!(
+                    close(f.d, z.im, 1e-12),
+                    "{n} {k} {deg}: {} vs {}",
+                    f.d,
+                    z.im
+                );
             }
         }
     }
@@ -445,7 +458,10 @@ mod tests {
         assert_eq!(Incident::S.stokes(), [1.0, 1.0, 0.0, 0.0]);
         let l = Incident::Linear(45.0).stokes();
         assert!(close(l[1], 0.0, 1e-15) && close(l[2], 1.0, 1e-15));
-        assert_eq!(Incident::Stokes([2.0, 1.0, 0.0, 0.0]).stokes(), [1.0, 0.5, 0.0, 0.0]);
+        assert_eq!(
+            Incident::Stokes([2.0, 1.0, 0.0, 0.0]).stokes(),
+            [1.0, 0.5, 0.0, 0.0]
+        );
         assert!(Incident::Stokes([1.0, 1.0, 1.0, 0.0]).validate().is_err());
         assert!(Incident::Stokes([0.0, 0.0, 0.0, 0.0]).validate().is_err());
         assert!(Incident::Stokes([1.0, 0.6, 0.8, 0.0]).validate().is_ok());

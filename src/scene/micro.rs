@@ -39,16 +39,21 @@
 //! photons = 1000000         # per incidence angle
 //! seed = 1                  # tracing seed
 //! launch = "random"         # entry points: "random" or "lattice" (replicated R2 lattice)
+//! polarisation = "unpolarised"  # incident state: "s", "p", "right", "left", { linear = 30 },
+//!                           # or [S0, S1, S2, S3]; frame: the s axis of the plane of incidence
 //!
 //! [tally]
 //! bands = 32                # Carlson grid bands
 //! inplane_step_deg = 1.0    # in-plane bin width
 //! inplane_width_deg = 1.0   # in-plane detector full width out of the plane
 //! symmetry = "none"         # "mirror": fold mirror images in the plane of incidence
+//! polarisation = "none"     # "stokes": stokes.csv; "mueller": mueller.csv (Mueller-matrix BRDF)
 //!
 //! [transport]
 //! max_bounces = 100000      # bounce cap (cut photons are reported as lost)
 //! roulette_weight = 0.01    # Russian roulette below this weight (survival weight 10x)
+//! polarisation = true       # default: true with a Fresnel material (Stokes vectors through
+//!                           # every bounce); false: the unpolarised weight (Rs + Rp)/2 per bounce
 //! ```
 
 use std::collections::BTreeMap;
@@ -60,8 +65,8 @@ use rand_pcg::Pcg64Mcg;
 use serde::Deserialize;
 
 use super::{
-    MaterialSpec, QuadricSpec, Range, SceneError, Source, build_materials, material_index,
-    parse_toml,
+    MaterialSpec, PolarisationSpec, QuadricSpec, Range, SceneError, Source, build_materials,
+    material_index, parse_toml,
 };
 use crate::geometry::body::{Body, Ray};
 use crate::geometry::quadric::Quadric;
@@ -69,8 +74,10 @@ use crate::micro::bumps::{Bump, Shape};
 use crate::micro::heightfield::HeightField;
 use crate::micro::heightfield_io::{self, Format};
 use crate::micro::{Edges, MicroSurface, Placed};
-use crate::tally::Symmetry;
-use crate::transport::brdf::BrdfRun;
+use crate::optics::material::Reflectance;
+use crate::optics::polarisation::Incident;
+use crate::tally::{PolarTally, Symmetry};
+use crate::transport::brdf::{BrdfRun, Polarisation};
 use crate::transport::launch::{Launch, check_photons};
 use crate::transport::micro::Controls;
 
@@ -254,6 +261,9 @@ pub struct LightSpec {
     /// [`crate::transport::launch`]; photons must then be a multiple of 16).
     #[serde(default)]
     pub launch: Launch,
+    /// Incident polarisation state (default unpolarised), in the frame of
+    /// the incident flight (see [`crate::optics::polarisation`]).
+    pub polarisation: Option<PolarisationSpec>,
 }
 
 impl Default for LightSpec {
@@ -264,6 +274,7 @@ impl Default for LightSpec {
             photons: default_photons(),
             seed: default_seed(),
             launch: Launch::Random,
+            polarisation: None,
         }
     }
 }
@@ -296,6 +307,10 @@ pub struct TallySpec {
     /// [`crate::tally::symmetry`]).
     #[serde(default)]
     pub symmetry: Symmetry,
+    /// `"none"` (default), `"stokes"` (`stokes.csv`) or `"mueller"`
+    /// (`mueller.csv`); see [`crate::tally::polar`].
+    #[serde(default)]
+    pub polarisation: PolarTally,
 }
 
 impl Default for TallySpec {
@@ -305,6 +320,7 @@ impl Default for TallySpec {
             inplane_step_deg: 1.0,
             inplane_width_deg: 1.0,
             symmetry: Symmetry::None,
+            polarisation: PolarTally::None,
         }
     }
 }
@@ -326,6 +342,8 @@ pub struct TransportSpec {
     /// Russian roulette threshold weight.
     #[serde(default = "default_roulette")]
     pub roulette_weight: f64,
+    /// Polarised transport: default on when a material is Fresnel.
+    pub polarisation: Option<bool>,
 }
 
 impl Default for TransportSpec {
@@ -333,6 +351,7 @@ impl Default for TransportSpec {
         Self {
             max_bounces: default_max_bounces(),
             roulette_weight: default_roulette(),
+            polarisation: None,
         }
     }
 }
@@ -361,9 +380,20 @@ pub struct MicroScene {
     pub tally: TallySpec,
     /// Transport controls.
     pub transport: TransportSpec,
+    /// Polarisation of the run (resolved from the three sections).
+    pub polarisation: Polarisation,
 }
 
 impl MicroScene {
+    /// Whether a material of the surface is Fresnel (polarising).
+    #[must_use]
+    pub fn has_fresnel(&self) -> bool {
+        self.surface
+            .materials
+            .iter()
+            .any(|m| matches!(m, Reflectance::Fresnel { .. }))
+    }
+
     /// The BRDF run this scene describes (`[light]`, `[tally]`, `[transport]`).
     #[must_use]
     pub fn brdf_run(&self) -> BrdfRun {
@@ -374,6 +404,7 @@ impl MicroScene {
             first_photon: 0,
             seed: self.light.seed,
             launch: self.light.launch,
+            polarisation: self.polarisation,
             bands: self.tally.bands,
             inplane_step_deg: self.tally.inplane_step_deg,
             inplane_width_deg: self.tally.inplane_width_deg,
@@ -530,6 +561,22 @@ impl MicroSceneSpec {
             return Err(source.error("transport.roulette_weight", "must be in [0, 1)"));
         }
 
+        let incident = match &light.polarisation {
+            Some(p) => p.build(&source, "light.polarisation")?,
+            None => Incident::Unpolarised,
+        };
+        let has_fresnel = materials
+            .iter()
+            .any(|m| matches!(m, Reflectance::Fresnel { .. }));
+        let polarisation = Polarisation::resolve(
+            has_fresnel,
+            transport.polarisation,
+            incident,
+            tally.polarisation,
+            tally.symmetry,
+        )
+        .map_err(|(key, e)| source.error(key, e))?;
+
         let surface = match field {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),
             None => MicroSurface::new(size, edges, placed, materials, substrate),
@@ -542,6 +589,7 @@ impl MicroSceneSpec {
             light,
             tally,
             transport,
+            polarisation,
         })
     }
 }

@@ -19,8 +19,8 @@ use serde::Deserialize;
 use crate::geometry::body::{Aabb, Body, MAX_SURFACES};
 use crate::geometry::quadric::Quadric;
 use crate::geometry::region;
-use crate::optics::polarisation::Incident;
 use crate::optics::material::{AngleTable, Reflectance};
+use crate::optics::polarisation::Incident;
 
 /// A problem with a scene file: which file, which key, what is wrong.
 #[derive(Debug, Clone, PartialEq, Eq)]

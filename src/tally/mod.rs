@@ -11,13 +11,16 @@
 //! - [`CarlsonGrid`]: the Carlson (1976) equal-solid-angle hemisphere grid.
 //! - [`InPlaneTally`]: a fine goniometer tally in the plane of incidence.
 //! - [`Symmetry`]: folding mirror images in the plane of incidence.
+//! - [`PolarTallies`]: Stokes and Mueller-matrix BRDFs per cell.
 
 pub mod accumulator;
 pub mod carlson;
 pub mod inplane;
+pub mod polar;
 pub mod symmetry;
 
 pub use accumulator::Accumulator;
 pub use carlson::CarlsonGrid;
 pub use inplane::InPlaneTally;
+pub use polar::{PolarTallies, PolarTally};
 pub use symmetry::Symmetry;

@@ -12,18 +12,29 @@
 //! photon; BRDF = fraction / projected solid angle (sr⁻¹). With
 //! [`Symmetry::Mirror`] each escaping photon counts half in its mirror
 //! image in the plane of incidence ([`crate::tally::symmetry`]).
+//!
+//! With [`Polarisation::transport`] photons carry Stokes vectors (or Mueller
+//! columns, for [`PolarTally::Mueller`]) through every Fresnel bounce
+//! ([`super::carrier`]); `brdf.csv`, `inplane.csv` and the reflectance are
+//! then the intensity `S0` for the incident state, and [`PolarTallies`] keep
+//! the Stokes or Mueller BRDF per cell ([`crate::tally::polar`]).
 
 use std::time::Instant;
 
 use glam::DVec3;
 use rand::RngExt;
 
+use super::carrier::{Carrier, Polarised};
 use super::launch::{Lattices, Launch, replicate_stderr};
 use super::micro::{Controls, Fate, trace};
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
+use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
 use crate::shard::{DyadicSum, Node};
-use crate::tally::{Accumulator, CarlsonGrid, InPlaneTally, Symmetry, symmetry};
+use crate::tally::polar::mirror_sign;
+use crate::tally::{
+    Accumulator, CarlsonGrid, InPlaneTally, PolarTallies, PolarTally, Symmetry, symmetry,
+};
 
 pub use super::BATCH;
 
@@ -55,6 +66,76 @@ pub struct BrdfRun {
     pub launch: Launch,
     /// Fold mirror images in the plane of incidence into the Carlson cells.
     pub symmetry: Symmetry,
+    /// Polarised transport, incident state and polarisation tallies.
+    pub polarisation: Polarisation,
+}
+
+/// Polarisation settings of a run (`[light] polarisation`, `[tally]
+/// polarisation`, `[transport] polarisation`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Polarisation {
+    /// Carry a Stokes vector (or Mueller columns) per photon; false: the
+    /// scalar weight (unpolarised reflectance per bounce).
+    pub transport: bool,
+    /// Incident state, in the frame of the incident flight (s = `(1, 1, 0, 0)`).
+    pub incident: Incident,
+    /// Polarisation tallies (need `transport`).
+    pub tally: PolarTally,
+}
+
+impl Polarisation {
+    /// The settings a run uses: polarised transport when asked
+    /// (`transport = Some(true)`), or by default when the surface has a
+    /// Fresnel material (`has_fresnel`: every other material is
+    /// non-polarising, so the scalar weight is exact there) or a
+    /// polarisation tally is asked for.
+    ///
+    /// # Errors
+    /// `(key, message)` for a polarisation tally without polarised transport,
+    /// or mirror symmetry with an incident state that the mirror changes
+    /// (`S2` or `S3` non-zero).
+    pub fn resolve(
+        has_fresnel: bool,
+        transport: Option<bool>,
+        incident: Incident,
+        tally: PolarTally,
+        symmetry: Symmetry,
+    ) -> Result<Self, (&'static str, String)> {
+        if tally != PolarTally::None && transport == Some(false) {
+            return Err((
+                "tally.polarisation",
+                format!(
+                    "`{}` needs polarised transport, but [transport] polarisation = false",
+                    tally.name()
+                ),
+            ));
+        }
+        let on = transport.unwrap_or(has_fresnel || tally != PolarTally::None);
+        if on && symmetry == Symmetry::Mirror && !incident.is_mirror_symmetric() {
+            return Err((
+                "tally.symmetry",
+                format!(
+                    "mirror symmetry maps the incident state `{}` to another (S2 or S3 non-zero): use an unpolarised, s, p or 0/90 deg linear state, or symmetry = \"none\"",
+                    incident.name()
+                ),
+            ));
+        }
+        Ok(Self {
+            transport: on,
+            incident,
+            tally,
+        })
+    }
+}
+
+impl Default for Polarisation {
+    fn default() -> Self {
+        Self {
+            transport: false,
+            incident: Incident::Unpolarised,
+            tally: PolarTally::None,
+        }
+    }
 }
 
 /// Everything tallied for one incidence direction (sums; see [`IncidenceResult`]).
@@ -88,6 +169,8 @@ pub struct Tallies {
     pub numeric_histories: u64,
     /// With [`Launch::Lattice`]: the reflected weight summed per replicate.
     pub replicates: Option<Replicates>,
+    /// Stokes or Mueller sums (with a polarisation tally).
+    pub polar: Option<PolarTallies>,
 }
 
 /// Reflected weight summed per lattice replicate, from which the standard
@@ -141,9 +224,14 @@ impl Replicates {
 
 impl Tallies {
     /// All sums zero, bins for `grid` and `inplane`, replicate sums for
-    /// `replicates` (see [`Launch::replicates`]).
+    /// `replicates` (see [`Launch::replicates`]), polarisation sums for `polar`.
     #[must_use]
-    pub fn new(grid: &CarlsonGrid, inplane: &InPlaneTally, replicates: Option<u64>) -> Self {
+    pub fn new(
+        grid: &CarlsonGrid,
+        inplane: &InPlaneTally,
+        replicates: Option<u64>,
+        polar: PolarTally,
+    ) -> Self {
         Self {
             photons: 0,
             reflected: Accumulator::new(1),
@@ -160,6 +248,13 @@ impl Tallies {
             numeric_histories: 0,
             replicates: replicates
                 .map(|k| Replicates::new(k as usize, grid.n_cells(), inplane.n_bins())),
+            polar: (polar != PolarTally::None).then(|| {
+                PolarTallies::new(
+                    polar.components(),
+                    grid.n_cells(),
+                    replicates.map(|k| k as usize),
+                )
+            }),
         }
     }
 
@@ -184,6 +279,11 @@ impl Tallies {
             (Some(a), Some(b)) => a.merge(b),
             (None, None) => {}
             _ => panic!("Tallies::merge: random and lattice tallies mixed"),
+        }
+        match (&mut self.polar, &other.polar) {
+            (Some(a), Some(b)) => a.merge(b),
+            (None, None) => {}
+            _ => panic!("Tallies::merge: polarisation tallies mixed"),
         }
     }
 }
@@ -222,6 +322,21 @@ impl IncidenceResult {
     #[must_use]
     pub fn inplane_stderr(&self, bin: usize) -> f64 {
         self.stderr(|t| &t.inplane, |r| &r.inplane, bin)
+    }
+
+    /// Mean per launched photon of polarisation bin `bin` (see
+    /// [`crate::tally::polar`]), and its standard error; `None` without a
+    /// polarisation tally.
+    #[must_use]
+    pub fn polar(&self, bin: usize) -> Option<(f64, f64)> {
+        let t = &self.tallies;
+        let p = t.polar.as_ref()?;
+        let mean = p.sums.mean(bin, t.photons);
+        let se = match (&t.replicates, &p.replicates) {
+            (Some(r), Some(sums)) => r.stderr(sums, bin, t.photons),
+            _ => p.sums.stderr(bin, t.photons),
+        };
+        Some((mean, se))
     }
 
     /// Per photon, or from the replicate spread for a lattice run.
@@ -278,6 +393,17 @@ impl BrdfRun {
         CarlsonGrid::new(self.bands).expect("bands >= 1 checked by the scene")
     }
 
+    /// Zero tallies of this run's layout.
+    #[must_use]
+    pub fn empty_tallies(&self, grid: &CarlsonGrid, inplane: &InPlaneTally) -> Tallies {
+        Tallies::new(
+            grid,
+            inplane,
+            self.launch.replicates(),
+            self.polarisation.tally,
+        )
+    }
+
     /// The in-plane tally of this run.
     #[must_use]
     pub fn inplane(&self) -> InPlaneTally {
@@ -324,7 +450,7 @@ impl BrdfRun {
             phi_i_deg: self.phi_deg,
             tallies: sum
                 .finish()
-                .unwrap_or_else(|_| Tallies::new(&grid, &inplane, self.launch.replicates())),
+                .unwrap_or_else(|_| self.empty_tallies(&grid, &inplane)),
             seconds: clock.elapsed().as_secs_f64(),
         }
     }
@@ -372,9 +498,16 @@ impl BrdfRun {
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
         let mut sum = DyadicSum::new(total_batches);
+        let trace = |range| match (self.polarisation.transport, self.polarisation.tally) {
+            (false, _) => self.trace_batch::<f64>(surface, &grid, &inplane, dir, range),
+            (true, PolarTally::Mueller) => {
+                self.trace_batch::<Polarised<4>>(surface, &grid, &inplane, dir, range)
+            }
+            (true, _) => self.trace_batch::<Polarised<1>>(surface, &grid, &inplane, dir, range),
+        };
         super::run_batches(
             self.photons,
-            |range| self.trace_batch(surface, &grid, &inplane, dir, range),
+            trace,
             |k, value| {
                 sum.push(
                     Node {
@@ -416,7 +549,8 @@ impl BrdfRun {
         }
     }
 
-    fn trace_batch(
+    /// Trace the photons `photons` carrying `C` (see [`super::carrier`]).
+    fn trace_batch<C: Carrier>(
         &self,
         surface: &MicroSurface,
         grid: &CarlsonGrid,
@@ -424,10 +558,13 @@ impl BrdfRun {
         dir: DVec3,
         photons: std::ops::Range<u64>,
     ) -> Tallies {
-        let mut t = Tallies::new(grid, inplane, self.launch.replicates());
+        let mut t = self.empty_tallies(grid, inplane);
         let mut scratch = Scratch::new(surface);
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
         let phi = self.phi_deg.to_radians();
+        let incident: Stokes = self.polarisation.incident.stokes();
+        let launch = C::launch(incident, hemisphere_reference(dir, phi));
+        let mut components = [0.0; 16];
         for n in photons {
             let g = self.first_photon + n;
             let mut rng = photon_rng(self.seed, g);
@@ -438,12 +575,24 @@ impl BrdfRun {
                 (replicate, u, v) = (r, lu, lv);
             }
             let start = DVec3::new(u * surface.size.x, v * surface.size.y, surface.top);
-            let h = trace(surface, start, dir, 1.0, &self.controls, &mut rng, &mut scratch);
+            let h = trace(
+                surface,
+                start,
+                dir,
+                launch,
+                &self.controls,
+                &mut rng,
+                &mut scratch,
+            );
             t.photons += 1;
             t.bounces += u64::from(h.bounces);
             t.segments += u64::from(h.segments);
             match h.fate {
-                Fate::Escaped { dir: out, weight } => {
+                Fate::Escaped {
+                    dir: out,
+                    weight: carried,
+                } => {
+                    let weight = carried.weight_for(&incident);
                     t.reflected.score(0, weight);
                     let halves = self.cell_weights(grid, out, weight, phi);
                     for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
@@ -467,20 +616,64 @@ impl BrdfRun {
                         }
                     }
                     t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
+                    let k =
+                        carried.components(out, hemisphere_reference(out, phi), &mut components);
+                    if let Some(p) = &mut t.polar {
+                        let shares = self.cell_weights(grid, out, 1.0, phi);
+                        score_polar(p, &components[..k], &shares, replicate);
+                    }
                 }
                 Fate::Absorbed => {}
-                Fate::Wall { weight } => t.lost_walls += weight,
+                Fate::Wall { weight } => t.lost_walls += weight.weight_for(&incident),
                 Fate::Capped { weight } => {
-                    t.lost_cap += weight;
+                    t.lost_cap += weight.weight_for(&incident);
                     t.capped_histories += 1;
                 }
                 Fate::Numeric { weight } => {
-                    t.lost_numeric += weight;
+                    t.lost_numeric += weight.weight_for(&incident);
                     t.numeric_histories += 1;
                 }
             }
         }
         t.intersection_tests = scratch.tests;
         t
+    }
+}
+
+/// Score an escaping photon's polarisation components `c` (in its outgoing
+/// frame): the hemisphere slot, and the cells of `halves` with their shares
+/// (see [`BrdfRun::cell_weights`] of weight 1; the mirrored half with the
+/// mirror signs of [`mirror_sign`]), and the replicate sums of a lattice run.
+fn score_polar(
+    p: &mut PolarTallies,
+    c: &[f64],
+    halves: &[(crate::tally::carlson::Cells, f64); 2],
+    replicate: usize,
+) {
+    let k = p.components;
+    debug_assert_eq!(c.len(), k);
+    let bins = p.bins();
+    for (i, v) in c.iter().enumerate() {
+        p.sums.score(i, *v);
+        if let Some(r) = &mut p.replicates {
+            r[replicate * bins + i] += v;
+        }
+    }
+    // The first half is the photon's own cells, the second its mirror image.
+    for (half, (cells, w)) in halves.iter().enumerate() {
+        if *w == 0.0 {
+            continue;
+        }
+        for &cell in cells.as_slice() {
+            for (i, v) in c.iter().enumerate() {
+                let sign = if half == 1 { mirror_sign(k, i) } else { 1.0 };
+                let bin = p.cell_bin(cell, i);
+                let score = sign * w * v;
+                p.sums.score(bin, score);
+                if let Some(r) = &mut p.replicates {
+                    r[replicate * bins + bin] += score;
+                }
+            }
+        }
     }
 }

@@ -69,6 +69,12 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
 
     /// Finite, with intensity >= 0.
     fn is_valid(&self) -> bool;
+
+    /// The components polarisation tallies score, re-expressed about the
+    /// reference vector `to` (⟂ the flight `d`): the Stokes vector (`N = 1`,
+    /// 4 values) or the Mueller matrix row-major (`N = 4`, 16 values) in
+    /// `out`; returns how many (0 for the scalar weight).
+    fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize;
 }
 
 impl Carrier for f64 {
@@ -119,6 +125,10 @@ impl Carrier for f64 {
     #[inline]
     fn is_valid(&self) -> bool {
         *self >= 0.0 && self.is_finite()
+    }
+    #[inline]
+    fn components(&self, _: DVec3, _: DVec3, _: &mut [f64; 16]) -> usize {
+        0
     }
 }
 
@@ -272,6 +282,17 @@ impl<const N: usize> Carrier for Polarised<N> {
             && self.x.is_finite()
             && self.columns.iter().flatten().all(|v| v.is_finite())
     }
+
+    fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize {
+        let c = self.columns_in(d, to);
+        for (j, column) in c.iter().enumerate() {
+            for (i, v) in column.iter().enumerate() {
+                // Row-major m_ij for N = 4; the Stokes vector for N = 1.
+                out[i * N + j] = *v;
+            }
+        }
+        4 * N
+    }
 }
 
 #[cfg(test)]
@@ -315,7 +336,11 @@ mod tests {
                 let cos_i = -d.dot(n);
                 let material = Reflectance::Fresnel {
                     n: 0.05 + 5.0 * rng.random::<f64>(),
-                    k: if rng.random::<f64>() < 0.3 { 0.0 } else { 10.0 * rng.random::<f64>() },
+                    k: if rng.random::<f64>() < 0.3 {
+                        0.0
+                    } else {
+                        10.0 * rng.random::<f64>()
+                    },
                 };
                 let out = (d + 2.0 * cos_i * n).normalize();
                 match (path + bounce) % 7 {
@@ -369,6 +394,11 @@ mod tests {
         assert!(w.reflect(&mat, DVec3::NEG_Z, DVec3::Z, 0.6));
         assert_eq!(w, 0.7 * mat.reflectance(0.6));
         assert_eq!(0.7.rescaled(0.3), (0.7 * 0.3, 0.7 * (1.0 - 0.3)));
-        assert!(!w.reflect(&Reflectance::Constant(f64::NAN), DVec3::NEG_Z, DVec3::Z, 1.0));
+        assert!(!w.reflect(
+            &Reflectance::Constant(f64::NAN),
+            DVec3::NEG_Z,
+            DVec3::Z,
+            1.0
+        ));
     }
 }

@@ -354,22 +354,46 @@ pub fn follow<C: Carrier>(
             return end(MacroFate::Unmodelled { surface: sid }, bounces, segments);
         };
         if bounces >= controls.max_bounces {
-            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
+            return end(
+                MacroFate::Lost {
+                    weight: w.intensity(),
+                },
+                bounces,
+                segments,
+            );
         }
         p += hit.t * d;
         if !p.is_finite() {
-            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
+            return end(
+                MacroFate::Lost {
+                    weight: w.intensity(),
+                },
+                bounces,
+                segments,
+            );
         }
         let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
         let Some(normal) = quadric.facing_normal(p, d) else {
-            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
+            return end(
+                MacroFate::Lost {
+                    weight: w.intensity(),
+                },
+                bounces,
+                segments,
+            );
         };
         bounces += 1;
         match models[m].interact(d, normal, w.unit(), rng, &mut scratch[m]) {
             Interaction::Reflected { dir, weight } => {
                 if !weight.is_valid() {
                     // Also NaN: such a weight never reaches a tally.
-                    return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
+                    return end(
+                        MacroFate::Lost {
+                            weight: w.intensity(),
+                        },
+                        bounces,
+                        segments,
+                    );
                 }
                 let (after, removed) = w.rescaled(weight);
                 absorbed(sid, removed);
@@ -380,13 +404,27 @@ pub fn follow<C: Carrier>(
                 absorbed(sid, w.intensity());
                 return end(MacroFate::Absorbed, bounces, segments);
             }
-            Interaction::Lost => return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments),
+            Interaction::Lost => {
+                return end(
+                    MacroFate::Lost {
+                        weight: w.intensity(),
+                    },
+                    bounces,
+                    segments,
+                );
+            }
         }
         if w.intensity() <= 0.0 {
             return end(MacroFate::Absorbed, bounces, segments);
         }
         if !d.is_finite() {
-            return end(MacroFate::Lost { weight: w.intensity() }, bounces, segments);
+            return end(
+                MacroFate::Lost {
+                    weight: w.intensity(),
+                },
+                bounces,
+                segments,
+            );
         }
         standing = Some((hit.cell, hit.surface));
         match super::roulette(w.intensity(), controls.roulette_weight, rng) {

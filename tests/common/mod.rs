@@ -6,7 +6,6 @@ use num_complex::Complex64;
 use roks::scene::Source;
 use roks::scene::micro::MicroScene;
 use roks::transport::brdf::{BrdfRun, IncidenceResult};
-use roks::transport::micro::Controls;
 
 /// Parse and build a micro scene from TOML text (panics with the scene error).
 #[must_use]
@@ -36,23 +35,7 @@ pub fn brdf_run(scene: &MicroScene) -> BrdfRun {
 }
 
 fn scene_run(scene: &MicroScene) -> BrdfRun {
-    BrdfRun {
-        theta_deg: scene.light.theta_deg.clone(),
-        phi_deg: scene.light.phi_deg,
-        photons: scene.light.photons,
-        first_photon: 0,
-        seed: scene.light.seed,
-        bands: scene.tally.bands,
-        inplane_step_deg: scene.tally.inplane_step_deg,
-        inplane_width_deg: scene.tally.inplane_width_deg,
-        controls: Controls {
-            max_bounces: scene.transport.max_bounces,
-            roulette_weight: scene.transport.roulette_weight,
-            ..Controls::default()
-        },
-        launch: scene.light.launch,
-        symmetry: scene.tally.symmetry,
-    }
+    scene.brdf_run()
 }
 
 /// Trace every incidence angle of the scene.

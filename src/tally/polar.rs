@@ -1,0 +1,161 @@
+//! Polarisation tallies of a BRDF run: the Stokes vector (for the incident
+//! state) or the Mueller matrix (every incident state at once) of the
+//! reflected light per Carlson cell, and over the whole hemisphere.
+//!
+//! Each escaping photon scores its Stokes columns expressed in the frame of
+//! its own outgoing direction ([`crate::optics::polarisation::hemisphere_reference`]);
+//! the incident frame is the same function of the incident flight. Cell
+//! means per photon launched, divided by the cell's projected solid angle,
+//! are the Stokes BRDF `s_i` or Mueller BRDF `m_ij` (1/sr); the hemisphere
+//! bin is the reflected Stokes vector (or Mueller matrix) per unit incident
+//! power. Components are `K = 4` (`s0..s3`) or `K = 16` (`m_ij`, row-major,
+//! row = outgoing component).
+//!
+//! Bins: `bin(slot, k) = slot K + k`, slot 0 the hemisphere, slot `1 + c`
+//! Carlson cell `c`.
+
+use serde::Deserialize;
+
+use super::Accumulator;
+use crate::optics::polarisation::MIRROR_SIGNS;
+
+/// Which polarisation tally a run keeps (`[tally] polarisation`, `--polarisation`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PolarTally {
+    /// None: the intensity tallies only.
+    #[default]
+    None,
+    /// The Stokes vector for the incident state (`stokes.csv`).
+    Stokes,
+    /// The Mueller matrix (`mueller.csv`).
+    Mueller,
+}
+
+impl PolarTally {
+    /// The name used in scene files, on the command line and in summaries.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Stokes => "stokes",
+            Self::Mueller => "mueller",
+        }
+    }
+
+    /// Parse [`PolarTally::name`].
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "none" => Some(Self::None),
+            "stokes" => Some(Self::Stokes),
+            "mueller" => Some(Self::Mueller),
+            _ => None,
+        }
+    }
+
+    /// Components per bin: 0, 4 or 16.
+    #[must_use]
+    pub fn components(self) -> usize {
+        match self {
+            Self::None => 0,
+            Self::Stokes => 4,
+            Self::Mueller => 16,
+        }
+    }
+}
+
+/// Sign of component `k` (of `components`) under a mirror reflection in the
+/// plane of incidence: `S2`, `S3` flip; `m_ij` by the product of its row and
+/// column signs (the incident state is mirrored too).
+#[must_use]
+pub fn mirror_sign(components: usize, k: usize) -> f64 {
+    if components == 16 {
+        MIRROR_SIGNS[k / 4] * MIRROR_SIGNS[k % 4]
+    } else {
+        MIRROR_SIGNS[k]
+    }
+}
+
+/// The sums of a polarisation tally (see the module docs for the bins).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolarTallies {
+    /// 4 or 16.
+    pub components: usize,
+    /// Per bin sums and sums of squares.
+    pub sums: Accumulator,
+    /// With a lattice launch: per replicate and bin, `r * bins + bin`.
+    pub replicates: Option<Vec<f64>>,
+}
+
+impl PolarTallies {
+    /// Zero sums for `components` per slot, `cells` Carlson cells, and
+    /// `replicates` lattice replicates (if any).
+    #[must_use]
+    pub fn new(components: usize, cells: usize, replicates: Option<usize>) -> Self {
+        let bins = components * (1 + cells);
+        Self {
+            components,
+            sums: Accumulator::new(bins),
+            replicates: replicates.map(|r| vec![0.0; r * bins]),
+        }
+    }
+
+    /// Number of bins.
+    #[must_use]
+    pub fn bins(&self) -> usize {
+        self.sums.len()
+    }
+
+    /// Bin of component `k` of Carlson cell `cell`.
+    #[must_use]
+    pub fn cell_bin(&self, cell: usize, k: usize) -> usize {
+        (1 + cell) * self.components + k
+    }
+
+    /// Add `other` (in a fixed order for reproducibility).
+    ///
+    /// # Panics
+    /// If the layouts differ.
+    pub fn merge(&mut self, other: &Self) {
+        assert_eq!(self.components, other.components, "PolarTallies::merge");
+        self.sums.merge(&other.sums);
+        match (&mut self.replicates, &other.replicates) {
+            (Some(a), Some(b)) => {
+                assert_eq!(a.len(), b.len(), "PolarTallies::merge: replicates");
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+            }
+            (None, None) => {}
+            _ => panic!("PolarTallies::merge: random and lattice tallies mixed"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mirror_signs_of_stokes_and_mueller() {
+        let s: Vec<f64> = (0..4).map(|k| mirror_sign(4, k)).collect();
+        assert_eq!(s, [1.0, 1.0, -1.0, -1.0]);
+        // m02 flips, m22 does not, m23 does not, m13 flips.
+        assert_eq!(mirror_sign(16, 2), -1.0);
+        assert_eq!(mirror_sign(16, 10), 1.0);
+        assert_eq!(mirror_sign(16, 11), 1.0);
+        assert_eq!(mirror_sign(16, 7), -1.0);
+    }
+
+    #[test]
+    fn bins_and_names() {
+        let t = PolarTallies::new(16, 10, Some(3));
+        assert_eq!(t.bins(), 176);
+        assert_eq!(t.cell_bin(0, 0), 16);
+        assert_eq!(t.replicates.as_ref().map(Vec::len), Some(528));
+        for p in [PolarTally::None, PolarTally::Stokes, PolarTally::Mueller] {
+            assert_eq!(PolarTally::from_name(p.name()), Some(p));
+        }
+    }
+}
