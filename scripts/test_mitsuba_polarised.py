@@ -5,8 +5,8 @@ scripts/mitsuba_brdf.py, then roks against it on a Gaussian height field.
     .venv/bin/python scripts/test_mitsuba_polarised.py [--roks PATH] [--exact-only]
 
 Run by `cargo test` through tests/mitsuba_chain.rs (which passes the roks
-binary it built). Plain asserts; about a minute and a half on 2 cores with
-the llvm variant.
+binary it built). Plain asserts; about 30 s on 2 cores with the llvm
+variant (the scalar fallback is far slower).
 
 1. Mitsuba's convention, numerically: `mi.mueller.specular_reflection` for
    aluminium at 45 deg has element (2, 3) / (0, 0) = -0.205205 (roks's
