@@ -44,7 +44,10 @@ variant (the scalar fallback is far slower).
 from __future__ import annotations
 
 import argparse
+import csv
+import json
 import math
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -136,9 +139,6 @@ def check_flat(mi, tmp: Path) -> None:
 
 def check_command_line(tmp: Path, scalar_too: bool) -> None:
     """stokes.csv / mueller.csv / summary.json as roks writes them, and the scalar fallback."""
-    import csv
-    import json
-
     th, inc = 60.0, "right"
     F = fresnel_mueller(math.cos(math.radians(th)), *ABSORBER)
     want = F @ mb.parse_incident(inc)
@@ -228,9 +228,6 @@ GAUSSIAN_CASES = [
 def handedness_flipped(src: Path, dst: Path) -> None:
     """A copy of a mueller.csv result folder in the mirror-image convention (S2, S3 -> -S2, -S3
     on both sides: M -> D M D, D = diag(1, 1, -1, -1)), the error a wrong frame handedness makes."""
-    import json
-    import shutil
-
     shutil.copytree(src, dst)
     sign = np.outer([1, 1, -1, -1], [1, 1, -1, -1]).ravel()
     summ = json.loads((src / "summary.json").read_text())
