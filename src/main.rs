@@ -660,7 +660,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .map_err(Failure::Other)?;
     let maps: Vec<(String, Vec<u8>)> = {
         use rayon::prelude::*;
-        results
+        let mut maps: Vec<(String, Vec<u8>)> = results
             .par_iter()
             .map(|r| {
                 output::hemisphere_map(&scene.name, &run, r)
@@ -668,7 +668,17 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
                     .map(|png| (output::hemisphere_file(r.theta_i_deg), png))
             })
             .collect::<anyhow::Result<_>>()
-            .map_err(Failure::Other)?
+            .map_err(Failure::Other)?;
+        let dop: Vec<(String, Vec<u8>)> = results
+            .par_iter()
+            .filter_map(|r| {
+                output::dop_map(&scene.name, &run, r)
+                    .map(|m| m.to_png().map(|png| (output::dop_file(r.theta_i_deg), png)))
+            })
+            .collect::<anyhow::Result<_>>()
+            .map_err(Failure::Other)?;
+        maps.extend(dop);
+        maps
     };
     let mut exported = Vec::new();
     if !exports.is_empty() {

@@ -393,9 +393,54 @@ pub fn hemisphere_map(
         ),
         grid,
         brdf,
+        scale: crate::plot::MapScale::LogBrdf,
         theta_i_deg: r.theta_i_deg,
         phi_i_deg: r.phi_i_deg,
     }
+}
+
+/// The degree of polarisation of the reflected light per Carlson cell of
+/// one incidence of a run with a Stokes tally (`dop_<theta>deg.png`), on a
+/// linear scale from 0 to 1; cells without light show 0. `None` without a
+/// Stokes tally.
+#[must_use]
+pub fn dop_map(
+    name: &str,
+    run: &BrdfRun,
+    r: &IncidenceResult,
+) -> Option<crate::plot::HemisphereMap> {
+    let p = r.tallies.polar.as_ref().filter(|p| p.components == 4)?;
+    let grid = run.grid();
+    let dop = (0..grid.n_cells())
+        .map(|flat| {
+            let s: [f64; 4] =
+                std::array::from_fn(|i| r.polar(p.cell_bin(flat, i)).unwrap_or_default().0);
+            degree_of_polarisation(s)
+        })
+        .collect();
+    Some(crate::plot::HemisphereMap {
+        title: format!(
+            "{name}: degree of polarisation at θi = {}° ({}, {} photons)",
+            r.theta_i_deg,
+            run.polarisation.incident.name(),
+            r.tallies.photons
+        ),
+        grid,
+        brdf: dop,
+        scale: crate::plot::MapScale::Linear {
+            label: "degree of polarisation".into(),
+            lo: 0.0,
+            hi: 1.0,
+        },
+        theta_i_deg: r.theta_i_deg,
+        phi_i_deg: r.phi_i_deg,
+    })
+}
+
+/// File name of the degree-of-polarisation map of incidence `theta_i_deg`.
+#[must_use]
+pub fn dop_file(theta_i_deg: f64) -> String {
+    format!("dop_{theta_i_deg}deg.png")
 }
 
 /// File name of the hemisphere map of incidence `theta_i_deg`.

@@ -224,12 +224,32 @@ pub struct HemisphereMap {
     pub title: String,
     /// The grid of `brdf`.
     pub grid: crate::tally::CarlsonGrid,
-    /// BRDF per flat cell of `grid` (sr⁻¹), cells at absolute azimuths.
+    /// BRDF per flat cell of `grid` (sr⁻¹), cells at absolute azimuths (or
+    /// the quantity of [`HemisphereMap::scale`]).
     pub brdf: Vec<f64>,
+    /// How values map to colours.
+    pub scale: MapScale,
     /// Incidence polar angle (degrees).
     pub theta_i_deg: f64,
     /// Light azimuth (degrees); the specular direction is at `phi_i + 180`.
     pub phi_i_deg: f64,
+}
+
+/// Colour scale of a [`HemisphereMap`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum MapScale {
+    /// `log10` of a BRDF, at most 4 decades (the default).
+    LogBrdf,
+    /// A linear quantity on `[lo, hi]` (e.g. the degree of polarisation on
+    /// `[0, 1]`), labelled `label` on the colour bar.
+    Linear {
+        /// Colour-bar label.
+        label: String,
+        /// Value of the lowest colour.
+        lo: f64,
+        /// Value of the highest colour.
+        hi: f64,
+    },
 }
 
 /// Picture size and layout of [`HemisphereMap`] (pixels).
@@ -252,6 +272,9 @@ impl HemisphereMap {
     /// decades below it, down to the smallest positive value; one decade
     /// about a constant; `(-1, 0)` if nothing is positive.
     fn log_range(&self) -> (f64, f64) {
+        if let MapScale::Linear { lo, hi, .. } = &self.scale {
+            return (*lo, *hi);
+        }
         let pos = self
             .brdf
             .iter()
@@ -269,8 +292,11 @@ impl HemisphereMap {
         }
     }
 
-    /// Colour of a BRDF value on the range `(lo, hi)` of log10.
-    fn colour(v: f64, (lo, hi): (f64, f64)) -> [u8; 3] {
+    /// Colour of a value on the range `(lo, hi)` (of log10 for a BRDF).
+    fn colour(&self, v: f64, (lo, hi): (f64, f64)) -> [u8; 3] {
+        if let MapScale::Linear { .. } = self.scale {
+            return viridis(((v - lo) / (hi - lo)).clamp(0.0, 1.0));
+        }
         if v > 0.0 {
             viridis((v.log10() - lo) / (hi - lo))
         } else {
@@ -284,7 +310,7 @@ impl HemisphereMap {
         let r = MAP_R;
         let (y0, y1) = ((MAP_CY - r).floor() as u32, (MAP_CY + r).ceil() as u32);
         let (x0, x1) = ((MAP_CX - r).floor() as u32, (MAP_CX + r).ceil() as u32);
-        let colours: Vec<[u8; 3]> = self.brdf.iter().map(|&v| Self::colour(v, range)).collect();
+        let colours: Vec<[u8; 3]> = self.brdf.iter().map(|&v| self.colour(v, range)).collect();
         for py in y0..=y1 {
             for px in x0..=x1 {
                 let (dx, dy) = (f64::from(px) + 0.5 - MAP_CX, MAP_CY - (f64::from(py) + 0.5));
@@ -451,19 +477,42 @@ impl HemisphereMap {
             BLACK.stroke_width(1),
         ))
         .map_err(e)?;
+        let (label, kind) = match &self.scale {
+            MapScale::LogBrdf => ("BRDF (1/sr)".to_string(), "log scale"),
+            MapScale::Linear { label, .. } => (label.clone(), "linear scale"),
+        };
         root.draw(&Text::new(
-            "BRDF (1/sr)".to_string(),
+            label,
             ((bx0 + bx1) / 2, by0 - 28),
             text(14, BLACK, HPos::Center),
         ))
         .map_err(e)?;
         root.draw(&Text::new(
-            "log scale".to_string(),
+            kind.to_string(),
             ((bx0 + bx1) / 2, by0 - 12),
             text(12, BLACK, HPos::Center),
         ))
         .map_err(e)?;
         let y_of = |l: f64| by1 - ((l - lo) / (hi - lo) * f64::from(by1 - by0)).round() as i32;
+        if let MapScale::Linear { .. } = self.scale {
+            for q in 0..=4 {
+                let l = lo + (hi - lo) * f64::from(q) / 4.0;
+                let y = y_of(l);
+                root.draw(&PathElement::new(
+                    vec![(bx1 + 1, y), (bx1 + 6, y)],
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(e)?;
+                root.draw(&Text::new(
+                    format!("{l:.2}"),
+                    (bx1 + 9, y),
+                    text(13, BLACK, HPos::Left),
+                ))
+                .map_err(e)?;
+            }
+            root.present().map_err(e)?;
+            return Ok(());
+        }
         let mut decade = lo.ceil() as i32;
         let mut ticks: Vec<f64> = Vec::new();
         while f64::from(decade) <= hi + 1e-9 {
@@ -523,6 +572,7 @@ mod tests {
             title: "test".into(),
             grid,
             brdf: vec![v; grid.n_cells()],
+            scale: MapScale::LogBrdf,
             theta_i_deg,
             phi_i_deg: 0.0,
         }

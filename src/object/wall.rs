@@ -6,7 +6,7 @@
 //! | model | keys | cost | error |
 //! |---|---|---|---|
 //! | micro descent (ROKS-RG) | `micro = "scene.toml"` | a micro trace per hit | none beyond Monte Carlo |
-//! | tabulated BRDF | `brdf = "brdf.csv"` | a table lookup | the table's (binning, interpolation in incidence angle, its own noise) |
+//! | tabulated BRDF | `brdf = "brdf.csv"` (and `mueller.csv` beside it, if there) | a table lookup | the table's (binning, interpolation in incidence angle, its own noise); without `mueller.csv` it depolarises |
 //! | ideal specular + diffuse | `specular = s`, `diffuse = d` | trivial | model error |
 //! | Fresnel specular | `n = .., k = ..` | trivial | smooth surface only |
 //! | specular vs angle | `table = "r.csv"` or `reflectance = r` | trivial | smooth surface only |
@@ -24,6 +24,7 @@ use rand::RngExt;
 use crate::micro::{Edges, Scratch};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
+use crate::optics::polarisation::hemisphere_reference;
 use crate::scene::micro::MicroScene;
 use crate::transport::carrier::Carrier;
 use crate::transport::micro::{Controls, Fate, trace};
@@ -137,10 +138,21 @@ impl WallModel {
                 });
                 let t2 = n.cross(t1);
                 let u: [f64; 4] = std::array::from_fn(|_| rng.random());
-                match table.sample(cos_i.acos(), u) {
-                    Some((l, factor)) => {
-                        let dir = (l.x * t1 + l.y * t2 + l.z * n).normalize();
-                        w.depolarise(factor, dir);
+                match table.sample_cell(cos_i.acos(), u) {
+                    Some((l, factor, incidence, cell)) => {
+                        let world = |v: DVec3| v.x * t1 + v.y * t2 + v.z * n;
+                        let dir = world(l).normalize();
+                        match table.mueller(incidence, cell) {
+                            // Frames of the table: hemisphere references in
+                            // its local frame (light azimuth 0).
+                            Some(m) => {
+                                let local_in = DVec3::new(d.dot(t1), d.dot(t2), d.dot(n));
+                                let x_in = world(hemisphere_reference(local_in, 0.0));
+                                let x_out = world(hemisphere_reference(l, 0.0));
+                                w.transfer(d, x_in, m, factor, x_out);
+                            }
+                            None => w.depolarise(factor, dir),
+                        }
                         Interaction::Reflected { dir, weight: w }
                     }
                     None => Interaction::Absorbed,

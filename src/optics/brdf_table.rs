@@ -312,6 +312,16 @@ pub enum BrdfTableError {
         /// What is wrong (one line).
         message: String,
     },
+    /// A `mueller.csv` that does not fit the table.
+    #[error("{file}: line {line}: {message}")]
+    Mueller {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// What is wrong (one line).
+        message: String,
+    },
     /// A header and no data rows.
     #[error("{file}: line {line}: no data rows after the header")]
     Empty {
@@ -359,6 +369,9 @@ struct Incidence {
     phi_i_deg: f64,
     /// `reflectance_stderr` from `summary.json`, if attached.
     stated_stderr: Option<f64>,
+    /// With a `mueller.csv` attached: per flat cell the Mueller-matrix BRDF
+    /// divided by its `m00` (row-major; zeros where `m00 = 0`).
+    mueller: Option<Vec<[f64; 16]>>,
 }
 
 /// A BRDF tabulated on a Carlson grid at several incidence angles, read from
@@ -602,6 +615,7 @@ impl BrdfTable {
                 theta_deg: b.theta_i,
                 phi_i_deg: b.phi_i,
                 stated_stderr: None,
+                mueller: None,
                 fractions,
                 cdf,
                 reflectance: total,
@@ -683,6 +697,163 @@ impl BrdfTable {
             inc.stated_stderr = Some(se);
         }
         Ok(self)
+    }
+
+    /// Attach the Mueller-matrix BRDF of the same run (`mueller.csv`
+    /// beside `brdf.csv`, written by `roks brdf --polarisation mueller`):
+    /// [`sample_cell`](Self::sample_cell)'s cells then carry their Mueller
+    /// matrix divided by `m00` ([`mueller`](Self::mueller)). Frames: those
+    /// of [`crate::optics::polarisation`], rotated into the local frame of
+    /// the table (light azimuth 0).
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`with_mueller_text`](Self::with_mueller_text).
+    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
+            file: name.clone(),
+            message: e.to_string(),
+        })?;
+        self.with_mueller_text(&text, &name)
+    }
+
+    /// As [`with_mueller`](Self::with_mueller), from the text of
+    /// `mueller.csv` ([`crate::output::MUELLER_HEADER`]); `name` names it in
+    /// errors. Every tabulated incidence needs a complete block of rows in
+    /// grid order with the table's `theta_i_deg` and `phi_i_deg`; numbers
+    /// finite; `m00` within 1e-6 (relative) of the table's BRDF.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
+    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let fail = |line: usize, message: String| BrdfTableError::Mueller {
+            file: name.to_owned(),
+            line,
+            message,
+        };
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
+            .filter(|(_, l)| !l.trim().is_empty());
+        let header = lines.next().map_or("", |(_, l)| l);
+        let header = header.strip_prefix('\u{feff}').unwrap_or(header);
+        if header.trim_end() != crate::output::MUELLER_HEADER {
+            return Err(fail(1, "header is not that of mueller.csv".into()));
+        }
+        let n = self.grid.n_cells();
+        let mut blocks: Vec<(f64, f64, Vec<[f64; 16]>)> = Vec::new();
+        let mut last_line = 1;
+        for (line, l) in lines {
+            last_line = line;
+            let f: Vec<&str> = l.split(',').map(str::trim).collect();
+            if f.len() != 38 {
+                return Err(fail(
+                    line,
+                    format!("expected 38 columns, found {}", f.len()),
+                ));
+            }
+            let num = |i: usize| -> Result<f64, BrdfTableError> {
+                f[i].parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| {
+                        fail(
+                            line,
+                            format!(
+                                "column {}: `{}` is not a finite number",
+                                i + 1,
+                                shorten(f[i], 40)
+                            ),
+                        )
+                    })
+            };
+            let (theta, phi) = (num(0)?, num(1)?);
+            if blocks.last().is_none_or(|b| b.2.len() == n) {
+                blocks.push((theta, phi, Vec::with_capacity(n)));
+            }
+            let block = blocks.last_mut().expect("pushed");
+            if (theta, phi) != (block.0, block.1) {
+                return Err(fail(
+                    line,
+                    format!(
+                        "incidence block theta_i_deg = {} ends after {} of {n} cells",
+                        block.0,
+                        block.2.len()
+                    ),
+                ));
+            }
+            let (band, cell) = self.grid.band_cell(block.2.len());
+            if f[2] != band.to_string() || f[3] != cell.to_string() {
+                return Err(fail(
+                    line,
+                    format!("expected band {band}, cell {cell} (grid order)"),
+                ));
+            }
+            let mut m = [0.0; 16];
+            for (k, v) in m.iter_mut().enumerate() {
+                *v = num(6 + 2 * k)?;
+            }
+            block.2.push(m);
+        }
+        if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {
+            return Err(fail(
+                last_line,
+                format!(
+                    "incidence block theta_i_deg = {} has {} of {n} cells",
+                    b.0,
+                    b.2.len()
+                ),
+            ));
+        }
+        for inc in &mut self.incidences {
+            let block = blocks
+                .iter()
+                .find(|b| b.0 == inc.theta_deg && b.1 == inc.phi_i_deg)
+                .ok_or_else(|| {
+                    fail(
+                        last_line,
+                        format!(
+                            "no block for theta_i_deg = {}, phi_i_deg = {} (the table's)",
+                            inc.theta_deg, inc.phi_i_deg
+                        ),
+                    )
+                })?;
+            let mut normalised = Vec::with_capacity(n);
+            for (flat, m) in block.2.iter().enumerate() {
+                let brdf = inc.fractions[flat] / self.cells[flat].proj;
+                if (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300 {
+                    return Err(fail(
+                        last_line,
+                        format!(
+                            "theta_i_deg = {}: cell {flat}: m00 = {} is not the table's brdf {brdf} (a file of another run?)",
+                            inc.theta_deg, m[0]
+                        ),
+                    ));
+                }
+                normalised.push(if m[0] > 0.0 {
+                    m.map(|v| v / m[0])
+                } else {
+                    [0.0; 16]
+                });
+            }
+            inc.mueller = Some(normalised);
+        }
+        Ok(self)
+    }
+
+    /// The Mueller matrix of incidence block `incidence`, flat cell `cell`,
+    /// divided by its `m00` (row-major), if a `mueller.csv` is attached.
+    #[must_use]
+    pub fn mueller(&self, incidence: usize, cell: usize) -> Option<&[f64; 16]> {
+        self.incidences.get(incidence)?.mueller.as_ref()?.get(cell)
+    }
+
+    /// Whether a Mueller table is attached.
+    #[must_use]
+    pub fn has_mueller(&self) -> bool {
+        self.incidences.iter().all(|i| i.mueller.is_some()) && !self.incidences.is_empty()
     }
 
     /// Tabulated incidence polar angles (degrees), ascending.
@@ -771,8 +942,16 @@ impl BrdfTable {
     /// NaN.
     #[must_use]
     pub fn sample(&self, theta_i_rad: f64, u: [f64; 4]) -> Option<(DVec3, f64)> {
+        self.sample_cell(theta_i_rad, u).map(|s| (s.0, s.1))
+    }
+
+    /// As [`sample`](Self::sample), also returning the incidence block and
+    /// the flat cell chosen (for [`mueller`](Self::mueller)).
+    #[must_use]
+    pub fn sample_cell(&self, theta_i_rad: f64, u: [f64; 4]) -> Option<(DVec3, f64, usize, usize)> {
         let (i0, i1, w) = self.bracket(theta_i_rad)?;
-        let inc = &self.incidences[if unit(u[0]) < w { i1 } else { i0 }];
+        let chosen = if unit(u[0]) < w { i1 } else { i0 };
+        let inc = &self.incidences[chosen];
         let last = inc.last_positive?;
         let x = unit(u[1]) * inc.reflectance;
         let flat = inc.cdf.partition_point(|&c| c <= x).min(last);
@@ -783,7 +962,12 @@ impl BrdfTable {
         let s = (1.0 - mu2).max(0.0).sqrt();
         let phi = c.phi_lo + unit(u[3]) * (c.phi_hi - c.phi_lo) - inc.phi_i;
         let (sp, cp) = phi.sin_cos();
-        Some((DVec3::new(s * cp, s * sp, mu), inc.reflectance))
+        Some((
+            DVec3::new(s * cp, s * sp, mu),
+            inc.reflectance,
+            chosen,
+            flat,
+        ))
     }
 
     /// BRDF (sr⁻¹) of the tabulated cell holding `dir` (local frame; need not

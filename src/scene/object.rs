@@ -500,6 +500,13 @@ impl ModelSpec {
                     .with_summary(&summary)
                     .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
             }
+            // A Mueller table of the same run beside it: the wall keeps polarisation.
+            let mueller = path.with_file_name("mueller.csv");
+            if mueller.exists() {
+                table = table
+                    .with_mueller(&mueller)
+                    .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
+            }
             return Ok(WallModel::Table(Box::new(table)));
         }
         if ideal {

@@ -19,6 +19,7 @@
 //! | Fresnel `n + i k` | [`FresnelMueller`] |
 //! | constant, angle table, ideal specular | `rho diag(1, 1, -1, -1)`: the perfect mirror (the Fresnel matrix of a perfect conductor, and of every material at normal incidence) scaled by `rho`: non-polarising, the state is kept |
 //! | Lambertian, unpolarised BRDF table | `rho diag(1, 0, 0, 0)`: depolarising |
+//! | BRDF table with its `mueller.csv` | the sampled cell's Mueller matrix divided by its `m00`, times the table's reflectance (`transfer`) |
 //!
 //! Intensity for Russian roulette and for "absorbed" is `S0` of the first
 //! column (for `Polarised<4>`: `M00`, the response to unpolarised light;
@@ -51,6 +52,11 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
 
     /// Multiply by `factor` and depolarise; `d_out` is the new flight.
     fn depolarise(&mut self, factor: f64, d_out: DVec3);
+
+    /// A tabulated Mueller-matrix reflection: turn into the reference vector
+    /// `x_in` (⟂ the incoming flight `d`), apply `m` (row-major, divided by
+    /// its `m00`) times `factor`, and continue about `x_out` (⟂ the new flight).
+    fn transfer(&mut self, d: DVec3, x_in: DVec3, m: &[f64; 16], factor: f64, x_out: DVec3);
 
     /// A roulette survivor: the intensity becomes `s`.
     fn survive(&mut self, s: f64);
@@ -106,6 +112,10 @@ impl Carrier for f64 {
     }
     #[inline]
     fn depolarise(&mut self, factor: f64, _: DVec3) {
+        *self *= factor;
+    }
+    #[inline]
+    fn transfer(&mut self, _: DVec3, _: DVec3, _: &[f64; 16], factor: f64, _: DVec3) {
         *self *= factor;
     }
     #[inline]
@@ -247,6 +257,21 @@ impl<const N: usize> Carrier for Polarised<N> {
             *c = [factor * c[0], 0.0, 0.0, 0.0];
         }
         self.x = d_out.any_orthonormal_vector();
+    }
+
+    fn transfer(&mut self, d: DVec3, x_in: DVec3, m: &[f64; 16], factor: f64, x_out: DVec3) {
+        rotate_columns(&mut self.columns, rotation(d, self.x, x_in));
+        for c in &mut self.columns {
+            let v = *c;
+            *c = std::array::from_fn(|i| {
+                factor
+                    * (m[4 * i] * v[0]
+                        + m[4 * i + 1] * v[1]
+                        + m[4 * i + 2] * v[2]
+                        + m[4 * i + 3] * v[3])
+            });
+        }
+        self.x = x_out;
     }
 
     #[inline]
