@@ -10,6 +10,7 @@ number formatting).
     mitsuba_brdf.py MESH.ply --size LX,LY [--theta 0,30,60] [--phi 0]
         [--photons N] [--seed S] (--rho 0.8 | --n N --k K) [--bands 32]
         [--variant auto|llvm|scalar] [--out DIR]
+        [--polarisation none|stokes|mueller] [--incident STATE]
 
 Method
 * Geometry: one `shapegroup` holding the mesh, instanced (2B+1)^2 times at
@@ -38,6 +39,23 @@ Method
   z = zmax (exact; this skips the long flights of grazing launches).
 * Stuck rays: a ray re-launched 1000 times in a row without a hit (e.g. one
   sliding horizontally along a ridge after hitting its tip) is `lost_numeric`.
+* Polarisation (`--polarisation stokes|mueller`, needs --n/--k): each photon
+  carries Stokes columns (one: the `--incident` state; four: its Mueller
+  matrix by columns) with a reference vector, float64 in numpy, composed from
+  Mitsuba's own matrices evaluated in a polarised variant (llvm_ad_mono_polarized,
+  scalar fallback scalar_spectral_polarized): at a hit the columns are turned
+  into the s frame, s = normalize(n x d_in) (conductor.cpp's cross(n, -wo);
+  at normal incidence the photon's own reference is kept), by
+  `mi.mueller.rotate_stokes_basis`, then multiplied by
+  `mi.mueller.specular_reflection(cos_i, n + ik)`; s is the new reference.
+  The launch frame and the tally frame of a direction d are roks's
+  hemisphere frame: reference normalize(z x d), for d along +-z
+  (-sin phi_i, cos phi_i, 0); at escape the columns are turned into it by
+  `rotate_stokes_basis`. Writes stokes.csv or mueller.csv (roks's columns)
+  and `reflected_stokes` / `reflected_mueller` (with standard errors) in
+  summary.json; brdf.csv, inplane.csv and the reflectance stay the intensity
+  S0 for the incident state. Roulette and the losses use the intensity of
+  the first column (S0 for the incident state; M00 for Mueller), as roks.
 * Russian roulette below weight 0.01 (survivors carry 0.1, as roks); a bounce
   cap and a segment cap (cut weight reported as `lost_cap`); a ray found
   below the lowest point of the mesh (a leak through a seam) is
@@ -64,6 +82,18 @@ BRDF_HEADER = (
     "brdf,brdf_stderr"
 )
 INPLANE_HEADER = "theta_i_deg,theta_o_deg,brdf,brdf_stderr"
+STOKES_NAMES = [f"s{i}" for i in range(4)]
+MUELLER_NAMES = [f"m{i}{j}" for i in range(4) for j in range(4)]
+
+
+def polar_header(names: list[str], extra: str = "") -> str:
+    """Header of stokes.csv / mueller.csv: the cell keys, then each component and its stderr."""
+    cols = ",".join(f"{c},{c}_stderr" for c in names)
+    return "theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg," + cols + extra
+
+
+STOKES_HEADER = polar_header(STOKES_NAMES, ",dop")
+MUELLER_HEADER = polar_header(MUELLER_NAMES)
 BOUNCE_BINS = 64  # as roks: reflectance_by_bounces[63] holds 63 and more
 
 
@@ -91,11 +121,14 @@ def _find_libllvm() -> str | None:
     return max(cands)[1] if cands else None
 
 
-def setup_mitsuba(variant: str = "auto"):
-    """Import mitsuba with llvm_ad_rgb if possible, else scalar_rgb (warning).
+def setup_mitsuba(variant: str = "auto", polarised: bool = False):
+    """Import mitsuba with llvm_ad_rgb if possible, else scalar_rgb (warning);
+    with `polarised`, llvm_ad_mono_polarized, else scalar_spectral_polarized.
 
     Returns the mitsuba module; `mi.variant()` tells which variant is set.
     """
+    fast, slow = (("llvm_ad_mono_polarized", "scalar_spectral_polarized") if polarised
+                  else ("llvm_ad_rgb", "scalar_rgb"))
     if variant not in ("auto", "llvm", "scalar"):
         raise SystemExit(f"mitsuba_brdf: unknown --variant {variant!r}")
     lib = None
@@ -107,21 +140,20 @@ def setup_mitsuba(variant: str = "auto"):
 
     if variant != "scalar":
         if lib is None:
-            msg = ("mitsuba_brdf: warning: no libLLVM >= 19 found (apt-get install libllvm19); "
-                   "falling back to scalar_rgb (slow)")
+            why = "no libLLVM >= 19 found (apt-get install libllvm19)"
             if variant == "llvm":
-                raise SystemExit(msg.replace("warning: ", "").replace("; falling back to scalar_rgb (slow)", ""))
-            print(msg, file=sys.stderr)
+                raise SystemExit(f"mitsuba_brdf: {why}")
+            print(f"mitsuba_brdf: warning: {why}; falling back to {slow} (slow)", file=sys.stderr)
         else:
             try:
-                mi.set_variant("llvm_ad_rgb")
+                mi.set_variant(fast)
                 return mi
             except Exception as e:  # noqa: BLE001
                 if variant == "llvm":
-                    raise SystemExit(f"mitsuba_brdf: llvm_ad_rgb unavailable: {e}")
-                print(f"mitsuba_brdf: warning: llvm_ad_rgb unavailable ({e}); "
-                      "falling back to scalar_rgb (slow)", file=sys.stderr)
-    mi.set_variant("scalar_rgb")
+                    raise SystemExit(f"mitsuba_brdf: {fast} unavailable: {e}")
+                print(f"mitsuba_brdf: warning: {fast} unavailable ({e}); "
+                      f"falling back to {slow} (slow)", file=sys.stderr)
+    mi.set_variant(slow)
     return mi
 
 
@@ -138,6 +170,144 @@ def fresnel_unpolarised(cos_i: np.ndarray, n: float, k: float) -> np.ndarray:
     rs = (c - eta * ct) / (c + eta * ct)
     rp = (eta * c - ct) / (eta * c + ct)
     return 0.5 * (np.abs(rs) ** 2 + np.abs(rp) ** 2)
+
+
+# --------------------------------------------------------------------------
+# Polarisation: roks's frames and states (src/optics/polarisation.rs), Mitsuba's matrices
+
+INCIDENT_STATES = {
+    "unpolarised": (1.0, 0.0, 0.0, 0.0),
+    "s": (1.0, 1.0, 0.0, 0.0),
+    "p": (1.0, -1.0, 0.0, 0.0),
+    "right": (1.0, 0.0, 0.0, 1.0),
+    "left": (1.0, 0.0, 0.0, -1.0),
+}
+
+
+def parse_incident(text: str) -> np.ndarray:
+    """An incident Stokes vector of unit intensity from `--incident`: unpolarised, s, p,
+    right, left, linear=DEG (from the reference vector toward y = d x x), or S0,S1,S2,S3."""
+    t = text.strip().lower()
+    if t in INCIDENT_STATES:
+        return np.array(INCIDENT_STATES[t])
+    if t.startswith("linear="):
+        a = 2.0 * math.radians(float(t.split("=", 1)[1]))
+        return np.array([1.0, math.cos(a), math.sin(a), 0.0])
+    v = np.array([float(x) for x in t.split(",")])
+    if v.shape != (4,) or not np.all(np.isfinite(v)) or not v[0] > 0:
+        raise ValueError(f"Stokes vector {text!r}: four finite numbers with S0 > 0")
+    if np.dot(v[1:], v[1:]) > v[0] * v[0] * (1.0 + 1e-12):
+        raise ValueError(f"Stokes vector {text!r}: degree of polarisation > 1")
+    return v / v[0]
+
+
+def hemisphere_reference(d: np.ndarray, pole_phi: float) -> np.ndarray:
+    """roks's reference vectors of flights d (N, 3): normalize(z x d), or
+    (-sin phi, cos phi, 0) of the pole azimuth (radians) for d along +-z."""
+    r2 = d[:, 0] ** 2 + d[:, 1] ** 2
+    pole = r2 <= 1e-280
+    r = np.sqrt(np.where(pole, 1.0, r2))
+    x = np.stack([-d[:, 1] / r, d[:, 0] / r, np.zeros(len(d))], axis=1)
+    x[pole] = (-math.sin(pole_phi), math.cos(pole_phi), 0.0)
+    return x
+
+
+class MitsubaMueller:
+    """Mitsuba's own Mueller matrices (`mi.mueller` of the polarised variant that
+    is set, float32) for a batch, returned as float64 numpy arrays (N, 4, 4),
+    row index first."""
+
+    def __init__(self, mi, n: float, k: float):
+        if not mi.variant().endswith("_polarized"):
+            raise ValueError(f"polarisation needs a *_polarized variant, not {mi.variant()}")
+        self.mi = mi
+        self.n, self.k = n, k
+        self.scalar = mi.variant().startswith("scalar")
+
+    def _vec(self, v: np.ndarray):
+        f = np.float32
+        return self.mi.Vector3f(*(self.mi.Float(v[:, i].astype(f)) for i in range(3)))
+
+    @staticmethod
+    def _batch(m) -> np.ndarray:
+        # a drjit Matrix4f over N lanes: numpy (4, 4, N) -> (N, 4, 4)
+        return np.moveaxis(np.asarray(m.numpy(), dtype=np.float64).reshape(4, 4, -1), -1, 0)
+
+    def specular_reflection(self, cos_i: np.ndarray) -> np.ndarray:
+        """`mi.mueller.specular_reflection(cos_i, n + ik)` (its s frames)."""
+        mi = self.mi
+        if len(cos_i) == 0:
+            return np.zeros((0, 4, 4))
+        if self.scalar:
+            eta = mi.ScalarComplex2f(self.n, self.k)
+            return np.array([np.array(mi.mueller.specular_reflection(float(c), eta), dtype=np.float64)
+                             for c in cos_i])
+        eta = mi.Complex2f(mi.Float(self.n), mi.Float(self.k))
+        return self._batch(mi.mueller.specular_reflection(mi.Float(cos_i.astype(np.float32)), eta))
+
+    def rotate_stokes_basis(self, forward: np.ndarray, current: np.ndarray,
+                            target: np.ndarray) -> np.ndarray:
+        """`mi.mueller.rotate_stokes_basis(forward, current, target)` for unit (N, 3) arrays."""
+        mi = self.mi
+        if len(forward) == 0:
+            return np.zeros((0, 4, 4))
+        if self.scalar:
+            V = mi.ScalarVector3f
+            return np.array([np.array(mi.mueller.rotate_stokes_basis(V(*f), V(*c), V(*t)), dtype=np.float64)
+                             for f, c, t in zip(forward, current, target)])
+        return self._batch(mi.mueller.rotate_stokes_basis(self._vec(forward), self._vec(current),
+                                                          self._vec(target)))
+
+
+class PolarisedCarrier:
+    """Stokes columns (N, 4, C) with reference vectors (N, 3) through a batch of
+    paths: C = 1 the Stokes vector of the incident state, C = 4 the path's
+    Mueller matrix by columns (the responses to the incident basis states)."""
+
+    def __init__(self, mueller: MitsubaMueller, mode: str, incident: np.ndarray, pole_phi: float):
+        if mode not in ("stokes", "mueller"):
+            raise ValueError(f"polarisation mode {mode!r}")
+        self.mueller, self.mode = mueller, mode
+        self.incident = np.asarray(incident, dtype=np.float64)
+        self.pole_phi = pole_phi
+        self.names = STOKES_NAMES if mode == "stokes" else MUELLER_NAMES
+
+    def launch(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m = len(d)
+        if self.mode == "stokes":
+            cols = np.tile(self.incident[None, :, None], (m, 1, 1))
+        else:
+            cols = np.tile(np.eye(4)[None], (m, 1, 1))
+        return cols, hemisphere_reference(d, self.pole_phi)
+
+    def reflect(self, cols: np.ndarray, x: np.ndarray, d_in: np.ndarray, n: np.ndarray,
+                cos_i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Specular reflection about unit normals n facing the flights d_in: the new
+        columns and reference vectors (the s axes)."""
+        s = np.cross(n, d_in)
+        len2 = np.einsum("ij,ij->i", s, s)
+        ok = len2 > 1e-24  # else normal incidence: any s axis is exact, keep x
+        s = np.where(ok[:, None], s / np.sqrt(np.where(ok, len2, 1.0))[:, None], x)
+        R = self.mueller.rotate_stokes_basis(d_in, x, s)
+        F = self.mueller.specular_reflection(cos_i)
+        return np.einsum("nij,njk,nkc->nic", F, R, cols), s
+
+    def to_hemisphere(self, cols: np.ndarray, x: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """The columns re-expressed in the hemisphere frames of the flights d."""
+        R = self.mueller.rotate_stokes_basis(d, x, hemisphere_reference(d, self.pole_phi))
+        return np.einsum("nij,njc->nic", R, cols)
+
+    def intensity(self, cols: np.ndarray) -> np.ndarray:
+        """S0 of the first column (roulette, as roks)."""
+        return cols[:, 0, 0]
+
+    def weight_for(self, cols: np.ndarray) -> np.ndarray:
+        """The intensity for the incident state (the brdf.csv weight)."""
+        return cols[:, 0, 0] if self.mode == "stokes" else cols[:, 0, :] @ self.incident
+
+    def components(self, cols: np.ndarray) -> np.ndarray:
+        """(N, 4) Stokes vectors, or (N, 16) Mueller matrices row-major (m_ij at 4 i + j)."""
+        return cols.reshape(len(cols), -1)
 
 
 # --------------------------------------------------------------------------
@@ -226,16 +396,34 @@ class InPlane:
 
 
 class Acc:
-    """Per-bin sums of per-photon scores and of their squares (float64)."""
+    """Per-bin sums of per-photon scores and of their squares (float64); with
+    `width`, each score is a vector of that many components."""
 
-    def __init__(self, n: int):
-        self.s = np.zeros(n)
-        self.s2 = np.zeros(n)
+    def __init__(self, n: int, width: int | None = None):
+        shape = (n,) if width is None else (n, width)
+        self.s = np.zeros(shape)
+        self.s2 = np.zeros(shape)
 
     def add(self, bins: np.ndarray, w: np.ndarray) -> None:
         n = len(self.s)
-        self.s += np.bincount(bins, weights=w, minlength=n)
-        self.s2 += np.bincount(bins, weights=w * w, minlength=n)
+        if w.ndim == 1:
+            self.s += np.bincount(bins, weights=w, minlength=n)
+            self.s2 += np.bincount(bins, weights=w * w, minlength=n)
+            return
+        for c in range(w.shape[1]):
+            self.s[:, c] += np.bincount(bins, weights=w[:, c], minlength=n)
+            self.s2[:, c] += np.bincount(bins, weights=w[:, c] ** 2, minlength=n)
+
+    def add_directions(self, grid: "Carlson", d: np.ndarray, w: np.ndarray) -> None:
+        """Carlson cells of unit directions d (N, 3): a direction along +z, whose
+        azimuth is undefined, is shared among band 1's four cells (as roks)."""
+        pole = (d[:, 0] == 0.0) & (d[:, 1] == 0.0)
+        if pole.any():
+            wp = 0.25 * w[pole]
+            for c in range(4):
+                self.add(np.full(len(wp), c, dtype=np.int64), wp)
+        if (~pole).any():
+            self.add(grid.locate(d[~pole]), w[~pole])
 
     def mean(self, n: int) -> np.ndarray:
         return self.s / n
@@ -343,13 +531,21 @@ class Tracer:
 
     def run(self, theta_deg: float, phi_deg: float, photons: int, seed: int, index: int,
             reflectance, bands: int, max_bounces: int = 100_000, max_segments: int = 10_000,
-            roulette_weight: float = 0.01, batch: int = 1 << 20, max_misses: int = 1000):
+            roulette_weight: float = 0.01, batch: int = 1 << 20, max_misses: int = 1000,
+            polarised: PolarisedCarrier | None = None):
+        """Trace `photons` at incidence (theta, phi). `reflectance(cos_i)` weighs the
+        scalar path; with `polarised` the photons carry its Stokes columns instead
+        (and `w` is their intensity, `polarised.intensity`)."""
         lx, ly, B = self.lx, self.ly, self.block
+        pol = polarised
         rng = np.random.default_rng([seed, index, int(round(theta_deg * 1e6)) & 0xFFFFFFFF])
         grid = Carlson(bands)
         inpl = InPlane(phi_deg)
         carl, ipt = Acc(grid.n_cells), Acc(inpl.n_bins)
         refl = Acc(1)
+        if pol:
+            width = len(pol.names)
+            carl_pol, refl_pol = Acc(grid.n_cells, width), Acc(1, width)
         by_b = np.zeros(BOUNCE_BINS)
         stats = dict(bounces=0, segments=0, lost_cap=0.0, lost_numeric=0.0,
                      capped_histories=0, numeric_histories=0)
@@ -367,6 +563,10 @@ class Tracer:
             o[:, 2] = self.ztop
             d = np.tile(-w_i, (m, 1))
             w = np.ones(m)
+            cols = x = None
+            if pol:
+                cols, x = pol.launch(d)
+                w = pol.intensity(cols)
             nb = np.zeros(m, dtype=np.int64)
             ns = np.zeros(m, dtype=np.int64)
             nm = np.zeros(m, dtype=np.int64)  # consecutive segments without a hit
@@ -400,14 +600,15 @@ class Tracer:
                 esc = ~hit & (ttop <= tbox)
                 if esc.any():
                     de, we = d[esc], w[esc]
-                    refl.add(np.zeros(len(we), dtype=np.int64), we)
-                    pole = (de[:, 0] == 0.0) & (de[:, 1] == 0.0)
-                    if pole.any():  # azimuth undefined: share among band 1's four cells (as roks)
-                        wp = 0.25 * we[pole]
-                        for c in range(4):
-                            carl.add(np.full(len(wp), c, dtype=np.int64), wp)
-                    if (~pole).any():
-                        carl.add(grid.locate(de[~pole]), we[~pole])
+                    zero = np.zeros(len(we), dtype=np.int64)
+                    if pol:
+                        ce = pol.to_hemisphere(cols[esc], x[esc], de)
+                        we = pol.weight_for(ce)
+                        comp = pol.components(ce)
+                        refl_pol.add(zero, comp)
+                        carl_pol.add_directions(grid, de, comp)
+                    refl.add(zero, we)
+                    carl.add_directions(grid, de, we)
                     ok, b = inpl.locate(de)
                     if ok.any():
                         ipt.add(b[ok], we[ok])
@@ -426,7 +627,7 @@ class Tracer:
                     o[rel] = o[rel] + tr[rel, None] * d[rel]
                     bad |= rel & (o[:, 2] < self.zmin - self.eps)
                     if bad.any():
-                        stats["lost_numeric"] += float(w[bad].sum())
+                        stats["lost_numeric"] += float(self._score(pol, w, cols, bad).sum())
                         stats["numeric_histories"] += int(bad.sum())
                         keep &= ~bad
 
@@ -440,9 +641,13 @@ class Tracer:
                     p = o[hit] + t[hit, None] * dh
                     dr_ = dh + (2.0 * cos_i)[:, None] * nh
                     dr_ /= np.linalg.norm(dr_, axis=1)[:, None]
+                    if pol:
+                        cols[hit], x[hit] = pol.reflect(cols[hit], x[hit], dh, nh, cos_i)
+                        w[hit] = pol.intensity(cols[hit])
+                    else:
+                        w[hit] *= reflectance(cos_i)
                     d[hit] = dr_
                     o[hit] = p + self.eps * nh
-                    w[hit] *= reflectance(cos_i)
                     nb[hit] += 1
                     stats["bounces"] += int(hit.sum())
                     dead = hit & (w <= 0.0)
@@ -451,21 +656,32 @@ class Tracer:
                     if low.any():
                         survive = rng.random(int(low.sum())) * w_s < w[low]
                         idx = np.flatnonzero(low)
+                        if pol:
+                            cols[idx[survive]] *= (w_s / w[idx[survive]])[:, None, None]
                         w[idx[survive]] = w_s
                         keep[idx[~survive]] = False
 
                 # caps
                 cap = keep & ((nb >= max_bounces) | (ns >= max_segments))
                 if cap.any():
-                    stats["lost_cap"] += float(w[cap].sum())
+                    stats["lost_cap"] += float(self._score(pol, w, cols, cap).sum())
                     stats["capped_histories"] += int(cap.sum())
                     keep &= ~cap
 
                 o, d, w, nb, ns, nm = o[keep], d[keep], w[keep], nb[keep], ns[keep], nm[keep]
+                if pol:
+                    cols, x = cols[keep], x[keep]
                 self._wrap(o)
         seconds = time.perf_counter() - t0
+        polar = dict(mode=pol.mode, names=pol.names, carlson=carl_pol, refl=refl_pol) if pol else None
         return dict(theta_deg=theta_deg, phi_deg=phi_deg, photons=photons, grid=grid, inplane=inpl,
-                    carlson=carl, inplane_acc=ipt, refl=refl, by_bounces=by_b, seconds=seconds, **stats)
+                    carlson=carl, inplane_acc=ipt, refl=refl, by_bounces=by_b, seconds=seconds,
+                    polar=polar, **stats)
+
+    @staticmethod
+    def _score(pol, w: np.ndarray, cols, sel: np.ndarray) -> np.ndarray:
+        """Intensity for the incident state of the photons `sel` (the lost weight)."""
+        return pol.weight_for(cols[sel]) if pol else w[sel]
 
 
 # --------------------------------------------------------------------------
@@ -482,7 +698,7 @@ def summary_entry(r: dict) -> dict:
     n = r["photons"]
     segs = r["segments"]
     lost = r["lost_cap"] / n + r["lost_numeric"] / n
-    return {
+    entry = {
         "theta_deg": r["theta_deg"],
         "phi_deg": r["phi_deg"],
         "photons": n,
@@ -500,6 +716,12 @@ def summary_entry(r: dict) -> dict:
         "seconds": r["seconds"],
         "segments_per_second": segs / r["seconds"] if r["seconds"] > 0 else 0.0,
     }
+    if r.get("polar"):
+        pz = r["polar"]
+        key = f"reflected_{pz['mode']}"
+        entry[key] = [float(v) for v in pz["refl"].mean(n)[0]]
+        entry[f"{key}_stderr"] = [float(v) for v in pz["refl"].stderr(n)[0]]
+    return entry
 
 
 def write_outputs(out: Path, results: list[dict], meta: dict) -> None:
@@ -524,6 +746,24 @@ def write_outputs(out: Path, results: list[dict], meta: dict) -> None:
             pr = ip.proj(b)
             lines.append(f"{rs(r['theta_deg'])},{rs(ip.centre(b))},{re_(f[b] / pr)},{re_(fe[b] / pr)}")
     _atomic_write(out / "inplane.csv", "\n".join(lines) + "\n")
+    if results and results[0].get("polar"):
+        mode = results[0]["polar"]["mode"]
+        name, header = ("stokes.csv", STOKES_HEADER) if mode == "stokes" else ("mueller.csv", MUELLER_HEADER)
+        lines = [header]
+        for r in results:
+            n = r["photons"]
+            acc = r["polar"]["carlson"]
+            v, ve = acc.mean(n), acc.stderr(n)
+            for flat, row in enumerate(r["grid"].rows()):
+                band, cell, _, _, _, _, th, ph, _, proj = row
+                f = [rs(r["theta_deg"]), rs(r["phi_deg"]), str(band), str(cell), rs(th), rs(ph)]
+                for c in range(v.shape[1]):
+                    f += [re_(v[flat, c] / proj), re_(ve[flat, c] / proj)]
+                if mode == "stokes":
+                    s0 = v[flat, 0]
+                    f.append(re_(math.sqrt(float(v[flat, 1:] @ v[flat, 1:])) / s0 if s0 > 0 else 0.0))
+                lines.append(",".join(f))
+        _atomic_write(out / name, "\n".join(lines) + "\n")
     summary = {"incidence": [summary_entry(r) for r in results], **meta}
     _atomic_write(out / "summary.json", json.dumps(summary, indent=2) + "\n")
 
@@ -553,6 +793,10 @@ def parse_args(argv=None):
     ap.add_argument("--roulette-weight", type=float, default=0.01)
     ap.add_argument("--offset", type=float, default=1e-5,
                     help="origin offset along the normal after a hit, times max(Lx, Ly, height range)")
+    ap.add_argument("--polarisation", default="none", choices=["none", "stokes", "mueller"],
+                    help="carry Stokes vectors / Mueller matrices (Mitsuba's, polarised variant; needs --n)")
+    ap.add_argument("--incident", default="unpolarised",
+                    help="incident state: unpolarised, s, p, right, left, linear=DEG or S0,S1,S2,S3")
     ap.add_argument("-q", "--quiet", action="store_true")
     a = ap.parse_args(argv)
     try:
@@ -568,6 +812,14 @@ def parse_args(argv=None):
         ap.error("give exactly one of --rho or --n [--k]")
     if a.rho is not None and not (0 <= a.rho <= 1):
         ap.error("--rho in [0, 1]")
+    try:
+        a.incident_stokes = parse_incident(a.incident)
+    except ValueError as e:
+        ap.error(f"--incident: {e}")
+    if a.polarisation != "none" and a.rho is not None:
+        ap.error("--polarisation needs a Fresnel material (--n, --k)")
+    if a.polarisation == "none" and np.any(a.incident_stokes[1:] != 0):
+        ap.error("--incident: a polarised state needs --polarisation stokes or mueller")
     if a.photons < 1 or a.bands < 1 or a.block < 1:
         ap.error("--photons, --bands and --block must be >= 1")
     if not Path(a.mesh).is_file():
@@ -577,7 +829,7 @@ def parse_args(argv=None):
 
 def main(argv=None) -> int:
     a = parse_args(argv)
-    mi = setup_mitsuba(a.variant)
+    mi = setup_mitsuba(a.variant, polarised=a.polarisation != "none")
     tracer = Tracer(mi, a.mesh, a.lx, a.ly, block=a.block, offset=a.offset)
     (x0, y0), (x1, y1) = tracer.bbox
     tol = 1e-4 * tracer.scale
@@ -596,6 +848,10 @@ def main(argv=None) -> int:
         def reflectance(c):
             return fresnel_unpolarised(c, n_, k_)
         material = {"n": n_, "k": k_}
+    polarised = None
+    if a.polarisation != "none":
+        polarised = PolarisedCarrier(MitsubaMueller(mi, a.n, a.k), a.polarisation, a.incident_stokes,
+                                     math.radians(a.phi))
     results = []
     if not a.quiet:
         print(f"mitsuba_brdf: {mi.variant()}, {tracer.n_triangles} triangles, "
@@ -606,7 +862,7 @@ def main(argv=None) -> int:
     for i, th in enumerate(a.thetas):
         r = tracer.run(th, a.phi, a.photons, a.seed, i, reflectance, a.bands,
                        max_bounces=a.max_bounces, max_segments=a.max_segments,
-                       roulette_weight=a.roulette_weight, batch=a.batch)
+                       roulette_weight=a.roulette_weight, batch=a.batch, polarised=polarised)
         results.append(r)
         if not a.quiet:
             s = summary_entry(r)
@@ -619,6 +875,8 @@ def main(argv=None) -> int:
         "size": [a.lx, a.ly],
         "material": material,
         "bands": a.bands,
+        "polarisation": a.polarisation,
+        "incident_stokes": [float(v) for v in a.incident_stokes],
         "variant": mi.variant(),
         "instances": (2 * a.block + 1) ** 2,
         "triangles": tracer.n_triangles,

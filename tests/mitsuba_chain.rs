@@ -4,7 +4,12 @@
 //! (`scripts/test_crosscheck.py`: `roks export-mesh` -> Mitsuba tracer and
 //! `path` renders vs `roks brdf` / `roks render` on exact V-grooves, with the
 //! markdown report's verdict PASS, and FAIL when Mitsuba's rho is off by 2 %),
-//! and the `roks_table` BSDF plugin (`scripts/test_roks_bsdf.py`).
+//! the `roks_table` BSDF plugin (`scripts/test_roks_bsdf.py`), and the
+//! polarised cross-check (`scripts/test_mitsuba_polarised.py`: the polarised
+//! Mitsuba tracer, built on Mitsuba's own Mueller matrices, against exact
+//! flat-plane and V-groove matrices, then `roks brdf --polarisation
+//! mueller|stokes` against it on a Gaussian height field, aluminium and
+//! 1.6 + 0.2i).
 //!
 //! They need the project's Python environment (`scripts/setup_venv.sh`,
 //! `.venv` with mitsuba 3.9.1 and drjit 1.5.0; `ROKS_PYTHON` overrides the
@@ -84,5 +89,16 @@ fn whole_chain_on_exact_v_grooves() {
 fn mitsuba_roks_table_plugin() {
     if let Some(py) = python() {
         run(&py, "test_roks_bsdf.py", &[]);
+    }
+}
+
+#[test]
+fn mitsuba_polarised_cross_check() {
+    if let Some(py) = python() {
+        run(
+            &py,
+            "test_mitsuba_polarised.py",
+            &["--roks", env!("CARGO_BIN_EXE_roks")],
+        );
     }
 }
