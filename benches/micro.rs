@@ -108,7 +108,8 @@ fn heightfield(c: &mut Criterion) {
 fn polarisation(c: &mut Criterion) {
     use roks::tally::PolarTally;
     use roks::transport::brdf::Polarisation;
-    let text = roks::scene::micro::DEFAULT_SCENE.replace("reflectance = 0.8", "n = 1.015\nk = 6.627");
+    let text =
+        roks::scene::micro::DEFAULT_SCENE.replace("reflectance = 0.8", "n = 1.015\nk = 6.627");
     let source = roks::scene::Source {
         file: "default.toml".into(),
         dir: ".".into(),

@@ -150,43 +150,44 @@ impl FresnelMueller {
 }
 
 /// `(cos, sin)` of `arg(rs rp*)` for incidence cosine `cos` in `[0, 1]`.
+///
+/// Everything is computed in units of `scale = max(n, k, 1)`, so every
+/// quantity is of order 1 and plain products cannot overflow; only the
+/// phase of the product `(c - u)(c + u)* [(m c - cos θt)(m c + cos θt)*]*`
+/// is needed, normalised once at the end.
 fn phase_rs_rp(cos: f64, n: f64, k: f64) -> (f64, f64) {
-    // u = m cos θt = sqrt(m² - sin² θ), principal root (Re, Im >= 0), from
-    // the same real closed form as `fresnel_sp`, in units of
-    // `scale = max(n, k, 1)` so that nothing overflows (only phases and the
-    // ratio |u| / |m| are used).
     let scale = n.abs().max(k.abs()).max(1.0);
     let (n1, k1, c1, one) = (n / scale, k / scale, cos / scale, 1.0 / scale);
+    // u = m cos θt = sqrt(m² - sin² θ), principal root (Re, Im >= 0), from
+    // the same real closed form as `fresnel_sp` (here divided by `scale`).
     let t0 = (n1 - one) * (n1 + one) - k1 * k1 + c1 * c1;
-    let a2b2 = t0.hypot(2.0 * n1 * k1);
+    let a2b2 = (t0 * t0 + 4.0 * n1 * n1 * k1 * k1).sqrt();
     let ua = (0.5 * (a2b2 + t0)).max(0.0).sqrt();
     let ub = (0.5 * (a2b2 - t0)).max(0.0).sqrt();
-    // rs = (c - u)/(c + u): phase of the numerator minus that of the denominator.
-    let ps = mul_conj(unit(c1 - ua, -ub), unit(c1 + ua, ub));
-    // cos θt = u / m; rp = (m c - cos θt)/(m c + cos θt).
-    let (mu, mm) = (ua.hypot(ub), n1.hypot(k1));
-    let ct_phase = mul_conj(unit(ua, ub), unit(n, k));
-    let ratio = if mm > 0.0 { mu / mm } else { 0.0 };
-    let ct = (ratio * ct_phase.0, ratio * ct_phase.1);
-    let mc = (n * cos, k * cos);
-    let pp = mul_conj(
-        unit(mc.0 - ct.0, mc.1 - ct.1),
-        unit(mc.0 + ct.0, mc.1 + ct.1),
-    );
+    // rs = (c - u)/(c + u).
+    let ps = mul_conj((c1 - ua, -ub), (c1 + ua, ub));
+    // cos θt = u / m (scale-free); rp = (m c - cos θt)/(m c + cos θt), both
+    // terms divided by `scale`.
+    let mm = n1 * n1 + k1 * k1;
+    let ct = if mm > 0.0 {
+        (
+            (ua * n1 + ub * k1) / mm * one,
+            (ub * n1 - ua * k1) / mm * one,
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    let mc = (n1 * cos, k1 * cos);
+    let pp = mul_conj((mc.0 - ct.0, mc.1 - ct.1), (mc.0 + ct.0, mc.1 + ct.1));
     // rs rp*: phase ps - pp.
     let z = mul_conj(ps, pp);
-    let norm = z.0.hypot(z.1);
-    if norm > 0.0 && norm.is_finite() {
-        (z.0 / norm, z.1 / norm)
+    let norm2 = z.0 * z.0 + z.1 * z.1;
+    if norm2 > 0.0 && norm2.is_finite() {
+        let inv = 1.0 / norm2.sqrt();
+        (z.0 * inv, z.1 * inv)
     } else {
-        (z.0, z.1)
+        (0.0, 0.0)
     }
-}
-
-/// The unit phasor of `x + i y` (1 for zero).
-fn unit(x: f64, y: f64) -> (f64, f64) {
-    let r = x.hypot(y);
-    if r > 0.0 { (x / r, y / r) } else { (1.0, 0.0) }
 }
 
 /// `p q*` of two complex numbers.

@@ -594,7 +594,11 @@ impl BrdfRun {
                 } => {
                     let weight = carried.weight_for(&incident);
                     t.reflected.score(0, weight);
-                    let halves = self.cell_weights(grid, out, weight, phi);
+                    // The cells' shares for weight 1 (the polarisation tally's),
+                    // then times the weight: the same products as
+                    // `cell_weights(.., weight, ..)`, bit for bit.
+                    let shares = self.cell_weights(grid, out, 1.0, phi);
+                    let halves = shares.map(|(cells, share)| (cells, share * weight));
                     for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
                         for &c in cs.as_slice() {
                             t.carlson.score(c, *w);
@@ -619,7 +623,6 @@ impl BrdfRun {
                     let k =
                         carried.components(out, hemisphere_reference(out, phi), &mut components);
                     if let Some(p) = &mut t.polar {
-                        let shares = self.cell_weights(grid, out, 1.0, phi);
                         score_polar(p, &components[..k], &shares, replicate);
                     }
                 }
