@@ -151,7 +151,7 @@ def cutaway(a, plt) -> Path:
                  "lit by a 5 deg disc along the axis through the aperture, and a uniform background of 1e-3",
                  fontsize=11)
     dest = RESULTS / "cutaway.png"
-    fig.savefig(dest, dpi=80)
+    fig.savefig(dest, dpi=120)  # each image panel over 512 pixels wide
     (RESULTS / "cutaway.json").write_text(json.dumps(
         {"size": n, "roks_spp": a.spp, "mitsuba_spp": a.mitsuba_spp, "mesh_resolution": a.resolution,
          "wall_seconds": t, "images": stats}, indent=1) + "\n")
