@@ -13,9 +13,10 @@ light a disc of angular radius --disc at infinity toward world direction
 (THETA, PHI) (polar angle from +z), radiance 1, and a uniform background
 of radiance --background B outside it (default 0; a `constant` emitter,
 hidden behind the disc as `roks render --background` leaves it out of the
-disc); pixel values are radiance in the disc's units. Walls: Lambertian (`diffuse`, reflectance R), a mirror
-of constant reflectance R (`conductor`, material none), or a roks BRDF
-table through the `roks_table` plugin of scripts/roks_bsdf.py.
+disc); pixel values are radiance in the disc's units. Walls: Lambertian
+(`diffuse`, reflectance R), a mirror of constant reflectance R
+(`conductor`, material none), or a roks BRDF table through the
+`roks_table` plugin of scripts/roks_bsdf.py.
 Integrator `path`, no Russian roulette, max depth 1025. The disc is an
 `area` emitter on a `disk` 1e5 x the mesh extent away (as
 scripts/mitsuba_render.py), so the cone test is exact to ~1e-5 rad. The
@@ -105,8 +106,8 @@ def main(argv=None) -> int:
     rad = dist * math.tan(math.radians(a.disc))
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = s * rad, t * rad, -wl, wl * dist
-    background = {"background": {"type": "constant", "radiance": {"type": "rgb", "value": [a.background] * 3}}} \
-        if a.background > 0 else {}
+    sky = {"type": "constant", "radiance": {"type": "rgb", "value": [a.background] * 3}}
+    background = {"background": sky} if a.background > 0 else {}
     scene = mi.load_dict({
         "type": "scene",
         **background,
