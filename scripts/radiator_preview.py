@@ -112,7 +112,8 @@ def axis_previews(a, plt) -> Path:
 
 def cutaway(a, plt) -> Path:
     scene, n = "scenes/radiator-cutaway.toml", a.size
-    roks_exr, mesh, mi_exr = OUT / "cutaway_roks.exr", OUT / f"cutaway_walls_{a.resolution}.ply", OUT / "cutaway_mitsuba.exr"
+    roks_exr, mi_exr = OUT / "cutaway_roks.exr", OUT / "cutaway_mitsuba.exr"
+    mesh = OUT / f"cutaway_walls_{a.resolution}.ply"
     run = lambda cmd: roks_io.run(cmd, "radiator_preview", cwd=REPO)[1]  # noqa: E731
     t = {"roks_render": run([a.roks, "render", scene, *cut_view(), "--size", f"{n},{n}", "--spp", a.spp,
                              "--out", roks_exr]),
