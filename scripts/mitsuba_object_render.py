@@ -2,7 +2,7 @@
 """Render the exported walls of an object (radiator previews) with Mitsuba 3, matching `roks render`.
 
     mitsuba_object_render.py WALLS.ply --camera X,Y,Z --look-at X,Y,Z [--up 0,1,0] [--fov 40]
-        [--light THETA,PHI] [--disc 5] [--res W,H] [--spp N] [--seed S]
+        [--light THETA,PHI] [--disc 5] [--background B] [--res W,H] [--spp N] [--seed S]
         (--diffuse R | --mirror R | --brdf DIR/brdf.csv) --out image.exr
 
 The mesh is `roks export-mesh OBJECT.toml --bounds ...` (closed, outward
@@ -10,10 +10,13 @@ faces). Same conventions as `roks render` of an object scene
 (src/render.rs, `render_object`): a pinhole camera at --camera looking at
 --look-at, vertical field of view --fov degrees, image up along --up; the
 light a disc of angular radius --disc at infinity toward world direction
-(THETA, PHI) (polar angle from +z), radiance 1; pixel values are radiance
-in the disc's units. Walls: Lambertian (`diffuse`, reflectance R), a mirror
-of constant reflectance R (`conductor`, material none), or a roks BRDF
-table through the `roks_table` plugin of scripts/roks_bsdf.py.
+(THETA, PHI) (polar angle from +z), radiance 1, and a uniform background
+of radiance --background B outside it (default 0; a `constant` emitter,
+hidden behind the disc as `roks render --background` leaves it out of the
+disc); pixel values are radiance in the disc's units. Walls: Lambertian
+(`diffuse`, reflectance R), a mirror of constant reflectance R
+(`conductor`, material none), or a roks BRDF table through the
+`roks_table` plugin of scripts/roks_bsdf.py.
 Integrator `path`, no Russian roulette, max depth 1025. The disc is an
 `area` emitter on a `disk` 1e5 x the mesh extent away (as
 scripts/mitsuba_render.py), so the cone test is exact to ~1e-5 rad. The
@@ -56,6 +59,7 @@ def parse_args(argv=None):
     ap.add_argument("--fov", type=float, default=40.0)
     ap.add_argument("--light", default="0,0")
     ap.add_argument("--disc", type=float, default=5.0)
+    ap.add_argument("--background", type=float, default=0.0)
     ap.add_argument("--res", default="256,256")
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--seed", type=int, default=1)
@@ -102,8 +106,11 @@ def main(argv=None) -> int:
     rad = dist * math.tan(math.radians(a.disc))
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = s * rad, t * rad, -wl, wl * dist
+    sky = {"type": "constant", "radiance": {"type": "rgb", "value": [a.background] * 3}}
+    background = {"background": sky} if a.background > 0 else {}
     scene = mi.load_dict({
         "type": "scene",
+        **background,
         "integrator": {"type": "path", "max_depth": a.max_depth, "rr_depth": a.max_depth},
         "walls": {"type": "ply", "filename": str(a.mesh), "face_normals": True, "bsdf": bsdf(a, mi)},
         "light": {"type": "disk", "to_world": T(m.tolist()),

@@ -152,6 +152,10 @@ struct RenderArgs {
     /// Angular radius of the light disc (degrees).
     #[arg(long, default_value_t = 5.0)]
     disc: f64,
+    /// Radiance of a uniform background outside the disc, in the disc's units
+    /// (default 0: black; a small value shows walls the disc leaves dark).
+    #[arg(long, default_value_t = 0.0)]
+    background: f64,
     /// Image size W,H in pixels.
     #[arg(long, value_delimiter = ',', default_values_t = [512, 512])]
     size: Vec<usize>,
@@ -1369,6 +1373,7 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
         light_phi_deg: light_phi,
         light_radius_deg: a.disc,
         light_radiance: 1.0,
+        background_radiance: a.background,
         seed: a.seed,
     };
     settings
@@ -1445,6 +1450,7 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
         light_phi_deg: light_phi,
         light_radius_deg: a.disc,
         light_radiance: 1.0,
+        background_radiance: a.background,
         seed: a.seed,
         ..RenderSettings::default()
     };

@@ -16,9 +16,11 @@
 //! ([`crate::transport::micro::trace`] with default [`Controls`]).
 //!
 //! Light: a disc of angular radius `r` around `omega_l` (toward the light) of
-//! uniform radiance `L`, nothing elsewhere. A path that escapes
-//! ([`Fate::Escaped`]) in a direction within `r` of `omega_l` (cosine test,
-//! `dir . omega_l >= cos r`) contributes `weight * L`; every other path
+//! uniform radiance `L`, and a uniform background of radiance `B` (default 0:
+//! nothing elsewhere). A path that escapes ([`Fate::Escaped`]) in a direction
+//! within `r` of `omega_l` (cosine test, `dir . omega_l >= cos r`)
+//! contributes `weight * L`, one that escapes elsewhere `weight * B` (a small
+//! `B` shows the shape of walls the disc leaves dark); every other path
 //! contributes 0.
 //!
 //! Units: pixel values are radiance in the units of `L` (with the default
@@ -56,6 +58,9 @@ pub struct RenderSettings {
     pub light_radius_deg: f64,
     /// Radiance of the disc (finite, >= 0; default 1): the unit of the image.
     pub light_radiance: f64,
+    /// Radiance of the uniform background outside the disc (finite, >= 0;
+    /// default 0).
+    pub background_radiance: f64,
     /// Seed of the per-pixel random streams.
     pub seed: u64,
 }
@@ -72,6 +77,7 @@ impl Default for RenderSettings {
             light_phi_deg: 0.0,
             light_radius_deg: 5.0,
             light_radiance: 1.0,
+            background_radiance: 0.0,
             seed: 1,
         }
     }
@@ -118,11 +124,13 @@ impl RenderSettings {
                 self.light_radius_deg
             ));
         }
-        if !(self.light_radiance.is_finite() && self.light_radiance >= 0.0) {
-            return Err(format!(
-                "light radiance = {} must be finite and >= 0",
-                self.light_radiance
-            ));
+        for (name, x) in [
+            ("light radiance", self.light_radiance),
+            ("background radiance", self.background_radiance),
+        ] {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(format!("{name} = {x} must be finite and >= 0"));
+            }
         }
         Ok(())
     }
@@ -182,7 +190,8 @@ enum PathEnd {
 /// positions `(u, v)` in `[0, 1)²` (u first) and every path from
 /// `photon_rng(seed, j w + i)`; `path(scratch, i, j, u, v, rng)` follows one
 /// camera path. A path that escapes within the light disc adds
-/// `weight * light_radiance`. Rows run in parallel with one `scratch` each;
+/// `weight * light_radiance`, one that escapes elsewhere
+/// `weight * background_radiance`. Rows run in parallel with one `scratch` each;
 /// the image does not depend on the thread count.
 fn render_pixels<S>(
     s: &RenderSettings,
@@ -207,9 +216,12 @@ fn render_pixels<S>(
                         let v: f64 = rng.random();
                         match path(&mut state, i, j, u, v, &mut rng) {
                             PathEnd::Escaped { dir, weight } => {
-                                if dir.dot(light) >= cos_r {
-                                    sum += weight * s.light_radiance;
-                                }
+                                sum += weight
+                                    * if dir.dot(light) >= cos_r {
+                                        s.light_radiance
+                                    } else {
+                                        s.background_radiance
+                                    };
                             }
                             PathEnd::Absorbed => {}
                             PathEnd::Lost => losses.lost += 1,
@@ -332,7 +344,8 @@ impl PinholeCamera {
 /// history loop ([`crate::transport::object::follow`], the same wall models
 /// as `roks trace`); by reciprocity of the walls' BRDFs a path that leaves
 /// the object (or misses it) in a direction within `light_radius_deg` of the
-/// light direction contributes `weight * light_radiance`. The light is a disc
+/// light direction contributes `weight * light_radiance`, any other
+/// `weight * background_radiance`. The light is a disc
 /// at infinity in world direction `(light_theta_deg, light_phi_deg)` (polar
 /// angle from world +z). `view_*` of `s` are not used. Pixel `(i, j)` draws
 /// from `photon_rng(seed, j w + i)`: the same image for any thread count.
@@ -504,6 +517,7 @@ mod tests {
             light_radius_deg: 5.0,
             // rho L = 1.5 and every partial sum of it are exact in f64 and f32.
             light_radiance: 2.0,
+            background_radiance: 0.0,
             seed: 3,
         }
     }
@@ -527,6 +541,19 @@ mod tests {
         s.view_theta_deg = 10.0; // 20 degrees from the mirror direction, other side
         let (img, _) = render(&flat(0.75), &s);
         assert!(img.rgb.iter().all(|p| *p == [0.0; 3]));
+    }
+
+    #[test]
+    fn flat_mirror_away_from_the_disc_is_rho_b() {
+        let mut s = settings();
+        s.view_theta_deg = 50.0;
+        s.background_radiance = 0.5;
+        let (img, _) = render(&flat(0.75), &s);
+        assert!(img.rgb.iter().all(|p| *p == [0.375_f32; 3]));
+        // The disc keeps its own radiance: the background does not add to it.
+        s.view_theta_deg = 30.0;
+        let (img, _) = render(&flat(0.75), &s);
+        assert!(img.rgb.iter().all(|p| *p == [1.5_f32; 3]));
     }
 
     #[test]
@@ -626,6 +653,9 @@ mod tests {
         assert!(s.validate().is_err());
         let mut s = settings();
         s.spp = 0;
+        assert!(s.validate().is_err());
+        let mut s = settings();
+        s.background_radiance = -1.0;
         assert!(s.validate().is_err());
         assert!(settings().validate().is_ok());
     }

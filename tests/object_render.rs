@@ -205,3 +205,36 @@ fn lambertian_plate_has_radiance_rho_sin2_r() {
     assert!((mean - exact).abs() < 4.0 * se, "{mean} ± {se} vs {exact}");
     assert!(se < 0.05 * exact, "too noisy to test: se {se}");
 }
+
+#[test]
+fn background_is_seen_outside_the_disc_and_a_uniform_sky_is_a_furnace() {
+    let dir = scratch("render-background");
+    // Mirror: 0.75 inside the disc's image, 0.75 B (exact) everywhere else.
+    let s = scene("plate", PLATE, &dir);
+    let mut st = settings(0.0);
+    st.background_radiance = 0.5;
+    let (img, _) = render_object(&s, &camera(), &st);
+    let (w, h) = (64, 48);
+    for j in 0..h {
+        for i in 0..w {
+            let v = img.rgb[j * w + i][0];
+            let (amin, amax) = pixel_angles(i, j, w, h, 40.0);
+            if amax < 5.0 - 1e-6 {
+                assert_eq!(v, 0.75, "pixel ({i}, {j}) inside the disc's image");
+            } else if amin > 5.0 + 1e-6 {
+                assert_eq!(v, 0.375, "pixel ({i}, {j}) outside the disc's image");
+            }
+        }
+    }
+    // Lambertian plate under a sky of one radiance B, disc included: rho B.
+    let text = PLATE.replace("reflectance = 0.75", "diffuse = 0.6");
+    let s = scene("plate", &text, &dir);
+    let mut st = settings(0.0);
+    st.light_radiance = 0.5;
+    st.background_radiance = 0.5;
+    let (img, losses) = render_object(&s, &camera(), &st);
+    assert_eq!(losses.lost + losses.unmodelled, 0);
+    for p in &img.rgb {
+        assert!((f64::from(p[0]) - 0.3).abs() < 1e-6, "{}", p[0]);
+    }
+}
