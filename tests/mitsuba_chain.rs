@@ -4,7 +4,9 @@
 //! (`scripts/test_crosscheck.py`: `roks export-mesh` -> Mitsuba tracer and
 //! `path` renders vs `roks brdf` / `roks render` on exact V-grooves, with the
 //! markdown report's verdict PASS, and FAIL when Mitsuba's rho is off by 2 %),
-//! and the `roks_table` BSDF plugin (`scripts/test_roks_bsdf.py`).
+//! and the `roks_table` BSDF plugin (`scripts/test_roks_bsdf.py`, with its
+//! polarised end-to-end check: `roks brdf --polarisation mueller` on a flat
+//! Al substrate against Mitsuba's polarised `conductor`).
 //!
 //! They need the project's Python environment (`scripts/setup_venv.sh`,
 //! `.venv` with mitsuba 3.9.1 and drjit 1.5.0; `ROKS_PYTHON` overrides the
@@ -83,6 +85,10 @@ fn whole_chain_on_exact_v_grooves() {
 #[test]
 fn mitsuba_roks_table_plugin() {
     if let Some(py) = python() {
-        run(&py, "test_roks_bsdf.py", &[]);
+        run(
+            &py,
+            "test_roks_bsdf.py",
+            &["--roks", env!("CARGO_BIN_EXE_roks")],
+        );
     }
 }
