@@ -276,6 +276,8 @@ class CarlsonTable:
         immaterial. Interpolated in theta_i and turned as ``brdf`` (the
         frames turn with the configuration, so a block's matrices hold at any
         light azimuth); m00 is ``brdf``. Zero below the horizon."""
+        if self.mueller is None:
+            raise TableError(f"{self.path}: no mueller.csv attached (attach_mueller)")
         _, terms = self._terms(wi, wo)
         return sum(wt[:, None, None] * self.mueller[idx, c] for wt, idx, c in terms)
 

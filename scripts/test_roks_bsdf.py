@@ -26,6 +26,7 @@ Runs in about 20 s:
 from __future__ import annotations
 
 import math
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -340,8 +341,70 @@ def polarised_checks(check, rng, roks: str | None) -> None:
     check(same, "scalar_rgb eval changes with mueller.csv beside brdf.csv")
     print("polarised 5: scalar_rgb unchanged by mueller.csv")
 
+    # 6. A vectorised polarised variant (needs libLLVM >= 19): the same
+    # numbers as CarlsonTable.mueller_eval for a batch, sample weight x pdf
+    # = eval, and a small `stokes` render runs (wavefront mode) with finite
+    # Stokes images.
+    if os.environ.get("DRJIT_LIBLLVM_PATH") and "llvm_ad_mono_polarized" in mi.variants():
+        vectorised_checks(check, rng, path, table)
+    else:
+        print("polarised 6: skipped (no libLLVM >= 19 for llvm_ad_mono_polarized)")
+
     if roks:
         end_to_end(check, roks, tmp)
+
+
+def vectorised_checks(check, rng, path: Path, table) -> None:
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant("llvm_ad_mono_polarized")
+    dr.set_flag(dr.JitFlag.SymbolicLoops, False)
+    dr.set_flag(dr.JitFlag.SymbolicCalls, False)
+    roks_bsdf.register()
+    plugin = mi.load_dict({"type": "roks_table", "filename": str(path)})
+    table.attach_mueller(path.parent / "mueller.csv")
+    n = 4000
+    th_i, th_o = np.radians(89.0 * rng.random(n)), np.radians(89.0 * rng.random(n))
+    def dirs(theta, phi):
+        return np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=1)
+
+    wi = dirs(th_i, 2 * math.pi * rng.random(n)).astype(np.float32)
+    wo = dirs(th_o, 2 * math.pi * rng.random(n)).astype(np.float32)
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.wi = mi.Vector3f(wi[:, 0], wi[:, 1], wi[:, 2])
+    worst = worst_s = 0.0
+    for radiance, mode in ((True, mi.TransportMode.Radiance), (False, mi.TransportMode.Importance)):
+        ctx = mi.BSDFContext(mode)
+        got = np.array(plugin.eval(ctx, si, mi.Vector3f(wo[:, 0], wo[:, 1], wo[:, 2])))[:, :, 0, :]
+        got = np.moveaxis(got, -1, 0)
+        want = table.mueller_eval(wi.astype(np.float64), wo.astype(np.float64), radiance=radiance)
+        scale = np.abs(want).max(axis=(1, 2))
+        worst = max(worst, float((np.abs(got - want).max(axis=(1, 2)) / np.where(scale > 0, scale, 1.0)).max()))
+        bs, w = plugin.sample(ctx, si, mi.Float(rng.random(n).astype(np.float32)),
+                              mi.Point2f(rng.random(n).astype(np.float32), rng.random(n).astype(np.float32)))
+        e = np.moveaxis(np.array(plugin.eval(ctx, si, bs.wo))[:, :, 0, :], -1, 0)
+        wm = np.moveaxis(np.array(w)[:, :, 0, :], -1, 0) * np.array(bs.pdf)[:, None, None]
+        ok = np.array(bs.pdf) > 0
+        sc = np.abs(e[ok]).max(axis=(1, 2))
+        worst_s = max(worst_s, float((np.abs(wm[ok] - e[ok]).max(axis=(1, 2)) / sc).max()))
+    check(worst < 1e-5 and worst_s < 1e-5, f"llvm_ad_mono_polarized: eval vs numpy {worst:.1e}, sample {worst_s:.1e}")
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "stokes", "integrator": {"type": "path", "max_depth": 3}},
+        "sensor": {"type": "perspective", "fov": 30,
+                   "to_world": mi.ScalarTransform4f().look_at(origin=[0, -3, 3], target=[0, 0, 0], up=[0, 0, 1]),
+                   "film": {"type": "hdrfilm", "width": 16, "height": 16},
+                   "sampler": {"type": "independent", "sample_count": 4}},
+        "plane": {"type": "rectangle", "bsdf": {"type": "roks_table", "filename": str(path)}},
+        "light": {"type": "constant"},
+    })
+    img = np.array(mi.render(scene))  # channels: S0 as RGB + alpha, then S1, S2, S3 as RGB
+    check(img.shape[-1] == 13 and np.all(np.isfinite(img)) and img[..., 0].mean() > 0,
+          f"stokes render through the plugin: shape {img.shape}, finite {np.all(np.isfinite(img))}")
+    img = img[..., [0, 4, 7, 10]]
+    print(f"polarised 6: llvm_ad_mono_polarized: batch eval = numpy to {worst:.1e}, sample weight x pdf = eval "
+          f"to {worst_s:.1e}; stokes render mean S0..S3 {np.round(img.reshape(-1, img.shape[-1]).mean(axis=0), 5).tolist()}")
 
 
 def _si(mi, dr, wi):
@@ -432,6 +495,11 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--roks", help="roks binary: also the end-to-end polarised check (roks brdf -> plugin vs conductor)")
     args = ap.parse_args()
+    import mitsuba_brdf  # for its libLLVM finder (the vectorised check)
+
+    lib = mitsuba_brdf._find_libllvm()
+    if lib:
+        os.environ.setdefault("DRJIT_LIBLLVM_PATH", lib)
     import mitsuba as mi
 
     mi.set_variant("scalar_rgb")
