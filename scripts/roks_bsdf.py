@@ -16,6 +16,8 @@ Parameters
   ``BrdfTable::parse`` that matter for rendering: header, complete blocks of
   one Carlson grid, finite non-negative fractions, incidence in [0, 90)).
 * ``scale`` (float, default 1): multiplies the BRDF (a tinted or dimmed copy).
+* ``mueller_filename`` (string, polarised variants only): the ``mueller.csv``
+  of the same run; default: ``mueller.csv`` beside ``filename`` if it exists.
 
 What it computes (the same table as roks's ``BrdfTable``, grey, reflection
 only, front side only):
@@ -41,8 +43,48 @@ only, front side only):
   when wi is at a tabulated angle). Integrated over the hemisphere ``eval``
   gives the table's reflectance R(theta_i); the expected weight is R(theta_i).
 
+Polarised variants (``*_polarized``): eval and sample return Mueller
+matrices (grey: the same for every wavelength).
+
+* With a ``mueller.csv`` (``roks brdf --polarisation mueller``: per incidence
+  and Carlson cell the Mueller-matrix BRDF m_ij, row = outgoing Stokes
+  component; checked as roks's ``BrdfTable::with_mueller_text``: a block for
+  every incidence of brdf.csv, m00 within 1e-6 of its brdf, and stored as
+  the matrix over m00 times that brdf, so m00 is exactly the unpolarised
+  eval): the cell's matrix, interpolated in theta_i and turned exactly as
+  the intensity, times cos(theta_o), in Mitsuba's Stokes bases. Frames of the
+  file (roks, src/optics/polarisation.rs, which follows Mitsuba's
+  mueller.h: y = d x x, S2 > 0 along (x + y)/sqrt 2, S3 > 0 right circular,
+  rotator [[1,0,0,0],[0,C,S,0],[0,-S,C,0],[0,0,0,1]]): reference vector
+  x = normalize(z x d) of a flight d, (-sin phi_i, cos phi_i, 0) along
+  +-z, the incident flight -omega_i. Those frames turn with the
+  configuration about the normal, so a block's matrices hold at any light
+  azimuth. What the plugin returns follows Mitsuba's conductor and
+  roughconductor: light arrives along -wo_hat and leaves along wi_hat,
+  (wo_hat, wi_hat) = (wo, si.wi) in radiance transport (the default) and
+  (si.wi, wo) in importance transport, and the matrix maps Stokes vectors
+  in ``mueller::stokes_basis(-wo_hat)`` to ``stokes_basis(wi_hat)``, in the
+  local frame (the integrators turn it to world with
+  ``si.to_world_mueller``). The table is read with si.wi as the light (as
+  for the intensity); in importance transport that is the physical
+  direction, and the matrix is rotated with ``rotate_mueller_basis`` from
+  roks's frames (x = e_phi of si.wi for the arriving flight -si.wi, e_phi of
+  wo for the leaving one); in radiance transport the light comes from wo,
+  and the plugin returns the reciprocal matrix Q M^T Q, Q = diag(1, 1, -1,
+  1), in the frames with the same reference vectors (x = e_phi(wo) for the
+  arriving flight -wo, e_phi(si.wi) for the leaving si.wi), then rotated
+  likewise. This assumes Mueller reciprocity, M(o -> i) = Q M(i -> o)^T Q,
+  as the intensity path assumes f(a -> b) = f(b -> a); m00 is unchanged by
+  it. sample draws as before and returns the Mueller matrix over the pdf.
+* Without one: a depolariser, diag(f cos, 0, 0, 0) (as roks's table walls
+  of an unpolarised table).
+
+In non-polarised variants ``mueller.csv`` is not read: behaviour and numbers
+as without it.
+
 Variants: the arithmetic is numpy on whole arrays, so the plugin runs in
-``scalar_rgb`` and in the LLVM/CUDA variants in wavefront mode, i.e. with
+``scalar_rgb``, ``scalar_spectral_polarized`` and in the LLVM/CUDA
+variants (``llvm_ad_rgb``, ``llvm_ad_mono_polarized``, ...) in wavefront mode, i.e. with
 ``dr.set_flag(dr.JitFlag.SymbolicLoops, False)`` and
 ``dr.set_flag(dr.JitFlag.SymbolicCalls, False)`` (Python code called from a
 recorded loop cannot read values). Tests: scripts/test_roks_bsdf.py.
