@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Tests of the Mitsuba plugin `roks_table` (scripts/roks_bsdf.py), through
-Mitsuba's own BSDF interface in the scalar_rgb variant:
+Mitsuba's own BSDF interface (1-4 in the scalar_rgb variant, 5 in polarised
+variants):
 
 1. eval integrates to the table's reflectance: exactly, as the sum over the
    Carlson cells of eval / cos(theta_o) at the cell centre times the cell's
@@ -15,12 +16,33 @@ Mitsuba's own BSDF interface in the scalar_rgb variant:
 3. A table traced at light azimuth 90 degrees (cells turned accordingly)
    evaluates as the same table at azimuth 0.
 4. A broken file is refused with a message naming it.
+5. Polarised variants (Mueller matrices from mueller.csv;
+   scalar_spectral_polarized, and llvm_ad_mono_polarized when libLLVM >= 19
+   is found):
+   0. the plugin's stokes_basis / rotate_stokes_basis = Mitsuba's;
+   1. tables of Mitsuba's own polarised roughconductor (n = 1.6 + 0.2i and
+      aluminium) at the cell centres, turned into roks's frames by Mitsuba's
+      rotate_mueller_basis: the plugin at cell centres in turned
+      configurations = roughconductor.eval, radiance and importance
+      transport (the radiance case through Mueller reciprocity);
+   2. polariser / analyser readings built from geometry alone (linear states
+      along roks's x, y, diagonal and circular, expressed in Mitsuba's
+      basis by their angle to stokes_basis) = the table's formulas;
+   3. m00 = the unpolarised eval; sample weight x pdf = eval;
+   4. no mueller.csv: a depolariser; mueller_filename; a wrong m00 refused;
+   5. scalar_rgb unchanged by a mueller.csv beside the table;
+   6. llvm_ad_mono_polarized: a batch = the numpy reference, sample, a
+      `stokes` render through the plugin;
+   and with ``--roks BINARY``, end to end: ``roks brdf --polarisation
+   mueller`` on a flat Al substrate -> the plugin at the specular direction
+   (integrated over the cell) = Mitsuba's polarised ``conductor``, both
+   modes, three light azimuths, within 4 standard errors plus float32.
 
 The reference reflectance is computed here from the CSV text (sum of the
 fractions of each block, linear in theta_i), independently of the plugin.
 Runs in about 20 s:
 
-    /work/main/.venv/bin/python scripts/test_roks_bsdf.py
+    .venv/bin/python scripts/test_roks_bsdf.py [--roks target/release/roks]
 """
 
 from __future__ import annotations
