@@ -16,8 +16,9 @@ Parameters
   ``BrdfTable::parse`` that matter for rendering: header, complete blocks of
   one Carlson grid, finite non-negative fractions, incidence in [0, 90)).
 * ``scale`` (float, default 1): multiplies the BRDF (a tinted or dimmed copy).
-* ``mueller_filename`` (string, polarised variants only): the ``mueller.csv``
-  of the same run; default: ``mueller.csv`` beside ``filename`` if it exists.
+* ``mueller_filename`` (string; used in polarised variants, accepted and
+  ignored in the others): the ``mueller.csv`` of the same run; default:
+  ``mueller.csv`` beside ``filename`` if it exists.
 
 What it computes (the same table as roks's ``BrdfTable``, grey, reflection
 only, front side only):
@@ -459,12 +460,12 @@ def register(name: str = "roks_table") -> None:
             self.filename = str(props["filename"])
             self.scale = float(props["scale"]) if props.has_property("scale") else 1.0
             self.table = CarlsonTable(self.filename)
+            # Read (so Mitsuba sees it used) in every variant, used in polarised ones.
+            named = str(props["mueller_filename"]) if props.has_property("mueller_filename") else None
             self.mueller_filename = None
             if polarised:
-                if props.has_property("mueller_filename"):
-                    self.mueller_filename = str(props["mueller_filename"])
-                elif (Path(self.filename).parent / "mueller.csv").is_file():
-                    self.mueller_filename = str(Path(self.filename).parent / "mueller.csv")
+                beside = Path(self.filename).parent / "mueller.csv"
+                self.mueller_filename = named if named is not None else (str(beside) if beside.is_file() else None)
                 if self.mueller_filename is not None:
                     self.table.attach_mueller(self.mueller_filename)
             flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide

@@ -360,8 +360,12 @@ def polarised_checks(check, rng, roks: str | None) -> None:
         si.wi = v3(direction(math.radians(89.0 * rng.random()), 2 * math.pi * rng.random()))
         wo = v3(direction(math.radians(89.0 * rng.random()), 2 * math.pi * rng.random()))
         same &= float(a.eval(ctx, si, wo)[0]) == float(b.eval(ctx, si, wo)[0])
-    check(same, "scalar_rgb eval changes with mueller.csv beside brdf.csv")
-    print("polarised 5: scalar_rgb unchanged by mueller.csv")
+    c = mi.load_dict({"type": "roks_table", "filename": str(path), "mueller_filename": str(tmp / "absent.csv")})
+    si.wi = v3(direction(0.4, 0.2))
+    wo = v3(direction(0.6, 2.5))
+    same &= float(c.eval(ctx, si, wo)[0]) == float(b.eval(ctx, si, wo)[0])
+    check(same, "scalar_rgb eval changes with mueller.csv beside brdf.csv (or mueller_filename)")
+    print("polarised 5: scalar_rgb unchanged by mueller.csv (beside, or named by mueller_filename: not read)")
 
     # 6. A vectorised polarised variant (needs libLLVM >= 19): the same
     # numbers as CarlsonTable.mueller_eval for a batch, sample weight x pdf
