@@ -16,6 +16,9 @@ Parameters
   ``BrdfTable::parse`` that matter for rendering: header, complete blocks of
   one Carlson grid, finite non-negative fractions, incidence in [0, 90)).
 * ``scale`` (float, default 1): multiplies the BRDF (a tinted or dimmed copy).
+* ``mueller_filename`` (string; used in polarised variants, accepted and
+  ignored in the others): the ``mueller.csv`` of the same run; default:
+  ``mueller.csv`` beside ``filename`` if it exists.
 
 What it computes (the same table as roks's ``BrdfTable``, grey, reflection
 only, front side only):
@@ -41,8 +44,48 @@ only, front side only):
   when wi is at a tabulated angle). Integrated over the hemisphere ``eval``
   gives the table's reflectance R(theta_i); the expected weight is R(theta_i).
 
+Polarised variants (``*_polarized``): eval and sample return Mueller
+matrices (grey: the same for every wavelength).
+
+* With a ``mueller.csv`` (``roks brdf --polarisation mueller``: per incidence
+  and Carlson cell the Mueller-matrix BRDF m_ij, row = outgoing Stokes
+  component; checked as roks's ``BrdfTable::with_mueller_text``: a block for
+  every incidence of brdf.csv, m00 within 1e-6 of its brdf, and stored as
+  the matrix over m00 times that brdf, so m00 is exactly the unpolarised
+  eval): the cell's matrix, interpolated in theta_i and turned exactly as
+  the intensity, times cos(theta_o), in Mitsuba's Stokes bases. Frames of the
+  file (roks, src/optics/polarisation.rs, which follows Mitsuba's
+  mueller.h: y = d x x, S2 > 0 along (x + y)/sqrt 2, S3 > 0 right circular,
+  rotator [[1,0,0,0],[0,C,S,0],[0,-S,C,0],[0,0,0,1]]): reference vector
+  x = normalize(z x d) of a flight d, (-sin phi_i, cos phi_i, 0) along
+  +-z, the incident flight -omega_i. Those frames turn with the
+  configuration about the normal, so a block's matrices hold at any light
+  azimuth. What the plugin returns follows Mitsuba's conductor and
+  roughconductor: light arrives along -wo_hat and leaves along wi_hat,
+  (wo_hat, wi_hat) = (wo, si.wi) in radiance transport (the default) and
+  (si.wi, wo) in importance transport, and the matrix maps Stokes vectors
+  in ``mueller::stokes_basis(-wo_hat)`` to ``stokes_basis(wi_hat)``, in the
+  local frame (the integrators turn it to world with
+  ``si.to_world_mueller``). The table is read with si.wi as the light (as
+  for the intensity); in importance transport that is the physical
+  direction, and the matrix is rotated with ``rotate_mueller_basis`` from
+  roks's frames (x = e_phi of si.wi for the arriving flight -si.wi, e_phi of
+  wo for the leaving one); in radiance transport the light comes from wo,
+  and the plugin returns the reciprocal matrix Q M^T Q, Q = diag(1, 1, -1,
+  1), in the frames with the same reference vectors (x = e_phi(wo) for the
+  arriving flight -wo, e_phi(si.wi) for the leaving si.wi), then rotated
+  likewise. This assumes Mueller reciprocity, M(o -> i) = Q M(i -> o)^T Q,
+  as the intensity path assumes f(a -> b) = f(b -> a); m00 is unchanged by
+  it. sample draws as before and returns the Mueller matrix over the pdf.
+* Without one: a depolariser, diag(f cos, 0, 0, 0) (as roks's table walls
+  of an unpolarised table).
+
+In non-polarised variants ``mueller.csv`` is not read: behaviour and numbers
+as without it.
+
 Variants: the arithmetic is numpy on whole arrays, so the plugin runs in
-``scalar_rgb`` and in the LLVM/CUDA variants in wavefront mode, i.e. with
+``scalar_rgb``, ``scalar_spectral_polarized`` and in the LLVM/CUDA
+variants (``llvm_ad_rgb``, ``llvm_ad_mono_polarized``, ...) in wavefront mode, i.e. with
 ``dr.set_flag(dr.JitFlag.SymbolicLoops, False)`` and
 ``dr.set_flag(dr.JitFlag.SymbolicCalls, False)`` (Python code called from a
 recorded loop cannot read values). Tests: scripts/test_roks_bsdf.py.
@@ -61,6 +104,11 @@ BRDF_HEADER = (
     "brdf,brdf_stderr"
 )
 C_THETA_I, C_PHI_I, C_BAND, C_CELL, C_PROJ, C_FRACTION = 0, 1, 2, 3, 11, 12
+MUELLER_HEADER = "theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg," + ",".join(
+    f"m{i}{j},m{i}{j}_stderr" for i in range(4) for j in range(4)
+)
+# Q = diag(1, 1, -1, 1): Mueller reciprocity M(o -> i) = Q M(i -> o)^T Q.
+Q_SIGNS = np.array([1.0, 1.0, -1.0, 1.0])
 
 
 class TableError(ValueError):
@@ -108,6 +156,10 @@ class CarlsonTable:
         if np.any(fractions < 0):
             raise TableError(f"{path}: negative fraction")
         order = np.argsort(theta_deg)
+        self.path = path
+        self.theta_deg = theta_deg[order]
+        self.phi_i_deg = key[starts, 1][order]
+        self.mueller = None  # (incidences, cells, 4, 4) in 1/sr after attach_mueller
         self.theta = np.radians(theta_deg[order])
         self.phi_i = np.radians(key[starts, 1][order])
         self.fractions = fractions[order]
@@ -126,6 +178,58 @@ class CarlsonTable:
         self.proj = math.pi * (k - band * band) / (k * k)
         if np.any(np.abs(data[:rows, C_PROJ] - self.proj) > 1e-6 * self.proj):
             raise TableError(f"{path}: projected_solid_angle_sr does not match the Carlson grid of {m} bands")
+
+    def attach_mueller(self, path: str | Path) -> None:
+        """Read the Mueller-matrix BRDF of the same run (``mueller.csv``,
+        ``roks brdf --polarisation mueller``) into ``self.mueller``, checked
+        as roks's ``BrdfTable::with_mueller_text``: header, 38 finite
+        columns, complete blocks in Carlson grid order, a block for every
+        incidence of the table (same theta_i_deg and phi_i_deg), m00 within
+        1e-6 (relative) of the table's brdf. Stored as the matrix divided by
+        its m00 times the table's brdf, so m00 is exactly the intensity
+        table (a cell with brdf 0 gets the zero matrix)."""
+        path = Path(path)
+        try:
+            with path.open() as f:
+                header = f.readline().lstrip("\ufeff").strip()
+                if header != MUELLER_HEADER:
+                    raise TableError(f"{path}: line 1: not the mueller.csv header of roks")
+                data = np.loadtxt(f, delimiter=",", ndmin=2)
+        except (OSError, ValueError) as e:
+            raise TableError(f"{path}: cannot read: {e}") from e
+        k = self.fractions.shape[1]  # cells per block
+        if data.shape[0] == 0 or data.shape[1] != 38 or not np.all(np.isfinite(data)):
+            raise TableError(f"{path}: no data rows, or not 38 finite columns")
+        if data.shape[0] % k:
+            raise TableError(f"{path}: {data.shape[0]} rows are not whole blocks of {k} cells")
+        blocks = data.reshape(-1, k, 38)
+        band = np.concatenate([np.full(4 * j, j) for j in range(1, self.bands + 1)])
+        cell = np.concatenate([np.arange(4 * j) for j in range(1, self.bands + 1)])
+        for b, block in enumerate(blocks):
+            if np.any(block[:, 0] != block[0, 0]) or np.any(block[:, 1] != block[0, 1]):
+                raise TableError(f"{path}: line {b * k + 2}: an incidence block is not {k} rows")
+            if np.any(block[:, 2] != band) or np.any(block[:, 3] != cell):
+                raise TableError(f"{path}: line {b * k + 2}: band/cell not in Carlson grid order")
+        out = np.zeros((len(self.theta), k, 4, 4))
+        for t in range(len(self.theta)):
+            hit = np.flatnonzero((blocks[:, 0, 0] == self.theta_deg[t]) & (blocks[:, 0, 1] == self.phi_i_deg[t]))
+            if len(hit) == 0:
+                raise TableError(
+                    f"{path}: no block for theta_i_deg = {self.theta_deg[t]}, "
+                    f"phi_i_deg = {self.phi_i_deg[t]} (the table's)"
+                )
+            m = blocks[hit[0], :, 6::2].reshape(k, 4, 4)
+            brdf = self.fractions[t] / self.proj
+            bad = np.abs(m[:, 0, 0] - brdf) > 1e-6 * np.maximum(np.abs(brdf), np.abs(m[:, 0, 0])) + 1e-300
+            if np.any(bad):
+                c = int(np.argmax(bad))
+                raise TableError(
+                    f"{path}: theta_i_deg = {self.theta_deg[t]}: cell {c}: m00 = {m[c, 0, 0]} is not "
+                    f"the table's brdf {brdf[c]} (a file of another run?)"
+                )
+            pos = m[:, 0, 0] > 0
+            out[t, pos] = m[pos] * (brdf[pos] / m[pos, 0, 0])[:, None, None]
+        self.mueller = out
 
     # -- geometry ---------------------------------------------------------
 
@@ -205,6 +309,45 @@ class CarlsonTable:
             p += np.where(r > 0, wt * self.fractions[idx, c] / (np.where(r > 0, r, 1.0) * self.proj[c]), 0.0)
         return p * np.maximum(wo[:, 2], 0.0)
 
+    # -- polarisation -----------------------------------------------------
+
+    def mueller_roks(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """The Mueller-matrix BRDF (N, 4, 4), 1/sr, for light from wi (toward
+        the light) reflected into wo, in roks's frames: reference vector of
+        the incident flight -wi e_phi(phi(wi)), of the outgoing flight wo
+        e_phi(phi(wo)) (e_phi(phi(wi)) when wo is the pole), signs of x
+        immaterial. Interpolated in theta_i and turned as ``brdf`` (the
+        frames turn with the configuration, so a block's matrices hold at any
+        light azimuth); m00 is ``brdf``. Zero below the horizon."""
+        if self.mueller is None:
+            raise TableError(f"{self.path}: no mueller.csv attached (attach_mueller)")
+        _, terms = self._terms(wi, wo)
+        return sum(wt[:, None, None] * self.mueller[idx, c] for wt, idx, c in terms)
+
+    def mueller_eval(self, wi: np.ndarray, wo: np.ndarray, radiance: bool = True) -> np.ndarray:
+        """Mitsuba's polarised BSDF.eval (N, 4, 4) for the local directions
+        wi (``si.wi``) and wo: f cos(theta_o) as a Mueller matrix from the
+        Stokes basis ``stokes_basis(-wo_hat)`` of the arriving light to
+        ``stokes_basis(wi_hat)`` of the leaving light, with (as Mitsuba's
+        conductor and roughconductor) wo_hat, wi_hat = wo, wi in radiance
+        transport and wi, wo in importance transport. The table is read with
+        wi as the light (as ``eval``); in radiance transport the light
+        arrives from wo, and the matrix is the reciprocal one,
+        Q M(wi -> wo)^T Q with Q = diag(1, 1, -1, 1), in the frames with the
+        same reference vectors (m00 unchanged)."""
+        m = self.mueller_roks(wi, wo) * np.maximum(wo[:, 2], 0.0)[:, None, None]
+        phi_a = np.arctan2(wi[:, 1], wi[:, 0])
+        phi_b = np.where(np.hypot(wo[:, 0], wo[:, 1]) > 0, np.arctan2(wo[:, 1], wo[:, 0]), phi_a)
+        x_a, x_b = azimuthal(phi_a), azimuthal(phi_b)
+        if radiance:
+            m = Q_SIGNS[:, None] * np.swapaxes(m, 1, 2) * Q_SIGNS[None, :]
+            f_in, x_in, f_out, x_out = -wo, x_b, wi, x_a
+        else:
+            f_in, x_in, f_out, x_out = -wi, x_a, wo, x_b
+        r_in = rotate_stokes_basis(f_in, x_in, stokes_basis(f_in))
+        r_out = rotate_stokes_basis(f_out, x_out, stokes_basis(f_out))
+        return r_out @ m @ np.swapaxes(r_in, 1, 2)
+
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray):
         """(wo, pdf, weight, valid) for uniforms u1 (N,), u2 (N, 2)."""
         theta, phi = self._frame(wi)
@@ -236,6 +379,40 @@ class CarlsonTable:
         return wo, pdf, weight, valid
 
 
+def azimuthal(phi: np.ndarray) -> np.ndarray:
+    """e_phi = (-sin phi, cos phi, 0), (N, 3): roks's Stokes reference vector
+    of a flight at azimuth phi (up to sign) and of the poles."""
+    return np.stack([-np.sin(phi), np.cos(phi), np.zeros_like(phi)], axis=1)
+
+
+def stokes_basis(d: np.ndarray) -> np.ndarray:
+    """Mitsuba's ``mueller::stokes_basis(d)`` (the first vector of
+    ``coordinate_system(d)``, Duff et al. 2017) for unit d (N, 3), float64."""
+    x, y, z = d[:, 0], d[:, 1], d[:, 2]
+    sign = np.copysign(1.0, z)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    return np.stack([sign * x * x * a + 1.0, sign * b, -sign * x], axis=1)
+
+
+def rotate_stokes_basis(forward: np.ndarray, current: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Mitsuba's ``mueller::rotate_stokes_basis`` (N, 4, 4): the rotator
+    [[1,0,0,0],[0,C,S,0],[0,-S,C,0],[0,0,0,1]], C = cos 2t, S = sin 2t, that
+    re-expresses a Stokes vector of a flight ``forward`` with reference
+    vector ``current`` in the basis ``target`` (t the angle from current to
+    target, positive counter-clockwise about forward)."""
+    cur = current / np.linalg.norm(current, axis=1, keepdims=True)
+    tgt = target / np.linalg.norm(target, axis=1, keepdims=True)
+    t = np.arctan2(np.einsum("ij,ij->i", forward, np.cross(cur, tgt)), np.einsum("ij,ij->i", cur, tgt))
+    c, s = np.cos(2 * t), np.sin(2 * t)
+    r = np.zeros((len(t), 4, 4))
+    r[:, 0, 0] = r[:, 3, 3] = 1.0
+    r[:, 1, 1] = r[:, 2, 2] = c
+    r[:, 1, 2] = s
+    r[:, 2, 1] = -s
+    return r
+
+
 def register(name: str = "roks_table") -> None:
     """Register the plugin with the current Mitsuba variant (call after
     mi.set_variant)."""
@@ -262,20 +439,55 @@ def register(name: str = "roks_table") -> None:
     def mask(active, n: int) -> np.ndarray:
         return np.broadcast_to(np.atleast_1d(np.asarray(active, dtype=bool)), (n,))
 
+    polarised = bool(mi.is_polarized)
+
+    def back_m(a: np.ndarray):
+        """(N, 4, 4) numpy -> mi.Spectrum (a Mueller matrix, grey)."""
+        out = dr.zeros(mi.Spectrum) if scalar else dr.zeros(mi.Spectrum, len(a))
+        for i in range(4):
+            for j in range(4):
+                out[i, j] = mi.UnpolarizedSpectrum(back_f(a[:, i, j]))
+        return out
+
+    def depolariser(v: np.ndarray) -> np.ndarray:
+        m = np.zeros((len(v), 4, 4))
+        m[:, 0, 0] = v
+        return m
+
     class RoksTableBSDF(mi.BSDF):
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
             self.filename = str(props["filename"])
             self.scale = float(props["scale"]) if props.has_property("scale") else 1.0
             self.table = CarlsonTable(self.filename)
+            # Read (so Mitsuba sees it used) in every variant, used in polarised ones.
+            named = str(props["mueller_filename"]) if props.has_property("mueller_filename") else None
+            self.mueller_filename = None
+            if polarised:
+                beside = Path(self.filename).parent / "mueller.csv"
+                self.mueller_filename = named if named is not None else (str(beside) if beside.is_file() else None)
+                if self.mueller_filename is not None:
+                    self.table.attach_mueller(self.mueller_filename)
             flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
             self.m_components = [flags]
             self.m_flags = flags
 
+        def value(self, ctx, wi: np.ndarray, o: np.ndarray) -> np.ndarray:
+            """eval (N,) or, polarised, (N, 4, 4) in Mitsuba's bases."""
+            if not polarised:
+                return self.table.eval(wi, o)
+            if self.table.mueller is None:
+                return depolariser(self.table.eval(wi, o))
+            return self.table.mueller_eval(wi, o, radiance=ctx.mode == mi.TransportMode.Radiance)
+
+        def wrap(self, v: np.ndarray):
+            return back_m(v) if polarised else mi.Color3f(back_f(v))
+
         def eval(self, ctx, si, wo, active=True):
             wi, o = vec(si.wi), vec(wo)
-            v = self.scale * self.table.eval(wi, o) * mask(active, len(wi))
-            return mi.Color3f(back_f(v))
+            v = self.value(ctx, wi, o)
+            m = mask(active, len(wi))
+            return self.wrap(self.scale * (m[:, None, None] * v if polarised else m * v))
 
         def pdf(self, ctx, si, wo, active=True):
             wi, o = vec(si.wi), vec(wo)
@@ -295,6 +507,10 @@ def register(name: str = "roks_table") -> None:
             bs.eta = 1.0
             bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
             bs.sampled_component = mi.UInt32(0)
+            if polarised:
+                v = self.value(ctx, wi, wo) / np.where(valid, pdf, 1.0)[:, None, None]
+                w = np.where(valid[:, None, None], self.scale * v, 0.0)
+                return bs, dr.select(back_b(valid), back_m(w), mi.Spectrum(0.0))
             w = np.where(valid, self.scale * weight, 0.0)
             return bs, dr.select(back_b(valid), mi.Color3f(back_f(w)), mi.Color3f(0.0))
 
@@ -305,7 +521,8 @@ def register(name: str = "roks_table") -> None:
             t = self.table
             return (
                 f"RoksTableBSDF[filename={self.filename!r}, bands={t.bands}, "
-                f"theta_i_deg={np.degrees(t.theta).round(6).tolist()}, scale={self.scale}]"
+                f"theta_i_deg={np.degrees(t.theta).round(6).tolist()}, scale={self.scale}, "
+                f"mueller_filename={self.mueller_filename!r}]"
             )
 
     mi.register_bsdf(name, lambda props: RoksTableBSDF(props))

@@ -4,9 +4,11 @@
 //! (`scripts/test_crosscheck.py`: `roks export-mesh` -> Mitsuba tracer and
 //! `path` renders vs `roks brdf` / `roks render` on exact V-grooves, with the
 //! markdown report's verdict PASS, and FAIL when Mitsuba's rho is off by 2 %),
-//! the `roks_table` BSDF plugin (`scripts/test_roks_bsdf.py`), and the
-//! polarised cross-check (`scripts/test_mitsuba_polarised.py`: the polarised
-//! Mitsuba tracer, built on Mitsuba's own Mueller matrices, against exact
+//! the `roks_table` BSDF plugin (`scripts/test_roks_bsdf.py`, with its
+//! polarised end-to-end check: `roks brdf --polarisation mueller` on a flat
+//! Al substrate against Mitsuba's polarised `conductor`), and the polarised
+//! cross-check (`scripts/test_mitsuba_polarised.py`: the polarised Mitsuba
+//! tracer, built on Mitsuba's own Mueller matrices, against exact
 //! flat-plane and V-groove matrices, then `roks brdf --polarisation
 //! mueller|stokes` against it on a Gaussian height field, aluminium and
 //! 1.6 + 0.2i).
@@ -88,7 +90,11 @@ fn whole_chain_on_exact_v_grooves() {
 #[test]
 fn mitsuba_roks_table_plugin() {
     if let Some(py) = python() {
-        run(&py, "test_roks_bsdf.py", &[]);
+        run(
+            &py,
+            "test_roks_bsdf.py",
+            &["--roks", env!("CARGO_BIN_EXE_roks")],
+        );
     }
 }
 
