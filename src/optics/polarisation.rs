@@ -266,8 +266,22 @@ impl Incident {
             Self::S => [1.0, 1.0, 0.0, 0.0],
             Self::P => [1.0, -1.0, 0.0, 0.0],
             Self::Linear(deg) => {
-                let a = 2.0 * deg.to_radians();
-                [1.0, a.cos(), a.sin(), 0.0]
+                // Exact at multiples of 45 deg (0, ±1): `sin(2 * 90 deg)` in
+                // floating point is 1.2e-16, not the 0 of p light, which
+                // would e.g. make linear 90 deg look mirror-asymmetric.
+                let twice = (2.0 * deg).rem_euclid(360.0);
+                if twice == 0.0 {
+                    [1.0, 1.0, 0.0, 0.0]
+                } else if twice == 90.0 {
+                    [1.0, 0.0, 1.0, 0.0]
+                } else if twice == 180.0 {
+                    [1.0, -1.0, 0.0, 0.0]
+                } else if twice == 270.0 {
+                    [1.0, 0.0, -1.0, 0.0]
+                } else {
+                    let a = twice.to_radians();
+                    [1.0, a.cos(), a.sin(), 0.0]
+                }
             }
             Self::Right => [1.0, 0.0, 0.0, 1.0],
             Self::Left => [1.0, 0.0, 0.0, -1.0],
@@ -458,6 +472,13 @@ mod tests {
         assert_eq!(Incident::S.stokes(), [1.0, 1.0, 0.0, 0.0]);
         let l = Incident::Linear(45.0).stokes();
         assert!(close(l[1], 0.0, 1e-15) && close(l[2], 1.0, 1e-15));
+        // Multiples of 45 deg are exact, so 0 and 90 deg keep the mirror symmetry.
+        assert_eq!(Incident::Linear(90.0).stokes(), Incident::P.stokes());
+        assert_eq!(Incident::Linear(-45.0).stokes(), [1.0, 0.0, -1.0, 0.0]);
+        assert_eq!(Incident::Linear(180.0).stokes(), Incident::S.stokes());
+        assert!(Incident::Linear(90.0).is_mirror_symmetric());
+        let l = Incident::Linear(30.0).stokes();
+        assert!(close(l[1], 0.5, 1e-15) && close(l[2], 0.75f64.sqrt(), 1e-15));
         assert_eq!(
             Incident::Stokes([2.0, 1.0, 0.0, 0.0]).stokes(),
             [1.0, 0.5, 0.0, 0.0]
