@@ -151,6 +151,9 @@ impl FresnelMueller {
 
 /// `(cos, sin)` of `arg(rs rp*)` for incidence cosine `cos` in `[0, 1]`.
 fn phase_rs_rp(cos: f64, n: f64, k: f64) -> (f64, f64) {
+    if n.hypot(k) > HUGE_INDEX {
+        return phase_rs_rp_scaled(cos, n, k);
+    }
     // u = m cos θt = sqrt(m² - sin² θ), principal root (Re, Im >= 0), from
     // the same real closed form as `fresnel_sp`.
     let t0 = (n - 1.0) * (n + 1.0) - k * k + cos * cos;
@@ -177,6 +180,35 @@ fn phase_rs_rp(cos: f64, n: f64, k: f64) -> (f64, f64) {
     } else {
         (z.0, z.1)
     }
+}
+
+/// Above this `|n + ik|` the squares in [`phase_rs_rp`] would overflow
+/// (`n² - k²` is `inf - inf`, and the root came out 0: `c = +a` at normal
+/// incidence instead of `-a`); [`phase_rs_rp_scaled`] is used instead.
+const HUGE_INDEX: f64 = 1e100;
+
+/// [`phase_rs_rp`] for huge `|m|`, in terms of `m̂ = m / |m|` and
+/// `e = 1 / |m|`: `u e = sqrt(m̂² - sin² θ e²)` (principal root), so
+/// `rs = (c e - u e)/(c e + u e)`, `cos θt = u e / m̂` and
+/// `rp = (m̂ c - cos θt e)/(m̂ c + cos θt e)`, all finite.
+fn phase_rs_rp_scaled(cos: f64, n: f64, k: f64) -> (f64, f64) {
+    let e = 1.0 / n.hypot(k);
+    let (hn, hk) = (n * e, k * e);
+    let sin2e2 = (1.0 - cos * cos) * e * e;
+    // w = m̂² - sin² e², then its principal square root (Im w >= 0).
+    let (wr, wi) = ((hn - hk) * (hn + hk) - sin2e2, 2.0 * hn * hk);
+    let r = wr.hypot(wi);
+    let ua = (0.5 * (r + wr)).max(0.0).sqrt();
+    let ub = (0.5 * (r - wr)).max(0.0).sqrt();
+    let ps = mul_conj(unit(cos * e - ua, -ub), unit(cos * e + ua, ub));
+    let ct_phase = mul_conj(unit(ua, ub), unit(hn, hk));
+    let ct = ua.hypot(ub);
+    let ct = (ct * ct_phase.0 * e, ct * ct_phase.1 * e);
+    let pp = mul_conj(
+        unit(hn * cos - ct.0, hk * cos - ct.1),
+        unit(hn * cos + ct.0, hk * cos + ct.1),
+    );
+    mul_conj(ps, pp)
 }
 
 /// The unit phasor of `x + i y` (1 for zero).
@@ -437,6 +469,27 @@ mod tests {
             assert_eq!((g.a, g.b), (1.0, 0.0));
             assert!(close(g.c, 1.0, 1e-15) && g.d.abs() < 1e-15, "{g:?}");
             assert!(f.matrix().iter().flatten().all(|x| x.is_finite()));
+        }
+        // Huge indices (the scaled branch): a perfect conductor at every
+        // angle, rs rp* = -Rs Rp, except exactly at grazing (identity).
+        for &(n, k) in &[(1e200, 1e200), (1e150, 0.0), (3e120, 7e121)] {
+            for c in [1.0, 0.7, 0.1, 1e-3] {
+                let f = FresnelMueller::new(c, n, k);
+                assert!(
+                    close(f.c, -f.a, 1e-12) && f.d.abs() < 1e-12,
+                    "{n} {k} {c}: {f:?}"
+                );
+            }
+        }
+        // The scaled branch agrees with the plain one where both work.
+        for &(n, k) in &[(1.015, 6.627), (1.6, 0.2), (27.16, 89.89), (1e30, 3e30)] {
+            for c in [1.0, 0.8, 0.3, 0.01, 0.0] {
+                let (p, q) = (phase_rs_rp(c, n, k), phase_rs_rp_scaled(c, n, k));
+                assert!(
+                    close(p.0, q.0, 1e-12) && close(p.1, q.1, 1e-12),
+                    "{n} {k} {c}: {p:?} {q:?}"
+                );
+            }
         }
         // Brewster angle of glass: Rp = 0, so no c, d term and no NaN.
         let f = FresnelMueller::new(1.5f64.atan().cos(), 1.5, 0.0);
