@@ -1309,7 +1309,8 @@ fn shards_merge_and_s0_columns_via_the_cli() {
 /// cell's component k equals `(u[c] + sign_k u[mirror c]) / 2`, the signs
 /// those of the mirror (S2, S3 flip; m_ij by the product of its row and
 /// column signs), including the cells straddling the plane (their own
-/// mirror cells: their S2, S3 vanish); the intensity tallies are as in
+/// mirror cells: their S2, S3 vanish), and the hemisphere slot keeps S0,
+/// S1 and folds S2, S3 to 0; the intensity tallies are as in
 /// tests/symmetry.rs. For the random and the lattice launch.
 #[test]
 fn mirror_symmetry_folds_stokes_and_mueller_with_signs() {
@@ -1352,6 +1353,12 @@ fn mirror_symmetry_folds_stokes_and_mueller_with_signs() {
                     &p.tallies.polar.as_ref().unwrap().sums.sum,
                     &f.tallies.polar.as_ref().unwrap().sums.sum,
                 );
+                // The hemisphere slot is its own mirror image: S2, S3 (m_ij of
+                // sign -1) fold to zero, the others are kept bit for bit.
+                for i in 0..k {
+                    let want = if sign(i) > 0.0 { u[i] } else { 0.0 };
+                    assert_eq!(v[i], want, "{what}: hemisphere component {i}");
+                }
                 let mut flipped = 0;
                 for c in 0..grid.n_cells() {
                     let m = mirror[c];
