@@ -258,17 +258,20 @@ fn textbook_matrix_matches_published_values() {
 
 /// Why `Q = diag(1, 1, -1, 1)` in `M(o -> i) = Q M(i -> o)^T Q`: the
 /// reference vector of a flight `d` is `normalize(z × d)`, so the reversed
-/// flight `-d` has the same reference line and its second axis
-/// `y = d × x` flipped: the frames of a direction and of its reverse are
-/// related as Mishchenko's `(e_theta, e_phi)` frames are
-/// (`e_theta(-n) = e_theta(n)`, `e_phi(-n) = -e_phi(n)`), for which
-/// reciprocity of the amplitude matrix (`S12 <-> -S21`) gives
-/// `Z(-n_s -> -n_i) = Δ3 Z(n_i -> n_s)^T Δ3`, `Δ3 = diag(1, 1, -1, 1)`
-/// (Mishchenko, Travis & Lacis 2002, eq. 3.? / Sekera 1966). The sign of S3
-/// enters squared, so the handedness convention does not matter. It holds
-/// exactly for the flat Fresnel matrix (specular pair: the reversed
-/// configuration is the same reflection), which the run checks too; the
-/// transposed-only relation (Q = 1) does not (the retardance term `d` flips).
+/// flight `-d` has the same reference line and its second axis `y = d × x`
+/// flipped (as Mishchenko's frames: `e_theta(-n) = e_theta(n)`,
+/// `e_phi(-n) = -e_phi(n)`). Reciprocity of the scattering dyadic,
+/// `A(-k_s, -k_i) = A(k_i, k_s)^T`, then gives for the Jones matrices in
+/// these frames `J' = P J^T P`, `P = diag(1, -1)` (the y flips at both
+/// ends); in Stokes terms `P` is `diag(1, 1, -1, -1)` and the transpose of
+/// a Jones matrix is `D M^T D`, `D = diag(1, 1, 1, -1)` (the circular Pauli
+/// matrix is the antisymmetric one), so `M' = Q M^T Q` with
+/// `Q = diag(1, 1, -1, -1) D = diag(1, 1, -1, 1)` (Sekera 1966; Mishchenko,
+/// Travis & Lacis 2002). The sign convention of S3 enters squared, so the
+/// handedness does not matter. It holds exactly for the flat Fresnel matrix
+/// (specular pair: the reversed configuration is the same reflection),
+/// which this test checks; the plain transpose (Q = 1) does not (the
+/// retardance term `d` flips).
 #[test]
 fn reciprocity_signs_hold_for_the_fresnel_matrix() {
     for (n, k) in MATERIALS {
