@@ -384,3 +384,67 @@ fn height_field_gaussian_needs_a_size() {
         &["surface.size", "missing"],
     );
 }
+
+/// `[light] polarisation` values that are not a state: an unknown name, a
+/// Stokes vector with S0 <= 0, with a degree of polarisation above 1, of
+/// the wrong length or not finite, a non-finite linear angle, a table that
+/// is not `{ linear = deg }`: each refused naming `light.polarisation`.
+#[test]
+fn bad_incident_polarisation() {
+    for (case, value, reason) in [
+        ("pol_name", "\"diagonal\"", "diagonal"),
+        ("pol_s0_zero", "[0.0, 0.0, 0.0, 0.0]", "S0"),
+        ("pol_s0_negative", "[-1.0, 0.0, 0.0, 0.0]", "S0"),
+        ("pol_dop", "[1.0, 0.8, 0.8, 0.0]", "degree of polarisation"),
+        ("pol_nan", "[1.0, nan, 0.0, 0.0]", "finite"),
+        ("pol_linear_inf", "{ linear = inf }", "not finite"),
+        ("pol_short", "[1.0, 0.0, 0.0]", ""),
+        ("pol_table", "{ circular = 1.0 }", ""),
+    ] {
+        check(
+            case,
+            &broken(
+                "photons = 1000",
+                &format!("photons = 1000\npolarisation = {value}"),
+            ),
+            &["light.polarisation", reason],
+        );
+    }
+}
+
+/// `[tally] polarisation`: an unknown tally, and a polarisation tally with
+/// `[transport] polarisation = false`; mirror symmetry with an incident state
+/// the mirror changes (right circular, linear 45 deg) on a Fresnel surface.
+#[test]
+fn bad_polarisation_tally_and_symmetry() {
+    check(
+        "pol_tally",
+        &format!("{GOOD}\n[tally]\npolarisation = \"jones\"\n"),
+        &["polarisation", "jones"],
+    );
+    check(
+        "pol_tally_no_transport",
+        &format!(
+            "{GOOD}\n[tally]\npolarisation = \"stokes\"\n\n[transport]\npolarisation = false\n"
+        ),
+        &["tally.polarisation", "transport"],
+    );
+    let fresnel = GOOD.replacen("reflectance = 0.8", "n = 1.6\nk = 0.2", 1);
+    for (case, state) in [
+        ("mirror_right", "\"right\""),
+        ("mirror_linear45", "{ linear = 45.0 }"),
+    ] {
+        check(
+            case,
+            &format!(
+                "{}\n[tally]\nsymmetry = \"mirror\"\n",
+                fresnel.replacen(
+                    "photons = 1000",
+                    &format!("photons = 1000\npolarisation = {state}"),
+                    1
+                )
+            ),
+            &["tally.symmetry"],
+        );
+    }
+}

@@ -47,6 +47,9 @@
 #[must_use]
 pub fn fresnel_sp(cos_i: f64, n: f64, k: f64) -> (f64, f64) {
     let c = cos_i.clamp(0.0, 1.0);
+    if n.hypot(k) > HUGE_INDEX {
+        return fresnel_sp_scaled(c, n, k);
+    }
     // sin²θ computed as (1 − c)(1 + c) is accurate near normal incidence.
     let s2 = ((1.0 - c) * (1.0 + c)).max(0.0);
     // n² − k² − sin²θ written as (n − 1)(n + 1) − k² + c²: accurate near
@@ -72,6 +75,36 @@ pub fn fresnel_sp(cos_i: f64, n: f64, k: f64) -> (f64, f64) {
     // fall back to Rp = Rs, the normal-incidence identity.
     let factor = ratio(acs_m * acs_m + b2c2, acs_p * acs_p + b2c2, 1.0);
     let rp = rs * factor;
+    (unit(rs), unit(rp))
+}
+
+/// Above this `|n + ik|` the squares in [`fresnel_sp`] overflow (`n² - k²`
+/// is `inf - inf`: Rs came out 0 at grazing incidence for n = k = 1e200);
+/// [`fresnel_sp_scaled`] is used instead.
+const HUGE_INDEX: f64 = 1e100;
+
+/// [`fresnel_sp`] for huge `|m|`, `m = n + ik`, in terms of `m̂ = m / |m|`
+/// and `e = 1 / |m|`: `u e = sqrt(m̂² - sin² θ e²)` (principal root),
+/// `rs = (c e - u e)/(c e + u e)`, `cos θt = u e / m̂`,
+/// `rp = (m̂ c - cos θt e)/(m̂ c + cos θt e)`, all finite.
+fn fresnel_sp_scaled(c: f64, n: f64, k: f64) -> (f64, f64) {
+    let e = 1.0 / n.hypot(k);
+    let (hn, hk) = (n * e, k * e);
+    let sin2e2 = ((1.0 - c) * (1.0 + c)).max(0.0) * e * e;
+    let (wr, wi) = ((hn - hk) * (hn + hk) - sin2e2, 2.0 * hn * hk);
+    let r = wr.hypot(wi);
+    let ua = (0.5 * (r + wr)).max(0.0).sqrt();
+    let ub = (0.5 * (r - wr)).max(0.0).sqrt();
+    // Ratios of moduli by hypot, squared afterwards: `e²` would underflow.
+    let rs = ratio((c * e - ua).hypot(ub), (c * e + ua).hypot(ub), 0.0).powi(2);
+    // cos θt = (ua + i ub) / (hn + i hk) (|m̂| = 1), times e.
+    let (ctr, cti) = ((ua * hn + ub * hk) * e, (ub * hn - ua * hk) * e);
+    let rp = ratio(
+        (hn * c - ctr).hypot(hk * c - cti),
+        (hn * c + ctr).hypot(hk * c + cti),
+        0.0,
+    )
+    .powi(2);
     (unit(rs), unit(rp))
 }
 
@@ -106,6 +139,30 @@ fn unit(x: f64) -> f64 {
 mod tests {
     use super::*;
     use num_complex::Complex64;
+
+    /// The scaled form for huge indices agrees with the plain one where both
+    /// work, and gives a perfect conductor (Rs = Rp = 1) for huge indices.
+    #[test]
+    fn huge_indices_are_a_perfect_conductor() {
+        for &(n, k) in &[(1.015, 6.627), (27.16, 89.89), (1e30, 3e30), (2.0, 0.0)] {
+            for c in [1.0, 0.8, 0.3, 0.01, 0.0] {
+                let (p, q) = (fresnel_sp(c, n, k), fresnel_sp_scaled(c, n, k));
+                assert!(
+                    (p.0 - q.0).abs() < 1e-12 && (p.1 - q.1).abs() < 1e-12,
+                    "{n} {k} {c}: {p:?} {q:?}"
+                );
+            }
+        }
+        for &(n, k) in &[(1e200, 1e200), (1e150, 0.0), (3e120, 7e121)] {
+            for c in [1.0, 0.5, 1e-3, 0.0] {
+                let (rs, rp) = fresnel_sp(c, n, k);
+                assert!(
+                    (rs - 1.0).abs() < 1e-12 && (rp - 1.0).abs() < 1e-12,
+                    "{n} {k} {c}: {rs} {rp}"
+                );
+            }
+        }
+    }
 
     /// Independent textbook implementation in complex arithmetic.
     ///

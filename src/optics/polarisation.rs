@@ -178,6 +178,10 @@ fn phase_rs_rp(cos: f64, n: f64, k: f64) -> (f64, f64) {
         (0.0, 0.0)
     };
     let mc = (n1 * cos, k1 * cos);
+    // Both terms can be tiny (huge m at grazing incidence): bring them to order 1.
+    let big = mc.0.abs().max(mc.1.abs()).max(ct.0.abs()).max(ct.1.abs());
+    let t = if big > 0.0 { 1.0 / big } else { 1.0 };
+    let (mc, ct) = ((mc.0 * t, mc.1 * t), (ct.0 * t, ct.1 * t));
     let pp = mul_conj((mc.0 - ct.0, mc.1 - ct.1), (mc.0 + ct.0, mc.1 + ct.1));
     // rs rp*: phase ps - pp.
     let z = mul_conj(ps, pp);
@@ -271,8 +275,22 @@ impl Incident {
             Self::S => [1.0, 1.0, 0.0, 0.0],
             Self::P => [1.0, -1.0, 0.0, 0.0],
             Self::Linear(deg) => {
-                let a = 2.0 * deg.to_radians();
-                [1.0, a.cos(), a.sin(), 0.0]
+                // Exact at multiples of 45 deg (0, ±1): `sin(2 * 90 deg)` in
+                // floating point is 1.2e-16, not the 0 of p light, which
+                // would e.g. make linear 90 deg look mirror-asymmetric.
+                let twice = (2.0 * deg).rem_euclid(360.0);
+                if twice == 0.0 {
+                    [1.0, 1.0, 0.0, 0.0]
+                } else if twice == 90.0 {
+                    [1.0, 0.0, 1.0, 0.0]
+                } else if twice == 180.0 {
+                    [1.0, -1.0, 0.0, 0.0]
+                } else if twice == 270.0 {
+                    [1.0, 0.0, -1.0, 0.0]
+                } else {
+                    let a = twice.to_radians();
+                    [1.0, a.cos(), a.sin(), 0.0]
+                }
             }
             Self::Right => [1.0, 0.0, 0.0, 1.0],
             Self::Left => [1.0, 0.0, 0.0, -1.0],
@@ -427,13 +445,21 @@ mod tests {
                 close(f.c, -f.a, 1e-15 * f.a.max(1.0)) && f.d.abs() < 1e-15,
                 "{n} {k}: {f:?}"
             );
-            if n > 1e100 {
-                continue; // fresnel_sp itself overflows at grazing incidence there
-            }
             let g = FresnelMueller::new(0.0, n, k);
             assert_eq!((g.a, g.b), (1.0, 0.0));
             assert!(close(g.c, 1.0, 1e-15) && g.d.abs() < 1e-15, "{g:?}");
             assert!(f.matrix().iter().flatten().all(|x| x.is_finite()));
+        }
+        // Huge indices (everything in units of max(n, k, 1)): a perfect conductor at every
+        // angle, rs rp* = -Rs Rp, except exactly at grazing (identity).
+        for &(n, k) in &[(1e200, 1e200), (1e150, 0.0), (3e120, 7e121)] {
+            for c in [1.0, 0.7, 0.1, 1e-3] {
+                let f = FresnelMueller::new(c, n, k);
+                assert!(
+                    close(f.c, -f.a, 1e-12) && f.d.abs() < 1e-12,
+                    "{n} {k} {c}: {f:?}"
+                );
+            }
         }
         // Brewster angle of glass: Rp = 0, so no c, d term and no NaN.
         let f = FresnelMueller::new(1.5f64.atan().cos(), 1.5, 0.0);
@@ -469,6 +495,13 @@ mod tests {
         assert_eq!(Incident::S.stokes(), [1.0, 1.0, 0.0, 0.0]);
         let l = Incident::Linear(45.0).stokes();
         assert!(close(l[1], 0.0, 1e-15) && close(l[2], 1.0, 1e-15));
+        // Multiples of 45 deg are exact, so 0 and 90 deg keep the mirror symmetry.
+        assert_eq!(Incident::Linear(90.0).stokes(), Incident::P.stokes());
+        assert_eq!(Incident::Linear(-45.0).stokes(), [1.0, 0.0, -1.0, 0.0]);
+        assert_eq!(Incident::Linear(180.0).stokes(), Incident::S.stokes());
+        assert!(Incident::Linear(90.0).is_mirror_symmetric());
+        let l = Incident::Linear(30.0).stokes();
+        assert!(close(l[1], 0.5, 1e-15) && close(l[2], 0.75f64.sqrt(), 1e-15));
         assert_eq!(
             Incident::Stokes([2.0, 1.0, 0.0, 0.0]).stokes(),
             [1.0, 0.5, 0.0, 0.0]

@@ -623,7 +623,8 @@ impl BrdfRun {
                     let k =
                         carried.components(out, hemisphere_reference(out, phi), &mut components);
                     if let Some(p) = &mut t.polar {
-                        score_polar(p, &components[..k], &shares, replicate);
+                        let mirror = self.symmetry == Symmetry::Mirror;
+                        score_polar(p, &components[..k], &shares, mirror, replicate);
                     }
                 }
                 Fate::Absorbed => {}
@@ -647,29 +648,54 @@ impl BrdfRun {
 /// frame): the hemisphere slot, and the cells of `halves` with their shares
 /// (see [`BrdfRun::cell_weights`] of weight 1; the mirrored half with the
 /// mirror signs of [`mirror_sign`]), and the replicate sums of a lattice run.
+///
+/// With `mirror` (mirror symmetry) the photon counts half as itself and half
+/// as its mirror image, whose components have the signs of [`mirror_sign`].
+/// Where both halves land in the same bins (the hemisphere slot; cells
+/// straddling the plane of incidence, which [`BrdfRun::cell_weights`] gives
+/// as one set with the whole weight) a component scores
+/// `(1 + sign) / 2` times itself: itself for `S0`, `S1`, zero for `S2`, `S3`
+/// (the two halves cancel), so the intensity components stay bit for bit
+/// those of the intensity tallies.
 fn score_polar(
     p: &mut PolarTallies,
     c: &[f64],
     halves: &[(crate::tally::carlson::Cells, f64); 2],
+    mirror: bool,
     replicate: usize,
 ) {
     let k = p.components;
     debug_assert_eq!(c.len(), k);
     let bins = p.bins();
+    // Factor of a component whose two halves share a bin.
+    let both = |i: usize| {
+        if mirror && mirror_sign(k, i) < 0.0 {
+            0.0
+        } else {
+            1.0
+        }
+    };
     for (i, v) in c.iter().enumerate() {
-        p.sums.score(i, *v);
+        let score = both(i) * v;
+        p.sums.score(i, score);
         if let Some(r) = &mut p.replicates {
-            r[replicate * bins + i] += v;
+            r[replicate * bins + i] += score;
         }
     }
-    // The first half is the photon's own cells, the second its mirror image.
+    // The first half is the photon's own cells, the second its mirror image
+    // (weight 0: in the same cells as the first, which then has the whole weight).
+    let same = halves[1].1 == 0.0;
     for (half, (cells, w)) in halves.iter().enumerate() {
         if *w == 0.0 {
             continue;
         }
         for &cell in cells.as_slice() {
             for (i, v) in c.iter().enumerate() {
-                let sign = if half == 1 { mirror_sign(k, i) } else { 1.0 };
+                let sign = match (half, same) {
+                    (1, _) => mirror_sign(k, i),
+                    (_, true) => both(i),
+                    _ => 1.0,
+                };
                 let bin = p.cell_bin(cell, i);
                 let score = sign * w * v;
                 p.sums.score(bin, score);
