@@ -49,9 +49,11 @@ enum Command {
     /// Trace a 3-D object of quadric cells with rough walls (the macro level).
     ///
     /// Writes DIR/summary.json (per beam position: reflectance with standard
-    /// error, missed, absorbed per surface, bounces, losses), DIR/reflectance.csv
+    /// error, missed, absorbed per surface, bounces, losses; with polarised
+    /// transport the Stokes vector of the reflected light), DIR/reflectance.csv
     /// (x,y,z,reflectance,reflectance_stderr) and, with [tally] farfield = true,
-    /// DIR/farfield.csv. DIR defaults to out/<scene name>/.
+    /// DIR/farfield.csv (and DIR/farfield_stokes.csv with [tally]
+    /// polarisation = "stokes"). DIR defaults to out/<scene name>/.
     Trace(TraceArgs),
     /// Fit micro-scene parameters to a measured in-plane BRDF.
     ///
@@ -280,6 +282,11 @@ struct TraceArgs {
     /// Worker threads (default: all cores). Does not change results.
     #[arg(long)]
     threads: Option<usize>,
+    /// Scalar transport even with Fresnel walls: each Fresnel bounce weighs
+    /// (Rs + Rp) / 2, the unpolarised approximation (as [transport]
+    /// polarisation = false).
+    #[arg(long)]
+    no_polarisation: bool,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     quiet: bool,
@@ -1028,6 +1035,15 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
     if let Some(s) = a.seed {
         run.seed = s;
     }
+    if a.no_polarisation {
+        if run.farfield_stokes {
+            return Err(Failure::Input(format!(
+                "{}: tally.polarisation: \"stokes\" needs polarised transport, which --no-polarisation turns off",
+                scene.source.file
+            )));
+        }
+        run.polarisation = false;
+    }
     set_threads(a.threads)?;
     let out = a
         .out
@@ -1080,12 +1096,18 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
         .to_png(900, 560)
         .map_err(Failure::Other)?;
     let farfield = run.farfield.then(|| output::farfield_csv(&run, &results));
+    let farfield_stokes = run
+        .tallies_farfield_stokes()
+        .then(|| output::farfield_stokes_csv(&run, &results));
     let mut files: Vec<(&str, &[u8])> = vec![
         ("reflectance.csv", refl.as_bytes()),
         ("reflectance.png", &png),
     ];
     if let Some(f) = &farfield {
         files.push(("farfield.csv", f.as_bytes()));
+    }
+    if let Some(f) = &farfield_stokes {
+        files.push(("farfield_stokes.csv", f.as_bytes()));
     }
     files.push(("summary.json", text.as_bytes()));
     write_outputs(&out, &files)?;

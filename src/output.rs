@@ -279,22 +279,31 @@ pub fn reflectance_csv(results: &[crate::transport::object::PositionResult]) -> 
     s
 }
 
-/// `farfield.csv`: per beam position and cell of the full-sphere grid, the
-/// share of the source's flux leaving through the cell; `brdf` is that share
-/// per projected solid angle about the z axis (for a flat plate lit along
-/// -omega_i this is the plate's BRDF, comparable with `brdf.csv`).
-#[must_use]
-pub fn farfield_csv(
+/// Columns of `farfield_stokes.csv` (`roks trace` with `[tally]
+/// polarisation = "stokes"`): `farfield.csv`'s cell columns, then the Stokes
+/// components of the light leaving through the cell per projected solid
+/// angle (1/sr; `s0` equals `farfield.csv`'s `brdf`) with standard errors,
+/// and the degree of polarisation `dop`. Each photon's Stokes vector is
+/// taken about `hemisphere_reference(dir, 0)` of its exit direction `dir`
+/// ([`crate::transport::object::stokes_reference`]), above and below the horizon.
+pub const FARFIELD_STOKES_HEADER: &str = "source,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,s0,s0_stderr,s1,s1_stderr,s2,s2_stderr,s3,s3_stderr,dop";
+
+/// The rows of a far-field table: per beam position `k` and full-sphere cell
+/// `flat`, `row(s, k, result, flat, projected solid angle)` appends the
+/// columns after the cell's (`source` to `projected_solid_angle_sr`, with
+/// the comma before them written) and the line end.
+fn farfield_rows(
+    header: &str,
     run: &crate::transport::object::ObjectRun,
     results: &[crate::transport::object::PositionResult],
+    row: impl Fn(&mut String, &crate::transport::object::PositionResult, usize, f64),
 ) -> String {
     let grid = run.farfield_grid().grid;
     let half = grid.n_cells();
     let omega = grid.solid_angle();
-    let mut s = String::from(FARFIELD_HEADER);
+    let mut s = String::from(header);
     s.push('\n');
     for (k, r) in results.iter().enumerate() {
-        let n = r.tallies.photons;
         for flat in 0..2 * half {
             let lower = flat >= half;
             let (band, cell) = grid.band_cell(flat % half);
@@ -316,20 +325,53 @@ pub fn farfield_csv(
             };
             let band_label = if lower { -(band as i64) } else { band as i64 };
             let proj = grid.projected_solid_angle(band, cell);
-            let f = r.tallies.farfield.mean(flat, n);
-            let fe = r.tallies.farfield.stderr(flat, n);
-            let _ = writeln!(
+            let _ = write!(
                 s,
-                "{k},{band_label},{cell},{t_lo},{t_hi},{},{},{t_c},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
+                "{k},{band_label},{cell},{t_lo},{t_hi},{},{},{t_c},{},{omega:.12e},{proj:.12e},",
                 phi_lo.to_degrees(),
                 phi_hi.to_degrees(),
                 phi.to_degrees(),
-                f / proj,
-                fe / proj,
             );
+            row(&mut s, r, flat, proj);
+            s.push('\n');
         }
     }
     s
+}
+
+/// `farfield.csv`: per beam position and cell of the full-sphere grid, the
+/// share of the source's flux leaving through the cell; `brdf` is that share
+/// per projected solid angle about the z axis (for a flat plate lit along
+/// -omega_i this is the plate's BRDF, comparable with `brdf.csv`).
+#[must_use]
+pub fn farfield_csv(
+    run: &crate::transport::object::ObjectRun,
+    results: &[crate::transport::object::PositionResult],
+) -> String {
+    farfield_rows(FARFIELD_HEADER, run, results, |s, r, flat, proj| {
+        let n = r.tallies.photons;
+        let f = r.tallies.farfield.mean(flat, n);
+        let fe = r.tallies.farfield.stderr(flat, n);
+        let _ = write!(s, "{f:.9e},{fe:.9e},{:.9e},{:.9e}", f / proj, fe / proj);
+    })
+}
+
+/// `farfield_stokes.csv` (see [`FARFIELD_STOKES_HEADER`]); the run must
+/// have tallied it ([`crate::transport::object::ObjectRun::tallies_farfield_stokes`]).
+#[must_use]
+pub fn farfield_stokes_csv(
+    run: &crate::transport::object::ObjectRun,
+    results: &[crate::transport::object::PositionResult],
+) -> String {
+    farfield_rows(FARFIELD_STOKES_HEADER, run, results, |s, r, flat, proj| {
+        let (acc, n) = (&r.tallies.farfield_stokes, r.tallies.photons);
+        let stokes: [f64; 4] = std::array::from_fn(|j| acc.mean(4 * flat + j, n) / proj);
+        for (j, v) in stokes.iter().enumerate() {
+            let _ = write!(s, "{v:.9e},{:.9e},", acc.stderr(4 * flat + j, n) / proj);
+        }
+        let dop = crate::optics::polarisation::degree_of_polarisation(stokes);
+        let _ = write!(s, "{dop:.9e}");
+    })
 }
 
 /// One beam position's entry in `summary.json` of `roks trace`.
@@ -353,7 +395,7 @@ pub fn position_json(
         .filter(|(i, _)| t.absorbed.sum[*i] != 0.0)
         .map(|(i, name)| (name.clone(), json!(t.absorbed.stderr(i, t.photons))))
         .collect();
-    json!({
+    let mut entry = json!({
         "position": r.beam.position.to_array(),
         "direction": r.beam.direction.to_array(),
         "diameter": r.beam.diameter,
@@ -367,7 +409,13 @@ pub fn position_json(
         "lost": t.lost / n,
         "segments": t.segments,
         "seconds": r.seconds,
-    })
+    });
+    if let (Some((stokes, stokes_se)), Value::Object(m)) = (r.stokes(), &mut entry) {
+        m.insert("stokes".into(), json!(stokes));
+        m.insert("stokes_stderr".into(), json!(stokes_se));
+        m.insert("polarisation".into(), json!(r.beam.polarisation.name()));
+    }
+    entry
 }
 
 /// The BRDF of one incidence of a run as an equal-area hemisphere map

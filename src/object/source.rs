@@ -1,6 +1,9 @@
-//! Light sources of the macro level: parallel circular beams.
+//! Light sources of the macro level: parallel circular beams, each with a
+//! polarisation state.
 
 use glam::DVec3;
+
+use crate::optics::polarisation::{Incident, hemisphere_reference};
 
 /// A parallel beam of circular cross-section.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -11,6 +14,8 @@ pub struct Beam {
     pub direction: DVec3,
     /// Beam diameter (length units; 0 = a pencil beam).
     pub diameter: f64,
+    /// Polarisation state of the light, about [`Beam::reference`].
+    pub polarisation: Incident,
 }
 
 impl Beam {
@@ -22,6 +27,15 @@ impl Beam {
         let r = 0.5 * self.diameter * u.sqrt();
         let a = std::f64::consts::TAU * v;
         self.position + r * (a.cos() * e1 + a.sin() * e2)
+    }
+
+    /// The reference vector of the beam's Stokes vector (world coordinates):
+    /// `hemisphere_reference(direction, 0)`, i.e. `normalize(ẑ × direction)`,
+    /// and `+y` for a beam along `±z` (see [`crate::optics::polarisation`]).
+    /// `"s"` light is linearly polarised along it.
+    #[must_use]
+    pub fn reference(&self) -> DVec3 {
+        hemisphere_reference(self.direction, 0.0)
     }
 }
 
@@ -35,6 +49,7 @@ mod tests {
             position: DVec3::new(1.0, 2.0, 3.0),
             direction: DVec3::new(0.0, 0.6, -0.8),
             diameter: 2.0,
+            polarisation: Incident::Unpolarised,
         };
         let n = 200;
         let mut inner = 0;

@@ -194,6 +194,21 @@ impl WallModel {
         }
     }
 
+    /// Whether the model can change the polarisation of light in a way its
+    /// intensity depends on: a Fresnel wall, or a micro descent whose micro
+    /// scene has a Fresnel material. Every other model is non-polarising or
+    /// depolarising (see [`WallModel::interact`]), so scalar transport is
+    /// exact for it whatever the incident state.
+    #[must_use]
+    pub fn polarises(&self) -> bool {
+        let fresnel = |r: &Reflectance| matches!(r, Reflectance::Fresnel { .. });
+        match self {
+            Self::Specular(r) => fresnel(r),
+            Self::Micro { scene, .. } => scene.surface.materials.iter().any(fresnel),
+            Self::Table(_) | Self::Ideal { .. } => false,
+        }
+    }
+
     /// Whether the model needs a micro scratch.
     #[must_use]
     pub fn is_micro(&self) -> bool {

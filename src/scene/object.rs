@@ -39,15 +39,48 @@
 //! sweep = { from = [0.0, 0.0, 10.0], to = [24.0, 0.0, 10.0], steps = 49 }
 //! # position = [0.0, 0.0, 10.0]        # or one beam position
 //! photons = 200000                     # per position
+//! # polarisation = "s"                 # state of the beam (default "unpolarised"; see below)
 //!
 //! [tally]
 //! bands = 32                           # far field: Carlson grid mirrored to the full sphere
 //! farfield = true
+//! # polarisation = "stokes"            # also farfield_stokes.csv (needs farfield = true)
 //!
 //! [transport]
 //! max_bounces = 100000
 //! roulette_weight = 0.01
+//! # polarisation = false               # force the scalar (unpolarised) approximation; true: force Stokes
 //! ```
+//!
+//! # Polarisation
+//!
+//! * `[[sources]] polarisation`: the beam's state, as
+//!   [`PolarisationSpec`] (`"unpolarised"`, `"s"`, `"p"`, `"right"`,
+//!   `"left"`, `{ linear = deg }`, `[S0, S1, S2, S3]`). Its Stokes
+//!   reference vector is `hemisphere_reference(direction, 0)` in world
+//!   coordinates: `normalize(ẑ × direction)`, and `+y` for a beam along
+//!   `±z` ([`Beam::reference`]); `"s"` is linear along it, `{ linear = a }`
+//!   turned by `a` degrees toward `direction × reference`.
+//! * Polarised transport (the photon carries a Stokes vector through every
+//!   bounce, micro descents included) is on when a wall model can polarise
+//!   (a Fresnel `n`/`k` model, or a `micro` model whose micro scene has a
+//!   Fresnel material) or `[tally] polarisation = "stokes"` asks for it.
+//!   `[transport] polarisation = false` (or `roks trace --no-polarisation`)
+//!   keeps the scalar weight: every Fresnel bounce weighs `(Rs + Rp) / 2`,
+//!   the unpolarised approximation, exact for one bounce of unpolarised
+//!   light only. `true` forces polarised transport (the intensities of a
+//!   non-polarising scene are then the scalar ones bit for bit). A scene
+//!   without a polarising model runs the scalar path unchanged.
+//! * Outputs of a polarised run: every source entry of `summary.json` gets
+//!   `stokes` (the Stokes vector of the light leaving after at least one
+//!   reflection, per unit beam power: each escaping photon's Stokes vector
+//!   about `hemisphere_reference(dir, 0)` of its own exit direction `dir`,
+//!   summed and divided by the photons launched), `stokes_stderr` and
+//!   `polarisation` (the state's name); `reflectance` is `stokes[0]`. With
+//!   `[tally] polarisation = "stokes"`, `farfield_stokes.csv` holds per
+//!   far-field cell the Stokes components per projected solid angle (`s0`
+//!   equals `farfield.csv`'s `brdf`), with standard errors and the degree of
+//!   polarisation, in the same frames (below the horizon too).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -56,12 +89,13 @@ use glam::DVec3;
 use serde::Deserialize;
 
 use super::micro::{MicroScene, TransportSpec};
-use super::{MaterialSpec, QuadricSpec, SceneError, Source, parse_toml};
+use super::{MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, Source, parse_toml};
 use crate::object::source::Beam;
 use crate::object::wall::WallModel;
 use crate::object::{Object, SolidCell, VoidCell};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
+use crate::optics::polarisation::Incident;
 use crate::transport::micro::Controls;
 use crate::transport::object::{ObjectRun, Walls};
 
@@ -91,9 +125,43 @@ pub struct ObjectSceneSpec {
     /// Far-field tally.
     #[serde(default)]
     pub tally: ObjectTallySpec,
-    /// History limits.
+    /// History limits and polarised transport.
     #[serde(default)]
-    pub transport: TransportSpec,
+    pub transport: ObjectTransportSpec,
+}
+
+/// `[transport]` of an object scene: the micro scene's history limits
+/// ([`TransportSpec`], same defaults) and the choice of polarised transport.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectTransportSpec {
+    /// Most macro reflections per photon (and per micro descent).
+    #[serde(default = "default_max_bounces")]
+    pub max_bounces: u32,
+    /// Russian roulette threshold weight.
+    #[serde(default = "default_roulette")]
+    pub roulette_weight: f64,
+    /// Polarised transport: `None` decides by the scene (see the module
+    /// docs), `Some(false)` the scalar approximation, `Some(true)` Stokes.
+    pub polarisation: Option<bool>,
+}
+
+impl Default for ObjectTransportSpec {
+    fn default() -> Self {
+        Self {
+            max_bounces: default_max_bounces(),
+            roulette_weight: default_roulette(),
+            polarisation: None,
+        }
+    }
+}
+
+fn default_max_bounces() -> u32 {
+    TransportSpec::default().max_bounces
+}
+
+fn default_roulette() -> f64 {
+    TransportSpec::default().roulette_weight
 }
 
 /// `[[cells]]`.
@@ -153,6 +221,8 @@ pub struct SourceSpec {
     /// Photons per position.
     #[serde(default = "default_photons")]
     pub photons: u64,
+    /// Polarisation state of the beam (default unpolarised).
+    pub polarisation: Option<PolarisationSpec>,
 }
 
 fn default_photons() -> u64 {
@@ -191,6 +261,20 @@ pub struct ObjectTallySpec {
     /// Write farfield.csv.
     #[serde(default)]
     pub farfield: bool,
+    /// Polarisation tallies: `"none"` (default) or `"stokes"` (farfield_stokes.csv).
+    #[serde(default)]
+    pub polarisation: PolarisationTally,
+}
+
+/// `[tally] polarisation` of an object scene.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PolarisationTally {
+    /// Intensity only (Stokes summaries still come with polarised transport).
+    #[default]
+    None,
+    /// The Stokes vector per far-field cell too.
+    Stokes,
 }
 
 impl Default for ObjectTallySpec {
@@ -198,6 +282,7 @@ impl Default for ObjectTallySpec {
         Self {
             bands: default_bands(),
             farfield: false,
+            polarisation: PolarisationTally::None,
         }
     }
 }
@@ -298,7 +383,7 @@ impl ObjectSceneSpec {
         };
 
         let model_names: Vec<String> = self.models.keys().cloned().collect();
-        let mut models = Vec::new();
+        let mut models: Vec<WallModel> = Vec::new();
         for (name, m) in &self.models {
             models.push(m.build(&source, &format!("models.{name}"), controls)?);
         }
@@ -333,6 +418,23 @@ impl ObjectSceneSpec {
                 format!("must be in 1..=1000, got {}", tally.bands),
             ));
         }
+        let farfield_stokes = tally.polarisation == PolarisationTally::Stokes;
+        if farfield_stokes && !tally.farfield {
+            return Err(source.error(
+                "tally.polarisation",
+                "\"stokes\" tallies the far field: set [tally] farfield = true",
+            ));
+        }
+        let polarisation = match transport.polarisation {
+            Some(false) if farfield_stokes => {
+                return Err(source.error(
+                    "transport.polarisation",
+                    "false conflicts with [tally] polarisation = \"stokes\" (Stokes tallies need polarised transport)",
+                ));
+            }
+            Some(on) => on,
+            None => farfield_stokes || models.iter().any(WallModel::polarises),
+        };
         if self.sources.is_empty() {
             return Err(source.error("sources", "needs at least one [[sources]] entry"));
         }
@@ -351,6 +453,10 @@ impl ObjectSceneSpec {
             if s.photons == 0 {
                 return Err(source.error(key("photons"), "must be > 0"));
             }
+            let state = match &s.polarisation {
+                Some(spec) => spec.build(&source, &key("polarisation"))?,
+                None => Incident::Unpolarised,
+            };
             let positions: Vec<DVec3> = match (&s.sweep, &s.position) {
                 (Some(_), Some(_)) | (None, None) => {
                     return Err(source.error(
@@ -408,6 +514,7 @@ impl ObjectSceneSpec {
                     position: p,
                     direction,
                     diameter: s.beam.diameter,
+                    polarisation: state,
                 };
                 // The whole launch disc must be in open space or void: check
                 // rings of it (photons starting inside a solid are also
@@ -436,6 +543,8 @@ impl ObjectSceneSpec {
             bands: tally.bands,
             farfield: tally.farfield,
             controls,
+            polarisation,
+            farfield_stokes,
         };
         Ok(ObjectScene {
             name: self.name.unwrap_or(fallback_name),

@@ -279,6 +279,10 @@ impl<const N: usize> Carrier for Polarised<N> {
         let i = self.intensity();
         if s != i && i > 0.0 {
             self.scale(s / i);
+            // Exactly `s`, as for the scalar carrier (`i * (s / i)` may be
+            // off by an ulp), so the intensity of a non-polarising scene is
+            // the scalar one bit for bit.
+            self.columns[0][0] = s;
         }
     }
 

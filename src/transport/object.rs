@@ -10,19 +10,31 @@
 //! by that surface. Photon `n` of position `k` draws from the stream
 //! `(seed, k 2^40 + n)`; batches are summed in order, so results are
 //! bit-identical for any thread count.
+//!
+//! **Polarisation.** With [`ObjectRun::polarisation`] the photon carries a
+//! Stokes vector ([`Polarised<1>`]) launched with its beam's state about
+//! [`Beam::reference`]; otherwise the scalar weight (`f64`, the unpolarised
+//! approximation beyond one Fresnel bounce). The reflectance, far field and
+//! absorbed shares are the intensity `S0` either way. A polarised run also
+//! sums the Stokes vector of the reflected light, each photon's expressed
+//! about `hemisphere_reference(dir, 0)` of its own exit direction `dir`
+//! ([`stokes_reference`]; below the horizon too), per unit beam power, and
+//! with [`ObjectRun::farfield_stokes`] per far-field cell.
 
 use std::time::Instant;
 
 use glam::DVec3;
 use rand::RngExt;
 
-use super::carrier::Carrier;
+use super::carrier::{Carrier, Polarised};
 use super::micro::Controls;
 use super::rng::photon_rng;
 use crate::micro::Scratch;
 use crate::object::Object;
 use crate::object::source::Beam;
 use crate::object::wall::{Interaction, WallModel};
+use crate::optics::polarisation::{Stokes, hemisphere_reference};
+use crate::tally::carlson::Cells;
 use crate::tally::{Accumulator, CarlsonGrid};
 
 pub use super::BATCH;
@@ -42,25 +54,72 @@ impl FarField {
         2 * self.grid.n_cells()
     }
 
-    /// Score weight `w` of a unit direction into `acc`: the upper grid for
-    /// `z >= 0` (exactly horizontal goes up), the mirrored grid below; at a
-    /// pole shared among band 1's cells (see [`CarlsonGrid::score`]).
-    pub fn score(&self, acc: &mut Accumulator, dir: DVec3, w: f64) {
+    /// The cells of a unit direction over the sphere, the share of its
+    /// weight each gets and the offset to add to them: the upper grid for
+    /// `z >= 0` (exactly horizontal goes up), the mirrored grid below
+    /// (offset `n_cells` of the hemisphere); at a pole shared among band 1's
+    /// cells (see [`CarlsonGrid::cells_of`]).
+    fn cells_of(&self, dir: DVec3) -> (Cells, f64, usize) {
         if dir.z >= 0.0 {
             let up = if dir.z == 0.0 {
                 DVec3::new(dir.x, dir.y, f64::MIN_POSITIVE)
             } else {
                 dir
             };
-            self.grid.score(acc, 0, up, w);
+            let (cells, share) = self.grid.cells_of(up);
+            (cells, share, 0)
         } else {
-            self.grid.score(
-                acc,
-                self.grid.n_cells(),
-                DVec3::new(dir.x, dir.y, -dir.z),
-                w,
-            );
+            let (cells, share) = self.grid.cells_of(DVec3::new(dir.x, dir.y, -dir.z));
+            (cells, share, self.grid.n_cells())
         }
+    }
+
+    /// Score weight `w` of a unit direction into `acc` (one bin per cell).
+    pub fn score(&self, acc: &mut Accumulator, dir: DVec3, w: f64) {
+        let (cells, share, offset) = self.cells_of(dir);
+        for &c in cells.as_slice() {
+            acc.score(offset + c, share * w);
+        }
+    }
+
+    /// Score the Stokes vector `s` of a unit direction into `acc`, four bins
+    /// per cell: bin `4 cell + j` holds `S_j`.
+    pub fn score_stokes(&self, acc: &mut Accumulator, dir: DVec3, s: &Stokes) {
+        let (cells, share, offset) = self.cells_of(dir);
+        for &c in cells.as_slice() {
+            for (j, v) in s.iter().enumerate() {
+                acc.score(4 * (offset + c) + j, share * v);
+            }
+        }
+    }
+}
+
+/// The reference vector the Stokes vector of light leaving along unit `dir`
+/// is tallied about: `hemisphere_reference(dir, 0)`, `normalize(ẑ × dir)`
+/// (`+y` along `±z`), for directions above and below the horizon alike.
+#[must_use]
+pub fn stokes_reference(dir: DVec3) -> DVec3 {
+    hemisphere_reference(dir, 0.0)
+}
+
+/// What the tallies of `roks trace` read from a carrier leaving the object.
+pub trait Leaving: Carrier {
+    /// The Stokes vector about [`stokes_reference`] of the exit direction
+    /// `dir`; `None` for the scalar weight (nothing to tally).
+    fn stokes_leaving(&self, dir: DVec3) -> Option<Stokes>;
+}
+
+impl Leaving for f64 {
+    #[inline]
+    fn stokes_leaving(&self, _: DVec3) -> Option<Stokes> {
+        None
+    }
+}
+
+impl Leaving for Polarised<1> {
+    #[inline]
+    fn stokes_leaving(&self, dir: DVec3) -> Option<Stokes> {
+        Some(self.columns_in(dir, stokes_reference(dir))[0])
     }
 }
 
@@ -78,6 +137,12 @@ pub struct ObjectRun {
     pub farfield: bool,
     /// History limits at the macro level.
     pub controls: Controls,
+    /// Polarised transport: photons carry a Stokes vector (see the module
+    /// docs); `false`: the scalar weight.
+    pub polarisation: bool,
+    /// Tally the Stokes vector per far-field cell (with `farfield` and
+    /// `polarisation` only).
+    pub farfield_stokes: bool,
 }
 
 /// Sums for one beam position.
@@ -93,6 +158,13 @@ pub struct Tallies {
     pub absorbed: Accumulator,
     /// Far-field weight per full-sphere cell (empty if not tallied).
     pub farfield: Accumulator,
+    /// Stokes vector `(S0, S1, S2, S3)` of the light escaping after at least
+    /// one reflection, about [`stokes_reference`] of each exit direction
+    /// (four bins; empty for scalar runs).
+    pub stokes: Accumulator,
+    /// The same per far-field cell: bin `4 cell + j` holds `S_j` (empty if
+    /// not tallied).
+    pub farfield_stokes: Accumulator,
     /// Macro reflections, summed.
     pub bounces: u64,
     /// Straight flights at the macro level.
@@ -106,13 +178,17 @@ pub struct Tallies {
 }
 
 impl Tallies {
-    fn new(n_surfaces: usize, farfield_cells: usize) -> Self {
+    /// Zero sums with `n_surfaces` absorbed bins, `farfield_cells` far-field
+    /// cells; Stokes bins if `stokes` (4) and `farfield_stokes` (4 per cell).
+    fn new(n_surfaces: usize, farfield_cells: usize, stokes: bool, farfield_stokes: bool) -> Self {
         Self {
             photons: 0,
             reflected: Accumulator::new(1),
             missed: 0.0,
             absorbed: Accumulator::new(n_surfaces),
             farfield: Accumulator::new(farfield_cells),
+            stokes: Accumulator::new(if stokes { 4 } else { 0 }),
+            farfield_stokes: Accumulator::new(if farfield_stokes { 4 * farfield_cells } else { 0 }),
             bounces: 0,
             segments: 0,
             lost: 0.0,
@@ -127,6 +203,8 @@ impl Tallies {
         self.missed += o.missed;
         self.absorbed.merge(&o.absorbed);
         self.farfield.merge(&o.farfield);
+        self.stokes.merge(&o.stokes);
+        self.farfield_stokes.merge(&o.farfield_stokes);
         self.bounces += o.bounces;
         self.segments += o.segments;
         self.lost += o.lost;
@@ -159,6 +237,19 @@ impl PositionResult {
             self.tallies.reflected.stderr(0, n),
         )
     }
+
+    /// The Stokes vector of the reflected light per unit beam power (see
+    /// [`Tallies::stokes`]) and its standard errors; `None` for a scalar run.
+    #[must_use]
+    pub fn stokes(&self) -> Option<(Stokes, Stokes)> {
+        let (acc, n) = (&self.tallies.stokes, self.tallies.photons);
+        (!acc.is_empty()).then(|| {
+            (
+                std::array::from_fn(|j| acc.mean(j, n)),
+                std::array::from_fn(|j| acc.stderr(j, n)),
+            )
+        })
+    }
 }
 
 impl ObjectRun {
@@ -168,6 +259,18 @@ impl ObjectRun {
         FarField {
             grid: CarlsonGrid::new(self.bands).expect("bands >= 1 checked by the scene"),
         }
+    }
+
+    /// Whether the Stokes vector is tallied per far-field cell.
+    #[must_use]
+    pub fn tallies_farfield_stokes(&self) -> bool {
+        self.farfield && self.farfield_stokes && self.polarisation
+    }
+
+    /// Zero sums for this run.
+    fn tallies(&self, n_surfaces: usize, ff: &FarField) -> Tallies {
+        let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
+        Tallies::new(n_surfaces, ff_cells, self.polarisation, self.tallies_farfield_stokes())
     }
 
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
@@ -188,11 +291,17 @@ impl ObjectRun {
             .map(|(k, (beam, &n_photons))| {
                 let clock = Instant::now();
                 let ff = self.farfield_grid();
-                let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
-                let mut total = Tallies::new(object.surface_names.len(), ff_cells);
+                let mut total = self.tallies(object.surface_names.len(), &ff);
+                let position = k as u64;
                 super::run_batches(
                     n_photons,
-                    |range| self.trace_batch(object, walls, models, beam, k as u64, &ff, range),
+                    |range| {
+                        if self.polarisation {
+                            self.trace_batch::<Polarised<1>>(object, walls, models, beam, position, &ff, range)
+                        } else {
+                            self.trace_batch::<f64>(object, walls, models, beam, position, &ff, range)
+                        }
+                    },
                     |_, part| total.merge(&part),
                     progress,
                 );
@@ -205,8 +314,9 @@ impl ObjectRun {
             .collect()
     }
 
+    /// Trace photons `photons` of beam `position`, carrying `C`.
     #[allow(clippy::too_many_arguments)]
-    fn trace_batch(
+    fn trace_batch<C: Leaving>(
         &self,
         object: &Object,
         walls: &Walls,
@@ -217,7 +327,8 @@ impl ObjectRun {
         photons: std::ops::Range<u64>,
     ) -> Tallies {
         let n_surfaces = object.surface_names.len();
-        let mut t = Tallies::new(n_surfaces, if self.farfield { ff.n_cells() } else { 0 });
+        let mut t = self.tallies(n_surfaces, ff);
+        let launch = C::launch(beam.polarisation.stokes(), beam.reference());
         let mut scratch: Vec<Option<Scratch>> = vec![None; models.len()];
         let mut absorbed = vec![0.0; n_surfaces];
         let mut touched: Vec<usize> = Vec::new();
@@ -237,7 +348,7 @@ impl ObjectRun {
                 &self.controls,
                 p,
                 beam.direction,
-                1.0,
+                launch,
                 &mut rng,
                 &mut scratch,
                 |sid, a| {
@@ -249,12 +360,21 @@ impl ObjectRun {
             );
             match end.fate {
                 MacroFate::Escaped { dir, weight } => {
+                    let intensity = weight.intensity();
                     if end.bounces == 0 {
-                        t.missed += weight;
+                        t.missed += intensity;
                     } else {
-                        t.reflected.score(0, weight);
+                        t.reflected.score(0, intensity);
                         if self.farfield {
-                            ff.score(&mut t.farfield, dir, weight);
+                            ff.score(&mut t.farfield, dir, intensity);
+                        }
+                        if let Some(s) = weight.stokes_leaving(dir) {
+                            for (j, v) in s.iter().enumerate() {
+                                t.stokes.score(j, *v);
+                            }
+                            if !t.farfield_stokes.is_empty() {
+                                ff.score_stokes(&mut t.farfield_stokes, dir, &s);
+                            }
                         }
                     }
                 }
