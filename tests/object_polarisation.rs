@@ -28,10 +28,16 @@
 //! amplitudes, `m = n + i k`, `m cos θt` the principal root of `m² - sin² θ`),
 //! independently of the crate's real closed forms.
 
+mod cli_common;
 mod object_common;
 
+use std::path::Path;
+use std::process::Command;
+
+use cli_common::{read, summary_without_timing};
 use num_complex::Complex64;
 use object_common::{run, scene, scratch};
+use serde_json::Value;
 
 /// Fresnel amplitudes `(rs, rp)` at incidence angle `deg` into `n + i k`
 /// (Verdet sign of `rp`: `rp = -rs` at normal incidence).
@@ -308,9 +314,10 @@ fn plate_applies_the_fresnel_matrix() {
     }
 }
 
-/// A spherical cavity (radius 10, aperture above z = 6) with a non-polarising
-/// wall `model` and strong roulette; one source per state.
-fn cavity(model: &str, transport: &str) -> String {
+/// A spherical cavity (radius 10, aperture above z = 6) with wall `model`
+/// and strong roulette; one source per state; `tally`, `transport`: extra
+/// lines of those tables.
+fn cavity(model: &str, tally: &str, transport: &str) -> String {
     let mut sources = String::new();
     for st in ["\"unpolarised\"", "\"s\"", "\"right\"", "{ linear = 30.0 }", "[1.0, 0.3, -0.4, 0.5]"] {
         sources.push_str(&format!(
@@ -345,6 +352,7 @@ s = "wall"
 [tally]
 bands = 5
 farfield = true
+{tally}
 
 [transport]
 roulette_weight = 0.2
@@ -361,9 +369,9 @@ roulette_weight = 0.2
 fn non_polarising_scene_is_unchanged_by_polarised_transport() {
     for model in ["reflectance = 0.9", "specular = 0.5\ndiffuse = 0.4"] {
         let dir = scratch("nonpol");
-        let scalar = scene("nonpol", &cavity(model, ""), &dir);
+        let scalar = scene("nonpol", &cavity(model, "", ""), &dir);
         assert!(!scalar.run.polarisation, "{model}: no polarising wall");
-        let forced = scene("nonpol-forced", &cavity(model, "polarisation = true"), &dir);
+        let forced = scene("nonpol-forced", &cavity(model, "", "polarisation = true"), &dir);
         assert!(forced.run.polarisation);
         for (a, b) in run(&scalar).iter().zip(&run(&forced)) {
             let what = format!("{model}: {}", a.beam.polarisation.name());
@@ -378,4 +386,106 @@ fn non_polarising_scene_is_unchanged_by_polarised_transport() {
             assert_eq!(st[0], b.reflectance().0, "{what}");
         }
     }
+}
+
+/// `roks trace SCENE --out OUT -q` plus `extra`; panics on failure.
+fn trace(scene: &Path, out: &Path, extra: &[&str]) {
+    let o = Command::new(env!("CARGO_BIN_EXE_roks"))
+        .arg("trace")
+        .arg(scene)
+        .arg("--out")
+        .arg(out)
+        .arg("-q")
+        .args(extra)
+        .output()
+        .expect("run roks");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// The sources of `dir/summary.json`.
+fn sources(dir: &Path) -> Vec<Value> {
+    summary_without_timing(dir)["sources"].as_array().unwrap().clone()
+}
+
+/// Through the binary: the wedge's summary.json has the polarised products
+/// and the Stokes vectors; `--no-polarisation` gives the unpolarised product
+/// (the old approximation) and no Stokes keys.
+#[test]
+fn no_polarisation_flag_gives_the_old_approximation() {
+    let (n, k, alpha) = (1.6, 0.2, 13.0);
+    let angles = wedge_angles(alpha);
+    let sp: Vec<(f64, f64)> = angles.iter().map(|&a| rs_rp(a, n, k)).collect();
+    let ps: f64 = sp.iter().map(|v| v.0).product();
+    let pp: f64 = sp.iter().map(|v| v.1).product();
+    let old: f64 = sp.iter().map(|v| 0.5 * (v.0 + v.1)).product();
+    let dir = scratch("wedge-cli");
+    let path = dir.join("wedge.toml");
+    std::fs::write(&path, wedge(alpha, n, k, &["\"unpolarised\"", "\"s\""], "")).unwrap();
+    trace(&path, &dir.join("pol"), &[]);
+    trace(&path, &dir.join("scalar"), &["--no-polarisation"]);
+    let pol = sources(&dir.join("pol"));
+    for (src, (name, want)) in pol.iter().zip([("unpolarised", 0.5 * (ps + pp)), ("s", ps)]) {
+        let refl = src["reflectance"].as_f64().unwrap();
+        close(name, refl, want, 1e-12, want);
+        assert_eq!(src["polarisation"], name);
+        assert_eq!(src["stokes"][0].as_f64().unwrap(), refl);
+        assert_eq!(src["stokes_stderr"].as_array().unwrap().len(), 4);
+    }
+    for src in sources(&dir.join("scalar")) {
+        close("scalar", src["reflectance"].as_f64().unwrap(), old, 1e-12, old);
+        assert!(src.get("stokes").is_none() && src.get("polarisation").is_none(), "{src}");
+    }
+    assert!(0.5 * (ps + pp) > 1.5 * old, "{ps} {pp} {old}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A Fresnel cavity with roulette, five incident states, 9000 photons each
+/// (three batches): `--threads 1` and `--threads 4` write the same
+/// summary.json (Stokes entries included) and the same farfield_stokes.csv
+/// byte for byte. The file is consistent with the others: its `s0` is
+/// farfield.csv's `brdf` digit for digit, and its cells add up (times their
+/// projected solid angles) to the summary's Stokes vector.
+#[test]
+fn stokes_outputs_same_for_any_thread_count() {
+    let dir = scratch("stokes-threads");
+    let path = dir.join("cavity.toml");
+    std::fs::write(&path, cavity("n = 1.2\nk = 3.0", "polarisation = \"stokes\"", "")).unwrap();
+    let (one, four) = (dir.join("t1"), dir.join("t4"));
+    trace(&path, &one, &["--threads", "1"]);
+    trace(&path, &four, &["--threads", "4"]);
+    assert_eq!(summary_without_timing(&one), summary_without_timing(&four));
+    for f in ["farfield_stokes.csv", "farfield.csv", "reflectance.csv"] {
+        assert!(read(&one, f) == read(&four, f), "{f} differs between 1 and 4 threads");
+    }
+    let text = String::from_utf8(read(&one, "farfield_stokes.csv")).unwrap();
+    let ff = String::from_utf8(read(&one, "farfield.csv")).unwrap();
+    let cells = 2 * 2 * 5 * 6; // two hemispheres of 2 M (M + 1) cells, M = 5
+    assert_eq!(text.lines().count(), 1 + 5 * cells);
+    let srcs = sources(&one);
+    let mut sums = vec![[0.0; 4]; srcs.len()];
+    for (l, f) in text.lines().skip(1).zip(ff.lines().skip(1)) {
+        let c: Vec<&str> = l.split(',').collect();
+        let fc: Vec<&str> = f.split(',').collect();
+        assert_eq!(c[..11], fc[..11], "cell columns");
+        assert_eq!((c[11], c[12]), (fc[13], fc[14]), "s0 is the brdf: {l}");
+        let v: Vec<f64> = c.iter().map(|x| x.parse().unwrap()).collect();
+        let (src, proj) = (v[0] as usize, v[10]);
+        for j in 0..4 {
+            sums[src][j] += v[11 + 2 * j] * proj;
+        }
+        let pol = (v[13] * v[13] + v[15] * v[15] + v[17] * v[17]).sqrt();
+        let dop = if v[11] > 0.0 { pol / v[11] } else { 0.0 };
+        assert!((v[19] - dop).abs() <= 1e-8 * dop.max(1.0), "{l}");
+        assert!(v[19] <= 1.0 + 1e-9, "DoP above 1: {l}");
+    }
+    for (src, sum) in srcs.iter().zip(&sums) {
+        let st: Vec<f64> = src["stokes"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        for j in 0..4 {
+            assert!((sum[j] - st[j]).abs() <= 1e-7 * st[0], "{j}: {sum:?} vs {st:?}");
+        }
+        assert!(src["mean_bounces"].as_f64().unwrap() > 3.0, "{src}");
+    }
+    // A polarised source leaves polarised: not every S1, S2, S3 is zero.
+    assert!(srcs[1]["stokes"][1].as_f64().unwrap().abs() > 1e-3, "{:?}", srcs[1]);
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -198,10 +198,15 @@ fn broken(from: &str, to: &str) -> String {
 /// Run `roks trace` on `text` and check the error contract; `expect` are
 /// substrings the stderr line must contain besides the file path.
 fn check(case: &str, text: &str, expect: &[&str]) {
+    check_with(case, text, &[], expect);
+}
+
+/// [`check`] with `extra` command-line arguments.
+fn check_with(case: &str, text: &str, extra: &[&str], expect: &[&str]) {
     let dir = scratch(&format!("trace-err-{case}"));
     let scene = write_scene(&dir, case, text);
     let out = dir.join("out");
-    let o = trace(&scene, &out, &[]);
+    let o = trace(&scene, &out, extra);
     cli_common::assert_input_error(case, &o, &scene, &out, expect);
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -312,5 +317,57 @@ fn photons_hit_a_surface_without_model() {
         "unmodelled",
         &broken("diameter = 2.0", "diameter = 18.0"),
         &["walls.cut", "no model"],
+    );
+}
+
+#[test]
+fn unknown_polarisation_state() {
+    check(
+        "unknown_state",
+        &broken("photons = 2000\n", "photons = 2000\npolarisation = \"diagonal\"\n"),
+        &["sources[0].polarisation", "unknown state `diagonal`"],
+    );
+}
+
+#[test]
+fn unphysical_stokes_vector() {
+    check(
+        "stokes_dop",
+        &broken("photons = 2000\n", "photons = 2000\npolarisation = [1.0, 1.0, 1.0, 0.0]\n"),
+        &["sources[0].polarisation", "degree of polarisation"],
+    );
+}
+
+#[test]
+fn unknown_polarisation_tally() {
+    check(
+        "mueller_tally",
+        &broken("farfield = true\n", "farfield = true\npolarisation = \"mueller\"\n"),
+        &["tally.polarisation", "unknown variant `mueller`"],
+    );
+}
+
+#[test]
+fn stokes_tally_needs_the_far_field() {
+    check(
+        "stokes_no_farfield",
+        &broken("farfield = true\n", "polarisation = \"stokes\"\n"),
+        &["tally.polarisation", "farfield = true"],
+    );
+}
+
+#[test]
+fn stokes_tally_needs_polarised_transport() {
+    let text = broken("farfield = true\n", "farfield = true\npolarisation = \"stokes\"\n");
+    check(
+        "stokes_scalar",
+        &format!("{text}\n[transport]\npolarisation = false\n"),
+        &["transport.polarisation", "conflicts"],
+    );
+    check_with(
+        "stokes_no_polarisation",
+        &text,
+        &["--no-polarisation"],
+        &["tally.polarisation", "--no-polarisation"],
     );
 }
