@@ -142,10 +142,13 @@ fn wedge_keeps_s_and_p_apart() {
     assert_eq!(angles.len(), 7, "{angles:?}");
     for (n, k) in MEDIA {
         let prod = |f: &dyn Fn(f64, f64) -> f64| {
-            angles.iter().map(|&a| {
-                let (rs, rp) = rs_rp(a, n, k);
-                f(rs, rp)
-            }).product::<f64>()
+            angles
+                .iter()
+                .map(|&a| {
+                    let (rs, rp) = rs_rp(a, n, k);
+                    f(rs, rp)
+                })
+                .product::<f64>()
         };
         let (ps, pp) = (prod(&|s, _| s), prod(&|_, p| p));
         let text = wedge(alpha, n, k, &["\"unpolarised\"", "\"s\"", "\"p\""], "");
@@ -157,7 +160,11 @@ fn wedge_keeps_s_and_p_apart() {
             let what = format!("n {n} k {k}, {}", r.beam.polarisation.name());
             let t = &r.tallies;
             assert_eq!(t.unmodelled.0, 0, "{what}");
-            assert_eq!(t.bounces, 7 * t.photons, "{what}: every photon bounces 7 times");
+            assert_eq!(
+                t.bounces,
+                7 * t.photons,
+                "{what}: every photon bounces 7 times"
+            );
             assert_eq!((t.lost, t.missed), (0.0, 0.0), "{what}");
             let (refl, se) = r.reflectance();
             close(&format!("{what}: reflectance"), refl, s0, 1e-12, s0);
@@ -167,11 +174,17 @@ fn wedge_keeps_s_and_p_apart() {
             close(&format!("{what}: S1"), st[1], s1, 1e-12, s0);
             close(&format!("{what}: S2"), st[2], 0.0, 1e-12, s0);
             close(&format!("{what}: S3"), st[3], 0.0, 1e-12, s0);
-            assert!(st_se.iter().all(|&e| e <= ZERO_VARIANCE * s0), "{what}: {st_se:?}");
+            assert!(
+                st_se.iter().all(|&e| e <= ZERO_VARIANCE * s0),
+                "{what}: {st_se:?}"
+            );
         }
         // The s/p products really differ from the unpolarised product.
         let old = prod(&|s, p| 0.5 * (s + p));
-        assert!(0.5 * (ps + pp) > 1.001 * old, "n {n} k {k}: {ps} {pp} {old}");
+        assert!(
+            0.5 * (ps + pp) > 1.001 * old,
+            "n {n} k {k}: {ps} {pp} {old}"
+        );
     }
 }
 
@@ -190,7 +203,13 @@ fn wedge_without_polarisation_is_the_unpolarised_product() {
                 0.5 * (rs + rp)
             })
             .product();
-        let text = wedge(alpha, n, k, &["\"unpolarised\"", "\"s\""], "polarisation = false");
+        let text = wedge(
+            alpha,
+            n,
+            k,
+            &["\"unpolarised\"", "\"s\""],
+            "polarisation = false",
+        );
         let sc = scene("wedge-scalar", &text, &scratch("wedge-scalar"));
         assert!(!sc.run.polarisation);
         for r in run(&sc) {
@@ -254,7 +273,13 @@ roulette_weight = 0.0
 /// Stokes tally (one cell: the specular direction) holds the same vector.
 #[test]
 fn plate_applies_the_fresnel_matrix() {
-    let states = ["\"s\"", "\"p\"", "{ linear = 45.0 }", "\"right\"", "\"unpolarised\""];
+    let states = [
+        "\"s\"",
+        "\"p\"",
+        "{ linear = 45.0 }",
+        "\"right\"",
+        "\"unpolarised\"",
+    ];
     for (n, k) in MEDIA {
         for theta in [30.0, 60.0, 80.0] {
             let (rs, rp) = amplitudes(theta, n, k);
@@ -290,7 +315,8 @@ fn plate_applies_the_fresnel_matrix() {
                 }
                 // Far field: every photon leaves along the specular direction.
                 let t = &r.tallies;
-                let spec = glam::DVec3::new(-theta.to_radians().sin(), 0.0, theta.to_radians().cos());
+                let spec =
+                    glam::DVec3::new(-theta.to_radians().sin(), 0.0, theta.to_radians().cos());
                 let mut probe = roks::tally::Accumulator::new(ff.n_cells());
                 ff.score(&mut probe, spec, 1.0);
                 let cell = probe.sum.iter().position(|&v| v == 1.0).expect("one cell");
@@ -319,7 +345,13 @@ fn plate_applies_the_fresnel_matrix() {
 /// lines of those tables.
 fn cavity(model: &str, tally: &str, transport: &str) -> String {
     let mut sources = String::new();
-    for st in ["\"unpolarised\"", "\"s\"", "\"right\"", "{ linear = 30.0 }", "[1.0, 0.3, -0.4, 0.5]"] {
+    for st in [
+        "\"unpolarised\"",
+        "\"s\"",
+        "\"right\"",
+        "{ linear = 30.0 }",
+        "[1.0, 0.3, -0.4, 0.5]",
+    ] {
         sources.push_str(&format!(
             "[[sources]]\nbeam = {{ direction = [0.3, 0.0, -1.0], diameter = 3.0 }}\nposition = [1.0, 0.5, 9.0]\nphotons = 9000\npolarisation = {st}\n\n"
         ));
@@ -371,7 +403,11 @@ fn non_polarising_scene_is_unchanged_by_polarised_transport() {
         let dir = scratch("nonpol");
         let scalar = scene("nonpol", &cavity(model, "", ""), &dir);
         assert!(!scalar.run.polarisation, "{model}: no polarising wall");
-        let forced = scene("nonpol-forced", &cavity(model, "", "polarisation = true"), &dir);
+        let forced = scene(
+            "nonpol-forced",
+            &cavity(model, "", "polarisation = true"),
+            &dir,
+        );
         assert!(forced.run.polarisation);
         for (a, b) in run(&scalar).iter().zip(&run(&forced)) {
             let what = format!("{model}: {}", a.beam.polarisation.name());
@@ -379,8 +415,14 @@ fn non_polarising_scene_is_unchanged_by_polarised_transport() {
             assert_eq!(a.tallies.reflected, b.tallies.reflected, "{what}");
             assert_eq!(a.tallies.farfield, b.tallies.farfield, "{what}");
             assert_eq!(a.tallies.missed, b.tallies.missed, "{what}");
-            assert_eq!((a.tallies.bounces, a.tallies.segments), (b.tallies.bounces, b.tallies.segments));
-            assert!(a.tallies.bounces > 3 * a.tallies.photons, "{what}: a multi-bounce cavity");
+            assert_eq!(
+                (a.tallies.bounces, a.tallies.segments),
+                (b.tallies.bounces, b.tallies.segments)
+            );
+            assert!(
+                a.tallies.bounces > 3 * a.tallies.photons,
+                "{what}: a multi-bounce cavity"
+            );
             assert!(a.stokes().is_none());
             let (st, _) = b.stokes().unwrap();
             assert_eq!(st[0], b.reflectance().0, "{what}");
@@ -404,7 +446,10 @@ fn trace(scene: &Path, out: &Path, extra: &[&str]) {
 
 /// The sources of `dir/summary.json`.
 fn sources(dir: &Path) -> Vec<Value> {
-    summary_without_timing(dir)["sources"].as_array().unwrap().clone()
+    summary_without_timing(dir)["sources"]
+        .as_array()
+        .unwrap()
+        .clone()
 }
 
 /// Through the binary: the wedge's summary.json has the polarised products
@@ -424,7 +469,10 @@ fn no_polarisation_flag_gives_the_old_approximation() {
     trace(&path, &dir.join("pol"), &[]);
     trace(&path, &dir.join("scalar"), &["--no-polarisation"]);
     let pol = sources(&dir.join("pol"));
-    for (src, (name, want)) in pol.iter().zip([("unpolarised", 0.5 * (ps + pp)), ("s", ps)]) {
+    for (src, (name, want)) in pol
+        .iter()
+        .zip([("unpolarised", 0.5 * (ps + pp)), ("s", ps)])
+    {
         let refl = src["reflectance"].as_f64().unwrap();
         close(name, refl, want, 1e-12, want);
         assert_eq!(src["polarisation"], name);
@@ -432,8 +480,17 @@ fn no_polarisation_flag_gives_the_old_approximation() {
         assert_eq!(src["stokes_stderr"].as_array().unwrap().len(), 4);
     }
     for src in sources(&dir.join("scalar")) {
-        close("scalar", src["reflectance"].as_f64().unwrap(), old, 1e-12, old);
-        assert!(src.get("stokes").is_none() && src.get("polarisation").is_none(), "{src}");
+        close(
+            "scalar",
+            src["reflectance"].as_f64().unwrap(),
+            old,
+            1e-12,
+            old,
+        );
+        assert!(
+            src.get("stokes").is_none() && src.get("polarisation").is_none(),
+            "{src}"
+        );
     }
     assert!(0.5 * (ps + pp) > 1.5 * old, "{ps} {pp} {old}");
     let _ = std::fs::remove_dir_all(&dir);
@@ -449,13 +506,20 @@ fn no_polarisation_flag_gives_the_old_approximation() {
 fn stokes_outputs_same_for_any_thread_count() {
     let dir = scratch("stokes-threads");
     let path = dir.join("cavity.toml");
-    std::fs::write(&path, cavity("n = 1.2\nk = 3.0", "polarisation = \"stokes\"", "")).unwrap();
+    std::fs::write(
+        &path,
+        cavity("n = 1.2\nk = 3.0", "polarisation = \"stokes\"", ""),
+    )
+    .unwrap();
     let (one, four) = (dir.join("t1"), dir.join("t4"));
     trace(&path, &one, &["--threads", "1"]);
     trace(&path, &four, &["--threads", "4"]);
     assert_eq!(summary_without_timing(&one), summary_without_timing(&four));
     for f in ["farfield_stokes.csv", "farfield.csv", "reflectance.csv"] {
-        assert!(read(&one, f) == read(&four, f), "{f} differs between 1 and 4 threads");
+        assert!(
+            read(&one, f) == read(&four, f),
+            "{f} differs between 1 and 4 threads"
+        );
     }
     let text = String::from_utf8(read(&one, "farfield_stokes.csv")).unwrap();
     let ff = String::from_utf8(read(&one, "farfield.csv")).unwrap();
@@ -479,13 +543,25 @@ fn stokes_outputs_same_for_any_thread_count() {
         assert!(v[19] <= 1.0 + 1e-9, "DoP above 1: {l}");
     }
     for (src, sum) in srcs.iter().zip(&sums) {
-        let st: Vec<f64> = src["stokes"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        let st: Vec<f64> = src["stokes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
         for j in 0..4 {
-            assert!((sum[j] - st[j]).abs() <= 1e-7 * st[0], "{j}: {sum:?} vs {st:?}");
+            assert!(
+                (sum[j] - st[j]).abs() <= 1e-7 * st[0],
+                "{j}: {sum:?} vs {st:?}"
+            );
         }
         assert!(src["mean_bounces"].as_f64().unwrap() > 3.0, "{src}");
     }
     // A polarised source leaves polarised: not every S1, S2, S3 is zero.
-    assert!(srcs[1]["stokes"][1].as_f64().unwrap().abs() > 1e-3, "{:?}", srcs[1]);
+    assert!(
+        srcs[1]["stokes"][1].as_f64().unwrap().abs() > 1e-3,
+        "{:?}",
+        srcs[1]
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

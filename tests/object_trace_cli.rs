@@ -324,7 +324,10 @@ fn photons_hit_a_surface_without_model() {
 fn unknown_polarisation_state() {
     check(
         "unknown_state",
-        &broken("photons = 2000\n", "photons = 2000\npolarisation = \"diagonal\"\n"),
+        &broken(
+            "photons = 2000\n",
+            "photons = 2000\npolarisation = \"diagonal\"\n",
+        ),
         &["sources[0].polarisation", "unknown state `diagonal`"],
     );
 }
@@ -333,7 +336,10 @@ fn unknown_polarisation_state() {
 fn unphysical_stokes_vector() {
     check(
         "stokes_dop",
-        &broken("photons = 2000\n", "photons = 2000\npolarisation = [1.0, 1.0, 1.0, 0.0]\n"),
+        &broken(
+            "photons = 2000\n",
+            "photons = 2000\npolarisation = [1.0, 1.0, 1.0, 0.0]\n",
+        ),
         &["sources[0].polarisation", "degree of polarisation"],
     );
 }
@@ -342,8 +348,11 @@ fn unphysical_stokes_vector() {
 fn unknown_polarisation_tally() {
     check(
         "mueller_tally",
-        &broken("farfield = true\n", "farfield = true\npolarisation = \"mueller\"\n"),
-        &["tally.polarisation", "unknown variant `mueller`"],
+        &broken(
+            "farfield = true\n",
+            "farfield = true\npolarisation = \"mueller\"\n",
+        ),
+        &["tally.polarisation", "\"mueller\" is for micro scenes"],
     );
 }
 
@@ -358,7 +367,10 @@ fn stokes_tally_needs_the_far_field() {
 
 #[test]
 fn stokes_tally_needs_polarised_transport() {
-    let text = broken("farfield = true\n", "farfield = true\npolarisation = \"stokes\"\n");
+    let text = broken(
+        "farfield = true\n",
+        "farfield = true\npolarisation = \"stokes\"\n",
+    );
     check(
         "stokes_scalar",
         &format!("{text}\n[transport]\npolarisation = false\n"),

@@ -201,10 +201,9 @@ impl WallModel {
     /// exact for it whatever the incident state.
     #[must_use]
     pub fn polarises(&self) -> bool {
-        let fresnel = |r: &Reflectance| matches!(r, Reflectance::Fresnel { .. });
         match self {
-            Self::Specular(r) => fresnel(r),
-            Self::Micro { scene, .. } => scene.surface.materials.iter().any(fresnel),
+            Self::Specular(r) => matches!(r, Reflectance::Fresnel { .. }),
+            Self::Micro { scene, .. } => scene.has_fresnel(),
             Self::Table(_) | Self::Ideal { .. } => false,
         }
     }

@@ -96,6 +96,7 @@ use crate::object::{Object, SolidCell, VoidCell};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
+use crate::tally::PolarTally;
 use crate::transport::micro::Controls;
 use crate::transport::object::{ObjectRun, Walls};
 
@@ -125,43 +126,10 @@ pub struct ObjectSceneSpec {
     /// Far-field tally.
     #[serde(default)]
     pub tally: ObjectTallySpec,
-    /// History limits and polarised transport.
+    /// History limits and polarised transport (`polarisation`: `None`
+    /// decides by the scene, see the module docs).
     #[serde(default)]
-    pub transport: ObjectTransportSpec,
-}
-
-/// `[transport]` of an object scene: the micro scene's history limits
-/// ([`TransportSpec`], same defaults) and the choice of polarised transport.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ObjectTransportSpec {
-    /// Most macro reflections per photon (and per micro descent).
-    #[serde(default = "default_max_bounces")]
-    pub max_bounces: u32,
-    /// Russian roulette threshold weight.
-    #[serde(default = "default_roulette")]
-    pub roulette_weight: f64,
-    /// Polarised transport: `None` decides by the scene (see the module
-    /// docs), `Some(false)` the scalar approximation, `Some(true)` Stokes.
-    pub polarisation: Option<bool>,
-}
-
-impl Default for ObjectTransportSpec {
-    fn default() -> Self {
-        Self {
-            max_bounces: default_max_bounces(),
-            roulette_weight: default_roulette(),
-            polarisation: None,
-        }
-    }
-}
-
-fn default_max_bounces() -> u32 {
-    TransportSpec::default().max_bounces
-}
-
-fn default_roulette() -> f64 {
-    TransportSpec::default().roulette_weight
+    pub transport: TransportSpec,
 }
 
 /// `[[cells]]`.
@@ -261,20 +229,10 @@ pub struct ObjectTallySpec {
     /// Write farfield.csv.
     #[serde(default)]
     pub farfield: bool,
-    /// Polarisation tallies: `"none"` (default) or `"stokes"` (farfield_stokes.csv).
+    /// Polarisation tallies: `"none"` (default) or `"stokes"`
+    /// (farfield_stokes.csv); `"mueller"` is for micro scenes only.
     #[serde(default)]
-    pub polarisation: PolarisationTally,
-}
-
-/// `[tally] polarisation` of an object scene.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum PolarisationTally {
-    /// Intensity only (Stokes summaries still come with polarised transport).
-    #[default]
-    None,
-    /// The Stokes vector per far-field cell too.
-    Stokes,
+    pub polarisation: PolarTally,
 }
 
 impl Default for ObjectTallySpec {
@@ -282,7 +240,7 @@ impl Default for ObjectTallySpec {
         Self {
             bands: default_bands(),
             farfield: false,
-            polarisation: PolarisationTally::None,
+            polarisation: PolarTally::None,
         }
     }
 }
@@ -418,7 +376,13 @@ impl ObjectSceneSpec {
                 format!("must be in 1..=1000, got {}", tally.bands),
             ));
         }
-        let farfield_stokes = tally.polarisation == PolarisationTally::Stokes;
+        if tally.polarisation == PolarTally::Mueller {
+            return Err(source.error(
+                "tally.polarisation",
+                "\"mueller\" is for micro scenes (roks brdf); object scenes tally \"stokes\" or \"none\"",
+            ));
+        }
+        let farfield_stokes = tally.polarisation == PolarTally::Stokes;
         if farfield_stokes && !tally.farfield {
             return Err(source.error(
                 "tally.polarisation",

@@ -102,27 +102,6 @@ pub fn stokes_reference(dir: DVec3) -> DVec3 {
     hemisphere_reference(dir, 0.0)
 }
 
-/// What the tallies of `roks trace` read from a carrier leaving the object.
-pub trait Leaving: Carrier {
-    /// The Stokes vector about [`stokes_reference`] of the exit direction
-    /// `dir`; `None` for the scalar weight (nothing to tally).
-    fn stokes_leaving(&self, dir: DVec3) -> Option<Stokes>;
-}
-
-impl Leaving for f64 {
-    #[inline]
-    fn stokes_leaving(&self, _: DVec3) -> Option<Stokes> {
-        None
-    }
-}
-
-impl Leaving for Polarised<1> {
-    #[inline]
-    fn stokes_leaving(&self, dir: DVec3) -> Option<Stokes> {
-        Some(self.columns_in(dir, stokes_reference(dir))[0])
-    }
-}
-
 /// Wall model of every surface id (`None`: no model).
 pub type Walls = Vec<Option<usize>>;
 
@@ -188,7 +167,11 @@ impl Tallies {
             absorbed: Accumulator::new(n_surfaces),
             farfield: Accumulator::new(farfield_cells),
             stokes: Accumulator::new(if stokes { 4 } else { 0 }),
-            farfield_stokes: Accumulator::new(if farfield_stokes { 4 * farfield_cells } else { 0 }),
+            farfield_stokes: Accumulator::new(if farfield_stokes {
+                4 * farfield_cells
+            } else {
+                0
+            }),
             bounces: 0,
             segments: 0,
             lost: 0.0,
@@ -270,7 +253,12 @@ impl ObjectRun {
     /// Zero sums for this run.
     fn tallies(&self, n_surfaces: usize, ff: &FarField) -> Tallies {
         let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
-        Tallies::new(n_surfaces, ff_cells, self.polarisation, self.tallies_farfield_stokes())
+        Tallies::new(
+            n_surfaces,
+            ff_cells,
+            self.polarisation,
+            self.tallies_farfield_stokes(),
+        )
     }
 
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
@@ -297,9 +285,13 @@ impl ObjectRun {
                     n_photons,
                     |range| {
                         if self.polarisation {
-                            self.trace_batch::<Polarised<1>>(object, walls, models, beam, position, &ff, range)
+                            self.trace_batch::<Polarised<1>>(
+                                object, walls, models, beam, position, &ff, range,
+                            )
                         } else {
-                            self.trace_batch::<f64>(object, walls, models, beam, position, &ff, range)
+                            self.trace_batch::<f64>(
+                                object, walls, models, beam, position, &ff, range,
+                            )
                         }
                     },
                     |_, part| total.merge(&part),
@@ -316,7 +308,7 @@ impl ObjectRun {
 
     /// Trace photons `photons` of beam `position`, carrying `C`.
     #[allow(clippy::too_many_arguments)]
-    fn trace_batch<C: Leaving>(
+    fn trace_batch<C: Carrier>(
         &self,
         object: &Object,
         walls: &Walls,
@@ -368,7 +360,9 @@ impl ObjectRun {
                         if self.farfield {
                             ff.score(&mut t.farfield, dir, intensity);
                         }
-                        if let Some(s) = weight.stokes_leaving(dir) {
+                        let mut c = [0.0; 16];
+                        if weight.components(dir, stokes_reference(dir), &mut c) == 4 {
+                            let s: Stokes = [c[0], c[1], c[2], c[3]];
                             for (j, v) in s.iter().enumerate() {
                                 t.stokes.score(j, *v);
                             }
