@@ -341,7 +341,7 @@ impl ObjectSceneSpec {
         };
 
         let model_names: Vec<String> = self.models.keys().cloned().collect();
-        let mut models: Vec<WallModel> = Vec::new();
+        let mut models = Vec::new();
         for (name, m) in &self.models {
             models.push(m.build(&source, &format!("models.{name}"), controls)?);
         }
