@@ -320,11 +320,11 @@ fn plate_applies_the_fresnel_matrix() {
                 let mut probe = roks::tally::Accumulator::new(ff.n_cells());
                 ff.score(&mut probe, spec, 1.0);
                 let cell = probe.sum.iter().position(|&v| v == 1.0).expect("one cell");
-                for j in 0..4 {
+                for (j, w) in want.iter().enumerate() {
                     close(
                         &format!("{what}: far-field S{j}"),
                         t.farfield_stokes.mean(4 * cell + j, t.photons),
-                        want[j],
+                        *w,
                         1e-12,
                         1.0,
                     );
