@@ -195,16 +195,18 @@ impl WallModel {
     }
 
     /// Whether the model can change the polarisation of light in a way its
-    /// intensity depends on: a Fresnel wall, or a micro descent whose micro
-    /// scene has a Fresnel material. Every other model is non-polarising or
-    /// depolarising (see [`WallModel::interact`]), so scalar transport is
-    /// exact for it whatever the incident state.
+    /// intensity depends on: a Fresnel wall, a micro descent whose micro
+    /// scene has a Fresnel material, or a BRDF table with its Mueller table.
+    /// Every other model is non-polarising or depolarising (see
+    /// [`WallModel::interact`]), so scalar transport is exact for it
+    /// whatever the incident state.
     #[must_use]
     pub fn polarises(&self) -> bool {
         match self {
             Self::Specular(r) => matches!(r, Reflectance::Fresnel { .. }),
             Self::Micro { scene, .. } => scene.has_fresnel(),
-            Self::Table(_) | Self::Ideal { .. } => false,
+            Self::Table(t) => t.has_mueller(),
+            Self::Ideal { .. } => false,
         }
     }
 
