@@ -77,9 +77,16 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))
     ap.add_argument("--photons", type=int, default=100_000)
+    ap.add_argument("--replot", action="store_true", help="only redraw from polarisation.csv")
     a = ap.parse_args()
     res = REPO / "results" / "radiator"
     res.mkdir(parents=True, exist_ok=True)
+    if a.replot:
+        with (res / "polarisation.csv").open(newline="") as f:
+            rows = [{k: (v == "True" if k == "defect" else v if k in ("scene", "walls", "case") else float(v))
+                     for k, v in r.items()} for r in csv.DictReader(f)]
+        report(res, rows, a.photons)
+        return 0
     # The Z-302 tables: plain (depolarising walls) and with Mueller matrices.
     run([a.roks, "brdf", REPO / "scenes" / "z302-micro.toml", "--out", REPO / "out" / "z302", "-q"], "radiator_polarisation")
     run([a.roks, "brdf", REPO / "scenes" / "z302-micro.toml", "--polarisation", "mueller",
@@ -160,25 +167,27 @@ def report(res: Path, rows: list[dict], photons: int) -> None:
     (res / "polarisation.md").write_text("\n".join(lines))
     print("\n".join(lines))
 
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.8))
+    fig, axes = plt.subplots(1, 3, figsize=(16, 5.2))
+    colours = dict(zip([c[0] for c in CASES[:4]], ["C0", "C2", "C3", "C7"]))
     for walls, style in (("micro", "-"), ("table", "--")):
         for label, _, _, mueller in CASES[:4]:
-            for d, ax in ((False, axes[0]), (True, axes[0])):
+            for d, ax in ((False, axes[0]), (True, axes[1])):
                 x, r, e, _ = series(rows, walls, d, label)
                 ax.errorbar(x, r, yerr=e, ls=style, marker=".", capsize=0, lw=1,
-                            label=f"{walls}, {'defect' if d else 'ideal'}: {label}")
+                            color=colours[label], label=f"{walls} walls: {label}")
             x, ri, ei, _ = series(rows, walls, False, label)
             _, rd, ed, _ = series(rows, walls, True, label)
-            axes[1].plot(x, rd / ri, ls=style, marker=".", label=f"{walls}: {label}")
-    axes[0].set_yscale("log")
-    axes[0].set_xlabel("beam offset from the axis (mm)")
-    axes[0].set_ylabel("cavity reflectance")
-    axes[0].set_title("(a) reflectance, ± 1 standard error")
-    axes[0].legend(fontsize=6)
-    axes[1].set_xlabel("beam offset from the axis (mm)")
-    axes[1].set_ylabel("defect / ideal")
-    axes[1].set_title("(b) defect / ideal cone")
-    axes[1].legend(fontsize=7)
+            axes[2].plot(x, rd / ri, ls=style, marker=".", color=colours[label],
+                         label=f"{walls} walls: {label}")
+    for ax, title in ((axes[0], "(a) ideal cone"), (axes[1], "(b) apex defect")):
+        ax.set_yscale("log")
+        ax.set_xlabel("beam offset from the axis (mm)")
+        ax.set_ylabel("cavity reflectance (± 1 standard error)")
+        ax.set_title(title)
+    axes[2].set_xlabel("beam offset from the axis (mm)")
+    axes[2].set_ylabel("defect / ideal")
+    axes[2].set_title("(c) defect / ideal cone")
+    axes[2].legend(fontsize=7, loc="upper left")
     fig.suptitle("Biconical radiator, Z-302 walls (n = 1.6 + 0.2i): polarised transport against the unpolarised approximation")
     fig.tight_layout()
     fig.savefig(res / "polarisation.png", dpi=110)
