@@ -105,7 +105,9 @@ enum Command {
     /// reads it: BRDF in 1/sr about the specular direction, TIS per angle of
     /// incidence) or `merl` (MERL binary, 90 x 90 x 180 half/difference-angle
     /// bins, three equal channels). Prints the file's reflectance, read back
-    /// and integrated over the hemisphere, beside the table's.
+    /// and integrated over the hemisphere, beside the table's. Both hold
+    /// intensity only (the BRDF for the run's incident state; their formats
+    /// cannot hold polarisation: mueller.csv stays beside brdf.csv).
     ExportBrdf(ExportBrdfArgs),
 }
 
