@@ -8,15 +8,17 @@ reflects light after several bounces, so the unpolarised weight per bounce
 ((Rs + Rp)/2, `--no-polarisation`) is not the physics. For the ideal cone and
 the apex defect, with walls traced down into the micro geometry at every hit
 (scenes/radiator.toml, radiator-defect.toml) and with walls sampling the
-Z-302 table (radiator-brdf.toml, radiator-defect-brdf.toml, here with the
+Z-302 table (radiator-brdf.toml, radiator-defect-brdf.toml, with the
 table's Mueller matrices: `roks brdf scenes/z302-micro.toml --polarisation
-mueller` into out/z302-mueller/), runs `roks trace` with
+mueller` into out/z302/, as scripts/radiator_study.py writes it), runs
+`roks trace` with
 
 * polarised transport, unpolarised beam (the default);
 * polarised transport, beams linearly polarised along y and along x (the beam
   is swept along x, so y is azimuthal and x radial to the axis);
 * `--no-polarisation` (the old approximation), unpolarised beam;
-* table walls only: the table without its Mueller matrices (depolarising walls).
+* table walls only: the table without its Mueller matrices (depolarising
+  walls; out/z302-depolarising/).
 
 Each run uses its own seed (1 + run number), so the runs are independent and
 differences are compared with the root sum of squares of the standard errors.
@@ -66,7 +68,7 @@ def scene_text(scene: str, state: str | None, mueller: bool) -> str:
     """The scene file with the beam's state and the table folder set; paths made absolute."""
     text = (REPO / "scenes" / f"{scene}.toml").read_text()
     text = text.replace('micro = "z302-micro.toml"', f'micro = "{REPO / "scenes" / "z302-micro.toml"}"')
-    table = REPO / "out" / ("z302-mueller" if mueller else "z302") / "brdf.csv"
+    table = REPO / "out" / ("z302" if mueller else "z302-depolarising") / "brdf.csv"
     text = re.sub(r'brdf = "\.\./out/z302/brdf\.csv"', f'brdf = "{table}"', text)
     if state is not None:
         text = text.replace("[[sources]]\n", f"[[sources]]\npolarisation = {state}\n", 1)
@@ -88,9 +90,10 @@ def main() -> int:
         report(res, rows, a.photons)
         return 0
     # The Z-302 tables: plain (depolarising walls) and with Mueller matrices.
-    run([a.roks, "brdf", REPO / "scenes" / "z302-micro.toml", "--out", REPO / "out" / "z302", "-q"], "radiator_polarisation")
+    run([a.roks, "brdf", REPO / "scenes" / "z302-micro.toml", "--out", REPO / "out" / "z302-depolarising",
+         "-q"], "radiator_polarisation")
     run([a.roks, "brdf", REPO / "scenes" / "z302-micro.toml", "--polarisation", "mueller",
-         "--out", REPO / "out" / "z302-mueller", "-q"], "radiator_polarisation")
+         "--out", REPO / "out" / "z302", "-q"], "radiator_polarisation")
     rows = []
     seed = 1
     with tempfile.TemporaryDirectory(prefix="radiator_pol_") as tmp:

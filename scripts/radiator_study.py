@@ -11,9 +11,11 @@ reflectance almost tenfold.
 
 This study:
 
-1. runs `roks brdf scenes/z302-micro.toml --out out/z302 -q` (the BRDF table
-   of the stand-in Z-302 micro geometry that the *-brdf scenes sample; the
-   scene's 400000 photons per angle);
+1. runs `roks brdf scenes/z302-micro.toml --polarisation mueller --out
+   out/z302 -q` (the BRDF table of the stand-in Z-302 micro geometry that the
+   *-brdf scenes sample, with its Mueller matrices, so that table walls keep
+   the polarisation like the micro walls; the scene's 400000 photons per
+   angle);
 2. runs `roks trace --photons N` on scenes/radiator.toml, radiator-brdf.toml,
    radiator-defect.toml and radiator-defect-brdf.toml (walls traced down into
    the micro geometry at every hit, or sampled from the BRDF table);
@@ -403,8 +405,10 @@ def main(argv: list[str] | None = None) -> int:
     t_start = time.monotonic()
     timings: dict = {"photons": a.photons}
     # 1. The BRDF table of the Z-302 micro geometry, where the *-brdf scenes read it.
-    wall, cpu = run([roks, "brdf", str(MICRO_SCENE.relative_to(REPO)), "--out",
-                str(TABLE_DIR.relative_to(REPO)), "-q"], str(MICRO_SCENE))
+    # With its Mueller matrices (mueller.csv beside brdf.csv): the Z-302 walls
+    # are Fresnel, so the table walls keep the polarisation as the micro walls do.
+    wall, cpu = run([roks, "brdf", str(MICRO_SCENE.relative_to(REPO)), "--polarisation", "mueller",
+                "--out", str(TABLE_DIR.relative_to(REPO)), "-q"], str(MICRO_SCENE))
     bs = read_json(TABLE_DIR / "summary.json")
     timings["brdf"] = {
         "wall": wall,
