@@ -7,11 +7,14 @@
 //!   BRDF tables as Zemax tabular BSDF and MERL binary files.
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
 //! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
-//! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables).
+//! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables),
+//!   BRDF tables, and polarisation (Stokes vectors, Fresnel Mueller matrices, frames).
 //! * [`micro`]: the explicit rough surface (substrate, bumps, edges) and its statistics.
 //! * [`object`]: the macro level: 3-D objects of quadric cells with rough walls.
-//! * [`transport`]: photon histories, random streams, the BRDF generator.
-//! * [`tally`]: angular grids (Carlson, in-plane) and accumulators with standard errors.
+//! * [`transport`]: photon histories and what a photon carries (a weight, or a
+//!   Stokes vector or Mueller matrix with its frame), random streams, the BRDF generator.
+//! * [`tally`]: angular grids (Carlson, in-plane), Stokes and Mueller tallies,
+//!   and accumulators with standard errors.
 //! * [`scene`]: TOML scene files, validated with one-line errors.
 //! * [`shard`]: splitting a BRDF run across machines and merging it exactly.
 //! * [`output`]: result files (JSON, CSV), written atomically.
