@@ -321,7 +321,7 @@ impl Incident {
     pub fn validate(&self) -> Result<(), String> {
         match *self {
             Self::Stokes(s) => {
-                if !s.iter().all(|x| x.is_finite()) || !(s[0] > 0.0) {
+                if !s.iter().all(|x| x.is_finite()) || s[0] <= 0.0 {
                     return Err(format!("Stokes vector {s:?} must be finite with S0 > 0"));
                 }
                 let p2 = s[1] * s[1] + s[2] * s[2] + s[3] * s[3];

@@ -158,7 +158,7 @@ impl<const N: usize> Polarised<N> {
     /// flight along `d`; returns the s axis (the photon's own reference
     /// vector at normal incidence, where any axis is exact).
     #[inline]
-    fn to_s_frame(&mut self, d: DVec3, n: DVec3) -> DVec3 {
+    fn turn_to_s_frame(&mut self, d: DVec3, n: DVec3) -> DVec3 {
         let s = n.cross(d);
         let len2 = s.length_squared();
         if len2 > 1e-24 {
@@ -226,7 +226,7 @@ impl<const N: usize> Carrier for Polarised<N> {
                 if !(f.a >= 0.0 && [f.a, f.b, f.c, f.d].iter().all(|v| v.is_finite())) {
                     return false;
                 }
-                let s = self.to_s_frame(d, n);
+                let s = self.turn_to_s_frame(d, n);
                 for c in &mut self.columns {
                     *c = f.apply(*c);
                 }
@@ -245,7 +245,7 @@ impl<const N: usize> Carrier for Polarised<N> {
     }
 
     fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3) {
-        let s = self.to_s_frame(d, n);
+        let s = self.turn_to_s_frame(d, n);
         for c in &mut self.columns {
             *c = [rho * c[0], rho * c[1], -rho * c[2], -rho * c[3]];
         }
