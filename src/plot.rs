@@ -66,14 +66,31 @@ impl LinePlot {
                     .flat_map(|s| s.points.iter().copied())
                     .filter(|p| p.0.is_finite() && p.1.is_finite() && (!self.log_y || p.1 > 0.0))
             };
-            let (mut x0, mut x1) = pts().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-                (a.min(p.0), b.max(p.0))
-            });
+            // The x range of the drawable points, or of every finite point
+            // when none can be drawn (all zero on a log axis).
+            let x_range = |p: &mut dyn Iterator<Item = (f64, f64, f64)>| {
+                p.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                    (a.min(p.0), b.max(p.0))
+                })
+            };
+            let (mut x0, mut x1) = x_range(&mut pts());
+            if !x0.is_finite() {
+                (x0, x1) = x_range(
+                    &mut self
+                        .series
+                        .iter()
+                        .flat_map(|s| s.points.iter().copied())
+                        .filter(|p| p.0.is_finite()),
+                );
+            }
             let (mut y0, mut y1) = pts().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
                 (a.min(p.1 - p.2.abs()), b.max(p.1 + p.2.abs()))
             });
             if !x0.is_finite() {
-                (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+                (x0, x1) = (0.0, 1.0);
+            }
+            if !y0.is_finite() {
+                (y0, y1) = (0.0, 1.0);
             }
             if x1 <= x0 {
                 x1 = x0 + 1.0;
@@ -89,7 +106,12 @@ impl LinePlot {
                     let lo = pts()
                         .map(|p| (p.1 - p.2.abs()).max(p.1 * 0.5))
                         .fold(f64::INFINITY, f64::min);
-                    let (lo, hi) = (lo.max(1e-300) * 0.8, y1.max(lo * 10.0) * 1.25);
+                    let (mut lo, mut hi) = (lo.max(1e-300) * 0.8, y1.max(lo * 10.0) * 1.25);
+                    // Nothing positive to draw (e.g. a black surface): a fixed
+                    // decade range instead of inf..inf, and a note on the plot.
+                    if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+                        (lo, hi) = (1e-3, 1.0);
+                    }
                     let mut chart = builder
                         .build_cartesian_2d(x0..x1, (lo..hi).log_scale())
                         .map_err(|e| e.to_string())?;
@@ -119,6 +141,21 @@ impl LinePlot {
                 Ok(())
             };
             draw(&root).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+            if pts().next().is_none() {
+                use plotters::style::text_anchor::{HPos, Pos, VPos};
+                let style = ("sans-serif", 24)
+                    .into_font()
+                    .color(&BLACK)
+                    .pos(Pos::new(HPos::Center, VPos::Center));
+                let at = (width as i32 / 2, height as i32 / 2);
+                let note = if self.log_y {
+                    "no reflected light (every value is zero)"
+                } else {
+                    "no data"
+                };
+                root.draw(&Text::new(note, at, style))
+                    .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+            }
             root.present().map_err(|e| anyhow::anyhow!("plot: {e}"))?;
         }
         let img = image::RgbImage::from_raw(width, height, buf)
@@ -564,6 +601,36 @@ mod tests {
         assert_eq!((img.width(), img.height()), (640, 400));
         // Something was drawn: not all white.
         assert!(img.to_rgb8().pixels().any(|p| p.0 != [255, 255, 255]));
+    }
+
+    /// All-zero (a black surface) and single-value data on a log axis: the
+    /// plot is drawn, in bounded time (it used to spin on an inf..inf axis).
+    #[test]
+    fn degenerate_log_plots_are_drawn() {
+        for points in [
+            vec![(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)],
+            vec![(0.0, 2.0, 0.0)],
+            vec![(0.0, 2.0, 0.0), (1.0, 2.0, 0.0)],
+            vec![],
+        ] {
+            let plot = LinePlot {
+                title: "degenerate".into(),
+                x_label: "x".into(),
+                y_label: "y".into(),
+                log_y: true,
+                series: vec![Series {
+                    label: "a".into(),
+                    points,
+                }],
+            };
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || tx.send(plot.to_png(320, 200).map(|p| p.len())));
+            let len = rx
+                .recv_timeout(std::time::Duration::from_secs(60))
+                .expect("the plot finishes within a minute")
+                .expect("the plot is drawn");
+            assert!(len > 0);
+        }
     }
 
     fn constant_map(m: usize, v: f64, theta_i_deg: f64) -> HemisphereMap {

@@ -448,3 +448,48 @@ fn bad_polarisation_tally_and_symmetry() {
         );
     }
 }
+
+/// A valid black surface (reflectance 0) runs to the end: exit 0, every
+/// file written, reflectance exactly 0 (the in-plane plot of all-zero data
+/// used to spin on an inf..inf log axis). Bounded by a timeout.
+#[test]
+fn black_surface_runs_to_the_end() {
+    let dir = scratch("black");
+    let scene = dir.join("black.toml");
+    std::fs::write(&scene, broken("reflectance = 0.8", "reflectance = 0.0")).unwrap();
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
+        .arg("brdf")
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .args(["--photons", "4096", "-q"])
+        .spawn()
+        .expect("run roks");
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("roks brdf of a black surface did not finish in 120 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert!(status.success(), "{status}");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&cli_common::read(&out, "summary.json")).unwrap();
+    for inc in summary["incidence"].as_array().unwrap() {
+        assert_eq!(inc["reflectance"], 0.0);
+    }
+    for f in [
+        "brdf.csv",
+        "inplane.csv",
+        "inplane.png",
+        "hemisphere_0deg.png",
+    ] {
+        assert!(!cli_common::read(&out, f).is_empty(), "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
