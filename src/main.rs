@@ -3,6 +3,7 @@
 //! Exit status: 0 success; 2 bad input (scene file or arguments: one line on
 //! stderr naming the file and key, nothing written); 1 other failures (I/O).
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -1575,43 +1576,66 @@ fn stats(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
     let (r, ry) = stats_grid(&scene, a.resolution, 1024, "--resolution")?;
     let s = surface_stats(&scene.surface.height_map(r, ry));
+    let mut out = String::new();
     if a.json {
         let v = output::surface_json(&s, r);
-        println!(
+        let _ = writeln!(
+            out,
             "{}",
             serde_json::to_string_pretty(&v).map_err(anyhow::Error::from)?
         );
-        return Ok(());
+        return print_stdout(&out);
     }
     let size = scene.surface.size;
-    println!("scene            {}", scene.source.file);
-    println!(
+    let _ = writeln!(out, "scene            {}", scene.source.file);
+    let _ = writeln!(
+        out,
         "cell             {} x {} ({:?} edges)",
         size.x, size.y, scene.surface.edges
     );
-    println!("height map       {r} x {ry}");
-    println!(
+    let _ = writeln!(out, "height map       {r} x {ry}");
+    let _ = writeln!(
+        out,
         "sigma            {:.6}   RMS height about the mean",
         s.sigma
     );
-    println!(
+    let _ = writeln!(
+        out,
         "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
         s.tau
     );
-    println!("sigma_over_tau   {:.6}", s.sigma_over_tau);
-    println!(
+    let _ = writeln!(out, "sigma_over_tau   {:.6}", s.sigma_over_tau);
+    let _ = writeln!(
+        out,
         "rms_slope        {:.6}   sqrt(mean |grad h|^2)",
         s.rms_slope
     );
-    println!("mean_height      {:.6}", s.mean);
-    println!("max_height       {:.6}", s.max_height);
-    println!("min_height       {:.6}", s.min_height);
+    let _ = writeln!(out, "mean_height      {:.6}", s.mean);
+    let _ = writeln!(out, "max_height       {:.6}", s.max_height);
+    let _ = writeln!(out, "min_height       {:.6}", s.min_height);
     let (global, per_cell) = scene.surface.acceleration_stats();
-    println!(
+    let _ = writeln!(
+        out,
         "solids           {} ({} tested per flight, {:.1} per grid cell)",
         scene.surface.solids.len(),
         global,
         per_cell
     );
-    Ok(())
+    print_stdout(&out)
+}
+
+/// Write `text` to standard output; a closed pipe (`roks stats | head`) is a
+/// clean end, not an error.
+fn print_stdout(text: &str) -> Result<(), Failure> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure::Other(
+            anyhow::anyhow!("cannot write to standard output: {e}"),
+        )),
+        _ => Ok(()),
+    }
 }

@@ -493,3 +493,23 @@ fn black_surface_runs_to_the_end() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `roks stats` into a closed pipe (`roks stats --json | head -c 0`) ends
+/// cleanly: exit 0 and no panic message, in both output forms.
+#[test]
+fn stats_into_a_closed_pipe_is_a_clean_end() {
+    for args in [&["stats", "--json"][..], &["stats"][..]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("run roks");
+        // Close the reading end before roks has computed anything to write.
+        drop(child.stdout.take());
+        let o = child.wait_with_output().expect("wait");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{args:?}: {} {stderr}", o.status);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
