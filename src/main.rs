@@ -568,6 +568,11 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
                 "--theta: angles must be in [0, 90), got {bad}"
             )));
         }
+        if let Some((_, t)) = roks::scene::micro::first_repeat(t) {
+            return Err(Failure::Input(format!(
+                "--theta: {t} is given twice (each incidence angle once)"
+            )));
+        }
         run.theta_deg.clone_from(t);
     }
     let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;

@@ -513,3 +513,36 @@ fn stats_into_a_closed_pipe_is_a_clean_end() {
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
 }
+
+/// The same incidence angle twice would write a table with two blocks of
+/// one angle, which `export-brdf` and object `brdf =` walls refuse: refused
+/// up front, in the scene and on the command line.
+#[test]
+fn repeated_incidence_angle() {
+    check(
+        "theta-twice",
+        &broken("theta_deg = [0, 30]", "theta_deg = [30, 0, 30]"),
+        &["light.theta_deg[2]", "30", "twice"],
+    );
+    let dir = scratch("theta-twice-cli");
+    let scene = dir.join("good.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let out = dir.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_roks"))
+        .arg("brdf")
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .args(["--theta", "10,10", "--photons", "100", "-q"])
+        .output()
+        .expect("run roks");
+    assert_eq!(o.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("--theta") && stderr.contains("twice"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

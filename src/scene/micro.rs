@@ -523,6 +523,12 @@ impl MicroSceneSpec {
                 ));
             }
         }
+        if let Some((i, t)) = first_repeat(&light.theta_deg) {
+            return Err(source.error(
+                format!("light.theta_deg[{i}]"),
+                format!("{t} is given twice (each incidence angle once: a BRDF table holds one block per angle)"),
+            ));
+        }
         if !light.phi_deg.is_finite() {
             return Err(source.error("light.phi_deg", "must be finite"));
         }
@@ -592,6 +598,16 @@ impl MicroSceneSpec {
             polarisation,
         })
     }
+}
+
+/// The first angle that repeats an earlier one: its index and value.
+#[must_use]
+pub fn first_repeat(angles: &[f64]) -> Option<(usize, f64)> {
+    angles
+        .iter()
+        .enumerate()
+        .find(|(i, t)| angles[..*i].contains(t))
+        .map(|(i, t)| (i, *t))
 }
 
 /// A checked cell size.
