@@ -701,7 +701,13 @@ impl Problem {
         }
         if let Some(s) = opts.inplane_step_deg {
             if InPlaneTally::new(s, 0.5, 0.0).is_none() {
-                return Err(opt("inplane_step_deg", format!("must divide 180, got {s}")));
+                return Err(opt(
+                    "inplane_step_deg",
+                    format!(
+                        "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {s}",
+                        crate::tally::inplane::MAX_BINS
+                    ),
+                ));
             }
         }
         if let Some(w) = opts.inplane_width_deg {

@@ -546,3 +546,21 @@ fn repeated_incidence_angle() {
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// In-plane steps that divide 180 into more bins than the tally holds
+/// (1e-300 used to pass and then fail to allocate; 1e-6 asks for 1.8e8
+/// bins per batch) are refused naming the key; 0.01 deg is the finest.
+#[test]
+fn inplane_step_too_fine() {
+    for (case, step) in [
+        ("step-1e-300", "1e-300"),
+        ("step-1e-6", "1e-6"),
+        ("step-0.005", "0.005"),
+    ] {
+        check(
+            case,
+            &format!("{GOOD}\n[tally]\ninplane_step_deg = {step}\n"),
+            &["tally.inplane_step_deg", "at most 18000 bins"],
+        );
+    }
+}

@@ -546,10 +546,13 @@ impl MicroSceneSpec {
             ));
         }
         let step = tally.inplane_step_deg;
-        if !(step > 0.0 && (180.0 / step - (180.0 / step).round()).abs() < 1e-9) {
+        if crate::tally::InPlaneTally::new(step, 0.5, 0.0).is_none() {
             return Err(source.error(
                 "tally.inplane_step_deg",
-                format!("must divide 180, got {step}"),
+                format!(
+                    "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {step}",
+                    crate::tally::inplane::MAX_BINS
+                ),
             ));
         }
         let width = tally.inplane_width_deg;

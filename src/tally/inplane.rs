@@ -41,6 +41,10 @@ pub struct InPlaneTally {
     v: DVec3,
 }
 
+/// Most bins across the 180 degrees of the plane (a 0.01 degree step): a
+/// bound on the memory of every batch tally (16 bytes per bin).
+pub const MAX_BINS: usize = 18_000;
+
 impl InPlaneTally {
     /// A tally with bins `step_deg` wide (degrees) in `theta_p`, accepting
     /// `|psi| <= half_width_deg` (degrees), for light at azimuth `phi_i_rad`
@@ -56,6 +60,7 @@ impl InPlaneTally {
         let valid = step_deg > 0.0
             && ratio.is_finite()
             && n >= 1.0
+            && n <= MAX_BINS as f64
             && (ratio - n).abs() <= WHOLE_TOLERANCE
             && half_width_deg > 0.0
             && half_width_deg <= 90.0
