@@ -1551,7 +1551,7 @@ mod tests {
         let e = Problem::new(&truth, &source(), &[p], &m, &o).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "fit option inplane_step_deg: must divide 180, got 7"
+            "fit option inplane_step_deg: must divide 180 into at most 18000 bins (a step of at least 0.01 deg), got 7"
         );
     }
 
