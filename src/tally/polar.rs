@@ -113,6 +113,16 @@ impl PolarTallies {
         (1 + cell) * self.components + k
     }
 
+    /// Score one history's `value` in `bin`, and in the sums of lattice
+    /// replicate `replicate` (ignored for a random launch).
+    pub fn score(&mut self, bin: usize, replicate: usize, value: f64) {
+        self.sums.score(bin, value);
+        let bins = self.bins();
+        if let Some(r) = &mut self.replicates {
+            r[replicate * bins + bin] += value;
+        }
+    }
+
     /// Add `other` (in a fixed order for reproducibility).
     ///
     /// # Panics

@@ -620,9 +620,9 @@ impl BrdfRun {
                         }
                     }
                     t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
-                    let k =
-                        carried.components(out, hemisphere_reference(out, phi), &mut components);
                     if let Some(p) = &mut t.polar {
+                        let reference = hemisphere_reference(out, phi);
+                        let k = carried.components(out, reference, &mut components);
                         let mirror = self.symmetry == Symmetry::Mirror;
                         score_polar(p, &components[..k], &shares, mirror, replicate);
                     }
@@ -666,7 +666,6 @@ fn score_polar(
 ) {
     let k = p.components;
     debug_assert_eq!(c.len(), k);
-    let bins = p.bins();
     // Factor of a component whose two halves share a bin.
     let both = |i: usize| {
         if mirror && mirror_sign(k, i) < 0.0 {
@@ -676,11 +675,7 @@ fn score_polar(
         }
     };
     for (i, v) in c.iter().enumerate() {
-        let score = both(i) * v;
-        p.sums.score(i, score);
-        if let Some(r) = &mut p.replicates {
-            r[replicate * bins + i] += score;
-        }
+        p.score(i, replicate, both(i) * v);
     }
     // The first half is the photon's own cells, the second its mirror image
     // (weight 0: in the same cells as the first, which then has the whole weight).
@@ -696,12 +691,7 @@ fn score_polar(
                     (_, true) => both(i),
                     _ => 1.0,
                 };
-                let bin = p.cell_bin(cell, i);
-                let score = sign * w * v;
-                p.sums.score(bin, score);
-                if let Some(r) = &mut p.replicates {
-                    r[replicate * bins + bin] += score;
-                }
+                p.score(p.cell_bin(cell, i), replicate, sign * w * v);
             }
         }
     }

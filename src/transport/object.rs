@@ -361,7 +361,9 @@ impl ObjectRun {
                             ff.score(&mut t.farfield, dir, intensity);
                         }
                         let mut c = [0.0; 16];
-                        if weight.components(dir, stokes_reference(dir), &mut c) == 4 {
+                        if !t.stokes.is_empty()
+                            && weight.components(dir, stokes_reference(dir), &mut c) == 4
+                        {
                             let s: Stokes = [c[0], c[1], c[2], c[3]];
                             for (j, v) in s.iter().enumerate() {
                                 t.stokes.score(j, *v);
@@ -458,6 +460,16 @@ pub fn follow<C: Carrier>(
         bounces,
         segments,
     };
+    // Cut by the cap or a guard: the intensity carried is reported as lost.
+    let lost = |w: &C, bounces, segments| {
+        end(
+            MacroFate::Lost {
+                weight: w.intensity(),
+            },
+            bounces,
+            segments,
+        )
+    };
     loop {
         segments += 1;
         let Some(hit) = object.next_hit(p, d, standing) else {
@@ -468,46 +480,22 @@ pub fn follow<C: Carrier>(
             return end(MacroFate::Unmodelled { surface: sid }, bounces, segments);
         };
         if bounces >= controls.max_bounces {
-            return end(
-                MacroFate::Lost {
-                    weight: w.intensity(),
-                },
-                bounces,
-                segments,
-            );
+            return lost(&w, bounces, segments);
         }
         p += hit.t * d;
         if !p.is_finite() {
-            return end(
-                MacroFate::Lost {
-                    weight: w.intensity(),
-                },
-                bounces,
-                segments,
-            );
+            return lost(&w, bounces, segments);
         }
         let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
         let Some(normal) = quadric.facing_normal(p, d) else {
-            return end(
-                MacroFate::Lost {
-                    weight: w.intensity(),
-                },
-                bounces,
-                segments,
-            );
+            return lost(&w, bounces, segments);
         };
         bounces += 1;
         match models[m].interact(d, normal, w.unit(), rng, &mut scratch[m]) {
             Interaction::Reflected { dir, weight } => {
                 if !weight.is_valid() {
                     // Also NaN: such a weight never reaches a tally.
-                    return end(
-                        MacroFate::Lost {
-                            weight: w.intensity(),
-                        },
-                        bounces,
-                        segments,
-                    );
+                    return lost(&w, bounces, segments);
                 }
                 let (after, removed) = w.rescaled(weight);
                 absorbed(sid, removed);
@@ -518,27 +506,13 @@ pub fn follow<C: Carrier>(
                 absorbed(sid, w.intensity());
                 return end(MacroFate::Absorbed, bounces, segments);
             }
-            Interaction::Lost => {
-                return end(
-                    MacroFate::Lost {
-                        weight: w.intensity(),
-                    },
-                    bounces,
-                    segments,
-                );
-            }
+            Interaction::Lost => return lost(&w, bounces, segments),
         }
         if w.intensity() <= 0.0 {
             return end(MacroFate::Absorbed, bounces, segments);
         }
         if !d.is_finite() {
-            return end(
-                MacroFate::Lost {
-                    weight: w.intensity(),
-                },
-                bounces,
-                segments,
-            );
+            return lost(&w, bounces, segments);
         }
         standing = Some((hit.cell, hit.surface));
         match super::roulette(w.intensity(), controls.roulette_weight, rng) {
