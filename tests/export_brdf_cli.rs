@@ -4,9 +4,10 @@
 //! status 2 and one line naming the file and key, writing nothing.
 
 mod cli_common;
+use cli_common::roks;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use roks::export::brdf_formats::BrdfFormat;
 use roks::optics::brdf_table::BrdfTable;
@@ -16,13 +17,6 @@ fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-fn roks(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 /// `roks brdf` of the default scene with one batch per angle into `out`.

@@ -19,9 +19,8 @@ mod cli_common;
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-use cli_common::{read, summary_without_timing};
+use cli_common::{read, roks, summary_without_timing};
 use roks::scene::micro::DEFAULT_SCENE;
 use roks::transport::brdf::IncidenceResult;
 use roks::transport::launch::{Launch, REPLICATES};
@@ -155,13 +154,6 @@ fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("roks-lattice-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
-}
-
-fn roks(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .output()
-        .expect("run roks")
 }
 
 fn brdf(out: &Path, launch: &str, extra: &[&str]) {

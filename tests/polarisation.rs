@@ -26,10 +26,11 @@
 #![allow(clippy::needless_range_loop)] // 4 x 4 matrices by index
 
 mod cli_common;
+use cli_common::roks;
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use glam::DVec3;
 use num_complex::Complex64;
@@ -1141,13 +1142,6 @@ fn polar_sums_do_not_depend_on_the_thread_count() {
             assert_eq!(a.tallies.carlson, b.tallies.carlson, "{what}");
         }
     }
-}
-
-fn roks(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .output()
-        .expect("run roks")
 }
 
 fn scratch(name: &str) -> PathBuf {

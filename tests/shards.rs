@@ -4,18 +4,11 @@
 mod cli_common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-use cli_common::{read, summary_without_timing};
+use cli_common::{read, roks, summary_without_timing};
 
 const PHOTONS: &str = "50000"; // 13 batches of 4096: the last one partial
-
-fn roks(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .output()
-        .expect("run roks")
-}
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("roks-shards-{}-{name}", std::process::id()));

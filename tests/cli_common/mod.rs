@@ -3,9 +3,17 @@
 #![allow(dead_code)]
 
 use std::path::Path;
-use std::process::Output;
+use std::process::{Command, Output};
 
 use serde_json::Value;
+
+/// Run the `roks` binary of this build with `args`, collecting its output.
+pub fn roks(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_roks"))
+        .args(args)
+        .output()
+        .expect("run roks")
+}
 
 /// The bytes of `dir/name` (panics naming the file).
 pub fn read(dir: &Path, name: &str) -> Vec<u8> {
