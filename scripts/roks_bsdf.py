@@ -115,6 +115,23 @@ class TableError(ValueError):
     """A brdf.csv this plugin cannot use (message names the file)."""
 
 
+def _read_table(path: Path, header: str, what: str, columns: int) -> np.ndarray:
+    """The numbers of a roks CSV file `what` (brdf.csv, mueller.csv) with
+    exactly `header`, as a 2-D array of `columns` finite columns; a
+    TableError naming the file otherwise."""
+    try:
+        with path.open() as f:
+            found = f.readline().lstrip("\ufeff").strip()
+            if found != header:
+                raise TableError(f"{path}: line 1: not the {what} header of roks")
+            data = np.loadtxt(f, delimiter=",", ndmin=2)
+    except (OSError, ValueError) as e:
+        raise TableError(f"{path}: cannot read: {e}") from e
+    if data.shape[0] == 0 or data.shape[1] != columns or not np.all(np.isfinite(data)):
+        raise TableError(f"{path}: no data rows, or not {columns} finite columns")
+    return data
+
+
 class CarlsonTable:
     """The BRDF table of a brdf.csv as numpy arrays, with eval / pdf / sample
     on arrays of directions (local frame, z the normal). Pure numpy: the
@@ -122,16 +139,7 @@ class CarlsonTable:
 
     def __init__(self, path: str | Path):
         path = Path(path)
-        try:
-            with path.open() as f:
-                header = f.readline().lstrip("\ufeff").strip()
-                if header != BRDF_HEADER:
-                    raise TableError(f"{path}: line 1: not the brdf.csv header of roks")
-                data = np.loadtxt(f, delimiter=",", ndmin=2)
-        except (OSError, ValueError) as e:
-            raise TableError(f"{path}: cannot read: {e}") from e
-        if data.shape[0] == 0 or data.shape[1] != 16 or not np.all(np.isfinite(data)):
-            raise TableError(f"{path}: no data rows, or not 16 finite columns")
+        data = _read_table(path, BRDF_HEADER, "brdf.csv", 16)
         # Blocks of consecutive rows with the same (theta_i, phi_i).
         key = data[:, [C_THETA_I, C_PHI_I]]
         starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
@@ -189,17 +197,8 @@ class CarlsonTable:
         its m00 times the table's brdf, so m00 is exactly the intensity
         table (a cell with brdf 0 gets the zero matrix)."""
         path = Path(path)
-        try:
-            with path.open() as f:
-                header = f.readline().lstrip("\ufeff").strip()
-                if header != MUELLER_HEADER:
-                    raise TableError(f"{path}: line 1: not the mueller.csv header of roks")
-                data = np.loadtxt(f, delimiter=",", ndmin=2)
-        except (OSError, ValueError) as e:
-            raise TableError(f"{path}: cannot read: {e}") from e
+        data = _read_table(path, MUELLER_HEADER, "mueller.csv", 38)
         k = self.fractions.shape[1]  # cells per block
-        if data.shape[0] == 0 or data.shape[1] != 38 or not np.all(np.isfinite(data)):
-            raise TableError(f"{path}: no data rows, or not 38 finite columns")
         if data.shape[0] % k:
             raise TableError(f"{path}: {data.shape[0]} rows are not whole blocks of {k} cells")
         blocks = data.reshape(-1, k, 38)
