@@ -64,14 +64,6 @@ pub type Mueller = [[f64; 4]; 4];
 /// Unpolarised light of unit intensity.
 pub const UNPOLARISED: Stokes = [1.0, 0.0, 0.0, 0.0];
 
-/// The 4 x 4 identity.
-pub const IDENTITY: Mueller = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
-
 /// Signs of the Stokes components under a mirror reflection of the whole
 /// configuration (the handedness of every frame flips): `S2`, `S3` change sign.
 pub const MIRROR_SIGNS: [f64; 4] = [1.0, 1.0, -1.0, -1.0];
@@ -296,13 +288,6 @@ impl Incident {
             Self::Left => [1.0, 0.0, 0.0, -1.0],
             Self::Stokes(s) => [1.0, s[1] / s[0], s[2] / s[0], s[3] / s[0]],
         }
-    }
-
-    /// Whether the state is unpolarised.
-    #[must_use]
-    pub fn is_unpolarised(&self) -> bool {
-        let s = self.stokes();
-        s[1] == 0.0 && s[2] == 0.0 && s[3] == 0.0
     }
 
     /// Whether a mirror reflection in the plane of incidence maps the state

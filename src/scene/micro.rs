@@ -388,10 +388,7 @@ impl MicroScene {
     /// Whether a material of the surface is Fresnel (polarising).
     #[must_use]
     pub fn has_fresnel(&self) -> bool {
-        self.surface
-            .materials
-            .iter()
-            .any(|m| matches!(m, Reflectance::Fresnel { .. }))
+        any_fresnel(&self.surface.materials)
     }
 
     /// The BRDF run this scene describes (`[light]`, `[tally]`, `[transport]`).
@@ -574,11 +571,8 @@ impl MicroSceneSpec {
             Some(p) => p.build(&source, "light.polarisation")?,
             None => Incident::Unpolarised,
         };
-        let has_fresnel = materials
-            .iter()
-            .any(|m| matches!(m, Reflectance::Fresnel { .. }));
         let polarisation = Polarisation::resolve(
-            has_fresnel,
+            any_fresnel(&materials),
             transport.polarisation,
             incident,
             tally.polarisation,
@@ -601,6 +595,13 @@ impl MicroSceneSpec {
             polarisation,
         })
     }
+}
+
+/// Whether any of `materials` is Fresnel (the only polarising model).
+fn any_fresnel(materials: &[Reflectance]) -> bool {
+    materials
+        .iter()
+        .any(|m| matches!(m, Reflectance::Fresnel { .. }))
 }
 
 /// The first angle that repeats an earlier one: its index and value.
