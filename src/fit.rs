@@ -684,6 +684,9 @@ impl Problem {
         if opts.photons == 0 {
             return Err(opt("photons", "must be > 0".into()));
         }
+        if let Some(e) = crate::transport::launch::photons_beyond_tallies(opts.photons) {
+            return Err(opt("photons", e));
+        }
         if opts.max_evaluations == 0 {
             return Err(opt("max_evaluations", "must be > 0".into()));
         }

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Args, Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 use serde_json::json;
 
 use roks::export::brdf_formats::BrdfFormat;
@@ -611,7 +611,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         run.photons = last - first;
     }
     let bar = progress_bar(
-        run.photons * run.theta_deg.len() as u64,
+        run.photons.saturating_mul(run.theta_deg.len() as u64),
         a.quiet,
         &scene.name,
     );
@@ -965,13 +965,40 @@ fn progress_bar(total: u64, quiet: bool, name: &str) -> ProgressBar {
     };
     bar.set_style(
         ProgressStyle::with_template(
-            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} photons, {per_sec}, eta {eta}",
+            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} photons, {rate}, eta {eta}",
         )
         .expect("valid template")
+        .with_key("rate", |s: &ProgressState, w: &mut dyn std::fmt::Write| {
+            let _ = match photon_rate(s) {
+                Some(r) => write!(w, "{}/s", indicatif::HumanCount(r as u64)),
+                None => write!(w, "?/s"),
+            };
+        })
+        .with_key("eta", |s: &ProgressState, w: &mut dyn std::fmt::Write| {
+            // Photons still to trace at the run's mean rate so far (unknown
+            // until the first batch is done), however long that is.
+            let left = s.len().unwrap_or(0).saturating_sub(s.pos());
+            let _ = match photon_rate(s) {
+                Some(r) => write!(
+                    w,
+                    "{:#}",
+                    indicatif::HumanDuration(std::time::Duration::from_secs_f64(
+                        (left as f64 / r).min(1e15)
+                    ))
+                ),
+                None => write!(w, "?"),
+            };
+        })
         .progress_chars("=> "),
     );
     bar.set_message(name.to_string());
     bar
+}
+
+/// Photons per second over the run so far (`None` before the first batch).
+fn photon_rate(s: &ProgressState) -> Option<f64> {
+    let secs = s.elapsed().as_secs_f64();
+    (s.pos() > 0 && secs > 0.0).then(|| s.pos() as f64 / secs)
 }
 
 fn write_outputs(out: &Path, files: &[(&str, &[u8])]) -> Result<(), Failure> {
@@ -1038,6 +1065,9 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
         if p == 0 {
             return Err(Failure::Input("--photons: must be > 0".into()));
         }
+        if let Some(e) = roks::transport::launch::photons_beyond_tallies(p) {
+            return Err(Failure::Input(format!("--photons: {e}")));
+        }
         photons.iter_mut().for_each(|n| *n = p);
     }
     if let Some(s) = a.seed {
@@ -1057,7 +1087,11 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
-    let bar = progress_bar(photons.iter().sum(), a.quiet, &scene.name);
+    let bar = progress_bar(
+        photons.iter().fold(0, |a: u64, &b| a.saturating_add(b)),
+        a.quiet,
+        &scene.name,
+    );
     let clock = Instant::now();
     let results = run.run(
         &scene.object,

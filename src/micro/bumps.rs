@@ -169,11 +169,16 @@ impl Shape {
         let names = ["a", "b", "c"];
         let region = region::parse(expr, |n| names.iter().position(|m| *m == n))
             .expect("bump regions are fixed and valid");
-        // Relative pad so rounding in the bounds never clips a real hit.
+        // Relative pad so rounding in the bounds never clips a real hit. The
+        // horizontal pad grows with the height only up to 1000 footprints
+        // (rounding of a hit is relative to its coordinates, about 1e-16 of
+        // them): a needle far taller than wide keeps its footprint, and its
+        // periodic copies their number.
         let pad = 1e-9 * foot.max_element().max(h);
+        let pad_xy = 1e-9 * foot.max_element().max(h.min(1e3 * foot.max_element()));
         let bounds = Aabb {
-            min: DVec3::new(c.x - foot.x - pad, c.y - foot.y - pad, -h - pad),
-            max: DVec3::new(c.x + foot.x + pad, c.y + foot.y + pad, h + pad),
+            min: DVec3::new(c.x - foot.x - pad_xy, c.y - foot.y - pad_xy, -h - pad),
+            max: DVec3::new(c.x + foot.x + pad_xy, c.y + foot.y + pad_xy, h + pad),
         };
         Placed {
             body: Body::new(surfaces, region, bounds, material),

@@ -109,7 +109,8 @@ pub enum FieldEvent {
     },
     /// Rises above the highest point: nothing more to meet.
     Escapes,
-    /// Horizontal above everything, or walked `MAX_STEPS` (2^24) steps.
+    /// Horizontal above everything, walked `MAX_STEPS` (2^24) steps, or
+    /// crossed [`super::MAX_CROSSINGS`] periods.
     Trapped,
 }
 
@@ -347,6 +348,7 @@ impl HeightField {
         let (mut i, mut bi) = wrap(floor_i64(ray.ou), self.nx);
         let (mut j, mut bj) = wrap(floor_i64(ray.ov), self.ny);
         let mut steps = 0_u32;
+        let mut periods = 0_u32;
         loop {
             steps += 1;
             if steps > MAX_STEPS {
@@ -408,6 +410,7 @@ impl HeightField {
             // Step into the neighbouring node across the exit side; the other
             // index comes from the exit point, kept within the node's range so
             // the walk always advances.
+            let base = (bi, bj);
             if exit_u {
                 (i, bi) = step(i, bi, u0, u1, ray.du > 0.0, self.nx);
                 let k = floor_i64(ray.ov + t * ray.dv) - bj;
@@ -416,6 +419,13 @@ impl HeightField {
                 (j, bj) = step(j, bj, v0, v1, ray.dv > 0.0, self.ny);
                 let k = floor_i64(ray.ou + t * ray.du) - bi;
                 i = k.clamp(u0 as i64, u1 as i64 - 1) as usize;
+            }
+            if (bi, bj) != base {
+                // Into the next period: the flight's travel is bounded in periods.
+                periods += 1;
+                if periods >= super::MAX_CROSSINGS {
+                    return FieldEvent::Trapped;
+                }
             }
             // One level up again (measured: fewer steps than staying down
             // within the same parent node, since rising flights climb sooner).

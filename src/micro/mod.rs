@@ -32,6 +32,15 @@ use crate::geometry::body::{Aabb, Body, Ray};
 use crate::optics::material::Reflectance;
 use heightfield::{FieldEvent, HeightField};
 
+/// Most periodic cell sides one straight flight may cross (bump surfaces:
+/// side events in a row between reflections; height fields: periods the walk
+/// enters). A flight crossing more without meeting anything is cut and
+/// reported as capped (`lost_cap` in `summary.json`): this bounds the work of
+/// flights that travel far compared to the cell, such as incidence within
+/// about `height range / (MAX_CROSSINGS * cell side)` radians of grazing, or
+/// surfaces whose heights are many cells tall.
+pub const MAX_CROSSINGS: u32 = 1 << 16;
+
 /// `solid` of an [`Event::Hit`] on the height field (its `surface` is the triangle id).
 pub const HEIGHT_FIELD: usize = usize::MAX;
 

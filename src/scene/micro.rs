@@ -84,6 +84,47 @@ use crate::transport::micro::Controls;
 /// The embedded default scene (also `scenes/default.toml`).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
 
+/// Largest length a micro scene may hold (scene length units): cell sides,
+/// bump radii, heights and depths, a map's pixel and its scaled heights, a
+/// Gaussian field's `sigma` and `tau`, and the sizes and heights derived
+/// from them. With every non-zero length in [`MIN_LENGTH`, `MAX_LENGTH`],
+/// their squares, reciprocals and ratios (quadric coefficients, slopes,
+/// normals) stay finite and normal in `f64`, and heights stay normal `f32`
+/// numbers in the EXR and PLY exports and the Gaussian synthesis.
+pub const MAX_LENGTH: f64 = 1e30;
+
+/// Smallest non-zero length a micro scene may hold (see [`MAX_LENGTH`]).
+pub const MIN_LENGTH: f64 = 1e-30;
+
+/// Largest height of a micro surface (bump heights, an explicit body's top,
+/// a height field's range) in units of the cell's shorter side. Higher, a
+/// position near the top no longer resolves the cell (`f64` spacing of
+/// `1e9 L` is `2e-7 L`), and flights cross ever more periods
+/// ([`crate::micro::MAX_CROSSINGS`]) between events.
+pub const MAX_ASPECT: f64 = 1e9;
+
+/// `Err(message)` when `height` exceeds [`MAX_ASPECT`] times the shorter side of `size`.
+fn aspect_bound(height: f64, size: DVec2) -> Result<(), String> {
+    let side = size.min_element();
+    if height > MAX_ASPECT * side {
+        return Err(format!(
+            "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {side}: positions that high do not resolve the cell"
+        ));
+    }
+    Ok(())
+}
+
+/// `Err(message)` when the non-zero length `v` lies outside
+/// [`MIN_LENGTH`, `MAX_LENGTH`] (checked after the key's own sign rule).
+fn length_bounds(v: f64) -> Result<(), String> {
+    if v != 0.0 && !(MIN_LENGTH..=MAX_LENGTH).contains(&v.abs()) {
+        return Err(format!(
+            "{v:e} is outside the lengths roks traces, [{MIN_LENGTH:e}, {MAX_LENGTH:e}] (scene length units)"
+        ));
+    }
+    Ok(())
+}
+
 /// The micro scene as written.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -623,6 +664,7 @@ fn check_size(source: &Source, [lx, ly]: [f64; 2]) -> Result<DVec2, SceneError> 
                 format!("must be > 0, got {l}"),
             ));
         }
+        length_bounds(l).map_err(|e| source.error(format!("surface.size[{i}]"), e))?;
     }
     Ok(DVec2::new(lx, ly))
 }
@@ -644,6 +686,11 @@ impl HeightFieldSpec {
             } else {
                 Err(source.error(key(k), format!("must be > 0, got {v}")))
             }
+        };
+        let length = |k: &str, v: f64| {
+            let v = positive(k, v)?;
+            length_bounds(v).map_err(|e| source.error(key(k), e))?;
+            Ok(v)
         };
         match (&self.gaussian, &self.file) {
             (Some(_), Some(_)) => Err(source.error(
@@ -674,8 +721,8 @@ impl HeightFieldSpec {
                         format!("must be in 2..=16384, got {nx} x {ny}"),
                     ));
                 }
-                let sigma = positive("gaussian.sigma", g.sigma)?;
-                let tau = positive("gaussian.tau", g.tau)?;
+                let sigma = length("gaussian.sigma", g.sigma)?;
+                let tau = length("gaussian.tau", g.tau)?;
                 let pitch = (size.x / nx as f64).max(size.y / ny as f64);
                 if tau < pitch {
                     return Err(source.error(
@@ -683,14 +730,21 @@ impl HeightFieldSpec {
                         format!("{tau} is below the grid pitch {pitch}: raise the resolution"),
                     ));
                 }
-                Ok(HeightField::gaussian(
-                    nx,
-                    ny,
-                    size,
-                    sigma,
-                    tau,
-                    self.seed.unwrap_or(1),
-                ))
+                // The synthesis keeps the spectrum's modes of the period; for
+                // tau beyond the cell they vanish (the field would be one
+                // sinusoid, or nothing once exp(-k² tau² / 8) underflows).
+                let longest = size.max_element();
+                if tau > longest {
+                    return Err(source.error(
+                        key("gaussian.tau"),
+                        format!(
+                            "{tau} exceeds the cell's longer side {longest}: a Gaussian field needs at least one correlation length in the cell"
+                        ),
+                    ));
+                }
+                let field = HeightField::gaussian(nx, ny, size, sigma, tau, self.seed.unwrap_or(1));
+                check_field(source, &field, &key("gaussian.sigma"))?;
+                Ok(field)
             }
             (None, Some(file)) => {
                 refuse("resolution", self.resolution.is_some(), "gaussian fields")?;
@@ -698,7 +752,7 @@ impl HeightFieldSpec {
                 let path = source.dir.join(file);
                 let format = Format::of(&path);
                 let scale = match self.height_scale {
-                    Some(s) => positive("height_scale", s)?,
+                    Some(s) => length("height_scale", s)?,
                     None if format == Format::Png => {
                         return Err(source.error(
                             key("height_scale"),
@@ -719,8 +773,17 @@ impl HeightFieldSpec {
                     }
                     (None, Some(size)) => size,
                     (Some(p), given) => {
-                        let p = positive("pixel", p)?;
+                        let p = length("pixel", p)?;
                         let derived = DVec2::new(nx as f64 * p, ny as f64 * p);
+                        if derived.max_element() > MAX_LENGTH {
+                            return Err(source.error(
+                                key("pixel"),
+                                format!(
+                                    "{nx} x {ny} pixels of {p} make a cell of [{:e}, {:e}], beyond the largest length {MAX_LENGTH:e}",
+                                    derived.x, derived.y
+                                ),
+                            ));
+                        }
                         match given {
                             Some(s) if ((s - derived).abs().cmpgt(1e-9 * derived)).any() => {
                                 return Err(source.error(
@@ -736,11 +799,48 @@ impl HeightFieldSpec {
                         }
                     }
                 };
-                let h = grid.h.into_iter().map(|z| z * scale).collect();
-                Ok(HeightField::new(nx, ny, size, h))
+                // Scaled heights within the traced lengths, before the field
+                // (which assumes finite heights) is built.
+                let scale_key = if self.height_scale.is_some() {
+                    key("height_scale")
+                } else {
+                    key("file")
+                };
+                let h: Vec<f64> = grid.h.into_iter().map(|z| z * scale).collect();
+                if let Some(z) = h.iter().find(|z| !(z.abs() <= MAX_LENGTH)) {
+                    return Err(source.error(
+                        scale_key,
+                        format!(
+                            "{}: a height of {z:e} after scaling by {scale} is beyond the largest length {MAX_LENGTH:e}",
+                            path.display()
+                        ),
+                    ));
+                }
+                let field = HeightField::new(nx, ny, size, h);
+                check_field(source, &field, &scale_key)?;
+                Ok(field)
             }
         }
     }
+}
+
+/// What the height-field walk assumes of a built field, checked in one
+/// place: finite heights whose range is within [`MAX_LENGTH`] and
+/// [`MAX_ASPECT`] cell sides (so slopes, range over the pitch, and their
+/// squares in the normals stay finite); `key` is blamed.
+fn check_field(source: &Source, field: &HeightField, key: &str) -> Result<(), SceneError> {
+    let range = field.max - field.min;
+    if !(field.max.is_finite() && field.min.is_finite() && range.is_finite()) {
+        return Err(source.error(key, "the field's heights are not finite numbers"));
+    }
+    if range > MAX_LENGTH {
+        return Err(source.error(
+            key,
+            format!("the heights span {range:e}, beyond the largest length {MAX_LENGTH:e}"),
+        ));
+    }
+    aspect_bound(range, field.size).map_err(|e| source.error(key, e))?;
+    Ok(())
 }
 
 impl BumpSpec {
@@ -767,6 +867,23 @@ impl BumpSpec {
         }
         let base = self.base.unwrap_or(Range::One(1.5));
         base.check(source, &key("base"), 1.0, false)?;
+        // Lengths (and the footprint radius * base) within the traced lengths.
+        let radius_y = self.radius_y.unwrap_or(self.radius);
+        for (name, r) in [
+            ("radius", self.radius),
+            ("radius_y", radius_y),
+            ("height", self.height),
+            ("depth", depth),
+        ] {
+            let (lo, hi) = r.bounds();
+            length_bounds(lo)
+                .and_then(|()| length_bounds(hi))
+                .map_err(|e| source.error(key(name), e))?;
+        }
+        aspect_bound(self.height.bounds().1, size).map_err(|e| source.error(key("height"), e))?;
+        let foot = self.radius.bounds().1.max(radius_y.bounds().1) * base.bounds().1;
+        length_bounds(foot)
+            .map_err(|e| source.error(key("base"), format!("radius * base: {e}")))?;
         let used = |name: &str, given: bool, shape_ok: bool| {
             if given && !shape_ok {
                 Err(source.error(
@@ -856,6 +973,7 @@ fn explicit_body(
             "the body never rises into the cell (empty or below everything)",
         ));
     }
+    aspect_bound(max_height, size).map_err(|e| source.error(format!("{key}.region"), e))?;
     Ok(Placed {
         body,
         max_height: max_height.max(0.0),

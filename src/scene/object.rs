@@ -417,6 +417,9 @@ impl ObjectSceneSpec {
             if s.photons == 0 {
                 return Err(source.error(key("photons"), "must be > 0"));
             }
+            if let Some(e) = crate::transport::launch::photons_beyond_tallies(s.photons) {
+                return Err(source.error(key("photons"), e));
+            }
             let state = match &s.polarisation {
                 Some(spec) => spec.build(&source, &key("polarisation"))?,
                 None => Incident::Unpolarised,

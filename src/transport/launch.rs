@@ -101,12 +101,34 @@ impl Launch {
     }
 }
 
-/// Photons per incidence angle allowed with `launch`: a lattice run needs a
-/// multiple of [`REPLICATES`] (equal replicates).
+/// Most photons per incidence angle (per beam position of an object scene):
+/// 2^53. Every tally is an `f64` sum of per-photon weights of at most 1, and
+/// the counts are divided as `f64`: up to 2^53 a sum of whole weights (a
+/// reflectance of 1), the count and every sum of squares are exact or
+/// bounded by the count, so that the means and standard errors can be
+/// formed; beyond it `n + 1 == n` in `f64` and photons stop being counted.
+pub const MAX_PHOTONS: u64 = 1 << 53;
+
+/// The message for a photon count above [`MAX_PHOTONS`], if it is.
+#[must_use]
+pub fn photons_beyond_tallies(photons: u64) -> Option<String> {
+    (photons > MAX_PHOTONS).then(|| {
+        format!(
+            "must be at most 2^53 = {MAX_PHOTONS} (the f64 tallies cannot count more exactly), got {photons}"
+        )
+    })
+}
+
+/// Photons per incidence angle allowed with `launch`: at most
+/// [`MAX_PHOTONS`], and for a lattice run a multiple of [`REPLICATES`]
+/// (equal replicates).
 ///
 /// # Errors
 /// The message for the user.
 pub fn check_photons(launch: Launch, photons: u64) -> Result<(), String> {
+    if let Some(e) = photons_beyond_tallies(photons) {
+        return Err(e);
+    }
     match launch.replicates() {
         Some(k) if photons % k != 0 => Err(format!(
             "must be a multiple of {k} with launch = \"lattice\", got {photons}"

@@ -14,7 +14,7 @@
 use glam::DVec3;
 
 use super::carrier::Carrier;
-use crate::micro::{Edges, Event, MicroSurface, Scratch};
+use crate::micro::{Edges, Event, MAX_CROSSINGS, MicroSurface, Scratch};
 
 /// Limits of a history.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,7 +54,8 @@ pub enum Fate<C = f64> {
         /// Weight carried into the wall.
         weight: C,
     },
-    /// Cut by the bounce or segment cap, with the weight it carried.
+    /// Cut by the bounce, segment or crossing cap ([`MAX_CROSSINGS`]), with
+    /// the weight it carried.
     Capped {
         /// Weight carried when cut.
         weight: C,
@@ -95,6 +96,8 @@ pub fn trace<C: Carrier>(
     let mut standing: Option<(usize, usize)> = None;
     let mut bounces = 0_u32;
     let mut segments = 0_u32;
+    // Periodic sides crossed by the current flight (since its last reflection).
+    let mut crossings = 0_u32;
     let end = |fate, bounces, segments| History {
         fate,
         bounces,
@@ -134,6 +137,7 @@ pub fn trace<C: Carrier>(
                     return end(Fate::Numeric { weight: w }, bounces, segments);
                 }
                 standing = Some((solid, s));
+                crossings = 0;
             }
             Event::Side { t, axis, upper } => {
                 p += t * d;
@@ -143,6 +147,10 @@ pub fn trace<C: Carrier>(
                 match surface.edges {
                     Edges::Periodic => {
                         p[axis] = surface.size[axis] - boundary;
+                        crossings += 1;
+                        if crossings >= MAX_CROSSINGS {
+                            return end(Fate::Capped { weight: w }, bounces, segments);
+                        }
                         continue;
                     }
                     Edges::Absorbing => return end(Fate::Wall { weight: w }, bounces, segments),
@@ -158,6 +166,7 @@ pub fn trace<C: Carrier>(
                             return end(Fate::Numeric { weight: w }, bounces, segments);
                         }
                         d[axis] = -d[axis];
+                        crossings = 0;
                     }
                 }
             }
