@@ -1,0 +1,490 @@
+//! Extreme values (issue 13): values that used to pass validation and then
+//! panic, hang or overflow are refused with one line naming the file and the
+//! key (exit status 2, nothing written); work that used to never end is
+//! bounded, and what a bound cuts is counted in `summary.json`.
+//!
+//! Every run is watched by a hang detector (killed after 60 s): a kill is a
+//! hang, not a slow run.
+
+mod cli_common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use cli_common::assert_input_error;
+use serde_json::Value;
+
+/// Most periodic crossings of one flight (`roks::micro::MAX_CROSSINGS`).
+const MAX_CROSSINGS: u64 = roks::micro::MAX_CROSSINGS as u64;
+
+/// A fresh, empty scratch folder for this test process.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("roks-extremes-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Run `roks args`, killing it after 60 s (a hang).
+fn roks_watched(case: &str, args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run roks");
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{case}: roks {args:?} hung (killed after 60 s)");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The micro scene of a case: `[surface]` lines, then the rest.
+fn scene_text(surface: &str, rest: &str) -> String {
+    format!(
+        "[surface]\n{surface}\nedges = \"periodic\"\nmaterial = \"m\"\n\n[materials.m]\nreflectance = 0.8\n\n{rest}\n[light]\ntheta_deg = [30]\nphotons = 100\n"
+    )
+}
+
+/// Bumps of one table with the given extra lines (defaults as the default scene's).
+fn bumps(lines: &str) -> String {
+    let mut keys = vec![
+        ("shape", "\"ellipsoid\""),
+        ("count", "10"),
+        ("radius", "[2.5, 3.5]"),
+        ("height", "[0.8, 4.8]"),
+    ];
+    let given: Vec<(&str, &str)> = lines.lines().filter_map(|l| l.split_once(" = ")).collect();
+    keys.retain(|(k, _)| !given.iter().any(|(g, _)| g == k));
+    keys.extend(given);
+    let body: String = keys.iter().map(|(k, v)| format!("{k} = {v}\n")).collect();
+    format!("[[bumps]]\n{body}")
+}
+
+/// Write the scene (and `files` beside it), run `roks brdf` on it, and check
+/// the bad-input contract.
+fn refused(case: &str, text: &str, files: &[(&str, String)], args: &[&str], expect: &[&str]) {
+    let dir = scratch(case);
+    for (name, content) in files {
+        std::fs::write(dir.join(name), content).unwrap();
+    }
+    let scene = dir.join(format!("{case}.toml"));
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("out");
+    let mut all = vec![
+        "brdf",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ];
+    all.extend_from_slice(args);
+    let o = roks_watched(case, &all);
+    assert_input_error(case, &o, &scene, &out, expect);
+}
+
+/// A text height map of `nx x ny` heights `h(i, j)`.
+fn text_map(nx: usize, ny: usize, h: impl Fn(usize, usize) -> f64) -> String {
+    (0..ny)
+        .map(|j| {
+            (0..nx)
+                .map(|i| format!("{:e}", h(i, j)))
+                .collect::<Vec<_>>()
+                .join(" ")
+                + "\n"
+        })
+        .collect()
+}
+
+/// Values that passed validation and then panicked (non-finite heights or
+/// sizes in the height field) or hung (ghosts of huge bounds, flights that
+/// cannot descend at heights that do not resolve the cell): each refused
+/// with its key.
+#[test]
+fn derived_lengths_are_checked_where_the_scene_is_built() {
+    let checker = text_map(4, 4, |i, j| ((i + j) % 2) as f64);
+    let huge = text_map(4, 4, |i, j| if (i + j) % 2 == 0 { 1e300 } else { 0.0 });
+    let big = text_map(4, 4, |i, j| if (i + j) % 2 == 0 { 1e20 } else { 0.0 });
+    let map = |spec: &str| {
+        scene_text(
+            &format!("heightfield = {{ file = \"map.txt\", {spec} }}"),
+            "",
+        )
+    };
+    let gaussian = |size: &str, sigma: &str, tau: &str| {
+        scene_text(
+            &format!(
+                "size = {size}\nheightfield = {{ gaussian = {{ sigma = {sigma}, tau = {tau} }}, resolution = 64 }}"
+            ),
+            "",
+        )
+    };
+    let cases: Vec<(&str, String, Vec<(&str, String)>, Vec<&str>)> = vec![
+        // tau far beyond the cell: every mode of the spectrum underflowed
+        // (NaN heights, a panic).
+        (
+            "gaussian-tau",
+            gaussian("[64.0, 64.0]", "1.0", "1e6"),
+            vec![],
+            vec!["surface.heightfield.gaussian.tau", "exceeds the cell"],
+        ),
+        (
+            "gaussian-tau-just-above",
+            gaussian("[64.0, 32.0]", "1.0", "64.5"),
+            vec![],
+            vec!["surface.heightfield.gaussian.tau", "64.5"],
+        ),
+        // sigma = 1e300: heights overflowed f32 (a panic).
+        (
+            "gaussian-sigma-huge",
+            gaussian("[64.0, 64.0]", "1e300", "11.9"),
+            vec![],
+            vec!["surface.heightfield.gaussian.sigma", "1e300"],
+        ),
+        (
+            "gaussian-sigma-tiny",
+            gaussian("[64.0, 64.0]", "1e-300", "11.9"),
+            vec![],
+            vec!["surface.heightfield.gaussian.sigma", "1e-300"],
+        ),
+        // Finite but 1e10 cells tall (a hang).
+        (
+            "gaussian-sigma-tall",
+            gaussian("[64.0, 64.0]", "1e12", "11.9"),
+            vec![],
+            vec!["surface.heightfield.gaussian.sigma", "times the cell"],
+        ),
+        // A height map whose pixel overflows the size.
+        (
+            "map-pixel-huge",
+            map("pixel = 1e300"),
+            vec![("map.txt", checker.clone())],
+            vec!["surface.heightfield.pixel", "1e300"],
+        ),
+        (
+            "map-pixel-times-count",
+            map("pixel = 5e29"),
+            vec![("map.txt", checker.clone())],
+            vec!["surface.heightfield.pixel", "4 x 4 pixels"],
+        ),
+        (
+            "map-pixel-subnormal",
+            map("pixel = 5e-324"),
+            vec![("map.txt", checker.clone())],
+            vec!["surface.heightfield.pixel", "5e-324"],
+        ),
+        // Heights that overflow to infinity after scaling (a panic), or
+        // stay finite but beyond the largest length.
+        (
+            "map-scale-to-infinity",
+            map("pixel = 1.0, height_scale = 1e300"),
+            vec![("map.txt", huge.clone())],
+            vec!["surface.heightfield.height_scale", "inf"],
+        ),
+        (
+            "map-scale-beyond",
+            map("pixel = 1.0, height_scale = 1e20"),
+            vec![("map.txt", big)],
+            vec!["surface.heightfield.height_scale", "1e40"],
+        ),
+        // Heights of 1e300 in the file itself (trapped the walk).
+        (
+            "map-heights-1e300",
+            map("pixel = 1.0"),
+            vec![("map.txt", huge)],
+            vec!["surface.heightfield.file", "1e300"],
+        ),
+        // Heights of 1 over pixels of 1e-12: 2.5e11 cells tall.
+        (
+            "map-tall-over-tiny-pixels",
+            map("pixel = 1e-12"),
+            vec![("map.txt", checker)],
+            vec!["surface.heightfield.file", "times the cell"],
+        ),
+        // Bumps: lengths beyond the traced range, and needles that no
+        // position resolves.
+        (
+            "bump-height-1e300",
+            scene_text("size = [30.0, 30.0]", &bumps("height = 1e300")),
+            vec![],
+            vec!["bumps[0].height", "1e300"],
+        ),
+        (
+            "bump-radius-1e-300",
+            scene_text("size = [30.0, 30.0]", &bumps("radius = 1e-300")),
+            vec![],
+            vec!["bumps[0].radius", "1e-300"],
+        ),
+        (
+            "bump-radius-y-subnormal",
+            scene_text("size = [30.0, 30.0]", &bumps("radius_y = [1.0, 5e-324]")),
+            vec![],
+            vec!["bumps[0].radius_y"],
+        ),
+        (
+            "bump-depth-1e300",
+            scene_text("size = [30.0, 30.0]", &bumps("depth = 1e300")),
+            vec![],
+            vec!["bumps[0].depth", "1e300"],
+        ),
+        (
+            "bump-needles",
+            scene_text(
+                "size = [30.0, 30.0]",
+                &bumps("shape = \"cylinder\"\nheight = 1e20"),
+            ),
+            vec![],
+            vec!["bumps[0].height", "times the cell"],
+        ),
+        (
+            "bump-base-footprint",
+            scene_text(
+                "size = [30.0, 30.0]",
+                &bumps("shape = \"ellipsoid_on_hyperboloid\"\nbase = 1e40"),
+            ),
+            vec![],
+            vec!["bumps[0].base", "radius * base"],
+        ),
+        (
+            "size-1e300",
+            scene_text("size = [1e300, 30.0]", &bumps("")),
+            vec![],
+            vec!["surface.size[0]", "1e300"],
+        ),
+        (
+            "size-tiny",
+            scene_text("size = [30.0, 1e-31]", &bumps("")),
+            vec![],
+            vec!["surface.size[1]", "1e-31"],
+        ),
+    ];
+    for (case, text, files, expect) in &cases {
+        refused(case, text, files, &[], expect);
+    }
+}
+
+/// A bad option: exit status 2, one stderr line naming the option and every
+/// `expect` text, nothing on stdout, no output folder.
+fn assert_option_error(case: &str, o: &Output, out: &Path, expect: &[&str]) {
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{case}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{case}: {stderr}");
+    let line = stderr.trim_end_matches('\n');
+    assert!(
+        !line.is_empty() && !line.contains('\n'),
+        "{case}: {stderr:?}"
+    );
+    for e in expect {
+        assert!(line.contains(e), "{case}: no `{e}` in {line:?}");
+    }
+    assert!(o.stdout.is_empty(), "{case}: stdout");
+    assert!(!out.exists(), "{case}: output folder was created");
+}
+
+/// More than 2^53 photons per incidence cannot be counted by the f64
+/// tallies: refused (the option or the key), from the command line, the
+/// scene, lattice and sharded runs, object scenes and `roks trace`.
+#[test]
+fn photon_counts_beyond_the_tallies_are_refused() {
+    let dir = scratch("photons");
+    let out = dir.join("out");
+    let out_s = out.to_str().unwrap();
+    let default_cases: [(&str, &[&str]); 4] = [
+        ("cli-1e18", &["--photons", "1000000000000000000"]),
+        ("cli-2^53+1", &["--photons", "9007199254740993"]),
+        (
+            "cli-lattice",
+            &["--photons", "9007199254741008", "--launch", "lattice"],
+        ),
+        (
+            "cli-shard",
+            &["--photons", "1000000000000000000", "--shard", "0/2"],
+        ),
+    ];
+    for (case, args) in default_cases {
+        let mut all = vec!["brdf", "--out", out_s, "-q"];
+        all.extend_from_slice(args);
+        let o = roks_watched(case, &all);
+        assert_option_error(case, &o, &out, &["--photons", "2^53"]);
+    }
+    let text = scene_text("size = [30.0, 30.0]", &bumps(""))
+        .replace("photons = 100\n", "photons = 9007199254740993\n");
+    refused("scene-photons", &text, &[], &[], &["light.photons", "2^53"]);
+
+    // An object scene: a flat plate lit from above.
+    let object = r#"
+[quadrics]
+p = { plane = [0.0, 0.0, 1.0, 0.0] }
+s = { sphere = { center = [0.0, 0.0, 0.0], r = 5.0 } }
+
+[[cells]]
+name = "plate"
+region = "-p -s"
+fill = "solid"
+
+[walls]
+p = "paint"
+s = "paint"
+
+[models.paint]
+diffuse = 0.5
+
+[[sources]]
+beam = { direction = [0.0, 0.0, -1.0], diameter = 1.0 }
+position = [0.0, 0.0, 2.0]
+photons = 100
+"#;
+    let scene = dir.join("object.toml");
+    std::fs::write(&scene, object).unwrap();
+    let scene_s = scene.to_str().unwrap();
+    let o = roks_watched(
+        "trace-cli",
+        &[
+            "trace",
+            scene_s,
+            "--out",
+            out_s,
+            "-q",
+            "--photons",
+            "9007199254740993",
+        ],
+    );
+    assert_option_error("trace-cli", &o, &out, &["--photons", "2^53"]);
+    let bad = dir.join("object-photons.toml");
+    std::fs::write(
+        &bad,
+        object.replace("photons = 100", "photons = 18000000000000000000"),
+    )
+    .unwrap();
+    let o = roks_watched(
+        "trace-scene",
+        &["trace", bad.to_str().unwrap(), "--out", out_s, "-q"],
+    );
+    assert_input_error(
+        "trace-scene",
+        &o,
+        &bad,
+        &out,
+        &["sources[0].photons", "2^53"],
+    );
+}
+
+/// `summary.json` of a finished run in `out`, its first incidence.
+fn first_incidence(out: &Path) -> Value {
+    let s: Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    s["incidence"][0].clone()
+}
+
+/// Run `roks brdf scene` into a fresh `out`, expecting success.
+fn completes(case: &str, scene: &Path, args: &[&str]) -> Value {
+    let out = scene.with_extension("out");
+    let _ = std::fs::remove_dir_all(&out);
+    let mut all = vec![
+        "brdf",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ];
+    all.extend_from_slice(args);
+    let o = roks_watched(case, &all);
+    assert!(
+        o.status.success(),
+        "{case}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    first_incidence(&out)
+}
+
+/// Grazing incidence (89.9999999 deg, about 1/cos = 5.7e8 cell sides per
+/// flight before it meets the substrate) completes: flights that cross
+/// `MAX_CROSSINGS` periodic sides without meeting anything are cut and
+/// counted as capped, with their whole weight in `lost_cap`. A black box
+/// (reflectance 0) on half the rows of the cell absorbs the other photons at
+/// their first hit, so every photon is either absorbed or capped.
+#[test]
+fn grazing_flights_are_cut_after_a_bounded_number_of_crossings() {
+    let dir = scratch("grazing");
+    let scene = dir.join("grazing.toml");
+    std::fs::write(
+        &scene,
+        r#"
+[surface]
+size = [10.0, 10.0]
+edges = "periodic"
+material = "black"
+
+[materials.black]
+reflectance = 0.0
+
+[quadrics]
+x0 = { plane = [1.0, 0.0, 0.0, 0.0] }
+x1 = { plane = [1.0, 0.0, 0.0, 1.0] }
+y0 = { plane = [0.0, 1.0, 0.0, 0.0] }
+y1 = { plane = [0.0, 1.0, 0.0, 5.0] }
+top = { plane = [0.0, 0.0, 1.0, 1.0] }
+
+[[bodies]]
+region = "+x0 -x1 +y0 -y1 -top"
+
+[light]
+theta_deg = [89.9999999]
+photons = 32
+"#,
+    )
+    .unwrap();
+    let inc = completes("grazing", &scene, &[]);
+    let photons = inc["photons"].as_u64().unwrap();
+    let capped = inc["capped_photons"].as_u64().unwrap();
+    let segments = inc["segments"].as_u64().unwrap();
+    assert_eq!(photons, 32);
+    assert_eq!(inc["reflectance"].as_f64(), Some(0.0));
+    assert!(
+        capped >= 1 && capped < photons,
+        "capped {capped} of {photons}"
+    );
+    // Each capped photon carried weight 1 into the cap.
+    assert_eq!(
+        inc["lost_cap"].as_f64(),
+        Some(capped as f64 / photons as f64),
+        "{inc}"
+    );
+    // A capped flight made exactly MAX_CROSSINGS segments, an absorbed one
+    // fewer (it met the box before the cap).
+    assert!(segments >= capped * MAX_CROSSINGS, "{segments}");
+    assert!(segments < photons * MAX_CROSSINGS, "{segments}");
+}
+
+/// A height field of 1e8 tall spikes on a 64 x 64 grid of pitch 1 (1.6e6
+/// cells tall, within the limit): flights from the launch plane at 30 deg
+/// would walk 9e5 periods before reaching the lowest vertex; the walk stops
+/// at `MAX_CROSSINGS` periods and the photon is counted as capped.
+#[test]
+fn tall_height_fields_stop_the_walk_after_a_bounded_number_of_periods() {
+    let dir = scratch("tall-field");
+    let map = text_map(64, 64, |i, j| if i == 0 && j == 0 { 1e8 } else { 0.0 });
+    std::fs::write(dir.join("spike.txt"), map).unwrap();
+    let scene = dir.join("spike.toml");
+    std::fs::write(
+        &scene,
+        scene_text("heightfield = { file = \"spike.txt\", pixel = 1.0 }", "")
+            .replace("photons = 100", "photons = 16"),
+    )
+    .unwrap();
+    let inc = completes("tall-field", &scene, &[]);
+    let capped = inc["capped_photons"].as_u64().unwrap();
+    assert!(capped >= 1, "{inc}");
+    // A capped photon carries at least the weight of 0.8 per bounce it made.
+    let lost_cap = inc["lost_cap"].as_f64().unwrap();
+    assert!(lost_cap > 0.0 && lost_cap <= capped as f64 / 16.0, "{inc}");
+}
