@@ -714,11 +714,8 @@ impl Problem {
             }
         }
         if let Some(w) = opts.inplane_width_deg {
-            if !(w > 0.0 && w <= 180.0) {
-                return Err(opt(
-                    "inplane_width_deg",
-                    format!("must be in (0, 180], got {w}"),
-                ));
+            if let Some(e) = InPlaneTally::width_error(w) {
+                return Err(opt("inplane_width_deg", e));
             }
         }
         let max = measured.points.iter().map(|p| p.2).fold(0.0, f64::max);

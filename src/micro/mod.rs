@@ -112,6 +112,23 @@ pub enum Event {
     Trapped,
 }
 
+/// What [`MicroSurface::skip_periods`] found for a flight on a periodic side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Skip {
+    /// Nothing to skip: trace on.
+    None,
+    /// The flight meets nothing in the next `periods` whole periods along the
+    /// crossed axis: continue from `at`, the same side that many periods on.
+    To {
+        /// The new start (on the same side of the cell).
+        at: DVec3,
+        /// Whole periods skipped.
+        periods: f64,
+    },
+    /// The flight rises above everything it can still pass over: it escapes.
+    Escapes,
+}
+
 /// Per-thread scratch for [`MicroSurface::next_event`] (mailboxing).
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {
@@ -156,6 +173,9 @@ struct Grid {
     items: Vec<(u32, f64)>,
     /// Highest `bounds.max.z` of the items of each grid cell (`-inf` if empty).
     zmax: Vec<f64>,
+    /// `line_max[k][i]`: the highest `zmax` of the grid cells with index `i`
+    /// along axis `k` (a column for `k = 0`, a row for `k = 1`).
+    line_max: [Vec<f64>; 2],
 }
 
 impl Grid {
@@ -200,6 +220,14 @@ impl Grid {
                 }
             }
         }
+        let mut line_max = [vec![f64::NEG_INFINITY; nx], vec![f64::NEG_INFINITY; ny]];
+        for iy in 0..ny {
+            for ix in 0..nx {
+                let z = zmax[iy * nx + ix];
+                line_max[0][ix] = line_max[0][ix].max(z);
+                line_max[1][iy] = line_max[1][iy].max(z);
+            }
+        }
         let mut start = Vec::with_capacity(nx * ny + 1);
         let mut items = Vec::new();
         start.push(0);
@@ -216,6 +244,7 @@ impl Grid {
             start,
             items,
             zmax,
+            line_max,
         }
     }
 
@@ -526,6 +555,107 @@ impl MicroSurface {
         match best {
             Some((t, solid, surface)) => Event::Hit { t, solid, surface },
             None => exit,
+        }
+    }
+
+    /// Whole periods a flight along unit `d`, at `p` on a side `x = 0 / Lx`
+    /// (`axis = 0`) or `y = 0 / Ly` (`axis = 1`) of a periodic bump surface,
+    /// can skip exactly: those in which it passes above every solid it can
+    /// meet. Over `k` periods along `axis` the flight's other coordinate
+    /// drifts by `k` times its per-period drift; while that band stays
+    /// within the cell, the flight passes over the grid lines (rows or
+    /// columns) the band touches, so it can meet nothing while its lowest
+    /// point in a period stays above their highest solid (and the substrate,
+    /// `z = 0`). Flights nearly along an axis at grazing incidence cross
+    /// about `1 / cos(theta)` periods otherwise. Exact: only periods in which
+    /// no solid can be entered are skipped; the position moves by whole
+    /// periods. Applies to bump surfaces whose only unbounded solid is the
+    /// substrate (otherwise [`Skip::None`]).
+    #[must_use]
+    pub fn skip_periods(&self, p: DVec3, d: DVec3, axis: usize) -> Skip {
+        if self.heightfield.is_some() || self.edges != Edges::Periodic || self.global != [0] {
+            return Skip::None;
+        }
+        let b = 1 - axis;
+        let (da, len_a, len_b) = (d[axis], self.size[axis], self.size[b]);
+        if da == 0.0 || d.z == 0.0 {
+            return Skip::None;
+        }
+        let dt = len_a / da.abs();
+        let (drift, dz) = (dt * d[b], dt * d.z);
+        // Rounding of positions and of the solids' heights: a hair relative
+        // to the scene, as the launch plane's.
+        let margin = 1e-9 * self.size.max_element().max(self.max_height.abs());
+        let g = &self.grid;
+        // The highest solid over the band the flight's other coordinate
+        // covers in `k` periods (None: the band leaves the cell).
+        let band_max = |k: f64| -> Option<f64> {
+            let w = (k * drift).abs() + margin;
+            let (lo, hi) = (p[b] - w, p[b] + w);
+            if !(lo >= 0.0 && hi <= len_b) {
+                return None;
+            }
+            let inv = g.inv_pitch[b];
+            let last = g.n[b] - 1;
+            let i0 = ((lo * inv) as usize).min(last);
+            let i1 = ((hi * inv) as usize).min(last);
+            // The band as a rectangle of the cell; each solid listed in its
+            // grid lines gives its exact highest point over it (bumps; the
+            // bounds' top for other solids).
+            let mut rect = (DVec2::ZERO, DVec2::ZERO);
+            rect.0[b] = lo;
+            rect.1[b] = hi;
+            rect.1[axis] = len_a;
+            let mut m = 0.0_f64;
+            for i in i0..=i1 {
+                if g.line_max[b][i] <= m {
+                    continue;
+                }
+                for j in 0..g.n[axis] {
+                    let cell = if b == 1 {
+                        i * g.n[0] + j
+                    } else {
+                        j * g.n[0] + i
+                    };
+                    for &(solid, zmax) in g.cell_items(cell) {
+                        if zmax <= m {
+                            break;
+                        }
+                        m = m.max(self.solids[solid as usize].max_height_over(rect.0, rect.1));
+                    }
+                }
+            }
+            Some(m)
+        };
+        if dz < 0.0 {
+            // Lowest point of period n (0-based) is at its far end: p.z + (n + 1) dz.
+            let m1 = match band_max(0.0) {
+                Some(m) => m,
+                None => return Skip::None,
+            };
+            let k1 = ((p.z - m1 - margin) / -dz).floor() - 1.0;
+            if !(k1 >= 1.0) {
+                return Skip::None;
+            }
+            let Some(m) = band_max(k1) else {
+                return Skip::None;
+            };
+            // Every band of fewer periods lies within the band of k1.
+            let k = k1.min(((p.z - m - margin) / -dz).floor() - 1.0);
+            if !(k >= 1.0) {
+                return Skip::None;
+            }
+            let mut at = p;
+            at[b] += k * drift;
+            at.z += k * dz;
+            Skip::To { at, periods: k }
+        } else {
+            // Rising: above everything it passes over until the launch plane?
+            let k_top = ((self.top - p.z) / dz).ceil().max(1.0);
+            match band_max(k_top) {
+                Some(m) if p.z > m + margin => Skip::Escapes,
+                _ => Skip::None,
+            }
         }
     }
 

@@ -593,12 +593,8 @@ impl MicroSceneSpec {
                 ),
             ));
         }
-        let width = tally.inplane_width_deg;
-        if !(width > 0.0 && width <= 180.0) {
-            return Err(source.error(
-                "tally.inplane_width_deg",
-                format!("must be in (0, 180], got {width}"),
-            ));
+        if let Some(e) = crate::tally::InPlaneTally::width_error(tally.inplane_width_deg) {
+            return Err(source.error("tally.inplane_width_deg", e));
         }
         let transport = self.transport;
         if transport.max_bounces == 0 {

@@ -46,6 +46,23 @@ pub struct InPlaneTally {
 pub const MAX_BINS: usize = 18_000;
 
 impl InPlaneTally {
+    /// The message for a detector full width (degrees) that
+    /// [`InPlaneTally::new`] would refuse as a half width, if it would: in
+    /// `(0, 180]`, and its half a positive number (not below 1e-323).
+    #[must_use]
+    pub fn width_error(width_deg: f64) -> Option<String> {
+        let half = 0.5 * width_deg;
+        if !(width_deg > 0.0 && width_deg <= 180.0) {
+            Some(format!("must be in (0, 180], got {width_deg}"))
+        } else if !(half > 0.0 && half <= 90.0) {
+            Some(format!(
+                "{width_deg:e} is too small: its half rounds to 0 (at least 1e-323)"
+            ))
+        } else {
+            None
+        }
+    }
+
     /// A tally with bins `step_deg` wide (degrees) in `theta_p`, accepting
     /// `|psi| <= half_width_deg` (degrees), for light at azimuth `phi_i_rad`
     /// (radians).

@@ -14,7 +14,13 @@
 use glam::DVec3;
 
 use super::carrier::Carrier;
-use crate::micro::{Edges, Event, MAX_CROSSINGS, MicroSurface, Scratch};
+use crate::micro::{Edges, Event, MAX_CROSSINGS, MicroSurface, Scratch, Skip};
+
+/// Periodic crossings of one flight after which [`MicroSurface::skip_periods`]
+/// is asked, at every further crossing, for whole periods the flight passes
+/// above everything (ordinary flights cross fewer, and are traced exactly as
+/// before).
+const SKIP_AFTER: u32 = 64;
 
 /// Limits of a history.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -148,6 +154,19 @@ pub fn trace<C: Carrier>(
                     Edges::Periodic => {
                         p[axis] = surface.size[axis] - boundary;
                         crossings += 1;
+                        if crossings >= SKIP_AFTER {
+                            match surface.skip_periods(p, d, axis) {
+                                Skip::None => {}
+                                Skip::To { at, .. } => p = at,
+                                Skip::Escapes => {
+                                    return end(
+                                        Fate::Escaped { dir: d, weight: w },
+                                        bounces,
+                                        segments,
+                                    );
+                                }
+                            }
+                        }
                         if crossings >= MAX_CROSSINGS {
                             return end(Fate::Capped { weight: w }, bounces, segments);
                         }
