@@ -488,3 +488,34 @@ fn tall_height_fields_stop_the_walk_after_a_bounded_number_of_periods() {
     let lost_cap = inc["lost_cap"].as_f64().unwrap();
     assert!(lost_cap > 0.0 && lost_cap <= capped as f64 / 16.0, "{inc}");
 }
+
+/// Grazing incidence on the default scene's bumps along a lattice direction
+/// of the cell (azimuth 0, 90, and the diagonal 45 deg of the square cell):
+/// each flight passes over the same folded path, a little lower each
+/// period, until it meets the highest bump on that path (5.7e8 cell sides
+/// away in the worst case). The periods above every solid it can meet are
+/// skipped exactly, so no photon is capped, and every photon meets a bump
+/// top once and escapes (reflectance 0.8, the material's, exactly).
+#[test]
+fn grazing_flights_along_the_lattice_skip_the_periods_above_everything() {
+    let dir = scratch("skip");
+    let default = include_str!("../scenes/default.toml");
+    for phi in ["0.0", "45.0", "90.0"] {
+        let scene = dir.join(format!("graze-{phi}.toml"));
+        let text = default
+            .replace("phi_deg = 0.0", &format!("phi_deg = {phi}"))
+            .replace(
+                "theta_deg = [0, 10, 20, 30, 40, 50, 60, 70, 80, 85]",
+                "theta_deg = [89.9999999]",
+            )
+            .replace("photons = 1000000", "photons = 64");
+        assert!(text.contains("[89.9999999]") && text.contains("photons = 64"));
+        std::fs::write(&scene, text).unwrap();
+        let inc = completes(&format!("graze-{phi}"), &scene, &[]);
+        assert_eq!(inc["capped_photons"].as_u64(), Some(0), "phi {phi}: {inc}");
+        assert_eq!(inc["lost"].as_f64(), Some(0.0), "phi {phi}: {inc}");
+        let r = inc["reflectance"].as_f64().unwrap();
+        assert!((r - 0.8).abs() < 1e-12, "phi {phi}: reflectance {r}");
+        assert_eq!(inc["mean_bounces"].as_f64(), Some(1.0), "phi {phi}: {inc}");
+    }
+}

@@ -68,6 +68,30 @@ pub struct Solid {
 }
 
 impl Solid {
+    /// Highest point of the solid within horizontal distance `w` of the
+    /// segment from `a` to `b` (an upper bound: exact for bumps, whose
+    /// heights fall with the scaled distance from their centre, plus the
+    /// same relative pad as [`Self::max_height_over`]; the bounds' top
+    /// otherwise).
+    fn max_height_near(&self, a: DVec2, b: DVec2, w: f64) -> f64 {
+        match &self.bump {
+            Some((shape, bump)) => {
+                let r = DVec2::new(bump.radius, bump.radius_y);
+                let (qa, qb) = ((a - bump.center) / r, (b - bump.center) / r);
+                let e = qb - qa;
+                let len2 = e.length_squared();
+                let t = if len2 > 0.0 {
+                    (-qa.dot(e) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let s = (qa + t * e).length() - w / r.min_element();
+                shape.profile(bump, s.max(0.0)) + 1e-9 * bump.height
+            }
+            None => self.body.bounds.max.z,
+        }
+    }
+
     /// Highest point of the solid over the rectangle `[lo, hi]` (an upper bound).
     fn max_height_over(&self, lo: DVec2, hi: DVec2) -> f64 {
         match &self.bump {
@@ -173,9 +197,6 @@ struct Grid {
     items: Vec<(u32, f64)>,
     /// Highest `bounds.max.z` of the items of each grid cell (`-inf` if empty).
     zmax: Vec<f64>,
-    /// `line_max[k][i]`: the highest `zmax` of the grid cells with index `i`
-    /// along axis `k` (a column for `k = 0`, a row for `k = 1`).
-    line_max: [Vec<f64>; 2],
 }
 
 impl Grid {
@@ -220,14 +241,6 @@ impl Grid {
                 }
             }
         }
-        let mut line_max = [vec![f64::NEG_INFINITY; nx], vec![f64::NEG_INFINITY; ny]];
-        for iy in 0..ny {
-            for ix in 0..nx {
-                let z = zmax[iy * nx + ix];
-                line_max[0][ix] = line_max[0][ix].max(z);
-                line_max[1][iy] = line_max[1][iy].max(z);
-            }
-        }
         let mut start = Vec::with_capacity(nx * ny + 1);
         let mut items = Vec::new();
         start.push(0);
@@ -244,7 +257,6 @@ impl Grid {
             start,
             items,
             zmax,
-            line_max,
         }
     }
 
@@ -561,16 +573,24 @@ impl MicroSurface {
     /// Whole periods a flight along unit `d`, at `p` on a side `x = 0 / Lx`
     /// (`axis = 0`) or `y = 0 / Ly` (`axis = 1`) of a periodic bump surface,
     /// can skip exactly: those in which it passes above every solid it can
-    /// meet. Over `k` periods along `axis` the flight's other coordinate
-    /// drifts by `k` times its per-period drift; while that band stays
-    /// within the cell, the flight passes over the grid lines (rows or
-    /// columns) the band touches, so it can meet nothing while its lowest
-    /// point in a period stays above their highest solid (and the substrate,
-    /// `z = 0`). Flights nearly along an axis at grazing incidence cross
-    /// about `1 / cos(theta)` periods otherwise. Exact: only periods in which
-    /// no solid can be entered are skipped; the position moves by whole
-    /// periods. Applies to bump surfaces whose only unbounded solid is the
-    /// substrate (otherwise [`Skip::None`]).
+    /// meet. Flights nearly along a lattice direction of the cell (along an
+    /// axis, or a diagonal of a square cell) at grazing incidence otherwise
+    /// cross about `1 / cos(theta)` periods, passing over the same folded
+    /// path again and again, a little lower each time.
+    ///
+    /// Over one period along `axis` the flight's path, folded into the cell,
+    /// is a few segments; each further period shifts them by the drift of
+    /// its other coordinate modulo that period. Over `k` periods the paths
+    /// lie within `k |drift| + margin` of the first period's segments, and
+    /// each solid's highest point that close to them bounds what the flight
+    /// can meet (exact profiles for bumps, the bounds' top otherwise, and
+    /// the substrate's `z = 0`). While the flight's lowest point in a period
+    /// (its far end, descending) stays above that, the period is skipped:
+    /// the position moves by whole periods and nothing that could be met is
+    /// passed. A rising flight above everything it passes over before the
+    /// launch plane escapes. Applies to bump surfaces whose only unbounded
+    /// solid is the substrate, and to paths that drift less than a grid
+    /// pitch in 16 periods (otherwise [`Skip::None`]).
     #[must_use]
     pub fn skip_periods(&self, p: DVec3, d: DVec3, axis: usize) -> Skip {
         if self.heightfield.is_some() || self.edges != Edges::Periodic || self.global != [0] {
@@ -583,78 +603,85 @@ impl MicroSurface {
         }
         let dt = len_a / da.abs();
         let (drift, dz) = (dt * d[b], dt * d.z);
+        if !(drift.abs() <= 4.0 * len_b) {
+            return Skip::None;
+        }
+        let drift_mod = drift - (drift / len_b).round() * len_b;
+        if !(16.0 * drift_mod.abs() <= self.grid.pitch[b]) {
+            return Skip::None;
+        }
         // Rounding of positions and of the solids' heights: a hair relative
         // to the scene, as the launch plane's.
         let margin = 1e-9 * self.size.max_element().max(self.max_height.abs());
-        let g = &self.grid;
-        // The highest solid over the band the flight's other coordinate
-        // covers in `k` periods (None: the band leaves the cell).
-        let band_max = |k: f64| -> Option<f64> {
-            let w = (k * drift).abs() + margin;
-            let (lo, hi) = (p[b] - w, p[b] + w);
-            if !(lo >= 0.0 && hi <= len_b) {
-                return None;
+        // The first period's path, folded into the cell: pieces between the
+        // crossings of the other axis' sides.
+        let point = |sigma: f64| {
+            let mut q = DVec2::ZERO;
+            q[axis] = if da > 0.0 { sigma } else { len_a - sigma };
+            q[b] = p[b] + sigma / len_a * drift;
+            q
+        };
+        let mut cuts = vec![0.0, len_a];
+        let (m0, m1) = ((p[b] / len_b).floor(), ((p[b] + drift) / len_b).floor());
+        let mut m = m0.min(m1);
+        while m <= m0.max(m1) + 1.0 {
+            let sigma = (m * len_b - p[b]) / drift * len_a;
+            if sigma > 0.0 && sigma < len_a {
+                cuts.push(sigma);
             }
-            let inv = g.inv_pitch[b];
-            let last = g.n[b] - 1;
-            let i0 = ((lo * inv) as usize).min(last);
-            let i1 = ((hi * inv) as usize).min(last);
-            // The band as a rectangle of the cell; each solid listed in its
-            // grid lines gives its exact highest point over it (bumps; the
-            // bounds' top for other solids).
-            let mut rect = (DVec2::ZERO, DVec2::ZERO);
-            rect.0[b] = lo;
-            rect.1[b] = hi;
-            rect.1[axis] = len_a;
-            let mut m = 0.0_f64;
-            for i in i0..=i1 {
-                if g.line_max[b][i] <= m {
-                    continue;
-                }
-                for j in 0..g.n[axis] {
-                    let cell = if b == 1 {
-                        i * g.n[0] + j
-                    } else {
-                        j * g.n[0] + i
-                    };
-                    for &(solid, zmax) in g.cell_items(cell) {
-                        if zmax <= m {
-                            break;
-                        }
-                        m = m.max(self.solids[solid as usize].max_height_over(rect.0, rect.1));
+            m += 1.0;
+        }
+        cuts.sort_by(f64::total_cmp);
+        let pieces: Vec<(DVec2, DVec2)> = cuts
+            .windows(2)
+            .map(|c| {
+                let (mut a0, mut a1) = (point(c[0]), point(c[1]));
+                let fold = (0.5 * (a0[b] + a1[b]) / len_b).floor() * len_b;
+                a0[b] -= fold;
+                a1[b] -= fold;
+                (a0, a1)
+            })
+            .collect();
+        // The highest solid within `w` of the pieces (and of their copies
+        // one period away across the other axis' sides).
+        let highest_near = |w: f64| -> f64 {
+            let mut top = 0.0_f64;
+            for solid in &self.solids[1..] {
+                for &(a0, a1) in &pieces {
+                    for shift in [-len_b, 0.0, len_b] {
+                        let mut s = DVec2::ZERO;
+                        s[b] = shift;
+                        top = top.max(solid.max_height_near(a0 + s, a1 + s, w));
                     }
                 }
             }
-            Some(m)
+            top
         };
         if dz < 0.0 {
-            // Lowest point of period n (0-based) is at its far end: p.z + (n + 1) dz.
-            let m1 = match band_max(0.0) {
-                Some(m) => m,
-                None => return Skip::None,
-            };
-            let k1 = ((p.z - m1 - margin) / -dz).floor() - 1.0;
+            // The lowest point of period n (0-based) is at its far end: p.z + (n + 1) dz.
+            let k1 = ((p.z - highest_near(margin) - margin) / -dz).floor() - 1.0;
             if !(k1 >= 1.0) {
                 return Skip::None;
             }
-            let Some(m) = band_max(k1) else {
-                return Skip::None;
-            };
             // Every band of fewer periods lies within the band of k1.
+            let m = highest_near((k1 * drift_mod).abs() + margin);
             let k = k1.min(((p.z - m - margin) / -dz).floor() - 1.0);
             if !(k >= 1.0) {
                 return Skip::None;
             }
             let mut at = p;
             at[b] += k * drift;
+            at[b] -= (at[b] / len_b).floor() * len_b;
             at.z += k * dz;
             Skip::To { at, periods: k }
         } else {
             // Rising: above everything it passes over until the launch plane?
             let k_top = ((self.top - p.z) / dz).ceil().max(1.0);
-            match band_max(k_top) {
-                Some(m) if p.z > m + margin => Skip::Escapes,
-                _ => Skip::None,
+            let m = highest_near((k_top * drift_mod).abs() + margin);
+            if p.z > m + margin {
+                Skip::Escapes
+            } else {
+                Skip::None
             }
         }
     }
