@@ -603,7 +603,8 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         &run,
         &output::surface_json(&stats, rx),
     );
-    let mut fields = shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e))?;
+    let mut fields =
+        shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e.to_string()))?;
 
     let total_photons = run.photons;
     if let Some((first, last)) = range {
@@ -754,146 +755,23 @@ fn print_brdf_table(results: &[roks::transport::brdf::IncidenceResult]) {
     }
 }
 
-/// One shard folder read by `roks merge`.
-struct ShardDir {
-    dir: PathBuf,
-    v: serde_json::Value,
-    first: u64,
-    last: u64,
-}
-
-fn read_shard(dir: &Path) -> Result<ShardDir, Failure> {
-    let d = dir.display();
-    let path = dir.join(shard::TALLIES_FILE);
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| Failure::Input(format!("{d}: cannot read {}: {e}", shard::TALLIES_FILE)))?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Failure::Input(format!("{d}: {}: {e}", shard::TALLIES_FILE)))?;
-    if v["format"] != shard::FORMAT || v["format_version"] != shard::FORMAT_VERSION {
-        return Err(Failure::Input(format!(
-            "{d}: {} is not a roks tallies file of format version {}",
-            shard::TALLIES_FILE,
-            shard::FORMAT_VERSION
-        )));
-    }
-    let bad = |e: String| Failure::Input(format!("{d}: {}: {e}", shard::TALLIES_FILE));
-    let first = shard::get_u64(&v, "first_photon").map_err(bad)?;
-    let last = shard::get_u64(&v, "last_photon").map_err(bad)?;
-    Ok(ShardDir {
-        dir: dir.to_path_buf(),
-        v,
-        first,
-        last,
-    })
-}
-
 fn merge(a: MergeArgs) -> Result<(), Failure> {
     use roks::transport::BATCH;
-    use roks::transport::brdf::{IncidenceResult, Tallies};
-    let mut parts = a
+    use roks::transport::brdf::IncidenceResult;
+    let parts = a
         .dirs
         .iter()
-        .map(|d| read_shard(d))
+        .map(|d| shard::read_shard(d))
         .collect::<Result<Vec<_>, _>>()?;
-    let settings = parts[0].v["settings"].clone();
-    let d0 = parts[0].dir.display().to_string();
-    for p in &parts[1..] {
-        if p.v["settings"] != settings {
-            let key = settings
-                .as_object()
-                .and_then(|m| {
-                    m.keys()
-                        .find(|k| p.v["settings"][k.as_str()] != m[k.as_str()])
-                })
-                .cloned()
-                .unwrap_or_else(|| "settings".into());
-            return Err(Failure::Input(format!(
-                "{}: not a shard of the same run as {d0} (`{key}` differs)",
-                p.dir.display()
-            )));
-        }
-    }
-    let run = shard::run_from_settings(&settings)
-        .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
+    let n_parts = parts.len();
+    let merged = shard::merge_shards(parts)?;
+    let (run, settings) = (merged.run, merged.settings);
     let total = run.photons;
-    parts.sort_by_key(|p| (p.first, p.last));
-    let mut next = 0;
-    for (k, p) in parts.iter().enumerate() {
-        let d = p.dir.display();
-        if p.first % BATCH != 0 || p.last < p.first || p.last > total {
-            return Err(Failure::Input(format!(
-                "{d}: photons [{}, {}) are not a block of whole batches of the run's {total}",
-                p.first, p.last
-            )));
-        }
-        if p.first < next {
-            return Err(Failure::Input(format!(
-                "{d}: photons [{}, {}) overlap those of {}",
-                p.first,
-                p.last,
-                parts[k - 1].dir.display()
-            )));
-        }
-        if p.first > next {
-            return Err(Failure::Input(format!(
-                "{d}: photons [{next}, {}) are missing before this shard",
-                p.first
-            )));
-        }
-        next = p.last;
-    }
-    if next != total {
-        return Err(Failure::Input(format!(
-            "{}: photons [{next}, {total}) are missing after this shard",
-            parts[parts.len() - 1].dir.display()
-        )));
-    }
-
-    let grid = run.grid();
-    let inplane = run.inplane();
     let batches = total.div_ceil(BATCH);
     let mut results = Vec::new();
     let mut roots = Vec::new();
-    for (i, &theta) in run.theta_deg.iter().enumerate() {
-        let mut sum = shard::DyadicSum::new(batches);
-        let mut seconds = 0.0;
-        for p in &parts {
-            let d = p.dir.display();
-            let bad = |e: String| {
-                Failure::Input(format!("{d}: {}: incidence[{i}]: {e}", shard::TALLIES_FILE))
-            };
-            let inc = &p.v["incidence"][i];
-            if shard::text_f64(&inc["theta_deg"], "theta_deg")
-                .map_err(bad)?
-                .to_bits()
-                != theta.to_bits()
-            {
-                return Err(bad(format!("theta_deg is not {theta}")));
-            }
-            seconds += shard::text_f64(&inc["seconds"], "seconds").map_err(bad)?;
-            let nodes = shard::json_nodes(
-                &inc["nodes"],
-                grid.n_cells(),
-                inplane.n_bins(),
-                run.polarisation.tally,
-            )
-            .map_err(bad)?;
-            for n in nodes {
-                sum.push(n, &Tallies::merge).map_err(bad)?;
-            }
-        }
-        let t = sum.finish().map_err(|e| {
-            Failure::Input(format!(
-                "{}: incidence[{i}]: {e}",
-                parts[parts.len() - 1].dir.display()
-            ))
-        })?;
-        if t.photons != total {
-            return Err(Failure::Input(format!(
-                "{d0}: incidence[{i}]: {} photons summed, expected {total}",
-                t.photons
-            )));
-        }
+    for inc in merged.incidence {
+        let (theta, seconds, t) = (inc.theta_deg, inc.seconds, inc.tallies);
         roots.push((
             theta,
             seconds,
@@ -910,12 +788,9 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
             seconds,
         });
     }
-    let seconds: f64 = parts
-        .iter()
-        .map(|p| shard::text_f64(&p.v["seconds"], "seconds").unwrap_or(0.0))
-        .sum();
-    let fields = shard::summary_fields(&settings)
-        .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
+    let seconds = merged.seconds;
+    let d0 = a.dirs[0].join(shard::TALLIES_FILE).display().to_string();
+    let fields = shard::summary_fields(&settings).map_err(|e| e.under("settings").in_file(&d0))?;
     let summary = output::brdf_summary(&fields, &results, seconds);
     let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
     text.push('\n');
@@ -952,7 +827,7 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
     write_outputs(&a.out, &files)?;
     if !a.quiet {
         print_brdf_table(&results);
-        eprintln!("merged {} shards into {}", parts.len(), a.out.display());
+        eprintln!("merged {n_parts} shards into {}", a.out.display());
     }
     Ok(())
 }

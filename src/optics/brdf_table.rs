@@ -646,7 +646,7 @@ impl BrdfTable {
                 total += f;
                 cdf.push(total);
             }
-            if !(total <= MAX_FRACTION) {
+            if total.is_nan() || total > MAX_FRACTION {
                 return Err(BrdfTableError::Sum {
                     file: file(),
                     line: b.start,
@@ -860,7 +860,9 @@ impl BrdfTable {
             return Err(fail(1, "header is not that of mueller.csv".into()));
         }
         let n = self.grid.n_cells();
-        let mut blocks: Vec<(f64, f64, Vec<[f64; 16]>, Vec<usize>)> = Vec::new();
+        // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
+        type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
+        let mut blocks: Vec<MuellerBlock> = Vec::new();
         let mut last_line = 1;
         for (line, l) in lines {
             last_line = line;
@@ -1284,7 +1286,8 @@ fn check_derived(row: &Row, proj: f64, name: &str) -> Result<(), BrdfTableError>
         ),
     ] {
         let expected = from / proj;
-        if !((found - expected).abs() <= DERIVED_TOL * expected.max(found) + 1e-300) {
+        let off = (found - expected).abs();
+        if off.is_nan() || off > DERIVED_TOL * expected.max(found) + 1e-300 {
             return Err(BrdfTableError::Derived {
                 file: name.to_owned(),
                 line: row.line,

@@ -78,7 +78,7 @@ use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
 use crate::tally::{PolarTally, Symmetry};
 use crate::transport::brdf::{BrdfRun, Polarisation};
-use crate::transport::launch::{Launch, check_photons};
+use crate::transport::launch::Launch;
 use crate::transport::micro::Controls;
 
 /// The embedded default scene (also `scenes/default.toml`).
@@ -508,65 +508,7 @@ impl MicroSceneSpec {
             )?);
         }
 
-        let light = self.light;
-        if light.theta_deg.is_empty() {
-            return Err(source.error("light.theta_deg", "needs at least one angle"));
-        }
-        for (i, t) in light.theta_deg.iter().enumerate() {
-            if !(t.is_finite() && (0.0..90.0).contains(t)) {
-                return Err(source.error(
-                    format!("light.theta_deg[{i}]"),
-                    format!("must be in [0, 90), got {t}"),
-                ));
-            }
-        }
-        if let Some((i, t)) = first_repeat(&light.theta_deg) {
-            return Err(source.error(
-                format!("light.theta_deg[{i}]"),
-                format!("{t} is given twice (each incidence angle once: a BRDF table holds one block per angle)"),
-            ));
-        }
-        if !light.phi_deg.is_finite() {
-            return Err(source.error("light.phi_deg", "must be finite"));
-        }
-        if light.photons == 0 {
-            return Err(source.error("light.photons", "must be > 0"));
-        }
-        if let Err(e) = check_photons(light.launch, light.photons) {
-            return Err(source.error("light.photons", e));
-        }
-        let tally = self.tally;
-        if !(1..=1000).contains(&tally.bands) {
-            return Err(source.error(
-                "tally.bands",
-                format!("must be in 1..=1000, got {}", tally.bands),
-            ));
-        }
-        let step = tally.inplane_step_deg;
-        if crate::tally::InPlaneTally::new(step, 0.5, 0.0).is_none() {
-            return Err(source.error(
-                "tally.inplane_step_deg",
-                format!(
-                    "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {step}",
-                    crate::tally::inplane::MAX_BINS
-                ),
-            ));
-        }
-        let width = tally.inplane_width_deg;
-        if !(width > 0.0 && width <= 180.0) {
-            return Err(source.error(
-                "tally.inplane_width_deg",
-                format!("must be in (0, 180], got {width}"),
-            ));
-        }
-        let transport = self.transport;
-        if transport.max_bounces == 0 {
-            return Err(source.error("transport.max_bounces", "must be > 0"));
-        }
-        if !(transport.roulette_weight >= 0.0 && transport.roulette_weight < 1.0) {
-            return Err(source.error("transport.roulette_weight", "must be in [0, 1)"));
-        }
-
+        let (light, tally, transport) = (self.light, self.tally, self.transport);
         let incident = match &light.polarisation {
             Some(p) => p.build(&source, "light.polarisation")?,
             None => Incident::Unpolarised,
@@ -584,7 +526,7 @@ impl MicroSceneSpec {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),
             None => MicroSurface::new(size, edges, placed, materials, substrate),
         };
-        Ok(MicroScene {
+        let scene = MicroScene {
             name: self.name.unwrap_or(fallback_name),
             source,
             surface,
@@ -593,7 +535,13 @@ impl MicroSceneSpec {
             tally,
             transport,
             polarisation,
-        })
+        };
+        // The run's values, checked where every run is (also merged shards').
+        scene
+            .brdf_run()
+            .check()
+            .map_err(|(key, e)| scene.source.error(key, e))?;
+        Ok(scene)
     }
 }
 
