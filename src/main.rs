@@ -489,7 +489,15 @@ fn export_brdf(a: ExportBrdfArgs) -> Result<(), Failure> {
             a.dir.display()
         )));
     }
-    let table = BrdfTable::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    let mut table = BrdfTable::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    // The run's summary beside the table must describe the same run (a
+    // table cut at a block boundary has lost an incidence it lists).
+    let summary = a.dir.join("summary.json");
+    if summary.exists() {
+        table = table
+            .with_summary(&summary)
+            .map_err(|e| Failure::Input(e.to_string()))?;
+    }
     let bytes = export_table(&table, format, &format!("from {}", csv.display()), a.quiet)?;
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)

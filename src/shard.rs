@@ -1114,7 +1114,11 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         let err = |key: &str, m: String| Err(FieldError::new(key, m).in_file(&p.file));
         if p.first % BATCH != 0 || p.last > total || (p.last % BATCH != 0 && p.last != total) {
             return err(
-                "first_photon",
+                if p.first % BATCH == 0 {
+                    "last_photon"
+                } else {
+                    "first_photon"
+                },
                 format!(
                     "photons [{}, {}) are not a block of whole batches of the run's {total}",
                     p.first, p.last
