@@ -63,6 +63,18 @@
 //! settings (`transport`, `incident`, `incident_stokes`, `tally`).
 //! Floating-point numbers are written as decimal strings (Rust's shortest
 //! round-trip form, e.g. `"0.123"`, `"1e-7"`), so they read back bit for bit.
+//!
+//! # Reading it back
+//!
+//! `roks merge` ([`read_shard`], [`merge_shards`]) trusts nothing in the
+//! file: the settings must describe a valid run ([`run_from_settings`]
+//! applies the scene's run checks, [`BrdfRun::check`]), every number must be
+//! finite and within what the photon count allows ([`check_tallies`]), each
+//! tree node must hold exactly the photons of its batches, and each shard's
+//! nodes must tile exactly its own photon range. Errors are one
+//! [`SceneError`] naming the shard's `tallies.json` and the JSON path of the
+//! value, e.g. `sh1/tallies.json: incidence[0].nodes[2].tallies.carlson.sum[5]:
+//! NaN is not a finite number`.
 
 use std::path::{Path, PathBuf};
 
