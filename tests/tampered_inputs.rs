@@ -147,8 +147,8 @@ fn scale(text: &str, line: usize, factor: f64) -> String {
         .split(',')
         .map(str::to_owned)
         .collect();
-    for c in 12..16 {
-        let v: f64 = row[c].parse().unwrap();
+    for (c, field) in row.iter().enumerate().skip(12) {
+        let v: f64 = field.parse().unwrap();
         t = edit(&t, line, c, &format!("{:.9e}", v * factor));
     }
     t
