@@ -394,24 +394,7 @@ impl MicroScene {
     /// The BRDF run this scene describes (`[light]`, `[tally]`, `[transport]`).
     #[must_use]
     pub fn brdf_run(&self) -> BrdfRun {
-        BrdfRun {
-            theta_deg: self.light.theta_deg.clone(),
-            phi_deg: self.light.phi_deg,
-            photons: self.light.photons,
-            first_photon: 0,
-            seed: self.light.seed,
-            launch: self.light.launch,
-            polarisation: self.polarisation,
-            bands: self.tally.bands,
-            inplane_step_deg: self.tally.inplane_step_deg,
-            inplane_width_deg: self.tally.inplane_width_deg,
-            symmetry: self.tally.symmetry,
-            controls: Controls {
-                max_bounces: self.transport.max_bounces,
-                roulette_weight: self.transport.roulette_weight,
-                ..Controls::default()
-            },
-        }
+        brdf_run_of(&self.light, &self.tally, &self.transport, self.polarisation)
     }
 
     /// Load a scene file.
@@ -509,6 +492,11 @@ impl MicroSceneSpec {
         }
 
         let (light, tally, transport) = (self.light, self.tally, self.transport);
+        // The run's values, checked where every run is (also merged shards';
+        // the checks do not look at the polarisation, resolved below).
+        brdf_run_of(&light, &tally, &transport, Polarisation::default())
+            .check()
+            .map_err(|(key, e)| source.error(key, e))?;
         let incident = match &light.polarisation {
             Some(p) => p.build(&source, "light.polarisation")?,
             None => Incident::Unpolarised,
@@ -526,7 +514,7 @@ impl MicroSceneSpec {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),
             None => MicroSurface::new(size, edges, placed, materials, substrate),
         };
-        let scene = MicroScene {
+        Ok(MicroScene {
             name: self.name.unwrap_or(fallback_name),
             source,
             surface,
@@ -535,13 +523,34 @@ impl MicroSceneSpec {
             tally,
             transport,
             polarisation,
-        };
-        // The run's values, checked where every run is (also merged shards').
-        scene
-            .brdf_run()
-            .check()
-            .map_err(|(key, e)| scene.source.error(key, e))?;
-        Ok(scene)
+        })
+    }
+}
+
+/// The BRDF run of a scene's `[light]`, `[tally]` and `[transport]`.
+fn brdf_run_of(
+    light: &LightSpec,
+    tally: &TallySpec,
+    transport: &TransportSpec,
+    polarisation: Polarisation,
+) -> BrdfRun {
+    BrdfRun {
+        theta_deg: light.theta_deg.clone(),
+        phi_deg: light.phi_deg,
+        photons: light.photons,
+        first_photon: 0,
+        seed: light.seed,
+        launch: light.launch,
+        polarisation,
+        bands: tally.bands,
+        inplane_step_deg: tally.inplane_step_deg,
+        inplane_width_deg: tally.inplane_width_deg,
+        symmetry: tally.symmetry,
+        controls: Controls {
+            max_bounces: transport.max_bounces,
+            roulette_weight: transport.roulette_weight,
+            ..Controls::default()
+        },
     }
 }
 
