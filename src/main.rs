@@ -388,6 +388,10 @@ impl From<anyhow::Error> for Failure {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = roks::limits::max_memory() {
+        eprintln!("roks: {e}");
+        return ExitCode::from(2);
+    }
     let result = match cli.command {
         Command::Brdf(a) => brdf(a),
         Command::Stats(a) => stats(a),
@@ -575,6 +579,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         }
         run.theta_deg.clone_from(t);
     }
+    scene.check_run_memory(&run)?;
     let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
     let shard = a
         .shard
@@ -1248,10 +1253,20 @@ fn stats_grid(
 ) -> Result<(usize, usize), Failure> {
     match (requested, &scene.surface.heightfield) {
         (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
-        (Some(r), _) => Ok((r, r)),
+        (Some(r), _) => {
+            let what = format!("the statistics of a {r} x {r} height map");
+            check_memory(option, &what, scene.surface.stats_memory_bytes(r, r))?;
+            Ok((r, r))
+        }
         (None, Some(f)) => Ok((f.nx, f.ny)),
         (None, None) => Ok((default, default)),
     }
+}
+
+/// Refuse `option` when `bytes`, the estimate for `what`, exceed the memory
+/// limit ([`roks::limits`]).
+fn check_memory(option: &str, what: &str, bytes: u64) -> Result<(), Failure> {
+    roks::limits::check(what, bytes).map_err(|e| Failure::Input(format!("{option}: {e}")))
 }
 
 /// A height-field scene's own grid, refusing any other `--resolution`.
@@ -1289,6 +1304,12 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
+    let n = scene.surface.heightfield.as_ref().map_or((resolution, resolution), |f| (f.nx, f.ny));
+    check_memory(
+        "--resolution",
+        &format!("a mesh of {} x {} grid squares", n.0, n.1),
+        roks::export::mesh_memory_bytes(n.0, n.1),
+    )?;
     let mesh = match &scene.surface.heightfield {
         Some(field) => roks::export::field_mesh(field),
         None => roks::export::height_field_mesh(&scene.surface, resolution),
@@ -1328,6 +1349,9 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
                     "--resolution: must be in 2..=16384, got {n}"
                 )));
             }
+            // Heights (8 bytes) and the file (up to 24 bytes of text) per vertex.
+            let bytes = roks::limits::product(&[n as u64, n as u64, 32]);
+            check_memory("--resolution", &format!("a {n} x {n} height map"), bytes)?;
             let s = scene.surface.size;
             let mut scratch = roks::micro::Scratch::new(&scene.surface);
             let h: Vec<f64> = (0..n * n)
@@ -1385,6 +1409,12 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
+    let (w, h) = (a.size[0] as u64, a.size[1] as u64);
+    check_memory(
+        "--size",
+        &format!("a {w} x {h} image (radiance, EXR and PNG)"),
+        roks::render::image_memory_bytes(w, h),
+    )?;
     if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
         return render_object(&a, path);
     }

@@ -206,6 +206,16 @@ pub fn parse(
 }
 
 impl Region {
+    /// Heap bytes this region owns (nodes, children, display names), with a
+    /// 16-byte allocator overhead per allocation: for memory estimates.
+    #[must_use]
+    pub fn heap_bytes(&self) -> usize {
+        48 + self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.children.capacity() * std::mem::size_of::<usize>()
+            + self.names.capacity() * std::mem::size_of::<(usize, String)>()
+            + self.names.iter().map(|(_, n)| 16 + n.capacity()).sum::<usize>()
+    }
+
     /// Whether a point is inside the region, given `side(i)`: `true` when
     /// the point is on the positive side of surface `i` (`f_i(x) > 0`),
     /// `false` when on the negative side.

@@ -485,12 +485,14 @@ impl MicroSceneSpec {
         };
 
         let mut placed = Vec::new();
+        // Estimated bytes of the built surface so far (see `placed_cost`).
+        let mut bytes = 0;
         for (t, spec) in self.bumps.iter().enumerate() {
             let material = match &spec.material {
                 Some(m) => material_index(&source, &names, m, &format!("bumps[{t}].material"))?,
                 None => substrate,
             };
-            placed.extend(spec.populate(&source, t, size, material)?);
+            placed.extend(spec.populate(&source, t, size, edges, material, &mut bytes)?);
         }
 
         let mut quadrics = BTreeMap::new();
@@ -584,7 +586,7 @@ impl MicroSceneSpec {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),
             None => MicroSurface::new(size, edges, placed, materials, substrate),
         };
-        Ok(MicroScene {
+        let scene = MicroScene {
             name: self.name.unwrap_or(fallback_name),
             source,
             surface,
@@ -593,7 +595,29 @@ impl MicroSceneSpec {
             tally,
             transport,
             polarisation,
-        })
+        };
+        scene.check_run_memory(&scene.brdf_run())?;
+        Ok(scene)
+    }
+}
+
+impl MicroScene {
+    /// Refuse `run` (this scene's, or with options applied) when its
+    /// tallies and result tables ([`BrdfRun::memory_bytes`]) exceed the
+    /// memory limit; the error names `tally.bands`, their main factor.
+    pub fn check_run_memory(&self, run: &BrdfRun) -> Result<(), SceneError> {
+        let what = format!(
+            "the tallies and tables of {} Carlson bands for {} incidences{}{}",
+            run.bands,
+            run.theta_deg.len(),
+            match run.polarisation.tally {
+                PolarTally::None => "",
+                PolarTally::Stokes => " with Stokes sums",
+                PolarTally::Mueller => " with Mueller sums",
+            },
+            if run.launch == Launch::Lattice { " and lattice replicates" } else { "" },
+        );
+        self.source.check_memory("tally.bands", &what, run.memory_bytes())
     }
 }
 
@@ -674,6 +698,11 @@ impl HeightFieldSpec {
                         format!("must be in 2..=16384, got {nx} x {ny}"),
                     ));
                 }
+                source.check_memory(
+                    &key("resolution"),
+                    &format!("a {nx} x {ny} height field (heights, hierarchy, statistics)"),
+                    HeightField::memory_bytes(nx, ny),
+                )?;
                 let sigma = positive("gaussian.sigma", g.sigma)?;
                 let tau = positive("gaussian.tau", g.tau)?;
                 let pitch = (size.x / nx as f64).max(size.y / ny as f64);
@@ -707,9 +736,26 @@ impl HeightFieldSpec {
                     }
                     None => 1.0,
                 };
-                let grid = heightfield_io::read(&path)
-                    .map_err(|e| source.error(key("file"), format!("{}: {e}", path.display())))?;
+                let file_error = |e: String| source.error(key("file"), format!("{}: {e}", path.display()));
+                // The memory from the header (or the text's length) before decoding.
+                let check = |bytes: u64, (nx, ny): (usize, usize)| {
+                    let what = format!(
+                        "{}: a {nx} x {ny} height map (heights, hierarchy, statistics)",
+                        path.display()
+                    );
+                    source.check_memory(&key("file"), &what, bytes)
+                };
+                let (read_bytes, declared) =
+                    heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
+                if let Some((nx, ny)) = declared {
+                    check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
+                } else {
+                    let what = format!("{}: reading the text height map", path.display());
+                    source.check_memory(&key("file"), &what, read_bytes)?;
+                }
+                let grid = heightfield_io::read(&path).map_err(file_error)?;
                 let (nx, ny) = (grid.nx, grid.ny);
+                check(HeightField::memory_bytes(nx, ny), (nx, ny))?;
                 let size = match (self.pixel, size) {
                     (None, None) => {
                         return Err(source.error(
@@ -744,13 +790,17 @@ impl HeightFieldSpec {
 }
 
 impl BumpSpec {
-    /// Draw the bumps of this table (deterministic from its seed).
+    /// Draw the bumps of this table (deterministic from its seed), after
+    /// adding their estimated memory to `bytes` (the surface's so far) and
+    /// refusing the table if the sum exceeds the limit ([`crate::limits`]).
     fn populate(
         &self,
         source: &Source,
         t: usize,
         size: DVec2,
+        edges: Edges,
         material: usize,
+        bytes: &mut u64,
     ) -> Result<Vec<Placed>, SceneError> {
         let key = |k: &str| format!("bumps[{t}].{k}");
         self.radius.check(source, &key("radius"), 0.0, false)?;
@@ -787,6 +837,28 @@ impl BumpSpec {
         used("base", self.base.is_some(), eoh)?;
         if self.count > 10_000_000 {
             return Err(source.error(key("count"), "more than 10 million bumps"));
+        }
+        // Memory, from the largest bump of the table (every range at its top).
+        let top = |r: &Range| r.bounds().1;
+        let largest = Bump {
+            center: DVec2::ZERO,
+            radius: top(&self.radius),
+            radius_y: top(&self.radius_y.unwrap_or(self.radius)),
+            height: top(&self.height),
+            depth: top(&depth),
+            cap: top(&cap),
+            base: top(&base),
+        };
+        let (copies, per_bump) =
+            crate::micro::placed_cost(&self.shape.body(&largest, material), size, edges);
+        *bytes = bytes.saturating_add(per_bump.saturating_mul(self.count as u64));
+        let solids = copies as f64 * self.count as f64;
+        if copies > 2 {
+            let what = format!("periodic ghost copies (about {solids:.1e} solids)");
+            source.check_memory(&format!("bumps[{t}]"), &what, *bytes)?;
+        } else {
+            let what = format!("{} bumps (solids and acceleration grid)", self.count);
+            source.check_memory(&key("count"), &what, *bytes)?;
         }
 
         let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));

@@ -75,6 +75,12 @@ impl Source {
             message: one_line(&message.into()),
         }
     }
+
+    /// Refuse at `key` when `bytes`, the estimate for `what` (e.g. "periodic
+    /// ghost copies"), exceed the memory limit ([`crate::limits`]).
+    pub fn check_memory(&self, key: &str, what: &str, bytes: u64) -> Result<(), SceneError> {
+        crate::limits::check(what, bytes).map_err(|e| self.error(key, e))
+    }
 }
 
 fn one_line(s: &str) -> String {
