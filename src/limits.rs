@@ -29,9 +29,9 @@ pub fn max_memory() -> Result<u64, String> {
     LIMIT
         .get_or_init(|| match std::env::var(ENV) {
             Ok(v) => parse_bytes(&v).map_err(|e| format!("{ENV}: {e}")),
-            Err(std::env::VarError::NotUnicode(_)) => {
-                Err(format!("{ENV}: not valid UTF-8 (give bytes, e.g. 512M, 8G or 1.5G)"))
-            }
+            Err(std::env::VarError::NotUnicode(_)) => Err(format!(
+                "{ENV}: not valid UTF-8 (give bytes, e.g. 512M, 8G or 1.5G)"
+            )),
             Err(std::env::VarError::NotPresent) => Ok(machine_memory().unwrap_or(FALLBACK)),
         })
         .clone()

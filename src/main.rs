@@ -1304,7 +1304,11 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
-    let n = scene.surface.heightfield.as_ref().map_or((resolution, resolution), |f| (f.nx, f.ny));
+    let n = scene
+        .surface
+        .heightfield
+        .as_ref()
+        .map_or((resolution, resolution), |f| (f.nx, f.ny));
     check_memory(
         "--resolution",
         &format!("a mesh of {} x {} grid squares", n.0, n.1),

@@ -131,7 +131,11 @@ pub struct SurfaceStats {
 /// For memory checks before the map is sampled.
 #[must_use]
 pub fn memory_bytes(nx: usize, ny: usize, periodic: bool) -> u64 {
-    let per_sample = if periodic { 8 + 16 + 24 } else { 8 + 4 * (16 + 16) };
+    let per_sample = if periodic {
+        8 + 16 + 24
+    } else {
+        8 + 4 * (16 + 16)
+    };
     crate::limits::product(&[nx as u64, ny as u64, per_sample])
 }
 

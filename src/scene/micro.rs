@@ -615,9 +615,14 @@ impl MicroScene {
                 PolarTally::Stokes => " with Stokes sums",
                 PolarTally::Mueller => " with Mueller sums",
             },
-            if run.launch == Launch::Lattice { " and lattice replicates" } else { "" },
+            if run.launch == Launch::Lattice {
+                " and lattice replicates"
+            } else {
+                ""
+            },
         );
-        self.source.check_memory("tally.bands", &what, run.memory_bytes())
+        self.source
+            .check_memory("tally.bands", &what, run.memory_bytes())
     }
 }
 
@@ -736,7 +741,8 @@ impl HeightFieldSpec {
                     }
                     None => 1.0,
                 };
-                let file_error = |e: String| source.error(key("file"), format!("{}: {e}", path.display()));
+                let file_error =
+                    |e: String| source.error(key("file"), format!("{}: {e}", path.display()));
                 // The memory from the header (or the text's length) before decoding.
                 let check = |bytes: u64, (nx, ny): (usize, usize)| {
                     let what = format!(

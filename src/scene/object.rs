@@ -348,16 +348,14 @@ impl ObjectSceneSpec {
         let mut walls: Walls = vec![None; surface_names.len()];
         for (surface, model) in &self.walls {
             let key = format!("walls.{surface}");
-            let sid = surface_names
-                .iter()
-                .position(|s| s == surface)
-                .ok_or_else(|| {
-                    source.error(
-                        &key,
-                        format!("unknown surface `{surface}` (not in [quadrics])"),
-                    )
-                })?;
-            let mid = model_names.iter().position(|m| m == model).ok_or_else(|| {
+            // Sorted (the keys of a BTreeMap): binary search keeps loading linear.
+            let sid = surface_names.binary_search(surface).map_err(|_| {
+                source.error(
+                    &key,
+                    format!("unknown surface `{surface}` (not in [quadrics])"),
+                )
+            })?;
+            let mid = model_names.binary_search(model).map_err(|_| {
                 source.error(
                     &key,
                     format!(
@@ -653,7 +651,11 @@ fn position_memory_bytes(
     farfield: bool,
     stokes: bool,
 ) -> (u64, u64) {
-    let cells = if farfield { 4 * bands as u64 * (bands as u64 + 1) } else { 0 };
+    let cells = if farfield {
+        4 * bands as u64 * (bands as u64 + 1)
+    } else {
+        0
+    };
     let sums = 1 + surfaces as u64 + 4 + cells * if stokes { 5 } else { 1 };
     let tallies = 16 * sums + 256;
     (tallies + 200 + 100 * cells, 64 * tallies)
