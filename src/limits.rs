@@ -5,13 +5,14 @@
 //!
 //! The limit is `ROKS_MAX_MEMORY` (bytes; suffixes `K`, `M`, `G`, `T` are
 //! powers of 1024, e.g. `512M`, `8G`, `1.5G`; an optional `B` or `iB` may
-//! follow), or else the machine's memory (`MemTotal` of `/proc/meminfo`), or
-//! [`FALLBACK`] where that cannot be read. Estimates are right to about a
+//! follow), or else the machine's memory (`MemTotal` of `/proc/meminfo`, or
+//! [`FALLBACK`] where that cannot be read), lowered to the address-space
+//! limit (`ulimit -v`) and the cgroup's `memory.max` where those are set. Estimates are right to about a
 //! factor of 2 (they count the big buffers, not the allocator's overhead) and
 //! are stated in the message, with the limit:
 //!
 //! ```text
-//! roks: scenes/x.toml: bumps[0]: periodic ghost copies (about 3.6e7 solids) need about 7.5 GiB, above the memory limit 23.4 GiB (set ROKS_MAX_MEMORY to change it)
+//! roks: scenes/x.toml: bumps[0]: periodic ghost copies (about 3.6e7 solids) would take about 7.5 GiB, above the memory limit 23.4 GiB (set ROKS_MAX_MEMORY to change it)
 //! ```
 
 use std::sync::OnceLock;
@@ -32,9 +33,40 @@ pub fn max_memory() -> Result<u64, String> {
             Err(std::env::VarError::NotUnicode(_)) => Err(format!(
                 "{ENV}: not valid UTF-8 (give bytes, e.g. 512M, 8G or 1.5G)"
             )),
-            Err(std::env::VarError::NotPresent) => Ok(machine_memory().unwrap_or(FALLBACK)),
+            Err(std::env::VarError::NotPresent) => Ok(default_limit()),
         })
         .clone()
+}
+
+/// The limit without `ROKS_MAX_MEMORY`: the machine's memory
+/// ([`machine_memory`], or [`FALLBACK`]), lowered to the process's
+/// address-space limit (`ulimit -v`) and its cgroup's `memory.max` where
+/// those are set, so that a refusal comes before the allocation would fail.
+#[must_use]
+pub fn default_limit() -> u64 {
+    let mut limit = machine_memory().unwrap_or(FALLBACK);
+    if let Some(as_limit) = address_space_limit() {
+        limit = limit.min(as_limit);
+    }
+    if let Some(cg) = std::fs::read_to_string("/sys/fs/cgroup/memory.max")
+        .ok()
+        .and_then(|t| t.trim().parse::<u64>().ok())
+    {
+        limit = limit.min(cg);
+    }
+    limit
+}
+
+/// The soft address-space limit of this process (`Max address space` of
+/// `/proc/self/limits`), if set.
+fn address_space_limit() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = text.lines().find(|l| l.starts_with("Max address space"))?;
+    line["Max address space".len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
 }
 
 /// The machine's memory (`MemTotal` of `/proc/meminfo`), if readable.
@@ -101,14 +133,14 @@ pub fn format_bytes(bytes: u64) -> String {
 /// `Ok` if `bytes` (an estimate for `what`, e.g. "periodic ghost copies")
 /// fits the limit; else the one-line message, without file or key (callers
 /// put those in front):
-/// `periodic ghost copies need about 7.5 GiB, above the memory limit 4.0 GiB (set ROKS_MAX_MEMORY to change it)`.
+/// `periodic ghost copies would take about 7.5 GiB, above the memory limit 4.0 GiB (set ROKS_MAX_MEMORY to change it)`.
 pub fn check(what: &str, bytes: u64) -> Result<(), String> {
     let limit = max_memory()?;
     if bytes <= limit {
         return Ok(());
     }
     Err(format!(
-        "{what} need about {}, above the memory limit {} (set {ENV} to change it)",
+        "{what} would take about {}, above the memory limit {} (set {ENV} to change it)",
         format_bytes(bytes),
         format_bytes(limit)
     ))

@@ -820,6 +820,9 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
     }
     let run = shard::run_from_settings(&settings)
         .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
+    roks::limits::check("the merged tallies and tables", run.memory_bytes()).map_err(|e| {
+        Failure::Input(format!("{d0}: {}: settings.bands: {e}", shard::TALLIES_FILE))
+    })?;
     let total = run.photons;
     parts.sort_by_key(|p| (p.first, p.last));
     let mut next = 0;
@@ -1592,6 +1595,11 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
     }
     let lo = glam::DVec3::new(b[0], b[1], b[2]);
     let hi = glam::DVec3::new(b[3], b[4], b[5]);
+    if lo.is_finite() && hi.is_finite() && (hi - lo).min_element() > 0.0 {
+        let bytes = roks::export::object_mesh::memory_bytes(lo, hi, resolution);
+        let what = format!("the voxel grid of resolution {resolution} over --bounds");
+        check_memory("--resolution", &what, bytes)?;
+    }
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
     if mesh.faces.is_empty() {
