@@ -821,7 +821,10 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
     let run = shard::run_from_settings(&settings)
         .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
     roks::limits::check("the merged tallies and tables", run.memory_bytes()).map_err(|e| {
-        Failure::Input(format!("{d0}: {}: settings.bands: {e}", shard::TALLIES_FILE))
+        Failure::Input(format!(
+            "{d0}: {}: settings.bands: {e}",
+            shard::TALLIES_FILE
+        ))
     })?;
     let total = run.photons;
     parts.sort_by_key(|p| (p.first, p.last));
