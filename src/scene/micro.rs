@@ -141,7 +141,9 @@ pub struct SurfaceSpec {
 ///
 /// * `gaussian`: `sigma` (RMS height) and `tau` (autocorrelation length:
 ///   `C(r) = sigma² exp(-r² / tau²)`), length units; needs `[surface] size`;
-///   `resolution`: grid squares per side, `N` or `[Nx, Ny]` (2..=16384);
+///   `resolution`: grid squares per side, `N` or `[Nx, Ny]` (2..=16384, and
+///   within the memory limit of [`crate::limits`]: about 60 bytes a vertex
+///   with the statistics, so 16384 x 16384 takes about 15 GiB);
 ///   `seed` (default 1). See [`HeightField::gaussian`].
 /// * `file`: path relative to the scene file; the format by extension (see
 ///   [`crate::micro::heightfield_io`]); row `j` is `y = j pixel`. `pixel`:
@@ -211,7 +213,10 @@ fn default_edges() -> EdgesSpec {
 pub struct BumpSpec {
     /// Shape.
     pub shape: Shape,
-    /// Number of bumps.
+    /// Number of bumps (at most 10 million, and within the memory limit of
+    /// [`crate::limits`]: about 3 KB a bump with its acceleration grid, more
+    /// with periodic ghost copies of bumps wider than the cell; so 10
+    /// million take about 30 GiB).
     pub count: usize,
     /// x semi-axis (waist radius for `ellipsoid_on_hyperboloid`).
     pub radius: Range,
