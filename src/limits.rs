@@ -105,7 +105,7 @@ pub fn parse_bytes(s: &str) -> Result<u64, String> {
     let x: f64 = number.trim().parse().map_err(|_| bad())?;
     let bytes = x * scale as f64;
     // Below 2^64, and at least one byte.
-    if !(bytes.is_finite() && bytes >= 1.0 && bytes < 1.8e19) {
+    if !(1.0..1.8e19).contains(&bytes) {
         return Err(bad());
     }
     Ok(bytes as u64)
