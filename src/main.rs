@@ -428,6 +428,13 @@ fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
         if t == 0 {
             return Err(Failure::Input("--threads: must be >= 1".into()));
         }
+        // Each worker reserves a 2 MiB stack (rayon's default).
+        let bytes = roks::limits::product(&[t as u64, 2 << 20]);
+        check_memory(
+            "--threads",
+            &format!("the stacks of {t} worker threads"),
+            bytes,
+        )?;
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build_global()

@@ -588,3 +588,29 @@ fn valid_runs_pass_a_modest_limit_with_suffixes() {
     let o = roks_limited(Some("1.5G"), &["stats", "--resolution", "256"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+#[test]
+fn worker_threads_are_refused_above_the_limit() {
+    let dir = scratch("threads");
+    let out = dir.join("out");
+    // A million threads were spawned for minutes before; now refused at once.
+    let o = roks_limited(
+        None,
+        &[
+            "brdf",
+            "--out",
+            out.to_str().unwrap(),
+            "--photons",
+            "4096",
+            "--threads",
+            "1000000",
+        ],
+    );
+    assert_option_refused(
+        "threads",
+        &o,
+        "--threads",
+        &out,
+        &["1000000 worker threads", "TiB"],
+    );
+}
