@@ -234,6 +234,53 @@ fn height_fields_are_refused_by_their_size_before_synthesis_or_decoding() {
     );
 }
 
+#[test]
+fn exr_headers_are_read_before_the_pixels() {
+    let dir = scratch("exr");
+    let out = dir.join("out");
+    // A 4 x 4 map written by roks, its data and display windows then edited
+    // to declare 12000 x 12000 pixels (431 bytes; decoding would fail).
+    let small = dir.join("small.exr");
+    let o = roks_limited(
+        None,
+        &[
+            "export-heightfield",
+            "--out",
+            small.to_str().unwrap(),
+            "--resolution",
+            "4",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut bytes = std::fs::read(&small).unwrap();
+    for name in [&b"dataWindow\0box2i\0"[..], &b"displayWindow\0box2i\0"[..]] {
+        let at = bytes.windows(name.len()).position(|w| w == name).unwrap() + name.len() + 4;
+        let window: Vec<u8> = [0i32, 0, 11_999, 11_999]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        bytes[at..at + 16].copy_from_slice(&window);
+    }
+    std::fs::write(dir.join("big.exr"), bytes).unwrap();
+    let map = format!(
+        "[surface]\nmaterial = \"paint\"\nheightfield = {{ file = \"big.exr\", pixel = 0.5 }}\n{MATERIAL}"
+    );
+    let scene = write(&dir, "exr.toml", &map);
+    let o = roks_limited(Some("100M"), &["stats", scene.to_str().unwrap()]);
+    assert_refused(
+        "exr 12000",
+        &o,
+        &scene,
+        &out,
+        &[
+            "surface.heightfield.file",
+            "big.exr",
+            "12000 x 12000 height map",
+            "8.0 GiB",
+        ],
+    );
+}
+
 /// A 16-bit grayscale PNG of `w x h` with a valid header and almost no data.
 fn png_header_only(w: u32, h: u32) -> Vec<u8> {
     fn crc(bytes: &[u8]) -> u32 {
