@@ -388,6 +388,10 @@ impl From<anyhow::Error> for Failure {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = roks::limits::max_memory() {
+        eprintln!("roks: {e}");
+        return ExitCode::from(2);
+    }
     let result = match cli.command {
         Command::Brdf(a) => brdf(a),
         Command::Stats(a) => stats(a),
@@ -424,6 +428,13 @@ fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
         if t == 0 {
             return Err(Failure::Input("--threads: must be >= 1".into()));
         }
+        // Each worker reserves a 2 MiB stack (rayon's default).
+        let bytes = roks::limits::product(&[t as u64, 2 << 20]);
+        check_memory(
+            "--threads",
+            &format!("the stacks of {t} worker threads"),
+            bytes,
+        )?;
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build_global()
@@ -583,6 +594,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         }
         run.theta_deg.clone_from(t);
     }
+    scene.check_run_memory(&run)?;
     let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
     let shard = a
         .shard
@@ -774,6 +786,13 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
     let n_parts = parts.len();
     let merged = shard::merge_shards(parts)?;
     let (run, settings) = (merged.run, merged.settings);
+    roks::limits::check("the merged tallies and tables", run.memory_bytes()).map_err(|e| {
+        Failure::Input(format!(
+            "{}: {}: settings.bands: {e}",
+            a.dirs[0].display(),
+            shard::TALLIES_FILE
+        ))
+    })?;
     let total = run.photons;
     let batches = total.div_ceil(BATCH);
     let mut results = Vec::new();
@@ -1131,10 +1150,20 @@ fn stats_grid(
 ) -> Result<(usize, usize), Failure> {
     match (requested, &scene.surface.heightfield) {
         (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
-        (Some(r), _) => Ok((r, r)),
+        (Some(r), _) => {
+            let what = format!("the statistics of a {r} x {r} height map");
+            check_memory(option, &what, scene.surface.stats_memory_bytes(r, r))?;
+            Ok((r, r))
+        }
         (None, Some(f)) => Ok((f.nx, f.ny)),
         (None, None) => Ok((default, default)),
     }
+}
+
+/// Refuse `option` when `bytes`, the estimate for `what`, exceed the memory
+/// limit ([`roks::limits`]).
+fn check_memory(option: &str, what: &str, bytes: u64) -> Result<(), Failure> {
+    roks::limits::check(what, bytes).map_err(|e| Failure::Input(format!("{option}: {e}")))
 }
 
 /// A height-field scene's own grid, refusing any other `--resolution`.
@@ -1172,6 +1201,16 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
+    let n = scene
+        .surface
+        .heightfield
+        .as_ref()
+        .map_or((resolution, resolution), |f| (f.nx, f.ny));
+    check_memory(
+        "--resolution",
+        &format!("a mesh of {} x {} grid squares", n.0, n.1),
+        roks::export::mesh_memory_bytes(n.0, n.1),
+    )?;
     let mesh = match &scene.surface.heightfield {
         Some(field) => roks::export::field_mesh(field),
         None => roks::export::height_field_mesh(&scene.surface, resolution),
@@ -1211,6 +1250,9 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
                     "--resolution: must be in 2..=16384, got {n}"
                 )));
             }
+            // Heights (8 bytes) and the file (up to 24 bytes of text) per vertex.
+            let bytes = roks::limits::product(&[n as u64, n as u64, 32]);
+            check_memory("--resolution", &format!("a {n} x {n} height map"), bytes)?;
             let s = scene.surface.size;
             let mut scratch = roks::micro::Scratch::new(&scene.surface);
             let h: Vec<f64> = (0..n * n)
@@ -1268,6 +1310,12 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
+    let (w, h) = (a.size[0] as u64, a.size[1] as u64);
+    check_memory(
+        "--size",
+        &format!("a {w} x {h} image (radiance, EXR and PNG)"),
+        roks::render::image_memory_bytes(w, h),
+    )?;
     if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
         return render_object(&a, path);
     }
@@ -1441,6 +1489,11 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
     }
     let lo = glam::DVec3::new(b[0], b[1], b[2]);
     let hi = glam::DVec3::new(b[3], b[4], b[5]);
+    if lo.is_finite() && hi.is_finite() && (hi - lo).min_element() > 0.0 {
+        let bytes = roks::export::object_mesh::memory_bytes(lo, hi, resolution);
+        let what = format!("the voxel grid of resolution {resolution} over --bounds");
+        check_memory("--resolution", &what, bytes)?;
+    }
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
     if mesh.faces.is_empty() {

@@ -141,7 +141,9 @@ pub struct SurfaceSpec {
 ///
 /// * `gaussian`: `sigma` (RMS height) and `tau` (autocorrelation length:
 ///   `C(r) = sigma² exp(-r² / tau²)`), length units; needs `[surface] size`;
-///   `resolution`: grid squares per side, `N` or `[Nx, Ny]` (2..=16384);
+///   `resolution`: grid squares per side, `N` or `[Nx, Ny]` (2..=16384, and
+///   within the memory limit of [`crate::limits`]: about 60 bytes a vertex
+///   with the statistics, so 16384 x 16384 takes about 15 GiB);
 ///   `seed` (default 1). See [`HeightField::gaussian`].
 /// * `file`: path relative to the scene file; the format by extension (see
 ///   [`crate::micro::heightfield_io`]); row `j` is `y = j pixel`. `pixel`:
@@ -211,7 +213,10 @@ fn default_edges() -> EdgesSpec {
 pub struct BumpSpec {
     /// Shape.
     pub shape: Shape,
-    /// Number of bumps.
+    /// Number of bumps (at most 10 million, and within the memory limit of
+    /// [`crate::limits`]: about 3 KB a bump with its acceleration grid, more
+    /// with periodic ghost copies of bumps wider than the cell; so 10
+    /// million take about 30 GiB).
     pub count: usize,
     /// x semi-axis (waist radius for `ellipsoid_on_hyperboloid`).
     pub radius: Range,
@@ -468,12 +473,14 @@ impl MicroSceneSpec {
         };
 
         let mut placed = Vec::new();
+        // Estimated bytes of the built surface so far (see `placed_cost`).
+        let mut bytes = 0;
         for (t, spec) in self.bumps.iter().enumerate() {
             let material = match &spec.material {
                 Some(m) => material_index(&source, &names, m, &format!("bumps[{t}].material"))?,
                 None => substrate,
             };
-            placed.extend(spec.populate(&source, t, size, material)?);
+            placed.extend(spec.populate(&source, t, size, edges, material, &mut bytes)?);
         }
 
         let mut quadrics = BTreeMap::new();
@@ -514,7 +521,7 @@ impl MicroSceneSpec {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),
             None => MicroSurface::new(size, edges, placed, materials, substrate),
         };
-        Ok(MicroScene {
+        let scene = MicroScene {
             name: self.name.unwrap_or(fallback_name),
             source,
             surface,
@@ -523,7 +530,34 @@ impl MicroSceneSpec {
             tally,
             transport,
             polarisation,
-        })
+        };
+        scene.check_run_memory(&scene.brdf_run())?;
+        Ok(scene)
+    }
+}
+
+impl MicroScene {
+    /// Refuse `run` (this scene's, or with options applied) when its
+    /// tallies and result tables ([`BrdfRun::memory_bytes`]) exceed the
+    /// memory limit; the error names `tally.bands`, their main factor.
+    pub fn check_run_memory(&self, run: &BrdfRun) -> Result<(), SceneError> {
+        let what = format!(
+            "the tallies and tables of {} Carlson bands for {} incidences{}{}",
+            run.bands,
+            run.theta_deg.len(),
+            match run.polarisation.tally {
+                PolarTally::None => "",
+                PolarTally::Stokes => " with Stokes sums",
+                PolarTally::Mueller => " with Mueller sums",
+            },
+            if run.launch == Launch::Lattice {
+                " and lattice replicates"
+            } else {
+                ""
+            },
+        );
+        self.source
+            .check_memory("tally.bands", &what, run.memory_bytes())
     }
 }
 
@@ -631,6 +665,11 @@ impl HeightFieldSpec {
                         format!("must be in 2..=16384, got {nx} x {ny}"),
                     ));
                 }
+                source.check_memory(
+                    &key("resolution"),
+                    &format!("a {nx} x {ny} height field (heights, hierarchy, statistics)"),
+                    HeightField::memory_bytes(nx, ny),
+                )?;
                 let sigma = positive("gaussian.sigma", g.sigma)?;
                 let tau = positive("gaussian.tau", g.tau)?;
                 let pitch = (size.x / nx as f64).max(size.y / ny as f64);
@@ -664,9 +703,27 @@ impl HeightFieldSpec {
                     }
                     None => 1.0,
                 };
-                let grid = heightfield_io::read(&path)
-                    .map_err(|e| source.error(key("file"), format!("{}: {e}", path.display())))?;
+                let file_error =
+                    |e: String| source.error(key("file"), format!("{}: {e}", path.display()));
+                // The memory from the header (or the text's length) before decoding.
+                let check = |bytes: u64, (nx, ny): (usize, usize)| {
+                    let what = format!(
+                        "{}: a {nx} x {ny} height map (heights, hierarchy, statistics)",
+                        path.display()
+                    );
+                    source.check_memory(&key("file"), &what, bytes)
+                };
+                let (read_bytes, declared) =
+                    heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
+                if let Some((nx, ny)) = declared {
+                    check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
+                } else {
+                    let what = format!("{}: reading the text height map", path.display());
+                    source.check_memory(&key("file"), &what, read_bytes)?;
+                }
+                let grid = heightfield_io::read(&path).map_err(file_error)?;
                 let (nx, ny) = (grid.nx, grid.ny);
+                check(HeightField::memory_bytes(nx, ny), (nx, ny))?;
                 let size = match (self.pixel, size) {
                     (None, None) => {
                         return Err(source.error(
@@ -701,13 +758,17 @@ impl HeightFieldSpec {
 }
 
 impl BumpSpec {
-    /// Draw the bumps of this table (deterministic from its seed).
+    /// Draw the bumps of this table (deterministic from its seed), after
+    /// adding their estimated memory to `bytes` (the surface's so far) and
+    /// refusing the table if the sum exceeds the limit ([`crate::limits`]).
     fn populate(
         &self,
         source: &Source,
         t: usize,
         size: DVec2,
+        edges: Edges,
         material: usize,
+        bytes: &mut u64,
     ) -> Result<Vec<Placed>, SceneError> {
         let key = |k: &str| format!("bumps[{t}].{k}");
         self.radius.check(source, &key("radius"), 0.0, false)?;
@@ -744,6 +805,28 @@ impl BumpSpec {
         used("base", self.base.is_some(), eoh)?;
         if self.count > 10_000_000 {
             return Err(source.error(key("count"), "more than 10 million bumps"));
+        }
+        // Memory, from the largest bump of the table (every range at its top).
+        let top = |r: &Range| r.bounds().1;
+        let largest = Bump {
+            center: DVec2::ZERO,
+            radius: top(&self.radius),
+            radius_y: top(&self.radius_y.unwrap_or(self.radius)),
+            height: top(&self.height),
+            depth: top(&depth),
+            cap: top(&cap),
+            base: top(&base),
+        };
+        let (copies, per_bump) =
+            crate::micro::placed_cost(&self.shape.body(&largest, material), size, edges);
+        *bytes = bytes.saturating_add(per_bump.saturating_mul(self.count as u64));
+        let solids = copies as f64 * self.count as f64;
+        if copies > 2 {
+            let what = format!("periodic ghost copies (about {solids:.1e} solids)");
+            source.check_memory(&format!("bumps[{t}]"), &what, *bytes)?;
+        } else {
+            let what = format!("{} bumps (solids and acceleration grid)", self.count);
+            source.check_memory(&key("count"), &what, *bytes)?;
         }
 
         let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));

@@ -471,6 +471,38 @@ impl BrdfRun {
         CarlsonGrid::new(self.bands).expect("bands >= 1 checked by the scene")
     }
 
+    /// Estimated peak memory (bytes) of this run's tallies and result
+    /// files: one [`Tallies`] is 16 bytes per Carlson cell and in-plane bin
+    /// (sum and sum of squares), 8 more per lattice replicate, and its
+    /// polarisation sums (4 or 16 components per cell, alike); a run holds
+    /// up to 64 batch tallies in flight, a stack of partial sums (one per
+    /// bit of the batch count) and one result per incidence; the files take
+    /// about `200 + 40 (components + 1) + 64` bytes per cell and incidence
+    /// (`brdf.csv`, the polarisation table, the table read back for exports).
+    /// Right to a factor of about 2, for refusing a run before it starts.
+    #[must_use]
+    pub fn memory_bytes(&self) -> u64 {
+        use crate::limits::product;
+        let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
+        let bins = InPlaneTally::new(
+            self.inplane_step_deg,
+            0.5 * self.inplane_width_deg,
+            self.phi_deg.to_radians(),
+        )
+        .map_or(0, |t| t.n_bins()) as u64;
+        let replicates = self.launch.replicates().unwrap_or(0);
+        let per_bin = 16 + 8 * replicates;
+        let k = self.polarisation.tally.components() as u64;
+        let tallies = product(&[cells + bins + 1, per_bin])
+            .saturating_add(product(&[k, cells + 1, per_bin]))
+            .saturating_add(8 * BOUNCE_BINS as u64 + 256);
+        let batches = self.photons.div_ceil(BATCH).max(1);
+        let incidences = self.theta_deg.len() as u64;
+        let live = batches.min(64) + u64::from(64 - batches.leading_zeros()) + 1 + incidences;
+        let files = product(&[cells, incidences, 200 + 40 * (k + 1) + 64]);
+        product(&[tallies, live]).saturating_add(files)
+    }
+
     /// Zero tallies of this run's layout.
     #[must_use]
     pub fn empty_tallies(&self, grid: &CarlsonGrid, inplane: &InPlaneTally) -> Tallies {
