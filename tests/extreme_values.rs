@@ -148,13 +148,13 @@ fn derived_lengths_are_checked_where_the_scene_is_built() {
             "gaussian-sigma-huge",
             gaussian("[64.0, 64.0]", "1e300", "11.9"),
             vec![],
-            vec!["surface.heightfield.gaussian.sigma", "1e300"],
+            vec!["surface.heightfield.gaussian.sigma", "1e300 is outside"],
         ),
         (
             "gaussian-sigma-tiny",
             gaussian("[64.0, 64.0]", "1e-300", "11.9"),
             vec![],
-            vec!["surface.heightfield.gaussian.sigma", "1e-300"],
+            vec!["surface.heightfield.gaussian.sigma", "1e-300 is outside"],
         ),
         // Finite but 1e10 cells tall (a hang).
         (
@@ -168,7 +168,7 @@ fn derived_lengths_are_checked_where_the_scene_is_built() {
             "map-pixel-huge",
             map("pixel = 1e300"),
             vec![("map.txt", checker.clone())],
-            vec!["surface.heightfield.pixel", "1e300"],
+            vec!["surface.heightfield.pixel", "1e300 is outside"],
         ),
         (
             "map-pixel-times-count",
@@ -180,15 +180,15 @@ fn derived_lengths_are_checked_where_the_scene_is_built() {
             "map-pixel-subnormal",
             map("pixel = 5e-324"),
             vec![("map.txt", checker.clone())],
-            vec!["surface.heightfield.pixel", "5e-324"],
+            vec!["surface.heightfield.pixel", "5e-324 is outside"],
         ),
         // Heights that overflow to infinity after scaling (a panic), or
         // stay finite but beyond the largest length.
         (
             "map-scale-to-infinity",
-            map("pixel = 1.0, height_scale = 1e300"),
+            map("pixel = 1.0, height_scale = 1e10"),
             vec![("map.txt", huge.clone())],
-            vec!["surface.heightfield.height_scale", "inf"],
+            vec!["surface.heightfield.height_scale", "a height of inf"],
         ),
         (
             "map-scale-beyond",
@@ -201,7 +201,7 @@ fn derived_lengths_are_checked_where_the_scene_is_built() {
             "map-heights-1e300",
             map("pixel = 1.0"),
             vec![("map.txt", huge)],
-            vec!["surface.heightfield.file", "1e300"],
+            vec!["surface.heightfield.file", "a height of 1e300"],
         ),
         // Heights of 1 over pixels of 1e-12: 2.5e11 cells tall.
         (
@@ -216,25 +216,25 @@ fn derived_lengths_are_checked_where_the_scene_is_built() {
             "bump-height-1e300",
             scene_text("size = [30.0, 30.0]", &bumps("height = 1e300")),
             vec![],
-            vec!["bumps[0].height", "1e300"],
+            vec!["bumps[0].height", "1e300 is outside"],
         ),
         (
             "bump-radius-1e-300",
             scene_text("size = [30.0, 30.0]", &bumps("radius = 1e-300")),
             vec![],
-            vec!["bumps[0].radius", "1e-300"],
+            vec!["bumps[0].radius", "1e-300 is outside"],
         ),
         (
             "bump-radius-y-subnormal",
-            scene_text("size = [30.0, 30.0]", &bumps("radius_y = [1.0, 5e-324]")),
+            scene_text("size = [30.0, 30.0]", &bumps("radius_y = [5e-324, 1.0]")),
             vec![],
-            vec!["bumps[0].radius_y"],
+            vec!["bumps[0].radius_y", "5e-324 is outside"],
         ),
         (
             "bump-depth-1e300",
             scene_text("size = [30.0, 30.0]", &bumps("depth = 1e300")),
             vec![],
-            vec!["bumps[0].depth", "1e300"],
+            vec!["bumps[0].depth", "1e300 is outside"],
         ),
         (
             "bump-needles",
@@ -258,13 +258,13 @@ fn derived_lengths_are_checked_where_the_scene_is_built() {
             "size-1e300",
             scene_text("size = [1e300, 30.0]", &bumps("")),
             vec![],
-            vec!["surface.size[0]", "1e300"],
+            vec!["surface.size[0]", "1e300 is outside"],
         ),
         (
             "size-tiny",
             scene_text("size = [30.0, 1e-31]", &bumps("")),
             vec![],
-            vec!["surface.size[1]", "1e-31"],
+            vec!["surface.size[1]", "1e-31 is outside"],
         ),
     ];
     for (case, text, files, expect) in &cases {
@@ -517,5 +517,43 @@ fn grazing_flights_along_the_lattice_skip_the_periods_above_everything() {
         let r = inc["reflectance"].as_f64().unwrap();
         assert!((r - 0.8).abs() < 1e-12, "phi {phi}: reflectance {r}");
         assert_eq!(inc["mean_bounces"].as_f64(), Some(1.0), "phi {phi}: {inc}");
+    }
+}
+
+/// The same on a Gaussian height field (aluminium, 64 x 64 squares): the
+/// walk skips, exactly, the periods in which the flight passes above the
+/// surface along its folded path, so grazing flights along the lattice meet
+/// the field instead of being capped (before: most were, after 2^24 steps).
+#[test]
+fn grazing_flights_over_a_height_field_skip_the_periods_above_it() {
+    let dir = scratch("skip-field");
+    for phi in ["0.0", "45.0", "90.0"] {
+        let scene = dir.join(format!("field-{phi}.toml"));
+        std::fs::write(
+            &scene,
+            format!(
+                r#"
+[surface]
+size = [64.0, 64.0]
+material = "al"
+heightfield = {{ gaussian = {{ sigma = 1.0, tau = 11.9 }}, resolution = 64, seed = 3 }}
+
+[materials.al]
+n = 1.015
+k = 6.627
+
+[light]
+theta_deg = [89.9999999]
+phi_deg = {phi}
+photons = 64
+"#
+            ),
+        )
+        .unwrap();
+        let inc = completes(&format!("field-{phi}"), &scene, &[]);
+        assert_eq!(inc["capped_photons"].as_u64(), Some(0), "phi {phi}: {inc}");
+        assert_eq!(inc["lost"].as_f64(), Some(0.0), "phi {phi}: {inc}");
+        let r = inc["reflectance"].as_f64().unwrap();
+        assert!(r > 0.9 && r <= 1.0, "phi {phi}: reflectance {r}");
     }
 }

@@ -134,6 +134,21 @@ pub struct HeightField {
     /// Max-height mip levels 1, 2, ... (`levels[L - 1]`: nodes of `2^L x 2^L`
     /// squares); the last one is one node for the period.
     levels: Vec<Level>,
+    /// Largest slope `|grad h|` of any triangle (a Lipschitz bound of the
+    /// surface): from the largest height step along x and along y edges.
+    max_slope: f64,
+}
+
+/// Periods of one walk after which [`HeightField::skip_periods`] is asked,
+/// at every further period (ordinary flights cross fewer).
+const SKIP_AFTER: u32 = 64;
+
+/// What [`HeightField::skip_periods`] found.
+enum FieldSkip {
+    None,
+    /// Continue the walk at this `t` (whole periods on).
+    To(f64),
+    Escapes,
 }
 
 /// One level of the max-height hierarchy.
@@ -216,15 +231,107 @@ impl HeightField {
             levels.push(Level { w: w2, max });
             (w, hgt) = (w2, h2);
         }
+        let pitch = DVec2::new(size.x / nx as f64, size.y / ny as f64);
+        let (mut step_x, mut step_y) = (0.0_f64, 0.0_f64);
+        for j in 0..ny {
+            for i in 0..nx {
+                step_x = step_x.max((at(i + 1, j) - at(i, j)).abs());
+                step_y = step_y.max((at(i, j + 1) - at(i, j)).abs());
+            }
+        }
+        let max_slope = (step_x / pitch.x).hypot(step_y / pitch.y);
         Self {
             nx,
             ny,
             size,
-            pitch: DVec2::new(size.x / nx as f64, size.y / ny as f64),
+            pitch,
             h,
             max,
             min,
             levels,
+            max_slope,
+        }
+    }
+
+    /// Whole periods the flight `ray`, entering a period across a side
+    /// `u = const` (`exit_u`) or `v = const` at `t`, passes above the
+    /// surface and can skip exactly (see [`crate::micro::MicroSurface::skip_periods`]
+    /// for bump surfaces). Over the next period the flight's path is a
+    /// segment; the surface along it is piecewise linear, so its highest
+    /// point there is at one of the segment's crossings of square sides and
+    /// diagonals (evaluated exactly). Each further period shifts the folded
+    /// segment by the drift of the other coordinate modulo its period: over
+    /// `k` periods the path stays within `k |drift| + margin` of the first
+    /// segment, where the surface is at most `max_slope` times that higher.
+    /// Descending, periods whose far end stays above that bound are skipped;
+    /// rising above it until the highest vertex, the flight escapes.
+    fn skip_periods(&self, ray: &GridRay, t: f64, exit_u: bool) -> FieldSkip {
+        let d = ray.d;
+        let (a, b) = if exit_u { (0, 1) } else { (1, 0) };
+        let n = [self.nx as f64, self.ny as f64];
+        let dg = [ray.du, ray.dv];
+        if dg[a] == 0.0 || d.z == 0.0 {
+            return FieldSkip::None;
+        }
+        let dt = n[a] / dg[a].abs();
+        let drift = dt * dg[b];
+        if !(drift.abs() <= 4.0 * n[b]) {
+            return FieldSkip::None;
+        }
+        // In length units along the other axis.
+        let drift_mod = (drift - (drift / n[b]).round() * n[b]) * self.pitch[b];
+        if !(16.0 * drift_mod.abs() <= self.pitch[b]) {
+            return FieldSkip::None;
+        }
+        let margin = 1e-9
+            * self
+                .size
+                .max_element()
+                .max(self.max.abs())
+                .max(self.min.abs());
+        // The surface's highest point along the next period's segment.
+        let (u0, v0) = (ray.ou + t * ray.du, ray.ov + t * ray.dv);
+        let (u1, v1) = (u0 + dt * ray.du, v0 + dt * ray.dv);
+        let at = |s: f64| {
+            let s = s.clamp(0.0, 1.0);
+            self.height_at(
+                (u0 + s * (u1 - u0)) * self.pitch.x,
+                (v0 + s * (v1 - v0)) * self.pitch.y,
+            )
+        };
+        let mut line = at(0.0).max(at(1.0));
+        let mut crossings = |c0: f64, c1: f64| {
+            if c0 == c1 {
+                return;
+            }
+            let (lo, hi) = (c0.min(c1), c0.max(c1));
+            let mut m = lo.ceil();
+            while m <= hi {
+                line = line.max(at((m - c0) / (c1 - c0)));
+                m += 1.0;
+            }
+        };
+        crossings(u0, u1);
+        crossings(v0, v1);
+        crossings(u0 - v0, u1 - v1);
+        let g = self.max_slope;
+        let z = ray.z_at(t);
+        let dz = dt * d.z;
+        if dz < 0.0 {
+            // Lowest point of period k (0-based) at its far end: z + (k + 1) dz.
+            let room = z - line - (g + 1.0) * margin - margin;
+            let k = (room / (-dz + g * drift_mod.abs())).floor() - 1.0;
+            if !(k >= 1.0) {
+                return FieldSkip::None;
+            }
+            FieldSkip::To(t + k * dt)
+        } else {
+            let k_top = ((self.max - z) / dz).ceil().max(1.0);
+            if z > line + g * (k_top * drift_mod.abs() + margin) + margin {
+                FieldSkip::Escapes
+            } else {
+                FieldSkip::None
+            }
         }
     }
 
@@ -436,6 +543,21 @@ impl HeightField {
                 periods += 1;
                 if periods >= super::MAX_CROSSINGS {
                     return FieldEvent::Trapped;
+                }
+                if periods >= SKIP_AFTER {
+                    match self.skip_periods(&ray, t, exit_u) {
+                        FieldSkip::None => {}
+                        FieldSkip::Escapes => return FieldEvent::Escapes,
+                        FieldSkip::To(t_new) => {
+                            // Whole periods on, from the top of the hierarchy.
+                            t = t_new;
+                            (i, bi) = wrap(floor_i64(ray.ou + t * ray.du), self.nx);
+                            (j, bj) = wrap(floor_i64(ray.ov + t * ray.dv), self.ny);
+                            level = top;
+                            f_carried = None;
+                            continue;
+                        }
+                    }
                 }
             }
             // One level up again (measured: fewer steps than staying down
