@@ -55,6 +55,15 @@
 //! polarisation = true       # default: true with a Fresnel material (Stokes vectors through
 //!                           # every bounce); false: the unpolarised weight (Rs + Rp)/2 per bounce
 //! ```
+//!
+//! Limits checked where the scene is built ([`MicroSceneSpec::build`]): every
+//! non-zero length (cell sides, bump radii, heights and depths, `radius *
+//! base`, a map's pixel, the cell it makes and its scaled heights, a Gaussian
+//! field's `sigma` and `tau`) lies in [`MIN_LENGTH`, `MAX_LENGTH`] =
+//! `[1e-30, 1e30]`; no height (a bump's, an explicit body's top, a height
+//! field's range) exceeds [`MAX_ASPECT`] = `1e9` times the cell's shorter
+//! side; a Gaussian field's `tau` is at most the cell's longer side; at
+//! most [`crate::transport::launch::MAX_PHOTONS`] = 2^53 photons per angle.
 
 use std::collections::BTreeMap;
 use std::path::Path;

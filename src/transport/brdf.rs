@@ -159,7 +159,8 @@ pub struct Tallies {
     pub intersection_tests: u64,
     /// Weight absorbed by walls.
     pub lost_walls: f64,
-    /// Weight cut by the bounce or segment cap.
+    /// Weight cut by the bounce, segment or crossing cap
+    /// ([`crate::micro::MAX_CROSSINGS`]).
     pub lost_cap: f64,
     /// Weight stopped by numerical guards.
     pub lost_numeric: f64,
