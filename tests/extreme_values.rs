@@ -128,7 +128,9 @@ fn derived_lengths_are_checked_where_the_scene_is_built() {
             "",
         )
     };
-    let cases: Vec<(&str, String, Vec<(&str, String)>, Vec<&str>)> = vec![
+    // (case, scene text, files beside it, expected texts)
+    type Case<'a> = (&'a str, String, Vec<(&'a str, String)>, Vec<&'a str>);
+    let cases: Vec<Case> = vec![
         // tau far beyond the cell: every mode of the spectrum underflowed
         // (NaN heights, a panic).
         (

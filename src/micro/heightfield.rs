@@ -275,12 +275,12 @@ impl HeightField {
         }
         let dt = n[a] / dg[a].abs();
         let drift = dt * dg[b];
-        if !(drift.abs() <= 4.0 * n[b]) {
+        if drift.is_nan() || drift.abs() > 4.0 * n[b] {
             return FieldSkip::None;
         }
         // In length units along the other axis.
         let drift_mod = (drift - (drift / n[b]).round() * n[b]) * self.pitch[b];
-        if !(16.0 * drift_mod.abs() <= self.pitch[b]) {
+        if drift_mod.is_nan() || 16.0 * drift_mod.abs() > self.pitch[b] {
             return FieldSkip::None;
         }
         let margin = 1e-9
@@ -321,7 +321,7 @@ impl HeightField {
             // Lowest point of period k (0-based) at its far end: z + (k + 1) dz.
             let room = z - line - (g + 1.0) * margin - margin;
             let k = (room / (-dz + g * drift_mod.abs())).floor() - 1.0;
-            if !(k >= 1.0) {
+            if k.is_nan() || k < 1.0 {
                 return FieldSkip::None;
             }
             FieldSkip::To(t + k * dt)

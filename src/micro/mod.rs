@@ -649,11 +649,11 @@ impl MicroSurface {
         }
         let dt = len_a / da.abs();
         let (drift, dz) = (dt * d[b], dt * d.z);
-        if !(drift.abs() <= 4.0 * len_b) {
+        if drift.is_nan() || drift.abs() > 4.0 * len_b {
             return Skip::None;
         }
         let drift_mod = drift - (drift / len_b).round() * len_b;
-        if !(16.0 * drift_mod.abs() <= self.grid.pitch[b]) {
+        if drift_mod.is_nan() || 16.0 * drift_mod.abs() > self.grid.pitch[b] {
             return Skip::None;
         }
         // Rounding of positions and of the solids' heights: a hair relative
@@ -706,13 +706,13 @@ impl MicroSurface {
         if dz < 0.0 {
             // The lowest point of period n (0-based) is at its far end: p.z + (n + 1) dz.
             let k1 = ((p.z - highest_near(margin) - margin) / -dz).floor() - 1.0;
-            if !(k1 >= 1.0) {
+            if k1.is_nan() || k1 < 1.0 {
                 return Skip::None;
             }
             // Every band of fewer periods lies within the band of k1.
             let m = highest_near((k1 * drift_mod).abs() + margin);
             let k = k1.min(((p.z - m - margin) / -dz).floor() - 1.0);
-            if !(k >= 1.0) {
+            if k.is_nan() || k < 1.0 {
                 return Skip::None;
             }
             let mut at = p;

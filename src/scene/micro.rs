@@ -830,7 +830,7 @@ impl HeightFieldSpec {
                     key("file")
                 };
                 let h: Vec<f64> = grid.h.into_iter().map(|z| z * scale).collect();
-                if let Some(z) = h.iter().find(|z| !(z.abs() <= MAX_LENGTH)) {
+                if let Some(z) = h.iter().find(|z| z.is_nan() || z.abs() > MAX_LENGTH) {
                     return Err(source.error(
                         scale_key,
                         format!(
