@@ -28,6 +28,7 @@ pub mod geometry;
 pub mod micro;
 pub mod object;
 pub mod optics;
+pub mod outdir;
 pub mod output;
 pub mod plot;
 pub mod render;

@@ -482,6 +482,7 @@ fn export_table(
 
 fn export_brdf(a: ExportBrdfArgs) -> Result<(), Failure> {
     let format = parse_formats(std::slice::from_ref(&a.format), "--format")?[0];
+    check_out_file(&a.out)?;
     let csv = a.dir.join("brdf.csv");
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(
@@ -589,10 +590,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .transpose()
         .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
     set_threads(a.threads)?;
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(&scene.name));
+    let out = result_dir(a.out.as_deref(), &scene.source.file, &scene.name)?;
 
     let stats = surface_stats(&scene.surface.height_map(rx, ry));
     let edges = format!("{:?}", scene.surface.edges).to_lowercase();
@@ -790,6 +788,7 @@ fn read_shard(dir: &Path) -> Result<ShardDir, Failure> {
 fn merge(a: MergeArgs) -> Result<(), Failure> {
     use roks::transport::BATCH;
     use roks::transport::brdf::{IncidenceResult, Tallies};
+    result_dir(Some(&a.out), "", "")?;
     let mut parts = a
         .dirs
         .iter()
@@ -974,15 +973,30 @@ fn progress_bar(total: u64, quiet: bool, name: &str) -> ProgressBar {
     bar
 }
 
+/// Write the result folder `out` whole: staged beside it, then swapped in
+/// (see [`roks::outdir`]); a reader never sees old and new files mixed.
 fn write_outputs(out: &Path, files: &[(&str, &[u8])]) -> Result<(), Failure> {
-    std::fs::create_dir_all(out)
-        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
-    for (name, bytes) in files {
-        let path = out.join(name);
-        output::write_atomic(&path, bytes)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
-    }
+    roks::outdir::write_folder(out, files)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
     Ok(())
+}
+
+/// The result folder: `given` (`--out`), or `out/<name>` (named in messages
+/// by the scene file's `name` key), checked before any work is done.
+fn result_dir(given: Option<&Path>, scene_file: &str, name: &str) -> Result<PathBuf, Failure> {
+    let (out, key) = match given {
+        Some(p) => (p.to_path_buf(), "--out".to_string()),
+        None => (Path::new("out").join(name), format!("{scene_file}: name")),
+    };
+    roks::outdir::check_folder(&out)
+        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", out.display())))?;
+    Ok(out)
+}
+
+/// Check an output file (`--out`) before any work is done.
+fn check_out_file(out: &Path) -> Result<(), Failure> {
+    roks::outdir::check_file(out)
+        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))
 }
 
 /// Reflectance vs beam position, one curve per `[[sources]]` entry; the x axis
@@ -1053,10 +1067,7 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
         run.polarisation = false;
     }
     set_threads(a.threads)?;
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(&scene.name));
+    let out = result_dir(a.out.as_deref(), &scene.source.file, &scene.name)?;
     let bar = progress_bar(photons.iter().sum(), a.quiet, &scene.name);
     let clock = Instant::now();
     let results = run.run(
@@ -1172,6 +1183,16 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
     };
     set_threads(a.threads)?;
     let problem = Problem::new(&text, &source, &params, &measured, &opts).map_err(input)?;
+    let name = a
+        .scene
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
+    roks::outdir::check_folder(&out)
+        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))?;
     let quiet = a.quiet;
     let result = problem
         .fit_observed(&mut |k, values, misfit| {
@@ -1181,14 +1202,6 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
         })
         .map_err(input)?;
     let fitted = problem.apply(&result.values).map_err(input)?;
-    let name = a
-        .scene
-        .file_stem()
-        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
     let summary = json!({
         "scene": source.file,
         "measured": a.measured.display().to_string(),
@@ -1289,6 +1302,7 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
+    check_out_file(&a.out)?;
     let mesh = match &scene.surface.heightfield {
         Some(field) => roks::export::field_mesh(field),
         None => roks::export::height_field_mesh(&scene.surface, resolution),
@@ -1315,6 +1329,7 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
+    check_out_file(&a.out)?;
     let grid = match &scene.surface.heightfield {
         Some(f) => HeightGrid {
             nx: f.nx,
@@ -1385,6 +1400,15 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
+    check_out_file(&a.out)?;
+    let png = a.out.with_extension("png");
+    if png == a.out {
+        return Err(Failure::Input(format!(
+            "--out: {}: is the name of the PNG preview; give the EXR file (OUT.exr, beside which OUT.png is written)",
+            a.out.display()
+        )));
+    }
+    check_out_file(&png)?;
     if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
         return render_object(&a, path);
     }
@@ -1558,6 +1582,7 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
     }
     let lo = glam::DVec3::new(b[0], b[1], b[2]);
     let hi = glam::DVec3::new(b[3], b[4], b[5]);
+    check_out_file(&a.out)?;
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
     if mesh.faces.is_empty() {
