@@ -43,13 +43,13 @@ const RESULT_MARKERS: [&str; 2] = ["summary.json", "fit.json"];
 pub fn check_name(name: &str) -> Option<String> {
     let why = if name.is_empty() {
         "is empty".to_string()
-    } else if name.starts_with('.') {
-        "starts with `.` (a hidden folder, or `.`/`..` outside out/)".to_string()
     } else if let Some(c) = name
         .chars()
         .find(|&c| c == '/' || c == '\\' || c.is_control())
     {
         format!("contains {c:?}")
+    } else if name.starts_with('.') {
+        "starts with `.` (`.` and `..` lead outside out/, others are hidden)".to_string()
     } else if name.len() > MAX_NAME_BYTES {
         format!("is {} bytes long (at most {MAX_NAME_BYTES})", name.len())
     } else {
@@ -101,6 +101,7 @@ fn check_parent(parent: &Path) -> Result<(), String> {
             Err(e) => return Err(format!("{}: {e}", p.display())),
         }
     };
+    remove_stale(existing, &[(".roks-probe-".into(), "")]);
     let probe = existing.join(format!(".roks-probe-{}", std::process::id()));
     std::fs::create_dir(&probe)
         .and_then(|()| std::fs::remove_dir(&probe))
