@@ -132,7 +132,8 @@ struct MergeArgs {
     /// Shard result folders (each with tallies.json), in any order.
     #[arg(required = true)]
     dirs: Vec<PathBuf>,
-    /// Output folder.
+    /// Output folder, replaced whole (an existing one must be empty or a roks
+    /// result).
     #[arg(long)]
     out: PathBuf,
     /// No table on stderr.
@@ -261,7 +262,8 @@ struct FitArgs {
     /// Worker threads (default: all cores). Does not change results.
     #[arg(long)]
     threads: Option<usize>,
-    /// Output folder (default: out/<scene name>-fit/).
+    /// Output folder (default: out/<scene name>-fit/), replaced whole (an
+    /// existing one must be empty or a roks result).
     #[arg(long)]
     out: Option<PathBuf>,
     /// No progress lines on stderr.
@@ -273,7 +275,8 @@ struct FitArgs {
 struct TraceArgs {
     /// Object scene file (TOML).
     scene: PathBuf,
-    /// Output folder (default: out/<scene name>/).
+    /// Output folder (default: out/<scene name>/), replaced whole by the run
+    /// (an existing one must be empty or a roks result).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Photons per beam position (overrides each source's `photons`).
@@ -299,7 +302,8 @@ struct TraceArgs {
 struct BrdfArgs {
     /// Micro scene file (TOML); omitted: the embedded default scene.
     scene: Option<PathBuf>,
-    /// Output folder (default: out/<scene name>/).
+    /// Output folder (default: out/<scene name>/), replaced whole by the run
+    /// (an existing one must be empty or a roks result).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Photons per incidence angle (overrides [light] photons).
@@ -1536,7 +1540,10 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
 }
 
 /// Write `img` as OUT (EXR) and OUT.png (preview), and report the mean and
-/// the `lost` camera paths (caps, guards, edge walls, micro descents).
+/// the `lost` camera paths (caps, guards, edge walls, micro descents). Each
+/// file is replaced atomically, the EXR first: a reader sees each old or
+/// new, and for an instant (or after a kill between the two) a new EXR
+/// beside the old PNG.
 fn write_images(
     out: &Path,
     img: &roks::render::Image,
