@@ -161,6 +161,7 @@ pub fn check_folder(path: &Path) -> Result<(), String> {
             };
             replaceable(&target)?;
             check_parent(&split(&target)?.0)
+                .map_err(|e| format!("{e} (a result folder is replaced whole, beside itself)"))
         }
         Err(e) if absent(&e) => check_parent(&parent),
         Err(e) => Err(e.to_string()),
