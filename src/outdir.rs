@@ -112,7 +112,7 @@ fn check_parent(parent: &Path) -> Result<(), String> {
 /// folder (no subfolder, and a [`RESULT_MARKERS`] file with a `version`).
 fn replaceable(dir: &Path) -> Result<(), String> {
     let entries = std::fs::read_dir(dir)
-        .and_then(|r| r.collect::<Result<Vec<_>, _>>())
+        .and_then(Iterator::collect::<Result<Vec<_>, _>>)
         .map_err(|e| format!("cannot read the folder: {e}"))?;
     if entries.is_empty() {
         return Ok(());
@@ -144,6 +144,11 @@ fn replaceable(dir: &Path) -> Result<(), String> {
 /// Check, before any work, that a result folder can be written at `path`
 /// (a symbolic link to a folder: at its target, which is replaced). The
 /// error is the reason, for a message after the option and path.
+///
+/// # Errors
+/// `path` is a file or a link to one, names no folder (`/`, `..`), is a
+/// folder that is neither empty nor a roks result, or no folder can be
+/// created beside it.
 pub fn check_folder(path: &Path) -> Result<(), String> {
     let (parent, _) = split(path)?;
     match std::fs::symlink_metadata(path) {
@@ -179,6 +184,9 @@ fn resolve(path: &Path) -> Result<PathBuf, String> {
 
 /// Check, before any work, that a single file can be written at `path` (not
 /// a folder; its folder can be created and written).
+///
+/// # Errors
+/// The reason, as for [`check_folder`].
 pub fn check_file(path: &Path) -> Result<(), String> {
     let (parent, _) = split(path)?;
     if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
@@ -255,6 +263,10 @@ fn sync_dir(dir: &Path) {
 /// Write `files` (name, bytes) as the result folder `path`, replacing any
 /// folder there whole (see the module documentation). `path` should have
 /// passed [`check_folder`].
+///
+/// # Errors
+/// Creating, writing, syncing or renaming failed (the staging folder is
+/// then removed and any old result left in place).
 pub fn write_folder(path: &Path, files: &[(&str, &[u8])]) -> std::io::Result<()> {
     let path = &resolve(path).map_err(std::io::Error::other)?;
     let (parent, name) = split(path).map_err(std::io::Error::other)?;
