@@ -792,7 +792,7 @@ fn read_shard(dir: &Path) -> Result<ShardDir, Failure> {
 fn merge(a: MergeArgs) -> Result<(), Failure> {
     use roks::transport::BATCH;
     use roks::transport::brdf::{IncidenceResult, Tallies};
-    result_dir(Some(&a.out), "", "")?;
+    check_out_dir(&a.out, "--out")?;
     let mut parts = a
         .dirs
         .iter()
@@ -992,9 +992,15 @@ fn result_dir(given: Option<&Path>, scene_file: &str, name: &str) -> Result<Path
         Some(p) => (p.to_path_buf(), "--out".to_string()),
         None => (Path::new("out").join(name), format!("{scene_file}: name")),
     };
-    roks::outdir::check_folder(&out)
-        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", out.display())))?;
+    check_out_dir(&out, &key)?;
     Ok(out)
+}
+
+/// Check a result folder before any work is done; `key` names it in the
+/// message (`--out`, or `SCENE: name` for the default out/NAME).
+fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
+    roks::outdir::check_folder(out)
+        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", out.display())))
 }
 
 /// Check an output file (`--out`) before any work is done.
@@ -1195,8 +1201,7 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
-    roks::outdir::check_folder(&out)
-        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))?;
+    check_out_dir(&out, "--out")?;
     let quiet = a.quiet;
     let result = problem
         .fit_observed(&mut |k, values, misfit| {
