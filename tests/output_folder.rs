@@ -424,7 +424,6 @@ fn a_killed_run_leaves_the_old_result_or_the_new_one() {
     eprintln!(
         "{rounds} kills: {saw_old} left the old result, {saw_new} the new one; {staged} during the write phase (a staging folder left)"
     );
-    eprintln!("{rounds} kills: {saw_old} left the old result, {saw_new} the new one");
     ok(&roks_in(&dir, &new_args), "complete run");
     assert_eq!(contents(&out), new);
     assert_eq!(names(&dir), ["res", "scene.toml"]);
