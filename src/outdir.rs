@@ -62,13 +62,18 @@ pub fn check_name(name: &str) -> Option<String> {
 
 /// The parent folder of `path` (`.` for a bare name) and its last
 /// component, or why `path` names no file or folder (`/`, `..`, `a/..`).
+/// The parent is rebuilt from the components, so that `a/b/.` is `a` and
+/// `b`, as the file system sees it.
 fn split(path: &Path) -> Result<(PathBuf, std::ffi::OsString), String> {
-    match path.components().next_back() {
+    let mut components = path.components();
+    match components.next_back() {
         Some(Component::Normal(name)) => {
-            let parent = path
-                .parent()
-                .filter(|p| !p.as_os_str().is_empty())
-                .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+            let parent = components.as_path();
+            let parent = if parent.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                parent.to_path_buf()
+            };
             Ok((parent, name.to_os_string()))
         }
         _ => Err("must name a file or folder to create (not `/`, `.` or `..`)".into()),
@@ -150,7 +155,8 @@ fn replaceable(dir: &Path) -> Result<(), String> {
 /// folder that is neither empty nor a roks result, or no folder can be
 /// created beside it.
 pub fn check_folder(path: &Path) -> Result<(), String> {
-    let (parent, _) = split(path)?;
+    let (parent, name) = split(path)?;
+    let path = &parent.join(name);
     match std::fs::symlink_metadata(path) {
         Ok(m) => {
             let target = if m.file_type().is_symlink() {
@@ -268,7 +274,8 @@ fn sync_dir(dir: &Path) {
 /// Creating, writing, syncing or renaming failed (the staging folder is
 /// then removed and any old result left in place).
 pub fn write_folder(path: &Path, files: &[(&str, &[u8])]) -> std::io::Result<()> {
-    let path = &resolve(path).map_err(std::io::Error::other)?;
+    let (parent, name) = split(path).map_err(std::io::Error::other)?;
+    let path = &resolve(&parent.join(name)).map_err(std::io::Error::other)?;
     let (parent, name) = split(path).map_err(std::io::Error::other)?;
     let name = name.to_string_lossy().into_owned();
     std::fs::create_dir_all(&parent)?;
@@ -448,5 +455,8 @@ mod tests {
         );
         assert!(check_folder(Path::new("/")).is_err());
         assert!(check_folder(&d.join("..")).is_err());
+        assert_eq!(split(Path::new("a/b/.")), Ok(("a".into(), "b".into())));
+        assert_eq!(split(Path::new("b/")), Ok((".".into(), "b".into())));
+        assert_eq!(split(Path::new("/b")), Ok(("/".into(), "b".into())));
     }
 }
