@@ -667,7 +667,7 @@ fn a_scene_name_that_is_not_one_plain_folder_is_refused() {
 }
 
 /// A symbolic link to a result folder: the rerun replaces the folder it
-/// points to, and the link still leads to the (new) result.
+/// points to, and the link still leads to the (new) result; `DIR/.` is DIR.
 #[test]
 fn a_link_to_a_result_folder_is_followed() {
     let dir = scratch("link");
@@ -712,6 +712,36 @@ fn a_link_to_a_result_folder_is_followed() {
     assert!(target.join("hemisphere_45deg.png").exists());
     assert!(!target.join("hemisphere_30deg.png").exists());
     assert_eq!(names(&dir), ["link", "scene.toml", "target"]);
+    // `link/.` and `target/.` name the same folders (not a staging folder
+    // inside them).
+    for (out, theta) in [("link/.", "60"), ("target/.", "70")] {
+        let a = [
+            "brdf",
+            s(&scene),
+            "--out",
+            out,
+            "--theta",
+            theta,
+            "--photons",
+            "4096",
+            "--stats-resolution",
+            "32",
+            "-q",
+        ];
+        ok(&roks_in(&dir, &a), out);
+        let png = format!("hemisphere_{theta}deg.png");
+        assert_eq!(
+            names(&target),
+            [
+                "brdf.csv",
+                png.as_str(),
+                "inplane.csv",
+                "inplane.png",
+                "summary.json"
+            ]
+        );
+        assert_eq!(names(&dir), ["link", "scene.toml", "target"]);
+    }
 }
 
 /// Late bad input (found by the trace: a wall without a model) writes
