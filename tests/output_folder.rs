@@ -542,7 +542,7 @@ fn a_bad_out_file_is_refused_before_any_work() {
     ] {
         let o = s(out);
         let commands: [Vec<&str>; 4] = [
-            vec!["render", s(&scene), "--out", o, "--size", "100000,100000"],
+            vec!["render", s(&scene), "--out", o, "--spp", "1000000000"],
             vec!["export-mesh", s(&scene), "--out", o],
             vec!["export-heightfield", s(&scene), "--out", o],
             vec![
@@ -560,14 +560,7 @@ fn a_bad_out_file_is_refused_before_any_work() {
             assert_out_refused(&case, &roks_in(&dir, &a), out, reason, &dir, &before);
         }
     }
-    let a = [
-        "render",
-        s(&scene),
-        "--out",
-        s(&png),
-        "--size",
-        "100000,100000",
-    ];
+    let a = ["render", s(&scene), "--out", s(&png), "--spp", "1000000000"];
     assert_out_refused(
         "render --out x.png",
         &roks_in(&dir, &a),
