@@ -1177,9 +1177,14 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
     let problem = Problem::new(&text, &source, &params, &measured, &opts).map_err(input)?;
     let quiet = a.quiet;
     let result = problem
-        .fit_observed(&mut |k, values, misfit| {
+        .fit_observed(&mut |k, values, misfit, rejected| {
             if !quiet {
-                eprintln!("evaluation {k:>4}: misfit {misfit:.6e} at {values:?}");
+                match rejected {
+                    Some(why) => {
+                        eprintln!("evaluation {k:>4}: rejected by the scene at {values:?}: {why}");
+                    }
+                    None => eprintln!("evaluation {k:>4}: misfit {misfit:.6e} at {values:?}"),
+                }
             }
         })
         .map_err(input)?;
@@ -1207,7 +1212,14 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
         "misfit": result.misfit,
         "evaluations": result.evaluations,
         "converged": result.converged,
-        "history": result.history.iter().map(|(v, m)| json!({"values": v, "misfit": m})).collect::<Vec<_>>(),
+        "rejected_evaluations": result.rejected.len(),
+        "history": result.history.iter().enumerate().map(|(k, (v, m))| {
+            // A rejected point: misfit null and the scene's reason.
+            match result.rejected.iter().find(|r| r.0 == k) {
+                Some((_, why)) => json!({"values": v, "misfit": null, "rejected": why}),
+                None => json!({"values": v, "misfit": m}),
+            }
+        }).collect::<Vec<_>>(),
     });
     let mut csv = String::from("theta_i_deg,theta_o_deg,measured,model\n");
     for ((ti, to, b, _), m) in measured.points.iter().zip(&result.model) {
