@@ -471,12 +471,15 @@ fn export_table(
             "theta_i", "table", "file", "relative"
         );
         for c in &check {
+            // A table reflectance of 0 (an absorbing surface) has no relative error.
+            let relative = match (c.table, c.file) {
+                (t, f) if t != 0.0 => format!("{:+.2e}", f / t - 1.0),
+                (_, f) if f == 0.0 => "equal (0)".to_string(),
+                _ => "undefined (table 0)".to_string(),
+            };
             eprintln!(
-                "{:>9.2} {:>10.6} {:>10.6} {:>+10.2e}",
-                c.theta_i_deg,
-                c.table,
-                c.file,
-                c.file / c.table - 1.0
+                "{:>9.2} {:>10.6} {:>10.6} {relative:>10}",
+                c.theta_i_deg, c.table, c.file
             );
         }
     }
@@ -1619,12 +1622,20 @@ fn stats(a: StatsArgs) -> Result<(), Failure> {
         "sigma            {:.6}   RMS height about the mean",
         s.sigma
     );
-    let _ = writeln!(
-        out,
-        "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
-        s.tau
-    );
-    let _ = writeln!(out, "sigma_over_tau   {:.6}", s.sigma_over_tau);
+    match s.tau_undefined {
+        None => {
+            let _ = writeln!(
+                out,
+                "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
+                s.tau
+            );
+            let _ = writeln!(out, "sigma_over_tau   {:.6}", s.sigma_over_tau);
+        }
+        Some(why) => {
+            let _ = writeln!(out, "tau              {why}");
+            let _ = writeln!(out, "sigma_over_tau   undefined (tau is undefined)");
+        }
+    }
     let _ = writeln!(
         out,
         "rms_slope        {:.6}   sqrt(mean |grad h|^2)",
