@@ -776,6 +776,35 @@ fn flat_surface_statistics_say_why_they_are_undefined() {
     );
 }
 
+/// Heights correlated over more than half the cell: a long narrow cell under
+/// one wide bump. No `tau` within the lags the map has, and the line says so.
+#[test]
+fn tau_beyond_half_the_cell_says_why() {
+    let dir = scratch("long");
+    let scene = dir.join("long.toml");
+    std::fs::write(
+        &scene,
+        "[surface]\nsize = [100.0, 4.0]\nmaterial = \"m\"\n\n[materials.m]\nreflectance = 0.5\n\n\
+         [[bumps]]\nshape = \"paraboloid\"\ncount = 1\nradius = 45\nheight = 3\nseed = 1\n",
+    )
+    .unwrap();
+    let why = "undefined: the radial autocorrelation stays above 1/e out to the largest lag, 2 (half the cell's shorter side)";
+    let s = scene.to_str().unwrap();
+    let o = roks(&["stats", s, "--resolution", "128"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(!text.contains("NaN"), "{text}");
+    assert!(
+        text.contains(&format!("tau              {why}\n")),
+        "{text}"
+    );
+    let o = roks(&["stats", s, "--resolution", "128", "--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["sigma"].as_f64().is_some_and(|x| x > 0.0));
+    assert!(v["tau"].is_null());
+    assert_eq!(v["undefined"]["tau"], why);
+}
+
 /// A rough surface keeps its numbers and has no `undefined` key.
 #[test]
 fn rough_surface_statistics_are_numbers() {

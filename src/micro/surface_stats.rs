@@ -147,7 +147,7 @@ impl std::fmt::Display for TauUndefined {
             Self::Flat => write!(f, "undefined for a flat surface (sigma = 0)"),
             Self::BeyondHalfCell { r_max } => write!(
                 f,
-                "undefined: the autocorrelation stays above 1/e out to the largest lag {r_max} (half the cell)"
+                "undefined: the radial autocorrelation stays above 1/e out to the largest lag, {r_max} (half the cell's shorter side)"
             ),
         }
     }
