@@ -58,10 +58,19 @@
 //!    linear least-squares misfit would fit the peak and ignore the rest. The
 //!    log weighs relative errors equally everywhere; `eps` keeps empty model
 //!    bins and zero measurements finite and stops values 1000 times below the
-//!    peak (mostly noise) from dominating. A point whose parameter values the
-//!    scene rejects (a reversed range `lo > hi`, `cap > 1`, `n <= 0`, ...)
-//!    has an infinite misfit. The measured `brdf_stderr` is read but not used
-//!    as a weight.
+//!    peak (mostly noise) from dominating. The measured `brdf_stderr` is
+//!    read but not used as a weight.
+//!
+//!    **Values the scene rejects** (a reversed range `lo > hi`, `cap > 1`,
+//!    `n <= 0`, a radius of 0, ...). Before any photon is traced, the scene
+//!    is built at the start point and at both bounds of every parameter
+//!    (the others at their start values); a rejection there is an error
+//!    naming `--param`, the key and the scene's reason, since the bounds
+//!    themselves are wrong. Points the search can still meet are
+//!    combinations (two ends of one range crossing): they have an infinite
+//!    misfit and are recorded with the scene's reason in
+//!    [`FitResult::rejected`] (in `fit.json`: `"misfit": null` beside
+//!    `"rejected": reason`), a constraint of the search, not a failure.
 //! 4. **Search.** Nelder-Mead (reflection 1, expansion 2, contraction 1/2,
 //!    shrink 1/2) in the unit cube: parameter `j` is `lo_j + x_j (hi_j -
 //!    lo_j)`. Simplex vertices may leave the cube; the model is evaluated at
@@ -654,6 +663,11 @@ pub struct Problem {
     opts: FitOptions,
 }
 
+/// Called after every model run of a fit with `(evaluation, values, misfit,
+/// rejected)`: the 1-based evaluation number, the parameter values, the
+/// misfit (infinite when rejected) and why the scene rejected the values.
+pub type Observer<'a> = dyn FnMut(usize, &[f64], f64, Option<&str>) + 'a;
+
 /// Why a point cannot be evaluated: its parameter values make the scene invalid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Infeasible(pub FitError);
@@ -978,7 +992,7 @@ impl Problem {
     /// the values, the misfit then infinite).
     pub fn fit_observed(
         &self,
-        observe: &mut dyn FnMut(usize, &[f64], f64, Option<&str>),
+        observe: &mut Observer<'_>,
     ) -> Result<FitResult, FitError> {
         let d = self.params.len();
         let x0: Vec<f64> = self

@@ -472,10 +472,12 @@ fn export_table(
         );
         for c in &check {
             // A table reflectance of 0 (an absorbing surface) has no relative error.
-            let relative = match (c.table, c.file) {
-                (t, f) if t != 0.0 => format!("{:+.2e}", f / t - 1.0),
-                (_, f) if f == 0.0 => "equal (0)".to_string(),
-                _ => "undefined (table 0)".to_string(),
+            let relative = if c.table != 0.0 {
+                format!("{:+.2e}", c.file / c.table - 1.0)
+            } else if c.file == 0.0 {
+                "equal (0)".to_string()
+            } else {
+                "undefined (table 0)".to_string()
             };
             eprintln!(
                 "{:>9.2} {:>10.6} {:>10.6} {relative:>10}",
