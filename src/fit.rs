@@ -589,7 +589,9 @@ pub struct FitOptions {
     /// In-plane detector full width out of the plane (degrees); `None`: the scene's.
     pub inplane_width_deg: Option<f64>,
     /// Points per parameter of the coarse global scan that picks the
-    /// simplex's starting point (at most 256 points in all; 0 or 1: none).
+    /// simplex's starting point (0 or 1: none). At most 256 points in all:
+    /// fewer per parameter when needed, none when even 2 per parameter are
+    /// more (9 parameters or more).
     pub scan: usize,
 }
 
@@ -990,10 +992,7 @@ impl Problem {
     /// As [`fit`](Self::fit), calling `observe(evaluation, values, misfit,
     /// rejected)` after every model run (`rejected`: why the scene rejected
     /// the values, the misfit then infinite).
-    pub fn fit_observed(
-        &self,
-        observe: &mut Observer<'_>,
-    ) -> Result<FitResult, FitError> {
+    pub fn fit_observed(&self, observe: &mut Observer<'_>) -> Result<FitResult, FitError> {
         let d = self.params.len();
         let x0: Vec<f64> = self
             .params
@@ -1052,11 +1051,8 @@ impl Problem {
         // piecewise constant in the photon paths), so a simplex started far
         // from the minimum can stall in a local one. Start from the best of a
         // stratified grid of `scan` points per parameter (at most 256 in all).
-        if self.opts.scan > 1 && d > 0 {
-            let mut m = self.opts.scan;
-            while d > 0 && m > 2 && m.pow(d as u32) > 256 {
-                m -= 1;
-            }
+        let m = scan_points(self.opts.scan, d);
+        if m > 1 {
             let total = m.pow(d as u32);
             for k in 0..total {
                 let mut rem = k;
@@ -1200,6 +1196,22 @@ impl Problem {
             model,
         })
     }
+}
+
+/// Points per parameter of the coarse scan for `scan` requested and `d`
+/// parameters: the largest `m <= scan` with `m^d <= 256` points in all, at
+/// least 2; 0 (no scan) when `scan < 2`, `d = 0` or even `2^d` exceeds 256.
+fn scan_points(scan: usize, d: usize) -> usize {
+    if d == 0 {
+        return 0;
+    }
+    let fits = |m: usize| {
+        u32::try_from(d)
+            .ok()
+            .and_then(|d| m.checked_pow(d))
+            .is_some_and(|t| t <= 256)
+    };
+    (2..=scan.min(256)).rev().find(|&m| fits(m)).unwrap_or(0)
 }
 
 /// Linear interpolation of per-bin values `bins` at signed in-plane angle
@@ -1385,6 +1397,22 @@ mod tests {
             let e = bad.parse::<FitParam>().unwrap_err();
             assert_eq!(e.to_string(), format!("--param {bad}: {msg}"));
         }
+    }
+
+    #[test]
+    fn scan_points_stay_within_256() {
+        assert_eq!(scan_points(8, 1), 8);
+        assert_eq!(scan_points(8, 2), 8);
+        assert_eq!(scan_points(8, 3), 6);
+        assert_eq!(scan_points(8, 8), 2);
+        assert_eq!(scan_points(8, 9), 0);
+        assert_eq!(scan_points(1, 1), 0);
+        assert_eq!(scan_points(0, 1), 0);
+        assert_eq!(scan_points(8, 0), 0);
+        // Huge requests: no overflow, no count-down loop.
+        assert_eq!(scan_points(usize::MAX, 1), 256);
+        assert_eq!(scan_points(usize::MAX, 4), 4);
+        assert_eq!(scan_points(usize::MAX, 100), 0);
     }
 
     #[test]

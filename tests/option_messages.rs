@@ -695,6 +695,57 @@ fn fit_records_rejected_points_with_their_reason() {
     }
 }
 
+/// `roks args`, killed after 60 s (a hang detector, not a speed assertion).
+fn roks_or_hang(args: &[&str]) -> Output {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("roks {args:?}: still running after 60 s (a hang)");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// `--scan` of any size is at most 256 points in all (it used to count down
+/// from the request one by one, or overflow `m^d`).
+#[test]
+fn fit_scan_of_any_size_is_bounded() {
+    let dir = scratch("fit-scan");
+    let (scene, measured) = fit_scene(&dir);
+    let out = dir.join("out");
+    let o = roks_or_hang(&[
+        "fit",
+        scene.to_str().unwrap(),
+        measured.to_str().unwrap(),
+        "--param",
+        "bumps[0].radius=1:3",
+        "--scan",
+        "1e18",
+        "--photons",
+        "200",
+        "--max-evals",
+        "1",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: Value = serde_json::from_slice(&read(&out, "fit.json")).unwrap();
+    // The start, 256 scan points, the simplex's second vertex; then
+    // --max-evals stops the search.
+    assert_eq!(v["evaluations"], 258);
+}
+
 const TAU_FLAT: &str = "undefined for a flat surface (sigma = 0)";
 
 #[test]
