@@ -1426,9 +1426,7 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
         background_radiance: a.background,
         seed: a.seed,
     };
-    settings
-        .validate()
-        .map_err(|e| Failure::Input(format!("render: {e}")))?;
+    settings.validate().map_err(Failure::Input)?;
     set_threads(a.threads)?;
     let (img, losses) = roks::render::render(&scene.surface, &settings);
     let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
@@ -1507,7 +1505,7 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
     settings
         .validate()
         .and_then(|()| camera.validate())
-        .map_err(|e| Failure::Input(format!("{}: render: {e}", scene.source.file)))?;
+        .map_err(|e| Failure::Input(format!("{}: {e}", scene.source.file)))?;
     if scene
         .object
         .solids

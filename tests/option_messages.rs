@@ -342,6 +342,26 @@ fn every_bad_option_is_one_line_naming_it() {
             vec!["--shard:"],
         ),
         (
+            "render disc 0",
+            vec!["render", s, "--out", e, "--disc", "0"],
+            vec!["--disc:", "(0, 180]"],
+        ),
+        (
+            "render view theta 95",
+            vec!["render", s, "--out", e, "--view", "95,0"],
+            vec!["--view:", "[0, 90)"],
+        ),
+        (
+            "render background -1",
+            vec!["render", s, "--out", e, "--background", "-1"],
+            vec!["--background:", ">= 0"],
+        ),
+        (
+            "render light theta 200",
+            vec!["render", s, "--out", e, "--light", "200,0"],
+            vec!["--light:", "[0, 180]"],
+        ),
+        (
             "render view 3 values",
             vec!["render", s, "--out", e, "--view", "1,2,3"],
             vec!["--view:", "two comma-separated"],
@@ -353,6 +373,28 @@ fn every_bad_option_is_one_line_naming_it() {
         assert!(!exr.exists(), "{case}: wrote {}", exr.display());
     }
     assert!(cases.len() >= 45, "{}", cases.len());
+    // An object scene's camera options: the line also names the scene.
+    let object = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/bad_inputs/messages-render-object-fov-zero.toml");
+    let o_s = object.to_str().unwrap();
+    for (case, extra, expect) in [
+        ("object fov 0", ["--fov", "0"], ["--fov:", "(0, 180)"]),
+        ("object fov 180", ["--fov", "180"], ["--fov:", "(0, 180)"]),
+        ("object up 0,0,0", ["--up", "0,0,0"], ["--up:", "parallel"]),
+        (
+            "object look-at at the camera",
+            ["--look-at", "0,0,50"],
+            ["--look-at:", "differ"],
+        ),
+    ] {
+        let mut args = vec!["render", o_s, "--out", e];
+        args.extend(extra);
+        if case.contains("look-at") {
+            args.extend(["--camera", "0,0,50"]);
+        }
+        let o = roks(&args);
+        assert_input_error(case, &o, &object, &exr, &expect);
+    }
 }
 
 #[test]
