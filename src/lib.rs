@@ -8,6 +8,7 @@
 //!   BRDF tables as Zemax tabular BSDF and MERL binary files.
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
 //! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
+//! * [`limits`]: the memory budget (`ROKS_MAX_MEMORY`): sizes estimated before allocating.
 //! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables),
 //!   BRDF tables, and polarisation (Stokes vectors, Fresnel Mueller matrices, frames).
 //! * [`micro`]: the explicit rough surface (substrate, bumps, edges) and its statistics.
@@ -27,6 +28,7 @@ pub mod cli;
 pub mod export;
 pub mod fit;
 pub mod geometry;
+pub mod limits;
 pub mod micro;
 pub mod object;
 pub mod optics;

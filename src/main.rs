@@ -391,6 +391,10 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(code) => return code,
     };
+    if let Err(e) = roks::limits::max_memory() {
+        eprintln!("roks: {e}");
+        return ExitCode::from(2);
+    }
     let result = match cli.command {
         Command::Brdf(a) => brdf(a),
         Command::Stats(a) => stats(a),
@@ -427,6 +431,13 @@ fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
         if t == 0 {
             return Err(Failure::Input("--threads: must be >= 1".into()));
         }
+        // Each worker reserves a 2 MiB stack (rayon's default).
+        let bytes = roks::limits::product(&[t as u64, 2 << 20]);
+        check_memory(
+            "--threads",
+            &format!("the stacks of {t} worker threads"),
+            bytes,
+        )?;
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build_global()
@@ -497,7 +508,15 @@ fn export_brdf(a: ExportBrdfArgs) -> Result<(), Failure> {
             a.dir.display()
         )));
     }
-    let table = BrdfTable::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    let mut table = BrdfTable::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    // The run's summary beside the table must describe the same run (a
+    // table cut at a block boundary has lost an incidence it lists).
+    let summary = a.dir.join("summary.json");
+    if summary.exists() {
+        table = table
+            .with_summary(&summary)
+            .map_err(|e| Failure::Input(e.to_string()))?;
+    }
     let bytes = export_table(&table, format, &format!("from {}", csv.display()), a.quiet)?;
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
@@ -583,6 +602,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         }
         run.theta_deg.clone_from(t);
     }
+    scene.check_run_memory(&run)?;
     let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
     let shard = a
         .shard
@@ -611,7 +631,8 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         &run,
         &output::surface_json(&stats, rx),
     );
-    let mut fields = shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e))?;
+    let mut fields =
+        shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e.to_string()))?;
 
     let total_photons = run.photons;
     if let Some((first, last)) = range {
@@ -762,146 +783,30 @@ fn print_brdf_table(results: &[roks::transport::brdf::IncidenceResult]) {
     }
 }
 
-/// One shard folder read by `roks merge`.
-struct ShardDir {
-    dir: PathBuf,
-    v: serde_json::Value,
-    first: u64,
-    last: u64,
-}
-
-fn read_shard(dir: &Path) -> Result<ShardDir, Failure> {
-    let d = dir.display();
-    let path = dir.join(shard::TALLIES_FILE);
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| Failure::Input(format!("{d}: cannot read {}: {e}", shard::TALLIES_FILE)))?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| Failure::Input(format!("{d}: {}: {e}", shard::TALLIES_FILE)))?;
-    if v["format"] != shard::FORMAT || v["format_version"] != shard::FORMAT_VERSION {
-        return Err(Failure::Input(format!(
-            "{d}: {} is not a roks tallies file of format version {}",
-            shard::TALLIES_FILE,
-            shard::FORMAT_VERSION
-        )));
-    }
-    let bad = |e: String| Failure::Input(format!("{d}: {}: {e}", shard::TALLIES_FILE));
-    let first = shard::get_u64(&v, "first_photon").map_err(bad)?;
-    let last = shard::get_u64(&v, "last_photon").map_err(bad)?;
-    Ok(ShardDir {
-        dir: dir.to_path_buf(),
-        v,
-        first,
-        last,
-    })
-}
-
 fn merge(a: MergeArgs) -> Result<(), Failure> {
     use roks::transport::BATCH;
-    use roks::transport::brdf::{IncidenceResult, Tallies};
-    let mut parts = a
+    use roks::transport::brdf::IncidenceResult;
+    let parts = a
         .dirs
         .iter()
-        .map(|d| read_shard(d))
+        .map(|d| shard::read_shard(d))
         .collect::<Result<Vec<_>, _>>()?;
-    let settings = parts[0].v["settings"].clone();
-    let d0 = parts[0].dir.display().to_string();
-    for p in &parts[1..] {
-        if p.v["settings"] != settings {
-            let key = settings
-                .as_object()
-                .and_then(|m| {
-                    m.keys()
-                        .find(|k| p.v["settings"][k.as_str()] != m[k.as_str()])
-                })
-                .cloned()
-                .unwrap_or_else(|| "settings".into());
-            return Err(Failure::Input(format!(
-                "{}: not a shard of the same run as {d0} (`{key}` differs)",
-                p.dir.display()
-            )));
-        }
-    }
-    let run = shard::run_from_settings(&settings)
-        .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
+    let n_parts = parts.len();
+    let merged = shard::merge_shards(parts)?;
+    let (run, settings) = (merged.run, merged.settings);
+    roks::limits::check("the merged tallies and tables", run.memory_bytes()).map_err(|e| {
+        Failure::Input(format!(
+            "{}: {}: settings.bands: {e}",
+            a.dirs[0].display(),
+            shard::TALLIES_FILE
+        ))
+    })?;
     let total = run.photons;
-    parts.sort_by_key(|p| (p.first, p.last));
-    let mut next = 0;
-    for (k, p) in parts.iter().enumerate() {
-        let d = p.dir.display();
-        if p.first % BATCH != 0 || p.last < p.first || p.last > total {
-            return Err(Failure::Input(format!(
-                "{d}: photons [{}, {}) are not a block of whole batches of the run's {total}",
-                p.first, p.last
-            )));
-        }
-        if p.first < next {
-            return Err(Failure::Input(format!(
-                "{d}: photons [{}, {}) overlap those of {}",
-                p.first,
-                p.last,
-                parts[k - 1].dir.display()
-            )));
-        }
-        if p.first > next {
-            return Err(Failure::Input(format!(
-                "{d}: photons [{next}, {}) are missing before this shard",
-                p.first
-            )));
-        }
-        next = p.last;
-    }
-    if next != total {
-        return Err(Failure::Input(format!(
-            "{}: photons [{next}, {total}) are missing after this shard",
-            parts[parts.len() - 1].dir.display()
-        )));
-    }
-
-    let grid = run.grid();
-    let inplane = run.inplane();
     let batches = total.div_ceil(BATCH);
     let mut results = Vec::new();
     let mut roots = Vec::new();
-    for (i, &theta) in run.theta_deg.iter().enumerate() {
-        let mut sum = shard::DyadicSum::new(batches);
-        let mut seconds = 0.0;
-        for p in &parts {
-            let d = p.dir.display();
-            let bad = |e: String| {
-                Failure::Input(format!("{d}: {}: incidence[{i}]: {e}", shard::TALLIES_FILE))
-            };
-            let inc = &p.v["incidence"][i];
-            if shard::text_f64(&inc["theta_deg"], "theta_deg")
-                .map_err(bad)?
-                .to_bits()
-                != theta.to_bits()
-            {
-                return Err(bad(format!("theta_deg is not {theta}")));
-            }
-            seconds += shard::text_f64(&inc["seconds"], "seconds").map_err(bad)?;
-            let nodes = shard::json_nodes(
-                &inc["nodes"],
-                grid.n_cells(),
-                inplane.n_bins(),
-                run.polarisation.tally,
-            )
-            .map_err(bad)?;
-            for n in nodes {
-                sum.push(n, &Tallies::merge).map_err(bad)?;
-            }
-        }
-        let t = sum.finish().map_err(|e| {
-            Failure::Input(format!(
-                "{}: incidence[{i}]: {e}",
-                parts[parts.len() - 1].dir.display()
-            ))
-        })?;
-        if t.photons != total {
-            return Err(Failure::Input(format!(
-                "{d0}: incidence[{i}]: {} photons summed, expected {total}",
-                t.photons
-            )));
-        }
+    for inc in merged.incidence {
+        let (theta, seconds, t) = (inc.theta_deg, inc.seconds, inc.tallies);
         roots.push((
             theta,
             seconds,
@@ -918,12 +823,9 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
             seconds,
         });
     }
-    let seconds: f64 = parts
-        .iter()
-        .map(|p| shard::text_f64(&p.v["seconds"], "seconds").unwrap_or(0.0))
-        .sum();
-    let fields = shard::summary_fields(&settings)
-        .map_err(|e| Failure::Input(format!("{d0}: {}: settings: {e}", shard::TALLIES_FILE)))?;
+    let seconds = merged.seconds;
+    let d0 = a.dirs[0].join(shard::TALLIES_FILE).display().to_string();
+    let fields = shard::summary_fields(&settings).map_err(|e| e.under("settings").in_file(&d0))?;
     let summary = output::brdf_summary(&fields, &results, seconds);
     let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
     text.push('\n');
@@ -960,7 +862,7 @@ fn merge(a: MergeArgs) -> Result<(), Failure> {
     write_outputs(&a.out, &files)?;
     if !a.quiet {
         print_brdf_table(&results);
-        eprintln!("merged {} shards into {}", parts.len(), a.out.display());
+        eprintln!("merged {n_parts} shards into {}", a.out.display());
     }
     Ok(())
 }
@@ -1268,10 +1170,20 @@ fn stats_grid(
 ) -> Result<(usize, usize), Failure> {
     match (requested, &scene.surface.heightfield) {
         (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
-        (Some(r), _) => Ok((r, r)),
+        (Some(r), _) => {
+            let what = format!("the statistics of a {r} x {r} height map");
+            check_memory(option, &what, scene.surface.stats_memory_bytes(r, r))?;
+            Ok((r, r))
+        }
         (None, Some(f)) => Ok((f.nx, f.ny)),
         (None, None) => Ok((default, default)),
     }
+}
+
+/// Refuse `option` when `bytes`, the estimate for `what`, exceed the memory
+/// limit ([`roks::limits`]).
+fn check_memory(option: &str, what: &str, bytes: u64) -> Result<(), Failure> {
+    roks::limits::check(what, bytes).map_err(|e| Failure::Input(format!("{option}: {e}")))
 }
 
 /// A height-field scene's own grid, refusing any other `--resolution`.
@@ -1309,6 +1221,16 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
+    let n = scene
+        .surface
+        .heightfield
+        .as_ref()
+        .map_or((resolution, resolution), |f| (f.nx, f.ny));
+    check_memory(
+        "--resolution",
+        &format!("a mesh of {} x {} grid squares", n.0, n.1),
+        roks::export::mesh_memory_bytes(n.0, n.1),
+    )?;
     let mesh = match &scene.surface.heightfield {
         Some(field) => roks::export::field_mesh(field),
         None => roks::export::height_field_mesh(&scene.surface, resolution),
@@ -1348,6 +1270,9 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
                     "--resolution: must be in 2..=16384, got {n}"
                 )));
             }
+            // Heights (8 bytes) and the file (up to 24 bytes of text) per vertex.
+            let bytes = roks::limits::product(&[n as u64, n as u64, 32]);
+            check_memory("--resolution", &format!("a {n} x {n} height map"), bytes)?;
             let s = scene.surface.size;
             let mut scratch = roks::micro::Scratch::new(&scene.surface);
             let h: Vec<f64> = (0..n * n)
@@ -1405,6 +1330,12 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
+    let (w, h) = (a.size[0] as u64, a.size[1] as u64);
+    check_memory(
+        "--size",
+        &format!("a {w} x {h} image (radiance, EXR and PNG)"),
+        roks::render::image_memory_bytes(w, h),
+    )?;
     if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
         return render_object(&a, path);
     }
@@ -1576,6 +1507,11 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
     }
     let lo = glam::DVec3::new(b[0], b[1], b[2]);
     let hi = glam::DVec3::new(b[3], b[4], b[5]);
+    if lo.is_finite() && hi.is_finite() && (hi - lo).min_element() > 0.0 {
+        let bytes = roks::export::object_mesh::memory_bytes(lo, hi, resolution);
+        let what = format!("the voxel grid of resolution {resolution} over --bounds");
+        check_memory("--resolution", &what, bytes)?;
+    }
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
     if mesh.faces.is_empty() {

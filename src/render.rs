@@ -167,6 +167,15 @@ impl Image {
     }
 }
 
+/// Estimated peak memory (bytes) of rendering and writing a `w x h` image:
+/// per pixel the rows and the image (12 + 12 bytes of f32 RGB), then the EXR
+/// file (up to 12) and the PNG preview's luminances, bytes and file
+/// (8 + 3 + 3) beside the image: about 40 bytes a pixel.
+#[must_use]
+pub fn image_memory_bytes(w: u64, h: u64) -> u64 {
+    crate::limits::product(&[w, h, 40])
+}
+
 /// Unit direction from polar angle and azimuth in degrees.
 fn direction(theta_deg: f64, phi_deg: f64) -> DVec3 {
     let (st, ct) = theta_deg.to_radians().sin_cos();

@@ -63,8 +63,24 @@
 //! settings (`transport`, `incident`, `incident_stokes`, `tally`).
 //! Floating-point numbers are written as decimal strings (Rust's shortest
 //! round-trip form, e.g. `"0.123"`, `"1e-7"`), so they read back bit for bit.
+//!
+//! # Reading it back
+//!
+//! `roks merge` ([`read_shard`], [`merge_shards`]) trusts nothing in the
+//! file: the settings must describe a valid run ([`run_from_settings`]
+//! applies the scene's run checks, [`BrdfRun::check`]), every number must be
+//! finite and within what the photon count allows ([`check_tallies`]), each
+//! tree node must hold exactly the photons of its batches, and each shard's
+//! nodes must tile exactly its own photon range. Errors are one
+//! [`SceneError`] naming the shard's `tallies.json` and the JSON path of the
+//! value, e.g. `sh1/tallies.json: incidence[0].nodes[2].tallies.carlson.sum[5]:
+//! NaN is not a finite number`.
+
+use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value, json};
+
+use crate::scene::SceneError;
 
 use crate::optics::polarisation::Incident;
 use crate::tally::{Accumulator, PolarTallies, PolarTally, Symmetry};
@@ -253,6 +269,68 @@ impl<T> DyadicSum<T> {
     }
 }
 
+/// A problem at a key of a `tallies.json`: the JSON path of the value
+/// (e.g. `incidence[0].nodes[2].tallies.carlson.sum[5]`) and what is wrong.
+/// [`FieldError::in_file`] makes it the one-line [`SceneError`] of a file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FieldError {
+    /// JSON path (empty: the whole file).
+    pub key: String,
+    /// What is wrong (one line).
+    pub message: String,
+}
+
+impl FieldError {
+    /// An error at `key`.
+    #[must_use]
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The same error with its key under `prefix`: `prefix.key`,
+    /// `prefix[i]` for an index key, `prefix` for an empty key.
+    #[must_use]
+    pub fn under(mut self, prefix: &str) -> Self {
+        self.key = join_key(prefix, &self.key);
+        self
+    }
+
+    /// As the error of file `file` (a path as shown to the user).
+    #[must_use]
+    pub fn in_file(self, file: &str) -> SceneError {
+        SceneError {
+            file: file.to_owned(),
+            key: self.key,
+            message: self.message,
+        }
+    }
+}
+
+impl std::fmt::Display for FieldError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "{}", self.message)
+        } else {
+            write!(f, "{}: {}", self.key, self.message)
+        }
+    }
+}
+
+fn join_key(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() {
+        key.to_owned()
+    } else if key.is_empty() {
+        prefix.to_owned()
+    } else if key.starts_with('[') {
+        format!("{prefix}{key}")
+    } else {
+        format!("{prefix}.{key}")
+    }
+}
+
 /// A float as an exactly round-tripping decimal string.
 #[must_use]
 pub fn f64_text(x: f64) -> Value {
@@ -263,48 +341,69 @@ fn f64s_text(xs: &[f64]) -> Value {
     Value::Array(xs.iter().map(|&x| f64_text(x)).collect())
 }
 
-/// Read a float written by [`f64_text`].
+/// Read a finite float written by [`f64_text`] at `key`.
 ///
 /// # Errors
-/// If `v` is not such a string.
-pub fn text_f64(v: &Value, what: &str) -> Result<f64, String> {
-    v.as_str()
+/// If `v` is not such a string or the number is not finite (`"NaN"`,
+/// `"inf"`).
+pub fn text_f64(v: &Value, key: &str) -> Result<f64, FieldError> {
+    let x: f64 = v
+        .as_str()
         .and_then(|s| s.parse().ok())
-        .ok_or_else(|| format!("{what}: expected a number as a string"))
+        .ok_or_else(|| FieldError::new(key, "expected a number as a string"))?;
+    if !x.is_finite() {
+        return Err(FieldError::new(key, format!("{x} is not a finite number")));
+    }
+    Ok(x)
 }
 
-fn text_f64s(v: &Value, what: &str, len: usize) -> Result<Vec<f64>, String> {
+fn text_f64s(v: &Value, key: &str, len: usize) -> Result<Vec<f64>, FieldError> {
     let a = v
         .as_array()
-        .ok_or_else(|| format!("{what}: expected an array"))?;
+        .ok_or_else(|| FieldError::new(key, "expected an array"))?;
     if a.len() != len {
-        return Err(format!("{what}: {} values, expected {len}", a.len()));
+        return Err(FieldError::new(
+            key,
+            format!("{} values, expected {len}", a.len()),
+        ));
     }
-    a.iter().map(|x| text_f64(x, what)).collect()
+    a.iter()
+        .enumerate()
+        .map(|(i, x)| text_f64(x, &format!("{key}[{i}]")))
+        .collect()
 }
 
-fn get<'a>(v: &'a Value, key: &str) -> Result<&'a Value, String> {
-    v.get(key).ok_or_else(|| format!("missing `{key}`"))
+fn get<'a>(v: &'a Value, key: &str) -> Result<&'a Value, FieldError> {
+    v.get(key).ok_or_else(|| FieldError::new(key, "missing"))
 }
 
 /// An unsigned integer field.
 ///
 /// # Errors
 /// If missing or not an unsigned integer.
-pub fn get_u64(v: &Value, key: &str) -> Result<u64, String> {
+pub fn get_u64(v: &Value, key: &str) -> Result<u64, FieldError> {
     get(v, key)?
         .as_u64()
-        .ok_or_else(|| format!("`{key}`: expected an unsigned integer"))
+        .ok_or_else(|| FieldError::new(key, "expected an unsigned integer"))
 }
 
 fn acc_json(a: &Accumulator) -> Value {
     json!({"sum": f64s_text(&a.sum), "sum_sq": f64s_text(&a.sum_sq)})
 }
 
-fn json_acc(v: &Value, what: &str, len: usize) -> Result<Accumulator, String> {
+fn json_acc(v: &Value, key: &str, len: usize) -> Result<Accumulator, FieldError> {
+    let v = get(v, key)?;
     Ok(Accumulator {
-        sum: text_f64s(get(v, "sum")?, &format!("{what}.sum"), len)?,
-        sum_sq: text_f64s(get(v, "sum_sq")?, &format!("{what}.sum_sq"), len)?,
+        sum: text_f64s(
+            get(v, "sum").map_err(|e| e.under(key))?,
+            &format!("{key}.sum"),
+            len,
+        )?,
+        sum_sq: text_f64s(
+            get(v, "sum_sq").map_err(|e| e.under(key))?,
+            &format!("{key}.sum_sq"),
+            len,
+        )?,
     })
 }
 
@@ -345,48 +444,73 @@ pub fn tallies_json(t: &Tallies) -> Value {
     v
 }
 
-/// Read [`tallies_json`] back, checking bin counts (`polar`: the run's
-/// polarisation tally, whose sums must be present exactly when it is not
-/// `None`).
+/// Read [`tallies_json`] back for `run`, checking the bin counts (the
+/// run's grid, in-plane bins, replicates of its launch and polarisation
+/// tally), that it counts `photons` photons, and every number as
+/// [`check_tallies`] says.
 ///
 /// # Errors
-/// On a missing field, a bad number or a wrong bin count.
-pub fn json_tallies(
-    v: &Value,
-    carlson_cells: usize,
-    inplane_bins: usize,
-    polar: PolarTally,
-) -> Result<Tallies, String> {
+/// On a missing field, a bad number or a wrong bin count, at its key.
+pub fn json_tallies(v: &Value, run: &BrdfRun, photons: u64) -> Result<Tallies, FieldError> {
+    let found = get_u64(v, "photons")?;
+    if found != photons {
+        return Err(FieldError::new(
+            "photons",
+            format!("{found} is not the {photons} photons of its batches"),
+        ));
+    }
+    let carlson_cells = run.grid().n_cells();
+    let inplane_bins = run.inplane().n_bins();
+    let expected_replicates = run.launch.replicates();
     let replicates = match v.get("replicates") {
         None | Some(Value::Null) => None,
-        Some(r) => Some(usize::try_from(get_u64(r, "count")?).map_err(|e| e.to_string())?),
+        Some(r) => Some(
+            usize::try_from(get_u64(r, "count").map_err(|e| e.under("replicates"))?)
+                .map_err(|e| FieldError::new("replicates.count", e.to_string()))?,
+        ),
     };
-    let polar = match (polar, v.get("polar")) {
+    if replicates.map(|k| k as u64) != expected_replicates {
+        return Err(FieldError::new(
+            "replicates",
+            match expected_replicates {
+                Some(k) => format!("a lattice run needs {{count: {k}, ...}}"),
+                None => "must be null for a random launch".into(),
+            },
+        ));
+    }
+    let polar = match (run.polarisation.tally, v.get("polar")) {
         (PolarTally::None, None) => None,
-        (PolarTally::None, Some(_)) => return Err("`polar`: not expected for this run".into()),
-        (_, None) => return Err("missing `polar`".into()),
+        (PolarTally::None, Some(_)) => {
+            return Err(FieldError::new("polar", "not expected for this run"));
+        }
+        (_, None) => return Err(FieldError::new("polar", "missing")),
         (kind, Some(p)) => {
             let k = kind.components();
-            if get_u64(p, "components")? != k as u64 {
-                return Err(format!("`polar.components`: expected {k}"));
+            if get_u64(p, "components").map_err(|e| e.under("polar"))? != k as u64 {
+                return Err(FieldError::new("polar.components", format!("expected {k}")));
             }
             let mut t = PolarTallies::new(k, carlson_cells, replicates);
             let bins = t.bins();
-            t.sums = json_acc(get(p, "sums")?, "polar.sums", bins)?;
+            t.sums = json_acc(p, "sums", bins).map_err(|e| e.under("polar"))?;
             t.replicates = match (replicates, p.get("replicates")) {
                 (None, None | Some(Value::Null)) => None,
                 (Some(r), Some(x)) => Some(text_f64s(x, "polar.replicates", r * bins)?),
-                _ => return Err("`polar.replicates`: does not match `replicates`".into()),
+                _ => {
+                    return Err(FieldError::new(
+                        "polar.replicates",
+                        "does not match `replicates`",
+                    ));
+                }
             };
             Some(t)
         }
     };
-    Ok(Tallies {
+    let t = Tallies {
         polar,
         photons: get_u64(v, "photons")?,
-        reflected: json_acc(get(v, "reflected")?, "reflected", 1)?,
-        carlson: json_acc(get(v, "carlson")?, "carlson", carlson_cells)?,
-        inplane: json_acc(get(v, "inplane")?, "inplane", inplane_bins)?,
+        reflected: json_acc(v, "reflected", 1)?,
+        carlson: json_acc(v, "carlson", carlson_cells)?,
+        inplane: json_acc(v, "inplane", inplane_bins)?,
         by_bounces: text_f64s(get(v, "by_bounces")?, "by_bounces", BOUNCE_BINS)?,
         bounces: get_u64(v, "bounces")?,
         segments: get_u64(v, "segments")?,
@@ -396,23 +520,153 @@ pub fn json_tallies(
         lost_numeric: text_f64(get(v, "lost_numeric")?, "lost_numeric")?,
         capped_histories: get_u64(v, "capped_histories")?,
         numeric_histories: get_u64(v, "numeric_histories")?,
-        replicates: match v.get("replicates") {
-            None | Some(Value::Null) => None,
-            Some(r) => {
-                let k = usize::try_from(get_u64(r, "count")?).map_err(|e| e.to_string())?;
-                Some(Replicates {
-                    count: k,
-                    reflected: text_f64s(get(r, "reflected")?, "replicates.reflected", k)?,
-                    carlson: text_f64s(
-                        get(r, "carlson")?,
-                        "replicates.carlson",
-                        k * carlson_cells,
-                    )?,
-                    inplane: text_f64s(get(r, "inplane")?, "replicates.inplane", k * inplane_bins)?,
-                })
-            }
+        replicates: match (replicates, v.get("replicates")) {
+            (Some(k), Some(r)) => Some(Replicates {
+                count: k,
+                reflected: text_f64s(
+                    get(r, "reflected").map_err(|e| e.under("replicates"))?,
+                    "replicates.reflected",
+                    k,
+                )?,
+                carlson: text_f64s(
+                    get(r, "carlson").map_err(|e| e.under("replicates"))?,
+                    "replicates.carlson",
+                    k * carlson_cells,
+                )?,
+                inplane: text_f64s(
+                    get(r, "inplane").map_err(|e| e.under("replicates"))?,
+                    "replicates.inplane",
+                    k * inplane_bins,
+                )?,
+            }),
+            _ => None,
         },
-    })
+    };
+    check_tallies(&t, run)?;
+    Ok(t)
+}
+
+/// Relative slack of the bounds in [`check_tallies`] for the rounding of
+/// sums of many terms (a tampered number is off by far more).
+const SUM_TOL: f64 = 1e-6;
+
+/// The bounds every tally of a run obeys, with `n` its photons: each
+/// history scores a weight in `[0, 1]` (photons start with weight 1 and no
+/// reflection, roulette survival or symmetry fold makes it larger), so per
+/// bin of `reflected`, `carlson` and `inplane`: `0 <= sum <= n`,
+/// `0 <= sum_sq <= sum` (`x² <= x`) and `sum² <= n sum_sq` (Cauchy-Schwarz);
+/// polarisation sums alike with `|sum| <= n` (`|s_i| <= s0`); `by_bounces`,
+/// the lost weights and the replicate sums in `[0, n]` (polarisation
+/// replicates `|x| <= n`); reflected plus lost weight at most `n`; counted
+/// histories at most `n`; `bounces <= n max_bounces`, `segments <= n
+/// max_segments`. All up to [`SUM_TOL`] relative.
+///
+/// # Errors
+/// The first value out of bounds, at its key.
+pub fn check_tallies(t: &Tallies, run: &BrdfRun) -> Result<(), FieldError> {
+    let n = t.photons as f64;
+    let most = n * (1.0 + SUM_TOL) + 1e-12;
+    let in_range = |x: f64, key: String, signed: bool| -> Result<(), FieldError> {
+        if !signed && x < 0.0 {
+            return Err(FieldError::new(key, format!("{x} must be >= 0")));
+        }
+        if x.abs() > most {
+            return Err(FieldError::new(
+                key,
+                format!(
+                    "{x} exceeds the {} photons of the tally (each photon carries a weight of at most 1)",
+                    t.photons
+                ),
+            ));
+        }
+        Ok(())
+    };
+    let acc = |a: &Accumulator, key: &str, signed: bool| -> Result<(), FieldError> {
+        for (i, (&s, &q)) in a.sum.iter().zip(&a.sum_sq).enumerate() {
+            in_range(s, format!("{key}.sum[{i}]"), signed)?;
+            in_range(q, format!("{key}.sum_sq[{i}]"), false)?;
+            if !signed && q > s * (1.0 + SUM_TOL) + 1e-300 {
+                return Err(FieldError::new(
+                    format!("{key}.sum_sq[{i}]"),
+                    format!("{q} exceeds the sum {s} (scores of at most 1 have x² <= x)"),
+                ));
+            }
+            if s * s > n * q * (1.0 + SUM_TOL) + 1e-300 {
+                return Err(FieldError::new(
+                    format!("{key}.sum_sq[{i}]"),
+                    format!(
+                        "{q} is too small for the sum {s} over {} photons (sum² <= photons × sum_sq)",
+                        t.photons
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    };
+    acc(&t.reflected, "reflected", false)?;
+    acc(&t.carlson, "carlson", false)?;
+    acc(&t.inplane, "inplane", false)?;
+    for (i, &x) in t.by_bounces.iter().enumerate() {
+        in_range(x, format!("by_bounces[{i}]"), false)?;
+    }
+    for (x, key) in [
+        (t.lost_walls, "lost_walls"),
+        (t.lost_cap, "lost_cap"),
+        (t.lost_numeric, "lost_numeric"),
+    ] {
+        in_range(x, key.into(), false)?;
+    }
+    let spent = t.reflected.sum[0] + t.lost_walls + t.lost_cap + t.lost_numeric;
+    if spent > most {
+        return Err(FieldError::new(
+            "reflected.sum[0]",
+            format!(
+                "reflected plus lost weight {spent} exceeds the {} photons launched",
+                t.photons
+            ),
+        ));
+    }
+    for (x, key) in [
+        (t.capped_histories, "capped_histories"),
+        (t.numeric_histories, "numeric_histories"),
+    ] {
+        if x > t.photons {
+            return Err(FieldError::new(
+                key,
+                format!("{x} histories of {} photons", t.photons),
+            ));
+        }
+    }
+    let c = &run.controls;
+    for (x, cap, key, what) in [
+        (t.bounces, c.max_bounces, "bounces", "max_bounces"),
+        (t.segments, c.max_segments, "segments", "max_segments"),
+    ] {
+        if u128::from(x) > u128::from(t.photons) * u128::from(cap) {
+            return Err(FieldError::new(
+                key,
+                format!("{x} exceeds {} photons × {what} {cap}", t.photons),
+            ));
+        }
+    }
+    if let Some(r) = &t.replicates {
+        for (xs, key) in [
+            (&r.reflected, "replicates.reflected"),
+            (&r.carlson, "replicates.carlson"),
+            (&r.inplane, "replicates.inplane"),
+        ] {
+            for (i, &x) in xs.iter().enumerate() {
+                in_range(x, format!("{key}[{i}]"), false)?;
+            }
+        }
+    }
+    if let Some(p) = &t.polar {
+        acc(&p.sums, "polar.sums", true)?;
+        for (i, &x) in p.replicates.iter().flatten().enumerate() {
+            in_range(x, format!("polar.replicates[{i}]"), true)?;
+        }
+    }
+    Ok(())
 }
 
 /// Nodes as JSON.
@@ -426,24 +680,50 @@ pub fn nodes_json(nodes: &[Node<Tallies>]) -> Value {
     )
 }
 
-/// Nodes from JSON (see [`json_tallies`]).
+/// Nodes from JSON (see [`json_tallies`]) of a run with `run.photons`
+/// photons per incidence: each node of the tree over the run's batches,
+/// with exactly the photons of the batches it covers.
 ///
 /// # Errors
-/// On a malformed node.
-pub fn json_nodes(
-    v: &Value,
-    carlson_cells: usize,
-    inplane_bins: usize,
-    polar: PolarTally,
-) -> Result<Vec<Node<Tallies>>, String> {
+/// On a malformed node, at its key (`[k].tallies.photons`, ...).
+pub fn json_nodes(v: &Value, run: &BrdfRun) -> Result<Vec<Node<Tallies>>, FieldError> {
+    let batches = run.photons.div_ceil(BATCH);
+    let root_level = batches.max(1).next_power_of_two().trailing_zeros();
     v.as_array()
-        .ok_or("`nodes`: expected an array")?
+        .ok_or_else(|| FieldError::new("", "expected an array"))?
         .iter()
-        .map(|n| {
+        .enumerate()
+        .map(|(k, n)| {
+            let at = format!("[{k}]");
+            let level = get_u64(n, "level").map_err(|e| e.under(&at))?;
+            let index = get_u64(n, "index").map_err(|e| e.under(&at))?;
+            if level > u64::from(root_level) {
+                return Err(FieldError::new(
+                    format!("{at}.level"),
+                    format!("{level} is above the root level {root_level} of the run's {batches} batches"),
+                ));
+            }
+            let level = level as u32; // <= 64
+            let node = Node {
+                level,
+                index,
+                value: (),
+            };
+            if node.start() >= u128::from(batches) {
+                return Err(FieldError::new(
+                    format!("{at}.index"),
+                    format!("tree node ({level}, {index}) lies past the run's {batches} batches"),
+                ));
+            }
+            let first = node.start() * u128::from(BATCH);
+            let last = (node.end() * u128::from(BATCH)).min(u128::from(run.photons));
+            let photons = u64::try_from(last - first).unwrap_or(u64::MAX);
+            let value = json_tallies(get(n, "tallies").map_err(|e| e.under(&at))?, run, photons)
+                .map_err(|e| e.under(&format!("{at}.tallies")))?;
             Ok(Node {
-                level: u32::try_from(get_u64(n, "level")?).map_err(|e| e.to_string())?,
-                index: get_u64(n, "index")?,
-                value: json_tallies(get(n, "tallies")?, carlson_cells, inplane_bins, polar)?,
+                level,
+                index,
+                value,
             })
         })
         .collect()
@@ -535,49 +815,83 @@ pub fn settings_json(
 
 /// The polarisation of settings written by [`settings_json`] (scalar
 /// transport when absent).
-fn polarisation_from_settings(s: &Value) -> Result<Polarisation, String> {
+fn polarisation_from_settings(s: &Value, symmetry: Symmetry) -> Result<Polarisation, FieldError> {
     let Some(p) = s.get("polarisation") else {
         return Ok(Polarisation::default());
     };
+    let under = |e: FieldError| e.under("polarisation");
     let stokes = text_f64s(
-        get(p, "incident_stokes")?,
+        get(p, "incident_stokes").map_err(under)?,
         "polarisation.incident_stokes",
         4,
     )?;
     let incident = Incident::Stokes([stokes[0], stokes[1], stokes[2], stokes[3]]);
     incident
         .validate()
-        .map_err(|e| format!("`polarisation.incident_stokes`: {e}"))?;
-    let name = get(p, "tally")?.as_str().unwrap_or("");
-    Ok(Polarisation {
-        transport: true,
-        incident,
-        tally: PolarTally::from_name(name)
-            .ok_or_else(|| format!("`polarisation.tally`: unknown `{name}`"))?,
+        .map_err(|e| FieldError::new("polarisation.incident_stokes", e))?;
+    let name = get(p, "tally").map_err(under)?.as_str().unwrap_or("");
+    let tally = PolarTally::from_name(name)
+        .ok_or_else(|| FieldError::new("polarisation.tally", format!("unknown `{name}`")))?;
+    Polarisation::resolve(true, Some(true), incident, tally, symmetry).map_err(|(key, e)| {
+        let key = if key == "tally.symmetry" {
+            "symmetry"
+        } else {
+            "polarisation"
+        };
+        FieldError::new(key, e)
     })
 }
 
-/// The run described by [`settings_json`] (all photons, from index 0).
+/// The key of `settings` holding the run value a scene holds at
+/// `scene_key` (as [`BrdfRun::check`] names it): `light.photons` is
+/// `photons_per_incidence`, the others lose their section
+/// (`tally.bands` is `bands`, `light.theta_deg[1]` is `theta_deg[1]`).
+#[must_use]
+pub fn settings_key(scene_key: &str) -> String {
+    if scene_key == "light.photons" {
+        return "photons_per_incidence".into();
+    }
+    scene_key
+        .split_once('.')
+        .map_or(scene_key, |(_, rest)| rest)
+        .to_owned()
+}
+
+/// The run described by [`settings_json`] (all photons, from index 0),
+/// checked as a scene's run is ([`BrdfRun::check`]).
 ///
 /// # Errors
-/// On a missing or malformed field.
-pub fn run_from_settings(s: &Value) -> Result<BrdfRun, String> {
+/// On a missing, malformed or invalid field, at its key under `settings`'
+/// root (e.g. `bands`).
+pub fn run_from_settings(s: &Value) -> Result<BrdfRun, FieldError> {
     let theta = get(s, "theta_deg")?
         .as_array()
-        .ok_or("`theta_deg`: expected an array")?
+        .ok_or_else(|| FieldError::new("theta_deg", "expected an array"))?
         .iter()
-        .map(|t| text_f64(t, "theta_deg"))
+        .enumerate()
+        .map(|(i, t)| text_f64(t, &format!("theta_deg[{i}]")))
         .collect::<Result<Vec<_>, _>>()?;
-    let u32_of = |key: &str| -> Result<u32, String> {
-        u32::try_from(get_u64(s, key)?).map_err(|e| format!("`{key}`: {e}"))
+    let u32_of = |key: &str| -> Result<u32, FieldError> {
+        u32::try_from(get_u64(s, key)?).map_err(|e| FieldError::new(key, e.to_string()))
     };
-    Ok(BrdfRun {
+    let name_of = |key: &str| -> Result<&str, FieldError> {
+        get(s, key)?
+            .as_str()
+            .ok_or_else(|| FieldError::new(key, "expected a string"))
+    };
+    let symmetry = {
+        let name = name_of("symmetry")?;
+        Symmetry::from_name(name)
+            .ok_or_else(|| FieldError::new("symmetry", format!("unknown `{name}`")))?
+    };
+    let run = BrdfRun {
         theta_deg: theta,
         phi_deg: text_f64(get(s, "phi_deg")?, "phi_deg")?,
         photons: get_u64(s, "photons_per_incidence")?,
         first_photon: 0,
         seed: get_u64(s, "seed")?,
-        bands: usize::try_from(get_u64(s, "bands")?).map_err(|e| e.to_string())?,
+        bands: usize::try_from(get_u64(s, "bands")?)
+            .map_err(|e| FieldError::new("bands", e.to_string()))?,
         inplane_step_deg: text_f64(get(s, "inplane_step_deg")?, "inplane_step_deg")?,
         inplane_width_deg: text_f64(get(s, "inplane_width_deg")?, "inplane_width_deg")?,
         controls: Controls {
@@ -586,22 +900,23 @@ pub fn run_from_settings(s: &Value) -> Result<BrdfRun, String> {
             max_segments: u32_of("max_segments")?,
         },
         launch: {
-            let name = get(s, "launch")?.as_str().unwrap_or("");
-            Launch::from_name(name).ok_or_else(|| format!("`launch`: unknown `{name}`"))?
+            let name = name_of("launch")?;
+            Launch::from_name(name)
+                .ok_or_else(|| FieldError::new("launch", format!("unknown `{name}`")))?
         },
-        symmetry: {
-            let name = get(s, "symmetry")?.as_str().unwrap_or("");
-            Symmetry::from_name(name).ok_or_else(|| format!("`symmetry`: unknown `{name}`"))?
-        },
-        polarisation: polarisation_from_settings(s)?,
-    })
+        symmetry,
+        polarisation: polarisation_from_settings(s, symmetry)?,
+    };
+    run.check()
+        .map_err(|(key, e)| FieldError::new(settings_key(&key), e))?;
+    Ok(run)
 }
 
 /// The run-level fields of `summary.json` (all but `incidence` and `seconds`).
 ///
 /// # Errors
 /// On a missing field.
-pub fn summary_fields(s: &Value) -> Result<Map<String, Value>, String> {
+pub fn summary_fields(s: &Value) -> Result<Map<String, Value>, FieldError> {
     let mut m = Map::new();
     for key in [
         "scene",
@@ -616,10 +931,29 @@ pub fn summary_fields(s: &Value) -> Result<Map<String, Value>, String> {
     ] {
         m.insert(key.into(), get(s, key)?.clone());
     }
-    m.insert("surface".into(), unexact_object(get(s, "surface")?));
+    let surface = get(s, "surface")?;
+    if let Value::Object(fields) = surface {
+        for (k, x) in fields {
+            if let Value::String(t) = x {
+                if t.parse::<f64>().is_ok_and(|f| !f.is_finite()) {
+                    return Err(FieldError::new(
+                        format!("surface.{k}"),
+                        format!(
+                            "{t} is not a finite number (write null for an undefined statistic)"
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    m.insert("surface".into(), unexact_object(surface));
     if let Some(p) = s.get("polarisation") {
         let mut p = p.clone();
-        let stokes = text_f64s(get(&p, "incident_stokes")?, "incident_stokes", 4)?;
+        let stokes = text_f64s(
+            get(&p, "incident_stokes").map_err(|e| e.under("polarisation"))?,
+            "polarisation.incident_stokes",
+            4,
+        )?;
         p["incident_stokes"] = json!(stokes);
         m.insert("polarisation".into(), p);
     }
@@ -660,6 +994,289 @@ pub fn tallies_file(
             "seconds": f64_text(i.seconds),
             "nodes": nodes_json(i.nodes),
         })).collect::<Vec<_>>(),
+    })
+}
+
+/// One shard folder's `tallies.json`, read and checked alone.
+#[derive(Debug, Clone)]
+pub struct ShardFile {
+    /// The folder.
+    pub dir: PathBuf,
+    /// `dir/tallies.json` as shown in messages.
+    pub file: String,
+    /// Its JSON.
+    pub v: Value,
+    /// Photon indices `[first, last)` it holds.
+    pub first: u64,
+    /// See `first`.
+    pub last: u64,
+}
+
+/// Read `dir/tallies.json`: JSON of [`FORMAT`] version [`FORMAT_VERSION`]
+/// with `first_photon <= last_photon` and `batch` = [`BATCH`].
+///
+/// # Errors
+/// One [`SceneError`] naming the file and the key.
+pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
+    let path = dir.join(TALLIES_FILE);
+    let file = path.display().to_string();
+    let err = |key: &str, message: String| FieldError::new(key, message).in_file(&file);
+    let text = std::fs::read_to_string(&path).map_err(|e| err("", format!("cannot read: {e}")))?;
+    let v: Value =
+        serde_json::from_str(&text).map_err(|e| err("", format!("invalid JSON: {e}")))?;
+    if v["format"] != FORMAT || v["format_version"] != FORMAT_VERSION {
+        return Err(err(
+            "format",
+            format!(
+                "not a roks tallies file (format \"{FORMAT}\", format_version {FORMAT_VERSION})"
+            ),
+        ));
+    }
+    let at = |e: FieldError| e.in_file(&file);
+    if get_u64(&v, "batch").map_err(at)? != BATCH {
+        return Err(err(
+            "batch",
+            format!(
+                "{} is not this version's batch of {BATCH} photons",
+                v["batch"]
+            ),
+        ));
+    }
+    let first = get_u64(&v, "first_photon").map_err(at)?;
+    let last = get_u64(&v, "last_photon").map_err(at)?;
+    if last < first {
+        return Err(err(
+            "last_photon",
+            format!("{last} is below first_photon = {first}"),
+        ));
+    }
+    Ok(ShardFile {
+        dir: dir.to_path_buf(),
+        file,
+        v,
+        first,
+        last,
+    })
+}
+
+/// One incidence of merged shards: angle (degrees), summed wall-clock
+/// time (s) and the root tallies.
+pub struct MergedIncidence {
+    /// Incidence polar angle (degrees).
+    pub theta_deg: f64,
+    /// Sum of the shards' times (s).
+    pub seconds: f64,
+    /// The sums over the whole run (the tree's root).
+    pub tallies: Tallies,
+}
+
+/// Shards of one run, checked against each other and summed.
+pub struct Merged {
+    /// The run (all photons).
+    pub run: BrdfRun,
+    /// Its settings, as in every shard.
+    pub settings: Value,
+    /// Per incidence angle of the run.
+    pub incidence: Vec<MergedIncidence>,
+    /// Sum of the shards' total times (s).
+    pub seconds: f64,
+}
+
+/// Merge shard files (any order): equal `settings` that describe a valid
+/// run ([`run_from_settings`]), photon ranges that tile the run in whole
+/// batches, per shard an `incidence` list of the run's angles whose nodes
+/// tile exactly that shard's batches, every node's numbers within the
+/// bounds of [`check_tallies`], and counts that add up without overflow.
+///
+/// # Errors
+/// One [`SceneError`] naming the shard file at fault and the key (JSON
+/// path) of the value.
+pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
+    let Some(p0) = parts.first() else {
+        return Err(FieldError::new("", "no shard folders").in_file("merge"));
+    };
+    let settings = p0.v["settings"].clone();
+    let f0 = p0.file.clone();
+    for p in &parts[1..] {
+        let other = &p.v["settings"];
+        if *other != settings {
+            let keys = |v: &Value| {
+                v.as_object()
+                    .map(|m| m.keys().cloned().collect::<Vec<_>>())
+                    .unwrap_or_default()
+            };
+            let mut all = keys(&settings);
+            all.extend(keys(other));
+            let key = all
+                .into_iter()
+                .find(|k| other.get(k) != settings.get(k))
+                .unwrap_or_default();
+            return Err(FieldError::new(
+                join_key("settings", &key),
+                format!("differs from {f0} (`{key}` differs: not a shard of the same run)"),
+            )
+            .in_file(&p.file));
+        }
+    }
+    let run = run_from_settings(&settings).map_err(|e| e.under("settings").in_file(&f0))?;
+    let total = run.photons;
+    parts.sort_by_key(|p| (p.first, p.last));
+    let mut next = 0;
+    for (k, p) in parts.iter().enumerate() {
+        let err = |key: &str, m: String| Err(FieldError::new(key, m).in_file(&p.file));
+        if p.first % BATCH != 0 || p.last > total || (p.last % BATCH != 0 && p.last != total) {
+            return err(
+                if p.first % BATCH == 0 {
+                    "last_photon"
+                } else {
+                    "first_photon"
+                },
+                format!(
+                    "photons [{}, {}) are not a block of whole batches of the run's {total}",
+                    p.first, p.last
+                ),
+            );
+        }
+        if p.first < next {
+            return err(
+                "first_photon",
+                format!(
+                    "photons [{}, {}) overlap those of {}",
+                    p.first,
+                    p.last,
+                    parts[k - 1].file
+                ),
+            );
+        }
+        if p.first > next {
+            return err(
+                "first_photon",
+                format!(
+                    "photons [{next}, {}) are missing before this shard",
+                    p.first
+                ),
+            );
+        }
+        next = p.last;
+    }
+    if next != total {
+        let last = &parts[parts.len() - 1];
+        return Err(FieldError::new(
+            "last_photon",
+            format!("photons [{next}, {total}) are missing after this shard"),
+        )
+        .in_file(&last.file));
+    }
+
+    let batches = total.div_ceil(BATCH);
+    let mut incidence = Vec::with_capacity(run.theta_deg.len());
+    let mut seconds = 0.0;
+    for p in &parts {
+        let at = |e: FieldError| e.in_file(&p.file);
+        let s = text_f64(get(&p.v, "seconds").map_err(at)?, "seconds").map_err(at)?;
+        if s < 0.0 {
+            return Err(at(FieldError::new("seconds", format!("{s} must be >= 0"))));
+        }
+        seconds += s;
+        let n = p.v["incidence"].as_array().map_or(0, Vec::len);
+        if n != run.theta_deg.len() {
+            return Err(at(FieldError::new(
+                "incidence",
+                format!(
+                    "must list the run's {} incidence angles, found {n}",
+                    run.theta_deg.len()
+                ),
+            )));
+        }
+    }
+    for (i, &theta) in run.theta_deg.iter().enumerate() {
+        let mut sum = DyadicSum::new(batches);
+        let mut secs = 0.0;
+        let mut tests: u64 = 0;
+        for p in &parts {
+            let key = format!("incidence[{i}]");
+            let at = |e: FieldError| e.under(&key).in_file(&p.file);
+            let inc = &p.v["incidence"][i];
+            let t = text_f64(get(inc, "theta_deg").map_err(at)?, "theta_deg").map_err(at)?;
+            if t.to_bits() != theta.to_bits() {
+                return Err(at(FieldError::new(
+                    "theta_deg",
+                    format!("{t} is not settings.theta_deg[{i}] = {theta}"),
+                )));
+            }
+            let s = text_f64(get(inc, "seconds").map_err(at)?, "seconds").map_err(at)?;
+            if s < 0.0 {
+                return Err(at(FieldError::new("seconds", format!("{s} must be >= 0"))));
+            }
+            secs += s;
+            let nodes = json_nodes(get(inc, "nodes").map_err(at)?, &run)
+                .map_err(|e| at(e.under("nodes")))?;
+            // The nodes tile exactly this shard's batches.
+            let mut b = u128::from(p.first / BATCH);
+            let end = u128::from(p.last.div_ceil(BATCH));
+            for (k, node) in nodes.iter().enumerate() {
+                if node.start() != b || node.end().min(u128::from(batches)) > end {
+                    return Err(at(FieldError::new(
+                        format!("nodes[{k}]"),
+                        format!(
+                            "tree node ({}, {}) covers batches [{}, {}), not the next of this shard's batches [{}, {end}) from {b}",
+                            node.level,
+                            node.index,
+                            node.start(),
+                            node.end().min(u128::from(batches)),
+                            p.first / BATCH
+                        ),
+                    )));
+                }
+                b = node.end().min(u128::from(batches));
+            }
+            if b != end {
+                return Err(at(FieldError::new(
+                    "nodes",
+                    format!(
+                        "cover batches up to {b}, but this shard holds [{}, {end})",
+                        p.first / BATCH
+                    ),
+                )));
+            }
+            let photons = get_u64(inc, "photons").map_err(at)?;
+            if photons != p.last - p.first {
+                return Err(at(FieldError::new(
+                    "photons",
+                    format!(
+                        "{photons} is not last_photon - first_photon = {}",
+                        p.last - p.first
+                    ),
+                )));
+            }
+            for (k, node) in nodes.into_iter().enumerate() {
+                tests = tests
+                    .checked_add(node.value.intersection_tests)
+                    .ok_or_else(|| {
+                        at(FieldError::new(
+                            format!("nodes[{k}].tallies.intersection_tests"),
+                            "the shards' counts add up past 2^64",
+                        ))
+                    })?;
+                sum.push(node, &Tallies::merge)
+                    .map_err(|e| at(FieldError::new(format!("nodes[{k}]"), e)))?;
+            }
+        }
+        let last = &parts[parts.len() - 1];
+        let t = sum
+            .finish()
+            .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&last.file))?;
+        incidence.push(MergedIncidence {
+            theta_deg: theta,
+            seconds: secs,
+            tallies: t,
+        });
+    }
+    Ok(Merged {
+        run,
+        settings,
+        incidence,
+        seconds,
     })
 }
 

@@ -62,6 +62,15 @@ pub struct Mesh {
     pub faces: Vec<[u32; 3]>,
 }
 
+/// Estimated peak memory (bytes) of a height-field mesh of `nx x ny`
+/// squares and its PLY file: per vertex its height and position (8 + 12
+/// bytes) and file record (12), per square two faces (24) and their records
+/// (26): about 82 bytes a square.
+#[must_use]
+pub fn mesh_memory_bytes(nx: usize, ny: usize) -> u64 {
+    crate::limits::product(&[nx as u64 + 1, ny as u64 + 1, 82])
+}
+
 /// Largest `n` for [`height_field_mesh`]: the `(n + 1)^2` vertex indices must
 /// fit the PLY `int` (i32) index type.
 pub const MAX_CELLS_PER_SIDE: usize = 46_339;

@@ -40,6 +40,24 @@ use crate::object::Object;
 /// hundred MB at most).
 pub const MAX_VOXELS_PER_SIDE: usize = 2048;
 
+/// Voxels per axis inside the box `[lo, hi]` with `n` along its longest side.
+fn voxels(lo: DVec3, hi: DVec3, n: usize) -> [usize; 3] {
+    let size = hi - lo;
+    let h = size.max_element() / n as f64;
+    // Saturating float-to-int for absurd boxes.
+    [0, 1, 2].map(|a| ((size[a] / h).ceil() as usize).max(1))
+}
+
+/// Estimated peak memory (bytes) of [`object_mesh`] for the box `[lo, hi]`
+/// (finite, positive sides) at resolution `n`: per grid vertex its inside
+/// flag, its voxel's optional vertex and its index (1 + 32 + 4 bytes), so
+/// about 40 bytes a voxel; the mesh itself is smaller (surface only).
+#[must_use]
+pub fn memory_bytes(lo: DVec3, hi: DVec3, n: usize) -> u64 {
+    let [a, b, c] = voxels(lo, hi, n).map(|v| v as u64 + 3);
+    crate::limits::product(&[a, b, c, 40])
+}
+
 /// The boundary of the solid cells of `object` inside the box `[lo, hi]`,
 /// with `n` voxels along the box's longest side (see the module
 /// documentation).
@@ -60,8 +78,7 @@ pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Me
     }
     let size = hi - lo;
     let h = size.max_element() / n as f64;
-    // Voxels per axis inside the box, plus one padding voxel each side.
-    let cells = [0, 1, 2].map(|a| ((size[a] / h).ceil() as usize).max(1));
+    let cells = voxels(lo, hi, n);
     let step = DVec3::new(
         size.x / cells[0] as f64,
         size.y / cells[1] as f64,

@@ -119,6 +119,13 @@ pub struct Body {
 }
 
 impl Body {
+    /// Heap bytes this body owns (its surfaces and region), with a 16-byte
+    /// allocator overhead per allocation: for memory estimates.
+    #[must_use]
+    pub fn heap_bytes(&self) -> usize {
+        16 + self.surfaces.capacity() * std::mem::size_of::<Quadric>() + self.region.heap_bytes()
+    }
+
     /// A body; `region` must only name indices below `surfaces.len()`,
     /// at most [`MAX_SURFACES`] of them.
     #[must_use]

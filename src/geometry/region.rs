@@ -29,6 +29,11 @@ use thiserror::Error;
 /// [`parse`], which bounds the recursion of parsing and evaluation.
 pub const MAX_DEPTH: usize = 64;
 
+/// Most half-spaces (`-name` / `+name` terms) in one expression accepted by
+/// [`parse`]: bounds the work of parsing (linear in the expression) and of
+/// every point test of the region.
+pub const MAX_TERMS: usize = 4096;
+
 /// Which side of a surface a half-space is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Sense {
@@ -134,6 +139,12 @@ pub enum RegionError {
         /// Position of the `(` or `~` that exceeded the limit.
         position: usize,
     },
+    /// More than [`MAX_TERMS`] half-spaces.
+    #[error("more than {MAX_TERMS} half-spaces (the term at position {position} is one too many)")]
+    TooManyTerms {
+        /// Position of the first half-space beyond the limit.
+        position: usize,
+    },
 }
 
 /// One node of a compiled region. Children of `And` / `Or` are the
@@ -186,6 +197,7 @@ pub fn parse(
         next: 0,
         resolve,
         names: Vec::new(),
+        seen: std::collections::HashSet::new(),
         depth: 0,
     };
     let ast = parser.union(Ctx::Start)?;
@@ -206,6 +218,20 @@ pub fn parse(
 }
 
 impl Region {
+    /// Heap bytes this region owns (nodes, children, display names), with a
+    /// 16-byte allocator overhead per allocation: for memory estimates.
+    #[must_use]
+    pub fn heap_bytes(&self) -> usize {
+        48 + self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.children.capacity() * std::mem::size_of::<usize>()
+            + self.names.capacity() * std::mem::size_of::<(usize, String)>()
+            + self
+                .names
+                .iter()
+                .map(|(_, n)| 16 + n.capacity())
+                .sum::<usize>()
+    }
+
     /// Whether a point is inside the region, given `side(i)`: `true` when
     /// the point is on the positive side of surface `i` (`f_i(x) > 0`),
     /// `false` when on the negative side.
@@ -441,6 +467,7 @@ fn is_name_char(c: char) -> bool {
 
 fn tokenize(expr: &str) -> Result<Vec<Token>, RegionError> {
     let mut tokens = Vec::new();
+    let mut terms = 0;
     let mut chars = expr.chars().zip(1..).peekable();
     while let Some((c, position)) = chars.next() {
         let tok = match c {
@@ -457,6 +484,10 @@ fn tokenize(expr: &str) -> Result<Vec<Token>, RegionError> {
                 };
                 if !chars.peek().is_some_and(|&(n, _)| is_name_start(n)) {
                     return Err(RegionError::ExpectedName { sign: c, position });
+                }
+                terms += 1;
+                if terms > MAX_TERMS {
+                    return Err(RegionError::TooManyTerms { position });
                 }
                 let mut name = String::new();
                 while let Some((n, _)) = chars.next_if(|&(n, _)| is_name_char(n)) {
@@ -494,6 +525,8 @@ struct Parser<F> {
     next: usize,
     resolve: F,
     names: Vec<(usize, String)>,
+    /// The surfaces in `names` (constant-time membership: linear parsing).
+    seen: std::collections::HashSet<usize>,
     depth: usize,
 }
 
@@ -549,7 +582,7 @@ impl<F: FnMut(&str) -> Option<usize>> Parser<F> {
                 let sense = *sense;
                 let surface = (self.resolve)(name)
                     .ok_or_else(|| RegionError::UnknownSurface(name.clone()))?;
-                if !self.names.iter().any(|(s, _)| *s == surface) {
+                if self.seen.insert(surface) {
                     self.names.push((surface, name.clone()));
                 }
                 self.next += 1;
@@ -1030,6 +1063,20 @@ mod tests {
         );
         let nots = format!("{}-a", "~".repeat(100_000));
         assert!(matches!(perr(&nots), RegionError::TooDeep { .. }));
+    }
+
+    #[test]
+    fn error_too_many_terms() {
+        let ok = vec!["-a"; MAX_TERMS].join(" ");
+        assert_eq!(p(&ok).surfaces(), vec![0]);
+        let long = vec!["-a"; 100_000].join(" ");
+        // The first term beyond the limit starts at column 3 MAX_TERMS + 1.
+        assert_eq!(
+            perr(&long),
+            RegionError::TooManyTerms {
+                position: 3 * MAX_TERMS + 1
+            }
+        );
     }
 
     #[test]

@@ -145,6 +145,17 @@ struct Level {
 }
 
 impl HeightField {
+    /// Estimated peak memory (bytes) of an `nx x ny` field over a run that
+    /// also takes its statistics on its own grid: the heights (8 bytes a
+    /// vertex) and max-height hierarchy (8/3) kept, and the larger of what
+    /// building them takes beside (the level-1 scratch, 8; the Gaussian
+    /// synthesis' complex buffer and transpose, 32) and what
+    /// [`super::surface_stats`] takes (48). So about 60 bytes a vertex.
+    #[must_use]
+    pub fn memory_bytes(nx: usize, ny: usize) -> u64 {
+        crate::limits::product(&[nx as u64, ny as u64, 60])
+    }
+
     /// A height field of `nx x ny` vertex heights `h[j nx + i]` over a cell of
     /// `size` (length units).
     ///

@@ -57,6 +57,42 @@ impl Format {
     }
 }
 
+/// Estimated peak memory (bytes) of [`read`] on `path`, from what the file
+/// declares without decoding it: the grid size in a PNG or EXR header
+/// (`Some((nx, ny))`) with the decoded samples (up to 4 bytes) and the
+/// heights (8 bytes) per pixel beside the file; for a text grid, whose size
+/// is bounded by the file's, 5 times the file (every height takes at least
+/// two characters and becomes 8 bytes). The error is one line without the path.
+pub fn read_memory_bytes(path: &Path) -> Result<(u64, Option<(usize, usize)>), String> {
+    let file = std::fs::metadata(path)
+        .map_err(|e| format!("cannot read: {e}"))?
+        .len();
+    let size = match Format::of(path) {
+        Format::Png => {
+            let (w, h) = image::ImageReader::open(path)
+                .map_err(|e| format!("cannot read: {e}"))?
+                .with_guessed_format()
+                .map_err(|e| format!("cannot read: {e}"))?
+                .into_dimensions()
+                .map_err(|e| format!("PNG: {e}"))?;
+            Some((w as usize, h as usize))
+        }
+        Format::Exr => {
+            let meta = exr::meta::MetaData::read_from_file(path, false)
+                .map_err(|e| format!("EXR: {e}"))?;
+            meta.headers
+                .first()
+                .map(|h| (h.layer_size.width(), h.layer_size.height()))
+        }
+        Format::Text => None,
+    };
+    let bytes = match size {
+        Some((nx, ny)) => crate::limits::product(&[nx as u64, ny as u64, 12]).saturating_add(file),
+        None => file.saturating_mul(5),
+    };
+    Ok((bytes, size))
+}
+
 /// Read a height grid; the error is one line without the path.
 pub fn read(path: &Path) -> Result<HeightGrid, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;

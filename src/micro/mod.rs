@@ -253,6 +253,52 @@ pub struct Placed {
     pub bump: Option<(bumps::Shape, bumps::Bump)>,
 }
 
+/// Bytes one grid item costs while [`Grid::build`] runs: the entry in its
+/// cell's list (with the list's growth slack) and in the final `items`.
+const GRID_ITEM_BYTES: u64 = 32;
+
+/// Estimated peak memory (bytes) and solid count that one body adds to a
+/// surface built by [`MicroSurface::new`] over a cell of `size` with `edges`:
+/// the body in the input list, each of its solids (periodic ghost copies
+/// included: one per whole-period shift whose copy reaches into the cell,
+/// on average `(1 + w / Lx) (1 + h / Ly)` for a footprint `w x h` placed at
+/// random) with its heap, its mailbox stamp per worker thread, and its
+/// entries in the acceleration grid (one per grid cell its bounds cover,
+/// the grid pitch being a fifth of the body's footprint side as
+/// [`Grid::build`] takes it from the median, at most 2048 cells a side).
+/// Right to a factor of about 2; used to refuse a scene before allocating.
+#[must_use]
+pub fn placed_cost(placed: &Placed, size: DVec2, edges: Edges) -> (u64, u64) {
+    let b = &placed.body.bounds;
+    let (w, h) = (b.max.x - b.min.x, b.max.y - b.min.y);
+    let bounded = w.is_finite() && h.is_finite();
+    let heap = placed.body.heap_bytes() as u64;
+    let own = std::mem::size_of::<Placed>() as u64 + heap;
+    if !bounded {
+        return (1, own + std::mem::size_of::<Solid>() as u64 + heap);
+    }
+    let per_axis = |extent: f64, side: f64| -> f64 {
+        if edges == Edges::Periodic && placed.wraps {
+            1.0 + extent / side
+        } else {
+            1.0
+        }
+    };
+    // Saturating float-to-int: an absurd ratio stays huge, not wrapped.
+    let copies = (per_axis(w, size.x) * per_axis(h, size.y)).round() as u64;
+    let items_per_axis = |extent: f64, side: f64| -> u64 {
+        let target = extent.max(f64::MIN_POSITIVE) / 5.0;
+        let cells = ((side / target).ceil() as u64).clamp(1, 2048);
+        let pitch = side / cells as f64;
+        ((extent.min(side) / pitch).ceil() as u64 + 1).min(cells)
+    };
+    let items = items_per_axis(w, size.x) * items_per_axis(h, size.y);
+    let threads = std::thread::available_parallelism().map_or(1, usize::from) as u64;
+    let per_solid =
+        std::mem::size_of::<Solid>() as u64 + heap + 4 * threads + items * GRID_ITEM_BYTES;
+    (copies, own.saturating_add(copies.saturating_mul(per_solid)))
+}
+
 impl MicroSurface {
     /// Assemble a micro surface.
     ///
@@ -553,6 +599,14 @@ impl MicroSurface {
             Event::Hit { t, .. } => self.top - t,
             _ => f64::NAN,
         }
+    }
+
+    /// Estimated peak memory (bytes) of the statistics of this surface on an
+    /// `nx x ny` map ([`surface_stats::memory_bytes`]), for memory checks.
+    #[must_use]
+    pub fn stats_memory_bytes(&self, nx: usize, ny: usize) -> u64 {
+        let periodic = self.heightfield.is_some() || self.edges == Edges::Periodic;
+        surface_stats::memory_bytes(nx, ny, periodic)
     }
 
     /// The height map on an `nx x ny` grid of pixel centres over the cell.

@@ -153,6 +153,21 @@ impl std::fmt::Display for TauUndefined {
     }
 }
 
+/// Estimated peak memory (bytes) of [`surface_stats`] on an `nx x ny` map,
+/// the map itself included: per sample 8 bytes of height, and the complex
+/// autocorrelation buffer with its transpose (16 + 16 bytes, on a grid
+/// padded to `2nx x 2ny` when not periodic) or the lag list (24 bytes).
+/// For memory checks before the map is sampled.
+#[must_use]
+pub fn memory_bytes(nx: usize, ny: usize, periodic: bool) -> u64 {
+    let per_sample = if periodic {
+        8 + 16 + 24
+    } else {
+        8 + 4 * (16 + 16)
+    };
+    crate::limits::product(&[nx as u64, ny as u64, per_sample])
+}
+
 /// Computes the roughness statistics of `map`.
 ///
 /// See the [module docs](self) for the definition of every statistic and the

@@ -21,10 +21,15 @@
 //! an incidence block has `2 M (M + 1)` rows, band by band, cells in order.
 //! `phi` columns are **absolute** azimuths; the block's light azimuth is
 //! `phi_i_deg`. Loading requires: the header, every block complete and in
-//! grid order with the same `M`, the edge and solid-angle columns matching
-//! the grid of `M` bands (to 1e-6 deg or 1e-6 relative), finite numbers,
-//! `0 <= theta_i_deg < 90`, non-negative fractions, BRDFs and standard
-//! errors, and no incidence angle twice. Blocks may come in any order; they
+//! grid order with the same `M`, the edge, centre and solid-angle columns
+//! matching the grid of `M` bands (to 1e-6 deg or 1e-6 relative), finite
+//! numbers, `0 <= theta_i_deg < 90`, non-negative fractions, BRDFs and
+//! standard errors, `brdf = fraction / projected_solid_angle_sr` and
+//! `brdf_stderr = fraction_stderr / projected_solid_angle_sr` (to 1e-8
+//! relative: an edited row, or a file cut inside its last number, fails),
+//! every fraction and each incidence's sum of fractions (its reflectance) at
+//! most 1 (+1e-9 for rounding: a table may not create light), and no
+//! incidence angle twice. Blocks may come in any order; they
 //! are sorted by `theta_i_deg`. Errors are one line naming the file, the line
 //! and (where there is one) the column.
 //!
@@ -119,6 +124,8 @@ const C_THETA_LO: usize = 4;
 const C_THETA_HI: usize = 5;
 const C_PHI_LO: usize = 6;
 const C_PHI_HI: usize = 7;
+const C_THETA_C: usize = 8;
+const C_PHI_C: usize = 9;
 const C_OMEGA: usize = 10;
 const C_PROJ: usize = 11;
 const C_FRACTION: usize = 12;
@@ -128,6 +135,15 @@ const C_BRDF_SE: usize = 15;
 
 /// Tolerance of the grid check: degrees for angles, relative for solid angles.
 const GRID_TOL: f64 = 1e-6;
+
+/// Relative tolerance of `brdf = fraction / projected_solid_angle_sr` (and
+/// of the standard errors alike): the writer rounds each of the three to 10
+/// or 13 significant digits, so a table of `roks brdf` agrees to about 1e-9.
+const DERIVED_TOL: f64 = 1e-8;
+
+/// Most a fraction, or the sum of the fractions of one incidence, may be:
+/// 1 (every photon starts with weight 1 and no weight grows) plus rounding.
+const MAX_FRACTION: f64 = 1.0 + 1e-9;
 
 /// The largest `f64` below 1, `1 - 2^-53`.
 const BELOW_ONE: f64 = 1.0 - f64::EPSILON / 2.0;
@@ -292,9 +308,10 @@ pub enum BrdfTableError {
         /// The angle (degrees).
         theta_i_deg: f64,
     },
-    /// The fractions of a block sum to infinity.
+    /// The fractions of a block sum to more than 1: a surface that would
+    /// reflect more light than it receives.
     #[error(
-        "{file}: line {line}: the fractions of incidence theta_i_deg = {theta_i_deg} sum to a non-finite reflectance"
+        "{file}: line {line}, column 13 (fraction): the fractions of incidence theta_i_deg = {theta_i_deg} (the block from this line) sum to a reflectance of {total}, more than 1 (a surface that creates light)"
     )]
     Sum {
         /// File name.
@@ -303,6 +320,30 @@ pub enum BrdfTableError {
         line: usize,
         /// The angle (degrees).
         theta_i_deg: f64,
+        /// The sum of the block's fractions.
+        total: f64,
+    },
+    /// A column derived from others (`brdf = fraction / projected solid
+    /// angle`, `brdf_stderr` alike) that does not match them: a row edited
+    /// or cut short.
+    #[error(
+        "{file}: line {line}, column {column} ({name}): {found} is not {formula} = {expected} (an edited or truncated row?)"
+    )]
+    Derived {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// Column number.
+        column: usize,
+        /// Column name.
+        name: &'static str,
+        /// Value in the file.
+        found: f64,
+        /// Value from the other columns.
+        expected: f64,
+        /// How it is derived, e.g. `fraction / projected_solid_angle_sr`.
+        formula: &'static str,
     },
     /// A `summary.json` that does not fit the table.
     #[error("{file}: {message}")]
@@ -385,6 +426,9 @@ pub struct BrdfTable {
     incidences: Vec<Incidence>,
     /// Their angles in degrees, as in the file.
     thetas_deg: Vec<f64>,
+    /// The file's name as given to [`BrdfTable::parse`] (for messages that
+    /// name it beside `summary.json` or `mueller.csv`).
+    file: String,
 }
 
 /// One parsed data row (the fields the table uses).
@@ -394,10 +438,13 @@ struct Row {
     phi_i: f64,
     band: usize,
     cell: usize,
-    /// Edge and solid-angle columns, by column index.
-    geometry: [(usize, f64); 6],
+    /// Edge, centre and solid-angle columns, by column index.
+    geometry: [(usize, f64); 8],
     fraction: f64,
     fraction_se: f64,
+    /// `brdf` and `brdf_stderr` as written (sr⁻¹).
+    brdf: f64,
+    brdf_se: f64,
 }
 
 /// Rows of one incidence block, in file order.
@@ -536,8 +583,9 @@ impl BrdfTable {
         let omega = grid.solid_angle();
         for b in &blocks {
             for (flat, row) in b.rows.iter().enumerate() {
-                let (band, _) = grid.band_cell(flat);
+                let (band, cell) = grid.band_cell(flat);
                 let (mu_bot, mu_top) = grid.mu_edges(band);
+                let (theta_c, phi_c) = grid.centre(band, cell);
                 let c = &cells[flat];
                 for &(col, found) in &row.geometry {
                     let (expected, relative) = match col {
@@ -545,6 +593,8 @@ impl BrdfTable {
                         C_THETA_HI => (mu_bot.acos().to_degrees(), false),
                         C_PHI_LO => (c.phi_lo.to_degrees(), false),
                         C_PHI_HI => (c.phi_hi.to_degrees(), false),
+                        C_THETA_C => (theta_c.to_degrees(), false),
+                        C_PHI_C => (phi_c.to_degrees(), false),
                         C_OMEGA => (omega, true),
                         _ => (c.proj, true),
                     };
@@ -565,6 +615,7 @@ impl BrdfTable {
                         });
                     }
                 }
+                check_derived(row, c.proj, name)?;
             }
         }
 
@@ -595,11 +646,12 @@ impl BrdfTable {
                 total += f;
                 cdf.push(total);
             }
-            if !total.is_finite() {
+            if total.is_nan() || total > MAX_FRACTION {
                 return Err(BrdfTableError::Sum {
                     file: file(),
                     line: b.start,
                     theta_i_deg: b.theta_i,
+                    total,
                 });
             }
             incidences.push(Incidence {
@@ -626,6 +678,7 @@ impl BrdfTable {
             cells,
             thetas_deg: blocks.iter().map(|b| b.theta_i).collect(),
             incidences,
+            file: file(),
         })
     }
 
@@ -645,19 +698,29 @@ impl BrdfTable {
     }
 
     /// As [`with_summary`](Self::with_summary), from the text of
-    /// `summary.json`; `name` names it in error messages. Every tabulated
-    /// incidence must have an entry of `incidence` with the same `theta_deg`
-    /// and `phi_deg`, a finite `reflectance_stderr >= 0`, and a
-    /// `reflectance` within 1e-7 of the table's sum of fractions (the table
-    /// rounds fractions to 10 digits).
+    /// `summary.json`; `name` names it in error messages. The summary and
+    /// the table must describe the same run:
+    /// * every tabulated incidence has an entry of `incidence` with the same
+    ///   `theta_deg` and `phi_deg`, and every entry is tabulated (a table cut
+    ///   at a block boundary has lost an incidence its summary lists);
+    /// * per entry `photons` is an integer > 0 (equal to
+    ///   `photons_per_incidence` where that is given), `reflectance` is
+    ///   within 1e-7 of the table's sum of fractions (the table rounds
+    ///   fractions to 10 digits), and `reflectance_stderr` is a finite
+    ///   number >= 0 no larger than any mean of `photons` scores in `[0, 1]`
+    ///   can have, `sqrt(R (1 - R) / (k - 1))` with `k = min(photons, 16)`
+    ///   (16: the replicates of a lattice launch);
+    /// * `bands`, where given, is the table's.
     ///
     /// # Errors
-    /// [`BrdfTableError::Summary`] naming the file and what is wrong.
+    /// [`BrdfTableError::Summary`] naming the file, the key and what is
+    /// wrong (and the table's file where they disagree).
     pub fn with_summary_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
         let fail = |message: String| BrdfTableError::Summary {
             file: name.to_owned(),
             message,
         };
+        let table = self.file.clone();
         let json: serde_json::Value =
             serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON: {e}")))?;
         let entries = json
@@ -665,34 +728,88 @@ impl BrdfTable {
             .and_then(serde_json::Value::as_array)
             .ok_or_else(|| fail("no `incidence` list".into()))?;
         let num = |e: &serde_json::Value, key: &str| e.get(key).and_then(serde_json::Value::as_f64);
+        if let Some(b) = json.get("bands") {
+            if b.as_u64() != Some(self.grid.bands() as u64) {
+                return Err(fail(format!(
+                    "bands: {b} is not the {} bands of {table} (a summary of another run?)",
+                    self.grid.bands()
+                )));
+            }
+        }
+        let per_incidence = json
+            .get("photons_per_incidence")
+            .and_then(serde_json::Value::as_u64);
+        for (k, e) in entries.iter().enumerate() {
+            let (t, p) = (num(e, "theta_deg"), num(e, "phi_deg"));
+            let listed = self
+                .incidences
+                .iter()
+                .any(|inc| t == Some(inc.theta_deg) && p == Some(inc.phi_i_deg));
+            if !listed {
+                return Err(fail(format!(
+                    "incidence[{k}]: theta_deg = {}, phi_deg = {} is not tabulated in {table} (a truncated table, or a summary of another run?)",
+                    e.get("theta_deg").unwrap_or(&serde_json::Value::Null),
+                    e.get("phi_deg").unwrap_or(&serde_json::Value::Null),
+                )));
+            }
+            let photons = e.get("photons").and_then(serde_json::Value::as_u64);
+            match (photons, per_incidence) {
+                (None | Some(0), _) => {
+                    return Err(fail(format!(
+                        "incidence[{k}].photons: must be an integer > 0"
+                    )));
+                }
+                (Some(n), Some(m)) if n != m => {
+                    return Err(fail(format!(
+                        "incidence[{k}].photons: {n} is not photons_per_incidence = {m}"
+                    )));
+                }
+                _ => {}
+            }
+        }
         for inc in &mut self.incidences {
             let theta = inc.theta_deg;
-            let entry = entries
+            let (k, entry) = entries
                 .iter()
-                .find(|e| {
+                .enumerate()
+                .find(|(_, e)| {
                     num(e, "theta_deg").is_some_and(|t| t == theta)
                         && num(e, "phi_deg").is_some_and(|p| p == inc.phi_i_deg)
                 })
                 .ok_or_else(|| {
                     fail(format!(
-                        "no `incidence` entry with theta_deg = {theta}, phi_deg = {} (the table's)",
+                        "incidence: no entry with theta_deg = {theta}, phi_deg = {} (tabulated in {table})",
                         inc.phi_i_deg
-                    ))
-                })?;
-            let se = num(entry, "reflectance_stderr")
-                .filter(|v| v.is_finite() && *v >= 0.0)
-                .ok_or_else(|| {
-                    fail(format!(
-                        "incidence theta_deg = {theta}: `reflectance_stderr` is not a finite number >= 0"
                     ))
                 })?;
             let r = num(entry, "reflectance").unwrap_or(f64::NAN);
             let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
             if !close {
                 return Err(fail(format!(
-                    "incidence theta_deg = {theta}: reflectance {r} is not the table's {} (a summary of another run?)",
+                    "incidence[{k}].reflectance: {r} at theta_deg = {theta} is not the table's {} in {table} (a summary of another run?)",
                     inc.reflectance
                 )));
+            }
+            let se = num(entry, "reflectance_stderr")
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or_else(|| {
+                    fail(format!(
+                        "incidence[{k}].reflectance_stderr: not a finite number >= 0 (theta_deg = {theta})"
+                    ))
+                })?;
+            let photons = entry
+                .get("photons")
+                .and_then(serde_json::Value::as_u64)
+                .unwrap_or(1);
+            if photons >= 2 {
+                let dof = photons.min(16) as f64 - 1.0;
+                let rc = r.clamp(0.0, 1.0);
+                let bound = (rc * (1.0 - rc) / dof).sqrt();
+                if se > bound * (1.0 + 1e-6) + 1e-12 {
+                    return Err(fail(format!(
+                        "incidence[{k}].reflectance_stderr: {se} exceeds {bound}, the most a mean reflectance of {r} over {photons} photons can have (theta_deg = {theta})"
+                    )));
+                }
             }
             inc.stated_stderr = Some(se);
         }
@@ -743,7 +860,9 @@ impl BrdfTable {
             return Err(fail(1, "header is not that of mueller.csv".into()));
         }
         let n = self.grid.n_cells();
-        let mut blocks: Vec<(f64, f64, Vec<[f64; 16]>)> = Vec::new();
+        // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
+        type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
+        let mut blocks: Vec<MuellerBlock> = Vec::new();
         let mut last_line = 1;
         for (line, l) in lines {
             last_line = line;
@@ -771,7 +890,7 @@ impl BrdfTable {
             };
             let (theta, phi) = (num(0)?, num(1)?);
             if blocks.last().is_none_or(|b| b.2.len() == n) {
-                blocks.push((theta, phi, Vec::with_capacity(n)));
+                blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
             }
             let block = blocks.last_mut().expect("pushed");
             if (theta, phi) != (block.0, block.1) {
@@ -794,8 +913,16 @@ impl BrdfTable {
             let mut m = [0.0; 16];
             for (k, v) in m.iter_mut().enumerate() {
                 *v = num(6 + 2 * k)?;
+                let se = num(7 + 2 * k)?;
+                if se < 0.0 {
+                    return Err(fail(
+                        line,
+                        format!("column {} (a standard error): {se} must be >= 0", 8 + 2 * k),
+                    ));
+                }
             }
             block.2.push(m);
+            block.3.push(line);
         }
         if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {
             return Err(fail(
@@ -807,6 +934,17 @@ impl BrdfTable {
                 ),
             ));
         }
+        if blocks.len() != self.incidences.len() {
+            return Err(fail(
+                last_line,
+                format!(
+                    "{} incidence blocks, but {} has {} (a file of another run?)",
+                    blocks.len(),
+                    self.file,
+                    self.incidences.len()
+                ),
+            ));
+        }
         for inc in &mut self.incidences {
             let block = blocks
                 .iter()
@@ -815,8 +953,8 @@ impl BrdfTable {
                     fail(
                         last_line,
                         format!(
-                            "no block for theta_i_deg = {}, phi_i_deg = {} (the table's)",
-                            inc.theta_deg, inc.phi_i_deg
+                            "no block for theta_i_deg = {}, phi_i_deg = {} (tabulated in {})",
+                            inc.theta_deg, inc.phi_i_deg, self.file
                         ),
                     )
                 })?;
@@ -825,10 +963,10 @@ impl BrdfTable {
                 let brdf = inc.fractions[flat] / self.cells[flat].proj;
                 if (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300 {
                     return Err(fail(
-                        last_line,
+                        block.3[flat],
                         format!(
-                            "theta_i_deg = {}: cell {flat}: m00 = {} is not the table's brdf {brdf} (a file of another run?)",
-                            inc.theta_deg, m[0]
+                            "theta_i_deg = {}: cell {flat}: m00 = {} is not the brdf {brdf} of {} (a file of another run?)",
+                            inc.theta_deg, m[0], self.file
                         ),
                     ));
                 }
@@ -1104,16 +1242,64 @@ fn parse_row(text: &str, line: usize, name: &str) -> Result<Row, BrdfTableError>
             return Err(range(col, v[col], "must be >= 0"));
         }
     }
+    if v[C_FRACTION] > MAX_FRACTION {
+        return Err(range(
+            C_FRACTION,
+            v[C_FRACTION],
+            "must be <= 1 (the share of the launched light leaving through the cell)",
+        ));
+    }
     Ok(Row {
         line,
         theta_i: v[C_THETA_I],
         phi_i: v[C_PHI_I],
         band,
         cell,
-        geometry: [C_THETA_LO, C_THETA_HI, C_PHI_LO, C_PHI_HI, C_OMEGA, C_PROJ].map(|c| (c, v[c])),
+        geometry: [
+            C_THETA_LO, C_THETA_HI, C_PHI_LO, C_PHI_HI, C_THETA_C, C_PHI_C, C_OMEGA, C_PROJ,
+        ]
+        .map(|c| (c, v[c])),
         fraction: v[C_FRACTION],
         fraction_se: v[C_FRACTION_SE],
+        brdf: v[C_BRDF],
+        brdf_se: v[C_BRDF_SE],
     })
+}
+
+/// The derived columns of `row` must follow from the others: `brdf =
+/// fraction / proj` and `brdf_stderr = fraction_stderr / proj` (`proj` the
+/// cell's exact projected solid angle, sr) to [`DERIVED_TOL`]. This also
+/// catches a last row cut short inside its last number.
+fn check_derived(row: &Row, proj: f64, name: &str) -> Result<(), BrdfTableError> {
+    for (col, found, from, formula) in [
+        (
+            C_BRDF,
+            row.brdf,
+            row.fraction,
+            "fraction / projected_solid_angle_sr",
+        ),
+        (
+            C_BRDF_SE,
+            row.brdf_se,
+            row.fraction_se,
+            "fraction_stderr / projected_solid_angle_sr",
+        ),
+    ] {
+        let expected = from / proj;
+        let off = (found - expected).abs();
+        if off.is_nan() || off > DERIVED_TOL * expected.max(found) + 1e-300 {
+            return Err(BrdfTableError::Derived {
+                file: name.to_owned(),
+                line: row.line,
+                column: col + 1,
+                name: COLUMNS[col],
+                found,
+                expected,
+                formula,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// `row` must be the next cell of `block` in grid order.
@@ -1688,6 +1874,53 @@ mod tests {
             err(&edit(&good, 2, 11, "0.3")),
             &["line 2", "column 12 (projected_solid_angle_sr)"],
         );
+        // Centre columns, derived columns (an edited fraction, a last
+        // number cut short), a fraction above 1, a block that creates light.
+        check(
+            err(&edit(&good, 3, 8, "33")),
+            &["line 3", "column 9 (theta_deg)", "Carlson"],
+        );
+        check(
+            err(&edit(&good, 4, 9, "1")),
+            &["line 4", "column 10 (phi_deg)", "Carlson"],
+        );
+        check(
+            err(&edit(&good, 5, 12, "0.9")),
+            &[
+                "line 5",
+                "column 15 (brdf)",
+                "fraction / projected_solid_angle_sr",
+            ],
+        );
+        let last = lines[lines.len() - 1];
+        let cut = format!(
+            "{}\n{}",
+            lines[..lines.len() - 1].join("\n"),
+            &last[..last.len() - 3]
+        );
+        check(
+            err(&cut),
+            &["line 25", "column 16 (brdf_stderr)", "truncated"],
+        );
+        check(
+            err(&edit(&good, 6, 12, "1.5")),
+            &["line 6", "column 13 (fraction)", "must be <= 1"],
+        );
+        let bright = TestBlock {
+            theta: 10.0,
+            phi_i: 0.0,
+            fractions: vec![0.5; 12],
+        };
+        let creates = format!("{good}{}", rows(m, &[bright]));
+        check(
+            err(&creates),
+            &[
+                "line 26, column 13 (fraction)",
+                "theta_i_deg = 10",
+                "sum to a reflectance of 6",
+                "more than 1",
+            ],
+        );
         // Same angle twice (different azimuth).
         let again = TestBlock {
             theta: 0.0,
@@ -1726,7 +1959,7 @@ mod tests {
     #[test]
     fn summary_errors() {
         let t = lambert_table();
-        let entry = |theta: f64, r: f64, se: f64| serde_json::json!({"theta_deg": theta, "phi_deg": 0.0, "reflectance": r, "reflectance_stderr": se});
+        let entry = |theta: f64, r: f64, se: f64| serde_json::json!({"theta_deg": theta, "phi_deg": 0.0, "photons": 1000, "reflectance": r, "reflectance_stderr": se});
         let good = serde_json::json!({"incidence": [entry(60.0, 0.7, 3e-4), entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 2e-4)]});
         let ts = t
             .clone()
@@ -1754,6 +1987,19 @@ mod tests {
         );
         bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.71, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "not the table's");
         bad(serde_json::json!({"incidence": [entry(0.0, 0.7, -1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "reflectance_stderr");
+        // An incidence the table lacks (cut at a block boundary).
+        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4), entry(80.0, 0.7, 1e-4)]}).to_string(), "incidence[3]: theta_deg = 80.0, phi_deg = 0.0 is not tabulated in lambert.csv");
+        // Photon counts, bands, an impossible standard error.
+        let mut e = entry(30.0, 0.7, 1e-4);
+        e["photons"] = serde_json::json!(0);
+        bad(
+            serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), e, entry(60.0, 0.7, 1e-4)]})
+                .to_string(),
+            "incidence[1].photons: must be an integer > 0",
+        );
+        bad(serde_json::json!({"photons_per_incidence": 999, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[0].photons: 1000 is not photons_per_incidence = 999");
+        bad(serde_json::json!({"bands": 7, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "bands: 7 is not the 8 bands of lambert.csv");
+        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 0.2), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[1].reflectance_stderr: 0.2 exceeds");
         let e = t
             .with_summary(Path::new("/nonexistent/summary.json"))
             .unwrap_err()

@@ -78,7 +78,7 @@ use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
 use crate::tally::{PolarTally, Symmetry};
 use crate::transport::brdf::{BrdfRun, Polarisation};
-use crate::transport::launch::{Launch, check_photons};
+use crate::transport::launch::Launch;
 use crate::transport::micro::Controls;
 
 /// The embedded default scene (also `scenes/default.toml`).
@@ -141,7 +141,9 @@ pub struct SurfaceSpec {
 ///
 /// * `gaussian`: `sigma` (RMS height) and `tau` (autocorrelation length:
 ///   `C(r) = sigma² exp(-r² / tau²)`), length units; needs `[surface] size`;
-///   `resolution`: grid squares per side, `N` or `[Nx, Ny]` (2..=16384);
+///   `resolution`: grid squares per side, `N` or `[Nx, Ny]` (2..=16384, and
+///   within the memory limit of [`crate::limits`]: about 60 bytes a vertex
+///   with the statistics, so 16384 x 16384 takes about 15 GiB);
 ///   `seed` (default 1). See [`HeightField::gaussian`].
 /// * `file`: path relative to the scene file; the format by extension (see
 ///   [`crate::micro::heightfield_io`]); row `j` is `y = j pixel`. `pixel`:
@@ -211,7 +213,10 @@ fn default_edges() -> EdgesSpec {
 pub struct BumpSpec {
     /// Shape.
     pub shape: Shape,
-    /// Number of bumps.
+    /// Number of bumps (at most 10 million, and within the memory limit of
+    /// [`crate::limits`]: about 3 KB a bump with its acceleration grid, more
+    /// with periodic ghost copies of bumps wider than the cell; so 10
+    /// million take about 30 GiB).
     pub count: usize,
     /// x semi-axis (waist radius for `ellipsoid_on_hyperboloid`).
     pub radius: Range,
@@ -394,24 +399,7 @@ impl MicroScene {
     /// The BRDF run this scene describes (`[light]`, `[tally]`, `[transport]`).
     #[must_use]
     pub fn brdf_run(&self) -> BrdfRun {
-        BrdfRun {
-            theta_deg: self.light.theta_deg.clone(),
-            phi_deg: self.light.phi_deg,
-            photons: self.light.photons,
-            first_photon: 0,
-            seed: self.light.seed,
-            launch: self.light.launch,
-            polarisation: self.polarisation,
-            bands: self.tally.bands,
-            inplane_step_deg: self.tally.inplane_step_deg,
-            inplane_width_deg: self.tally.inplane_width_deg,
-            symmetry: self.tally.symmetry,
-            controls: Controls {
-                max_bounces: self.transport.max_bounces,
-                roulette_weight: self.transport.roulette_weight,
-                ..Controls::default()
-            },
-        }
+        brdf_run_of(&self.light, &self.tally, &self.transport, self.polarisation)
     }
 
     /// Load a scene file.
@@ -485,12 +473,14 @@ impl MicroSceneSpec {
         };
 
         let mut placed = Vec::new();
+        // Estimated bytes of the built surface so far (see `placed_cost`).
+        let mut bytes = 0;
         for (t, spec) in self.bumps.iter().enumerate() {
             let material = match &spec.material {
                 Some(m) => material_index(&source, &names, m, &format!("bumps[{t}].material"))?,
                 None => substrate,
             };
-            placed.extend(spec.populate(&source, t, size, material)?);
+            placed.extend(spec.populate(&source, t, size, edges, material, &mut bytes)?);
         }
 
         let mut quadrics = BTreeMap::new();
@@ -508,65 +498,12 @@ impl MicroSceneSpec {
             )?);
         }
 
-        let light = self.light;
-        if light.theta_deg.is_empty() {
-            return Err(source.error("light.theta_deg", "needs at least one angle"));
-        }
-        for (i, t) in light.theta_deg.iter().enumerate() {
-            if !(t.is_finite() && (0.0..90.0).contains(t)) {
-                return Err(source.error(
-                    format!("light.theta_deg[{i}]"),
-                    format!("must be in [0, 90), got {t}"),
-                ));
-            }
-        }
-        if let Some((i, t)) = first_repeat(&light.theta_deg) {
-            return Err(source.error(
-                format!("light.theta_deg[{i}]"),
-                format!("{t} is given twice (each incidence angle once: a BRDF table holds one block per angle)"),
-            ));
-        }
-        if !light.phi_deg.is_finite() {
-            return Err(source.error("light.phi_deg", "must be finite"));
-        }
-        if light.photons == 0 {
-            return Err(source.error("light.photons", "must be > 0"));
-        }
-        if let Err(e) = check_photons(light.launch, light.photons) {
-            return Err(source.error("light.photons", e));
-        }
-        let tally = self.tally;
-        if !(1..=1000).contains(&tally.bands) {
-            return Err(source.error(
-                "tally.bands",
-                format!("must be in 1..=1000, got {}", tally.bands),
-            ));
-        }
-        let step = tally.inplane_step_deg;
-        if crate::tally::InPlaneTally::new(step, 0.5, 0.0).is_none() {
-            return Err(source.error(
-                "tally.inplane_step_deg",
-                format!(
-                    "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {step}",
-                    crate::tally::inplane::MAX_BINS
-                ),
-            ));
-        }
-        let width = tally.inplane_width_deg;
-        if !(width > 0.0 && width <= 180.0) {
-            return Err(source.error(
-                "tally.inplane_width_deg",
-                format!("must be in (0, 180], got {width}"),
-            ));
-        }
-        let transport = self.transport;
-        if transport.max_bounces == 0 {
-            return Err(source.error("transport.max_bounces", "must be > 0"));
-        }
-        if !(transport.roulette_weight >= 0.0 && transport.roulette_weight < 1.0) {
-            return Err(source.error("transport.roulette_weight", "must be in [0, 1)"));
-        }
-
+        let (light, tally, transport) = (self.light, self.tally, self.transport);
+        // The run's values, checked where every run is (also merged shards';
+        // the checks do not look at the polarisation, resolved below).
+        brdf_run_of(&light, &tally, &transport, Polarisation::default())
+            .check()
+            .map_err(|(key, e)| source.error(key, e))?;
         let incident = match &light.polarisation {
             Some(p) => p.build(&source, "light.polarisation")?,
             None => Incident::Unpolarised,
@@ -584,7 +521,7 @@ impl MicroSceneSpec {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),
             None => MicroSurface::new(size, edges, placed, materials, substrate),
         };
-        Ok(MicroScene {
+        let scene = MicroScene {
             name: self.name.unwrap_or(fallback_name),
             source,
             surface,
@@ -593,7 +530,61 @@ impl MicroSceneSpec {
             tally,
             transport,
             polarisation,
-        })
+        };
+        scene.check_run_memory(&scene.brdf_run())?;
+        Ok(scene)
+    }
+}
+
+impl MicroScene {
+    /// Refuse `run` (this scene's, or with options applied) when its
+    /// tallies and result tables ([`BrdfRun::memory_bytes`]) exceed the
+    /// memory limit; the error names `tally.bands`, their main factor.
+    pub fn check_run_memory(&self, run: &BrdfRun) -> Result<(), SceneError> {
+        let what = format!(
+            "the tallies and tables of {} Carlson bands for {} incidences{}{}",
+            run.bands,
+            run.theta_deg.len(),
+            match run.polarisation.tally {
+                PolarTally::None => "",
+                PolarTally::Stokes => " with Stokes sums",
+                PolarTally::Mueller => " with Mueller sums",
+            },
+            if run.launch == Launch::Lattice {
+                " and lattice replicates"
+            } else {
+                ""
+            },
+        );
+        self.source
+            .check_memory("tally.bands", &what, run.memory_bytes())
+    }
+}
+
+/// The BRDF run of a scene's `[light]`, `[tally]` and `[transport]`.
+fn brdf_run_of(
+    light: &LightSpec,
+    tally: &TallySpec,
+    transport: &TransportSpec,
+    polarisation: Polarisation,
+) -> BrdfRun {
+    BrdfRun {
+        theta_deg: light.theta_deg.clone(),
+        phi_deg: light.phi_deg,
+        photons: light.photons,
+        first_photon: 0,
+        seed: light.seed,
+        launch: light.launch,
+        polarisation,
+        bands: tally.bands,
+        inplane_step_deg: tally.inplane_step_deg,
+        inplane_width_deg: tally.inplane_width_deg,
+        symmetry: tally.symmetry,
+        controls: Controls {
+            max_bounces: transport.max_bounces,
+            roulette_weight: transport.roulette_weight,
+            ..Controls::default()
+        },
     }
 }
 
@@ -674,6 +665,11 @@ impl HeightFieldSpec {
                         format!("must be in 2..=16384, got {nx} x {ny}"),
                     ));
                 }
+                source.check_memory(
+                    &key("resolution"),
+                    &format!("a {nx} x {ny} height field (heights, hierarchy, statistics)"),
+                    HeightField::memory_bytes(nx, ny),
+                )?;
                 let sigma = positive("gaussian.sigma", g.sigma)?;
                 let tau = positive("gaussian.tau", g.tau)?;
                 let pitch = (size.x / nx as f64).max(size.y / ny as f64);
@@ -707,9 +703,27 @@ impl HeightFieldSpec {
                     }
                     None => 1.0,
                 };
-                let grid = heightfield_io::read(&path)
-                    .map_err(|e| source.error(key("file"), format!("{}: {e}", path.display())))?;
+                let file_error =
+                    |e: String| source.error(key("file"), format!("{}: {e}", path.display()));
+                // The memory from the header (or the text's length) before decoding.
+                let check = |bytes: u64, (nx, ny): (usize, usize)| {
+                    let what = format!(
+                        "{}: a {nx} x {ny} height map (heights, hierarchy, statistics)",
+                        path.display()
+                    );
+                    source.check_memory(&key("file"), &what, bytes)
+                };
+                let (read_bytes, declared) =
+                    heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
+                if let Some((nx, ny)) = declared {
+                    check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
+                } else {
+                    let what = format!("{}: reading the text height map", path.display());
+                    source.check_memory(&key("file"), &what, read_bytes)?;
+                }
+                let grid = heightfield_io::read(&path).map_err(file_error)?;
                 let (nx, ny) = (grid.nx, grid.ny);
+                check(HeightField::memory_bytes(nx, ny), (nx, ny))?;
                 let size = match (self.pixel, size) {
                     (None, None) => {
                         return Err(source.error(
@@ -744,13 +758,17 @@ impl HeightFieldSpec {
 }
 
 impl BumpSpec {
-    /// Draw the bumps of this table (deterministic from its seed).
+    /// Draw the bumps of this table (deterministic from its seed), after
+    /// adding their estimated memory to `bytes` (the surface's so far) and
+    /// refusing the table if the sum exceeds the limit ([`crate::limits`]).
     fn populate(
         &self,
         source: &Source,
         t: usize,
         size: DVec2,
+        edges: Edges,
         material: usize,
+        bytes: &mut u64,
     ) -> Result<Vec<Placed>, SceneError> {
         let key = |k: &str| format!("bumps[{t}].{k}");
         self.radius.check(source, &key("radius"), 0.0, false)?;
@@ -787,6 +805,28 @@ impl BumpSpec {
         used("base", self.base.is_some(), eoh)?;
         if self.count > 10_000_000 {
             return Err(source.error(key("count"), "more than 10 million bumps"));
+        }
+        // Memory, from the largest bump of the table (every range at its top).
+        let top = |r: &Range| r.bounds().1;
+        let largest = Bump {
+            center: DVec2::ZERO,
+            radius: top(&self.radius),
+            radius_y: top(&self.radius_y.unwrap_or(self.radius)),
+            height: top(&self.height),
+            depth: top(&depth),
+            cap: top(&cap),
+            base: top(&base),
+        };
+        let (copies, per_bump) =
+            crate::micro::placed_cost(&self.shape.body(&largest, material), size, edges);
+        *bytes = bytes.saturating_add(per_bump.saturating_mul(self.count as u64));
+        let solids = copies as f64 * self.count as f64;
+        if copies > 2 {
+            let what = format!("periodic ghost copies (about {solids:.1e} solids)");
+            source.check_memory(&format!("bumps[{t}]"), &what, *bytes)?;
+        } else {
+            let what = format!("{} bumps (solids and acceleration grid)", self.count);
+            source.check_memory(&key("count"), &what, *bytes)?;
         }
 
         let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));

@@ -75,6 +75,12 @@ impl Source {
             message: one_line(&message.into()),
         }
     }
+
+    /// Refuse at `key` when `bytes`, the estimate for `what` (e.g. "periodic
+    /// ghost copies"), exceed the memory limit ([`crate::limits`]).
+    pub fn check_memory(&self, key: &str, what: &str, bytes: u64) -> Result<(), SceneError> {
+        crate::limits::check(what, bytes).map_err(|e| self.error(key, e))
+    }
 }
 
 fn one_line(s: &str) -> String {
@@ -391,7 +397,11 @@ pub fn material_index(
 
 /// A body over the named quadrics its region expression uses (micro bodies and
 /// object cells): the region over the used surfaces in order of appearance, and
-/// their indices into `names`. `key` names the region in messages.
+/// their indices into `names`. `key` names the region in messages. `names`
+/// must be sorted (the keys of `[quadrics]`, a `BTreeMap`): each term is
+/// looked up by binary search, and parsing stops at the first surface
+/// beyond [`MAX_SURFACES`], so loading is linear in the expression (at most
+/// [`region::MAX_TERMS`] terms).
 pub fn region_body(
     source: &Source,
     key: &str,
@@ -400,31 +410,35 @@ pub fn region_body(
     quadrics: &[Quadric],
     material: usize,
 ) -> Result<(Body, Vec<usize>), SceneError> {
+    debug_assert!(names.is_sorted(), "region_body: names must be sorted");
     let mut used: Vec<usize> = Vec::new();
     let mut unknown = None;
-    let parsed = region::parse(expr, |name| match names.iter().position(|n| n == name) {
-        None => {
+    let mut too_many = false;
+    let parsed = region::parse(expr, |name| {
+        let Ok(g) = names.binary_search_by(|n| n.as_str().cmp(name)) else {
             unknown.get_or_insert_with(|| name.to_string());
-            None
+            return None;
+        };
+        if let Some(u) = used.iter().position(|&u| u == g) {
+            return Some(u);
         }
-        Some(g) => Some(used.iter().position(|&u| u == g).unwrap_or_else(|| {
-            used.push(g);
-            used.len() - 1
-        })),
+        if used.len() == MAX_SURFACES {
+            too_many = true;
+            return None;
+        }
+        used.push(g);
+        Some(used.len() - 1)
     });
     let region = parsed.map_err(|e| {
         let msg = match &unknown {
             Some(name) => format!("unknown surface `{name}` (not in [quadrics])"),
+            None if too_many => {
+                format!("uses more than {MAX_SURFACES} surfaces, the most one body may have")
+            }
             None => e.to_string(),
         };
         source.error(key, msg)
     })?;
-    if used.len() > MAX_SURFACES {
-        return Err(source.error(
-            key,
-            format!("uses {} surfaces; at most {MAX_SURFACES}", used.len()),
-        ));
-    }
     let surfaces = used.iter().map(|&g| quadrics[g]).collect();
     Ok((
         Body::new(surfaces, region, Aabb::EVERYTHING, material),

@@ -348,16 +348,14 @@ impl ObjectSceneSpec {
         let mut walls: Walls = vec![None; surface_names.len()];
         for (surface, model) in &self.walls {
             let key = format!("walls.{surface}");
-            let sid = surface_names
-                .iter()
-                .position(|s| s == surface)
-                .ok_or_else(|| {
-                    source.error(
-                        &key,
-                        format!("unknown surface `{surface}` (not in [quadrics])"),
-                    )
-                })?;
-            let mid = model_names.iter().position(|m| m == model).ok_or_else(|| {
+            // Sorted (the keys of a BTreeMap): binary search keeps loading linear.
+            let sid = surface_names.binary_search(surface).map_err(|_| {
+                source.error(
+                    &key,
+                    format!("unknown surface `{surface}` (not in [quadrics])"),
+                )
+            })?;
+            let mid = model_names.binary_search(model).map_err(|_| {
                 source.error(
                     &key,
                     format!(
@@ -433,6 +431,19 @@ impl ObjectSceneSpec {
                     if sw.steps == 0 {
                         return Err(source.error(key("sweep.steps"), "must be >= 1"));
                     }
+                    let (per_position, fixed) = position_memory_bytes(
+                        surface_names.len(),
+                        tally.bands,
+                        tally.farfield,
+                        farfield_stokes,
+                    );
+                    let positions = (beams.len() as u64).saturating_add(sw.steps as u64);
+                    let bytes = fixed.saturating_add(positions.saturating_mul(per_position));
+                    source.check_memory(
+                        &key("sweep.steps"),
+                        &format!("{positions} beam positions (tallies and result tables)"),
+                        bytes,
+                    )?;
                     let (a, b) = (DVec3::from_array(sw.from), DVec3::from_array(sw.to));
                     (0..sw.steps)
                         .map(|j| {
@@ -502,6 +513,21 @@ impl ObjectSceneSpec {
                 photons.push(s.photons);
             }
         }
+        let (per_position, fixed) = position_memory_bytes(
+            surface_names.len(),
+            tally.bands,
+            tally.farfield,
+            farfield_stokes,
+        );
+        source.check_memory(
+            "tally.bands",
+            &format!(
+                "the tallies and tables of {} Carlson bands for {} beam positions",
+                tally.bands,
+                beams.len()
+            ),
+            fixed.saturating_add((beams.len() as u64).saturating_mul(per_position)),
+        )?;
         let run = ObjectRun {
             seed: self.seed.unwrap_or(1),
             bands: tally.bands,
@@ -610,4 +636,27 @@ impl ModelSpec {
         let r: Reflectance = material.build(source, key)?;
         Ok(WallModel::Specular(r))
     }
+}
+
+/// Estimated memory (bytes) of an object run per beam position, and the
+/// fixed part: a position's tallies are 16 bytes (sum and sum of squares)
+/// per surface and far-field cell (`4 M (M + 1)` cells over the sphere for
+/// `bands` M, 5 sums per cell with Stokes far-field tallies), kept for every
+/// position, with the position itself (about 200 bytes) and its lines of
+/// the result tables (about 100 bytes per far-field cell); up to 64 batch
+/// tallies are in flight (the fixed part).
+fn position_memory_bytes(
+    surfaces: usize,
+    bands: usize,
+    farfield: bool,
+    stokes: bool,
+) -> (u64, u64) {
+    let cells = if farfield {
+        4 * bands as u64 * (bands as u64 + 1)
+    } else {
+        0
+    };
+    let sums = 1 + surfaces as u64 + 4 + cells * if stokes { 5 } else { 1 };
+    let tallies = 16 * sums + 256;
+    (tallies + 200 + 100 * cells, 64 * tallies)
 }

@@ -387,10 +387,120 @@ pub fn toward_light(theta_deg: f64, phi_deg: f64) -> DVec3 {
 }
 
 impl BrdfRun {
+    /// Check what the run later assumes, for every source of a run (a
+    /// scene's `[light]`, `[tally]` and `[transport]`, or the `settings` of
+    /// a `tallies.json`): incidence angles in `[0, 90)` and each once, a
+    /// finite azimuth, photons > 0 (a multiple of 16 with a lattice launch),
+    /// bands in `1..=1000`, an in-plane step the tally accepts, an in-plane
+    /// width in `(0, 180]`, history caps > 0 and a roulette weight in
+    /// `[0, 1)`.
+    ///
+    /// # Errors
+    /// `(key, message)` with the key in scene terms (`light.theta_deg[1]`,
+    /// `tally.bands`, ...; `transport.max_segments`, which a scene cannot
+    /// set, for the segment cap).
+    pub fn check(&self) -> Result<(), (String, String)> {
+        let err = |key: &str, message: String| Err((key.to_owned(), message));
+        if self.theta_deg.is_empty() {
+            return err("light.theta_deg", "needs at least one angle".into());
+        }
+        for (i, t) in self.theta_deg.iter().enumerate() {
+            if !(t.is_finite() && (0.0..90.0).contains(t)) {
+                return err(
+                    &format!("light.theta_deg[{i}]"),
+                    format!("must be in [0, 90), got {t}"),
+                );
+            }
+        }
+        if let Some((i, t)) = crate::scene::micro::first_repeat(&self.theta_deg) {
+            return err(
+                &format!("light.theta_deg[{i}]"),
+                format!(
+                    "{t} is given twice (each incidence angle once: a BRDF table holds one block per angle)"
+                ),
+            );
+        }
+        if !self.phi_deg.is_finite() {
+            return err("light.phi_deg", "must be finite".into());
+        }
+        if self.photons == 0 {
+            return err("light.photons", "must be > 0".into());
+        }
+        if let Err(e) = super::launch::check_photons(self.launch, self.photons) {
+            return err("light.photons", e);
+        }
+        if !(1..=1000).contains(&self.bands) {
+            return err(
+                "tally.bands",
+                format!("must be in 1..=1000, got {}", self.bands),
+            );
+        }
+        let step = self.inplane_step_deg;
+        if InPlaneTally::new(step, 0.5, 0.0).is_none() {
+            return err(
+                "tally.inplane_step_deg",
+                format!(
+                    "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {step}",
+                    crate::tally::inplane::MAX_BINS
+                ),
+            );
+        }
+        let width = self.inplane_width_deg;
+        if !(width > 0.0 && width <= 180.0) {
+            return err(
+                "tally.inplane_width_deg",
+                format!("must be in (0, 180], got {width}"),
+            );
+        }
+        if self.controls.max_bounces == 0 {
+            return err("transport.max_bounces", "must be > 0".into());
+        }
+        if self.controls.max_segments == 0 {
+            return err("transport.max_segments", "must be > 0".into());
+        }
+        let rr = self.controls.roulette_weight;
+        if !(0.0..1.0).contains(&rr) {
+            return err("transport.roulette_weight", "must be in [0, 1)".into());
+        }
+        Ok(())
+    }
+
     /// The Carlson grid of this run.
     #[must_use]
     pub fn grid(&self) -> CarlsonGrid {
         CarlsonGrid::new(self.bands).expect("bands >= 1 checked by the scene")
+    }
+
+    /// Estimated peak memory (bytes) of this run's tallies and result
+    /// files: one [`Tallies`] is 16 bytes per Carlson cell and in-plane bin
+    /// (sum and sum of squares), 8 more per lattice replicate, and its
+    /// polarisation sums (4 or 16 components per cell, alike); a run holds
+    /// up to 64 batch tallies in flight, a stack of partial sums (one per
+    /// bit of the batch count) and one result per incidence; the files take
+    /// about `200 + 40 (components + 1) + 64` bytes per cell and incidence
+    /// (`brdf.csv`, the polarisation table, the table read back for exports).
+    /// Right to a factor of about 2, for refusing a run before it starts.
+    #[must_use]
+    pub fn memory_bytes(&self) -> u64 {
+        use crate::limits::product;
+        let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
+        let bins = InPlaneTally::new(
+            self.inplane_step_deg,
+            0.5 * self.inplane_width_deg,
+            self.phi_deg.to_radians(),
+        )
+        .map_or(0, |t| t.n_bins()) as u64;
+        let replicates = self.launch.replicates().unwrap_or(0);
+        let per_bin = 16 + 8 * replicates;
+        let k = self.polarisation.tally.components() as u64;
+        let tallies = product(&[cells + bins + 1, per_bin])
+            .saturating_add(product(&[k, cells + 1, per_bin]))
+            .saturating_add(8 * BOUNCE_BINS as u64 + 256);
+        let batches = self.photons.div_ceil(BATCH).max(1);
+        let incidences = self.theta_deg.len() as u64;
+        let live = batches.min(64) + u64::from(64 - batches.leading_zeros()) + 1 + incidences;
+        let files = product(&[cells, incidences, 200 + 40 * (k + 1) + 64]);
+        product(&[tallies, live]).saturating_add(files)
     }
 
     /// Zero tallies of this run's layout.
