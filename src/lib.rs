@@ -32,6 +32,7 @@ pub mod limits;
 pub mod micro;
 pub mod object;
 pub mod optics;
+pub mod outdir;
 pub mod output;
 pub mod plot;
 pub mod render;

@@ -132,7 +132,8 @@ struct MergeArgs {
     /// Shard result folders (each with tallies.json), in any order.
     #[arg(required = true)]
     dirs: Vec<PathBuf>,
-    /// Output folder.
+    /// Output folder, replaced whole (an existing one must be empty or a roks
+    /// result).
     #[arg(long)]
     out: PathBuf,
     /// No table on stderr.
@@ -261,7 +262,8 @@ struct FitArgs {
     /// Worker threads (default: all cores). Does not change results.
     #[arg(long, value_parser = roks::cli::positive::<usize>)]
     threads: Option<usize>,
-    /// Output folder (default: out/<scene name>-fit/).
+    /// Output folder (default: out/<scene name>-fit/), replaced whole (an
+    /// existing one must be empty or a roks result).
     #[arg(long)]
     out: Option<PathBuf>,
     /// No progress lines on stderr.
@@ -273,7 +275,8 @@ struct FitArgs {
 struct TraceArgs {
     /// Object scene file (TOML).
     scene: PathBuf,
-    /// Output folder (default: out/<scene name>/).
+    /// Output folder (default: out/<scene name>/), replaced whole by the run
+    /// (an existing one must be empty or a roks result).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Photons per beam position (overrides each source's `photons`).
@@ -299,7 +302,8 @@ struct TraceArgs {
 struct BrdfArgs {
     /// Micro scene file (TOML); omitted: the embedded default scene.
     scene: Option<PathBuf>,
-    /// Output folder (default: out/<scene name>/).
+    /// Output folder (default: out/<scene name>/), replaced whole by the run
+    /// (an existing one must be empty or a roks result).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Photons per incidence angle (overrides [light] photons).
@@ -501,6 +505,7 @@ fn export_table(
 
 fn export_brdf(a: ExportBrdfArgs) -> Result<(), Failure> {
     let format = parse_formats(std::slice::from_ref(&a.format), "--format")?[0];
+    check_out_file(&a.out)?;
     let csv = a.dir.join("brdf.csv");
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(
@@ -617,10 +622,7 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
         .transpose()
         .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
     set_threads(a.threads)?;
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(&scene.name));
+    let out = result_dir(a.out.as_deref(), &scene.source.file, &scene.name)?;
 
     let stats = surface_stats(&scene.surface.height_map(rx, ry));
     let edges = format!("{:?}", scene.surface.edges).to_lowercase();
@@ -786,6 +788,7 @@ fn print_brdf_table(results: &[roks::transport::brdf::IncidenceResult]) {
 fn merge(a: MergeArgs) -> Result<(), Failure> {
     use roks::transport::BATCH;
     use roks::transport::brdf::IncidenceResult;
+    check_out_dir(&a.out, "--out")?;
     let parts = a
         .dirs
         .iter()
@@ -884,15 +887,36 @@ fn progress_bar(total: u64, quiet: bool, name: &str) -> ProgressBar {
     bar
 }
 
+/// Write the result folder `out` whole: staged beside it, then swapped in
+/// (see [`roks::outdir`]); a reader never sees old and new files mixed.
 fn write_outputs(out: &Path, files: &[(&str, &[u8])]) -> Result<(), Failure> {
-    std::fs::create_dir_all(out)
-        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
-    for (name, bytes) in files {
-        let path = out.join(name);
-        output::write_atomic(&path, bytes)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
-    }
+    roks::outdir::write_folder(out, files)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
     Ok(())
+}
+
+/// The result folder: `given` (`--out`), or `out/<name>` (named in messages
+/// by the scene file's `name` key), checked before any work is done.
+fn result_dir(given: Option<&Path>, scene_file: &str, name: &str) -> Result<PathBuf, Failure> {
+    let (out, key) = match given {
+        Some(p) => (p.to_path_buf(), "--out".to_string()),
+        None => (Path::new("out").join(name), format!("{scene_file}: name")),
+    };
+    check_out_dir(&out, &key)?;
+    Ok(out)
+}
+
+/// Check a result folder before any work is done; `key` names it in the
+/// message (`--out`, or `SCENE: name` for the default out/NAME).
+fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
+    roks::outdir::check_folder(out)
+        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", out.display())))
+}
+
+/// Check an output file (`--out`) before any work is done.
+fn check_out_file(out: &Path) -> Result<(), Failure> {
+    roks::outdir::check_file(out)
+        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))
 }
 
 /// Reflectance vs beam position, one curve per `[[sources]]` entry; the x axis
@@ -963,10 +987,7 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
         run.polarisation = false;
     }
     set_threads(a.threads)?;
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(&scene.name));
+    let out = result_dir(a.out.as_deref(), &scene.source.file, &scene.name)?;
     let bar = progress_bar(photons.iter().sum(), a.quiet, &scene.name);
     let clock = Instant::now();
     let results = run.run(
@@ -1082,6 +1103,15 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
     };
     set_threads(a.threads)?;
     let problem = Problem::new(&text, &source, &params, &measured, &opts).map_err(input)?;
+    let name = a
+        .scene
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
+    check_out_dir(&out, "--out")?;
     let quiet = a.quiet;
     let result = problem
         .fit_observed(&mut |k, values, misfit, rejected| {
@@ -1096,14 +1126,6 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
         })
         .map_err(input)?;
     let fitted = problem.apply(&result.values).map_err(input)?;
-    let name = a
-        .scene
-        .file_stem()
-        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
     let summary = json!({
         "scene": source.file,
         "measured": a.measured.display().to_string(),
@@ -1231,6 +1253,7 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
         &format!("a mesh of {} x {} grid squares", n.0, n.1),
         roks::export::mesh_memory_bytes(n.0, n.1),
     )?;
+    check_out_file(&a.out)?;
     let mesh = match &scene.surface.heightfield {
         Some(field) => roks::export::field_mesh(field),
         None => roks::export::height_field_mesh(&scene.surface, resolution),
@@ -1257,6 +1280,7 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
+    check_out_file(&a.out)?;
     let grid = match &scene.surface.heightfield {
         Some(f) => HeightGrid {
             nx: f.nx,
@@ -1336,6 +1360,15 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
         &format!("a {w} x {h} image (radiance, EXR and PNG)"),
         roks::render::image_memory_bytes(w, h),
     )?;
+    check_out_file(&a.out)?;
+    let png = a.out.with_extension("png");
+    if png == a.out {
+        return Err(Failure::Input(format!(
+            "--out: {}: is the name of the PNG preview; give the EXR file (OUT.exr, beside which OUT.png is written)",
+            a.out.display()
+        )));
+    }
+    check_out_file(&png)?;
     if let Some(path) = a.scene.as_deref().filter(|p| is_object_scene(p)) {
         return render_object(&a, path);
     }
@@ -1461,7 +1494,10 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
 }
 
 /// Write `img` as OUT (EXR) and OUT.png (preview), and report the mean and
-/// the `lost` camera paths (caps, guards, edge walls, micro descents).
+/// the `lost` camera paths (caps, guards, edge walls, micro descents). Each
+/// file is replaced atomically, the EXR first: a reader sees each old or
+/// new, and for an instant (or after a kill between the two) a new EXR
+/// beside the old PNG.
 fn write_images(
     out: &Path,
     img: &roks::render::Image,
@@ -1512,6 +1548,7 @@ fn export_object_mesh(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
         let what = format!("the voxel grid of resolution {resolution} over --bounds");
         check_memory("--resolution", &what, bytes)?;
     }
+    check_out_file(&a.out)?;
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
     if mesh.faces.is_empty() {

@@ -97,11 +97,14 @@ pub fn polar_csv(run: &BrdfRun, results: &[IncidenceResult]) -> Option<(&'static
 /// Columns of `inplane.csv`.
 pub const INPLANE_HEADER: &str = "theta_i_deg,theta_o_deg,brdf,brdf_stderr";
 
-/// Write `bytes` to `path` atomically (temporary sibling, then rename).
+/// Write `bytes` to `path` atomically (temporary sibling `.NAME.PID.tmp`,
+/// synced, then renamed over `path`): a reader sees the old file or the new
+/// one. Temporary files of killed writes of `path` are removed first.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let name = path
         .file_name()
         .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    crate::outdir::remove_stale_tmp(path);
     let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;

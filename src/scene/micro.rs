@@ -522,7 +522,7 @@ impl MicroSceneSpec {
             None => MicroSurface::new(size, edges, placed, materials, substrate),
         };
         let scene = MicroScene {
-            name: self.name.unwrap_or(fallback_name),
+            name: super::scene_name(&source, self.name, fallback_name)?,
             source,
             surface,
             material_names: names,

@@ -114,6 +114,28 @@ pub fn parse_toml<T: serde::de::DeserializeOwned>(
     })
 }
 
+/// The scene's name, which is also its result folder `out/NAME`: the
+/// `name` key, or else `fallback` (the file stem); an error at `name` unless
+/// it is one plain folder name (see [`crate::outdir::check_name`]). Refused
+/// rather than mapped to a safe name: a mapped name would write where the
+/// user did not say, and two names could map to one folder.
+pub fn scene_name(
+    source: &Source,
+    given: Option<String>,
+    fallback: String,
+) -> Result<String, SceneError> {
+    let from_file = given.is_none();
+    let name = given.unwrap_or(fallback);
+    match crate::outdir::check_name(&name) {
+        None => Ok(name),
+        Some(why) if from_file => Err(source.error(
+            "name",
+            format!("not given, and the file name does not make one: {why}; set name = \"...\""),
+        )),
+        Some(why) => Err(source.error("name", why)),
+    }
+}
+
 /// Read a scene file to a string; a missing file is a scene error.
 pub fn read_scene_text(path: &Path) -> Result<String, SceneError> {
     std::fs::read_to_string(path).map_err(|e| SceneError {

@@ -537,7 +537,7 @@ impl ObjectSceneSpec {
             farfield_stokes,
         };
         Ok(ObjectScene {
-            name: self.name.unwrap_or(fallback_name),
+            name: super::scene_name(&source, self.name, fallback_name)?,
             source,
             object,
             walls,

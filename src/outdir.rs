@@ -1,0 +1,462 @@
+//! Output paths: result folders replaced whole, single files replaced
+//! atomically, and both checked before any work is done.
+//!
+//! A result folder (`roks brdf`, `trace`, `merge`, `fit`) is the run's: the
+//! run is written into a fresh hidden sibling `PARENT/.NAME.new-PID`, synced,
+//! and swapped in with one rename, so a reader of `PARENT/NAME` sees either
+//! the whole old result or the whole new one, never a mixture, and no file of
+//! an earlier run survives a rerun (hemisphere maps of angles no longer run, a
+//! `tallies.json` of an earlier `--shard` run, an old `brdf.bsdf` or a file
+//! `roks export-brdf` added). On Linux the swap is one
+//! `renameat2(RENAME_EXCHANGE)`; elsewhere, or where the file system lacks
+//! it, the old folder is first renamed to `PARENT/.NAME.old-PID` and the new
+//! one renamed in (a reader may then find no folder for that instant; a kill
+//! between the two renames leaves the old result in `.NAME.old-PID`). The
+//! old folder is deleted after the swap.
+//!
+//! A run killed before its swap leaves only its hidden `.NAME.new-PID` (or
+//! `.NAME.old-PID`, or a file's `.FILE.PID.tmp`) behind; the next write of
+//! the same NAME removes those whose process is gone. Folders of live
+//! processes are left alone.
+//!
+//! An existing folder is only replaced when it is empty or a roks result (it
+//! holds a `summary.json` or `fit.json` with a `version`, and no subfolder):
+//! anything else is refused before tracing, so `--out ~/Documents` cannot
+//! delete a folder roks did not write.
+
+use std::io::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+/// Longest scene name, in bytes, that [`check_name`] accepts as a folder
+/// name (a file name may have 255; the staging suffix needs room).
+pub const MAX_NAME_BYTES: usize = 200;
+
+/// Files by which a folder is recognised as a roks result (with a `version`
+/// key inside).
+const RESULT_MARKERS: [&str; 2] = ["summary.json", "fit.json"];
+
+/// Why `name` cannot be the name of a result folder `out/NAME`, or `None`
+/// when it can: it must be one plain path component (not empty, no `/`,
+/// `\`, NUL or control character, not starting with `.`, which also rules
+/// out `.` and `..`), at most [`MAX_NAME_BYTES`] bytes.
+#[must_use]
+pub fn check_name(name: &str) -> Option<String> {
+    let why = if name.is_empty() {
+        "is empty".to_string()
+    } else if let Some(c) = name
+        .chars()
+        .find(|&c| c == '/' || c == '\\' || c.is_control())
+    {
+        format!("contains {c:?}")
+    } else if name.starts_with('.') {
+        "starts with `.` (`.` and `..` lead outside out/, others are hidden)".to_string()
+    } else if name.len() > MAX_NAME_BYTES {
+        format!("is {} bytes long (at most {MAX_NAME_BYTES})", name.len())
+    } else {
+        return None;
+    };
+    Some(format!(
+        "{why}: the name is the result folder out/NAME, so it must be one plain folder name, got {name:?}"
+    ))
+}
+
+/// The parent folder of `path` (`.` for a bare name) and its last
+/// component, or why `path` names no file or folder (`/`, `..`, `a/..`).
+/// The parent is rebuilt from the components, so that `a/b/.` is `a` and
+/// `b`, as the file system sees it.
+fn split(path: &Path) -> Result<(PathBuf, std::ffi::OsString), String> {
+    let mut components = path.components();
+    match components.next_back() {
+        Some(Component::Normal(name)) => {
+            let parent = components.as_path();
+            let parent = if parent.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                parent.to_path_buf()
+            };
+            Ok((parent, name.to_os_string()))
+        }
+        _ => Err("must name a file or folder to create (not `/`, `.` or `..`)".into()),
+    }
+}
+
+/// Whether a metadata error means that nothing is there (a missing path, or
+/// one that runs through a file: then the file is reported).
+fn absent(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory
+    )
+}
+
+/// Check that a folder can be created in `parent` (creating the missing
+/// part of it later): its nearest existing ancestor is a folder in which a
+/// folder can be made (tried: made and removed, which also catches read-only
+/// file systems and `/proc`, where permission bits do not tell).
+fn check_parent(parent: &Path) -> Result<(), String> {
+    let mut p = parent;
+    let existing = loop {
+        match std::fs::metadata(p) {
+            Ok(m) if m.is_dir() => break p,
+            Ok(_) => return Err(format!("{} is a file, not a folder", p.display())),
+            Err(e) if absent(&e) => match p.parent().filter(|q| !q.as_os_str().is_empty()) {
+                Some(q) => p = q,
+                None => break Path::new("."),
+            },
+            Err(e) => return Err(format!("{}: {e}", p.display())),
+        }
+    };
+    remove_stale(existing, &[(".roks-probe-".into(), "")]);
+    let probe = existing.join(format!(".roks-probe-{}", std::process::id()));
+    std::fs::create_dir(&probe)
+        .and_then(|()| std::fs::remove_dir(&probe))
+        .map_err(|e| format!("cannot create anything in {}: {e}", existing.display()))
+}
+
+/// Whether `dir` may be replaced by a new result: empty, or a roks result
+/// folder (no subfolder, and a [`RESULT_MARKERS`] file with a `version`).
+fn replaceable(dir: &Path) -> Result<(), String> {
+    let entries = std::fs::read_dir(dir)
+        .and_then(Iterator::collect::<Result<Vec<_>, _>>)
+        .map_err(|e| format!("cannot read the folder: {e}"))?;
+    if entries.is_empty() {
+        return Ok(());
+    }
+    let refuse = |why: String| {
+        Err(format!(
+            "exists and {why}, so it is not a roks result folder, which a run replaces whole; choose a new folder"
+        ))
+    };
+    if let Some(sub) = entries
+        .iter()
+        .find(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+    {
+        return refuse(format!("holds the folder {:?}", sub.file_name()));
+    }
+    let marked = RESULT_MARKERS.iter().any(|m| {
+        std::fs::read(dir.join(m))
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .is_some_and(|v| v.get("version").is_some_and(serde_json::Value::is_string))
+    });
+    if marked {
+        Ok(())
+    } else {
+        refuse("has no roks summary.json or fit.json".into())
+    }
+}
+
+/// Check, before any work, that a result folder can be written at `path`
+/// (a symbolic link to a folder: at its target, which is replaced). The
+/// error is the reason, for a message after the option and path.
+///
+/// # Errors
+/// `path` is a file or a link to one, names no folder (`/`, `..`), is a
+/// folder that is neither empty nor a roks result, or no folder can be
+/// created beside it.
+pub fn check_folder(path: &Path) -> Result<(), String> {
+    let (parent, name) = split(path)?;
+    let path = &parent.join(name);
+    match std::fs::symlink_metadata(path) {
+        Ok(m) => {
+            let target = if m.file_type().is_symlink() {
+                match std::fs::metadata(path) {
+                    Ok(t) if t.is_dir() => resolve(path)?,
+                    Ok(_) => return Err("is a link to a file, not a folder".into()),
+                    Err(e) => return Err(format!("is a dangling symbolic link ({e})")),
+                }
+            } else if m.is_dir() {
+                path.to_path_buf()
+            } else {
+                return Err("is a file, not a folder".into());
+            };
+            replaceable(&target)?;
+            check_parent(&split(&target)?.0)
+                .map_err(|e| format!("{e} (a result folder is replaced whole, beside itself)"))
+        }
+        Err(e) if absent(&e) => check_parent(&parent),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// `path`, or its target when it is a symbolic link.
+fn resolve(path: &Path) -> Result<PathBuf, String> {
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        std::fs::canonicalize(path).map_err(|e| format!("cannot resolve the symbolic link: {e}"))
+    } else {
+        Ok(path.to_path_buf())
+    }
+}
+
+/// Check, before any work, that a single file can be written at `path` (not
+/// a folder; its folder can be created and written).
+///
+/// # Errors
+/// The reason, as for [`check_folder`].
+pub fn check_file(path: &Path) -> Result<(), String> {
+    let (parent, _) = split(path)?;
+    if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
+        return Err("is a folder, not a file".into());
+    }
+    check_parent(&parent)
+}
+
+/// Whether process `pid` may still be running (and so own its staging
+/// folder). Unknown (not Unix, or not a plain positive pid): yes.
+fn pid_alive(pid: u32) -> bool {
+    #[cfg(unix)]
+    {
+        let Some(p) = i32::try_from(pid)
+            .ok()
+            .and_then(rustix::process::Pid::from_raw)
+        else {
+            return true;
+        };
+        // kill(pid, 0): ESRCH is the only sure sign that it is gone.
+        !matches!(rustix::process::test_kill_process(p), Err(e) if e == rustix::io::Errno::SRCH)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = pid;
+        true
+    }
+}
+
+/// Remove the leftovers of killed runs in `parent`: entries named
+/// `PREFIX<pid>SUFFIX` for a `prefix` and `suffix` of `patterns`, whose pid is
+/// not a running process. Best effort: a failure leaves them.
+fn remove_stale(parent: &Path, patterns: &[(String, &str)]) {
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(name) = name.to_str() else { continue };
+        for (prefix, suffix) in patterns {
+            let pid = name
+                .strip_prefix(prefix.as_str())
+                .and_then(|r| r.strip_suffix(suffix))
+                .filter(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+                .and_then(|d| d.parse::<u32>().ok());
+            if pid.is_some_and(|p| p != std::process::id() && !pid_alive(p)) {
+                let path = e.path();
+                let _ = if e.file_type().is_ok_and(|t| t.is_dir()) {
+                    std::fs::remove_dir_all(&path)
+                } else {
+                    std::fs::remove_file(&path)
+                };
+            }
+        }
+    }
+}
+
+/// Remove the temporary files `.NAME.PID.tmp` of killed writes of
+/// `path` (see [`crate::output::write_atomic`]).
+pub fn remove_stale_tmp(path: &Path) {
+    if let Ok((parent, name)) = split(path) {
+        let name = name.to_string_lossy();
+        remove_stale(&parent, &[(format!(".{name}."), ".tmp")]);
+    }
+}
+
+/// Sync a folder's entries to disk (where the platform can open folders).
+fn sync_dir(dir: &Path) {
+    if let Ok(f) = std::fs::File::open(dir) {
+        let _ = f.sync_all();
+    }
+}
+
+/// Write `files` (name, bytes) as the result folder `path`, replacing any
+/// folder there whole (see the module documentation). `path` should have
+/// passed [`check_folder`].
+///
+/// # Errors
+/// Creating, writing, syncing or renaming failed (the staging folder is
+/// then removed and any old result left in place).
+pub fn write_folder(path: &Path, files: &[(&str, &[u8])]) -> std::io::Result<()> {
+    let (parent, name) = split(path).map_err(std::io::Error::other)?;
+    let path = &resolve(&parent.join(name)).map_err(std::io::Error::other)?;
+    let (parent, name) = split(path).map_err(std::io::Error::other)?;
+    let name = name.to_string_lossy().into_owned();
+    std::fs::create_dir_all(&parent)?;
+    remove_stale(
+        &parent,
+        &[(format!(".{name}.new-"), ""), (format!(".{name}.old-"), "")],
+    );
+    let pid = std::process::id();
+    let staging = parent.join(format!(".{name}.new-{pid}"));
+    if std::fs::symlink_metadata(&staging).is_ok() {
+        std::fs::remove_dir_all(&staging)?;
+    }
+    std::fs::create_dir(&staging)?;
+    let written = (|| {
+        for (file, bytes) in files {
+            let mut f = std::fs::File::create(staging.join(file))?;
+            f.write_all(bytes)?;
+            f.sync_all()?;
+        }
+        sync_dir(&staging);
+        swap_in(&staging, path, &parent.join(format!(".{name}.old-{pid}")))
+    })();
+    if written.is_err() {
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    written?;
+    sync_dir(&parent);
+    Ok(())
+}
+
+/// Put the complete folder `staging` at `path`. A folder already at `path`
+/// is exchanged with it atomically where the system can (then removed from
+/// `staging`), else moved to `old` first; no folder: one rename.
+fn swap_in(staging: &Path, path: &Path, old: &Path) -> std::io::Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => std::fs::rename(staging, path),
+        Err(e) => Err(e),
+        Ok(m) if !m.is_dir() => Err(std::io::Error::other(format!(
+            "{} is no longer a folder",
+            path.display()
+        ))),
+        Ok(_) => {
+            if exchange(staging, path)? {
+                let _ = std::fs::remove_dir_all(staging);
+                Ok(())
+            } else {
+                swap_by_two_renames(staging, path, old)
+            }
+        }
+    }
+}
+
+/// The portable swap: `path` to `old`, `staging` to `path`, remove `old`
+/// (on failure of the second rename, the old folder is put back).
+fn swap_by_two_renames(staging: &Path, path: &Path, old: &Path) -> std::io::Result<()> {
+    std::fs::rename(path, old)?;
+    if let Err(e) = std::fs::rename(staging, path) {
+        let _ = std::fs::rename(old, path);
+        return Err(e);
+    }
+    let _ = std::fs::remove_dir_all(old);
+    Ok(())
+}
+
+/// Exchange the folders `a` and `b` atomically; `Ok(false)` when the system
+/// or file system cannot (then nothing changed).
+#[cfg(target_os = "linux")]
+fn exchange(a: &Path, b: &Path) -> std::io::Result<bool> {
+    use rustix::fs::{CWD, RenameFlags, renameat_with};
+    use rustix::io::Errno;
+    match renameat_with(CWD, a, CWD, b, RenameFlags::EXCHANGE) {
+        Ok(()) => Ok(true),
+        Err(e) if e == Errno::INVAL || e == Errno::NOSYS || e == Errno::OPNOTSUPP => Ok(false),
+        Err(e) => Err(e.into()),
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn exchange(_: &Path, _: &Path) -> std::io::Result<bool> {
+    Ok(false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("roks-outdir-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn names_that_are_not_one_plain_folder_are_refused() {
+        for bad in [
+            "", ".", "..", "../x", "a/b", "a\\b", "a\0b", ".hidden", "a\nb",
+        ] {
+            assert!(check_name(bad).is_some(), "{bad:?}");
+        }
+        assert!(check_name(&"x".repeat(MAX_NAME_BYTES + 1)).is_some());
+        for good in ["default", "edge-15 periodic", "x.y", "a..b", "Zähler"] {
+            assert_eq!(check_name(good), None, "{good:?}");
+        }
+    }
+
+    #[test]
+    fn the_portable_swap_replaces_the_folder_whole() {
+        let d = scratch("two-renames");
+        let out = d.join("r");
+        write_folder(&out, &[("a.txt", b"old"), ("summary.json", b"{}")]).unwrap();
+        let staging = d.join(".r.new-1");
+        std::fs::create_dir(&staging).unwrap();
+        std::fs::write(staging.join("b.txt"), b"new").unwrap();
+        swap_by_two_renames(&staging, &out, &d.join(".r.old-1")).unwrap();
+        assert_eq!(names(&out), ["b.txt"]);
+        assert_eq!(names(&d), ["r"]);
+    }
+
+    #[test]
+    fn a_rerun_leaves_only_its_own_files_and_removes_dead_leftovers() {
+        let d = scratch("rerun");
+        let out = d.join("r");
+        write_folder(&out, &[("old.png", b"1"), ("summary.json", b"{}")]).unwrap();
+        // Leftovers of a killed run (no such pid) and of a live one (ours is
+        // skipped by name, so use pid 1, which always exists).
+        for dead in [".r.new-4294967", ".r.old-4294968"] {
+            std::fs::create_dir(d.join(dead)).unwrap();
+            std::fs::write(d.join(dead).join("x"), b"").unwrap();
+        }
+        std::fs::create_dir(d.join(".r.new-1")).unwrap();
+        write_folder(&out, &[("summary.json", b"{}")]).unwrap();
+        assert_eq!(names(&out), ["summary.json"]);
+        assert_eq!(names(&d), [".r.new-1", "r"]);
+    }
+
+    #[test]
+    fn only_empty_or_result_folders_are_replaced() {
+        let d = scratch("replaceable");
+        assert_eq!(check_folder(&d.join("new")), Ok(()));
+        std::fs::create_dir(d.join("empty")).unwrap();
+        assert!(check_folder(&d.join("empty")).is_ok());
+        std::fs::create_dir_all(d.join("mine/sub")).unwrap();
+        assert!(
+            check_folder(&d.join("mine"))
+                .unwrap_err()
+                .contains("holds the folder")
+        );
+        std::fs::create_dir(d.join("notes")).unwrap();
+        std::fs::write(d.join("notes/summary.json"), b"{\"a\": 1}").unwrap();
+        assert!(
+            check_folder(&d.join("notes"))
+                .unwrap_err()
+                .contains("no roks summary.json")
+        );
+        std::fs::write(d.join("notes/summary.json"), b"{\"version\": \"0.1.0\"}").unwrap();
+        assert!(check_folder(&d.join("notes")).is_ok());
+        std::fs::write(d.join("file"), b"").unwrap();
+        assert!(
+            check_folder(&d.join("file"))
+                .unwrap_err()
+                .contains("is a file")
+        );
+        assert!(
+            check_folder(&d.join("file/x"))
+                .unwrap_err()
+                .contains("is a file")
+        );
+        assert!(check_folder(Path::new("/")).is_err());
+        assert!(check_folder(&d.join("..")).is_err());
+        assert_eq!(split(Path::new("a/b/.")), Ok(("a".into(), "b".into())));
+        assert_eq!(split(Path::new("b/")), Ok((".".into(), "b".into())));
+        assert_eq!(split(Path::new("/b")), Ok(("/".into(), "b".into())));
+    }
+}
