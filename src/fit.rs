@@ -58,10 +58,19 @@
 //!    linear least-squares misfit would fit the peak and ignore the rest. The
 //!    log weighs relative errors equally everywhere; `eps` keeps empty model
 //!    bins and zero measurements finite and stops values 1000 times below the
-//!    peak (mostly noise) from dominating. A point whose parameter values the
-//!    scene rejects (a reversed range `lo > hi`, `cap > 1`, `n <= 0`, ...)
-//!    has an infinite misfit. The measured `brdf_stderr` is read but not used
-//!    as a weight.
+//!    peak (mostly noise) from dominating. The measured `brdf_stderr` is
+//!    read but not used as a weight.
+//!
+//!    **Values the scene rejects** (a reversed range `lo > hi`, `cap > 1`,
+//!    `n <= 0`, a radius of 0, ...). Before any photon is traced, the scene
+//!    is built at the start point and at both bounds of every parameter
+//!    (the others at their start values); a rejection there is an error
+//!    naming `--param`, the key and the scene's reason, since the bounds
+//!    themselves are wrong. Points the search can still meet are
+//!    combinations (two ends of one range crossing): they have an infinite
+//!    misfit and are recorded with the scene's reason in
+//!    [`FitResult::rejected`] (in `fit.json`: `"misfit": null` beside
+//!    `"rejected": reason`), a constraint of the search, not a failure.
 //! 4. **Search.** Nelder-Mead (reflection 1, expansion 2, contraction 1/2,
 //!    shrink 1/2) in the unit cube: parameter `j` is `lo_j + x_j (hi_j -
 //!    lo_j)`. Simplex vertices may leave the cube; the model is evaluated at
@@ -95,14 +104,15 @@ use crate::scene::micro::MicroScene;
 use crate::scene::{SceneError, Source};
 use crate::tally::InPlaneTally;
 
-/// Why a fit cannot run. Every message is one line naming the file or key.
+/// Why a fit cannot run. Every message is one line naming the file, the
+/// `roks fit` option (`--param`, `--photons`, ...) and the scene key.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum FitError {
     /// The scene file is invalid (at its current values).
     #[error("{0}")]
     Scene(#[from] SceneError),
     /// A parameter key path does not lead to a number in the scene.
-    #[error("{file}: {key}: {message}")]
+    #[error("{file}: --param {key}: {message}")]
     Key {
         /// Scene file.
         file: String,
@@ -112,7 +122,7 @@ pub enum FitError {
         message: String,
     },
     /// A parameter specification `key=lo:hi` is malformed.
-    #[error("parameter `{spec}`: {message}")]
+    #[error("--param {spec}: {message}")]
     Param {
         /// The specification as given.
         spec: String,
@@ -129,10 +139,24 @@ pub enum FitError {
         /// What is wrong.
         message: String,
     },
+    /// A parameter's bounds (or the start point) reach values the scene
+    /// rejects: found before the fit by building the scene at both bounds of
+    /// every parameter (the others at their start values) and at the start.
+    #[error("{file}: --param {spec}: {at}, the scene is invalid: {reason}")]
+    Infeasible {
+        /// Scene file.
+        file: String,
+        /// The parameter as given, `key=lo:hi`, or all of them for the start.
+        spec: String,
+        /// Where, e.g. `at bumps[0].radius = 0`.
+        at: String,
+        /// The scene's objection: key and message (see [`reason`]).
+        reason: String,
+    },
     /// A bad fit option.
-    #[error("fit option {option}: {message}")]
+    #[error("{option}: {message}")]
     Options {
-        /// Option name.
+        /// The `roks fit` command-line option that sets it, e.g. `--photons`.
         option: String,
         /// What is wrong.
         message: String,
@@ -565,7 +589,9 @@ pub struct FitOptions {
     /// In-plane detector full width out of the plane (degrees); `None`: the scene's.
     pub inplane_width_deg: Option<f64>,
     /// Points per parameter of the coarse global scan that picks the
-    /// simplex's starting point (at most 256 points in all; 0 or 1: none).
+    /// simplex's starting point (0 or 1: none). At most 256 points in all:
+    /// fewer per parameter when needed, none when even 2 per parameter are
+    /// more (9 parameters or more).
     pub scan: usize,
 }
 
@@ -615,6 +641,10 @@ pub struct FitResult {
     pub at_bounds: Vec<Bound>,
     /// Every model run: parameter values and misfit (infinite: rejected by the scene).
     pub history: Vec<(Vec<f64>, f64)>,
+    /// The runs of `history` the scene rejected: their index in `history`
+    /// and the reason ([`reason`]: key and message). Only combinations of
+    /// parameters can be rejected (each bound alone is checked up front).
+    pub rejected: Vec<(usize, String)>,
     /// Model in-plane BRDF at `values`, one per measured point.
     pub model: Vec<f64>,
 }
@@ -635,9 +665,37 @@ pub struct Problem {
     opts: FitOptions,
 }
 
+/// Called after every model run of a fit with `(evaluation, values, misfit,
+/// rejected)`: the 1-based evaluation number, the parameter values, the
+/// misfit (infinite when rejected) and why the scene rejected the values.
+pub type Observer<'a> = dyn FnMut(usize, &[f64], f64, Option<&str>) + 'a;
+
 /// Why a point cannot be evaluated: its parameter values make the scene invalid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Infeasible(pub FitError);
+
+/// The scene's objection to a point, as `key: message` (the file is the
+/// fit's scene; a line number, which would count lines of the rewritten
+/// table rather than of the user's file, is left out).
+#[must_use]
+pub fn reason(e: &FitError) -> String {
+    match e {
+        FitError::Scene(s) => {
+            let m = s.message.as_str();
+            let m = match m.rfind(" (line ") {
+                Some(i) if m.ends_with(')') => &m[..i],
+                _ => m,
+            };
+            if s.key.is_empty() {
+                m.to_string()
+            } else {
+                format!("{}: {m}", s.key)
+            }
+        }
+        FitError::Key { key, message, .. } => format!("{key}: {message}"),
+        other => other.to_string(),
+    }
+}
 
 impl Problem {
     /// Check everything: the scene builds, every key leads to a number, the
@@ -661,7 +719,7 @@ impl Problem {
             message,
         };
         if params.is_empty() {
-            return Err(opt("parameters", "give at least one parameter".into()));
+            return Err(opt("--param", "give at least one parameter".into()));
         }
         let mut paths = Vec::new();
         for p in params {
@@ -682,30 +740,30 @@ impl Problem {
             paths.push(path);
         }
         if opts.photons == 0 {
-            return Err(opt("photons", "must be > 0".into()));
+            return Err(opt("--photons", "must be > 0".into()));
         }
         if let Some(e) = crate::transport::launch::photons_beyond_tallies(opts.photons) {
-            return Err(opt("photons", e));
+            return Err(opt("--photons", e));
         }
         if opts.max_evaluations == 0 {
-            return Err(opt("max_evaluations", "must be > 0".into()));
+            return Err(opt("--max-evals", "must be > 0".into()));
         }
         if opts.tolerance.is_nan() || opts.tolerance < 0.0 {
             return Err(opt(
-                "tolerance",
+                "--tolerance",
                 format!("must be >= 0, got {}", opts.tolerance),
             ));
         }
         if opts.x_tolerance.is_nan() || opts.x_tolerance < 0.0 {
             return Err(opt(
-                "x_tolerance",
+                "--x-tolerance",
                 format!("must be >= 0, got {}", opts.x_tolerance),
             ));
         }
         if let Some(s) = opts.inplane_step_deg {
             if InPlaneTally::new(s, 0.5, 0.0).is_none() {
                 return Err(opt(
-                    "inplane_step_deg",
+                    "--inplane-step",
                     format!(
                         "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {s}",
                         crate::tally::inplane::MAX_BINS
@@ -715,7 +773,7 @@ impl Problem {
         }
         if let Some(w) = opts.inplane_width_deg {
             if let Some(e) = InPlaneTally::width_error(w) {
-                return Err(opt("inplane_width_deg", e));
+                return Err(opt("--inplane-width", e));
             }
         }
         let max = measured.points.iter().map(|p| p.2).fold(0.0, f64::max);
@@ -726,7 +784,7 @@ impl Problem {
                 message: "no positive brdf values".into(),
             });
         }
-        Ok(Self {
+        let problem = Self {
             table,
             source: source.clone(),
             name,
@@ -736,7 +794,75 @@ impl Problem {
             thetas: measured.incidence_angles(),
             eps: 1e-3 * max,
             opts: opts.clone(),
-        })
+        };
+        problem.check_bounds()?;
+        Ok(problem)
+    }
+
+    /// Refuse bounds the scene rejects, before any photon is traced: the
+    /// scene is built (every check of the scene file, no tracing) at the
+    /// start point, and at both bounds of every parameter with the others at
+    /// their start values. What the search can still meet is a combination
+    /// (two ends of one range crossing, say); such points are recorded with
+    /// their reason in [`FitResult::rejected`].
+    fn check_bounds(&self) -> Result<(), FitError> {
+        let start = self.start();
+        let infeasible = |spec: String, at: String, e: Infeasible| FitError::Infeasible {
+            file: self.source.file.clone(),
+            spec,
+            at,
+            reason: reason(&e.0),
+        };
+        if let Err(e) = self.build(&start) {
+            let spec = self
+                .params
+                .iter()
+                .map(|p| format!("{}={}:{}", p.key, p.lo, p.hi))
+                .collect::<Vec<_>>()
+                .join(" --param ");
+            let at = self
+                .params
+                .iter()
+                .zip(&start)
+                .map(|(p, v)| format!("{} = {v}", p.key))
+                .collect::<Vec<_>>()
+                .join(", ");
+            return Err(infeasible(
+                spec,
+                format!("at the start ({at}: the scene's values clamped into the bounds)"),
+                e,
+            ));
+        }
+        for (j, p) in self.params.iter().enumerate() {
+            for v in [p.lo, p.hi] {
+                let mut values = start.clone();
+                values[j] = v;
+                if let Err(e) = self.build(&values) {
+                    return Err(infeasible(
+                        format!("{}={}:{}", p.key, p.lo, p.hi),
+                        format!("at {} = {v}", p.key),
+                        e,
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The start point: the scene's current values clamped into the bounds.
+    fn start(&self) -> Vec<f64> {
+        self.params
+            .iter()
+            .zip(self.current())
+            .map(|(p, v)| p.value_at(p.unit(v).clamp(0.0, 1.0)))
+            .collect()
+    }
+
+    /// The scene with `values` written in (built and checked, not traced).
+    fn build(&self, values: &[f64]) -> Result<MicroScene, Infeasible> {
+        let text = self.table_with(values)?.to_string();
+        MicroScene::from_str(&text, self.source.clone(), self.name.clone())
+            .map_err(|e| Infeasible(e.into()))
     }
 
     /// The parameters.
@@ -775,11 +901,10 @@ impl Problem {
                     if let (Some(lo), Some(hi)) = (a.first().and_then(num), a.get(1).and_then(num))
                     {
                         if lo > hi {
-                            return Err(Infeasible(FitError::Key {
-                                file: self.source.file.clone(),
-                                key: range.to_string(),
-                                message: format!("range [{lo}, {hi}] is reversed"),
-                            }));
+                            return Err(Infeasible(FitError::Scene(self.source.error(
+                                range.to_string(),
+                                format!("range [{lo}, {hi}] is reversed"),
+                            ))));
                         }
                     }
                 }
@@ -797,9 +922,7 @@ impl Problem {
 
     /// The model in-plane BRDF at every measured point, for `values`.
     pub fn model(&self, values: &[f64]) -> Result<Vec<f64>, Infeasible> {
-        let text = self.table_with(values)?.to_string();
-        let scene = MicroScene::from_str(&text, self.source.clone(), self.name.clone())
-            .map_err(|e| Infeasible(e.into()))?;
+        let scene = self.build(values)?;
         let mut run = scene.brdf_run();
         run.theta_deg.clone_from(&self.thetas);
         run.photons = self.opts.photons;
@@ -863,14 +986,13 @@ impl Problem {
 
     /// Nelder-Mead from the scene's current values (see the module doc).
     pub fn fit(&self) -> Result<FitResult, FitError> {
-        self.fit_observed(&mut |_, _, _| {})
+        self.fit_observed(&mut |_, _, _, _| {})
     }
 
-    /// As [`fit`](Self::fit), calling `observe(evaluation, values, misfit)` after every model run.
-    pub fn fit_observed(
-        &self,
-        observe: &mut dyn FnMut(usize, &[f64], f64),
-    ) -> Result<FitResult, FitError> {
+    /// As [`fit`](Self::fit), calling `observe(evaluation, values, misfit,
+    /// rejected)` after every model run (`rejected`: why the scene rejected
+    /// the values, the misfit then infinite).
+    pub fn fit_observed(&self, observe: &mut Observer<'_>) -> Result<FitResult, FitError> {
         let d = self.params.len();
         let x0: Vec<f64> = self
             .params
@@ -890,7 +1012,8 @@ impl Problem {
         let start_model = self.model(&start).map_err(|e| e.0)?;
         let start_misfit = self.misfit_of(&start_model);
         let mut history: Vec<(Vec<f64>, f64)> = vec![(start.clone(), start_misfit)];
-        observe(1, &start, start_misfit);
+        observe(1, &start, start_misfit, None);
+        let mut rejected: Vec<(usize, String)> = Vec::new();
 
         let max_evals = self.opts.max_evaluations;
         let calls = std::cell::Cell::new(0_usize);
@@ -902,9 +1025,15 @@ impl Problem {
             let g = match history.iter().find(|(v, _)| *v == values) {
                 Some((_, g)) => *g,
                 None => {
-                    let g = self.misfit(&values);
+                    let (g, why) = match self.model(&values) {
+                        Ok(m) => (self.misfit_of(&m), None),
+                        Err(e) => (f64::INFINITY, Some(reason(&e.0))),
+                    };
                     history.push((values.clone(), g));
-                    observe(history.len(), &values, g);
+                    observe(history.len(), &values, g, why.as_deref());
+                    if let Some(why) = why {
+                        rejected.push((history.len() - 1, why));
+                    }
                     g
                 }
             };
@@ -922,11 +1051,8 @@ impl Problem {
         // piecewise constant in the photon paths), so a simplex started far
         // from the minimum can stall in a local one. Start from the best of a
         // stratified grid of `scan` points per parameter (at most 256 in all).
-        if self.opts.scan > 1 && d > 0 {
-            let mut m = self.opts.scan;
-            while d > 0 && m > 2 && m.pow(d as u32) > 256 {
-                m -= 1;
-            }
+        let m = scan_points(self.opts.scan, d);
+        if m > 1 {
             let total = m.pow(d as u32);
             for k in 0..total {
                 let mut rem = k;
@@ -1066,9 +1192,26 @@ impl Problem {
             converged,
             at_bounds,
             history,
+            rejected,
             model,
         })
     }
+}
+
+/// Points per parameter of the coarse scan for `scan` requested and `d`
+/// parameters: the largest `m <= scan` with `m^d <= 256` points in all, at
+/// least 2; 0 (no scan) when `scan < 2`, `d = 0` or even `2^d` exceeds 256.
+fn scan_points(scan: usize, d: usize) -> usize {
+    if d == 0 {
+        return 0;
+    }
+    let fits = |m: usize| {
+        u32::try_from(d)
+            .ok()
+            .and_then(|d| m.checked_pow(d))
+            .is_some_and(|t| t <= 256)
+    };
+    (2..=scan.min(256)).rev().find(|&m| fits(m)).unwrap_or(0)
 }
 
 /// Linear interpolation of per-bin values `bins` at signed in-plane angle
@@ -1252,8 +1395,24 @@ mod tests {
             ("a..b=1:2", "expected a key at position 3 of `a..b`"),
         ] {
             let e = bad.parse::<FitParam>().unwrap_err();
-            assert_eq!(e.to_string(), format!("parameter `{bad}`: {msg}"));
+            assert_eq!(e.to_string(), format!("--param {bad}: {msg}"));
         }
+    }
+
+    #[test]
+    fn scan_points_stay_within_256() {
+        assert_eq!(scan_points(8, 1), 8);
+        assert_eq!(scan_points(8, 2), 8);
+        assert_eq!(scan_points(8, 3), 6);
+        assert_eq!(scan_points(8, 8), 2);
+        assert_eq!(scan_points(8, 9), 0);
+        assert_eq!(scan_points(1, 1), 0);
+        assert_eq!(scan_points(0, 1), 0);
+        assert_eq!(scan_points(8, 0), 0);
+        // Huge requests: no overflow, no count-down loop.
+        assert_eq!(scan_points(usize::MAX, 1), 256);
+        assert_eq!(scan_points(usize::MAX, 4), 4);
+        assert_eq!(scan_points(usize::MAX, 100), 0);
     }
 
     #[test]
@@ -1429,7 +1588,7 @@ mod tests {
     fn misfit_at_the_true_parameters_is_zero() {
         let truth = scene(PAINT, "[1.0, 1.8]", 2.5);
         let params: Vec<FitParam> = vec![
-            "bumps[0].height[1]=0.5:3".parse().unwrap(),
+            "bumps[0].height[1]=1:3".parse().unwrap(),
             "bumps[0].radius=1:4".parse().unwrap(),
         ];
         let probe = Measured {
@@ -1474,15 +1633,24 @@ mod tests {
         let m = Measured {
             points: vec![(30.0, 0.0, 1.0, None)],
         };
-        let hi: FitParam = "bumps[0].height[1]=0.5:3".parse().unwrap();
-        let p = Problem::new(&truth, &source(), &[hi], &m, &opts()).unwrap();
+        // Each bound alone is valid (with the other end at its start value),
+        // but the two ends can cross.
+        let params: Vec<FitParam> = vec![
+            "bumps[0].height[0]=0.5:1.6".parse().unwrap(),
+            "bumps[0].height[1]=1.3:3".parse().unwrap(),
+        ];
+        let p = Problem::new(&truth, &source(), &params, &m, &opts()).unwrap();
         // hi < lo: a reversed range.
-        assert_eq!(p.misfit(&[0.9]), f64::INFINITY);
-        let e = p.apply(&[0.9]).unwrap_err().to_string();
-        assert_eq!(e, "test.toml: bumps[0].height: range [1, 0.9] is reversed");
-        assert!(p.misfit(&[1.0]).is_finite());
+        assert_eq!(p.misfit(&[1.5, 1.4]), f64::INFINITY);
+        let e = p.apply(&[1.5, 1.4]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "test.toml: bumps[0].height: range [1.5, 1.4] is reversed"
+        );
+        assert_eq!(reason(&e), "bumps[0].height: range [1.5, 1.4] is reversed");
+        assert!(p.misfit(&[1.4, 1.4]).is_finite());
         // Values the scene itself rejects.
-        let r: FitParam = "materials.m.reflectance=0:2".parse().unwrap();
+        let r: FitParam = "materials.m.reflectance=0:1".parse().unwrap();
         let p = Problem::new(&truth, &source(), &[r], &m, &opts()).unwrap();
         assert_eq!(p.misfit(&[1.5]), f64::INFINITY);
         assert!(matches!(
@@ -1513,19 +1681,32 @@ mod tests {
         };
         assert_eq!(
             new("bumps[0].hieght=1:2"),
-            "test.toml: bumps[0].hieght: no key `hieght` in `bumps[0]` (keys: count, height, radius, seed, shape)"
+            "test.toml: --param bumps[0].hieght: no key `hieght` in `bumps[0]` (keys: count, height, radius, seed, shape)"
         );
         assert_eq!(
             new("bumps[1].height=1:2"),
-            "test.toml: bumps[1].height: index [1] out of range: `bumps` has 1 element"
+            "test.toml: --param bumps[1].height: index [1] out of range: `bumps` has 1 element"
         );
         assert_eq!(
             new("bumps[0].shape=1:2"),
-            "test.toml: bumps[0].shape: is a string, not a number"
+            "test.toml: --param bumps[0].shape: is a string, not a number"
         );
         assert_eq!(
             new("bumps[0].height=1:2"),
-            "test.toml: bumps[0].height: is a range [1.0, 1.8]; fit one end: bumps[0].height[0] or bumps[0].height[1]"
+            "test.toml: --param bumps[0].height: is a range [1.0, 1.8]; fit one end: bumps[0].height[0] or bumps[0].height[1]"
+        );
+        // Bounds the scene rejects, found by building it at both bounds.
+        assert_eq!(
+            new("bumps[0].radius=0:3"),
+            "test.toml: --param bumps[0].radius=0:3: at bumps[0].radius = 0, the scene is invalid: bumps[0].radius: must be > 0, got 0"
+        );
+        assert_eq!(
+            new("bumps[0].height[1]=0.5:3"),
+            "test.toml: --param bumps[0].height[1]=0.5:3: at bumps[0].height[1] = 0.5, the scene is invalid: bumps[0].height: range [1, 0.5] is reversed"
+        );
+        assert_eq!(
+            new("materials.m.reflectance=0.5:1.5"),
+            "test.toml: --param materials.m.reflectance=0.5:1.5: at materials.m.reflectance = 1.5, the scene is invalid: materials.m.reflectance: must be in [0, 1], got 1.5"
         );
         let bad_scene = truth.replace("\"ellipsoid\"", "\"blob\"");
         let p: FitParam = "bumps[0].radius=1:2".parse().unwrap();
@@ -1538,12 +1719,12 @@ mod tests {
             "{e}"
         );
         let e = Problem::new(&truth, &source(), &[p.clone(), p.clone()], &m, &opts()).unwrap_err();
-        assert_eq!(e.to_string(), "test.toml: bumps[0].radius: given twice");
-        let e = Problem::new(&truth, &source(), &[], &m, &opts()).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "fit option parameters: give at least one parameter"
+            "test.toml: --param bumps[0].radius: given twice"
         );
+        let e = Problem::new(&truth, &source(), &[], &m, &opts()).unwrap_err();
+        assert_eq!(e.to_string(), "--param: give at least one parameter");
         let o = FitOptions {
             inplane_step_deg: Some(7.0),
             ..opts()
@@ -1551,7 +1732,7 @@ mod tests {
         let e = Problem::new(&truth, &source(), &[p], &m, &o).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "fit option inplane_step_deg: must divide 180 into at most 18000 bins (a step of at least 0.01 deg), got 7"
+            "--inplane-step: must divide 180 into at most 18000 bins (a step of at least 0.01 deg), got 7"
         );
     }
 
@@ -1596,13 +1777,13 @@ mod tests {
     }
 
     #[test]
-    fn recovers_one_end_of_a_range_past_infeasible_points() {
-        // height = [1.2, 2.2]; fit the top end from 1.5 in 0.5:3, where
-        // everything below 1.2 is a reversed range (infinite misfit).
+    fn recovers_one_end_of_a_range() {
+        // height = [1.2, 2.2]; fit the top end from 1.5 in 1.2:3 (bounds
+        // below 1.2 would reverse the range: refused before the fit).
         let truth = scene(PAINT, "[1.2, 2.2]", 2.5);
         let m = measured_from(&truth);
         let start = scene(PAINT, "[1.2, 1.5]", 2.5);
-        let params = vec!["bumps[0].height[1]=0.5:3".parse::<FitParam>().unwrap()];
+        let params = vec!["bumps[0].height[1]=1.2:3".parse::<FitParam>().unwrap()];
         let r = fit(&start, &source(), &params, &m, &opts()).unwrap();
         eprintln!(
             "range end: {:?} misfit {:.2e} in {} runs",
@@ -1610,6 +1791,46 @@ mod tests {
         );
         assert!((r.values[0] - 2.2).abs() < 0.01, "{:?}", r.values);
         assert!(r.misfit < 1e-4, "{}", r.misfit);
+    }
+
+    #[test]
+    fn rejected_points_are_recorded_with_their_reason() {
+        // Both ends of the height range: each bound is valid with the other
+        // end at its start (1.0 and 1.8), but the scan meets points where the
+        // ends cross. They are recorded with the scene's reason, not dropped.
+        let truth = scene(PAINT, "[1.0, 1.8]", 2.5);
+        let m = measured_from(&truth);
+        let params: Vec<FitParam> = vec![
+            "bumps[0].height[0]=0.5:1.75".parse().unwrap(),
+            "bumps[0].height[1]=1.1:3".parse().unwrap(),
+        ];
+        let o = FitOptions {
+            photons: 2000,
+            scan: 4,
+            max_evaluations: 20,
+            restarts: 0,
+            ..opts()
+        };
+        let mut seen = Vec::new();
+        let r = Problem::new(&truth, &source(), &params, &m, &o)
+            .unwrap()
+            .fit_observed(&mut |k, _, g, why| seen.push((k, g, why.map(str::to_string))))
+            .unwrap();
+        assert!(!r.rejected.is_empty());
+        assert!(r.misfit.is_finite());
+        for (k, why) in &r.rejected {
+            let (v, g) = &r.history[*k];
+            assert!(v[0] > v[1], "{v:?}");
+            assert_eq!(*g, f64::INFINITY);
+            assert_eq!(
+                *why,
+                format!("bumps[0].height: range [{}, {}] is reversed", v[0], v[1])
+            );
+            assert_eq!(seen[*k], (k + 1, f64::INFINITY, Some(why.clone())));
+        }
+        // Every infinite misfit of the history is a recorded rejection.
+        let infinite = r.history.iter().filter(|h| h.1.is_infinite()).count();
+        assert_eq!(infinite, r.rejected.len());
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! Badyuk, Ulyanov, J. Opt. Technol. 2014).
 //!
 //! Layout, by physics:
+//! * [`cli`]: the command line's value parsers and one-line messages.
 //! * [`export`]: a micro surface as a triangle mesh (binary PLY for Mitsuba 3);
 //!   BRDF tables as Zemax tabular BSDF and MERL binary files.
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
@@ -23,6 +24,7 @@
 //! * [`render`]: radiance maps of a micro surface (EXR, PNG preview).
 #![forbid(unsafe_code)]
 
+pub mod cli;
 pub mod export;
 pub mod fit;
 pub mod geometry;

@@ -150,43 +150,43 @@ struct RenderArgs {
     #[arg(long)]
     out: PathBuf,
     /// View direction THETA,PHI in degrees (toward the camera).
-    #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0])]
+    #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], value_parser = roks::cli::number)]
     view: Vec<f64>,
     /// Light direction THETA,PHI in degrees (default: the scene's first incidence).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = roks::cli::number)]
     light: Option<Vec<f64>>,
     /// Angular radius of the light disc (degrees).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = roks::cli::number)]
     disc: f64,
     /// Radiance of a uniform background outside the disc, in the disc's units
     /// (default 0: black; a small value shows walls the disc leaves dark).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = roks::cli::number)]
     background: f64,
     /// Image size W,H in pixels.
-    #[arg(long, value_delimiter = ',', default_values_t = [512, 512])]
+    #[arg(long, value_delimiter = ',', default_values_t = [512, 512], value_parser = roks::cli::positive::<usize>)]
     size: Vec<usize>,
     /// Samples per pixel.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = roks::cli::positive::<u32>)]
     spp: u32,
     /// Seed.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = roks::cli::integer::<u64>)]
     seed: u64,
     /// Worker threads (default: all cores). Does not change results.
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::positive::<usize>)]
     threads: Option<usize>,
     /// Object scenes: pinhole camera position X,Y,Z (default: on the first
     /// beam's axis, 2.5 beam-sweep lengths before its start, at least 50 units).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = roks::cli::number)]
     camera: Option<Vec<f64>>,
     /// Object scenes: point the camera looks at X,Y,Z (default: the first
     /// beam's start point moved 100 units along the beam).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = roks::cli::number)]
     look_at: Option<Vec<f64>>,
     /// Object scenes: up direction X,Y,Z of the image.
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = [0.0, 1.0, 0.0])]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = [0.0, 1.0, 0.0], value_parser = roks::cli::number)]
     up: Vec<f64>,
     /// Object scenes: vertical field of view (degrees).
-    #[arg(long, default_value_t = 40.0)]
+    #[arg(long, default_value_t = 40.0, value_parser = roks::cli::number)]
     fov: f64,
 }
 
@@ -202,11 +202,11 @@ struct ExportMeshArgs {
     /// writes its own grid and triangles, and only accepts its own
     /// resolution); for object scenes, voxels along the longest side of
     /// --bounds (default 512).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::integer::<usize>)]
     resolution: Option<usize>,
     /// Object scenes (required there): the box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX
     /// whose solid walls are meshed (solids cut by it are capped).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = roks::cli::number)]
     bounds: Option<Vec<f64>>,
 }
 
@@ -219,7 +219,7 @@ struct ExportHeightfieldArgs {
     out: PathBuf,
     /// Vertices per side for a scene of bumps (default 512); a height-field
     /// scene writes its own grid and only accepts its own resolution.
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::integer::<usize>)]
     resolution: Option<usize>,
 }
 
@@ -230,37 +230,37 @@ struct FitArgs {
     /// Measured in-plane BRDF (CSV: theta_i_deg,theta_o_deg,brdf[,brdf_stderr]).
     measured: PathBuf,
     /// A parameter to fit: KEY=LO:HI (repeat for several).
-    #[arg(long = "param", required = true)]
+    #[arg(long = "param", required = true, value_name = "KEY=LO:HI")]
     params: Vec<String>,
     /// Photons per incidence angle per evaluation.
-    #[arg(long, default_value_t = 200_000)]
+    #[arg(long, default_value_t = 200_000, value_parser = roks::cli::positive::<u64>)]
     photons: u64,
     /// Seed (fixed through the fit).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = roks::cli::integer::<u64>)]
     seed: u64,
     /// Most model evaluations.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = roks::cli::positive::<usize>)]
     max_evals: usize,
     /// Stop when the misfit spread of the simplex is below this.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = 1e-6, value_parser = roks::cli::number)]
     tolerance: f64,
     /// ... and the simplex is narrower than this fraction of each range.
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(long, default_value_t = 1e-3, value_parser = roks::cli::number)]
     x_tolerance: f64,
     /// Restarts from the best point.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = roks::cli::integer::<usize>)]
     restarts: usize,
     /// Points per parameter of the coarse scan before the simplex (0: none).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = roks::cli::integer::<usize>)]
     scan: usize,
     /// In-plane bin width for the model (degrees; wider bins, less noise).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::number)]
     inplane_step: Option<f64>,
     /// In-plane detector width out of the plane (degrees).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::number)]
     inplane_width: Option<f64>,
     /// Worker threads (default: all cores). Does not change results.
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::positive::<usize>)]
     threads: Option<usize>,
     /// Output folder (default: out/<scene name>-fit/), replaced whole (an
     /// existing one must be empty or a roks result).
@@ -280,13 +280,13 @@ struct TraceArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Photons per beam position (overrides each source's `photons`).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::positive::<u64>)]
     photons: Option<u64>,
     /// Tracing seed (overrides the scene's `seed`).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::integer::<u64>)]
     seed: Option<u64>,
     /// Worker threads (default: all cores). Does not change results.
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::positive::<usize>)]
     threads: Option<usize>,
     /// Scalar transport even with Fresnel walls: each Fresnel bounce weighs
     /// (Rs + Rp) / 2, the unpolarised approximation (as [transport]
@@ -307,16 +307,16 @@ struct BrdfArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Photons per incidence angle (overrides [light] photons).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::positive::<u64>)]
     photons: Option<u64>,
     /// Tracing seed (overrides [light] seed). Same seed, same result, for any thread count.
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::integer::<u64>)]
     seed: Option<u64>,
     /// Worker threads (default: all cores). Does not change results.
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::positive::<usize>)]
     threads: Option<usize>,
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = roks::cli::number)]
     theta: Option<Vec<f64>>,
     /// Entry points (overrides [light] launch): random, or lattice (16
     /// randomly shifted R2 lattices; standard errors from their spread;
@@ -341,7 +341,7 @@ struct BrdfArgs {
     no_polarisation: bool,
     /// Height-map resolution for the surface statistics in the summary
     /// (default 512; a height field: its own grid).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::integer::<usize>)]
     stats_resolution: Option<usize>,
     /// Run only photon block I of N (0-based; whole batches of 4096 photons)
     /// of every incidence angle and also write DIR/tallies.json, the raw sums
@@ -363,7 +363,7 @@ struct StatsArgs {
     scene: Option<PathBuf>,
     /// Height-map samples per side of the cell (default 1024; a height
     /// field: its own grid, whose vertex heights are used exactly).
-    #[arg(long)]
+    #[arg(long, value_parser = roks::cli::integer::<usize>)]
     resolution: Option<usize>,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -391,7 +391,10 @@ impl From<anyhow::Error> for Failure {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match roks::cli::parse::<Cli>() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     if let Err(e) = roks::limits::max_memory() {
         eprintln!("roks: {e}");
         return ExitCode::from(2);
@@ -483,12 +486,17 @@ fn export_table(
             "theta_i", "table", "file", "relative"
         );
         for c in &check {
+            // A table reflectance of 0 (an absorbing surface) has no relative error.
+            let relative = if c.table != 0.0 {
+                format!("{:+.2e}", c.file / c.table - 1.0)
+            } else if c.file == 0.0 {
+                "equal (0)".to_string()
+            } else {
+                "undefined (table 0)".to_string()
+            };
             eprintln!(
-                "{:>9.2} {:>10.6} {:>10.6} {:>+10.2e}",
-                c.theta_i_deg,
-                c.table,
-                c.file,
-                c.file / c.table - 1.0
+                "{:>9.2} {:>10.6} {:>10.6} {relative:>10}",
+                c.theta_i_deg, c.table, c.file
             );
         }
     }
@@ -1140,9 +1148,14 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
     check_out_dir(&out, "--out")?;
     let quiet = a.quiet;
     let result = problem
-        .fit_observed(&mut |k, values, misfit| {
+        .fit_observed(&mut |k, values, misfit, rejected| {
             if !quiet {
-                eprintln!("evaluation {k:>4}: misfit {misfit:.6e} at {values:?}");
+                match rejected {
+                    Some(why) => {
+                        eprintln!("evaluation {k:>4}: rejected by the scene at {values:?}: {why}");
+                    }
+                    None => eprintln!("evaluation {k:>4}: misfit {misfit:.6e} at {values:?}"),
+                }
             }
         })
         .map_err(input)?;
@@ -1162,7 +1175,14 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
         "misfit": result.misfit,
         "evaluations": result.evaluations,
         "converged": result.converged,
-        "history": result.history.iter().map(|(v, m)| json!({"values": v, "misfit": m})).collect::<Vec<_>>(),
+        "rejected_evaluations": result.rejected.len(),
+        "history": result.history.iter().enumerate().map(|(k, (v, m))| {
+            // A rejected point: misfit null and the scene's reason.
+            match result.rejected.iter().find(|r| r.0 == k) {
+                Some((_, why)) => json!({"values": v, "misfit": null, "rejected": why}),
+                None => json!({"values": v, "misfit": m}),
+            }
+        }).collect::<Vec<_>>(),
     });
     let mut csv = String::from("theta_i_deg,theta_o_deg,measured,model\n");
     for ((ti, to, b, _), m) in measured.points.iter().zip(&result.model) {
@@ -1404,9 +1424,7 @@ fn render(a: RenderArgs) -> Result<(), Failure> {
         background_radiance: a.background,
         seed: a.seed,
     };
-    settings
-        .validate()
-        .map_err(|e| Failure::Input(format!("render: {e}")))?;
+    settings.validate().map_err(Failure::Input)?;
     set_threads(a.threads)?;
     let (img, losses) = roks::render::render(&scene.surface, &settings);
     let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
@@ -1485,7 +1503,7 @@ fn render_object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
     settings
         .validate()
         .and_then(|()| camera.validate())
-        .map_err(|e| Failure::Input(format!("{}: render: {e}", scene.source.file)))?;
+        .map_err(|e| Failure::Input(format!("{}: {e}", scene.source.file)))?;
     if scene
         .object
         .solids
@@ -1611,12 +1629,20 @@ fn stats(a: StatsArgs) -> Result<(), Failure> {
         "sigma            {:.6}   RMS height about the mean",
         s.sigma
     );
-    let _ = writeln!(
-        out,
-        "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
-        s.tau
-    );
-    let _ = writeln!(out, "sigma_over_tau   {:.6}", s.sigma_over_tau);
+    match s.tau_undefined {
+        None => {
+            let _ = writeln!(
+                out,
+                "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
+                s.tau
+            );
+            let _ = writeln!(out, "sigma_over_tau   {:.6}", s.sigma_over_tau);
+        }
+        Some(why) => {
+            let _ = writeln!(out, "tau              {why}");
+            let _ = writeln!(out, "sigma_over_tau   undefined (tau is undefined)");
+        }
+    }
     let _ = writeln!(
         out,
         "rms_slope        {:.6}   sqrt(mean |grad h|^2)",

@@ -181,11 +181,16 @@ pub fn inplane_csv(run: &BrdfRun, results: &[IncidenceResult]) -> String {
     s
 }
 
-/// Surface statistics as JSON.
+/// Surface statistics as JSON. A statistic that is undefined for the map
+/// (`tau` and `sigma_over_tau` of a flat surface, or of heights correlated
+/// over more than half the cell) is `null`, and the object then has the key
+/// `undefined` mapping each such statistic to the reason, e.g. `"tau":
+/// "undefined for a flat surface (sigma = 0)"` (absent when every statistic
+/// is a number).
 #[must_use]
 pub fn surface_json(stats: &SurfaceStats, resolution: usize) -> Value {
     let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
-    json!({
+    let mut v = json!({
         "sigma": num(stats.sigma),
         "tau": num(stats.tau),
         "sigma_over_tau": num(stats.sigma_over_tau),
@@ -194,7 +199,14 @@ pub fn surface_json(stats: &SurfaceStats, resolution: usize) -> Value {
         "mean_height": num(stats.mean),
         "min_height": num(stats.min_height),
         "height_map_resolution": resolution,
-    })
+    });
+    if let (Some(why), Value::Object(m)) = (stats.tau_undefined, &mut v) {
+        m.insert(
+            "undefined".into(),
+            json!({"tau": why.to_string(), "sigma_over_tau": format!("tau is {why}")}),
+        );
+    }
+    v
 }
 
 /// One incidence's entry in `summary.json`.

@@ -84,16 +84,18 @@ impl Default for RenderSettings {
 }
 
 impl RenderSettings {
-    /// Check the settings; `Err` names the offending field in one line.
+    /// Check the settings; `Err` is one line starting with the `roks render`
+    /// option that sets the offending field (`--size`, `--spp`, `--view`,
+    /// `--light`, `--disc`, `--background`), then the field and its range.
     pub fn validate(&self) -> Result<(), String> {
         if self.width == 0 || self.height == 0 {
             return Err(format!(
-                "image size {}x{} must be at least 1x1",
+                "--size: image size {}x{} must be at least 1x1",
                 self.width, self.height
             ));
         }
         if self.spp == 0 {
-            return Err("spp must be at least 1".into());
+            return Err("--spp: spp must be at least 1".into());
         }
         let fin = |name: &str, x: f64| {
             if x.is_finite() {
@@ -102,11 +104,11 @@ impl RenderSettings {
                 Err(format!("{name} = {x} is not finite"))
             }
         };
-        fin("view phi", self.view_phi_deg)?;
-        fin("light phi", self.light_phi_deg)?;
+        fin("--view: view phi", self.view_phi_deg)?;
+        fin("--light: light phi", self.light_phi_deg)?;
         if !(0.0..90.0).contains(&self.view_theta_deg) {
             return Err(format!(
-                "view theta = {} degrees must be in [0, 90)",
+                "--view: view theta = {} degrees must be in [0, 90)",
                 self.view_theta_deg
             ));
         }
@@ -114,19 +116,22 @@ impl RenderSettings {
         // micro surface is then simply dark.
         if !(0.0..=180.0).contains(&self.light_theta_deg) {
             return Err(format!(
-                "light theta = {} degrees must be in [0, 180]",
+                "--light: light theta = {} degrees must be in [0, 180]",
                 self.light_theta_deg
             ));
         }
         if !(self.light_radius_deg > 0.0 && self.light_radius_deg <= 180.0) {
             return Err(format!(
-                "light radius = {} degrees must be in (0, 180]",
+                "--disc: light radius = {} degrees must be in (0, 180]",
                 self.light_radius_deg
             ));
         }
         for (name, x) in [
             ("light radiance", self.light_radiance),
-            ("background radiance", self.background_radiance),
+            (
+                "--background: background radiance",
+                self.background_radiance,
+            ),
         ] {
             if !(x.is_finite() && x >= 0.0) {
                 return Err(format!("{name} = {x} must be finite and >= 0"));
@@ -312,21 +317,29 @@ pub struct PinholeCamera {
 }
 
 impl PinholeCamera {
-    /// Check the camera; `Err` names the offending field in one line.
+    /// Check the camera; `Err` is one line starting with the `roks render`
+    /// option that sets the offending field (`--camera`, `--look-at`,
+    /// `--up`, `--fov`).
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.position.is_finite() && self.look_at.is_finite() && self.up.is_finite()) {
-            return Err("camera, look-at and up must be finite".into());
+        for (option, v) in [
+            ("--camera", self.position),
+            ("--look-at", self.look_at),
+            ("--up", self.up),
+        ] {
+            if !v.is_finite() {
+                return Err(format!("{option}: {v} must be finite"));
+            }
         }
         let f = self.look_at - self.position;
         if f.length() == 0.0 {
-            return Err("look-at must differ from the camera position".into());
+            return Err("--look-at: must differ from the camera position".into());
         }
         if f.normalize().cross(self.up).length() < 1e-9 {
-            return Err("up must not be parallel to the viewing axis".into());
+            return Err("--up: must not be zero or parallel to the viewing axis".into());
         }
         if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
             return Err(format!(
-                "fov = {} degrees must be in (0, 180)",
+                "--fov: fov = {} degrees must be in (0, 180)",
                 self.fov_deg
             ));
         }

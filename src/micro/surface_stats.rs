@@ -122,6 +122,35 @@ pub struct SurfaceStats {
     pub max_height: f64,
     /// Smallest height sample (length units).
     pub min_height: f64,
+    /// Why `tau` and `sigma_over_tau` are NaN; `None` when they are numbers.
+    pub tau_undefined: Option<TauUndefined>,
+}
+
+/// Why a map has no correlation length `tau` (and so no `sigma / tau`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TauUndefined {
+    /// A flat map (`sigma = 0`): no normalised autocorrelation at all.
+    Flat,
+    /// The radial autocorrelation stays above `1/e` out to `r_max = min(nx
+    /// dx, ny dy) / 2` (length units): the heights are correlated over more
+    /// than half the cell, `tau > r_max` if it exists at all.
+    BeyondHalfCell {
+        /// The largest lag of the profile (length units).
+        r_max: f64,
+    },
+}
+
+impl std::fmt::Display for TauUndefined {
+    /// The reason as a person reads it, e.g. `undefined for a flat surface (sigma = 0)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Flat => write!(f, "undefined for a flat surface (sigma = 0)"),
+            Self::BeyondHalfCell { r_max } => write!(
+                f,
+                "undefined: the radial autocorrelation stays above 1/e out to the largest lag, {r_max} (half the cell's shorter side)"
+            ),
+        }
+    }
 }
 
 /// Estimated peak memory (bytes) of [`surface_stats`] on an `nx x ny` map,
@@ -143,7 +172,8 @@ pub fn memory_bytes(nx: usize, ny: usize, periodic: bool) -> u64 {
 ///
 /// See the [module docs](self) for the definition of every statistic and the
 /// estimator used. A flat map gives `sigma = 0` and zero slopes (never NaN),
-/// and `tau = sigma_over_tau = NaN`.
+/// and `tau = sigma_over_tau = NaN` with `tau_undefined =
+/// Some(TauUndefined::Flat)`.
 ///
 /// # Panics
 ///
@@ -167,6 +197,14 @@ pub fn surface_stats(map: &HeightMap) -> SurfaceStats {
 
     let profile = radial_profile(map, mean);
     let tau = first_crossing(&profile, (-1.0f64).exp());
+    let tau_undefined = if tau.is_finite() {
+        None
+    } else if profile.is_empty() {
+        Some(TauUndefined::Flat)
+    } else {
+        let r_max = (map.nx as f64 * map.dx).min(map.ny as f64 * map.dy) / 2.0;
+        Some(TauUndefined::BeyondHalfCell { r_max })
+    };
 
     SurfaceStats {
         mean,
@@ -178,6 +216,7 @@ pub fn surface_stats(map: &HeightMap) -> SurfaceStats {
         rms_slope_y: mean_gy2.sqrt(),
         max_height,
         min_height,
+        tau_undefined,
     }
 }
 

@@ -1,0 +1,468 @@
+//! The command line's values and messages: value parsers for numbers, and
+//! clap's errors turned into the one line every bad input gets.
+//!
+//! # Conventions
+//! * Every bad option gives exactly one line on stderr, `roks: --seed: ...`,
+//!   naming the option and what it accepts, and exit status 2. The only
+//!   longer answer is `roks` without a subcommand: the first line says so,
+//!   the usage follows.
+//! * `--help` and `--version` print to stdout and exit 0.
+//! * Every option that takes a value takes a negative number as its value
+//!   (`--seed -1` is the value -1 of `--seed`, refused as out of range; not
+//!   an unknown option `-1`).
+//! * Integer options ([`integer`], [`positive`]) take digits, or an exact
+//!   decimal with an exponent as people write large counts: `1e6`, `2.5e3`,
+//!   `1E+9` are 1000000, 2500, 1000000000. Values that are not whole
+//!   numbers (`1.5`, `1e-3`) and values beyond the option's type are
+//!   refused, never rounded.
+//! * Real options ([`number`]) take any finite decimal (`inf` and `nan` are
+//!   refused).
+
+use std::ffi::OsString;
+use std::process::ExitCode;
+
+use clap::error::{ContextKind, ContextValue, ErrorKind};
+use clap::{Command, CommandFactory, FromArgMatches};
+
+/// Unsigned integer types of the integer options.
+pub trait Unsigned: TryFrom<u64> {
+    /// The largest value of the type.
+    const MAX: u64;
+}
+
+impl Unsigned for u32 {
+    const MAX: u64 = u32::MAX as u64;
+}
+
+impl Unsigned for u64 {
+    const MAX: u64 = u64::MAX;
+}
+
+impl Unsigned for usize {
+    const MAX: u64 = usize::MAX as u64;
+}
+
+/// Why a text is not an exact unsigned integer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NotInteger {
+    /// Not a decimal number at all (or empty).
+    NotANumber,
+    /// A negative number.
+    Negative,
+    /// A number with a fractional part (`1.5`, `1e-3`).
+    NotWhole,
+    /// Larger than `u64::MAX`.
+    TooLarge,
+}
+
+/// The exact value of `s` as an unsigned integer: digits with an optional
+/// fraction and exponent, `[+]D[.D][(e|E)[+|-]D]`, whose value is a whole
+/// number (`2.5e3` is 2500; `1.5` is [`NotInteger::NotWhole`]).
+pub fn exact_integer(s: &str) -> Result<u64, NotInteger> {
+    if let Some(rest) = s.strip_prefix('-') {
+        return Err(if exact_integer(rest) == Err(NotInteger::NotANumber) {
+            NotInteger::NotANumber
+        } else {
+            NotInteger::Negative
+        });
+    }
+    let body = s.strip_prefix('+').unwrap_or(s);
+    let (mantissa, exponent) = match body.find(['e', 'E']) {
+        Some(i) => (&body[..i], Some(&body[i + 1..])),
+        None => (body, None),
+    };
+    let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+    let digits = |t: &str| t.bytes().all(|b| b.is_ascii_digit());
+    if int.len() + frac.len() == 0 || !digits(int) || !digits(frac) {
+        return Err(NotInteger::NotANumber);
+    }
+    // The exponent, saturated far beyond any u64 (a longer one changes nothing).
+    let exp: i64 = match exponent {
+        None => 0,
+        Some(e) => {
+            let (neg, d) = match e.as_bytes().first() {
+                Some(b'-') => (true, &e[1..]),
+                Some(b'+') => (false, &e[1..]),
+                _ => (false, e),
+            };
+            if d.is_empty() || !digits(d) {
+                return Err(NotInteger::NotANumber);
+            }
+            let v = d.trim_start_matches('0');
+            let v: i64 = if v.len() > 6 {
+                1_000_000
+            } else {
+                v.parse().unwrap_or(0)
+            };
+            if neg { -v } else { v }
+        }
+    };
+    let mut m: u128 = 0;
+    for b in int.bytes().chain(frac.bytes()) {
+        m = m
+            .checked_mul(10)
+            .and_then(|m| m.checked_add(u128::from(b - b'0')))
+            .ok_or(NotInteger::TooLarge)?;
+    }
+    if m == 0 {
+        return Ok(0);
+    }
+    let e = exp - frac.len() as i64;
+    let v = if e >= 0 {
+        u32::try_from(e)
+            .ok()
+            .and_then(|e| 10_u128.checked_pow(e))
+            .and_then(|p| m.checked_mul(p))
+            .ok_or(NotInteger::TooLarge)?
+    } else {
+        // m < 2^128 < 10^39: a divisor 10^39 or more leaves a fraction.
+        let p = u32::try_from(-e)
+            .ok()
+            .and_then(|k| 10_u128.checked_pow(k))
+            .ok_or(NotInteger::NotWhole)?;
+        if m % p != 0 {
+            return Err(NotInteger::NotWhole);
+        }
+        m / p
+    };
+    u64::try_from(v).map_err(|_| NotInteger::TooLarge)
+}
+
+/// An integer of at least `min` and at most `T::MAX`, with the message
+/// saying what is allowed.
+fn at_least<T: Unsigned>(s: &str, min: u64) -> Result<T, String> {
+    let allowed = format!("an integer >= {min} (digits, or exact forms like 1e6 or 2.5e3)");
+    let got = if s.is_empty() {
+        "an empty value".to_string()
+    } else {
+        format!("`{s}`")
+    };
+    let v = exact_integer(s).map_err(|why| match why {
+        NotInteger::NotANumber => format!("expected {allowed}, got {got}"),
+        NotInteger::Negative => format!("must be {allowed}, got {got}"),
+        NotInteger::NotWhole => format!("must be {allowed}, got {got} (not a whole number)"),
+        NotInteger::TooLarge => format!("must be at most {}, got {got}", T::MAX),
+    })?;
+    if v < min {
+        return Err(format!("must be {allowed}, got {got}"));
+    }
+    if v > T::MAX {
+        return Err(format!("must be at most {}, got {got}", T::MAX));
+    }
+    T::try_from(v).map_err(|_| format!("must be at most {}, got {got}", T::MAX))
+}
+
+/// Value parser of integer options that may be 0 (`--seed`, `--scan`, ...).
+///
+/// # Errors
+/// A message naming what is allowed and what was given.
+pub fn integer<T: Unsigned>(s: &str) -> Result<T, String> {
+    at_least(s, 0)
+}
+
+/// Value parser of integer options that must be at least 1 (`--photons`,
+/// `--threads`, `--size`, ...).
+///
+/// # Errors
+/// A message naming what is allowed and what was given.
+pub fn positive<T: Unsigned>(s: &str) -> Result<T, String> {
+    at_least(s, 1)
+}
+
+/// Value parser of real options: a finite decimal number.
+///
+/// # Errors
+/// A message naming what is allowed and what was given.
+pub fn number(s: &str) -> Result<f64, String> {
+    if s.is_empty() {
+        return Err("expected a number, got an empty value".into());
+    }
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        Ok(_) => Err(format!("must be a finite number, got `{s}`")),
+        Err(_) => Err(format!("expected a number, got `{s}`")),
+    }
+}
+
+/// The command of `C` as `roks` parses it: every option that takes values
+/// also takes negative numbers as values (see the module doc).
+#[must_use]
+pub fn command<C: CommandFactory>() -> Command {
+    fn negatives(cmd: Command) -> Command {
+        cmd.mut_args(|a| {
+            if a.get_action().takes_values() && !a.is_positional() {
+                a.allow_negative_numbers(true)
+            } else {
+                a
+            }
+        })
+        .mut_subcommands(negatives)
+    }
+    negatives(C::command())
+}
+
+/// Parse the process's arguments into `C`. On `--help` or `--version`: the
+/// text on stdout and `Err(ExitCode::SUCCESS)`; on a bad argument: one line
+/// `roks: ...` on stderr (see [`message`]) and `Err(2)`.
+///
+/// # Errors
+/// The exit code to end the process with, its output printed.
+pub fn parse<C: CommandFactory + FromArgMatches>() -> Result<C, ExitCode> {
+    let args: Vec<OsString> = std::env::args_os().collect();
+    let cmd = command::<C>();
+    let e = match cmd
+        .clone()
+        .try_get_matches_from(&args)
+        .and_then(|mut m| C::from_arg_matches_mut(&mut m))
+    {
+        Ok(c) => return Ok(c),
+        Err(e) => e,
+    };
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            // A closed pipe (`roks --help | head`) is a clean end.
+            let _ = e.print();
+            Err(ExitCode::SUCCESS)
+        }
+        _ => {
+            let args: Vec<String> = args
+                .iter()
+                .skip(1)
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect();
+            eprintln!("roks: {}", message(&cmd, &args, &e));
+            if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                use std::io::Write as _;
+                let help = cmd.clone().render_help();
+                let _ = write!(std::io::stderr(), "\n{help}");
+            }
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
+/// The option of a clap argument as written in its messages (`--seed
+/// <SEED>` is `--seed`; a positional `<SCENE>` stays `<SCENE>`).
+fn option_name(arg: &str) -> &str {
+    if arg.starts_with('-') {
+        arg.split([' ', '=']).next().unwrap_or(arg)
+    } else {
+        arg
+    }
+}
+
+fn strings(v: Option<&ContextValue>) -> Vec<String> {
+    match v {
+        Some(ContextValue::String(s)) => vec![s.clone()],
+        Some(ContextValue::Strings(s)) => s.clone(),
+        Some(ContextValue::StyledStr(s)) => vec![s.to_string()],
+        Some(ContextValue::StyledStrs(s)) => s.iter().map(ToString::to_string).collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn quoted(list: &[String]) -> String {
+    list.iter()
+        .map(|s| format!("`{s}`"))
+        .collect::<Vec<_>>()
+        .join(" or ")
+}
+
+/// The one line (without `roks: `) for a clap error `e` of `cmd`, given the
+/// arguments `args` (without the program name; they name the subcommand).
+#[must_use]
+pub fn message(cmd: &Command, args: &[String], e: &clap::Error) -> String {
+    let one = |kind| strings(e.get(kind));
+    let first = |kind| one(kind).into_iter().next().unwrap_or_default();
+    let arg = first(ContextKind::InvalidArg);
+    let option = option_name(&arg).to_string();
+    let value = first(ContextKind::InvalidValue);
+    let sub = args
+        .iter()
+        .find_map(|a| cmd.find_subcommand(a))
+        .filter(|s| s.get_name() != "help");
+    // `roks brdf` and `roks brdf --help`, or `roks` and `roks --help`.
+    let (usage, help) = sub.map_or_else(
+        || ("roks".to_string(), "roks --help".to_string()),
+        |s| {
+            let n = s.get_name();
+            (format!("roks {n}"), format!("roks {n} --help"))
+        },
+    );
+    let subcommands = || {
+        cmd.get_subcommands()
+            .map(|s| s.get_name().to_string())
+            .filter(|n| n != "help")
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let suggest = |kind| {
+        let s = one(kind);
+        if s.is_empty() {
+            String::new()
+        } else {
+            format!("; did you mean {}?", quoted(&s))
+        }
+    };
+    match e.kind() {
+        ErrorKind::ValueValidation => {
+            let why = std::error::Error::source(e)
+                .map_or_else(|| format!("invalid value `{value}`"), ToString::to_string);
+            format!("{option}: {why}")
+        }
+        ErrorKind::InvalidValue => {
+            let valid = one(ContextKind::ValidValue);
+            let allowed = if valid.is_empty() {
+                String::new()
+            } else {
+                format!(": one of {}", valid.join(", "))
+            };
+            if value.is_empty() {
+                format!("{option}: needs a value{allowed}")
+            } else {
+                format!(
+                    "{option}: `{value}` is not allowed{allowed}{}",
+                    suggest(ContextKind::SuggestedValue)
+                )
+            }
+        }
+        ErrorKind::UnknownArgument if arg.starts_with('-') && arg.len() > 1 => format!(
+            "{arg}: unknown option of `{usage}`{} (`{help}` lists the options)",
+            suggest(ContextKind::SuggestedArg),
+        ),
+        ErrorKind::UnknownArgument => {
+            format!("`{arg}`: unexpected argument of `{usage}` (`{help}` shows what it takes)")
+        }
+        ErrorKind::InvalidSubcommand => format!(
+            "`{}`: unknown subcommand, expected one of {}{}",
+            first(ContextKind::InvalidSubcommand),
+            subcommands(),
+            suggest(ContextKind::SuggestedSubcommand),
+        ),
+        ErrorKind::MissingSubcommand | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            format!("missing subcommand: one of {}", subcommands())
+        }
+        ErrorKind::MissingRequiredArgument => format!(
+            "missing {} (`{help}` shows the usage)",
+            one(ContextKind::InvalidArg).join(" and "),
+        ),
+        ErrorKind::ArgumentConflict => {
+            let prior = one(ContextKind::PriorArg);
+            if prior.is_empty() || prior.iter().all(|p| p == &arg) {
+                format!("{option}: given more than once (give each option once)")
+            } else {
+                format!(
+                    "{option}: cannot be used with {}",
+                    prior
+                        .iter()
+                        .map(|p| option_name(p))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        }
+        ErrorKind::TooManyValues
+        | ErrorKind::TooFewValues
+        | ErrorKind::WrongNumberOfValues
+        | ErrorKind::NoEquals => {
+            format!("{option}: {}", clap_line(e))
+        }
+        ErrorKind::InvalidUtf8 => format!("an argument of `{usage}` is not valid UTF-8"),
+        _ => clap_line(e),
+    }
+}
+
+/// Clap's own message, as one line (its first, without `error: `).
+fn clap_line(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let line = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+    line.trim_start_matches("error: ").trim().to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_integers() {
+        for (s, v) in [
+            ("0", 0),
+            ("42", 42),
+            ("+7", 7),
+            ("1e6", 1_000_000),
+            ("1E+9", 1_000_000_000),
+            ("2.5e3", 2500),
+            ("2.50e1", 25),
+            ("100e-2", 1),
+            ("0e99999999999", 0),
+            ("0.0", 0),
+            ("1e18", 1_000_000_000_000_000_000),
+            ("18446744073709551615", u64::MAX),
+            ("1.8446744073709551615e19", u64::MAX),
+            ("007", 7),
+        ] {
+            assert_eq!(exact_integer(s), Ok(v), "{s}");
+        }
+        for (s, why) in [
+            ("", NotInteger::NotANumber),
+            ("a", NotInteger::NotANumber),
+            ("1e", NotInteger::NotANumber),
+            ("e5", NotInteger::NotANumber),
+            (".", NotInteger::NotANumber),
+            ("1,000", NotInteger::NotANumber),
+            (" 1", NotInteger::NotANumber),
+            ("inf", NotInteger::NotANumber),
+            ("0x10", NotInteger::NotANumber),
+            ("-x", NotInteger::NotANumber),
+            ("-1", NotInteger::Negative),
+            ("-1e6", NotInteger::Negative),
+            ("1.5", NotInteger::NotWhole),
+            ("1e-3", NotInteger::NotWhole),
+            ("1e-99999999", NotInteger::NotWhole),
+            ("18446744073709551616", NotInteger::TooLarge),
+            ("1e20", NotInteger::TooLarge),
+            ("1e99999999", NotInteger::TooLarge),
+            (
+                "9999999999999999999999999999999999999999999",
+                NotInteger::TooLarge,
+            ),
+        ] {
+            assert_eq!(exact_integer(s), Err(why), "{s}");
+        }
+    }
+
+    #[test]
+    fn parser_messages() {
+        assert_eq!(integer::<u64>("1e6"), Ok(1_000_000));
+        assert_eq!(positive::<u32>("16"), Ok(16));
+        assert_eq!(
+            integer::<u64>("-1").unwrap_err(),
+            "must be an integer >= 0 (digits, or exact forms like 1e6 or 2.5e3), got `-1`"
+        );
+        assert_eq!(
+            positive::<usize>("0").unwrap_err(),
+            "must be an integer >= 1 (digits, or exact forms like 1e6 or 2.5e3), got `0`"
+        );
+        assert_eq!(
+            positive::<u32>("5e9").unwrap_err(),
+            "must be at most 4294967295, got `5e9`"
+        );
+        assert!(positive::<u64>("1.5").unwrap_err().contains("whole number"));
+        assert!(
+            integer::<u64>("")
+                .unwrap_err()
+                .ends_with("got an empty value")
+        );
+        assert_eq!(number("-2.5"), Ok(-2.5));
+        assert_eq!(number("a").unwrap_err(), "expected a number, got `a`");
+        assert_eq!(
+            number("").unwrap_err(),
+            "expected a number, got an empty value"
+        );
+        assert_eq!(
+            number("inf").unwrap_err(),
+            "must be a finite number, got `inf`"
+        );
+        assert!(number("1e400").is_err());
+    }
+}
