@@ -65,6 +65,7 @@
 //! side; a Gaussian field's `tau` is at most the cell's longer side; at
 //! most [`crate::transport::launch::MAX_PHOTONS`] = 2^53 photons per angle.
 
+use super::Num;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -661,7 +662,7 @@ fn check_size(source: &Source, [lx, ly]: [f64; 2]) -> Result<DVec2, SceneError> 
         if !(l.is_finite() && l > 0.0) {
             return Err(source.error(
                 format!("surface.size[{i}]"),
-                format!("must be > 0, got {l}"),
+                format!("must be > 0, got {}", Num(l)),
             ));
         }
         length_bounds(l).map_err(|e| source.error(format!("surface.size[{i}]"), e))?;
@@ -684,7 +685,7 @@ impl HeightFieldSpec {
             if v.is_finite() && v > 0.0 {
                 Ok(v)
             } else {
-                Err(source.error(key(k), format!("must be > 0, got {v}")))
+                Err(source.error(key(k), format!("must be > 0, got {}", Num(v))))
             }
         };
         let length = |k: &str, v: f64| {

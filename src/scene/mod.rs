@@ -45,6 +45,27 @@ impl fmt::Display for SceneError {
 
 impl std::error::Error for SceneError {}
 
+/// A number as messages show it: at most 12 significant digits (so that
+/// `0.6 + 0.7` shows as 1.3, not 1.2999999999999998), in exponent form when
+/// very large or small (1e-300, not three hundred digits), `NaN`, `inf`.
+#[derive(Debug, Clone, Copy)]
+pub struct Num(pub f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let x = self.0;
+        if !x.is_finite() {
+            return write!(f, "{x}");
+        }
+        let r: f64 = format!("{x:.11e}").parse().unwrap_or(x);
+        if r == 0.0 || (1e-4..1e12).contains(&r.abs()) {
+            write!(f, "{r}")
+        } else {
+            write!(f, "{r:e}")
+        }
+    }
+}
+
 /// Where a scene came from: the file name for messages and the folder for relative paths.
 #[derive(Debug, Clone)]
 pub struct Source {
@@ -178,12 +199,12 @@ impl Range {
             return Err(source.error(key, "must be finite"));
         }
         if lo > hi {
-            return Err(source.error(key, format!("range [{lo}, {hi}] is reversed")));
+            return Err(source.error(key, format!("range [{}, {}] is reversed", Num(lo), Num(hi))));
         }
         let ok = if inclusive { lo >= min } else { lo > min };
         if !ok {
             let rel = if inclusive { ">=" } else { ">" };
-            return Err(source.error(key, format!("must be {rel} {min}, got {lo}")));
+            return Err(source.error(key, format!("must be {rel} {}, got {}", Num(min), Num(lo))));
         }
         Ok(())
     }
@@ -268,7 +289,10 @@ impl QuadricSpec {
             if x.is_finite() && x > 0.0 {
                 Ok(x)
             } else {
-                Err(source.error(format!("{key}.{what}"), format!("must be > 0, got {x}")))
+                Err(source.error(
+                    format!("{key}.{what}"),
+                    format!("must be > 0, got {}", Num(x)),
+                ))
             }
         };
         let q = match self {
@@ -356,7 +380,7 @@ impl MaterialSpec {
             if !(0.0..=1.0).contains(&r) {
                 return Err(source.error(
                     format!("{key}.reflectance"),
-                    format!("must be in [0, 1], got {r}"),
+                    format!("must be in [0, 1], got {}", Num(r)),
                 ));
             }
             return Ok(Reflectance::Constant(r));
@@ -364,10 +388,14 @@ impl MaterialSpec {
         if let Some(n) = self.n {
             let k = self.k.unwrap_or(0.0);
             if !(n.is_finite() && n > 0.0) {
-                return Err(source.error(format!("{key}.n"), format!("must be > 0, got {n}")));
+                return Err(
+                    source.error(format!("{key}.n"), format!("must be > 0, got {}", Num(n)))
+                );
             }
             if !(k.is_finite() && k >= 0.0) {
-                return Err(source.error(format!("{key}.k"), format!("must be >= 0, got {k}")));
+                return Err(
+                    source.error(format!("{key}.k"), format!("must be >= 0, got {}", Num(k)))
+                );
             }
             return Ok(Reflectance::Fresnel { n, k });
         }
@@ -516,5 +544,25 @@ impl PolarisationSpec {
         };
         state.validate().map_err(|e| source.error(key, e))?;
         Ok(state)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Num;
+
+    #[test]
+    fn numbers_in_messages() {
+        let show = |x: f64| Num(x).to_string();
+        assert_eq!(show(0.6 + 0.7), "1.3");
+        assert_eq!(show(1e-300), "1e-300");
+        assert_eq!(show(-1e300), "-1e300");
+        assert_eq!(show(2.5), "2.5");
+        assert_eq!(show(-10.0), "-10");
+        assert_eq!(show(0.0), "0");
+        assert_eq!(show(1.23456789012345e20), "1.23456789012e20");
+        assert_eq!(show(5e-324), "5e-324");
+        assert_eq!(show(f64::NAN), "NaN");
+        assert_eq!(show(f64::NEG_INFINITY), "-inf");
     }
 }

@@ -82,6 +82,7 @@
 //!   equals `farfield.csv`'s `brdf`), with standard errors and the degree of
 //!   polarisation, in the same frames (below the horizon too).
 
+use super::Num;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -617,12 +618,15 @@ impl ModelSpec {
                 if !(0.0..=1.0).contains(&v) {
                     return Err(source.error(
                         format!("{key}.{name}"),
-                        format!("must be in [0, 1], got {v}"),
+                        format!("must be in [0, 1], got {}", Num(v)),
                     ));
                 }
             }
             if s + d > 1.0 {
-                return Err(source.error(key, format!("specular + diffuse = {} exceeds 1", s + d)));
+                return Err(source.error(
+                    key,
+                    format!("specular + diffuse = {} exceeds 1", Num(s + d)),
+                ));
             }
             return Ok(WallModel::Ideal {
                 specular: s,

@@ -19,6 +19,7 @@
 //! `|psi| <= half_width` are accepted, so each bin is a `step x 2 half_width`
 //! detector.
 
+use crate::scene::Num;
 use glam::DVec3;
 
 /// Tolerance on `180 / step_deg` being a whole number.
@@ -53,7 +54,7 @@ impl InPlaneTally {
     pub fn width_error(width_deg: f64) -> Option<String> {
         let half = 0.5 * width_deg;
         if !(width_deg > 0.0 && width_deg <= 180.0) {
-            Some(format!("must be in (0, 180], got {width_deg}"))
+            Some(format!("must be in (0, 180], got {}", Num(width_deg)))
         } else if !(half > 0.0 && half <= 90.0) {
             Some(format!(
                 "{width_deg:e} is too small: its half rounds to 0 (at least 1e-323)"

@@ -19,6 +19,7 @@
 //! then the intensity `S0` for the incident state, and [`PolarTallies`] keep
 //! the Stokes or Mueller BRDF per cell ([`crate::tally::polar`]).
 
+use crate::scene::Num;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -409,7 +410,7 @@ impl BrdfRun {
             if !(t.is_finite() && (0.0..90.0).contains(t)) {
                 return err(
                     &format!("light.theta_deg[{i}]"),
-                    format!("must be in [0, 90), got {t}"),
+                    format!("must be in [0, 90), got {}", Num(*t)),
                 );
             }
         }
@@ -441,8 +442,9 @@ impl BrdfRun {
             return err(
                 "tally.inplane_step_deg",
                 format!(
-                    "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {step}",
-                    crate::tally::inplane::MAX_BINS
+                    "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {}",
+                    crate::tally::inplane::MAX_BINS,
+                    Num(step)
                 ),
             );
         }
