@@ -1315,7 +1315,10 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
     check_out_file(&a.out)?;
-    let ext = a.out.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let ext = a
+        .out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
     if !matches!(ext.as_deref(), Some("exr" | "txt")) {
         return Err(Failure::Input(format!(
             "--out: the extension picks the format, .exr or .txt; got `{}`",

@@ -472,7 +472,8 @@ impl MicroScene {
 
     /// Parse and build from TOML text.
     pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        let spec: MicroSceneSpec = parse_toml(&source, text)?;
+        let spec: MicroSceneSpec = parse_toml(&source, text)
+            .map_err(|e| super::other_kind(text, "cells", e, "an object scene ([[cells]]): roks trace traces it; this command takes micro scenes ([surface])"))?;
         spec.build(source, fallback_name)
     }
 }

@@ -108,6 +108,20 @@ fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// `error` of a scene that did not parse, or, when `text` is a valid TOML
+/// table holding the top-level key `marker` of the other kind of scene
+/// (micro or object), a message saying so (`what`), at that key.
+pub(crate) fn other_kind(text: &str, marker: &str, error: SceneError, what: &str) -> SceneError {
+    match text.parse::<toml::Table>() {
+        Ok(t) if t.contains_key(marker) => SceneError {
+            key: marker.into(),
+            message: format!("this is {what}"),
+            ..error
+        },
+        _ => error,
+    }
+}
+
 /// Deserialize `text` as `T`, reporting the key path of the first problem.
 pub fn parse_toml<T: serde::de::DeserializeOwned>(
     source: &Source,

@@ -285,7 +285,8 @@ impl ObjectScene {
 
     /// Parse and build from TOML text.
     pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        let spec: ObjectSceneSpec = parse_toml(&source, text)?;
+        let spec: ObjectSceneSpec = parse_toml(&source, text)
+            .map_err(|e| super::other_kind(text, "surface", e, "a micro scene ([surface]): roks brdf traces it; roks trace takes object scenes ([[cells]])"))?;
         spec.build(source, fallback_name)
     }
 }
