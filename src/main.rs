@@ -432,9 +432,6 @@ fn load_scene(path: Option<&Path>) -> Result<MicroScene, Failure> {
 
 fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
     if let Some(t) = threads {
-        if t == 0 {
-            return Err(Failure::Input("--threads: must be >= 1".into()));
-        }
         // Each worker reserves a 2 MiB stack (rayon's default).
         let bytes = roks::limits::product(&[t as u64, 2 << 20]);
         check_memory(
@@ -544,9 +541,6 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
     let mut run = scene.brdf_run();
     if let Some(p) = a.photons {
-        if p == 0 {
-            return Err(Failure::Input("--photons: must be > 0".into()));
-        }
         run.photons = p;
     }
     if let Some(s) = a.seed {
@@ -996,9 +990,6 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
     let mut run = scene.run.clone();
     let mut photons = scene.photons.clone();
     if let Some(p) = a.photons {
-        if p == 0 {
-            return Err(Failure::Input("--photons: must be > 0".into()));
-        }
         if let Some(e) = roks::transport::launch::photons_beyond_tallies(p) {
             return Err(Failure::Input(format!("--photons: {e}")));
         }
