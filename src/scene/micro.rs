@@ -118,7 +118,8 @@ fn aspect_bound(height: f64, size: DVec2) -> Result<(), String> {
     let side = size.min_element();
     if height > MAX_ASPECT * side {
         return Err(format!(
-            "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {side}: positions that high do not resolve the cell"
+            "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {}: positions that high do not resolve the cell",
+            Num(side)
         ));
     }
     Ok(())
