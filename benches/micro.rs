@@ -15,6 +15,12 @@
 //! * `heightfield/gaussian_{256,1024}_60deg`: photons of `scenes/gaussian.toml`
 //!   (a Gaussian height field of Al, sigma 1, tau 11.9 on 64 x 64) at 60
 //!   degrees on 256² and 1024² grids (segments per photon printed once).
+//! * `scaling/{bumps_100,bumps_100000,field_256,field_4096}`: one thread,
+//!   60 degrees, the scenes of `scripts/scaling.py` (the default scene's
+//!   ellipsoids at constant density on a cell of side 3 sqrt(N); Gaussian
+//!   fields of sigma 1, tau 8 pitches, pitch 0.25): the rate per thread of
+//!   100 000 bumps against 100, and of a 4096² field against 256²
+//!   (segments per photon printed once for each).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
@@ -143,5 +149,52 @@ fn polarisation(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, brdf, entry, polarisation, heightfield);
+/// `scripts/scaling.py`'s bump scene: N ellipsoids at constant density.
+fn bump_scene(n: usize) -> String {
+    let side = 3.0 * (n as f64).sqrt();
+    format!(
+        "name = \"bumps-{n}\"\n[surface]\nsize = [{side:?}, {side:?}]\nedges = \"periodic\"\n\
+         material = \"paint\"\n[materials.paint]\nreflectance = 0.8\n[[bumps]]\nshape = \"ellipsoid\"\n\
+         count = {n}\nradius = [2.5, 3.5]\nheight = [0.8, 4.8]\nseed = 1\n[light]\ntheta_deg = [60]\n"
+    )
+}
+
+/// `scripts/scaling.py`'s height-field scene: an N² Gaussian field.
+fn field_scene(n: usize) -> String {
+    let side = 0.25 * n as f64;
+    format!(
+        "name = \"field-{n}\"\n[surface]\nsize = [{side:?}, {side:?}]\nedges = \"periodic\"\n\
+         material = \"paint\"\nheightfield = {{ gaussian = {{ sigma = 1.0, tau = 2.0 }}, resolution = {n}, seed = 1 }}\n\
+         [materials.paint]\nreflectance = 0.8\n[light]\ntheta_deg = [60]\n"
+    )
+}
+
+fn scaling(c: &mut Criterion) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a one-thread pool");
+    let mut g = c.benchmark_group("scaling");
+    g.sample_size(10);
+    for (name, text) in [
+        ("bumps_100", bump_scene(100)),
+        ("bumps_100000", bump_scene(100_000)),
+        ("field_256", field_scene(256)),
+        ("field_4096", field_scene(4096)),
+    ] {
+        let source = roks::scene::Source {
+            file: format!("{name}.toml").into(),
+            dir: ".".into(),
+        };
+        let scene = MicroScene::from_str(&text, source, name.into()).unwrap();
+        let run = pool.install(|| probe_run(&scene, name));
+        g.throughput(Throughput::Elements(run.photons));
+        g.bench_function(name, |b| {
+            b.iter(|| pool.install(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {}))));
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, brdf, entry, polarisation, heightfield, scaling);
 criterion_main!(benches);
