@@ -226,17 +226,6 @@ impl Flat {
             Self::Program(ops) => run_program(ops, positive),
         }
     }
-
-    /// Heap bytes this form owns, with a 16-byte allocator overhead per
-    /// allocation: for memory estimates.
-    #[must_use]
-    pub fn heap_bytes(&self) -> usize {
-        match self {
-            Self::Intersection { .. } | Self::Never => 0,
-            Self::Table { bits, .. } => 16 + 8 * bits.capacity(),
-            Self::Program(ops) => 16 + ops.capacity() * std::mem::size_of::<Op>(),
-        }
-    }
 }
 
 /// Runs a postfix program (see [`Op`]); the stack is the bits of a `u128`,
@@ -947,7 +936,11 @@ mod tests {
         let flat = r.flat().unwrap();
         assert!(matches!(flat, Flat::Program(_)), "{flat:?}");
         for bits in 0..1_u64 << 12 {
-            assert_eq!(flat.contains(bits), r.contains(|i| bits >> i & 1 == 1), "{bits:012b}");
+            assert_eq!(
+                flat.contains(bits),
+                r.contains(|i| bits >> i & 1 == 1),
+                "{bits:012b}"
+            );
         }
     }
 
