@@ -35,6 +35,10 @@ use cell::{CellEntry, CompiledCell};
 /// Most candidate entries one flight keeps before falling back to the scan.
 const CANDIDATES: usize = 16;
 
+/// Objects with at most this many solids are scanned directly (the scan
+/// costs no more than the hierarchy's bookkeeping there).
+const SCAN_SOLIDS: usize = 4;
+
 /// A solid cell: where photons reflect.
 #[derive(Clone, Debug)]
 pub struct SolidCell {
@@ -122,6 +126,9 @@ impl Object {
     #[must_use]
     pub fn next_hit(&self, o: DVec3, d: DVec3, standing: Option<(usize, usize)>) -> Option<Hit> {
         let ray = Ray::new(o, d);
+        if self.solids.len() <= SCAN_SOLIDS {
+            return self.scan(&ray, standing);
+        }
         let mut found = [(
             0_usize,
             CellEntry {
