@@ -97,7 +97,7 @@ impl Bvh {
         let Some(root) = self.nodes.first() else {
             return bound;
         };
-        let Some((t_root, _)) = root.bounds.clip(ray, bound) else {
+        let Some(t_root) = entry(&root.bounds, ray, bound) else {
             return bound;
         };
         let mut stack = [(0_u32, 0.0_f64); MAX_DEPTH];
@@ -118,8 +118,8 @@ impl Bvh {
                 continue;
             }
             let (a, b) = (node.first, node.first + 1);
-            let ta = self.nodes[a as usize].bounds.clip(ray, bound).map(|c| c.0);
-            let tb = self.nodes[b as usize].bounds.clip(ray, bound).map(|c| c.0);
+            let ta = entry(&self.nodes[a as usize].bounds, ray, bound);
+            let tb = entry(&self.nodes[b as usize].bounds, ray, bound);
             // The farther child first on the stack, so the nearer is popped first.
             let mut push = |id: u32, t: f64| {
                 stack[depth] = (id, t);
@@ -173,6 +173,20 @@ impl Bvh {
         }
         false
     }
+}
+
+/// Where `ray` enters the finite box `b` within `[0, bound]` (slab test).
+///
+/// A ray parallel to a face and exactly in its plane gets a NaN slab, which
+/// the comparisons below take as a miss: the boxes are widened (see
+/// [`super::cell`]) so no cell reaches their faces.
+#[inline]
+fn entry(b: &Aabb, ray: &Ray, bound: f64) -> Option<f64> {
+    let t1 = (b.min - ray.o) * ray.inv_d;
+    let t2 = (b.max - ray.o) * ray.inv_d;
+    let near = t1.min(t2).max_element().max(0.0);
+    let far = t1.max(t2).min_element().min(bound);
+    (near <= far).then_some(near)
 }
 
 /// The smallest box holding every box of `work`.

@@ -228,13 +228,18 @@ pub fn half_space_box(q: &Quadric, sense: Sense) -> Aabb {
 }
 
 /// The box widened by [`BOX_MARGIN`] of its size and position on every
-/// axis; `None` if it is unbounded on some axis, empty or not finite.
+/// axis; `None` if it is unbounded on some axis, empty, not finite or the
+/// single point at the origin.
 fn widened(b: Aabb) -> Option<Aabb> {
     let finite = b.min.is_finite() && b.max.is_finite();
     if !finite || (0..3).any(|i| b.min[i] > b.max[i]) {
         return None;
     }
     let scale = (b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element();
+    if scale == 0.0 {
+        // A point at the origin: no margin to widen by.
+        return None;
+    }
     let pad = DVec3::splat(BOX_MARGIN * scale);
     Some(Aabb {
         min: b.min - pad,
