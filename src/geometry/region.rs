@@ -25,6 +25,8 @@
 use std::fmt;
 use thiserror::Error;
 
+use super::body::Aabb;
+
 /// Maximum nesting depth of parentheses and complements accepted by
 /// [`parse`], which bounds the recursion of parsing and evaluation.
 pub const MAX_DEPTH: usize = 64;
@@ -145,6 +147,103 @@ pub enum RegionError {
         /// Position of the first half-space beyond the limit.
         position: usize,
     },
+}
+
+/// Most surfaces (indices `0..64`) a [`Flat`] region may refer to: one bit
+/// each in the side set.
+pub const FLAT_SURFACES: usize = 64;
+
+/// Most surfaces for which [`Region::flat`] tabulates a general region
+/// (a truth table of `2^n` bits, at most 128 bytes).
+pub const TABLE_SURFACES: usize = 10;
+
+/// Most values the postfix program of a [`Flat::Program`] keeps on its stack
+/// (bits of a `u128`).
+const PROGRAM_STACK: usize = 128;
+
+/// One step of a [`Flat::Program`], in postfix order over a stack of bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Op {
+    /// Push whether the point is in the half-space `sense` of `surface`.
+    Half {
+        /// Surface index (below [`FLAT_SURFACES`]).
+        surface: u8,
+        /// The half-space.
+        sense: Sense,
+    },
+    /// Replace the top of the stack by its complement.
+    Not,
+    /// Pop two values, push their intersection.
+    And,
+    /// Pop two values, push their union.
+    Or,
+}
+
+/// A region compiled once into a form evaluated without recursion from the
+/// set of sides of a point: bit `i` of `positive` is set when the point is on
+/// the positive side of surface `i` (`f_i > 0`). Built by [`Region::flat`];
+/// [`Flat::contains`] gives exactly [`Region::contains`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Flat {
+    /// An intersection of half-spaces (complements pushed inwards): inside
+    /// when `positive & mask == want`. `mask` has the bits of the surfaces
+    /// named, `want` those named with `+`. A half-space and its complement
+    /// together (`-a +a`) give the empty region, `Never`.
+    Intersection {
+        /// The surfaces of the intersection.
+        mask: u64,
+        /// Those whose positive side is wanted.
+        want: u64,
+    },
+    /// The empty region (an intersection of contradictory half-spaces).
+    Never,
+    /// A truth table over the first `n` surfaces (`n <=`
+    /// [`TABLE_SURFACES`]): inside when bit `positive` of the table is set.
+    Table {
+        /// `2^n` bits, little-endian in 64-bit words.
+        bits: Vec<u64>,
+        /// Mask of the `n` surfaces (`2^n - 1`).
+        mask: u64,
+    },
+    /// A postfix program over a stack of at most 128 bits (general regions
+    /// over more surfaces).
+    Program(Vec<Op>),
+}
+
+impl Flat {
+    /// Whether a point with the sides `positive` (bit `i`: positive side of
+    /// surface `i`) is inside the region.
+    #[must_use]
+    #[inline]
+    pub fn contains(&self, positive: u64) -> bool {
+        match self {
+            Self::Intersection { mask, want } => positive & mask == *want,
+            Self::Never => false,
+            Self::Table { bits, mask } => {
+                let k = (positive & mask) as usize;
+                bits[k >> 6] >> (k & 63) & 1 == 1
+            }
+            Self::Program(ops) => run_program(ops, positive),
+        }
+    }
+}
+
+/// Runs a postfix program (see [`Op`]); the stack is the bits of a `u128`,
+/// top at bit 0.
+fn run_program(ops: &[Op], positive: u64) -> bool {
+    let mut stack = 0_u128;
+    for op in ops {
+        match *op {
+            Op::Half { surface, sense } => {
+                let bit = sense.accepts(positive >> surface & 1 == 1);
+                stack = stack << 1 | u128::from(bit);
+            }
+            Op::Not => stack ^= 1,
+            Op::And => stack = (stack >> 1) & (stack | !1),
+            Op::Or => stack = (stack >> 1) | (stack & 1),
+        }
+    }
+    stack & 1 == 1
 }
 
 /// One node of a compiled region. Children of `And` / `Or` are the
@@ -324,6 +423,128 @@ impl Region {
                 .iter()
                 .all(|&c| self.collect_intersection(c, negated, out)),
             Node::And { .. } | Node::Or { .. } => false,
+        }
+    }
+
+    /// The region compiled into a [`Flat`] form, evaluated without
+    /// recursion from a bit set of sides: an intersection of half-spaces
+    /// becomes a mask test, a general region over at most
+    /// [`TABLE_SURFACES`] surfaces a truth table (when tabulating costs at
+    /// most 2^16 node visits), any other a postfix program. `None` when a
+    /// surface index is [`FLAT_SURFACES`] or more, or the program would need
+    /// more than 128 stack bits (only for nesting far beyond real scenes).
+    #[must_use]
+    pub fn flat(&self) -> Option<Flat> {
+        let surfaces = self.surfaces();
+        let n = surfaces.last().map_or(0, |&s| s + 1);
+        if n > FLAT_SURFACES {
+            return None;
+        }
+        if let Some(halves) = self.is_simple_intersection() {
+            let (mut mask, mut want) = (0_u64, 0_u64);
+            for (surface, sense) in halves {
+                let bit = 1_u64 << surface;
+                let positive = sense == Sense::Positive;
+                if mask & bit != 0 && (want & bit != 0) != positive {
+                    return Some(Flat::Never);
+                }
+                mask |= bit;
+                if positive {
+                    want |= bit;
+                }
+            }
+            return Some(Flat::Intersection { mask, want });
+        }
+        if n <= TABLE_SURFACES && (self.nodes.len() << n) <= 1 << 16 {
+            let mut bits = vec![0_u64; (1_usize << n).div_ceil(64)];
+            for k in 0..1_usize << n {
+                if self.contains(|i| k >> i & 1 == 1) {
+                    bits[k >> 6] |= 1 << (k & 63);
+                }
+            }
+            return Some(Flat::Table {
+                bits,
+                mask: (1_u64 << n) - 1,
+            });
+        }
+        let mut ops = Vec::new();
+        let depth = self.emit(self.root, &mut ops);
+        (depth <= PROGRAM_STACK).then_some(Flat::Program(ops))
+    }
+
+    /// Appends the postfix program of node `id` to `ops`; returns the stack
+    /// depth it needs.
+    fn emit(&self, id: usize, ops: &mut Vec<Op>) -> usize {
+        match self.nodes[id] {
+            Node::Half { surface, sense } => {
+                let surface = u8::try_from(surface).expect("flat: surface index below 64");
+                ops.push(Op::Half { surface, sense });
+                1
+            }
+            Node::Not(child) => {
+                let depth = self.emit(child, ops);
+                ops.push(Op::Not);
+                depth
+            }
+            Node::And { start, end } | Node::Or { start, end } => {
+                let combine = if matches!(self.nodes[id], Node::And { .. }) {
+                    Op::And
+                } else {
+                    Op::Or
+                };
+                let mut depth = 0;
+                for (k, &child) in self.children[start..end].iter().enumerate() {
+                    let d = self.emit(child, ops);
+                    if k == 0 {
+                        depth = d;
+                    } else {
+                        depth = depth.max(d + 1);
+                        ops.push(combine);
+                    }
+                }
+                depth
+            }
+        }
+    }
+
+    /// A box containing the region, given a box containing each half-space
+    /// (`half(surface, sense)`): intersections intersect the boxes, unions
+    /// take their hull, and complements are pushed inwards (De Morgan: the
+    /// complement of a half-space is the other half-space), so the box is
+    /// conservative. An empty intersection may come out as a box with
+    /// `min > max` on some axis.
+    #[must_use]
+    pub fn bounding_box(&self, half: &impl Fn(usize, Sense) -> Aabb) -> Aabb {
+        self.node_box(self.root, false, half)
+    }
+
+    fn node_box(&self, id: usize, negated: bool, half: &impl Fn(usize, Sense) -> Aabb) -> Aabb {
+        match self.nodes[id] {
+            Node::Half { surface, sense } => {
+                half(surface, if negated { sense.flipped() } else { sense })
+            }
+            Node::Not(child) => self.node_box(child, !negated, half),
+            Node::And { start, end } | Node::Or { start, end } => {
+                // An intersection, or a complemented union (De Morgan).
+                let meet = matches!(self.nodes[id], Node::And { .. }) != negated;
+                let mut boxes = self.children[start..end]
+                    .iter()
+                    .map(|&c| self.node_box(c, negated, half));
+                let first = boxes.next().unwrap_or(Aabb::EVERYTHING);
+                boxes.fold(first, |acc, b| {
+                    if meet {
+                        Aabb {
+                            min: acc.min.max(b.min),
+                            max: acc.max.min(b.max),
+                        }
+                    } else {
+                        Aabb {
+                            min: acc.min.min(b.min),
+                            max: acc.max.max(b.max),
+                        }
+                    }
+                })
+            }
         }
     }
 
@@ -670,6 +891,83 @@ mod tests {
 
     fn perr(expr: &str) -> RegionError {
         parse(expr, resolve).expect_err(expr)
+    }
+
+    /// The postfix-program form of `r`, whatever its number of surfaces.
+    fn program_of(r: &Region) -> Flat {
+        let mut ops = Vec::new();
+        assert!(r.emit(r.root, &mut ops) <= PROGRAM_STACK);
+        Flat::Program(ops)
+    }
+
+    #[test]
+    fn flat_forms_of_typical_cells() {
+        // An annular vane: an intersection, a mask test.
+        let vane = p("+a -b -c +d");
+        assert_eq!(
+            vane.flat(),
+            Some(Flat::Intersection {
+                mask: 0b1111,
+                want: 0b1001
+            })
+        );
+        // Complements pushed inwards still give a mask.
+        assert_eq!(
+            p("~(+a | -b)").flat(),
+            Some(Flat::Intersection {
+                mask: 0b11,
+                want: 0b10
+            })
+        );
+        assert_eq!(p("-a +b +a").flat(), Some(Flat::Never));
+        // A union over 3 surfaces: an 8-entry truth table.
+        let t = p("-a | -b +c").flat().unwrap();
+        let Flat::Table { ref bits, mask } = t else {
+            panic!("{t:?}")
+        };
+        assert_eq!(mask, 0b111);
+        // Inside for bit 0 clear (-a: k = 0, 2, 4, 6), or bit 1 clear and
+        // bit 2 set (-b +c: k = 4, 5).
+        assert_eq!(bits, &vec![0b0111_0101]);
+        // 12 surfaces: a postfix program (names s0..s11).
+        let names: Vec<String> = (0..12).map(|i| format!("s{i}")).collect();
+        let expr = "(-s0 -s1 | +s2) ~(+s3 | -s4) (-s5 | -s6 | -s7) | -s8 +s9 -s10 ~-s11";
+        let r = parse(expr, |n| names.iter().position(|m| m == n)).unwrap();
+        let flat = r.flat().unwrap();
+        assert!(matches!(flat, Flat::Program(_)), "{flat:?}");
+        for bits in 0..1_u64 << 12 {
+            assert_eq!(
+                flat.contains(bits),
+                r.contains(|i| bits >> i & 1 == 1),
+                "{bits:012b}"
+            );
+        }
+    }
+
+    #[test]
+    fn bounding_boxes_follow_de_morgan() {
+        // Half-space boxes: -a is x < 1, +a is x > 1, -b is y < 2, +b everything.
+        let half = |s: usize, sense: Sense| {
+            let mut b = Aabb::EVERYTHING;
+            match (s, sense) {
+                (0, Sense::Negative) => b.max.x = 1.0,
+                (0, Sense::Positive) => b.min.x = 1.0,
+                (1, Sense::Negative) => b.max.y = 2.0,
+                _ => {}
+            }
+            b
+        };
+        let inf = f64::INFINITY;
+        let bx = |expr: &str| p(expr).bounding_box(&half);
+        assert_eq!(bx("-a -b").max.x, 1.0);
+        assert_eq!(bx("-a -b").max.y, 2.0);
+        // A union takes the hull: x < 1 or x > 1 is unbounded in x.
+        assert_eq!(bx("-a | +a").max.x, inf);
+        assert_eq!(bx("-a | +a").min.x, -inf);
+        // ~(+a | +b) = -a -b.
+        assert_eq!(bx("~(+a | +b)"), bx("-a -b"));
+        // ~-a = +a.
+        assert_eq!(bx("~-a").min.x, 1.0);
     }
 
     /// Evaluates a region on the side assignment encoded in `bits`
@@ -1199,6 +1497,15 @@ mod tests {
                     for bits in 0..32u32 {
                         prop_assert_eq!(bits >> i & 1 == 0, eval_bits(r, bits));
                     }
+                }
+                // The flat form (mask or table) and the postfix program
+                // agree with the recursive evaluation on every side set.
+                let flat = r.flat().expect("5 surfaces always flatten");
+                let program = program_of(r);
+                for bits in 0..32u32 {
+                    let want = eval_bits(r, bits);
+                    prop_assert_eq!(flat.contains(u64::from(bits)), want, "{} flat {:05b}", s, bits);
+                    prop_assert_eq!(program.contains(u64::from(bits)), want, "{} program {:05b}", s, bits);
                 }
             }
             // All renderings of one tree compile to the same region.

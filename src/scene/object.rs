@@ -323,11 +323,7 @@ impl ObjectSceneSpec {
         if solids.is_empty() {
             return Err(source.error("cells", "no solid cell: nothing to reflect from"));
         }
-        let object = Object {
-            surface_names: surface_names.clone(),
-            solids,
-            voids,
-        };
+        let object = Object::new(surface_names.clone(), solids, voids);
 
         let transport = self.transport;
         if transport.max_bounces == 0 {

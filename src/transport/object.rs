@@ -327,7 +327,7 @@ impl ObjectRun {
         for n in photons {
             let mut rng = photon_rng(self.seed, (position << 40) | n);
             let p = beam.start(rng.random(), rng.random());
-            if object.solids.iter().any(|s| s.body.contains(p)) {
+            if object.in_solid(p) {
                 t.photons += 1;
                 t.started_inside += 1;
                 continue;
