@@ -131,11 +131,16 @@ pub struct HeightField {
     pub max: f64,
     /// Lowest vertex (length units).
     pub min: f64,
-    /// Max-height mip levels 1, 2, ... (`levels[L - 1]`: nodes of `2^L x 2^L`
-    /// squares); the last one is one node for the period.
-    levels: Vec<Level>,
-    /// The same levels rounded to `f32` and tiled, as the walk reads them.
+    /// The max-height hierarchy ([`max_levels`]) rounded to `f32` and
+    /// tiled, as the walk reads it.
     tiled: TiledLevels,
+    /// The exact (`f64`) hierarchy, which the walk reads on a tie with the
+    /// `f32` copy; `None` when every height is an `f32` (generated fields,
+    /// EXR maps), so that the copy is exact.
+    exact_levels: Option<Vec<Level>>,
+    /// The heights as `f32` in tiles of 4 x 4 vertices (the same values),
+    /// when every height is an `f32`: the walk reads a square's corners there.
+    height_tiles: Option<HeightTiles>,
     /// Largest slope `|grad h|` of any triangle (a Lipschitz bound of the
     /// surface): from the largest height step along x and along y edges.
     max_slope: f64,
@@ -214,6 +219,37 @@ impl TiledLevels {
     }
 }
 
+/// Vertex heights as `f32` in tiles of 4 x 4 vertices (one cache line), the
+/// tiles row-major: 9 squares in 16 have their four corners in one tile,
+/// the others in two or four neighbouring ones (row-major `f64` rows put
+/// them on two lines, far apart).
+#[derive(Clone, Debug)]
+struct HeightTiles {
+    tiles: Vec<Tile>,
+    /// Tiles along x.
+    w: usize,
+}
+
+impl HeightTiles {
+    /// The tiles of the `nx x ny` heights `h` (row-major), each of which is
+    /// an `f32`; padding holds `NaN` (never read).
+    fn new(nx: usize, ny: usize, h: &[f64]) -> Self {
+        let w = nx.div_ceil(TILE);
+        let mut tiles = vec![Tile([f32::NAN; TILE * TILE]); w * ny.div_ceil(TILE)];
+        for (k, &z) in h.iter().enumerate() {
+            let (i, j) = (k % nx, k / nx);
+            tiles[(j / TILE) * w + i / TILE].0[(j % TILE) * TILE + i % TILE] = z as f32;
+        }
+        Self { tiles, w }
+    }
+
+    /// Height of vertex `(i, j)` of the period (length units).
+    #[inline(always)]
+    fn at(&self, i: usize, j: usize) -> f64 {
+        f64::from(self.tiles[(j / TILE) * self.w + i / TILE].0[(j % TILE) * TILE + i % TILE])
+    }
+}
+
 /// Side `k` of the period whose square 0 has unbounded index `base`, in grid units.
 #[inline]
 fn side(k: usize, base: i64) -> f64 {
@@ -223,10 +259,12 @@ fn side(k: usize, base: i64) -> f64 {
 impl HeightField {
     /// Estimated peak memory (bytes) of an `nx x ny` field over a run that
     /// also takes its statistics on its own grid: the heights (8 bytes a
-    /// vertex) and max-height hierarchy (8/3) kept, and the larger of what
-    /// building them takes beside (the level-1 scratch, 8; the Gaussian
-    /// synthesis' complex buffer and transpose, 32) and what
-    /// [`super::surface_stats`] takes (48). So about 60 bytes a vertex.
+    /// vertex), the walk's `f32` hierarchy (4/3) and either the heights'
+    /// `f32` tiles (4) or the `f64` hierarchy (8/3) kept, and the larger of
+    /// what building them takes beside (the level-1 scratch and the `f64`
+    /// hierarchy, 11; the Gaussian synthesis' complex buffer and transpose,
+    /// 32) and what [`super::surface_stats`] takes (48). So about 60 bytes a
+    /// vertex.
     #[must_use]
     pub fn memory_bytes(nx: usize, ny: usize) -> u64 {
         crate::limits::product(&[nx as u64, ny as u64, 60])
@@ -260,37 +298,9 @@ impl HeightField {
                 (lo.min(z), hi.max(z))
             });
         let at = |i: usize, j: usize| h[(j % ny) * nx + i % nx];
-        // Level 0 (the squares' highest corners) is not stored: the walk tests
-        // squares directly. Level 1 onwards, each from the one below.
-        let mut below: Vec<f64> = (0..nx * ny)
-            .map(|k| {
-                let (i, j) = (k % nx, k / nx);
-                at(i, j)
-                    .max(at(i + 1, j))
-                    .max(at(i, j + 1))
-                    .max(at(i + 1, j + 1))
-            })
-            .collect();
-        let mut levels: Vec<Level> = Vec::new();
-        let (mut w, mut hgt) = (nx, ny);
-        while w > 1 || hgt > 1 {
-            let (w2, h2) = (w.div_ceil(2), hgt.div_ceil(2));
-            let max: Vec<f64> = (0..w2 * h2)
-                .map(|k| {
-                    let (i, j) = (k % w2, k / w2);
-                    let mut m = f64::NEG_INFINITY;
-                    for cj in (2 * j)..(2 * j + 2).min(hgt) {
-                        for ci in (2 * i)..(2 * i + 2).min(w) {
-                            m = m.max(below[cj * w + ci]);
-                        }
-                    }
-                    m
-                })
-                .collect();
-            below.clone_from(&max);
-            levels.push(Level { w: w2, max });
-            (w, hgt) = (w2, h2);
-        }
+        let levels = max_levels(nx, ny, &h);
+        let f32_exact = h.iter().all(|&z| f64::from(z as f32) == z);
+        let height_tiles = f32_exact.then(|| HeightTiles::new(nx, ny, &h));
         let pitch = DVec2::new(size.x / nx as f64, size.y / ny as f64);
         let (mut step_x, mut step_y) = (0.0_f64, 0.0_f64);
         for j in 0..ny {
@@ -309,7 +319,8 @@ impl HeightField {
             max,
             min,
             tiled: TiledLevels::new(&levels),
-            levels,
+            exact_levels: (!f32_exact).then_some(levels),
+            height_tiles,
             max_slope,
         }
     }
@@ -410,6 +421,14 @@ impl HeightField {
     fn corners(&self, i: usize, j: usize) -> [f64; 4] {
         let i1 = if i + 1 == self.nx { 0 } else { i + 1 };
         let j1 = if j + 1 == self.ny { 0 } else { j + 1 };
+        if let Some(tiles) = &self.height_tiles {
+            return [
+                tiles.at(i, j),
+                tiles.at(i1, j),
+                tiles.at(i, j1),
+                tiles.at(i1, j1),
+            ];
+        }
         let (r0, r1) = (j * self.nx, j1 * self.nx);
         [
             self.h[r0 + i],
@@ -516,7 +535,7 @@ impl HeightField {
             dv: d.y / self.pitch.y,
         };
         let inv = (1.0 / ray.du, 1.0 / ray.dv);
-        let top = self.levels.len();
+        let top = self.tiled.at.len();
         // A flight leaving the surface is below every node holding its start:
         // begin at its square instead of descending to it.
         let mut level = if standing.is_some() { 0 } else { top };
@@ -694,9 +713,15 @@ impl HeightField {
         } else if z < near {
             false
         } else {
-            let lv = &self.levels[level - 1];
+            let exact = match &self.exact_levels {
+                Some(levels) => {
+                    let lv = &levels[level - 1];
+                    lv.max[nj * lv.w + ni]
+                }
+                None => f64::from(near),
+            };
             z_low
-                .partial_cmp(&lv.max[nj * lv.w + ni])
+                .partial_cmp(&exact)
                 .is_none_or(std::cmp::Ordering::is_gt)
         }
     }
@@ -858,6 +883,48 @@ impl HeightField {
         }
         Self::new(nx, ny, size, h)
     }
+}
+
+/// The max-height hierarchy of the `nx x ny` periodic heights `h` (row-major,
+/// length units): levels 1, 2, ... (`[L - 1]`: nodes of `2^L x 2^L` squares,
+/// the highest vertex of their squares, corners included; partial nodes at
+/// the ends for any `n`); the last level is one node for the period. Level 0
+/// (the squares' highest corners) is not stored: the walk tests squares
+/// directly.
+fn max_levels(nx: usize, ny: usize, h: &[f64]) -> Vec<Level> {
+    let at = |i: usize, j: usize| h[(j % ny) * nx + i % nx];
+    // Level 0 (the squares' highest corners) is not stored: the walk tests
+    // squares directly. Level 1 onwards, each from the one below.
+    let mut below: Vec<f64> = (0..nx * ny)
+        .map(|k| {
+            let (i, j) = (k % nx, k / nx);
+            at(i, j)
+                .max(at(i + 1, j))
+                .max(at(i, j + 1))
+                .max(at(i + 1, j + 1))
+        })
+        .collect();
+    let mut levels: Vec<Level> = Vec::new();
+    let (mut w, mut hgt) = (nx, ny);
+    while w > 1 || hgt > 1 {
+        let (w2, h2) = (w.div_ceil(2), hgt.div_ceil(2));
+        let max: Vec<f64> = (0..w2 * h2)
+            .map(|k| {
+                let (i, j) = (k % w2, k / w2);
+                let mut m = f64::NEG_INFINITY;
+                for cj in (2 * j)..(2 * j + 2).min(hgt) {
+                    for ci in (2 * i)..(2 * i + 2).min(w) {
+                        m = m.max(below[cj * w + ci]);
+                    }
+                }
+                m
+            })
+            .collect();
+        below.clone_from(&max);
+        levels.push(Level { w: w2, max });
+        (w, hgt) = (w2, h2);
+    }
+    levels
 }
 
 /// Height of the triangulated surface at local coordinates `(a, b)` in
@@ -1169,7 +1236,8 @@ mod tests {
             dv: d.y / f.pitch.y,
         };
         let (inv_u, inv_v) = (1.0 / ray.du, 1.0 / ray.dv);
-        let top = f.levels.len();
+        let levels = max_levels(f.nx, f.ny, &f.h);
+        let top = levels.len();
         // A flight leaving the surface is below every node holding its start:
         // begin at its square instead of descending to it.
         let mut level = if standing.is_some() { 0 } else { top };
@@ -1209,7 +1277,7 @@ mod tests {
             let t_exit = tu.min(tv).max(t);
             let exit_u = tu <= tv;
             if level > 0 {
-                let lv = &f.levels[level - 1];
+                let lv = &levels[level - 1];
                 let node_max = lv.max[(j >> level) * lv.w + (i >> level)];
                 if z.min(ray.z_at(t_exit)) <= node_max {
                     level -= 1;
@@ -1359,32 +1427,39 @@ mod tests {
     /// and next to the node's maximum and to its `f32` rounding.
     #[test]
     fn passes_above_is_the_exact_comparison() {
-        let h: Vec<f64> = (0..17 * 9)
-            .map(|k| ((k * 37 % 101) as f64 - 50.0) / 7.0 + 1e-9 * k as f64)
-            .collect();
-        let f = HeightField::new(17, 9, DVec2::new(4.0, 3.0), h);
-        for (l, lv) in f.levels.iter().enumerate() {
-            for (k, &m) in lv.max.iter().enumerate() {
-                let (ni, nj) = (k % lv.w, k / lv.w);
-                let r = f64::from(m as f32);
-                for z in [
-                    m,
-                    m.next_up(),
-                    m.next_down(),
-                    r,
-                    r.next_up(),
-                    r.next_down(),
-                    m - 1.0,
-                    m + 1.0,
-                    f64::NAN,
-                ] {
-                    let above = z > m || z.is_nan();
-                    assert_eq!(
-                        f.passes_above(l + 1, ni, nj, z),
-                        above,
-                        "level {} node {k} z {z}",
-                        l + 1
-                    );
+        // Heights that are not all f32 (the f64 levels kept) and that are.
+        let fields = [1e-9, 0.0].map(|eps| {
+            let h: Vec<f64> = (0..17 * 9)
+                .map(|k| ((k * 37 % 101) as f64 - 50.0) / 8.0 + eps * k as f64)
+                .collect();
+            HeightField::new(17, 9, DVec2::new(4.0, 3.0), h)
+        });
+        assert!(fields[0].exact_levels.is_some() && fields[0].height_tiles.is_none());
+        assert!(fields[1].exact_levels.is_none() && fields[1].height_tiles.is_some());
+        for f in &fields {
+            for (l, lv) in max_levels(f.nx, f.ny, &f.h).iter().enumerate() {
+                for (k, &m) in lv.max.iter().enumerate() {
+                    let (ni, nj) = (k % lv.w, k / lv.w);
+                    let r = f64::from(m as f32);
+                    for z in [
+                        m,
+                        m.next_up(),
+                        m.next_down(),
+                        r,
+                        r.next_up(),
+                        r.next_down(),
+                        m - 1.0,
+                        m + 1.0,
+                        f64::NAN,
+                    ] {
+                        let above = z > m || z.is_nan();
+                        assert_eq!(
+                            f.passes_above(l + 1, ni, nj, z),
+                            above,
+                            "level {} node {k} z {z}",
+                            l + 1
+                        );
+                    }
                 }
             }
         }
@@ -1437,7 +1512,8 @@ mod tests {
         );
         let h: Vec<f64> = (0..35).map(|k| ((k * 7) % 11) as f64).collect();
         let f = HeightField::new(7, 5, DVec2::new(7.0, 5.0), h);
-        let top = f.levels.last().unwrap();
+        let levels = max_levels(f.nx, f.ny, &f.h);
+        let top = levels.last().unwrap();
         assert_eq!((top.w, top.max.len()), (1, 1));
         assert_eq!(top.max[0], f.max);
         // Level 1 node (3, 2) is the partial node of square (6, 4), whose
@@ -1446,7 +1522,18 @@ mod tests {
             .iter()
             .map(|&(i, j)| f.vertex(i, j))
             .fold(f64::NEG_INFINITY, f64::max);
-        assert_eq!(f.levels[0].max[2 * 4 + 3], want);
+        assert_eq!(levels[0].max[2 * 4 + 3], want);
+        // The walk's copies: the f32 tiles of every level, the corners from the height tiles.
+        assert!(f.exact_levels.is_none());
+        for (l, lv) in levels.iter().enumerate() {
+            for (k, &m) in lv.max.iter().enumerate() {
+                assert_eq!(f64::from(f.tiled.max(l + 1, k % lv.w, k / lv.w)), m);
+            }
+        }
+        for (i, j) in [(0, 0), (3, 2), (6, 4), (4, 3), (6, 0), (0, 4)] {
+            let want = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(a, b)| f.vertex(i + a, j + b));
+            assert_eq!(f.corners(i as usize, j as usize), want);
+        }
     }
 
     /// Normal deviates of the spectrum weight `w_k = exp(-|k|² tau² / 4)` on the
