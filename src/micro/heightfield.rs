@@ -43,6 +43,19 @@
 //! flight takes `O(log n)` steps; near the hit it tests the few squares
 //! where it is lower than the nodes around them.
 //!
+//! The walk reads a copy of the hierarchy rounded to `f32` and tiled (4 x 4
+//! nodes a cache line, so a descent reads about one line every two levels);
+//! rounding is monotone, so comparing the flight's `f32` height with it
+//! decides as the `f64` comparison would, except on a tie, decided from the
+//! exact value. When every height is an `f32` (generated fields, EXR maps)
+//! the copy is exact, and the walk also reads the corner heights from `f32`
+//! tiles of 8 x 8 squares (a square's corners in one tile); otherwise it
+//! keeps the `f64` hierarchy for ties and reads the `f64` heights. The
+//! triangle tests are in `f64` either way, with the same values. A
+//! non-rising flight does not re-test a node it has descended into while it
+//! stays inside (the lowest point over the node, at its exit, is the same),
+//! but counts the step as if it had.
+//!
 //! # Watertightness: one function along the flight
 //!
 //! Along the flight the height of the ray above the surface,
