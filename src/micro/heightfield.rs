@@ -43,6 +43,19 @@
 //! flight takes `O(log n)` steps; near the hit it tests the few squares
 //! where it is lower than the nodes around them.
 //!
+//! The walk reads a copy of the hierarchy rounded to `f32` and tiled (4 x 4
+//! nodes a cache line, so a descent reads about one line every two levels);
+//! rounding is monotone, so comparing the flight's `f32` height with it
+//! decides as the `f64` comparison would, except on a tie, decided from the
+//! exact value. When every height is an `f32` (generated fields, EXR maps)
+//! the copy is exact, and the walk also reads the corner heights from `f32`
+//! tiles of 8 x 8 squares (a square's corners in one tile); otherwise it
+//! keeps the `f64` hierarchy for ties and reads the `f64` heights. The
+//! triangle tests are in `f64` either way, with the same values. A
+//! non-rising flight does not re-test a node it has descended into while it
+//! stays inside (the lowest point over the node, at its exit, is the same),
+//! but counts the step as if it had.
+//!
 //! # Watertightness: one function along the flight
 //!
 //! Along the flight the height of the ray above the surface,
@@ -131,9 +144,16 @@ pub struct HeightField {
     pub max: f64,
     /// Lowest vertex (length units).
     pub min: f64,
-    /// Max-height mip levels 1, 2, ... (`levels[L - 1]`: nodes of `2^L x 2^L`
-    /// squares); the last one is one node for the period.
-    levels: Vec<Level>,
+    /// The max-height hierarchy ([`max_levels`]) rounded to `f32` and
+    /// tiled, as the walk reads it.
+    tiled: TiledLevels,
+    /// The exact (`f64`) hierarchy, which the walk reads on a tie with the
+    /// `f32` copy; `None` when every height is an `f32` (generated fields,
+    /// EXR maps), so that the copy is exact.
+    exact_levels: Option<Vec<Level>>,
+    /// The heights as `f32` in tiles of squares (the same values), when
+    /// every height is an `f32`: the walk reads a square's corners there.
+    height_tiles: Option<CornerTiles>,
     /// Largest slope `|grad h|` of any triangle (a Lipschitz bound of the
     /// surface): from the largest height step along x and along y edges.
     max_slope: f64,
@@ -160,13 +180,125 @@ struct Level {
     max: Vec<f64>,
 }
 
+/// Nodes of one [`TiledLevels`] tile: 4 x 4, one 64-byte cache line.
+const TILE: usize = 4;
+
+/// A 4 x 4 block of node maxima (row-major within the block), aligned to a
+/// cache line.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Tile([f32; TILE * TILE]);
+
+/// The max-height hierarchy as the walk reads it: every level's node maxima
+/// rounded to nearest `f32` (length units), stored in tiles of 4 x 4 nodes,
+/// the tiles of a level row-major, all levels in one array. The 2 x 2
+/// children of a node, and its 4 x 4 grandchildren, lie in one tile: a
+/// descent reads about one cache line every two levels, where the
+/// row-major `f64` levels take one or two a level.
+#[derive(Clone, Debug)]
+struct TiledLevels {
+    /// The tiles of level 1, then level 2, ...
+    tiles: Vec<Tile>,
+    /// Per level `L >= 1` (`at[L - 1]`): its first tile, tiles along x.
+    at: Vec<(usize, usize)>,
+}
+
+impl TiledLevels {
+    /// The `f32` copy of `levels` (each `levels[L - 1]` of `w` nodes along x);
+    /// tile padding beyond a level's nodes holds `+inf` (never read).
+    fn new(levels: &[Level]) -> Self {
+        let mut tiles = Vec::new();
+        let mut at = Vec::with_capacity(levels.len());
+        for lv in levels {
+            let (w, h) = (lv.w, lv.max.len() / lv.w);
+            let (tw, th) = (w.div_ceil(TILE), h.div_ceil(TILE));
+            let first = tiles.len();
+            tiles.resize(first + tw * th, Tile([f32::INFINITY; TILE * TILE]));
+            for (k, &m) in lv.max.iter().enumerate() {
+                let (ni, nj) = (k % w, k / w);
+                tiles[first + (nj / TILE) * tw + ni / TILE].0[(nj % TILE) * TILE + ni % TILE] =
+                    m as f32;
+            }
+            at.push((first, tw));
+        }
+        Self { tiles, at }
+    }
+
+    /// The `f32` maximum of node `(ni, nj)` of `level` (>= 1).
+    #[inline(always)]
+    fn max(&self, level: usize, ni: usize, nj: usize) -> f32 {
+        let (first, tw) = self.at[level - 1];
+        self.tiles[first + (nj / TILE) * tw + ni / TILE].0[(nj % TILE) * TILE + ni % TILE]
+    }
+}
+
+/// Squares of a [`CornerTiles`] tile along each axis.
+const CORNER_TILE: usize = 8;
+
+/// The `(CORNER_TILE + 1)²` corner heights of a tile's squares, row-major
+/// (row stride `CORNER_TILE + 1`), padded to three 128-byte line pairs.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(128))]
+struct CornerTile([f32; 96]);
+
+/// The heights as `f32` in tiles of 8 x 8 squares, each tile holding the 9 x 9
+/// vertices of its squares (the far row and column repeated from the
+/// neighbouring tiles, wrapped across the period's sides), the tiles
+/// row-major: a square's four corners are two neighbouring pairs 36 bytes
+/// apart in one tile, where the row-major `f64` heights put them a row
+/// apart. About 6 bytes a vertex.
+#[derive(Clone, Debug)]
+struct CornerTiles {
+    tiles: Vec<CornerTile>,
+    /// Tiles along x.
+    w: usize,
+}
+
+impl CornerTiles {
+    /// The tiles of the `nx x ny` periodic heights `h` (row-major), each of
+    /// which is an `f32`; padding holds `NaN` (never read).
+    fn new(nx: usize, ny: usize, h: &[f64]) -> Self {
+        const N: usize = CORNER_TILE;
+        let w = nx.div_ceil(N);
+        let mut tiles = vec![CornerTile([f32::NAN; 96]); w * ny.div_ceil(N)];
+        for (k, tile) in tiles.iter_mut().enumerate() {
+            let (i0, j0) = ((k % w) * N, (k / w) * N);
+            for b in 0..=N {
+                for a in 0..=N {
+                    let z = h[((j0 + b) % ny) * nx + (i0 + a) % nx];
+                    tile.0[b * (N + 1) + a] = z as f32;
+                }
+            }
+        }
+        Self { tiles, w }
+    }
+
+    /// Corner heights `[h00, h10, h01, h11]` of square `(i, j)` of the
+    /// period (length units).
+    #[inline(always)]
+    fn corners(&self, i: usize, j: usize) -> [f64; 4] {
+        const N: usize = CORNER_TILE;
+        let tile = &self.tiles[(j / N) * self.w + i / N].0;
+        let k = (j % N) * (N + 1) + i % N;
+        [tile[k], tile[k + 1], tile[k + N + 1], tile[k + N + 2]].map(f64::from)
+    }
+}
+
+/// Side `k` of the period whose square 0 has unbounded index `base`, in grid units.
+#[inline]
+fn side(k: usize, base: i64) -> f64 {
+    (base + k as i64) as f64
+}
+
 impl HeightField {
     /// Estimated peak memory (bytes) of an `nx x ny` field over a run that
     /// also takes its statistics on its own grid: the heights (8 bytes a
-    /// vertex) and max-height hierarchy (8/3) kept, and the larger of what
-    /// building them takes beside (the level-1 scratch, 8; the Gaussian
-    /// synthesis' complex buffer and transpose, 32) and what
-    /// [`super::surface_stats`] takes (48). So about 60 bytes a vertex.
+    /// vertex), the walk's `f32` hierarchy (4/3) and either the heights'
+    /// `f32` tiles (4) or the `f64` hierarchy (8/3) kept, and the larger of
+    /// what building them takes beside (the level-1 scratch and the `f64`
+    /// hierarchy, 11; the Gaussian synthesis' complex buffer and transpose,
+    /// 32) and what [`super::surface_stats`] takes (48). So about 60 bytes a
+    /// vertex.
     #[must_use]
     pub fn memory_bytes(nx: usize, ny: usize) -> u64 {
         crate::limits::product(&[nx as u64, ny as u64, 60])
@@ -200,37 +332,9 @@ impl HeightField {
                 (lo.min(z), hi.max(z))
             });
         let at = |i: usize, j: usize| h[(j % ny) * nx + i % nx];
-        // Level 0 (the squares' highest corners) is not stored: the walk tests
-        // squares directly. Level 1 onwards, each from the one below.
-        let mut below: Vec<f64> = (0..nx * ny)
-            .map(|k| {
-                let (i, j) = (k % nx, k / nx);
-                at(i, j)
-                    .max(at(i + 1, j))
-                    .max(at(i, j + 1))
-                    .max(at(i + 1, j + 1))
-            })
-            .collect();
-        let mut levels: Vec<Level> = Vec::new();
-        let (mut w, mut hgt) = (nx, ny);
-        while w > 1 || hgt > 1 {
-            let (w2, h2) = (w.div_ceil(2), hgt.div_ceil(2));
-            let max: Vec<f64> = (0..w2 * h2)
-                .map(|k| {
-                    let (i, j) = (k % w2, k / w2);
-                    let mut m = f64::NEG_INFINITY;
-                    for cj in (2 * j)..(2 * j + 2).min(hgt) {
-                        for ci in (2 * i)..(2 * i + 2).min(w) {
-                            m = m.max(below[cj * w + ci]);
-                        }
-                    }
-                    m
-                })
-                .collect();
-            below.clone_from(&max);
-            levels.push(Level { w: w2, max });
-            (w, hgt) = (w2, h2);
-        }
+        let levels = max_levels(nx, ny, &h);
+        let f32_exact = h.iter().all(|&z| f64::from(z as f32) == z);
+        let height_tiles = f32_exact.then(|| CornerTiles::new(nx, ny, &h));
         let pitch = DVec2::new(size.x / nx as f64, size.y / ny as f64);
         let (mut step_x, mut step_y) = (0.0_f64, 0.0_f64);
         for j in 0..ny {
@@ -248,7 +352,9 @@ impl HeightField {
             h,
             max,
             min,
-            levels,
+            tiled: TiledLevels::new(&levels),
+            exact_levels: (!f32_exact).then_some(levels),
+            height_tiles,
             max_slope,
         }
     }
@@ -345,8 +451,11 @@ impl HeightField {
     }
 
     /// Corner heights `[h00, h10, h01, h11]` of square `(i, j)` of the period.
-    #[inline]
+    #[inline(always)]
     fn corners(&self, i: usize, j: usize) -> [f64; 4] {
+        if let Some(tiles) = &self.height_tiles {
+            return tiles.corners(i, j);
+        }
         let i1 = if i + 1 == self.nx { 0 } else { i + 1 };
         let j1 = if j + 1 == self.ny { 0 } else { j + 1 };
         let (r0, r1) = (j * self.nx, j1 * self.nx);
@@ -454,8 +563,8 @@ impl HeightField {
             du: d.x / self.pitch.x,
             dv: d.y / self.pitch.y,
         };
-        let (inv_u, inv_v) = (1.0 / ray.du, 1.0 / ray.dv);
-        let top = self.levels.len();
+        let inv = (1.0 / ray.du, 1.0 / ray.dv);
+        let top = self.tiled.at.len();
         // A flight leaving the surface is below every node holding its start:
         // begin at its square instead of descending to it.
         let mut level = if standing.is_some() { 0 } else { top };
@@ -467,6 +576,15 @@ impl HeightField {
         let (mut j, mut bj) = wrap(floor_i64(ray.ov), self.ny);
         let mut steps = 0_u32;
         let mut periods = 0_u32;
+        // Over a node, a descending flight is lowest at the node's exit, any
+        // other at its entry (exactly so in floating point: `t_exit >= t` and
+        // `z_at` is monotone).
+        let descending = d.z < 0.0;
+        // Bit L set: the node of level L holding square (i, j) was descended
+        // into, and the flight neither rises nor has left it, so its test
+        // (the height at the node's exit, whose `t` does not change while the
+        // walk stays inside) would descend again: the walk does not repeat it.
+        let mut known: u64 = 0;
         loop {
             steps += 1;
             if steps > MAX_STEPS {
@@ -476,31 +594,33 @@ impl HeightField {
             if d.z > 0.0 && z > self.max {
                 return FieldEvent::Escapes;
             }
-            // The node of this level holding square (i, j): squares [u0, u1) x [v0, v1).
-            let (u0, u1) = node_span(i, level, self.nx);
-            let (v0, v1) = node_span(j, level, self.ny);
-            let side = |k: usize, base: i64| (base + k as i64) as f64;
-            // Where the flight leaves [lo, hi) along one axis (infinite if parallel).
-            let leave = |dk: f64, ok: f64, inv: f64, lo: f64, hi: f64| {
-                if dk > 0.0 {
-                    (hi - ok) * inv
-                } else if dk < 0.0 {
-                    (lo - ok) * inv
-                } else {
-                    f64::INFINITY
+            // Down the hierarchy to the first node the flight passes above
+            // (skipped), or to the square (tested). Each level visited is a step.
+            let (t_exit, exit_u) = loop {
+                if level == 0 {
+                    break self.node_exit(&ray, inv, 0, (i, bi), (j, bj), t);
+                }
+                if known & (1 << level) == 0 {
+                    let (ni, nj) = (i >> level, j >> level);
+                    if descending {
+                        let exit = self.node_exit(&ray, inv, level, (i, bi), (j, bj), t);
+                        if self.passes_above(level, ni, nj, ray.z_at(exit.0)) {
+                            break exit;
+                        }
+                    } else if self.passes_above(level, ni, nj, z) {
+                        break self.node_exit(&ray, inv, level, (i, bi), (j, bj), t);
+                    }
+                    if d.z <= 0.0 {
+                        known |= 1 << level;
+                    }
+                }
+                level -= 1;
+                steps += 1;
+                if steps > MAX_STEPS {
+                    return FieldEvent::Trapped;
                 }
             };
-            let tu = leave(ray.du, ray.ou, inv_u, side(u0, bi), side(u1, bi));
-            let tv = leave(ray.dv, ray.ov, inv_v, side(v0, bj), side(v1, bj));
-            let t_exit = tu.min(tv).max(t);
-            let exit_u = tu <= tv;
             if level > 0 {
-                let lv = &self.levels[level - 1];
-                let node_max = lv.max[(j >> level) * lv.w + (i >> level)];
-                if z.min(ray.z_at(t_exit)) <= node_max {
-                    level -= 1;
-                    continue;
-                }
                 // The flight passes above the whole node: skip it.
                 f_carried = None;
             } else {
@@ -529,6 +649,9 @@ impl HeightField {
             // index comes from the exit point, kept within the node's range so
             // the walk always advances.
             let base = (bi, bj);
+            let (from_i, from_j) = (i, j);
+            let (u0, u1) = node_span(i, level, self.nx);
+            let (v0, v1) = node_span(j, level, self.ny);
             if exit_u {
                 (i, bi) = step(i, bi, u0, u1, ray.du > 0.0, self.nx);
                 let k = floor_i64(ray.ov + t * ray.dv) - bj;
@@ -538,7 +661,14 @@ impl HeightField {
                 let k = floor_i64(ray.ou + t * ray.du) - bi;
                 i = k.clamp(u0 as i64, u1 as i64 - 1) as usize;
             }
+            // Nodes of the levels above the highest bit in which the square's
+            // indices changed still hold it.
+            let moved = (from_i ^ i) | (from_j ^ j);
+            known &= u64::MAX
+                .checked_shl(usize::BITS - moved.leading_zeros())
+                .unwrap_or(0);
             if (bi, bj) != base {
+                known = 0;
                 // Into the next period: the flight's travel is bounded in periods.
                 periods += 1;
                 if periods >= super::MAX_CROSSINGS {
@@ -563,6 +693,65 @@ impl HeightField {
             // One level up again (measured: fewer steps than staying down
             // within the same parent node, since rising flights climb sooner).
             level = (level + 1).min(top);
+        }
+    }
+
+    /// Where the flight leaves, from `t` on, the node of `level` holding
+    /// square `(i, j)` (with the period bases `bi`, `bj`): `(t_exit,
+    /// exit_u)`, `exit_u` when it leaves through a side `u = const` (also on a
+    /// tie). `inv`: `(1 / du, 1 / dv)`.
+    #[inline(always)]
+    fn node_exit(
+        &self,
+        ray: &GridRay,
+        (inv_u, inv_v): (f64, f64),
+        level: usize,
+        (i, bi): (usize, i64),
+        (j, bj): (usize, i64),
+        t: f64,
+    ) -> (f64, bool) {
+        let (u0, u1) = node_span(i, level, self.nx);
+        let (v0, v1) = node_span(j, level, self.ny);
+        // Where the flight leaves [lo, hi) along one axis (infinite if parallel).
+        let leave = |dk: f64, ok: f64, inv: f64, lo: f64, hi: f64| {
+            if dk > 0.0 {
+                (hi - ok) * inv
+            } else if dk < 0.0 {
+                (lo - ok) * inv
+            } else {
+                f64::INFINITY
+            }
+        };
+        let tu = leave(ray.du, ray.ou, inv_u, side(u0, bi), side(u1, bi));
+        let tv = leave(ray.dv, ray.ov, inv_v, side(v0, bj), side(v1, bj));
+        (tu.min(tv).max(t), tu <= tv)
+    }
+
+    /// Whether a flight whose lowest height over node `(ni, nj)` of `level`
+    /// (>= 1) is `z_low` passes above it (`z_low` greater than the node's
+    /// highest vertex, or NaN). Decided from the node's `f32` copy: rounding
+    /// to `f32` is monotone, so `f32(z_low)` below or above that copy puts
+    /// `z_low` below or above the exact `f64` maximum; only on a tie is the
+    /// `f64` level read. The answer is that of the `f64` comparison.
+    #[inline(always)]
+    fn passes_above(&self, level: usize, ni: usize, nj: usize, z_low: f64) -> bool {
+        let near = self.tiled.max(level, ni, nj);
+        let z = z_low as f32;
+        if z > near {
+            true
+        } else if z < near {
+            false
+        } else {
+            let exact = match &self.exact_levels {
+                Some(levels) => {
+                    let lv = &levels[level - 1];
+                    lv.max[nj * lv.w + ni]
+                }
+                None => f64::from(near),
+            };
+            z_low
+                .partial_cmp(&exact)
+                .is_none_or(std::cmp::Ordering::is_gt)
         }
     }
 
@@ -725,6 +914,48 @@ impl HeightField {
     }
 }
 
+/// The max-height hierarchy of the `nx x ny` periodic heights `h` (row-major,
+/// length units): levels 1, 2, ... (`[L - 1]`: nodes of `2^L x 2^L` squares,
+/// the highest vertex of their squares, corners included; partial nodes at
+/// the ends for any `n`); the last level is one node for the period. Level 0
+/// (the squares' highest corners) is not stored: the walk tests squares
+/// directly.
+fn max_levels(nx: usize, ny: usize, h: &[f64]) -> Vec<Level> {
+    let at = |i: usize, j: usize| h[(j % ny) * nx + i % nx];
+    // Level 0 (the squares' highest corners) is not stored: the walk tests
+    // squares directly. Level 1 onwards, each from the one below.
+    let mut below: Vec<f64> = (0..nx * ny)
+        .map(|k| {
+            let (i, j) = (k % nx, k / nx);
+            at(i, j)
+                .max(at(i + 1, j))
+                .max(at(i, j + 1))
+                .max(at(i + 1, j + 1))
+        })
+        .collect();
+    let mut levels: Vec<Level> = Vec::new();
+    let (mut w, mut hgt) = (nx, ny);
+    while w > 1 || hgt > 1 {
+        let (w2, h2) = (w.div_ceil(2), hgt.div_ceil(2));
+        let max: Vec<f64> = (0..w2 * h2)
+            .map(|k| {
+                let (i, j) = (k % w2, k / w2);
+                let mut m = f64::NEG_INFINITY;
+                for cj in (2 * j)..(2 * j + 2).min(hgt) {
+                    for ci in (2 * i)..(2 * i + 2).min(w) {
+                        m = m.max(below[cj * w + ci]);
+                    }
+                }
+                m
+            })
+            .collect();
+        below.clone_from(&max);
+        levels.push(Level { w: w2, max });
+        (w, hgt) = (w2, h2);
+    }
+    levels
+}
+
 /// Height of the triangulated surface at local coordinates `(a, b)` in
 /// `[0, 1]²` of a square with corners `c = [h00, h10, h01, h11]`.
 #[inline]
@@ -771,6 +1002,10 @@ fn floor_i64(x: f64) -> i64 {
 /// the period's square 0)` on an axis of `n` squares.
 #[inline]
 fn wrap(k: i64, n: usize) -> (usize, i64) {
+    // Flights start in the cell: most squares are of the period already.
+    if (0..n as i64).contains(&k) {
+        return (k as usize, 0);
+    }
     let r = k.rem_euclid(n as i64);
     (r as usize, k - r)
 }
@@ -1009,6 +1244,260 @@ mod tests {
         }
     }
 
+    /// The walk as it was before the tiled `f32` hierarchy (row-major `f64`
+    /// levels, every level visited tested): the reference the walk must
+    /// reproduce bit for bit, event and distance.
+    fn reference_first_hit(
+        f: &HeightField,
+        o: DVec3,
+        d: DVec3,
+        standing: Option<usize>,
+    ) -> FieldEvent {
+        if d.z >= 0.0 && o.z > f.max {
+            return if d.z > 0.0 {
+                FieldEvent::Escapes
+            } else {
+                FieldEvent::Trapped
+            };
+        }
+        let ray = GridRay {
+            o,
+            d,
+            ou: o.x / f.pitch.x,
+            ov: o.y / f.pitch.y,
+            du: d.x / f.pitch.x,
+            dv: d.y / f.pitch.y,
+        };
+        let (inv_u, inv_v) = (1.0 / ray.du, 1.0 / ray.dv);
+        let levels = max_levels(f.nx, f.ny, &f.h);
+        let top = levels.len();
+        // A flight leaving the surface is below every node holding its start:
+        // begin at its square instead of descending to it.
+        let mut level = if standing.is_some() { 0 } else { top };
+        let mut t = 0.0_f64;
+        // f at t when carried from the square just tested (None after a skip).
+        let mut f_carried: Option<f64> = None;
+        // Square (i, j) of the period whose square 0 has unbounded index (bi, bj).
+        let (mut i, mut bi) = wrap(floor_i64(ray.ou), f.nx);
+        let (mut j, mut bj) = wrap(floor_i64(ray.ov), f.ny);
+        let mut steps = 0_u32;
+        let mut periods = 0_u32;
+        loop {
+            steps += 1;
+            if steps > MAX_STEPS {
+                return FieldEvent::Trapped;
+            }
+            let z = ray.z_at(t);
+            if d.z > 0.0 && z > f.max {
+                return FieldEvent::Escapes;
+            }
+            // The node of this level holding square (i, j): squares [u0, u1) x [v0, v1).
+            let (u0, u1) = node_span(i, level, f.nx);
+            let (v0, v1) = node_span(j, level, f.ny);
+            let side = |k: usize, base: i64| (base + k as i64) as f64;
+            // Where the flight leaves [lo, hi) along one axis (infinite if parallel).
+            let leave = |dk: f64, ok: f64, inv: f64, lo: f64, hi: f64| {
+                if dk > 0.0 {
+                    (hi - ok) * inv
+                } else if dk < 0.0 {
+                    (lo - ok) * inv
+                } else {
+                    f64::INFINITY
+                }
+            };
+            let tu = leave(ray.du, ray.ou, inv_u, side(u0, bi), side(u1, bi));
+            let tv = leave(ray.dv, ray.ov, inv_v, side(v0, bj), side(v1, bj));
+            let t_exit = tu.min(tv).max(t);
+            let exit_u = tu <= tv;
+            if level > 0 {
+                let lv = &levels[level - 1];
+                let node_max = lv.max[(j >> level) * lv.w + (i >> level)];
+                if z.min(ray.z_at(t_exit)) <= node_max {
+                    level -= 1;
+                    continue;
+                }
+                // The flight passes above the whole node: skip it.
+                f_carried = None;
+            } else {
+                let f_in = f_carried.unwrap_or_else(|| {
+                    let a = (ray.ou - side(i, bi) + t * ray.du).clamp(0.0, 1.0);
+                    let b = (ray.ov - side(j, bj) + t * ray.dv).clamp(0.0, 1.0);
+                    z - surface_height(f.corners(i, j), a, b)
+                });
+                let local = (ray.ou - side(i, bi), ray.ov - side(j, bj));
+                match f.square(i, j, &ray, local, (t, t_exit), exit_u, f_in, standing) {
+                    Ok(hit) => return hit,
+                    Err(f_out) => f_carried = Some(f_out),
+                }
+            }
+            if t_exit == f64::INFINITY {
+                // A vertical flight above its column, or rising out of its square.
+                return if d.z > 0.0 {
+                    FieldEvent::Escapes
+                } else {
+                    FieldEvent::Trapped
+                };
+            }
+            t = t_exit;
+            // Step into the neighbouring node across the exit side; the other
+            // index comes from the exit point, kept within the node's range so
+            // the walk always advances.
+            let base = (bi, bj);
+            if exit_u {
+                (i, bi) = step(i, bi, u0, u1, ray.du > 0.0, f.nx);
+                let k = floor_i64(ray.ov + t * ray.dv) - bj;
+                j = k.clamp(v0 as i64, v1 as i64 - 1) as usize;
+            } else {
+                (j, bj) = step(j, bj, v0, v1, ray.dv > 0.0, f.ny);
+                let k = floor_i64(ray.ou + t * ray.du) - bi;
+                i = k.clamp(u0 as i64, u1 as i64 - 1) as usize;
+            }
+            if (bi, bj) != base {
+                // Into the next period: the flight's travel is bounded in periods.
+                periods += 1;
+                if periods >= crate::micro::MAX_CROSSINGS {
+                    return FieldEvent::Trapped;
+                }
+                if periods >= SKIP_AFTER {
+                    match f.skip_periods(&ray, t, exit_u) {
+                        FieldSkip::None => {}
+                        FieldSkip::Escapes => return FieldEvent::Escapes,
+                        FieldSkip::To(t_new) => {
+                            // Whole periods on, from the top of the hierarchy.
+                            t = t_new;
+                            (i, bi) = wrap(floor_i64(ray.ou + t * ray.du), f.nx);
+                            (j, bj) = wrap(floor_i64(ray.ov + t * ray.dv), f.ny);
+                            level = top;
+                            f_carried = None;
+                            continue;
+                        }
+                    }
+                }
+            }
+            // One level up again (measured: fewer steps than staying down
+            // within the same parent node, since rising flights climb sooner).
+            level = (level + 1).min(top);
+        }
+    }
+
+    /// Same event, same distance to the bit, as [`reference_first_hit`].
+    fn same_event(a: FieldEvent, b: FieldEvent) -> bool {
+        match (a, b) {
+            (
+                FieldEvent::Hit { t, triangle },
+                FieldEvent::Hit {
+                    t: tb,
+                    triangle: tri_b,
+                },
+            ) => t.to_bits() == tb.to_bits() && triangle == tri_b,
+            (a, b) => a == b,
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+        /// The walk gives exactly the reference walk's event, from above and
+        /// from the surface, for flights in any direction (rising, level,
+        /// descending, nearly horizontal ones crossing many periods).
+        #[test]
+        fn walk_matches_the_reference_walk_bit_for_bit(
+            f in field_strategy(),
+            square in 0usize..10_000, half in 0usize..2,
+            ba in 0.0f64..1.0, bb in 0.0f64..1.0, lift in 0.0f64..2.0,
+            phi in 0.0f64..std::f64::consts::TAU, cos_theta in -1.0f64..1.0,
+        ) {
+            let tri = 2 * (square % (f.nx * f.ny)) + half;
+            let v = f.triangle_vertices(tri);
+            let (ba, bb) = if ba + bb > 1.0 { (1.0 - ba, 1.0 - bb) } else { (ba, bb) };
+            let on = v[0] + ba * (v[1] - v[0]) + bb * (v[2] - v[0]);
+            let d = direction(phi, cos_theta);
+            let above = on + DVec3::new(0.0, 0.0, lift);
+            prop_assert!(same_event(f.first_hit(above, d, None), reference_first_hit(&f, above, d, None)));
+            if d.dot(f.normal(tri)) > 0.0 {
+                let (w, r) = (f.first_hit(on, d, Some(tri)), reference_first_hit(&f, on, d, Some(tri)));
+                prop_assert!(same_event(w, r), "walk {w:?}, reference {r:?}");
+            }
+        }
+    }
+
+    /// A generated field (f32-exact heights, so flights meet node maxima
+    /// exactly), flights from the launch plane and back up from their hits:
+    /// the walk and the reference walk agree bit for bit.
+    #[test]
+    fn walk_matches_the_reference_walk_on_a_gaussian_field() {
+        let f = HeightField::gaussian(64, 48, DVec2::new(16.0, 12.0), 1.0, 2.0, 7);
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        for _ in 0..20_000 {
+            let o = DVec3::new(
+                rng.random::<f64>() * f.size.x,
+                rng.random::<f64>() * f.size.y,
+                f.max + 0.5,
+            );
+            let d = direction(
+                rng.random::<f64>() * std::f64::consts::TAU,
+                -rng.random::<f64>(),
+            );
+            let w = f.first_hit(o, d, None);
+            assert!(
+                same_event(w, reference_first_hit(&f, o, d, None)),
+                "{o} {d}"
+            );
+            if let FieldEvent::Hit { t, triangle } = w {
+                let n = f.normal(triangle);
+                let r = d - 2.0 * d.dot(n) * n;
+                let p = f.fold(o + t * d);
+                let (a, b) = (
+                    f.first_hit(p, r, Some(triangle)),
+                    reference_first_hit(&f, p, r, Some(triangle)),
+                );
+                assert!(same_event(a, b), "{p} {r}: {a:?} {b:?}");
+            }
+        }
+    }
+
+    /// The `f32` test of a node is the `f64` comparison, also for heights at
+    /// and next to the node's maximum and to its `f32` rounding.
+    #[test]
+    fn passes_above_is_the_exact_comparison() {
+        // Heights that are not all f32 (the f64 levels kept) and that are.
+        let fields = [1e-9, 0.0].map(|eps| {
+            let h: Vec<f64> = (0..17 * 9)
+                .map(|k| ((k * 37 % 101) as f64 - 50.0) / 8.0 + eps * k as f64)
+                .collect();
+            HeightField::new(17, 9, DVec2::new(4.0, 3.0), h)
+        });
+        assert!(fields[0].exact_levels.is_some() && fields[0].height_tiles.is_none());
+        assert!(fields[1].exact_levels.is_none() && fields[1].height_tiles.is_some());
+        for f in &fields {
+            for (l, lv) in max_levels(f.nx, f.ny, &f.h).iter().enumerate() {
+                for (k, &m) in lv.max.iter().enumerate() {
+                    let (ni, nj) = (k % lv.w, k / lv.w);
+                    let r = f64::from(m as f32);
+                    for z in [
+                        m,
+                        m.next_up(),
+                        m.next_down(),
+                        r,
+                        r.next_up(),
+                        r.next_down(),
+                        m - 1.0,
+                        m + 1.0,
+                        f64::NAN,
+                    ] {
+                        let above = z > m || z.is_nan();
+                        assert_eq!(
+                            f.passes_above(l + 1, ni, nj, z),
+                            above,
+                            "level {} node {k} z {z}",
+                            l + 1
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn vertical_flights_give_the_triangle_heights() {
         let f = HeightField::new(
@@ -1056,7 +1545,8 @@ mod tests {
         );
         let h: Vec<f64> = (0..35).map(|k| ((k * 7) % 11) as f64).collect();
         let f = HeightField::new(7, 5, DVec2::new(7.0, 5.0), h);
-        let top = f.levels.last().unwrap();
+        let levels = max_levels(f.nx, f.ny, &f.h);
+        let top = levels.last().unwrap();
         assert_eq!((top.w, top.max.len()), (1, 1));
         assert_eq!(top.max[0], f.max);
         // Level 1 node (3, 2) is the partial node of square (6, 4), whose
@@ -1065,7 +1555,18 @@ mod tests {
             .iter()
             .map(|&(i, j)| f.vertex(i, j))
             .fold(f64::NEG_INFINITY, f64::max);
-        assert_eq!(f.levels[0].max[2 * 4 + 3], want);
+        assert_eq!(levels[0].max[2 * 4 + 3], want);
+        // The walk's copies: the f32 tiles of every level, the corners from the height tiles.
+        assert!(f.exact_levels.is_none());
+        for (l, lv) in levels.iter().enumerate() {
+            for (k, &m) in lv.max.iter().enumerate() {
+                assert_eq!(f64::from(f.tiled.max(l + 1, k % lv.w, k / lv.w)), m);
+            }
+        }
+        for (i, j) in [(0, 0), (3, 2), (6, 4), (4, 3), (6, 0), (0, 4)] {
+            let want = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(a, b)| f.vertex(i + a, j + b));
+            assert_eq!(f.corners(i as usize, j as usize), want);
+        }
     }
 
     /// Normal deviates of the spectrum weight `w_k = exp(-|k|² tau² / 4)` on the
