@@ -181,15 +181,16 @@ impl CarlsonGrid {
     /// `dir.z <= 0` or any component is not finite.
     ///
     /// The band is exact with respect to [`mu_edges`](Self::mu_edges):
-    /// a closed-form guess is corrected against those edges.
+    /// a closed-form guess is corrected against those edges. The azimuth
+    /// cell is the one of `phi = atan2(y, x)` (see [`cell_of_xy`]).
     #[must_use]
     pub fn locate(&self, dir: DVec3) -> Option<usize> {
         if !dir.is_finite() || dir.z <= 0.0 {
             return None;
         }
-        let band = self.band_of_mu(dir.z);
-        let cell = Self::cell_of_phi(band, dir.y.atan2(dir.x));
-        Some(self.index(band, cell))
+        let k = self.k();
+        let band = self.band_of_mu(dir.z, |j| (k - j * (j + 1)) as f64 / k as f64);
+        Some(flat_index(band, cell_of_xy(band, dir.y, dir.x)))
     }
 
     /// Score weight `w` of a unit direction (`dir.z > 0`) into `acc` at
@@ -209,31 +210,14 @@ impl CarlsonGrid {
     #[must_use]
     #[inline]
     pub fn cells_of(&self, dir: DVec3) -> (Cells, f64) {
-        if dir.x == 0.0 && dir.y == 0.0 {
-            let cells = Cells {
-                cells: [0, 1, 2, 3].map(|c| self.index(1, c)),
-                len: 4,
-            };
-            return if dir.z > 0.0 {
-                (cells, 0.25)
-            } else {
-                (Cells::default(), 0.0)
-            };
-        }
-        match self.locate(dir) {
-            Some(c) => (
-                Cells {
-                    cells: [c, 0, 0, 0],
-                    len: 1,
-                },
-                1.0,
-            ),
-            None => (Cells::default(), 0.0),
-        }
+        shares(dir, |d| self.locate(d))
     }
 
-    /// Band (1-based) holding `mu > 0`; `mu >= 1` goes to band 1.
-    fn band_of_mu(&self, mu: f64) -> usize {
+    /// Band (1-based) holding `mu > 0`; `mu >= 1` goes to band 1. `bot(j)`
+    /// is `mu_bot` of band `j` for `j` in `0..=M` as [`mu_edges`](Self::mu_edges)
+    /// gives it (`bot(j - 1)` is `mu_top` of band `j`, `bot(0) = 1`).
+    #[inline]
+    fn band_of_mu(&self, mu: f64, bot: impl Fn(usize) -> f64) -> usize {
         // Closed form: band j holds j (j - 1) < x <= j (j + 1), x = (1 - mu) K.
         let x = (1.0 - mu) * self.k() as f64;
         let guess = (-1.0 + (1.0 + 4.0 * x).sqrt()) / 2.0;
@@ -245,16 +229,17 @@ impl CarlsonGrid {
         }
         let mut j = j.clamp(1, self.bands);
         // Correct the rounding against the exact, once-rounded edges.
-        while j < self.bands && mu < self.mu_edges(j).0 {
+        while j < self.bands && mu < bot(j) {
             j += 1;
         }
-        while j > 1 && mu >= self.mu_edges(j).1 {
+        while j > 1 && mu >= bot(j - 1) {
             j -= 1;
         }
         j
     }
 
-    /// Azimuth cell in `band` holding `phi` (radians, any range).
+    /// Azimuth cell in `band` holding `phi` (radians, any range): the
+    /// reference for [`cell_of_xy`], which falls back on it near cell edges.
     fn cell_of_phi(band: usize, phi: f64) -> usize {
         let n = 4 * band as i64;
         // phi / dphi is in [-n/2, n/2] for atan2 output; shifting by n makes it
@@ -262,6 +247,151 @@ impl CarlsonGrid {
         let v = phi / Self::dphi(band) + 0.5 + n as f64;
         let k = if v >= 0.0 { v as i64 } else { v.floor() as i64 };
         k.rem_euclid(n) as usize
+    }
+}
+
+/// Flat index of azimuth cell `cell` in `band` (1-based), unchecked: see
+/// [`CarlsonGrid::index`].
+#[inline]
+fn flat_index(band: usize, cell: usize) -> usize {
+    2 * band * (band - 1) + cell
+}
+
+/// The cells and shares of [`CarlsonGrid::cells_of`], with `locate` the
+/// grid's [`CarlsonGrid::locate`] (or [`Locator::locate`], the same cells).
+#[inline]
+fn shares(dir: DVec3, locate: impl Fn(DVec3) -> Option<usize>) -> (Cells, f64) {
+    if dir.x == 0.0 && dir.y == 0.0 {
+        // Band 1's four cells are flat indices 0..4.
+        let cells = Cells {
+            cells: [0, 1, 2, 3],
+            len: 4,
+        };
+        return if dir.z > 0.0 {
+            (cells, 0.25)
+        } else {
+            (Cells::default(), 0.0)
+        };
+    }
+    match locate(dir) {
+        Some(c) => (
+            Cells {
+                cells: [c, 0, 0, 0],
+                len: 1,
+            },
+            1.0,
+        ),
+        None => (Cells::default(), 0.0),
+    }
+}
+
+/// Coefficients `c_i` of `atan(t) ~ t sum_i c_i t^(2 i)` on `[0, 1]`: the
+/// Chebyshev interpolant of degree 8 in `t^2` of `atan(t) / t` (Chebyshev
+/// nodes in `t^2`), with a largest error of 9.7e-9 rad (checked in the tests).
+const ATAN_COEFFS: [f64; 9] = [
+    0.999_999_981_788_655_6,
+    -0.333_330_367_092_928_46,
+    0.199_918_720_292_643_07,
+    -0.141_977_977_954_079_88,
+    0.106_183_706_424_793_12,
+    -0.074_568_548_385_217_22,
+    0.042_137_623_745_702_51,
+    -0.015_731_249_223_588_546,
+    0.002_766_283_528_318_227_7,
+];
+
+/// Bound (radians) used on the error of [`atan2_approx`]: ten times its
+/// largest error.
+const ATAN_GUARD: f64 = 1e-7;
+
+/// `atan2(y, x)` in `[-pi, pi]` to within 1e-8 rad, for finite `(x, y)` not
+/// both zero, without a libm call: reduced to `t = min / max` of `|x|, |y|`
+/// in `[0, 1]`, [`ATAN_COEFFS`], then unfolded by octant and sign.
+#[inline]
+fn atan2_approx(y: f64, x: f64) -> f64 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = if ay > ax { (ax, ay) } else { (ay, ax) };
+    let t = lo / hi;
+    let s = t * t;
+    let [c0, rest @ ..] = ATAN_COEFFS;
+    let p = rest.iter().rev().fold(0.0, |p, &c| (p + c) * s) + c0;
+    let mut a = t * p;
+    if ay > ax {
+        a = std::f64::consts::FRAC_PI_2 - a;
+    }
+    if x < 0.0 {
+        a = PI - a;
+    }
+    a.copysign(y)
+}
+
+/// Azimuth cell in `band` (1-based) of the direction with horizontal
+/// components `(x, y)` (finite, not both zero): exactly
+/// `cell_of_phi(band, y.atan2(x))`, the cell of libm's `atan2`. The cell
+/// comes from [`atan2_approx`] unless that puts the azimuth within the
+/// guard ([`ATAN_GUARD`] plus rounding) of a cell edge; there, where the
+/// two could disagree, `atan2` itself decides.
+#[inline]
+fn cell_of_xy(band: usize, y: f64, x: f64) -> usize {
+    let n = 4 * band;
+    let per_radian = n as f64 * (1.0 / TAU);
+    // Cells from the edge below cell 0, shifted by n to be positive (in
+    // [n/2, 3n/2 + 1/2]), so truncation is the floor.
+    let v = atan2_approx(y, x) * per_radian + (0.5 + n as f64);
+    let k = v as usize;
+    let frac = v - k as f64;
+    // 1e-9 cells covers the rounding of v and per_radian (n <= 4000:
+    // ulp(6000) = 9e-13).
+    let guard = ATAN_GUARD * per_radian + 1e-9;
+    if frac > guard && frac < 1.0 - guard {
+        if k >= n { k - n } else { k }
+    } else {
+        CarlsonGrid::cell_of_phi(band, y.atan2(x))
+    }
+}
+
+/// A [`CarlsonGrid`] with its band edges tabulated: the same cells as
+/// [`CarlsonGrid::locate`] and [`CarlsonGrid::cells_of`] without their
+/// divisions, for scoring many photons.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Locator {
+    grid: CarlsonGrid,
+    /// `mu_bot` of band `j` at `j` for `j = 0..=M` ([`CarlsonGrid::mu_edges`];
+    /// 1 at 0, the top of band 1).
+    mu_bot: Vec<f64>,
+}
+
+impl Locator {
+    /// The locator of `grid`.
+    #[must_use]
+    pub fn new(grid: CarlsonGrid) -> Self {
+        let mut mu_bot = vec![1.0];
+        mu_bot.extend((1..=grid.bands).map(|j| grid.mu_edges(j).0));
+        Self { grid, mu_bot }
+    }
+
+    /// The grid.
+    #[must_use]
+    pub fn grid(&self) -> &CarlsonGrid {
+        &self.grid
+    }
+
+    /// [`CarlsonGrid::locate`].
+    #[must_use]
+    #[inline]
+    pub fn locate(&self, dir: DVec3) -> Option<usize> {
+        if !dir.is_finite() || dir.z <= 0.0 {
+            return None;
+        }
+        let band = self.grid.band_of_mu(dir.z, |j| self.mu_bot[j]);
+        Some(flat_index(band, cell_of_xy(band, dir.y, dir.x)))
+    }
+
+    /// [`CarlsonGrid::cells_of`].
+    #[must_use]
+    #[inline]
+    pub fn cells_of(&self, dir: DVec3) -> (Cells, f64) {
+        shares(dir, |d| self.locate(d))
     }
 }
 
@@ -281,6 +411,146 @@ mod tests {
         let mu = rng.random::<f64>().sqrt();
         let phi = phi_max * rng.random::<f64>();
         dir_from(mu, phi)
+    }
+
+    /// The cell of `dir` as the grid located it before [`cell_of_xy`]:
+    /// the band against [`CarlsonGrid::mu_edges`], the azimuth cell of
+    /// libm's `atan2`.
+    fn reference_locate(g: &CarlsonGrid, dir: DVec3) -> Option<usize> {
+        if !dir.is_finite() || dir.z <= 0.0 {
+            return None;
+        }
+        let band = g.band_of_mu(dir.z, |j| if j == 0 { 1.0 } else { g.mu_edges(j).0 });
+        Some(g.index(band, CarlsonGrid::cell_of_phi(band, dir.y.atan2(dir.x))))
+    }
+
+    #[test]
+    fn atan2_approx_within_its_bound() {
+        let mut worst = 0.0_f64;
+        let n = 2_000_000;
+        for i in 0..=n {
+            let phi = -PI + TAU * i as f64 / n as f64;
+            let (y, x) = phi.sin_cos();
+            for r in [1.0, 1e-3, 7.5e5] {
+                let err = (atan2_approx(r * y, r * x) - (r * y).atan2(r * x)).abs();
+                worst = worst.max(err);
+            }
+        }
+        assert!(worst < 1e-8, "{worst}");
+        assert!(10.0 * worst < ATAN_GUARD + 1e-9);
+        for (y, x) in [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0), (1.0, 1.0)] {
+            assert!((atan2_approx(y, x) - f64::atan2(y, x)).abs() < 1e-8);
+        }
+    }
+
+    /// Azimuths on and around every cell edge of many bands (a few ulps
+    /// either side in x and y), the axes with either sign of zero and random
+    /// directions: always the cell of libm's atan2.
+    #[test]
+    fn cell_of_xy_is_the_cell_of_atan2() {
+        let mut rng = Pcg64Mcg::seed_from_u64(14);
+        let check = |band: usize, y: f64, x: f64| {
+            assert_eq!(
+                cell_of_xy(band, y, x),
+                CarlsonGrid::cell_of_phi(band, y.atan2(x)),
+                "band {band} y {y:e} x {x:e}"
+            );
+        };
+        let bands = (1..=64).chain([100, 127, 128, 250, 333, 500, 999, 1000]);
+        for band in bands {
+            let n = 4 * band;
+            for e in 0..n {
+                let edge = (e as f64 + 0.5) * TAU / n as f64;
+                for phi in [edge, edge - TAU, edge.next_up(), edge.next_down()] {
+                    let (y0, x0) = phi.sin_cos();
+                    for r in [1.0, 0.3, 1e-8] {
+                        let (mut y, mut x) = (r * y0, r * x0);
+                        for _ in 0..3 {
+                            check(band, y, x);
+                            check(band, y.next_up(), x);
+                            check(band, y.next_down(), x);
+                            check(band, y, x.next_up());
+                            check(band, y, x.next_down());
+                            (y, x) = (y.next_up(), x.next_down());
+                        }
+                    }
+                }
+                // Near the edge within the guard band and just outside it.
+                for off in [1e-6, 1e-9, 1e-12, 3e-8, 2e-7] {
+                    for phi in [edge + off, edge - off] {
+                        let (y, x) = phi.sin_cos();
+                        check(band, y, x);
+                    }
+                }
+            }
+            for (y, x) in [
+                (0.0, 1.0),
+                (-0.0, 1.0),
+                (0.0, -1.0),
+                (-0.0, -1.0),
+                (1.0, 0.0),
+                (1.0, -0.0),
+                (-1.0, 0.0),
+                (-1.0, -0.0),
+                (1.0, 1.0),
+                (-1.0, 1.0),
+                (1.0, -1.0),
+                (-1.0, -1.0),
+                (1e-300, 1.0),
+                (1.0, 1e-300),
+                (-5e-324, -1.0),
+            ] {
+                check(band, y, x);
+            }
+            for _ in 0..2000 {
+                let phi = TAU * rng.random::<f64>();
+                let (y, x) = phi.sin_cos();
+                check(band, y, x);
+            }
+        }
+    }
+
+    /// [`CarlsonGrid::locate`], [`Locator::locate`] and the reference agree
+    /// on random directions, band edges, the pole and the horizon, and so do
+    /// the cells and shares.
+    #[test]
+    fn locator_matches_the_grid_and_the_reference() {
+        let mut rng = Pcg64Mcg::seed_from_u64(1976);
+        for m in (1..=40).chain([100, 1000]) {
+            let g = CarlsonGrid::new(m).unwrap();
+            let l = Locator::new(g);
+            assert_eq!(l.grid(), &g);
+            let check = |d: DVec3| {
+                let want = reference_locate(&g, d);
+                assert_eq!(g.locate(d), want, "M {m} {d}");
+                assert_eq!(l.locate(d), want, "M {m} {d}");
+                assert_eq!(l.cells_of(d), g.cells_of(d), "M {m} {d}");
+            };
+            for _ in 0..5000 {
+                check(sample_cosine(&mut rng, TAU));
+            }
+            for band in 1..=m {
+                let (bot, top) = g.mu_edges(band);
+                for mu in [bot, top, bot.next_up(), top.next_down(), bot.next_down()] {
+                    for phi in [0.0, 1.0, -2.5, PI] {
+                        check(dir_from(mu, phi));
+                    }
+                }
+            }
+            for d in [
+                DVec3::Z,
+                DVec3::new(0.0, 0.0, 1.0 + 1e-12),
+                DVec3::new(1e-300, 0.0, 1.0),
+                DVec3::new(1.0, 0.0, 1e-300),
+                DVec3::new(0.0, -1.0, 5e-324),
+                DVec3::new(0.6, 0.0, 0.8),
+                DVec3::X,
+                DVec3::new(f64::NAN, 0.0, 0.5),
+                DVec3::new(0.0, 0.0, -1.0),
+            ] {
+                check(d);
+            }
+        }
     }
 
     #[test]

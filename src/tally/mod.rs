@@ -20,7 +20,7 @@ pub mod polar;
 pub mod symmetry;
 
 pub use accumulator::Accumulator;
-pub use carlson::CarlsonGrid;
+pub use carlson::{CarlsonGrid, Locator};
 pub use inplane::InPlaneTally;
 pub use polar::{PolarTallies, PolarTally};
 pub use symmetry::Symmetry;

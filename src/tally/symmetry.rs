@@ -59,8 +59,14 @@ impl Symmetry {
 #[must_use]
 #[inline]
 pub fn mirror(dir: DVec3, phi: f64) -> DVec3 {
+    mirror_at(dir, phi.sin_cos())
+}
+
+/// [`mirror`] with `(sin phi, cos phi)` given (once per run, not per photon).
+#[must_use]
+#[inline]
+pub fn mirror_at(dir: DVec3, (s, c): (f64, f64)) -> DVec3 {
     // Unit normal of the plane: (-sin phi, cos phi, 0).
-    let (s, c) = phi.sin_cos();
     let along = -dir.x * s + dir.y * c;
     DVec3::new(dir.x + 2.0 * along * s, dir.y - 2.0 * along * c, dir.z)
 }

@@ -34,7 +34,8 @@ use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
 use crate::shard::{DyadicSum, Node};
 use crate::tally::polar::mirror_sign;
 use crate::tally::{
-    Accumulator, CarlsonGrid, InPlaneTally, PolarTallies, PolarTally, Symmetry, symmetry,
+    Accumulator, CarlsonGrid, InPlaneTally, Locator, PolarTallies, PolarTally, Symmetry,
+    symmetry,
 };
 
 pub use super::BATCH;
@@ -603,7 +604,7 @@ impl BrdfRun {
         total_batches: u64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Node<Tallies>> {
-        let grid = self.grid();
+        let grid = Locator::new(self.grid());
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
         let mut sum = DyadicSum::new(total_batches);
@@ -637,18 +638,18 @@ impl BrdfRun {
     /// is scored in, as up to two sets with the weight each cell of the set
     /// gets: its own cells, and with [`Symmetry::Mirror`] half in the cells
     /// of its mirror image in the plane of incidence at azimuth `phi`
-    /// (radians; the whole weight once when both are the same cells). An
-    /// unused set has weight 0.
+    /// (given as `(sin phi, cos phi)`; the whole weight once when both are
+    /// the same cells). An unused set has weight 0.
     fn cell_weights(
         &self,
-        grid: &CarlsonGrid,
+        grid: &Locator,
         out: DVec3,
         w: f64,
-        phi: f64,
+        sin_cos_phi: (f64, f64),
     ) -> [(crate::tally::carlson::Cells, f64); 2] {
         let (cells, share) = grid.cells_of(out);
         let (mirrored, mshare) = match self.symmetry {
-            Symmetry::Mirror => grid.cells_of(symmetry::mirror(out, phi)),
+            Symmetry::Mirror => grid.cells_of(symmetry::mirror_at(out, sin_cos_phi)),
             Symmetry::None => (cells, share),
         };
         if mirrored == cells {
@@ -662,15 +663,17 @@ impl BrdfRun {
     fn trace_batch<C: Carrier>(
         &self,
         surface: &MicroSurface,
-        grid: &CarlsonGrid,
+        locator: &Locator,
         inplane: &InPlaneTally,
         dir: DVec3,
         photons: std::ops::Range<u64>,
     ) -> Tallies {
+        let grid = locator.grid();
         let mut t = self.empty_tallies(grid, inplane);
         let mut scratch = Scratch::new(surface);
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
         let phi = self.phi_deg.to_radians();
+        let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi));
         let mut components = [0.0; 16];
@@ -706,7 +709,7 @@ impl BrdfRun {
                     // The cells' shares for weight 1 (the polarisation tally's),
                     // then times the weight: the same products as
                     // `cell_weights(.., weight, ..)`, bit for bit.
-                    let shares = self.cell_weights(grid, out, 1.0, phi);
+                    let shares = self.cell_weights(locator, out, 1.0, sin_cos_phi);
                     let halves = shares.map(|(cells, share)| (cells, share * weight));
                     for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
                         for &c in cs.as_slice() {
