@@ -119,7 +119,8 @@ fn morton(ix: usize, iy: usize) -> u64 {
 }
 
 /// The `f32` nearest above or at `z` (`-inf` stays `-inf`).
-fn f32_up(z: f64) -> f32 {
+#[inline(always)]
+pub(super) fn f32_up(z: f64) -> f32 {
     let r = z as f32;
     if f64::from(r) < z { r.next_up() } else { r }
 }

@@ -500,8 +500,9 @@ impl MicroSurface {
         let mut t_delta = [f64::INFINITY; 2];
         let mut step = [0isize; 2];
         for k in 0..2 {
-            // o is inside the cell, so truncation is the floor (and `as` saturates).
-            let c = ((o[k] * g.inv_pitch[k]) as usize).min(g.n[k] - 1);
+            // o is inside the cell, so truncation is the floor (and `as`
+            // saturates; grids have at most 2048 cells a side).
+            let c = ((o[k] * g.inv_pitch[k]) as u32 as usize).min(g.n[k] - 1);
             cell[k] = c;
             if d[k] > 0.0 {
                 step[k] = 1;
@@ -514,38 +515,40 @@ impl MicroSurface {
             }
         }
         let n_records = g.records.len();
+        let rising = d.z >= 0.0;
+        let stamp = &mut scratch.stamp[..];
         let mut t_enter = 0.0_f64;
         while t_enter <= t_best {
             let t_leave = t_next[0].min(t_next[1]);
             let gc = g.cells[cell[1] * g.n[0] + cell[0]];
             // Lowest point of the flight within this grid cell.
-            let z_low = if d.z >= 0.0 {
+            let z_low = if rising {
                 o.z + t_enter * d.z
             } else {
                 o.z + t_leave.min(t_best) * d.z
             };
             if z_low <= gc.zmax {
+                // An item's f32 height `z_up` (rounded up) is below z_low
+                // when below `low`, the least f32 at or above z_low, and
+                // above it when above; only at `low` the exact height decides.
+                let low = grid::f32_up(z_low);
                 let (lo, hi) = (gc.start as usize, gc.end as usize);
                 for (it, &exact) in g.items[lo..hi].iter().zip(&g.exact[lo..hi]) {
-                    // The f32 decides unless z_low falls within its rounding.
-                    if f64::from(it.z_up) < z_low
-                        || (z_low > f64::from(it.z_up.next_down()) && exact < z_low)
-                    {
+                    if it.z_up < low || (it.z_up == low && exact < z_low) {
                         break;
                     }
                     let r = it.rec as usize;
-                    if scratch.stamp[r] == q {
+                    if stamp[r] == q {
                         continue;
                     }
-                    scratch.stamp[r] = q;
-                    let (solid, surface) = g.ids[r];
-                    let solid = solid as usize;
+                    stamp[r] = q;
                     if r < n_records {
                         tests += 1;
                         if let Some((t, ill)) =
                             g.records[r].entry(o, d, t_best, r == standing_rec)
                         {
-                            let surface = surface as usize;
+                            let (solid, surface) = g.ids[r];
+                            let (solid, surface) = (solid as usize, surface as usize);
                             // Polish the distance where it is used (see Quadric::refine_root).
                             t_best = if ill {
                                 self.solids[solid].body.surfaces[surface].refine_root(o, d, t)
@@ -555,6 +558,7 @@ impl MicroSurface {
                             hit = (solid, surface);
                         }
                     } else {
+                        let solid = g.ids[r].0 as usize;
                         let on = standing.and_then(|(s, f)| (s == solid).then_some(f));
                         if let Some(e) = self.solids[solid]
                             .body
@@ -570,11 +574,11 @@ impl MicroSurface {
                 break;
             }
             let k = usize::from(t_next[1] < t_next[0]);
-            let c = cell[k] as isize + step[k];
-            if c < 0 || c >= g.n[k] as isize {
+            let c = cell[k].wrapping_add_signed(step[k]);
+            if c >= g.n[k] {
                 break;
             }
-            cell[k] = c as usize;
+            cell[k] = c;
             t_enter = t_next[k];
             t_next[k] += t_delta[k];
         }
