@@ -476,11 +476,7 @@ impl MicroSurface {
             if d.z >= 0.0 && o.z > self.solids[i].body.bounds.max.z {
                 continue;
             }
-            let on = standing.and_then(|(s, f)| (s == i).then_some(f));
-            if let Some(e) = self.solids[i]
-                .body
-                .first_entry_counting(&ray, t_best, on, &mut tests)
-            {
+            if let Some(e) = self.body_entry(i, &ray, t_best, standing, &mut tests) {
                 t_best = e.t;
                 hit = (i, e.surface);
             }
@@ -551,7 +547,7 @@ impl MicroSurface {
                             let (solid, surface) = (solid as usize, surface as usize);
                             // Polish the distance where it is used (see Quadric::refine_root).
                             t_best = if ill {
-                                self.solids[solid].body.surfaces[surface].refine_root(o, d, t)
+                                self.refine(solid, surface, o, d, t)
                             } else {
                                 t
                             };
@@ -559,10 +555,7 @@ impl MicroSurface {
                         }
                     } else {
                         let solid = g.ids[r].0 as usize;
-                        let on = standing.and_then(|(s, f)| (s == solid).then_some(f));
-                        if let Some(e) = self.solids[solid]
-                            .body
-                            .first_entry_counting(&ray, t_best, on, &mut tests)
+                        if let Some(e) = self.body_entry(solid, &ray, t_best, standing, &mut tests)
                         {
                             t_best = e.t;
                             hit = (solid, e.surface);
@@ -591,6 +584,30 @@ impl MicroSurface {
                 surface,
             },
         }
+    }
+
+    /// Where `ray` first enters solid `i` within `t_max` through its body
+    /// (solids without a compact record), counting its quadric tests; kept
+    /// out of line so the grid walk keeps its registers.
+    #[inline(never)]
+    fn body_entry(
+        &self,
+        i: usize,
+        ray: &Ray,
+        t_max: f64,
+        standing: Option<(usize, usize)>,
+        tests: &mut u64,
+    ) -> Option<crate::geometry::body::Entry> {
+        let on = standing.and_then(|(s, f)| (s == i).then_some(f));
+        self.solids[i].body.first_entry_counting(ray, t_max, on, tests)
+    }
+
+    /// The distance `t` to surface `surface` of solid `solid` polished (see
+    /// [`crate::geometry::quadric::Quadric::refine_root`]); rare, so out of line.
+    #[cold]
+    #[inline(never)]
+    fn refine(&self, solid: usize, surface: usize, o: DVec3, d: DVec3, t: f64) -> f64 {
+        self.solids[solid].body.surfaces[surface].refine_root(o, d, t)
     }
 
     /// Whole periods a flight along unit `d`, at `p` on a side `x = 0 / Lx`
