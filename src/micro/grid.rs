@@ -58,6 +58,36 @@ impl QuadricRecord {
             entry_negative(a, b, c, t_max)
         }
     }
+
+    /// The unit normal at `p` facing the flight along `d`, as
+    /// [`crate::geometry::quadric::Quadric::facing_normal`] gives it for the
+    /// same quadric (the same arithmetic, its zero cross and horizontal
+    /// linear terms included, so the same bits); `None` where the gradient
+    /// vanishes.
+    #[inline]
+    pub(super) fn facing_normal(&self, p: DVec3, d: DVec3) -> Option<DVec3> {
+        let (a, b, c) = (self.diag.x, self.diag.y, self.diag.z);
+        let q = p - self.origin;
+        let (x, y, z) = (q.x, q.y, q.z);
+        let g = DVec3::new(
+            2.0 * a * x + 0.0 * y + 0.0 * z + 0.0,
+            2.0 * b * y + 0.0 * x + 0.0 * z + 0.0,
+            2.0 * c * z + 0.0 * y + 0.0 * x + self.lin_z,
+        );
+        let n = g.try_normalize()?;
+        Some(if n.dot(d) > 0.0 { -n } else { n })
+    }
+}
+
+/// What a record stands for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct RecordId {
+    /// Index into [`super::MicroSurface::solids`].
+    pub(super) solid: u32,
+    /// The surface of a compact record (`u32::MAX` for a solid tested through its body).
+    pub(super) surface: u32,
+    /// The solid's material.
+    pub(super) material: u32,
 }
 
 /// One entry of a grid cell's list.
@@ -100,9 +130,18 @@ pub(super) struct Grid {
     pub(super) records: Vec<QuadricRecord>,
     /// `(solid, surface)` of every record index (records first, then the
     /// solids tested through their bodies).
-    pub(super) ids: Vec<(u32, u32)>,
+    pub(super) ids: Vec<RecordId>,
     /// Record index of every solid (`u32::MAX` for solids not in the grid).
     pub(super) record_of: Vec<u32>,
+}
+
+impl Grid {
+    /// The compact record of `surface` of solid `solid`, if it has one.
+    #[inline]
+    pub(super) fn compact(&self, solid: usize, surface: usize) -> Option<usize> {
+        let r = *self.record_of.get(solid)? as usize;
+        (r < self.records.len() && self.ids[r].surface as usize == surface).then_some(r)
+    }
 }
 
 /// The Morton (Z-order) code of grid cell `(ix, iy)`: their bits interleaved.
@@ -161,11 +200,15 @@ impl Grid {
             let iy = *range(c.y, c.y, pitch.y, ny).start();
             morton(ix, iy)
         };
+        // Compact: `-q` of an axis-aligned quadric whose cross and
+        // horizontal linear coefficients are +0 (so the record's tests and
+        // normals, which leave them out, give the body's bits).
         let compact = |i: usize| {
-            solids[i]
-                .body
-                .single_diagonal()
-                .filter(|(_, f)| f.lin.x == 0.0 && f.lin.y == 0.0)
+            let body = &solids[i].body;
+            body.single_diagonal().filter(|&(s, _)| {
+                let [_, _, _, dd, e, f, g, h, _, _] = body.surfaces[s].coef;
+                [dd, e, f, g, h].iter().all(|c| c.to_bits() == 0)
+            })
         };
         let mut order: Vec<(bool, u64, usize)> = gridded
             .iter()
@@ -185,10 +228,18 @@ impl Grid {
                         lin_z: f.lin.z,
                         k: f.k,
                     });
-                    ids.push((i as u32, surface as u32));
+                    ids.push(RecordId {
+                        solid: i as u32,
+                        surface: surface as u32,
+                        material: solids[i].body.material as u32,
+                    });
                 }
                 // A solid tested through its body has no fixed surface.
-                None => ids.push((i as u32, u32::MAX)),
+                None => ids.push(RecordId {
+                    solid: i as u32,
+                    surface: u32::MAX,
+                    material: solids[i].body.material as u32,
+                }),
             }
         }
         let mut lists = vec![Vec::new(); nx * ny];

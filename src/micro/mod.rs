@@ -411,6 +411,11 @@ impl MicroSurface {
             // Hits are only taken while the flight descends onto the triangle.
             return Some((field.normal(surface), self.substrate_material));
         }
+        if let Some(r) = self.grid.compact(solid, surface) {
+            // From the record the test just read (no reach into the solid).
+            let n = self.grid.records[r].facing_normal(*p, d)?;
+            return Some((n, self.grid.ids[r].material as usize));
+        }
         let body = &self.solids[solid].body;
         let n = body.surfaces[surface].facing_normal(*p, d)?;
         Some((n, body.material))
@@ -486,10 +491,7 @@ impl MicroSurface {
         let g = &self.grid;
         // The record the flight stands on (a compact one, on its surface), if any.
         let standing_rec = standing
-            .and_then(|(s, f)| {
-                let r = *g.record_of.get(s)? as usize;
-                (g.ids.get(r)?.1 as usize == f).then_some(r)
-            })
+            .and_then(|(s, f)| g.compact(s, f))
             .unwrap_or(usize::MAX);
         let mut cell = [0usize; 2];
         let mut t_next = [f64::INFINITY; 2];
@@ -543,8 +545,8 @@ impl MicroSurface {
                         if let Some((t, ill)) =
                             g.records[r].entry(o, d, t_best, r == standing_rec)
                         {
-                            let (solid, surface) = g.ids[r];
-                            let (solid, surface) = (solid as usize, surface as usize);
+                            let id = g.ids[r];
+                            let (solid, surface) = (id.solid as usize, id.surface as usize);
                             // Polish the distance where it is used (see Quadric::refine_root).
                             t_best = if ill {
                                 self.refine(solid, surface, o, d, t)
@@ -554,7 +556,7 @@ impl MicroSurface {
                             hit = (solid, surface);
                         }
                     } else {
-                        let solid = g.ids[r].0 as usize;
+                        let solid = g.ids[r].solid as usize;
                         if let Some(e) = self.body_entry(solid, &ray, t_best, standing, &mut tests)
                         {
                             t_best = e.t;
