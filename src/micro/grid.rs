@@ -22,6 +22,7 @@
 use glam::{DVec2, DVec3};
 
 use super::Solid;
+use crate::geometry::body::Body;
 use crate::geometry::quadric::{entry_negative, standing_far_root};
 
 /// One axis-aligned single-quadric body `f(p) < 0` with
@@ -37,6 +38,27 @@ pub(super) struct QuadricRecord {
 }
 
 impl QuadricRecord {
+    /// The record of `body` and the index of its surface, if the body is
+    /// `-q` of an axis-aligned quadric whose cross and horizontal linear
+    /// coefficients are +0 (so the record's tests and normals, which leave
+    /// them out, give the body's bits).
+    pub(super) fn of(body: &Body) -> Option<(usize, Self)> {
+        let (s, f) = body.single_diagonal()?;
+        let [_, _, _, dd, e, ff, g, h, _, _] = body.surfaces[s].coef;
+        [dd, e, ff, g, h]
+            .iter()
+            .all(|c| c.to_bits() == 0)
+            .then_some((
+                s,
+                Self {
+                    origin: f.origin,
+                    diag: f.diag,
+                    lin_z: f.lin.z,
+                    k: f.k,
+                },
+            ))
+    }
+
     /// Where the flight `o + t d` first enters the body in `(0, t_max]`, and
     /// whether the root should be polished: the arithmetic of
     /// [`crate::geometry::body::Body::first_entry`] on the same quadric, so
@@ -44,7 +66,13 @@ impl QuadricRecord {
     /// can only change the sign of a zero `b` or `c`, which no root depends on).
     /// `standing`: the flight starts on this surface.
     #[inline(always)]
-    pub(super) fn entry(&self, o: DVec3, d: DVec3, t_max: f64, standing: bool) -> Option<(f64, bool)> {
+    pub(super) fn entry(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        t_max: f64,
+        standing: bool,
+    ) -> Option<(f64, bool)> {
         let q = o - self.origin;
         let (mq, md) = (self.diag * q, self.diag * d);
         let a = d.dot(md);
@@ -161,7 +189,16 @@ fn morton(ix: usize, iy: usize) -> u64 {
 #[inline(always)]
 pub(super) fn f32_up(z: f64) -> f32 {
     let r = z as f32;
-    if f64::from(r) < z { r.next_up() } else { r }
+    if f64::from(r) >= z || r.is_nan() {
+        r
+    } else if r == 0.0 {
+        f32::from_bits(1)
+    } else if r > 0.0 {
+        f32::from_bits(r.to_bits() + 1)
+    } else {
+        // Negative (or -inf): one step toward zero.
+        f32::from_bits(r.to_bits() - 1)
+    }
 }
 
 impl Grid {
@@ -200,16 +237,7 @@ impl Grid {
             let iy = *range(c.y, c.y, pitch.y, ny).start();
             morton(ix, iy)
         };
-        // Compact: `-q` of an axis-aligned quadric whose cross and
-        // horizontal linear coefficients are +0 (so the record's tests and
-        // normals, which leave them out, give the body's bits).
-        let compact = |i: usize| {
-            let body = &solids[i].body;
-            body.single_diagonal().filter(|&(s, _)| {
-                let [_, _, _, dd, e, f, g, h, _, _] = body.surfaces[s].coef;
-                [dd, e, f, g, h].iter().all(|c| c.to_bits() == 0)
-            })
-        };
+        let compact = |i: usize| QuadricRecord::of(&solids[i].body);
         let mut order: Vec<(bool, u64, usize)> = gridded
             .iter()
             .map(|&i| (compact(i).is_none(), key(i), i))
@@ -221,13 +249,8 @@ impl Grid {
         for &(_, _, i) in &order {
             record_of[i] = ids.len() as u32;
             match compact(i) {
-                Some((surface, f)) => {
-                    records.push(QuadricRecord {
-                        origin: f.origin,
-                        diag: f.diag,
-                        lin_z: f.lin.z,
-                        k: f.k,
-                    });
+                Some((surface, record)) => {
+                    records.push(record);
                     ids.push(RecordId {
                         solid: i as u32,
                         surface: surface as u32,
@@ -313,17 +336,92 @@ mod tests {
         assert_eq!(morton(1, 0), 1);
         assert_eq!(morton(0, 1), 2);
         assert_eq!(morton(3, 3), 15);
-        assert_eq!(morton(2047, 0), 0x0055_5555);
-        assert_eq!(morton(0, 2047), 0x00aa_aaaa);
+        assert_eq!(morton(2047, 0), 0x0015_5555);
+        assert_eq!(morton(0, 2047), 0x002a_aaaa);
     }
 
     #[test]
     fn f32_up_is_the_nearest_f32_at_or_above() {
-        for z in [0.0, 1.0, 0.1, -0.1, 4.8, 1e-30, -3.3] {
+        for z in [0.0, 1.0, 0.1, -0.1, 4.8, 1e-30, -1e-30, 1e-50, -3.3, -1e39] {
             let r = f32_up(z);
             assert!(f64::from(r) >= z, "{z}");
-            assert!(f64::from(r.next_down()) < z, "{z}");
+            // The f32 just below (one step away from +inf) is below z.
+            let below = if r > 0.0 {
+                f32::from_bits(r.to_bits() - 1)
+            } else if r == 0.0 {
+                -f32::from_bits(1)
+            } else {
+                f32::from_bits(r.to_bits() + 1)
+            };
+            assert!(f64::from(below) < z, "{z}");
         }
+    }
+
+    /// Records give the bits of their bodies' entries and normals, for
+    /// every compact bump shape, from outside and standing on the surface.
+    #[test]
+    fn records_agree_with_their_bodies_bit_for_bit() {
+        use crate::geometry::body::Ray;
+        use crate::micro::bumps::{Bump, Shape};
+        let bump = Bump {
+            center: DVec2::new(5.3, 4.1),
+            radius: 2.7,
+            radius_y: 1.9,
+            height: 3.1,
+            depth: 0.7,
+            cap: 1.0,
+            base: 1.5,
+        };
+        let mut checked = 0;
+        for shape in [
+            Shape::Ellipsoid,
+            Shape::Paraboloid,
+            Shape::EllipsoidOnHyperboloid,
+        ] {
+            let body = shape
+                .body(&bump, 0)
+                .body
+                .translated(DVec3::new(30.0, -30.0, 0.0));
+            let (i, rec) = QuadricRecord::of(&body).expect("compact");
+            let quadric = body.surfaces[i];
+            for k in 0..2000 {
+                let a = f64::from(k) * 0.618_033_988_749_895;
+                let o = DVec3::new(
+                    35.3 + 6.0 * a.cos(),
+                    -25.9 + 6.0 * (1.3 * a).sin(),
+                    5.0 * (0.7 * a).sin().abs(),
+                );
+                let target = DVec3::new(
+                    35.3 + 2.0 * (2.1 * a).sin(),
+                    -25.9 + 1.5 * (1.7 * a).cos(),
+                    3.0 * (0.3 * a).cos(),
+                );
+                let d = (target - o).normalize();
+                let want = body.first_entry(&Ray::new(o, d), 50.0, None);
+                let got = rec.entry(o, d, 50.0, false).map(|(t, ill)| {
+                    if ill { quadric.refine_root(o, d, t) } else { t }
+                });
+                assert_eq!(
+                    want.map(|e| e.t.to_bits()),
+                    got.map(f64::to_bits),
+                    "{shape:?} {k}"
+                );
+                if let Some(e) = want {
+                    checked += 1;
+                    let p = o + e.t * d;
+                    assert_eq!(quadric.facing_normal(p, d), rec.facing_normal(p, d));
+                    // Standing at the hit, reflected: the far root.
+                    let n = quadric.facing_normal(p, d).unwrap();
+                    let r = (d - 2.0 * d.dot(n) * n).normalize();
+                    let want = body.first_entry(&Ray::new(p, r), 50.0, Some(i));
+                    let got = rec.entry(p, r, 50.0, true).map(|(t, ill)| {
+                        if ill { quadric.refine_root(p, r, t) } else { t }
+                    });
+                    assert_eq!(want.map(|e| e.t.to_bits()), got.map(f64::to_bits));
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
     }
 
     #[test]

@@ -542,8 +542,7 @@ impl MicroSurface {
                     stamp[r] = q;
                     if r < n_records {
                         tests += 1;
-                        if let Some((t, ill)) =
-                            g.records[r].entry(o, d, t_best, r == standing_rec)
+                        if let Some((t, ill)) = g.records[r].entry(o, d, t_best, r == standing_rec)
                         {
                             let id = g.ids[r];
                             let (solid, surface) = (id.solid as usize, id.surface as usize);
@@ -601,7 +600,9 @@ impl MicroSurface {
         tests: &mut u64,
     ) -> Option<crate::geometry::body::Entry> {
         let on = standing.and_then(|(s, f)| (s == i).then_some(f));
-        self.solids[i].body.first_entry_counting(ray, t_max, on, tests)
+        self.solids[i]
+            .body
+            .first_entry_counting(ray, t_max, on, tests)
     }
 
     /// The distance `t` to surface `surface` of solid `solid` polished (see
