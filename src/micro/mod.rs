@@ -516,14 +516,17 @@ impl MicroSurface {
         let rising = d.z >= 0.0;
         let stamp = &mut scratch.stamp[..];
         let mut t_enter = 0.0_f64;
+        // The distances compared below are never NaN (finite start and
+        // direction), so a plain select makes the comparisons of `f64::min`.
+        let min = |a: f64, b: f64| if b < a { b } else { a };
         while t_enter <= t_best {
-            let t_leave = t_next[0].min(t_next[1]);
+            let t_leave = min(t_next[0], t_next[1]);
             let gc = g.cells[cell[1] * g.n[0] + cell[0]];
             // Lowest point of the flight within this grid cell.
             let z_low = if rising {
                 o.z + t_enter * d.z
             } else {
-                o.z + t_leave.min(t_best) * d.z
+                o.z + min(t_leave, t_best) * d.z
             };
             if z_low <= gc.zmax {
                 // An item's f32 height `z_up` (rounded up) is below z_low
