@@ -168,6 +168,14 @@ impl Body {
         )
     }
 
+    /// `Some((i, form))` when the body is exactly `-i` of an axis-aligned
+    /// quadric `surfaces[i]` (most bumps) with its diagonal form: what a
+    /// compact test needs to give the bits of [`Body::first_entry`].
+    #[must_use]
+    pub fn single_diagonal(&self) -> Option<(usize, Diagonal)> {
+        Some((self.single?.0, self.diagonal?))
+    }
+
     /// Is `p` inside the body (points on a surface count by `f > 0` = positive side)?
     #[must_use]
     pub fn contains(&self, p: DVec3) -> bool {

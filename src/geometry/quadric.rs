@@ -40,10 +40,14 @@ pub struct Quadric {
 /// ellipsoid, paraboloid and plane is one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Diagonal {
-    origin: DVec3,
-    diag: DVec3,
-    lin: DVec3,
-    k: f64,
+    /// Reference point `origin` (length units).
+    pub origin: DVec3,
+    /// `(A, B, C)`, the squared terms.
+    pub diag: DVec3,
+    /// `(G, H, J)`, the linear terms.
+    pub lin: DVec3,
+    /// `K`, the constant term.
+    pub k: f64,
 }
 
 impl Diagonal {

@@ -22,6 +22,7 @@
 //! gives the normal for either kind, so the photon history has one loop.
 
 pub mod bumps;
+mod grid;
 pub mod heightfield;
 pub mod heightfield_io;
 pub mod surface_stats;
@@ -30,6 +31,7 @@ use glam::{DVec2, DVec3};
 
 use crate::geometry::body::{Aabb, Body, Ray};
 use crate::optics::material::Reflectance;
+use grid::Grid;
 use heightfield::{FieldEvent, HeightField};
 
 /// Most periodic cell sides one straight flight may cross (bump surfaces:
@@ -168,7 +170,7 @@ impl Scratch {
     #[must_use]
     pub fn new(surface: &MicroSurface) -> Self {
         Self {
-            stamp: vec![0; surface.solids.len()],
+            stamp: vec![0; surface.grid.ids.len()],
             query: 0,
             tests: 0,
         }
@@ -181,87 +183,6 @@ impl Scratch {
             self.query = 1;
         }
         self.query
-    }
-}
-
-/// A uniform grid over the cell in x and y, listing solids by their bounds.
-#[derive(Clone, Debug)]
-struct Grid {
-    n: [usize; 2],
-    pitch: DVec2,
-    inv_pitch: DVec2,
-    /// CSR offsets into `items`, one per grid cell plus one.
-    start: Vec<u32>,
-    /// Solid index and the top of its bounds, so solids below a flight are
-    /// skipped without touching them.
-    items: Vec<(u32, f64)>,
-    /// Highest `bounds.max.z` of the items of each grid cell (`-inf` if empty).
-    zmax: Vec<f64>,
-}
-
-impl Grid {
-    fn build(size: DVec2, solids: &[Solid], gridded: &[usize]) -> Self {
-        // Grid pitch: a fifth of the median footprint side, so a bump spans
-        // about 6 x 6 grid cells and its exact height over each is a tight
-        // bound (pitches of 1/4 to 1/6 measured best on the default scene:
-        // 13 % fewer instructions than 1/2).
-        let mut sides: Vec<f64> = gridded
-            .iter()
-            .map(|&i| {
-                let b = &solids[i].body.bounds;
-                (b.max.x - b.min.x).max(b.max.y - b.min.y)
-            })
-            .filter(|s| s.is_finite() && *s > 0.0)
-            .collect();
-        sides.sort_by(f64::total_cmp);
-        let target = sides
-            .get(sides.len() / 2)
-            .map_or(size.max_element(), |s| s / 5.0);
-        let nx = ((size.x / target).ceil() as usize).clamp(1, 2048);
-        let ny = ((size.y / target).ceil() as usize).clamp(1, 2048);
-        let pitch = DVec2::new(size.x / nx as f64, size.y / ny as f64);
-        let range = |lo: f64, hi: f64, pitch: f64, n: usize| {
-            let a = ((lo / pitch).floor().max(0.0) as usize).min(n - 1);
-            let b = ((hi / pitch).floor().max(0.0) as usize).min(n - 1);
-            a..=b
-        };
-        let mut lists = vec![Vec::new(); nx * ny];
-        let mut zmax = vec![f64::NEG_INFINITY; nx * ny];
-        for &i in gridded {
-            let b = &solids[i].body.bounds;
-            for iy in range(b.min.y, b.max.y, pitch.y, ny) {
-                for ix in range(b.min.x, b.max.x, pitch.x, nx) {
-                    let lo = DVec2::new(ix as f64, iy as f64) * pitch;
-                    let top = solids[i].max_height_over(lo, lo + pitch);
-                    if top == f64::NEG_INFINITY {
-                        continue;
-                    }
-                    lists[iy * nx + ix].push((i as u32, top));
-                    zmax[iy * nx + ix] = zmax[iy * nx + ix].max(top);
-                }
-            }
-        }
-        let mut start = Vec::with_capacity(nx * ny + 1);
-        let mut items = Vec::new();
-        start.push(0);
-        for mut l in lists {
-            // Tallest first, so a flight stops scanning at the first solid below it.
-            l.sort_by(|a, b| b.1.total_cmp(&a.1));
-            items.extend(l);
-            start.push(items.len() as u32);
-        }
-        Self {
-            n: [nx, ny],
-            pitch,
-            inv_pitch: pitch.recip(),
-            start,
-            items,
-            zmax,
-        }
-    }
-
-    fn cell_items(&self, cell: usize) -> &[(u32, f64)] {
-        &self.items[self.start[cell] as usize..self.start[cell + 1] as usize]
     }
 }
 
@@ -490,6 +411,11 @@ impl MicroSurface {
             // Hits are only taken while the flight descends onto the triangle.
             return Some((field.normal(surface), self.substrate_material));
         }
+        if let Some(r) = self.grid.compact(solid, surface) {
+            // From the record the test just read (no reach into the solid).
+            let n = self.grid.records[r].facing_normal(*p, d)?;
+            return Some((n, self.grid.ids[r].material as usize));
+        }
         let body = &self.solids[solid].body;
         let n = body.surfaces[surface].facing_normal(*p, d)?;
         Some((n, body.material))
@@ -532,38 +458,49 @@ impl MicroSurface {
                 exit = Event::Side { t, axis, upper };
             }
         }
-        let mut best: Option<(f64, usize, usize)> = None;
+        // The nearest entry so far: (solid, surface), or none (`usize::MAX`).
+        let mut hit = (usize::MAX, 0_usize);
         let mut tests = 0_u64;
-        let test = |i: usize,
-                    t_best: &mut f64,
-                    best: &mut Option<(f64, usize, usize)>,
-                    tests: &mut u64| {
-            let on = standing.and_then(|(s, f)| (s == i).then_some(f));
-            if let Some(e) = self.solids[i]
-                .body
-                .first_entry_counting(&ray, *t_best, on, tests)
-            {
-                *t_best = e.t;
-                *best = Some((e.t, i, e.surface));
+        // The substrate (solid 0, always the first global solid) inline: the
+        // arithmetic of its body's test of the plane z = 0 (`a = 0`,
+        // `b = d.z / 2`, `c = o.z`, entered going down), which a rising
+        // flight above it skips, and a flight standing on it never meets.
+        if !(d.z >= 0.0 && o.z > 0.0) {
+            tests += 1;
+            let b = 0.5 * d.z;
+            if b < 0.0 && standing != Some((0, 0)) {
+                let t = -o.z / (2.0 * b);
+                if t > 0.0 && t <= t_best {
+                    t_best = t;
+                    hit = (0, 0);
+                }
             }
-        };
-        for &i in &self.global {
-            // A rising flight above a solid's top cannot enter it (the substrate, mostly).
+        }
+        for &i in &self.global[1..] {
+            // A rising flight above a solid's top cannot enter it.
             if d.z >= 0.0 && o.z > self.solids[i].body.bounds.max.z {
                 continue;
             }
-            test(i, &mut t_best, &mut best, &mut tests);
+            if let Some(e) = self.body_entry(i, &ray, t_best, standing, &mut tests) {
+                t_best = e.t;
+                hit = (i, e.surface);
+            }
         }
         // Walk the grid cells under the flight (Amanatides & Woo), nearest first.
         let q = scratch.next_query();
         let g = &self.grid;
+        // The record the flight stands on (a compact one, on its surface), if any.
+        let standing_rec = standing
+            .and_then(|(s, f)| g.compact(s, f))
+            .unwrap_or(usize::MAX);
         let mut cell = [0usize; 2];
         let mut t_next = [f64::INFINITY; 2];
         let mut t_delta = [f64::INFINITY; 2];
         let mut step = [0isize; 2];
         for k in 0..2 {
-            // o is inside the cell, so truncation is the floor (and `as` saturates).
-            let c = ((o[k] * g.inv_pitch[k]) as usize).min(g.n[k] - 1);
+            // o is inside the cell, so truncation is the floor (and `as`
+            // saturates; grids have at most 2048 cells a side).
+            let c = ((o[k] * g.inv_pitch[k]) as u32 as usize).min(g.n[k] - 1);
             cell[k] = c;
             if d[k] > 0.0 {
                 step[k] = 1;
@@ -575,25 +512,58 @@ impl MicroSurface {
                 t_delta[k] = -g.pitch[k] * inv[k];
             }
         }
+        let n_records = g.records.len();
+        let rising = d.z >= 0.0;
+        let stamp = &mut scratch.stamp[..];
         let mut t_enter = 0.0_f64;
+        // The distances compared below are never NaN (finite start and
+        // direction), so a plain select makes the comparisons of `f64::min`.
+        let min = |a: f64, b: f64| if b < a { b } else { a };
         while t_enter <= t_best {
-            let t_leave = t_next[0].min(t_next[1]);
-            let idx = cell[1] * g.n[0] + cell[0];
+            let t_leave = min(t_next[0], t_next[1]);
+            let gc = g.cells[cell[1] * g.n[0] + cell[0]];
             // Lowest point of the flight within this grid cell.
-            let z_low = if d.z >= 0.0 {
+            let z_low = if rising {
                 o.z + t_enter * d.z
             } else {
-                o.z + t_leave.min(t_best) * d.z
+                o.z + min(t_leave, t_best) * d.z
             };
-            if z_low <= g.zmax[idx] {
-                for &(i, zmax) in g.cell_items(idx) {
-                    if zmax < z_low {
+            if z_low <= gc.zmax {
+                // An item's f32 height `z_up` (rounded up) is below z_low
+                // when below `low`, the least f32 at or above z_low, and
+                // above it when above; only at `low` the exact height decides.
+                let low = grid::f32_up(z_low);
+                let (lo, hi) = (gc.start as usize, gc.end as usize);
+                for (it, &exact) in g.items[lo..hi].iter().zip(&g.exact[lo..hi]) {
+                    if it.z_up < low || (it.z_up == low && exact < z_low) {
                         break;
                     }
-                    let i = i as usize;
-                    if scratch.stamp[i] != q {
-                        scratch.stamp[i] = q;
-                        test(i, &mut t_best, &mut best, &mut tests);
+                    let r = it.rec as usize;
+                    if stamp[r] == q {
+                        continue;
+                    }
+                    stamp[r] = q;
+                    if r < n_records {
+                        tests += 1;
+                        if let Some((t, ill)) = g.records[r].entry(o, d, t_best, r == standing_rec)
+                        {
+                            let id = g.ids[r];
+                            let (solid, surface) = (id.solid as usize, id.surface as usize);
+                            // Polish the distance where it is used (see Quadric::refine_root).
+                            t_best = if ill {
+                                self.refine(solid, surface, o, d, t)
+                            } else {
+                                t
+                            };
+                            hit = (solid, surface);
+                        }
+                    } else {
+                        let solid = g.ids[r].solid as usize;
+                        if let Some(e) = self.body_entry(solid, &ray, t_best, standing, &mut tests)
+                        {
+                            t_best = e.t;
+                            hit = (solid, e.surface);
+                        }
                     }
                 }
             }
@@ -601,19 +571,49 @@ impl MicroSurface {
                 break;
             }
             let k = usize::from(t_next[1] < t_next[0]);
-            let c = cell[k] as isize + step[k];
-            if c < 0 || c >= g.n[k] as isize {
+            let c = cell[k].wrapping_add_signed(step[k]);
+            if c >= g.n[k] {
                 break;
             }
-            cell[k] = c as usize;
+            cell[k] = c;
             t_enter = t_next[k];
             t_next[k] += t_delta[k];
         }
         scratch.tests += tests;
-        match best {
-            Some((t, solid, surface)) => Event::Hit { t, solid, surface },
-            None => exit,
+        match hit {
+            (usize::MAX, _) => exit,
+            (solid, surface) => Event::Hit {
+                t: t_best,
+                solid,
+                surface,
+            },
         }
+    }
+
+    /// Where `ray` first enters solid `i` within `t_max` through its body
+    /// (solids without a compact record), counting its quadric tests; kept
+    /// out of line so the grid walk keeps its registers.
+    #[inline(never)]
+    fn body_entry(
+        &self,
+        i: usize,
+        ray: &Ray,
+        t_max: f64,
+        standing: Option<(usize, usize)>,
+        tests: &mut u64,
+    ) -> Option<crate::geometry::body::Entry> {
+        let on = standing.and_then(|(s, f)| (s == i).then_some(f));
+        self.solids[i]
+            .body
+            .first_entry_counting(ray, t_max, on, tests)
+    }
+
+    /// The distance `t` to surface `surface` of solid `solid` polished (see
+    /// [`crate::geometry::quadric::Quadric::refine_root`]); rare, so out of line.
+    #[cold]
+    #[inline(never)]
+    fn refine(&self, solid: usize, surface: usize, o: DVec3, d: DVec3, t: f64) -> f64 {
+        self.solids[solid].body.surfaces[surface].refine_root(o, d, t)
     }
 
     /// Whole periods a flight along unit `d`, at `p` on a side `x = 0 / Lx`
