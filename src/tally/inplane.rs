@@ -40,6 +40,9 @@ pub struct InPlaneTally {
     u: DVec3,
     /// `z x u`, the out-of-plane axis.
     v: DVec3,
+    /// `|dir . v|` above which a direction is surely out of the detector:
+    /// `1.000001 sin(half_width)`.
+    reject_above: f64,
 }
 
 /// Most bins across the 180 degrees of the plane (a 0.01 degree step): a
@@ -94,6 +97,7 @@ impl InPlaneTally {
             n_bins: n as usize + 1,
             u,
             v: DVec3::Z.cross(u),
+            reject_above: 1.000_001 * half_width_deg.to_radians().sin(),
         })
     }
 
@@ -141,7 +145,7 @@ impl InPlaneTally {
         // Cheap rejection of directions clearly out of the detector (most of
         // them) before the trigonometry; the exact test follows.
         let s = dir.dot(self.v).abs();
-        if s > 1.000_001 * self.half_width_deg.to_radians().sin() {
+        if s > self.reject_above {
             return None;
         }
         let (theta_p, psi) = self.in_plane_angles(dir);

@@ -27,15 +27,15 @@ use rand::RngExt;
 
 use super::carrier::{Carrier, Polarised};
 use super::launch::{Lattices, Launch, replicate_stderr};
-use super::micro::{Controls, Fate, trace};
+use super::micro::{Controls, Fate, History, trace};
+use super::order;
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
 use crate::shard::{DyadicSum, Node};
 use crate::tally::polar::mirror_sign;
 use crate::tally::{
-    Accumulator, CarlsonGrid, InPlaneTally, Locator, PolarTallies, PolarTally, Symmetry,
-    symmetry,
+    Accumulator, CarlsonGrid, InPlaneTally, Locator, PolarTallies, PolarTally, Symmetry, symmetry,
 };
 
 pub use super::BATCH;
@@ -595,7 +595,9 @@ impl BrdfRun {
 
     /// Trace this run's photons in batches (batch `k` of this run is batch
     /// `base + k` of a run of `total_batches`), in parallel, and reduce them
-    /// in batch order over the fixed tree; returns its complete nodes.
+    /// in batch order over the fixed tree; returns its complete nodes. Large
+    /// surfaces are traced in the Morton order of the entry points
+    /// ([`order::pays`]).
     fn run_nodes(
         &self,
         surface: &MicroSurface,
@@ -604,33 +606,66 @@ impl BrdfRun {
         total_batches: u64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Node<Tallies>> {
+        let ordered = order::pays(surface);
+        self.run_nodes_in(surface, theta_deg, base, total_batches, ordered, progress)
+    }
+
+    /// [`BrdfRun::run_nodes`], in Morton order if `ordered`.
+    fn run_nodes_in(
+        &self,
+        surface: &MicroSurface,
+        theta_deg: f64,
+        base: u64,
+        total_batches: u64,
+        ordered: bool,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<Node<Tallies>> {
         let grid = Locator::new(self.grid());
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
         let mut sum = DyadicSum::new(total_batches);
-        let trace = |range| match (self.polarisation.transport, self.polarisation.tally) {
-            (false, _) => self.trace_batch::<f64>(surface, &grid, &inplane, dir, range),
-            (true, PolarTally::Mueller) => {
-                self.trace_batch::<Polarised<4>>(surface, &grid, &inplane, dir, range)
-            }
-            (true, _) => self.trace_batch::<Polarised<1>>(surface, &grid, &inplane, dir, range),
+        let mut consume = |k, value| {
+            sum.push(
+                Node {
+                    level: 0,
+                    index: base + k,
+                    value,
+                },
+                &Tallies::merge,
+            )
+            .expect("batches in order");
         };
-        super::run_batches(
-            self.photons,
-            trace,
-            |k, value| {
-                sum.push(
-                    Node {
-                        level: 0,
-                        index: base + k,
-                        value,
-                    },
-                    &Tallies::merge,
-                )
-                .expect("batches in order");
-            },
-            progress,
-        );
+        match (self.polarisation.transport, self.polarisation.tally) {
+            (false, _) => {
+                self.trace_ordered::<f64>(
+                    surface,
+                    &grid,
+                    &inplane,
+                    dir,
+                    ordered,
+                    &mut consume,
+                    progress,
+                );
+            }
+            (true, PolarTally::Mueller) => self.trace_ordered::<Polarised<4>>(
+                surface,
+                &grid,
+                &inplane,
+                dir,
+                ordered,
+                &mut consume,
+                progress,
+            ),
+            (true, _) => self.trace_ordered::<Polarised<1>>(
+                surface,
+                &grid,
+                &inplane,
+                dir,
+                ordered,
+                &mut consume,
+                progress,
+            ),
+        }
         sum.into_nodes()
     }
 
@@ -659,25 +694,28 @@ impl BrdfRun {
         }
     }
 
-    /// Trace the photons `photons` carrying `C` (see [`super::carrier`]).
-    fn trace_batch<C: Carrier>(
+    /// Trace this run's photons carrying `C` (see [`super::carrier`]),
+    /// with `ordered` in the Morton order of their entry points
+    /// ([`super::run_ordered`]), else in index order, and hand each batch's
+    /// tally, scored in index order (the same tallies either way), to
+    /// `consume(batch index, tally)` in batch order.
+    #[allow(clippy::too_many_arguments)]
+    fn trace_ordered<C: Carrier>(
         &self,
         surface: &MicroSurface,
         locator: &Locator,
         inplane: &InPlaneTally,
         dir: DVec3,
-        photons: std::ops::Range<u64>,
-    ) -> Tallies {
-        let grid = locator.grid();
-        let mut t = self.empty_tallies(grid, inplane);
-        let mut scratch = Scratch::new(surface);
+        ordered: bool,
+        consume: &mut dyn FnMut(u64, Tallies),
+        progress: &(dyn Fn(u64) + Sync),
+    ) {
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
         let phi = self.phi_deg.to_radians();
-        let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi));
-        let mut components = [0.0; 16];
-        for n in photons {
+        // Photon n's stream (after the entry draws) and entry point.
+        let entry = |n: u64| {
             let g = self.first_photon + n;
             let mut rng = photon_rng(self.seed, g);
             let (mut u, mut v): (f64, f64) = (rng.random(), rng.random());
@@ -686,7 +724,18 @@ impl BrdfRun {
                 let (r, [lu, lv]) = lattices.point(g);
                 (replicate, u, v) = (r, lu, lv);
             }
-            let start = DVec3::new(u * surface.size.x, v * surface.size.y, surface.top);
+            Entry {
+                rng,
+                u,
+                v,
+                replicate,
+            }
+        };
+        // A history and the intersection tests it took.
+        let history = |e: &Entry, scratch: &mut Scratch| {
+            let start = DVec3::new(e.u * surface.size.x, e.v * surface.size.y, surface.top);
+            let mut rng = e.rng.clone();
+            let tests = scratch.tests;
             let h = trace(
                 surface,
                 start,
@@ -694,8 +743,60 @@ impl BrdfRun {
                 launch,
                 &self.controls,
                 &mut rng,
-                &mut scratch,
+                scratch,
             );
+            (h, scratch.tests - tests)
+        };
+        if !ordered {
+            // A small surface stays in the caches in any order: trace and
+            // score each photon in turn, batch by batch.
+            let batch = |range: std::ops::Range<u64>| {
+                let mut scratch = Scratch::new(surface);
+                let photons = range.map(|n| {
+                    let e = entry(n);
+                    let (h, tests) = history(&e, &mut scratch);
+                    (e.replicate, h, tests)
+                });
+                self.score_batch(locator, inplane, photons)
+            };
+            return super::run_batches(self.photons, batch, consume, progress);
+        }
+        super::run_ordered(
+            self.photons,
+            |n| {
+                let e = entry(n);
+                (order::morton(e.u, e.v), e)
+            },
+            || Scratch::new(surface),
+            history,
+            |_, entries, histories| {
+                let photons = entries
+                    .iter()
+                    .zip(histories)
+                    .map(|(e, &&(h, tests))| (e.replicate, h, tests));
+                self.score_batch(locator, inplane, photons)
+            },
+            consume,
+            progress,
+        );
+    }
+
+    /// The tally of a batch from its photons' lattice replicates, histories
+    /// and the intersection tests each took, in photon index order.
+    fn score_batch<C: Carrier>(
+        &self,
+        locator: &Locator,
+        inplane: &InPlaneTally,
+        photons: impl Iterator<Item = (usize, History<C>, u64)>,
+    ) -> Tallies {
+        let grid = locator.grid();
+        let mut t = self.empty_tallies(grid, inplane);
+        let phi = self.phi_deg.to_radians();
+        let sin_cos_phi = phi.sin_cos();
+        let incident: Stokes = self.polarisation.incident.stokes();
+        let mut components = [0.0; 16];
+        for (replicate, h, tests) in photons {
+            t.intersection_tests += tests;
             t.photons += 1;
             t.bounces += u64::from(h.bounces);
             t.segments += u64::from(h.segments);
@@ -751,9 +852,20 @@ impl BrdfRun {
                 }
             }
         }
-        t.intersection_tests = scratch.tests;
         t
     }
+}
+
+/// A photon of a batch before it is traced.
+struct Entry {
+    /// Its stream, after the two draws of the random entry point.
+    rng: rand_pcg::Pcg64Mcg,
+    /// Entry point on the unit square (scaled to the cell).
+    u: f64,
+    /// See `u`.
+    v: f64,
+    /// Lattice replicate (0 for a random launch).
+    replicate: usize,
 }
 
 /// Score an escaping photon's polarisation components `c` (in its outgoing
@@ -805,6 +917,65 @@ fn score_polar(
                 };
                 p.score(p.cell_bin(cell, i), replicate, sign * w * v);
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::micro::{DEFAULT_SCENE, MicroScene};
+
+    /// Tracing in Morton order and in index order gives the same tallies,
+    /// bit for bit, for the scalar weight, Stokes vectors and Mueller
+    /// columns, random and lattice launches, with mirror symmetry, and a
+    /// partial last batch.
+    #[test]
+    fn morton_order_gives_the_index_order_tallies() {
+        let source = crate::scene::Source {
+            file: "default.toml".into(),
+            dir: ".".into(),
+        };
+        let al = DEFAULT_SCENE.replace("reflectance = 0.8", "n = 1.015\nk = 6.627");
+        for (text, tally, launch, symmetry) in [
+            (
+                DEFAULT_SCENE,
+                PolarTally::None,
+                Launch::Random,
+                Symmetry::None,
+            ),
+            (
+                DEFAULT_SCENE,
+                PolarTally::None,
+                Launch::Lattice,
+                Symmetry::Mirror,
+            ),
+            (
+                al.as_str(),
+                PolarTally::Stokes,
+                Launch::Random,
+                Symmetry::Mirror,
+            ),
+            (
+                al.as_str(),
+                PolarTally::Mueller,
+                Launch::Lattice,
+                Symmetry::None,
+            ),
+        ] {
+            let scene = MicroScene::from_str(text, source.clone(), "t".into()).unwrap();
+            let mut run = scene.brdf_run();
+            run.photons = 3 * BATCH + 16 * 37;
+            run.launch = launch;
+            run.symmetry = symmetry;
+            run.polarisation.tally = tally;
+            run.polarisation.transport = tally != PolarTally::None;
+            let batches = run.photons.div_ceil(BATCH);
+            let nodes =
+                |ordered| run.run_nodes_in(&scene.surface, 60.0, 0, batches, ordered, &|_| {});
+            let (by_index, by_morton) = (nodes(false), nodes(true));
+            assert!(by_index[0].value.photons > 0);
+            assert_eq!(by_index, by_morton, "{tally:?} {launch:?} {symmetry:?}");
         }
     }
 }

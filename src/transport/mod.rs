@@ -4,6 +4,7 @@
 //! * [`carrier`]: what a photon carries: a weight, or a Stokes vector or Mueller matrix with its frame.
 //! * [`micro`]: one history in a micro surface (specular reflections, weights, roulette).
 //! * [`launch`]: where photons enter the micro cell (random or lattice).
+//! * [`order`]: the order a batch's photons are traced in (Morton order of entry points).
 //! * [`brdf`]: the BRDF generator (`roks brdf`).
 //! * [`object`]: histories through a 3-D object (`roks trace`).
 
@@ -12,6 +13,7 @@ pub mod carrier;
 pub mod launch;
 pub mod micro;
 pub mod object;
+pub mod order;
 pub mod rng;
 
 use rand::RngExt;
@@ -44,6 +46,82 @@ pub fn run_batches<T: Send>(
                 let t = trace(range);
                 progress(n);
                 t
+            })
+            .collect();
+        for (b, part) in (b0..b1).zip(parts) {
+            consume(b, part);
+        }
+        b0 = b1;
+    }
+}
+
+/// Most bytes of entries and histories [`run_ordered`] holds at a time
+/// (whole batches, at least one).
+const ORDERED_BYTES: usize = 32 << 20;
+
+/// Photons a thread traces in one piece of the Morton order of [`run_ordered`].
+const PIECE: usize = 1024;
+
+/// Like [`run_batches`], but each chunk of batches is traced in the Morton
+/// order of its photons' entry points ([`order`]), so that photons entering
+/// near each other are traced one after the other (by pieces of [`PIECE`]
+/// photons spread over the threads), and each batch is then scored from its
+/// histories in photon index order: the tallies are bit-identical to
+/// [`run_batches`]'s for any thread count.
+///
+/// `entry(n)` gives photon `n`'s Morton code and what its history starts
+/// from (`E`: its stream and entry point); `trace(entry, scratch)` its
+/// history, with a scratch from `scratch()` per piece; `score(range,
+/// entries, histories)` a batch's tally from its entries and histories in
+/// index order; `consume` and `progress` as for [`run_batches`]. Chunks hold
+/// at most about [`ORDERED_BYTES`] of entries and histories.
+#[allow(clippy::too_many_arguments)]
+pub fn run_ordered<E: Send + Sync, H: Send + Sync, S, T: Send>(
+    photons: u64,
+    entry: impl Fn(u64) -> (u16, E) + Sync,
+    scratch: impl Fn() -> S + Sync,
+    trace: impl Fn(&E, &mut S) -> H + Sync,
+    score: impl Fn(std::ops::Range<u64>, &[E], &[&H]) -> T + Sync,
+    mut consume: impl FnMut(u64, T),
+    progress: &(dyn Fn(u64) + Sync),
+) {
+    let per_photon = std::mem::size_of::<E>() + std::mem::size_of::<H>() + 16;
+    let chunk = (ORDERED_BYTES / (per_photon * BATCH as usize)).clamp(1, 64) as u64;
+    let n_batches = photons.div_ceil(BATCH);
+    let mut b0 = 0;
+    while b0 < n_batches {
+        let b1 = (b0 + chunk).min(n_batches);
+        let first = b0 * BATCH;
+        let end = (b1 * BATCH).min(photons);
+        let (codes, entries): (Vec<u16>, Vec<E>) = (first..end).into_par_iter().map(&entry).unzip();
+        let sorted = order::sorted_by_code(&codes);
+        let pieces: Vec<Vec<H>> = sorted
+            .par_chunks(PIECE)
+            .map(|piece| {
+                let mut s = scratch();
+                let h = piece
+                    .iter()
+                    .map(|&i| trace(&entries[i as usize], &mut s))
+                    .collect();
+                progress(piece.len() as u64);
+                h
+            })
+            .collect();
+        // Where each photon's history is in `pieces`.
+        let mut at = vec![0_u32; sorted.len()];
+        for (k, &i) in sorted.iter().enumerate() {
+            at[i as usize] = k as u32;
+        }
+        let parts: Vec<T> = (b0..b1)
+            .into_par_iter()
+            .map(|b| {
+                let range = b * BATCH..((b + 1) * BATCH).min(photons);
+                let local = (range.start - first) as usize..(range.end - first) as usize;
+                let histories: Vec<&H> = at[local.clone()]
+                    .iter()
+                    .map(|&k| &pieces[k as usize / PIECE][k as usize % PIECE])
+                    .collect();
+                score(range, &entries[local], &histories)
             })
             .collect();
         for (b, part) in (b0..b1).zip(parts) {
