@@ -183,7 +183,7 @@ fn scaling(c: &mut Criterion) {
         ("field_4096", field_scene(4096)),
     ] {
         let source = roks::scene::Source {
-            file: format!("{name}.toml").into(),
+            file: format!("{name}.toml"),
             dir: ".".into(),
         };
         let scene = MicroScene::from_str(&text, source, name.into()).unwrap();

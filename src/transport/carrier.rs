@@ -402,6 +402,7 @@ mod tests {
     const TAUF: f64 = std::f64::consts::TAU;
 
     #[test]
+    #[allow(clippy::needless_range_loop)] // m.columns[j][i] against f[i][j]
     fn flat_fresnel_is_the_textbook_matrix() {
         // Light along -omega_i in the x-z plane onto z = 0: the s axis is ±y.
         let d = DVec3::new(0.5, 0.0, -(0.75f64).sqrt());
