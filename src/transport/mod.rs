@@ -71,7 +71,7 @@ const PIECE: usize = 1024;
 ///
 /// `entry(n)` gives photon `n`'s Morton code and what its history starts
 /// from (`E`: its stream and entry point); `trace(entry, scratch)` its
-/// history, with a scratch from `scratch()` per piece; `score(range,
+/// history, with a scratch from `scratch()` per rayon job (reused over its pieces); `score(range,
 /// entries, histories)` a batch's tally from its entries and histories in
 /// index order; `consume` and `progress` as for [`run_batches`]. Chunks hold
 /// at most about [`ORDERED_BYTES`] of entries and histories.
@@ -97,11 +97,13 @@ pub fn run_ordered<E: Send + Sync, H: Send + Sync, S, T: Send>(
         let sorted = order::sorted_by_code(&codes);
         let pieces: Vec<Vec<H>> = sorted
             .par_chunks(PIECE)
-            .map(|piece| {
-                let mut s = scratch();
+            // A scratch per rayon job, not per piece: a large surface's
+            // mailbox is big, and zeroing it per piece would flush the caches
+            // the order is there to keep warm.
+            .map_init(&scratch, |s, piece| {
                 let h = piece
                     .iter()
-                    .map(|&i| trace(&entries[i as usize], &mut s))
+                    .map(|&i| trace(&entries[i as usize], s))
                     .collect();
                 progress(piece.len() as u64);
                 h
