@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Write scenes/baffled-tube-N.toml: a baffled tube for `roks trace` (issue 14).
+"""Write scenes/baffled-tube-N.toml: a baffled tube for `roks trace`.
 
 A cylindrical tube (inner radius 25 mm, wall 2 mm thick) with N annular
 baffle vanes, the kind of object stray-light engineers trace: vane k is the

@@ -16,8 +16,8 @@ ray polynomial was formed, or height-field squares tested), peak memory
 the quadric bodies a flight through one grid cell may test). Writes
 OUT/report.md and OUT/scaling.json. Wall-clock speeds depend on what else
 the machine runs; compare within one run. Each row's one-thread rate is also
-given relative to 100 bumps or the 256² field (the flat-cost targets of
-issue 14: 100 000 bumps >= 0.6 of 100 bumps' rate, a 4096² field >= 0.5 of
+given relative to 100 bumps or the 256² field (the flat-cost targets:
+100 000 bumps >= 0.6 of 100 bumps' rate, a 4096² field >= 0.5 of
 256²'s). --callgrind adds instructions per segment (valgrind's callgrind,
 one thread, the difference of two photon counts over the difference of
 their segments, so start-up and output do not count), immune to the

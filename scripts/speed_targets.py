@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Speed targets of issue 14, measured as ratios in one run: today's code against a baseline build.
+"""The speed targets, measured as ratios in one run: today's code against a baseline build.
 
     .venv/bin/python scripts/speed_targets.py [--base 6ce6b98] [--out results/speed] [--rounds 3]
         [--quick] [--no-mitsuba] [--callgrind]
@@ -249,7 +249,7 @@ def write_report(a, res: dict, mi: dict | None, cg: dict) -> None:
     a.out.mkdir(parents=True, exist_ok=True)
     (a.out / "speed.json").write_text(json.dumps({"base": a.base, "cases": res, "mitsuba": mi,
                                                   "callgrind": cg}, indent=1))
-    L = ["# Speed targets (issue 14)", "",
+    L = ["# Speed targets", "",
          f"`scripts/speed_targets.py`: baseline commit {a.base} and this tree built side by side, "
          f"every case alternated base/new, median of {1 if a.quick else a.rounds} rounds; tracing time "
          "from summary.json (start-up excluded), peak memory from /usr/bin/time.", "",
