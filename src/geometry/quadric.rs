@@ -361,10 +361,10 @@ impl Quadric {
 /// [`Quadric::crossings`] from the ray polynomial `a t² + 2 b t + c`.
 #[inline(always)]
 fn crossings_of_coefficients(a: f64, b: f64, c: f64, t_max: f64, on_surface: bool) -> Crossings {
+    let mut out = quadratic_crossings(a, b, if on_surface { 0.0 } else { c }, t_max);
     if !on_surface {
-        return crossings_of_quadratic(a, b, c, t_max);
+        return out;
     }
-    let mut out = crossings_of_quadratic(a, b, 0.0, t_max);
     for t in &mut out.t[..out.n] {
         *t = standing_far_root(*t, b, c);
     }
@@ -415,7 +415,7 @@ impl RayForm {
     /// of either sign means no crossing (finite rays; a non-finite one
     /// gives a non-finite `b` or `c` in both forms).
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn crossings(&self, o: DVec3, d: DVec3, t_max: f64, on_surface: bool) -> Crossings {
         match self {
             Self::Plane { origin, lin, k } => {
@@ -542,6 +542,12 @@ pub fn entry_negative(a: f64, b: f64, c: f64, t_max: f64) -> Option<(f64, bool)>
 #[must_use]
 #[inline]
 pub fn crossings_of_quadratic(a: f64, b: f64, c: f64, t_max: f64) -> Crossings {
+    quadratic_crossings(a, b, c, t_max)
+}
+
+/// [`crossings_of_quadratic`] inlined into the loops over cell surfaces.
+#[inline(always)]
+fn quadratic_crossings(a: f64, b: f64, c: f64, t_max: f64) -> Crossings {
     let mut out = Crossings {
         t: [f64::INFINITY; 2],
         n: 0,
