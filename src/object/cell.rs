@@ -28,9 +28,6 @@ use crate::geometry::quadric::{
 };
 use crate::geometry::region::{Flat, Sense};
 
-/// Bodies of at most this many surfaces keep their events in a small buffer.
-const FEW_SURFACES: usize = 8;
-
 /// Relative widening of a cell's box (of its size and of its distance from
 /// the origin): far above the rounding of any root inside it.
 const BOX_MARGIN: f64 = 1e-6;
@@ -147,27 +144,10 @@ impl CompiledCell {
         d: DVec3,
         standing: Option<usize>,
     ) -> Option<(f64, usize, bool)> {
-        // A small event buffer for bodies of few surfaces (less to clear).
-        if self.forms.len() <= FEW_SURFACES {
-            self.csg_entry_in::<{ 2 * FEW_SURFACES }>(body, o, d, standing)
-        } else {
-            self.csg_entry_in::<{ 2 * MAX_SURFACES }>(body, o, d, standing)
-        }
-    }
-
-    /// [`Self::csg_entry`] with room for `EVENTS >= 2 * surfaces` events.
-    #[inline(always)]
-    fn csg_entry_in<const EVENTS: usize>(
-        &self,
-        body: &Body,
-        o: DVec3,
-        d: DVec3,
-        standing: Option<usize>,
-    ) -> Option<(f64, usize, bool)> {
         let mut positive = 0_u64;
         let mut ill = 0_u64;
         // Events (t, surface), at most two per surface.
-        let mut events = [(0.0_f64, 0_usize); EVENTS];
+        let mut events = [(0.0_f64, 0_usize); 2 * MAX_SURFACES];
         let mut n_events = 0;
         for (i, q) in self.forms.iter().enumerate() {
             let c = q.crossings(o, d, f64::INFINITY, standing == Some(i));
