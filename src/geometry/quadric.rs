@@ -354,15 +354,118 @@ impl Quadric {
     #[inline]
     pub fn crossings(&self, o: DVec3, d: DVec3, t_max: f64, on_surface: bool) -> Crossings {
         let (a, b, c) = self.ray_coefficients(o, d);
-        if !on_surface {
-            return crossings_of_quadratic(a, b, c, t_max);
-        }
-        let mut out = crossings_of_quadratic(a, b, 0.0, t_max);
-        for t in &mut out.t[..out.n] {
-            *t = standing_far_root(*t, b, c);
-        }
-        out
+        crossings_of_coefficients(a, b, c, t_max, on_surface)
     }
+}
+
+/// [`Quadric::crossings`] from the ray polynomial `a t² + 2 b t + c`.
+#[inline(always)]
+fn crossings_of_coefficients(a: f64, b: f64, c: f64, t_max: f64, on_surface: bool) -> Crossings {
+    let mut out = quadratic_crossings(a, b, if on_surface { 0.0 } else { c }, t_max);
+    if !on_surface {
+        return out;
+    }
+    for t in &mut out.t[..out.n] {
+        *t = standing_far_root(*t, b, c);
+    }
+    out
+}
+
+/// A quadric in the form whose ray polynomial is cheapest to form, for
+/// loops that test the same surfaces at every flight (the cells of an
+/// object). [`RayForm::crossings`] is bit for bit [`Quadric::crossings`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RayForm {
+    /// A plane (no squared or cross terms): `f(p) = lin . (p - origin) + k`,
+    /// `lin = (G, H, J)`, `k = K`.
+    Plane {
+        /// Reference point `origin` (length units).
+        origin: DVec3,
+        /// `(G, H, J)`.
+        lin: DVec3,
+        /// `K`.
+        k: f64,
+    },
+    /// Axis-aligned with some squared term.
+    Diagonal(Diagonal),
+    /// With cross terms.
+    General(Quadric),
+}
+
+impl RayForm {
+    /// The cheapest form of `q`.
+    #[must_use]
+    pub fn of(q: &Quadric) -> Self {
+        match Diagonal::of(q) {
+            Some(g) if g.diag == DVec3::ZERO => Self::Plane {
+                origin: g.origin,
+                lin: g.lin,
+                k: g.k,
+            },
+            Some(g) => Self::Diagonal(g),
+            None => Self::General(*q),
+        }
+    }
+
+    /// Exactly [`Quadric::crossings`] of the quadric this form was made of.
+    ///
+    /// For a plane the diagonal form's `a = d . (0 d)` is `+0`, its `c`
+    /// gains `q . (0 q) = +0`, and its `b` gains a signed zero, which
+    /// changes nothing: `b + (±0) = b` unless `b` is zero, and a zero `b`
+    /// of either sign means no crossing (finite rays; a non-finite one
+    /// gives a non-finite `b` or `c` in both forms).
+    #[must_use]
+    #[inline(always)]
+    pub fn crossings(&self, o: DVec3, d: DVec3, t_max: f64, on_surface: bool) -> Crossings {
+        match self {
+            Self::Plane { origin, lin, k } => {
+                let q = o - *origin;
+                let b = 0.5 * lin.dot(d);
+                let c = (0.0 + lin.dot(q)) + k;
+                if !on_surface {
+                    return linear_crossings(b, c, t_max);
+                }
+                let mut out = linear_crossings(b, 0.0, t_max);
+                for t in &mut out.t[..out.n] {
+                    *t = standing_far_root(*t, b, c);
+                }
+                out
+            }
+            Self::Diagonal(g) => {
+                let (a, b, c) = g.ray_coefficients(o, d);
+                crossings_of_coefficients(a, b, c, t_max, on_surface)
+            }
+            Self::General(q) => q.crossings(o, d, t_max, on_surface),
+        }
+    }
+}
+
+/// Exactly [`crossings_of_quadratic`] with `a = 0`: the crossing of
+/// `2 b t + c` in `(0, t_max]` and the side just after 0.
+#[must_use]
+#[inline(always)]
+pub fn linear_crossings(b: f64, c: f64, t_max: f64) -> Crossings {
+    let mut out = Crossings {
+        t: [f64::INFINITY; 2],
+        n: 0,
+        positive_at_start: c > 0.0,
+        ill_conditioned: false,
+    };
+    // Not finite, or constant: no crossing, the side of c.
+    if !(b.is_finite() && c.is_finite()) || b == 0.0 {
+        return out;
+    }
+    let r = -c / (2.0 * b);
+    // Negative at -inf when b > 0; flipped by a root at or behind the start.
+    let mut positive = b < 0.0;
+    if r <= 0.0 {
+        positive = !positive;
+    } else if r <= t_max {
+        out.t[0] = r;
+        out.n = 1;
+    }
+    out.positive_at_start = positive;
+    out
 }
 
 /// The far root `t` of a ray standing on a surface, computed with `c = 0`
@@ -439,6 +542,12 @@ pub fn entry_negative(a: f64, b: f64, c: f64, t_max: f64) -> Option<(f64, bool)>
 #[must_use]
 #[inline]
 pub fn crossings_of_quadratic(a: f64, b: f64, c: f64, t_max: f64) -> Crossings {
+    quadratic_crossings(a, b, c, t_max)
+}
+
+/// [`crossings_of_quadratic`] inlined into the loops over cell surfaces.
+#[inline(always)]
+fn quadratic_crossings(a: f64, b: f64, c: f64, t_max: f64) -> Crossings {
     let mut out = Crossings {
         t: [f64::INFINITY; 2],
         n: 0,
@@ -614,6 +723,68 @@ mod tests {
                 general(a, b, c, t_max),
                 "a={a} b={b} c={c} t_max={t_max}"
             );
+        }
+    }
+
+    /// Ray forms give the crossings of their quadrics bit for bit, planes
+    /// (axis-aligned, tilted, with an origin) included, standing or not.
+    #[test]
+    fn ray_forms_cross_as_their_quadrics() {
+        let quadrics = [
+            Quadric::plane(0.0, 0.0, 1.0, -100.0),
+            Quadric::plane(0.0, 0.0, -2.0, 0.0),
+            Quadric::plane(0.3, -0.2, 1.0, 0.1),
+            Quadric::plane_z(0.25),
+            Quadric::plane(1.0, 0.0, 0.0, 0.0),
+            Quadric::cone(2, DVec3::new(0.0, 0.0, 1.0), 0.25),
+            Quadric::cylinder(2, DVec3::ZERO, 0.5),
+            Quadric::sphere(DVec3::new(0.2, -0.1, 0.3), 0.7),
+            Quadric::general([1.0, 2.0, -1.0, 0.5, 0.0, 0.1, 0.0, 1.0, 0.0, -0.3]),
+        ];
+        assert!(matches!(RayForm::of(&quadrics[0]), RayForm::Plane { .. }));
+        assert!(matches!(RayForm::of(&quadrics[5]), RayForm::Diagonal(_)));
+        assert!(matches!(RayForm::of(&quadrics[8]), RayForm::General(_)));
+        let mut state = 4242u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let axes = [DVec3::X, DVec3::Y, DVec3::Z, DVec3::NEG_X, DVec3::NEG_Z];
+        for q in &quadrics {
+            let form = RayForm::of(q);
+            for k in 0..4000 {
+                let mut o = DVec3::new(next(), next(), next()) * 2.0;
+                let d = if k % 7 == 0 {
+                    axes[k % axes.len()]
+                } else {
+                    let Some(d) = DVec3::new(next(), next(), next()).try_normalize() else {
+                        continue;
+                    };
+                    d
+                };
+                if k % 3 == 0 {
+                    // Start on the surface (to rounding), where a crossing is.
+                    if let Some(&t) = q.crossings(o, d, f64::INFINITY, false).t.first() {
+                        if t.is_finite() {
+                            o += t * d;
+                        }
+                    }
+                }
+                if k % 11 == 0 {
+                    o.z = 0.0;
+                }
+                for on in [false, true] {
+                    for t_max in [f64::INFINITY, 1.0] {
+                        assert_eq!(
+                            form.crossings(o, d, t_max, on),
+                            q.crossings(o, d, t_max, on),
+                            "{q:?} {o} {d} {on}"
+                        );
+                    }
+                }
+            }
         }
     }
 

@@ -23,7 +23,9 @@
 use glam::DVec3;
 
 use crate::geometry::body::{Aabb, Body, MAX_SURFACES, Ray};
-use crate::geometry::quadric::{Diagonal, Quadric, entry_negative, standing_far_root};
+use crate::geometry::quadric::{
+    Diagonal, Quadric, RayForm, entry_negative, standing_far_root,
+};
 use crate::geometry::region::{Flat, Sense};
 
 /// Relative widening of a cell's box (of its size and of its distance from
@@ -52,6 +54,8 @@ pub struct CompiledCell {
     flat: Option<Flat>,
     /// `Some((i, surfaces[i], diagonal form))` when the region is exactly `-i`.
     single: Option<(usize, Quadric, Option<Diagonal>)>,
+    /// The body's surfaces in their ray forms, in order.
+    forms: Vec<RayForm>,
     /// A box containing the cell, widened for rounding; `None`: unbounded
     /// (or an empty box, which is tested like an unbounded one).
     pub bounds: Option<Aabb>,
@@ -71,6 +75,7 @@ impl CompiledCell {
         Self {
             flat: body.region.flat(),
             single,
+            forms: body.surfaces.iter().map(RayForm::of).collect(),
             bounds: widened(bounds),
         }
     }
@@ -144,7 +149,7 @@ impl CompiledCell {
         // Events (t, surface), at most two per surface.
         let mut events = [(0.0_f64, 0_usize); 2 * MAX_SURFACES];
         let mut n_events = 0;
-        for (i, q) in body.surfaces.iter().enumerate() {
+        for (i, q) in self.forms.iter().enumerate() {
             let c = q.crossings(o, d, f64::INFINITY, standing == Some(i));
             positive |= u64::from(c.positive_at_start) << i;
             ill |= u64::from(c.ill_conditioned) << i;

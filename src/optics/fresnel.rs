@@ -47,7 +47,10 @@
 #[must_use]
 pub fn fresnel_sp(cos_i: f64, n: f64, k: f64) -> (f64, f64) {
     let c = cos_i.clamp(0.0, 1.0);
-    if n.hypot(k) > HUGE_INDEX {
+    // |n + ik| <= sqrt(2) max(|n|, |k|): below HUGE_INDEX without a hypot
+    // when both are below HUGE_INDEX / 2 (NaN goes to the hypot).
+    let small = n.abs() < 0.5 * HUGE_INDEX && k.abs() < 0.5 * HUGE_INDEX;
+    if !small && n.hypot(k) > HUGE_INDEX {
         return fresnel_sp_scaled(c, n, k);
     }
     // sin²θ computed as (1 − c)(1 + c) is accurate near normal incidence.
