@@ -35,7 +35,8 @@ Cases, each against its target:
 --callgrind adds instructions per segment (valgrind --tool=callgrind, one
 thread, the difference of two photon counts over the difference of their
 segments, so start-up and output do not count) for the default scene and
-the 100 000-bump scene, base and new. Writes OUT/report.md and
+the 100 000-bump scene, base and new, per photon for the radiator with micro
+walls, base and new, and per segment for the three aluminium cases (new). Writes OUT/report.md and
 OUT/speed.json. --quick: fewer photons and one round, for a smoke test.
 """
 
@@ -126,8 +127,17 @@ def alternate(cases: dict, rounds: int) -> dict:
     return med
 
 
-def callgrind_per_segment(cmd_for, photons: tuple[int, int]) -> float:
-    """Instructions per segment: callgrind's total at two photon counts, differenced."""
+def brdf_segments(summary: dict) -> int:
+    return summary["incidence"][0]["segments"]
+
+
+def trace_photons(summary: dict) -> int:
+    return sum(s["photons"] for s in summary["sources"])
+
+
+def callgrind_per_segment(cmd_for, photons: tuple[int, int], unit=brdf_segments) -> float:
+    """Instructions per unit (default: per segment of a `roks brdf` run; `trace_photons`: per
+    photon of a `roks trace` run): callgrind's total at two photon counts, differenced."""
     counts, segs = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for n in photons:
@@ -140,7 +150,7 @@ def callgrind_per_segment(cmd_for, photons: tuple[int, int]) -> float:
                 raise SystemExit("speed_targets: callgrind failed")
             counts.append(int(re.search(r"Collected : (\d+)", p.stderr).group(1)))
             summary = json.loads((out / "summary.json").read_text())
-            segs.append(summary["incidence"][0]["segments"])
+            segs.append(unit(summary))
     return (counts[1] - counts[0]) / (segs[1] - segs[0])
 
 
@@ -235,6 +245,16 @@ def main() -> int:
                 cg[f"{label}/{who}"] = callgrind_per_segment(make, (20_000 // scale, 100_000 // scale))
                 print(f"  callgrind {label}/{who}: {cg[f'{label}/{who}']:.0f} instructions/segment",
                       file=sys.stderr)
+            make = lambda n, out, exe=exe: [exe, "trace", ROOT / "scenes" / "radiator.toml", "--photons", n,
+                                            "--threads", 1, "-q", "--out", out]
+            cg[f"radiator_per_photon/{who}"] = callgrind_per_segment(make, (100, 300), trace_photons)
+            print(f"  callgrind radiator/{who}: {cg[f'radiator_per_photon/{who}']:.0f} instructions/photon",
+                  file=sys.stderr)
+        for label, scene in (("al_scalar", al_scalar), ("al_stokes", paths["al"]), ("al_mueller", al_mueller)):
+            make = lambda n, out, scene=scene: [new, "brdf", scene, "--theta", 60, "--photons", n,
+                                                "--threads", 1, "--stats-resolution", 16, "-q", "--out", out]
+            cg[f"{label}/new"] = callgrind_per_segment(make, (20_000 // scale, 100_000 // scale))
+            print(f"  callgrind {label}/new: {cg[f'{label}/new']:.0f} instructions/segment", file=sys.stderr)
 
     write_report(a, res, mi, cg)
     return 0
@@ -287,11 +307,15 @@ def write_report(a, res: dict, mi: dict | None, cg: dict) -> None:
         L.append(f"| {name} | {r['per_segment_s'] * 1e9:.1f} | {1e-6 / r['per_segment_s']:.2f} | "
                  f"{r['seconds'] / r['photons'] * 1e6:.3f} | {r['max_rss_mb']:.0f} |")
     if cg:
-        L += ["", "## Instructions per segment (callgrind, 1 thread)", "", "| scene | base | new | new / base |",
-              "|---|---:|---:|---:|"]
-        for label in ("default", "bumps100000"):
+        L += ["", "## Instructions (callgrind, 1 thread)", "", "| scene | unit | base | new | new / base |",
+              "|---|---|---:|---:|---:|"]
+        for label, unit in (("default", "segment"), ("bumps100000", "segment"),
+                            ("radiator_per_photon", "photon")):
             cb, cn = cg[f"{label}/base"], cg[f"{label}/new"]
-            L.append(f"| {label} | {cb:.0f} | {cn:.0f} | {cn / cb:.2f} |")
+            L.append(f"| {label} | {unit} | {cb:.0f} | {cn:.0f} | {cn / cb:.2f} |")
+        scalar = cg["al_scalar/new"]
+        for label in ("al_scalar", "al_stokes", "al_mueller"):
+            L.append(f"| {label} | segment | | {cg[label + '/new']:.0f} | vs scalar {cg[label + '/new'] / scalar:.2f} |")
     text = "\n".join(L) + "\n"
     (a.out / "report.md").write_text(text)
     print(text)
