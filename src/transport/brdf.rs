@@ -837,7 +837,14 @@ impl BrdfRun {
                         let reference = hemisphere_reference(out, phi);
                         let k = carried.components(out, reference, &mut components);
                         let mirror = self.symmetry == Symmetry::Mirror;
-                        score_polar(p, &components[..k], &shares, mirror, replicate);
+                        match k {
+                            16 => score_polar(p, &components, &shares, mirror, replicate),
+                            4 => {
+                                let [c0, c1, c2, c3, ..] = components;
+                                score_polar(p, &[c0, c1, c2, c3], &shares, mirror, replicate);
+                            }
+                            _ => unreachable!("4 or 16 polarisation components"),
+                        }
                     }
                 }
                 Fate::Absorbed => {}
@@ -881,26 +888,23 @@ struct Entry {
 /// `(1 + sign) / 2` times itself: itself for `S0`, `S1`, zero for `S2`, `S3`
 /// (the two halves cancel), so the intensity components stay bit for bit
 /// those of the intensity tallies.
-fn score_polar(
+fn score_polar<const K: usize>(
     p: &mut PolarTallies,
-    c: &[f64],
+    c: &[f64; K],
     halves: &[(crate::tally::carlson::Cells, f64); 2],
     mirror: bool,
     replicate: usize,
 ) {
-    let k = p.components;
-    debug_assert_eq!(c.len(), k);
     // Factor of a component whose two halves share a bin.
-    let both = |i: usize| {
-        if mirror && mirror_sign(k, i) < 0.0 {
+    let both: [f64; K] = std::array::from_fn(|i| {
+        if mirror && mirror_sign(K, i) < 0.0 {
             0.0
         } else {
             1.0
         }
-    };
-    for (i, v) in c.iter().enumerate() {
-        p.score(i, replicate, both(i) * v);
-    }
+    });
+    let hemisphere: [f64; K] = std::array::from_fn(|i| both[i] * c[i]);
+    p.score_slot(0, replicate, &hemisphere);
     // The first half is the photon's own cells, the second its mirror image
     // (weight 0: in the same cells as the first, which then has the whole weight).
     let same = halves[1].1 == 0.0;
@@ -908,15 +912,14 @@ fn score_polar(
         if *w == 0.0 {
             continue;
         }
+        let signs: [f64; K] = match (half, same) {
+            (1, _) => std::array::from_fn(|i| mirror_sign(K, i)),
+            (_, true) => both,
+            _ => [1.0; K],
+        };
+        let values: [f64; K] = std::array::from_fn(|i| signs[i] * w * c[i]);
         for &cell in cells.as_slice() {
-            for (i, v) in c.iter().enumerate() {
-                let sign = match (half, same) {
-                    (1, _) => mirror_sign(k, i),
-                    (_, true) => both(i),
-                    _ => 1.0,
-                };
-                p.score(p.cell_bin(cell, i), replicate, sign * w * v);
-            }
+            p.score_slot(1 + cell, replicate, &values);
         }
     }
 }
