@@ -472,16 +472,36 @@ impl BrdfRun {
     }
 
     /// Estimated peak memory (bytes) of this run's tallies and result
-    /// files: one [`Tallies`] is 16 bytes per Carlson cell and in-plane bin
-    /// (sum and sum of squares), 8 more per lattice replicate, and its
-    /// polarisation sums (4 or 16 components per cell, alike); a run holds
-    /// up to 64 batch tallies in flight, a stack of partial sums (one per
-    /// bit of the batch count) and one result per incidence; the files take
-    /// about `200 + 40 (components + 1) + 64` bytes per cell and incidence
-    /// (`brdf.csv`, the polarisation table, the table read back for exports).
-    /// Right to a factor of about 2, for refusing a run before it starts.
+    /// files: [`BrdfRun::tally_bytes`] per tally; a run holds up to
+    /// [`super::pending_batches`] batch tallies in flight (counted for one
+    /// thread: two more per further thread when the tallies are large), a stack of
+    /// partial sums (one per bit of the batch count) and one result per
+    /// incidence; the files take about `200 + 40 (components + 1) + 64`
+    /// bytes per cell and incidence (`brdf.csv`, the polarisation table,
+    /// the table read back for exports). Right to a factor of about 2, for
+    /// refusing a run before it starts.
     #[must_use]
     pub fn memory_bytes(&self) -> u64 {
+        use crate::limits::product;
+        let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
+        let k = self.polarisation.tally.components() as u64;
+        let tallies = self.tally_bytes();
+        let batches = self.photons.div_ceil(BATCH).max(1);
+        let incidences = self.theta_deg.len() as u64;
+        let live = batches.min(super::pending_batches(tallies, 1))
+            + u64::from(64 - batches.leading_zeros())
+            + 1
+            + incidences;
+        let files = product(&[cells, incidences, 200 + 40 * (k + 1) + 64]);
+        product(&[tallies, live]).saturating_add(files)
+    }
+
+    /// Estimated size (bytes) of one [`Tallies`]: 16 bytes per Carlson
+    /// cell and in-plane bin (sum and sum of squares), 8 more per lattice
+    /// replicate, and its polarisation sums (4 or 16 components per cell and
+    /// the hemisphere, alike).
+    #[must_use]
+    pub fn tally_bytes(&self) -> u64 {
         use crate::limits::product;
         let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
         let bins = InPlaneTally::new(
@@ -493,14 +513,9 @@ impl BrdfRun {
         let replicates = self.launch.replicates().unwrap_or(0);
         let per_bin = 16 + 8 * replicates;
         let k = self.polarisation.tally.components() as u64;
-        let tallies = product(&[cells + bins + 1, per_bin])
+        product(&[cells + bins + 1, per_bin])
             .saturating_add(product(&[k, cells + 1, per_bin]))
-            .saturating_add(8 * BOUNCE_BINS as u64 + 256);
-        let batches = self.photons.div_ceil(BATCH).max(1);
-        let incidences = self.theta_deg.len() as u64;
-        let live = batches.min(64) + u64::from(64 - batches.leading_zeros()) + 1 + incidences;
-        let files = product(&[cells, incidences, 200 + 40 * (k + 1) + 64]);
-        product(&[tallies, live]).saturating_add(files)
+            .saturating_add(8 * BOUNCE_BINS as u64 + 256)
     }
 
     /// Zero tallies of this run's layout.
@@ -711,6 +726,7 @@ impl BrdfRun {
         progress: &(dyn Fn(u64) + Sync),
     ) {
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
+        let tally_bytes = self.tally_bytes();
         let phi = self.phi_deg.to_radians();
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi));
@@ -759,10 +775,11 @@ impl BrdfRun {
                 });
                 self.score_batch(locator, inplane, photons)
             };
-            return super::run_batches(self.photons, batch, consume, progress);
+            return super::run_batches(self.photons, tally_bytes, batch, consume, progress);
         }
         super::run_ordered(
             self.photons,
+            tally_bytes,
             |n| {
                 let e = entry(n);
                 (order::morton(e.u, e.v), e)
