@@ -161,6 +161,23 @@ impl PolarTallies {
             _ => panic!("PolarTallies::merge: random and lattice tallies mixed"),
         }
     }
+
+    /// [`PolarTallies::merge`], leaving `other` all zero.
+    ///
+    /// # Panics
+    /// If the layouts differ.
+    pub fn merge_clearing(&mut self, other: &mut Self) {
+        assert_eq!(self.components, other.components, "PolarTallies::merge_clearing");
+        self.sums.merge_clearing(&mut other.sums);
+        match (&mut self.replicates, &mut other.replicates) {
+            (Some(a), Some(b)) => {
+                assert_eq!(a.len(), b.len(), "PolarTallies::merge_clearing: replicates");
+                super::accumulator::add_clearing(a, b);
+            }
+            (None, None) => {}
+            _ => panic!("PolarTallies::merge_clearing: random and lattice tallies mixed"),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -33,6 +33,7 @@ use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
 use crate::shard::{DyadicSum, Node};
+use crate::tally::accumulator::add_clearing;
 use crate::tally::polar::mirror_sign;
 use crate::tally::{
     Accumulator, CarlsonGrid, InPlaneTally, Locator, PolarTallies, PolarTally, Symmetry, symmetry,
@@ -216,6 +217,18 @@ impl Replicates {
         }
     }
 
+    /// [`Replicates::merge`], leaving `other` all zero.
+    fn merge_clearing(&mut self, other: &mut Self) {
+        for (a, b) in [
+            (&mut self.reflected, &mut other.reflected),
+            (&mut self.carlson, &mut other.carlson),
+            (&mut self.inplane, &mut other.inplane),
+        ] {
+            assert_eq!(a.len(), b.len(), "Replicates::merge_clearing: bin counts differ");
+            add_clearing(a, b);
+        }
+    }
+
     /// Standard error of the mean of `bin` of `sums` over `photons` photons
     /// split equally between the replicates.
     fn stderr(&self, sums: &[f64], bin: usize, photons: u64) -> f64 {
@@ -290,6 +303,46 @@ impl Tallies {
         }
     }
 }
+
+impl Tallies {
+    /// [`Tallies::merge`] (the same sums bit for bit), leaving `other` all
+    /// zero with its layout: a fresh tally for the next batch, cleared in
+    /// the same pass.
+    ///
+    /// # Panics
+    /// If the layouts differ.
+    pub fn merge_clearing(&mut self, other: &mut Self) {
+        use std::mem::take;
+        self.photons += take(&mut other.photons);
+        self.reflected.merge_clearing(&mut other.reflected);
+        self.carlson.merge_clearing(&mut other.carlson);
+        self.inplane.merge_clearing(&mut other.inplane);
+        add_clearing(&mut self.by_bounces, &mut other.by_bounces);
+        self.bounces += take(&mut other.bounces);
+        self.segments += take(&mut other.segments);
+        self.intersection_tests += take(&mut other.intersection_tests);
+        self.lost_walls += take(&mut other.lost_walls);
+        self.lost_cap += take(&mut other.lost_cap);
+        self.lost_numeric += take(&mut other.lost_numeric);
+        self.capped_histories += take(&mut other.capped_histories);
+        self.numeric_histories += take(&mut other.numeric_histories);
+        match (&mut self.replicates, &mut other.replicates) {
+            (Some(a), Some(b)) => a.merge_clearing(b),
+            (None, None) => {}
+            _ => panic!("Tallies::merge_clearing: random and lattice tallies mixed"),
+        }
+        match (&mut self.polar, &mut other.polar) {
+            (Some(a), Some(b)) => a.merge_clearing(b),
+            (None, None) => {}
+            _ => panic!("Tallies::merge_clearing: polarisation tallies mixed"),
+        }
+    }
+}
+
+/// Zero batch tallies of one run's layout, for batches to tally into
+/// instead of allocating and clearing fresh ones (they come back cleared
+/// from [`Tallies::merge_clearing`] in the batch tree).
+type Spare = std::sync::Mutex<Vec<Tallies>>;
 
 /// The result for one incidence direction.
 #[derive(Debug, Clone)]
@@ -639,14 +692,16 @@ impl BrdfRun {
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
         let mut sum = DyadicSum::new(total_batches);
+        let spare = Spare::default();
         let mut consume = |k, value| {
-            sum.push(
+            sum.push_with(
                 Node {
                     level: 0,
                     index: base + k,
                     value,
                 },
-                &Tallies::merge,
+                &Tallies::merge_clearing,
+                &mut |t| spare.lock().expect("spare tallies").push(t),
             )
             .expect("batches in order");
         };
@@ -658,6 +713,7 @@ impl BrdfRun {
                     &inplane,
                     dir,
                     ordered,
+                    &spare,
                     &mut consume,
                     progress,
                 );
@@ -668,6 +724,7 @@ impl BrdfRun {
                 &inplane,
                 dir,
                 ordered,
+                &spare,
                 &mut consume,
                 progress,
             ),
@@ -677,6 +734,7 @@ impl BrdfRun {
                 &inplane,
                 dir,
                 ordered,
+                &spare,
                 &mut consume,
                 progress,
             ),
@@ -713,7 +771,8 @@ impl BrdfRun {
     /// with `ordered` in the Morton order of their entry points
     /// ([`super::run_ordered`]), else in index order, and hand each batch's
     /// tally, scored in index order (the same tallies either way), to
-    /// `consume(batch index, tally)` in batch order.
+    /// `consume(batch index, tally)` in batch order. Batches tally into the
+    /// cleared tallies of `spare` while there are any.
     #[allow(clippy::too_many_arguments)]
     fn trace_ordered<C: Carrier>(
         &self,
@@ -722,6 +781,7 @@ impl BrdfRun {
         inplane: &InPlaneTally,
         dir: DVec3,
         ordered: bool,
+        spare: &Spare,
         consume: &mut dyn FnMut(u64, Tallies),
         progress: &(dyn Fn(u64) + Sync),
     ) {
@@ -773,7 +833,7 @@ impl BrdfRun {
                     let (h, tests) = history(&e, &mut scratch);
                     (e.replicate, h, tests)
                 });
-                self.score_batch(locator, inplane, photons)
+                self.score_batch(locator, inplane, spare, photons)
             };
             return super::run_batches(self.photons, tally_bytes, batch, consume, progress);
         }
@@ -791,7 +851,7 @@ impl BrdfRun {
                     .iter()
                     .zip(histories)
                     .map(|(e, &&(h, tests))| (e.replicate, h, tests));
-                self.score_batch(locator, inplane, photons)
+                self.score_batch(locator, inplane, spare, photons)
             },
             consume,
             progress,
@@ -804,10 +864,12 @@ impl BrdfRun {
         &self,
         locator: &Locator,
         inplane: &InPlaneTally,
+        spare: &Spare,
         photons: impl Iterator<Item = (usize, History<C>, u64)>,
     ) -> Tallies {
         let grid = locator.grid();
-        let mut t = self.empty_tallies(grid, inplane);
+        let spared = spare.lock().expect("spare tallies").pop();
+        let mut t = spared.unwrap_or_else(|| self.empty_tallies(grid, inplane));
         let phi = self.phi_deg.to_radians();
         let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
