@@ -197,6 +197,21 @@ impl<T> DyadicSum<T> {
     /// # Errors
     /// If the node is not contiguous with the previous one or lies past the run.
     pub fn push(&mut self, node: Node<T>, merge: &impl Fn(&mut T, &T)) -> Result<(), String> {
+        self.push_with(node, &|left, right| merge(left, right), &mut drop)
+    }
+
+    /// [`DyadicSum::push`] with `merge(left, right)` free to change `right`
+    /// (e.g. to clear it while adding it), and each right node's value, once
+    /// merged, handed to `spent` (e.g. to tally the next batch into it).
+    ///
+    /// # Errors
+    /// As [`DyadicSum::push`].
+    pub fn push_with(
+        &mut self,
+        node: Node<T>,
+        merge: &impl Fn(&mut T, &mut T),
+        spent: &mut impl FnMut(T),
+    ) -> Result<(), String> {
         if node.start() >= u128::from(self.batches) || node.level > self.root_level {
             return Err(format!(
                 "tree node ({}, {}) outside the run's {} batches",
@@ -215,11 +230,11 @@ impl<T> DyadicSum<T> {
             }
         }
         self.stack.push(node);
-        self.reduce(merge);
+        self.reduce(merge, spent);
         Ok(())
     }
 
-    fn reduce(&mut self, merge: &impl Fn(&mut T, &T)) {
+    fn reduce(&mut self, merge: &impl Fn(&mut T, &mut T), spent: &mut impl FnMut(T)) {
         while let Some(top) = self.stack.last() {
             if top.level >= self.root_level {
                 break;
@@ -233,9 +248,10 @@ impl<T> DyadicSum<T> {
                 if !sibling {
                     break;
                 }
-                let right = self.stack.pop().expect("two nodes");
+                let mut right = self.stack.pop().expect("two nodes");
                 let left = self.stack.last_mut().expect("two nodes");
-                merge(&mut left.value, &right.value);
+                merge(&mut left.value, &mut right.value);
+                spent(right.value);
                 left.level += 1;
                 left.index /= 2;
             } else if top.end() >= u128::from(self.batches) {

@@ -367,7 +367,7 @@ fn brdf_tallies_are_refused_above_the_limit_for_the_scene_and_with_options() {
         &out,
         &["tally.bands", "1000 Carlson bands for 3 incidences"],
     );
-    // 100 bands fit in 1G (the scene loads); with the options' Mueller sums
+    // 100 bands fit in 500M (the scene loads); with the options' Mueller sums
     // and lattice replicates (17 x 17 as many sums) they do not.
     let scene = write(
         &dir,
@@ -375,10 +375,10 @@ fn brdf_tallies_are_refused_above_the_limit_for_the_scene_and_with_options() {
         &text.replace("bands = 1000", "bands = 100"),
     );
     let s = scene.to_str().unwrap();
-    let o = roks_limited(Some("1G"), &["stats", s, "--resolution", "8"]);
+    let o = roks_limited(Some("500M"), &["stats", s, "--resolution", "8"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = roks_limited(
-        Some("1G"),
+        Some("500M"),
         &[
             "brdf",
             s,

@@ -15,7 +15,7 @@
 //! * Changing the reference vector from `x` to `x'` (both ⟂ `d`) by the angle
 //!   `a` (positive when `d · (x × x') > 0`, counter-clockwise about `d`)
 //!   applies the rotator `[[1,0,0,0],[0,C,S,0],[0,-S,C,0],[0,0,0,1]]`,
-//!   `C = cos 2a`, `S = sin 2a` ([`rotate_columns`]; Mitsuba's
+//!   `C = cos 2a`, `S = sin 2a` ([`rotate`]; Mitsuba's
 //!   `rotate_stokes_basis`). The sign of `x` does not matter (a half turn is
 //!   the identity on Stokes vectors).
 //! * **Specular reflection** at a facet with unit normal `n` (facing the
@@ -213,14 +213,6 @@ pub fn rotation(forward: DVec3, from: DVec3, to: DVec3) -> (f64, f64) {
 #[inline]
 pub fn rotate(s: Stokes, (c2, s2): (f64, f64)) -> Stokes {
     [s[0], c2 * s[1] + s2 * s[2], -s2 * s[1] + c2 * s[2], s[3]]
-}
-
-/// Apply the rotator `(cos 2a, sin 2a)` to each of `columns`.
-#[inline]
-pub fn rotate_columns<const N: usize>(columns: &mut [Stokes; N], r: (f64, f64)) {
-    for c in columns.iter_mut() {
-        *c = rotate(*c, r);
-    }
 }
 
 /// Reference vector of a flight along unit `d` in the hemisphere frame:

@@ -68,6 +68,21 @@ impl Accumulator {
         }
     }
 
+    /// [`Accumulator::merge`], leaving `other` all zero (each bin cleared as
+    /// it is added, in one pass).
+    ///
+    /// # Panics
+    /// If the two accumulators have different numbers of bins.
+    pub fn merge_clearing(&mut self, other: &mut Accumulator) {
+        assert_eq!(
+            self.len(),
+            other.len(),
+            "Accumulator::merge_clearing: bin counts differ"
+        );
+        add_clearing(&mut self.sum, &mut other.sum);
+        add_clearing(&mut self.sum_sq, &mut other.sum_sq);
+    }
+
     /// Mean score per history in `bin`: `sum / n_histories` (weight units).
     ///
     /// Returns 0 when `n_histories` is 0.
@@ -98,6 +113,15 @@ impl Accumulator {
         let mean = self.sum[bin] / n;
         let variance = (self.sum_sq[bin] / n - mean * mean).max(0.0);
         (variance / (n - 1.0)).sqrt()
+    }
+}
+
+/// `a[i] += b[i]` and `b[i] = 0` for every `i` (the lengths must agree).
+pub fn add_clearing(a: &mut [f64], b: &mut [f64]) {
+    debug_assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter_mut().zip(b) {
+        *x += *y;
+        *y = 0.0;
     }
 }
 

@@ -113,13 +113,33 @@ impl PolarTallies {
         (1 + cell) * self.components + k
     }
 
-    /// Score one history's `value` in `bin`, and in the sums of lattice
+    /// Score one history's `values` of the `K` components of `slot` (0 the
+    /// hemisphere, `1 + c` Carlson cell `c`): `values[k]` in bin
+    /// `slot K + k` ([`Accumulator::score`]), and in the sums of lattice
     /// replicate `replicate` (ignored for a random launch).
-    pub fn score(&mut self, bin: usize, replicate: usize, value: f64) {
-        self.sums.score(bin, value);
+    ///
+    /// # Panics
+    /// If `K` is not [`PolarTallies::components`] or `slot` is past the last cell.
+    #[inline]
+    pub fn score_slot<const K: usize>(&mut self, slot: usize, replicate: usize, values: &[f64; K]) {
+        assert_eq!(K, self.components, "PolarTallies::score_slot: components");
         let bins = self.bins();
+        let at = slot * K;
+        let sum: &mut [f64; K] = (&mut self.sums.sum[at..at + K]).try_into().unwrap();
+        let sum_sq: &mut [f64; K] = (&mut self.sums.sum_sq[at..at + K]).try_into().unwrap();
+        // Two loops, not one: each vectorises (the sums could alias for all
+        // the compiler knows).
+        for (s, v) in sum.iter_mut().zip(values) {
+            *s += v;
+        }
+        for (q, v) in sum_sq.iter_mut().zip(values) {
+            *q += v * v;
+        }
         if let Some(r) = &mut self.replicates {
-            r[replicate * bins + bin] += value;
+            let at = replicate * bins + at;
+            for (x, v) in r[at..at + K].iter_mut().zip(values) {
+                *x += v;
+            }
         }
     }
 
@@ -139,6 +159,23 @@ impl PolarTallies {
             }
             (None, None) => {}
             _ => panic!("PolarTallies::merge: random and lattice tallies mixed"),
+        }
+    }
+
+    /// [`PolarTallies::merge`], leaving `other` all zero.
+    ///
+    /// # Panics
+    /// If the layouts differ.
+    pub fn merge_clearing(&mut self, other: &mut Self) {
+        assert_eq!(self.components, other.components, "PolarTallies::merge_clearing");
+        self.sums.merge_clearing(&mut other.sums);
+        match (&mut self.replicates, &mut other.replicates) {
+            (Some(a), Some(b)) => {
+                assert_eq!(a.len(), b.len(), "PolarTallies::merge_clearing: replicates");
+                super::accumulator::add_clearing(a, b);
+            }
+            (None, None) => {}
+            _ => panic!("PolarTallies::merge_clearing: random and lattice tallies mixed"),
         }
     }
 }

@@ -33,6 +33,7 @@ use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
 use crate::shard::{DyadicSum, Node};
+use crate::tally::accumulator::add_clearing;
 use crate::tally::polar::mirror_sign;
 use crate::tally::{
     Accumulator, CarlsonGrid, InPlaneTally, Locator, PolarTallies, PolarTally, Symmetry, symmetry,
@@ -216,6 +217,18 @@ impl Replicates {
         }
     }
 
+    /// [`Replicates::merge`], leaving `other` all zero.
+    fn merge_clearing(&mut self, other: &mut Self) {
+        for (a, b) in [
+            (&mut self.reflected, &mut other.reflected),
+            (&mut self.carlson, &mut other.carlson),
+            (&mut self.inplane, &mut other.inplane),
+        ] {
+            assert_eq!(a.len(), b.len(), "Replicates::merge_clearing: bin counts differ");
+            add_clearing(a, b);
+        }
+    }
+
     /// Standard error of the mean of `bin` of `sums` over `photons` photons
     /// split equally between the replicates.
     fn stderr(&self, sums: &[f64], bin: usize, photons: u64) -> f64 {
@@ -290,6 +303,46 @@ impl Tallies {
         }
     }
 }
+
+impl Tallies {
+    /// [`Tallies::merge`] (the same sums bit for bit), leaving `other` all
+    /// zero with its layout: a fresh tally for the next batch, cleared in
+    /// the same pass.
+    ///
+    /// # Panics
+    /// If the layouts differ.
+    pub fn merge_clearing(&mut self, other: &mut Self) {
+        use std::mem::take;
+        self.photons += take(&mut other.photons);
+        self.reflected.merge_clearing(&mut other.reflected);
+        self.carlson.merge_clearing(&mut other.carlson);
+        self.inplane.merge_clearing(&mut other.inplane);
+        add_clearing(&mut self.by_bounces, &mut other.by_bounces);
+        self.bounces += take(&mut other.bounces);
+        self.segments += take(&mut other.segments);
+        self.intersection_tests += take(&mut other.intersection_tests);
+        self.lost_walls += take(&mut other.lost_walls);
+        self.lost_cap += take(&mut other.lost_cap);
+        self.lost_numeric += take(&mut other.lost_numeric);
+        self.capped_histories += take(&mut other.capped_histories);
+        self.numeric_histories += take(&mut other.numeric_histories);
+        match (&mut self.replicates, &mut other.replicates) {
+            (Some(a), Some(b)) => a.merge_clearing(b),
+            (None, None) => {}
+            _ => panic!("Tallies::merge_clearing: random and lattice tallies mixed"),
+        }
+        match (&mut self.polar, &mut other.polar) {
+            (Some(a), Some(b)) => a.merge_clearing(b),
+            (None, None) => {}
+            _ => panic!("Tallies::merge_clearing: polarisation tallies mixed"),
+        }
+    }
+}
+
+/// Zero batch tallies of one run's layout, for batches to tally into
+/// instead of allocating and clearing fresh ones (they come back cleared
+/// from [`Tallies::merge_clearing`] in the batch tree).
+type Spare = std::sync::Mutex<Vec<Tallies>>;
 
 /// The result for one incidence direction.
 #[derive(Debug, Clone)]
@@ -472,16 +525,36 @@ impl BrdfRun {
     }
 
     /// Estimated peak memory (bytes) of this run's tallies and result
-    /// files: one [`Tallies`] is 16 bytes per Carlson cell and in-plane bin
-    /// (sum and sum of squares), 8 more per lattice replicate, and its
-    /// polarisation sums (4 or 16 components per cell, alike); a run holds
-    /// up to 64 batch tallies in flight, a stack of partial sums (one per
-    /// bit of the batch count) and one result per incidence; the files take
-    /// about `200 + 40 (components + 1) + 64` bytes per cell and incidence
-    /// (`brdf.csv`, the polarisation table, the table read back for exports).
-    /// Right to a factor of about 2, for refusing a run before it starts.
+    /// files: [`BrdfRun::tally_bytes`] per tally; a run holds up to
+    /// [`super::pending_batches`] batch tallies in flight (counted for one
+    /// thread: two more per further thread when the tallies are large), a stack of
+    /// partial sums (one per bit of the batch count) and one result per
+    /// incidence; the files take about `200 + 40 (components + 1) + 64`
+    /// bytes per cell and incidence (`brdf.csv`, the polarisation table,
+    /// the table read back for exports). Right to a factor of about 2, for
+    /// refusing a run before it starts.
     #[must_use]
     pub fn memory_bytes(&self) -> u64 {
+        use crate::limits::product;
+        let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
+        let k = self.polarisation.tally.components() as u64;
+        let tallies = self.tally_bytes();
+        let batches = self.photons.div_ceil(BATCH).max(1);
+        let incidences = self.theta_deg.len() as u64;
+        let live = batches.min(super::pending_batches(tallies, 1))
+            + u64::from(64 - batches.leading_zeros())
+            + 1
+            + incidences;
+        let files = product(&[cells, incidences, 200 + 40 * (k + 1) + 64]);
+        product(&[tallies, live]).saturating_add(files)
+    }
+
+    /// Estimated size (bytes) of one [`Tallies`]: 16 bytes per Carlson
+    /// cell and in-plane bin (sum and sum of squares), 8 more per lattice
+    /// replicate, and its polarisation sums (4 or 16 components per cell and
+    /// the hemisphere, alike).
+    #[must_use]
+    pub fn tally_bytes(&self) -> u64 {
         use crate::limits::product;
         let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
         let bins = InPlaneTally::new(
@@ -493,14 +566,9 @@ impl BrdfRun {
         let replicates = self.launch.replicates().unwrap_or(0);
         let per_bin = 16 + 8 * replicates;
         let k = self.polarisation.tally.components() as u64;
-        let tallies = product(&[cells + bins + 1, per_bin])
+        product(&[cells + bins + 1, per_bin])
             .saturating_add(product(&[k, cells + 1, per_bin]))
-            .saturating_add(8 * BOUNCE_BINS as u64 + 256);
-        let batches = self.photons.div_ceil(BATCH).max(1);
-        let incidences = self.theta_deg.len() as u64;
-        let live = batches.min(64) + u64::from(64 - batches.leading_zeros()) + 1 + incidences;
-        let files = product(&[cells, incidences, 200 + 40 * (k + 1) + 64]);
-        product(&[tallies, live]).saturating_add(files)
+            .saturating_add(8 * BOUNCE_BINS as u64 + 256)
     }
 
     /// Zero tallies of this run's layout.
@@ -624,14 +692,16 @@ impl BrdfRun {
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
         let mut sum = DyadicSum::new(total_batches);
+        let spare = Spare::default();
         let mut consume = |k, value| {
-            sum.push(
+            sum.push_with(
                 Node {
                     level: 0,
                     index: base + k,
                     value,
                 },
-                &Tallies::merge,
+                &Tallies::merge_clearing,
+                &mut |t| spare.lock().expect("spare tallies").push(t),
             )
             .expect("batches in order");
         };
@@ -643,6 +713,7 @@ impl BrdfRun {
                     &inplane,
                     dir,
                     ordered,
+                    &spare,
                     &mut consume,
                     progress,
                 );
@@ -653,6 +724,7 @@ impl BrdfRun {
                 &inplane,
                 dir,
                 ordered,
+                &spare,
                 &mut consume,
                 progress,
             ),
@@ -662,6 +734,7 @@ impl BrdfRun {
                 &inplane,
                 dir,
                 ordered,
+                &spare,
                 &mut consume,
                 progress,
             ),
@@ -698,7 +771,8 @@ impl BrdfRun {
     /// with `ordered` in the Morton order of their entry points
     /// ([`super::run_ordered`]), else in index order, and hand each batch's
     /// tally, scored in index order (the same tallies either way), to
-    /// `consume(batch index, tally)` in batch order.
+    /// `consume(batch index, tally)` in batch order. Batches tally into the
+    /// cleared tallies of `spare` while there are any.
     #[allow(clippy::too_many_arguments)]
     fn trace_ordered<C: Carrier>(
         &self,
@@ -707,10 +781,12 @@ impl BrdfRun {
         inplane: &InPlaneTally,
         dir: DVec3,
         ordered: bool,
+        spare: &Spare,
         consume: &mut dyn FnMut(u64, Tallies),
         progress: &(dyn Fn(u64) + Sync),
     ) {
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
+        let tally_bytes = self.tally_bytes();
         let phi = self.phi_deg.to_radians();
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi));
@@ -757,12 +833,13 @@ impl BrdfRun {
                     let (h, tests) = history(&e, &mut scratch);
                     (e.replicate, h, tests)
                 });
-                self.score_batch(locator, inplane, photons)
+                self.score_batch(locator, inplane, spare, photons)
             };
-            return super::run_batches(self.photons, batch, consume, progress);
+            return super::run_batches(self.photons, tally_bytes, batch, consume, progress);
         }
         super::run_ordered(
             self.photons,
+            tally_bytes,
             |n| {
                 let e = entry(n);
                 (order::morton(e.u, e.v), e)
@@ -774,7 +851,7 @@ impl BrdfRun {
                     .iter()
                     .zip(histories)
                     .map(|(e, &&(h, tests))| (e.replicate, h, tests));
-                self.score_batch(locator, inplane, photons)
+                self.score_batch(locator, inplane, spare, photons)
             },
             consume,
             progress,
@@ -787,10 +864,12 @@ impl BrdfRun {
         &self,
         locator: &Locator,
         inplane: &InPlaneTally,
+        spare: &Spare,
         photons: impl Iterator<Item = (usize, History<C>, u64)>,
     ) -> Tallies {
         let grid = locator.grid();
-        let mut t = self.empty_tallies(grid, inplane);
+        let spared = spare.lock().expect("spare tallies").pop();
+        let mut t = spared.unwrap_or_else(|| self.empty_tallies(grid, inplane));
         let phi = self.phi_deg.to_radians();
         let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
@@ -837,7 +916,14 @@ impl BrdfRun {
                         let reference = hemisphere_reference(out, phi);
                         let k = carried.components(out, reference, &mut components);
                         let mirror = self.symmetry == Symmetry::Mirror;
-                        score_polar(p, &components[..k], &shares, mirror, replicate);
+                        match k {
+                            16 => score_polar(p, &components, &shares, mirror, replicate),
+                            4 => {
+                                let [c0, c1, c2, c3, ..] = components;
+                                score_polar(p, &[c0, c1, c2, c3], &shares, mirror, replicate);
+                            }
+                            _ => unreachable!("4 or 16 polarisation components"),
+                        }
                     }
                 }
                 Fate::Absorbed => {}
@@ -881,26 +967,23 @@ struct Entry {
 /// `(1 + sign) / 2` times itself: itself for `S0`, `S1`, zero for `S2`, `S3`
 /// (the two halves cancel), so the intensity components stay bit for bit
 /// those of the intensity tallies.
-fn score_polar(
+fn score_polar<const K: usize>(
     p: &mut PolarTallies,
-    c: &[f64],
+    c: &[f64; K],
     halves: &[(crate::tally::carlson::Cells, f64); 2],
     mirror: bool,
     replicate: usize,
 ) {
-    let k = p.components;
-    debug_assert_eq!(c.len(), k);
     // Factor of a component whose two halves share a bin.
-    let both = |i: usize| {
-        if mirror && mirror_sign(k, i) < 0.0 {
+    let both: [f64; K] = std::array::from_fn(|i| {
+        if mirror && mirror_sign(K, i) < 0.0 {
             0.0
         } else {
             1.0
         }
-    };
-    for (i, v) in c.iter().enumerate() {
-        p.score(i, replicate, both(i) * v);
-    }
+    });
+    let hemisphere: [f64; K] = std::array::from_fn(|i| both[i] * c[i]);
+    p.score_slot(0, replicate, &hemisphere);
     // The first half is the photon's own cells, the second its mirror image
     // (weight 0: in the same cells as the first, which then has the whole weight).
     let same = halves[1].1 == 0.0;
@@ -908,15 +991,14 @@ fn score_polar(
         if *w == 0.0 {
             continue;
         }
+        let signs: [f64; K] = match (half, same) {
+            (1, _) => std::array::from_fn(|i| mirror_sign(K, i)),
+            (_, true) => both,
+            _ => [1.0; K],
+        };
+        let values: [f64; K] = std::array::from_fn(|i| signs[i] * w * c[i]);
         for &cell in cells.as_slice() {
-            for (i, v) in c.iter().enumerate() {
-                let sign = match (half, same) {
-                    (1, _) => mirror_sign(k, i),
-                    (_, true) => both(i),
-                    _ => 1.0,
-                };
-                p.score(p.cell_bin(cell, i), replicate, sign * w * v);
-            }
+            p.score_slot(1 + cell, replicate, &values);
         }
     }
 }

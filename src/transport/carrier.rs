@@ -28,7 +28,7 @@
 use glam::DVec3;
 
 use crate::optics::material::Reflectance;
-use crate::optics::polarisation::{FresnelMueller, Stokes, rotate_columns, rotation};
+use crate::optics::polarisation::{FresnelMueller, Stokes, rotation};
 
 /// The weight a photon carries (see the module docs).
 pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
@@ -144,11 +144,15 @@ impl Carrier for f64 {
 
 /// Stokes columns with their common reference vector `x` (unit, ⟂ the
 /// flight): `N = 1` a Stokes vector, `N = 4` a Mueller matrix by columns.
+///
+/// Stored component-major: `rows[i][j]` is Stokes component `i` of column
+/// `j` (for `N = 4` the Mueller matrix `m_ij`, row-major), so rotations and
+/// Fresnel matrices act on each row `rows[i]` lane by lane across the columns.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Polarised<const N: usize> {
-    /// Column `j`: the Stokes vector leaving for incident basis state `j`
-    /// (`N = 4`), or for the incident state (`N = 1`).
-    pub columns: [Stokes; N],
+    /// Component `i` of each column: column `j` is the Stokes vector leaving
+    /// for incident basis state `j` (`N = 4`), or for the incident state (`N = 1`).
+    pub rows: [[f64; N]; 4],
     /// Reference vector of the columns.
     pub x: DVec3,
 }
@@ -163,7 +167,7 @@ impl<const N: usize> Polarised<N> {
         let len2 = s.length_squared();
         if len2 > 1e-24 {
             let s = s / len2.sqrt();
-            rotate_columns(&mut self.columns, rotation(d, self.x, s));
+            rotate_rows(&mut self.rows, rotation(d, self.x, s));
             s
         } else {
             self.x
@@ -173,49 +177,48 @@ impl<const N: usize> Polarised<N> {
     /// Scale every column by `f`.
     #[inline]
     fn scale(&mut self, f: f64) {
-        for c in &mut self.columns {
-            for v in c.iter_mut() {
-                *v *= f;
-            }
+        for v in self.rows.iter_mut().flatten() {
+            *v *= f;
         }
     }
+}
 
-    /// The columns re-expressed about reference vector `to` (⟂ the flight `d`).
-    #[must_use]
-    pub fn columns_in(&self, d: DVec3, to: DVec3) -> [Stokes; N] {
-        let mut c = self.columns;
-        rotate_columns(&mut c, rotation(d, self.x, to));
-        c
-    }
+/// Apply the rotator `(cos 2a, sin 2a)` of [`rotation`] to every column of
+/// `rows` (component-major, see [`Polarised`]): [`rotate`](crate::optics::polarisation::rotate)
+/// column by column, the same products and sums.
+#[inline]
+fn rotate_rows<const N: usize>(rows: &mut [[f64; N]; 4], (c2, s2): (f64, f64)) {
+    let (r1, r2) = (rows[1], rows[2]);
+    rows[1] = std::array::from_fn(|j| c2 * r1[j] + s2 * r2[j]);
+    rows[2] = std::array::from_fn(|j| -s2 * r1[j] + c2 * r2[j]);
 }
 
 impl<const N: usize> Carrier for Polarised<N> {
     fn launch(incident: Stokes, reference: DVec3) -> Self {
-        let mut columns = [[0.0; 4]; N];
+        let mut rows = [[0.0; N]; 4];
         if N == 1 {
-            columns[0] = incident;
+            for (row, s) in rows.iter_mut().zip(incident) {
+                row[0] = s;
+            }
         } else {
-            for (j, c) in columns.iter_mut().enumerate() {
-                c[j] = 1.0;
+            for (j, row) in rows.iter_mut().enumerate() {
+                row[j] = 1.0;
             }
         }
-        Self {
-            columns,
-            x: reference,
-        }
+        Self { rows, x: reference }
     }
 
     #[inline]
     fn intensity(&self) -> f64 {
-        self.columns[0][0]
+        self.rows[0][0]
     }
 
     #[inline]
     fn weight_for(&self, incident: &Stokes) -> f64 {
         if N == 1 {
-            self.columns[0][0]
+            self.rows[0][0]
         } else {
-            (0..N).map(|j| self.columns[j][0] * incident[j]).sum()
+            (0..N).map(|j| self.rows[0][j] * incident[j]).sum()
         }
     }
 
@@ -227,9 +230,15 @@ impl<const N: usize> Carrier for Polarised<N> {
                     return false;
                 }
                 let s = self.turn_to_s_frame(d, n);
-                for c in &mut self.columns {
-                    *c = f.apply(*c);
-                }
+                // `FresnelMueller::apply` on each column, lane by lane.
+                let FresnelMueller { a, b, c, d } = f;
+                let [r0, r1, r2, r3] = self.rows;
+                self.rows = [
+                    std::array::from_fn(|j| a * r0[j] + b * r1[j]),
+                    std::array::from_fn(|j| b * r0[j] + a * r1[j]),
+                    std::array::from_fn(|j| c * r2[j] - d * r3[j]),
+                    std::array::from_fn(|j| d * r2[j] + c * r3[j]),
+                ];
                 self.x = s;
                 true
             }
@@ -246,31 +255,35 @@ impl<const N: usize> Carrier for Polarised<N> {
 
     fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3) {
         let s = self.turn_to_s_frame(d, n);
-        for c in &mut self.columns {
-            *c = [rho * c[0], rho * c[1], -rho * c[2], -rho * c[3]];
+        for (i, row) in self.rows.iter_mut().enumerate() {
+            let f = if i < 2 { rho } else { -rho };
+            for v in row {
+                *v *= f;
+            }
         }
         self.x = s;
     }
 
     fn depolarise(&mut self, factor: f64, d_out: DVec3) {
-        for c in &mut self.columns {
-            *c = [factor * c[0], 0.0, 0.0, 0.0];
+        for v in &mut self.rows[0] {
+            *v *= factor;
         }
+        self.rows[1..].fill([0.0; N]);
         self.x = d_out.any_orthonormal_vector();
     }
 
     fn transfer(&mut self, d: DVec3, x_in: DVec3, m: &[f64; 16], factor: f64, x_out: DVec3) {
-        rotate_columns(&mut self.columns, rotation(d, self.x, x_in));
-        for c in &mut self.columns {
-            let v = *c;
-            *c = std::array::from_fn(|i| {
+        rotate_rows(&mut self.rows, rotation(d, self.x, x_in));
+        let v = self.rows;
+        self.rows = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
                 factor
-                    * (m[4 * i] * v[0]
-                        + m[4 * i + 1] * v[1]
-                        + m[4 * i + 2] * v[2]
-                        + m[4 * i + 3] * v[3])
-            });
-        }
+                    * (m[4 * i] * v[0][j]
+                        + m[4 * i + 1] * v[1][j]
+                        + m[4 * i + 2] * v[2][j]
+                        + m[4 * i + 3] * v[3][j])
+            })
+        });
         self.x = x_out;
     }
 
@@ -282,7 +295,7 @@ impl<const N: usize> Carrier for Polarised<N> {
             // Exactly `s`, as for the scalar carrier (`i * (s / i)` may be
             // off by an ulp), so the intensity of a non-polarising scene is
             // the scalar one bit for bit.
-            self.columns[0][0] = s;
+            self.rows[0][0] = s;
         }
     }
 
@@ -291,7 +304,7 @@ impl<const N: usize> Carrier for Polarised<N> {
         let i = self.intensity();
         if i > 0.0 && i != 1.0 {
             u.scale(1.0 / i);
-            u.columns[0][0] = 1.0;
+            u.rows[0][0] = 1.0;
         }
         u
     }
@@ -309,16 +322,16 @@ impl<const N: usize> Carrier for Polarised<N> {
     fn is_valid(&self) -> bool {
         self.intensity() >= 0.0
             && self.x.is_finite()
-            && self.columns.iter().flatten().all(|v| v.is_finite())
+            && self.rows.iter().flatten().all(|v| v.is_finite())
     }
 
+    #[inline]
     fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize {
-        let c = self.columns_in(d, to);
-        for (j, column) in c.iter().enumerate() {
-            for (i, v) in column.iter().enumerate() {
-                // Row-major m_ij for N = 4; the Stokes vector for N = 1.
-                out[i * N + j] = *v;
-            }
+        let mut rows = self.rows;
+        rotate_rows(&mut rows, rotation(d, self.x, to));
+        // Row-major m_ij for N = 4; the Stokes vector for N = 1.
+        for (o, v) in out.iter_mut().zip(rows.iter().flatten()) {
+            *o = *v;
         }
         4 * N
     }
@@ -383,8 +396,8 @@ mod tests {
                     }
                 }
                 d = out;
-                for s in p.columns.iter().chain(m.columns.iter().take(1)) {
-                    assert!(degree_of_polarisation(*s) <= 1.0 + 1e-9, "{s:?}");
+                for s in [p.rows.map(|r| r[0]), m.rows.map(|r| r[0])] {
+                    assert!(degree_of_polarisation(s) <= 1.0 + 1e-9, "{s:?}");
                 }
                 assert!(p.x.dot(d).abs() < 1e-9 && (p.x.length() - 1.0).abs() < 1e-9);
                 // The matrix applied to the state equals the carried vector.
@@ -402,7 +415,7 @@ mod tests {
     const TAUF: f64 = std::f64::consts::TAU;
 
     #[test]
-    #[allow(clippy::needless_range_loop)] // m.columns[j][i] against f[i][j]
+    #[allow(clippy::needless_range_loop)] // m.rows[i][j] against f[i][j]
     fn flat_fresnel_is_the_textbook_matrix() {
         // Light along -omega_i in the x-z plane onto z = 0: the s axis is ±y.
         let d = DVec3::new(0.5, 0.0, -(0.75f64).sqrt());
@@ -412,7 +425,7 @@ mod tests {
         let f = FresnelMueller::new(-d.z, 1.015, 6.627).matrix();
         for j in 0..4 {
             for i in 0..4 {
-                assert!((m.columns[j][i] - f[i][j]).abs() < 1e-15);
+                assert!((m.rows[i][j] - f[i][j]).abs() < 1e-15);
             }
         }
     }

@@ -22,22 +22,44 @@ use rayon::prelude::*;
 /// Photons per batch: the unit of parallel work and of summation order.
 pub const BATCH: u64 = 4096;
 
+/// Most bytes of batch tallies [`run_batches`] and [`run_ordered`] hold at a
+/// time, as whole chunks of batches (see [`pending_batches`]).
+const PENDING_BYTES: usize = 8 << 20;
+
+/// Batches traced in one chunk (whose tallies are all held until the chunk
+/// is done) when one batch tally takes `tally_bytes` and `threads` threads
+/// trace: as many as fit in [`PENDING_BYTES`], but at least two per thread
+/// and at most 64.
+#[must_use]
+pub fn pending_batches(tally_bytes: u64, threads: u64) -> u64 {
+    (PENDING_BYTES as u64 / tally_bytes.max(1))
+        .max(2 * threads)
+        .min(64)
+}
+
+/// [`pending_batches`] for the threads of the current rayon pool.
+fn pending_here(tally_bytes: u64) -> u64 {
+    pending_batches(tally_bytes, rayon::current_num_threads() as u64)
+}
+
 /// Trace `photons` photons in fixed batches of [`BATCH`] in parallel and hand
 /// each batch's tally to `consume(batch index, tally)` in batch order, so the
 /// result is bit-identical for any number of threads. `trace(range)` traces
-/// the photons of one index range into a fresh tally; `progress` receives the
-/// photons done. Pending batch tallies are bounded by working in chunks.
+/// the photons of one index range into a fresh tally of about `tally_bytes`;
+/// `progress` receives the photons done. Pending batch tallies are bounded
+/// by working in chunks of [`pending_batches`] for the threads of the pool.
 pub fn run_batches<T: Send>(
     photons: u64,
+    tally_bytes: u64,
     trace: impl Fn(std::ops::Range<u64>) -> T + Sync,
     mut consume: impl FnMut(u64, T),
     progress: &(dyn Fn(u64) + Sync),
 ) {
-    const CHUNK: u64 = 64;
+    let chunk = pending_here(tally_bytes);
     let n_batches = photons.div_ceil(BATCH);
     let mut b0 = 0;
     while b0 < n_batches {
-        let b1 = (b0 + CHUNK).min(n_batches);
+        let b1 = (b0 + chunk).min(n_batches);
         let parts: Vec<T> = (b0..b1)
             .into_par_iter()
             .map(|b| {
@@ -74,10 +96,12 @@ const PIECE: usize = 1024;
 /// history, with a scratch from `scratch()` per rayon job (reused over its pieces); `score(range,
 /// entries, histories)` a batch's tally from its entries and histories in
 /// index order; `consume` and `progress` as for [`run_batches`]. Chunks hold
-/// at most about [`ORDERED_BYTES`] of entries and histories.
+/// at most about [`ORDERED_BYTES`] of entries and histories, and at most
+/// [`pending_batches`] of batch tallies of `tally_bytes`.
 #[allow(clippy::too_many_arguments)]
 pub fn run_ordered<E: Send + Sync, H: Send + Sync, S, T: Send>(
     photons: u64,
+    tally_bytes: u64,
     entry: impl Fn(u64) -> (u16, E) + Sync,
     scratch: impl Fn() -> S + Sync,
     trace: impl Fn(&E, &mut S) -> H + Sync,
@@ -86,7 +110,8 @@ pub fn run_ordered<E: Send + Sync, H: Send + Sync, S, T: Send>(
     progress: &(dyn Fn(u64) + Sync),
 ) {
     let per_photon = std::mem::size_of::<E>() + std::mem::size_of::<H>() + 16;
-    let chunk = (ORDERED_BYTES / (per_photon * BATCH as usize)).clamp(1, 64) as u64;
+    let chunk = ((ORDERED_BYTES / (per_photon * BATCH as usize)).clamp(1, 64) as u64)
+        .min(pending_here(tally_bytes));
     let n_batches = photons.div_ceil(BATCH);
     let mut b0 = 0;
     while b0 < n_batches {

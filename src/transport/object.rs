@@ -180,6 +180,16 @@ impl Tallies {
         }
     }
 
+    /// Size (bytes) of the sums: 16 per bin.
+    fn bytes(&self) -> u64 {
+        let bins = self.reflected.len()
+            + self.absorbed.len()
+            + self.farfield.len()
+            + self.stokes.len()
+            + self.farfield_stokes.len();
+        16 * bins as u64
+    }
+
     fn merge(&mut self, o: &Self) {
         self.photons += o.photons;
         self.reflected.merge(&o.reflected);
@@ -283,6 +293,7 @@ impl ObjectRun {
                 let position = k as u64;
                 super::run_batches(
                     n_photons,
+                    total.bytes(),
                     |range| {
                         if self.polarisation {
                             self.trace_batch::<Polarised<1>>(
