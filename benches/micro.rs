@@ -187,7 +187,10 @@ fn scaling(c: &mut Criterion) {
             dir: ".".into(),
         };
         let scene = MicroScene::from_str(&text, source, name.into()).unwrap();
-        let run = pool.install(|| probe_run(&scene, name));
+        let mut run = pool.install(|| probe_run(&scene, name));
+        // Enough photons per run for the Morton order of large surfaces to
+        // find neighbours (the command line's regime, not a probe's).
+        run.photons = 200_000;
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(name, |b| {
             b.iter(|| pool.install(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {}))));
