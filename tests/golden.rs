@@ -101,10 +101,18 @@ fn cases(dir: &Path) -> Vec<(&'static str, Vec<String>)> {
     let absorbing = micro_scene(dir, "edge-30-absorbing", &[]);
     let z302 = micro_scene(dir, "z302-micro", &few_bands);
     let brdf = |scene: &str, extra: &[&str]| {
-        let mut a: Vec<String> = ["brdf", scene, "--threads", "2", "-q", "--stats-resolution", "64"]
-            .iter()
-            .map(|s| (*s).to_string())
-            .collect();
+        let mut a: Vec<String> = [
+            "brdf",
+            scene,
+            "--threads",
+            "2",
+            "-q",
+            "--stats-resolution",
+            "64",
+        ]
+        .iter()
+        .map(|s| (*s).to_string())
+        .collect();
         a.extend(extra.iter().map(|s| (*s).to_string()));
         a
     };
@@ -124,7 +132,13 @@ fn cases(dir: &Path) -> Vec<(&'static str, Vec<String>)> {
             brdf(
                 &default,
                 &[
-                    "--theta", "30,60", "--photons", "20480", "--launch", "lattice", "--symmetry",
+                    "--theta",
+                    "30,60",
+                    "--photons",
+                    "20480",
+                    "--launch",
+                    "lattice",
+                    "--symmetry",
                     "mirror",
                 ],
             ),
@@ -145,10 +159,19 @@ fn cases(dir: &Path) -> Vec<(&'static str, Vec<String>)> {
             "edges_absorbing",
             brdf(&absorbing, &["--theta", "80", "--photons", "10000"]),
         ),
-        ("z302_csg", brdf(&z302, &["--theta", "30", "--photons", "5000"])),
+        (
+            "z302_csg",
+            brdf(&z302, &["--theta", "30", "--photons", "5000"]),
+        ),
         ("radiator_micro", trace("scenes/radiator.toml", "300")),
-        ("cylinder_cavity", trace("scenes/cylinder-cavity.toml", "1000")),
-        ("baffled_tube_100", trace("scenes/baffled-tube-100.toml", "2000")),
+        (
+            "cylinder_cavity",
+            trace("scenes/cylinder-cavity.toml", "1000"),
+        ),
+        (
+            "baffled_tube_100",
+            trace("scenes/baffled-tube-100.toml", "2000"),
+        ),
     ]
 }
 
@@ -182,10 +205,7 @@ fn measure() -> BTreeMap<String, BTreeMap<String, (usize, u64)>> {
             files.insert(f, (bytes.len(), fnv1a(&bytes)));
         }
         let summary = summary_physics(&out);
-        files.insert(
-            "summary.json".to_string(),
-            (summary.len(), fnv1a(&summary)),
-        );
+        files.insert("summary.json".to_string(), (summary.len(), fnv1a(&summary)));
         got.insert(name.to_string(), files);
     }
     std::fs::remove_dir_all(&tmp).ok();

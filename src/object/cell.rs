@@ -23,9 +23,7 @@
 use glam::DVec3;
 
 use crate::geometry::body::{Aabb, Body, MAX_SURFACES, Ray};
-use crate::geometry::quadric::{
-    Diagonal, Quadric, RayForm, entry_negative, standing_far_root,
-};
+use crate::geometry::quadric::{Diagonal, Quadric, RayForm, entry_negative, standing_far_root};
 use crate::geometry::region::{Flat, Sense};
 
 /// Relative widening of a cell's box (of its size and of its distance from

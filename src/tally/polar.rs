@@ -167,7 +167,10 @@ impl PolarTallies {
     /// # Panics
     /// If the layouts differ.
     pub fn merge_clearing(&mut self, other: &mut Self) {
-        assert_eq!(self.components, other.components, "PolarTallies::merge_clearing");
+        assert_eq!(
+            self.components, other.components,
+            "PolarTallies::merge_clearing"
+        );
         self.sums.merge_clearing(&mut other.sums);
         match (&mut self.replicates, &mut other.replicates) {
             (Some(a), Some(b)) => {

@@ -224,7 +224,11 @@ impl Replicates {
             (&mut self.carlson, &mut other.carlson),
             (&mut self.inplane, &mut other.inplane),
         ] {
-            assert_eq!(a.len(), b.len(), "Replicates::merge_clearing: bin counts differ");
+            assert_eq!(
+                a.len(),
+                b.len(),
+                "Replicates::merge_clearing: bin counts differ"
+            );
             add_clearing(a, b);
         }
     }
