@@ -243,50 +243,64 @@ impl Body {
         standing: Option<usize>,
     ) -> Option<(Entry, bool)> {
         let n = self.surfaces.len();
-        let mut positive = [false; MAX_SURFACES];
-        let mut ill = [false; MAX_SURFACES];
+        debug_assert!(n <= MAX_SURFACES);
+        let mut positive = 0_u64;
+        let mut ill = 0_u64;
         // Events (t, surface), at most two per surface.
         let mut events = [(0.0_f64, 0_usize); 2 * MAX_SURFACES];
         let mut n_events = 0;
         for (i, q) in self.surfaces.iter().enumerate() {
             let c = q.crossings(o, d, t_max, standing == Some(i));
-            positive[i] = c.positive_at_start;
-            ill[i] = c.ill_conditioned;
+            positive |= u64::from(c.positive_at_start) << i;
+            ill |= u64::from(c.ill_conditioned) << i;
             for &t in &c.t[..c.n] {
                 events[n_events] = (t, i);
                 n_events += 1;
             }
         }
-        let events = &mut events[..n_events];
-        // Insertion sort: a handful of events.
-        for k in 1..events.len() {
-            let mut j = k;
-            while j > 0 && events[j - 1].0 > events[j].0 {
-                events.swap(j - 1, j);
-                j -= 1;
-            }
-        }
-        let inside = |positive: &[bool; MAX_SURFACES]| self.region.contains(|i| positive[i]);
-        let mut was_inside = inside(&positive);
-        let mut k = 0;
-        while k < events.len() {
-            // Apply every crossing at the same distance before testing (edges, tangents).
-            let t = events[k].0;
-            let mut last = events[k].1;
-            while k < events.len() && events[k].0 == t {
-                last = events[k].1;
-                positive[last] = !positive[last];
-                k += 1;
-            }
-            let now_inside = inside(&positive);
-            if now_inside && !was_inside {
-                return Some((Entry { t, surface: last }, ill[last]));
-            }
-            was_inside = now_inside;
-        }
-        debug_assert!(n <= MAX_SURFACES);
-        None
+        let inside = |positive: u64| self.region.contains(|i| positive >> i & 1 == 1);
+        let (t, surface) = first_entering_event(&mut events[..n_events], positive, inside)?;
+        Some((Entry { t, surface }, ill >> surface & 1 == 1))
     }
+}
+
+/// The first of `events` (distance, surface index) after which `inside`
+/// holds where it did not before: `(distance, surface)`. `positive` has bit
+/// `i` set where the flight starts on the positive side of surface `i`;
+/// each event flips its surface's bit. The events are sorted here (a
+/// handful: insertion sort), and all events at one distance are applied
+/// before `inside` is asked (edges, tangents). The CSG sweep of both
+/// levels: [`Body`]'s entries and the macro level's cells
+/// ([`crate::object`]).
+pub fn first_entering_event(
+    events: &mut [(f64, usize)],
+    mut positive: u64,
+    inside: impl Fn(u64) -> bool,
+) -> Option<(f64, usize)> {
+    for k in 1..events.len() {
+        let mut j = k;
+        while j > 0 && events[j - 1].0 > events[j].0 {
+            events.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    let mut was_inside = inside(positive);
+    let mut k = 0;
+    while k < events.len() {
+        let t = events[k].0;
+        let mut last = events[k].1;
+        while k < events.len() && events[k].0 == t {
+            last = events[k].1;
+            positive ^= 1 << last;
+            k += 1;
+        }
+        let now_inside = inside(positive);
+        if now_inside && !was_inside {
+            return Some((t, last));
+        }
+        was_inside = now_inside;
+    }
+    None
 }
 
 #[cfg(test)]

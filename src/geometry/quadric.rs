@@ -609,6 +609,18 @@ fn real_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize, Option<bool>) {
 mod tests {
     use super::*;
 
+    /// A deterministic stream of numbers in [-1, 1) (a 64-bit LCG), the
+    /// rays and coefficients of the sweeps below.
+    fn stream(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        }
+    }
+
     fn side_by_eval(q: &Quadric, o: DVec3, d: DVec3, t: f64) -> bool {
         q.eval(o + t * d) > 0.0
     }
@@ -687,13 +699,8 @@ mod tests {
     /// linear ones (a = 0) and tangents (disc = 0).
     #[test]
     fn entry_negative_matches_general_crossings() {
-        let mut state = 99u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * 4.0
-        };
+        let mut uniform = stream(99);
+        let mut next = || uniform() * 4.0;
         let general = |a: f64, b: f64, c: f64, t_max: f64| {
             let cr = crossings_of_quadratic(a, b, c, t_max);
             let mut positive = cr.positive_at_start;
@@ -744,13 +751,7 @@ mod tests {
         assert!(matches!(RayForm::of(&quadrics[0]), RayForm::Plane { .. }));
         assert!(matches!(RayForm::of(&quadrics[5]), RayForm::Diagonal(_)));
         assert!(matches!(RayForm::of(&quadrics[8]), RayForm::General(_)));
-        let mut state = 4242u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut next = stream(4242);
         let axes = [DVec3::X, DVec3::Y, DVec3::Z, DVec3::NEG_X, DVec3::NEG_Z];
         for q in &quadrics {
             let form = RayForm::of(q);
@@ -846,13 +847,7 @@ mod tests {
             Quadric::plane(0.3, -0.2, 1.0, 0.1),
             Quadric::paraboloid_down(DVec3::ZERO, 1.0, 0.5, 2.0),
         ];
-        let mut state = 12345u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut next = stream(12345);
         for q in &quadrics {
             for _ in 0..2000 {
                 let o = DVec3::new(next(), next(), next()) * 2.0;

@@ -22,7 +22,7 @@
 
 use glam::DVec3;
 
-use crate::geometry::body::{Aabb, Body, MAX_SURFACES, Ray};
+use crate::geometry::body::{Aabb, Body, MAX_SURFACES, Ray, first_entering_event};
 use crate::geometry::quadric::{Diagonal, Quadric, RayForm, entry_negative, standing_far_root};
 use crate::geometry::region::{Flat, Sense};
 
@@ -156,33 +156,9 @@ impl CompiledCell {
                 n_events += 1;
             }
         }
-        let events = &mut events[..n_events];
-        // Insertion sort: a handful of events.
-        for k in 1..events.len() {
-            let mut j = k;
-            while j > 0 && events[j - 1].0 > events[j].0 {
-                events.swap(j - 1, j);
-                j -= 1;
-            }
-        }
-        let mut was_inside = self.inside(body, positive);
-        let mut k = 0;
-        while k < events.len() {
-            // Apply every crossing at the same distance before testing (edges, tangents).
-            let t = events[k].0;
-            let mut last = events[k].1;
-            while k < events.len() && events[k].0 == t {
-                last = events[k].1;
-                positive ^= 1 << last;
-                k += 1;
-            }
-            let now_inside = self.inside(body, positive);
-            if now_inside && !was_inside {
-                return Some((t, last, ill >> last & 1 == 1));
-            }
-            was_inside = now_inside;
-        }
-        None
+        let inside = |positive: u64| self.inside(body, positive);
+        let (t, surface) = first_entering_event(&mut events[..n_events], positive, inside)?;
+        Some((t, surface, ill >> surface & 1 == 1))
     }
 }
 

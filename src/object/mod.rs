@@ -164,8 +164,7 @@ impl Object {
         // beyond it) would be refused by the scan.
         let candidates = &mut found[..n];
         candidates.sort_unstable_by_key(|c| c.0);
-        let mut best = None;
-        let mut t_max = f64::INFINITY;
+        let mut nearest = Nearest::default();
         for &(cell, e) in candidates.iter() {
             if e.key.min(e.t) > bound {
                 continue;
@@ -174,35 +173,22 @@ impl Object {
                 // A polished root across the bound: the replay could differ.
                 return self.scan(&ray, standing);
             }
-            if e.key <= t_max {
-                t_max = e.t;
-                best = Some(Hit {
-                    t: e.t,
-                    cell,
-                    surface: e.surface,
-                });
-            }
+            nearest.offer(cell, e);
         }
-        best
+        nearest.best
     }
 
     /// The linear scan over every solid in index order: a cell is taken
     /// when `Body::first_entry(ray, t_max)` finds it, `t_max` the distance
     /// of the last taken.
     fn scan(&self, ray: &Ray, standing: Option<(usize, usize)>) -> Option<Hit> {
-        let mut best = None;
-        let mut t_max = f64::INFINITY;
+        let mut nearest = Nearest::default();
         for cell in 0..self.solids.len() {
-            if let Some(e) = self.entry(cell, ray, standing).filter(|e| e.key <= t_max) {
-                t_max = e.t;
-                best = Some(Hit {
-                    t: e.t,
-                    cell,
-                    surface: e.surface,
-                });
+            if let Some(e) = self.entry(cell, ray, standing) {
+                nearest.offer(cell, e);
             }
         }
-        best
+        nearest.best
     }
 
     /// Is `p` inside any solid? (Exactly `Body::contains` of some solid.)
@@ -228,6 +214,37 @@ impl Object {
     #[must_use]
     pub fn surface_id(&self, cell: usize, surface: usize) -> usize {
         self.solids[cell].surface_ids[surface]
+    }
+}
+
+/// The scan's rule for the nearest entry, cells offered in index order: a
+/// cell's entry is taken when its `key` is at most the distance of the
+/// last taken (see [`CellEntry`]). [`Object::next_hit`] replays the
+/// candidates of its hierarchy through the same rule.
+struct Nearest {
+    best: Option<Hit>,
+    t_max: f64,
+}
+
+impl Default for Nearest {
+    fn default() -> Self {
+        Self {
+            best: None,
+            t_max: f64::INFINITY,
+        }
+    }
+}
+
+impl Nearest {
+    fn offer(&mut self, cell: usize, e: CellEntry) {
+        if e.key <= self.t_max {
+            self.t_max = e.t;
+            self.best = Some(Hit {
+                t: e.t,
+                cell,
+                surface: e.surface,
+            });
+        }
     }
 }
 

@@ -93,9 +93,9 @@ const PIECE: usize = 1024;
 ///
 /// `entry(n)` gives photon `n`'s Morton code and what its history starts
 /// from (`E`: its stream and entry point); `trace(entry, scratch)` its
-/// history, with a scratch from `scratch()` per rayon job (reused over its pieces); `score(range,
-/// entries, histories)` a batch's tally from its entries and histories in
-/// index order; `consume` and `progress` as for [`run_batches`]. Chunks hold
+/// history, with a scratch from `scratch()` per rayon job (reused over its
+/// pieces); `score(range, entries, histories)` a batch's tally from its
+/// entries and histories in index order; `consume` and `progress` as for [`run_batches`]. Chunks hold
 /// at most about [`ORDERED_BYTES`] of entries and histories, and at most
 /// [`pending_batches`] of batch tallies of `tally_bytes`.
 #[allow(clippy::too_many_arguments)]
