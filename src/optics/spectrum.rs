@@ -586,17 +586,30 @@ impl NkSource {
 /// strictly increasing `abscissae`; exact at tabulated points. `None` outside
 /// `[first, last]`, for NaN, or for unequal lengths.
 fn interpolate(abscissae: &[f64], values: &[f64], at: f64) -> Option<f64> {
+    if abscissae.len() != values.len() {
+        return None;
+    }
+    let (lo, hi, t) = bracket(abscissae, at)?;
+    let (v0, v1) = (*values.get(lo)?, *values.get(hi)?);
+    Some(if hi == lo { v0 } else { v0 + (v1 - v0) * t })
+}
+
+/// The neighbours `lo <= hi` of `at` among the strictly increasing
+/// `abscissae` and the weight `t` of `hi`: the interpolated value is
+/// `(1 - t) v[lo] + t v[hi]`, with `hi == lo` and `t = 0` at a tabulated
+/// point. `None` outside `[first, last]` or for NaN.
+fn bracket(abscissae: &[f64], at: f64) -> Option<(usize, usize, f64)> {
     let (&first, &last) = (abscissae.first()?, abscissae.last()?);
-    if abscissae.len() != values.len() || !(first..=last).contains(&at) {
+    if !(first..=last).contains(&at) {
         return None;
     }
     // first <= at <= last, so 1 <= hi <= len.
     let hi = abscissae.partition_point(|&w| w <= at);
     let lo = hi.checked_sub(1)?;
-    let (w0, v0) = (*abscissae.get(lo)?, *values.get(lo)?);
-    match (abscissae.get(hi), values.get(hi)) {
-        (Some(&w1), Some(&v1)) if at > w0 => Some(v0 + (v1 - v0) * (at - w0) / (w1 - w0)),
-        _ => Some(v0), // at a tabulated point (or the last one)
+    let w0 = *abscissae.get(lo)?;
+    match abscissae.get(hi) {
+        Some(&w1) if at > w0 => Some((lo, hi, (at - w0) / (w1 - w0))),
+        _ => Some((lo, lo, 0.0)), // at a tabulated point (or the last one)
     }
 }
 
