@@ -1,5 +1,4 @@
-#!/usr/bin/env python3
-"""Compare two radiance maps (EXR), e.g. `roks render` against scripts/mitsuba_render.py.
+"""Compare two radiance maps (EXR), e.g. `roks render` against `roks_tools.mitsuba.render`.
 
     compare_images.py A.exr B.exr --out DIR [--a2 A_seed2.exr] [--b2 B_seed2.exr]
         [--spp N] [--block 8] [--label-a roks] [--label-b mitsuba]

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Write small test height fields over one period as binary little-endian PLY.
 
-Stand-in for `roks export-mesh` (issue 4) until it exists: the same layout,
+Stand-ins for `roks export-mesh`: the same layout,
 one period [0, Lx] x [0, Ly], vertices `float x, y, z`, faces
 `list uchar int vertex_indices`, triangles wound counter-clockwise seen from
 above (geometric normals up).

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Plot a BRDF result folder written by `roks brdf`.
 
 Reads RESULT_DIR/summary.json, RESULT_DIR/inplane.csv and RESULT_DIR/brdf.csv

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Render the exported walls of an object (radiator previews) with Mitsuba 3, matching `roks render`.
 
     mitsuba_object_render.py WALLS.ply --camera X,Y,Z --look-at X,Y,Z [--up 0,1,0] [--fov 40]
@@ -16,10 +15,10 @@ hidden behind the disc as `roks render --background` leaves it out of the
 disc); pixel values are radiance in the disc's units. Walls: Lambertian
 (`diffuse`, reflectance R), a mirror of constant reflectance R
 (`conductor`, material none), or a roks BRDF table through the
-`roks_table` plugin of scripts/roks_bsdf.py.
+`roks_table` plugin of `roks_tools.mitsuba.roks_table`.
 Integrator `path`, no Russian roulette, max depth 1025. The disc is an
 `area` emitter on a `disk` 1e5 x the mesh extent away (as
-scripts/mitsuba_render.py), so the cone test is exact to ~1e-5 rad. The
+`roks_tools.mitsuba.render`), so the cone test is exact to ~1e-5 rad. The
 camera orientation is checked at start-up: the film centre ray must travel
 toward --look-at and the film's right and up edges must lie along
 (axis x up) and up.
@@ -86,7 +85,7 @@ def bsdf(a, mi):
     import drjit as dr
     import roks_bsdf  # registers `roks_table` (Python plugin)
     if "llvm" in mi.variant():
-        # a Python BSDF inside JIT-compiled loops: see scripts/roks_bsdf.py
+        # a Python BSDF inside JIT-compiled loops: see `roks_tools.mitsuba.roks_table`
         dr.set_flag(dr.JitFlag.SymbolicLoops, False)
         dr.set_flag(dr.JitFlag.SymbolicCalls, False)
     roks_bsdf.register()

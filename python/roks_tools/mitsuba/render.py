@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Render a periodic height-field mesh with Mitsuba 3's `path` integrator, matching `roks render`.
 
-Cross-check for `roks render` (issue 4, Mitsuba side item 2).
+Cross-check for `roks render`.
 
     mitsuba_render.py MESH.ply --size LX,LY [--view THETA,PHI] [--light THETA,PHI]
         [--disc 5] [--res W,H] [--spp N] [--rho R] [--seed S] [--top Z]

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Demo: render two spheres on a grey plate with Mitsuba 3, the left one with
 the BRDF table of a `roks brdf` result (plugin `roks_table`,
-scripts/roks_bsdf.py), the right one Lambertian with the table's normal-
+`roks_tools.mitsuba.roks_table`), the right one Lambertian with the table's normal-
 incidence reflectance, under a sun (directional emitter) and a dim sky.
 
     DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \\
@@ -10,7 +9,7 @@ incidence reflectance, under a sun (directional emitter) and a dim sky.
 Options: --variant (default llvm_ad_rgb; scalar_rgb works but calls Python per
 sample: minutes), --spp (64), --size W,H (320,200). Writes OUT (PNG, sRGB) and
 OUT with .exr (linear). The LLVM variants run the plugin in wavefront mode
-(symbolic loops and calls off), see scripts/roks_bsdf.py.
+(symbolic loops and calls off), see `roks_tools.mitsuba.roks_table`.
 """
 
 from __future__ import annotations

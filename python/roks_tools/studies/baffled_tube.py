@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Write scenes/baffled-tube-N.toml: a baffled tube for `roks trace`.
 
 A cylindrical tube (inner radius 25 mm, wall 2 mm thick) with N annular

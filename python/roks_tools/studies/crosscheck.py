@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """The whole Mitsuba cross-check of a micro scene, with a markdown report and a verdict.
 
     crosscheck.py [--scene SCENE.toml] [--rho 0.8,1] [--resolutions 256,512,1024,2048]
@@ -11,11 +10,11 @@ constant rho; `--rho scene` keeps a scene's single constant or n, k material)
 and every mesh resolution N:
 
 1. `roks export-mesh --resolution N` writes the substrate as a PLY height field;
-2. `scripts/mitsuba_brdf.py` traces it (Mitsuba `ray_intersect`, wavefront)
+2. the Mitsuba tracer (`roks_tools.mitsuba.tracer`) traces it (Mitsuba `ray_intersect`, wavefront)
    and `roks brdf` traces the exact scene: reflectance, Carlson cells and
    in-plane BRDF compared by `compare_brdf.compare` (z-scores, chi-square
    per degree of freedom, largest cell |z|);
-3. `roks render` and `scripts/mitsuba_render.py` (Mitsuba's `path`
+3. `roks render` and `roks_tools.mitsuba.render` (Mitsuba's `path`
    integrator, same orthographic camera and disc light), two seeds each,
    compared by `compare_images.compare` (means, 8 x 8 pixel blocks).
 

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Edge-effect study of the micro geometry (Klass et al. 2014, Fig. 2).
 
 The paper checks whether a finite micro geometry is large enough by putting

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Li & Torrance (SPIE 5878, 2005) set-up: in-plane BRDF of rough aluminium.
 
 The paper (Klass et al. 2014) compared ROKS-RG with Li & Torrance's measured
@@ -15,14 +14,14 @@ this script compares three models with each other, for sigma/tau = 0.084 and
       same sigma/tau with `roks stats`: scaling all heights by s scales sigma by s
       and leaves the normalised autocorrelation, hence tau, unchanged, so a scan of
       h0 is linear; the script scans three h0, solves for the target and checks it;
-(iii) the Beckmann + Smith single-scattering model (scripts/microfacet.py),
+(iii) the Beckmann + Smith single-scattering model (`roks_tools.microfacet`),
       alpha = 2 sigma / tau, and alpha = the surface's RMS slope.
 
 Each roks surface is also run with max_bounces = 1 (single scattering only), to
 tell what multiple scattering adds. Writes OUT/report.md, OUT/li_torrance.png,
 OUT/data.json.
 
-    /work/main/.venv/bin/python scripts/li_torrance.py --roks $CARGO_TARGET_DIR/release/roks
+    .venv/bin/python scripts/li_torrance.py --roks $CARGO_TARGET_DIR/release/roks
 """
 
 from __future__ import annotations

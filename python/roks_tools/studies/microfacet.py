@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
-"""Gaussian height fields in roks against microfacet theory (issue 5).
+"""Gaussian height fields in roks against microfacet theory.
 
 For Gaussian random surfaces (autocorrelation sigma^2 exp(-r^2 / tau^2), Beckmann
 alpha = 2 sigma / tau) with a white material (rho = 1), compares roks with the
-Beckmann + Smith microfacet model of scripts/microfacet.py:
+Beckmann + Smith microfacet model of `roks_tools.microfacet`:
 
 (a) single-bounce albedo (reflectance_by_bounces[1]; with rho = 1 every photon
     leaves, so 1 - it is the multiple-scattering share) vs height-correlated and
@@ -22,7 +21,7 @@ sigma = 0.1, 0.25, 0.5 tau; seeds 1 and 2; plus tau = 6 pitches for alpha = 0.5
 (sampling of the field). Writes OUT/report.md, OUT/*.png, OUT/data.json; roks
 output folders go to OUT/runs/ (deleted unless --keep-runs).
 
-    /work/main/.venv/bin/python scripts/microfacet_study.py --roks $CARGO_TARGET_DIR/release/roks
+    .venv/bin/python scripts/microfacet_study.py --roks $CARGO_TARGET_DIR/release/roks
 """
 
 from __future__ import annotations

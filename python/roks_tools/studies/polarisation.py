@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """How much polarised transport changes the BRDF of the Fresnel scenes in scenes/.
 
     .venv/bin/python scripts/polarisation_study.py [--roks target/release/roks] [--photons N]

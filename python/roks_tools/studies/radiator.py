@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Cavity reflectance of the biconical radiator (Klass et al. 2014, validation item 3).
 
 The paper computes the reflectance of the cavity of an isothermal biconical

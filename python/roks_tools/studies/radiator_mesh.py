@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Radiator with the apex defect, table walls: roks vs Mitsuba on voxel meshes of growing resolution.
 
     .venv/bin/python scripts/radiator_mesh_study.py [--roks target/release/roks]

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """The biconical radiator with polarised transport: cavity reflectance vs beam offset.
 
     .venv/bin/python scripts/radiator_polarisation.py [--roks target/release/roks] [--photons N]

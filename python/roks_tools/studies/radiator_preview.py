@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Pictures of the radiator cavity: down the axis (ideal cone vs apex defect), and a cutaway.
 
     .venv/bin/python scripts/radiator_preview.py [--roks target/release/roks] [--spp 256] [--size 256]

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Scaling of the micro tracer: bump count and height-field resolution, 1 and 2 threads.
 
     .venv/bin/python scripts/scaling.py [--roks target/release/roks] [--out results/scaling] [--quick]

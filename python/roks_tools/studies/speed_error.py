@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Speed against error: roks vs the Mitsuba tracer, and the radiator's two wall models.
 
     .venv/bin/python scripts/speed_error.py [--roks target/release/roks] [--out results/speed_error]
@@ -6,7 +5,7 @@
 
 Part 1, micro level (the default scene at 30 and 60 degrees). `roks brdf`
 runs 1e3 ... 1e7 photons per angle (seeds 1, 2, ...), and the Mitsuba
-wavefront tracer of the cross-check (`scripts/mitsuba_brdf.py`) runs
+wavefront tracer of the cross-check (`roks_tools.mitsuba.tracer`) runs
 1e3 ... 1e6 photons on the same surface exported as a 1024^2 mesh
 (`roks export-mesh`). Each is compared with a long run of its own (roks:
 3e7 photons, Mitsuba: 1e7, other seeds), so the error measured is the

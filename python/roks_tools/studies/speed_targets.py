@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """The speed targets, measured as ratios in one run: today's code against a baseline build.
 
     .venv/bin/python scripts/speed_targets.py [--base 6ce6b98] [--out results/speed] [--rounds 3]
@@ -18,7 +17,7 @@ Cases, each against its target:
 
 * default scene, 60 deg, 2 threads, 2x10^6 photons: segments per second,
   new / base (target >= 3); and new / the Mitsuba 3 tracer of the
-  cross-check (`scripts/mitsuba_brdf.py`) on the same surface exported as a
+  cross-check (`roks_tools.mitsuba.tracer`) on the same surface exported as a
   1025^2-vertex mesh (`roks export-mesh --resolution 1024`), 2x10^5 photons
   (target >= 15);
 * scaling, one thread: 100 000 bumps against 100 at constant density (cell
