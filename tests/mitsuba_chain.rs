@@ -76,7 +76,16 @@ fn python() -> Option<PathBuf> {
 /// `python -m pytest TARGET -m MARKS` in the repository, with this build's roks.
 fn pytest(py: &Path, target: &str, marks: &str) {
     let o = Command::new(py)
-        .args(["-m", "pytest", target, "-m", marks, "-q", "-p", "no:cacheprovider"])
+        .args([
+            "-m",
+            "pytest",
+            target,
+            "-m",
+            marks,
+            "-q",
+            "-p",
+            "no:cacheprovider",
+        ])
         .env("ROKS_BIN", env!("CARGO_BIN_EXE_roks"))
         .current_dir(root())
         .output()

@@ -27,7 +27,6 @@ message on stderr if RESULT_DIR is not a roks result folder.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
@@ -42,19 +41,13 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
+from .results import BRDF_COLUMNS, INPLANE_COLUMNS, ResultError, Summary, read_columns  # noqa: E402
+
 PROG = "plot_brdf"
 MAX_DEFAULT_THETAS = 6
 # Tolerance (degrees) when matching a requested angle to one in the result.
 ANGLE_TOL = 1e-6
 
-BRDF_COLUMNS = (
-    "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,"
-    "phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,"
-    "fraction,fraction_stderr,brdf,brdf_stderr"
-).split(",")
-INPLANE_COLUMNS = "theta_i_deg,theta_o_deg,brdf,brdf_stderr".split(",")
-INCIDENCE_KEYS = ("theta_deg", "phi_deg", "photons", "reflectance", "reflectance_stderr",
-                  "reflectance_by_bounces")
 
 
 class NotAResult(Exception):
@@ -72,43 +65,24 @@ def fail(msg: str) -> None:
 
 
 def read_summary(folder: Path) -> dict:
-    path = folder / "summary.json"
-    if not path.is_file():
-        raise NotAResult(f"{path} not found")
+    if not (folder / "summary.json").is_file():
+        raise NotAResult(f"{folder / 'summary.json'} not found")
     try:
-        summary = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise NotAResult(f"{path} is not valid JSON ({e})") from e
-    if not isinstance(summary, dict):
-        raise NotAResult(f"{path}: expected a JSON object")
-    inc = summary.get("incidence")
-    if not isinstance(inc, list) or not inc:
-        raise NotAResult(f"{path}: no 'incidence' list")
-    for i, entry in enumerate(inc):
-        if not isinstance(entry, dict):
-            raise NotAResult(f"{path}: incidence[{i}] is not an object")
-        missing = [k for k in INCIDENCE_KEYS if k not in entry]
-        if missing:
-            raise NotAResult(f"{path}: incidence[{i}] lacks {', '.join(missing)}")
-    return summary
+        summary = Summary.read(folder / "summary.json")
+    except ResultError as e:
+        raise NotAResult(str(e)) from e
+    if not summary.incidence:
+        raise NotAResult(f"{folder / 'summary.json'}: no 'incidence' list")
+    return summary.data
 
 
 def read_csv(path: Path, columns: list[str]) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise NotAResult(f"{path} not found")
     try:
-        with path.open() as f:
-            header = f.readline().strip()
-            if header.split(",") != columns:
-                raise NotAResult(
-                    f"{path}: unexpected header {header[:80]!r} (expected {','.join(columns)[:80]}...)"
-                )
-            data = np.loadtxt(f, delimiter=",", ndmin=2)
-    except (OSError, UnicodeDecodeError, ValueError) as e:
-        raise NotAResult(f"{path}: cannot read ({e})") from e
-    if data.shape[0] == 0 or data.shape[1] != len(columns):
-        raise NotAResult(f"{path}: no data rows")
-    return {c: data[:, i] for i, c in enumerate(columns)}
+        return read_columns(path, tuple(columns))
+    except ResultError as e:
+        raise NotAResult(str(e)) from e
 
 
 def load(folder: Path) -> tuple[dict, dict[str, np.ndarray], dict[str, np.ndarray]]:

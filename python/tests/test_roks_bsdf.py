@@ -541,6 +541,7 @@ def test_polarised_variants(mi, roks):
     check.done()
 
 
+@pytest.mark.slow
 def test_scalar_rgb(mi, tmp_path):
     """1-4 in scalar_rgb."""
     _variant(mi, "scalar_rgb")

@@ -41,7 +41,6 @@ the verdict is FAIL. Work files (meshes, runs) go to OUT/runs/ (kept with
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import re
@@ -54,6 +53,7 @@ import numpy as np
 
 from roks_tools import compare as cb
 from roks_tools import images as ci
+from roks_tools.results import InPlane
 from roks_tools.runner import repo_root, run as run_cmd
 
 ROOT = repo_root()
@@ -201,11 +201,9 @@ def extrapolated_cells(roks_dir: Path, mi_dirs: list[tuple[int, Path]]) -> dict:
 
 
 def read_inplane(d: Path) -> dict:
-    out: dict = {}
-    for r in csv.DictReader(open(d / "inplane.csv")):
-        out.setdefault(float(r["theta_i_deg"]), []).append(
-            (float(r["theta_o_deg"]), float(r["brdf"]), float(r["brdf_stderr"])))
-    return out
+    """{theta_i_deg: [(theta_o_deg, brdf, brdf_stderr), ...]} of a folder's inplane.csv."""
+    return {t: list(zip(*(a.tolist() for a in cols)))
+            for t, cols in InPlane.read(Path(d) / "inplane.csv").by_theta().items()}
 
 
 def plot_inplane(roks_dir: Path, mi_dir: Path, label: str, path: Path) -> None:

@@ -41,7 +41,6 @@ OUT/micro.png, OUT/radiator.png. --quick: small ladders for a smoke test.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import sys
@@ -50,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from roks_tools import compare as cb
+from roks_tools.results import InPlane, Reflectance
 from roks_tools.runner import repo_root, run as run_cmd
 
 ROOT = repo_root()
@@ -65,10 +65,9 @@ def timed(cmd: list) -> float:
 
 
 def inplane(d: Path) -> dict:
-    out: dict = {}
-    for r in csv.DictReader(open(d / "inplane.csv")):
-        out.setdefault(float(r["theta_i_deg"]), {})[float(r["theta_o_deg"])] = float(r["brdf"])
-    return out
+    """{theta_i_deg: {theta_o_deg: brdf}} of a folder's inplane.csv."""
+    return {t: dict(zip(o.tolist(), b.tolist()))
+            for t, (o, b, _) in InPlane.read(Path(d) / "inplane.csv").by_theta().items()}
 
 
 def micro_errors(run: Path, ref: Path) -> dict:
@@ -88,9 +87,8 @@ def micro_errors(run: Path, ref: Path) -> dict:
 
 
 def radiator_reflectance(d: Path) -> np.ndarray:
-    rows = list(csv.DictReader(open(d / "reflectance.csv")))
-    key = "reflectance" if "reflectance" in rows[0] else list(rows[0])[1]
-    return np.array([float(r[key]) for r in rows])
+    """The reflectance per beam position of a `roks trace` folder (reflectance.csv)."""
+    return Reflectance.read(Path(d) / "reflectance.csv").reflectance
 
 
 def time_to(runs: list[tuple[int, float, float]], n_ref: int, target: float) -> float | None:
