@@ -45,6 +45,8 @@ from roks_tools import microfacet as mf
 from roks_tools.results import read_columns
 from roks_tools.runner import run as run_cmd
 
+WHO = "li_torrance"
+
 THETAS = [10, 30, 45, 60]
 RATIOS = [0.084, 0.84]
 TAU = 12.0
@@ -101,13 +103,9 @@ seed = 1
 {tail(photons, max_bounces)}"""
 
 
-def run(cmd: list) -> str:
-    return run_cmd(cmd, "li_torrance").stdout
-
-
 def stats(roks: str, path: Path, text: str) -> dict:
     path.write_text(text)
-    return json.loads(run([roks, "stats", str(path), "--json", "--resolution", "1024"]))
+    return json.loads(run_cmd([roks, "stats", str(path), "--json", "--resolution", "1024"], WHO).stdout)
 
 
 def tune_bumps(roks: str, d: Path, ratio: float) -> tuple[float, list, dict]:
@@ -148,7 +146,7 @@ def main(argv=None) -> int:
                 sc = d / f"{surf}-{tag}.toml"
                 sc.write_text(make(mb))
                 o = d / f"{surf}-{tag}"
-                run([a.roks, "brdf", str(sc), "--out", str(o), "-q"])
+                run_cmd([a.roks, "brdf", str(sc), "--out", str(o), "-q"], WHO)
                 ip = read_columns(o / "inplane.csv")
                 summ = json.loads((o / "summary.json").read_text())
                 entry[f"{surf}-{tag}"] = {

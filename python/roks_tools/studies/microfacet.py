@@ -45,6 +45,8 @@ from roks_tools import microfacet as mf
 from roks_tools.results import read_columns
 from roks_tools.runner import run as run_cmd
 
+WHO = "microfacet_study"
+
 THETAS = [0, 10, 20, 30, 40, 50, 60, 70, 80]
 N = 512          # grid squares per side, pitch 1
 CASES = [        # (label, sigma/tau, tau in pitches, seed)
@@ -86,10 +88,6 @@ bands = 24
 {tr}"""
 
 
-def run(cmd: list) -> str:
-    return run_cmd(cmd, "microfacet_study").stdout
-
-
 
 def measure_case(roks: str, runs: Path, label: str, s_over_t: float, tau: float, seed: int,
                  photons: int, single_photons: int, brdf: bool) -> dict:
@@ -97,12 +95,12 @@ def measure_case(roks: str, runs: Path, label: str, s_over_t: float, tau: float,
     d.mkdir(parents=True, exist_ok=True)
     full = d / "full.toml"
     full.write_text(scene_text(label, s_over_t, tau, seed, photons, None))
-    stats = json.loads(run([roks, "stats", str(full), "--json"]))
-    run([roks, "export-heightfield", str(full), "--out", str(d / "map.txt")])
+    stats = json.loads(run_cmd([roks, "stats", str(full), "--json"], WHO).stdout)
+    run_cmd([roks, "export-heightfield", str(full), "--out", str(d / "map.txt")], WHO)
     h = np.loadtxt(d / "map.txt")
     slopes = mf.heightfield_slopes(h)
     alpha_tri = math.sqrt(float(np.mean(np.sum(slopes**2, axis=1))))
-    run([roks, "brdf", str(full), "--out", str(d / "full"), "-q"])
+    run_cmd([roks, "brdf", str(full), "--out", str(d / "full"), "-q"], WHO)
     summ = json.loads((d / "full" / "summary.json").read_text())
     out = {"label": label, "sigma_over_tau": s_over_t, "tau": tau, "seed": seed,
            "alpha_nominal": 2 * s_over_t, "alpha_triangles": alpha_tri,
@@ -129,7 +127,7 @@ def measure_case(roks: str, runs: Path, label: str, s_over_t: float, tau: float,
     if brdf:
         single = d / "single.toml"
         single.write_text(scene_text(label, s_over_t, tau, seed, single_photons, 1))
-        run([roks, "brdf", str(single), "--out", str(d / "single"), "-q"])
+        run_cmd([roks, "brdf", str(single), "--out", str(d / "single"), "-q"], WHO)
         s1 = json.loads((d / "single" / "summary.json").read_text())
         out["single_run"] = [(i["theta_deg"], i["reflectance"], i["reflectance_stderr"],
                               i["lost_cap"]) for i in s1["incidence"]]

@@ -107,7 +107,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return a
 
 
-def run(cmd: list[str], what: str) -> tuple[float, float]:
+def timed_run(cmd: list[str], what: str) -> tuple[float, float]:
     """Run cmd in the repo root; return its wall-clock and CPU (user + system) times.
 
     The CPU time is less sensitive to other load on the machine than the wall clock."""
@@ -388,7 +388,7 @@ def main(argv: list[str] | None = None) -> int:
     # 1. The BRDF table of the Z-302 micro geometry, where the *-brdf scenes read it.
     # With its Mueller matrices (mueller.csv beside brdf.csv): the Z-302 walls
     # are Fresnel, so the table walls keep the polarisation as the micro walls do.
-    wall, cpu = run([roks, "brdf", str(MICRO_SCENE.relative_to(REPO)), "--polarisation", "mueller",
+    wall, cpu = timed_run([roks, "brdf", str(MICRO_SCENE.relative_to(REPO)), "--polarisation", "mueller",
                 "--out", str(TABLE_DIR.relative_to(REPO)), "-q"], str(MICRO_SCENE))
     bs = read_json(TABLE_DIR / "summary.json")
     timings["brdf"] = {
@@ -404,7 +404,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         for scene, model, defect in SCENES:
             rd = runs / scene
-            wall, cpu = run([roks, "trace", f"scenes/{scene}.toml", "--out", str(rd), "--photons",
+            wall, cpu = timed_run([roks, "trace", f"scenes/{scene}.toml", "--out", str(rd), "--photons",
                         str(a.photons), "-q"], scene)
             summary = read_json(rd / "summary.json")
             timings[scene] = {

@@ -76,7 +76,7 @@ phi_deg = 0.0
 """
 
 
-def run(roks: Path, scene: Path, threads: int, photons: int, out: Path) -> dict:
+def measure(roks: Path, scene: Path, threads: int, photons: int, out: Path) -> dict:
     done = run_cmd([roks, "brdf", scene, "--photons", photons, "--threads", threads, "--out", out, "-q",
                     "--stats-resolution", "64"], "scaling", echo=False)
     inc = json.loads((out / "summary.json").read_text())["incidence"][0]
@@ -131,7 +131,7 @@ def main() -> int:
                 row = {"kind": kind, "n": n, "photons": photons,
                        "candidates_per_cell": candidates(a.roks, scene) if kind == "bumps" else None}
                 for t in (1, 2):
-                    row[f"threads_{t}"] = run(a.roks, scene, t, photons, tmp / f"out_{kind[0]}{n}_{t}")
+                    row[f"threads_{t}"] = measure(a.roks, scene, t, photons, tmp / f"out_{kind[0]}{n}_{t}")
                     print(f"{kind} {n} threads {t}: {row[f'threads_{t}']['segments_per_second'] / 1e6:.2f} M seg/s, "
                           f"{row[f'threads_{t}']['max_rss_mb']:.0f} MB", file=sys.stderr)
                 if a.callgrind:

@@ -79,7 +79,7 @@ def build_new() -> Path:
     return ROOT / "target" / "release" / "roks"
 
 
-def run(cmd: list) -> tuple[dict, float]:
+def measure(cmd: list) -> tuple[dict, float]:
     """Run `cmd` (whose --out folder follows `--out`); its summary and peak RSS (MB)."""
     done = run_cmd(cmd, "speed_targets", echo=False)
     out = Path(done.cmd[done.cmd.index("--out") + 1])
@@ -107,7 +107,7 @@ def alternate(cases: dict, rounds: int) -> dict:
         for r in range(rounds):
             for name, (make, rate) in cases.items():
                 out = Path(tmp) / f"{name.replace('/', '_')}_{r}"
-                summary, rss = run(make(out))
+                summary, rss = measure(make(out))
                 row = rate(summary)
                 row["max_rss_mb"] = rss
                 got[name].append(row)
