@@ -92,7 +92,6 @@ recorded loop cannot read values). Tests: python/tests/test_roks_bsdf.py.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

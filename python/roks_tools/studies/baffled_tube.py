@@ -19,7 +19,6 @@ Usage: scripts/make_baffled_tube.py [N ...]   (default: 10 100 1000)
 
 import math
 import sys
-from pathlib import Path
 
 from roks_tools.runner import repo_root
 

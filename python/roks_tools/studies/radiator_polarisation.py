@@ -31,7 +31,6 @@ import argparse
 import csv
 import json
 import re
-import sys
 import tempfile
 from pathlib import Path
 
