@@ -145,6 +145,7 @@ def check_command_line(tmp: Path, scalar_too: bool) -> None:
                  "--photons", 50, "--n", ABSORBER[0], "--k", ABSORBER[1], "--bands", 4, "--polarisation", mode,
                  "--incident", inc, "--roulette-weight", 0, "--variant", v, "--out", out, "-q"],
                 "test_mitsuba_polarised", echo=False)
+            # read as text: s0 and brdf must be the same digits, not only the same numbers
             rows = list(csv.DictReader(open(out / f"{mode}.csv")))
             header = open(out / f"{mode}.csv").readline().strip()
             assert header == (mb.STOKES_HEADER if mode == "stokes" else mb.MUELLER_HEADER), header

@@ -55,7 +55,7 @@ import pytest
 from roks_tools.carlson import CarlsonGrid
 from roks_tools.mitsuba import roks_table as roks_bsdf
 from roks_tools.mitsuba.setup import _find_libllvm
-from roks_tools.results import read_columns
+from roks_tools.results import PolarTable, read_columns
 from roks_tools.stats import chi2_critical
 
 pytestmark = pytest.mark.mitsuba
@@ -479,8 +479,7 @@ bands = {E2E_BANDS}
     plugin = mi.load_dict({"type": "roks_table", "filename": str(out / "brdf.csv")})
     cond = mi.load_dict({"type": "conductor", "eta": AL_N, "k": AL_K})
     table = roks_bsdf.CarlsonTable(out / "brdf.csv")
-    data = np.loadtxt(out / "mueller.csv", delimiter=",", skiprows=1)
-    se = data[:, 7::2].reshape(len(E2E_THETAS), table.fractions.shape[1], 4, 4)
+    se = PolarTable.read(out / "mueller.csv").stderr.reshape(len(E2E_THETAS), table.fractions.shape[1], 4, 4)
     worst_z, worst_rel, shown = 0.0, 0.0, None
     for t, theta_deg in enumerate(sorted(E2E_THETAS)):
         for gamma in (0.0, 0.8, -2.0):
