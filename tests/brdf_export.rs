@@ -12,7 +12,8 @@ use rand_pcg::Pcg64Mcg;
 use roks::export::brdf_formats::{BrdfFormat, reflectance_check, symmetric_eval};
 use roks::export::merl::{self, Merl};
 use roks::export::zemax::{self, ZemaxBsdf};
-use roks::optics::brdf_table::{BRDF_TABLE_HEADER, BrdfTable, table_rows};
+use roks::optics::brdf_table::BrdfTable;
+use roks::output::brdf_csv::{HEADER as BRDF_TABLE_HEADER, rows as table_rows};
 use roks::scene::micro::MicroScene;
 use roks::tally::CarlsonGrid;
 
@@ -51,7 +52,7 @@ fn default_table(photons: u64) -> BrdfTable {
     let mut run = scene.brdf_run();
     run.photons = photons;
     let results = run.run(&scene.surface, &|_| {});
-    BrdfTable::parse(&roks::output::brdf_csv(&run, &results), "brdf.csv").unwrap()
+    BrdfTable::parse(&roks::output::brdf_csv::write(&run, &results), "brdf.csv").unwrap()
 }
 
 fn zemax_file(t: &BrdfTable) -> ZemaxBsdf {
