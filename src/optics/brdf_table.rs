@@ -1464,17 +1464,18 @@ mod tests {
         assert_eq!(t.thetas_deg(), &[0.0, 30.0, 60.0]);
         assert_eq!(t.bands(), 8);
         let mut rng = Pcg64Mcg::seed_from_u64(7);
+        // The file holds 10 significant digits (as `roks brdf` writes it).
         for theta in [-0.3, 0.0, 0.2, 30f64.to_radians(), 0.9, 1.2, 1.5] {
-            assert!((t.reflectance(theta) - 0.7).abs() < 1e-14, "{theta}");
+            assert!((t.reflectance(theta) - 0.7).abs() < 1e-9, "{theta}");
             // From the file alone: sqrt(sum (0.01 f)^2).
             let sum_f2: f64 = lambertian(8, 0.7).iter().map(|f| f * f).sum();
             let bound = 0.01 * sum_f2.sqrt();
-            assert!((t.reflectance_stderr(theta) - bound).abs() < 1e-15);
+            assert!((t.reflectance_stderr(theta) / bound - 1.0).abs() < 1e-9);
             for _ in 0..200 {
                 let d = dir(90.0 * rng.random::<f64>(), 360.0 * rng.random::<f64>());
-                assert!((t.eval(theta, d) - 0.7 / PI).abs() < 1e-14);
+                assert!((t.eval(theta, d) - 0.7 / PI).abs() < 1e-9);
                 // Not normalised: same value.
-                assert!((t.eval(theta, 3.0 * d) - 0.7 / PI).abs() < 1e-14);
+                assert!((t.eval(theta, 3.0 * d) - 0.7 / PI).abs() < 1e-9);
             }
             assert_eq!(t.eval(theta, DVec3::new(0.3, 0.1, -0.5)), 0.0);
             assert_eq!(t.eval(theta, DVec3::ZERO), 0.0);
@@ -1483,7 +1484,7 @@ mod tests {
 
     /// 2e5 samples at an angle between tables: mu² and phi uniform (KS) and
     /// cell counts proportional to projected solid angle (chi-square), all at
-    /// p = 1e-4; weight 0.7 every time.
+    /// p = 1e-4; weight 0.7 (to the file's 10 digits) every time.
     #[test]
     fn lambertian_sampling() {
         let t = lambert_table();
@@ -1495,7 +1496,8 @@ mod tests {
         let mut counts = vec![0u64; g.n_cells()];
         for _ in 0..n {
             let (d, w) = t.sample(45f64.to_radians(), uniforms(&mut rng)).unwrap();
-            assert!((w - 0.7).abs() < 1e-14);
+            // The reflectance of a file of 10 significant digits.
+            assert!((w - 0.7).abs() < 1e-9);
             assert!(d.z > 0.0 && (d.length() - 1.0).abs() < 1e-14);
             mu2.push(d.z * d.z);
             phi.push((d.y.atan2(d.x) + PI) / (2.0 * PI));

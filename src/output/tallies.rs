@@ -1032,3 +1032,189 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         seconds,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::brdf_folder::BrdfFolder;
+    use crate::output::summary::Surface;
+    use crate::scene::micro::MicroScene;
+
+    /// A small run of the default scene: 3 whole batches and a partial one.
+    fn scene_and_run() -> (MicroScene, BrdfRun) {
+        let scene = MicroScene::default_scene();
+        let mut run = scene.brdf_run();
+        run.photons = 3 * BATCH + 100;
+        run.theta_deg = vec![30.0, 70.0];
+        run.bands = 3;
+        (scene, run)
+    }
+
+    fn settings(run: &BrdfRun) -> Settings {
+        let surface = Surface {
+            height_map_resolution: 8,
+            max_height: Some(0.1 + 0.2),
+            mean_height: Some(1.0 / 3.0),
+            min_height: Some(0.0),
+            rms_slope: Some(1e-7),
+            sigma: None,
+            sigma_over_tau: None,
+            tau: None,
+            undefined: None,
+        };
+        Settings::new("s.toml", "s", "periodic", run, surface)
+    }
+
+    /// The shard folders' `tallies.json` of `run` cut in `count` blocks.
+    fn shards(scene: &MicroScene, run: &BrdfRun, count: u64) -> Vec<ShardFile> {
+        (0..count)
+            .map(|index| {
+                let f = BrdfFolder::trace(
+                    &scene.surface,
+                    run.clone(),
+                    settings(run),
+                    Some(Shard { index, count }),
+                    &|_| {},
+                )
+                .unwrap();
+                let text = f.tallies.unwrap().to_text();
+                ShardFile {
+                    dir: PathBuf::from(format!("s{index}")),
+                    file: format!("s{index}/tallies.json"),
+                    tallies: serde_json::from_str(&text).unwrap(),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn settings_round_trip_exactly_and_describe_the_run() {
+        let (_, run) = scene_and_run();
+        let s = settings(&run);
+        let text = serde_json::to_string(&s).unwrap();
+        assert!(
+            text.contains(r#""max_height":"0.30000000000000004""#),
+            "{text}"
+        );
+        assert!(text.contains(r#""sigma":null"#), "{text}");
+        let back: Settings = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, s);
+        let again = run_from_settings(&back).unwrap();
+        assert_eq!(again.theta_deg, run.theta_deg);
+        assert_eq!(again.photons, run.photons);
+        assert_eq!(again.bands, run.bands);
+        assert_eq!(again.seed, run.seed);
+        assert_eq!(again.launch, run.launch);
+        assert_eq!(
+            again.controls.roulette_weight.to_bits(),
+            run.controls.roulette_weight.to_bits()
+        );
+    }
+
+    #[test]
+    fn a_missing_or_bad_setting_is_named_by_its_key() {
+        let (_, run) = scene_and_run();
+        let mut v = serde_json::to_value(settings(&run)).unwrap();
+        v.as_object_mut().unwrap().remove("seed");
+        let e = typed::<Settings>(v).unwrap_err();
+        assert_eq!(e, FieldError::new("seed", "missing"));
+        let mut v = serde_json::to_value(settings(&run)).unwrap();
+        v["theta_deg"][1] = "NaN".into();
+        let e = typed::<Settings>(v).unwrap_err();
+        assert_eq!(
+            e,
+            FieldError::new("theta_deg[1]", "NaN is not a finite number")
+        );
+        let mut s = settings(&run);
+        s.bands = 0;
+        assert_eq!(run_from_settings(&s).unwrap_err().key, "bands");
+    }
+
+    #[test]
+    fn merged_shards_are_the_whole_run_bit_for_bit() {
+        let (scene, run) = scene_and_run();
+        let whole =
+            BrdfFolder::trace(&scene.surface, run.clone(), settings(&run), None, &|_| {}).unwrap();
+        for count in [2, 3, 4] {
+            let mut parts = shards(&scene, &run, count);
+            parts.reverse(); // any order
+            let merged = merge_shards(parts).unwrap();
+            assert_eq!(merged.settings, settings(&run));
+            for (m, w) in merged.incidence.iter().zip(&whole.results) {
+                assert_eq!(m.theta_deg, w.theta_i_deg);
+                // Equal bits (PartialEq on f64 would also accept -0 for 0).
+                assert_eq!(
+                    serde_json::to_string(&m.tallies).unwrap(),
+                    serde_json::to_string(&w.tallies).unwrap(),
+                    "{count} shards"
+                );
+            }
+            // The merge's own file holds the roots.
+            let file = merged.tallies_file();
+            assert_eq!((file.first_photon, file.last_photon), (0, run.photons));
+            assert_eq!(file.incidence[0].nodes.len(), 1);
+            assert_eq!(file.incidence[0].nodes[0].level, 2);
+        }
+    }
+
+    #[test]
+    fn shards_that_do_not_tile_the_run_are_refused() {
+        let (scene, run) = scene_and_run();
+        let parts = shards(&scene, &run, 3);
+        let gap = vec![parts[0].clone(), parts[2].clone()];
+        let e = merge_shards(gap).err().unwrap();
+        assert_eq!(
+            (e.file.as_str(), e.key.as_str()),
+            ("s2/tallies.json", "first_photon")
+        );
+        assert!(e.message.contains("are missing before this shard"), "{e}");
+        let twice = vec![
+            parts[0].clone(),
+            parts[0].clone(),
+            parts[1].clone(),
+            parts[2].clone(),
+        ];
+        let e = merge_shards(twice).err().unwrap();
+        assert!(
+            e.message.contains("overlap those of s0/tallies.json"),
+            "{e}"
+        );
+        let short = vec![parts[0].clone(), parts[1].clone()];
+        let e = merge_shards(short).err().unwrap();
+        assert_eq!(
+            (e.file.as_str(), e.key.as_str()),
+            ("s1/tallies.json", "last_photon")
+        );
+        let mut other = parts.clone();
+        other[1].tallies.settings.seed += 1;
+        let e = merge_shards(other).err().unwrap();
+        assert_eq!(
+            (e.file.as_str(), e.key.as_str()),
+            ("s1/tallies.json", "settings.seed")
+        );
+        assert!(e.message.contains("`seed` differs"), "{e}");
+        assert!(merge_shards(Vec::new()).is_err());
+    }
+
+    #[test]
+    fn nodes_must_tile_their_shard_and_hold_sound_sums() {
+        let (scene, run) = scene_and_run();
+        let mut parts = shards(&scene, &run, 2);
+        // The second shard's first node moved to the first shard.
+        let node = parts[1].tallies.incidence[0].nodes.remove(0);
+        parts[0].tallies.incidence[0].nodes.push(node);
+        let e = merge_shards(parts).err().unwrap();
+        assert_eq!(e.file, "s0/tallies.json");
+        assert!(e.key.starts_with("incidence[0].nodes["), "{e}");
+        let mut parts = shards(&scene, &run, 2);
+        parts[1].tallies.incidence[1].nodes[0].tallies["lost_walls"] = "-1.0".into();
+        let e = merge_shards(parts).err().unwrap();
+        assert_eq!(e.key, "incidence[1].nodes[0].tallies.lost_walls");
+        assert_eq!(e.message, "-1 must be >= 0");
+        let mut parts = shards(&scene, &run, 2);
+        parts[0].tallies.incidence[0].nodes[0].tallies["polar"] = serde_json::json!({});
+        let e = merge_shards(parts).err().unwrap();
+        assert_eq!(e.key, "incidence[0].nodes[0].tallies.polar");
+        assert_eq!(e.message, "not expected for this run");
+    }
+}

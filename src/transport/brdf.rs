@@ -581,10 +581,14 @@ impl BrdfRun {
         }
     }
 
-    /// Trace one incidence angle as a shard: this run's photons are the indices
-    /// `[first_photon, first_photon + photons)` of a run of `total_photons`;
-    /// `first_photon` must be a multiple of [`BATCH`]. Returns the complete
-    /// nodes of the full run's batch tree (see [`crate::tally::sum`]) and the time.
+    /// Trace one incidence angle of a block of a run: this run's photons are
+    /// the indices `[first_photon, first_photon + photons)` of a run of
+    /// `total_photons` (a shard; the whole run with `first_photon` 0 and
+    /// `total_photons = photons`); `first_photon` must be a multiple of
+    /// [`BATCH`]. Returns the complete nodes of the full run's batch tree
+    /// (see [`crate::tally::sum`]; the root alone for a whole run) and the
+    /// time (s). `roks brdf` traces whole runs and shards this way
+    /// ([`crate::output::brdf_folder::BrdfFolder::trace`]).
     ///
     /// # Panics
     /// If `first_photon` is not a multiple of [`BATCH`] or the range exceeds
