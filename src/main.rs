@@ -10,16 +10,18 @@ use std::time::Instant;
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressState, ProgressStyle};
-use serde_json::json;
 
 use roks::export::brdf_formats::BrdfFormat;
 use roks::micro::surface_stats::surface_stats;
 use roks::optics::brdf_table::BrdfTable;
 use roks::output;
+use roks::output::brdf_folder::BrdfFolder;
+use roks::output::summary::{self, FitSummary, Surface, TraceSummary};
+use roks::output::tallies::{self, Settings};
 use roks::scene::SceneError;
 use roks::scene::micro::MicroScene;
 use roks::scene::object::ObjectScene;
-use roks::shard::{self, Shard};
+use roks::shard::Shard;
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
 ///
@@ -620,142 +622,42 @@ fn brdf(a: BrdfArgs) -> Result<(), Failure> {
 
     let stats = surface_stats(&scene.surface.height_map(rx, ry));
     let edges = format!("{:?}", scene.surface.edges).to_lowercase();
-    let settings = shard::settings_json(
+    let settings = Settings::new(
         &scene.source.file,
         &scene.name,
         &edges,
         &run,
-        &output::surface_json(&stats, rx),
+        Surface::new(&stats, rx),
     );
-    let mut fields =
-        shard::summary_fields(&settings).map_err(|e| anyhow::anyhow!(e.to_string()))?;
-
-    let total_photons = run.photons;
-    if let Some((first, last)) = range {
-        run.first_photon = first;
-        run.photons = last - first;
-    }
+    let block_photons = range.map_or(run.photons, |(first, last)| last - first);
     let bar = progress_bar(
-        run.photons.saturating_mul(run.theta_deg.len() as u64),
+        block_photons.saturating_mul(run.theta_deg.len() as u64),
         a.quiet,
         &scene.name,
     );
-    let clock = Instant::now();
-    let mut tallies_json = None;
-    let results = if let (Some(sh), Some(range)) = (shard, range) {
-        let mut results = Vec::new();
-        let mut parts = Vec::new();
-        for &theta in &run.theta_deg {
-            let (nodes, secs) =
-                run.run_shard_one(&scene.surface, theta, total_photons, &|n| bar.inc(n));
-            // This shard's own sums, for its own files (left to right).
-            let mut t = run.empty_tallies(&run.grid(), &run.inplane());
-            for n in &nodes {
-                t.merge(&n.value);
-            }
-            results.push(roks::transport::brdf::IncidenceResult {
-                theta_i_deg: theta,
-                phi_i_deg: run.phi_deg,
-                tallies: t,
-                seconds: secs,
-            });
-            parts.push((theta, secs, nodes));
-        }
-        let incidence: Vec<shard::ShardIncidence<'_>> = parts
-            .iter()
-            .map(|(theta, secs, nodes)| shard::ShardIncidence {
-                theta_deg: *theta,
-                seconds: *secs,
-                nodes,
-            })
-            .collect();
-        let v = shard::tallies_file(
-            &settings,
-            sh,
-            range,
-            &incidence,
-            clock.elapsed().as_secs_f64(),
-        );
-        tallies_json = Some(v);
-        fields.insert("photons_per_incidence".into(), json!(run.photons));
-        fields.insert(
-            "shard".into(),
-            json!({"index": sh.index, "count": sh.count, "first_photon": range.0, "last_photon": range.1}),
-        );
-        results
-    } else {
-        run.run(&scene.surface, &|n| bar.inc(n))
-    };
+    let folder = BrdfFolder::trace(&scene.surface, run, settings, shard, &|n| bar.inc(n))
+        .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
     bar.finish_and_clear();
-    let seconds = clock.elapsed().as_secs_f64();
 
-    let summary = output::brdf_summary(&fields, &results, seconds);
-    let brdf_csv = output::brdf_csv(&run, &results);
-    let inplane_csv = output::inplane_csv(&run, &results);
-    let polar_csv = output::polar_csv(&run, &results);
-    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
-    text.push('\n');
-    let tallies_text = tallies_json
-        .map(|v| serde_json::to_string(&v).map(|t| t + "\n"))
-        .transpose()
-        .map_err(anyhow::Error::from)?;
-    let inplane_png = output::inplane_plot(&scene.name, &run, &results)
-        .to_png(1000, 620)
-        .map_err(Failure::Other)?;
-    let maps: Vec<(String, Vec<u8>)> = {
-        use rayon::prelude::*;
-        let mut maps: Vec<(String, Vec<u8>)> = results
-            .par_iter()
-            .map(|r| {
-                output::hemisphere_map(&scene.name, &run, r)
-                    .to_png()
-                    .map(|png| (output::hemisphere_file(r.theta_i_deg), png))
-            })
-            .collect::<anyhow::Result<_>>()
-            .map_err(Failure::Other)?;
-        let dop: Vec<(String, Vec<u8>)> = results
-            .par_iter()
-            .filter_map(|r| {
-                output::dop_map(&scene.name, &run, r)
-                    .map(|m| m.to_png().map(|png| (output::dop_file(r.theta_i_deg), png)))
-            })
-            .collect::<anyhow::Result<_>>()
-            .map_err(Failure::Other)?;
-        maps.extend(dop);
-        maps
-    };
-    let mut exported = Vec::new();
+    let mut extra = folder.images(&scene.name).map_err(Failure::Other)?;
     if !exports.is_empty() {
-        let table = BrdfTable::parse(&brdf_csv, "brdf.csv")
-            .map_err(|e| Failure::Other(anyhow::anyhow!("the run's own table: {e}")))?;
+        let table = folder.table();
         for &f in &exports {
-            let comment = format!("scene {}, {} photons per angle", scene.name, run.photons);
-            exported.push((f.file_name(), export_table(&table, f, &comment, a.quiet)?));
+            let comment = format!(
+                "scene {}, {} photons per angle",
+                scene.name, folder.run.photons
+            );
+            extra.push((
+                f.file_name().to_owned(),
+                export_table(&table, f, &comment, a.quiet)?,
+            ));
         }
     }
-    let mut files: Vec<(&str, &[u8])> = vec![
-        ("brdf.csv", brdf_csv.as_bytes()),
-        ("inplane.csv", inplane_csv.as_bytes()),
-        ("inplane.png", &inplane_png),
-    ];
-    if let Some((name, text)) = &polar_csv {
-        files.push((name, text.as_bytes()));
-    }
-    for (name, bytes) in &maps {
-        files.push((name, bytes));
-    }
-    for (name, bytes) in &exported {
-        files.push((name, bytes));
-    }
-    if let Some(t) = &tallies_text {
-        files.push((shard::TALLIES_FILE, t.as_bytes()));
-    }
-    files.push(("summary.json", text.as_bytes()));
-    write_outputs(&out, &files)?;
+    write_outputs(&out, &folder.files(extra))?;
 
     if !a.quiet {
-        print_brdf_table(&results);
-        eprintln!("wrote {} ({seconds:.1} s)", out.display());
+        print_brdf_table(&folder.results);
+        eprintln!("wrote {} ({:.1} s)", out.display(), folder.seconds);
     }
     Ok(())
 }
@@ -780,85 +682,27 @@ fn print_brdf_table(results: &[roks::transport::brdf::IncidenceResult]) {
 }
 
 fn merge(a: MergeArgs) -> Result<(), Failure> {
-    use roks::transport::BATCH;
-    use roks::transport::brdf::IncidenceResult;
     check_out_dir(&a.out, "--out")?;
     let parts = a
         .dirs
         .iter()
-        .map(|d| shard::read_shard(d))
+        .map(|d| tallies::read_shard(d))
         .collect::<Result<Vec<_>, _>>()?;
     let n_parts = parts.len();
-    let merged = shard::merge_shards(parts)?;
-    let (run, settings) = (merged.run, merged.settings);
-    roks::limits::check("the merged tallies and tables", run.memory_bytes()).map_err(|e| {
-        Failure::Input(format!(
-            "{}: {}: settings.bands: {e}",
-            a.dirs[0].display(),
-            shard::TALLIES_FILE
-        ))
-    })?;
-    let total = run.photons;
-    let batches = total.div_ceil(BATCH);
-    let mut results = Vec::new();
-    let mut roots = Vec::new();
-    for inc in merged.incidence {
-        let (theta, seconds, t) = (inc.theta_deg, inc.seconds, inc.tallies);
-        roots.push((
-            theta,
-            seconds,
-            vec![shard::Node {
-                level: batches.next_power_of_two().trailing_zeros(),
-                index: 0,
-                value: t.clone(),
-            }],
-        ));
-        results.push(IncidenceResult {
-            theta_i_deg: theta,
-            phi_i_deg: run.phi_deg,
-            tallies: t,
-            seconds,
-        });
-    }
-    let seconds = merged.seconds;
-    let d0 = a.dirs[0].join(shard::TALLIES_FILE).display().to_string();
-    let fields = shard::summary_fields(&settings).map_err(|e| e.under("settings").in_file(&d0))?;
-    let summary = output::brdf_summary(&fields, &results, seconds);
-    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
-    text.push('\n');
-    let incidence: Vec<shard::ShardIncidence<'_>> = roots
-        .iter()
-        .map(|(theta, secs, nodes)| shard::ShardIncidence {
-            theta_deg: *theta,
-            seconds: *secs,
-            nodes,
-        })
-        .collect();
-    let whole = Shard { index: 0, count: 1 };
-    let mut tallies = serde_json::to_string(&shard::tallies_file(
-        &settings,
-        whole,
-        (0, total),
-        &incidence,
-        seconds,
-    ))
-    .map_err(anyhow::Error::from)?;
-    tallies.push('\n');
-    let brdf_csv = output::brdf_csv(&run, &results);
-    let inplane_csv = output::inplane_csv(&run, &results);
-    let polar_csv = output::polar_csv(&run, &results);
-    let mut files: Vec<(&str, &[u8])> = vec![
-        ("brdf.csv", brdf_csv.as_bytes()),
-        ("inplane.csv", inplane_csv.as_bytes()),
-    ];
-    if let Some((name, text)) = &polar_csv {
-        files.push((name, text.as_bytes()));
-    }
-    files.push((shard::TALLIES_FILE, tallies.as_bytes()));
-    files.push(("summary.json", text.as_bytes()));
-    write_outputs(&a.out, &files)?;
+    let merged = tallies::merge_shards(parts)?;
+    roks::limits::check("the merged tallies and tables", merged.run.memory_bytes()).map_err(
+        |e| {
+            Failure::Input(format!(
+                "{}: {}: settings.bands: {e}",
+                a.dirs[0].display(),
+                tallies::TALLIES_FILE
+            ))
+        },
+    )?;
+    let folder = BrdfFolder::merged(merged);
+    write_outputs(&a.out, &folder.files(Vec::new()))?;
     if !a.quiet {
-        print_brdf_table(&results);
+        print_brdf_table(&folder.results);
         eprintln!("merged {n_parts} shards into {}", a.out.display());
     }
     Ok(())
@@ -910,8 +754,15 @@ fn photon_rate(s: &ProgressState) -> Option<f64> {
 
 /// Write the result folder `out` whole: staged beside it, then swapped in
 /// (see [`roks::outdir`]); a reader never sees old and new files mixed.
-fn write_outputs(out: &Path, files: &[(&str, &[u8])]) -> Result<(), Failure> {
-    roks::outdir::write_folder(out, files)
+fn write_outputs<N: AsRef<str>, B: AsRef<[u8]>>(
+    out: &Path,
+    files: &[(N, B)],
+) -> Result<(), Failure> {
+    let files: Vec<(&str, &[u8])> = files
+        .iter()
+        .map(|(n, b)| (n.as_ref(), b.as_ref()))
+        .collect();
+    roks::outdir::write_folder(out, &files)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
     Ok(())
 }
@@ -1044,25 +895,25 @@ fn trace(a: TraceArgs) -> Result<(), Failure> {
             scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
         )));
     }
-    let names = &scene.object.surface_names;
-    let summary = json!({
-        "scene": scene.source.file,
-        "name": scene.name,
-        "version": env!("CARGO_PKG_VERSION"),
-        "seed": run.seed,
-        "sources": results.iter().map(|r| output::position_json(r, names)).collect::<Vec<_>>(),
-        "seconds": seconds,
-    });
-    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
-    text.push('\n');
-    let refl = output::reflectance_csv(&results);
+    let summary = TraceSummary::new(
+        &scene.source.file,
+        &scene.name,
+        run.seed,
+        &results,
+        &scene.object.surface_names,
+        seconds,
+    );
+    let text = summary::to_text(&summary);
+    let refl = output::object_csv::reflectance_csv(&results);
     let png = reflectance_plot(&scene, &results)
         .to_png(900, 560)
         .map_err(Failure::Other)?;
-    let farfield = run.farfield.then(|| output::farfield_csv(&run, &results));
+    let farfield = run
+        .farfield
+        .then(|| output::object_csv::farfield_csv(&run, &results));
     let farfield_stokes = run
         .tallies_farfield_stokes()
-        .then(|| output::farfield_stokes_csv(&run, &results));
+        .then(|| output::object_csv::farfield_stokes_csv(&run, &results));
     let mut files: Vec<(&str, &[u8])> = vec![
         ("reflectance.csv", refl.as_bytes()),
         ("reflectance.png", &png),
@@ -1151,36 +1002,19 @@ fn fit(a: FitArgs) -> Result<(), Failure> {
         })
         .map_err(input)?;
     let fitted = problem.apply(&result.values).map_err(input)?;
-    let summary = json!({
-        "scene": source.file,
-        "measured": a.measured.display().to_string(),
-        "version": env!("CARGO_PKG_VERSION"),
-        "seed": a.seed,
-        "photons": a.photons,
-        "parameters": params.iter().enumerate().map(|(i, p)| json!({
-            "key": p.key, "lo": p.lo, "hi": p.hi,
-            "start": result.start[i], "fitted": result.values[i],
-            "at_bound": format!("{:?}", result.at_bounds[i]).to_lowercase(),
-        })).collect::<Vec<_>>(),
-        "start_misfit": result.start_misfit,
-        "misfit": result.misfit,
-        "evaluations": result.evaluations,
-        "converged": result.converged,
-        "rejected_evaluations": result.rejected.len(),
-        "history": result.history.iter().enumerate().map(|(k, (v, m))| {
-            // A rejected point: misfit null and the scene's reason.
-            match result.rejected.iter().find(|r| r.0 == k) {
-                Some((_, why)) => json!({"values": v, "misfit": null, "rejected": why}),
-                None => json!({"values": v, "misfit": m}),
-            }
-        }).collect::<Vec<_>>(),
-    });
+    let summary = FitSummary::new(
+        &source.file,
+        &a.measured.display().to_string(),
+        a.seed,
+        a.photons,
+        &params,
+        &result,
+    );
     let mut csv = String::from("theta_i_deg,theta_o_deg,measured,model\n");
     for ((ti, to, b, _), m) in measured.points.iter().zip(&result.model) {
         csv.push_str(&format!("{ti},{to},{b:.9e},{m:.9e}\n"));
     }
-    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
-    text.push('\n');
+    let text = summary::to_text(&summary);
     write_outputs(
         &out,
         &[
@@ -1609,7 +1443,7 @@ fn stats(a: StatsArgs) -> Result<(), Failure> {
     let s = surface_stats(&scene.surface.height_map(r, ry));
     let mut out = String::new();
     if a.json {
-        let v = output::surface_json(&s, r);
+        let v = Surface::new(&s, r);
         let _ = writeln!(
             out,
             "{}",
