@@ -1,4 +1,4 @@
-//! Radiance maps of a micro surface (`roks render`, issue 4), written as
+//! Radiance maps of a micro surface (`roks render`), written as
 //! OpenEXR with a tone-mapped PNG preview.
 //!
 //! Camera: orthographic, its footprint exactly one period `Lx x Ly` of the

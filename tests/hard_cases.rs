@@ -1,4 +1,4 @@
-//! Hard cases for the geometry and the transport (issue 6), each against an
+//! Hard cases for the geometry and the transport, each against an
 //! exact value:
 //!
 //! * grazing incidence 89, 89.9 and 89.99 degrees on the white default scene:

@@ -1,4 +1,4 @@
-//! Height-field scenes (issue 5) end to end: the white furnace on a rough
+//! Height-field scenes end to end: the white furnace on a rough
 //! Gaussian field, `roks stats` on a generated field, the measured-map round
 //! trip (generated -> file -> loaded gives byte-identical BRDF tables), and
 //! `roks export-mesh` writing exactly the traced triangles.

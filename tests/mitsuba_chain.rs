@@ -1,4 +1,4 @@
-//! The Mitsuba 3 cross-check chain in the test suite (issue 4): the Python
+//! The Mitsuba 3 cross-check chain in the test suite: the Python
 //! checks of the independent tracer (`scripts/test_mitsuba_brdf.py`: exact
 //! flat-plane, Fresnel and V-groove values) and the small whole chain
 //! (`scripts/test_crosscheck.py`: `roks export-mesh` -> Mitsuba tracer and

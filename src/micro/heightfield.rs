@@ -1,5 +1,5 @@
 //! Height-field micro geometry: a periodic grid of heights, triangulated,
-//! traced exactly (issue 5).
+//! traced exactly.
 //!
 //! # Geometry
 //!

@@ -36,8 +36,8 @@
 //! 10 % of the peak), i.e. 1.9 times fewer photons per cell at 4e6.
 //! Stratifying each batch of 4096 photons alone gave nothing for the cells
 //! (0.95): 4096 points are coarser than the patches.
-//! A lattice run takes about 12 % more time per photon (the replicate sums).
-//! See results/speed_error for the error against time.
+//! A lattice run costs a little more time per photon (the replicate sums);
+//! results/speed_error has the error against time.
 //!
 //! The price: a lattice run's standard errors are estimated from 16 numbers
 //! (15 degrees of freedom), so a z-score built on them has t-like tails, and
