@@ -382,7 +382,7 @@ pub fn render_object(
     camera: &PinholeCamera,
     s: &RenderSettings,
 ) -> (Image, RenderLosses) {
-    use crate::transport::object::{MacroFate, follow};
+    use crate::transport::object;
     if let Err(e) = s.validate().and_then(|()| camera.validate()) {
         panic!("render_object: {e}");
     }
@@ -392,7 +392,7 @@ pub fn render_object(
         || vec![None; scene.models.len()],
         |scratch: &mut Vec<Option<Scratch>>, i, j, u, v, rng| {
             let d = camera.ray(i as f64 + u, j as f64 + v, s.width, s.height);
-            let hist = follow(
+            let hist = object::trace(
                 &scene.object,
                 &scene.walls,
                 &scene.models,
@@ -405,10 +405,10 @@ pub fn render_object(
                 |_, _| {},
             );
             match hist.fate {
-                MacroFate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
-                MacroFate::Absorbed => PathEnd::Absorbed,
-                MacroFate::Lost { .. } => PathEnd::Lost,
-                MacroFate::Unmodelled { .. } => PathEnd::Unmodelled,
+                object::Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
+                object::Fate::Absorbed => PathEnd::Absorbed,
+                object::Fate::Lost { .. } => PathEnd::Lost,
+                object::Fate::Unmodelled { .. } => PathEnd::Unmodelled,
             }
         },
     )

@@ -15,6 +15,7 @@ pub mod micro;
 pub mod object;
 pub mod order;
 pub mod rng;
+pub mod wall;
 
 use rand::RngExt;
 use rayon::prelude::*;
