@@ -25,9 +25,9 @@
 use std::fmt;
 use std::str::FromStr;
 
+use crate::optics::brdf_table::BrdfTable;
 use glam::DVec3;
 use rayon::prelude::*;
-use crate::optics::brdf_table::BrdfTable;
 
 pub use super::resample::{FormatError, symmetric_eval};
 use super::{merl, zemax};

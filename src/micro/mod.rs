@@ -646,7 +646,6 @@ impl MicroSurface {
 }
 
 impl Solids {
-
     /// Where `ray` first enters solid `i` within `t_max` through its body
     /// (solids without a compact record), counting its quadric tests; kept
     /// out of line so the grid walk keeps its registers.
@@ -678,7 +677,6 @@ impl Solids {
 }
 
 impl MicroSurface {
-
     /// Whole periods a flight along unit `d`, at `p` on a side `x = 0 / Lx`
     /// (`axis = 0`) or `y = 0 / Ly` (`axis = 1`) of a periodic bump surface,
     /// can skip exactly: those in which it passes above every solid it can

@@ -33,7 +33,7 @@ use glam::DVec3;
 
 use crate::geometry::body::{Body, Ray};
 use bvh::Bvh;
-use zone::{ZoneEntry, CompiledZone};
+use zone::{CompiledZone, ZoneEntry};
 
 /// Most candidate entries one flight keeps before falling back to the scan.
 const CANDIDATES: usize = 16;

@@ -98,8 +98,8 @@ use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
 use crate::tally::PolarTally;
 use crate::transport::micro::Controls;
-use crate::transport::wall::{MicroWall, WallModel};
 use crate::transport::object::{ObjectRun, Walls};
+use crate::transport::wall::{MicroWall, WallModel};
 
 /// The object scene as written.
 #[derive(Debug, Clone, Deserialize)]
