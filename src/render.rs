@@ -5,7 +5,7 @@
 //! substrate on the launch plane `z = surface.top`. Pixel `(i, j)` (column
 //! `i`, row `j`, row 0 at the top of the image) covers
 //! `[i Lx/w, (i+1) Lx/w] x [Ly - (j+1) Ly/h, Ly - j Ly/h]`, so the image's x
-//! axis is the cell's x axis and the image's up is the cell's +y. Each pixel
+//! axis is the period's x axis and the image's up is the period's +y. Each pixel
 //! takes `spp` jittered sub-pixel positions, all drawn from the random stream
 //! `photon_rng(seed, pixel index)` (pixel index `j w + i`): the image is the
 //! same, bit for bit, for any number of threads.
@@ -286,7 +286,7 @@ pub fn render(surface: &MicroSurface, s: &RenderSettings) -> (Image, RenderLosse
         || Scratch::new(surface),
         |scratch, i, j, u, v, rng| {
             // x in [i px, (i+1) px), y in [Ly - (j+1) py, Ly - j py):
-            // both strictly inside the cell's half-open range.
+            // both strictly inside the period's half-open range.
             let x = ((i as f64 + u) * px).clamp(0.0, lx);
             let y = (ly - (j as f64 + 1.0 - v) * py).clamp(0.0, ly);
             // Rounding can reach the far side: step just inside.

@@ -11,7 +11,7 @@
 //! tip   = { plane = [0.0, 0.0, 1.0, -150.0] }
 //! outer = { cylinder_z = { r = 30.0 } }
 //!
-//! [[cells]]
+//! [[cells]]                            # one zone (the key keeps OpenMC's word)
 //! name = "cavity"
 //! region = "-wall -front -back +tip"   # OpenMC region syntax
 //! fill = "void"                        # "void": photons fly; "solid": they reflect at its boundary
@@ -20,7 +20,7 @@
 //! region = "-outer -front +tip ~(-wall -back)"
 //! fill = "solid"
 //!
-//! [walls]                              # model of each surface, as seen from a void cell
+//! [walls]                              # model of each surface, as seen from a void zone
 //! wall = "z302"
 //! back = "z302"
 //!

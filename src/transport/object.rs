@@ -1,7 +1,7 @@
 //! Photon histories through a 3-D object, and the run over beam positions
 //! (`roks trace`).
 //!
-//! A photon starts on its beam's disc and flies until it enters a solid cell;
+//! A photon starts on its beam's disc and flies until it enters a solid zone;
 //! there the wall model of the surface it crosses reflects it (or absorbs
 //! it), and it flies on from the hit point, standing on that surface, until
 //! it meets no solid: it then escapes. Escaping after at least one reflection
@@ -40,7 +40,7 @@ use crate::tally::{Accumulator, CarlsonGrid};
 pub use super::BATCH;
 
 /// A far-field grid over the full sphere: the Carlson hemisphere grid for
-/// `z > 0` and its mirror image for `z < 0` (cell `i + n_cells`).
+/// `z > 0` and its mirror image for `z < 0` (Carlson cell `i + n_cells`).
 #[derive(Debug, Clone, Copy)]
 pub struct FarField {
     /// The hemisphere grid.

@@ -21,7 +21,7 @@
 //!
 //! **Micro descent.** At the hit the macro surface's local frame is built
 //! (normal `n` toward the photon's side, a tangent pair turned by a uniform
-//! random angle about `n`); the photon enters the periodic micro cell at a
+//! random angle about `n`); the photon enters the periodic micro surface at a
 //! uniform random point of its launch plane, with its direction expressed in
 //! that frame, is traced until it leaves the top, and its direction and weight
 //! are mapped back.
