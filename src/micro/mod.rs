@@ -904,3 +904,88 @@ impl MicroSurface {
 fn overlaps_xy(a: &Aabb, b: &Aabb) -> bool {
     a.min.x < b.max.x && a.max.x > b.min.x && a.min.y < b.max.y && a.max.y > b.min.y
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn white() -> Vec<Reflectance> {
+        vec![Reflectance::Constant(1.0)]
+    }
+
+    #[test]
+    fn a_bare_substrate_is_met_straight_below() {
+        let s = MicroSurface::new(
+            DVec2::new(2.0, 3.0),
+            Edges::Periodic,
+            Vec::new(),
+            white(),
+            0,
+        );
+        assert!(s.heightfield().is_none());
+        assert_eq!(s.solids().len(), 1);
+        assert_eq!(s.solids()[0].source, None);
+        let substrate = Facet::Solid {
+            solid: 0,
+            surface: 0,
+        };
+        let mut scratch = Scratch::new(&s);
+        let e = s.next_event(DVec3::new(0.5, 0.5, 1.0), DVec3::NEG_Z, None, &mut scratch);
+        assert_eq!(
+            e,
+            Event::Hit {
+                t: 1.0,
+                facet: substrate
+            }
+        );
+        let mut p = DVec3::new(0.5, 0.5, 0.0);
+        assert_eq!(
+            s.hit_normal(&mut p, DVec3::NEG_Z, substrate),
+            Some((DVec3::Z, 0))
+        );
+        // A facet of the other kind names nothing on this surface.
+        assert_eq!(s.hit_normal(&mut p, DVec3::NEG_Z, Facet::Triangle(0)), None);
+        // Standing on the substrate, a flight going up escapes through the top.
+        let up = DVec3::new(0.0, 0.0, 1.0);
+        assert!(matches!(
+            s.next_event(p, up, Some(substrate), &mut scratch),
+            Event::Top { .. }
+        ));
+    }
+
+    #[test]
+    fn a_height_field_surface_names_its_triangles() {
+        let field = HeightField::new(2, 2, DVec2::ONE, vec![0.0; 4]);
+        let s = MicroSurface::from_height_field(field, white(), 0);
+        assert!(s.solids().is_empty());
+        assert!(s.heightfield().is_some());
+        assert_eq!(s.acceleration_stats(), (0, 0.0));
+        let mut scratch = Scratch::new(&s);
+        let o = DVec3::new(0.25, 0.75, 0.5);
+        let Event::Hit {
+            t,
+            facet: Facet::Triangle(triangle),
+        } = s.next_event(o, DVec3::NEG_Z, None, &mut scratch)
+        else {
+            panic!("no triangle hit");
+        };
+        assert!((t - 0.5).abs() < 1e-15, "{t}");
+        let mut p = o + t * DVec3::NEG_Z;
+        let (n, material) = s
+            .hit_normal(&mut p, DVec3::NEG_Z, Facet::Triangle(triangle))
+            .expect("a flat triangle's normal");
+        assert!((n - DVec3::Z).length() < 1e-15, "{n}");
+        assert_eq!(material, 0);
+        let solid = Facet::Solid {
+            solid: 0,
+            surface: 0,
+        };
+        assert_eq!(s.hit_normal(&mut p, DVec3::NEG_Z, solid), None);
+        // Skipping periods is for surfaces of solids only.
+        let grazing = DVec3::new(1.0, 0.0, -1e-3).normalize();
+        assert_eq!(
+            s.skip_periods(DVec3::new(0.0, 0.5, 0.4), grazing, 0),
+            Skip::None
+        );
+    }
+}

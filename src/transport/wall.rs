@@ -275,6 +275,38 @@ mod tests {
     }
 
     #[test]
+    fn a_micro_wall_needs_periodic_edges_and_mirrors_on_a_flat_surface() {
+        let surface = |edges| {
+            MicroSurface::new(
+                glam::DVec2::ONE,
+                edges,
+                Vec::new(),
+                vec![Reflectance::Constant(0.5)],
+                0,
+            )
+        };
+        assert!(MicroWall::new(surface(Edges::Absorbing), Controls::default()).is_none());
+        assert!(MicroWall::new(surface(Edges::Reflecting), Controls::default()).is_none());
+        let wall = MicroWall::new(surface(Edges::Periodic), Controls::default()).expect("periodic");
+        assert_eq!(wall.controls(), &Controls::default());
+        assert_eq!(wall.surface().solids().len(), 1);
+        // A bare substrate of reflectance 0.5: the descent is a mirror of 0.5.
+        let model = WallModel::Micro(Box::new(wall));
+        assert!(!model.polarises());
+        let d = DVec3::new(1.0, 0.0, -1.0).normalize();
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        for _ in 0..100 {
+            match model.interact(d, DVec3::Z, 1.0, &mut rng, &mut None) {
+                Interaction::Reflected { dir, weight } => {
+                    assert!((dir - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-12);
+                    assert_eq!(weight, 0.5);
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+
+    #[test]
     fn specular_wall_mirrors_and_weights() {
         let wall = WallModel::Specular(Reflectance::Constant(0.3));
         let mut rng = Pcg64Mcg::seed_from_u64(1);
