@@ -363,7 +363,7 @@ impl PinholeCamera {
 /// Radiance map of an object scene seen through a pinhole camera.
 ///
 /// Each camera ray is followed backward through the object by the macro
-/// history loop ([`crate::transport::object::follow`], the same wall models
+/// history loop ([`crate::transport::object::trace`], the same wall models
 /// as `roks trace`); by reciprocity of the walls' BRDFs a path that leaves
 /// the object (or misses it) in a direction within `light_radius_deg` of the
 /// light direction contributes `weight * light_radiance`, any other
