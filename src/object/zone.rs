@@ -15,9 +15,10 @@
 //! slab; the negative side of an axis-aligned quadric with a non-negative
 //! diagonal (sphere, ellipsoid, cylinder) is the box of its ellipse (the
 //! positive side of one with a non-positive diagonal likewise); every other
-//! half-space is unbounded. Regions combine them by [`crate::geometry::region::Region::bounding_box`].
-//! An annular vane between two planes inside a cylinder is then bounded,
-//! while the outside of a cone is not. Boxes are widened by 1e-6 of their
+//! half-space is unbounded. Regions combine them by
+//! [`crate::geometry::region::Region::bounding_box`]. An annular vane
+//! between two planes inside a cylinder is then bounded, while the outside
+//! of a cone is not. Boxes are widened by 1e-6 of their
 //! size and position so that roots computed with rounding stay inside.
 
 use glam::DVec3;
