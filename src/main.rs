@@ -1049,7 +1049,7 @@ fn stats_grid(
     default: usize,
     option: &str,
 ) -> Result<(usize, usize), Failure> {
-    match (requested, &scene.surface.heightfield) {
+    match (requested, scene.surface.heightfield()) {
         (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
         (Some(r), _) => {
             let what = format!("the statistics of a {r} x {r} height map");
@@ -1069,7 +1069,7 @@ fn check_memory(option: &str, what: &str, bytes: u64) -> Result<(), Failure> {
 
 /// A height-field scene's own grid, refusing any other `--resolution`.
 fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Failure> {
-    match (&scene.surface.heightfield, resolution) {
+    match (scene.surface.heightfield(), resolution) {
         (Some(f), Some(r)) if (r, r) != (f.nx, f.ny) => Err(Failure::Input(format!(
             "--resolution: {}: a height field is written on its own {} x {} grid, got {r}",
             scene.source.file, f.nx, f.ny
@@ -1104,8 +1104,7 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
     own_grid(&scene, a.resolution)?;
     let n = scene
         .surface
-        .heightfield
-        .as_ref()
+        .heightfield()
         .map_or((resolution, resolution), |f| (f.nx, f.ny));
     check_memory(
         "--resolution",
@@ -1113,7 +1112,7 @@ fn export_mesh(a: ExportMeshArgs) -> Result<(), Failure> {
         roks::export::mesh_memory_bytes(n.0, n.1),
     )?;
     check_out_file(&a.out)?;
-    let mesh = match &scene.surface.heightfield {
+    let mesh = match scene.surface.heightfield() {
         Some(field) => roks::export::field_mesh(field),
         None => roks::export::height_field_mesh(&scene.surface, resolution),
     };
@@ -1150,7 +1149,7 @@ fn export_heightfield(a: ExportHeightfieldArgs) -> Result<(), Failure> {
             a.out.display()
         )));
     }
-    let grid = match &scene.surface.heightfield {
+    let grid = match scene.surface.heightfield() {
         Some(f) => HeightGrid {
             nx: f.nx,
             ny: f.ny,
@@ -1490,7 +1489,7 @@ fn stats(a: StatsArgs) -> Result<(), Failure> {
     let _ = writeln!(
         out,
         "solids           {} ({} tested per flight, {:.1} per grid cell)",
-        scene.surface.solids.len(),
+        scene.surface.solids().len(),
         global,
         per_cell
     );
