@@ -40,7 +40,7 @@
 //! D65 from the CIE 15:2004 table data, both unchanged in CIE 015:2018) by
 //! `scripts/colour_reference.py tables`.
 
-use super::Spectrum;
+use super::spectrum::Spectrum;
 
 /// Shortest wavelength (µm) a spectrum must reach for its colour: 380 nm.
 pub const VISIBLE_MIN_UM: f64 = 0.38;
@@ -124,7 +124,7 @@ impl XyzWeights {
         for i in 0..CMF_LEN {
             // Within COVER_TOLERANCE_UM of an end, the end's value.
             let at = (CMF_WAVELENGTH_NM[i] / 1000.0).clamp(first, last);
-            let (lo, hi, t) = super::bracket(wavelengths_um, at)?;
+            let (lo, hi, t) = super::spectrum::bracket(wavelengths_um, at)?;
             let s = D65_SPD[i] / norm;
             let bars = [CIE_X_BAR[i], CIE_Y_BAR[i], CIE_Z_BAR[i]];
             for (index, share) in [(lo, 1.0 - t), (hi, t)] {
@@ -425,8 +425,8 @@ pub const D65_SPD: [f64; 81] = [
 
 #[cfg(test)]
 mod tests {
-    use super::super::NkSpectrum;
     use super::*;
+    use crate::optics::spectrum::NkSpectrum;
     use std::path::Path;
 
     fn close(a: f64, b: f64, tol: f64) -> bool {

@@ -28,10 +28,7 @@
 //! a wavelength outside a table is an error naming the file, never an
 //! extrapolation. Nothing here panics on any input.
 //!
-//! The colour of a spectrum (CIE XYZ under D65, sRGB) is in [`colour`].
-
-#[path = "colour.rs"]
-pub mod colour;
+//! The colour of a spectrum (CIE XYZ under D65, sRGB) is in [`super::colour`].
 
 use super::material::Reflectance;
 use std::path::Path;
@@ -598,7 +595,7 @@ fn interpolate(abscissae: &[f64], values: &[f64], at: f64) -> Option<f64> {
 /// `abscissae` and the weight `t` of `hi`: the interpolated value is
 /// `(1 - t) v[lo] + t v[hi]`, with `hi == lo` and `t = 0` at a tabulated
 /// point. `None` outside `[first, last]` or for NaN.
-fn bracket(abscissae: &[f64], at: f64) -> Option<(usize, usize, f64)> {
+pub(super) fn bracket(abscissae: &[f64], at: f64) -> Option<(usize, usize, f64)> {
     let (&first, &last) = (abscissae.first()?, abscissae.last()?);
     if !(first..=last).contains(&at) {
         return None;
