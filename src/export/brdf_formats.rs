@@ -31,12 +31,15 @@ use crate::optics::brdf_table::BrdfTable;
 
 use super::{merl, zemax};
 
-/// An export format of `roks export-brdf`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// An export format of `roks export-brdf --format` and `roks brdf
+/// --export` (the names in lower case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BrdfFormat {
     /// Zemax / Radiant tabular BSDF text (`brdf.bsdf`).
+    #[value(help = None::<&str>)]
     Zemax,
     /// MERL binary (`brdf.binary`).
+    #[value(help = None::<&str>)]
     Merl,
 }
 

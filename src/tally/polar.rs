@@ -19,16 +19,20 @@ use serde::Deserialize;
 use super::Accumulator;
 use crate::optics::polarisation::MIRROR_SIGNS;
 
-/// Which polarisation tally a run keeps (`[tally] polarisation`, `--polarisation`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+/// Which polarisation tally a run keeps (`[tally] polarisation`,
+/// `--polarisation`: the names in lower case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum PolarTally {
     /// None: the intensity tallies only.
     #[default]
+    #[value(help = None::<&str>)]
     None,
     /// The Stokes vector for the incident state (`stokes.csv`).
+    #[value(help = None::<&str>)]
     Stokes,
     /// The Mueller matrix (`mueller.csv`).
+    #[value(help = None::<&str>)]
     Mueller,
 }
 

@@ -22,14 +22,17 @@
 
 use glam::DVec3;
 
-/// Whether the tallies fold mirror images in the plane of incidence.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+/// Whether the tallies fold mirror images in the plane of incidence
+/// (`[tally] symmetry`, `--symmetry`: the names in lower case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Symmetry {
     /// Score every photon in its own direction only.
     #[default]
+    #[value(help = None::<&str>)]
     None,
     /// Score half in its own direction and half in its mirror image.
+    #[value(help = None::<&str>)]
     Mirror,
 }
 
