@@ -3,7 +3,8 @@
 //! Badyuk, Ulyanov, J. Opt. Technol. 2014).
 //!
 //! Layout, by physics:
-//! * [`cli`]: the command line's value parsers and one-line messages.
+//! * [`cli`]: the command line: one module per command over shared arguments,
+//!   value parsers and one-line messages (the binary only dispatches).
 //! * [`export`]: a micro surface as a triangle mesh (binary PLY for Mitsuba 3);
 //!   BRDF tables as Zemax tabular BSDF and MERL binary files.
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).

@@ -201,3 +201,82 @@ fn clap_line(e: &clap::Error) -> String {
     let line = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
     line.trim_start_matches("error: ").trim().to_string()
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::{Parser, Subcommand};
+
+    use super::*;
+    use crate::cli::parse::integer;
+
+    /// A small command line of the same shape as `roks`.
+    #[derive(Parser, Debug)]
+    #[command(name = "roks")]
+    struct Line {
+        #[command(subcommand)]
+        command: Sub,
+    }
+
+    #[derive(Subcommand, Debug)]
+    enum Sub {
+        /// A command.
+        Go {
+            /// A seed.
+            #[arg(long, value_parser = integer::<u64>)]
+            seed: Option<u64>,
+            /// A name from a list.
+            #[arg(long, value_parser = ["none", "mirror"])]
+            pick: Option<String>,
+            /// A required file.
+            #[arg(long)]
+            out: std::path::PathBuf,
+        },
+    }
+
+    /// The one line for `args` (after `roks`).
+    fn line(args: &[&str]) -> String {
+        let cmd = command::<Line>();
+        let e = cmd
+            .clone()
+            .try_get_matches_from(std::iter::once("roks").chain(args.iter().copied()))
+            .unwrap_err();
+        let args: Vec<String> = args.iter().map(ToString::to_string).collect();
+        message(&cmd, &args, &e)
+    }
+
+    #[test]
+    fn one_line_per_error() {
+        assert_eq!(
+            line(&["go", "--out", "o", "--seed", "-1"]),
+            "--seed: must be an integer >= 0 (digits, or exact forms like 1e6 or 2.5e3), got `-1`"
+        );
+        assert_eq!(
+            line(&["go", "--out", "o", "--pick", "mirrr"]),
+            "--pick: `mirrr` is not allowed: one of none, mirror; did you mean `mirror`?"
+        );
+        assert_eq!(
+            line(&["go", "--out", "o", "--pick"]),
+            "--pick: needs a value: one of none, mirror"
+        );
+        assert_eq!(
+            line(&["go", "--out", "o", "--sed", "1"]),
+            "--sed: unknown option of `roks go`; did you mean `--seed`? (`roks go --help` lists the options)"
+        );
+        assert_eq!(
+            line(&["go", "--out", "o", "x.toml"]),
+            "`x.toml`: unexpected argument of `roks go` (`roks go --help` shows what it takes)"
+        );
+        assert_eq!(
+            line(&["go", "--out", "o", "--seed", "1", "--seed", "2"]),
+            "--seed: given more than once (give each option once)"
+        );
+        assert_eq!(
+            line(&["go"]),
+            "missing --out <OUT> (`roks go --help` shows the usage)"
+        );
+        assert_eq!(
+            line(&["goo"]),
+            "`goo`: unknown subcommand, expected one of go; did you mean `go`?"
+        );
+    }
+}
