@@ -254,6 +254,26 @@ fn every_bad_option_is_one_line_naming_it() {
             with_out!("brdf", s, "--export", "foo"),
             vec!["--export:", "zemax, merl"],
         ),
+        (
+            "export zemax,fo",
+            with_out!("brdf", s, "--export", "zemax,fo"),
+            vec!["--export:", "`fo`", "one of zemax, merl"],
+        ),
+        (
+            "export-brdf format x",
+            with_out!("export-brdf", o, "--format", "x"),
+            vec!["--format:", "`x`", "one of zemax, merl"],
+        ),
+        (
+            "theta twice",
+            with_out!("brdf", s, "--theta", "10,20,10"),
+            vec!["--theta:", "10 is given twice"],
+        ),
+        (
+            "lattice photons",
+            with_out!("brdf", s, "--launch", "lattice", "--photons", "100"),
+            vec!["--photons:", "multiple of 16", "got 100"],
+        ),
         // Missing values.
         (
             "seed at the end",
