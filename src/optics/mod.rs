@@ -9,6 +9,7 @@ pub mod brdf_table;
 pub mod fresnel;
 pub mod material;
 pub mod polarisation;
+pub mod spectrum;
 
 pub use fresnel::{fresnel_sp, fresnel_unpolarised};
 pub use material::{AngleTable, Reflectance, ReflectanceError, TableError};
