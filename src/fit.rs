@@ -1266,7 +1266,7 @@ pub fn misfit(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::inplane_csv;
+    use crate::output::inplane_csv::write as inplane_csv;
 
     fn source() -> Source {
         Source {

@@ -17,10 +17,13 @@
 //! * [`transport`]: photon histories and what a photon carries (a weight, or a
 //!   Stokes vector or Mueller matrix with its frame), random streams, the BRDF generator.
 //! * [`tally`]: angular grids (Carlson, in-plane), Stokes and Mueller tallies,
-//!   and accumulators with standard errors.
+//!   accumulators with standard errors, adding tallies ([`tally::Merge`]) and
+//!   the fixed batch tree every run sums over ([`tally::sum`]).
 //! * [`scene`]: TOML scene files, validated with one-line errors.
-//! * [`shard`]: splitting a BRDF run across machines and merging it exactly.
-//! * [`output`]: result files (JSON, CSV), written atomically.
+//! * [`shard`]: splitting a BRDF run across machines in blocks of whole batches.
+//! * [`output`]: result files, one submodule per format (`brdf.csv`,
+//!   `summary.json`, `tallies.json`, ...), the result folder of `roks brdf`
+//!   and `roks merge`, written atomically.
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
 //! * [`render`]: radiance maps of a micro surface (EXR, PNG preview).
 #![forbid(unsafe_code)]

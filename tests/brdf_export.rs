@@ -12,25 +12,16 @@ use rand_pcg::Pcg64Mcg;
 use roks::export::brdf_formats::{BrdfFormat, reflectance_check, symmetric_eval};
 use roks::export::merl::{self, Merl};
 use roks::export::zemax::{self, ZemaxBsdf};
-use roks::optics::brdf_table::{BRDF_TABLE_HEADER, BrdfTable, table_rows};
+use roks::optics::brdf_table::BrdfTable;
 use roks::scene::micro::MicroScene;
 use roks::tally::CarlsonGrid;
 
 /// Relative rounding of the Zemax file's 7 significant digits.
 const PRINTED: f64 = 5e-7;
 
-/// `brdf.csv` text (full precision) for blocks `(theta_i_deg, fractions)` on
-/// a grid of `m` bands, light azimuth 0.
-fn table_csv(m: usize, blocks: &[(f64, Vec<f64>)]) -> String {
-    let rows: String = blocks
-        .iter()
-        .map(|(t, f)| table_rows(m, *t, 0.0, f, 0.0))
-        .collect();
-    format!("{BRDF_TABLE_HEADER}\n{rows}")
-}
-
 /// A Lambertian table of albedo `rho` (fraction of a cell = rho proj / pi)
-/// at 0, 40 and 80 degrees, 12 bands.
+/// at 0, 40 and 80 degrees, 12 bands, at full precision (built in memory:
+/// `brdf.csv` holds 10 significant digits).
 fn lambertian(rho: f64) -> BrdfTable {
     let m = 12;
     let g = CarlsonGrid::new(m).unwrap();
@@ -40,8 +31,11 @@ fn lambertian(rho: f64) -> BrdfTable {
             rho * g.projected_solid_angle(band, cell) / PI
         })
         .collect();
-    let blocks: Vec<(f64, Vec<f64>)> = [0.0, 40.0, 80.0].iter().map(|&t| (t, f.clone())).collect();
-    BrdfTable::parse(&table_csv(m, &blocks), "lambert.csv").unwrap()
+    let blocks = [0.0, 40.0, 80.0]
+        .iter()
+        .map(|&t| (t, 0.0, f.clone(), vec![0.0; f.len()]))
+        .collect();
+    BrdfTable::from_blocks(g, blocks, "lambert").unwrap()
 }
 
 /// The default scene at all its angles with `photons` per angle, as a table
@@ -51,7 +45,7 @@ fn default_table(photons: u64) -> BrdfTable {
     let mut run = scene.brdf_run();
     run.photons = photons;
     let results = run.run(&scene.surface, &|_| {});
-    BrdfTable::parse(&roks::output::brdf_csv(&run, &results), "brdf.csv").unwrap()
+    BrdfTable::parse(&roks::output::brdf_csv::write(&run, &results), "brdf.csv").unwrap()
 }
 
 fn zemax_file(t: &BrdfTable) -> ZemaxBsdf {

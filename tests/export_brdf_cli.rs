@@ -130,7 +130,7 @@ fn bad_input_exits_2_naming_the_file() {
         &csv,
         format!(
             "{}\n0,0,1,0,0,3,-45,45,2,0,1,1,abc,0,1,0\n",
-            roks::optics::brdf_table::BRDF_TABLE_HEADER
+            roks::output::brdf_csv::HEADER
         ),
     )
     .unwrap();

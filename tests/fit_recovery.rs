@@ -12,7 +12,7 @@
 //! for theta_o, lands at a bound or far off (the start is 1.0).
 
 use roks::fit::{FitOptions, FitParam, Measured, fit};
-use roks::output::inplane_csv;
+use roks::output::inplane_csv::write as inplane_csv;
 use roks::scene::Source;
 use roks::scene::micro::MicroScene;
 

@@ -10,7 +10,12 @@
 //! the intersection-test counters `intersection_tests` and
 //! `tests_per_segment`, which count the work an acceleration structure
 //! does) and without the scene's path. PNGs are drawn from the same tables
-//! and are not hashed. The recorded hashes are in `tests/golden/hashes.txt`.
+//! and are not hashed. One case, `default_shards`, runs the default scene as
+//! two shards (`--shard 0/2`, `--shard 1/2`) and merges them (`roks merge`):
+//! it hashes the merged folder's tables, `summary.json` and `tallies.json`
+//! and each shard's `tallies.json` (without `seconds`, the intersection-test
+//! counters and the scene's path). The recorded hashes are in
+//! `tests/golden/hashes.txt`.
 //!
 //! When a change of physics or of an exact formula moves results on
 //! purpose, rerun with `ROKS_BLESS=1 cargo test --test golden` to record
@@ -208,8 +213,91 @@ fn measure() -> BTreeMap<String, BTreeMap<String, (usize, u64)>> {
         files.insert("summary.json".to_string(), (summary.len(), fnv1a(&summary)));
         got.insert(name.to_string(), files);
     }
+    shard_case(&tmp, &mut got);
     std::fs::remove_dir_all(&tmp).ok();
     got
+}
+
+/// `tallies.json` without what measures the machine (as [`summary_physics`])
+/// and without the scene's path in `settings`.
+fn tallies_physics(dir: &Path) -> Vec<u8> {
+    fn strip(v: &mut Value) {
+        match v {
+            Value::Object(m) => {
+                for key in ["seconds", "intersection_tests"] {
+                    m.remove(key);
+                }
+                m.values_mut().for_each(strip);
+            }
+            Value::Array(a) => a.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    let mut v: Value = serde_json::from_slice(&cli_common::read(dir, "tallies.json")).unwrap();
+    v["settings"].as_object_mut().unwrap().remove("scene");
+    strip(&mut v);
+    serde_json::to_vec(&v).unwrap()
+}
+
+/// The default scene in two shards (`--shard 0/2`, `--shard 1/2`) merged by
+/// `roks merge`: each shard's `tallies.json` and the merged folder's files.
+fn shard_case(tmp: &Path, got: &mut BTreeMap<String, BTreeMap<String, (usize, u64)>>) {
+    let scene = micro_scene(tmp, "default", &[("bands = 32", "bands = 8")]);
+    let run = |args: &[String]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_roks"))
+            .args(args)
+            .current_dir(root())
+            .output()
+            .expect("run roks");
+        assert!(
+            o.status.success(),
+            "shards: roks {args:?} failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    let dirs: Vec<PathBuf> = (0..2).map(|i| tmp.join(format!("shard{i}"))).collect();
+    for (i, d) in dirs.iter().enumerate() {
+        let args: Vec<String> = [
+            "brdf",
+            &scene,
+            "--threads",
+            "2",
+            "-q",
+            "--stats-resolution",
+            "64",
+            "--theta",
+            "0,60",
+            "--photons",
+            "20000",
+            "--shard",
+            &format!("{i}/2"),
+            "--out",
+            &d.to_string_lossy(),
+        ]
+        .iter()
+        .map(|s| (*s).to_string())
+        .collect();
+        run(&args);
+    }
+    let merged = tmp.join("shards_merged");
+    let mut args: Vec<String> = vec!["merge".into(), "-q".into()];
+    args.extend(dirs.iter().map(|d| d.to_string_lossy().into_owned()));
+    args.extend(["--out".into(), merged.to_string_lossy().into_owned()]);
+    run(&args);
+    let mut files = BTreeMap::new();
+    for f in ["brdf.csv", "inplane.csv"] {
+        let bytes = cli_common::read(&merged, f);
+        files.insert(f.to_string(), (bytes.len(), fnv1a(&bytes)));
+    }
+    let summary = summary_physics(&merged);
+    files.insert("summary.json".to_string(), (summary.len(), fnv1a(&summary)));
+    let tallies = tallies_physics(&merged);
+    files.insert("tallies.json".to_string(), (tallies.len(), fnv1a(&tallies)));
+    for (i, d) in dirs.iter().enumerate() {
+        let t = tallies_physics(d);
+        files.insert(format!("shard{i}/tallies.json"), (t.len(), fnv1a(&t)));
+    }
+    got.insert("default_shards".to_string(), files);
 }
 
 #[test]

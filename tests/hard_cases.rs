@@ -40,8 +40,8 @@ use roks::transport::rng::photon_rng;
 fn assert_outputs_finite(what: &str, scene: &MicroScene, results: &[IncidenceResult]) {
     let run = common::brdf_run(scene);
     for csv in [
-        roks::output::brdf_csv(&run, results),
-        roks::output::inplane_csv(&run, results),
+        roks::output::brdf_csv::write(&run, results),
+        roks::output::inplane_csv::write(&run, results),
     ] {
         for (i, line) in csv.lines().enumerate().skip(1) {
             for field in line.split(',') {
@@ -63,7 +63,7 @@ fn assert_outputs_finite(what: &str, scene: &MicroScene, results: &[IncidenceRes
         }
     }
     for r in results {
-        let json = roks::output::incidence_json(r);
+        let json = serde_json::to_value(roks::output::summary::IncidenceSummary::new(r)).unwrap();
         assert!(finite(&json), "{what}: {json}");
     }
 }

@@ -1406,10 +1406,10 @@ fn lattice_launch_with_a_stokes_tally() {
         );
     }
     assert_eq!(r.polar(0).unwrap(), r.reflectance());
-    let stokes = roks::output::polar_csv(&run, std::slice::from_ref(&r))
+    let stokes = roks::output::polar_csv::write(&run, std::slice::from_ref(&r))
         .unwrap()
         .1;
-    let brdf = roks::output::brdf_csv(&run, std::slice::from_ref(&r));
+    let brdf = roks::output::brdf_csv::write(&run, std::slice::from_ref(&r));
     assert_eq!(column(&stokes, "s0"), column(&brdf, "brdf"));
     assert_eq!(column(&stokes, "s0_stderr"), column(&brdf, "brdf_stderr"));
 }

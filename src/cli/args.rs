@@ -141,7 +141,7 @@ mod tests {
     fn tracing_commands_share_their_run_options() {
         let parse =
             |args: &[&str]| super::super::messages::command::<Cli>().try_get_matches_from(args);
-        for (command, scene) in [("trace", "o.toml")] {
+        for (command, scene) in [("brdf", "s.toml"), ("trace", "o.toml")] {
             let m = parse(&[
                 "roks",
                 command,
@@ -158,6 +158,7 @@ mod tests {
             .unwrap();
             let cli = <Cli as clap::FromArgMatches>::from_arg_matches(&m).unwrap();
             let run = match cli.command {
+                Command::Brdf(a) => a.run,
                 Command::Trace(a) => a.run,
                 other => panic!("{other:?}"),
             };
@@ -181,6 +182,10 @@ mod tests {
                 .map(ToString::to_string)
                 .unwrap()
         };
+        assert_eq!(
+            help("brdf"),
+            "Photons per incidence angle (overrides [light] photons)"
+        );
         assert_eq!(
             help("trace"),
             "Photons per beam position (overrides each source's `photons`)"

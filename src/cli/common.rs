@@ -140,8 +140,15 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
 ///
 /// # Errors
 /// The I/O error, naming the folder.
-pub fn write_folder(out: &Path, files: &[(&str, &[u8])]) -> Result<(), Failure> {
-    crate::outdir::write_folder(out, files)
+pub fn write_folder<N: AsRef<str>, B: AsRef<[u8]>>(
+    out: &Path,
+    files: &[(N, B)],
+) -> Result<(), Failure> {
+    let files: Vec<(&str, &[u8])> = files
+        .iter()
+        .map(|(n, b)| (n.as_ref(), b.as_ref()))
+        .collect();
+    crate::outdir::write_folder(out, &files)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
     Ok(())
 }

@@ -4,12 +4,12 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use serde_json::json;
 
 use super::Failure;
 use super::common::{check_out_dir, set_threads, write_folder};
 use super::parse::{integer, number, positive};
 use crate::fit::{FitError, FitOptions, FitParam, Measured, Problem};
+use crate::output::summary::{self, FitSummary};
 
 /// The options of `roks fit`.
 #[derive(Args, Debug)]
@@ -114,36 +114,19 @@ pub fn run(a: FitArgs) -> Result<(), Failure> {
         })
         .map_err(input)?;
     let fitted = problem.apply(&result.values).map_err(input)?;
-    let summary = json!({
-        "scene": source.file,
-        "measured": a.measured.display().to_string(),
-        "version": env!("CARGO_PKG_VERSION"),
-        "seed": a.seed,
-        "photons": a.photons,
-        "parameters": params.iter().enumerate().map(|(i, p)| json!({
-            "key": p.key, "lo": p.lo, "hi": p.hi,
-            "start": result.start[i], "fitted": result.values[i],
-            "at_bound": format!("{:?}", result.at_bounds[i]).to_lowercase(),
-        })).collect::<Vec<_>>(),
-        "start_misfit": result.start_misfit,
-        "misfit": result.misfit,
-        "evaluations": result.evaluations,
-        "converged": result.converged,
-        "rejected_evaluations": result.rejected.len(),
-        "history": result.history.iter().enumerate().map(|(k, (v, m))| {
-            // A rejected point: misfit null and the scene's reason.
-            match result.rejected.iter().find(|r| r.0 == k) {
-                Some((_, why)) => json!({"values": v, "misfit": null, "rejected": why}),
-                None => json!({"values": v, "misfit": m}),
-            }
-        }).collect::<Vec<_>>(),
-    });
+    let summary = FitSummary::new(
+        &source.file,
+        &a.measured.display().to_string(),
+        a.seed,
+        a.photons,
+        &params,
+        &result,
+    );
     let mut csv = String::from("theta_i_deg,theta_o_deg,measured,model\n");
     for ((ti, to, b, _), m) in measured.points.iter().zip(&result.model) {
         csv.push_str(&format!("{ti},{to},{b:.9e},{m:.9e}\n"));
     }
-    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
-    text.push('\n');
+    let text = summary::to_text(&summary);
     write_folder(
         &out,
         &[

@@ -10,7 +10,7 @@ use super::Failure;
 use super::common::{load_scene, print_stdout, stats_grid};
 use super::parse::integer;
 use crate::micro::surface_stats::surface_stats;
-use crate::output;
+use crate::output::summary::Surface;
 
 /// The options of `roks stats`.
 #[derive(Args, Debug)]
@@ -36,7 +36,7 @@ pub fn run(a: StatsArgs) -> Result<(), Failure> {
     let s = surface_stats(&scene.surface.height_map(r, ry));
     let mut out = String::new();
     if a.json {
-        let v = output::surface_json(&s, r);
+        let v = Surface::new(&s, r);
         let _ = writeln!(
             out,
             "{}",

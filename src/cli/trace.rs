@@ -6,12 +6,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use serde_json::json;
 
 use super::Failure;
 use super::args::RunArgs;
 use super::common::{progress_bar, result_dir, set_threads, write_folder};
-use crate::output;
+use crate::output::object_csv;
+use crate::output::summary::{self, TraceSummary};
 use crate::scene::object::ObjectScene;
 use crate::transport::object::PositionResult;
 
@@ -101,25 +101,25 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
             scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
         )));
     }
-    let names = &scene.object.surface_names;
-    let summary = json!({
-        "scene": scene.source.file,
-        "name": scene.name,
-        "version": env!("CARGO_PKG_VERSION"),
-        "seed": run.seed,
-        "sources": results.iter().map(|r| output::position_json(r, names)).collect::<Vec<_>>(),
-        "seconds": seconds,
-    });
-    let mut text = serde_json::to_string_pretty(&summary).map_err(anyhow::Error::from)?;
-    text.push('\n');
-    let refl = output::reflectance_csv(&results);
+    let summary = TraceSummary::new(
+        &scene.source.file,
+        &scene.name,
+        run.seed,
+        &results,
+        &scene.object.surface_names,
+        seconds,
+    );
+    let text = summary::to_text(&summary);
+    let refl = object_csv::reflectance_csv(&results);
     let png = reflectance_plot(&scene, &results)
         .to_png(900, 560)
         .map_err(Failure::Other)?;
-    let farfield = run.farfield.then(|| output::farfield_csv(&run, &results));
+    let farfield = run
+        .farfield
+        .then(|| object_csv::farfield_csv(&run, &results));
     let farfield_stokes = run
         .tallies_farfield_stokes()
-        .then(|| output::farfield_stokes_csv(&run, &results));
+        .then(|| object_csv::farfield_stokes_csv(&run, &results));
     let mut files: Vec<(&str, &[u8])> = vec![
         ("reflectance.csv", refl.as_bytes()),
         ("reflectance.png", &png),

@@ -21,7 +21,6 @@
 //! reflectance is the resampling error of the export.
 
 use std::fmt;
-use std::str::FromStr;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -42,9 +41,6 @@ pub enum BrdfFormat {
     #[value(help = None::<&str>)]
     Merl,
 }
-
-/// Format names, as on the command line.
-pub const FORMAT_NAMES: [&str; 2] = ["zemax", "merl"];
 
 impl BrdfFormat {
     /// The name on the command line.
@@ -81,21 +77,6 @@ impl BrdfFormat {
 impl fmt::Display for BrdfFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-impl FromStr for BrdfFormat {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "zemax" => Ok(Self::Zemax),
-            "merl" => Ok(Self::Merl),
-            other => Err(format!(
-                "unknown format `{other}`, expected one of {}",
-                FORMAT_NAMES.join(", ")
-            )),
-        }
     }
 }
 
@@ -222,13 +203,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn format_names_parse() {
-        assert_eq!("zemax".parse::<BrdfFormat>(), Ok(BrdfFormat::Zemax));
-        assert_eq!(" MERL".parse::<BrdfFormat>(), Ok(BrdfFormat::Merl));
-        let e = "pbrt".parse::<BrdfFormat>().unwrap_err();
-        assert!(e.contains("`pbrt`") && e.contains("zemax, merl"), "{e}");
-        for f in [BrdfFormat::Zemax, BrdfFormat::Merl] {
-            assert_eq!(f.name().parse::<BrdfFormat>(), Ok(f));
+    fn format_names_are_the_option_values() {
+        use clap::ValueEnum as _;
+        assert_eq!(BrdfFormat::from_str("zemax", false), Ok(BrdfFormat::Zemax));
+        assert_eq!(BrdfFormat::from_str("MERL", true), Ok(BrdfFormat::Merl));
+        assert!(BrdfFormat::from_str("pbrt", true).is_err());
+        for f in BrdfFormat::value_variants() {
+            assert_eq!(f.to_possible_value().unwrap().get_name(), f.name());
+            assert_eq!(f.to_string(), f.name());
         }
     }
 

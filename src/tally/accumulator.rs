@@ -9,13 +9,22 @@
 ///
 /// Weights are dimensionless photon weights (or whatever unit the caller
 /// scores in); `mean` has the same unit per history, `stderr` too.
-#[derive(Debug, Clone, PartialEq, Default)]
+///
+/// Added into another with [`Merge`](super::Merge) (bin by bin, `sum`
+/// then `sum_sq`); stored exactly in result files (both vectors as
+/// [`super::exact`] numbers).
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Accumulator {
     /// Sum of the scores in each bin (weight units).
+    #[serde(with = "super::exact::vec")]
     pub sum: Vec<f64>,
     /// Sum of the squared scores in each bin (weight units squared).
+    #[serde(with = "super::exact::vec")]
     pub sum_sq: Vec<f64>,
 }
+
+crate::merge_fields!(Accumulator { sum sum, sum_sq });
 
 impl Accumulator {
     /// An accumulator with `n_bins` bins, all sums zero.
@@ -46,41 +55,6 @@ impl Accumulator {
     pub fn score(&mut self, bin: usize, weight: f64) {
         self.sum[bin] += weight;
         self.sum_sq[bin] += weight * weight;
-    }
-
-    /// Add another accumulator's sums into this one, bin by bin.
-    ///
-    /// Merge batches in a fixed order to get bit-reproducible totals.
-    ///
-    /// # Panics
-    /// If the two accumulators have different numbers of bins.
-    pub fn merge(&mut self, other: &Accumulator) {
-        assert_eq!(
-            self.len(),
-            other.len(),
-            "Accumulator::merge: bin counts differ"
-        );
-        for (a, b) in self.sum.iter_mut().zip(&other.sum) {
-            *a += b;
-        }
-        for (a, b) in self.sum_sq.iter_mut().zip(&other.sum_sq) {
-            *a += b;
-        }
-    }
-
-    /// [`Accumulator::merge`], leaving `other` all zero (each bin cleared as
-    /// it is added, in one pass).
-    ///
-    /// # Panics
-    /// If the two accumulators have different numbers of bins.
-    pub fn merge_clearing(&mut self, other: &mut Accumulator) {
-        assert_eq!(
-            self.len(),
-            other.len(),
-            "Accumulator::merge_clearing: bin counts differ"
-        );
-        add_clearing(&mut self.sum, &mut other.sum);
-        add_clearing(&mut self.sum_sq, &mut other.sum_sq);
     }
 
     /// Mean score per history in `bin`: `sum / n_histories` (weight units).
@@ -128,6 +102,7 @@ pub fn add_clearing(a: &mut [f64], b: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tally::Merge;
 
     #[test]
     fn new_is_zeroed() {

@@ -12,15 +12,23 @@
 //! - [`InPlaneTally`]: a fine goniometer tally in the plane of incidence.
 //! - [`Symmetry`]: folding mirror images in the plane of incidence.
 //! - [`PolarTallies`]: Stokes and Mueller-matrix BRDFs per cell.
+//! - [`Merge`]: adding tallies field by field ([`merge_fields!`](crate::merge_fields)
+//!   derives it from one list of fields).
+//! - [`sum`]: the fixed batch tree every run sums its batch tallies over.
+//! - [`exact`]: floats stored exactly in result files.
 
 pub mod accumulator;
 pub mod carlson;
+pub mod exact;
 pub mod inplane;
+pub mod merge;
 pub mod polar;
+pub mod sum;
 pub mod symmetry;
 
 pub use accumulator::Accumulator;
 pub use carlson::{CarlsonGrid, Locator};
 pub use inplane::InPlaneTally;
+pub use merge::Merge;
 pub use polar::{PolarTallies, PolarTally};
 pub use symmetry::Symmetry;

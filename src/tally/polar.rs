@@ -47,15 +47,14 @@ impl PolarTally {
         }
     }
 
-    /// Parse [`PolarTally::name`].
+    /// Parse [`PolarTally::name`] (also the option's value names, which
+    /// clap derives from the same variants).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "none" => Some(Self::None),
-            "stokes" => Some(Self::Stokes),
-            "mueller" => Some(Self::Mueller),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::value_variants()
+            .iter()
+            .copied()
+            .find(|v| v.name() == name)
     }
 
     /// Components per bin: 0, 4 or 16.
@@ -82,15 +81,22 @@ pub fn mirror_sign(components: usize, k: usize) -> f64 {
 }
 
 /// The sums of a polarisation tally (see the module docs for the bins).
-#[derive(Debug, Clone, PartialEq)]
+///
+/// Fields in the order of `tallies.json`'s keys (alphabetical); added with
+/// [`Merge`](super::Merge) in the order `sums`, `replicates`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PolarTallies {
     /// 4 or 16.
     pub components: usize,
+    /// With a lattice launch: per replicate and bin, `r * bins + bin`.
+    #[serde(with = "super::exact::opt_vec")]
+    pub replicates: Option<Vec<f64>>,
     /// Per bin sums and sums of squares.
     pub sums: Accumulator,
-    /// With a lattice launch: per replicate and bin, `r * bins + bin`.
-    pub replicates: Option<Vec<f64>>,
 }
+
+crate::merge_fields!(PolarTallies { same components; sum sums, replicates });
 
 impl PolarTallies {
     /// Zero sums for `components` per slot, `cells` Carlson cells, and
@@ -146,50 +152,22 @@ impl PolarTallies {
             }
         }
     }
-
-    /// Add `other` (in a fixed order for reproducibility).
-    ///
-    /// # Panics
-    /// If the layouts differ.
-    pub fn merge(&mut self, other: &Self) {
-        assert_eq!(self.components, other.components, "PolarTallies::merge");
-        self.sums.merge(&other.sums);
-        match (&mut self.replicates, &other.replicates) {
-            (Some(a), Some(b)) => {
-                assert_eq!(a.len(), b.len(), "PolarTallies::merge: replicates");
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += y;
-                }
-            }
-            (None, None) => {}
-            _ => panic!("PolarTallies::merge: random and lattice tallies mixed"),
-        }
-    }
-
-    /// [`PolarTallies::merge`], leaving `other` all zero.
-    ///
-    /// # Panics
-    /// If the layouts differ.
-    pub fn merge_clearing(&mut self, other: &mut Self) {
-        assert_eq!(
-            self.components, other.components,
-            "PolarTallies::merge_clearing"
-        );
-        self.sums.merge_clearing(&mut other.sums);
-        match (&mut self.replicates, &mut other.replicates) {
-            (Some(a), Some(b)) => {
-                assert_eq!(a.len(), b.len(), "PolarTallies::merge_clearing: replicates");
-                super::accumulator::add_clearing(a, b);
-            }
-            (None, None) => {}
-            _ => panic!("PolarTallies::merge_clearing: random and lattice tallies mixed"),
-        }
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn option_values_are_the_names() {
+        use clap::ValueEnum as _;
+        for v in PolarTally::value_variants() {
+            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
+            assert_eq!(PolarTally::from_name(v.name()), Some(*v));
+        }
+        assert_eq!(PolarTally::value_variants().len(), 3);
+        assert_eq!(PolarTally::from_name("nonsense"), None);
+    }
 
     #[test]
     fn mirror_signs_of_stokes_and_mueller() {

@@ -5,7 +5,7 @@
 //! or on randomised lattices ([`super::launch`]), travelling along
 //! `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
 //! photons are traced in fixed batches of [`BATCH`] and the batch tallies are
-//! summed over a fixed binary tree on batch indices ([`crate::shard`]), so
+//! summed over a fixed binary tree on batch indices ([`crate::tally::sum`]), so
 //! results are bit-identical for any thread count, and shards of a run
 //! (`--shard I/N`) merge to exactly the single run's sums.
 //! `fraction` in a cell is the photon weight leaving through it per launched
@@ -32,11 +32,12 @@ use super::order;
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
-use crate::shard::{DyadicSum, Node};
-use crate::tally::accumulator::add_clearing;
+use crate::tally::exact;
 use crate::tally::polar::mirror_sign;
+use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{
-    Accumulator, CarlsonGrid, InPlaneTally, Locator, PolarTallies, PolarTally, Symmetry, symmetry,
+    Accumulator, CarlsonGrid, InPlaneTally, Locator, Merge, PolarTallies, PolarTally, Symmetry,
+    symmetry,
 };
 
 pub use super::BATCH;
@@ -142,55 +143,91 @@ impl Default for Polarisation {
 }
 
 /// Everything tallied for one incidence direction (sums; see [`IncidenceResult`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Tallies {
-    /// Photons launched.
-    pub photons: u64,
-    /// Reflected weight (one bin).
-    pub reflected: Accumulator,
+///
+/// Fields are declared in the order of `tallies.json`'s keys (alphabetical:
+/// the file stores a tally field by field, floats exactly, see
+/// [`crate::output::tallies`]); they are added ([`Merge`]) in the order of
+/// the `merge_fields!` list below. A new field is one line here and one
+/// name in that list.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BrdfTallies {
+    /// Sum of reflections over all histories.
+    pub bounces: u64,
+    /// Reflected weight by number of reflections (last bin: `>= BOUNCE_BINS - 1`).
+    #[serde(with = "exact::vec")]
+    pub by_bounces: Vec<f64>,
+    /// Histories cut by the caps.
+    pub capped_histories: u64,
     /// Reflected weight per Carlson cell.
     pub carlson: Accumulator,
     /// Reflected weight per in-plane bin.
     pub inplane: Accumulator,
-    /// Reflected weight by number of reflections (last bin: `>= BOUNCE_BINS - 1`).
-    pub by_bounces: Vec<f64>,
-    /// Sum of reflections over all histories.
-    pub bounces: u64,
-    /// Straight flights traced.
-    pub segments: u64,
     /// Intersection tests ([`Scratch::tests`]: quadrics, or height-field squares).
     pub intersection_tests: u64,
-    /// Weight absorbed by walls.
-    pub lost_walls: f64,
     /// Weight cut by the bounce, segment or crossing cap
     /// ([`crate::micro::MAX_CROSSINGS`]).
+    #[serde(with = "exact")]
     pub lost_cap: f64,
     /// Weight stopped by numerical guards.
+    #[serde(with = "exact")]
     pub lost_numeric: f64,
-    /// Histories cut by the caps.
-    pub capped_histories: u64,
+    /// Weight absorbed by walls.
+    #[serde(with = "exact")]
+    pub lost_walls: f64,
     /// Histories stopped by numerical guards.
     pub numeric_histories: u64,
+    /// Photons launched.
+    pub photons: u64,
+    /// Stokes or Mueller sums (with a polarisation tally).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polar: Option<PolarTallies>,
+    /// Reflected weight (one bin).
+    pub reflected: Accumulator,
     /// With [`Launch::Lattice`]: the reflected weight summed per replicate.
     pub replicates: Option<Replicates>,
-    /// Stokes or Mueller sums (with a polarisation tally).
-    pub polar: Option<PolarTallies>,
+    /// Straight flights traced.
+    pub segments: u64,
 }
+
+crate::merge_fields!(BrdfTallies {
+    sum photons,
+    reflected,
+    carlson,
+    inplane,
+    by_bounces,
+    bounces,
+    segments,
+    intersection_tests,
+    lost_walls,
+    lost_cap,
+    lost_numeric,
+    capped_histories,
+    numeric_histories,
+    replicates,
+    polar,
+});
 
 /// Reflected weight summed per lattice replicate, from which the standard
 /// errors of a lattice run come. Bins are replicate-major: bin `b` of
 /// replicate `r` is `r * bins + b`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Replicates {
+    /// Per replicate and Carlson cell.
+    #[serde(with = "exact::vec")]
+    pub carlson: Vec<f64>,
     /// Number of replicates.
     pub count: usize,
-    /// Reflected weight, one per replicate.
-    pub reflected: Vec<f64>,
-    /// Per replicate and Carlson cell.
-    pub carlson: Vec<f64>,
     /// Per replicate and in-plane bin.
+    #[serde(with = "exact::vec")]
     pub inplane: Vec<f64>,
+    /// Reflected weight, one per replicate.
+    #[serde(with = "exact::vec")]
+    pub reflected: Vec<f64>,
 }
+
+crate::merge_fields!(Replicates { same count; sum reflected, carlson, inplane });
 
 impl Replicates {
     /// Zero sums for `count` replicates of `cells` Carlson cells and `bins` in-plane bins.
@@ -204,35 +241,6 @@ impl Replicates {
         }
     }
 
-    fn merge(&mut self, other: &Self) {
-        for (a, b) in [
-            (&mut self.reflected, &other.reflected),
-            (&mut self.carlson, &other.carlson),
-            (&mut self.inplane, &other.inplane),
-        ] {
-            assert_eq!(a.len(), b.len(), "Replicates::merge: bin counts differ");
-            for (x, y) in a.iter_mut().zip(b) {
-                *x += y;
-            }
-        }
-    }
-
-    /// [`Replicates::merge`], leaving `other` all zero.
-    fn merge_clearing(&mut self, other: &mut Self) {
-        for (a, b) in [
-            (&mut self.reflected, &mut other.reflected),
-            (&mut self.carlson, &mut other.carlson),
-            (&mut self.inplane, &mut other.inplane),
-        ] {
-            assert_eq!(
-                a.len(),
-                b.len(),
-                "Replicates::merge_clearing: bin counts differ"
-            );
-            add_clearing(a, b);
-        }
-    }
-
     /// Standard error of the mean of `bin` of `sums` over `photons` photons
     /// split equally between the replicates.
     fn stderr(&self, sums: &[f64], bin: usize, photons: u64) -> f64 {
@@ -242,7 +250,7 @@ impl Replicates {
     }
 }
 
-impl Tallies {
+impl BrdfTallies {
     /// All sums zero, bins for `grid` and `inplane`, replicate sums for
     /// `replicates` (see [`Launch::replicates`]), polarisation sums for `polar`.
     #[must_use]
@@ -277,76 +285,12 @@ impl Tallies {
             }),
         }
     }
-
-    /// Add `other` (in a fixed order for reproducibility).
-    pub fn merge(&mut self, other: &Self) {
-        self.photons += other.photons;
-        self.reflected.merge(&other.reflected);
-        self.carlson.merge(&other.carlson);
-        self.inplane.merge(&other.inplane);
-        for (a, b) in self.by_bounces.iter_mut().zip(&other.by_bounces) {
-            *a += b;
-        }
-        self.bounces += other.bounces;
-        self.segments += other.segments;
-        self.intersection_tests += other.intersection_tests;
-        self.lost_walls += other.lost_walls;
-        self.lost_cap += other.lost_cap;
-        self.lost_numeric += other.lost_numeric;
-        self.capped_histories += other.capped_histories;
-        self.numeric_histories += other.numeric_histories;
-        match (&mut self.replicates, &other.replicates) {
-            (Some(a), Some(b)) => a.merge(b),
-            (None, None) => {}
-            _ => panic!("Tallies::merge: random and lattice tallies mixed"),
-        }
-        match (&mut self.polar, &other.polar) {
-            (Some(a), Some(b)) => a.merge(b),
-            (None, None) => {}
-            _ => panic!("Tallies::merge: polarisation tallies mixed"),
-        }
-    }
-}
-
-impl Tallies {
-    /// [`Tallies::merge`] (the same sums bit for bit), leaving `other` all
-    /// zero with its layout: a fresh tally for the next batch, cleared in
-    /// the same pass.
-    ///
-    /// # Panics
-    /// If the layouts differ.
-    pub fn merge_clearing(&mut self, other: &mut Self) {
-        use std::mem::take;
-        self.photons += take(&mut other.photons);
-        self.reflected.merge_clearing(&mut other.reflected);
-        self.carlson.merge_clearing(&mut other.carlson);
-        self.inplane.merge_clearing(&mut other.inplane);
-        add_clearing(&mut self.by_bounces, &mut other.by_bounces);
-        self.bounces += take(&mut other.bounces);
-        self.segments += take(&mut other.segments);
-        self.intersection_tests += take(&mut other.intersection_tests);
-        self.lost_walls += take(&mut other.lost_walls);
-        self.lost_cap += take(&mut other.lost_cap);
-        self.lost_numeric += take(&mut other.lost_numeric);
-        self.capped_histories += take(&mut other.capped_histories);
-        self.numeric_histories += take(&mut other.numeric_histories);
-        match (&mut self.replicates, &mut other.replicates) {
-            (Some(a), Some(b)) => a.merge_clearing(b),
-            (None, None) => {}
-            _ => panic!("Tallies::merge_clearing: random and lattice tallies mixed"),
-        }
-        match (&mut self.polar, &mut other.polar) {
-            (Some(a), Some(b)) => a.merge_clearing(b),
-            (None, None) => {}
-            _ => panic!("Tallies::merge_clearing: polarisation tallies mixed"),
-        }
-    }
 }
 
 /// Zero batch tallies of one run's layout, for batches to tally into
 /// instead of allocating and clearing fresh ones (they come back cleared
-/// from [`Tallies::merge_clearing`] in the batch tree).
-type Spare = std::sync::Mutex<Vec<Tallies>>;
+/// from [`BrdfTallies::merge_clearing`] in the batch tree).
+type Spare = std::sync::Mutex<Vec<BrdfTallies>>;
 
 /// The result for one incidence direction.
 #[derive(Debug, Clone)]
@@ -356,7 +300,7 @@ pub struct IncidenceResult {
     /// Incidence azimuth (degrees).
     pub phi_i_deg: f64,
     /// Sums.
-    pub tallies: Tallies,
+    pub tallies: BrdfTallies,
     /// Wall-clock time (s).
     pub seconds: f64,
 }
@@ -402,7 +346,7 @@ impl IncidenceResult {
     /// Per photon, or from the replicate spread for a lattice run.
     fn stderr(
         &self,
-        per_photon: impl Fn(&Tallies) -> &Accumulator,
+        per_photon: impl Fn(&BrdfTallies) -> &Accumulator,
         per_replicate: impl Fn(&Replicates) -> &[f64],
         bin: usize,
     ) -> f64 {
@@ -566,7 +510,7 @@ impl BrdfRun {
         product(&[tallies, live]).saturating_add(files)
     }
 
-    /// Estimated size (bytes) of one [`Tallies`]: 16 bytes per Carlson
+    /// Estimated size (bytes) of one [`BrdfTallies`]: 16 bytes per Carlson
     /// cell and in-plane bin (sum and sum of squares), 8 more per lattice
     /// replicate, and its polarisation sums (4 or 16 components per cell and
     /// the hemisphere, alike).
@@ -590,8 +534,8 @@ impl BrdfRun {
 
     /// Zero tallies of this run's layout.
     #[must_use]
-    pub fn empty_tallies(&self, grid: &CarlsonGrid, inplane: &InPlaneTally) -> Tallies {
-        Tallies::new(
+    pub fn empty_tallies(&self, grid: &CarlsonGrid, inplane: &InPlaneTally) -> BrdfTallies {
+        BrdfTallies::new(
             grid,
             inplane,
             self.launch.replicates(),
@@ -635,7 +579,7 @@ impl BrdfRun {
         let nodes = self.run_nodes(surface, theta_deg, 0, batches, progress);
         let mut sum = DyadicSum::new(batches);
         for n in nodes {
-            sum.push(n, &Tallies::merge)
+            sum.push(n, &BrdfTallies::merge)
                 .expect("complete nodes in order");
         }
         let grid = self.grid();
@@ -650,10 +594,14 @@ impl BrdfRun {
         }
     }
 
-    /// Trace one incidence angle as a shard: this run's photons are the indices
-    /// `[first_photon, first_photon + photons)` of a run of `total_photons`;
-    /// `first_photon` must be a multiple of [`BATCH`]. Returns the complete
-    /// nodes of the full run's batch tree (see [`crate::shard`]) and the time.
+    /// Trace one incidence angle of a block of a run: this run's photons are
+    /// the indices `[first_photon, first_photon + photons)` of a run of
+    /// `total_photons` (a shard; the whole run with `first_photon` 0 and
+    /// `total_photons = photons`); `first_photon` must be a multiple of
+    /// [`BATCH`]. Returns the complete nodes of the full run's batch tree
+    /// (see [`crate::tally::sum`]; the root alone for a whole run) and the
+    /// time (s). `roks brdf` traces whole runs and shards this way
+    /// ([`crate::output::brdf_folder::BrdfFolder::trace`]).
     ///
     /// # Panics
     /// If `first_photon` is not a multiple of [`BATCH`] or the range exceeds
@@ -664,7 +612,7 @@ impl BrdfRun {
         theta_deg: f64,
         total_photons: u64,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> (Vec<Node<Tallies>>, f64) {
+    ) -> (Vec<Node<BrdfTallies>>, f64) {
         assert!(self.first_photon % BATCH == 0, "shards start on a batch");
         assert!(self.first_photon + self.photons <= total_photons);
         let clock = Instant::now();
@@ -690,7 +638,7 @@ impl BrdfRun {
         base: u64,
         total_batches: u64,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<Node<Tallies>> {
+    ) -> Vec<Node<BrdfTallies>> {
         let ordered = order::pays(surface);
         self.run_nodes_in(surface, theta_deg, base, total_batches, ordered, progress)
     }
@@ -704,7 +652,7 @@ impl BrdfRun {
         total_batches: u64,
         ordered: bool,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<Node<Tallies>> {
+    ) -> Vec<Node<BrdfTallies>> {
         let grid = Locator::new(self.grid());
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
@@ -717,7 +665,7 @@ impl BrdfRun {
                     index: base + k,
                     value,
                 },
-                &Tallies::merge_clearing,
+                &BrdfTallies::merge_clearing,
                 &mut |t| spare.lock().expect("spare tallies").push(t),
             )
             .expect("batches in order");
@@ -799,7 +747,7 @@ impl BrdfRun {
         dir: DVec3,
         ordered: bool,
         spare: &Spare,
-        consume: &mut dyn FnMut(u64, Tallies),
+        consume: &mut dyn FnMut(u64, BrdfTallies),
         progress: &(dyn Fn(u64) + Sync),
     ) {
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
@@ -883,7 +831,7 @@ impl BrdfRun {
         inplane: &InPlaneTally,
         spare: &Spare,
         photons: impl Iterator<Item = (usize, History<C>, u64)>,
-    ) -> Tallies {
+    ) -> BrdfTallies {
         let grid = locator.grid();
         let spared = spare.lock().expect("spare tallies").pop();
         let mut t = spared.unwrap_or_else(|| self.empty_tallies(grid, inplane));

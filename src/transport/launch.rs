@@ -84,14 +84,14 @@ impl Launch {
         }
     }
 
-    /// Parse [`Launch::name`].
+    /// Parse [`Launch::name`] (also the option's value names, which
+    /// clap derives from the same variants).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "random" => Some(Self::Random),
-            "lattice" => Some(Self::Lattice),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::value_variants()
+            .iter()
+            .copied()
+            .find(|v| v.name() == name)
     }
 
     /// Replicates whose spread gives the standard errors (`None`: per photon).
@@ -206,6 +206,17 @@ pub fn replicate_stderr(sums: impl Iterator<Item = f64> + Clone, per_replicate: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn option_values_are_the_names() {
+        use clap::ValueEnum as _;
+        for v in Launch::value_variants() {
+            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
+            assert_eq!(Launch::from_name(v.name()), Some(*v));
+        }
+        assert_eq!(Launch::value_variants().len(), 2);
+        assert_eq!(Launch::from_name("nonsense"), None);
+    }
 
     #[test]
     fn photon_counts() {

@@ -34,6 +34,7 @@ use crate::object::Object;
 use crate::object::source::Beam;
 use crate::object::wall::{Interaction, WallModel};
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
+use crate::tally::Merge as _;
 use crate::tally::carlson::Cells;
 use crate::tally::{Accumulator, CarlsonGrid};
 
@@ -126,7 +127,7 @@ pub struct ObjectRun {
 
 /// Sums for one beam position.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Tallies {
+pub struct ObjectTallies {
     /// Photons launched.
     pub photons: u64,
     /// Weight escaping after at least one reflection.
@@ -156,7 +157,7 @@ pub struct Tallies {
     pub started_inside: u64,
 }
 
-impl Tallies {
+impl ObjectTallies {
     /// Zero sums with `n_surfaces` absorbed bins, `farfield_cells` far-field
     /// cells; Stokes bins if `stokes` (4) and `farfield_stokes` (4 per cell).
     fn new(n_surfaces: usize, farfield_cells: usize, stokes: bool, farfield_stokes: bool) -> Self {
@@ -215,7 +216,7 @@ pub struct PositionResult {
     /// The beam.
     pub beam: Beam,
     /// Sums.
-    pub tallies: Tallies,
+    pub tallies: ObjectTallies,
     /// Wall-clock time (s).
     pub seconds: f64,
 }
@@ -232,7 +233,7 @@ impl PositionResult {
     }
 
     /// The Stokes vector of the reflected light per unit beam power (see
-    /// [`Tallies::stokes`]) and its standard errors; `None` for a scalar run.
+    /// [`ObjectTallies::stokes`]) and its standard errors; `None` for a scalar run.
     #[must_use]
     pub fn stokes(&self) -> Option<(Stokes, Stokes)> {
         let (acc, n) = (&self.tallies.stokes, self.tallies.photons);
@@ -261,9 +262,9 @@ impl ObjectRun {
     }
 
     /// Zero sums for this run.
-    fn tallies(&self, n_surfaces: usize, ff: &FarField) -> Tallies {
+    fn tallies(&self, n_surfaces: usize, ff: &FarField) -> ObjectTallies {
         let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
-        Tallies::new(
+        ObjectTallies::new(
             n_surfaces,
             ff_cells,
             self.polarisation,
@@ -328,7 +329,7 @@ impl ObjectRun {
         position: u64,
         ff: &FarField,
         photons: std::ops::Range<u64>,
-    ) -> Tallies {
+    ) -> ObjectTallies {
         let n_surfaces = object.surface_names.len();
         let mut t = self.tallies(n_surfaces, ff);
         let launch = C::launch(beam.polarisation.stokes(), beam.reference());

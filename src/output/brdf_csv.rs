@@ -1,0 +1,237 @@
+//! `brdf.csv`: the BRDF of a run tabulated on its Carlson grid, one row per
+//! incidence and cell. This module owns the file: its columns
+//! ([`HEADER`]), its one writer ([`write`] for a run, [`write_blocks`] for
+//! any fractions, e.g. a synthetic table in a test) and its reader
+//! ([`read`], [`parse`]: a checked [`BrdfTable`], see
+//! [`crate::optics::brdf_table`] for the checks and the sampling).
+//!
+//! # Columns
+//!
+//! `theta_i_deg`, `phi_i_deg`: the incidence (degrees, shortest round-trip
+//! form); `band`, `cell`: the Carlson cell (band `1..=M` from the pole,
+//! cell `0..4 band`); `theta_lo_deg`, `theta_hi_deg`, `phi_lo_deg`,
+//! `phi_hi_deg`: its edges, `theta_deg`, `phi_deg` its centre (degrees,
+//! absolute azimuths); `solid_angle_sr`, `projected_solid_angle_sr` (sr,
+//! 13 significant digits); `fraction`, `fraction_stderr`: weight leaving
+//! through the cell per launched photon and its standard error; `brdf`,
+//! `brdf_stderr`: the same per projected solid angle (sr⁻¹); these four
+//! with 10 significant digits.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::optics::brdf_table::{BrdfTable, BrdfTableError};
+use crate::tally::CarlsonGrid;
+use crate::transport::brdf::{BrdfRun, IncidenceResult};
+
+/// Columns of `brdf.csv`.
+pub const HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// The name of column `i` (0-based) of [`HEADER`].
+///
+/// # Panics
+/// If `i` is not a column.
+#[must_use]
+pub fn column(i: usize) -> &'static str {
+    HEADER.split(',').nth(i).expect("a column of brdf.csv")
+}
+
+/// Number of columns.
+pub const COLUMNS: usize = 16;
+
+/// One incidence of a table: its angles (degrees) and per flat Carlson cell
+/// the fraction and its standard error.
+#[derive(Debug, Clone, Copy)]
+pub struct Block<'a> {
+    /// Incidence polar angle (degrees).
+    pub theta_i_deg: f64,
+    /// Light azimuth (degrees).
+    pub phi_i_deg: f64,
+    /// Fraction per flat cell.
+    pub fractions: &'a [f64],
+    /// Standard error of each fraction.
+    pub stderr: &'a [f64],
+}
+
+/// The rows (no header) of `blocks` on `grid`, in the number format of
+/// the file.
+///
+/// # Panics
+/// If a block does not have one fraction and one standard error per cell.
+#[must_use]
+pub fn write_rows<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block<'a>>) -> String {
+    let omega = grid.solid_angle();
+    let mut s = String::new();
+    for b in blocks {
+        assert_eq!(b.fractions.len(), grid.n_cells(), "one fraction per cell");
+        assert_eq!(b.stderr.len(), grid.n_cells(), "one stderr per cell");
+        s.reserve(200 * grid.n_cells());
+        for flat in 0..grid.n_cells() {
+            let (band, cell) = grid.band_cell(flat);
+            let (mu_bot, mu_top) = grid.mu_edges(band);
+            let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
+            let (theta, phi) = grid.centre(band, cell);
+            let proj = grid.projected_solid_angle(band, cell);
+            let (f, fe) = (b.fractions[flat], b.stderr[flat]);
+            let _ = writeln!(
+                s,
+                "{},{},{band},{cell},{},{},{},{},{},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
+                b.theta_i_deg,
+                b.phi_i_deg,
+                mu_top.acos().to_degrees(),
+                mu_bot.acos().to_degrees(),
+                phi_lo.to_degrees(),
+                phi_hi.to_degrees(),
+                theta.to_degrees(),
+                phi.to_degrees(),
+                f / proj,
+                fe / proj,
+            );
+        }
+    }
+    s
+}
+
+/// The whole file of `blocks` on `grid`: [`HEADER`] and [`write_rows`].
+#[must_use]
+pub fn write_blocks<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block<'a>>) -> String {
+    format!("{HEADER}\n{}", write_rows(grid, blocks))
+}
+
+/// Per incidence result: the fractions and their standard errors.
+fn fractions(run: &BrdfRun, results: &[IncidenceResult]) -> Vec<(Vec<f64>, Vec<f64>)> {
+    let cells = run.grid().n_cells();
+    results
+        .iter()
+        .map(|r| {
+            let n = r.tallies.photons;
+            (0..cells)
+                .map(|flat| (r.tallies.carlson.mean(flat, n), r.carlson_stderr(flat)))
+                .unzip()
+        })
+        .collect()
+}
+
+/// `brdf.csv` of a run's `results`.
+#[must_use]
+pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> String {
+    let f = fractions(run, results);
+    write_blocks(
+        &run.grid(),
+        results
+            .iter()
+            .zip(&f)
+            .map(|(r, (fractions, stderr))| Block {
+                theta_i_deg: r.theta_i_deg,
+                phi_i_deg: r.phi_i_deg,
+                fractions,
+                stderr,
+            }),
+    )
+}
+
+/// The synthetic rows (no header) of one incidence `theta_i_deg`,
+/// `phi_i_deg` (degrees) given by its `fractions` per flat cell of the
+/// Carlson grid of `bands` bands, with `fraction_stderr = stderr_ratio *
+/// fraction` (e.g. an analytic BRDF in a test).
+///
+/// # Panics
+/// If `bands` is 0 or `fractions` does not have one value per cell.
+#[must_use]
+pub fn rows(
+    bands: usize,
+    theta_i_deg: f64,
+    phi_i_deg: f64,
+    fractions: &[f64],
+    stderr_ratio: f64,
+) -> String {
+    let grid = CarlsonGrid::new(bands).expect("bands must be > 0");
+    let stderr: Vec<f64> = fractions.iter().map(|f| stderr_ratio * f).collect();
+    write_rows(
+        &grid,
+        [Block {
+            theta_i_deg,
+            phi_i_deg,
+            fractions,
+            stderr: &stderr,
+        }],
+    )
+}
+
+/// Read and check `brdf.csv` at `path` (see [`BrdfTable::load`]).
+///
+/// # Errors
+/// If it cannot be read or fails a check, naming the file.
+pub fn read(path: &Path) -> Result<BrdfTable, BrdfTableError> {
+    BrdfTable::load(path)
+}
+
+/// Parse and check the text of a `brdf.csv`, `name` naming it in messages
+/// (see [`BrdfTable::parse`]).
+///
+/// # Errors
+/// The first problem found, naming `name`, the line and the column.
+pub fn parse(text: &str, name: &str) -> Result<BrdfTable, BrdfTableError> {
+    BrdfTable::parse(text, name)
+}
+
+/// The table of a run's `results` as its `brdf.csv` holds it (numbers
+/// rounded as written), without writing or parsing the file: what
+/// [`read`] of the run's folder gives.
+///
+/// # Panics
+/// If the results are not a valid table (a run's always are).
+#[must_use]
+pub fn table(run: &BrdfRun, results: &[IncidenceResult]) -> BrdfTable {
+    // The file's rounding of each number: 10 significant digits.
+    let written = |x: f64| -> f64 {
+        format!("{x:.9e}")
+            .parse()
+            .expect("a number written by the file's format reads back")
+    };
+    let blocks = fractions(run, results)
+        .into_iter()
+        .zip(results)
+        .map(|((f, e), r)| {
+            (
+                r.theta_i_deg,
+                r.phi_i_deg,
+                f.into_iter().map(written).collect::<Vec<_>>(),
+                e.into_iter().map(written).collect::<Vec<_>>(),
+            )
+        })
+        .collect();
+    BrdfTable::from_blocks(run.grid(), blocks, "brdf.csv").expect("a run's results are a table")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_header_has_the_columns() {
+        assert_eq!(HEADER.split(',').count(), COLUMNS);
+        assert_eq!(column(0), "theta_i_deg");
+        assert_eq!(column(12), "fraction");
+        assert_eq!(column(15), "brdf_stderr");
+    }
+
+    #[test]
+    fn rows_are_in_the_file_format() {
+        let grid = CarlsonGrid::new(1).unwrap();
+        let f = [0.1, 0.2, 0.3, 0.4];
+        let text = rows(1, 30.0, 0.0, &f, 0.5);
+        let first = text.lines().next().unwrap();
+        let cols: Vec<&str> = first.split(',').collect();
+        assert_eq!(cols.len(), COLUMNS);
+        assert_eq!(&cols[..4], ["30", "0", "1", "0"]);
+        assert_eq!(cols[12], "1.000000000e-1");
+        assert_eq!(cols[13], "5.000000000e-2");
+        let proj = grid.projected_solid_angle(1, 0);
+        assert_eq!(cols[11], format!("{proj:.12e}"));
+        assert_eq!(cols[14], format!("{:.9e}", 0.1 / proj));
+        // The reader takes what the writer writes.
+        let table = parse(&format!("{HEADER}\n{text}"), "t.csv").unwrap();
+        assert!((table.reflectance(30f64.to_radians()) - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,218 @@
+//! The result folder of `roks brdf` (a whole run or one shard of it) and of
+//! `roks merge`: one path from a run to its files.
+//!
+//! [`BrdfFolder::trace`] traces a run, whole or block `--shard I/N` of it,
+//! the same way: each incidence's batches are summed over the fixed batch
+//! tree ([`crate::tally::sum`]) into its complete nodes; the folder's sums
+//! are those nodes added left to right (for a whole run the one node is the
+//! root), and a shard keeps the nodes for its `tallies.json`.
+//! [`BrdfFolder::merged`] is the folder of merged shards. [`BrdfFolder::files`]
+//! writes either: `brdf.csv`, `inplane.csv`, the polarisation table,
+//! the images (if asked for), exports, `tallies.json` (shards and merges)
+//! and `summary.json`.
+
+use std::time::Instant;
+
+use super::summary::{BrdfSummary, ShardSummary, to_text};
+use super::tallies::{Merged, Settings, TALLIES_FILE, TalliesFile};
+use super::{brdf_csv, inplane_csv, polar_csv};
+use crate::micro::MicroSurface;
+use crate::optics::brdf_table::BrdfTable;
+use crate::shard::Shard;
+use crate::tally::Merge;
+use crate::tally::sum::Node;
+use crate::transport::brdf::{BrdfRun, BrdfTallies, IncidenceResult};
+
+/// A result folder's contents, before they are written.
+#[derive(Debug, Clone)]
+pub struct BrdfFolder {
+    /// The run of this folder (for a shard: its photons, from its first).
+    pub run: BrdfRun,
+    /// The settings of the whole run.
+    pub settings: Settings,
+    /// For a shard: which block, and its photon indices `[first, last)`.
+    pub shard: Option<(Shard, (u64, u64))>,
+    /// Per incidence angle: this folder's sums.
+    pub results: Vec<IncidenceResult>,
+    /// The raw sums for `tallies.json` (shards and merges).
+    pub tallies: Option<TalliesFile>,
+    /// Wall-clock time (s; for a merge the shards' sum).
+    pub seconds: f64,
+}
+
+/// The sum of complete tree nodes in batch order, added left to right
+/// (`None` without nodes).
+fn add_up(nodes: &[Node<BrdfTallies>]) -> Option<BrdfTallies> {
+    let (first, rest) = nodes.split_first()?;
+    let mut t = first.value.clone();
+    for n in rest {
+        t.merge(&n.value);
+    }
+    Some(t)
+}
+
+impl BrdfFolder {
+    /// Trace `run` (all its photons, or block `shard` of them) on
+    /// `surface`, with `settings` those of the whole run; `progress` is
+    /// called with photons done.
+    ///
+    /// # Errors
+    /// If the run has fewer batches than `shard` has blocks
+    /// ([`Shard::photon_range`]).
+    pub fn trace(
+        surface: &MicroSurface,
+        mut run: BrdfRun,
+        settings: Settings,
+        shard: Option<Shard>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<Self, String> {
+        let total = run.photons;
+        let block = shard
+            .map(|s| s.photon_range(total).map(|r| (s, r)))
+            .transpose()?;
+        if let Some((_, (first, last))) = block {
+            run.first_photon = first;
+            run.photons = last - first;
+        }
+        let clock = Instant::now();
+        let mut results = Vec::with_capacity(run.theta_deg.len());
+        let mut parts = Vec::new();
+        for &theta in &run.theta_deg {
+            let (nodes, seconds) = run.run_shard_one(surface, theta, total, progress);
+            let tallies =
+                add_up(&nodes).unwrap_or_else(|| run.empty_tallies(&run.grid(), &run.inplane()));
+            results.push(IncidenceResult {
+                theta_i_deg: theta,
+                phi_i_deg: run.phi_deg,
+                tallies,
+                seconds,
+            });
+            if block.is_some() {
+                parts.push((theta, seconds, nodes));
+            }
+        }
+        let seconds = clock.elapsed().as_secs_f64();
+        let tallies = block.map(|(s, range)| TalliesFile::new(&settings, s, range, parts, seconds));
+        Ok(Self {
+            run,
+            settings,
+            shard: block,
+            results,
+            tallies,
+            seconds,
+        })
+    }
+
+    /// The folder of merged shards: the whole run's sums, and its
+    /// `tallies.json` (one shard of one, the tree's roots).
+    #[must_use]
+    pub fn merged(merged: Merged) -> Self {
+        let tallies = merged.tallies_file();
+        let Merged {
+            run,
+            settings,
+            incidence,
+            seconds,
+        } = merged;
+        let results = incidence
+            .into_iter()
+            .map(|i| IncidenceResult {
+                theta_i_deg: i.theta_deg,
+                phi_i_deg: run.phi_deg,
+                tallies: i.tallies,
+                seconds: i.seconds,
+            })
+            .collect();
+        Self {
+            run,
+            settings,
+            shard: None,
+            results,
+            tallies: Some(tallies),
+            seconds,
+        }
+    }
+
+    /// `summary.json`.
+    #[must_use]
+    pub fn summary(&self) -> BrdfSummary {
+        let shard = self
+            .shard
+            .map(|(s, (first_photon, last_photon))| ShardSummary {
+                count: s.count,
+                first_photon,
+                index: s.index,
+                last_photon,
+            });
+        BrdfSummary::new(&self.settings, shard, &self.results, self.seconds)
+    }
+
+    /// The BRDF table as `brdf.csv` holds it, for exports (see
+    /// [`brdf_csv::table`]).
+    #[must_use]
+    pub fn table(&self) -> BrdfTable {
+        brdf_csv::table(&self.run, &self.results)
+    }
+
+    /// The images: `inplane.png`, `hemisphere_<theta>deg.png` per
+    /// incidence and, with a Stokes tally, `dop_<theta>deg.png`; titled
+    /// with the scene's `name`.
+    ///
+    /// # Errors
+    /// If an image cannot be drawn.
+    pub fn images(&self, name: &str) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+        use rayon::prelude::*;
+        let (run, results) = (&self.run, &self.results);
+        let mut images = vec![(
+            "inplane.png".to_owned(),
+            super::inplane_plot(name, run, results).to_png(1000, 620)?,
+        )];
+        let maps: Vec<(String, Vec<u8>)> = results
+            .par_iter()
+            .map(|r| {
+                super::hemisphere_map(name, run, r)
+                    .to_png()
+                    .map(|png| (super::hemisphere_file(r.theta_i_deg), png))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let dop: Vec<(String, Vec<u8>)> = results
+            .par_iter()
+            .filter_map(|r| {
+                super::dop_map(name, run, r)
+                    .map(|m| m.to_png().map(|png| (super::dop_file(r.theta_i_deg), png)))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        images.extend(maps);
+        images.extend(dop);
+        Ok(images)
+    }
+
+    /// Every file of the folder, with `extra` files (images, exports)
+    /// after the tables: `brdf.csv`, `inplane.csv`, the polarisation table,
+    /// `extra`, `tallies.json` (if any), `summary.json`.
+    #[must_use]
+    pub fn files(&self, extra: Vec<(String, Vec<u8>)>) -> Vec<(String, Vec<u8>)> {
+        let mut files = vec![
+            (
+                "brdf.csv".to_owned(),
+                brdf_csv::write(&self.run, &self.results).into_bytes(),
+            ),
+            (
+                "inplane.csv".to_owned(),
+                inplane_csv::write(&self.run, &self.results).into_bytes(),
+            ),
+        ];
+        if let Some((name, text)) = polar_csv::write(&self.run, &self.results) {
+            files.push((name.to_owned(), text.into_bytes()));
+        }
+        files.extend(extra);
+        if let Some(t) = &self.tallies {
+            files.push((TALLIES_FILE.to_owned(), t.to_text().into_bytes()));
+        }
+        files.push((
+            "summary.json".to_owned(),
+            to_text(&self.summary()).into_bytes(),
+        ));
+        files
+    }
+}

@@ -1,0 +1,38 @@
+//! `inplane.csv`: the in-plane BRDF of a run, per incidence and in-plane
+//! bin: `theta_o_deg` signed (positive on the specular side, negative
+//! toward the light), `brdf` and `brdf_stderr` (sr⁻¹, 10 significant
+//! digits).
+
+use std::fmt::Write as _;
+
+use crate::tally::InPlaneTally;
+use crate::transport::brdf::{BrdfRun, IncidenceResult};
+
+/// Columns of `inplane.csv`.
+pub const HEADER: &str = "theta_i_deg,theta_o_deg,brdf,brdf_stderr";
+
+/// `inplane.csv` for all incidences.
+#[must_use]
+pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> String {
+    let tally: InPlaneTally = run.inplane();
+    let mut s = String::new();
+    s.push_str(HEADER);
+    s.push('\n');
+    for r in results {
+        let n = r.tallies.photons;
+        for bin in 0..tally.n_bins() {
+            let proj = tally.projected_solid_angle(bin);
+            let f = r.tallies.inplane.mean(bin, n);
+            let fe = r.inplane_stderr(bin);
+            let _ = writeln!(
+                s,
+                "{},{},{:.9e},{:.9e}",
+                r.theta_i_deg,
+                tally.centre_deg(bin),
+                f / proj,
+                fe / proj
+            );
+        }
+    }
+    s
+}

@@ -1,0 +1,553 @@
+//! `summary.json` of `roks brdf` and `roks merge` ([`BrdfSummary`]), of
+//! `roks trace` ([`TraceSummary`]), and `fit.json` of `roks fit`
+//! ([`FitSummary`]), as typed structs.
+//!
+//! The files are pretty-printed JSON with a line end ([`to_text`]). Their
+//! keys are in alphabetical order at every level, as they have always been
+//! written: the fields of each struct are declared in that order. Numbers
+//! are JSON numbers in Rust's shortest round-trip form; a quantity that is
+//! not finite (e.g. `tests_per_segment` of a run without segments) is
+//! `null`. Units: angles in degrees, times in seconds, reflectances and
+//! `lost` weights as fractions of the photons launched.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::tallies::Settings;
+use crate::micro::surface_stats::SurfaceStats;
+use crate::tally::exact::Exact;
+use crate::transport::brdf::IncidenceResult;
+use crate::transport::object::PositionResult;
+
+/// A summary's text: pretty-printed JSON and a line end.
+///
+/// # Panics
+/// Never for the structs of this module (every value serialises).
+#[must_use]
+pub fn to_text<T: Serialize>(summary: &T) -> String {
+    serde_json::to_string_pretty(summary).expect("summaries serialise") + "\n"
+}
+
+/// Why `tau` and `sigma_over_tau` are undefined for a height map.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Undefined {
+    /// `tau is <reason>`.
+    pub sigma_over_tau: String,
+    /// The reason, e.g. "undefined for a flat surface (sigma = 0)".
+    pub tau: String,
+}
+
+/// Statistics of a surface's height map (lengths in the scene's units,
+/// slopes dimensionless): numbers `F` (`f64` in `summary.json`, exact
+/// strings in the settings of `tallies.json`), `null` where undefined (then
+/// `undefined` says why).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Surface<F> {
+    /// Samples per side of the height map the statistics are taken on.
+    pub height_map_resolution: usize,
+    /// Highest height.
+    pub max_height: Option<F>,
+    /// Mean height.
+    pub mean_height: Option<F>,
+    /// Lowest height.
+    pub min_height: Option<F>,
+    /// RMS slope.
+    pub rms_slope: Option<F>,
+    /// RMS height.
+    pub sigma: Option<F>,
+    /// `sigma / tau`.
+    pub sigma_over_tau: Option<F>,
+    /// Correlation length.
+    pub tau: Option<F>,
+    /// The reasons for undefined statistics (absent when all are numbers).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub undefined: Option<Undefined>,
+}
+
+impl Surface<f64> {
+    /// The statistics `stats` of a height map of `resolution` samples per
+    /// side; non-finite ones undefined.
+    #[must_use]
+    pub fn new(stats: &SurfaceStats, resolution: usize) -> Self {
+        let num = |x: f64| x.is_finite().then_some(x);
+        Self {
+            height_map_resolution: resolution,
+            max_height: num(stats.max_height),
+            mean_height: num(stats.mean),
+            min_height: num(stats.min_height),
+            rms_slope: num(stats.rms_slope),
+            sigma: num(stats.sigma),
+            sigma_over_tau: num(stats.sigma_over_tau),
+            tau: num(stats.tau),
+            undefined: stats.tau_undefined.map(|why| Undefined {
+                sigma_over_tau: format!("tau is {why}"),
+                tau: why.to_string(),
+            }),
+        }
+    }
+}
+
+impl<F: Copy> Surface<F> {
+    /// The same statistics with numbers `f(x)`.
+    #[must_use]
+    pub fn map<G>(&self, f: impl Fn(F) -> G) -> Surface<G> {
+        let m = |x: Option<F>| x.map(&f);
+        Surface {
+            height_map_resolution: self.height_map_resolution,
+            max_height: m(self.max_height),
+            mean_height: m(self.mean_height),
+            min_height: m(self.min_height),
+            rms_slope: m(self.rms_slope),
+            sigma: m(self.sigma),
+            sigma_over_tau: m(self.sigma_over_tau),
+            tau: m(self.tau),
+            undefined: self.undefined.clone(),
+        }
+    }
+}
+
+/// Polarised transport of a run: numbers `F` as in [`Surface`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PolarisationSettings<F> {
+    /// The incident state's name.
+    pub incident: String,
+    /// Its Stokes vector of unit intensity.
+    pub incident_stokes: Vec<F>,
+    /// The polarisation tally (`none`, `stokes`, `mueller`).
+    pub tally: String,
+    /// `stokes`.
+    pub transport: String,
+}
+
+/// `shard` of a shard's `summary.json`: which block, which photons.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShardSummary {
+    /// Number of blocks.
+    pub count: u64,
+    /// First photon index traced.
+    pub first_photon: u64,
+    /// 0-based block index.
+    pub index: u64,
+    /// One past the last photon index traced.
+    pub last_photon: u64,
+}
+
+/// One incidence of `summary.json` of `roks brdf`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IncidenceSummary {
+    /// Histories cut by the caps.
+    pub capped_photons: u64,
+    /// Intersection tests (quadrics, or height-field squares).
+    pub intersection_tests: u64,
+    /// Weight lost, all causes.
+    pub lost: f64,
+    /// Weight cut by the caps.
+    pub lost_cap: f64,
+    /// Weight stopped by numerical guards.
+    pub lost_numeric: f64,
+    /// Weight absorbed by walls.
+    pub lost_walls: f64,
+    /// Mean reflections per photon.
+    pub mean_bounces: f64,
+    /// Histories stopped by numerical guards.
+    pub numeric_guard_photons: u64,
+    /// Incidence azimuth.
+    pub phi_deg: f64,
+    /// Photons launched.
+    pub photons: u64,
+    /// Reflected weight per photon.
+    pub reflectance: f64,
+    /// Reflectance by number of reflections.
+    pub reflectance_by_bounces: Vec<f64>,
+    /// Standard error of `reflectance`.
+    pub reflectance_stderr: f64,
+    /// With a Mueller tally: the hemisphere's Mueller matrix, row-major.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflected_mueller: Option<Vec<f64>>,
+    /// Its standard errors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflected_mueller_stderr: Option<Vec<f64>>,
+    /// With a Stokes tally: the reflected Stokes vector.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflected_stokes: Option<Vec<f64>>,
+    /// Its standard errors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflected_stokes_stderr: Option<Vec<f64>>,
+    /// Wall-clock time.
+    pub seconds: f64,
+    /// Straight flights traced.
+    pub segments: u64,
+    /// Segments per wall-clock second.
+    pub segments_per_second: f64,
+    /// Intersection tests per segment.
+    pub tests_per_segment: Option<f64>,
+    /// Incidence polar angle.
+    pub theta_deg: f64,
+}
+
+impl IncidenceSummary {
+    /// The entry of one incidence's result.
+    #[must_use]
+    pub fn new(r: &IncidenceResult) -> Self {
+        let t = &r.tallies;
+        let (reflectance, reflectance_stderr) = r.reflectance();
+        let n = t.photons as f64;
+        let polar = t.polar.as_ref().map(|p| {
+            let pairs: Vec<(f64, f64)> = (0..p.components)
+                .map(|i| r.polar(i).unwrap_or_default())
+                .collect();
+            (
+                p.components == 4,
+                pairs.iter().map(|x| x.0).collect::<Vec<_>>(),
+                pairs.iter().map(|x| x.1).collect::<Vec<_>>(),
+            )
+        });
+        let (stokes, mueller) = match polar {
+            Some((true, m, s)) => (Some((m, s)), None),
+            Some((false, m, s)) => (None, Some((m, s))),
+            None => (None, None),
+        };
+        let tests = r.tests_per_segment();
+        Self {
+            capped_photons: t.capped_histories,
+            intersection_tests: t.intersection_tests,
+            lost: r.lost(),
+            lost_cap: t.lost_cap / n,
+            lost_numeric: t.lost_numeric / n,
+            lost_walls: t.lost_walls / n,
+            mean_bounces: r.mean_bounces(),
+            numeric_guard_photons: t.numeric_histories,
+            phi_deg: r.phi_i_deg,
+            photons: t.photons,
+            reflectance,
+            reflectance_by_bounces: t.by_bounces.iter().map(|w| w / n).collect(),
+            reflectance_stderr,
+            reflected_mueller_stderr: mueller.as_ref().map(|x| x.1.clone()),
+            reflected_mueller: mueller.map(|x| x.0),
+            reflected_stokes_stderr: stokes.as_ref().map(|x| x.1.clone()),
+            reflected_stokes: stokes.map(|x| x.0),
+            seconds: r.seconds,
+            segments: t.segments,
+            segments_per_second: r.segments_per_second(),
+            tests_per_segment: tests.is_finite().then_some(tests),
+            theta_deg: r.theta_i_deg,
+        }
+    }
+}
+
+/// `summary.json` of `roks brdf` (and `roks merge`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BrdfSummary {
+    /// Carlson bands.
+    pub bands: usize,
+    /// How the surface's edges are treated.
+    pub edges: String,
+    /// Per incidence angle.
+    pub incidence: Vec<IncidenceSummary>,
+    /// Entry points: `random` or `lattice`.
+    pub launch: String,
+    /// The scene's `name`.
+    pub name: String,
+    /// Photons per incidence of this folder (of the shard, for a shard).
+    pub photons_per_incidence: u64,
+    /// Polarised transport (absent: scalar).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polarisation: Option<PolarisationSettings<f64>>,
+    /// The scene file as given.
+    pub scene: String,
+    /// Total wall-clock time (the shards' sum, for a merge).
+    pub seconds: f64,
+    /// Tracing seed.
+    pub seed: u64,
+    /// For a shard: which block and photons.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<ShardSummary>,
+    /// Statistics of the surface's height map.
+    pub surface: Surface<f64>,
+    /// Mirror folding: `none` or `mirror`.
+    pub symmetry: String,
+    /// The roks version that ran it.
+    pub version: String,
+}
+
+impl BrdfSummary {
+    /// The summary of a run with `settings`, per incidence `results`, total
+    /// time `seconds`; for a shard its block (and `photons_per_incidence`
+    /// the shard's photons).
+    #[must_use]
+    pub fn new(
+        settings: &Settings,
+        shard: Option<ShardSummary>,
+        results: &[IncidenceResult],
+        seconds: f64,
+    ) -> Self {
+        let s = settings;
+        Self {
+            bands: s.bands,
+            edges: s.edges.clone(),
+            incidence: results.iter().map(IncidenceSummary::new).collect(),
+            launch: s.launch.clone(),
+            name: s.name.clone(),
+            photons_per_incidence: shard.map_or(s.photons_per_incidence, |sh| {
+                sh.last_photon - sh.first_photon
+            }),
+            polarisation: s.polarisation.as_ref().map(|p| PolarisationSettings {
+                incident: p.incident.clone(),
+                incident_stokes: p.incident_stokes.iter().map(|x| x.0).collect(),
+                tally: p.tally.clone(),
+                transport: p.transport.clone(),
+            }),
+            scene: s.scene.clone(),
+            seconds,
+            seed: s.seed,
+            shard,
+            surface: s.surface.map(|x: Exact| x.0),
+            symmetry: s.symmetry.clone(),
+            version: s.version.clone(),
+        }
+    }
+}
+
+/// One beam position of `summary.json` of `roks trace`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PositionSummary {
+    /// Weight absorbed per photon, by surface name (surfaces that absorbed).
+    pub absorbed: BTreeMap<String, f64>,
+    /// Its standard errors.
+    pub absorbed_stderr: BTreeMap<String, f64>,
+    /// Beam diameter (scene units).
+    pub diameter: f64,
+    /// Unit direction of travel.
+    pub direction: [f64; 3],
+    /// Weight lost to caps and guards, per photon.
+    pub lost: f64,
+    /// Macro reflections per photon.
+    pub mean_bounces: f64,
+    /// Weight escaping without a reflection, per photon.
+    pub missed: f64,
+    /// Photons launched.
+    pub photons: u64,
+    /// The beam's polarisation state (polarised runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polarisation: Option<String>,
+    /// A point on the beam axis (scene units).
+    pub position: [f64; 3],
+    /// Reflected weight per photon.
+    pub reflectance: f64,
+    /// Its standard error.
+    pub reflectance_stderr: f64,
+    /// Wall-clock time.
+    pub seconds: f64,
+    /// Straight flights at the macro level.
+    pub segments: u64,
+    /// Stokes vector of the reflected light (polarised runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stokes: Option<[f64; 4]>,
+    /// Its standard errors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stokes_stderr: Option<[f64; 4]>,
+}
+
+impl PositionSummary {
+    /// The entry of one beam position's result; `surface_names` by surface id.
+    #[must_use]
+    pub fn new(r: &PositionResult, surface_names: &[String]) -> Self {
+        let t = &r.tallies;
+        let n = t.photons as f64;
+        let (reflectance, reflectance_stderr) = r.reflectance();
+        let absorbed = |f: &dyn Fn(usize) -> f64| -> BTreeMap<String, f64> {
+            surface_names
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| t.absorbed.sum[*i] != 0.0)
+                .map(|(i, name)| (name.clone(), f(i)))
+                .collect()
+        };
+        let stokes = r.stokes();
+        Self {
+            absorbed: absorbed(&|i| t.absorbed.mean(i, t.photons)),
+            absorbed_stderr: absorbed(&|i| t.absorbed.stderr(i, t.photons)),
+            diameter: r.beam.diameter,
+            direction: r.beam.direction.to_array(),
+            lost: t.lost / n,
+            mean_bounces: t.bounces as f64 / n,
+            missed: t.missed / n,
+            photons: t.photons,
+            polarisation: stokes.map(|_| r.beam.polarisation.name()),
+            position: r.beam.position.to_array(),
+            reflectance,
+            reflectance_stderr,
+            seconds: r.seconds,
+            segments: t.segments,
+            stokes: stokes.map(|s| s.0),
+            stokes_stderr: stokes.map(|s| s.1),
+        }
+    }
+}
+
+/// `summary.json` of `roks trace`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TraceSummary {
+    /// The scene's `name`.
+    pub name: String,
+    /// The scene file as given.
+    pub scene: String,
+    /// Total wall-clock time.
+    pub seconds: f64,
+    /// Tracing seed.
+    pub seed: u64,
+    /// Per beam position, in the order of the scene's sources.
+    pub sources: Vec<PositionSummary>,
+    /// The roks version that ran it.
+    pub version: String,
+}
+
+impl TraceSummary {
+    /// The summary of a trace of scene file `scene` named `name` with
+    /// `seed`: per beam position `results`, surfaces named by id
+    /// `surface_names`, total time `seconds`.
+    #[must_use]
+    pub fn new(
+        scene: &str,
+        name: &str,
+        seed: u64,
+        results: &[PositionResult],
+        surface_names: &[String],
+        seconds: f64,
+    ) -> Self {
+        Self {
+            name: name.to_owned(),
+            scene: scene.to_owned(),
+            seconds,
+            seed,
+            sources: results
+                .iter()
+                .map(|r| PositionSummary::new(r, surface_names))
+                .collect(),
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+        }
+    }
+}
+
+/// One fitted parameter of `fit.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitParameter {
+    /// Which bound it ended on (`none`, `lower`, `upper`).
+    pub at_bound: String,
+    /// Fitted value.
+    pub fitted: f64,
+    /// Upper bound.
+    pub hi: f64,
+    /// The scene key, e.g. `bumps[0].height[1]`.
+    pub key: String,
+    /// Lower bound.
+    pub lo: f64,
+    /// Start value.
+    pub start: f64,
+}
+
+/// One model run of a fit: parameter values and misfit (`null` and the
+/// scene's reason for a rejected point).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitStep {
+    /// Misfit (`null`: rejected).
+    pub misfit: Option<f64>,
+    /// Why the scene rejected the point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rejected: Option<String>,
+    /// Parameter values.
+    pub values: Vec<f64>,
+}
+
+/// `fit.json` of `roks fit`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitSummary {
+    /// True if the tolerances were met.
+    pub converged: bool,
+    /// Model runs made.
+    pub evaluations: usize,
+    /// Every model run.
+    pub history: Vec<FitStep>,
+    /// The measured file as given.
+    pub measured: String,
+    /// Misfit at the fitted values.
+    pub misfit: f64,
+    /// Per parameter.
+    pub parameters: Vec<FitParameter>,
+    /// Photons per model run.
+    pub photons: u64,
+    /// Model runs the scene rejected.
+    pub rejected_evaluations: usize,
+    /// The scene file as given.
+    pub scene: String,
+    /// Tracing seed.
+    pub seed: u64,
+    /// Misfit at the start values.
+    pub start_misfit: f64,
+    /// The roks version that ran it.
+    pub version: String,
+}
+
+impl FitSummary {
+    /// The summary of fit `result` of `params` to `measured` (as given) on
+    /// scene file `scene`, with `photons` per model run and `seed`.
+    #[must_use]
+    pub fn new(
+        scene: &str,
+        measured: &str,
+        seed: u64,
+        photons: u64,
+        params: &[crate::fit::FitParam],
+        result: &crate::fit::FitResult,
+    ) -> Self {
+        Self {
+            converged: result.converged,
+            evaluations: result.evaluations,
+            history: result
+                .history
+                .iter()
+                .enumerate()
+                .map(|(k, (v, m))| {
+                    let rejected = result.rejected.iter().find(|r| r.0 == k);
+                    FitStep {
+                        misfit: rejected.is_none().then_some(*m).filter(|m| m.is_finite()),
+                        rejected: rejected.map(|r| r.1.clone()),
+                        values: v.clone(),
+                    }
+                })
+                .collect(),
+            measured: measured.to_owned(),
+            misfit: result.misfit,
+            parameters: params
+                .iter()
+                .enumerate()
+                .map(|(i, p)| FitParameter {
+                    at_bound: format!("{:?}", result.at_bounds[i]).to_lowercase(),
+                    fitted: result.values[i],
+                    hi: p.hi,
+                    key: p.key.clone(),
+                    lo: p.lo,
+                    start: result.start[i],
+                })
+                .collect(),
+            photons,
+            rejected_evaluations: result.rejected.len(),
+            scene: scene.to_owned(),
+            seed,
+            start_misfit: result.start_misfit,
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+        }
+    }
+}

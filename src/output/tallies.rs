@@ -1,0 +1,1220 @@
+//! `tallies.json`: the raw sums of a `roks brdf --shard I/N` run (and of
+//! `roks merge`), exactly, for merging shards; and the run settings every
+//! shard of one run shares.
+//!
+//! # The file
+//!
+//! [`TalliesFile`]: `format: "roks-tallies"`, `format_version`,
+//! `shard {index, count}`, `first_photon`, `last_photon`, `batch`, the
+//! [`Settings`] of the run (equal in all its shards), the total `seconds`,
+//! and per incidence angle `theta_deg`, `photons`, `seconds` and `nodes`:
+//! `{level, index, tallies}`, the complete nodes of the batch tree
+//! ([`crate::tally::sum`]) with their raw sums ([`BrdfTallies`], serialised
+//! field by field). Keys are written in alphabetical order. Floating-point
+//! numbers are decimal strings ([`crate::tally::exact`]), so they read back
+//! bit for bit.
+//!
+//! # Reading it back
+//!
+//! `roks merge` ([`read_shard`], [`merge_shards`]) trusts nothing in the
+//! file: it must be JSON of [`FORMAT`] version [`FORMAT_VERSION`] with the
+//! fields of [`TalliesFile`] and no others; the settings must describe a
+//! valid run ([`run_from_settings`] applies the scene's run checks,
+//! [`BrdfRun::check`]), every tally must have the run's layout and its
+//! numbers be within what the photon count allows ([`check_tallies`]),
+//! each tree node must hold exactly the photons of its batches, and each
+//! shard's nodes must tile exactly its own photon range. Errors are one
+//! [`SceneError`] naming the shard's `tallies.json` and the JSON path of the
+//! value, e.g. `sh1/tallies.json: incidence[0].nodes[2].tallies.carlson.sum[5]:
+//! NaN is not a finite number`.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::summary::{PolarisationSettings, Surface};
+use crate::optics::polarisation::Incident;
+use crate::scene::SceneError;
+use crate::shard::Shard;
+use crate::tally::exact::{self, Exact};
+use crate::tally::sum::{DyadicSum, Node};
+use crate::tally::{Accumulator, Merge, PolarTally, Symmetry};
+use crate::transport::BATCH;
+use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, BrdfTallies, Polarisation};
+use crate::transport::launch::Launch;
+use crate::transport::micro::Controls;
+
+/// `format` of `tallies.json`.
+pub const FORMAT: &str = "roks-tallies";
+/// `format_version` of `tallies.json`.
+pub const FORMAT_VERSION: u64 = 1;
+/// File name of the raw sums in a result folder.
+pub const TALLIES_FILE: &str = "tallies.json";
+
+/// A problem at a key of a `tallies.json`: the JSON path of the value
+/// (e.g. `incidence[0].nodes[2].tallies.carlson.sum[5]`) and what is wrong.
+/// [`FieldError::in_file`] makes it the one-line [`SceneError`] of a file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FieldError {
+    /// JSON path (empty: the whole file).
+    pub key: String,
+    /// What is wrong (one line).
+    pub message: String,
+}
+
+impl FieldError {
+    /// An error at `key`.
+    #[must_use]
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The same error with its key under `prefix`: `prefix.key`,
+    /// `prefix[i]` for an index key, `prefix` for an empty key.
+    #[must_use]
+    pub fn under(mut self, prefix: &str) -> Self {
+        self.key = join_key(prefix, &self.key);
+        self
+    }
+
+    /// As the error of file `file` (a path as shown to the user).
+    #[must_use]
+    pub fn in_file(self, file: &str) -> SceneError {
+        SceneError {
+            file: file.to_owned(),
+            key: self.key,
+            message: self.message,
+        }
+    }
+
+    /// The error of reading a JSON value as a typed struct, at its path:
+    /// a missing field is named as its own key (`settings.seed: missing`).
+    fn from_serde(e: serde_path_to_error::Error<serde_json::Error>) -> Self {
+        let path = e.path().to_string();
+        let path = if path == "." { String::new() } else { path };
+        // From a `Value` the message has no line and column.
+        let message = e.into_inner().to_string();
+        if let Some(field) = message
+            .strip_prefix("missing field `")
+            .and_then(|m| m.strip_suffix('`'))
+        {
+            return Self::new(join_key(&path, field), "missing");
+        }
+        Self::new(path, message)
+    }
+}
+
+impl std::fmt::Display for FieldError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "{}", self.message)
+        } else {
+            write!(f, "{}: {}", self.key, self.message)
+        }
+    }
+}
+
+fn join_key(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() {
+        key.to_owned()
+    } else if key.is_empty() {
+        prefix.to_owned()
+    } else if key.starts_with('[') {
+        format!("{prefix}{key}")
+    } else {
+        format!("{prefix}.{key}")
+    }
+}
+
+/// Read `v` as a `T`, naming the JSON path of the first bad value.
+///
+/// # Errors
+/// At the path of the value that does not fit `T`.
+fn typed<T: serde::de::DeserializeOwned>(v: Value) -> Result<T, FieldError> {
+    serde_path_to_error::deserialize(v).map_err(FieldError::from_serde)
+}
+
+/// The settings of a run that must agree between its shards (`settings` of
+/// `tallies.json`); floats exact. The run-level fields of `summary.json`
+/// come from them ([`super::summary::BrdfSummary::new`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    /// Carlson bands.
+    pub bands: usize,
+    /// How the surface's edges are treated (`periodic`, `reflecting`, ...).
+    pub edges: String,
+    /// In-plane bin width (degrees).
+    #[serde(with = "exact")]
+    pub inplane_step_deg: f64,
+    /// In-plane detector full width (degrees).
+    #[serde(with = "exact")]
+    pub inplane_width_deg: f64,
+    /// [`Launch::name`].
+    pub launch: String,
+    /// History cap on reflections.
+    pub max_bounces: u32,
+    /// History cap on straight flights.
+    pub max_segments: u32,
+    /// The scene's `name`.
+    pub name: String,
+    /// Incidence azimuth (degrees).
+    #[serde(with = "exact")]
+    pub phi_deg: f64,
+    /// Photons per incidence of the whole run.
+    pub photons_per_incidence: u64,
+    /// Polarised transport (absent: scalar).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polarisation: Option<PolarisationSettings<Exact>>,
+    /// Russian roulette threshold weight.
+    #[serde(with = "exact")]
+    pub roulette_weight: f64,
+    /// The scene file as given.
+    pub scene: String,
+    /// Tracing seed.
+    pub seed: u64,
+    /// Statistics of the surface's height map.
+    pub surface: Surface<Exact>,
+    /// [`Symmetry::name`].
+    pub symmetry: String,
+    /// Incidence polar angles (degrees).
+    #[serde(with = "exact::vec")]
+    pub theta_deg: Vec<f64>,
+    /// The roks version that ran it.
+    pub version: String,
+}
+
+impl Settings {
+    /// The settings of `run` of scene file `scene` named `name`, its
+    /// surface's `edges` and height-map statistics `surface`.
+    #[must_use]
+    pub fn new(scene: &str, name: &str, edges: &str, run: &BrdfRun, surface: Surface<f64>) -> Self {
+        let p = &run.polarisation;
+        Self {
+            bands: run.bands,
+            edges: edges.to_owned(),
+            inplane_step_deg: run.inplane_step_deg,
+            inplane_width_deg: run.inplane_width_deg,
+            launch: run.launch.name().to_owned(),
+            max_bounces: run.controls.max_bounces,
+            max_segments: run.controls.max_segments,
+            name: name.to_owned(),
+            phi_deg: run.phi_deg,
+            photons_per_incidence: run.photons,
+            polarisation: p.transport.then(|| PolarisationSettings {
+                incident: p.incident.name(),
+                incident_stokes: p.incident.stokes().map(Exact).to_vec(),
+                tally: p.tally.name().to_owned(),
+                transport: "stokes".to_owned(),
+            }),
+            roulette_weight: run.controls.roulette_weight,
+            scene: scene.to_owned(),
+            seed: run.seed,
+            surface: surface.map(Exact),
+            symmetry: run.symmetry.name().to_owned(),
+            theta_deg: run.theta_deg.clone(),
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+        }
+    }
+
+    /// The first key (in file order) whose value differs from `other`'s.
+    fn first_difference(&self, other: &Self) -> String {
+        let (a, b) = (
+            serde_json::to_value(self).unwrap_or_default(),
+            serde_json::to_value(other).unwrap_or_default(),
+        );
+        let keys = |v: &Value| {
+            v.as_object()
+                .map(|m| m.keys().cloned().collect::<Vec<_>>())
+                .unwrap_or_default()
+        };
+        let mut all = keys(&a);
+        all.extend(keys(&b));
+        all.into_iter()
+            .find(|k| a.get(k) != b.get(k))
+            .unwrap_or_default()
+    }
+}
+
+/// The key of `settings` holding the run value a scene holds at
+/// `scene_key` (as [`BrdfRun::check`] names it): `light.photons` is
+/// `photons_per_incidence`, the others lose their section
+/// (`tally.bands` is `bands`, `light.theta_deg[1]` is `theta_deg[1]`).
+#[must_use]
+pub fn settings_key(scene_key: &str) -> String {
+    if scene_key == "light.photons" {
+        return "photons_per_incidence".into();
+    }
+    scene_key
+        .split_once('.')
+        .map_or(scene_key, |(_, rest)| rest)
+        .to_owned()
+}
+
+/// The polarisation of `settings` (scalar transport when absent).
+fn polarisation_from_settings(
+    s: &Settings,
+    symmetry: Symmetry,
+) -> Result<Polarisation, FieldError> {
+    let Some(p) = &s.polarisation else {
+        return Ok(Polarisation::default());
+    };
+    let stokes: [f64; 4] = match p.incident_stokes.as_slice() {
+        [a, b, c, d] => [a.0, b.0, c.0, d.0],
+        other => {
+            return Err(FieldError::new(
+                "polarisation.incident_stokes",
+                format!("{} values, expected 4", other.len()),
+            ));
+        }
+    };
+    let incident = Incident::Stokes(stokes);
+    incident
+        .validate()
+        .map_err(|e| FieldError::new("polarisation.incident_stokes", e))?;
+    let tally = PolarTally::from_name(&p.tally)
+        .ok_or_else(|| FieldError::new("polarisation.tally", format!("unknown `{}`", p.tally)))?;
+    Polarisation::resolve(true, Some(true), incident, tally, symmetry).map_err(|(key, e)| {
+        let key = if key == "tally.symmetry" {
+            "symmetry"
+        } else {
+            "polarisation"
+        };
+        FieldError::new(key, e)
+    })
+}
+
+/// The run `settings` describe (all photons, from index 0), checked as a
+/// scene's run is ([`BrdfRun::check`]).
+///
+/// # Errors
+/// On an invalid field, at its key under `settings`' root (e.g. `bands`).
+pub fn run_from_settings(s: &Settings) -> Result<BrdfRun, FieldError> {
+    let symmetry = Symmetry::from_name(&s.symmetry)
+        .ok_or_else(|| FieldError::new("symmetry", format!("unknown `{}`", s.symmetry)))?;
+    let run = BrdfRun {
+        theta_deg: s.theta_deg.clone(),
+        phi_deg: s.phi_deg,
+        photons: s.photons_per_incidence,
+        first_photon: 0,
+        seed: s.seed,
+        bands: s.bands,
+        inplane_step_deg: s.inplane_step_deg,
+        inplane_width_deg: s.inplane_width_deg,
+        controls: Controls {
+            max_bounces: s.max_bounces,
+            roulette_weight: s.roulette_weight,
+            max_segments: s.max_segments,
+        },
+        launch: Launch::from_name(&s.launch)
+            .ok_or_else(|| FieldError::new("launch", format!("unknown `{}`", s.launch)))?,
+        symmetry,
+        polarisation: polarisation_from_settings(s, symmetry)?,
+    };
+    run.check()
+        .map_err(|(key, e)| FieldError::new(settings_key(&key), e))?;
+    Ok(run)
+}
+
+/// `shard` of `tallies.json`: which block of how many.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShardIndex {
+    /// Number of blocks.
+    pub count: u64,
+    /// 0-based block index.
+    pub index: u64,
+}
+
+/// A complete node of the batch tree as stored: its sums `T`
+/// ([`BrdfTallies`]; read first as a JSON value, then checked against the
+/// run, see [`checked_nodes`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeFile<T = BrdfTallies> {
+    /// Position among the nodes of its level.
+    pub index: u64,
+    /// Height above the leaves (0: one batch).
+    pub level: u64,
+    /// The sums of the batches it covers.
+    pub tallies: T,
+}
+
+/// One incidence angle of `tallies.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IncidenceNodes<T = BrdfTallies> {
+    /// Complete tree nodes, in batch order.
+    pub nodes: Vec<NodeFile<T>>,
+    /// Photons of this file at this angle.
+    pub photons: u64,
+    /// Wall-clock time (s).
+    #[serde(with = "exact")]
+    pub seconds: f64,
+    /// Incidence polar angle (degrees).
+    #[serde(with = "exact")]
+    pub theta_deg: f64,
+}
+
+/// The whole `tallies.json` (see the module docs), with node sums `T`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TalliesFile<T = BrdfTallies> {
+    /// Photons per batch ([`BATCH`]).
+    pub batch: u64,
+    /// First photon index held.
+    pub first_photon: u64,
+    /// [`FORMAT`].
+    pub format: String,
+    /// [`FORMAT_VERSION`].
+    pub format_version: u64,
+    /// Per incidence angle of the run.
+    pub incidence: Vec<IncidenceNodes<T>>,
+    /// One past the last photon index held.
+    pub last_photon: u64,
+    /// Total wall-clock time (s).
+    #[serde(with = "exact")]
+    pub seconds: f64,
+    /// The run's settings.
+    pub settings: Settings,
+    /// Which block of the run.
+    pub shard: ShardIndex,
+}
+
+impl TalliesFile {
+    /// The file of shard `shard` holding photons `[first, last)`, per
+    /// incidence `(theta_deg, seconds, nodes)`, with total time `seconds`.
+    #[must_use]
+    pub fn new(
+        settings: &Settings,
+        shard: Shard,
+        (first, last): (u64, u64),
+        incidence: Vec<(f64, f64, Vec<Node<BrdfTallies>>)>,
+        seconds: f64,
+    ) -> Self {
+        Self {
+            batch: BATCH,
+            first_photon: first,
+            format: FORMAT.to_owned(),
+            format_version: FORMAT_VERSION,
+            incidence: incidence
+                .into_iter()
+                .map(|(theta_deg, seconds, nodes)| IncidenceNodes {
+                    photons: nodes.iter().map(|n| n.value.photons).sum(),
+                    nodes: nodes
+                        .into_iter()
+                        .map(|n| NodeFile {
+                            index: n.index,
+                            level: u64::from(n.level),
+                            tallies: n.value,
+                        })
+                        .collect(),
+                    seconds,
+                    theta_deg,
+                })
+                .collect(),
+            last_photon: last,
+            seconds,
+            settings: settings.clone(),
+            shard: ShardIndex {
+                count: shard.count,
+                index: shard.index,
+            },
+        }
+    }
+
+    /// The file's text: compact JSON and a line end.
+    ///
+    /// # Panics
+    /// Never: every value serialises.
+    #[must_use]
+    pub fn to_text(&self) -> String {
+        serde_json::to_string(self).expect("tallies serialise") + "\n"
+    }
+}
+
+/// Check that tallies read from a file have the layout of `run`: its
+/// Carlson cells, in-plane bins, bounce bins, replicates of its launch and
+/// polarisation tally, and `photons` photons.
+///
+/// # Errors
+/// The first mismatch, at its key.
+pub fn check_layout(t: &BrdfTallies, run: &BrdfRun, photons: u64) -> Result<(), FieldError> {
+    if t.photons != photons {
+        return Err(FieldError::new(
+            "photons",
+            format!("{} is not the {photons} photons of its batches", t.photons),
+        ));
+    }
+    let cells = run.grid().n_cells();
+    let bins = run.inplane().n_bins();
+    let expected_replicates = run.launch.replicates();
+    let replicates = t.replicates.as_ref().map(|r| r.count);
+    if replicates.map(|k| k as u64) != expected_replicates {
+        return Err(FieldError::new(
+            "replicates",
+            match expected_replicates {
+                Some(k) => format!("a lattice run needs {{count: {k}, ...}}"),
+                None => "must be null for a random launch".into(),
+            },
+        ));
+    }
+    let len = |xs: &[f64], key: &str, n: usize| -> Result<(), FieldError> {
+        if xs.len() == n {
+            Ok(())
+        } else {
+            Err(FieldError::new(
+                key,
+                format!("{} values, expected {n}", xs.len()),
+            ))
+        }
+    };
+    let acc = |a: &Accumulator, key: &str, n: usize| -> Result<(), FieldError> {
+        len(&a.sum, &format!("{key}.sum"), n)?;
+        len(&a.sum_sq, &format!("{key}.sum_sq"), n)
+    };
+    match (run.polarisation.tally, &t.polar) {
+        (PolarTally::None, None) => {}
+        (PolarTally::None, Some(_)) => {
+            return Err(FieldError::new("polar", "not expected for this run"));
+        }
+        (_, None) => return Err(FieldError::new("polar", "missing")),
+        (kind, Some(p)) => {
+            let k = kind.components();
+            if p.components != k {
+                return Err(FieldError::new("polar.components", format!("expected {k}")));
+            }
+            let polar_bins = k * (1 + cells);
+            acc(&p.sums, "polar.sums", polar_bins)?;
+            match (replicates, &p.replicates) {
+                (None, None) => {}
+                (Some(r), Some(x)) => len(x, "polar.replicates", r * polar_bins)?,
+                _ => {
+                    return Err(FieldError::new(
+                        "polar.replicates",
+                        "does not match `replicates`",
+                    ));
+                }
+            }
+        }
+    }
+    acc(&t.reflected, "reflected", 1)?;
+    acc(&t.carlson, "carlson", cells)?;
+    acc(&t.inplane, "inplane", bins)?;
+    len(&t.by_bounces, "by_bounces", BOUNCE_BINS)?;
+    if let Some(r) = &t.replicates {
+        len(&r.reflected, "replicates.reflected", r.count)?;
+        len(&r.carlson, "replicates.carlson", r.count * cells)?;
+        len(&r.inplane, "replicates.inplane", r.count * bins)?;
+    }
+    Ok(())
+}
+
+/// Relative slack of the bounds in [`check_tallies`] for the rounding of
+/// sums of many terms (a tampered number is off by far more).
+const SUM_TOL: f64 = 1e-6;
+
+/// The bounds every tally of a run obeys, with `n` its photons: each
+/// history scores a weight in `[0, 1]` (photons start with weight 1 and no
+/// reflection, roulette survival or symmetry fold makes it larger), so per
+/// bin of `reflected`, `carlson` and `inplane`: `0 <= sum <= n`,
+/// `0 <= sum_sq <= sum` (`x² <= x`) and `sum² <= n sum_sq` (Cauchy-Schwarz);
+/// polarisation sums alike with `|sum| <= n` (`|s_i| <= s0`); `by_bounces`,
+/// the lost weights and the replicate sums in `[0, n]` (polarisation
+/// replicates `|x| <= n`); reflected plus lost weight at most `n`; counted
+/// histories at most `n`; `bounces <= n max_bounces`, `segments <= n
+/// max_segments`. All up to [`SUM_TOL`] relative.
+///
+/// # Errors
+/// The first value out of bounds, at its key.
+pub fn check_tallies(t: &BrdfTallies, run: &BrdfRun) -> Result<(), FieldError> {
+    let n = t.photons as f64;
+    let most = n * (1.0 + SUM_TOL) + 1e-12;
+    let in_range = |x: f64, key: String, signed: bool| -> Result<(), FieldError> {
+        if !signed && x < 0.0 {
+            return Err(FieldError::new(key, format!("{x} must be >= 0")));
+        }
+        if x.abs() > most {
+            return Err(FieldError::new(
+                key,
+                format!(
+                    "{x} exceeds the {} photons of the tally (each photon carries a weight of at most 1)",
+                    t.photons
+                ),
+            ));
+        }
+        Ok(())
+    };
+    let acc = |a: &Accumulator, key: &str, signed: bool| -> Result<(), FieldError> {
+        for (i, (&s, &q)) in a.sum.iter().zip(&a.sum_sq).enumerate() {
+            in_range(s, format!("{key}.sum[{i}]"), signed)?;
+            in_range(q, format!("{key}.sum_sq[{i}]"), false)?;
+            if !signed && q > s * (1.0 + SUM_TOL) + 1e-300 {
+                return Err(FieldError::new(
+                    format!("{key}.sum_sq[{i}]"),
+                    format!("{q} exceeds the sum {s} (scores of at most 1 have x² <= x)"),
+                ));
+            }
+            if s * s > n * q * (1.0 + SUM_TOL) + 1e-300 {
+                return Err(FieldError::new(
+                    format!("{key}.sum_sq[{i}]"),
+                    format!(
+                        "{q} is too small for the sum {s} over {} photons (sum² <= photons × sum_sq)",
+                        t.photons
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    };
+    acc(&t.reflected, "reflected", false)?;
+    acc(&t.carlson, "carlson", false)?;
+    acc(&t.inplane, "inplane", false)?;
+    for (i, &x) in t.by_bounces.iter().enumerate() {
+        in_range(x, format!("by_bounces[{i}]"), false)?;
+    }
+    for (x, key) in [
+        (t.lost_walls, "lost_walls"),
+        (t.lost_cap, "lost_cap"),
+        (t.lost_numeric, "lost_numeric"),
+    ] {
+        in_range(x, key.into(), false)?;
+    }
+    let spent = t.reflected.sum[0] + t.lost_walls + t.lost_cap + t.lost_numeric;
+    if spent > most {
+        return Err(FieldError::new(
+            "reflected.sum[0]",
+            format!(
+                "reflected plus lost weight {spent} exceeds the {} photons launched",
+                t.photons
+            ),
+        ));
+    }
+    for (x, key) in [
+        (t.capped_histories, "capped_histories"),
+        (t.numeric_histories, "numeric_histories"),
+    ] {
+        if x > t.photons {
+            return Err(FieldError::new(
+                key,
+                format!("{x} histories of {} photons", t.photons),
+            ));
+        }
+    }
+    let c = &run.controls;
+    for (x, cap, key, what) in [
+        (t.bounces, c.max_bounces, "bounces", "max_bounces"),
+        (t.segments, c.max_segments, "segments", "max_segments"),
+    ] {
+        if u128::from(x) > u128::from(t.photons) * u128::from(cap) {
+            return Err(FieldError::new(
+                key,
+                format!("{x} exceeds {} photons × {what} {cap}", t.photons),
+            ));
+        }
+    }
+    if let Some(r) = &t.replicates {
+        for (xs, key) in [
+            (&r.reflected, "replicates.reflected"),
+            (&r.carlson, "replicates.carlson"),
+            (&r.inplane, "replicates.inplane"),
+        ] {
+            for (i, &x) in xs.iter().enumerate() {
+                in_range(x, format!("{key}[{i}]"), false)?;
+            }
+        }
+    }
+    if let Some(p) = &t.polar {
+        acc(&p.sums, "polar.sums", true)?;
+        for (i, &x) in p.replicates.iter().flatten().enumerate() {
+            in_range(x, format!("polar.replicates[{i}]"), true)?;
+        }
+    }
+    Ok(())
+}
+
+/// The tree nodes of one incidence of a file, checked for `run` (all its
+/// photons): each node of the tree over the run's batches, with a
+/// polarisation tally if the run has one, sums of the types of
+/// [`BrdfTallies`], the layout of the run ([`check_layout`]), exactly the
+/// photons of the batches it covers, and numbers within [`check_tallies`].
+///
+/// # Errors
+/// On a malformed node, at its key (`[k].tallies.photons`, ...).
+pub fn checked_nodes(
+    nodes: Vec<NodeFile<Value>>,
+    run: &BrdfRun,
+) -> Result<Vec<Node<BrdfTallies>>, FieldError> {
+    let batches = run.photons.div_ceil(BATCH);
+    let root_level = batches.max(1).next_power_of_two().trailing_zeros();
+    nodes
+        .into_iter()
+        .enumerate()
+        .map(|(k, n)| {
+            let at = format!("[{k}]");
+            if n.level > u64::from(root_level) {
+                return Err(FieldError::new(
+                    format!("{at}.level"),
+                    format!(
+                        "{} is above the root level {root_level} of the run's {batches} batches",
+                        n.level
+                    ),
+                ));
+            }
+            let tallies_at = format!("{at}.tallies");
+            let polar = n.tallies.get("polar").is_some();
+            match (run.polarisation.tally, polar) {
+                (PolarTally::None, true) => {
+                    return Err(FieldError::new(
+                        format!("{tallies_at}.polar"),
+                        "not expected for this run",
+                    ));
+                }
+                (PolarTally::Stokes | PolarTally::Mueller, false) => {
+                    return Err(FieldError::new(format!("{tallies_at}.polar"), "missing"));
+                }
+                _ => {}
+            }
+            let value: BrdfTallies = typed(n.tallies).map_err(|e| e.under(&tallies_at))?;
+            let node = Node {
+                level: n.level as u32, // <= 64
+                index: n.index,
+                value,
+            };
+            if node.start() >= u128::from(batches) {
+                return Err(FieldError::new(
+                    format!("{at}.index"),
+                    format!(
+                        "tree node ({}, {}) lies past the run's {batches} batches",
+                        node.level, node.index
+                    ),
+                ));
+            }
+            let first = node.start() * u128::from(BATCH);
+            let last = (node.end() * u128::from(BATCH)).min(u128::from(run.photons));
+            let photons = u64::try_from(last - first).unwrap_or(u64::MAX);
+            check_layout(&node.value, run, photons)
+                .and_then(|()| check_tallies(&node.value, run))
+                .map_err(|e| e.under(&tallies_at))?;
+            Ok(node)
+        })
+        .collect()
+}
+
+/// One shard folder's `tallies.json`, read and checked alone.
+#[derive(Debug, Clone)]
+pub struct ShardFile {
+    /// The folder.
+    pub dir: PathBuf,
+    /// `dir/tallies.json` as shown in messages.
+    pub file: String,
+    /// Its contents, the sums of each node still as JSON.
+    pub tallies: TalliesFile<Value>,
+}
+
+impl ShardFile {
+    /// Photon indices `[first, last)` it holds.
+    #[must_use]
+    pub fn photons(&self) -> (u64, u64) {
+        (self.tallies.first_photon, self.tallies.last_photon)
+    }
+}
+
+/// Read `dir/tallies.json`: JSON of [`FORMAT`] version [`FORMAT_VERSION`]
+/// with the fields of [`TalliesFile`], `first_photon <= last_photon` and
+/// `batch` = [`BATCH`].
+///
+/// # Errors
+/// One [`SceneError`] naming the file and the key.
+pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
+    let path = dir.join(TALLIES_FILE);
+    let file = path.display().to_string();
+    let err = |key: &str, message: String| FieldError::new(key, message).in_file(&file);
+    let text = std::fs::read_to_string(&path).map_err(|e| err("", format!("cannot read: {e}")))?;
+    let v: Value =
+        serde_json::from_str(&text).map_err(|e| err("", format!("invalid JSON: {e}")))?;
+    if v["format"] != FORMAT || v["format_version"] != FORMAT_VERSION {
+        return Err(err(
+            "format",
+            format!(
+                "not a roks tallies file (format \"{FORMAT}\", format_version {FORMAT_VERSION})"
+            ),
+        ));
+    }
+    let batch = v["batch"].clone();
+    let tallies: TalliesFile<Value> = typed(v).map_err(|e| e.in_file(&file))?;
+    if tallies.batch != BATCH {
+        return Err(err(
+            "batch",
+            format!("{batch} is not this version's batch of {BATCH} photons"),
+        ));
+    }
+    let (first, last) = (tallies.first_photon, tallies.last_photon);
+    if last < first {
+        return Err(err(
+            "last_photon",
+            format!("{last} is below first_photon = {first}"),
+        ));
+    }
+    Ok(ShardFile {
+        dir: dir.to_path_buf(),
+        file,
+        tallies,
+    })
+}
+
+/// One incidence of merged shards: angle (degrees), summed wall-clock
+/// time (s) and the root tallies.
+#[derive(Debug, Clone)]
+pub struct MergedIncidence {
+    /// Incidence polar angle (degrees).
+    pub theta_deg: f64,
+    /// Sum of the shards' times (s).
+    pub seconds: f64,
+    /// The sums over the whole run (the tree's root).
+    pub tallies: BrdfTallies,
+}
+
+/// Shards of one run, checked against each other and summed.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    /// The run (all photons).
+    pub run: BrdfRun,
+    /// Its settings, as in every shard.
+    pub settings: Settings,
+    /// Per incidence angle of the run.
+    pub incidence: Vec<MergedIncidence>,
+    /// Sum of the shards' total times (s).
+    pub seconds: f64,
+}
+
+impl Merged {
+    /// The merged run's own `tallies.json`: one shard of one, each
+    /// incidence's root node.
+    #[must_use]
+    pub fn tallies_file(&self) -> TalliesFile {
+        let batches = self.run.photons.div_ceil(BATCH);
+        let level = batches.next_power_of_two().trailing_zeros();
+        let incidence = self
+            .incidence
+            .iter()
+            .map(|i| {
+                let root = Node {
+                    level,
+                    index: 0,
+                    value: i.tallies.clone(),
+                };
+                (i.theta_deg, i.seconds, vec![root])
+            })
+            .collect();
+        TalliesFile::new(
+            &self.settings,
+            Shard { index: 0, count: 1 },
+            (0, self.run.photons),
+            incidence,
+            self.seconds,
+        )
+    }
+}
+
+/// Check that shards sorted by photon range tile the run's `total`
+/// photons in blocks of whole batches, without gaps or overlaps.
+///
+/// # Errors
+/// One [`SceneError`] naming the shard at fault.
+fn check_tiling(parts: &[ShardFile], total: u64) -> Result<(), SceneError> {
+    let mut next = 0;
+    for (k, p) in parts.iter().enumerate() {
+        let (first, last) = p.photons();
+        let err = |key: &str, m: String| Err(FieldError::new(key, m).in_file(&p.file));
+        if first % BATCH != 0 || last > total || (last % BATCH != 0 && last != total) {
+            return err(
+                if first % BATCH == 0 {
+                    "last_photon"
+                } else {
+                    "first_photon"
+                },
+                format!(
+                    "photons [{first}, {last}) are not a block of whole batches of the run's {total}"
+                ),
+            );
+        }
+        if first < next {
+            return err(
+                "first_photon",
+                format!(
+                    "photons [{first}, {last}) overlap those of {}",
+                    parts[k - 1].file
+                ),
+            );
+        }
+        if first > next {
+            return err(
+                "first_photon",
+                format!("photons [{next}, {first}) are missing before this shard"),
+            );
+        }
+        next = last;
+    }
+    if next != total {
+        let last = &parts[parts.len() - 1];
+        return Err(FieldError::new(
+            "last_photon",
+            format!("photons [{next}, {total}) are missing after this shard"),
+        )
+        .in_file(&last.file));
+    }
+    Ok(())
+}
+
+/// Check that `nodes` tile exactly the batches `[first / BATCH, ceil(last
+/// / BATCH))` of a shard, in order, in a run of `batches` batches.
+fn check_node_tiling(
+    nodes: &[Node<BrdfTallies>],
+    (first, last): (u64, u64),
+    batches: u64,
+) -> Result<(), FieldError> {
+    let mut b = u128::from(first / BATCH);
+    let end = u128::from(last.div_ceil(BATCH));
+    for (k, node) in nodes.iter().enumerate() {
+        if node.start() != b || node.end().min(u128::from(batches)) > end {
+            return Err(FieldError::new(
+                format!("nodes[{k}]"),
+                format!(
+                    "tree node ({}, {}) covers batches [{}, {}), not the next of this shard's batches [{}, {end}) from {b}",
+                    node.level,
+                    node.index,
+                    node.start(),
+                    node.end().min(u128::from(batches)),
+                    first / BATCH
+                ),
+            ));
+        }
+        b = node.end().min(u128::from(batches));
+    }
+    if b != end {
+        return Err(FieldError::new(
+            "nodes",
+            format!(
+                "cover batches up to {b}, but this shard holds [{}, {end})",
+                first / BATCH
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A time read from a file: not negative.
+fn check_seconds(s: f64) -> Result<f64, FieldError> {
+    if s < 0.0 {
+        return Err(FieldError::new("seconds", format!("{s} must be >= 0")));
+    }
+    Ok(s)
+}
+
+/// Merge shard files (any order): equal `settings` that describe a valid
+/// run ([`run_from_settings`]), photon ranges that tile the run in whole
+/// batches, per shard an `incidence` list of the run's angles whose nodes
+/// tile exactly that shard's batches and pass [`checked_nodes`], and
+/// counts that add up without overflow. The nodes of all shards are pushed
+/// in photon order into one [`DyadicSum`] per incidence: its root is the
+/// single run's sum bit for bit.
+///
+/// # Errors
+/// One [`SceneError`] naming the shard file at fault and the key (JSON
+/// path) of the value.
+pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
+    let Some(p0) = parts.first() else {
+        return Err(FieldError::new("", "no shard folders").in_file("merge"));
+    };
+    let settings = p0.tallies.settings.clone();
+    let f0 = p0.file.clone();
+    for p in &parts[1..] {
+        if p.tallies.settings != settings {
+            let key = settings.first_difference(&p.tallies.settings);
+            return Err(FieldError::new(
+                join_key("settings", &key),
+                format!("differs from {f0} (`{key}` differs: not a shard of the same run)"),
+            )
+            .in_file(&p.file));
+        }
+    }
+    let run = run_from_settings(&settings).map_err(|e| e.under("settings").in_file(&f0))?;
+    let total = run.photons;
+    parts.sort_by_key(ShardFile::photons);
+    check_tiling(&parts, total)?;
+
+    let batches = total.div_ceil(BATCH);
+    let mut seconds = 0.0;
+    for p in &parts {
+        let at = |e: FieldError| e.in_file(&p.file);
+        seconds += check_seconds(p.tallies.seconds).map_err(at)?;
+        let n = p.tallies.incidence.len();
+        if n != run.theta_deg.len() {
+            return Err(at(FieldError::new(
+                "incidence",
+                format!(
+                    "must list the run's {} incidence angles, found {n}",
+                    run.theta_deg.len()
+                ),
+            )));
+        }
+    }
+    let mut sums: Vec<(DyadicSum<BrdfTallies>, f64, u64)> = run
+        .theta_deg
+        .iter()
+        .map(|_| (DyadicSum::new(batches), 0.0, 0))
+        .collect();
+    for p in parts {
+        let range = p.photons();
+        for (i, (inc, (sum, secs, tests))) in
+            p.tallies.incidence.into_iter().zip(&mut sums).enumerate()
+        {
+            let key = format!("incidence[{i}]");
+            let at = |e: FieldError| e.under(&key).in_file(&p.file);
+            let theta = run.theta_deg[i];
+            if inc.theta_deg.to_bits() != theta.to_bits() {
+                return Err(at(FieldError::new(
+                    "theta_deg",
+                    format!("{} is not settings.theta_deg[{i}] = {theta}", inc.theta_deg),
+                )));
+            }
+            *secs += check_seconds(inc.seconds).map_err(at)?;
+            let nodes = checked_nodes(inc.nodes, &run).map_err(|e| at(e.under("nodes")))?;
+            check_node_tiling(&nodes, range, batches).map_err(at)?;
+            if inc.photons != range.1 - range.0 {
+                return Err(at(FieldError::new(
+                    "photons",
+                    format!(
+                        "{} is not last_photon - first_photon = {}",
+                        inc.photons,
+                        range.1 - range.0
+                    ),
+                )));
+            }
+            for (k, node) in nodes.into_iter().enumerate() {
+                *tests = tests
+                    .checked_add(node.value.intersection_tests)
+                    .ok_or_else(|| {
+                        at(FieldError::new(
+                            format!("nodes[{k}].tallies.intersection_tests"),
+                            "the shards' counts add up past 2^64",
+                        ))
+                    })?;
+                sum.push(node, &BrdfTallies::merge)
+                    .map_err(|e| at(FieldError::new(format!("nodes[{k}]"), e)))?;
+            }
+        }
+    }
+    let incidence = sums
+        .into_iter()
+        .zip(&run.theta_deg)
+        .enumerate()
+        .map(|(i, ((sum, seconds, _), &theta))| {
+            let tallies = sum
+                .finish()
+                .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0))?;
+            Ok(MergedIncidence {
+                theta_deg: theta,
+                seconds,
+                tallies,
+            })
+        })
+        .collect::<Result<Vec<_>, SceneError>>()?;
+    Ok(Merged {
+        run,
+        settings,
+        incidence,
+        seconds,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::brdf_folder::BrdfFolder;
+    use crate::output::summary::Surface;
+    use crate::scene::micro::MicroScene;
+
+    /// A small run of the default scene: 3 whole batches and a partial one.
+    fn scene_and_run() -> (MicroScene, BrdfRun) {
+        let scene = MicroScene::default_scene();
+        let mut run = scene.brdf_run();
+        run.photons = 3 * BATCH + 100;
+        run.theta_deg = vec![30.0, 70.0];
+        run.bands = 3;
+        (scene, run)
+    }
+
+    fn settings(run: &BrdfRun) -> Settings {
+        let surface = Surface {
+            height_map_resolution: 8,
+            max_height: Some(0.1 + 0.2),
+            mean_height: Some(1.0 / 3.0),
+            min_height: Some(0.0),
+            rms_slope: Some(1e-7),
+            sigma: None,
+            sigma_over_tau: None,
+            tau: None,
+            undefined: None,
+        };
+        Settings::new("s.toml", "s", "periodic", run, surface)
+    }
+
+    /// The shard folders' `tallies.json` of `run` cut in `count` blocks.
+    fn shards(scene: &MicroScene, run: &BrdfRun, count: u64) -> Vec<ShardFile> {
+        (0..count)
+            .map(|index| {
+                let f = BrdfFolder::trace(
+                    &scene.surface,
+                    run.clone(),
+                    settings(run),
+                    Some(Shard { index, count }),
+                    &|_| {},
+                )
+                .unwrap();
+                let text = f.tallies.unwrap().to_text();
+                ShardFile {
+                    dir: PathBuf::from(format!("s{index}")),
+                    file: format!("s{index}/tallies.json"),
+                    tallies: serde_json::from_str(&text).unwrap(),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn settings_round_trip_exactly_and_describe_the_run() {
+        let (_, run) = scene_and_run();
+        let s = settings(&run);
+        let text = serde_json::to_string(&s).unwrap();
+        assert!(
+            text.contains(r#""max_height":"0.30000000000000004""#),
+            "{text}"
+        );
+        assert!(text.contains(r#""sigma":null"#), "{text}");
+        let back: Settings = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, s);
+        let again = run_from_settings(&back).unwrap();
+        assert_eq!(again.theta_deg, run.theta_deg);
+        assert_eq!(again.photons, run.photons);
+        assert_eq!(again.bands, run.bands);
+        assert_eq!(again.seed, run.seed);
+        assert_eq!(again.launch, run.launch);
+        assert_eq!(
+            again.controls.roulette_weight.to_bits(),
+            run.controls.roulette_weight.to_bits()
+        );
+    }
+
+    #[test]
+    fn a_missing_or_bad_setting_is_named_by_its_key() {
+        let (_, run) = scene_and_run();
+        let mut v = serde_json::to_value(settings(&run)).unwrap();
+        v.as_object_mut().unwrap().remove("seed");
+        let e = typed::<Settings>(v).unwrap_err();
+        assert_eq!(e, FieldError::new("seed", "missing"));
+        let mut v = serde_json::to_value(settings(&run)).unwrap();
+        v["theta_deg"][1] = "NaN".into();
+        let e = typed::<Settings>(v).unwrap_err();
+        assert_eq!(
+            e,
+            FieldError::new("theta_deg[1]", "NaN is not a finite number")
+        );
+        let mut s = settings(&run);
+        s.bands = 0;
+        assert_eq!(run_from_settings(&s).unwrap_err().key, "bands");
+    }
+
+    #[test]
+    fn merged_shards_are_the_whole_run_bit_for_bit() {
+        let (scene, run) = scene_and_run();
+        let whole =
+            BrdfFolder::trace(&scene.surface, run.clone(), settings(&run), None, &|_| {}).unwrap();
+        for count in [2, 3, 4] {
+            let mut parts = shards(&scene, &run, count);
+            parts.reverse(); // any order
+            let merged = merge_shards(parts).unwrap();
+            assert_eq!(merged.settings, settings(&run));
+            for (m, w) in merged.incidence.iter().zip(&whole.results) {
+                assert_eq!(m.theta_deg, w.theta_i_deg);
+                // Equal bits (PartialEq on f64 would also accept -0 for 0).
+                assert_eq!(
+                    serde_json::to_string(&m.tallies).unwrap(),
+                    serde_json::to_string(&w.tallies).unwrap(),
+                    "{count} shards"
+                );
+            }
+            // The merge's own file holds the roots.
+            let file = merged.tallies_file();
+            assert_eq!((file.first_photon, file.last_photon), (0, run.photons));
+            assert_eq!(file.incidence[0].nodes.len(), 1);
+            assert_eq!(file.incidence[0].nodes[0].level, 2);
+        }
+    }
+
+    #[test]
+    fn shards_that_do_not_tile_the_run_are_refused() {
+        let (scene, run) = scene_and_run();
+        let parts = shards(&scene, &run, 3);
+        let gap = vec![parts[0].clone(), parts[2].clone()];
+        let e = merge_shards(gap).err().unwrap();
+        assert_eq!(
+            (e.file.as_str(), e.key.as_str()),
+            ("s2/tallies.json", "first_photon")
+        );
+        assert!(e.message.contains("are missing before this shard"), "{e}");
+        let twice = vec![
+            parts[0].clone(),
+            parts[0].clone(),
+            parts[1].clone(),
+            parts[2].clone(),
+        ];
+        let e = merge_shards(twice).err().unwrap();
+        assert!(
+            e.message.contains("overlap those of s0/tallies.json"),
+            "{e}"
+        );
+        let short = vec![parts[0].clone(), parts[1].clone()];
+        let e = merge_shards(short).err().unwrap();
+        assert_eq!(
+            (e.file.as_str(), e.key.as_str()),
+            ("s1/tallies.json", "last_photon")
+        );
+        let mut other = parts.clone();
+        other[1].tallies.settings.seed += 1;
+        let e = merge_shards(other).err().unwrap();
+        assert_eq!(
+            (e.file.as_str(), e.key.as_str()),
+            ("s1/tallies.json", "settings.seed")
+        );
+        assert!(e.message.contains("`seed` differs"), "{e}");
+        assert!(merge_shards(Vec::new()).is_err());
+    }
+
+    #[test]
+    fn nodes_must_tile_their_shard_and_hold_sound_sums() {
+        let (scene, run) = scene_and_run();
+        let mut parts = shards(&scene, &run, 2);
+        // The second shard's first node moved to the first shard.
+        let node = parts[1].tallies.incidence[0].nodes.remove(0);
+        parts[0].tallies.incidence[0].nodes.push(node);
+        let e = merge_shards(parts).err().unwrap();
+        assert_eq!(e.file, "s0/tallies.json");
+        assert!(e.key.starts_with("incidence[0].nodes["), "{e}");
+        let mut parts = shards(&scene, &run, 2);
+        parts[1].tallies.incidence[1].nodes[0].tallies["lost_walls"] = "-1.0".into();
+        let e = merge_shards(parts).err().unwrap();
+        assert_eq!(e.key, "incidence[1].nodes[0].tallies.lost_walls");
+        assert_eq!(e.message, "-1 must be >= 0");
+        let mut parts = shards(&scene, &run, 2);
+        parts[0].tallies.incidence[0].nodes[0].tallies["polar"] = serde_json::json!({});
+        let e = merge_shards(parts).err().unwrap();
+        assert_eq!(e.key, "incidence[0].nodes[0].tallies.polar");
+        assert_eq!(e.message, "not expected for this run");
+    }
+}
