@@ -1,5 +1,4 @@
-#!/usr/bin/env python3
-"""Tests of the Mitsuba plugin `roks_table` (scripts/roks_bsdf.py), through
+"""Tests of the Mitsuba plugin `roks_table` (`roks_tools.mitsuba.roks_table`), through
 Mitsuba's own BSDF interface (1-4 in the scalar_rgb variant, 5 in polarised
 variants):
 
@@ -33,30 +32,33 @@ variants):
    5. scalar_rgb unchanged by a mueller.csv beside the table;
    6. llvm_ad_mono_polarized: a batch = the numpy reference, sample, a
       `stokes` render through the plugin;
-   and with ``--roks BINARY``, end to end: ``roks brdf --polarisation
+   and end to end: ``roks brdf --polarisation
    mueller`` on a flat Al substrate -> the plugin at the specular direction
    (integrated over the cell) = Mitsuba's polarised ``conductor``, both
    modes, three light azimuths, within 4 standard errors plus float32.
 
 The reference reflectance is computed here from the CSV text (sum of the
 fractions of each block, linear in theta_i), independently of the plugin.
-Runs in about 20 s:
-
-    .venv/bin/python scripts/test_roks_bsdf.py [--roks target/release/roks]
+Every check is run and the failures are reported together.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import roks_bsdf  # noqa: E402
+from roks_tools.carlson import CarlsonGrid
+from roks_tools.mitsuba import roks_table as roks_bsdf
+from roks_tools.mitsuba.setup import _find_libllvm
+from roks_tools.results import PolarTable, read_columns
+from roks_tools.stats import chi2_critical
+
+pytestmark = pytest.mark.mitsuba
 
 M = 6  # bands: 84 cells
 THETAS = [0.0, 40.0, 80.0]
@@ -64,14 +66,9 @@ THETAS = [0.0, 40.0, 80.0]
 
 def grid(m: int):
     """(band, cell, mu_bot, mu_top, phi_lo, phi_hi, proj) per flat cell."""
-    k = m * (m + 1)
-    out = []
-    for j in range(1, m + 1):
-        dphi = 2 * math.pi / (4 * j)
-        for c in range(4 * j):
-            out.append((j, c, (k - j * (j + 1)) / k, (k - (j - 1) * j) / k, (c - 0.5) * dphi, (c + 0.5) * dphi,
-                        math.pi * (k - j * j) / (k * k)))
-    return out
+    g = CarlsonGrid(m)
+    return list(zip(g.band.tolist(), g.cell.tolist(), g.mu_bot.tolist(), g.mu_top.tolist(),
+                    g.phi_lo.tolist(), g.phi_hi.tolist(), g.projected_solid_angle.tolist()))
 
 
 def write_table(path: Path, blocks: list[tuple[float, float, np.ndarray]], m: int = M) -> None:
@@ -89,19 +86,15 @@ def write_table(path: Path, blocks: list[tuple[float, float, np.ndarray]], m: in
 
 
 def reference_reflectance(path: Path, theta_deg: float) -> float:
-    data = np.loadtxt(path, delimiter=",", skiprows=1)
-    thetas = sorted(set(data[:, 0]))
-    sums = [data[data[:, 0] == t, 12].sum() for t in thetas]
+    data = read_columns(path)
+    thetas = sorted(set(data["theta_i_deg"]))
+    sums = [data["fraction"][data["theta_i_deg"] == t].sum() for t in thetas]
     return float(np.interp(theta_deg, thetas, sums))
 
 
 def direction(theta: float, phi: float):
     return (math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi), math.cos(theta))
 
-
-def chi2_critical(dof: float, z: float = 3.719) -> float:
-    """Wilson-Hilferty upper quantile of chi-square, z = 3.719: p = 1e-4."""
-    return dof * (1 - 2 / (9 * dof) + z * math.sqrt(2 / (9 * dof))) ** 3
 
 
 # -- polarised variants ---------------------------------------------------
@@ -486,8 +479,7 @@ bands = {E2E_BANDS}
     plugin = mi.load_dict({"type": "roks_table", "filename": str(out / "brdf.csv")})
     cond = mi.load_dict({"type": "conductor", "eta": AL_N, "k": AL_K})
     table = roks_bsdf.CarlsonTable(out / "brdf.csv")
-    data = np.loadtxt(out / "mueller.csv", delimiter=",", skiprows=1)
-    se = data[:, 7::2].reshape(len(E2E_THETAS), table.fractions.shape[1], 4, 4)
+    se = PolarTable.read(out / "mueller.csv").stderr.reshape(len(E2E_THETAS), table.fractions.shape[1], 4, 4)
     worst_z, worst_rel, shown = 0.0, 0.0, None
     for t, theta_deg in enumerate(sorted(E2E_THETAS)):
         for gamma in (0.0, 0.8, -2.0):
@@ -515,25 +507,47 @@ bands = {E2E_BANDS}
         print("  60 deg, radiance, plugin:\n", shown[0], "\n  conductor:\n", shown[1])
 
 
-def main() -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--roks", help="roks binary: also the end-to-end polarised check (roks brdf -> plugin vs conductor)")
-    args = ap.parse_args()
-    import mitsuba_brdf  # for its libLLVM finder (the vectorised check)
-
-    lib = mitsuba_brdf._find_libllvm()
+def _variant(mi, name: str) -> None:
+    """Set a Mitsuba variant (LLVM found as the tracers do) with the plugin registered."""
+    lib = _find_libllvm()
     if lib:
         os.environ.setdefault("DRJIT_LIBLLVM_PATH", lib)
-    import mitsuba as mi
-
-    mi.set_variant("scalar_rgb")
+    mi.set_variant(name)
     roks_bsdf.register()
+
+
+class Checks:
+    """Collects failed checks, so one run reports them all."""
+
+    def __init__(self):
+        self.failures: list[str] = []
+
+    def __call__(self, ok: bool, what: str) -> None:
+        if not ok:
+            self.failures.append(what)
+            print("FAIL:", what)
+
+    def done(self) -> None:
+        assert not self.failures, "\n".join(self.failures)
+
+
+@pytest.mark.slow
+def test_polarised_variants(mi, roks):
+    """5: the polarised variants, with the end-to-end check on a `roks brdf` table."""
+    check = Checks()
+    _variant(mi, "scalar_rgb")
+    polarised_checks(check, np.random.default_rng(8), roks)
+    check.done()
+
+
+@pytest.mark.slow
+def test_scalar_rgb(mi, tmp_path):
+    """1-4 in scalar_rgb."""
+    _variant(mi, "scalar_rgb")
     rng = np.random.default_rng(7)
     g = grid(M)
     n_cells = len(g)
-    tmp = Path(tempfile.mkdtemp(prefix="roks-bsdf-"))
+    tmp = tmp_path
     fractions = []
     for t in THETAS:
         f = rng.random(n_cells) * 0.012
@@ -544,12 +558,7 @@ def main() -> int:
     bsdf = mi.load_dict({"type": "roks_table", "filename": str(path)})
     ctx = mi.BSDFContext()
     si = mi.SurfaceInteraction3f()
-    failures = []
-
-    def check(ok: bool, what: str) -> None:
-        if not ok:
-            failures.append(what)
-            print("FAIL:", what)
+    check = Checks()
 
     def ev(wi, wo) -> float:
         si.wi = mi.Vector3f(*wi)
@@ -641,12 +650,4 @@ def main() -> int:
     except Exception as e:  # Mitsuba wraps the plugin's exception
         check(str(broken) in str(e), f"error does not name the file: {e}")
 
-    # 5. Polarised variants (Mueller matrices from mueller.csv).
-    polarised_checks(check, rng, args.roks)
-
-    print("FAILED" if failures else "all checks passed")
-    return 1 if failures else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    check.done()

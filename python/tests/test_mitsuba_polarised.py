@@ -1,12 +1,10 @@
-#!/usr/bin/env python3
-"""Polarised Mitsuba cross-check (issue 12): exact checks of the polarised mode of
-scripts/mitsuba_brdf.py, then roks against it on a Gaussian height field.
-
-    .venv/bin/python scripts/test_mitsuba_polarised.py [--roks PATH] [--exact-only]
+"""Polarised Mitsuba cross-check: exact checks of the polarised mode of
+the Mitsuba tracer (`roks_tools.mitsuba.tracer`), then roks against it on a
+Gaussian height field (4, marked slow; `-m "not slow"` runs only 1-3).
 
 Run by `cargo test` through tests/mitsuba_chain.rs (which passes the roks
-binary it built). Plain asserts; about 30 s on 2 cores with the llvm
-variant (the scalar fallback is far slower).
+binary it built in $ROKS_BIN). About 30 s on 2 cores with the llvm variant
+(the scalar fallback is far slower).
 
 1. Mitsuba's convention, numerically: `mi.mueller.specular_reflection` for
    aluminium at 45 deg has element (2, 3) / (0, 0) = -0.205205 (roks's
@@ -28,9 +26,9 @@ variant (the scalar fallback is far slower).
 4. roks against Mitsuba on the exact mesh of a Gaussian height field
    (`roks export-mesh`; sigma/tau = 0.5, 32 x 32 grid squares), aluminium
    and 1.6 + 0.2i, incidence 0 and 50 deg: `roks brdf --polarisation mueller`
-   and `mitsuba_brdf.py --polarisation mueller`, compared by
-   `compare_brdf.compare` (reflectance, cells) and
-   `compare_brdf.compare_polarised` (reflected Mueller matrix z <= 4 per
+   and the tracer's `--polarisation mueller`, compared by
+   `roks_tools.compare.compare` (reflectance, cells) and
+   `roks_tools.compare.compare_polarised` (reflected Mueller matrix z <= 4 per
    component; chi2 per dof of every Mueller component over the cells with
    signal; largest cell |z| under the Bonferroni limit); and the same for
    Stokes tallies of light linearly polarised at 45 deg (elliptical after
@@ -43,27 +41,25 @@ variant (the scalar fallback is far slower).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import math
 import shutil
 import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-sys.path.insert(0, str(HERE))
+from roks_tools import compare as cb
+from roks_tools import meshes as mk
+from roks_tools.mitsuba import tracer as mb
+from roks_tools.mitsuba.setup import setup_mitsuba
+from roks_tools.runner import run
 
-import compare_brdf as cb  # noqa: E402
-import make_test_ply as mk  # noqa: E402
-import mitsuba_brdf as mb  # noqa: E402
-from roks_io import run  # noqa: E402
+pytestmark = pytest.mark.mitsuba
+TRACER = [sys.executable, "-m", "roks_tools.mitsuba.tracer"]
 
 AL = (1.015, 6.627)
 ABSORBER = (1.6, 0.2)
@@ -145,10 +141,11 @@ def check_command_line(tmp: Path, scalar_too: bool) -> None:
     for v in ["auto", "scalar"] if scalar_too else ["auto"]:
         for mode in ("stokes", "mueller"):
             out = tmp / f"cli_{v}_{mode}"
-            run([sys.executable, HERE / "mitsuba_brdf.py", tmp / "flat.ply", "--size", "2,2", "--theta", th,
+            run([*TRACER, tmp / "flat.ply", "--size", "2,2", "--theta", th,
                  "--photons", 50, "--n", ABSORBER[0], "--k", ABSORBER[1], "--bands", 4, "--polarisation", mode,
                  "--incident", inc, "--roulette-weight", 0, "--variant", v, "--out", out, "-q"],
                 "test_mitsuba_polarised", echo=False)
+            # read as text: s0 and brdf must be the same digits, not only the same numbers
             rows = list(csv.DictReader(open(out / f"{mode}.csv")))
             header = open(out / f"{mode}.csv").readline().strip()
             assert header == (mb.STOKES_HEADER if mode == "stokes" else mb.MUELLER_HEADER), header
@@ -171,7 +168,7 @@ def check_command_line(tmp: Path, scalar_too: bool) -> None:
                 for r, b in zip(rows, brdf):
                     s0 = sum(float(r[f"m0{j}"]) * want_j for j, want_j in enumerate(mb.parse_incident(inc)))
                     assert abs(s0 - float(b["brdf"])) <= 1e-8 * abs(s0) + 1e-300, (r, b)
-    p = subprocess.run([sys.executable, HERE / "mitsuba_brdf.py", tmp / "flat.ply", "--size", "2,2",
+    p = subprocess.run([*TRACER, tmp / "flat.ply", "--size", "2,2",
                         "--rho", "0.8", "--polarisation", "stokes", "--out", tmp / "no"], capture_output=True)
     assert p.returncode == 2 and b"--polarisation needs a Fresnel material" in p.stderr, p.stderr
     print(f"command line (headers, s0 = brdf, DoP 1, summary; variants {'auto, scalar' if scalar_too else 'auto'}): ok")
@@ -255,12 +252,12 @@ def check_gaussian(roks: str, tmp: Path, photons: int, mitsuba_photons: int) -> 
             scene.write_text(GAUSSIAN_SCENE.format(n=n, k=k, thetas=", ".join(f"{t:g}" for t in thetas),
                                                    photons=photons, incident=inc_scene, bands=BANDS))
             run([roks, "export-mesh", scene, "--out", work / "mesh.ply"], who, echo=False)
-            _, t_roks = run([roks, "brdf", scene, "--polarisation", mode, "-q", "--out", work / "roks"],
-                            who, echo=False)
-            _, t_mi = run([sys.executable, HERE / "mitsuba_brdf.py", work / "mesh.ply", "--size", "16,16",
+            t_roks = run([roks, "brdf", scene, "--polarisation", mode, "-q", "--out", work / "roks"],
+                         who, echo=False).wall_s
+            t_mi = run([*TRACER, work / "mesh.ply", "--size", "16,16",
                            "--theta", ",".join(f"{t:g}" for t in thetas), "--photons", mitsuba_photons,
                            "--n", n, "--k", k, "--bands", BANDS, "--polarisation", mode,
-                           "--incident", inc, "--out", work / "mitsuba", "-q"], who, echo=False)
+                        "--incident", inc, "--out", work / "mitsuba", "-q"], who, echo=False).wall_s
             rows = cb.compare(work / "roks", work / "mitsuba")
             prow = cb.compare_polarised(work / "roks", work / "mitsuba")
             print(f"n + ik = {n} + {k}i, {mode}, incident {inc} (roks {t_roks:.1f} s, Mitsuba {t_mi:.1f} s)")
@@ -281,27 +278,29 @@ def check_gaussian(roks: str, tmp: Path, photons: int, mitsuba_photons: int) -> 
     print("Gaussian height field, roks vs Mitsuba (Mueller, Stokes): ok; flipped handedness: fails")
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--roks", default=str(ROOT / "target" / "release" / "roks"))
-    ap.add_argument("--exact-only", action="store_true", help="only the exact checks 1-3 (no roks)")
-    ap.add_argument("--photons", type=int, default=1_000_000, help="roks photons per angle")
-    ap.add_argument("--mitsuba-photons", type=int, default=200_000)
-    a = ap.parse_args()
-    t0 = time.perf_counter()
-    mi = mb.setup_mitsuba("auto", polarised=True)
-    print(f"variant {mi.variant()}")
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        check_convention(mi)
-        check_flat(mi, tmp)
-        check_vgrooves(mi, tmp)
-        check_command_line(tmp, scalar_too=not mi.variant().startswith("scalar"))
-        if not a.exact_only:
-            check_gaussian(a.roks, tmp, a.photons, a.mitsuba_photons)
-    print(f"test_mitsuba_polarised: ok ({time.perf_counter() - t0:.1f} s)")
-    return 0
+@pytest.fixture
+def pmi():
+    """mitsuba in a polarised variant (llvm_ad_mono_polarized, else scalar_spectral_polarized)."""
+    return setup_mitsuba("auto", polarised=True)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+def test_mitsuba_convention(pmi):
+    check_convention(pmi)
+
+
+def test_flat_fresnel_plane(pmi, tmp_path):
+    check_flat(pmi, tmp_path)
+
+
+def test_vgrooves(pmi, tmp_path):
+    check_vgrooves(pmi, tmp_path)
+
+
+def test_command_line(pmi, tmp_path):
+    mk.write_ply(tmp_path / "flat.ply", *mk.flat(2.0, 2.0))
+    check_command_line(tmp_path, scalar_too=not pmi.variant().startswith("scalar"))
+
+
+@pytest.mark.slow
+def test_gaussian_roks_vs_mitsuba(pmi, roks, tmp_path):
+    check_gaussian(roks, tmp_path, photons=1_000_000, mitsuba_photons=200_000)

@@ -1,12 +1,11 @@
-#!/usr/bin/env python3
 """Mitsuba 3 BSDF plugin `roks_table`: render with a BRDF table written by `roks brdf`.
 
 Register it, then use it like any BSDF:
 
     import mitsuba as mi
     mi.set_variant("scalar_rgb")            # or llvm_ad_rgb, see below
-    import roks_bsdf                        # scripts/ on sys.path
-    roks_bsdf.register()
+    from roks_tools.mitsuba import roks_table
+    roks_table.register()
     bsdf = mi.load_dict({"type": "roks_table", "filename": "out/default/brdf.csv"})
 
 Parameters
@@ -88,30 +87,26 @@ Variants: the arithmetic is numpy on whole arrays, so the plugin runs in
 variants (``llvm_ad_rgb``, ``llvm_ad_mono_polarized``, ...) in wavefront mode, i.e. with
 ``dr.set_flag(dr.JitFlag.SymbolicLoops, False)`` and
 ``dr.set_flag(dr.JitFlag.SymbolicCalls, False)`` (Python code called from a
-recorded loop cannot read values). Tests: scripts/test_roks_bsdf.py.
+recorded loop cannot read values). Tests: python/tests/test_roks_bsdf.py.
 """
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
-BRDF_HEADER = (
-    "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,"
-    "theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,"
-    "brdf,brdf_stderr"
-)
+from ..carlson import CarlsonGrid
+from ..results import BRDF_COLUMNS, MUELLER_COLUMNS, ResultError, read_columns
+
+BRDF_HEADER = ",".join(BRDF_COLUMNS)
 C_THETA_I, C_PHI_I, C_BAND, C_CELL, C_PROJ, C_FRACTION = 0, 1, 2, 3, 11, 12
-MUELLER_HEADER = "theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg," + ",".join(
-    f"m{i}{j},m{i}{j}_stderr" for i in range(4) for j in range(4)
-)
+MUELLER_HEADER = ",".join(MUELLER_COLUMNS)
 # Q = diag(1, 1, -1, 1): Mueller reciprocity M(o -> i) = Q M(i -> o)^T Q.
 Q_SIGNS = np.array([1.0, 1.0, -1.0, 1.0])
 
 
-class TableError(ValueError):
+class TableError(ResultError):
     """A brdf.csv this plugin cannot use (message names the file)."""
 
 
@@ -120,13 +115,10 @@ def _read_table(path: Path, header: str, what: str, columns: int) -> np.ndarray:
     exactly `header`, as a 2-D array of `columns` finite columns; a
     TableError naming the file otherwise."""
     try:
-        with path.open() as f:
-            found = f.readline().lstrip("\ufeff").strip()
-            if found != header:
-                raise TableError(f"{path}: line 1: not the {what} header of roks")
-            data = np.loadtxt(f, delimiter=",", ndmin=2)
-    except (OSError, ValueError) as e:
-        raise TableError(f"{path}: cannot read: {e}") from e
+        cols = read_columns(path, tuple(header.split(",")))
+    except ResultError as e:
+        raise TableError(str(e)) from e
+    data = np.stack(list(cols.values()), axis=1)
     if data.shape[0] == 0 or data.shape[1] != columns or not np.all(np.isfinite(data)):
         raise TableError(f"{path}: no data rows, or not {columns} finite columns")
     return data
@@ -145,14 +137,16 @@ class CarlsonTable:
         starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
         sizes = np.diff(np.r_[starts, len(data)])
         rows = int(sizes[0])
-        m = int(round((-1 + math.sqrt(1 + 2 * rows)) / 2))
-        if np.any(sizes != rows) or 2 * m * (m + 1) != rows:
+        try:
+            grid = CarlsonGrid.of_cells(rows)
+        except ValueError:
+            grid = None
+        if grid is None or np.any(sizes != rows):
             raise TableError(f"{path}: incidence blocks are not complete Carlson grids of one size")
-        self.bands = m
-        k = m * (m + 1)
-        self.k = k
-        band = np.concatenate([np.full(4 * j, j) for j in range(1, m + 1)])
-        cell = np.concatenate([np.arange(4 * j) for j in range(1, m + 1)])
+        self.grid = grid
+        m = self.bands = grid.bands
+        k = self.k = grid.k
+        band, cell = grid.band, grid.cell
         for s in starts:
             block = data[s : s + rows]
             if np.any(block[:, C_BAND] != band) or np.any(block[:, C_CELL] != cell):
@@ -175,15 +169,12 @@ class CarlsonTable:
         self.reflectance = self.cdf[:, -1].copy()
         positive = self.fractions > 0
         self.last_positive = np.where(positive.any(axis=1), rows - 1 - np.argmax(positive[:, ::-1], axis=1), -1)
-        # Cell geometry from the grid (as CarlsonGrid): mu edges as integer
-        # ratios, projected solid angle pi (K - j^2) / K^2.
+        # Cell geometry from the grid: mu edges as integer ratios, projected
+        # solid angle pi (K - j^2) / K^2.
         self.band = band
-        self.mu_bot = (k - band * (band + 1)) / k
-        self.mu_top = (k - (band - 1) * band) / k
-        dphi = 2 * math.pi / (4 * band)
-        self.phi_lo = (cell - 0.5) * dphi
-        self.phi_hi = (cell + 0.5) * dphi
-        self.proj = math.pi * (k - band * band) / (k * k)
+        self.mu_bot, self.mu_top = grid.mu_bot, grid.mu_top
+        self.phi_lo, self.phi_hi = grid.phi_lo, grid.phi_hi
+        self.proj = grid.projected_solid_angle
         if np.any(np.abs(data[:rows, C_PROJ] - self.proj) > 1e-6 * self.proj):
             raise TableError(f"{path}: projected_solid_angle_sr does not match the Carlson grid of {m} bands")
 
@@ -202,8 +193,7 @@ class CarlsonTable:
         if data.shape[0] % k:
             raise TableError(f"{path}: {data.shape[0]} rows are not whole blocks of {k} cells")
         blocks = data.reshape(-1, k, 38)
-        band = np.concatenate([np.full(4 * j, j) for j in range(1, self.bands + 1)])
-        cell = np.concatenate([np.arange(4 * j) for j in range(1, self.bands + 1)])
+        band, cell = self.grid.band, self.grid.cell
         for b, block in enumerate(blocks):
             if np.any(block[:, 0] != block[0, 0]) or np.any(block[:, 1] != block[0, 1]):
                 raise TableError(f"{path}: line {b * k + 2}: an incidence block is not {k} rows")
@@ -234,19 +224,7 @@ class CarlsonTable:
 
     def locate(self, d: np.ndarray) -> np.ndarray:
         """Flat Carlson cell of unit directions d (N, 3) with z > 0."""
-        mu = d[:, 2]
-        m, k = self.bands, self.k
-        x = (1.0 - mu) * k
-        j = np.clip(np.ceil((-1.0 + np.sqrt(1.0 + 4.0 * x)) / 2.0).astype(np.int64), 1, m)
-        for _ in range(2):  # correct the closed form against the exact edges
-            bot = (k - j * (j + 1)) / k
-            top = (k - (j - 1) * j) / k
-            j = np.where((j < m) & (mu < bot), j + 1, j)
-            j = np.where((j > 1) & (mu >= top), j - 1, j)
-        n = 4 * j
-        v = np.arctan2(d[:, 1], d[:, 0]) / (2 * math.pi / n) + 0.5 + n
-        c = np.mod(np.floor(v).astype(np.int64), n)
-        return 2 * j * (j - 1) + c
+        return self.grid.locate(d)
 
     def bracket(self, theta: np.ndarray):
         """(i0, i1, w): the value at theta is (1 - w) v[i0] + w v[i1]; clamped."""

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Beckmann microfacet model with Smith masking-shadowing, in numpy.
 
 An implementation independent of roks, for comparing roks's explicit rough

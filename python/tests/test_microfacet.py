@@ -1,8 +1,4 @@
-#!/usr/bin/env python3
-"""Checks of scripts/microfacet.py against exact identities and published numbers
-(plain asserts, about 20 s):
-
-    /work/main/.venv/bin/python scripts/test_microfacet.py
+"""Checks of `roks_tools.microfacet` against exact identities and published numbers:
 
 * Smith G1 of Beckmann at a = 1 / (alpha tan theta) = 0.2, 0.5, 1.0, 1.5:
   0.50851, 0.83358, 0.97549, 0.99713 (Heitz 2014, /work/shared/REFERENCE.md);
@@ -27,15 +23,12 @@
 from __future__ import annotations
 
 import math
-import sys
-import time
-from pathlib import Path
 
 import numpy as np
+import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import microfacet as mf  # noqa: E402
+from roks_tools import microfacet as mf
+from roks_tools.carlson import CarlsonGrid
 
 
 def albedo_slope_space(theta_i: float, alpha: float, order: int = 80) -> float:
@@ -132,22 +125,16 @@ def test_albedo_published():
 
 
 def test_carlson_sum():
-    bands = 32
-    rows = []
-    for j in range(1, bands + 1):
-        mu_top = 1 - (j - 1) * j / (bands * (bands + 1))
-        mu_bot = 1 - j * (j + 1) / (bands * (bands + 1))
-        width = 360.0 / (4 * j)
-        for c in range(4 * j):
-            rows.append((math.degrees(math.acos(mu_top)), math.degrees(math.acos(mu_bot)),
-                         (c - 0.5) * width, (c + 0.5) * width))
-    tl, th, pl, ph = map(np.array, zip(*rows))
+    g = CarlsonGrid(32)
+    tl, th = np.degrees(np.arccos(g.mu_top)), np.degrees(np.arccos(g.mu_bot))
+    pl, ph = np.degrees(g.phi_lo), np.degrees(g.phi_hi)
     for t in (0.0, 45.0):
         _, frac = mf.carlson_average(math.radians(t), tl, th, pl, ph, 0.5, order=8)
         e = mf.albedo_ss(math.radians(t), 0.5)
         assert abs(frac.sum() - e) < 2e-4, (t, frac.sum(), e)
 
 
+@pytest.mark.slow
 def test_heitz_walk():
     for alpha in (0.5, 1.0):
         for t in (0.0, 60.0):
@@ -160,17 +147,3 @@ def test_heitz_walk():
             assert abs(r.order_mean[1] - e) <= 4 * r.order_stderr[1], (alpha, t, r.order_mean[1], e)
             assert abs(r.nee_order_mean[1] - e) <= 4 * r.nee_order_stderr[1], (
                 alpha, t, r.nee_order_mean[1], e)
-
-
-def main() -> int:
-    tests = [v for k, v in globals().items() if k.startswith("test_") and callable(v)]
-    for t in tests:
-        t0 = time.monotonic()
-        t()
-        print(f"ok  {t.__name__}  ({time.monotonic() - t0:.1f} s)")
-    print(f"{len(tests)} tests passed")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

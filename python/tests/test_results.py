@@ -1,0 +1,142 @@
+"""The readers of `roks_tools.results` on files the roks binary writes (a
+tiny run of the default scene and of an object scene in a temporary folder),
+checked against the Carlson grid and the files' own invariants, and their
+refusals of broken files."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from roks_tools.carlson import CarlsonGrid
+from roks_tools.results import (HEADERS, BrdfResult, BrdfTable, InPlane, PolarTable, ResultError,
+                                Summary, TraceResult, read_columns)
+from roks_tools.runner import repo_root, run
+
+SCENES = repo_root() / "scenes"
+
+
+@pytest.fixture(scope="module")
+def brdf_runs(roks, tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("brdf")
+    for name, extra in (("plain", ["--theta", "0,60"]), ("mueller", ["--theta", "30", "--polarisation", "mueller"]),
+                        ("stokes", ["--theta", "30", "--polarisation", "stokes"])):
+        run([roks, "brdf", SCENES / "default.toml", "--photons", 4096, *extra, "--out", tmp / name, "-q"],
+            "test_results", echo=False)
+    return tmp
+
+
+@pytest.fixture(scope="module")
+def trace_run(roks, tmp_path_factory):
+    out = tmp_path_factory.mktemp("trace") / "cavity"
+    run([roks, "trace", SCENES / "cylinder-cavity.toml", "--photons", 2000, "--out", out, "-q"],
+        "test_results", echo=False)
+    return out
+
+
+def test_headers_are_the_files(brdf_runs, trace_run):
+    for path in [brdf_runs / "plain" / "brdf.csv", brdf_runs / "plain" / "inplane.csv",
+                 brdf_runs / "mueller" / "mueller.csv", brdf_runs / "stokes" / "stokes.csv",
+                 trace_run / "reflectance.csv", trace_run / "farfield.csv"]:
+        assert path.read_text().splitlines()[0] == ",".join(HEADERS[path.name]), path
+
+
+def test_brdf_result_against_grid_and_summary(brdf_runs):
+    r = BrdfResult.load(brdf_runs / "plain")
+    assert r.polar is None
+    assert [e.theta_deg for e in r.summary.incidence] == [0.0, 60.0]
+    assert r.brdf.incidences == [(0.0, 0.0), (60.0, 0.0)]
+    g = r.brdf.grid
+    assert g == CarlsonGrid(r.summary["bands"])
+    for e in r.summary.incidence:
+        b = r.brdf.at(e.theta_deg)
+        assert e.photons == 4096
+        assert np.array_equal(b.band, g.band) and np.array_equal(b.cell, g.cell)
+        # the cell columns are the grid's bounds (to the last bits of acos and the degree factor)
+        deg = dict(rtol=0, atol=1e-12)
+        assert np.allclose(b.theta_lo_deg, np.degrees(np.arccos(g.mu_top)), **deg)
+        assert np.allclose(b.theta_hi_deg, np.degrees(np.arccos(g.mu_bot)), **deg)
+        assert np.allclose(b.phi_lo_deg, np.degrees(g.phi_lo), **deg)
+        assert np.allclose(b.phi_hi_deg, np.degrees(g.phi_hi), **deg)
+        assert np.all(b.phi_lo_deg[b.cell == 0] < 0)
+        assert np.allclose(b.theta_deg, np.degrees(g.theta_centre), rtol=1e-15, atol=1e-13)
+        assert np.allclose(b.solid_angle_sr, g.solid_angle, rtol=1e-12, atol=0)
+        assert np.allclose(b.projected_solid_angle_sr, g.projected_solid_angle, rtol=1e-12, atol=0)
+        # fractions add up to the reflectance (10 digits each), brdf = fraction / projected
+        assert abs(b.fraction.sum() - e.reflectance) < 1e-8
+        assert abs(sum(e.reflectance_by_bounces) - e.reflectance) < 1e-12
+        assert np.allclose(b.brdf, b.fraction / b.projected_solid_angle_sr, rtol=1e-9, atol=0)
+        assert np.allclose(b.brdf_stderr, b.fraction_stderr / b.projected_solid_angle_sr, rtol=1e-9, atol=0)
+        assert np.all(b.fraction_stderr >= 0)
+    cells = r.brdf.cells()
+    assert set(cells) == {0.0, 60.0} and len(cells[60.0]) == g.n_cells
+    ip = r.inplane.at(60.0)
+    assert len(ip.theta_o_deg) == len(r.inplane.theta_o_deg) // 2
+    assert set(r.inplane.by_theta()) == {0.0, 60.0}
+
+
+def test_mueller_and_stokes_tables(brdf_runs):
+    m = BrdfResult.load(brdf_runs / "mueller")
+    assert m.polar is not None and m.polar.mode == "mueller" and m.polar.values.shape[1] == 16
+    assert np.array_equal(m.polar.band, m.brdf.band) and np.array_equal(m.polar.cell, m.brdf.cell)
+    # unpolarised incidence: brdf.csv holds m00
+    assert np.allclose(m.polar.values[:, 0], m.brdf.brdf, rtol=1e-8, atol=1e-300)
+    refl = m.summary.incidence[0]["reflected_mueller"]
+    assert len(refl) == 16 and abs(refl[0] - m.summary.incidence[0].reflectance) < 1e-12
+    s = BrdfResult.load(brdf_runs / "stokes")
+    assert s.polar.mode == "stokes" and s.polar.names == ("s0", "s1", "s2", "s3")
+    assert np.array_equal(s.polar.values[:, 0], s.brdf.brdf)
+    assert np.array_equal(s.polar.stderr[:, 0], s.brdf.brdf_stderr)
+    cells = s.polar.cells()[30.0]
+    assert len(cells) == s.brdf.grid.n_cells and len(cells[(1, 0)][0]) == 4
+
+
+def test_trace_result(trace_run):
+    t = TraceResult.load(trace_run)
+    sources = t.summary["sources"]
+    assert len(sources) == len(t.reflectance.x) > 0
+    assert np.allclose(t.reflectance.reflectance, [s["reflectance"] for s in sources], rtol=1e-8, atol=1e-300)
+    ff = t.farfield
+    n_sources = len(sources)
+    assert len(ff.source) % n_sources == 0
+    grid = CarlsonGrid.of_cells(len(ff.source) // n_sources // 2)  # both hemispheres
+    assert set(np.abs(ff.band).astype(int)) == set(range(1, grid.bands + 1))
+    for k in range(n_sources):
+        f = ff.fraction[ff.source == k]
+        assert abs(f.sum() - t.reflectance.reflectance[k]) < 1e-6 * max(1.0, f.sum()), k
+    assert np.allclose(ff.solid_angle_sr, grid.solid_angle, rtol=1e-12, atol=0)
+
+
+def test_broken_files_are_refused_naming_them(tmp_path):
+    bad = tmp_path / "brdf.csv"
+    bad.write_text("theta,phi\n1,2\n")
+    with pytest.raises(ResultError, match=str(bad)):
+        BrdfTable.read(bad)
+    ip = tmp_path / "inplane.csv"
+    ip.write_text(",".join(HEADERS["inplane.csv"]) + "\n0,1,x,2\n")
+    with pytest.raises(ResultError, match="inplane.csv"):
+        InPlane.read(ip)
+    ip.write_text(",".join(HEADERS["inplane.csv"]) + "\n")
+    with pytest.raises(ResultError, match="no data rows"):
+        read_columns(ip)
+    with pytest.raises(ResultError, match="not found"):
+        BrdfResult.load(tmp_path)
+    js = tmp_path / "summary.json"
+    js.write_text("[1, 2]")
+    with pytest.raises(ResultError, match="JSON object"):
+        Summary.read(js)
+    js.write_text('{"incidence": [{"theta_deg": 0}]}')
+    with pytest.raises(ResultError, match="summary.json"):
+        Summary.read(js)
+    with pytest.raises(ResultError):
+        PolarTable.read(tmp_path / "other.csv")
+
+
+def test_read_columns_any_header(tmp_path):
+    p = tmp_path / "rows.csv"
+    p.write_text("a,b\n1,2.5\n3,1e-3\n")
+    cols = read_columns(p)
+    assert list(cols) == ["a", "b"] and cols["b"].tolist() == [2.5, 1e-3]
+    assert math.isclose(cols["a"].sum(), 4.0)
