@@ -551,3 +551,122 @@ impl FitSummary {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::brdf_folder::BrdfFolder;
+    use crate::scene::micro::MicroScene;
+    use crate::shard::Shard;
+
+    /// The text with keys in declaration order equals the text of the same
+    /// JSON with sorted keys (`serde_json::Value` sorts them): the structs
+    /// keep the files' alphabetical key order.
+    fn assert_sorted<T: Serialize>(x: &T) {
+        let sorted = serde_json::to_value(x).unwrap();
+        assert_eq!(
+            to_text(x),
+            serde_json::to_string_pretty(&sorted).unwrap() + "\n"
+        );
+    }
+
+    #[test]
+    fn summaries_keep_the_keys_in_alphabetical_order() {
+        let scene = MicroScene::default_scene();
+        let mut run = scene.brdf_run();
+        run.photons = 5000;
+        run.theta_deg = vec![20.0];
+        run.bands = 2;
+        let stats = crate::micro::surface_stats::surface_stats(&scene.surface.height_map(16, 16));
+        let mut surface = Surface::new(&stats, 16);
+        surface.undefined = Some(Undefined {
+            sigma_over_tau: "tau is x".into(),
+            tau: "x".into(),
+        });
+        let mut settings =
+            super::super::tallies::Settings::new("s.toml", "s", "periodic", &run, surface);
+        settings.polarisation = Some(PolarisationSettings {
+            incident: "s".into(),
+            incident_stokes: vec![Exact(1.0), Exact(1.0), Exact(0.0), Exact(0.0)],
+            tally: "stokes".into(),
+            transport: "stokes".into(),
+        });
+        let folder = BrdfFolder::trace(
+            &scene.surface,
+            run,
+            settings,
+            Some(Shard { index: 1, count: 2 }),
+            &|_| {},
+        )
+        .unwrap();
+        let mut summary = folder.summary();
+        assert_eq!(summary.photons_per_incidence, 5000 - 4096);
+        assert!(summary.shard.is_some() && summary.polarisation.is_some());
+        summary.incidence[0].reflected_stokes = Some(vec![0.5; 4]);
+        summary.incidence[0].reflected_stokes_stderr = Some(vec![0.1; 4]);
+        assert_sorted(&summary);
+        summary.incidence[0].reflected_mueller = Some(vec![0.5; 16]);
+        summary.incidence[0].reflected_mueller_stderr = Some(vec![0.1; 16]);
+        assert_sorted(&summary);
+        assert_sorted(folder.tallies.as_ref().unwrap());
+
+        let position = PositionSummary {
+            absorbed: [("b".to_owned(), 0.1), ("a".to_owned(), 0.2)].into(),
+            absorbed_stderr: BTreeMap::new(),
+            diameter: 1.0,
+            direction: [0.0, 0.0, -1.0],
+            lost: 0.0,
+            mean_bounces: 1.5,
+            missed: 0.25,
+            photons: 10,
+            polarisation: Some("s".into()),
+            position: [1.0, 2.0, 3.0],
+            reflectance: 0.5,
+            reflectance_stderr: 0.01,
+            seconds: 0.1,
+            segments: 30,
+            stokes: Some([0.5, 0.1, 0.0, 0.0]),
+            stokes_stderr: Some([0.01; 4]),
+        };
+        assert_sorted(&TraceSummary {
+            name: "n".into(),
+            scene: "s.toml".into(),
+            seconds: 1.0,
+            seed: 1,
+            sources: vec![position],
+            version: "0".into(),
+        });
+        assert_sorted(&FitSummary {
+            converged: true,
+            evaluations: 2,
+            history: vec![
+                FitStep {
+                    misfit: Some(0.5),
+                    rejected: None,
+                    values: vec![1.0],
+                },
+                FitStep {
+                    misfit: None,
+                    rejected: Some("why".into()),
+                    values: vec![2.0],
+                },
+            ],
+            measured: "m.csv".into(),
+            misfit: 0.5,
+            parameters: vec![FitParameter {
+                at_bound: "none".into(),
+                fitted: 1.0,
+                hi: 2.0,
+                key: "k".into(),
+                lo: 0.0,
+                start: 1.5,
+            }],
+            photons: 100,
+            rejected_evaluations: 1,
+            scene: "s.toml".into(),
+            seed: 1,
+            start_misfit: 0.7,
+            version: "0".into(),
+        });
+    }
+}

@@ -9,6 +9,12 @@
 //! not such a string is refused with "expected a number as a string"; a
 //! string that reads as NaN or an infinity with "`x` is not a finite
 //! number".
+//!
+//! Strings rather than JSON numbers: they are read by Rust's exact float
+//! parser, so the round trip is exact without serde_json's
+//! `float_roundtrip` feature (which would also change how every other JSON
+//! number roks reads is parsed), and a number a file should not hold
+//! (`"NaN"`) is still a value that can be named in a message.
 
 use serde::de::{self, Deserializer, Unexpected, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
