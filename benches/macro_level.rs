@@ -4,7 +4,7 @@
 //!   of `scenes/` (a tube with 10, 100, 1000 annular vanes), one beam
 //!   position, one thread. The macro segments per photon are printed once,
 //!   so the criterion time converts to time per macro segment, the figure
-//!   that must stay within 2x from 10 to 1000 cells.
+//!   that must stay within 2x from 10 to 1000 zones.
 //! * `macro/radiator_micro`: the biconical radiator with micro walls (a
 //!   descent into the Z-302 geometry at every hit), one beam position, one
 //!   thread; throughput in photons.

@@ -2,20 +2,22 @@
 //! objects in geometric optics, after the program ROKS-RG (Klass, Shakhovsky,
 //! Badyuk, Ulyanov, J. Opt. Technol. 2014).
 //!
-//! Layout, by physics:
-//! * [`cli`]: the command line: one module per command over shared arguments,
-//!   value parsers and one-line messages (the binary only dispatches).
-//! * [`export`]: a micro surface as a triangle mesh (binary PLY for Mitsuba 3);
-//!   BRDF tables as Zemax tabular BSDF and MERL binary files.
-//! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
+//! Layout, by physics. The geometry sits at the bottom: [`geometry`] uses
+//! no other module, [`micro`] and [`object`] use it and [`optics`], and
+//! [`transport`] traces histories through them; [`scene`] builds all of
+//! them from files, and the commands put the pieces together.
 //! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
-//! * [`limits`]: the memory budget (`ROKS_MAX_MEMORY`): sizes estimated before allocating.
 //! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables),
 //!   BRDF tables, and polarisation (Stokes vectors, Fresnel Mueller matrices, frames).
-//! * [`micro`]: the explicit rough surface (substrate, bumps, edges) and its statistics.
-//! * [`object`]: the macro level: 3-D objects of quadric cells with rough walls.
-//! * [`transport`]: photon histories and what a photon carries (a weight, or a
-//!   Stokes vector or Mueller matrix with its frame), random streams, the BRDF generator.
+//! * [`micro`]: the micro level's geometry: one period of an explicit rough
+//!   surface (substrate and bumps or bodies, or a height field), its
+//!   acceleration grid and its statistics.
+//! * [`object`]: the macro level's geometry: a 3-D object of zones bounded
+//!   by quadrics, and its beams.
+//! * [`transport`]: photon histories at both levels and what a photon
+//!   carries (a weight, or a Stokes vector or Mueller matrix with its
+//!   frame), the wall models of objects, random streams, launch points,
+//!   the BRDF generator.
 //! * [`tally`]: angular grids (Carlson, in-plane), Stokes and Mueller tallies,
 //!   accumulators with standard errors, adding tallies ([`tally::Merge`]) and
 //!   the fixed batch tree every run sums over ([`tally::sum`]).
@@ -23,9 +25,66 @@
 //! * [`shard`]: splitting a BRDF run across machines in blocks of whole batches.
 //! * [`output`]: result files, one submodule per format (`brdf.csv`,
 //!   `summary.json`, `tallies.json`, ...), the result folder of `roks brdf`
-//!   and `roks merge`, written atomically.
+//!   and `roks merge`, written atomically; [`outdir`]: result folders
+//!   replaced whole.
+//! * [`export`]: a micro surface as a triangle mesh (binary PLY for Mitsuba 3);
+//!   BRDF tables as Zemax tabular BSDF and MERL binary files.
+//! * [`render`]: radiance maps of a micro surface or an object (EXR, PNG preview).
+//! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
-//! * [`render`]: radiance maps of a micro surface (EXR, PNG preview).
+//! * [`limits`]: the memory budget (`ROKS_MAX_MEMORY`): sizes estimated before allocating.
+//! * [`cli`]: the command line: one module per command over shared arguments,
+//!   value parsers and one-line messages (the binary only dispatches).
+//!
+//! # Glossary
+//!
+//! One word per concept; scene keys and file columns keep their historical
+//! names, which the glossary gives where they differ.
+//! * **Micro level, macro level**: the rough surface traced explicitly
+//!   ([`micro`]), and a 3-D object whose walls may descend into one ([`object`]).
+//! * **Period**: the rectangle `[0, Lx] x [0, Ly]` of a micro surface
+//!   (`surface.size` in a scene file, which calls it the cell), tiled
+//!   periodically or closed by walls ([`micro::Edges`]).
+//! * **Solid**: at the micro level a body placed in the period: the
+//!   substrate (solid 0), a bump, a CSG body, or a **ghost** (a copy of a
+//!   body shifted by whole periods, so bumps wrap). At the macro level a
+//!   solid zone.
+//! * **Relief**: what a micro surface is made of: solids, or a **height
+//!   field** (a triangulated periodic grid of heights) ([`micro::Relief`]).
+//! * **Facet**: the piece of a micro surface a flight hits or stands on: a
+//!   surface of a solid, or a triangle of the height field ([`micro::Facet`]).
+//! * **Grid cell**: a cell of the acceleration grid over a period, which
+//!   lists the solids whose bounds cross it and their highest point.
+//! * **Carlson cell**: a cell of the equal-solid-angle grid of the
+//!   hemisphere ([`tally::carlson`]), in bands; one row of `brdf.csv`. A
+//!   **far-field cell** is a Carlson cell of either hemisphere of an
+//!   object's far field.
+//! * **Zone**: a region of an object over its quadrics, `solid` or `void`
+//!   (declared by `[[cells]]` in a scene file, after OpenMC).
+//! * **Wall**: a surface of an object seen where a photon enters a solid
+//!   zone; its **wall model** ([`transport::wall::WallModel`]) reflects the
+//!   photon: a **micro descent** into a periodic micro surface, a BRDF
+//!   table, ideal specular/diffuse, or specular with a reflectance.
+//! * **Launch plane**: `z = top` just above a micro surface's highest
+//!   point; photons start on it and escape through it.
+//! * **Segment**: one straight flight between two events (a query of the
+//!   geometry). **Bounce**: one reflection. **History**: one photon from
+//!   launch to its **fate** (escaped, absorbed, or lost with its weight:
+//!   capped, numerical guard, absorbing edge wall, unmodelled surface);
+//!   [`transport::micro::trace`] and [`transport::object::trace`] give a
+//!   `History` whose `Fate` says how it ended.
+//! * **Carrier**: what a photon carries ([`transport::carrier`]): a scalar
+//!   weight, or a Stokes vector or Mueller matrix with its reference frame.
+//! * **Batch**: [`transport::BATCH`] consecutive photons, the unit of
+//!   parallel work; batches are summed in index order, so results are
+//!   bit-identical for any thread count. **Shard**: a contiguous range of
+//!   a BRDF run's batches run on its own and merged exactly (`roks merge`).
+//! * **Stream**: the random numbers of one photon, from (seed, photon
+//!   index) ([`transport::rng`]). **Replicate**: one of the 16 shifted
+//!   lattices of a `launch = "lattice"` run ([`transport::launch`]).
+//! * **Source**: an object scene's light (`[[sources]]`: a beam over one or
+//!   more positions, [`object::source`]); at the micro level the light is
+//!   the incidence angles of `[light]`.
 #![forbid(unsafe_code)]
 
 pub mod cli;

@@ -1,11 +1,11 @@
-//! Radiance maps of a micro surface (`roks render`, issue 4), written as
+//! Radiance maps of a micro surface (`roks render`), written as
 //! OpenEXR with a tone-mapped PNG preview.
 //!
 //! Camera: orthographic, its footprint exactly one period `Lx x Ly` of the
 //! substrate on the launch plane `z = surface.top`. Pixel `(i, j)` (column
 //! `i`, row `j`, row 0 at the top of the image) covers
 //! `[i Lx/w, (i+1) Lx/w] x [Ly - (j+1) Ly/h, Ly - j Ly/h]`, so the image's x
-//! axis is the cell's x axis and the image's up is the cell's +y. Each pixel
+//! axis is the period's x axis and the image's up is the period's +y. Each pixel
 //! takes `spp` jittered sub-pixel positions, all drawn from the random stream
 //! `photon_rng(seed, pixel index)` (pixel index `j w + i`): the image is the
 //! same, bit for bit, for any number of threads.
@@ -286,7 +286,7 @@ pub fn render(surface: &MicroSurface, s: &RenderSettings) -> (Image, RenderLosse
         || Scratch::new(surface),
         |scratch, i, j, u, v, rng| {
             // x in [i px, (i+1) px), y in [Ly - (j+1) py, Ly - j py):
-            // both strictly inside the cell's half-open range.
+            // both strictly inside the period's half-open range.
             let x = ((i as f64 + u) * px).clamp(0.0, lx);
             let y = (ly - (j as f64 + 1.0 - v) * py).clamp(0.0, ly);
             // Rounding can reach the far side: step just inside.
@@ -363,7 +363,7 @@ impl PinholeCamera {
 /// Radiance map of an object scene seen through a pinhole camera.
 ///
 /// Each camera ray is followed backward through the object by the macro
-/// history loop ([`crate::transport::object::follow`], the same wall models
+/// history loop ([`crate::transport::object::trace`], the same wall models
 /// as `roks trace`); by reciprocity of the walls' BRDFs a path that leaves
 /// the object (or misses it) in a direction within `light_radius_deg` of the
 /// light direction contributes `weight * light_radiance`, any other
@@ -382,7 +382,7 @@ pub fn render_object(
     camera: &PinholeCamera,
     s: &RenderSettings,
 ) -> (Image, RenderLosses) {
-    use crate::transport::object::{MacroFate, follow};
+    use crate::transport::object;
     if let Err(e) = s.validate().and_then(|()| camera.validate()) {
         panic!("render_object: {e}");
     }
@@ -392,7 +392,7 @@ pub fn render_object(
         || vec![None; scene.models.len()],
         |scratch: &mut Vec<Option<Scratch>>, i, j, u, v, rng| {
             let d = camera.ray(i as f64 + u, j as f64 + v, s.width, s.height);
-            let hist = follow(
+            let hist = object::trace(
                 &scene.object,
                 &scene.walls,
                 &scene.models,
@@ -405,10 +405,10 @@ pub fn render_object(
                 |_, _| {},
             );
             match hist.fate {
-                MacroFate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
-                MacroFate::Absorbed => PathEnd::Absorbed,
-                MacroFate::Lost { .. } => PathEnd::Lost,
-                MacroFate::Unmodelled { .. } => PathEnd::Unmodelled,
+                object::Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
+                object::Fate::Absorbed => PathEnd::Absorbed,
+                object::Fate::Lost { .. } => PathEnd::Lost,
+                object::Fate::Unmodelled { .. } => PathEnd::Unmodelled,
             }
         },
     )

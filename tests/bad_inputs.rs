@@ -36,7 +36,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-/// The corpus must keep at least this many cases (the "at least 100").
+/// The corpus must keep at least this many cases (at least 100).
 const MIN_CASES: usize = 100;
 /// Address-space limit of every case, KiB (4 GiB).
 const MEMORY_KIB: u64 = 4 << 20;

@@ -85,7 +85,7 @@ fn cone_bump_vertices_lie_on_the_analytic_cone() {
         // The bump's (seeded random) centre, from the built surface.
         let (shape, bump) = scene
             .surface
-            .solids
+            .solids()
             .iter()
             .find_map(|s| s.bump)
             .expect("one bump");

@@ -1,4 +1,4 @@
-//! Extreme values (issue 13): values that used to pass validation and then
+//! Extreme values: values that used to pass validation and then
 //! panic, hang or overflow are refused with one line naming the file and the
 //! key (exit status 2, nothing written); work that used to never end is
 //! bounded, and what a bound cuts is counted in `summary.json`.

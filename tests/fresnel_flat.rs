@@ -172,7 +172,7 @@ fn flat_height_field_is_the_flat_substrate() {
         ),
     );
     let field = common::scene("flat_field", &text);
-    assert!(field.surface.heightfield.is_some());
+    assert!(field.surface.heightfield().is_some());
     let (a, b) = (common::run(&substrate), common::run(&field));
     for (s, f) in a.iter().zip(&b) {
         assert_exact_fresnel(f);

@@ -1,7 +1,7 @@
-//! Outputs of fixed runs, byte for byte, against the figures recorded before
-//! the speed work of issue 14 (commit e3116b8's binary): acceleration
-//! structures, photon order and interleaving must not move a single bit of
-//! a result where the arithmetic of a history is unchanged.
+//! Outputs of fixed runs, byte for byte, against figures recorded with an
+//! earlier binary (commit e3116b8): acceleration structures, photon order
+//! and interleaving must not move a single bit of a result where the
+//! arithmetic of a history is unchanged.
 //!
 //! Each case runs `roks brdf` or `roks trace` with a fixed seed on two
 //! threads and hashes every result file (FNV-1a, 64 bits, with its length):

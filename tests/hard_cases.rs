@@ -1,4 +1,4 @@
-//! Hard cases for the geometry and the transport (issue 6), each against an
+//! Hard cases for the geometry and the transport, each against an
 //! exact value:
 //!
 //! * grazing incidence 89, 89.9 and 89.99 degrees on the white default scene:
@@ -25,7 +25,7 @@ use roks::geometry::body::{Aabb, Body};
 use roks::geometry::quadric::Quadric;
 use roks::geometry::region;
 use roks::micro::bumps::{Bump, Shape};
-use roks::micro::{Edges, Event, MicroSurface, Placed, Scratch};
+use roks::micro::{Edges, Event, Facet, MicroSurface, Placed, Scratch};
 use roks::optics::material::Reflectance;
 use roks::scene::micro::{DEFAULT_SCENE, MicroScene};
 use roks::transport::brdf::IncidenceResult;
@@ -170,11 +170,10 @@ fn first_event(surface: &MicroSurface, o: DVec3, d: DVec3) -> Event {
     let e = surface.next_event(o, d, None, &mut scratch);
     if let Event::Hit {
         t,
-        solid,
-        surface: s,
+        facet: Facet::Solid { solid, surface: s },
     } = e
     {
-        let q = &surface.solids[solid].body.surfaces[s];
+        let q = &surface.solids()[solid].body.surfaces[s];
         let p = o + t * d;
         let tol = 16.0 * f64::EPSILON * (eval_abs(q, p) + q.gradient(p).length() * p.length());
         assert!(
@@ -335,7 +334,11 @@ fn rays_tangent_to_ball_and_ellipsoid() {
                 let touch = DVec3::new(c.x, y, c.z);
                 let o = touch - (surface.top - c.z) / co * d;
                 let what = format!("{name} theta {theta_deg} y {y:?}");
-                if let Event::Hit { solid, .. } = first_event(&surface, o, d) {
+                if let Event::Hit {
+                    facet: Facet::Solid { solid, .. },
+                    ..
+                } = first_event(&surface, o, d)
+                {
                     if solid != 0 {
                         tangent_hits += 1;
                     }

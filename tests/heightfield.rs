@@ -1,4 +1,4 @@
-//! Height-field scenes (issue 5) end to end: the white furnace on a rough
+//! Height-field scenes end to end: the white furnace on a rough
 //! Gaussian field, `roks stats` on a generated field, the measured-map round
 //! trip (generated -> file -> loaded gives byte-identical BRDF tables), and
 //! `roks export-mesh` writing exactly the traced triangles.
@@ -182,7 +182,7 @@ fn generated_field_round_trips_through_files() {
 #[test]
 fn scene_field_is_the_synthesised_field() {
     let scene: MicroScene = common::scene("rough_field", ROUGH);
-    let field = scene.surface.heightfield.as_ref().expect("a height field");
+    let field = scene.surface.heightfield().expect("a height field");
     let direct = HeightField::gaussian(128, 128, glam::DVec2::splat(16.0), 1.0, 2.0, 5);
     assert_eq!(field.h, direct.h);
     assert_eq!(scene.surface.max_height, direct.max);

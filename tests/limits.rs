@@ -1,7 +1,7 @@
-//! The memory budget and the bounded loads (issue 13, "Unbounded memory and
-//! time"): every request sized by user input whose estimate exceeds the
-//! limit is refused before allocating, with one line naming the file (when
-//! there is one), the key or option, the estimate and the limit; exit
+//! The memory budget and the bounded loads (of memory and of time): every
+//! request sized by user input whose estimate exceeds the limit is refused
+//! before allocating, with one line naming the file (when there is one), the
+//! key or option, the estimate and the limit; exit
 //! status 2; nothing written.
 //!
 //! Every run is under a virtual-memory limit of about 4 GB (`ulimit -v`), so
@@ -96,7 +96,7 @@ fn bumps_scene(size: f64, count: usize, radius: f64) -> String {
 fn periodic_ghost_copies_are_refused_before_they_are_made() {
     let dir = scratch("ghosts");
     let out = dir.join("out");
-    // One bump of radius 3 in a 0.001 cell: 3.6e7 copies (the issue's 7.5 GB).
+    // One bump of radius 3 in a 0.001 cell: 3.6e7 copies (about 7.5 GB).
     let scene = write(&dir, "ghost.toml", &bumps_scene(0.001, 1, 3.0));
     let args = [
         "brdf",

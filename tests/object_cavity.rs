@@ -111,7 +111,7 @@ fn diffuse_sphere_cavity_half_reflecting_wide_aperture() {
     );
 }
 
-/// rho 0.9, aperture 10 %; oblique beam starting inside the void cell; no roulette.
+/// rho 0.9, aperture 10 %; oblique beam starting inside the void zone; no roulette.
 #[test]
 fn diffuse_sphere_cavity_bright_oblique_beam_inside() {
     check(

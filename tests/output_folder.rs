@@ -1,4 +1,4 @@
-//! The output folder (issue 13): a result folder is replaced whole by a
+//! The output folder: a result folder is replaced whole by a
 //! rerun (no stale file of an earlier run survives, a reader or a kill sees
 //! the old result or the new one, never a mixture); `--out` and the scene's
 //! `name` are checked before any work, with one line naming them; single

@@ -1,4 +1,4 @@
-//! Polarised transport at the micro level (issue 12), checked against exact
+//! Polarised transport at the micro level, checked against exact
 //! formulas computed here, independently of `roks::optics`:
 //!
 //! * a flat Fresnel substrate: the Mueller-matrix BRDF of the specular cell

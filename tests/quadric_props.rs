@@ -1,4 +1,4 @@
-//! Property tests of the geometry kernel against brute force (issue 6):
+//! Property tests of the geometry kernel against brute force:
 //! random quadrics (planes, spheres, ellipsoids, cylinders, cones,
 //! paraboloids, hyperboloids, general ten-coefficient ones, at scales
 //! 1e-6 to 1e6) and random rays.

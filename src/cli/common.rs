@@ -61,7 +61,7 @@ pub fn stats_grid(
     default: usize,
     option: &str,
 ) -> Result<(usize, usize), Failure> {
-    match (requested, &scene.surface.heightfield) {
+    match (requested, scene.surface.heightfield()) {
         (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
         (Some(r), _) => {
             let what = format!("the statistics of a {r} x {r} height map");
@@ -78,7 +78,7 @@ pub fn stats_grid(
 /// # Errors
 /// Bad input when `resolution` is not the field's own.
 pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Failure> {
-    match (&scene.surface.heightfield, resolution) {
+    match (scene.surface.heightfield(), resolution) {
         (Some(f), Some(r)) if (r, r) != (f.nx, f.ny) => Err(Failure::Input(format!(
             "--resolution: {}: a height field is written on its own {} x {} grid, got {r}",
             scene.source.file, f.nx, f.ny

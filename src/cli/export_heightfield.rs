@@ -48,7 +48,7 @@ pub fn run(a: ExportHeightfieldArgs) -> Result<(), Failure> {
             a.out.display()
         )));
     }
-    let grid = match &scene.surface.heightfield {
+    let grid = match scene.surface.heightfield() {
         Some(f) => HeightGrid {
             nx: f.nx,
             ny: f.ny,

@@ -57,8 +57,7 @@ pub fn run(a: ExportMeshArgs) -> Result<(), Failure> {
     own_grid(&scene, a.resolution)?;
     let n = scene
         .surface
-        .heightfield
-        .as_ref()
+        .heightfield()
         .map_or((resolution, resolution), |f| (f.nx, f.ny));
     check_memory(
         "--resolution",
@@ -66,7 +65,7 @@ pub fn run(a: ExportMeshArgs) -> Result<(), Failure> {
         crate::export::mesh_memory_bytes(n.0, n.1),
     )?;
     check_out_file(&a.out)?;
-    let mesh = match &scene.surface.heightfield {
+    let mesh = match scene.surface.heightfield() {
         Some(field) => crate::export::field_mesh(field),
         None => crate::export::height_field_mesh(&scene.surface, resolution),
     };

@@ -83,7 +83,7 @@ pub fn run(a: StatsArgs) -> Result<(), Failure> {
     let _ = writeln!(
         out,
         "solids           {} ({} tested per flight, {:.1} per grid cell)",
-        scene.surface.solids.len(),
+        scene.surface.solids().len(),
         global,
         per_cell
     );

@@ -8,7 +8,9 @@
 //! * [`BrdfFormat::Merl`]: the MERL binary format (`brdf.binary`;
 //!   [`super::merl`]), read by graphics BRDF tools.
 //!
-//! Both resample the table with [`symmetric_eval`]: the table's BRDF
+//! Both resample the table with [`symmetric_eval`] (in
+//! [`super::resample`], which the formats share; this module only
+//! dispatches to them): the table's BRDF
 //! (constant over each Carlson cell, linear in the incidence angle between
 //! tabulated angles, clamped outside them) averaged with its mirror image in
 //! the plane of incidence. A statistically isotropic surface has a BRDF
@@ -22,12 +24,11 @@
 
 use std::fmt;
 
+use crate::optics::brdf_table::BrdfTable;
 use glam::DVec3;
 use rayon::prelude::*;
-use thiserror::Error;
 
-use crate::optics::brdf_table::BrdfTable;
-
+pub use super::resample::{FormatError, symmetric_eval};
 use super::{merl, zemax};
 
 /// An export format of `roks export-brdf --format` and `roks brdf
@@ -78,27 +79,6 @@ impl fmt::Display for BrdfFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
-}
-
-/// A file that a reader of this module cannot accept: one line naming the
-/// file and, where there is one, the line and keyword.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("{file}: {message}")]
-pub struct FormatError {
-    /// File name.
-    pub file: String,
-    /// What is wrong (one line).
-    pub message: String,
-}
-
-/// The table's BRDF (sr⁻¹) at incidence `theta_i_rad` (radians) toward
-/// `dir` (local frame of [`BrdfTable`], light on the `+x` side), averaged
-/// with the value at the mirror direction `(x, -y, z)`. Its integral
-/// `∫ f cos(theta) dω` over the hemisphere is the table's reflectance.
-#[must_use]
-pub fn symmetric_eval(table: &BrdfTable, theta_i_rad: f64, dir: DVec3) -> f64 {
-    let mirror = DVec3::new(dir.x, -dir.y, dir.z);
-    0.5 * (table.eval(theta_i_rad, dir) + table.eval(theta_i_rad, mirror))
 }
 
 /// `∫ f(ω) cos(theta) dω` over the upper hemisphere by the midpoint rule on

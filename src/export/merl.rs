@@ -52,7 +52,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::brdf_formats::{FormatError, symmetric_eval};
+use super::resample::{FormatError, symmetric_eval};
 use crate::optics::brdf_table::BrdfTable;
 
 /// Bins in theta_half.

@@ -1,7 +1,8 @@
 //! Exports for other programs: micro surfaces as triangle meshes (`roks
 //! export-mesh`, this file), the walls of object scenes as meshes
 //! ([`object_mesh`]) and BRDF tables in the Zemax and MERL formats
-//! (`roks export-brdf`: [`brdf_formats`], [`zemax`], [`merl`]).
+//! (`roks export-brdf`: [`brdf_formats`] dispatches to [`zemax`] and
+//! [`merl`], which share [`resample`]).
 //!
 //! [`height_field_mesh`] samples the top surface of a [`MicroSurface`] on a
 //! regular grid over one period and triangulates it; [`field_mesh`] writes
@@ -45,6 +46,7 @@
 pub mod brdf_formats;
 pub mod merl;
 pub mod object_mesh;
+pub mod resample;
 pub mod zemax;
 
 use glam::DVec2;

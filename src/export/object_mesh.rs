@@ -3,10 +3,10 @@
 //!
 //! # Method: dual contouring with exact edge crossings and tangent planes
 //!
-//! Object cells are regions over quadrics (CSG), so there is no parametric
+//! Object zones are regions over quadrics (CSG), so there is no parametric
 //! surface to tessellate. The box `[lo, hi]` is covered by a grid of cubic
 //! voxels of side `h = (longest side) / n`; every grid vertex is classified
-//! inside (in some solid cell, and in the box) or outside. Along every grid
+//! inside (in some solid zone, and in the box) or outside. Along every grid
 //! edge whose ends differ, the crossing of the boundary is found by bisection
 //! of the inside test to double precision (60 halvings), so it lies on the
 //! exact surface, and the surface's exact normal there is taken from the
@@ -58,7 +58,7 @@ pub fn memory_bytes(lo: DVec3, hi: DVec3, n: usize) -> u64 {
     crate::limits::product(&[a, b, c, 40])
 }
 
-/// The boundary of the solid cells of `object` inside the box `[lo, hi]`,
+/// The boundary of the solid zones of `object` inside the box `[lo, hi]`,
 /// with `n` voxels along the box's longest side (see the module
 /// documentation).
 ///
@@ -404,7 +404,7 @@ mod tests {
         );
     }
 
-    /// An object of one solid cell `region` over the `[quadrics]` lines
+    /// An object of one solid zone `region` over the `[quadrics]` lines
     /// `quadrics` (walls and source only as the scene format needs them).
     fn object(quadrics: &str, region: &str) -> Object {
         let text = format!(

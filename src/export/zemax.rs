@@ -51,7 +51,7 @@
 //!
 //! The BRDF in sr⁻¹ (radiance per irradiance), sampled at the grid's
 //! directions from the table by
-//! [`super::brdf_formats::symmetric_eval`] (no averaging over
+//! [`super::resample::symmetric_eval`] (no averaging over
 //! the grid cell: the table is piecewise constant on cells about 3 degrees
 //! wide, the default grid steps are 2 degrees in azimuth and 1 degree in
 //! radial angle); 0 at grid directions on or below the horizon (the default
@@ -66,7 +66,7 @@ use std::fmt::Write as _;
 
 use glam::DVec3;
 
-use super::brdf_formats::{FormatError, symmetric_eval};
+use super::resample::{FormatError, symmetric_eval};
 use crate::optics::brdf_table::BrdfTable;
 
 /// Default azimuth step of [`ZemaxBsdf::from_table`] (degrees).

@@ -397,8 +397,7 @@ impl Region {
     /// Complements are pushed inwards first (De Morgan), so
     /// `~(+a | +b)` gives `[(a, Negative), (b, Negative)]`; any remaining
     /// union gives `None`.
-    #[must_use]
-    pub fn is_simple_intersection(&self) -> Option<Vec<(usize, Sense)>> {
+    fn is_simple_intersection(&self) -> Option<Vec<(usize, Sense)>> {
         let mut out = Vec::new();
         self.collect_intersection(self.root, false, &mut out)
             .then_some(out)

@@ -1,5 +1,5 @@
 //! Height-field micro geometry: a periodic grid of heights, triangulated,
-//! traced exactly (issue 5).
+//! traced exactly.
 //!
 //! # Geometry
 //!
@@ -531,14 +531,20 @@ impl HeightField {
 
     /// The first hit of the flight `o + t d` (`t > 0`), which starts on or
     /// above the surface; `standing`: the triangle it starts on (excluded).
-    /// See the module docs for the walk and its robustness rules.
+    /// See the module docs for the walk and its robustness rules. (The
+    /// tests' entry point; the tracer counts its tests with
+    /// [`HeightField::first_hit_counting`].)
+    #[cfg(test)]
     #[must_use]
     pub fn first_hit(&self, o: DVec3, d: DVec3, standing: Option<usize>) -> FieldEvent {
         self.first_hit_counting(o, d, standing, &mut 0)
     }
 
-    /// [`HeightField::first_hit`], adding to `square_tests` the number of
-    /// squares (two triangles each) whose surface was tested.
+    /// The first hit of the flight `o + t d` (`t > 0`), which starts on or
+    /// above the surface; `standing`: the triangle it starts on (excluded).
+    /// Adds to `square_tests` the number of squares (two triangles each)
+    /// whose surface was tested. See the module docs for the walk and its
+    /// robustness rules.
     #[must_use]
     #[inline]
     pub fn first_hit_counting(
@@ -1245,8 +1251,9 @@ mod tests {
     }
 
     /// The walk as it was before the tiled `f32` hierarchy (row-major `f64`
-    /// levels, every level visited tested): the reference the walk must
-    /// reproduce bit for bit, event and distance.
+    /// levels, every level visited tested), kept on purpose as test code: an
+    /// independent reference the walk must reproduce bit for bit, event and
+    /// distance.
     fn reference_first_hit(
         f: &HeightField,
         o: DVec3,

@@ -1,13 +1,13 @@
 //! The micro level: an explicit rough surface in which photons reflect specularly.
 //!
-//! A [`MicroSurface`] is a rectangular cell `[0, Lx] x [0, Ly]` of substrate
+//! A [`MicroSurface`] is a rectangular period `[0, Lx] x [0, Ly]` of substrate
 //! (the half-space `z <= 0`) with solid bodies on it (random bumps or explicit
 //! CSG bodies). The visible surface is the upper boundary of the union of the
 //! substrate and the bodies. Photons start on the launch plane `z = top` (the
 //! highest point of the surface, plus a hair) and leave when they cross it
-//! going up. What happens at the sides of the cell is set by [`Edges`].
+//! going up. What happens at the sides of the period is set by [`Edges`].
 //!
-//! Bodies whose bounds cross a side of a periodic cell are copied (ghosts)
+//! Bodies whose bounds cross a side of a periodic surface are copied (ghosts)
 //! shifted by whole periods, so every bump wraps. Bodies with unbounded extent
 //! in x or y (for example planes making V-grooves) are tested for every
 //! segment; all others are found through a uniform 2-D grid whose cells also
@@ -16,9 +16,10 @@
 //! constant density.
 //!
 //! Instead of the substrate and solids, a surface may be a periodic
-//! [`heightfield::HeightField`] (a triangulated grid of heights); then
-//! [`MicroSurface::next_event`] walks the field, [`Event::Hit`] names it by
-//! `solid = HEIGHT_FIELD` and a triangle id, and [`MicroSurface::hit_normal`]
+//! [`heightfield::HeightField`] (a triangulated grid of heights): the
+//! surface's [`Relief`] is one kind or the other. [`MicroSurface::next_event`]
+//! walks whichever it is, [`Event::Hit`] names the [`Facet`] met (a surface
+//! of a solid, or a triangle of the field), and [`MicroSurface::hit_normal`]
 //! gives the normal for either kind, so the photon history has one loop.
 
 pub mod bumps;
@@ -34,22 +35,19 @@ use crate::optics::material::Reflectance;
 use grid::Grid;
 use heightfield::{FieldEvent, HeightField};
 
-/// Most periodic cell sides one straight flight may cross (bump surfaces:
+/// Most periodic sides one straight flight may cross (bump surfaces:
 /// side events in a row between reflections; height fields: periods the walk
 /// enters). A flight crossing more without meeting anything is cut and
 /// reported as capped (`lost_cap` in `summary.json`): this bounds the work of
-/// flights that travel far compared to the cell, such as incidence within
-/// about `height range / (MAX_CROSSINGS * cell side)` radians of grazing, or
-/// surfaces whose heights are many cells tall.
+/// flights that travel far compared to the period, such as incidence within
+/// about `height range / (MAX_CROSSINGS * period side)` radians of grazing, or
+/// surfaces whose heights are many periods tall.
 pub const MAX_CROSSINGS: u32 = 1 << 16;
 
-/// `solid` of an [`Event::Hit`] on the height field (its `surface` is the triangle id).
-pub const HEIGHT_FIELD: usize = usize::MAX;
-
-/// What happens where a photon reaches a side of the cell below the top.
+/// What happens where a photon reaches a side of the period below the top.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Edges {
-    /// The cell tiles the plane: the photon re-enters on the opposite side.
+    /// The period tiles the plane: the photon re-enters on the opposite side.
     Periodic,
     /// Vertical walls up to the top absorb (the paper's perfect absorber).
     Absorbing,
@@ -57,13 +55,14 @@ pub enum Edges {
     Reflecting,
 }
 
-/// A solid of the micro geometry as placed in cell coordinates.
+/// A solid of the micro geometry as placed in period coordinates.
 #[derive(Clone, Debug)]
 pub struct Solid {
-    /// The body, already translated into the cell (ghosts are separate solids).
+    /// The body, already translated into the period (ghosts are separate solids).
     pub body: Body,
-    /// Index of the scene body or bump this solid is a copy of.
-    pub source: usize,
+    /// Index of the scene body or bump this solid is a copy of (`None` for
+    /// the substrate).
+    pub source: Option<u32>,
     /// For bumps: the shape and parameters, which give exact heights over
     /// grid cells (tighter than the bounds).
     pub bump: Option<(bumps::Shape, bumps::Bump)>,
@@ -107,24 +106,37 @@ impl Solid {
     }
 }
 
+/// A piece of the surface a flight hits or stands on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Facet {
+    /// Surface `surface` of solid `solid` of a [`Relief::Solids`] surface.
+    Solid {
+        /// Index into [`Solids::list`].
+        solid: usize,
+        /// Index into that solid's surfaces.
+        surface: usize,
+    },
+    /// A triangle of a [`Relief::HeightField`] surface, by its id (see
+    /// [`HeightField::normal`]).
+    Triangle(usize),
+}
+
 /// The next thing a straight flight meets.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
-    /// Enters solid `solid` through its surface `surface` at distance `t`.
+    /// Meets `facet` at distance `t`, going into the material.
     Hit {
         /// Distance (units of `|d|`).
         t: f64,
-        /// Index into [`MicroSurface::solids`], or [`HEIGHT_FIELD`].
-        solid: usize,
-        /// Index into that solid's surfaces, or the height field's triangle id.
-        surface: usize,
+        /// What it meets.
+        facet: Facet,
     },
     /// Leaves through the launch plane at distance `t` (escapes).
     Top {
         /// Distance (units of `|d|`).
         t: f64,
     },
-    /// Reaches side `axis` (0 = x, 1 = y) of the cell below the top, at the
+    /// Reaches side `axis` (0 = x, 1 = y) of the period below the top, at the
     /// upper end of the axis when `upper`.
     Side {
         /// Distance (units of `|d|`).
@@ -134,7 +146,7 @@ pub enum Event {
         /// True at `x = Lx` (or `y = Ly`), false at 0.
         upper: bool,
     },
-    /// The flight never ends in the cell (horizontal and above everything); counted as lost.
+    /// The flight never ends in the period (horizontal and above everything); counted as lost.
     Trapped,
 }
 
@@ -146,7 +158,7 @@ pub enum Skip {
     /// The flight meets nothing in the next `periods` whole periods along the
     /// crossed axis: continue from `at`, the same side that many periods on.
     To {
-        /// The new start (on the same side of the cell).
+        /// The new start (on the same side of the period).
         at: DVec3,
         /// Whole periods skipped.
         periods: f64,
@@ -169,8 +181,12 @@ impl Scratch {
     /// Scratch sized for `surface`.
     #[must_use]
     pub fn new(surface: &MicroSurface) -> Self {
+        let records = match &surface.relief {
+            Relief::Solids(s) => s.grid.ids.len(),
+            Relief::HeightField(_) => 0,
+        };
         Self {
-            stamp: vec![0; surface.grid.ids.len()],
+            stamp: vec![0; records],
             query: 0,
             tests: 0,
         }
@@ -186,35 +202,48 @@ impl Scratch {
     }
 }
 
-/// An explicit rough surface: substrate, solids, edges, materials.
+/// What a micro surface is made of: one of two kinds.
+#[derive(Clone, Debug)]
+pub enum Relief {
+    /// The substrate and solids (bumps, CSG bodies), found through a grid.
+    Solids(Solids),
+    /// A periodic height field, the whole surface (the edges are periodic).
+    HeightField(HeightField),
+}
+
+/// The solids of a [`Relief::Solids`] surface and the acceleration grid over them.
+#[derive(Clone, Debug)]
+pub struct Solids {
+    /// All solids in period coordinates; solid 0 is the substrate.
+    pub list: Vec<Solid>,
+    /// Solids tested for every flight (unbounded in x or y), the substrate first.
+    global: Vec<usize>,
+    grid: Grid,
+}
+
+/// An explicit rough surface: one period of it ([`Relief`]), its edges and materials.
 #[derive(Clone, Debug)]
 pub struct MicroSurface {
-    /// Cell size `(Lx, Ly)` (length units).
+    /// Period size `(Lx, Ly)` (length units).
     pub size: DVec2,
     /// Side behaviour.
     pub edges: Edges,
-    /// All solids in cell coordinates; solid 0 is the substrate.
-    pub solids: Vec<Solid>,
+    /// What the surface is made of.
+    pub relief: Relief,
     /// Height of the launch plane and of the walls (length units).
     pub top: f64,
     /// Highest point of the surface (length units); `top` is a hair above it.
     pub max_height: f64,
     /// Materials referenced by the solids.
     pub materials: Vec<Reflectance>,
-    /// Material of the substrate and of reflecting walls.
+    /// Material of the substrate (or of the height field) and of reflecting walls.
     pub substrate_material: usize,
-    /// A height field replacing substrate and solids (then `solids` is empty
-    /// and the edges are periodic).
-    pub heightfield: Option<HeightField>,
-    /// Solids tested for every flight (unbounded in x or y).
-    global: Vec<usize>,
-    grid: Grid,
 }
 
 /// What the builder needs to know of a body placed on the substrate.
 #[derive(Clone, Debug)]
 pub struct Placed {
-    /// The body in cell coordinates.
+    /// The body in period coordinates.
     pub body: Body,
     /// Highest point of the body (length units).
     pub max_height: f64,
@@ -229,9 +258,9 @@ pub struct Placed {
 const GRID_ITEM_BYTES: u64 = 32;
 
 /// Estimated peak memory (bytes) and solid count that one body adds to a
-/// surface built by [`MicroSurface::new`] over a cell of `size` with `edges`:
+/// surface built by [`MicroSurface::new`] over a period of `size` with `edges`:
 /// the body in the input list, each of its solids (periodic ghost copies
-/// included: one per whole-period shift whose copy reaches into the cell,
+/// included: one per whole-period shift whose copy reaches into the period,
 /// on average `(1 + w / Lx) (1 + h / Ly)` for a footprint `w x h` placed at
 /// random) with its heap, its mailbox stamp per worker thread, and its
 /// entries in the acceleration grid (one per grid cell its bounds cover,
@@ -273,7 +302,7 @@ pub fn placed_cost(placed: &Placed, size: DVec2, edges: Edges) -> (u64, u64) {
 impl MicroSurface {
     /// Assemble a micro surface.
     ///
-    /// `bodies` are in cell coordinates. The substrate (solid 0) is added here
+    /// `bodies` are in period coordinates. The substrate (solid 0) is added here
     /// with `substrate_material`.
     #[must_use]
     pub fn new(
@@ -296,15 +325,17 @@ impl MicroSurface {
         );
         let mut solids = vec![Solid {
             body: substrate,
-            source: usize::MAX,
+            source: None,
             bump: None,
         }];
         let mut max_height: f64 = 0.0;
-        let cell = Aabb {
+        let period = Aabb {
             min: DVec3::new(0.0, 0.0, f64::NEG_INFINITY),
             max: DVec3::new(size.x, size.y, f64::INFINITY),
         };
         for (source, placed) in bodies.into_iter().enumerate() {
+            // Bodies are far fewer than 2^32 (each costs memory).
+            let source = Some(source as u32);
             max_height = max_height.max(placed.max_height);
             let b = placed.body.bounds;
             let bounded = b.min.x.is_finite()
@@ -312,14 +343,14 @@ impl MicroSurface {
                 && b.min.y.is_finite()
                 && b.max.y.is_finite();
             if edges == Edges::Periodic && placed.wraps && bounded {
-                // Every whole-period shift whose copy reaches into the cell.
+                // Every whole-period shift whose copy reaches into the period.
                 let kx = (b.max.x - b.min.x) / size.x + 1.0;
                 let ky = (b.max.y - b.min.y) / size.y + 1.0;
                 let (kx, ky) = (kx.ceil() as i64, ky.ceil() as i64);
                 for jy in -ky..=ky {
                     for jx in -kx..=kx {
                         let shift = DVec3::new(jx as f64 * size.x, jy as f64 * size.y, 0.0);
-                        if overlaps_xy(&b.translated(shift), &cell) {
+                        if overlaps_xy(&b.translated(shift), &period) {
                             let bump = placed.bump.map(|(shape, mut bump)| {
                                 bump.center += shift.truncate();
                                 (shape, bump)
@@ -332,7 +363,7 @@ impl MicroSurface {
                         }
                     }
                 }
-            } else if !bounded || overlaps_xy(&b, &cell) {
+            } else if !bounded || overlaps_xy(&b, &period) {
                 solids.push(Solid {
                     body: placed.body,
                     source,
@@ -355,14 +386,15 @@ impl MicroSurface {
         Self {
             size,
             edges,
-            solids,
+            relief: Relief::Solids(Solids {
+                list: solids,
+                global,
+                grid,
+            }),
             top,
             max_height,
             materials,
             substrate_material,
-            heightfield: None,
-            global,
-            grid,
         }
     }
 
@@ -380,63 +412,79 @@ impl MicroSurface {
         Self {
             size,
             edges: Edges::Periodic,
-            solids: Vec::new(),
+            relief: Relief::HeightField(field),
             top: max_height + 1e-9 * scale,
             max_height,
             materials,
             substrate_material: material,
-            heightfield: Some(field),
-            global: Vec::new(),
-            grid: Grid::build(size, &[], &[]),
+        }
+    }
+
+    /// The height field, if the surface is one.
+    #[must_use]
+    pub fn heightfield(&self) -> Option<&HeightField> {
+        match &self.relief {
+            Relief::HeightField(f) => Some(f),
+            Relief::Solids(_) => None,
+        }
+    }
+
+    /// The solids (substrate first), or none for a height field.
+    #[must_use]
+    pub fn solids(&self) -> &[Solid] {
+        match &self.relief {
+            Relief::Solids(s) => &s.list,
+            Relief::HeightField(_) => &[],
         }
     }
 
     /// The unit normal facing the flight (`n . d <= 0`) and the material
-    /// where a flight along `d` ended in `Event::Hit { solid, surface, .. }`
-    /// at `p`. A height-field hit may lie in a neighbouring period: `p` is
-    /// then moved back into the cell by whole periods. `None` where the
-    /// normal is undefined (a cone apex).
+    /// where a flight along `d` ended in `Event::Hit { facet, .. }` at `p`.
+    /// A height-field hit may lie in a neighbouring period: `p` is then
+    /// moved back into the period by whole periods. `None` where the normal
+    /// is undefined (a cone apex), or for a facet of the other kind.
     #[must_use]
     #[inline]
-    pub fn hit_normal(
-        &self,
-        p: &mut DVec3,
-        d: DVec3,
-        solid: usize,
-        surface: usize,
-    ) -> Option<(DVec3, usize)> {
-        if solid == HEIGHT_FIELD {
-            let field = self.heightfield.as_ref()?;
-            *p = field.fold(*p);
-            // Hits are only taken while the flight descends onto the triangle.
-            return Some((field.normal(surface), self.substrate_material));
+    pub fn hit_normal(&self, p: &mut DVec3, d: DVec3, facet: Facet) -> Option<(DVec3, usize)> {
+        match (facet, &self.relief) {
+            (Facet::Triangle(triangle), Relief::HeightField(field)) => {
+                *p = field.fold(*p);
+                // Hits are only taken while the flight descends onto the triangle.
+                Some((field.normal(triangle), self.substrate_material))
+            }
+            (Facet::Solid { solid, surface }, Relief::Solids(s)) => {
+                if let Some(r) = s.grid.compact(solid, surface) {
+                    // From the record the test just read (no reach into the solid).
+                    let n = s.grid.records[r].facing_normal(*p, d)?;
+                    return Some((n, s.grid.ids[r].material as usize));
+                }
+                let body = &s.list[solid].body;
+                let n = body.surfaces[surface].facing_normal(*p, d)?;
+                Some((n, body.material))
+            }
+            _ => None,
         }
-        if let Some(r) = self.grid.compact(solid, surface) {
-            // From the record the test just read (no reach into the solid).
-            let n = self.grid.records[r].facing_normal(*p, d)?;
-            return Some((n, self.grid.ids[r].material as usize));
-        }
-        let body = &self.solids[solid].body;
-        let n = body.surfaces[surface].facing_normal(*p, d)?;
-        Some((n, body.material))
     }
 
     /// The next event of the flight from `o` along unit `d`, which starts inside
-    /// the cell. `standing`: `(solid, surface)` the flight starts on.
+    /// the period. `standing`: the facet the flight starts on.
     #[must_use]
     pub fn next_event(
         &self,
         o: DVec3,
         d: DVec3,
-        standing: Option<(usize, usize)>,
+        standing: Option<Facet>,
         scratch: &mut Scratch,
     ) -> Event {
-        if let Some(field) = &self.heightfield {
-            return self.next_field_event(field, o, d, standing, &mut scratch.tests);
-        }
+        let s = match &self.relief {
+            Relief::HeightField(field) => {
+                return self.next_field_event(field, o, d, standing, &mut scratch.tests);
+            }
+            Relief::Solids(s) => s,
+        };
         let ray = Ray::new(o, d);
         let inv = ray.inv_d;
-        // Where the flight leaves the cell box: the top or a side.
+        // Where the flight leaves the period's box: the top or a side.
         let mut exit = Event::Trapped;
         let mut t_best = f64::INFINITY;
         if d.z > 0.0 {
@@ -458,8 +506,8 @@ impl MicroSurface {
                 exit = Event::Side { t, axis, upper };
             }
         }
-        // The nearest entry so far: (solid, surface), or none (`usize::MAX`).
-        let mut hit = (usize::MAX, 0_usize);
+        // The nearest entry so far: (solid, surface).
+        let mut hit: Option<(usize, usize)> = None;
         let mut tests = 0_u64;
         // The substrate (solid 0, always the first global solid) inline: the
         // arithmetic of its body's test of the plane z = 0 (`a = 0`,
@@ -468,40 +516,48 @@ impl MicroSurface {
         if !(d.z >= 0.0 && o.z > 0.0) {
             tests += 1;
             let b = 0.5 * d.z;
-            if b < 0.0 && standing != Some((0, 0)) {
+            if b < 0.0
+                && standing
+                    != Some(Facet::Solid {
+                        solid: 0,
+                        surface: 0,
+                    })
+            {
                 let t = -o.z / (2.0 * b);
                 if t > 0.0 && t <= t_best {
                     t_best = t;
-                    hit = (0, 0);
+                    hit = Some((0, 0));
                 }
             }
         }
-        for &i in &self.global[1..] {
+        for &i in &s.global[1..] {
             // A rising flight above a solid's top cannot enter it.
-            if d.z >= 0.0 && o.z > self.solids[i].body.bounds.max.z {
+            if d.z >= 0.0 && o.z > s.list[i].body.bounds.max.z {
                 continue;
             }
-            if let Some(e) = self.body_entry(i, &ray, t_best, standing, &mut tests) {
+            if let Some(e) = s.body_entry(i, &ray, t_best, standing, &mut tests) {
                 t_best = e.t;
-                hit = (i, e.surface);
+                hit = Some((i, e.surface));
             }
         }
         // Walk the grid cells under the flight (Amanatides & Woo), nearest first.
         let q = scratch.next_query();
-        let g = &self.grid;
+        let g = &s.grid;
         // The record the flight stands on (a compact one, on its surface), if any.
-        let standing_rec = standing
-            .and_then(|(s, f)| g.compact(s, f))
-            .unwrap_or(usize::MAX);
-        let mut cell = [0usize; 2];
+        let standing_rec = match standing {
+            Some(Facet::Solid { solid, surface }) => g.compact(solid, surface),
+            _ => None,
+        }
+        .unwrap_or(usize::MAX);
+        let mut gc_at = [0usize; 2];
         let mut t_next = [f64::INFINITY; 2];
         let mut t_delta = [f64::INFINITY; 2];
         let mut step = [0isize; 2];
         for k in 0..2 {
-            // o is inside the cell, so truncation is the floor (and `as`
+            // o is inside the period, so truncation is the floor (and `as`
             // saturates; grids have at most 2048 cells a side).
             let c = ((o[k] * g.inv_pitch[k]) as u32 as usize).min(g.n[k] - 1);
-            cell[k] = c;
+            gc_at[k] = c;
             if d[k] > 0.0 {
                 step[k] = 1;
                 t_next[k] = ((c + 1) as f64 * g.pitch[k] - o[k]) * inv[k];
@@ -521,7 +577,7 @@ impl MicroSurface {
         let min = |a: f64, b: f64| if b < a { b } else { a };
         while t_enter <= t_best {
             let t_leave = min(t_next[0], t_next[1]);
-            let gc = g.cells[cell[1] * g.n[0] + cell[0]];
+            let gc = g.cells[gc_at[1] * g.n[0] + gc_at[0]];
             // Lowest point of the flight within this grid cell.
             let z_low = if rising {
                 o.z + t_enter * d.z
@@ -551,18 +607,17 @@ impl MicroSurface {
                             let (solid, surface) = (id.solid as usize, id.surface as usize);
                             // Polish the distance where it is used (see Quadric::refine_root).
                             t_best = if ill {
-                                self.refine(solid, surface, o, d, t)
+                                s.refine(solid, surface, o, d, t)
                             } else {
                                 t
                             };
-                            hit = (solid, surface);
+                            hit = Some((solid, surface));
                         }
                     } else {
                         let solid = g.ids[r].solid as usize;
-                        if let Some(e) = self.body_entry(solid, &ray, t_best, standing, &mut tests)
-                        {
+                        if let Some(e) = s.body_entry(solid, &ray, t_best, standing, &mut tests) {
                             t_best = e.t;
-                            hit = (solid, e.surface);
+                            hit = Some((solid, e.surface));
                         }
                     }
                 }
@@ -571,25 +626,26 @@ impl MicroSurface {
                 break;
             }
             let k = usize::from(t_next[1] < t_next[0]);
-            let c = cell[k].wrapping_add_signed(step[k]);
+            let c = gc_at[k].wrapping_add_signed(step[k]);
             if c >= g.n[k] {
                 break;
             }
-            cell[k] = c;
+            gc_at[k] = c;
             t_enter = t_next[k];
             t_next[k] += t_delta[k];
         }
         scratch.tests += tests;
         match hit {
-            (usize::MAX, _) => exit,
-            (solid, surface) => Event::Hit {
+            None => exit,
+            Some((solid, surface)) => Event::Hit {
                 t: t_best,
-                solid,
-                surface,
+                facet: Facet::Solid { solid, surface },
             },
         }
     }
+}
 
+impl Solids {
     /// Where `ray` first enters solid `i` within `t_max` through its body
     /// (solids without a compact record), counting its quadric tests; kept
     /// out of line so the grid walk keeps its registers.
@@ -599,11 +655,14 @@ impl MicroSurface {
         i: usize,
         ray: &Ray,
         t_max: f64,
-        standing: Option<(usize, usize)>,
+        standing: Option<Facet>,
         tests: &mut u64,
     ) -> Option<crate::geometry::body::Entry> {
-        let on = standing.and_then(|(s, f)| (s == i).then_some(f));
-        self.solids[i]
+        let on = match standing {
+            Some(Facet::Solid { solid, surface }) if solid == i => Some(surface),
+            _ => None,
+        };
+        self.list[i]
             .body
             .first_entry_counting(ray, t_max, on, tests)
     }
@@ -613,18 +672,20 @@ impl MicroSurface {
     #[cold]
     #[inline(never)]
     fn refine(&self, solid: usize, surface: usize, o: DVec3, d: DVec3, t: f64) -> f64 {
-        self.solids[solid].body.surfaces[surface].refine_root(o, d, t)
+        self.list[solid].body.surfaces[surface].refine_root(o, d, t)
     }
+}
 
+impl MicroSurface {
     /// Whole periods a flight along unit `d`, at `p` on a side `x = 0 / Lx`
     /// (`axis = 0`) or `y = 0 / Ly` (`axis = 1`) of a periodic bump surface,
     /// can skip exactly: those in which it passes above every solid it can
-    /// meet. Flights nearly along a lattice direction of the cell (along an
-    /// axis, or a diagonal of a square cell) at grazing incidence otherwise
+    /// meet. Flights nearly along a lattice direction of the period (along an
+    /// axis, or a diagonal of a square period) at grazing incidence otherwise
     /// cross about `1 / cos(theta)` periods, passing over the same folded
     /// path again and again, a little lower each time.
     ///
-    /// Over one period along `axis` the flight's path, folded into the cell,
+    /// Over one period along `axis` the flight's path, folded into the period,
     /// is a few segments; each further period shifts them by the drift of
     /// its other coordinate modulo that period. Over `k` periods the paths
     /// lie within `k |drift| + margin` of the first period's segments, and
@@ -639,7 +700,10 @@ impl MicroSurface {
     /// pitch in 16 periods (otherwise [`Skip::None`]).
     #[must_use]
     pub fn skip_periods(&self, p: DVec3, d: DVec3, axis: usize) -> Skip {
-        if self.heightfield.is_some() || self.edges != Edges::Periodic || self.global != [0] {
+        let Relief::Solids(solids) = &self.relief else {
+            return Skip::None;
+        };
+        if self.edges != Edges::Periodic || solids.global != [0] {
             return Skip::None;
         }
         let b = 1 - axis;
@@ -653,13 +717,13 @@ impl MicroSurface {
             return Skip::None;
         }
         let drift_mod = drift - (drift / len_b).round() * len_b;
-        if drift_mod.is_nan() || 16.0 * drift_mod.abs() > self.grid.pitch[b] {
+        if drift_mod.is_nan() || 16.0 * drift_mod.abs() > solids.grid.pitch[b] {
             return Skip::None;
         }
         // Rounding of positions and of the solids' heights: a hair relative
         // to the scene, as the launch plane's.
         let margin = 1e-9 * self.size.max_element().max(self.max_height.abs());
-        // The first period's path, folded into the cell: pieces between the
+        // The first period's path, folded into the period: pieces between the
         // crossings of the other axis' sides.
         let point = |sigma: f64| {
             let mut q = DVec2::ZERO;
@@ -692,7 +756,7 @@ impl MicroSurface {
         // one period away across the other axis' sides).
         let highest_near = |w: f64| -> f64 {
             let mut top = 0.0_f64;
-            for solid in &self.solids[1..] {
+            for solid in &solids.list[1..] {
                 for &(a0, a1) in &pieces {
                     for shift in [-len_b, 0.0, len_b] {
                         let mut s = DVec2::ZERO;
@@ -740,15 +804,17 @@ impl MicroSurface {
         field: &HeightField,
         o: DVec3,
         d: DVec3,
-        standing: Option<(usize, usize)>,
+        standing: Option<Facet>,
         tests: &mut u64,
     ) -> Event {
-        let standing = standing.and_then(|(s, tri)| (s == HEIGHT_FIELD).then_some(tri));
+        let standing = match standing {
+            Some(Facet::Triangle(triangle)) => Some(triangle),
+            _ => None,
+        };
         match field.first_hit_counting(o, d, standing, tests) {
             FieldEvent::Hit { t, triangle } => Event::Hit {
                 t,
-                solid: HEIGHT_FIELD,
-                surface: triangle,
+                facet: Facet::Triangle(triangle),
             },
             FieldEvent::Escapes => Event::Top {
                 t: ((self.top - o.z) / d.z).max(0.0),
@@ -771,11 +837,11 @@ impl MicroSurface {
     /// `nx x ny` map ([`surface_stats::memory_bytes`]), for memory checks.
     #[must_use]
     pub fn stats_memory_bytes(&self, nx: usize, ny: usize) -> u64 {
-        let periodic = self.heightfield.is_some() || self.edges == Edges::Periodic;
+        let periodic = self.heightfield().is_some() || self.edges == Edges::Periodic;
         surface_stats::memory_bytes(nx, ny, periodic)
     }
 
-    /// The height map on an `nx x ny` grid of pixel centres over the cell.
+    /// The height map on an `nx x ny` grid of pixel centres over the period.
     ///
     /// For a height field whose grid is a multiple of `nx x ny` the samples
     /// are its vertex heights themselves (every `k`-th vertex), exact and
@@ -787,8 +853,7 @@ impl MicroSurface {
         let dx = self.size.x / nx as f64;
         let dy = self.size.y / ny as f64;
         if let Some(f) = self
-            .heightfield
-            .as_ref()
+            .heightfield()
             .filter(|f| nx > 0 && ny > 0 && f.nx % nx == 0 && f.ny % ny == 0)
         {
             let (kx, ky) = (f.nx / nx, f.ny / ny);
@@ -828,17 +893,99 @@ impl MicroSurface {
     /// listed per grid cell (for reports).
     #[must_use]
     pub fn acceleration_stats(&self) -> (usize, f64) {
-        if self.heightfield.is_some() {
+        let Relief::Solids(s) = &self.relief else {
             return (0, 0.0);
-        }
-        let cells = self.grid.n[0] * self.grid.n[1];
-        (
-            self.global.len(),
-            self.grid.items.len() as f64 / cells as f64,
-        )
+        };
+        let cells = s.grid.n[0] * s.grid.n[1];
+        (s.global.len(), s.grid.items.len() as f64 / cells as f64)
     }
 }
 
 fn overlaps_xy(a: &Aabb, b: &Aabb) -> bool {
     a.min.x < b.max.x && a.max.x > b.min.x && a.min.y < b.max.y && a.max.y > b.min.y
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn white() -> Vec<Reflectance> {
+        vec![Reflectance::Constant(1.0)]
+    }
+
+    #[test]
+    fn a_bare_substrate_is_met_straight_below() {
+        let s = MicroSurface::new(
+            DVec2::new(2.0, 3.0),
+            Edges::Periodic,
+            Vec::new(),
+            white(),
+            0,
+        );
+        assert!(s.heightfield().is_none());
+        assert_eq!(s.solids().len(), 1);
+        assert_eq!(s.solids()[0].source, None);
+        let substrate = Facet::Solid {
+            solid: 0,
+            surface: 0,
+        };
+        let mut scratch = Scratch::new(&s);
+        let e = s.next_event(DVec3::new(0.5, 0.5, 1.0), DVec3::NEG_Z, None, &mut scratch);
+        assert_eq!(
+            e,
+            Event::Hit {
+                t: 1.0,
+                facet: substrate
+            }
+        );
+        let mut p = DVec3::new(0.5, 0.5, 0.0);
+        assert_eq!(
+            s.hit_normal(&mut p, DVec3::NEG_Z, substrate),
+            Some((DVec3::Z, 0))
+        );
+        // A facet of the other kind names nothing on this surface.
+        assert_eq!(s.hit_normal(&mut p, DVec3::NEG_Z, Facet::Triangle(0)), None);
+        // Standing on the substrate, a flight going up escapes through the top.
+        let up = DVec3::new(0.0, 0.0, 1.0);
+        assert!(matches!(
+            s.next_event(p, up, Some(substrate), &mut scratch),
+            Event::Top { .. }
+        ));
+    }
+
+    #[test]
+    fn a_height_field_surface_names_its_triangles() {
+        let field = HeightField::new(2, 2, DVec2::ONE, vec![0.0; 4]);
+        let s = MicroSurface::from_height_field(field, white(), 0);
+        assert!(s.solids().is_empty());
+        assert!(s.heightfield().is_some());
+        assert_eq!(s.acceleration_stats(), (0, 0.0));
+        let mut scratch = Scratch::new(&s);
+        let o = DVec3::new(0.25, 0.75, 0.5);
+        let Event::Hit {
+            t,
+            facet: Facet::Triangle(triangle),
+        } = s.next_event(o, DVec3::NEG_Z, None, &mut scratch)
+        else {
+            panic!("no triangle hit");
+        };
+        assert!((t - 0.5).abs() < 1e-15, "{t}");
+        let mut p = o + t * DVec3::NEG_Z;
+        let (n, material) = s
+            .hit_normal(&mut p, DVec3::NEG_Z, Facet::Triangle(triangle))
+            .expect("a flat triangle's normal");
+        assert!((n - DVec3::Z).length() < 1e-15, "{n}");
+        assert_eq!(material, 0);
+        let solid = Facet::Solid {
+            solid: 0,
+            surface: 0,
+        };
+        assert_eq!(s.hit_normal(&mut p, DVec3::NEG_Z, solid), None);
+        // Skipping periods is for surfaces of solids only.
+        let grazing = DVec3::new(1.0, 0.0, -1e-3).normalize();
+        assert_eq!(
+            s.skip_periods(DVec3::new(0.0, 0.5, 0.4), grazing, 0),
+            Skip::None
+        );
+    }
 }

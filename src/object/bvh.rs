@@ -1,16 +1,16 @@
 //! A bounding-volume hierarchy over the boxes of an object's bounded solid
-//! cells: a binary tree of axis-aligned boxes, split at the median of the
-//! cells' box centres along the axis where they spread most, with at most
-//! [`LEAF_SIZE`] cells per leaf. Flights visit it nearest box first and skip
+//! zones: a binary tree of axis-aligned boxes, split at the median of the
+//! zones' box centres along the axis where they spread most, with at most
+//! [`LEAF_SIZE`] zones per leaf. Flights visit it nearest box first and skip
 //! every box that starts beyond the best distance found so far.
 
 use crate::geometry::body::{Aabb, Ray};
 
-/// Most cells in a leaf.
+/// Most zones in a leaf.
 const LEAF_SIZE: usize = 2;
 
-/// Deepest tree the traversal stack holds: a median split halves the cells
-/// at each level, so 64 levels hold any number of cells.
+/// Deepest tree the traversal stack holds: a median split halves the zones
+/// at each level, so 64 levels hold any number of zones.
 const MAX_DEPTH: usize = 64;
 
 /// One node: a leaf (`count > 0`: items `items[first..first + count]`) or
@@ -41,7 +41,7 @@ impl Bvh {
         }
         let mut work: Vec<(u32, Aabb)> = boxes
             .iter()
-            .map(|&(i, b)| (u32::try_from(i).expect("fewer than 2^32 cells"), b))
+            .map(|&(i, b)| (u32::try_from(i).expect("fewer than 2^32 zones"), b))
             .collect();
         bvh.nodes.push(hull(&work));
         bvh.split(0, &mut work);
@@ -179,7 +179,7 @@ impl Bvh {
 ///
 /// A ray parallel to a face and exactly in its plane gets a NaN slab, which
 /// the comparisons below take as a miss: the boxes are widened (see
-/// [`super::cell`]) so no cell reaches their faces.
+/// [`super::zone`]) so no zone reaches their faces.
 #[inline]
 fn entry(b: &Aabb, ray: &Ray, bound: f64) -> Option<f64> {
     let t1 = (b.min - ray.o) * ray.inv_d;

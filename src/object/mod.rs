@@ -1,36 +1,39 @@
-//! The macro level: a 3-D object made of cells (zones) bounded by quadrics.
+//! The macro level: the geometry of a 3-D object made of zones bounded by
+//! quadrics.
 //!
-//! Cells are regions over named quadric surfaces (the same kernel and region
-//! syntax as the micro level). A cell's fill is `void` (photons fly through
-//! it) or `solid` (photons reflect where they would enter it). Space outside
-//! every cell is open void; a photon that meets no solid escapes to infinity.
-//! The surface a photon crosses into a solid names its wall, whose model
-//! ([`wall::WallModel`]) decides the reflection: a descent into a micro
-//! geometry (ROKS-RG), a tabulated BRDF, ideal specular/diffuse, or Fresnel.
+//! Zones (declared in a scene by `[[cells]]`) are regions over named quadric
+//! surfaces (the same kernel and region syntax as the micro level). A zone's
+//! fill is `void` (photons fly through it) or `solid` (photons reflect where
+//! they would enter it). Space outside every zone is open void; a photon
+//! that meets no solid escapes to infinity. The surface a photon crosses
+//! into a solid names its wall, whose model
+//! ([`crate::transport::wall::WallModel`]) decides the reflection: a descent
+//! into a micro geometry (ROKS-RG), a tabulated BRDF, ideal
+//! specular/diffuse, or Fresnel. This module holds geometry only (and the
+//! beams of [`source`]); the histories are in [`crate::transport::object`].
 //!
 //! **The nearest hit.** [`Object::next_hit`] finds the nearest entry into a
-//! solid without testing every cell: cells whose regions are bounded (see
-//! [`cell`]) sit in a bounding-volume hierarchy ([`bvh`]) visited nearest
-//! box first, with early exit at the best distance found; unbounded cells
-//! are tested always. Each cell's region is evaluated in its flat form
+//! solid without testing every zone: zones whose regions are bounded (see
+//! [`zone`]) sit in a bounding-volume hierarchy ([`bvh`]) visited nearest
+//! box first, with early exit at the best distance found; unbounded zones
+//! are tested always. Each zone's region is evaluated in its flat form
 //! (no recursion at every crossing). The answer is bit for bit that of the
-//! linear scan over cells in index order, `Body::first_entry(ray, t_max)`
-//! with `t_max` the distance of the last cell accepted (so on equal
+//! linear scan over zones in index order, `Body::first_entry(ray, t_max)`
+//! with `t_max` the distance of the last zone accepted (so on equal
 //! distances the highest index wins): the candidates found below the final
 //! bound are replayed in index order with the scan's rule, which is exact
 //! when every candidate lies wholly below that bound (checked; otherwise,
 //! when a polished root moves across it, the full scan runs).
 
 pub mod bvh;
-pub mod cell;
 pub mod source;
-pub mod wall;
+pub mod zone;
 
 use glam::DVec3;
 
 use crate::geometry::body::{Body, Ray};
 use bvh::Bvh;
-use cell::{CellEntry, CompiledCell};
+use zone::{CompiledZone, ZoneEntry};
 
 /// Most candidate entries one flight keeps before falling back to the scan.
 const CANDIDATES: usize = 16;
@@ -39,10 +42,10 @@ const CANDIDATES: usize = 16;
 /// costs no more than the hierarchy's bookkeeping there).
 const SCAN_SOLIDS: usize = 4;
 
-/// A solid cell: where photons reflect.
+/// A solid zone: where photons reflect.
 #[derive(Clone, Debug)]
-pub struct SolidCell {
-    /// Cell name (from the scene).
+pub struct SolidZone {
+    /// Zone name (from the scene).
     pub name: String,
     /// The solid.
     pub body: Body,
@@ -50,12 +53,12 @@ pub struct SolidCell {
     pub surface_ids: Vec<usize>,
 }
 
-/// A void cell (kept to check that photon positions are covered once).
+/// A void zone (kept to check that photon positions are covered once).
 #[derive(Clone, Debug)]
-pub struct VoidCell {
-    /// Cell name (from the scene).
+pub struct VoidZone {
+    /// Zone name (from the scene).
     pub name: String,
-    /// Where the cell is.
+    /// Where the zone is.
     pub body: Body,
 }
 
@@ -65,23 +68,23 @@ pub struct Hit {
     /// Distance along the (unit) direction.
     pub t: f64,
     /// Index into [`Object::solids`].
-    pub cell: usize,
-    /// Index into that cell's surfaces.
+    pub zone: usize,
+    /// Index into that zone's surfaces.
     pub surface: usize,
 }
 
 /// The geometry of a 3-D object (build it with [`Object::new`], which
-/// compiles the cells for the flight loop).
+/// compiles the zones for the flight loop).
 #[derive(Clone, Debug)]
 pub struct Object {
     /// Names of the scene's quadrics; a surface id indexes this list.
     pub surface_names: Vec<String>,
-    /// Solid cells.
-    pub solids: Vec<SolidCell>,
-    /// Void cells.
-    pub voids: Vec<VoidCell>,
+    /// Solid zones.
+    pub solids: Vec<SolidZone>,
+    /// Void zones.
+    pub voids: Vec<VoidZone>,
     /// The solids compiled for the flight loop, one per solid.
-    compiled: Vec<CompiledCell>,
+    compiled: Vec<CompiledZone>,
     /// Solids without a finite box: tested by every flight.
     unbounded: Vec<usize>,
     /// The hierarchy over the bounded solids.
@@ -89,12 +92,12 @@ pub struct Object {
 }
 
 impl Object {
-    /// The object of these cells (solid bodies with unbounded own boxes, as
+    /// The object of these zones (solid bodies with unbounded own boxes, as
     /// scenes build them).
     #[must_use]
-    pub fn new(surface_names: Vec<String>, solids: Vec<SolidCell>, voids: Vec<VoidCell>) -> Self {
-        let compiled: Vec<CompiledCell> =
-            solids.iter().map(|s| CompiledCell::new(&s.body)).collect();
+    pub fn new(surface_names: Vec<String>, solids: Vec<SolidZone>, voids: Vec<VoidZone>) -> Self {
+        let compiled: Vec<CompiledZone> =
+            solids.iter().map(|s| CompiledZone::new(&s.body)).collect();
         let unbounded = (0..solids.len())
             .filter(|&i| compiled[i].bounds.is_none())
             .collect();
@@ -113,15 +116,15 @@ impl Object {
         }
     }
 
-    /// The entry of the flight into solid `cell` (see [`CompiledCell::entry`]).
+    /// The entry of the flight into solid `zone` (see [`CompiledZone::entry`]).
     #[inline]
-    fn entry(&self, cell: usize, ray: &Ray, standing: Option<(usize, usize)>) -> Option<CellEntry> {
-        let on = standing.and_then(|(c, s)| (c == cell).then_some(s));
-        self.compiled[cell].entry(&self.solids[cell].body, ray, on)
+    fn entry(&self, zone: usize, ray: &Ray, standing: Option<(usize, usize)>) -> Option<ZoneEntry> {
+        let on = standing.and_then(|(c, s)| (c == zone).then_some(s));
+        self.compiled[zone].entry(&self.solids[zone].body, ray, on)
     }
 
     /// The nearest entry into any solid of the flight from `o` along unit
-    /// `d`, or `None` if it escapes. `standing`: `(cell, surface)` it starts
+    /// `d`, or `None` if it escapes. `standing`: `(zone, surface)` it starts
     /// on. Bit for bit the linear scan's answer (see the module docs).
     #[must_use]
     pub fn next_hit(&self, o: DVec3, d: DVec3, standing: Option<(usize, usize)>) -> Option<Hit> {
@@ -131,7 +134,7 @@ impl Object {
         }
         let mut found = [(
             0_usize,
-            CellEntry {
+            ZoneEntry {
                 key: 0.0,
                 t: 0.0,
                 surface: 0,
@@ -139,10 +142,10 @@ impl Object {
         ); CANDIDATES];
         let mut n = 0;
         let mut overflow = false;
-        let mut test = |cell: usize, bound: f64| match self.entry(cell, &ray, standing) {
+        let mut test = |zone: usize, bound: f64| match self.entry(zone, &ray, standing) {
             Some(e) => {
                 if n < CANDIDATES {
-                    found[n] = (cell, e);
+                    found[n] = (zone, e);
                     n += 1;
                 } else {
                     overflow = true;
@@ -152,20 +155,20 @@ impl Object {
             None => bound,
         };
         let mut bound = f64::INFINITY;
-        for &cell in &self.unbounded {
-            bound = test(cell, bound);
+        for &zone in &self.unbounded {
+            bound = test(zone, bound);
         }
         let bound = self.bvh.traverse(&ray, bound, &mut test);
         if overflow {
             return self.scan(&ray, standing);
         }
         // Replay the scan's rule over the candidates at or below the bound,
-        // in index order; cells beyond it (or never tested, their boxes
+        // in index order; zones beyond it (or never tested, their boxes
         // beyond it) would be refused by the scan.
         let candidates = &mut found[..n];
         candidates.sort_unstable_by_key(|c| c.0);
         let mut nearest = Nearest::default();
-        for &(cell, e) in candidates.iter() {
+        for &(zone, e) in candidates.iter() {
             if e.key.min(e.t) > bound {
                 continue;
             }
@@ -173,19 +176,19 @@ impl Object {
                 // A polished root across the bound: the replay could differ.
                 return self.scan(&ray, standing);
             }
-            nearest.offer(cell, e);
+            nearest.offer(zone, e);
         }
         nearest.best
     }
 
-    /// The linear scan over every solid in index order: a cell is taken
+    /// The linear scan over every solid in index order: a zone is taken
     /// when `Body::first_entry(ray, t_max)` finds it, `t_max` the distance
     /// of the last taken.
     fn scan(&self, ray: &Ray, standing: Option<(usize, usize)>) -> Option<Hit> {
         let mut nearest = Nearest::default();
-        for cell in 0..self.solids.len() {
-            if let Some(e) = self.entry(cell, ray, standing) {
-                nearest.offer(cell, e);
+        for zone in 0..self.solids.len() {
+            if let Some(e) = self.entry(zone, ray, standing) {
+                nearest.offer(zone, e);
             }
         }
         nearest.best
@@ -198,9 +201,9 @@ impl Object {
         self.unbounded.iter().any(|&i| inside(i)) || self.bvh.any_containing(p, inside)
     }
 
-    /// The solid and void cells containing `p` (for checks of photon positions).
+    /// The solid and void zones containing `p` (for checks of photon positions).
     #[must_use]
-    pub fn cells_at(&self, p: DVec3) -> (Vec<usize>, Vec<usize>) {
+    pub fn zones_at(&self, p: DVec3) -> (Vec<usize>, Vec<usize>) {
         let solids = (0..self.solids.len())
             .filter(|&i| self.solids[i].body.contains(p))
             .collect();
@@ -210,16 +213,16 @@ impl Object {
         (solids, voids)
     }
 
-    /// Global surface id of surface `surface` of solid `cell`.
+    /// Global surface id of surface `surface` of solid `zone`.
     #[must_use]
-    pub fn surface_id(&self, cell: usize, surface: usize) -> usize {
-        self.solids[cell].surface_ids[surface]
+    pub fn surface_id(&self, zone: usize, surface: usize) -> usize {
+        self.solids[zone].surface_ids[surface]
     }
 }
 
-/// The scan's rule for the nearest entry, cells offered in index order: a
-/// cell's entry is taken when its `key` is at most the distance of the
-/// last taken (see [`CellEntry`]). [`Object::next_hit`] replays the
+/// The scan's rule for the nearest entry, zones offered in index order: a
+/// zone's entry is taken when its `key` is at most the distance of the
+/// last taken (see [`ZoneEntry`]). [`Object::next_hit`] replays the
 /// candidates of its hierarchy through the same rule.
 struct Nearest {
     best: Option<Hit>,
@@ -236,12 +239,12 @@ impl Default for Nearest {
 }
 
 impl Nearest {
-    fn offer(&mut self, cell: usize, e: CellEntry) {
+    fn offer(&mut self, zone: usize, e: ZoneEntry) {
         if e.key <= self.t_max {
             self.t_max = e.t;
             self.best = Some(Hit {
                 t: e.t,
-                cell,
+                zone,
                 surface: e.surface,
             });
         }
@@ -260,7 +263,7 @@ mod tests {
     fn tube() -> Object {
         let solid = |name: &str, surfaces: Vec<Quadric>, expr: &str, names: &[&str]| {
             let region = region::parse(expr, |s| names.iter().position(|n| *n == s)).unwrap();
-            SolidCell {
+            SolidZone {
                 name: name.to_string(),
                 body: Body::new(surfaces, region, Aabb::EVERYTHING, 0),
                 surface_ids: (0..names.len()).collect(),
@@ -311,13 +314,13 @@ mod tests {
         let ray = Ray::new(o, d);
         let mut best = None;
         let mut t_max = f64::INFINITY;
-        for (cell, solid) in object.solids.iter().enumerate() {
-            let on = standing.and_then(|(c, s)| (c == cell).then_some(s));
+        for (zone, solid) in object.solids.iter().enumerate() {
+            let on = standing.and_then(|(c, s)| (c == zone).then_some(s));
             if let Some(e) = solid.body.first_entry(&ray, t_max, on) {
                 t_max = e.t;
                 best = Some(Hit {
                     t: e.t,
-                    cell,
+                    zone,
                     surface: e.surface,
                 });
             }
@@ -350,7 +353,7 @@ mod tests {
                 hits += 1;
                 let p = o + h.t * d;
                 let d2 = DVec3::new(-d.x, d.y, -d.z);
-                let on = Some((h.cell, h.surface));
+                let on = Some((h.zone, h.surface));
                 assert_eq!(
                     object.next_hit(p, d2, on),
                     reference(&object, p, d2, on),

@@ -11,7 +11,7 @@
 //! tip   = { plane = [0.0, 0.0, 1.0, -150.0] }
 //! outer = { cylinder_z = { r = 30.0 } }
 //!
-//! [[cells]]
+//! [[cells]]                            # one zone (the key keeps OpenMC's word)
 //! name = "cavity"
 //! region = "-wall -front -back +tip"   # OpenMC region syntax
 //! fill = "void"                        # "void": photons fly; "solid": they reflect at its boundary
@@ -20,7 +20,7 @@
 //! region = "-outer -front +tip ~(-wall -back)"
 //! fill = "solid"
 //!
-//! [walls]                              # model of each surface, as seen from a void cell
+//! [walls]                              # model of each surface, as seen from a void zone
 //! wall = "z302"
 //! back = "z302"
 //!
@@ -92,14 +92,14 @@ use serde::Deserialize;
 use super::micro::{MicroScene, TransportSpec};
 use super::{MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, Source, parse_toml};
 use crate::object::source::Beam;
-use crate::object::wall::WallModel;
-use crate::object::{Object, SolidCell, VoidCell};
+use crate::object::{Object, SolidZone, VoidZone};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
 use crate::tally::PolarTally;
 use crate::transport::micro::Controls;
 use crate::transport::object::{ObjectRun, Walls};
+use crate::transport::wall::{MicroWall, WallModel};
 
 /// The object scene as written.
 #[derive(Debug, Clone, Deserialize)]
@@ -112,9 +112,9 @@ pub struct ObjectSceneSpec {
     /// Named surfaces.
     #[serde(default)]
     pub quadrics: BTreeMap<String, QuadricSpec>,
-    /// Cells.
+    /// The zones (`[[cells]]`: the key keeps the OpenMC word).
     #[serde(default)]
-    pub cells: Vec<CellSpec>,
+    pub cells: Vec<ZoneSpec>,
     /// Surface name -> model name.
     #[serde(default)]
     pub walls: BTreeMap<String, String>,
@@ -133,11 +133,11 @@ pub struct ObjectSceneSpec {
     pub transport: TransportSpec,
 }
 
-/// `[[cells]]`.
+/// `[[cells]]`: one zone of the object.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct CellSpec {
-    /// Cell name.
+pub struct ZoneSpec {
+    /// Zone name.
     pub name: String,
     /// OpenMC region over `[quadrics]`.
     pub region: String,
@@ -304,18 +304,18 @@ impl ObjectSceneSpec {
         }
         let mut solids = Vec::new();
         let mut voids = Vec::new();
-        for (c, cell) in self.cells.iter().enumerate() {
+        for (c, zone) in self.cells.iter().enumerate() {
             let key = format!("cells[{c}].region");
             let (body, ids) =
-                super::region_body(&source, &key, &cell.region, &surface_names, &quadrics, 0)?;
-            match cell.fill {
-                Fill::Solid => solids.push(SolidCell {
-                    name: cell.name.clone(),
+                super::region_body(&source, &key, &zone.region, &surface_names, &quadrics, 0)?;
+            match zone.fill {
+                Fill::Solid => solids.push(SolidZone {
+                    name: zone.name.clone(),
                     body,
                     surface_ids: ids,
                 }),
-                Fill::Void => voids.push(VoidCell {
-                    name: cell.name.clone(),
+                Fill::Void => voids.push(VoidZone {
+                    name: zone.name.clone(),
                     body,
                 }),
             }
@@ -459,7 +459,7 @@ impl ObjectSceneSpec {
                     return Err(source.error(key("position"), "must be finite"));
                 }
                 // Photons must start in open space or in exactly one void cell.
-                let (in_solids, in_voids) = object.cells_at(p);
+                let (in_solids, in_voids) = object.zones_at(p);
                 if let Some(&c) = in_solids.first() {
                     return Err(source.error(
                         key("position"),
@@ -494,7 +494,7 @@ impl ObjectSceneSpec {
                 for ring in 1..=4 {
                     for k in 0..32 {
                         let q = beam.start(f64::from(ring) * 0.25, f64::from(k) / 32.0);
-                        if let Some(&c) = object.cells_at(q).0.first() {
+                        if let Some(&c) = object.zones_at(q).0.first() {
                             return Err(source.error(
                                 key("beam.diameter"),
                                 format!(
@@ -574,16 +574,13 @@ impl ModelSpec {
             let path = source.dir.join(file);
             let scene = MicroScene::load(&path)
                 .map_err(|e| source.error(format!("{key}.micro"), e.to_string()))?;
-            if !WallModel::micro_is_periodic(&scene) {
+            let Some(micro) = MicroWall::new(scene.surface, controls) else {
                 return Err(source.error(
                     format!("{key}.micro"),
                     "the micro scene must have periodic edges",
                 ));
-            }
-            return Ok(WallModel::Micro {
-                scene: Box::new(scene),
-                controls,
-            });
+            };
+            return Ok(WallModel::Micro(Box::new(micro)));
         }
         if let Some(file) = &self.brdf {
             let path = source.dir.join(file);

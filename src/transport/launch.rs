@@ -1,7 +1,7 @@
-//! Where photons enter the micro cell: independent random points, or a
+//! Where photons enter the micro period: independent random points, or a
 //! randomised low-discrepancy lattice.
 //!
-//! A photon enters at a point `(u, v)` of the unit square (scaled to the cell
+//! A photon enters at a point `(u, v)` of the unit square (scaled to the period
 //! on the launch plane). With [`Launch::Random`] every photon draws its point
 //! from its own stream, and the standard errors are the usual per-photon ones.
 //!
@@ -26,18 +26,18 @@
 //! not independent.
 //!
 //! Why this pays: a BRDF cell collects the photons whose entry point lies in
-//! its preimage on the cell, a set of small patches (one or more per bump). A
+//! its preimage on the period, a set of small patches (one or more per bump). A
 //! random point set covers them with Poisson noise; a lattice of spacing
 //! finer than the patches covers them in proportion to their area, so the
 //! gain grows with the photons per replicate. Measured on the default scene
 //! at 30 and 60 degrees over 8 (4) seeds, spread over seeds of the lattice
 //! estimate against the random one: reflectance 0.34 (4e5 photons) and
 //! 0.10-0.13 (4e6); BRDF cells 0.87 and 0.73 (median over the cells above
-//! 10 % of the peak), i.e. 1.9 times fewer photons per cell at 4e6.
-//! Stratifying each batch of 4096 photons alone gave nothing for the cells
+//! 10 % of the peak), i.e. 1.9 times fewer photons per Carlson cell at 4e6.
+//! Stratifying each batch of 4096 photons alone gave nothing for the Carlson cells
 //! (0.95): 4096 points are coarser than the patches.
-//! A lattice run takes about 12 % more time per photon (the replicate sums).
-//! See results/speed_error for the error against time.
+//! A lattice run costs a little more time per photon (the replicate sums);
+//! results/speed_error has the error against time.
 //!
 //! The price: a lattice run's standard errors are estimated from 16 numbers
 //! (15 degrees of freedom), so a z-score built on them has t-like tails, and
@@ -182,12 +182,6 @@ impl Lattices {
     }
 }
 
-/// [`Lattices::point`] for tracing seed `seed`.
-#[must_use]
-pub fn lattice_point(seed: u64, g: u64) -> (usize, [f64; 2]) {
-    Lattices::new(seed).point(g)
-}
-
 /// Standard error of a mean from `K` replicate sums `sums` (each over the
 /// same number of photons `per_replicate`): the spread of the replicate
 /// means, `sqrt(sum (m_r - m)² / (K (K - 1)))`.
@@ -253,13 +247,13 @@ mod tests {
     #[test]
     fn points_are_in_the_square_and_replicates_interleave() {
         for g in [0, 1, 15, 16, 17, 4095, 4096, 1 << 40, u64::MAX] {
-            let (r, p) = lattice_point(7, g);
+            let (r, p) = Lattices::new(7).point(g);
             assert_eq!(r as u64, g % REPLICATES);
             assert!(p.iter().all(|x| (0.0..1.0).contains(x)), "{g}: {p:?}");
         }
         // Same replicate, consecutive points: the R2 step modulo 1.
-        let (_, a) = lattice_point(3, 5);
-        let (_, b) = lattice_point(3, 5 + REPLICATES);
+        let (_, a) = Lattices::new(3).point(5);
+        let (_, b) = Lattices::new(3).point(5 + REPLICATES);
         for k in 0..2 {
             let step = (b[k] - a[k]).rem_euclid(1.0);
             assert!((step - R2_STEP[k]).abs() < 1e-12, "{k}: {step}");
@@ -274,7 +268,7 @@ mod tests {
         let n = 16_384_u64;
         let mut boxes = [0_i64; 256];
         for j in 0..n {
-            let (r, p) = lattice_point(11, j * REPLICATES + 3);
+            let (r, p) = Lattices::new(11).point(j * REPLICATES + 3);
             assert_eq!(r, 3);
             boxes[(p[1] * 16.0) as usize * 16 + (p[0] * 16.0) as usize] += 1;
         }

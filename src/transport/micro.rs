@@ -14,7 +14,7 @@
 use glam::DVec3;
 
 use super::carrier::Carrier;
-use crate::micro::{Edges, Event, MAX_CROSSINGS, MicroSurface, Scratch, Skip};
+use crate::micro::{Edges, Event, Facet, MAX_CROSSINGS, MicroSurface, Scratch, Skip};
 
 /// Periodic crossings of one flight after which [`MicroSurface::skip_periods`]
 /// is asked, at every further crossing, for whole periods the flight passes
@@ -86,8 +86,8 @@ pub struct History<C = f64> {
 }
 
 /// Trace a photon entering the micro surface at `start` (on or above the
-/// launch plane, inside the cell) travelling along unit `dir` (z < 0),
-/// carrying `w` (its reference vector, if any, in the cell's coordinates).
+/// launch plane, inside the period) travelling along unit `dir` (z < 0),
+/// carrying `w` (its reference vector, if any, in the period's coordinates).
 pub fn trace<C: Carrier>(
     surface: &MicroSurface,
     start: DVec3,
@@ -99,7 +99,7 @@ pub fn trace<C: Carrier>(
 ) -> History<C> {
     let mut p = start;
     let mut d = dir;
-    let mut standing: Option<(usize, usize)> = None;
+    let mut standing: Option<Facet> = None;
     let mut bounces = 0_u32;
     let mut segments = 0_u32;
     // Periodic sides crossed by the current flight (since its last reflection).
@@ -119,16 +119,12 @@ pub fn trace<C: Carrier>(
                 return end(Fate::Escaped { dir: d, weight: w }, bounces, segments);
             }
             Event::Trapped => return end(Fate::Capped { weight: w }, bounces, segments),
-            Event::Hit {
-                t,
-                solid,
-                surface: s,
-            } => {
+            Event::Hit { t, facet } => {
                 if bounces >= controls.max_bounces {
                     return end(Fate::Capped { weight: w }, bounces, segments);
                 }
                 p += t * d;
-                let Some((n, material)) = surface.hit_normal(&mut p, d, solid, s) else {
+                let Some((n, material)) = surface.hit_normal(&mut p, d, facet) else {
                     return end(Fate::Numeric { weight: w }, bounces, segments);
                 };
                 // Specular reflection, weighted by the reflectance at the local
@@ -142,7 +138,7 @@ pub fn trace<C: Carrier>(
                 if !(p.is_finite() && d.is_finite()) || d == DVec3::ZERO {
                     return end(Fate::Numeric { weight: w }, bounces, segments);
                 }
-                standing = Some((solid, s));
+                standing = Some(facet);
                 crossings = 0;
             }
             Event::Side { t, axis, upper } => {

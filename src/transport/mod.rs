@@ -3,10 +3,15 @@
 //! * [`rng`]: one reproducible stream per photon.
 //! * [`carrier`]: what a photon carries: a weight, or a Stokes vector or Mueller matrix with its frame.
 //! * [`micro`]: one history in a micro surface (specular reflections, weights, roulette).
-//! * [`launch`]: where photons enter the micro cell (random or lattice).
+//! * [`launch`]: where photons enter the micro period (random or lattice).
 //! * [`order`]: the order a batch's photons are traced in (Morton order of entry points).
 //! * [`brdf`]: the BRDF generator (`roks brdf`).
+//! * [`wall`]: the wall models of objects (micro descent, BRDF table, ideal, specular).
 //! * [`object`]: histories through a 3-D object (`roks trace`).
+//!
+//! Both levels name their history loop `trace`, its result `History` and
+//! its end `Fate` ([`micro::trace`], [`object::trace`]); the module path
+//! tells them apart.
 
 pub mod brdf;
 pub mod carrier;
@@ -15,6 +20,7 @@ pub mod micro;
 pub mod object;
 pub mod order;
 pub mod rng;
+pub mod wall;
 
 use rand::RngExt;
 use rayon::prelude::*;

@@ -1,7 +1,7 @@
 //! Photon histories through a 3-D object, and the run over beam positions
 //! (`roks trace`).
 //!
-//! A photon starts on its beam's disc and flies until it enters a solid cell;
+//! A photon starts on its beam's disc and flies until it enters a solid zone;
 //! there the wall model of the surface it crosses reflects it (or absorbs
 //! it), and it flies on from the hit point, standing on that surface, until
 //! it meets no solid: it then escapes. Escaping after at least one reflection
@@ -29,10 +29,10 @@ use rand::RngExt;
 use super::carrier::{Carrier, Polarised};
 use super::micro::Controls;
 use super::rng::photon_rng;
+use super::wall::{Interaction, WallModel};
 use crate::micro::Scratch;
 use crate::object::Object;
 use crate::object::source::Beam;
-use crate::object::wall::{Interaction, WallModel};
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
 use crate::tally::Merge as _;
 use crate::tally::carlson::Cells;
@@ -41,7 +41,7 @@ use crate::tally::{Accumulator, CarlsonGrid};
 pub use super::BATCH;
 
 /// A far-field grid over the full sphere: the Carlson hemisphere grid for
-/// `z > 0` and its mirror image for `z < 0` (cell `i + n_cells`).
+/// `z > 0` and its mirror image for `z < 0` (Carlson cell `i + n_cells`).
 #[derive(Debug, Clone, Copy)]
 pub struct FarField {
     /// The hemisphere grid.
@@ -151,7 +151,8 @@ pub struct ObjectTallies {
     pub segments: u64,
     /// Weight cut by caps or guards (macro or inside micro descents).
     pub lost: f64,
-    /// Histories that hit a surface without a model: (count, surface id of the first).
+    /// Histories that hit a surface without a model: (count, surface id of
+    /// the first; 0 while the count is 0).
     pub unmodelled: (u64, usize),
     /// Photons whose start point lies inside a solid (not traced; a scene error).
     pub started_inside: u64,
@@ -176,7 +177,7 @@ impl ObjectTallies {
             bounces: 0,
             segments: 0,
             lost: 0.0,
-            unmodelled: (0, usize::MAX),
+            unmodelled: (0, 0),
             started_inside: 0,
         }
     }
@@ -345,7 +346,7 @@ impl ObjectRun {
                 continue;
             }
             t.photons += 1;
-            let end = follow(
+            let end = trace(
                 object,
                 walls,
                 models,
@@ -363,7 +364,7 @@ impl ObjectRun {
                 },
             );
             match end.fate {
-                MacroFate::Escaped { dir, weight } => {
+                Fate::Escaped { dir, weight } => {
                     let intensity = weight.intensity();
                     if end.bounces == 0 {
                         t.missed += intensity;
@@ -386,14 +387,14 @@ impl ObjectRun {
                         }
                     }
                 }
-                MacroFate::Unmodelled { surface } => {
-                    t.unmodelled.0 += 1;
-                    if t.unmodelled.1 == usize::MAX {
+                Fate::Unmodelled { surface } => {
+                    if t.unmodelled.0 == 0 {
                         t.unmodelled.1 = surface;
                     }
+                    t.unmodelled.0 += 1;
                 }
-                MacroFate::Lost { weight } => t.lost += weight,
-                MacroFate::Absorbed => {}
+                Fate::Lost { weight } => t.lost += weight,
+                Fate::Absorbed => {}
             }
             t.segments += u64::from(end.segments);
             t.bounces += u64::from(end.bounces);
@@ -407,10 +408,10 @@ impl ObjectRun {
     }
 }
 
-/// How a history through an object ended (see [`follow`]); `C` is what
+/// How a history through an object ended (see [`trace`]); `C` is what
 /// the photon carried ([`Carrier`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum MacroFate<C = f64> {
+pub enum Fate<C = f64> {
     /// Met no solid any more: leaves to infinity along unit `dir` with `weight`.
     Escaped {
         /// Direction of flight.
@@ -434,11 +435,11 @@ pub enum MacroFate<C = f64> {
     },
 }
 
-/// A finished macro history.
+/// A finished history through an object.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MacroHistory<C = f64> {
+pub struct History<C = f64> {
     /// How it ended.
-    pub fate: MacroFate<C>,
+    pub fate: Fate<C>,
     /// Reflections at walls (0 for an escape: the photon missed the object).
     pub bounces: u32,
     /// Straight flights traced.
@@ -452,7 +453,7 @@ pub struct MacroHistory<C = f64> {
 /// the weight each wall removes. `scratch` holds one micro scratch per model.
 /// The photon starts carrying `w` (see [`Carrier`]; `1.0` unpolarised).
 #[allow(clippy::too_many_arguments)]
-pub fn follow<C: Carrier>(
+pub fn trace<C: Carrier>(
     object: &Object,
     walls: &Walls,
     models: &[WallModel],
@@ -463,11 +464,11 @@ pub fn follow<C: Carrier>(
     rng: &mut impl rand::Rng,
     scratch: &mut [Option<Scratch>],
     mut absorbed: impl FnMut(usize, f64),
-) -> MacroHistory<C> {
+) -> History<C> {
     let mut standing = None;
     let mut bounces = 0_u32;
     let mut segments = 0_u32;
-    let end = |fate, bounces, segments| MacroHistory {
+    let end = |fate, bounces, segments| History {
         fate,
         bounces,
         segments,
@@ -475,7 +476,7 @@ pub fn follow<C: Carrier>(
     // Cut by the cap or a guard: the intensity carried is reported as lost.
     let lost = |w: &C, bounces, segments| {
         end(
-            MacroFate::Lost {
+            Fate::Lost {
                 weight: w.intensity(),
             },
             bounces,
@@ -485,11 +486,11 @@ pub fn follow<C: Carrier>(
     loop {
         segments += 1;
         let Some(hit) = object.next_hit(p, d, standing) else {
-            return end(MacroFate::Escaped { dir: d, weight: w }, bounces, segments);
+            return end(Fate::Escaped { dir: d, weight: w }, bounces, segments);
         };
-        let sid = object.surface_id(hit.cell, hit.surface);
+        let sid = object.surface_id(hit.zone, hit.surface);
         let Some(m) = walls[sid] else {
-            return end(MacroFate::Unmodelled { surface: sid }, bounces, segments);
+            return end(Fate::Unmodelled { surface: sid }, bounces, segments);
         };
         if bounces >= controls.max_bounces {
             return lost(&w, bounces, segments);
@@ -498,7 +499,7 @@ pub fn follow<C: Carrier>(
         if !p.is_finite() {
             return lost(&w, bounces, segments);
         }
-        let quadric = &object.solids[hit.cell].body.surfaces[hit.surface];
+        let quadric = &object.solids[hit.zone].body.surfaces[hit.surface];
         let Some(normal) = quadric.facing_normal(p, d) else {
             return lost(&w, bounces, segments);
         };
@@ -516,20 +517,20 @@ pub fn follow<C: Carrier>(
             }
             Interaction::Absorbed => {
                 absorbed(sid, w.intensity());
-                return end(MacroFate::Absorbed, bounces, segments);
+                return end(Fate::Absorbed, bounces, segments);
             }
             Interaction::Lost => return lost(&w, bounces, segments),
         }
         if w.intensity() <= 0.0 {
-            return end(MacroFate::Absorbed, bounces, segments);
+            return end(Fate::Absorbed, bounces, segments);
         }
         if !d.is_finite() {
             return lost(&w, bounces, segments);
         }
-        standing = Some((hit.cell, hit.surface));
+        standing = Some((hit.zone, hit.surface));
         match super::roulette(w.intensity(), controls.roulette_weight, rng) {
             Some(survivor) => w.survive(survivor),
-            None => return end(MacroFate::Absorbed, bounces, segments),
+            None => return end(Fate::Absorbed, bounces, segments),
         }
     }
 }

@@ -1,5 +1,5 @@
 //! The order in which the photons of a batch are traced: by the Morton
-//! (Z-order) code of their entry points on the cell.
+//! (Z-order) code of their entry points on the period.
 //!
 //! Photons entering near each other first visit the same part of the
 //! surface, so tracing them one after the other keeps that part of a large
@@ -10,7 +10,7 @@
 //! bit what the index order gives. Small surfaces, which stay in the
 //! caches anyway, are traced in index order ([`pays`]).
 
-use crate::micro::MicroSurface;
+use crate::micro::{MicroSurface, Relief};
 
 /// Bytes of geometry (solids, heights) above which tracing in Morton order
 /// pays: about a core's L2 cache. Below it the surface stays in the caches
@@ -21,16 +21,15 @@ const ORDER_ABOVE_BYTES: usize = 1 << 20;
 /// ([`ORDER_ABOVE_BYTES`]). Either order gives the same tallies.
 #[must_use]
 pub fn pays(surface: &MicroSurface) -> bool {
-    let solids = std::mem::size_of_val(surface.solids.as_slice());
-    let heights = surface
-        .heightfield
-        .as_ref()
-        .map_or(0, |f| std::mem::size_of_val(f.h.as_slice()));
-    solids + heights > ORDER_ABOVE_BYTES
+    let bytes = match &surface.relief {
+        Relief::Solids(s) => std::mem::size_of_val(s.list.as_slice()),
+        Relief::HeightField(f) => std::mem::size_of_val(f.h.as_slice()),
+    };
+    bytes > ORDER_ABOVE_BYTES
 }
 
 /// Bits of the entry coordinates `u`, `v` kept in a Morton code: a 256 x 256
-/// grid over the cell, finer than a batch's 4096 points.
+/// grid over the period, finer than a batch's 4096 points.
 const BITS: u32 = 8;
 
 /// The Morton code of a point `(u, v)` of the unit square (`[0, 1)`; other
@@ -87,8 +86,8 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
-    /// The code bit by bit: bit `2 k` is bit `k` of the u cell, bit `2 k + 1`
-    /// bit `k` of the v cell.
+    /// The code bit by bit: bit `2 k` is bit `k` of the u bin, bit `2 k + 1`
+    /// bit `k` of the v bin.
     fn morton_by_bits(u: f64, v: f64) -> u16 {
         let cu = ((u * 256.0).floor().clamp(0.0, 255.0)) as u16;
         let cv = ((v * 256.0).floor().clamp(0.0, 255.0)) as u16;

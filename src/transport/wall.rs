@@ -1,4 +1,12 @@
-//! Wall models: what happens where a photon meets a wall of the object.
+//! Wall models: what happens where a photon meets a wall of an object.
+//!
+//! They live in `transport/`, not beside the object's geometry in
+//! [`crate::object`], because they are behaviour of a history: they act on
+//! what the photon carries ([`Carrier`]) and a micro descent traces a micro
+//! history ([`super::micro::trace`]). Each model holds all it uses (a micro
+//! descent: the micro surface and its history limits, [`MicroWall`]), so
+//! the dependencies point one way: `transport` uses `object` (geometry),
+//! `micro` and `optics`; none of them uses `transport`.
 //!
 //! Users pick one per surface (`[walls]` maps surface names to `[models]`),
 //! modelling only what a scene needs:
@@ -13,7 +21,7 @@
 //!
 //! **Micro descent.** At the hit the macro surface's local frame is built
 //! (normal `n` toward the photon's side, a tangent pair turned by a uniform
-//! random angle about `n`); the photon enters the periodic micro cell at a
+//! random angle about `n`); the photon enters the periodic micro surface at a
 //! uniform random point of its launch plane, with its direction expressed in
 //! that frame, is traced until it leaves the top, and its direction and weight
 //! are mapped back.
@@ -21,24 +29,48 @@
 use glam::DVec3;
 use rand::RngExt;
 
-use crate::micro::{Edges, Scratch};
+use super::carrier::Carrier;
+use super::micro::{Controls, Fate, trace};
+use crate::micro::{Edges, MicroSurface, Scratch};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::hemisphere_reference;
-use crate::scene::micro::MicroScene;
-use crate::transport::carrier::Carrier;
-use crate::transport::micro::{Controls, Fate, trace};
+
+/// What a micro descent needs: a periodic micro surface and the limits of
+/// a history in it.
+#[derive(Debug, Clone)]
+pub struct MicroWall {
+    surface: MicroSurface,
+    controls: Controls,
+}
+
+impl MicroWall {
+    /// The descent into `surface` with `controls`; `None` unless the
+    /// surface's edges are periodic (a descent enters it anywhere and the
+    /// rough surface must tile the wall).
+    #[must_use]
+    pub fn new(surface: MicroSurface, controls: Controls) -> Option<Self> {
+        (surface.edges == Edges::Periodic).then_some(Self { surface, controls })
+    }
+
+    /// The micro surface.
+    #[must_use]
+    pub fn surface(&self) -> &MicroSurface {
+        &self.surface
+    }
+
+    /// The history limits inside the micro surface.
+    #[must_use]
+    pub fn controls(&self) -> &Controls {
+        &self.controls
+    }
+}
 
 /// How a wall reflects.
 #[derive(Debug, Clone)]
 pub enum WallModel {
     /// Descend into an explicit micro geometry (periodic) at every hit.
-    Micro {
-        /// The micro scene (its surface and materials are used).
-        scene: Box<MicroScene>,
-        /// History limits inside the micro geometry.
-        controls: Controls,
-    },
+    Micro(Box<MicroWall>),
     /// Sample a BRDF table written by `roks brdf`.
     Table(Box<BrdfTable>),
     /// Ideal reflection: specular with probability `specular`, Lambertian
@@ -158,8 +190,8 @@ impl WallModel {
                     None => Interaction::Absorbed,
                 }
             }
-            Self::Micro { scene, controls } => {
-                let surface = &scene.surface;
+            Self::Micro(micro) => {
+                let MicroWall { surface, controls } = micro.as_ref();
                 // Frame turned by a uniform random angle about n.
                 let (e1, e2) = n.any_orthonormal_pair();
                 let a = std::f64::consts::TAU * rng.random::<f64>();
@@ -204,22 +236,14 @@ impl WallModel {
     pub fn polarises(&self) -> bool {
         match self {
             Self::Specular(r) => matches!(r, Reflectance::Fresnel { .. }),
-            Self::Micro { scene, .. } => scene.has_fresnel(),
+            Self::Micro(micro) => micro
+                .surface
+                .materials
+                .iter()
+                .any(|m| matches!(m, Reflectance::Fresnel { .. })),
             Self::Table(t) => t.has_mueller(),
             Self::Ideal { .. } => false,
         }
-    }
-
-    /// Whether the model needs a micro scratch.
-    #[must_use]
-    pub fn is_micro(&self) -> bool {
-        matches!(self, Self::Micro { .. })
-    }
-
-    /// Check a micro scene is usable for descent (periodic edges).
-    #[must_use]
-    pub fn micro_is_periodic(scene: &MicroScene) -> bool {
-        scene.surface.edges == Edges::Periodic
     }
 }
 
@@ -248,6 +272,38 @@ mod tests {
             "{m1}"
         );
         assert!((m2 - 0.5).abs() < 4.0 * 0.289 / (n as f64).sqrt(), "{m2}");
+    }
+
+    #[test]
+    fn a_micro_wall_needs_periodic_edges_and_mirrors_on_a_flat_surface() {
+        let surface = |edges| {
+            MicroSurface::new(
+                glam::DVec2::ONE,
+                edges,
+                Vec::new(),
+                vec![Reflectance::Constant(0.5)],
+                0,
+            )
+        };
+        assert!(MicroWall::new(surface(Edges::Absorbing), Controls::default()).is_none());
+        assert!(MicroWall::new(surface(Edges::Reflecting), Controls::default()).is_none());
+        let wall = MicroWall::new(surface(Edges::Periodic), Controls::default()).expect("periodic");
+        assert_eq!(wall.controls(), &Controls::default());
+        assert_eq!(wall.surface().solids().len(), 1);
+        // A bare substrate of reflectance 0.5: the descent is a mirror of 0.5.
+        let model = WallModel::Micro(Box::new(wall));
+        assert!(!model.polarises());
+        let d = DVec3::new(1.0, 0.0, -1.0).normalize();
+        let mut rng = Pcg64Mcg::seed_from_u64(3);
+        for _ in 0..100 {
+            match model.interact(d, DVec3::Z, 1.0, &mut rng, &mut None) {
+                Interaction::Reflected { dir, weight } => {
+                    assert!((dir - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-12);
+                    assert_eq!(weight, 0.5);
+                }
+                other => panic!("{other:?}"),
+            }
+        }
     }
 
     #[test]

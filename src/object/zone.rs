@@ -1,23 +1,24 @@
-//! A solid cell compiled for the flight loop: its region in flat form (see
+//! A solid zone compiled for the flight loop: its region in flat form (see
 //! [`Flat`]), its single-quadric fast path, and a bounding box derived from
 //! its region.
 //!
-//! [`CompiledCell::entry`] computes where a flight first enters the cell with
+//! [`CompiledZone::entry`] computes where a flight first enters the zone with
 //! exactly the arithmetic of [`Body::first_entry`] (the same crossings, the
 //! same event order, the same root polishing), over an unbounded flight,
 //! and reports with the distance the threshold `key` for which
 //! `Body::first_entry(ray, t_max, standing)` returns it: `key <= t_max`. The
 //! nearest-hit search of [`super::Object::next_hit`] uses both to give the
-//! answer of the linear scan over cells bit for bit, whatever order it
-//! visits cells in.
+//! answer of the linear scan over zones bit for bit, whatever order it
+//! visits zones in.
 //!
 //! Bounds: a half-space of a plane normal to an axis is a half-infinite
 //! slab; the negative side of an axis-aligned quadric with a non-negative
 //! diagonal (sphere, ellipsoid, cylinder) is the box of its ellipse (the
 //! positive side of one with a non-positive diagonal likewise); every other
-//! half-space is unbounded. Regions combine them by [`Region::bounding_box`].
-//! An annular vane between two planes inside a cylinder is then bounded,
-//! while the outside of a cone is not. Boxes are widened by 1e-6 of their
+//! half-space is unbounded. Regions combine them by
+//! [`crate::geometry::region::Region::bounding_box`]. An annular vane
+//! between two planes inside a cylinder is then bounded, while the outside
+//! of a cone is not. Boxes are widened by 1e-6 of their
 //! size and position so that roots computed with rounding stay inside.
 
 use glam::DVec3;
@@ -26,13 +27,13 @@ use crate::geometry::body::{Aabb, Body, MAX_SURFACES, Ray, first_entering_event}
 use crate::geometry::quadric::{Diagonal, Quadric, RayForm, entry_negative, standing_far_root};
 use crate::geometry::region::{Flat, Sense};
 
-/// Relative widening of a cell's box (of its size and of its distance from
+/// Relative widening of a zone's box (of its size and of its distance from
 /// the origin): far above the rounding of any root inside it.
 const BOX_MARGIN: f64 = 1e-6;
 
-/// Where a flight enters a cell (see the module docs).
+/// Where a flight enters a zone (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CellEntry {
+pub struct ZoneEntry {
     /// The threshold: [`Body::first_entry`] with `t_max` returns this entry
     /// exactly when `key <= t_max` (the unpolished root, or for the single
     /// quadric a ray stands on, the larger of the root and its correction).
@@ -43,9 +44,9 @@ pub struct CellEntry {
     pub surface: usize,
 }
 
-/// A solid cell's body in the form the flight loop evaluates.
+/// A solid zone's body in the form the flight loop evaluates.
 #[derive(Clone, Debug)]
-pub struct CompiledCell {
+pub struct CompiledZone {
     /// The region over the body's surfaces (`None`: evaluated by
     /// [`crate::geometry::region::Region::contains`], for regions nested
     /// beyond the flat form's stack).
@@ -54,13 +55,13 @@ pub struct CompiledCell {
     single: Option<(usize, Quadric, Option<Diagonal>)>,
     /// The body's surfaces in their ray forms, in order.
     forms: Vec<RayForm>,
-    /// A box containing the cell, widened for rounding; `None`: unbounded
+    /// A box containing the zone, widened for rounding; `None`: unbounded
     /// (or an empty box, which is tested like an unbounded one).
     pub bounds: Option<Aabb>,
 }
 
-impl CompiledCell {
-    /// Compile `body` (an object cell: its own box is unbounded).
+impl CompiledZone {
+    /// Compile `body` (an object zone: its own box is unbounded).
     #[must_use]
     pub fn new(body: &Body) -> Self {
         let single = body.region.single_negative().map(|i| {
@@ -87,7 +88,7 @@ impl CompiledCell {
         }
     }
 
-    /// Is `p` inside the cell? Exactly [`Body::contains`].
+    /// Is `p` inside the zone? Exactly [`Body::contains`].
     #[must_use]
     pub fn contains(&self, body: &Body, p: DVec3) -> bool {
         let mut positive = 0_u64;
@@ -97,13 +98,13 @@ impl CompiledCell {
         self.inside(body, positive)
     }
 
-    /// The first entry of `ray` into `body` (this cell's body) for any
+    /// The first entry of `ray` into `body` (this zone's body) for any
     /// `t > 0`, `standing`: the index of the body's surface the ray starts
     /// on. Exactly [`Body::first_entry`] with `t_max` when `key <= t_max`
-    /// (see [`CellEntry`]).
+    /// (see [`ZoneEntry`]).
     #[must_use]
     #[inline]
-    pub fn entry(&self, body: &Body, ray: &Ray, standing: Option<usize>) -> Option<CellEntry> {
+    pub fn entry(&self, body: &Body, ray: &Ray, standing: Option<usize>) -> Option<ZoneEntry> {
         let (o, d) = (ray.o, ray.d);
         let inf = f64::INFINITY;
         let (key, t, surface, ill) = if let Some((i, quadric, diagonal)) = &self.single {
@@ -130,7 +131,7 @@ impl CompiledCell {
         } else {
             t
         };
-        Some(CellEntry { key, t, surface })
+        Some(ZoneEntry { key, t, surface })
     }
 
     /// The first crossing after which the region holds: (distance, surface,
@@ -273,13 +274,13 @@ mod tests {
 
     #[test]
     fn an_annular_vane_is_bounded() {
-        let b = CompiledCell::new(&vane()).bounds.unwrap();
+        let b = CompiledZone::new(&vane()).bounds.unwrap();
         let pad = BOX_MARGIN * (50.0 + 25.0);
         assert_eq!(b.min, DVec3::new(-25.0 - pad, -25.0 - pad, -10.5 - pad));
         assert_eq!(b.max, DVec3::new(25.0 + pad, 25.0 + pad, -10.0 + pad));
         // The outside of a cylinder alone is not.
         let outside = body(vec![Quadric::cylinder(2, DVec3::ZERO, 1.0)], "+c", &["c"]);
-        assert!(CompiledCell::new(&outside).bounds.is_none());
+        assert!(CompiledZone::new(&outside).bounds.is_none());
     }
 
     #[test]
@@ -302,7 +303,7 @@ mod tests {
             ),
         ];
         for b in &bodies {
-            let cell = CompiledCell::new(b);
+            let zone = CompiledZone::new(b);
             for n in 0..2000 {
                 let a = f64::from(n) * 0.37;
                 let o = DVec3::new(
@@ -312,7 +313,7 @@ mod tests {
                 );
                 let d = DVec3::new((0.7 * a).sin(), (0.9 * a).cos(), -1.0 - a.sin()).normalize();
                 let ray = Ray::new(o, d);
-                let e = cell.entry(b, &ray, None);
+                let e = zone.entry(b, &ray, None);
                 for t_max in [
                     f64::INFINITY,
                     5.0,
@@ -328,12 +329,12 @@ mod tests {
                 if let Some(e) = e {
                     let p = o + e.t * d;
                     let back = Ray::new(p, -d);
-                    let s = cell.entry(b, &back, Some(e.surface));
+                    let s = zone.entry(b, &back, Some(e.surface));
                     let want = b.first_entry(&back, f64::INFINITY, Some(e.surface));
                     assert_eq!(s.map(|s| (s.t, s.surface)), want.map(|w| (w.t, w.surface)));
                 }
-                assert_eq!(cell.contains(b, o), b.contains(o));
-                if let Some(bx) = cell.bounds {
+                assert_eq!(zone.contains(b, o), b.contains(o));
+                if let Some(bx) = zone.bounds {
                     if let Some(e) = e {
                         let p = o + e.t * d;
                         assert!(p.cmpge(bx.min).all() && p.cmple(bx.max).all(), "{p}");
