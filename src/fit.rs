@@ -739,10 +739,7 @@ impl Problem {
             }
             paths.push(path);
         }
-        if opts.photons == 0 {
-            return Err(opt("--photons", "must be > 0".into()));
-        }
-        if let Some(e) = crate::transport::launch::photons_beyond_tallies(opts.photons) {
+        if let Err(e) = crate::transport::launch::check_count(opts.photons) {
             return Err(opt("--photons", e));
         }
         if opts.max_evaluations == 0 {

@@ -33,7 +33,8 @@
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
 //! * [`limits`]: the memory budget (`ROKS_MAX_MEMORY`): sizes estimated before allocating.
-//! * [`cli`]: the command line's value parsers and one-line messages.
+//! * [`cli`]: the command line: one module per command over shared arguments,
+//!   value parsers and one-line messages (the binary only dispatches).
 //!
 //! # Glossary
 //!

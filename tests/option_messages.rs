@@ -254,6 +254,26 @@ fn every_bad_option_is_one_line_naming_it() {
             with_out!("brdf", s, "--export", "foo"),
             vec!["--export:", "zemax, merl"],
         ),
+        (
+            "export zemax,fo",
+            with_out!("brdf", s, "--export", "zemax,fo"),
+            vec!["--export:", "`fo`", "one of zemax, merl"],
+        ),
+        (
+            "export-brdf format x",
+            with_out!("export-brdf", o, "--format", "x"),
+            vec!["--format:", "`x`", "one of zemax, merl"],
+        ),
+        (
+            "theta twice",
+            with_out!("brdf", s, "--theta", "10,20,10"),
+            vec!["--theta:", "10 is given twice"],
+        ),
+        (
+            "lattice photons",
+            with_out!("brdf", s, "--launch", "lattice", "--photons", "100"),
+            vec!["--photons:", "multiple of 16", "got 100"],
+        ),
         // Missing values.
         (
             "seed at the end",
@@ -916,4 +936,73 @@ fn rough_surface_statistics_are_numbers() {
     assert!(v["tau"].as_f64().is_some_and(|t| t > 0.0), "{v}");
     assert!(v["sigma_over_tau"].as_f64().is_some_and(|t| t > 0.0), "{v}");
     assert!(v.get("undefined").is_none(), "{v}");
+}
+
+/// The options of `roks COMMAND -h`, in the order the help lists them.
+fn listed_options(command: &str) -> Vec<String> {
+    let o = roks(&[command, "-h"]);
+    assert_eq!(o.status.code(), Some(0), "{command} -h");
+    String::from_utf8(o.stdout)
+        .unwrap()
+        .lines()
+        .filter(|l| l.trim_start().starts_with('-'))
+        .filter_map(|l| {
+            l.split_whitespace()
+                .find(|t| t.starts_with("--"))
+                .map(|t| t.trim_end_matches(',').to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn shared_options_keep_their_place_in_the_help() {
+    assert_eq!(
+        listed_options("brdf"),
+        [
+            "--out",
+            "--photons",
+            "--seed",
+            "--threads",
+            "--theta",
+            "--launch",
+            "--symmetry",
+            "--polarisation",
+            "--no-polarisation",
+            "--stats-resolution",
+            "--shard",
+            "--export",
+            "--quiet",
+            "--help"
+        ]
+    );
+    assert_eq!(
+        listed_options("trace"),
+        [
+            "--out",
+            "--photons",
+            "--seed",
+            "--threads",
+            "--no-polarisation",
+            "--quiet",
+            "--help"
+        ]
+    );
+    // Names from a list show as one line of values (not one value per
+    // line with its description); the export formats are named in the text.
+    let help = String::from_utf8(roks(&["brdf", "--help"]).stdout).unwrap();
+    assert!(
+        help.contains("[possible values: random, lattice]"),
+        "{help}"
+    );
+    assert!(
+        help.contains("[possible values: none, stokes, mueller]"),
+        "{help}"
+    );
+    assert!(!help.contains("Possible values:"), "{help}");
+    assert_eq!(help.matches("possible values").count(), 3, "{help}");
+    let trace = String::from_utf8(roks(&["trace", "--help"]).stdout).unwrap();
+    assert!(
+        trace.contains("Photons per beam position (overrides each source's `photons`)"),
+        "{trace}"
+    );
 }

@@ -1,6 +1,6 @@
 //! Bad scene files through the binary: `roks brdf` must exit with status 2,
 //! print exactly one line on stderr naming the scene file and the offending
-//! key (the contract in `scene/mod.rs` and `main.rs`), not panic, and write
+//! key (the contract in `scene/mod.rs` and `cli/mod.rs`), not panic, and write
 //! nothing: the `--out` folder must not exist afterwards.
 
 mod cli_common;

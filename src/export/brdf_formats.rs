@@ -23,7 +23,6 @@
 //! reflectance is the resampling error of the export.
 
 use std::fmt;
-use std::str::FromStr;
 
 use crate::optics::brdf_table::BrdfTable;
 use glam::DVec3;
@@ -32,17 +31,17 @@ use rayon::prelude::*;
 pub use super::resample::{FormatError, symmetric_eval};
 use super::{merl, zemax};
 
-/// An export format of `roks export-brdf`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// An export format of `roks export-brdf --format` and `roks brdf
+/// --export` (the names in lower case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum BrdfFormat {
     /// Zemax / Radiant tabular BSDF text (`brdf.bsdf`).
+    #[value(help = None::<&str>)]
     Zemax,
     /// MERL binary (`brdf.binary`).
+    #[value(help = None::<&str>)]
     Merl,
 }
-
-/// Format names, as on the command line.
-pub const FORMAT_NAMES: [&str; 2] = ["zemax", "merl"];
 
 impl BrdfFormat {
     /// The name on the command line.
@@ -79,21 +78,6 @@ impl BrdfFormat {
 impl fmt::Display for BrdfFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-impl FromStr for BrdfFormat {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "zemax" => Ok(Self::Zemax),
-            "merl" => Ok(Self::Merl),
-            other => Err(format!(
-                "unknown format `{other}`, expected one of {}",
-                FORMAT_NAMES.join(", ")
-            )),
-        }
     }
 }
 
@@ -199,13 +183,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn format_names_parse() {
-        assert_eq!("zemax".parse::<BrdfFormat>(), Ok(BrdfFormat::Zemax));
-        assert_eq!(" MERL".parse::<BrdfFormat>(), Ok(BrdfFormat::Merl));
-        let e = "pbrt".parse::<BrdfFormat>().unwrap_err();
-        assert!(e.contains("`pbrt`") && e.contains("zemax, merl"), "{e}");
-        for f in [BrdfFormat::Zemax, BrdfFormat::Merl] {
-            assert_eq!(f.name().parse::<BrdfFormat>(), Ok(f));
+    fn format_names_are_the_option_values() {
+        use clap::ValueEnum as _;
+        assert_eq!(BrdfFormat::from_str("zemax", false), Ok(BrdfFormat::Zemax));
+        assert_eq!(BrdfFormat::from_str("MERL", true), Ok(BrdfFormat::Merl));
+        assert!(BrdfFormat::from_str("pbrt", true).is_err());
+        for f in BrdfFormat::value_variants() {
+            assert_eq!(f.to_possible_value().unwrap().get_name(), f.name());
+            assert_eq!(f.to_string(), f.name());
         }
     }
 

@@ -180,6 +180,37 @@ pub fn read_scene_text(path: &Path) -> Result<String, SceneError> {
     })
 }
 
+/// The two kinds of scene file, told apart by their tables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SceneKind {
+    /// A rough surface (`[surface]`, [`micro::MicroScene`]): `roks brdf`.
+    Micro,
+    /// A 3-D object of zones (`[[cells]]`, [`object::ObjectScene`]): `roks trace`.
+    Object,
+}
+
+impl SceneKind {
+    /// The kind of the scene `text`: an object scene has the top-level key
+    /// `cells`; anything else, also text that is not TOML (left to the micro
+    /// loader's messages), is a micro scene.
+    #[must_use]
+    pub fn of_text(text: &str) -> Self {
+        match text.parse::<toml::Table>() {
+            Ok(t) if t.contains_key("cells") => Self::Object,
+            _ => Self::Micro,
+        }
+    }
+}
+
+/// The kind of the scene file at `path` ([`SceneKind::of_text`]), for the
+/// commands that take either kind.
+///
+/// # Errors
+/// The file cannot be read (the loaders' message).
+pub fn kind(path: &Path) -> Result<SceneKind, SceneError> {
+    read_scene_text(path).map(|text| SceneKind::of_text(&text))
+}
+
 /// A number, or a `[lo, hi]` range sampled uniformly.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
 #[serde(untagged)]
@@ -563,7 +594,27 @@ impl PolarisationSpec {
 
 #[cfg(test)]
 mod tests {
-    use super::Num;
+    use super::{Num, SceneKind};
+
+    #[test]
+    fn scene_kinds() {
+        let object = "[quadrics]\ns = { sphere = { center = [0.0, 0.0, 0.0], r = 1.0 } }\n[[cells]]\nregion = \"-s\"\n";
+        assert_eq!(SceneKind::of_text(object), SceneKind::Object);
+        assert_eq!(
+            SceneKind::of_text("[surface]\nsize = [1.0, 1.0]\n"),
+            SceneKind::Micro
+        );
+        // Not TOML: the micro loader says what is wrong.
+        assert_eq!(SceneKind::of_text("[[cells]\n"), SceneKind::Micro);
+        // A key named `cells` inside a table is not the object's cells.
+        assert_eq!(
+            SceneKind::of_text("[surface]\ncells = 3\n"),
+            SceneKind::Micro
+        );
+        let missing = std::path::Path::new("/nonexistent/roks-scene.toml");
+        let e = super::kind(missing).unwrap_err();
+        assert!(e.message.starts_with("cannot read"), "{e}");
+    }
 
     #[test]
     fn numbers_in_messages() {

@@ -410,12 +410,8 @@ impl ObjectSceneSpec {
             if !(s.beam.diameter.is_finite() && s.beam.diameter >= 0.0) {
                 return Err(source.error(key("beam.diameter"), "must be >= 0"));
             }
-            if s.photons == 0 {
-                return Err(source.error(key("photons"), "must be > 0"));
-            }
-            if let Some(e) = crate::transport::launch::photons_beyond_tallies(s.photons) {
-                return Err(source.error(key("photons"), e));
-            }
+            crate::transport::launch::check_count(s.photons)
+                .map_err(|e| source.error(key("photons"), e))?;
             let state = match &s.polarisation {
                 Some(spec) => spec.build(&source, &key("polarisation"))?,
                 None => Incident::Unpolarised,

@@ -19,16 +19,20 @@ use serde::Deserialize;
 use super::Accumulator;
 use crate::optics::polarisation::MIRROR_SIGNS;
 
-/// Which polarisation tally a run keeps (`[tally] polarisation`, `--polarisation`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+/// Which polarisation tally a run keeps (`[tally] polarisation`,
+/// `--polarisation`: the names in lower case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum PolarTally {
     /// None: the intensity tallies only.
     #[default]
+    #[value(help = None::<&str>)]
     None,
     /// The Stokes vector for the incident state (`stokes.csv`).
+    #[value(help = None::<&str>)]
     Stokes,
     /// The Mueller matrix (`mueller.csv`).
+    #[value(help = None::<&str>)]
     Mueller,
 }
 
@@ -43,15 +47,14 @@ impl PolarTally {
         }
     }
 
-    /// Parse [`PolarTally::name`].
+    /// Parse [`PolarTally::name`] (also the option's value names, which
+    /// clap derives from the same variants).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "none" => Some(Self::None),
-            "stokes" => Some(Self::Stokes),
-            "mueller" => Some(Self::Mueller),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::value_variants()
+            .iter()
+            .copied()
+            .find(|v| v.name() == name)
     }
 
     /// Components per bin: 0, 4 or 16.
@@ -154,6 +157,17 @@ impl PolarTallies {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn option_values_are_the_names() {
+        use clap::ValueEnum as _;
+        for v in PolarTally::value_variants() {
+            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
+            assert_eq!(PolarTally::from_name(v.name()), Some(*v));
+        }
+        assert_eq!(PolarTally::value_variants().len(), 3);
+        assert_eq!(PolarTally::from_name("nonsense"), None);
+    }
 
     #[test]
     fn mirror_signs_of_stokes_and_mueller() {

@@ -22,14 +22,17 @@
 
 use glam::DVec3;
 
-/// Whether the tallies fold mirror images in the plane of incidence.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+/// Whether the tallies fold mirror images in the plane of incidence
+/// (`[tally] symmetry`, `--symmetry`: the names in lower case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Symmetry {
     /// Score every photon in its own direction only.
     #[default]
+    #[value(help = None::<&str>)]
     None,
     /// Score half in its own direction and half in its mirror image.
+    #[value(help = None::<&str>)]
     Mirror,
 }
 
@@ -43,14 +46,14 @@ impl Symmetry {
         }
     }
 
-    /// Parse [`Symmetry::name`].
+    /// Parse [`Symmetry::name`] (also the option's value names, which
+    /// clap derives from the same variants).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "none" => Some(Self::None),
-            "mirror" => Some(Self::Mirror),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::value_variants()
+            .iter()
+            .copied()
+            .find(|v| v.name() == name)
     }
 }
 
@@ -74,6 +77,17 @@ pub fn mirror_at(dir: DVec3, (s, c): (f64, f64)) -> DVec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn option_values_are_the_names() {
+        use clap::ValueEnum as _;
+        for v in Symmetry::value_variants() {
+            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
+            assert_eq!(Symmetry::from_name(v.name()), Some(*v));
+        }
+        assert_eq!(Symmetry::value_variants().len(), 2);
+        assert_eq!(Symmetry::from_name("nonsense"), None);
+    }
 
     #[test]
     fn mirror_flips_the_side_of_the_plane_and_keeps_the_plane() {

@@ -390,6 +390,35 @@ pub fn toward_light(theta_deg: f64, phi_deg: f64) -> DVec3 {
     DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
 }
 
+/// Check incidence angles, from a scene's `[light] theta_deg` or
+/// `--theta`: at least one, each in `[0, 90)` degrees, none given twice (a
+/// BRDF table holds one block per angle).
+///
+/// # Errors
+/// The index of the offending angle (`None` for an empty list) and the
+/// message for the user.
+pub fn check_incidence(theta_deg: &[f64]) -> Result<(), (Option<usize>, String)> {
+    if theta_deg.is_empty() {
+        return Err((None, "needs at least one angle".into()));
+    }
+    if let Some((i, t)) = theta_deg
+        .iter()
+        .enumerate()
+        .find(|(_, t)| !(t.is_finite() && (0.0..90.0).contains(*t)))
+    {
+        return Err((Some(i), format!("must be in [0, 90), got {}", Num(*t))));
+    }
+    if let Some((i, t)) = crate::scene::micro::first_repeat(theta_deg) {
+        return Err((
+            Some(i),
+            format!(
+                "{t} is given twice (each incidence angle once: a BRDF table holds one block per angle)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 impl BrdfRun {
     /// Check what the run later assumes, for every source of a run (a
     /// scene's `[light]`, `[tally]` and `[transport]`, or the `settings` of
@@ -405,30 +434,14 @@ impl BrdfRun {
     /// set, for the segment cap).
     pub fn check(&self) -> Result<(), (String, String)> {
         let err = |key: &str, message: String| Err((key.to_owned(), message));
-        if self.theta_deg.is_empty() {
-            return err("light.theta_deg", "needs at least one angle".into());
-        }
-        for (i, t) in self.theta_deg.iter().enumerate() {
-            if !(t.is_finite() && (0.0..90.0).contains(t)) {
-                return err(
-                    &format!("light.theta_deg[{i}]"),
-                    format!("must be in [0, 90), got {}", Num(*t)),
-                );
-            }
-        }
-        if let Some((i, t)) = crate::scene::micro::first_repeat(&self.theta_deg) {
-            return err(
-                &format!("light.theta_deg[{i}]"),
-                format!(
-                    "{t} is given twice (each incidence angle once: a BRDF table holds one block per angle)"
-                ),
-            );
+        if let Err((i, e)) = check_incidence(&self.theta_deg) {
+            return match i {
+                Some(i) => err(&format!("light.theta_deg[{i}]"), e),
+                None => err("light.theta_deg", e),
+            };
         }
         if !self.phi_deg.is_finite() {
             return err("light.phi_deg", "must be finite".into());
-        }
-        if self.photons == 0 {
-            return err("light.photons", "must be > 0".into());
         }
         if let Err(e) = super::launch::check_photons(self.launch, self.photons) {
             return err("light.photons", e);
@@ -959,6 +972,27 @@ fn score_polar<const K: usize>(
 mod tests {
     use super::*;
     use crate::scene::micro::{DEFAULT_SCENE, MicroScene};
+
+    #[test]
+    fn incidence_angles() {
+        assert_eq!(check_incidence(&[0.0, 45.0, 89.9]), Ok(()));
+        assert_eq!(
+            check_incidence(&[]),
+            Err((None, "needs at least one angle".into()))
+        );
+        assert_eq!(
+            check_incidence(&[10.0, 90.0]),
+            Err((Some(1), "must be in [0, 90), got 90".into()))
+        );
+        assert_eq!(
+            check_incidence(&[-1e-300]),
+            Err((Some(0), "must be in [0, 90), got -1e-300".into()))
+        );
+        assert!(check_incidence(&[f64::NAN]).is_err());
+        let (i, e) = check_incidence(&[10.0, 20.0, 10.0]).unwrap_err();
+        assert_eq!(i, Some(2));
+        assert!(e.starts_with("10 is given twice"), "{e}");
+    }
 
     /// Tracing in Morton order and in index order gives the same tallies,
     /// bit for bit, for the scalar weight, Stokes vectors and Mueller

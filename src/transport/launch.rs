@@ -60,14 +60,17 @@ const R2_STEP: [f64; 2] = [0.754_877_666_246_692_7, 0.569_840_290_998_053_3];
 /// Stream salt of the replicate shifts (kept apart from the photon streams).
 const SHIFT_SALT: u64 = 0x6c61_7474_6963_6521;
 
-/// How entry points are chosen.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+/// How entry points are chosen (`[light] launch`, `--launch`: the names in
+/// lower case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Launch {
     /// Independent uniform points, one per photon stream.
     #[default]
+    #[value(help = None::<&str>)]
     Random,
     /// [`REPLICATES`] randomly shifted R2 lattices (see the module docs).
+    #[value(help = None::<&str>)]
     Lattice,
 }
 
@@ -81,14 +84,14 @@ impl Launch {
         }
     }
 
-    /// Parse [`Launch::name`].
+    /// Parse [`Launch::name`] (also the option's value names, which
+    /// clap derives from the same variants).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "random" => Some(Self::Random),
-            "lattice" => Some(Self::Lattice),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::value_variants()
+            .iter()
+            .copied()
+            .find(|v| v.name() == name)
     }
 
     /// Replicates whose spread gives the standard errors (`None`: per photon).
@@ -109,26 +112,32 @@ impl Launch {
 /// formed; beyond it `n + 1 == n` in `f64` and photons stop being counted.
 pub const MAX_PHOTONS: u64 = 1 << 53;
 
-/// The message for a photon count above [`MAX_PHOTONS`], if it is.
-#[must_use]
-pub fn photons_beyond_tallies(photons: u64) -> Option<String> {
-    (photons > MAX_PHOTONS).then(|| {
-        format!(
+/// A photon count per incidence angle (per beam position of an object
+/// scene), from a scene file or the command line: at least 1 and at most
+/// [`MAX_PHOTONS`].
+///
+/// # Errors
+/// The message for the user.
+pub fn check_count(photons: u64) -> Result<(), String> {
+    if photons == 0 {
+        return Err("must be > 0".into());
+    }
+    if photons > MAX_PHOTONS {
+        return Err(format!(
             "must be at most 2^53 = {MAX_PHOTONS} (the f64 tallies cannot count more exactly), got {photons}"
-        )
-    })
+        ));
+    }
+    Ok(())
 }
 
-/// Photons per incidence angle allowed with `launch`: at most
-/// [`MAX_PHOTONS`], and for a lattice run a multiple of [`REPLICATES`]
+/// Photons per incidence angle allowed with `launch`: a count
+/// ([`check_count`]), and for a lattice run a multiple of [`REPLICATES`]
 /// (equal replicates).
 ///
 /// # Errors
 /// The message for the user.
 pub fn check_photons(launch: Launch, photons: u64) -> Result<(), String> {
-    if let Some(e) = photons_beyond_tallies(photons) {
-        return Err(e);
-    }
+    check_count(photons)?;
     match launch.replicates() {
         Some(k) if photons % k != 0 => Err(format!(
             "must be a multiple of {k} with launch = \"lattice\", got {photons}"
@@ -191,6 +200,40 @@ pub fn replicate_stderr(sums: impl Iterator<Item = f64> + Clone, per_replicate: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn option_values_are_the_names() {
+        use clap::ValueEnum as _;
+        for v in Launch::value_variants() {
+            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
+            assert_eq!(Launch::from_name(v.name()), Some(*v));
+        }
+        assert_eq!(Launch::value_variants().len(), 2);
+        assert_eq!(Launch::from_name("nonsense"), None);
+    }
+
+    #[test]
+    fn photon_counts() {
+        assert_eq!(check_count(0).unwrap_err(), "must be > 0");
+        assert_eq!(check_count(1), Ok(()));
+        assert_eq!(check_count(MAX_PHOTONS), Ok(()));
+        assert_eq!(
+            check_count(MAX_PHOTONS + 1).unwrap_err(),
+            "must be at most 2^53 = 9007199254740992 (the f64 tallies cannot count more exactly), got 9007199254740993"
+        );
+        assert_eq!(check_photons(Launch::Random, 100), Ok(()));
+        assert_eq!(check_photons(Launch::Lattice, 160), Ok(()));
+        assert_eq!(
+            check_photons(Launch::Lattice, 100).unwrap_err(),
+            "must be a multiple of 16 with launch = \"lattice\", got 100"
+        );
+        // The count's limit comes first, also for a lattice.
+        assert!(
+            check_photons(Launch::Lattice, 0)
+                .unwrap_err()
+                .contains("> 0")
+        );
+    }
 
     #[test]
     fn steps_are_the_plastic_number_powers() {

@@ -1,0 +1,194 @@
+//! The command line's arguments: the subcommands, and the options shared by
+//! the tracing commands. Each command's own options live in its module.
+//!
+//! The doc comments of the items deriving clap's traits are the help text
+//! of `roks --help` and `roks <command> --help`.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use super::parse::{integer, positive};
+use super::{brdf, export_brdf, export_heightfield, export_mesh, fit, merge, render, stats, trace};
+
+/// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
+///
+/// A rough surface is modelled explicitly: a substrate with bumps bounded by
+/// planes and quadrics, in which photons reflect specularly as often as the
+/// geometry makes them. Scene files are TOML; see `scenes/` and the README.
+#[derive(Parser, Debug)]
+#[command(name = "roks", version, about, long_about)]
+pub struct Cli {
+    /// The command to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands of `roks`.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Generate the tabulated BRDF of a micro scene (default: the embedded scene).
+    ///
+    /// Writes DIR/summary.json (reflectance per incidence with standard
+    /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid),
+    /// DIR/inplane.csv (plane of incidence), DIR/inplane.png (in-plane curves),
+    /// DIR/hemisphere_<theta>deg.png (equal-area map of the BRDF per incidence)
+    /// and, with --export, DIR/brdf.bsdf and DIR/brdf.binary. DIR defaults to
+    /// out/<scene name>/.
+    Brdf(brdf::BrdfArgs),
+    /// Print the surface statistics of a micro scene: RMS height sigma,
+    /// autocorrelation length tau, sigma/tau, RMS slope, heights.
+    Stats(stats::StatsArgs),
+    /// Trace a 3-D object of quadric cells with rough walls (the macro level).
+    ///
+    /// Writes DIR/summary.json (per beam position: reflectance with standard
+    /// error, missed, absorbed per surface, bounces, losses; with polarised
+    /// transport the Stokes vector of the reflected light), DIR/reflectance.csv
+    /// (x,y,z,reflectance,reflectance_stderr) and, with [tally] farfield = true,
+    /// DIR/farfield.csv (and DIR/farfield_stokes.csv with [tally]
+    /// polarisation = "stokes"). DIR defaults to out/<scene name>/.
+    Trace(trace::TraceArgs),
+    /// Fit micro-scene parameters to a measured in-plane BRDF.
+    ///
+    /// MEASURED is a CSV with header theta_i_deg,theta_o_deg,brdf (optionally
+    /// brdf_stderr), theta_o signed (positive on the specular side), like the
+    /// inplane.csv of `roks brdf`. Each --param KEY=LO:HI names a number in the
+    /// scene by its TOML key path (e.g. bumps[0].height, bumps[0].radius[1],
+    /// materials.paint.n) and its bounds. Nelder-Mead on the log misfit with a
+    /// fixed seed (common random numbers). Writes DIR/fit.json, DIR/fitted.toml
+    /// and DIR/fit_inplane.csv (default DIR: out/<scene name>-fit/).
+    Fit(fit::FitArgs),
+    /// Write the top surface of a micro scene as a triangulated height field
+    /// over one period (binary PLY, as Mitsuba's `ply` shape reads it).
+    ///
+    /// Heights are sampled at (N+1) x (N+1) vertices; for periodic cells the
+    /// last row and column repeat the first exactly, so tiled copies are
+    /// seamless. Coordinates are float32 (Mitsuba's precision).
+    ExportMesh(export_mesh::ExportMeshArgs),
+    /// Write the heights of a micro scene as a height map file, for
+    /// `heightfield = { file = ..., pixel = ... }` (a height-field scene: its
+    /// own vertex heights; a scene of bumps: heights sampled at the vertices
+    /// of an N x N grid).
+    ///
+    /// OUT's extension picks the format: .exr (one f32 channel Y) or .txt
+    /// (text grid, shortest exact decimals). Row j of the file is y = j pixel.
+    /// The scene line to load it is printed on stderr.
+    ExportHeightfield(export_heightfield::ExportHeightfieldArgs),
+    /// Render a radiance map of a micro scene to OpenEXR (plus a PNG preview).
+    ///
+    /// An orthographic camera whose footprint is exactly one period of the
+    /// substrate looks from --view; the light is a small bright disc (radiance
+    /// 1, angular radius --disc) in the scene's first incidence direction
+    /// ([light] theta_deg[0], phi_deg) or --light. Pixel values are radiance in
+    /// units of the disc's. Writes OUT (EXR: scanline, ZIP, f32 RGB) and OUT
+    /// with the extension .png (tone-mapped preview).
+    Render(render::RenderArgs),
+    /// Merge the shards of one `roks brdf --shard I/N` run into one result.
+    ///
+    /// Reads DIR/tallies.json of every shard folder, checks they come from the
+    /// same run (scene, seed, settings) and that their photon ranges are
+    /// disjoint and cover the run, sums them in shard order and writes
+    /// OUT/brdf.csv, OUT/inplane.csv, OUT/summary.json and OUT/tallies.json,
+    /// exactly as the single run would (only timings differ).
+    Merge(merge::MergeArgs),
+    /// Export the BRDF table of a `roks brdf` result folder for other programs.
+    ///
+    /// Reads RESULT_DIR/brdf.csv and writes OUT in FORMAT: `zemax` (Zemax /
+    /// Radiant tabular BSDF text, as OpticStudio's tabular BSDF scatter model
+    /// reads it: BRDF in 1/sr about the specular direction, TIS per angle of
+    /// incidence) or `merl` (MERL binary, 90 x 90 x 180 half/difference-angle
+    /// bins, three equal channels). Prints the file's reflectance, read back
+    /// and integrated over the hemisphere, beside the table's. Both hold
+    /// intensity only (the BRDF for the run's incident state; their formats
+    /// cannot hold polarisation: mueller.csv stays beside brdf.csv).
+    ExportBrdf(export_brdf::ExportBrdfArgs),
+}
+
+/// The options of both tracing commands (`roks brdf`, `roks trace`): the
+/// result folder, the photons and seed overriding the scene's, the worker
+/// threads. A command states what its photons count and which scene key
+/// they override in the help of `photons` and `seed` (clap's `mut_arg`).
+#[derive(Args, Debug, Clone, PartialEq, Eq)]
+pub struct RunArgs {
+    /// Output folder (default: out/<scene name>/), replaced whole by the run
+    /// (an existing one must be empty or a roks result).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Photons per incidence angle or beam position (overrides the scene's).
+    #[arg(long, value_parser = positive::<u64>)]
+    pub photons: Option<u64>,
+    /// Tracing seed (overrides the scene's).
+    #[arg(long, value_parser = integer::<u64>)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores). Does not change results.
+    #[arg(long, value_parser = positive::<usize>)]
+    pub threads: Option<usize>,
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    use super::*;
+
+    #[test]
+    fn the_command_line_is_consistent() {
+        // clap's own checks: unique names, valid defaults and value parsers.
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn tracing_commands_share_their_run_options() {
+        let parse =
+            |args: &[&str]| super::super::messages::command::<Cli>().try_get_matches_from(args);
+        for (command, scene) in [("brdf", "s.toml"), ("trace", "o.toml")] {
+            let m = parse(&[
+                "roks",
+                command,
+                scene,
+                "--out",
+                "d",
+                "--photons",
+                "1e3",
+                "--seed",
+                "7",
+                "--threads",
+                "2",
+            ])
+            .unwrap();
+            let cli = <Cli as clap::FromArgMatches>::from_arg_matches(&m).unwrap();
+            let run = match cli.command {
+                Command::Brdf(a) => a.run,
+                Command::Trace(a) => a.run,
+                other => panic!("{other:?}"),
+            };
+            assert_eq!(
+                run,
+                RunArgs {
+                    out: Some("d".into()),
+                    photons: Some(1000),
+                    seed: Some(7),
+                    threads: Some(2),
+                }
+            );
+        }
+        // Each command's help says what its photons count.
+        let help = |command: &str| {
+            let mut cmd = Cli::command();
+            let sub = cmd.find_subcommand_mut(command).unwrap();
+            sub.get_arguments()
+                .find(|a| a.get_id() == "photons")
+                .and_then(|a| a.get_help())
+                .map(ToString::to_string)
+                .unwrap()
+        };
+        assert_eq!(
+            help("brdf"),
+            "Photons per incidence angle (overrides [light] photons)"
+        );
+        assert_eq!(
+            help("trace"),
+            "Photons per beam position (overrides each source's `photons`)"
+        );
+    }
+}

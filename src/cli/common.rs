@@ -1,0 +1,259 @@
+//! What several commands do alike: load a micro scene, set the worker
+//! threads, check output paths and memory before any work, write files,
+//! show progress.
+
+use std::path::{Path, PathBuf};
+
+use indicatif::{ProgressBar, ProgressState, ProgressStyle};
+
+use super::Failure;
+use crate::scene::micro::MicroScene;
+
+/// The micro scene at `path`, or the embedded default scene.
+///
+/// # Errors
+/// The scene file's error (bad input).
+pub fn load_scene(path: Option<&Path>) -> Result<MicroScene, Failure> {
+    Ok(match path {
+        Some(p) => MicroScene::load(p)?,
+        None => MicroScene::default_scene(),
+    })
+}
+
+/// Use `threads` worker threads (`--threads`; `None`: all cores).
+///
+/// # Errors
+/// Bad input when their stacks exceed the memory limit.
+pub fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+    if let Some(t) = threads {
+        // Each worker reserves a 2 MiB stack (rayon's default).
+        let bytes = crate::limits::product(&[t as u64, 2 << 20]);
+        check_memory(
+            "--threads",
+            &format!("the stacks of {t} worker threads"),
+            bytes,
+        )?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build_global()
+            .map_err(|e| Failure::Other(e.into()))?;
+    }
+    Ok(())
+}
+
+/// Refuse `option` when `bytes`, the estimate for `what`, exceed the memory
+/// limit ([`crate::limits`]).
+///
+/// # Errors
+/// Bad input, naming `option`.
+pub fn check_memory(option: &str, what: &str, bytes: u64) -> Result<(), Failure> {
+    crate::limits::check(what, bytes).map_err(|e| Failure::Input(format!("{option}: {e}")))
+}
+
+/// The height-map grid for statistics: `requested` (checked; `option`
+/// names it), or the height field's own grid, or `default` x `default`.
+///
+/// # Errors
+/// Bad input for fewer than 2 samples or a grid beyond the memory limit.
+pub fn stats_grid(
+    scene: &MicroScene,
+    requested: Option<usize>,
+    default: usize,
+    option: &str,
+) -> Result<(usize, usize), Failure> {
+    match (requested, scene.surface.heightfield()) {
+        (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
+        (Some(r), _) => {
+            let what = format!("the statistics of a {r} x {r} height map");
+            check_memory(option, &what, scene.surface.stats_memory_bytes(r, r))?;
+            Ok((r, r))
+        }
+        (None, Some(f)) => Ok((f.nx, f.ny)),
+        (None, None) => Ok((default, default)),
+    }
+}
+
+/// A height-field scene's own grid, refusing any other `--resolution`.
+///
+/// # Errors
+/// Bad input when `resolution` is not the field's own.
+pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Failure> {
+    match (scene.surface.heightfield(), resolution) {
+        (Some(f), Some(r)) if (r, r) != (f.nx, f.ny) => Err(Failure::Input(format!(
+            "--resolution: {}: a height field is written on its own {} x {} grid, got {r}",
+            scene.source.file, f.nx, f.ny
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// The result folder: `given` (`--out`), or `out/<name>` (named in messages
+/// by the scene file's `name` key), checked before any work is done.
+///
+/// # Errors
+/// Bad input when the folder cannot be a result folder.
+pub fn result_dir(given: Option<&Path>, scene_file: &str, name: &str) -> Result<PathBuf, Failure> {
+    let (out, key) = match given {
+        Some(p) => (p.to_path_buf(), "--out".to_string()),
+        None => (Path::new("out").join(name), format!("{scene_file}: name")),
+    };
+    check_out_dir(&out, &key)?;
+    Ok(out)
+}
+
+/// Check a result folder before any work is done; `key` names it in the
+/// message (`--out`, or `SCENE: name` for the default out/NAME).
+///
+/// # Errors
+/// Bad input when the folder exists and is neither empty nor a roks result.
+pub fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
+    crate::outdir::check_folder(out)
+        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", out.display())))
+}
+
+/// Check an output file (`--out`) before any work is done.
+///
+/// # Errors
+/// Bad input when `out` cannot be written as a file.
+pub fn check_out_file(out: &Path) -> Result<(), Failure> {
+    crate::outdir::check_file(out)
+        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))
+}
+
+/// Write `bytes` to `path` atomically, creating its folder.
+///
+/// # Errors
+/// The I/O error, naming the path.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    crate::output::write_atomic(path, bytes)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    Ok(())
+}
+
+/// Write the result folder `out` whole, `files` as (name, bytes): staged
+/// beside it, then swapped in (see [`crate::outdir`]); a reader never sees
+/// old and new files mixed.
+///
+/// # Errors
+/// The I/O error, naming the folder.
+pub fn write_folder<N: AsRef<str>, B: AsRef<[u8]>>(
+    out: &Path,
+    files: &[(N, B)],
+) -> Result<(), Failure> {
+    let files: Vec<(&str, &[u8])> = files
+        .iter()
+        .map(|(n, b)| (n.as_ref(), b.as_ref()))
+        .collect();
+    crate::outdir::write_folder(out, &files)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    Ok(())
+}
+
+/// Write `text` to standard output; a closed pipe (`roks stats | head`) is a
+/// clean end, not an error.
+///
+/// # Errors
+/// Any other write error.
+pub fn print_stdout(text: &str) -> Result<(), Failure> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure::Other(
+            anyhow::anyhow!("cannot write to standard output: {e}"),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// A progress bar on stderr for `total` photons, labelled `name` (hidden
+/// when `quiet`): photons done, the mean rate so far and the time left at
+/// that rate.
+#[must_use]
+pub fn progress_bar(total: u64, quiet: bool, name: &str) -> ProgressBar {
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} photons, {rate}, eta {eta}",
+        )
+        .expect("valid template")
+        .with_key("rate", |s: &ProgressState, w: &mut dyn std::fmt::Write| {
+            let _ = match photon_rate(s) {
+                Some(r) => write!(w, "{}/s", indicatif::HumanCount(r as u64)),
+                None => write!(w, "?/s"),
+            };
+        })
+        .with_key("eta", |s: &ProgressState, w: &mut dyn std::fmt::Write| {
+            // Photons still to trace at the run's mean rate so far (unknown
+            // until the first batch is done), however long that is.
+            let left = s.len().unwrap_or(0).saturating_sub(s.pos());
+            let _ = match photon_rate(s) {
+                Some(r) => write!(
+                    w,
+                    "{:#}",
+                    indicatif::HumanDuration(std::time::Duration::from_secs_f64(
+                        (left as f64 / r).min(1e15)
+                    ))
+                ),
+                None => write!(w, "?"),
+            };
+        })
+        .progress_chars("=> "),
+    );
+    bar.set_message(name.to_string());
+    bar
+}
+
+/// Photons per second over the run so far (`None` before the first batch).
+fn photon_rate(s: &ProgressState) -> Option<f64> {
+    let secs = s.elapsed().as_secs_f64();
+    (s.pos() > 0 && secs > 0.0).then(|| s.pos() as f64 / secs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grids_for_statistics() {
+        let scene = MicroScene::default_scene();
+        assert_eq!(stats_grid(&scene, None, 512, "--x").unwrap(), (512, 512));
+        assert_eq!(stats_grid(&scene, Some(64), 512, "--x").unwrap(), (64, 64));
+        let e = stats_grid(&scene, Some(1), 512, "--stats-resolution").unwrap_err();
+        assert!(matches!(e, Failure::Input(m) if m == "--stats-resolution: must be >= 2"));
+        // Bumps have no grid of their own: any resolution is theirs.
+        assert!(own_grid(&scene, Some(3)).is_ok());
+    }
+
+    #[test]
+    fn result_folders_are_named_by_their_key() {
+        let dir = std::env::temp_dir().join(format!("roks-cli-common-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let given = dir.join("given");
+        assert_eq!(result_dir(Some(&given), "s.toml", "x").unwrap(), given);
+        assert_eq!(
+            result_dir(None, "s.toml", "x").unwrap(),
+            Path::new("out").join("x")
+        );
+        // A file that is not a roks result is never replaced.
+        let foreign = dir.join("notes.txt");
+        std::fs::write(&foreign, "mine").unwrap();
+        let e = result_dir(Some(&foreign), "s.toml", "x").unwrap_err();
+        assert!(
+            matches!(&e, Failure::Input(m) if m.starts_with(&format!("--out: {}: ", foreign.display()))),
+            "{e}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

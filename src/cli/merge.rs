@@ -1,0 +1,58 @@
+//! `roks merge`: the shards of one `roks brdf --shard I/N` run summed into
+//! the result folder of the whole run.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::Failure;
+use super::brdf::print_table;
+use super::common::{check_out_dir, write_folder};
+use crate::output::brdf_folder::BrdfFolder;
+use crate::output::tallies::{self, TALLIES_FILE};
+
+/// The options of `roks merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Shard result folders (each with tallies.json), in any order.
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// Output folder, replaced whole (an existing one must be empty or a roks
+    /// result).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// No table on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Run `roks merge`.
+///
+/// # Errors
+/// Bad input (a shard's tallies.json, shards of different runs, gaps or
+/// overlaps, `--out`, memory), or a failed write.
+pub fn run(a: MergeArgs) -> Result<(), Failure> {
+    check_out_dir(&a.out, "--out")?;
+    let parts = a
+        .dirs
+        .iter()
+        .map(|d| tallies::read_shard(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let n_parts = parts.len();
+    let merged = tallies::merge_shards(parts)?;
+    crate::limits::check("the merged tallies and tables", merged.run.memory_bytes()).map_err(
+        |e| {
+            Failure::Input(format!(
+                "{}: {TALLIES_FILE}: settings.bands: {e}",
+                a.dirs[0].display(),
+            ))
+        },
+    )?;
+    let folder = BrdfFolder::merged(merged);
+    write_folder(&a.out, &folder.files(Vec::new()))?;
+    if !a.quiet {
+        print_table(&folder.results);
+        eprintln!("merged {n_parts} shards into {}", a.out.display());
+    }
+    Ok(())
+}

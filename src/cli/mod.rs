@@ -1,0 +1,108 @@
+//! The `roks` command line: its arguments ([`args::Cli`]), one module per
+//! command, and the one-line messages of bad input. The binary only parses,
+//! dispatches to a command's `run` and maps a [`Failure`] to its exit status;
+//! each command reads its inputs, calls the library and writes its files.
+//!
+//! # Conventions
+//! * Every bad option gives exactly one line on stderr, `roks: --seed: ...`,
+//!   naming the option and what it accepts, and exit status 2; a bad scene
+//!   file gives one line naming the file and the key. The only longer answer
+//!   is `roks` without a subcommand: the first line says so, the usage
+//!   follows ([`messages`]).
+//! * `--help` and `--version` print to stdout and exit 0.
+//! * Every option that takes a value takes a negative number as its value
+//!   (`--seed -1` is the value -1 of `--seed`, refused as out of range; not
+//!   an unknown option `-1`).
+//! * Numbers are exact ([`parse`]): integer options take digits or exact
+//!   forms like `1e6`, real options any finite decimal.
+//! * Options that override a scene key are checked by the scene loader's own
+//!   checks, so that a value gives the same message either way.
+//! * Nothing is written before every input is checked; result folders are
+//!   replaced whole ([`crate::outdir`]).
+
+pub mod args;
+pub mod brdf;
+pub mod common;
+pub mod export_brdf;
+pub mod export_heightfield;
+pub mod export_mesh;
+pub mod fit;
+pub mod merge;
+pub mod messages;
+pub mod parse;
+pub mod render;
+pub mod stats;
+pub mod trace;
+
+use std::fmt;
+use std::process::ExitCode;
+
+use crate::scene::SceneError;
+
+/// Why a command failed, by exit status.
+#[derive(Debug)]
+pub enum Failure {
+    /// Bad input (a scene file, an option): exit status 2. One line naming
+    /// the file or the option, the key and what is wrong.
+    Input(String),
+    /// Anything else (reading or writing files): exit status 1.
+    Other(anyhow::Error),
+}
+
+impl Failure {
+    /// The exit status of the process: 2 for bad input, 1 otherwise.
+    #[must_use]
+    pub fn exit_code(&self) -> ExitCode {
+        match self {
+            Self::Input(_) => ExitCode::from(2),
+            Self::Other(_) => ExitCode::from(1),
+        }
+    }
+}
+
+impl fmt::Display for Failure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Input(message) => f.write_str(message),
+            Self::Other(e) => write!(f, "{e:#}"),
+        }
+    }
+}
+
+impl std::error::Error for Failure {}
+
+impl From<SceneError> for Failure {
+    fn from(e: SceneError) -> Self {
+        Self::Input(e.to_string())
+    }
+}
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Self::Other(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn failures_name_their_cause_and_status() {
+        let input = Failure::Input("s.toml: light.photons: must be > 0".into());
+        assert_eq!(input.to_string(), "s.toml: light.photons: must be > 0");
+        assert_eq!(input.exit_code(), ExitCode::from(2));
+        let scene = Failure::from(SceneError {
+            file: "s.toml".into(),
+            key: "bumps[0].radius".into(),
+            message: "must be positive".into(),
+        });
+        assert!(
+            matches!(&scene, Failure::Input(m) if m == "s.toml: bumps[0].radius: must be positive")
+        );
+        // The chain of causes on one line.
+        let other = Failure::from(anyhow::anyhow!("disk full").context("cannot write out/x"));
+        assert_eq!(other.to_string(), "cannot write out/x: disk full");
+        assert_eq!(other.exit_code(), ExitCode::from(1));
+    }
+}

@@ -1,0 +1,246 @@
+//! `roks render`: a radiance map (EXR and a PNG preview) of a micro scene
+//! seen by an orthographic camera over one period, or of an object scene
+//! seen by a pinhole camera, lit by a small bright disc.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use super::Failure;
+use super::common::{check_memory, check_out_file, load_scene, set_threads, write_file};
+use super::parse::{integer, number, positive};
+use crate::render::{PinholeCamera, RenderSettings};
+use crate::scene::SceneKind;
+use crate::scene::object::ObjectScene;
+
+/// The options of `roks render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Micro or object scene file (TOML; an object scene has [[cells]]);
+    /// omitted: the embedded default micro scene.
+    pub scene: Option<PathBuf>,
+    /// Output EXR file.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// View direction THETA,PHI in degrees (toward the camera).
+    #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], value_parser = number)]
+    pub view: Vec<f64>,
+    /// Light direction THETA,PHI in degrees (default: the scene's first incidence).
+    #[arg(long, value_delimiter = ',', value_parser = number)]
+    pub light: Option<Vec<f64>>,
+    /// Angular radius of the light disc (degrees).
+    #[arg(long, default_value_t = 5.0, value_parser = number)]
+    pub disc: f64,
+    /// Radiance of a uniform background outside the disc, in the disc's units
+    /// (default 0: black; a small value shows walls the disc leaves dark).
+    #[arg(long, default_value_t = 0.0, value_parser = number)]
+    pub background: f64,
+    /// Image size W,H in pixels.
+    #[arg(long, value_delimiter = ',', default_values_t = [512, 512], value_parser = positive::<usize>)]
+    pub size: Vec<usize>,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 16, value_parser = positive::<u32>)]
+    pub spp: u32,
+    /// Seed.
+    #[arg(long, default_value_t = 1, value_parser = integer::<u64>)]
+    pub seed: u64,
+    /// Worker threads (default: all cores). Does not change results.
+    #[arg(long, value_parser = positive::<usize>)]
+    pub threads: Option<usize>,
+    /// Object scenes: pinhole camera position X,Y,Z (default: on the first
+    /// beam's axis, 2.5 beam-sweep lengths before its start, at least 50 units).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    pub camera: Option<Vec<f64>>,
+    /// Object scenes: point the camera looks at X,Y,Z (default: the first
+    /// beam's start point moved 100 units along the beam).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    pub look_at: Option<Vec<f64>>,
+    /// Object scenes: up direction X,Y,Z of the image.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = [0.0, 1.0, 0.0], value_parser = number)]
+    pub up: Vec<f64>,
+    /// Object scenes: vertical field of view (degrees).
+    #[arg(long, default_value_t = 40.0, value_parser = number)]
+    pub fov: f64,
+}
+
+/// Run `roks render`.
+///
+/// # Errors
+/// Bad input (scene, options, memory), or a failed write.
+pub fn run(a: RenderArgs) -> Result<(), Failure> {
+    for (name, n) in [
+        ("--view", a.view.len()),
+        ("--size", a.size.len()),
+        ("--light", a.light.as_ref().map_or(2, Vec::len)),
+    ] {
+        if n != 2 {
+            return Err(Failure::Input(format!(
+                "{name}: give two comma-separated values"
+            )));
+        }
+    }
+    let (w, h) = (a.size[0] as u64, a.size[1] as u64);
+    check_memory(
+        "--size",
+        &format!("a {w} x {h} image (radiance, EXR and PNG)"),
+        crate::render::image_memory_bytes(w, h),
+    )?;
+    check_out_file(&a.out)?;
+    let png = a.out.with_extension("png");
+    if png == a.out {
+        return Err(Failure::Input(format!(
+            "--out: {}: is the name of the PNG preview; give the EXR file (OUT.exr, beside which OUT.png is written)",
+            a.out.display()
+        )));
+    }
+    check_out_file(&png)?;
+    // A file that cannot be read is left to the micro loader's message.
+    if let Some(path) = a
+        .scene
+        .as_deref()
+        .filter(|p| matches!(crate::scene::kind(p), Ok(SceneKind::Object)))
+    {
+        return object(&a, path);
+    }
+    let scene = load_scene(a.scene.as_deref())?;
+    let (light_theta, light_phi) = match &a.light {
+        Some(l) => (l[0], l[1]),
+        None => (scene.light.theta_deg[0], scene.light.phi_deg),
+    };
+    let settings = RenderSettings {
+        width: a.size[0],
+        height: a.size[1],
+        spp: a.spp,
+        view_theta_deg: a.view[0],
+        view_phi_deg: a.view[1],
+        light_theta_deg: light_theta,
+        light_phi_deg: light_phi,
+        light_radius_deg: a.disc,
+        light_radiance: 1.0,
+        background_radiance: a.background,
+        seed: a.seed,
+    };
+    settings.validate().map_err(Failure::Input)?;
+    set_threads(a.threads)?;
+    let (img, losses) = crate::render::render(&scene.surface, &settings);
+    let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
+    write_images(&a.out, &img, losses.lost, paths)
+}
+
+/// `roks render` of an object scene: a pinhole camera view.
+fn object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
+    let scene = ObjectScene::load(path)?;
+    for (name, v) in [("--camera", &a.camera), ("--look-at", &a.look_at)] {
+        if v.as_ref().is_some_and(|v| v.len() != 3) {
+            return Err(Failure::Input(format!(
+                "{name}: give three comma-separated values"
+            )));
+        }
+    }
+    if a.up.len() != 3 {
+        return Err(Failure::Input(
+            "--up: give three comma-separated values".into(),
+        ));
+    }
+    let beam = scene.beams[0];
+    let v3 = |v: &Vec<f64>| glam::DVec3::new(v[0], v[1], v[2]);
+    let sweep = scene
+        .beams
+        .iter()
+        .map(|b| (b.position - beam.position).length())
+        .fold(0.0_f64, f64::max);
+    let look_at = a
+        .look_at
+        .as_ref()
+        .map_or(beam.position + 100.0 * beam.direction, v3);
+    let position = a
+        .camera
+        .as_ref()
+        .map_or(beam.position - (2.5 * sweep).max(50.0) * beam.direction, v3);
+    let camera = PinholeCamera {
+        position,
+        look_at,
+        up: v3(&a.up),
+        fov_deg: a.fov,
+    };
+    let (light_theta, light_phi) = match &a.light {
+        Some(l) => (l[0], l[1]),
+        None => {
+            // Toward the light: against the first beam.
+            let t = -beam.direction;
+            (
+                t.z.clamp(-1.0, 1.0).acos().to_degrees(),
+                t.y.atan2(t.x).to_degrees(),
+            )
+        }
+    };
+    let settings = RenderSettings {
+        width: a.size[0],
+        height: a.size[1],
+        spp: a.spp,
+        light_theta_deg: light_theta,
+        light_phi_deg: light_phi,
+        light_radius_deg: a.disc,
+        light_radiance: 1.0,
+        background_radiance: a.background,
+        seed: a.seed,
+        ..RenderSettings::default()
+    };
+    settings
+        .validate()
+        .and_then(|()| camera.validate())
+        .map_err(|e| Failure::Input(format!("{}: {e}", scene.source.file)))?;
+    if scene
+        .object
+        .solids
+        .iter()
+        .any(|s| s.body.contains(camera.position))
+    {
+        return Err(Failure::Input(format!(
+            "{}: --camera: the camera position {} lies inside a solid cell",
+            scene.source.file, camera.position
+        )));
+    }
+    set_threads(a.threads)?;
+    let (img, losses) = crate::render::render_object(&scene, &camera, &settings);
+    if losses.unmodelled > 0 {
+        return Err(Failure::Input(format!(
+            "{}: walls: {} camera paths hit a surface without a model in [walls]",
+            scene.source.file, losses.unmodelled
+        )));
+    }
+    let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
+    write_images(&a.out, &img, losses.lost, paths)
+}
+
+/// Write `img` as OUT (EXR) and OUT.png (preview), and report the mean and
+/// the `lost` camera paths (caps, guards, edge walls, micro descents). Each
+/// file is replaced atomically, the EXR first: a reader sees each old or
+/// new, and for an instant (or after a kill between the two) a new EXR
+/// beside the old PNG.
+fn write_images(
+    out: &Path,
+    img: &crate::render::Image,
+    lost: u64,
+    paths: u64,
+) -> Result<(), Failure> {
+    if lost > 0 {
+        eprintln!(
+            "roks: render: {lost} of {paths} camera paths lost (bounce cap, numerical guard, absorbing edge or micro descent); they add 0"
+        );
+    }
+    use crate::render::{write_exr, write_png_preview};
+    let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let png = write_png_preview(img).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let png_path = out.with_extension("png");
+    for (path, bytes) in [(out, &exr), (png_path.as_path(), &png)] {
+        write_file(path, bytes)?;
+    }
+    let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
+    eprintln!(
+        "wrote {} and {} (mean radiance {mean:.4} of the disc's)",
+        out.display(),
+        png_path.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,205 @@
+//! `roks trace`: trace an object scene (the macro level) and write its
+//! result folder: summary.json, reflectance.csv and its plot, and the far
+//! field when the scene tallies it.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+
+use super::Failure;
+use super::args::RunArgs;
+use super::common::{progress_bar, result_dir, set_threads, write_folder};
+use crate::output::object_csv;
+use crate::output::summary::{self, TraceSummary};
+use crate::scene::object::ObjectScene;
+use crate::transport::object::PositionResult;
+
+/// The options of `roks trace`.
+#[derive(Args, Debug)]
+#[command(
+    mut_arg("photons", |a| a.help("Photons per beam position (overrides each source's `photons`)")),
+    mut_arg("seed", |a| a.help("Tracing seed (overrides the scene's `seed`)")),
+)]
+pub struct TraceArgs {
+    /// Object scene file (TOML).
+    pub scene: PathBuf,
+    /// The result folder, photons per beam position, seed and threads.
+    #[command(flatten)]
+    pub run: RunArgs,
+    /// Scalar transport even with Fresnel walls: each Fresnel bounce weighs
+    /// (Rs + Rp) / 2, the unpolarised approximation (as [transport]
+    /// polarisation = false).
+    #[arg(long)]
+    pub no_polarisation: bool,
+    /// No progress bar and no table on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Run `roks trace`.
+///
+/// # Errors
+/// Bad input (scene, options, photons meeting a wall without a model or
+/// starting inside a solid), or a failed write.
+pub fn run(a: TraceArgs) -> Result<(), Failure> {
+    let scene = ObjectScene::load(&a.scene)?;
+    let mut run = scene.run.clone();
+    let mut photons = scene.photons.clone();
+    if let Some(p) = a.run.photons {
+        // The scene loader's check of `sources[i].photons`.
+        crate::transport::launch::check_count(p)
+            .map_err(|e| Failure::Input(format!("--photons: {e}")))?;
+        photons.iter_mut().for_each(|n| *n = p);
+    }
+    if let Some(s) = a.run.seed {
+        run.seed = s;
+    }
+    if a.no_polarisation {
+        if run.farfield_stokes {
+            return Err(Failure::Input(format!(
+                "{}: tally.polarisation: \"stokes\" needs polarised transport, which --no-polarisation turns off",
+                scene.source.file
+            )));
+        }
+        run.polarisation = false;
+    }
+    set_threads(a.run.threads)?;
+    let out = result_dir(a.run.out.as_deref(), &scene.source.file, &scene.name)?;
+    let bar = progress_bar(
+        photons.iter().fold(0, |a: u64, &b| a.saturating_add(b)),
+        a.quiet,
+        &scene.name,
+    );
+    let clock = Instant::now();
+    let results = run.run(
+        &scene.object,
+        &scene.walls,
+        &scene.models,
+        &scene.beams,
+        &photons,
+        &|n| bar.inc(n),
+    );
+    bar.finish_and_clear();
+    let seconds = clock.elapsed().as_secs_f64();
+
+    // A photon met a wall without a model: a scene error, before any output.
+    if let Some(r) = results.iter().find(|r| r.tallies.unmodelled.0 > 0) {
+        let name = &scene.object.surface_names[r.tallies.unmodelled.1];
+        return Err(Failure::Input(format!(
+            "{}: walls.{name}: photons hit surface `{name}` ({} of them from beam position {}), which has no model in [walls]",
+            scene.source.file, r.tallies.unmodelled.0, r.beam.position
+        )));
+    }
+    if let Some((k, r)) = results
+        .iter()
+        .enumerate()
+        .find(|(_, r)| r.tallies.started_inside > 0)
+    {
+        return Err(Failure::Input(format!(
+            "{}: sources[{}].beam.diameter: {} photons of beam position {} started inside a solid cell",
+            scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
+        )));
+    }
+    let summary = TraceSummary::new(
+        &scene.source.file,
+        &scene.name,
+        run.seed,
+        &results,
+        &scene.object.surface_names,
+        seconds,
+    );
+    let text = summary::to_text(&summary);
+    let refl = object_csv::reflectance_csv(&results);
+    let png = reflectance_plot(&scene, &results)
+        .to_png(900, 560)
+        .map_err(Failure::Other)?;
+    let farfield = run
+        .farfield
+        .then(|| object_csv::farfield_csv(&run, &results));
+    let farfield_stokes = run
+        .tallies_farfield_stokes()
+        .then(|| object_csv::farfield_stokes_csv(&run, &results));
+    let mut files: Vec<(&str, &[u8])> = vec![
+        ("reflectance.csv", refl.as_bytes()),
+        ("reflectance.png", &png),
+    ];
+    if let Some(f) = &farfield {
+        files.push(("farfield.csv", f.as_bytes()));
+    }
+    if let Some(f) = &farfield_stokes {
+        files.push(("farfield_stokes.csv", f.as_bytes()));
+    }
+    files.push(("summary.json", text.as_bytes()));
+    write_folder(&out, &files)?;
+
+    if !a.quiet {
+        print_table(&results);
+        eprintln!("wrote {} ({seconds:.1} s)", out.display());
+    }
+    Ok(())
+}
+
+/// The table of results per beam position, on stderr.
+fn print_table(results: &[PositionResult]) {
+    eprintln!(
+        "{:>28} {:>12} {:>10} {:>9} {:>8} {:>9}",
+        "beam position", "reflectance", "stderr", "missed", "bounces", "lost"
+    );
+    for r in results {
+        let (refl, se) = r.reflectance();
+        let n = r.tallies.photons as f64;
+        let p = r.beam.position;
+        eprintln!(
+            "{:>28} {:>12.4e} {:>10.2e} {:>9.4} {:>8.3} {:>9.2e}",
+            format!("({:.3}, {:.3}, {:.3})", p.x, p.y, p.z),
+            refl,
+            se,
+            r.tallies.missed / n,
+            r.tallies.bounces as f64 / n,
+            r.tallies.lost / n
+        );
+    }
+}
+
+/// Reflectance vs beam position, one curve per `[[sources]]` entry; the x axis
+/// is the distance of the beam axis from the first position of its source.
+fn reflectance_plot(scene: &ObjectScene, results: &[PositionResult]) -> crate::plot::LinePlot {
+    use crate::plot::{LinePlot, Series};
+    let mut series: Vec<Series> = Vec::new();
+    for (k, r) in results.iter().enumerate() {
+        let src = scene.beam_source[k];
+        let first = scene.beams[scene
+            .beam_source
+            .iter()
+            .position(|&s| s == src)
+            .unwrap_or(0)]
+        .position;
+        if series.len() <= src {
+            series.resize_with(src + 1, || Series {
+                label: String::new(),
+                points: Vec::new(),
+            });
+            series[src].label = format!("source {src} (beam {} mm)", r.beam.diameter);
+        }
+        let (refl, se) = r.reflectance();
+        series[src]
+            .points
+            .push(((r.beam.position - first).length(), refl, 2.0 * se));
+    }
+    let positive = results.iter().all(|r| r.reflectance().0 > 0.0);
+    let spread = results
+        .iter()
+        .map(|r| r.reflectance().0)
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(v), b.max(v)));
+    LinePlot {
+        title: format!(
+            "{}: reflectance vs beam position (error bars: 2 standard errors)",
+            scene.name
+        ),
+        x_label: "beam axis offset from the first position (scene units)".into(),
+        y_label: "reflectance (fraction of the beam's flux)".into(),
+        log_y: positive && spread.1 > 20.0 * spread.0,
+        series,
+    }
+}
