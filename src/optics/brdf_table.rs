@@ -13,25 +13,18 @@
 //! angles are in sr; fractions and reflectances are dimensionless (weight per
 //! launched photon); BRDF values are in sr⁻¹.
 //!
-//! # The file
+//! # The table
 //!
-//! `brdf.csv` has the header [`HEADER`](crate::output::brdf_csv::HEADER) (exactly) and one row per
-//! incidence and cell of the Carlson equal-solid-angle grid of `M` bands
-//! (see [`CarlsonGrid`]): band `j = 1..=M` from the pole holds `4 j` cells, so
-//! an incidence block has `2 M (M + 1)` rows, band by band, cells in order.
-//! `phi` columns are **absolute** azimuths; the block's light azimuth is
-//! `phi_i_deg`. Loading requires: the header, every block complete and in
-//! grid order with the same `M`, the edge, centre and solid-angle columns
-//! matching the grid of `M` bands (to 1e-6 deg or 1e-6 relative), finite
-//! numbers, `0 <= theta_i_deg < 90`, non-negative fractions, BRDFs and
-//! standard errors, `brdf = fraction / projected_solid_angle_sr` and
-//! `brdf_stderr = fraction_stderr / projected_solid_angle_sr` (to 1e-8
-//! relative: an edited row, or a file cut inside its last number, fails),
-//! every fraction and each incidence's sum of fractions (its reflectance) at
-//! most 1 (+1e-9 for rounding: a table may not create light), and no
-//! incidence angle twice. Blocks may come in any order; they
-//! are sorted by `theta_i_deg`. Errors are one line naming the file, the line
-//! and (where there is one) the column.
+//! A table holds, per tabulated incidence (polar angle and light azimuth,
+//! degrees), the fraction of the launched light leaving through each cell
+//! of a Carlson equal-solid-angle grid of `M` bands (see [`CarlsonGrid`])
+//! and its standard error. [`BrdfTable::from_blocks`] builds one from
+//! numbers; the checked reader of the `brdf.csv` written by `roks brdf`
+//! (and of the `summary.json` and `mueller.csv` beside it) is
+//! [`crate::output::brdf_csv`], which owns the file. Incidences are sorted
+//! by angle; no angle twice; each incidence's sum of fractions (its
+//! reflectance) is at most 1 (+1e-9 for rounding: a table may not create
+//! light).
 //!
 //! **Isotropy.** A block's cells are rotated by `-phi_i_deg` into the local
 //! frame, so a table traced at any light azimuth can be used; this assumes
@@ -84,193 +77,23 @@
 //! interpolated reflectance whatever the correlation of the two runs (they
 //! share random streams).
 
-use std::path::Path;
-
 use glam::DVec3;
 use thiserror::Error;
 
-use crate::output::brdf_csv::{COLUMNS, HEADER, column};
 use crate::tally::CarlsonGrid;
-
-/// Zero-based column indices.
-const C_THETA_I: usize = 0;
-const C_PHI_I: usize = 1;
-const C_BAND: usize = 2;
-const C_CELL: usize = 3;
-const C_THETA_LO: usize = 4;
-const C_THETA_HI: usize = 5;
-const C_PHI_LO: usize = 6;
-const C_PHI_HI: usize = 7;
-const C_THETA_C: usize = 8;
-const C_PHI_C: usize = 9;
-const C_OMEGA: usize = 10;
-const C_PROJ: usize = 11;
-const C_FRACTION: usize = 12;
-const C_FRACTION_SE: usize = 13;
-const C_BRDF: usize = 14;
-const C_BRDF_SE: usize = 15;
-
-/// Tolerance of the grid check: degrees for angles, relative for solid angles.
-const GRID_TOL: f64 = 1e-6;
-
-/// Relative tolerance of `brdf = fraction / projected_solid_angle_sr` (and
-/// of the standard errors alike): the writer rounds each of the three to 10
-/// or 13 significant digits, so a table of `roks brdf` agrees to about 1e-9.
-const DERIVED_TOL: f64 = 1e-8;
 
 /// Most a fraction, or the sum of the fractions of one incidence, may be:
 /// 1 (every photon starts with weight 1 and no weight grows) plus rounding.
-const MAX_FRACTION: f64 = 1.0 + 1e-9;
+pub(crate) const MAX_FRACTION: f64 = 1.0 + 1e-9;
 
 /// The largest `f64` below 1, `1 - 2^-53`.
 const BELOW_ONE: f64 = 1.0 - f64::EPSILON / 2.0;
 
-/// Why a `brdf.csv` could not be loaded. Every message is one line naming
-/// the file, and the line and column where there is one (lines and columns
-/// are 1-based; line 1 is the header).
+/// Why numbers are not a table: an incidence angle twice, or fractions
+/// that create light. Every message is one line naming the file and, for a
+/// table read from a file, the line (0: not from a file).
 #[derive(Debug, Clone, PartialEq, Error)]
-pub enum BrdfTableError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {message}")]
-    Io {
-        /// File name.
-        file: String,
-        /// The operating system's message.
-        message: String,
-    },
-    /// The first line is not [`HEADER`].
-    #[error("{file}: line 1: header must be exactly `{expected}`, found `{found}`")]
-    Header {
-        /// File name.
-        file: String,
-        /// The expected header.
-        expected: &'static str,
-        /// What the file has (shortened to 200 characters).
-        found: String,
-    },
-    /// A row does not have 16 columns.
-    #[error("{file}: line {line}: expected 16 columns, found {found}")]
-    Columns {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// Number of columns found.
-        found: usize,
-    },
-    /// A field is not a finite number (or, for `band` and `cell`, not a
-    /// non-negative integer).
-    #[error("{file}: line {line}, column {column} ({name}): `{text}` is not a {what}")]
-    Number {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// Column number.
-        column: usize,
-        /// Column name.
-        name: &'static str,
-        /// The field (shortened to 40 characters).
-        text: String,
-        /// "finite number" or "non-negative integer".
-        what: &'static str,
-    },
-    /// A number outside its allowed range.
-    #[error("{file}: line {line}, column {column} ({name}): {value} {requirement}")]
-    OutOfRange {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// Column number.
-        column: usize,
-        /// Column name.
-        name: &'static str,
-        /// The value.
-        value: f64,
-        /// What it must satisfy, e.g. "must be >= 0".
-        requirement: &'static str,
-    },
-    /// `band` or `cell` out of the grid order of an incidence block.
-    #[error(
-        "{file}: line {line}, column {column} ({name}): found {found}, expected {expected} (an incidence block lists the Carlson cells band by band from the pole, cells in order)"
-    )]
-    Order {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// Column number.
-        column: usize,
-        /// Column name.
-        name: &'static str,
-        /// The value found.
-        found: usize,
-        /// The value expected.
-        expected: usize,
-    },
-    /// An incidence block stops in the middle of a band.
-    #[error(
-        "{file}: line {line}: incomplete incidence block theta_i_deg = {theta_i_deg} (from line {start}): {rows} rows, a complete block of {bands} bands has {expected}"
-    )]
-    Incomplete {
-        /// File name.
-        file: String,
-        /// Line of the block's last row.
-        line: usize,
-        /// Line of the block's first row.
-        start: usize,
-        /// The block's incidence angle (degrees).
-        theta_i_deg: f64,
-        /// Rows found.
-        rows: usize,
-        /// Bands of a complete block (those of the first block, if known).
-        bands: usize,
-        /// Rows of a complete block, `2 M (M + 1)`.
-        expected: usize,
-    },
-    /// Two incidence blocks with different numbers of bands.
-    #[error(
-        "{file}: line {line}: incidence block theta_i_deg = {theta_i_deg} (from line {start}) has {bands} bands ({rows} rows) but the first block has {first_bands} ({first_rows} rows)"
-    )]
-    Bands {
-        /// File name.
-        file: String,
-        /// Line of the block's last row.
-        line: usize,
-        /// Line of the block's first row.
-        start: usize,
-        /// The block's incidence angle (degrees).
-        theta_i_deg: f64,
-        /// Its bands.
-        bands: usize,
-        /// Its rows.
-        rows: usize,
-        /// Bands of the first block.
-        first_bands: usize,
-        /// Rows of the first block.
-        first_rows: usize,
-    },
-    /// An edge or solid-angle column that does not match the Carlson grid.
-    #[error(
-        "{file}: line {line}, column {column} ({name}): {found} does not match the Carlson grid of {bands} bands, which has {expected}"
-    )]
-    Grid {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// Column number.
-        column: usize,
-        /// Column name.
-        name: &'static str,
-        /// Value in the file.
-        found: f64,
-        /// Value of the grid.
-        expected: f64,
-        /// Bands of the grid.
-        bands: usize,
-    },
+pub enum TableError {
     /// The same incidence angle in two blocks.
     #[error(
         "{file}: line {line}: incidence theta_i_deg = {theta_i_deg} already tabulated from line {first}"
@@ -299,54 +122,6 @@ pub enum BrdfTableError {
         theta_i_deg: f64,
         /// The sum of the block's fractions.
         total: f64,
-    },
-    /// A column derived from others (`brdf = fraction / projected solid
-    /// angle`, `brdf_stderr` alike) that does not match them: a row edited
-    /// or cut short.
-    #[error(
-        "{file}: line {line}, column {column} ({name}): {found} is not {formula} = {expected} (an edited or truncated row?)"
-    )]
-    Derived {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// Column number.
-        column: usize,
-        /// Column name.
-        name: &'static str,
-        /// Value in the file.
-        found: f64,
-        /// Value from the other columns.
-        expected: f64,
-        /// How it is derived, e.g. `fraction / projected_solid_angle_sr`.
-        formula: &'static str,
-    },
-    /// A `summary.json` that does not fit the table.
-    #[error("{file}: {message}")]
-    Summary {
-        /// File name.
-        file: String,
-        /// What is wrong (one line).
-        message: String,
-    },
-    /// A `mueller.csv` that does not fit the table.
-    #[error("{file}: line {line}: {message}")]
-    Mueller {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// What is wrong (one line).
-        message: String,
-    },
-    /// A header and no data rows.
-    #[error("{file}: line {line}: no data rows after the header")]
-    Empty {
-        /// File name.
-        file: String,
-        /// Last line of the file.
-        line: usize,
     },
 }
 
@@ -408,48 +183,23 @@ pub struct BrdfTable {
     file: String,
 }
 
-/// One parsed data row (the fields the table uses).
-struct Row {
-    line: usize,
-    theta_i: f64,
-    phi_i: f64,
-    band: usize,
-    cell: usize,
-    /// Edge, centre and solid-angle columns, by column index.
-    geometry: [(usize, f64); 8],
-    fraction: f64,
-    fraction_se: f64,
-    /// `brdf` and `brdf_stderr` as written (sr⁻¹).
-    brdf: f64,
-    brdf_se: f64,
-}
-
-/// One incidence's numbers, checked, for [`BrdfTable::build`].
-struct BlockData {
+/// One incidence's numbers, checked, for [`BrdfTable::from_checked`].
+pub(crate) struct BlockData {
     /// Its first line in the file (0: not from a file).
-    line: usize,
-    theta_deg: f64,
-    phi_i_deg: f64,
-    fractions: Vec<f64>,
-    fraction_stderr: Vec<f64>,
+    pub(crate) line: usize,
+    pub(crate) theta_deg: f64,
+    pub(crate) phi_i_deg: f64,
+    pub(crate) fractions: Vec<f64>,
+    pub(crate) fraction_stderr: Vec<f64>,
 }
 
-/// Rows of one incidence block, in file order.
-struct Block {
-    start: usize,
-    theta_i: f64,
-    phi_i: f64,
-    rows: Vec<Row>,
-}
-
-fn shorten(s: &str, n: usize) -> String {
-    if s.chars().count() <= n {
-        s.to_owned()
-    } else {
-        let mut t: String = s.chars().take(n).collect();
-        t.push_str("...");
-        t
-    }
+/// What the readers of `summary.json` and `mueller.csv` match against: a
+/// tabulated incidence's angles as written (degrees) and its reflectance.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tabulated {
+    pub(crate) theta_deg: f64,
+    pub(crate) phi_i_deg: f64,
+    pub(crate) reflectance: f64,
 }
 
 /// Clamp a uniform number into `[0, 1)` (NaN to 0).
@@ -471,162 +221,9 @@ fn rotate_z(d: DVec3, angle: f64) -> DVec3 {
 }
 
 impl BrdfTable {
-    /// Read and check a `brdf.csv` file.
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
-    /// [`parse`](Self::parse), naming the file by `path`.
-    pub fn load(path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
-        Self::parse(&text, &name)
-    }
-
-    /// Parse and check the text of a `brdf.csv`; `name` names the file in
-    /// error messages. Blank lines are skipped, `\r\n` line ends and a byte
-    /// order mark are accepted.
-    ///
-    /// # Errors
-    /// The first problem found, as a [`BrdfTableError`] naming `name`, the
-    /// line and the column.
-    pub fn parse(text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let file = || name.to_owned();
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
-        let header = lines.next().map_or("", |(_, l)| l);
-        let header = header.strip_prefix('\u{feff}').unwrap_or(header);
-        if header.trim_end() != HEADER {
-            return Err(BrdfTableError::Header {
-                file: file(),
-                expected: HEADER,
-                found: shorten(header, 200),
-            });
-        }
-
-        // Group consecutive rows with the same incidence into blocks.
-        let mut blocks: Vec<Block> = Vec::new();
-        let mut last_line = 1;
-        for (line, text) in lines {
-            last_line = line;
-            if text.trim().is_empty() {
-                continue;
-            }
-            let row = parse_row(text, line, name)?;
-            let same = blocks
-                .last()
-                .is_some_and(|b| b.theta_i == row.theta_i && b.phi_i == row.phi_i);
-            if !same {
-                blocks.push(Block {
-                    start: line,
-                    theta_i: row.theta_i,
-                    phi_i: row.phi_i,
-                    rows: Vec::new(),
-                });
-            }
-            if let Some(b) = blocks.last_mut() {
-                check_order(b, &row, name)?;
-                b.rows.push(row);
-            }
-        }
-        if blocks.is_empty() {
-            return Err(BrdfTableError::Empty {
-                file: file(),
-                line: last_line,
-            });
-        }
-
-        // Every block complete, all with the first block's bands.
-        let mut first: Option<(usize, usize)> = None; // (bands, rows)
-        for b in &blocks {
-            let (bands, rows) = check_complete(b, first, name)?;
-            first.get_or_insert((bands, rows));
-        }
-        let bands = first.map_or(1, |(m, _)| m);
-        let grid = CarlsonGrid::new(bands).ok_or_else(|| BrdfTableError::Empty {
-            file: file(),
-            line: last_line,
-        })?;
-        let cells = Self::cells(&grid);
-
-        // Geometry columns against the grid.
-        let omega = grid.solid_angle();
-        for b in &blocks {
-            for (flat, row) in b.rows.iter().enumerate() {
-                let (band, cell) = grid.band_cell(flat);
-                let (mu_bot, mu_top) = grid.mu_edges(band);
-                let (theta_c, phi_c) = grid.centre(band, cell);
-                let c = &cells[flat];
-                for &(col, found) in &row.geometry {
-                    let (expected, relative) = match col {
-                        C_THETA_LO => (mu_top.acos().to_degrees(), false),
-                        C_THETA_HI => (mu_bot.acos().to_degrees(), false),
-                        C_PHI_LO => (c.phi_lo.to_degrees(), false),
-                        C_PHI_HI => (c.phi_hi.to_degrees(), false),
-                        C_THETA_C => (theta_c.to_degrees(), false),
-                        C_PHI_C => (phi_c.to_degrees(), false),
-                        C_OMEGA => (omega, true),
-                        _ => (c.proj, true),
-                    };
-                    let tol = if relative {
-                        GRID_TOL * expected
-                    } else {
-                        GRID_TOL
-                    };
-                    if (found - expected).abs() > tol {
-                        return Err(BrdfTableError::Grid {
-                            file: file(),
-                            line: row.line,
-                            column: col + 1,
-                            name: column(col),
-                            found,
-                            expected,
-                            bands,
-                        });
-                    }
-                }
-                check_derived(row, c.proj, name)?;
-            }
-        }
-
-        // Sort by angle; no angle twice.
-        blocks.sort_by(|a, b| a.theta_i.total_cmp(&b.theta_i));
-        for pair in blocks.windows(2) {
-            if pair[0].theta_i == pair[1].theta_i {
-                let (a, b) = if pair[0].start < pair[1].start {
-                    (&pair[0], &pair[1])
-                } else {
-                    (&pair[1], &pair[0])
-                };
-                return Err(BrdfTableError::Duplicate {
-                    file: file(),
-                    line: b.start,
-                    first: a.start,
-                    theta_i_deg: b.theta_i,
-                });
-            }
-        }
-
-        let data = blocks
-            .iter()
-            .map(|b| BlockData {
-                line: b.start,
-                theta_deg: b.theta_i,
-                phi_i_deg: b.phi_i,
-                fractions: b.rows.iter().map(|r| r.fraction).collect(),
-                fraction_stderr: b.rows.iter().map(|r| r.fraction_se).collect(),
-            })
-            .collect();
-        Self::build(grid, cells, data, file())
-    }
-
     /// The table of `blocks` on `grid` (each: incidence and light azimuth
     /// in degrees, and per flat cell the fraction and its standard error),
-    /// as [`BrdfTable::parse`] would read the rows written by
+    /// as [`BrdfTable::parse`] (in [`crate::output::brdf_csv`]) would read the rows written by
     /// [`crate::output::brdf_csv::write_blocks`] with these numbers;
     /// `file` names it in messages.
     ///
@@ -638,7 +235,7 @@ impl BrdfTable {
         grid: CarlsonGrid,
         blocks: Vec<(f64, f64, Vec<f64>, Vec<f64>)>,
         file: &str,
-    ) -> Result<Self, BrdfTableError> {
+    ) -> Result<Self, TableError> {
         let mut data: Vec<BlockData> = blocks
             .into_iter()
             .map(
@@ -651,7 +248,7 @@ impl BrdfTable {
                 },
             )
             .collect();
-        let bad = |theta_i_deg: f64, total: f64| BrdfTableError::Sum {
+        let bad = |theta_i_deg: f64, total: f64| TableError::Sum {
             file: file.to_owned(),
             line: 0,
             theta_i_deg,
@@ -667,15 +264,29 @@ impl BrdfTable {
         }
         data.sort_by(|a, b| a.theta_deg.total_cmp(&b.theta_deg));
         if let Some(w) = data.windows(2).find(|w| w[0].theta_deg == w[1].theta_deg) {
-            return Err(BrdfTableError::Duplicate {
+            return Err(TableError::Duplicate {
                 file: file.to_owned(),
                 line: 0,
                 first: 0,
                 theta_i_deg: w[1].theta_deg,
             });
         }
+        Self::from_checked(grid, data, file.to_owned())
+    }
+
+    /// The table of `blocks` on `grid`, sorted by angle, no angle twice,
+    /// one value per cell (as checked by [`BrdfTable::from_blocks`] and by
+    /// the reader of `brdf.csv`); `file` names it in messages.
+    ///
+    /// # Errors
+    /// [`TableError::Sum`] if a block's fractions add up to more than 1.
+    pub(crate) fn from_checked(
+        grid: CarlsonGrid,
+        blocks: Vec<BlockData>,
+        file: String,
+    ) -> Result<Self, TableError> {
         let cells = Self::cells(&grid);
-        Self::build(grid, cells, data, file.to_owned())
+        Self::build(grid, cells, blocks, file)
     }
 
     /// The fixed geometry of every cell of `grid`.
@@ -703,7 +314,7 @@ impl BrdfTable {
         cells: Vec<Cell>,
         blocks: Vec<BlockData>,
         file: String,
-    ) -> Result<Self, BrdfTableError> {
+    ) -> Result<Self, TableError> {
         let mut incidences = Vec::with_capacity(blocks.len());
         for b in blocks {
             let mut cdf = Vec::with_capacity(b.fractions.len());
@@ -713,7 +324,7 @@ impl BrdfTable {
                 cdf.push(total);
             }
             if total.is_nan() || total > MAX_FRACTION {
-                return Err(BrdfTableError::Sum {
+                return Err(TableError::Sum {
                     file,
                     line: b.line,
                     theta_i_deg: b.theta_deg,
@@ -741,305 +352,6 @@ impl BrdfTable {
             incidences,
             file,
         })
-    }
-
-    /// The same table with the exact reflectance standard errors of the
-    /// `summary.json` at `path` (written by `roks brdf` beside `brdf.csv`).
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
-    /// [`with_summary_text`](Self::with_summary_text).
-    pub fn with_summary(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
-        self.with_summary_text(&text, &name)
-    }
-
-    /// As [`with_summary`](Self::with_summary), from the text of
-    /// `summary.json`; `name` names it in error messages. The summary and
-    /// the table must describe the same run:
-    /// * every tabulated incidence has an entry of `incidence` with the same
-    ///   `theta_deg` and `phi_deg`, and every entry is tabulated (a table cut
-    ///   at a block boundary has lost an incidence its summary lists);
-    /// * per entry `photons` is an integer > 0 (equal to
-    ///   `photons_per_incidence` where that is given), `reflectance` is
-    ///   within 1e-7 of the table's sum of fractions (the table rounds
-    ///   fractions to 10 digits), and `reflectance_stderr` is a finite
-    ///   number >= 0 no larger than any mean of `photons` scores in `[0, 1]`
-    ///   can have, `sqrt(R (1 - R) / (k - 1))` with `k = min(photons, 16)`
-    ///   (16: the replicates of a lattice launch);
-    /// * `bands`, where given, is the table's.
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Summary`] naming the file, the key and what is
-    /// wrong (and the table's file where they disagree).
-    pub fn with_summary_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |message: String| BrdfTableError::Summary {
-            file: name.to_owned(),
-            message,
-        };
-        let table = self.file.clone();
-        let json: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON: {e}")))?;
-        let entries = json
-            .get("incidence")
-            .and_then(serde_json::Value::as_array)
-            .ok_or_else(|| fail("no `incidence` list".into()))?;
-        let num = |e: &serde_json::Value, key: &str| e.get(key).and_then(serde_json::Value::as_f64);
-        if let Some(b) = json.get("bands") {
-            if b.as_u64() != Some(self.grid.bands() as u64) {
-                return Err(fail(format!(
-                    "bands: {b} is not the {} bands of {table} (a summary of another run?)",
-                    self.grid.bands()
-                )));
-            }
-        }
-        let per_incidence = json
-            .get("photons_per_incidence")
-            .and_then(serde_json::Value::as_u64);
-        for (k, e) in entries.iter().enumerate() {
-            let (t, p) = (num(e, "theta_deg"), num(e, "phi_deg"));
-            let listed = self
-                .incidences
-                .iter()
-                .any(|inc| t == Some(inc.theta_deg) && p == Some(inc.phi_i_deg));
-            if !listed {
-                return Err(fail(format!(
-                    "incidence[{k}]: theta_deg = {}, phi_deg = {} is not tabulated in {table} (a truncated table, or a summary of another run?)",
-                    e.get("theta_deg").unwrap_or(&serde_json::Value::Null),
-                    e.get("phi_deg").unwrap_or(&serde_json::Value::Null),
-                )));
-            }
-            let photons = e.get("photons").and_then(serde_json::Value::as_u64);
-            match (photons, per_incidence) {
-                (None | Some(0), _) => {
-                    return Err(fail(format!(
-                        "incidence[{k}].photons: must be an integer > 0"
-                    )));
-                }
-                (Some(n), Some(m)) if n != m => {
-                    return Err(fail(format!(
-                        "incidence[{k}].photons: {n} is not photons_per_incidence = {m}"
-                    )));
-                }
-                _ => {}
-            }
-        }
-        for inc in &mut self.incidences {
-            let theta = inc.theta_deg;
-            let (k, entry) = entries
-                .iter()
-                .enumerate()
-                .find(|(_, e)| {
-                    num(e, "theta_deg").is_some_and(|t| t == theta)
-                        && num(e, "phi_deg").is_some_and(|p| p == inc.phi_i_deg)
-                })
-                .ok_or_else(|| {
-                    fail(format!(
-                        "incidence: no entry with theta_deg = {theta}, phi_deg = {} (tabulated in {table})",
-                        inc.phi_i_deg
-                    ))
-                })?;
-            let r = num(entry, "reflectance").unwrap_or(f64::NAN);
-            let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
-            if !close {
-                return Err(fail(format!(
-                    "incidence[{k}].reflectance: {r} at theta_deg = {theta} is not the table's {} in {table} (a summary of another run?)",
-                    inc.reflectance
-                )));
-            }
-            let se = num(entry, "reflectance_stderr")
-                .filter(|v| v.is_finite() && *v >= 0.0)
-                .ok_or_else(|| {
-                    fail(format!(
-                        "incidence[{k}].reflectance_stderr: not a finite number >= 0 (theta_deg = {theta})"
-                    ))
-                })?;
-            let photons = entry
-                .get("photons")
-                .and_then(serde_json::Value::as_u64)
-                .unwrap_or(1);
-            if photons >= 2 {
-                let dof = photons.min(16) as f64 - 1.0;
-                let rc = r.clamp(0.0, 1.0);
-                let bound = (rc * (1.0 - rc) / dof).sqrt();
-                if se > bound * (1.0 + 1e-6) + 1e-12 {
-                    return Err(fail(format!(
-                        "incidence[{k}].reflectance_stderr: {se} exceeds {bound}, the most a mean reflectance of {r} over {photons} photons can have (theta_deg = {theta})"
-                    )));
-                }
-            }
-            inc.stated_stderr = Some(se);
-        }
-        Ok(self)
-    }
-
-    /// Attach the Mueller-matrix BRDF of the same run (`mueller.csv`
-    /// beside `brdf.csv`, written by `roks brdf --polarisation mueller`):
-    /// [`sample_cell`](Self::sample_cell)'s cells then carry their Mueller
-    /// matrix divided by `m00` ([`mueller`](Self::mueller)). Frames: those
-    /// of [`crate::optics::polarisation`], rotated into the local frame of
-    /// the table (light azimuth 0).
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
-    /// [`with_mueller_text`](Self::with_mueller_text).
-    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
-        self.with_mueller_text(&text, &name)
-    }
-
-    /// As [`with_mueller`](Self::with_mueller), from the text of
-    /// `mueller.csv` ([`crate::output::polar_csv::MUELLER_HEADER`]); `name` names it in
-    /// errors. Every tabulated incidence needs a complete block of rows in
-    /// grid order with the table's `theta_i_deg` and `phi_i_deg`; numbers
-    /// finite; `m00` within 1e-6 (relative) of the table's BRDF.
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
-    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, message: String| BrdfTableError::Mueller {
-            file: name.to_owned(),
-            line,
-            message,
-        };
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
-            .filter(|(_, l)| !l.trim().is_empty());
-        let header = lines.next().map_or("", |(_, l)| l);
-        let header = header.strip_prefix('\u{feff}').unwrap_or(header);
-        if header.trim_end() != crate::output::polar_csv::MUELLER_HEADER {
-            return Err(fail(1, "header is not that of mueller.csv".into()));
-        }
-        let n = self.grid.n_cells();
-        // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
-        type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
-        let mut blocks: Vec<MuellerBlock> = Vec::new();
-        let mut last_line = 1;
-        for (line, l) in lines {
-            last_line = line;
-            let f: Vec<&str> = l.split(',').map(str::trim).collect();
-            if f.len() != 38 {
-                return Err(fail(
-                    line,
-                    format!("expected 38 columns, found {}", f.len()),
-                ));
-            }
-            let num = |i: usize| -> Result<f64, BrdfTableError> {
-                f[i].parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| {
-                        fail(
-                            line,
-                            format!(
-                                "column {}: `{}` is not a finite number",
-                                i + 1,
-                                shorten(f[i], 40)
-                            ),
-                        )
-                    })
-            };
-            let (theta, phi) = (num(0)?, num(1)?);
-            if blocks.last().is_none_or(|b| b.2.len() == n) {
-                blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
-            }
-            let block = blocks.last_mut().expect("pushed");
-            if (theta, phi) != (block.0, block.1) {
-                return Err(fail(
-                    line,
-                    format!(
-                        "incidence block theta_i_deg = {} ends after {} of {n} cells",
-                        block.0,
-                        block.2.len()
-                    ),
-                ));
-            }
-            let (band, cell) = self.grid.band_cell(block.2.len());
-            if f[2] != band.to_string() || f[3] != cell.to_string() {
-                return Err(fail(
-                    line,
-                    format!("expected band {band}, cell {cell} (grid order)"),
-                ));
-            }
-            let mut m = [0.0; 16];
-            for (k, v) in m.iter_mut().enumerate() {
-                *v = num(6 + 2 * k)?;
-                let se = num(7 + 2 * k)?;
-                if se < 0.0 {
-                    return Err(fail(
-                        line,
-                        format!("column {} (a standard error): {se} must be >= 0", 8 + 2 * k),
-                    ));
-                }
-            }
-            block.2.push(m);
-            block.3.push(line);
-        }
-        if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {
-            return Err(fail(
-                last_line,
-                format!(
-                    "incidence block theta_i_deg = {} has {} of {n} cells",
-                    b.0,
-                    b.2.len()
-                ),
-            ));
-        }
-        if blocks.len() != self.incidences.len() {
-            return Err(fail(
-                last_line,
-                format!(
-                    "{} incidence blocks, but {} has {} (a file of another run?)",
-                    blocks.len(),
-                    self.file,
-                    self.incidences.len()
-                ),
-            ));
-        }
-        for inc in &mut self.incidences {
-            let block = blocks
-                .iter()
-                .find(|b| b.0 == inc.theta_deg && b.1 == inc.phi_i_deg)
-                .ok_or_else(|| {
-                    fail(
-                        last_line,
-                        format!(
-                            "no block for theta_i_deg = {}, phi_i_deg = {} (tabulated in {})",
-                            inc.theta_deg, inc.phi_i_deg, self.file
-                        ),
-                    )
-                })?;
-            let mut normalised = Vec::with_capacity(n);
-            for (flat, m) in block.2.iter().enumerate() {
-                let brdf = inc.fractions[flat] / self.cells[flat].proj;
-                if (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300 {
-                    return Err(fail(
-                        block.3[flat],
-                        format!(
-                            "theta_i_deg = {}: cell {flat}: m00 = {} is not the brdf {brdf} of {} (a file of another run?)",
-                            inc.theta_deg, m[0], self.file
-                        ),
-                    ));
-                }
-                normalised.push(if m[0] > 0.0 {
-                    m.map(|v| v / m[0])
-                } else {
-                    [0.0; 16]
-                });
-            }
-            inc.mueller = Some(normalised);
-        }
-        Ok(self)
     }
 
     /// The Mueller matrix of incidence block `incidence`, flat cell `cell`,
@@ -1193,189 +505,60 @@ impl BrdfTable {
                 .map_or(0.0, |flat| inc.fractions[flat] / self.cells[flat].proj)
         })
     }
-}
 
-/// Parse one data row.
-fn parse_row(text: &str, line: usize, name: &str) -> Result<Row, BrdfTableError> {
-    let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-    if fields.len() != COLUMNS {
-        return Err(BrdfTableError::Columns {
-            file: name.to_owned(),
-            line,
-            found: fields.len(),
-        });
+    /// The file's name, as given to the reader or to
+    /// [`from_blocks`](Self::from_blocks) (for messages of the readers of
+    /// `summary.json` and `mueller.csv` that name it).
+    pub(crate) fn file(&self) -> &str {
+        &self.file
     }
-    let number = |col: usize| -> Result<f64, BrdfTableError> {
-        match fields[col].parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            _ => Err(BrdfTableError::Number {
-                file: name.to_owned(),
-                line,
-                column: col + 1,
-                name: column(col),
-                text: shorten(fields[col], 40),
-                what: "finite number",
-            }),
-        }
-    };
-    let integer = |col: usize| -> Result<usize, BrdfTableError> {
-        fields[col]
-            .parse::<usize>()
-            .map_err(|_| BrdfTableError::Number {
-                file: name.to_owned(),
-                line,
-                column: col + 1,
-                name: column(col),
-                text: shorten(fields[col], 40),
-                what: "non-negative integer",
-            })
-    };
-    let range = |col: usize, value: f64, requirement: &'static str| BrdfTableError::OutOfRange {
-        file: name.to_owned(),
-        line,
-        column: col + 1,
-        name: column(col),
-        value,
-        requirement,
-    };
-    // Every numeric column must be finite, in column order.
-    let mut v = [0.0; 16];
-    for (col, slot) in v.iter_mut().enumerate() {
-        if col != C_BAND && col != C_CELL {
-            *slot = number(col)?;
+
+    /// The table's Carlson grid.
+    pub(crate) fn grid(&self) -> &CarlsonGrid {
+        &self.grid
+    }
+
+    /// Tabulated incidence `i` (in the order of [`thetas_deg`](Self::thetas_deg)).
+    ///
+    /// # Panics
+    /// If there is no incidence `i`.
+    pub(crate) fn incidence(&self, i: usize) -> Tabulated {
+        let inc = &self.incidences[i];
+        Tabulated {
+            theta_deg: inc.theta_deg,
+            phi_i_deg: inc.phi_i_deg,
+            reflectance: inc.reflectance,
         }
     }
-    let band = integer(C_BAND)?;
-    let cell = integer(C_CELL)?;
-    if !(0.0..90.0).contains(&v[C_THETA_I]) {
-        return Err(range(C_THETA_I, v[C_THETA_I], "must be in [0, 90)"));
-    }
-    for col in [C_FRACTION, C_FRACTION_SE, C_BRDF, C_BRDF_SE] {
-        if v[col] < 0.0 {
-            return Err(range(col, v[col], "must be >= 0"));
-        }
-    }
-    if v[C_FRACTION] > MAX_FRACTION {
-        return Err(range(
-            C_FRACTION,
-            v[C_FRACTION],
-            "must be <= 1 (the share of the launched light leaving through the cell)",
-        ));
-    }
-    Ok(Row {
-        line,
-        theta_i: v[C_THETA_I],
-        phi_i: v[C_PHI_I],
-        band,
-        cell,
-        geometry: [
-            C_THETA_LO, C_THETA_HI, C_PHI_LO, C_PHI_HI, C_THETA_C, C_PHI_C, C_OMEGA, C_PROJ,
-        ]
-        .map(|c| (c, v[c])),
-        fraction: v[C_FRACTION],
-        fraction_se: v[C_FRACTION_SE],
-        brdf: v[C_BRDF],
-        brdf_se: v[C_BRDF_SE],
-    })
-}
 
-/// The derived columns of `row` must follow from the others: `brdf =
-/// fraction / proj` and `brdf_stderr = fraction_stderr / proj` (`proj` the
-/// cell's exact projected solid angle, sr) to [`DERIVED_TOL`]. This also
-/// catches a last row cut short inside its last number.
-fn check_derived(row: &Row, proj: f64, name: &str) -> Result<(), BrdfTableError> {
-    for (col, found, from, formula) in [
-        (
-            C_BRDF,
-            row.brdf,
-            row.fraction,
-            "fraction / projected_solid_angle_sr",
-        ),
-        (
-            C_BRDF_SE,
-            row.brdf_se,
-            row.fraction_se,
-            "fraction_stderr / projected_solid_angle_sr",
-        ),
-    ] {
-        let expected = from / proj;
-        let off = (found - expected).abs();
-        if off.is_nan() || off > DERIVED_TOL * expected.max(found) + 1e-300 {
-            return Err(BrdfTableError::Derived {
-                file: name.to_owned(),
-                line: row.line,
-                column: col + 1,
-                name: column(col),
-                found,
-                expected,
-                formula,
-            });
-        }
+    /// BRDF (sr⁻¹) of flat cell `flat` of incidence `i`, `fraction /
+    /// projected solid angle`.
+    pub(crate) fn cell_brdf(&self, i: usize, flat: usize) -> f64 {
+        self.incidences[i].fractions[flat] / self.cells[flat].proj
     }
-    Ok(())
-}
 
-/// `row` must be the next cell of `block` in grid order.
-fn check_order(block: &Block, row: &Row, name: &str) -> Result<(), BrdfTableError> {
-    let (band, cell) = match block.rows.last() {
-        None => (1, 0),
-        Some(p) if p.cell + 1 >= 4 * p.band => (p.band + 1, 0),
-        Some(p) => (p.band, p.cell + 1),
-    };
-    let err = |col: usize, found: usize, expected: usize| BrdfTableError::Order {
-        file: name.to_owned(),
-        line: row.line,
-        column: col + 1,
-        name: column(col),
-        found,
-        expected,
-    };
-    if row.band != band {
-        return Err(err(C_BAND, row.band, band));
+    /// Attach the exact standard error of incidence `i`'s reflectance (from
+    /// `summary.json`).
+    pub(crate) fn set_stated_stderr(&mut self, i: usize, stderr: f64) {
+        self.incidences[i].stated_stderr = Some(stderr);
     }
-    if row.cell != cell {
-        return Err(err(C_CELL, row.cell, cell));
-    }
-    Ok(())
-}
 
-/// A block in grid order is complete when its last band is; all blocks must
-/// have the first block's bands. Returns `(bands, rows)`.
-fn check_complete(
-    block: &Block,
-    first: Option<(usize, usize)>,
-    name: &str,
-) -> Result<(usize, usize), BrdfTableError> {
-    let rows = block.rows.len();
-    let last = block
-        .rows
-        .last()
-        .map_or((1, 0, block.start), |r| (r.band, r.cell, r.line));
-    let (band, cell, line) = last;
-    if cell + 1 != 4 * band {
-        let bands = first.map_or(band, |(m, _)| m);
-        return Err(BrdfTableError::Incomplete {
-            file: name.to_owned(),
-            line,
-            start: block.start,
-            theta_i_deg: block.theta_i,
-            rows,
-            bands,
-            expected: 2 * bands * (bands + 1),
-        });
+    /// Attach incidence `i`'s Mueller matrices per flat cell, divided by
+    /// `m00` (from `mueller.csv`).
+    pub(crate) fn set_mueller(&mut self, i: usize, normalised: Vec<[f64; 16]>) {
+        self.incidences[i].mueller = Some(normalised);
     }
-    match first {
-        Some((m, first_rows)) if m != band => Err(BrdfTableError::Bands {
-            file: name.to_owned(),
-            line,
-            start: block.start,
-            theta_i_deg: block.theta_i,
-            bands: band,
-            rows,
-            first_bands: m,
-            first_rows,
-        }),
-        _ => Ok((band, rows)),
+
+    /// The fractions of incidence `i`.
+    #[cfg(test)]
+    pub(crate) fn fractions(&self, i: usize) -> &[f64] {
+        &self.incidences[i].fractions
+    }
+
+    /// `sqrt(sum fraction_stderr²)` of incidence `i`.
+    #[cfg(test)]
+    pub(crate) fn cell_stderr(&self, i: usize) -> f64 {
+        self.incidences[i].cell_stderr
     }
 }
 
@@ -1394,18 +577,17 @@ mod tests {
         fractions: Vec<f64>,
     }
 
-    /// `brdf.csv` text for `blocks` on a grid of `m` bands, written by the
-    /// file's writer.
-    fn csv(m: usize, blocks: &[TestBlock]) -> String {
-        format!("{HEADER}\n{}", rows(m, blocks))
-    }
-
-    /// The data rows of [`csv`], without the header.
-    fn rows(m: usize, blocks: &[TestBlock]) -> String {
-        blocks
+    /// The table of `blocks` on a grid of `m` bands, standard errors 1% of
+    /// the fractions.
+    fn table(m: usize, blocks: &[TestBlock], name: &str) -> BrdfTable {
+        let blocks = blocks
             .iter()
-            .map(|b| crate::output::brdf_csv::rows(m, b.theta, b.phi_i, &b.fractions, 0.01))
-            .collect()
+            .map(|b| {
+                let se = b.fractions.iter().map(|f| 0.01 * f).collect();
+                (b.theta, b.phi_i, b.fractions.clone(), se)
+            })
+            .collect();
+        BrdfTable::from_blocks(CarlsonGrid::new(m).unwrap(), blocks, name).unwrap()
     }
 
     fn lambertian(m: usize, albedo: f64) -> Vec<f64> {
@@ -1455,7 +637,7 @@ mod tests {
                 fractions: lambertian(m, 0.7),
             })
             .collect();
-        BrdfTable::parse(&csv(m, &blocks), "lambert.csv").unwrap()
+        table(m, &blocks, "lambert.csv")
     }
 
     #[test]
@@ -1549,7 +731,7 @@ mod tests {
         let m = 10;
         let g = CarlsonGrid::new(m).unwrap();
         let (blocks, cells) = mirror_blocks(m, 0.0);
-        let t = BrdfTable::parse(&csv(m, &blocks), "mirror.csv").unwrap();
+        let t = table(m, &blocks, "mirror.csv");
         let mut rng = Pcg64Mcg::seed_from_u64(99);
         // At, below and above the tabulated angles: one cell, one weight.
         for (theta, k) in [(0.0, 0), (-0.2, 0), (30.0, 1), (60.0, 2), (85.0, 2)] {
@@ -1610,7 +792,7 @@ mod tests {
                 fractions: half,
             },
         ];
-        let t = BrdfTable::parse(&csv(m, &blocks), "zero.csv").unwrap();
+        let t = table(m, &blocks, "zero.csv");
         assert_eq!(t.sample(0.1, [0.5; 4]), None);
         assert_eq!(t.reflectance(0.0), 0.0);
         assert_eq!(t.reflectance_stderr(0.0), 0.0);
@@ -1632,8 +814,8 @@ mod tests {
         // Mirror tables: the same u give the same direction.
         let (b0, _) = mirror_blocks(m, 0.0);
         let (b90, _) = mirror_blocks(m, 90.0);
-        let t0 = BrdfTable::parse(&csv(m, &b0), "phi0.csv").unwrap();
-        let t90 = BrdfTable::parse(&csv(m, &b90), "phi90.csv").unwrap();
+        let t0 = table(m, &b0, "phi0.csv");
+        let t90 = table(m, &b90, "phi90.csv");
         let mut rng = Pcg64Mcg::seed_from_u64(5);
         for _ in 0..10_000 {
             let theta = 1.5 * rng.random::<f64>();
@@ -1668,7 +850,7 @@ mod tests {
                     fractions: if turned { turn(f) } else { f.clone() },
                 })
                 .collect();
-            BrdfTable::parse(&csv(m, &blocks), "t.csv").unwrap()
+            table(m, &blocks, "t.csv")
         };
         let (t0, t90) = (mk(0.0, false), mk(90.0, true));
         for _ in 0..2000 {
@@ -1717,7 +899,7 @@ mod tests {
                 fractions: (0..g.n_cells()).map(|_| r.random::<f64>() * 0.02).collect(),
             })
             .collect();
-        let t = BrdfTable::parse(&csv(m, &blocks), "t.csv").unwrap();
+        let t = table(m, &blocks, "t.csv");
         for theta in [-0.1, 0.0, 0.3, 45f64.to_radians(), 1.0, 1.4, 1.5] {
             let mut integral = 0.0;
             for band in 1..=m {
@@ -1768,315 +950,5 @@ mod tests {
         }
         assert!(t.sample(f64::INFINITY, [0.5; 4]).is_some());
         assert!(t.sample(f64::NEG_INFINITY, [0.5; 4]).is_some());
-    }
-
-    fn err(text: &str) -> String {
-        BrdfTable::parse(text, "bad.csv").unwrap_err().to_string()
-    }
-
-    /// Replace field `col` (0-based) of physical line `line` (1-based).
-    fn edit(text: &str, line: usize, col: usize, value: &str) -> String {
-        text.lines()
-            .enumerate()
-            .map(|(i, l)| {
-                if i + 1 == line {
-                    let mut f: Vec<&str> = l.split(',').collect();
-                    f[col] = value;
-                    f.join(",")
-                } else {
-                    l.to_owned()
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("\n")
-    }
-
-    #[test]
-    fn parse_errors_name_file_line_and_column() {
-        let m = 2; // 12 rows per block
-        let blocks: Vec<TestBlock> = [0.0, 40.0]
-            .iter()
-            .map(|&theta| TestBlock {
-                theta,
-                phi_i: 0.0,
-                fractions: lambertian(m, 0.7),
-            })
-            .collect();
-        let good = csv(m, &blocks);
-        assert!(BrdfTable::parse(&good, "good.csv").is_ok());
-        let check = |e: String, needles: &[&str]| {
-            assert!(!e.contains('\n'), "{e}");
-            assert!(e.starts_with("bad.csv: "), "{e}");
-            for n in needles {
-                assert!(e.contains(n), "`{n}` not in: {e}");
-            }
-        };
-
-        // Header.
-        check(
-            err(&good.replacen("fraction,", "fractions,", 1)),
-            &["line 1", "header"],
-        );
-        check(err(""), &["line 1", "header"]);
-        check(err(&format!("{HEADER}\n\n")), &["line 2", "no data"]);
-        // Incomplete blocks: the last row of block 1 removed (line 13), or
-        // the last row of the file.
-        let lines: Vec<&str> = good.lines().collect();
-        let mut cut = lines.clone();
-        cut.remove(12);
-        check(
-            err(&cut.join("\n")),
-            &["line 12", "incomplete", "11 rows", "has 12"],
-        );
-        check(
-            err(&lines[..lines.len() - 1].join("\n")),
-            &["line 24", "incomplete", "theta_i_deg = 40", "11 rows"],
-        );
-        // A missing row in the middle: out of grid order at line 6.
-        let mut gap = lines.clone();
-        gap.remove(5);
-        check(
-            err(&gap.join("\n")),
-            &["line 6", "column 4 (cell)", "found 1, expected 0"],
-        );
-        // Block 2 with a whole band missing: band count differs.
-        let short = format!("{}\n", lines[..17].join("\n"));
-        check(err(&short), &["line 17", "1 bands", "first block has 2"]);
-        // NaN, inf, text, negative fraction, negative stderr.
-        check(
-            err(&edit(&good, 5, 12, "NaN")),
-            &["line 5", "column 13 (fraction)", "`NaN`"],
-        );
-        check(
-            err(&edit(&good, 9, 14, "inf")),
-            &["line 9", "column 15 (brdf)", "finite"],
-        );
-        check(
-            err(&edit(&good, 3, 0, "abc")),
-            &["line 3", "column 1 (theta_i_deg)"],
-        );
-        check(
-            err(&edit(&good, 7, 12, "-1e-3")),
-            &["line 7", "column 13 (fraction)", ">= 0"],
-        );
-        check(
-            err(&edit(&good, 8, 13, "-1")),
-            &["line 8", "column 14 (fraction_stderr)"],
-        );
-        check(
-            err(&edit(&good, 4, 2, "-1")),
-            &["line 4", "column 3 (band)", "integer"],
-        );
-        // Angles and columns.
-        let all_90 = good.replace("\n40,", "\n90,");
-        check(err(&all_90), &["line 14", "column 1", "[0, 90)"]);
-        check(err(&edit(&good, 6, 15, "1,2")), &["line 6", "found 17"]);
-        // Geometry that is not the grid.
-        check(
-            err(&edit(&good, 10, 6, "12.5")),
-            &["line 10", "column 7 (phi_lo_deg)", "Carlson"],
-        );
-        check(
-            err(&edit(&good, 2, 11, "0.3")),
-            &["line 2", "column 12 (projected_solid_angle_sr)"],
-        );
-        // Centre columns, derived columns (an edited fraction, a last
-        // number cut short), a fraction above 1, a block that creates light.
-        check(
-            err(&edit(&good, 3, 8, "33")),
-            &["line 3", "column 9 (theta_deg)", "Carlson"],
-        );
-        check(
-            err(&edit(&good, 4, 9, "1")),
-            &["line 4", "column 10 (phi_deg)", "Carlson"],
-        );
-        check(
-            err(&edit(&good, 5, 12, "0.9")),
-            &[
-                "line 5",
-                "column 15 (brdf)",
-                "fraction / projected_solid_angle_sr",
-            ],
-        );
-        let last = lines[lines.len() - 1];
-        let cut = format!(
-            "{}\n{}",
-            lines[..lines.len() - 1].join("\n"),
-            &last[..last.len() - 3]
-        );
-        check(
-            err(&cut),
-            &["line 25", "column 16 (brdf_stderr)", "truncated"],
-        );
-        check(
-            err(&edit(&good, 6, 12, "1.5")),
-            &["line 6", "column 13 (fraction)", "must be <= 1"],
-        );
-        let bright = TestBlock {
-            theta: 10.0,
-            phi_i: 0.0,
-            fractions: vec![0.5; 12],
-        };
-        let creates = format!("{good}{}", rows(m, &[bright]));
-        check(
-            err(&creates),
-            &[
-                "line 26, column 13 (fraction)",
-                "theta_i_deg = 10",
-                "sum to a reflectance of 6",
-                "more than 1",
-            ],
-        );
-        // Same angle twice (different azimuth).
-        let again = TestBlock {
-            theta: 0.0,
-            phi_i: 45.0,
-            fractions: lambertian(m, 0.7),
-        };
-        let twice = format!("{good}{}", rows(m, &[again]));
-        check(err(&twice), &["line 26", "already tabulated from line 2"]);
-        // File not found.
-        let e = BrdfTable::load(Path::new("/nonexistent/brdf.csv"))
-            .unwrap_err()
-            .to_string();
-        assert!(e.starts_with("/nonexistent/brdf.csv: cannot read"), "{e}");
-        // Accepted variations: CRLF, BOM, unsorted blocks, trailing blanks.
-        let crlf = format!("\u{feff}{}\r\n\r\n", good.trim_end().replace('\n', "\r\n"));
-        assert_eq!(
-            BrdfTable::parse(&crlf, "x").unwrap().thetas_deg(),
-            &[0.0, 40.0]
-        );
-        let half = TestBlock {
-            theta: 0.0,
-            phi_i: 0.0,
-            fractions: lambertian(m, 0.5),
-        };
-        let swapped = format!("{HEADER}\n{}{}", rows(m, &blocks[1..]), rows(m, &[half]));
-        let t = BrdfTable::parse(&swapped, "x").unwrap();
-        assert_eq!(t.thetas_deg(), &[0.0, 40.0]);
-        assert!((t.reflectance(0.0) - 0.5).abs() < 1e-14);
-        assert!((t.reflectance(1.0) - 0.7).abs() < 1e-14);
-    }
-
-    #[test]
-    fn summary_errors() {
-        let t = lambert_table();
-        let entry = |theta: f64, r: f64, se: f64| serde_json::json!({"theta_deg": theta, "phi_deg": 0.0, "photons": 1000, "reflectance": r, "reflectance_stderr": se});
-        let good = serde_json::json!({"incidence": [entry(60.0, 0.7, 3e-4), entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 2e-4)]});
-        let ts = t
-            .clone()
-            .with_summary_text(&good.to_string(), "s.json")
-            .unwrap();
-        assert!((ts.reflectance_stderr(0.0) - 1e-4).abs() < 1e-18);
-        assert!((ts.reflectance_stderr(45f64.to_radians()) - 2.5e-4).abs() < 1e-15);
-        let bad = |json: String, needle: &str| {
-            let e = t
-                .clone()
-                .with_summary_text(&json, "s.json")
-                .unwrap_err()
-                .to_string();
-            assert!(
-                e.starts_with("s.json: ") && e.contains(needle) && !e.contains('\n'),
-                "{e}"
-            );
-        };
-        bad("{".into(), "invalid JSON");
-        bad("{}".into(), "no `incidence`");
-        bad(
-            serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4)]})
-                .to_string(),
-            "theta_deg = 60",
-        );
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.71, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "not the table's");
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, -1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "reflectance_stderr");
-        // An incidence the table lacks (cut at a block boundary).
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4), entry(80.0, 0.7, 1e-4)]}).to_string(), "incidence[3]: theta_deg = 80.0, phi_deg = 0.0 is not tabulated in lambert.csv");
-        // Photon counts, bands, an impossible standard error.
-        let mut e = entry(30.0, 0.7, 1e-4);
-        e["photons"] = serde_json::json!(0);
-        bad(
-            serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), e, entry(60.0, 0.7, 1e-4)]})
-                .to_string(),
-            "incidence[1].photons: must be an integer > 0",
-        );
-        bad(serde_json::json!({"photons_per_incidence": 999, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[0].photons: 1000 is not photons_per_incidence = 999");
-        bad(serde_json::json!({"bands": 7, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "bands: 7 is not the 8 bands of lambert.csv");
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 0.2), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[1].reflectance_stderr: 0.2 exceeds");
-        let e = t
-            .with_summary(Path::new("/nonexistent/summary.json"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.starts_with("/nonexistent/summary.json: cannot read"),
-            "{e}"
-        );
-    }
-
-    /// Round trip through the real writer: a short run of the default scene,
-    /// `output::brdf_csv::write`, parse. The table's reflectance is the run's to
-    /// 1e-9 at every tabulated angle, its exact standard error (with the
-    /// photon count) the run's to 1e-6 relative, and the bound above it.
-    #[test]
-    fn round_trip_with_the_writer() {
-        let scene = crate::scene::micro::MicroScene::default_scene();
-        let mut run = scene.brdf_run();
-        run.photons = 20_000;
-        run.theta_deg = vec![0.0, 40.0, 80.0];
-        let results = run.run(&scene.surface, &|_| {});
-        let text = crate::output::brdf_csv::write(&run, &results);
-        let t = BrdfTable::parse(&text, "roundtrip.csv").unwrap();
-        // The table a run holds for exports is the file's, number for number.
-        let held = crate::output::brdf_csv::table(&run, &results);
-        assert_eq!(held.thetas_deg(), t.thetas_deg());
-        for i in 0..3 {
-            for c in 0..run.grid().n_cells() {
-                assert_eq!(
-                    held.incidences[i].fractions[c].to_bits(),
-                    t.incidences[i].fractions[c].to_bits()
-                );
-            }
-            assert_eq!(
-                held.incidences[i].cell_stderr.to_bits(),
-                t.incidences[i].cell_stderr.to_bits()
-            );
-        }
-        // Through a file too.
-        let path = std::env::temp_dir().join(format!("roks-brdf-table-{}.csv", std::process::id()));
-        std::fs::write(&path, &text).unwrap();
-        let loaded = BrdfTable::load(&path);
-        let _ = std::fs::remove_file(&path);
-        assert_eq!(loaded.unwrap().thetas_deg(), t.thetas_deg());
-        let summary = serde_json::json!({
-            "incidence": results.iter().map(crate::output::summary::IncidenceSummary::new).collect::<Vec<_>>(),
-        })
-        .to_string();
-        assert!(!t.has_stated_stderr());
-        let te = t
-            .clone()
-            .with_summary_text(&summary, "summary.json")
-            .unwrap();
-        assert!(te.has_stated_stderr());
-        assert_eq!(t.thetas_deg(), &[0.0, 40.0, 80.0]);
-        assert_eq!(t.bands(), run.bands);
-        for r in &results {
-            let theta = r.theta_i_deg.to_radians();
-            let (refl, se) = r.reflectance();
-            assert!(
-                (t.reflectance(theta) - refl).abs() < 1e-9,
-                "{} vs {refl}",
-                t.reflectance(theta)
-            );
-            let exact = te.reflectance_stderr(theta);
-            assert!((exact - se).abs() <= 1e-12 * se, "stderr {exact} vs {se}");
-            assert!(t.reflectance_stderr(theta) >= exact);
-            // Sampling returns the reflectance as weight and a direction in a
-            // cell with weight.
-            let mut rng = Pcg64Mcg::seed_from_u64(1);
-            for _ in 0..1000 {
-                let (d, w) = t.sample(theta, uniforms(&mut rng)).unwrap();
-                assert_eq!(w, t.reflectance(theta));
-                assert!(t.eval(theta, d) > 0.0);
-            }
-        }
     }
 }

@@ -2,8 +2,9 @@
 //! incidence and cell. This module owns the file: its columns
 //! ([`HEADER`]), its one writer ([`write`] for a run, [`write_blocks`] for
 //! any fractions, e.g. a synthetic table in a test) and its reader
-//! ([`read`], [`parse`]: a checked [`BrdfTable`], see
-//! [`crate::optics::brdf_table`] for the checks and the sampling).
+//! ([`read`], [`parse`]: a checked [`BrdfTable`]; the checks and their
+//! errors are in [`reader`], the table and its sampling in
+//! [`crate::optics::brdf_table`]).
 //!
 //! # Columns
 //!
@@ -20,9 +21,13 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::optics::brdf_table::{BrdfTable, BrdfTableError};
+use crate::optics::brdf_table::BrdfTable;
 use crate::tally::CarlsonGrid;
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
+
+pub mod reader;
+
+pub use reader::BrdfTableError;
 
 /// Columns of `brdf.csv`.
 pub const HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";

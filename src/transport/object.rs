@@ -34,7 +34,7 @@ use crate::micro::Scratch;
 use crate::object::Object;
 use crate::object::source::Beam;
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
-use crate::tally::Merge as _;
+use crate::tally::Merge;
 use crate::tally::carlson::Cells;
 use crate::tally::{Accumulator, CarlsonGrid};
 
@@ -151,9 +151,9 @@ pub struct ObjectTallies {
     pub segments: u64,
     /// Weight cut by caps or guards (macro or inside micro descents).
     pub lost: f64,
-    /// Histories that hit a surface without a model: (count, surface id of
-    /// the first; 0 while the count is 0).
-    pub unmodelled: (u64, usize),
+    /// Histories that hit a surface without a model: their count and the
+    /// surface id of the first.
+    pub unmodelled: FirstUnmodelled,
     /// Photons whose start point lies inside a solid (not traced; a scene error).
     pub started_inside: u64,
 }
@@ -177,7 +177,7 @@ impl ObjectTallies {
             bounces: 0,
             segments: 0,
             lost: 0.0,
-            unmodelled: (0, 0),
+            unmodelled: FirstUnmodelled::default(),
             started_inside: 0,
         }
     }
@@ -192,22 +192,71 @@ impl ObjectTallies {
         16 * bins as u64
     }
 
-    fn merge(&mut self, o: &Self) {
-        self.photons += o.photons;
-        self.reflected.merge(&o.reflected);
-        self.missed += o.missed;
-        self.absorbed.merge(&o.absorbed);
-        self.farfield.merge(&o.farfield);
-        self.stokes.merge(&o.stokes);
-        self.farfield_stokes.merge(&o.farfield_stokes);
-        self.bounces += o.bounces;
-        self.segments += o.segments;
-        self.lost += o.lost;
-        if o.unmodelled.0 > 0 && self.unmodelled.0 == 0 {
-            self.unmodelled.1 = o.unmodelled.1;
+    /// Histories that hit a surface without a model, and the surface id
+    /// of the first (`None`: none did).
+    #[must_use]
+    pub fn unmodelled(&self) -> Option<(u64, usize)> {
+        self.unmodelled
+            .first()
+            .map(|s| (self.unmodelled.count(), s))
+    }
+}
+
+crate::merge_fields!(ObjectTallies {
+    sum photons,
+    reflected,
+    missed,
+    absorbed,
+    farfield,
+    stokes,
+    farfield_stokes,
+    bounces,
+    segments,
+    lost,
+    unmodelled,
+    started_inside,
+});
+
+/// Histories that hit a surface without a model: `.0` their count, `.1`
+/// the surface id of the first (meaningful only while `.0 > 0`; read it
+/// with [`first`](Self::first)). Merging adds the counts and keeps the
+/// first surface of the first tally that has one, so merged batches name
+/// the surface a whole run in batch order would.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FirstUnmodelled(pub u64, pub usize);
+
+impl FirstUnmodelled {
+    /// One more history hitting `surface`.
+    pub fn record(&mut self, surface: usize) {
+        if self.0 == 0 {
+            self.1 = surface;
         }
-        self.unmodelled.0 += o.unmodelled.0;
-        self.started_inside += o.started_inside;
+        self.0 += 1;
+    }
+
+    /// Number of histories.
+    #[must_use]
+    pub fn count(&self) -> u64 {
+        self.0
+    }
+
+    /// Surface id of the first history; `None` if there was none.
+    #[must_use]
+    pub fn first(&self) -> Option<usize> {
+        (self.0 > 0).then_some(self.1)
+    }
+}
+
+impl Merge for FirstUnmodelled {
+    fn merge(&mut self, other: &Self) {
+        if other.0 > 0 && self.0 == 0 {
+            self.1 = other.1;
+        }
+        self.0 += other.0;
+    }
+    fn merge_clearing(&mut self, other: &mut Self) {
+        self.merge(other);
+        *other = Self::default();
     }
 }
 
@@ -388,10 +437,7 @@ impl ObjectRun {
                     }
                 }
                 Fate::Unmodelled { surface } => {
-                    if t.unmodelled.0 == 0 {
-                        t.unmodelled.1 = surface;
-                    }
-                    t.unmodelled.0 += 1;
+                    t.unmodelled.record(surface);
                 }
                 Fate::Lost { weight } => t.lost += weight,
                 Fate::Absorbed => {}
@@ -532,5 +578,28 @@ pub fn trace<C: Carrier>(
             Some(survivor) => w.survive(survivor),
             None => return end(Fate::Absorbed, bounces, segments),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Counts add; the first surface is the first tally's that has one.
+    #[test]
+    fn first_unmodelled_merges_first_wins() {
+        let mut a = FirstUnmodelled::default();
+        assert_eq!(a.first(), None);
+        let mut b = FirstUnmodelled::default();
+        b.record(3);
+        b.record(5);
+        let mut c = FirstUnmodelled::default();
+        c.record(7);
+        a.merge(&b);
+        a.merge(&c);
+        assert_eq!((a.count(), a.first()), (3, Some(3)));
+        let mut d = FirstUnmodelled::default();
+        d.merge_clearing(&mut c);
+        assert_eq!((d, c), (FirstUnmodelled(1, 7), FirstUnmodelled::default()));
     }
 }
