@@ -37,6 +37,32 @@ pub mod polar_csv;
 pub mod summary;
 pub mod tallies;
 
+/// `header` with `wavelength_um` after column `after` for a spectral `run`;
+/// `header` itself for a monochrome one.
+#[must_use]
+pub fn with_wavelength(header: &str, after: &str, run: &BrdfRun) -> String {
+    if run.wavelengths_um.is_empty() {
+        return header.to_owned();
+    }
+    header
+        .split(',')
+        .flat_map(|c| {
+            let extra = (c == after).then_some("wavelength_um");
+            std::iter::once(c).chain(extra)
+        })
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// `wavelength_um,` of a spectral run's result (shortest round-trip
+/// form); nothing for a monochrome one.
+pub fn write_wavelength(s: &mut String, r: &IncidenceResult) {
+    use std::fmt::Write as _;
+    if let Some(w) = r.wavelength_um {
+        let _ = write!(s, "{w},");
+    }
+}
+
 /// Write `bytes` to `path` atomically (temporary sibling `.NAME.PID.tmp`,
 /// synced, then renamed over `path`): a reader sees the old file or the new
 /// one. Temporary files of killed writes of `path` are removed first.

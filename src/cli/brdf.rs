@@ -7,7 +7,9 @@ use clap::Args;
 
 use super::Failure;
 use super::args::RunArgs;
-use super::common::{load_scene, progress_bar, result_dir, set_threads, stats_grid, write_folder};
+use super::common::{
+    load_scene_at, progress_bar, result_dir, set_threads, stats_grid, write_folder,
+};
 use super::export_brdf::export_table;
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
@@ -36,6 +38,11 @@ pub struct BrdfArgs {
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
     pub theta: Option<Vec<f64>>,
+    /// Wavelengths in um, carried by every photon (overrides [light]
+    /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
+    /// (0.38:0.78:0.01). Results get a wavelength_um column.
+    #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
+    pub wavelengths: Option<Vec<f64>>,
     /// Entry points (overrides [light] launch): random, or lattice (16
     /// randomly shifted R2 lattices; standard errors from their spread;
     /// photons a multiple of 16).
@@ -140,7 +147,7 @@ impl BrdfArgs {
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
 pub fn run(a: BrdfArgs) -> Result<(), Failure> {
-    let scene = load_scene(a.scene.as_deref())?;
+    let scene = load_scene_at(a.scene.as_deref(), a.wavelengths.as_deref())?;
     let run = a.apply(&scene)?;
     let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
     let range = a
@@ -198,15 +205,27 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
 
 /// The table of results per incidence angle, on stderr (also `roks merge`).
 pub fn print_table(results: &[IncidenceResult]) {
+    let spectral = results.iter().any(|r| r.wavelength_um.is_some());
+    let lambda = |r: &IncidenceResult| match r.wavelength_um {
+        Some(w) => format!(" {w:>8}"),
+        None => String::new(),
+    };
     eprintln!(
-        "{:>9} {:>12} {:>10} {:>8} {:>9} {:>12}",
-        "theta_i", "reflectance", "stderr", "bounces", "lost", "Msegments/s"
+        "{:>9}{} {:>12} {:>10} {:>8} {:>9} {:>12}",
+        "theta_i",
+        if spectral { "  lambda_um" } else { "" },
+        "reflectance",
+        "stderr",
+        "bounces",
+        "lost",
+        "Msegments/s"
     );
     for r in results {
         let (refl, se) = r.reflectance();
         eprintln!(
-            "{:>9.2} {:>12.6} {:>10.2e} {:>8.3} {:>9.2e} {:>12.2}",
+            "{:>9.2}{} {:>12.6} {:>10.2e} {:>8.3} {:>9.2e} {:>12.2}",
             r.theta_i_deg,
+            lambda(r),
             refl,
             se,
             r.mean_bounces(),

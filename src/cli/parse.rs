@@ -170,6 +170,34 @@ pub fn number(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `--wavelengths`: comma-separated wavelengths in µm (`0.45,0.55,0.65`)
+/// or an even grid `FROM:TO:STEP` (`0.38:0.78:0.01`), checked as
+/// `[light] wavelengths_um` is.
+///
+/// # Errors
+/// A bad number, grid or list.
+pub fn wavelengths(s: &str) -> Result<Vec<f64>, String> {
+    let spec = match s.split(':').collect::<Vec<_>>().as_slice() {
+        [from, to, step] => crate::scene::WavelengthsSpec::Grid {
+            from: number(from)?,
+            to: number(to)?,
+            step: number(step)?,
+        },
+        [_] => crate::scene::WavelengthsSpec::List(
+            s.split(',').map(number).collect::<Result<Vec<_>, _>>()?,
+        ),
+        _ => {
+            return Err(format!(
+                "expected W1,W2,... or FROM:TO:STEP (um), got `{s}`"
+            ));
+        }
+    };
+    spec.resolve().map_err(|(i, e)| match i {
+        Some(i) => format!("wavelength {}: {e}", i + 1),
+        None => e,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -22,6 +22,13 @@ pub enum Reflectance {
     },
     /// Measured reflectance against incidence angle, linearly interpolated.
     Table(AngleTable),
+    /// One model per wavelength of a spectral run, in the order of the
+    /// run's wavelengths (none of them `Spectral`). A spectral carrier
+    /// ([`crate::transport::carrier::Spectral`]) reflects wavelength `l`
+    /// with model `l`; any other model applies to every wavelength alike.
+    /// As a single model (monochrome code: renders, statistics) it is its
+    /// first wavelength's.
+    Spectral(std::sync::Arc<[Reflectance]>),
 }
 
 impl Reflectance {
@@ -37,6 +44,29 @@ impl Reflectance {
             Self::Constant(r) => r.clamp(0.0, 1.0),
             Self::Fresnel { n, k } => fresnel_unpolarised(cos_i, *n, *k),
             Self::Table(table) => table.reflectance(cos_i),
+            Self::Spectral(lanes) => lanes.first().map_or(f64::NAN, |m| m.reflectance(cos_i)),
+        }
+    }
+
+    /// The model at wavelength `l` of a spectral run: model `l` of
+    /// [`Reflectance::Spectral`], or `self` for a model that does not vary.
+    #[inline]
+    #[must_use]
+    pub fn lane(&self, l: usize) -> &Self {
+        match self {
+            Self::Spectral(lanes) => &lanes[l],
+            other => other,
+        }
+    }
+
+    /// Whether the model polarises (Fresnel, at some wavelength): only
+    /// then does a polarised carrier differ from the scalar weight.
+    #[must_use]
+    pub fn polarises(&self) -> bool {
+        match self {
+            Self::Fresnel { .. } => true,
+            Self::Spectral(lanes) => lanes.iter().any(Self::polarises),
+            _ => false,
         }
     }
 
@@ -65,6 +95,7 @@ impl Reflectance {
                 }
             }
             Self::Table(_) => Ok(()),
+            Self::Spectral(lanes) => lanes.iter().try_for_each(Self::validate),
         }
     }
 }

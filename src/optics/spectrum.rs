@@ -503,6 +503,44 @@ impl NkSpectrum {
     }
 }
 
+/// Check the wavelengths of a spectral run (µm): at least one, at most
+/// [`crate::transport::carrier::MAX_WAVELENGTHS`], each finite and `> 0`,
+/// strictly increasing.
+///
+/// # Errors
+/// The index of the offending wavelength (`None` for the list) and the
+/// message.
+pub fn check_wavelengths(wavelengths_um: &[f64]) -> Result<(), (Option<usize>, String)> {
+    let max = crate::transport::carrier::MAX_WAVELENGTHS;
+    if wavelengths_um.is_empty() {
+        return Err((None, "needs at least one wavelength".into()));
+    }
+    if wavelengths_um.len() > max {
+        return Err((
+            None,
+            format!(
+                "{} wavelengths, more than the {max} one trace carries",
+                wavelengths_um.len()
+            ),
+        ));
+    }
+    for (i, &w) in wavelengths_um.iter().enumerate() {
+        if !(w.is_finite() && w > 0.0) {
+            return Err((Some(i), format!("{w} um is not a finite number > 0")));
+        }
+        if i > 0 && w <= wavelengths_um[i - 1] {
+            return Err((
+                Some(i),
+                format!(
+                    "{w} um is not greater than the previous {} um (wavelengths strictly increasing)",
+                    wavelengths_um[i - 1]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// One of n, k given in a scene: a constant, or one value per wavelength of
 /// the scene's list.
 #[derive(Debug, Clone, PartialEq)]

@@ -17,6 +17,12 @@
 //! through the cell per launched photon and its standard error; `brdf`,
 //! `brdf_stderr`: the same per projected solid angle (sr⁻¹); these four
 //! with 10 significant digits.
+//!
+//! A spectral run (`[light] wavelengths_um`) has one more column,
+//! `wavelength_um` (µm, shortest round-trip form), right after `phi_i_deg`
+//! ([`SPECTRAL_HEADER`]): one block per incidence and wavelength,
+//! incidence-major, wavelengths in the run's order. A monochrome run's file
+//! has no such column.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -31,6 +37,10 @@ pub use reader::BrdfTableError;
 
 /// Columns of `brdf.csv`.
 pub const HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// Columns of a spectral run's `brdf.csv`: [`HEADER`] with `wavelength_um`
+/// after `phi_i_deg`.
+pub const SPECTRAL_HEADER: &str = "theta_i_deg,phi_i_deg,wavelength_um,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
 
 /// The name of column `i` (0-based) of [`HEADER`].
 ///
@@ -52,6 +62,8 @@ pub struct Block<'a> {
     pub theta_i_deg: f64,
     /// Light azimuth (degrees).
     pub phi_i_deg: f64,
+    /// Wavelength (µm) of a spectral run's block.
+    pub wavelength_um: Option<f64>,
     /// Fraction per flat cell.
     pub fractions: &'a [f64],
     /// Standard error of each fraction.
@@ -78,11 +90,13 @@ pub fn write_rows<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block
             let (theta, phi) = grid.centre(band, cell);
             let proj = grid.projected_solid_angle(band, cell);
             let (f, fe) = (b.fractions[flat], b.stderr[flat]);
+            let _ = write!(s, "{},{},", b.theta_i_deg, b.phi_i_deg);
+            if let Some(w) = b.wavelength_um {
+                let _ = write!(s, "{w},");
+            }
             let _ = writeln!(
                 s,
-                "{},{},{band},{cell},{},{},{},{},{},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
-                b.theta_i_deg,
-                b.phi_i_deg,
+                "{band},{cell},{},{},{},{},{},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
                 mu_top.acos().to_degrees(),
                 mu_bot.acos().to_degrees(),
                 phi_lo.to_degrees(),
@@ -97,10 +111,14 @@ pub fn write_rows<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block
     s
 }
 
-/// The whole file of `blocks` on `grid`: [`HEADER`] and [`write_rows`].
+/// The whole file of `blocks` on `grid`: [`HEADER`] (or
+/// [`SPECTRAL_HEADER`] when the blocks have wavelengths) and [`write_rows`].
 #[must_use]
 pub fn write_blocks<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block<'a>>) -> String {
-    format!("{HEADER}\n{}", write_rows(grid, blocks))
+    let mut blocks = blocks.into_iter().peekable();
+    let spectral = blocks.peek().is_some_and(|b| b.wavelength_um.is_some());
+    let header = if spectral { SPECTRAL_HEADER } else { HEADER };
+    format!("{header}\n{}", write_rows(grid, blocks))
 }
 
 /// Per incidence result: the fractions and their standard errors.
@@ -129,6 +147,7 @@ pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> String {
             .map(|(r, (fractions, stderr))| Block {
                 theta_i_deg: r.theta_i_deg,
                 phi_i_deg: r.phi_i_deg,
+                wavelength_um: r.wavelength_um,
                 fractions,
                 stderr,
             }),
@@ -157,6 +176,7 @@ pub fn rows(
         [Block {
             theta_i_deg,
             phi_i_deg,
+            wavelength_um: None,
             fractions,
             stderr: &stderr,
         }],

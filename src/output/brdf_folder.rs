@@ -75,20 +75,23 @@ impl BrdfFolder {
             run.photons = last - first;
         }
         let clock = Instant::now();
-        let mut results = Vec::with_capacity(run.theta_deg.len());
+        let mut results = Vec::with_capacity(run.blocks().len());
         let mut parts = Vec::new();
         for &theta in &run.theta_deg {
-            let (nodes, seconds) = run.run_shard_one(surface, theta, total, progress);
-            let tallies =
-                add_up(&nodes).unwrap_or_else(|| run.empty_tallies(&run.grid(), &run.inplane()));
-            results.push(IncidenceResult {
-                theta_i_deg: theta,
-                phi_i_deg: run.phi_deg,
-                tallies,
-                seconds,
-            });
-            if block.is_some() {
-                parts.push((theta, seconds, nodes));
+            let (lanes, seconds) = run.run_shard_one(surface, theta, total, progress);
+            for (l, nodes) in lanes.into_iter().enumerate() {
+                let tallies = add_up(&nodes)
+                    .unwrap_or_else(|| run.empty_tallies(&run.grid(), &run.inplane()));
+                results.push(IncidenceResult {
+                    theta_i_deg: theta,
+                    phi_i_deg: run.phi_deg,
+                    wavelength_um: run.wavelength(l),
+                    tallies,
+                    seconds,
+                });
+                if block.is_some() {
+                    parts.push((theta, run.wavelength(l), seconds, nodes));
+                }
             }
         }
         let seconds = clock.elapsed().as_secs_f64();
@@ -119,6 +122,7 @@ impl BrdfFolder {
             .map(|i| IncidenceResult {
                 theta_i_deg: i.theta_deg,
                 phi_i_deg: run.phi_deg,
+                wavelength_um: i.wavelength_um,
                 tallies: i.tallies,
                 seconds: i.seconds,
             })

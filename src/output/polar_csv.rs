@@ -3,7 +3,8 @@
 //! Frames: every outgoing direction's Stokes reference vector is
 //! `normalize(z × d)` (see [`crate::optics::polarisation`]), the incident
 //! one that of the incident flight (the s axis of the plane of incidence).
-//! Numbers with 10 significant digits.
+//! Numbers with 10 significant digits. A spectral run has `wavelength_um`
+//! (µm) after `phi_i_deg`, one block per incidence and wavelength.
 
 use std::fmt::Write as _;
 
@@ -35,7 +36,7 @@ pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> Option<(&'static str
     let k = run.polarisation.tally.components();
     let grid: CarlsonGrid = run.grid();
     let mut s = String::with_capacity(40 * (k + 1) * grid.n_cells() * results.len());
-    s.push_str(header);
+    s.push_str(&super::with_wavelength(header, "phi_i_deg", run));
     s.push('\n');
     for r in results {
         let Some(p) = &r.tallies.polar else {
@@ -45,11 +46,11 @@ pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> Option<(&'static str
             let (band, cell) = grid.band_cell(flat);
             let (theta, phi) = grid.centre(band, cell);
             let proj = grid.projected_solid_angle(band, cell);
+            let _ = write!(s, "{},{},", r.theta_i_deg, r.phi_i_deg);
+            super::write_wavelength(&mut s, r);
             let _ = write!(
                 s,
-                "{},{},{band},{cell},{},{}",
-                r.theta_i_deg,
-                r.phi_i_deg,
+                "{band},{cell},{},{}",
                 theta.to_degrees(),
                 phi.to_degrees()
             );

@@ -185,14 +185,109 @@ pub struct IncidenceSummary {
     pub segments: u64,
     /// Segments per wall-clock second.
     pub segments_per_second: f64,
+    /// A spectral run's results per wavelength (the entry's own
+    /// `reflectance`, losses and polarisation sums are then their means over
+    /// these wavelengths).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<Vec<WavelengthSummary>>,
     /// Intersection tests per segment.
     pub tests_per_segment: Option<f64>,
     /// Incidence polar angle.
     pub theta_deg: f64,
 }
 
+/// One wavelength of an incidence of a spectral run's `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WavelengthSummary {
+    /// Weight lost, all causes.
+    pub lost: f64,
+    /// Weight cut by the caps.
+    pub lost_cap: f64,
+    /// Weight stopped by numerical guards.
+    pub lost_numeric: f64,
+    /// Weight absorbed by walls.
+    pub lost_walls: f64,
+    /// Reflected weight per photon at this wavelength.
+    pub reflectance: f64,
+    /// Standard error of `reflectance`.
+    pub reflectance_stderr: f64,
+    /// With a Mueller tally: the hemisphere's Mueller matrix, row-major.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflected_mueller: Option<Vec<f64>>,
+    /// With a Stokes tally: the reflected Stokes vector.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflected_stokes: Option<Vec<f64>>,
+    /// Vacuum wavelength (µm).
+    pub wavelength_um: f64,
+}
+
+impl WavelengthSummary {
+    /// The entry of one wavelength's result.
+    #[must_use]
+    pub fn new(r: &IncidenceResult) -> Self {
+        let one = IncidenceSummary::new(r);
+        Self {
+            lost: one.lost,
+            lost_cap: one.lost_cap,
+            lost_numeric: one.lost_numeric,
+            lost_walls: one.lost_walls,
+            reflectance: one.reflectance,
+            reflectance_stderr: one.reflectance_stderr,
+            reflected_mueller: one.reflected_mueller,
+            reflected_stokes: one.reflected_stokes,
+            wavelength_um: r.wavelength_um.unwrap_or(f64::NAN),
+        }
+    }
+}
+
+/// The mean of each position of equal-length vectors.
+fn mean_vectors<'a>(vs: impl Iterator<Item = &'a Vec<f64>> + Clone) -> Vec<f64> {
+    let count = vs.clone().count().max(1) as f64;
+    let len = vs.clone().next().map_or(0, Vec::len);
+    (0..len)
+        .map(|i| vs.clone().map(|v| v[i]).sum::<f64>() / count)
+        .collect()
+}
+
 impl IncidenceSummary {
-    /// The entry of one incidence's result.
+    /// The entry of one incidence of a spectral run from its results per
+    /// wavelength (`lanes`, in order): counts and times are the trace's
+    /// (the same for every wavelength); `reflectance`, the losses,
+    /// `reflectance_by_bounces` and polarisation sums are means over the
+    /// wavelengths; `reflectance_stderr` is the mean of the wavelengths'
+    /// standard errors, an upper bound of the mean's (the wavelengths share
+    /// their photons, so their errors are correlated).
+    #[must_use]
+    pub fn spectral(lanes: &[IncidenceResult]) -> Self {
+        let all: Vec<Self> = lanes.iter().map(Self::new).collect();
+        let count = all.len().max(1) as f64;
+        let mean = |f: fn(&Self) -> f64| all.iter().map(f).sum::<f64>() / count;
+        let mean_opt = |f: fn(&Self) -> &Option<Vec<f64>>| {
+            all.iter()
+                .map(|e| f(e).as_ref())
+                .collect::<Option<Vec<&Vec<f64>>>>()
+                .map(|v| mean_vectors(v.into_iter()))
+        };
+        let mut first = all[0].clone();
+        first.lost = mean(|e| e.lost);
+        first.lost_cap = mean(|e| e.lost_cap);
+        first.lost_numeric = mean(|e| e.lost_numeric);
+        first.lost_walls = mean(|e| e.lost_walls);
+        first.reflectance = mean(|e| e.reflectance);
+        first.reflectance_stderr = mean(|e| e.reflectance_stderr);
+        first.reflectance_by_bounces = mean_vectors(all.iter().map(|e| &e.reflectance_by_bounces));
+        first.reflected_mueller = mean_opt(|e| &e.reflected_mueller);
+        first.reflected_mueller_stderr = mean_opt(|e| &e.reflected_mueller_stderr);
+        first.reflected_stokes = mean_opt(|e| &e.reflected_stokes);
+        first.reflected_stokes_stderr = mean_opt(|e| &e.reflected_stokes_stderr);
+        first.spectrum = Some(lanes.iter().map(WavelengthSummary::new).collect());
+        first
+    }
+}
+
+impl IncidenceSummary {
+    /// The entry of one incidence's result (of a monochrome run).
     #[must_use]
     pub fn new(r: &IncidenceResult) -> Self {
         let t = &r.tallies;
@@ -235,6 +330,7 @@ impl IncidenceSummary {
             seconds: r.seconds,
             segments: t.segments,
             segments_per_second: r.segments_per_second(),
+            spectrum: None,
             tests_per_segment: tests.is_finite().then_some(tests),
             theta_deg: r.theta_i_deg,
         }
@@ -275,6 +371,9 @@ pub struct BrdfSummary {
     pub symmetry: String,
     /// The roks version that ran it.
     pub version: String,
+    /// Wavelengths (µm) of a spectral run (absent: monochrome).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub wavelengths_um: Vec<f64>,
 }
 
 impl BrdfSummary {
@@ -292,7 +391,14 @@ impl BrdfSummary {
         Self {
             bands: s.bands,
             edges: s.edges.clone(),
-            incidence: results.iter().map(IncidenceSummary::new).collect(),
+            incidence: if s.wavelengths_um.is_empty() {
+                results.iter().map(IncidenceSummary::new).collect()
+            } else {
+                results
+                    .chunks(s.wavelengths_um.len())
+                    .map(IncidenceSummary::spectral)
+                    .collect()
+            },
             launch: s.launch.clone(),
             name: s.name.clone(),
             photons_per_incidence: shard.map_or(s.photons_per_incidence, |sh| {
@@ -311,6 +417,7 @@ impl BrdfSummary {
             surface: s.surface.map(|x: Exact| x.0),
             symmetry: s.symmetry.clone(),
             version: s.version.clone(),
+            wavelengths_um: s.wavelengths_um.clone(),
         }
     }
 }

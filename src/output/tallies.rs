@@ -186,6 +186,9 @@ pub struct Settings {
     pub theta_deg: Vec<f64>,
     /// The roks version that ran it.
     pub version: String,
+    /// Wavelengths (µm) of a spectral run (absent: monochrome).
+    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "exact::vec")]
+    pub wavelengths_um: Vec<f64>,
 }
 
 impl Settings {
@@ -218,6 +221,7 @@ impl Settings {
             symmetry: run.symmetry.name().to_owned(),
             theta_deg: run.theta_deg.clone(),
             version: env!("CARGO_PKG_VERSION").to_owned(),
+            wavelengths_um: run.wavelengths_um.clone(),
         }
     }
 
@@ -314,6 +318,7 @@ pub fn run_from_settings(s: &Settings) -> Result<BrdfRun, FieldError> {
             .ok_or_else(|| FieldError::new("launch", format!("unknown `{}`", s.launch)))?,
         symmetry,
         polarisation: polarisation_from_settings(s, symmetry)?,
+        wavelengths_um: s.wavelengths_um.clone(),
     };
     run.check()
         .map_err(|(key, e)| FieldError::new(settings_key(&key), e))?;
@@ -344,7 +349,8 @@ pub struct NodeFile<T = BrdfTallies> {
     pub tallies: T,
 }
 
-/// One incidence angle of `tallies.json`.
+/// One incidence angle of `tallies.json` (of a spectral run: one
+/// incidence angle and wavelength, incidence-major).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IncidenceNodes<T = BrdfTallies> {
@@ -358,6 +364,9 @@ pub struct IncidenceNodes<T = BrdfTallies> {
     /// Incidence polar angle (degrees).
     #[serde(with = "exact")]
     pub theta_deg: f64,
+    /// Wavelength (µm) of a spectral run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wavelength_um: Option<Exact>,
 }
 
 /// The whole `tallies.json` (see the module docs), with node sums `T`.
@@ -387,13 +396,14 @@ pub struct TalliesFile<T = BrdfTallies> {
 
 impl TalliesFile {
     /// The file of shard `shard` holding photons `[first, last)`, per
-    /// incidence `(theta_deg, seconds, nodes)`, with total time `seconds`.
+    /// incidence (and wavelength) `(theta_deg, wavelength_um, seconds,
+    /// nodes)`, with total time `seconds`.
     #[must_use]
     pub fn new(
         settings: &Settings,
         shard: Shard,
         (first, last): (u64, u64),
-        incidence: Vec<(f64, f64, Vec<Node<BrdfTallies>>)>,
+        incidence: Vec<(f64, Option<f64>, f64, Vec<Node<BrdfTallies>>)>,
         seconds: f64,
     ) -> Self {
         Self {
@@ -403,19 +413,22 @@ impl TalliesFile {
             format_version: FORMAT_VERSION,
             incidence: incidence
                 .into_iter()
-                .map(|(theta_deg, seconds, nodes)| IncidenceNodes {
-                    photons: nodes.iter().map(|n| n.value.photons).sum(),
-                    nodes: nodes
-                        .into_iter()
-                        .map(|n| NodeFile {
-                            index: n.index,
-                            level: u64::from(n.level),
-                            tallies: n.value,
-                        })
-                        .collect(),
-                    seconds,
-                    theta_deg,
-                })
+                .map(
+                    |(theta_deg, wavelength_um, seconds, nodes)| IncidenceNodes {
+                        photons: nodes.iter().map(|n| n.value.photons).sum(),
+                        nodes: nodes
+                            .into_iter()
+                            .map(|n| NodeFile {
+                                index: n.index,
+                                level: u64::from(n.level),
+                                tallies: n.value,
+                            })
+                            .collect(),
+                        seconds,
+                        theta_deg,
+                        wavelength_um: wavelength_um.map(Exact),
+                    },
+                )
                 .collect(),
             last_photon: last,
             seconds,
@@ -773,6 +786,8 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
 pub struct MergedIncidence {
     /// Incidence polar angle (degrees).
     pub theta_deg: f64,
+    /// Wavelength (µm) of a spectral run.
+    pub wavelength_um: Option<f64>,
     /// Sum of the shards' times (s).
     pub seconds: f64,
     /// The sums over the whole run (the tree's root).
@@ -808,7 +823,7 @@ impl Merged {
                     index: 0,
                     value: i.tallies.clone(),
                 };
-                (i.theta_deg, i.seconds, vec![root])
+                (i.theta_deg, i.wavelength_um, i.seconds, vec![root])
             })
             .collect();
         TalliesFile::new(
@@ -949,23 +964,28 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     check_tiling(&parts, total)?;
 
     let batches = total.div_ceil(BATCH);
+    let blocks = run.blocks();
     let mut seconds = 0.0;
     for p in &parts {
         let at = |e: FieldError| e.in_file(&p.file);
         seconds += check_seconds(p.tallies.seconds).map_err(at)?;
         let n = p.tallies.incidence.len();
-        if n != run.theta_deg.len() {
+        if n != blocks.len() {
             return Err(at(FieldError::new(
                 "incidence",
                 format!(
-                    "must list the run's {} incidence angles, found {n}",
-                    run.theta_deg.len()
+                    "must list the run's {} incidence angles{}, found {n}",
+                    run.theta_deg.len(),
+                    if run.wavelengths_um.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" at {} wavelengths", run.wavelengths_um.len())
+                    }
                 ),
             )));
         }
     }
-    let mut sums: Vec<(DyadicSum<BrdfTallies>, f64, u64)> = run
-        .theta_deg
+    let mut sums: Vec<(DyadicSum<BrdfTallies>, f64, u64)> = blocks
         .iter()
         .map(|_| (DyadicSum::new(batches), 0.0, 0))
         .collect();
@@ -976,11 +996,26 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         {
             let key = format!("incidence[{i}]");
             let at = |e: FieldError| e.under(&key).in_file(&p.file);
-            let theta = run.theta_deg[i];
+            let (theta, wavelength) = blocks[i];
             if inc.theta_deg.to_bits() != theta.to_bits() {
+                let t = i / run.lane_count();
                 return Err(at(FieldError::new(
                     "theta_deg",
-                    format!("{} is not settings.theta_deg[{i}] = {theta}", inc.theta_deg),
+                    format!("{} is not settings.theta_deg[{t}] = {theta}", inc.theta_deg),
+                )));
+            }
+            if inc.wavelength_um.map(|w| w.0.to_bits()) != wavelength.map(f64::to_bits) {
+                let l = i % run.lane_count();
+                return Err(at(FieldError::new(
+                    "wavelength_um",
+                    match (inc.wavelength_um, wavelength) {
+                        (_, Some(w)) => format!(
+                            "{} is not settings.wavelengths_um[{l}] = {w}",
+                            inc.wavelength_um
+                                .map_or("absent".into(), |w| w.0.to_string())
+                        ),
+                        _ => "not expected in a monochrome run".into(),
+                    },
                 )));
             }
             *secs += check_seconds(inc.seconds).map_err(at)?;
@@ -1012,14 +1047,15 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     }
     let incidence = sums
         .into_iter()
-        .zip(&run.theta_deg)
+        .zip(&blocks)
         .enumerate()
-        .map(|(i, ((sum, seconds, _), &theta))| {
+        .map(|(i, ((sum, seconds, _), &(theta, wavelength_um)))| {
             let tallies = sum
                 .finish()
                 .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0))?;
             Ok(MergedIncidence {
                 theta_deg: theta,
+                wavelength_um,
                 seconds,
                 tallies,
             })

@@ -75,8 +75,8 @@ use rand_pcg::Pcg64Mcg;
 use serde::Deserialize;
 
 use super::{
-    MaterialSpec, PolarisationSpec, QuadricSpec, Range, SceneError, Source, build_materials,
-    material_index, parse_toml,
+    MaterialSpec, PolarisationSpec, QuadricSpec, Range, SceneError, Source, WavelengthsSpec,
+    build_materials, material_index, parse_toml,
 };
 use crate::geometry::body::{Body, Ray};
 use crate::geometry::quadric::Quadric;
@@ -321,6 +321,9 @@ pub struct LightSpec {
     /// Incident polarisation state (default unpolarised), in the frame of
     /// the incident flight (see [`crate::optics::polarisation`]).
     pub polarisation: Option<PolarisationSpec>,
+    /// Wavelengths (µm) of a spectral run, all carried by every photon
+    /// (absent: monochrome).
+    pub wavelengths_um: Option<WavelengthsSpec>,
 }
 
 impl Default for LightSpec {
@@ -332,6 +335,7 @@ impl Default for LightSpec {
             seed: default_seed(),
             launch: Launch::Random,
             polarisation: None,
+            wavelengths_um: None,
         }
     }
 }
@@ -439,6 +443,8 @@ pub struct MicroScene {
     pub transport: TransportSpec,
     /// Polarisation of the run (resolved from the three sections).
     pub polarisation: Polarisation,
+    /// Wavelengths (µm) of a spectral scene; empty: monochrome.
+    pub wavelengths_um: Vec<f64>,
 }
 
 impl MicroScene {
@@ -451,14 +457,32 @@ impl MicroScene {
     /// The BRDF run this scene describes (`[light]`, `[tally]`, `[transport]`).
     #[must_use]
     pub fn brdf_run(&self) -> BrdfRun {
-        brdf_run_of(&self.light, &self.tally, &self.transport, self.polarisation)
+        brdf_run_of(
+            &self.light,
+            &self.tally,
+            &self.transport,
+            self.polarisation,
+            &self.wavelengths_um,
+        )
     }
 
     /// Load a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
+        Self::load_at(path, None)
+    }
+
+    /// Load a scene file with its `[light] wavelengths_um` replaced by
+    /// `wavelengths` (µm; `None`: the file's): its materials are sampled
+    /// at them.
+    pub fn load_at(path: &Path, wavelengths: Option<&[f64]>) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())
+        Self::from_str_at(
+            &text,
+            Source::from_path(path),
+            name.unwrap_or_default(),
+            wavelengths,
+        )
     }
 
     /// The embedded default scene.
@@ -473,8 +497,22 @@ impl MicroScene {
 
     /// Parse and build from TOML text.
     pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        let spec: MicroSceneSpec = parse_toml(&source, text)
+        Self::from_str_at(text, source, fallback_name, None)
+    }
+
+    /// [`MicroScene::from_str`] with the wavelengths replaced (see
+    /// [`MicroScene::load_at`]).
+    pub fn from_str_at(
+        text: &str,
+        source: Source,
+        fallback_name: String,
+        wavelengths: Option<&[f64]>,
+    ) -> Result<Self, SceneError> {
+        let mut spec: MicroSceneSpec = parse_toml(&source, text)
             .map_err(|e| super::other_kind(text, "cells", e, "an object scene ([[cells]]): roks trace traces it; this command takes micro scenes ([surface])"))?;
+        if let Some(w) = wavelengths {
+            spec.light.wavelengths_um = Some(WavelengthsSpec::List(w.to_vec()));
+        }
         spec.build(source, fallback_name)
     }
 }
@@ -487,7 +525,14 @@ impl MicroSceneSpec {
             .size
             .map(|size| check_size(&source, size))
             .transpose()?;
-        let (names, materials) = build_materials(&source, &self.materials)?;
+        let wavelengths_um = match &self.light.wavelengths_um {
+            Some(w) => w.resolve().map_err(|(i, e)| match i {
+                Some(i) => source.error(format!("light.wavelengths_um[{i}]"), e),
+                None => source.error("light.wavelengths_um", e),
+            })?,
+            None => Vec::new(),
+        };
+        let (names, materials) = build_materials(&source, &self.materials, &wavelengths_um)?;
         let substrate =
             material_index(&source, &names, &self.surface.material, "surface.material")?;
         let edges = match self.surface.edges {
@@ -554,9 +599,15 @@ impl MicroSceneSpec {
         let (light, tally, transport) = (self.light, self.tally, self.transport);
         // The run's values, checked where every run is (also merged shards';
         // the checks do not look at the polarisation, resolved below).
-        brdf_run_of(&light, &tally, &transport, Polarisation::default())
-            .check()
-            .map_err(|(key, e)| source.error(key, e))?;
+        brdf_run_of(
+            &light,
+            &tally,
+            &transport,
+            Polarisation::default(),
+            &wavelengths_um,
+        )
+        .check()
+        .map_err(|(key, e)| source.error(key, e))?;
         let incident = match &light.polarisation {
             Some(p) => p.build(&source, "light.polarisation")?,
             None => Incident::Unpolarised,
@@ -583,6 +634,7 @@ impl MicroSceneSpec {
             tally,
             transport,
             polarisation,
+            wavelengths_um,
         };
         scene.check_run_memory(&scene.brdf_run())?;
         Ok(scene)
@@ -620,6 +672,7 @@ fn brdf_run_of(
     tally: &TallySpec,
     transport: &TransportSpec,
     polarisation: Polarisation,
+    wavelengths_um: &[f64],
 ) -> BrdfRun {
     BrdfRun {
         theta_deg: light.theta_deg.clone(),
@@ -629,6 +682,7 @@ fn brdf_run_of(
         seed: light.seed,
         launch: light.launch,
         polarisation,
+        wavelengths_um: wavelengths_um.to_vec(),
         bands: tally.bands,
         inplane_step_deg: tally.inplane_step_deg,
         inplane_width_deg: tally.inplane_width_deg,
@@ -643,9 +697,7 @@ fn brdf_run_of(
 
 /// Whether any of `materials` is Fresnel (the only polarising model).
 fn any_fresnel(materials: &[Reflectance]) -> bool {
-    materials
-        .iter()
-        .any(|m| matches!(m, Reflectance::Fresnel { .. }))
+    materials.iter().any(Reflectance::polarises)
 }
 
 /// The first angle that repeats an earlier one: its index and value.

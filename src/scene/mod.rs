@@ -390,84 +390,300 @@ impl QuadricSpec {
     }
 }
 
-/// A material: exactly one of `reflectance`, `n` (+ `k`), `table`.
+/// A number, or one number per wavelength of a spectral scene.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(
+    untagged,
+    expecting = "a number, or an array of numbers (one per wavelength)"
+)]
+pub enum Values {
+    /// The same at every wavelength.
+    One(f64),
+    /// One per wavelength of `[light] wavelengths_um`.
+    Many(Vec<f64>),
+}
+
+impl From<f64> for Values {
+    fn from(v: f64) -> Self {
+        Self::One(v)
+    }
+}
+
+/// A file, or one file per wavelength of a spectral scene.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(
+    untagged,
+    expecting = "a file name, or an array of file names (one per wavelength)"
+)]
+pub enum Files {
+    /// The same at every wavelength.
+    One(String),
+    /// One per wavelength of `[light] wavelengths_um`.
+    Many(Vec<String>),
+}
+
+/// `[light] wavelengths_um`: a list (µm), or an even grid `{ from, to, step }`.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(
+    untagged,
+    expecting = "an array of wavelengths in um, or { from = .., to = .., step = .. }"
+)]
+pub enum WavelengthsSpec {
+    /// The wavelengths (µm), strictly increasing.
+    List(Vec<f64>),
+    /// `from, from + step, ...` up to `to` (included when it falls on the grid).
+    Grid {
+        /// First wavelength (µm).
+        from: f64,
+        /// Last wavelength (µm), at most.
+        to: f64,
+        /// Spacing (µm).
+        step: f64,
+    },
+}
+
+impl WavelengthsSpec {
+    /// The wavelengths (µm): the list, or the grid's points rounded to
+    /// 1e-9 µm (so that `0.38 + 3 * 0.01` is written `0.41`); checked by
+    /// [`crate::optics::spectrum::check_wavelengths`].
+    ///
+    /// # Errors
+    /// The message for the key (a bad grid, a bad or long list).
+    pub fn resolve(&self) -> Result<Vec<f64>, (Option<usize>, String)> {
+        let values = match *self {
+            Self::List(ref v) => v.clone(),
+            Self::Grid { from, to, step } => {
+                if !(step.is_finite() && step > 0.0) {
+                    return Err((None, format!("step must be > 0, got {}", Num(step))));
+                }
+                if !(from.is_finite() && to.is_finite() && to >= from) {
+                    return Err((
+                        None,
+                        format!("needs finite from <= to, got {} and {}", Num(from), Num(to)),
+                    ));
+                }
+                let count = ((to - from) / step * (1.0 + 1e-12)).floor() + 1.0;
+                let max = crate::transport::carrier::MAX_WAVELENGTHS;
+                if count > max as f64 {
+                    return Err((
+                        None,
+                        format!("gives {count} wavelengths, more than the {max} one trace carries"),
+                    ));
+                }
+                (0..count as usize)
+                    .map(|i| ((from + i as f64 * step) * 1e9).round() / 1e9)
+                    .collect()
+            }
+        };
+        crate::optics::spectrum::check_wavelengths(&values)?;
+        Ok(values)
+    }
+}
+
+/// A material: exactly one of `reflectance`, `n` (+ `k`), `nk`, `table`.
+/// In a spectral scene each may vary with wavelength: `reflectance`, `n`
+/// and `k` as arrays aligned with `[light] wavelengths_um`, `table` as an
+/// array of files, `nk` a measured `n, k` table (CSV `wavelength_um,n,k` or
+/// a Mitsuba `.spd` pair, [`crate::optics::spectrum`]) sampled at the
+/// scene's wavelengths.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
     /// Constant per-bounce reflectance in [0, 1].
-    pub reflectance: Option<f64>,
-    /// Real part of the complex refractive index (unpolarised Fresnel).
-    pub n: Option<f64>,
+    pub reflectance: Option<Values>,
+    /// Real part of the complex refractive index (Fresnel).
+    pub n: Option<Values>,
     /// Imaginary part (extinction coefficient, default 0).
-    pub k: Option<f64>,
+    pub k: Option<Values>,
+    /// A measured n, k table against wavelength (relative to the scene file).
+    pub nk: Option<String>,
     /// CSV of reflectance vs incidence angle in degrees (relative to the scene file).
-    pub table: Option<String>,
+    pub table: Option<Files>,
 }
 
 impl MaterialSpec {
-    /// The reflectance model, or an error at `key`.
-    pub fn build(&self, source: &Source, key: &str) -> Result<Reflectance, SceneError> {
+    /// The reflectance model at `wavelengths_um` (empty: a monochrome
+    /// scene), or an error at `key`: one model, or for a model that varies
+    /// with wavelength [`Reflectance::Spectral`].
+    pub fn build(
+        &self,
+        source: &Source,
+        key: &str,
+        wavelengths_um: &[f64],
+    ) -> Result<Reflectance, SceneError> {
         let given = [
             self.reflectance.is_some(),
             self.n.is_some(),
+            self.nk.is_some(),
             self.table.is_some(),
         ];
         if given.iter().filter(|&&g| g).count() != 1 {
             return Err(source.error(
                 key,
-                "give exactly one of `reflectance`, `n` (with `k`), `table`",
+                "give exactly one of `reflectance`, `n` (with `k`), `nk`, `table`",
             ));
         }
         if self.k.is_some() && self.n.is_none() {
             return Err(source.error(format!("{key}.k"), "`k` needs `n`"));
         }
-        if let Some(r) = self.reflectance {
-            if !(0.0..=1.0).contains(&r) {
+        let lanes = wavelengths_um.len();
+        // One value per wavelength (or the one value, for a monochrome scene).
+        let per_lane = |name: &str, v: &Values| -> Result<Vec<f64>, SceneError> {
+            match v {
+                Values::One(x) => Ok(vec![*x; lanes.max(1)]),
+                Values::Many(_) if lanes == 0 => Err(source.error(
+                    format!("{key}.{name}"),
+                    "an array (one value per wavelength) needs [light] wavelengths_um",
+                )),
+                Values::Many(xs) if xs.len() != lanes => Err(source.error(
+                    format!("{key}.{name}"),
+                    format!("has {} values for {lanes} wavelengths", xs.len()),
+                )),
+                Values::Many(xs) => Ok(xs.clone()),
+            }
+        };
+        let models: Vec<Reflectance> = if let Some(r) = &self.reflectance {
+            let values = per_lane("reflectance", r)?;
+            if let Some((l, r)) = values
+                .iter()
+                .enumerate()
+                .find(|(_, r)| !(0.0..=1.0).contains(*r))
+            {
                 return Err(source.error(
-                    format!("{key}.reflectance"),
-                    format!("must be in [0, 1], got {}", Num(r)),
+                    lane_key(key, "reflectance", r_is_many(self.reflectance.as_ref()), l),
+                    format!("must be in [0, 1], got {}", Num(*r)),
                 ));
             }
-            return Ok(Reflectance::Constant(r));
-        }
-        if let Some(n) = self.n {
-            let k = self.k.unwrap_or(0.0);
-            if !(n.is_finite() && n > 0.0) {
-                return Err(
-                    source.error(format!("{key}.n"), format!("must be > 0, got {}", Num(n)))
-                );
+            values.into_iter().map(Reflectance::Constant).collect()
+        } else if let Some(n) = &self.n {
+            let ns = per_lane("n", n)?;
+            let ks = per_lane("k", self.k.as_ref().unwrap_or(&Values::One(0.0)))?;
+            let many_n = r_is_many(self.n.as_ref());
+            let many_k = r_is_many(self.k.as_ref());
+            for (l, (&n, &k)) in ns.iter().zip(&ks).enumerate() {
+                if !(n.is_finite() && n > 0.0) {
+                    return Err(source.error(
+                        lane_key(key, "n", many_n, l),
+                        format!("must be > 0, got {}", Num(n)),
+                    ));
+                }
+                if !(k.is_finite() && k >= 0.0) {
+                    return Err(source.error(
+                        lane_key(key, "k", many_k, l),
+                        format!("must be >= 0, got {}", Num(k)),
+                    ));
+                }
             }
-            if !(k.is_finite() && k >= 0.0) {
-                return Err(
-                    source.error(format!("{key}.k"), format!("must be >= 0, got {}", Num(k)))
-                );
+            ns.into_iter()
+                .zip(ks)
+                .map(|(n, k)| Reflectance::Fresnel { n, k })
+                .collect()
+        } else if let Some(file) = &self.nk {
+            let at = format!("{key}.nk");
+            if lanes == 0 {
+                return Err(source.error(
+                    at,
+                    "a measured n, k table needs [light] wavelengths_um to sample it at",
+                ));
             }
-            return Ok(Reflectance::Fresnel { n, k });
-        }
-        let file = self.table.as_deref().unwrap_or_default();
-        let path = source.dir.join(file);
-        let text = std::fs::read_to_string(&path).map_err(|e| {
-            source.error(
-                format!("{key}.table"),
-                format!("cannot read {}: {e}", path.display()),
-            )
-        })?;
-        let table = AngleTable::parse_csv(&text).map_err(|e| {
-            source.error(format!("{key}.table"), format!("{}: {e}", path.display()))
-        })?;
-        Ok(Reflectance::Table(table))
+            let path = source.dir.join(file);
+            let table = crate::optics::spectrum::NkSpectrum::read(&path)
+                .map_err(|e| source.error(&at, e.to_string()))?;
+            let nks = table
+                .sample(wavelengths_um)
+                .map_err(|e| source.error(&at, e.to_string()))?;
+            let mut models = Vec::with_capacity(lanes);
+            for (nk, w) in nks.into_iter().zip(wavelengths_um) {
+                if nk.n <= 0.0 {
+                    return Err(source.error(
+                        &at,
+                        format!(
+                            "{}: n = {} at {} um: the Fresnel model needs n > 0",
+                            path.display(),
+                            Num(nk.n),
+                            Num(*w)
+                        ),
+                    ));
+                }
+                models.push(Reflectance::from(nk));
+            }
+            models
+        } else {
+            let files = match self.table.as_ref() {
+                Some(Files::One(f)) => vec![f.clone(); lanes.max(1)],
+                Some(Files::Many(_)) if lanes == 0 => {
+                    return Err(source.error(
+                        format!("{key}.table"),
+                        "an array (one file per wavelength) needs [light] wavelengths_um",
+                    ));
+                }
+                Some(Files::Many(fs)) if fs.len() != lanes => {
+                    return Err(source.error(
+                        format!("{key}.table"),
+                        format!("has {} files for {lanes} wavelengths", fs.len()),
+                    ));
+                }
+                Some(Files::Many(fs)) => fs.clone(),
+                None => Vec::new(),
+            };
+            let many = matches!(self.table, Some(Files::Many(_)));
+            let mut models: Vec<Reflectance> = Vec::with_capacity(files.len());
+            for (l, file) in files.iter().enumerate() {
+                // The same file at every wavelength is read once.
+                if l > 0 && !many {
+                    models.push(models[0].clone());
+                    continue;
+                }
+                let at = lane_key(key, "table", many, l);
+                let path = source.dir.join(file);
+                let text = std::fs::read_to_string(&path).map_err(|e| {
+                    source.error(&at, format!("cannot read {}: {e}", path.display()))
+                })?;
+                let table = AngleTable::parse_csv(&text)
+                    .map_err(|e| source.error(&at, format!("{}: {e}", path.display())))?;
+                models.push(Reflectance::Table(table));
+            }
+            models
+        };
+        Ok(spectral_model(models))
     }
+}
+
+/// Whether a value was given as an array.
+fn r_is_many(v: Option<&Values>) -> bool {
+    matches!(v, Some(Values::Many(_)))
+}
+
+/// The key of lane `l` of `name` under `key`: `key.name[l]` for an array.
+fn lane_key(key: &str, name: &str, many: bool, l: usize) -> String {
+    if many {
+        format!("{key}.{name}[{l}]")
+    } else {
+        format!("{key}.{name}")
+    }
+}
+
+/// One model per wavelength as one model: the model itself when every
+/// wavelength has the same (also for a monochrome scene), else
+/// [`Reflectance::Spectral`].
+#[must_use]
+pub fn spectral_model(mut models: Vec<Reflectance>) -> Reflectance {
+    if models.len() <= 1 || models.iter().all(|m| *m == models[0]) {
+        return models.swap_remove(0);
+    }
+    Reflectance::Spectral(models.into())
 }
 
 /// Build every material of a `[materials]` table; returns names and models in order.
 pub fn build_materials(
     source: &Source,
     specs: &BTreeMap<String, MaterialSpec>,
+    wavelengths_um: &[f64],
 ) -> Result<(Vec<String>, Vec<Reflectance>), SceneError> {
     let mut names = Vec::new();
     let mut models = Vec::new();
     for (name, spec) in specs {
-        models.push(spec.build(source, &format!("materials.{name}"))?);
+        models.push(spec.build(source, &format!("materials.{name}"), wavelengths_um)?);
         names.push(name.clone());
     }
     Ok((names, models))

@@ -90,7 +90,9 @@ use glam::DVec3;
 use serde::Deserialize;
 
 use super::micro::{MicroScene, TransportSpec};
-use super::{MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, Source, parse_toml};
+use super::{
+    Files, MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, Source, Values, parse_toml,
+};
 use crate::object::source::Beam;
 use crate::object::{Object, SolidZone, VoidZone};
 use crate::optics::brdf_table::BrdfTable;
@@ -167,14 +169,16 @@ pub struct ModelSpec {
     pub specular: Option<f64>,
     /// Ideal diffuse (Lambertian) reflectance.
     pub diffuse: Option<f64>,
-    /// Fresnel: real part of the refractive index.
-    pub n: Option<f64>,
-    /// Fresnel: extinction coefficient.
-    pub k: Option<f64>,
-    /// Specular with reflectance vs angle (CSV).
-    pub table: Option<String>,
-    /// Specular with constant reflectance.
-    pub reflectance: Option<f64>,
+    /// Fresnel: real part of the refractive index (per wavelength: an array).
+    pub n: Option<Values>,
+    /// Fresnel: extinction coefficient (per wavelength: an array).
+    pub k: Option<Values>,
+    /// Fresnel: a measured n, k table against wavelength.
+    pub nk: Option<String>,
+    /// Specular with reflectance vs angle (CSV; per wavelength: an array of files).
+    pub table: Option<Files>,
+    /// Specular with constant reflectance (per wavelength: an array).
+    pub reflectance: Option<Values>,
 }
 
 /// `[[sources]]`.
@@ -341,7 +345,7 @@ impl ObjectSceneSpec {
         let model_names: Vec<String> = self.models.keys().cloned().collect();
         let mut models = Vec::new();
         for (name, m) in &self.models {
-            models.push(m.build(&source, &format!("models.{name}"), controls)?);
+            models.push(m.build(&source, &format!("models.{name}"), controls, &[])?);
         }
         let mut walls: Walls = vec![None; surface_names.len()];
         for (surface, model) in &self.walls {
@@ -554,13 +558,14 @@ impl ModelSpec {
         source: &Source,
         key: &str,
         controls: Controls,
+        wavelengths_um: &[f64],
     ) -> Result<WallModel, SceneError> {
         let ideal = self.specular.is_some() || self.diffuse.is_some();
         let kinds = [
             self.micro.is_some(),
             self.brdf.is_some(),
             ideal,
-            self.n.is_some() || self.k.is_some(),
+            self.n.is_some() || self.k.is_some() || self.nk.is_some(),
             self.table.is_some(),
             self.reflectance.is_some(),
         ];
@@ -625,12 +630,13 @@ impl ModelSpec {
         }
         // Fresnel, table and constant reflectance share the material builder.
         let material = MaterialSpec {
-            reflectance: self.reflectance,
-            n: self.n,
-            k: self.k,
+            reflectance: self.reflectance.clone(),
+            n: self.n.clone(),
+            k: self.k.clone(),
+            nk: self.nk.clone(),
             table: self.table.clone(),
         };
-        let r: Reflectance = material.build(source, key)?;
+        let r: Reflectance = material.build(source, key, wavelengths_um)?;
         Ok(WallModel::Specular(r))
     }
 }

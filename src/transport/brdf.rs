@@ -25,7 +25,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rand::RngExt;
 
-use super::carrier::{Carrier, Polarised};
+use super::carrier::{Carrier, Polarised, Spectral};
 use super::launch::{Lattices, Launch, replicate_stderr};
 use super::micro::{Controls, Fate, History, trace};
 use super::order;
@@ -72,6 +72,9 @@ pub struct BrdfRun {
     pub symmetry: Symmetry,
     /// Polarised transport, incident state and polarisation tallies.
     pub polarisation: Polarisation,
+    /// Vacuum wavelengths (µm, strictly increasing) of a spectral run, each
+    /// carried by every photon ([`Spectral`]); empty for a monochrome run.
+    pub wavelengths_um: Vec<f64>,
 }
 
 /// Polarisation settings of a run (`[light] polarisation`, `[tally]
@@ -292,13 +295,16 @@ impl BrdfTallies {
 /// from [`BrdfTallies::merge_clearing`] in the batch tree).
 type Spare = std::sync::Mutex<Vec<BrdfTallies>>;
 
-/// The result for one incidence direction.
+/// The result for one incidence direction (of a spectral run: for one
+/// incidence direction and wavelength).
 #[derive(Debug, Clone)]
 pub struct IncidenceResult {
     /// Incidence polar angle (degrees).
     pub theta_i_deg: f64,
     /// Incidence azimuth (degrees).
     pub phi_i_deg: f64,
+    /// Vacuum wavelength (µm) of a spectral run; `None` for a monochrome run.
+    pub wavelength_um: Option<f64>,
     /// Sums.
     pub tallies: BrdfTallies,
     /// Wall-clock time (s).
@@ -443,6 +449,14 @@ impl BrdfRun {
         if !self.phi_deg.is_finite() {
             return err("light.phi_deg", "must be finite".into());
         }
+        if !self.wavelengths_um.is_empty() {
+            if let Err((i, e)) = crate::optics::spectrum::check_wavelengths(&self.wavelengths_um) {
+                return match i {
+                    Some(i) => err(&format!("light.wavelengths_um[{i}]"), e),
+                    None => err("light.wavelengths_um", e),
+                };
+            }
+        }
         if let Err(e) = super::launch::check_photons(self.launch, self.photons) {
             return err("light.photons", e);
         }
@@ -501,7 +515,7 @@ impl BrdfRun {
         let k = self.polarisation.tally.components() as u64;
         let tallies = self.tally_bytes();
         let batches = self.photons.div_ceil(BATCH).max(1);
-        let incidences = self.theta_deg.len() as u64;
+        let incidences = product(&[self.theta_deg.len() as u64, self.lane_count() as u64]);
         let live = batches.min(super::pending_batches(tallies, 1))
             + u64::from(64 - batches.leading_zeros())
             + 1
@@ -527,9 +541,33 @@ impl BrdfRun {
         let replicates = self.launch.replicates().unwrap_or(0);
         let per_bin = 16 + 8 * replicates;
         let k = self.polarisation.tally.components() as u64;
-        product(&[cells + bins + 1, per_bin])
+        let one = product(&[cells + bins + 1, per_bin])
             .saturating_add(product(&[k, cells + 1, per_bin]))
-            .saturating_add(8 * BOUNCE_BINS as u64 + 256)
+            .saturating_add(8 * BOUNCE_BINS as u64 + 256);
+        product(&[one, self.lane_count() as u64])
+    }
+
+    /// Wavelengths carried per photon: those of a spectral run, 1 for a
+    /// monochrome run.
+    #[must_use]
+    pub fn lane_count(&self) -> usize {
+        self.wavelengths_um.len().max(1)
+    }
+
+    /// The result blocks of the run in order: `(theta_deg, wavelength_um)`
+    /// per incidence, or per incidence and wavelength (incidence-major).
+    #[must_use]
+    pub fn blocks(&self) -> Vec<(f64, Option<f64>)> {
+        self.theta_deg
+            .iter()
+            .flat_map(|&t| (0..self.lane_count()).map(move |l| (t, self.wavelength(l))))
+            .collect()
+    }
+
+    /// The wavelength of lane `l` (`None` for a monochrome run).
+    #[must_use]
+    pub fn wavelength(&self, l: usize) -> Option<f64> {
+        self.wavelengths_um.get(l).copied()
     }
 
     /// Zero tallies of this run's layout.
@@ -555,6 +593,8 @@ impl BrdfRun {
     }
 
     /// Trace every incidence angle; `progress` is called with photons done.
+    /// One result per incidence, or for a spectral run per incidence and
+    /// wavelength (incidence-major, wavelengths in order).
     pub fn run(
         &self,
         surface: &MicroSurface,
@@ -562,36 +602,56 @@ impl BrdfRun {
     ) -> Vec<IncidenceResult> {
         self.theta_deg
             .iter()
-            .map(|&theta| self.run_one(surface, theta, progress))
+            .flat_map(|&theta| self.run_lanes(surface, theta, progress))
             .collect()
     }
 
     /// Trace one incidence angle: all `photons` (indices from `first_photon`),
-    /// reduced over the fixed batch tree of this run alone.
+    /// reduced over the fixed batch tree of this run alone; the result of
+    /// the first wavelength (of the one, for a monochrome run).
     pub fn run_one(
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> IncidenceResult {
+        self.run_lanes(surface, theta_deg, progress).swap_remove(0)
+    }
+
+    /// [`BrdfRun::run_one`], one result per wavelength (one for a
+    /// monochrome run); the time is the whole trace's.
+    pub fn run_lanes(
+        &self,
+        surface: &MicroSurface,
+        theta_deg: f64,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<IncidenceResult> {
         let clock = Instant::now();
         let batches = self.photons.div_ceil(BATCH);
-        let nodes = self.run_nodes(surface, theta_deg, 0, batches, progress);
-        let mut sum = DyadicSum::new(batches);
-        for n in nodes {
-            sum.push(n, &BrdfTallies::merge)
-                .expect("complete nodes in order");
-        }
+        let lanes = self.run_nodes(surface, theta_deg, 0, batches, progress);
+        let seconds = clock.elapsed().as_secs_f64();
         let grid = self.grid();
         let inplane = self.inplane();
-        IncidenceResult {
-            theta_i_deg: theta_deg,
-            phi_i_deg: self.phi_deg,
-            tallies: sum
-                .finish()
-                .unwrap_or_else(|_| self.empty_tallies(&grid, &inplane)),
-            seconds: clock.elapsed().as_secs_f64(),
-        }
+        lanes
+            .into_iter()
+            .enumerate()
+            .map(|(l, nodes)| {
+                let mut sum = DyadicSum::new(batches);
+                for n in nodes {
+                    sum.push(n, &BrdfTallies::merge)
+                        .expect("complete nodes in order");
+                }
+                IncidenceResult {
+                    theta_i_deg: theta_deg,
+                    phi_i_deg: self.phi_deg,
+                    wavelength_um: self.wavelength(l),
+                    tallies: sum
+                        .finish()
+                        .unwrap_or_else(|_| self.empty_tallies(&grid, &inplane)),
+                    seconds,
+                }
+            })
+            .collect()
     }
 
     /// Trace one incidence angle of a block of a run: this run's photons are
@@ -599,8 +659,8 @@ impl BrdfRun {
     /// `total_photons` (a shard; the whole run with `first_photon` 0 and
     /// `total_photons = photons`); `first_photon` must be a multiple of
     /// [`BATCH`]. Returns the complete nodes of the full run's batch tree
-    /// (see [`crate::tally::sum`]; the root alone for a whole run) and the
-    /// time (s). `roks brdf` traces whole runs and shards this way
+    /// (see [`crate::tally::sum`]; the root alone for a whole run), one
+    /// list per wavelength ([`BrdfRun::lane_count`]), and the time (s). `roks brdf` traces whole runs and shards this way
     /// ([`crate::output::brdf_folder::BrdfFolder::trace`]).
     ///
     /// # Panics
@@ -612,7 +672,7 @@ impl BrdfRun {
         theta_deg: f64,
         total_photons: u64,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> (Vec<Node<BrdfTallies>>, f64) {
+    ) -> (Vec<Vec<Node<BrdfTallies>>>, f64) {
         assert!(self.first_photon % BATCH == 0, "shards start on a batch");
         assert!(self.first_photon + self.photons <= total_photons);
         let clock = Instant::now();
@@ -628,7 +688,8 @@ impl BrdfRun {
 
     /// Trace this run's photons in batches (batch `k` of this run is batch
     /// `base + k` of a run of `total_batches`), in parallel, and reduce them
-    /// in batch order over the fixed tree; returns its complete nodes. Large
+    /// in batch order over the fixed tree; returns its complete nodes, one
+    /// list per wavelength. Large
     /// surfaces are traced in the Morton order of the entry points
     /// ([`order::pays`]).
     fn run_nodes(
@@ -638,7 +699,7 @@ impl BrdfRun {
         base: u64,
         total_batches: u64,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<Node<BrdfTallies>> {
+    ) -> Vec<Vec<Node<BrdfTallies>>> {
         let ordered = order::pays(surface);
         self.run_nodes_in(surface, theta_deg, base, total_batches, ordered, progress)
     }
@@ -652,26 +713,65 @@ impl BrdfRun {
         total_batches: u64,
         ordered: bool,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<Node<BrdfTallies>> {
+    ) -> Vec<Vec<Node<BrdfTallies>>> {
         let grid = Locator::new(self.grid());
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
-        let mut sum = DyadicSum::new(total_batches);
+        let mut sums: Vec<_> = (0..self.lane_count())
+            .map(|_| DyadicSum::new(total_batches))
+            .collect();
         let spare = Spare::default();
-        let mut consume = |k, value| {
-            sum.push_with(
-                Node {
-                    level: 0,
-                    index: base + k,
-                    value,
-                },
-                &BrdfTallies::merge_clearing,
-                &mut |t| spare.lock().expect("spare tallies").push(t),
-            )
-            .expect("batches in order");
+        let mut consume = |k, values: Vec<BrdfTallies>| {
+            for (sum, value) in sums.iter_mut().zip(values) {
+                sum.push_with(
+                    Node {
+                        level: 0,
+                        index: base + k,
+                        value,
+                    },
+                    &BrdfTallies::merge_clearing,
+                    &mut |t| spare.lock().expect("spare tallies").push(t),
+                )
+                .expect("batches in order");
+            }
         };
-        match (self.polarisation.transport, self.polarisation.tally) {
-            (false, _) => {
+        let spectral = !self.wavelengths_um.is_empty();
+        match (
+            spectral,
+            self.polarisation.transport,
+            self.polarisation.tally,
+        ) {
+            (true, false, _) => self.trace_ordered::<Spectral<f64>>(
+                surface,
+                &grid,
+                &inplane,
+                dir,
+                ordered,
+                &spare,
+                &mut consume,
+                progress,
+            ),
+            (true, true, PolarTally::Mueller) => self.trace_ordered::<Spectral<Polarised<4>>>(
+                surface,
+                &grid,
+                &inplane,
+                dir,
+                ordered,
+                &spare,
+                &mut consume,
+                progress,
+            ),
+            (true, true, _) => self.trace_ordered::<Spectral<Polarised<1>>>(
+                surface,
+                &grid,
+                &inplane,
+                dir,
+                ordered,
+                &spare,
+                &mut consume,
+                progress,
+            ),
+            (false, false, _) => {
                 self.trace_ordered::<f64>(
                     surface,
                     &grid,
@@ -683,7 +783,7 @@ impl BrdfRun {
                     progress,
                 );
             }
-            (true, PolarTally::Mueller) => self.trace_ordered::<Polarised<4>>(
+            (false, true, PolarTally::Mueller) => self.trace_ordered::<Polarised<4>>(
                 surface,
                 &grid,
                 &inplane,
@@ -693,7 +793,7 @@ impl BrdfRun {
                 &mut consume,
                 progress,
             ),
-            (true, _) => self.trace_ordered::<Polarised<1>>(
+            (false, true, _) => self.trace_ordered::<Polarised<1>>(
                 surface,
                 &grid,
                 &inplane,
@@ -704,7 +804,7 @@ impl BrdfRun {
                 progress,
             ),
         }
-        sum.into_nodes()
+        sums.into_iter().map(DyadicSum::into_nodes).collect()
     }
 
     /// The Carlson cells an escaping photon (direction `out`, weight `w`)
@@ -747,14 +847,14 @@ impl BrdfRun {
         dir: DVec3,
         ordered: bool,
         spare: &Spare,
-        consume: &mut dyn FnMut(u64, BrdfTallies),
+        consume: &mut dyn FnMut(u64, Vec<BrdfTallies>),
         progress: &(dyn Fn(u64) + Sync),
     ) {
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
         let tally_bytes = self.tally_bytes();
         let phi = self.phi_deg.to_radians();
         let incident: Stokes = self.polarisation.incident.stokes();
-        let launch = C::launch(incident, hemisphere_reference(dir, phi));
+        let launch = C::launch(incident, hemisphere_reference(dir, phi), self.lane_count());
         // Photon n's stream (after the entry draws) and entry point.
         let entry = |n: u64| {
             let g = self.first_photon + n;
@@ -831,83 +931,102 @@ impl BrdfRun {
         inplane: &InPlaneTally,
         spare: &Spare,
         photons: impl Iterator<Item = (usize, History<C>, u64)>,
-    ) -> BrdfTallies {
+    ) -> Vec<BrdfTallies> {
         let grid = locator.grid();
-        let spared = spare.lock().expect("spare tallies").pop();
-        let mut t = spared.unwrap_or_else(|| self.empty_tallies(grid, inplane));
+        let mut lanes: Vec<BrdfTallies> = {
+            let mut spare = spare.lock().expect("spare tallies");
+            (0..self.lane_count())
+                .map(|_| {
+                    spare
+                        .pop()
+                        .unwrap_or_else(|| self.empty_tallies(grid, inplane))
+                })
+                .collect()
+        };
         let phi = self.phi_deg.to_radians();
         let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
         let mut components = [0.0; 16];
         for (replicate, h, tests) in photons {
-            t.intersection_tests += tests;
-            t.photons += 1;
-            t.bounces += u64::from(h.bounces);
-            t.segments += u64::from(h.segments);
-            match h.fate {
-                Fate::Escaped {
-                    dir: out,
-                    weight: carried,
-                } => {
-                    let weight = carried.weight_for(&incident);
-                    t.reflected.score(0, weight);
-                    // The cells' shares for weight 1 (the polarisation tally's),
-                    // then times the weight: the same products as
-                    // `cell_weights(.., weight, ..)`, bit for bit.
-                    let shares = self.cell_weights(locator, out, 1.0, sin_cos_phi);
-                    let halves = shares.map(|(cells, share)| (cells, share * weight));
-                    for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
-                        for &c in cs.as_slice() {
-                            t.carlson.score(c, *w);
-                        }
-                    }
-                    let bin = inplane.locate(out);
-                    if let Some(c) = bin {
-                        t.inplane.score(c, weight);
-                    }
-                    if let Some(r) = &mut t.replicates {
-                        r.reflected[replicate] += weight;
-                        for (cs, w) in &halves {
+            // The direction's cells once, for every wavelength.
+            let shares = match h.fate {
+                Fate::Escaped { dir: out, .. } => Some((
+                    self.cell_weights(locator, out, 1.0, sin_cos_phi),
+                    inplane.locate(out),
+                )),
+                _ => None,
+            };
+            for (l, t) in lanes.iter_mut().enumerate() {
+                t.intersection_tests += tests;
+                t.photons += 1;
+                t.bounces += u64::from(h.bounces);
+                t.segments += u64::from(h.segments);
+                match h.fate {
+                    Fate::Escaped {
+                        dir: out,
+                        weight: carried,
+                    } => {
+                        let carried = carried.lane(l);
+                        let weight = carried.weight_for(&incident);
+                        let (shares, bin) = shares.expect("an escaped photon's cells");
+                        t.reflected.score(0, weight);
+                        // The cells' shares for weight 1 (the polarisation tally's),
+                        // then times the weight: the same products as
+                        // `cell_weights(.., weight, ..)`, bit for bit.
+                        let halves = shares.map(|(cells, share)| (cells, share * weight));
+                        for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
                             for &c in cs.as_slice() {
-                                r.carlson[replicate * grid.n_cells() + c] += w;
+                                t.carlson.score(c, *w);
                             }
                         }
                         if let Some(c) = bin {
-                            r.inplane[replicate * inplane.n_bins() + c] += weight;
+                            t.inplane.score(c, weight);
                         }
-                    }
-                    t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
-                    if let Some(p) = &mut t.polar {
-                        let reference = hemisphere_reference(out, phi);
-                        let k = carried.components(out, reference, &mut components);
-                        let mirror = self.symmetry == Symmetry::Mirror;
-                        match k {
-                            16 => score_polar(p, &components, &shares, mirror, replicate),
-                            4 => {
-                                let [c0, c1, c2, c3, ..] = components;
-                                score_polar(p, &[c0, c1, c2, c3], &shares, mirror, replicate);
+                        if let Some(r) = &mut t.replicates {
+                            r.reflected[replicate] += weight;
+                            for (cs, w) in &halves {
+                                for &c in cs.as_slice() {
+                                    r.carlson[replicate * grid.n_cells() + c] += w;
+                                }
                             }
-                            _ => unreachable!("4 or 16 polarisation components"),
+                            if let Some(c) = bin {
+                                r.inplane[replicate * inplane.n_bins() + c] += weight;
+                            }
+                        }
+                        t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
+                        if let Some(p) = &mut t.polar {
+                            let reference = hemisphere_reference(out, phi);
+                            let k = carried.components(out, reference, &mut components);
+                            let mirror = self.symmetry == Symmetry::Mirror;
+                            match k {
+                                16 => score_polar(p, &components, &shares, mirror, replicate),
+                                4 => {
+                                    let [c0, c1, c2, c3, ..] = components;
+                                    score_polar(p, &[c0, c1, c2, c3], &shares, mirror, replicate);
+                                }
+                                _ => unreachable!("4 or 16 polarisation components"),
+                            }
                         }
                     }
-                }
-                Fate::Absorbed => {}
-                Fate::Wall { weight } => t.lost_walls += weight.weight_for(&incident),
-                Fate::Capped { weight } => {
-                    t.lost_cap += weight.weight_for(&incident);
-                    t.capped_histories += 1;
-                }
-                Fate::Numeric { weight } => {
-                    t.lost_numeric += weight.weight_for(&incident);
-                    t.numeric_histories += 1;
+                    Fate::Absorbed => {}
+                    Fate::Wall { weight } => {
+                        t.lost_walls += weight.lane(l).weight_for(&incident);
+                    }
+                    Fate::Capped { weight } => {
+                        t.lost_cap += weight.lane(l).weight_for(&incident);
+                        t.capped_histories += 1;
+                    }
+                    Fate::Numeric { weight } => {
+                        t.lost_numeric += weight.lane(l).weight_for(&incident);
+                        t.numeric_histories += 1;
+                    }
                 }
             }
         }
-        t
+        lanes
     }
 }
 
-/// A photon of a batch before it is traced.
 struct Entry {
     /// Its stream, after the two draws of the random entry point.
     rng: rand_pcg::Pcg64Mcg,
@@ -1042,7 +1161,7 @@ mod tests {
             let nodes =
                 |ordered| run.run_nodes_in(&scene.surface, 60.0, 0, batches, ordered, &|_| {});
             let (by_index, by_morton) = (nodes(false), nodes(true));
-            assert!(by_index[0].value.photons > 0);
+            assert!(by_index[0][0].value.photons > 0);
             assert_eq!(by_index, by_morton, "{tally:?} {launch:?} {symmetry:?}");
         }
     }

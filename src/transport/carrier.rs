@@ -32,9 +32,22 @@ use crate::optics::polarisation::{FresnelMueller, Stokes, rotation};
 
 /// The weight a photon carries (see the module docs).
 pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
+    /// What one wavelength carries: `Self` for a monochrome carrier, the
+    /// lane type of [`Spectral`].
+    type Lane: Carrier;
+
     /// The carrier at launch: `incident` is the incident Stokes vector
-    /// (`S0 = 1`), `reference` its reference vector (⟂ the flight).
-    fn launch(incident: Stokes, reference: DVec3) -> Self;
+    /// (`S0 = 1`), `reference` its reference vector (⟂ the flight), `lanes`
+    /// the number of wavelengths (1 for a monochrome carrier, which ignores it).
+    fn launch(incident: Stokes, reference: DVec3, lanes: usize) -> Self;
+
+    /// Number of wavelengths carried (1 for a monochrome carrier).
+    fn lanes(&self) -> usize {
+        1
+    }
+
+    /// What wavelength `l` (`< lanes()`) carries.
+    fn lane(&self, l: usize) -> Self::Lane;
 
     /// Intensity for roulette and bookkeeping (see the module docs).
     fn intensity(&self) -> f64;
@@ -84,9 +97,14 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
 }
 
 impl Carrier for f64 {
+    type Lane = Self;
     #[inline]
-    fn launch(_: Stokes, _: DVec3) -> Self {
+    fn launch(_: Stokes, _: DVec3, _: usize) -> Self {
         1.0
+    }
+    #[inline]
+    fn lane(&self, _: usize) -> Self {
+        *self
     }
     #[inline]
     fn intensity(&self) -> f64 {
@@ -194,7 +212,13 @@ fn rotate_rows<const N: usize>(rows: &mut [[f64; N]; 4], (c2, s2): (f64, f64)) {
 }
 
 impl<const N: usize> Carrier for Polarised<N> {
-    fn launch(incident: Stokes, reference: DVec3) -> Self {
+    type Lane = Self;
+    #[inline]
+    fn lane(&self, _: usize) -> Self {
+        *self
+    }
+
+    fn launch(incident: Stokes, reference: DVec3, _: usize) -> Self {
         let mut rows = [[0.0; N]; 4];
         if N == 1 {
             for (row, s) in rows.iter_mut().zip(incident) {
@@ -223,7 +247,7 @@ impl<const N: usize> Carrier for Polarised<N> {
     }
 
     fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool {
-        match material {
+        match material.lane(0) {
             Reflectance::Fresnel { n: re, k } => {
                 let f = FresnelMueller::new(cos_i, *re, *k);
                 if !(f.a >= 0.0 && [f.a, f.b, f.c, f.d].iter().all(|v| v.is_finite())) {
@@ -337,6 +361,170 @@ impl<const N: usize> Carrier for Polarised<N> {
     }
 }
 
+/// Most wavelengths one trace carries ([`Spectral`]): enough for the
+/// visible at 5 nm (81) or the thermal infrared from 3 to 14 µm at 0.1 µm (111).
+pub const MAX_WAVELENGTHS: usize = 128;
+
+/// A carrier per wavelength: the photon's path does not depend on the
+/// wavelength in geometric optics, only its weights do, so one trace carries
+/// lane `l` through every reflection with model [`Reflectance::lane`]`(l)`.
+///
+/// * Roulette and bookkeeping see the largest intensity of the lanes
+///   ([`Carrier::intensity`]); a survivor scales every lane by the same
+///   factor, so the roulette is unbiased at every wavelength.
+/// * With equal lanes (a material that does not vary) every lane is the
+///   monochrome carrier bit for bit.
+/// * A reflection that fails (a reflectance that is not a finite number,
+///   e.g. for a NaN cosine) fails at the first lane, leaving the carrier
+///   unchanged: scene models are valid at every wavelength.
+#[derive(Debug, Clone, Copy)]
+pub struct Spectral<C> {
+    lanes: [C; MAX_WAVELENGTHS],
+    len: usize,
+}
+
+impl<C: Carrier<Lane = C>> Spectral<C> {
+    /// The lanes in use.
+    #[inline]
+    fn used(&self) -> &[C] {
+        &self.lanes[..self.len]
+    }
+
+    #[inline]
+    fn used_mut(&mut self) -> &mut [C] {
+        &mut self.lanes[..self.len]
+    }
+
+    /// The index of a lane of largest intensity (the first one).
+    #[inline]
+    fn brightest(&self) -> usize {
+        let mut best = 0;
+        for (l, c) in self.used().iter().enumerate().skip(1) {
+            if c.intensity() > self.lanes[best].intensity() {
+                best = l;
+            }
+        }
+        best
+    }
+
+    /// Every lane scaled so that the brightest lane has intensity `s`
+    /// (that lane exactly `s`).
+    #[inline]
+    fn scale_to(&mut self, s: f64) {
+        let i = self.intensity();
+        if i > 0.0 && s != i {
+            let f = s / i;
+            for c in self.used_mut() {
+                let ci = c.intensity();
+                c.survive(if ci == i { s } else { ci * f });
+            }
+        }
+    }
+}
+
+impl<C: Carrier<Lane = C>> Carrier for Spectral<C> {
+    type Lane = C;
+
+    fn launch(incident: Stokes, reference: DVec3, lanes: usize) -> Self {
+        Self {
+            lanes: [C::launch(incident, reference, 1); MAX_WAVELENGTHS],
+            len: lanes.clamp(1, MAX_WAVELENGTHS),
+        }
+    }
+
+    #[inline]
+    fn lanes(&self) -> usize {
+        self.len
+    }
+
+    #[inline]
+    fn lane(&self, l: usize) -> C {
+        self.lanes[l]
+    }
+
+    /// The largest intensity of the lanes.
+    #[inline]
+    fn intensity(&self) -> f64 {
+        self.used().iter().fold(
+            0.0,
+            |m: f64, c| if c.intensity() > m { c.intensity() } else { m },
+        )
+    }
+
+    /// The largest of the lanes' weights (tallies score each lane's own).
+    fn weight_for(&self, incident: &Stokes) -> f64 {
+        self.used()
+            .iter()
+            .fold(0.0, |m: f64, c| m.max(c.weight_for(incident)))
+    }
+
+    #[inline]
+    fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool {
+        for (l, c) in self.used_mut().iter_mut().enumerate() {
+            if !c.reflect(material.lane(l), d, n, cos_i) {
+                return false;
+            }
+        }
+        true
+    }
+
+    fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3) {
+        for c in self.used_mut() {
+            c.mirror(rho, d, n);
+        }
+    }
+
+    fn depolarise(&mut self, factor: f64, d_out: DVec3) {
+        for c in self.used_mut() {
+            c.depolarise(factor, d_out);
+        }
+    }
+
+    fn transfer(&mut self, d: DVec3, x_in: DVec3, m: &[f64; 16], factor: f64, x_out: DVec3) {
+        for c in self.used_mut() {
+            c.transfer(d, x_in, m, factor, x_out);
+        }
+    }
+
+    #[inline]
+    fn survive(&mut self, s: f64) {
+        self.scale_to(s);
+    }
+
+    fn unit(&self) -> Self {
+        let mut u = *self;
+        u.scale_to(1.0);
+        u
+    }
+
+    /// The local history's lanes times this carrier's largest intensity;
+    /// the intensity removed is that of the brightest lane.
+    fn rescaled(&self, local: Self) -> (Self, f64) {
+        let reference = self.lanes[self.brightest()];
+        let mut out = local;
+        for (o, l) in out.used_mut().iter_mut().zip(local.used()) {
+            *o = reference.rescaled(*l).0;
+        }
+        let removed = self.intensity() - out.intensity();
+        (out, removed)
+    }
+
+    fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3) {
+        for c in self.used_mut() {
+            c.map_frame(&f);
+        }
+    }
+
+    fn is_valid(&self) -> bool {
+        self.used().iter().all(Carrier::is_valid)
+    }
+
+    /// The components of the first lane (tallies take each lane's own).
+    fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize {
+        self.lanes[0].components(d, to, out)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -368,8 +556,8 @@ mod tests {
             let a = TAUF * rng.random::<f64>();
             let t = std::f64::consts::PI * rng.random::<f64>();
             let state = [1.0, t.sin() * a.cos(), t.sin() * a.sin(), t.cos()];
-            let mut p = Polarised::<1>::launch(state, d.any_orthonormal_vector());
-            let mut m = Polarised::<4>::launch(state, p.x);
+            let mut p = Polarised::<1>::launch(state, d.any_orthonormal_vector(), 1);
+            let mut m = Polarised::<4>::launch(state, p.x, 1);
             for bounce in 0..30 {
                 let mut n = random_unit(&mut rng);
                 if n.dot(d) > 0.0 {
@@ -419,7 +607,7 @@ mod tests {
     fn flat_fresnel_is_the_textbook_matrix() {
         // Light along -omega_i in the x-z plane onto z = 0: the s axis is ±y.
         let d = DVec3::new(0.5, 0.0, -(0.75f64).sqrt());
-        let mut m = Polarised::<4>::launch([1.0, 0.0, 0.0, 0.0], DVec3::Y);
+        let mut m = Polarised::<4>::launch([1.0, 0.0, 0.0, 0.0], DVec3::Y, 1);
         let mat = Reflectance::Fresnel { n: 1.015, k: 6.627 };
         assert!(m.reflect(&mat, d, DVec3::Z, -d.z));
         let f = FresnelMueller::new(-d.z, 1.015, 6.627).matrix();

@@ -382,7 +382,7 @@ impl ObjectRun {
     ) -> ObjectTallies {
         let n_surfaces = object.surface_names.len();
         let mut t = self.tallies(n_surfaces, ff);
-        let launch = C::launch(beam.polarisation.stokes(), beam.reference());
+        let launch = C::launch(beam.polarisation.stokes(), beam.reference(), 1);
         let mut scratch: Vec<Option<Scratch>> = vec![None; models.len()];
         let mut absorbed = vec![0.0; n_surfaces];
         let mut touched: Vec<usize> = Vec::new();

@@ -235,12 +235,8 @@ impl WallModel {
     #[must_use]
     pub fn polarises(&self) -> bool {
         match self {
-            Self::Specular(r) => matches!(r, Reflectance::Fresnel { .. }),
-            Self::Micro(micro) => micro
-                .surface
-                .materials
-                .iter()
-                .any(|m| matches!(m, Reflectance::Fresnel { .. })),
+            Self::Specular(r) => r.polarises(),
+            Self::Micro(micro) => micro.surface.materials.iter().any(Reflectance::polarises),
             Self::Table(t) => t.has_mueller(),
             Self::Ideal { .. } => false,
         }
