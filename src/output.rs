@@ -16,6 +16,8 @@
 //!   `dop_<theta>deg.png`; with `"mueller"`: `mueller.csv` ([`polar_csv`]).
 //! * `hemisphere_<theta>deg.png` and `inplane.png` ([`hemisphere_map`],
 //!   [`inplane_plot`]).
+//! * A spectral run (`[light] wavelengths_um`) covering the visible:
+//!   `colour.csv` and `colour_<theta>deg.png` ([`colour_csv`]).
 //!
 //! `roks trace` writes `reflectance.csv`, `farfield.csv` and
 //! `farfield_stokes.csv` ([`object_csv`]) and `summary.json`
@@ -31,6 +33,7 @@ use crate::transport::brdf::{BrdfRun, IncidenceResult};
 
 pub mod brdf_csv;
 pub mod brdf_folder;
+pub mod colour_csv;
 pub mod inplane_csv;
 pub mod object_csv;
 pub mod polar_csv;

@@ -277,6 +277,15 @@ pub struct HemisphereMap {
 pub enum MapScale {
     /// `log10` of a BRDF, at most 4 decades (the default).
     LogBrdf,
+    /// Given display colours per cell (a colour map): `brdf` holds the
+    /// quantity whose log10 the colour bar's range shows (four decades
+    /// below its largest value), labelled `label`; the bar is a grey ramp.
+    Rgb {
+        /// Colour-bar label.
+        label: String,
+        /// 8-bit sRGB per flat cell.
+        colours: Vec<[u8; 3]>,
+    },
     /// A linear quantity on `[lo, hi]` (e.g. the degree of polarisation on
     /// `[0, 1]`), labelled `label` on the colour bar.
     Linear {
@@ -347,7 +356,10 @@ impl HemisphereMap {
         let r = MAP_R;
         let (y0, y1) = ((MAP_CY - r).floor() as u32, (MAP_CY + r).ceil() as u32);
         let (x0, x1) = ((MAP_CX - r).floor() as u32, (MAP_CX + r).ceil() as u32);
-        let colours: Vec<[u8; 3]> = self.brdf.iter().map(|&v| self.colour(v, range)).collect();
+        let colours: Vec<[u8; 3]> = match &self.scale {
+            MapScale::Rgb { colours, .. } => colours.clone(),
+            _ => self.brdf.iter().map(|&v| self.colour(v, range)).collect(),
+        };
         for py in y0..=y1 {
             for px in x0..=x1 {
                 let (dx, dy) = (f64::from(px) + 0.5 - MAP_CX, MAP_CY - (f64::from(py) + 0.5));
@@ -401,7 +413,13 @@ impl HemisphereMap {
         // Colour bar: log10 from lo (bottom) to hi (top).
         for py in BAR_Y.0..=BAR_Y.1 {
             let t = f64::from(BAR_Y.1 - py) / f64::from(BAR_Y.1 - BAR_Y.0);
-            let c = viridis(t);
+            let c = match self.scale {
+                MapScale::Rgb { .. } => {
+                    let g = (255.0 * crate::optics::colour::srgb_encode(t)).round() as u8;
+                    [g, g, g]
+                }
+                _ => viridis(t),
+            };
             for px in BAR_X.0..=BAR_X.1 {
                 let at = 3 * (py * w + px) as usize;
                 buf[at..at + 3].copy_from_slice(&c);
@@ -517,6 +535,7 @@ impl HemisphereMap {
         let (label, kind) = match &self.scale {
             MapScale::LogBrdf => ("BRDF (1/sr)".to_string(), "log scale"),
             MapScale::Linear { label, .. } => (label.clone(), "linear scale"),
+            MapScale::Rgb { label, .. } => (label.clone(), "log scale"),
         };
         root.draw(&Text::new(
             label,

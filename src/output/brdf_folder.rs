@@ -160,13 +160,17 @@ impl BrdfFolder {
 
     /// The images: `inplane.png`, `hemisphere_<theta>deg.png` per
     /// incidence and, with a Stokes tally, `dop_<theta>deg.png`; titled
-    /// with the scene's `name`.
+    /// with the scene's `name`. For a spectral run these show the mean over
+    /// the wavelengths, and a run covering the visible adds
+    /// `colour_<theta>deg.png` ([`super::colour_csv`]).
     ///
     /// # Errors
     /// If an image cannot be drawn.
     pub fn images(&self, name: &str) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
         use rayon::prelude::*;
-        let (run, results) = (&self.run, &self.results);
+        let means = self.wavelength_means();
+        let run = &self.run;
+        let results = means.as_deref().unwrap_or(&self.results);
         let mut images = vec![(
             "inplane.png".to_owned(),
             super::inplane_plot(name, run, results).to_png(1000, 620)?,
@@ -188,7 +192,34 @@ impl BrdfFolder {
             .collect::<anyhow::Result<_>>()?;
         images.extend(maps);
         images.extend(dop);
+        let colour: Vec<(String, Vec<u8>)> = super::colour_csv::maps(name, run, &self.results)
+            .par_iter()
+            .map(|(file, m)| m.to_png().map(|png| (file.clone(), png)))
+            .collect::<anyhow::Result<_>>()?;
+        images.extend(colour);
         Ok(images)
+    }
+
+    /// For a spectral run, per incidence the mean over its wavelengths (the
+    /// sums of all wavelengths over all their photons, so every mean is the
+    /// mean of the wavelengths' means): what the BRDF pictures show. `None`
+    /// for a monochrome run.
+    fn wavelength_means(&self) -> Option<Vec<IncidenceResult>> {
+        let lanes = self.run.wavelengths_um.len();
+        (lanes > 0).then(|| {
+            self.results
+                .chunks(lanes)
+                .map(|group| {
+                    let mut mean = group[0].clone();
+                    for r in &group[1..] {
+                        mean.tallies.merge(&r.tallies);
+                    }
+                    mean.tallies.replicates = None;
+                    mean.wavelength_um = None;
+                    mean
+                })
+                .collect()
+        })
     }
 
     /// Every file of the folder, with `extra` files (images, exports)
@@ -208,6 +239,9 @@ impl BrdfFolder {
         ];
         if let Some((name, text)) = polar_csv::write(&self.run, &self.results) {
             files.push((name.to_owned(), text.into_bytes()));
+        }
+        if let Some(text) = super::colour_csv::write(&self.run, &self.results) {
+            files.push(("colour.csv".to_owned(), text.into_bytes()));
         }
         files.extend(extra);
         if let Some(t) = &self.tallies {

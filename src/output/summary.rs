@@ -143,6 +143,10 @@ pub struct ShardSummary {
 pub struct IncidenceSummary {
     /// Histories cut by the caps.
     pub capped_photons: u64,
+    /// A spectral run covering the visible: the colour of the reflectance
+    /// spectrum (the light reflected into the whole hemisphere) under D65.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colour: Option<ColourSummary>,
     /// Intersection tests (quadrics, or height-field squares).
     pub intersection_tests: u64,
     /// Weight lost, all causes.
@@ -194,6 +198,35 @@ pub struct IncidenceSummary {
     pub tests_per_segment: Option<f64>,
     /// Incidence polar angle.
     pub theta_deg: f64,
+}
+
+/// The colour of a reflectance spectrum under the CIE D65 illuminant
+/// ([`crate::optics::colour`]: CIE 1931 2-degree observer, the perfect
+/// white reflector at `Y = 1`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ColourSummary {
+    /// 8-bit sRGB (clipped to the gamut, sRGB transfer function).
+    pub srgb8: [u8; 3],
+    /// Linear sRGB, not clipped.
+    pub srgb_linear: [f64; 3],
+    /// CIE XYZ.
+    pub xyz: [f64; 3],
+}
+
+impl ColourSummary {
+    /// The colour of `values` at `wavelengths_um`; `None` unless they cover
+    /// the visible.
+    #[must_use]
+    pub fn new(wavelengths_um: &[f64], values: &[f64]) -> Option<Self> {
+        let xyz = crate::optics::colour::xyz_d65(wavelengths_um, values)?;
+        let linear = crate::optics::colour::xyz_to_linear_srgb(xyz);
+        Some(Self {
+            srgb8: crate::optics::colour::srgb8(linear),
+            srgb_linear: linear,
+            xyz,
+        })
+    }
 }
 
 /// One wavelength of an incidence of a spectral run's `summary.json`.
@@ -281,6 +314,9 @@ impl IncidenceSummary {
         first.reflected_mueller_stderr = mean_opt(|e| &e.reflected_mueller_stderr);
         first.reflected_stokes = mean_opt(|e| &e.reflected_stokes);
         first.reflected_stokes_stderr = mean_opt(|e| &e.reflected_stokes_stderr);
+        let wavelengths: Vec<f64> = lanes.iter().filter_map(|r| r.wavelength_um).collect();
+        let reflectances: Vec<f64> = all.iter().map(|e| e.reflectance).collect();
+        first.colour = ColourSummary::new(&wavelengths, &reflectances);
         first.spectrum = Some(lanes.iter().map(WavelengthSummary::new).collect());
         first
     }
@@ -311,6 +347,7 @@ impl IncidenceSummary {
         let tests = r.tests_per_segment();
         Self {
             capped_photons: t.capped_histories,
+            colour: None,
             intersection_tests: t.intersection_tests,
             lost: r.lost(),
             lost_cap: t.lost_cap / n,

@@ -1,0 +1,237 @@
+//! `colour.csv` and `colour_<theta>deg.png`: the colour of a spectral BRDF
+//! per Carlson cell, for a spectral run whose wavelengths cover the visible
+//! (0.38-0.78 µm, [`crate::optics::colour::covers_visible`]).
+//!
+//! # Formula
+//! Per incidence and cell, the BRDF `f(λ_l)` (sr⁻¹) of each wavelength of
+//! the run goes through the linear map of [`crate::optics::colour`]: CIE
+//! 1931 XYZ under D65, `X = Σ_l w_X,l f(λ_l)` (likewise Y, Z), the weights
+//! holding the D65 power, the 2-degree colour-matching functions at 5 nm, the
+//! linear interpolation of `f` onto that grid and the normalisation that
+//! gives the perfect white reflector `Y = 1`; then linear sRGB
+//! `(r, g, b) = M · (X, Y, Z)` (IEC 61966-2-1). So a Lambertian white surface
+//! (`f = 1/π` at every wavelength) has `Y = 1/π` in every cell and
+//! `(r, g, b) ≈ (1, 1, 1)/π`: `X, Y, Z, r, g, b` are the colour of the BRDF in
+//! sr⁻¹, not clipped (out-of-gamut components are below 0 or above the
+//! others). Being linear in `f`, they are the XYZ and sRGB of the cell's
+//! fraction divided by its projected solid angle.
+//!
+//! # Columns
+//! `theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg,X,Y,Z,r,g,b`: the
+//! incidence and cell as in `brdf.csv` (cell centre in degrees, absolute
+//! azimuth), then the colour (10 significant digits).
+//!
+//! # The picture
+//! `colour_<theta>deg.png` is the equal-area hemisphere map of
+//! `hemisphere_<theta>deg.png` painted with each cell's colour: its
+//! chromaticity at a brightness that is the log of its luminance `Y` over
+//! four decades below the brightest cell (linear sRGB divided by `Y`, times
+//! that brightness, scaled down to fit in `[0, 1]` keeping the hue, then
+//! the sRGB transfer function).
+
+use std::fmt::Write as _;
+
+use crate::optics::colour::{XyzWeights, xyz_to_linear_srgb};
+use crate::plot::{HemisphereMap, MapScale};
+use crate::transport::brdf::{BrdfRun, IncidenceResult};
+
+/// Columns of `colour.csv`.
+pub const HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg,X,Y,Z,r,g,b";
+
+/// XYZ and linear sRGB (sR⁻¹) of the BRDF of one incidence of a spectral
+/// run, per flat Carlson cell, from its results per wavelength (`lanes`,
+/// in the run's order); `None` unless the wavelengths cover the visible.
+#[must_use]
+pub fn cell_colours(run: &BrdfRun, lanes: &[IncidenceResult]) -> Option<Vec<([f64; 3], [f64; 3])>> {
+    let weights = XyzWeights::d65(&run.wavelengths_um)?;
+    if lanes.len() != weights.len() {
+        return None;
+    }
+    let grid = run.grid();
+    let mut f = vec![0.0; lanes.len()];
+    (0..grid.n_cells())
+        .map(|flat| {
+            let (band, cell) = grid.band_cell(flat);
+            let proj = grid.projected_solid_angle(band, cell);
+            for (v, r) in f.iter_mut().zip(lanes) {
+                *v = r.tallies.carlson.mean(flat, r.tallies.photons) / proj;
+            }
+            let xyz = weights.xyz(&f)?;
+            Some((xyz, xyz_to_linear_srgb(xyz)))
+        })
+        .collect()
+}
+
+/// The results of a spectral run grouped per incidence (each group one
+/// result per wavelength); `None` for a monochrome run.
+fn per_incidence<'a>(
+    run: &BrdfRun,
+    results: &'a [IncidenceResult],
+) -> Option<std::slice::Chunks<'a, IncidenceResult>> {
+    (!run.wavelengths_um.is_empty()).then(|| results.chunks(run.wavelengths_um.len()))
+}
+
+/// `colour.csv` of a run; `None` for a monochrome run or wavelengths that do
+/// not cover the visible.
+#[must_use]
+pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> Option<String> {
+    let grid = run.grid();
+    let mut s = String::with_capacity(160 * grid.n_cells() * run.theta_deg.len() + 100);
+    s.push_str(HEADER);
+    s.push('\n');
+    for lanes in per_incidence(run, results)? {
+        let colours = cell_colours(run, lanes)?;
+        let r0 = &lanes[0];
+        for (flat, (xyz, rgb)) in colours.iter().enumerate() {
+            let (band, cell) = grid.band_cell(flat);
+            let (theta, phi) = grid.centre(band, cell);
+            let _ = write!(
+                s,
+                "{},{},{band},{cell},{},{}",
+                r0.theta_i_deg,
+                r0.phi_i_deg,
+                theta.to_degrees(),
+                phi.to_degrees()
+            );
+            for v in xyz.iter().chain(rgb) {
+                let _ = write!(s, ",{v:.9e}");
+            }
+            s.push('\n');
+        }
+    }
+    Some(s)
+}
+
+/// The display colour (8-bit sRGB) of each cell for the picture (see the
+/// module docs).
+fn display_colours(colours: &[([f64; 3], [f64; 3])]) -> Vec<[u8; 3]> {
+    let top = colours.iter().map(|c| c.0[1]).fold(0.0, f64::max);
+    let (hi, lo) = if top > 0.0 {
+        (top.log10(), top.log10() - 4.0)
+    } else {
+        (0.0, -4.0)
+    };
+    colours
+        .iter()
+        .map(|&([_, y, _], rgb)| {
+            if !(y > 0.0) {
+                return [0, 0, 0];
+            }
+            let brightness = ((y.log10() - lo) / (hi - lo)).clamp(0.0, 1.0);
+            let c = rgb.map(|v| (v / y).max(0.0) * brightness);
+            let m = c.iter().copied().fold(1.0, f64::max);
+            crate::optics::colour::srgb8(c.map(|v| v / m))
+        })
+        .collect()
+}
+
+/// File name of the colour map of incidence `theta_i_deg`.
+#[must_use]
+pub fn colour_file(theta_i_deg: f64) -> String {
+    format!("colour_{theta_i_deg}deg.png")
+}
+
+/// The colour maps of a spectral run covering the visible: per incidence its
+/// file name and map (titled with the scene's `name`); empty otherwise.
+#[must_use]
+pub fn maps(
+    name: &str,
+    run: &BrdfRun,
+    results: &[IncidenceResult],
+) -> Vec<(String, HemisphereMap)> {
+    let Some(groups) = per_incidence(run, results) else {
+        return Vec::new();
+    };
+    groups
+        .filter_map(|lanes| {
+            let colours = cell_colours(run, lanes)?;
+            let r0 = &lanes[0];
+            let map = HemisphereMap {
+                title: format!(
+                    "{name}: colour of the BRDF (D65, sRGB), theta_i = {}°",
+                    r0.theta_i_deg
+                ),
+                grid: run.grid(),
+                brdf: colours.iter().map(|c| c.0[1]).collect(),
+                scale: MapScale::Rgb {
+                    label: "log10 Y of the BRDF (1/sr)".into(),
+                    colours: display_colours(&colours),
+                },
+                theta_i_deg: r0.theta_i_deg,
+                phi_i_deg: r0.phi_i_deg,
+            };
+            Some((colour_file(r0.theta_i_deg), map))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Source;
+    use crate::scene::micro::MicroScene;
+
+    fn scene(material: &str, wavelengths: &str) -> MicroScene {
+        let text = format!(
+            "[surface]\nsize = [10.0, 10.0]\nmaterial = \"m\"\n[materials.m]\n{material}\n[light]\ntheta_deg = [0, 30]\nphotons = 4096\nwavelengths_um = {wavelengths}\n[tally]\nbands = 4\n"
+        );
+        let source = Source {
+            file: "t.toml".into(),
+            dir: ".".into(),
+        };
+        MicroScene::from_str(&text, source, "t".into()).unwrap()
+    }
+
+    /// A flat mirror of constant reflectance 0.5: every wavelength puts
+    /// 0.5 in the specular cell, so its XYZ is 0.5 / proj times D65's white
+    /// point (Y = 1 for the perfect white reflector), and its sRGB that of
+    /// the white point; every other cell is black.
+    #[test]
+    fn a_grey_mirror_has_the_white_point() {
+        let s = scene(
+            "reflectance = 0.5",
+            "{ from = 0.38, to = 0.78, step = 0.02 }",
+        );
+        let run = s.brdf_run();
+        let results = run.run(&s.surface, &|_| {});
+        assert_eq!(results.len(), 2 * 21);
+        let grid = run.grid();
+        let white = crate::optics::colour::d65_white_xyz();
+        for lanes in results.chunks(21) {
+            let colours = cell_colours(&run, lanes).unwrap();
+            let specular = grid
+                .locate(glam::DVec3::new(
+                    lanes[0].theta_i_deg.to_radians().sin(),
+                    0.0,
+                    lanes[0].theta_i_deg.to_radians().cos(),
+                ))
+                .unwrap();
+            let (band, cell) = grid.band_cell(specular);
+            let proj = grid.projected_solid_angle(band, cell);
+            for (flat, (xyz, rgb)) in colours.iter().enumerate() {
+                let expect = if flat == specular { 0.5 / proj } else { 0.0 };
+                for c in 0..3 {
+                    assert!(
+                        (xyz[c] - expect * white[c]).abs() <= 1e-12 * expect.max(1.0),
+                        "cell {flat}: {xyz:?}"
+                    );
+                    let w = xyz_to_linear_srgb(white)[c];
+                    assert!((rgb[c] - expect * w).abs() <= 1e-12 * expect.max(1.0));
+                }
+            }
+        }
+        let text = write(&run, &results).unwrap();
+        assert_eq!(text.lines().next(), Some(HEADER));
+        assert_eq!(text.lines().count(), 1 + 2 * grid.n_cells());
+        assert_eq!(maps("t", &run, &results).len(), 2);
+    }
+
+    #[test]
+    fn no_colour_without_the_visible() {
+        let s = scene("reflectance = 0.5", "[0.45, 0.55, 0.65]");
+        let run = s.brdf_run();
+        let results = run.run(&s.surface, &|_| {});
+        assert!(write(&run, &results).is_none());
+        assert!(maps("t", &run, &results).is_empty());
+    }
+}
