@@ -42,7 +42,7 @@ pub struct BrdfArgs {
     /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
     /// (0.38:0.78:0.01). Results get a wavelength_um column.
     #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
-    pub wavelengths: Option<Vec<f64>>,
+    pub wavelengths: Option<super::parse::Wavelengths>,
     /// Entry points (overrides [light] launch): random, or lattice (16
     /// randomly shifted R2 lattices; standard errors from their spread;
     /// photons a multiple of 16).
@@ -147,7 +147,10 @@ impl BrdfArgs {
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
 pub fn run(a: BrdfArgs) -> Result<(), Failure> {
-    let scene = load_scene_at(a.scene.as_deref(), a.wavelengths.as_deref())?;
+    let scene = load_scene_at(
+        a.scene.as_deref(),
+        a.wavelengths.as_ref().map(|w| w.0.as_slice()),
+    )?;
     let run = a.apply(&scene)?;
     let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
     let range = a

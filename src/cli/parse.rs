@@ -176,7 +176,7 @@ pub fn number(s: &str) -> Result<f64, String> {
 ///
 /// # Errors
 /// A bad number, grid or list.
-pub fn wavelengths(s: &str) -> Result<Vec<f64>, String> {
+pub fn wavelengths(s: &str) -> Result<Wavelengths, String> {
     let spec = match s.split(':').collect::<Vec<_>>().as_slice() {
         [from, to, step] => crate::scene::WavelengthsSpec::Grid {
             from: number(from)?,
@@ -192,11 +192,15 @@ pub fn wavelengths(s: &str) -> Result<Vec<f64>, String> {
             ));
         }
     };
-    spec.resolve().map_err(|(i, e)| match i {
+    spec.resolve().map(Wavelengths).map_err(|(i, e)| match i {
         Some(i) => format!("wavelength {}: {e}", i + 1),
         None => e,
     })
 }
+
+/// The wavelengths (µm) of `--wavelengths`, checked ([`wavelengths`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wavelengths(pub Vec<f64>);
 
 #[cfg(test)]
 mod tests {
