@@ -83,6 +83,17 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     #[must_use]
     fn rescaled(&self, local: Self) -> (Self, f64);
 
+    /// [`Carrier::rescaled`], handing the intensity the wall removed from
+    /// each wavelength to `removed(lane, intensity)` (lanes in order; a
+    /// monochrome carrier: lane 0, `rescaled`'s removed intensity).
+    #[must_use]
+    #[inline]
+    fn rescaled_lanes(&self, local: Self, mut removed: impl FnMut(usize, f64)) -> Self {
+        let (out, r) = self.rescaled(local);
+        removed(0, r);
+        out
+    }
+
     /// Map the reference vector into other coordinates (a wall's local frame and back).
     fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3);
 
@@ -507,6 +518,30 @@ impl<C: Carrier<Lane = C>> Carrier for Spectral<C> {
         }
         let removed = self.intensity() - out.intensity();
         (out, removed)
+    }
+
+    /// [`Spectral::rescaled`] with each lane's removed intensity: a lane as
+    /// bright as the brightest gets the brightest lane's own removed
+    /// intensity (so equal lanes are the monochrome carrier's bit for bit),
+    /// any other lane its intensity before minus after.
+    fn rescaled_lanes(&self, local: Self, mut removed: impl FnMut(usize, f64)) -> Self {
+        let reference = self.lanes[self.brightest()];
+        let top = reference.intensity();
+        let mut out = local;
+        for (l, (o, loc)) in out.used_mut().iter_mut().zip(local.used()).enumerate() {
+            let (after, r) = reference.rescaled(*loc);
+            *o = after;
+            let before = self.lanes[l].intensity();
+            removed(
+                l,
+                if before == top {
+                    r
+                } else {
+                    before - after.intensity()
+                },
+            );
+        }
+        out
     }
 
     fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3) {
