@@ -42,7 +42,7 @@ pub struct BrdfArgs {
     /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
     /// (0.38:0.78:0.01). Results get a wavelength_um column.
     #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
-    pub wavelengths: Option<Vec<f64>>,
+    pub wavelengths: Option<::std::vec::Vec<f64>>,
     /// Entry points (overrides [light] launch): random, or lattice (16
     /// randomly shifted R2 lattices; standard errors from their spread;
     /// photons a multiple of 16).

@@ -37,7 +37,7 @@ pub struct TraceArgs {
     /// Results get a wavelength_um column and summary.json a spectrum per
     /// source.
     #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
-    pub wavelengths: Option<Vec<f64>>,
+    pub wavelengths: Option<::std::vec::Vec<f64>>,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     pub quiet: bool,

@@ -653,6 +653,37 @@ mod tests {
         }
     }
 
+    /// Per-lane removed intensities: each lane's before minus after, and
+    /// equal lanes the monochrome carrier's `rescaled` bit for bit.
+    #[test]
+    fn rescaled_lanes_gives_each_lanes_removed_intensity() {
+        let (d, n) = (DVec3::NEG_Z, DVec3::Z);
+        let mut w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, 3);
+        let lanes = Reflectance::Spectral(
+            vec![
+                Reflectance::Constant(0.7),
+                Reflectance::Constant(0.35),
+                Reflectance::Constant(0.7),
+            ]
+            .into(),
+        );
+        assert!(w.reflect(&lanes, d, n, 1.0));
+        let mut local = w.unit();
+        assert!(local.reflect(&Reflectance::Constant(0.3), d, n, 1.0));
+        let mut removed = Vec::new();
+        let out = w.rescaled_lanes(local, |l, r| removed.push((l, r)));
+        let mono = 0.7_f64.rescaled(0.3);
+        assert_eq!((out.lane(0), removed[0]), (mono.0, (0, mono.1)));
+        assert_eq!((out.lane(2), removed[2]), (mono.0, (2, mono.1)));
+        assert_eq!(removed[1].0, 1);
+        assert!((removed[1].1 - 0.35 * 0.7).abs() < 1e-15, "{removed:?}");
+        assert!((out.lane(1) - 0.35 * 0.3).abs() < 1e-15);
+        // The scalar carrier: `rescaled`'s removed intensity, lane 0.
+        let mut one = Vec::new();
+        assert_eq!(0.7.rescaled_lanes(0.3, |l, r| one.push((l, r))), mono.0);
+        assert_eq!(one, [(0, mono.1)]);
+    }
+
     #[test]
     fn scalar_carrier_is_the_old_arithmetic() {
         let mut w = 0.7_f64;
