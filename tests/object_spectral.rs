@@ -661,3 +661,87 @@ fn bad_spectral_input_is_one_line() {
     ]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// A rough wall whose material differs between wavelengths (micro descents
+/// into rough aluminium in the radiator, Ordal's n + ik at 3 and 12 µm): each
+/// wavelength of one spectral trace agrees with a monochrome trace of that
+/// wavelength's n + ik (an independent seed) within four combined standard
+/// errors, reflectance and absorbed share alike.
+#[test]
+fn a_rough_spectral_wall_agrees_with_monochrome_runs_statistically() {
+    let lanes = [3.0, 12.0];
+    let dir = scratch("spectral-vs-mono");
+    let nk = roks::optics::spectrum::NkSpectrum::read(&scenes().join("materials/aluminium-ir.csv"))
+        .unwrap()
+        .sample(&lanes)
+        .unwrap();
+    let object =
+        std::fs::read_to_string(scenes().join("radiator-spectral-aluminium.toml")).unwrap();
+    let micro =
+        std::fs::read_to_string(scenes().join("radiator-spectral-aluminium-micro.toml")).unwrap();
+    let beams = |mut s: ObjectScene| {
+        s.beams.truncate(2);
+        s.photons = vec![2000; 2];
+        s
+    };
+    let spectral = run(&beams(scene_at("al", &object, &scenes(), Some(&lanes))));
+    assert_eq!(spectral.len(), 2 * lanes.len());
+    for (l, nk) in nk.iter().enumerate() {
+        let micro_l = micro
+            .replace(
+                "nk = \"materials/aluminium-ir.csv\"",
+                &format!("n = {:?}\nk = {:?}", nk.n, nk.k),
+            )
+            .replace(
+                "wavelengths_um = { from = 3.0, to = 14.0, step = 0.5 }\n",
+                "",
+            );
+        assert_ne!(micro_l, micro);
+        std::fs::write(dir.join(format!("micro-{l}.toml")), micro_l).unwrap();
+        let object_l = object
+            .replace(
+                "radiator-spectral-aluminium-micro.toml",
+                &format!("micro-{l}.toml"),
+            )
+            .replace("seed = 1", "seed = 2")
+            .replace("wavelengths_um = { from = 3.0, to = 14.0, step = 0.5 }", "");
+        let mono = run(&beams(scene_at("al-mono", &object_l, &dir, None)));
+        assert!(mono[0].wavelength_um.is_none());
+        for (k, m) in mono.iter().enumerate() {
+            let s = &spectral[k * lanes.len() + l];
+            assert_eq!(s.wavelength_um, Some(lanes[l]));
+            let what = format!("position {k}, {} um", lanes[l]);
+            let ((rs, es), (rm, em)) = (s.reflectance(), m.reflectance());
+            assert!(es > 0.0 && em > 0.0);
+            close(
+                &format!("{what}: reflectance"),
+                rs,
+                rm,
+                4.0 * es.hypot(em),
+                1.0,
+            );
+            let n = (s.tallies.photons, m.tallies.photons);
+            for b in 0..s.tallies.absorbed.len() {
+                let (a, ae) = (
+                    s.tallies.absorbed.mean(b, n.0),
+                    s.tallies.absorbed.stderr(b, n.0),
+                );
+                let (c, ce) = (
+                    m.tallies.absorbed.mean(b, n.1),
+                    m.tallies.absorbed.stderr(b, n.1),
+                );
+                close(
+                    &format!("{what}: absorbed[{b}]"),
+                    a,
+                    c,
+                    4.0 * ae.hypot(ce),
+                    1.0,
+                );
+            }
+        }
+    }
+    // The two wavelengths really differ by more than the noise.
+    let (r3, e3) = spectral[0].reflectance();
+    let (r12, e12) = spectral[1].reflectance();
+    assert!((r3 - r12).abs() > 4.0 * e3.hypot(e12), "{r3} {r12}");
+}
