@@ -484,7 +484,7 @@ fn spectral_files_are_the_same_for_any_thread_count() {
     );
     let sources = summary["sources"].as_array().unwrap();
     assert_eq!(sources.len(), 2);
-    let mut ff_sums = vec![0.0; 6];
+    let mut ff_sums = [0.0; 6];
     for l in ff.lines().skip(1) {
         let c: Vec<&str> = l.split(',').collect();
         let (src, lambda): (usize, f64) = (c[0].parse().unwrap(), c[1].parse().unwrap());
