@@ -402,7 +402,7 @@ pub fn render_object(
                 1.0,
                 rng,
                 scratch,
-                |_, _| {},
+                |_, _, _| {},
             );
             match hist.fate {
                 object::Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },

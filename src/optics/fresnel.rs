@@ -553,7 +553,6 @@ mod tests {
             } else {
                 next()
             };
-            let len = nk.len();
             let full = lanes.chunk::<true>(cos, 0);
             let only = lanes.chunk::<false>(cos, 0);
             let (a, b, c, d) = (full.a, full.b, full.c, full.d);

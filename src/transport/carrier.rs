@@ -111,6 +111,17 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     #[must_use]
     fn rescaled(&self, local: Self) -> (Self, f64);
 
+    /// [`Carrier::rescaled`], handing the intensity the wall removed from
+    /// each wavelength to `removed(lane, intensity)` (lanes in order; a
+    /// monochrome carrier: lane 0, `rescaled`'s removed intensity).
+    #[must_use]
+    #[inline]
+    fn rescaled_lanes(&self, local: Self, mut removed: impl FnMut(usize, f64)) -> Self {
+        let (out, r) = self.rescaled(local);
+        removed(0, r);
+        out
+    }
+
     /// Map the reference vector into other coordinates (a wall's local frame and back).
     fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3);
 
@@ -620,6 +631,30 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Carrier for Spectral<C, CAP> {
         (out, removed)
     }
 
+    /// [`Spectral::rescaled`] with each lane's removed intensity: a lane as
+    /// bright as the brightest gets the brightest lane's own removed
+    /// intensity (so equal lanes are the monochrome carrier's bit for bit),
+    /// any other lane its intensity before minus after.
+    fn rescaled_lanes(&self, local: Self, mut removed: impl FnMut(usize, f64)) -> Self {
+        let reference = self.lanes[self.brightest()];
+        let top = reference.intensity();
+        let mut out = local;
+        for (l, (o, loc)) in out.used_mut().iter_mut().zip(local.used()).enumerate() {
+            let (after, r) = reference.rescaled(*loc);
+            *o = after;
+            let before = self.lanes[l].intensity();
+            removed(
+                l,
+                if before == top {
+                    r
+                } else {
+                    before - after.intensity()
+                },
+            );
+        }
+        out
+    }
+
     fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3) {
         for c in self.used_mut() {
             c.map_frame(&f);
@@ -727,6 +762,36 @@ mod tests {
                 assert!((m.rows[i][j] - f[i][j]).abs() < 1e-15);
             }
         }
+    }
+
+    /// Per-lane removed intensities: each lane's before minus after, and
+    /// equal lanes the monochrome carrier's `rescaled` bit for bit.
+    #[test]
+    fn rescaled_lanes_gives_each_lanes_removed_intensity() {
+        let (d, n) = (DVec3::NEG_Z, DVec3::Z);
+        let mut w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, 3);
+        let lanes = Reflectance::Spectral(std::sync::Arc::new(
+            crate::optics::material::SpectralModel::new(vec![
+                Reflectance::Constant(0.7),
+                Reflectance::Constant(0.35),
+                Reflectance::Constant(0.7),
+            ]),
+        ));
+        assert!(w.reflect(&lanes, d, n, 1.0));
+        let mut local = w.unit();
+        assert!(local.reflect(&Reflectance::Constant(0.3), d, n, 1.0));
+        let mut removed = Vec::new();
+        let out = w.rescaled_lanes(local, |l, r| removed.push((l, r)));
+        let mono = 0.7_f64.rescaled(0.3);
+        assert_eq!((out.lane(0), removed[0]), (mono.0, (0, mono.1)));
+        assert_eq!((out.lane(2), removed[2]), (mono.0, (2, mono.1)));
+        assert_eq!(removed[1].0, 1);
+        assert!((removed[1].1 - 0.35 * 0.7).abs() < 1e-15, "{removed:?}");
+        assert!((out.lane(1) - 0.35 * 0.3).abs() < 1e-15);
+        // The scalar carrier: `rescaled`'s removed intensity, lane 0.
+        let mut one = Vec::new();
+        assert_eq!(0.7.rescaled_lanes(0.3, |l, r| one.push((l, r))), mono.0);
+        assert_eq!(one, [(0, mono.1)]);
     }
 
     #[test]
