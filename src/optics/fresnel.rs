@@ -256,7 +256,9 @@ impl FresnelLanes {
             c: [0.0; CHUNK],
             d: [0.0; CHUNK],
         };
-        let mut den = [0.0; CHUNK];
+        // NaN where a lane is not ordinary: a result that is not finite, or
+        // a denominator that is zero (inv infinite) or overflows (infinite).
+        let mut check = [0.0; CHUNK];
         for l in 0..CHUNK {
             let t0 = t[l] + c2;
             let q = (t0 * t0 + 4.0 * nk[l] * nk[l]).sqrt();
@@ -274,8 +276,8 @@ impl FresnelLanes {
             let ds = sd0 * sd0 + sd1 * sd1;
             let np = pn0 * pn0 + pn1 * pn1;
             let dp = pd0 * pd0 + pd1 * pd1;
-            den[l] = ds * dp;
-            let inv = 1.0 / den[l];
+            let den = ds * dp;
+            let inv = 1.0 / den;
             let (rs, rp) = (ns * dp * inv, np * ds * inv);
             out.a[l] = 0.5 * (rs + rp);
             if MUELLER {
@@ -286,19 +288,28 @@ impl FresnelLanes {
                 out.c[l] = (zs0 * zp0 + zs1 * zp1) * inv;
                 out.d[l] = (zs1 * zp0 - zs0 * zp1) * inv;
             }
+            check[l] = (out.a[l] + out.b[l] + out.c[l] + out.d[l] + den + inv) * 0.0;
         }
         let lanes = (self.len - CHUNK * index).min(CHUNK);
-        if !(0..lanes).all(|l| is_ordinary(&den, &out, l)) {
-            self.redo(c, index, lanes, &den, &mut out);
+        // NaN propagates through the sum (a scalar reduction of CHUNK adds).
+        if check[..lanes].iter().sum::<f64>().is_nan() {
+            self.redo(c, index, lanes, &check, &mut out);
         }
         out
     }
 
     /// The lanes that are not ordinary, by the exact scalar functions.
     #[cold]
-    fn redo(&self, c: f64, index: usize, lanes: usize, den: &[f64; CHUNK], out: &mut FresnelChunk) {
+    fn redo(
+        &self,
+        c: f64,
+        index: usize,
+        lanes: usize,
+        check: &[f64; CHUNK],
+        out: &mut FresnelChunk,
+    ) {
         for l in 0..lanes {
-            if is_ordinary(den, out, l) {
+            if !check[l].is_nan() {
                 continue;
             }
             let at = CHUNK * index + l;
@@ -306,14 +317,6 @@ impl FresnelLanes {
             (out.a[l], out.b[l], out.c[l], out.d[l]) = (f.a, f.b, f.c, f.d);
         }
     }
-}
-
-/// Whether lane `l` of a chunk has a finite, non-zero denominator and
-/// finite results.
-#[inline]
-fn is_ordinary(den: &[f64; CHUNK], out: &FresnelChunk, l: usize) -> bool {
-    let f = [out.a[l], out.b[l], out.c[l], out.d[l]];
-    den[l] > 0.0 && den[l].is_finite() && f.iter().all(|v| v.is_finite())
 }
 
 #[cfg(test)]

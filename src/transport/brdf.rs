@@ -996,23 +996,33 @@ impl BrdfRun {
                         .polar
                         .is_some()
                         .then(|| hemisphere_reference(out, phi));
+                    // The (cell, share) pairs the weight is scored into.
+                    let mut hits = [(0, 0.0); 8];
+                    let mut n_hits = 0;
+                    for (cs, share) in shares.iter().filter(|h| h.1 != 0.0) {
+                        for &c in cs.as_slice() {
+                            hits[n_hits] = (c, *share);
+                            n_hits += 1;
+                        }
+                    }
                     for (l, t) in lanes.iter_mut().enumerate() {
                         let carried = carried.lane(l);
                         let weight = carried.weight_for(&incident);
                         t.reflected.score(0, weight);
                         // The cells' shares for weight 1 (the polarisation tally's),
                         // then times the weight: the same products as
-                        // `cell_weights(.., weight, ..)`, bit for bit.
-                        let halves = shares.map(|(cells, share)| (cells, share * weight));
-                        for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
-                            for &c in cs.as_slice() {
-                                t.carlson.score(c, *w);
+                        // `cell_weights(.., weight, ..)`, bit for bit (a zero
+                        // product adds nothing to the non-negative sums).
+                        if weight != 0.0 {
+                            for &(c, share) in &hits[..n_hits] {
+                                t.carlson.score(c, share * weight);
                             }
                         }
                         if let Some(c) = bin {
                             t.inplane.score(c, weight);
                         }
                         if let Some(r) = &mut t.replicates {
+                            let halves = shares.map(|(cells, share)| (cells, share * weight));
                             r.reflected[replicate] += weight;
                             for (cs, w) in &halves {
                                 for &c in cs.as_slice() {

@@ -488,6 +488,8 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Spectral<C, CAP> {
     /// reference vector).
     #[inline]
     fn reflect_fresnel(&mut self, fresnel: &FresnelLanes, d: DVec3, n: DVec3, cos_i: f64) -> bool {
+        // Finite coefficients with a >= 0 for every valid index and any
+        // finite cosine (FresnelLanes recomputes the lanes that are not).
         if !cos_i.is_finite() {
             return false;
         }
@@ -498,11 +500,6 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Spectral<C, CAP> {
             } else {
                 fresnel.chunk::<false>(cos_i, index)
             };
-            if f.a[..lanes.len()].iter().any(|v| !(*v >= 0.0)) {
-                // Only with parameters the scene refuses (a lane part-way
-                // reflected is then reported with the photon's weight).
-                return false;
-            }
             for (j, lane) in lanes.iter_mut().enumerate() {
                 let m = FresnelMueller {
                     a: f.a[j],
