@@ -12,8 +12,8 @@ roks's binning as well as of its transport, so it shares no grid code with
 the readers or with roks.
 
     roks-mitsuba-brdf MESH.ply --size LX,LY [--theta 0,30,60] [--phi 0]
-        [--photons N] [--seed S] (--rho 0.8 | --n N --k K) [--bands 32]
-        [--variant auto|llvm|scalar] [--out DIR]
+        [--photons N] [--seed S] (--rho 0.8 | --n N --k K | --material Au --wavelengths W)
+        [--bands 32] [--variant auto|llvm|scalar] [--out DIR]
         [--polarisation none|stokes|mueller] [--incident STATE]
 
 Method
@@ -60,6 +60,24 @@ Method
   summary.json; brdf.csv, inplane.csv and the reflectance stay the intensity
   S0 for the incident state. Roulette and the losses use the intensity of
   the first column (S0 for the incident state; M00 for Mueller), as roks.
+* Spectral (`--material NAME --wavelengths 0.45,0.55,0.65` or
+  `0.38:0.78:0.02`, um): Mitsuba's own conductor spectra (the preset NAME of
+  its `conductor` plugin, data/ior/NAME.eta.spd and NAME.k.spd), one weight
+  per wavelength along the same path (as roks's `carrier::Spectral`):
+  roulette and the dead test on the largest, survivors scaled so it is the
+  survival weight; losses and every tally per wavelength. Spectral variants
+  draw a path's wavelengths at random; here they are fixed by setting
+  `si.wavelengths` (four at a time) before evaluating. Unpolarised
+  (`llvm_ad_spectral`, fallback scalar_spectral): the weight of a hit is the
+  `conductor` plugin's own `bsdf.sample` weight, fresnel_conductor(cos_i, n +
+  ik) (`MitsubaConductor`). `--polarisation stokes`
+  (`llvm_ad_spectral_polarized`): a Stokes vector of the `--incident` state
+  per wavelength, composed as above from `mi.mueller.specular_reflection`
+  with n, k of Mitsuba's `spectrum` textures of those files evaluated at the
+  wavelengths (`mitsuba_ior`, `SpectralPolarisedCarrier`; no stokes.csv).
+  Writes brdf.csv / inplane.csv with `wavelength_um` after the incidence
+  columns and summary.json with `wavelengths_um` and a `spectrum` per
+  incidence, as roks.
 * Russian roulette below weight 0.01 (survivors carry 0.1, as roks); a bounce
   cap and a segment cap (cut weight reported as `lost_cap`); a ray found
   below the lowest point of the mesh (a leak through a seam) is
