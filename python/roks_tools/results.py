@@ -38,6 +38,12 @@ BRDF_COLUMNS = (
     "fraction", "fraction_stderr", "brdf", "brdf_stderr",
 )
 INPLANE_COLUMNS = ("theta_i_deg", "theta_o_deg", "brdf", "brdf_stderr")
+# A spectral run's brdf.csv and inplane.csv: `wavelength_um` (um) after the
+# incidence columns, one block per incidence and wavelength (incidence-major).
+SPECTRAL_BRDF_COLUMNS = BRDF_COLUMNS[:2] + ("wavelength_um",) + BRDF_COLUMNS[2:]
+SPECTRAL_INPLANE_COLUMNS = INPLANE_COLUMNS[:1] + ("wavelength_um",) + INPLANE_COLUMNS[1:]
+# colour.csv of a spectral run covering the visible: XYZ and linear sRGB of the BRDF (1/sr) per cell.
+COLOUR_COLUMNS = ("theta_i_deg", "phi_i_deg", "band", "cell", "theta_deg", "phi_deg", "X", "Y", "Z", "r", "g", "b")
 STOKES_NAMES = ("s0", "s1", "s2", "s3")
 MUELLER_NAMES = tuple(f"m{i}{j}" for i in range(4) for j in range(4))
 POLAR_KEYS = ("theta_i_deg", "phi_i_deg", "band", "cell", "theta_deg", "phi_deg")
@@ -67,6 +73,7 @@ HEADERS = {
     "reflectance.csv": REFLECTANCE_COLUMNS,
     "farfield.csv": FARFIELD_COLUMNS,
     "farfield_stokes.csv": FARFIELD_STOKES_COLUMNS,
+    "colour.csv": COLOUR_COLUMNS,
 }
 """The columns of every CSV file roks writes, by file name."""
 
