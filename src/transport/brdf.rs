@@ -735,74 +735,27 @@ impl BrdfRun {
                 .expect("batches in order");
             }
         };
+        let args = TraceArgs {
+            surface,
+            locator: &grid,
+            inplane: &inplane,
+            dir,
+            ordered,
+            spare: &spare,
+        };
         let spectral = !self.wavelengths_um.is_empty();
+        let (c, p) = (&mut consume, progress);
         match (
             spectral,
             self.polarisation.transport,
             self.polarisation.tally,
         ) {
-            (true, false, _) => self.trace_spectral::<f64>(
-                surface,
-                &grid,
-                &inplane,
-                dir,
-                ordered,
-                &spare,
-                &mut consume,
-                progress,
-            ),
-            (true, true, PolarTally::Mueller) => self.trace_spectral::<Polarised<4>>(
-                surface,
-                &grid,
-                &inplane,
-                dir,
-                ordered,
-                &spare,
-                &mut consume,
-                progress,
-            ),
-            (true, true, _) => self.trace_spectral::<Polarised<1>>(
-                surface,
-                &grid,
-                &inplane,
-                dir,
-                ordered,
-                &spare,
-                &mut consume,
-                progress,
-            ),
-            (false, false, _) => {
-                self.trace_ordered::<f64>(
-                    surface,
-                    &grid,
-                    &inplane,
-                    dir,
-                    ordered,
-                    &spare,
-                    &mut consume,
-                    progress,
-                );
-            }
-            (false, true, PolarTally::Mueller) => self.trace_ordered::<Polarised<4>>(
-                surface,
-                &grid,
-                &inplane,
-                dir,
-                ordered,
-                &spare,
-                &mut consume,
-                progress,
-            ),
-            (false, true, _) => self.trace_ordered::<Polarised<1>>(
-                surface,
-                &grid,
-                &inplane,
-                dir,
-                ordered,
-                &spare,
-                &mut consume,
-                progress,
-            ),
+            (true, false, _) => self.trace_spectral::<f64>(&args, c, p),
+            (true, true, PolarTally::Mueller) => self.trace_spectral::<Polarised<4>>(&args, c, p),
+            (true, true, _) => self.trace_spectral::<Polarised<1>>(&args, c, p),
+            (false, false, _) => self.trace_ordered::<f64>(&args, c, p),
+            (false, true, PolarTally::Mueller) => self.trace_ordered::<Polarised<4>>(&args, c, p),
+            (false, true, _) => self.trace_ordered::<Polarised<1>>(&args, c, p),
         }
         sums.into_iter().map(DyadicSum::into_nodes).collect()
     }
@@ -832,51 +785,41 @@ impl BrdfRun {
         }
     }
 
-    /// Trace this run's photons carrying `C` (see [`super::carrier`]),
-    /// with `ordered` in the Morton order of their entry points
-    /// ([`super::run_ordered`]), else in index order, and hand each batch's
-    /// tally, scored in index order (the same tallies either way), to
-    /// `consume(batch index, tally)` in batch order. Batches tally into the
-    /// cleared tallies of `spare` while there are any.
     /// [`BrdfRun::trace_ordered`] with a [`Spectral`] carrier of lanes `C`
     /// and the smallest capacity (8, 32, 128) that holds the run's wavelengths.
-    #[allow(clippy::too_many_arguments)]
     fn trace_spectral<C: Carrier<Lane = C>>(
         &self,
-        surface: &MicroSurface,
-        locator: &Locator,
-        inplane: &InPlaneTally,
-        dir: DVec3,
-        ordered: bool,
-        spare: &Spare,
+        args: &TraceArgs,
         consume: &mut dyn FnMut(u64, Vec<BrdfTallies>),
         progress: &(dyn Fn(u64) + Sync),
     ) {
         match self.lane_count() {
-            0..=8 => self.trace_ordered::<Spectral<C, 8>>(
-                surface, locator, inplane, dir, ordered, spare, consume, progress,
-            ),
-            9..=32 => self.trace_ordered::<Spectral<C, 32>>(
-                surface, locator, inplane, dir, ordered, spare, consume, progress,
-            ),
-            _ => self.trace_ordered::<Spectral<C>>(
-                surface, locator, inplane, dir, ordered, spare, consume, progress,
-            ),
+            0..=8 => self.trace_ordered::<Spectral<C, 8>>(args, consume, progress),
+            9..=32 => self.trace_ordered::<Spectral<C, 32>>(args, consume, progress),
+            _ => self.trace_ordered::<Spectral<C>>(args, consume, progress),
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// Trace this run's photons carrying `C` (see [`super::carrier`]),
+    /// with `ordered` in the Morton order of their entry points
+    /// ([`super::run_ordered`]), else in index order, and hand each batch's
+    /// tallies (one per wavelength), scored in index order (the same tallies either way), to
+    /// `consume(batch index, tally)` in batch order. Batches tally into the
+    /// cleared tallies of `spare` while there are any.
     fn trace_ordered<C: Carrier>(
         &self,
-        surface: &MicroSurface,
-        locator: &Locator,
-        inplane: &InPlaneTally,
-        dir: DVec3,
-        ordered: bool,
-        spare: &Spare,
+        args: &TraceArgs,
         consume: &mut dyn FnMut(u64, Vec<BrdfTallies>),
         progress: &(dyn Fn(u64) + Sync),
     ) {
+        let TraceArgs {
+            surface,
+            locator,
+            inplane,
+            dir,
+            ordered,
+            spare,
+        } = *args;
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
         let tally_bytes = self.tally_bytes();
         let phi = self.phi_deg.to_radians();
@@ -1077,6 +1020,19 @@ impl BrdfRun {
         }
         lanes
     }
+}
+
+/// What every photon of one incidence's trace shares.
+#[derive(Clone, Copy)]
+struct TraceArgs<'a> {
+    surface: &'a MicroSurface,
+    locator: &'a Locator,
+    inplane: &'a InPlaneTally,
+    /// The incident flight (unit, z < 0).
+    dir: DVec3,
+    /// Trace in the Morton order of the entry points.
+    ordered: bool,
+    spare: &'a Spare,
 }
 
 struct Entry {
