@@ -1680,6 +1680,7 @@ mod tests {
         let t = BrdfTable::parse(&text, "roundtrip.csv").unwrap();
         // The table a run holds for exports is the file's, number for number.
         let held = crate::output::brdf_csv::table(&run, &results);
+        let held = held.monochrome().expect("a monochrome run");
         assert_eq!(held.thetas_deg(), t.thetas_deg());
         for i in 0..3 {
             for c in 0..run.grid().n_cells() {
@@ -1725,5 +1726,297 @@ mod tests {
                 assert!(t.eval(theta, d) > 0.0);
             }
         }
+    }
+
+    /// A spectral `brdf.csv` of incidences `thetas` at wavelengths `ws`
+    /// (µm, in file order), written by the file's writer: a Lambertian
+    /// block of albedo `0.2 + 0.1 (i + l)` (incidence `i`, wavelength `l`),
+    /// standard errors 1 % of the fractions.
+    fn spectral_csv(m: usize, thetas: &[f64], ws: &[f64]) -> String {
+        let grid = CarlsonGrid::new(m).unwrap();
+        let mut blocks = Vec::new();
+        for (i, &theta) in thetas.iter().enumerate() {
+            for (l, &w) in ws.iter().enumerate() {
+                let f = lambertian(m, 0.2 + 0.1 * (i + l) as f64);
+                let se: Vec<f64> = f.iter().map(|x| 0.01 * x).collect();
+                blocks.push((theta, w, f, se));
+            }
+        }
+        super::super::write_blocks(
+            &grid,
+            blocks.iter().map(|(theta, w, f, se)| super::super::Block {
+                theta_i_deg: *theta,
+                phi_i_deg: 0.0,
+                wavelength_um: Some(*w),
+                fractions: f,
+                stderr: se,
+            }),
+        )
+    }
+
+    /// Written and read back: one table per wavelength, each the table of
+    /// the monochrome file of that wavelength's blocks, number for number.
+    #[test]
+    fn spectral_round_trip_per_wavelength() {
+        let m = 3;
+        let (thetas, ws) = ([0.0, 40.0], [0.45, 0.55, 0.65]);
+        let text = spectral_csv(m, &thetas, &ws);
+        assert!(text.starts_with(&format!("{SPECTRAL_HEADER}\n")));
+        let tables = BrdfTables::parse(&text, "s.csv").unwrap();
+        let s = tables.spectral().expect("spectral");
+        assert_eq!(s.wavelengths_um(), ws);
+        assert_eq!(tables.wavelengths_um(), ws);
+        assert_eq!(s.thetas_deg(), thetas);
+        for (l, t) in s.tables().iter().enumerate() {
+            let mono: Vec<TestBlock> = thetas
+                .iter()
+                .enumerate()
+                .map(|(i, &theta)| TestBlock {
+                    theta,
+                    phi_i: 0.0,
+                    fractions: lambertian(m, 0.2 + 0.1 * (i + l) as f64),
+                })
+                .collect();
+            let want = BrdfTable::parse(&csv(m, &mono), "m.csv").unwrap();
+            for i in 0..thetas.len() {
+                assert_eq!(t.fractions(i), want.fractions(i), "wavelength {l}");
+                assert_eq!(t.cell_stderr(i).to_bits(), want.cell_stderr(i).to_bits());
+                let r = 0.2 + 0.1 * (i + l) as f64;
+                assert!((t.reflectance(thetas[i].to_radians()) - r).abs() < 1e-9);
+            }
+        }
+        // A monochrome file reads as before, as BrdfTables::Monochrome.
+        let mono = csv(
+            m,
+            &[TestBlock {
+                theta: 10.0,
+                phi_i: 0.0,
+                fractions: lambertian(m, 0.5),
+            }],
+        );
+        let t = BrdfTables::parse(&mono, "m.csv").unwrap();
+        assert!(t.monochrome().is_some() && t.wavelengths_um().is_empty());
+        // Incidences in any order (each with its wavelengths together).
+        let lines: Vec<&str> = text.lines().collect();
+        let per_incidence = 3 * 2 * m * (m + 1);
+        let swapped = format!(
+            "{}\n{}\n{}\n",
+            lines[0],
+            lines[1 + per_incidence..].join("\n"),
+            lines[1..=per_incidence].join("\n")
+        );
+        let again = BrdfTables::parse(&swapped, "x").unwrap();
+        assert_eq!(again.thetas_deg(), thetas);
+    }
+
+    /// The round trip through a run: a spectral run of the default scene
+    /// (its reflectance 0.8 at every wavelength), `write`, parse: every
+    /// wavelength is the table held for exports, and that of the
+    /// monochrome run, bit for bit; its summary gives each wavelength its
+    /// exact standard errors.
+    #[test]
+    fn spectral_round_trip_with_the_writer() {
+        let scene = crate::scene::micro::MicroScene::default_scene();
+        let mut run = scene.brdf_run();
+        run.photons = 4096;
+        run.theta_deg = vec![0.0, 50.0];
+        let mono_results = run.run(&scene.surface, &|_| {});
+        let mono_tables = crate::output::brdf_csv::table(&run, &mono_results);
+        let mono_run = run.clone();
+        run.wavelengths_um = vec![0.4, 0.5, 0.6];
+        let results = run.run(&scene.surface, &|_| {});
+        let text = crate::output::brdf_csv::write(&run, &results);
+        let read = BrdfTables::parse(&text, "s.csv").unwrap();
+        let held = crate::output::brdf_csv::table(&run, &results);
+        let mono = mono_tables.monochrome().unwrap();
+        for tables in [&read, &held] {
+            let s = tables.spectral().unwrap();
+            assert_eq!(s.wavelengths_um(), [0.4, 0.5, 0.6]);
+            for t in s.tables() {
+                assert_eq!(t.thetas_deg(), mono.thetas_deg());
+                for i in 0..2 {
+                    assert_eq!(t.fractions(i), mono.fractions(i));
+                    assert_eq!(t.cell_stderr(i).to_bits(), mono.cell_stderr(i).to_bits());
+                }
+            }
+        }
+        // With its summary: per wavelength the exact standard errors.
+        let stats = crate::micro::surface_stats::surface_stats(&scene.surface.height_map(8, 8));
+        let settings = crate::output::tallies::Settings::new(
+            "default",
+            "default",
+            "periodic",
+            &run,
+            crate::output::summary::Surface::new(&stats, 8),
+        );
+        let summary = crate::output::summary::BrdfSummary::new(&settings, None, &results, 1.0);
+        let json = crate::output::summary::to_text(&summary);
+        let with = read
+            .clone()
+            .with_summary_text(&json, "summary.json")
+            .unwrap();
+        for (l, t) in with.tables().iter().enumerate() {
+            assert!(t.has_stated_stderr());
+            for (i, r) in results.iter().skip(l).step_by(3).enumerate() {
+                let (_, se) = r.reflectance();
+                let got = t.reflectance_stderr(t.thetas_deg()[i].to_radians());
+                assert!((got - se).abs() <= 1e-12 * se, "{got} vs {se}");
+            }
+        }
+        // The summary of another run: wavelengths, a spectrum entry.
+        let bad = |json: String, needle: &str| {
+            let e = read
+                .clone()
+                .with_summary_text(&json, "summary.json")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with("summary.json: ") && e.contains(needle) && !e.contains('\n'),
+                "{e}"
+            );
+        };
+        let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v["wavelengths_um"] = serde_json::json!([0.4, 0.5, 0.65]);
+        bad(v.to_string(), "wavelengths_um");
+        let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v["incidence"][1]["spectrum"][2]["reflectance"] = serde_json::json!(0.1);
+        bad(v.to_string(), "incidence[1].spectrum[2].reflectance: 0.1");
+        let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v["incidence"][0]["spectrum"][1]["wavelength_um"] = serde_json::json!(0.55);
+        bad(
+            v.to_string(),
+            "incidence[0].spectrum[1].wavelength_um: 0.55",
+        );
+        // A monochrome table with a spectral summary.
+        let m = BrdfTables::parse(
+            &crate::output::brdf_csv::write(&mono_run, &mono_results),
+            "m.csv",
+        )
+        .unwrap();
+        let e = m
+            .with_summary_text(&json, "summary.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("summary of a spectral run"), "{e}");
+    }
+
+    #[test]
+    fn spectral_errors_name_file_line_and_column() {
+        let m = 1; // 4 rows per block
+        let ws = [0.45, 0.55, 0.65];
+        let good = spectral_csv(m, &[0.0, 30.0], &ws);
+        assert!(BrdfTables::parse(&good, "good.csv").is_ok());
+        let lines: Vec<&str> = good.lines().collect();
+        // Lines 2-5: (0, 0.45), 6-9: (0, 0.55), 10-13: (0, 0.65),
+        // 14-17: (30, 0.45), 18-21: (30, 0.55), 22-25: (30, 0.65).
+        let without = |skip: std::ops::Range<usize>| -> String {
+            lines
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !skip.contains(&(i + 1)))
+                .map(|(_, l)| *l)
+                .collect::<Vec<_>>()
+                .join("\n")
+        };
+        let errs = |text: &str| BrdfTables::parse(text, "bad.csv").unwrap_err().to_string();
+        let check = |e: String, needles: &[&str]| {
+            assert!(!e.contains('\n') && e.starts_with("bad.csv: "), "{e}");
+            for n in needles {
+                assert!(e.contains(n), "`{n}` not in: {e}");
+            }
+        };
+        // A wavelength missing in the middle of the second incidence.
+        check(
+            errs(&without(18..22)),
+            &[
+                "line 18, column 3 (wavelength_um)",
+                "found 0.65 um, expected 0.55 um",
+                "theta_i_deg = 30",
+            ],
+        );
+        // The last wavelength of the second incidence missing.
+        check(
+            errs(&without(22..26)),
+            &[
+                "line 18, column 3 (wavelength_um)",
+                "stops after 0.55 um",
+                "lacks 0.65 um",
+            ],
+        );
+        // A wavelength missing in the first incidence: the second has more.
+        check(
+            errs(&without(10..14)),
+            &["line 18", "more wavelengths than the first"],
+        );
+        // Unsorted wavelengths: blocks 0.55 and 0.65 of the first incidence
+        // swapped.
+        let mut swapped: Vec<&str> = lines.clone();
+        swapped[5..9].copy_from_slice(&lines[9..13]);
+        swapped[9..13].copy_from_slice(&lines[5..9]);
+        check(
+            errs(&swapped.join("\n")),
+            &[
+                "line 10, column 3 (wavelength_um)",
+                "0.55 um after 0.65 um",
+                "strictly increasing",
+            ],
+        );
+        // The same wavelength twice in a row: one block of twice the rows.
+        let twice = good.replace("\n0,0,0.55,", "\n0,0,0.45,");
+        check(errs(&twice), &["line 6", "column 4 (band)"]);
+        // A wavelength that is not a number, or not > 0.
+        check(
+            errs(&edit(&good, 7, 2, "abc")),
+            &["line 7, column 3 (wavelength_um)", "`abc`"],
+        );
+        check(
+            errs(&edit(&good, 2, 2, "-0.5")),
+            &["line 2, column 3 (wavelength_um)", "must be > 0"],
+        );
+        // The other columns one place later: fraction is column 14.
+        check(
+            errs(&edit(&good, 3, 13, "-1e-3")),
+            &["line 3", "column 14 (fraction)", ">= 0"],
+        );
+        check(
+            errs(&edit(&good, 4, 3, "7")),
+            &["line 4", "column 4 (band)"],
+        );
+        check(
+            errs(&edit(&good, 5, 16, "1")),
+            &["line 5", "column 17 (brdf_stderr)"],
+        );
+        check(
+            errs(&edit(&good, 6, 15, "1,2")),
+            &["line 6", "expected 17 columns, found 18"],
+        );
+        // An incidence twice (not consecutive).
+        let again = format!("{good}{}\n", lines[1..13].join("\n"));
+        check(errs(&again), &["line 26", "already tabulated from line 2"]);
+        // A block that creates light names the spectral fraction column.
+        let grid = CarlsonGrid::new(m).unwrap();
+        let bright = super::super::write_blocks(
+            &grid,
+            [super::super::Block {
+                theta_i_deg: 10.0,
+                phi_i_deg: 0.0,
+                wavelength_um: Some(0.5),
+                fractions: &[0.5; 4],
+                stderr: &[0.0; 4],
+            }],
+        );
+        check(
+            errs(&bright),
+            &["line 2, column 14 (fraction)", "more than 1"],
+        );
+        // The monochrome reader refuses a spectral table; a bad header names
+        // both headers where both are accepted.
+        let e = BrdfTable::parse(&good, "bad.csv").unwrap_err().to_string();
+        check(e, &["line 1", "a spectral table", "wavelength_um"]);
+        let renamed = good.replacen("wavelength_um", "lambda_um", 1);
+        check(
+            errs(&renamed),
+            &["line 1", "header must be exactly", "with wavelengths"],
+        );
     }
 }
