@@ -401,6 +401,83 @@ mod tests {
         assert!(checked > N / 7 / 2, "{checked}");
     }
 
+    /// The colour path (resampling the three per-cell linear sRGB tables)
+    /// equals resampling every wavelength and then mapping to linear sRGB,
+    /// bin by bin, to 1e-12 of the size of the terms summed (`Σ_l |(M
+    /// w_l)_c f_l|`: the sRGB matrix has negative entries, so a channel can
+    /// be a difference of larger terms); and each cell of the sRGB tables is
+    /// the linear sRGB of the cell's BRDF spectrum as `colour.csv` computes
+    /// it (XYZ, then the matrix).
+    #[test]
+    fn colour_equals_per_wavelength_resampling_then_srgb() {
+        use crate::optics::colour::{XyzWeights, xyz_to_linear_srgb};
+        use crate::tally::CarlsonGrid;
+        let ws = vec![0.38, 0.5, 0.62, 0.7, 0.78];
+        let grid = CarlsonGrid::new(4).unwrap();
+        let n = grid.n_cells();
+        // Per wavelength a different, lumpy BRDF at 0, 35 and 70 degrees.
+        let tables: Vec<BrdfTable> = (0..ws.len())
+            .map(|l| {
+                let blocks = [0.0, 35.0, 70.0]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &t)| {
+                        let f: Vec<f64> = (0..n)
+                            .map(|c| {
+                                let x = (c * 7 + i * 3 + l * 5) % 11;
+                                0.8 * (x as f64 + 0.5) / (11.0 * n as f64)
+                            })
+                            .collect();
+                        (t, 0.0, f, vec![0.0; n])
+                    })
+                    .collect();
+                BrdfTable::from_blocks(grid.clone(), blocks, "t").unwrap()
+            })
+            .collect();
+        let spectral = SpectralTables::new(ws.clone(), tables, "t").unwrap();
+        let srgb = XyzWeights::d65(&ws).unwrap().srgb_weights();
+        let channels = srgb_tables(&spectral).unwrap();
+        // Per cell: colour.csv's formula.
+        let weights = XyzWeights::d65(&ws).unwrap();
+        for i in 0..3 {
+            for flat in 0..n {
+                let f: Vec<f64> = spectral
+                    .tables()
+                    .iter()
+                    .map(|t| t.cell_brdf(i, flat))
+                    .collect();
+                let rgb = xyz_to_linear_srgb(weights.xyz(&f).unwrap());
+                for c in 0..3 {
+                    let got = channels[c].cell_brdf(i, flat);
+                    assert!(
+                        (got - rgb[c]).abs() <= 1e-12 * rgb[c].abs().max(1.0),
+                        "{got} {}",
+                        rgb[c]
+                    );
+                }
+            }
+        }
+        // Bin by bin.
+        let per_wavelength: Vec<Vec<f64>> = spectral.tables().iter().map(resample).collect();
+        let (m, _) = Merl::from_spectral(&spectral).unwrap();
+        let mut compared = 0;
+        for c in 0..3 {
+            let colour = resample(&channels[c]);
+            for bin in 0..N {
+                let terms = per_wavelength.iter().zip(&srgb).map(|(v, w)| w[c] * v[bin]);
+                let (sum, size) = terms.fold((0.0, 0.0), |(s, a), t| (s + t, a + t.abs()));
+                assert!(
+                    (colour[bin] - sum).abs() <= 1e-12 * size,
+                    "channel {c} bin {bin}: {} vs {sum}",
+                    colour[bin]
+                );
+                assert_eq!(m.values[c * N + bin], colour[bin].max(0.0));
+                compared += usize::from(size > 0.0);
+            }
+        }
+        assert!(compared > N, "{compared}");
+    }
+
     /// Reciprocity fold: swapping light and viewer is phi_diff + 180 deg,
     /// the same bin.
     #[test]
