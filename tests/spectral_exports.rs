@@ -232,10 +232,10 @@ fn merl_of_a_grey_material_is_the_monochrome_file_times_the_srgb_of_white() {
     let m = Merl::parse(&bytes(&mono), "mono").unwrap();
     let g = Merl::parse(&bytes(&grey), "grey").unwrap();
     let mut positive = 0;
-    for c in 0..3 {
+    for (c, &factor) in white.iter().enumerate() {
         for bin in 0..merl::N {
             let (want, got) = (
-                white[c] * m.values[c * merl::N + bin],
+                factor * m.values[c * merl::N + bin],
                 g.values[c * merl::N + bin],
             );
             assert!(

@@ -431,7 +431,7 @@ mod tests {
                         (t, 0.0, f, vec![0.0; n])
                     })
                     .collect();
-                BrdfTable::from_blocks(grid.clone(), blocks, "t").unwrap()
+                BrdfTable::from_blocks(grid, blocks, "t").unwrap()
             })
             .collect();
         let spectral = SpectralTables::new(ws.clone(), tables, "t").unwrap();

@@ -26,6 +26,13 @@
 //! reflectance) is at most 1 (+1e-9 for rounding: a table may not create
 //! light).
 //!
+//! **Spectral tables.** A spectral run's `brdf.csv` holds a block per
+//! incidence and wavelength; it reads back as a [`SpectralTables`] (inside
+//! a [`BrdfTables::Spectral`]): one [`BrdfTable`] per wavelength, all on
+//! one grid at the same incidences, wavelengths (µm) strictly increasing.
+//! Every table is checked as a monochrome one. [`BrdfTables`] is what the
+//! exports take; a wall that samples one table takes a [`BrdfTable`].
+//!
 //! **Isotropy.** A block's cells are rotated by `-phi_i_deg` into the local
 //! frame, so a table traced at any light azimuth can be used; this assumes
 //! the surface is statistically isotropic (its BRDF depends on the azimuth

@@ -23,6 +23,25 @@
 //! are sorted by `theta_i_deg`. Errors are one line naming the file, the line
 //! and (where there is one) the column. The table itself, its frame and its
 //! sampling: [`crate::optics::brdf_table`].
+//!
+//! # Spectral tables
+//!
+//! [`BrdfTables::parse`] also reads the `brdf.csv` of a spectral run
+//! (header [`SPECTRAL_HEADER`]: `wavelength_um` as column 3, every column
+//! from `band` one place later, 17 columns; error messages give the file's
+//! own column numbers). A block is the rows of one incidence and one
+//! wavelength; each block passes the checks above; each wavelength's
+//! blocks make a table checked as a monochrome one (no incidence twice,
+//! fractions summing to at most 1); and the wavelengths must be finite and
+//! `> 0`, the blocks of one incidence consecutive with strictly increasing
+//! wavelengths, every incidence with exactly the wavelengths of the first
+//! ([`BrdfTableError::Wavelength`] names the line of the block concerned,
+//! column 3, the wavelength found and the one expected or missing).
+//! [`BrdfTable::parse`] keeps its monochrome contract and refuses a
+//! spectral file ([`BrdfTableError::Spectral`]). The `summary.json` of a
+//! spectral run ([`BrdfTables::with_summary_text`]) must list the same
+//! `wavelengths_um`; each wavelength's table takes its reflectance and
+//! standard error from `incidence[k].spectrum[l]`.
 
 use std::path::Path;
 
@@ -479,7 +498,8 @@ impl BrdfTables {
                 let w = b.wavelength.unwrap_or(f64::NAN);
                 if k > 0 {
                     let before = group[k - 1].wavelength.unwrap_or(f64::NAN);
-                    if !(w > before) {
+                    // Wavelengths are finite (checked per row).
+                    if w <= before {
                         return Err(fail(
                             b.start,
                             format!(
@@ -545,7 +565,7 @@ impl BrdfTables {
                 monochrome(
                     Parsed {
                         layout,
-                        grid: grid.clone(),
+                        grid,
                         blocks,
                     },
                     name,
@@ -1778,11 +1798,11 @@ mod tests {
                 })
                 .collect();
             let want = BrdfTable::parse(&csv(m, &mono), "m.csv").unwrap();
-            for i in 0..thetas.len() {
+            for (i, theta) in thetas.iter().enumerate() {
                 assert_eq!(t.fractions(i), want.fractions(i), "wavelength {l}");
                 assert_eq!(t.cell_stderr(i).to_bits(), want.cell_stderr(i).to_bits());
                 let r = 0.2 + 0.1 * (i + l) as f64;
-                assert!((t.reflectance(thetas[i].to_radians()) - r).abs() < 1e-9);
+                assert!((t.reflectance(theta.to_radians()) - r).abs() < 1e-9);
             }
         }
         // A monochrome file reads as before, as BrdfTables::Monochrome.
