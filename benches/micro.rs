@@ -12,6 +12,12 @@
 //!   every bounce, with and without the Stokes tally, and the Mueller
 //!   columns with the Mueller tally (segments per photon printed for each:
 //!   compare the time per segment).
+//! * `spectral/{mono_scalar,w32_scalar,mono_stokes,w32_stokes}`: the
+//!   default scene's geometry with aluminium walls from
+//!   `scenes/materials/aluminium.csv` at 60 degrees, one thread: a
+//!   monochrome run at 0.55 um against one trace carrying 32 wavelengths
+//!   (0.40-0.71 um), scalar weight and Stokes vectors (the same paths, so
+//!   the time ratio is the ratio per segment).
 //! * `heightfield/gaussian_{256,1024}_60deg`: photons of `scenes/gaussian.toml`
 //!   (a Gaussian height field of Al, sigma 1, tau 11.9 on 64 x 64) at 60
 //!   degrees on 256² and 1024² grids (segments per photon printed once).
@@ -149,6 +155,76 @@ fn polarisation(c: &mut Criterion) {
     g.finish();
 }
 
+fn spectral(c: &mut Criterion) {
+    let al =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/materials/aluminium.csv");
+    let mut g = c.benchmark_group("spectral");
+    g.sample_size(10);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for (name, wavelengths, polarised) in [
+        ("mono_scalar", "[0.55]", false),
+        (
+            "w32_scalar",
+            "{ from = 0.40, to = 0.71, step = 0.01 }",
+            false,
+        ),
+        ("mono_stokes", "[0.55]", true),
+        (
+            "w32_stokes",
+            "{ from = 0.40, to = 0.71, step = 0.01 }",
+            true,
+        ),
+    ] {
+        let text = roks::scene::micro::DEFAULT_SCENE
+            .replace(
+                "reflectance = 0.8",
+                &format!("nk = {:?}", al.display().to_string()),
+            )
+            .replace(
+                "[light]",
+                &format!("[light]\nwavelengths_um = {wavelengths}"),
+            );
+        let source = roks::scene::Source {
+            file: "default.toml".into(),
+            dir: ".".into(),
+        };
+        let mut scene = MicroScene::from_str(&text, source, "default-al".into()).unwrap();
+        if name.starts_with("mono") {
+            // A true monochrome run: the index at 0.55 um, no wavelength lane.
+            scene = MicroScene::from_str(
+                &roks::scene::micro::DEFAULT_SCENE.replace(
+                    "reflectance = 0.8",
+                    &format!("n = {}\nk = {}", nk_at(&al, 0.55).0, nk_at(&al, 0.55).1),
+                ),
+                roks::scene::Source {
+                    file: "default.toml".into(),
+                    dir: ".".into(),
+                },
+                "default-al".into(),
+            )
+            .unwrap();
+        }
+        let mut run = scene.brdf_run();
+        run.photons = 20_000;
+        run.polarisation.transport = polarised;
+        g.throughput(Throughput::Elements(run.photons));
+        g.bench_function(name, |b| {
+            b.iter(|| pool.install(|| black_box(run.run_lanes(&scene.surface, 60.0, &|_| {}))));
+        });
+    }
+    g.finish();
+}
+
+/// n and k of a measured table at `um`.
+fn nk_at(path: &std::path::Path, um: f64) -> (f64, f64) {
+    let t = roks::optics::spectrum::NkSpectrum::read(path).unwrap();
+    let nk = t.at(um).unwrap();
+    (nk.n, nk.k)
+}
+
 /// `scripts/scaling.py`'s bump scene: N ellipsoids at constant density.
 fn bump_scene(n: usize) -> String {
     let side = 3.0 * (n as f64).sqrt();
@@ -199,5 +275,13 @@ fn scaling(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, brdf, entry, polarisation, heightfield, scaling);
+criterion_group!(
+    benches,
+    brdf,
+    entry,
+    polarisation,
+    spectral,
+    heightfield,
+    scaling
+);
 criterion_main!(benches);

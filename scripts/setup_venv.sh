@@ -25,7 +25,11 @@ fi
 "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req"
 "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e "$repo/python"
 "$venv/bin/python" - <<'PY'
+import warnings
 import numpy, matplotlib, pytest, roks_tools
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore")  # colour-science runs without its optional SciPy
+    import colour
 print(f"setup_venv: ok: numpy {numpy.__version__}, matplotlib {matplotlib.__version__}, "
-      f"pytest {pytest.__version__}, roks_tools from {roks_tools.__path__[0]}")
+      f"pytest {pytest.__version__}, colour-science {colour.__version__}, roks_tools from {roks_tools.__path__[0]}")
 PY

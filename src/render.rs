@@ -32,6 +32,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::micro::{MicroSurface, Scratch};
+use crate::transport::carrier::{Carrier, Spectral};
 use crate::transport::micro::{Controls, Fate, trace};
 use crate::transport::rng::photon_rng;
 
@@ -188,10 +189,10 @@ fn below(x: f64) -> f64 {
     f64::from_bits(x.to_bits() - 1)
 }
 
-/// How a camera path ended, for [`render_pixels`].
-enum PathEnd {
+/// How a camera path ended, for [`render_pixels`]; `C` is what it carried.
+enum PathEnd<C> {
     /// Left the scene along `dir` with `weight`.
-    Escaped { dir: DVec3, weight: f64 },
+    Escaped { dir: DVec3, weight: C },
     /// Absorbed (physics): adds 0.
     Absorbed,
     /// Cut by a cap or guard, or absorbed by an edge wall: adds 0, counted.
@@ -207,10 +208,14 @@ enum PathEnd {
 /// `weight * light_radiance`, one that escapes elsewhere
 /// `weight * background_radiance`. Rows run in parallel with one `scratch` each;
 /// the image does not depend on the thread count.
-fn render_pixels<S>(
+///
+/// `to_rgb[l]` turns the weight of wavelength `l` into R, G, B (for a
+/// monochrome render `[[1, 1, 1]]`: three equal channels; see [`to_rgb`]).
+fn render_pixels<S, C: Carrier>(
     s: &RenderSettings,
+    to_rgb: &[[f64; 3]],
     scratch: impl Fn() -> S + Sync,
-    path: impl Fn(&mut S, usize, usize, f64, f64, &mut rand_pcg::Pcg64Mcg) -> PathEnd + Sync,
+    path: impl Fn(&mut S, usize, usize, f64, f64, &mut rand_pcg::Pcg64Mcg) -> PathEnd<C> + Sync,
 ) -> (Image, RenderLosses) {
     use rand::RngExt;
     let (w, h) = (s.width, s.height);
@@ -224,26 +229,30 @@ fn render_pixels<S>(
             let row = (0..w)
                 .map(|i| {
                     let mut rng = photon_rng(s.seed, (j * w + i) as u64);
-                    let mut sum = 0.0_f64;
+                    let mut sum = [0.0_f64; 3];
                     for _ in 0..s.spp {
                         let u: f64 = rng.random();
                         let v: f64 = rng.random();
                         match path(&mut state, i, j, u, v, &mut rng) {
                             PathEnd::Escaped { dir, weight } => {
-                                sum += weight
-                                    * if dir.dot(light) >= cos_r {
-                                        s.light_radiance
-                                    } else {
-                                        s.background_radiance
-                                    };
+                                let radiance = if dir.dot(light) >= cos_r {
+                                    s.light_radiance
+                                } else {
+                                    s.background_radiance
+                                };
+                                for (l, m) in to_rgb.iter().enumerate() {
+                                    let lw = weight.lane(l).intensity() * radiance;
+                                    for (c, f) in sum.iter_mut().zip(m) {
+                                        *c += lw * f;
+                                    }
+                                }
                             }
                             PathEnd::Absorbed => {}
                             PathEnd::Lost => losses.lost += 1,
                             PathEnd::Unmodelled => losses.unmodelled += 1,
                         }
                     }
-                    let value = (sum / f64::from(s.spp)) as f32;
-                    [value; 3]
+                    sum.map(|c| (c / f64::from(s.spp)) as f32)
                 })
                 .collect();
             (row, losses)
@@ -274,6 +283,22 @@ fn render_pixels<S>(
 /// If `s` fails [`RenderSettings::validate`].
 #[must_use]
 pub fn render(surface: &MicroSurface, s: &RenderSettings) -> (Image, RenderLosses) {
+    render_at(surface, &[], s)
+}
+
+/// [`render`] of a spectral scene: every camera path carries a weight per
+/// wavelength of `wavelengths_um` (empty: monochrome, [`render`]), and the
+/// pixel is their colour ([`to_rgb`]): linear sRGB under D65 when the
+/// wavelengths cover the visible, else their mean in all three channels.
+///
+/// # Panics
+/// If `s` fails [`RenderSettings::validate`].
+#[must_use]
+pub fn render_at(
+    surface: &MicroSurface,
+    wavelengths_um: &[f64],
+    s: &RenderSettings,
+) -> (Image, RenderLosses) {
     if let Err(e) = s.validate() {
         panic!("render: {e}");
     }
@@ -281,25 +306,83 @@ pub fn render(surface: &MicroSurface, s: &RenderSettings) -> (Image, RenderLosse
     let controls = Controls::default();
     let (lx, ly) = (surface.size.x, surface.size.y);
     let (px, py) = (lx / s.width as f64, ly / s.height as f64);
+    let rgb = to_rgb(wavelengths_um);
+    let lanes = wavelengths_um.len();
+    if lanes > 0 {
+        return render_pixels(
+            s,
+            &rgb,
+            || Scratch::new(surface),
+            |scratch, i, j, u, v, rng| {
+                let start = pixel_start(surface, (px, py), i, j, u, v);
+                let w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, lanes);
+                micro_end(trace(surface, start, dir, w, &controls, rng, scratch).fate)
+            },
+        );
+    }
     render_pixels(
         s,
+        &rgb,
         || Scratch::new(surface),
         |scratch, i, j, u, v, rng| {
-            // x in [i px, (i+1) px), y in [Ly - (j+1) py, Ly - j py):
-            // both strictly inside the period's half-open range.
-            let x = ((i as f64 + u) * px).clamp(0.0, lx);
-            let y = (ly - (j as f64 + 1.0 - v) * py).clamp(0.0, ly);
-            // Rounding can reach the far side: step just inside.
-            let x = if x >= lx { below(lx) } else { x };
-            let y = if y >= ly { below(ly) } else { y };
-            let start = DVec3::new(x, y, surface.top);
-            match trace(surface, start, dir, 1.0, &controls, rng, scratch).fate {
-                Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
-                Fate::Absorbed => PathEnd::Absorbed,
-                Fate::Wall { .. } | Fate::Capped { .. } | Fate::Numeric { .. } => PathEnd::Lost,
-            }
+            let start = pixel_start(surface, (px, py), i, j, u, v);
+            micro_end(trace(surface, start, dir, 1.0, &controls, rng, scratch).fate)
         },
     )
+}
+
+/// Where the camera path of pixel `(i, j)` at sub-pixel `(u, v)` enters a
+/// micro surface of pixels `(px, py)`.
+fn pixel_start(
+    surface: &MicroSurface,
+    (px, py): (f64, f64),
+    i: usize,
+    j: usize,
+    u: f64,
+    v: f64,
+) -> DVec3 {
+    let (lx, ly) = (surface.size.x, surface.size.y);
+    // x in [i px, (i+1) px), y in [Ly - (j+1) py, Ly - j py):
+    // both strictly inside the period's half-open range.
+    let x = ((i as f64 + u) * px).clamp(0.0, lx);
+    let y = (ly - (j as f64 + 1.0 - v) * py).clamp(0.0, ly);
+    // Rounding can reach the far side: step just inside.
+    let x = if x >= lx { below(lx) } else { x };
+    let y = if y >= ly { below(ly) } else { y };
+    DVec3::new(x, y, surface.top)
+}
+
+/// A micro history's end as a camera path's.
+fn micro_end<C>(fate: Fate<C>) -> PathEnd<C> {
+    match fate {
+        Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
+        Fate::Absorbed => PathEnd::Absorbed,
+        Fate::Wall { .. } | Fate::Capped { .. } | Fate::Numeric { .. } => PathEnd::Lost,
+    }
+}
+
+/// The weights that turn the radiance of each of `wavelengths_um` into
+/// R, G, B: for wavelengths covering the visible, linear sRGB under D65
+/// (`optics::colour`: XYZ weights times the IEC 61966-2-1 matrix, so a
+/// radiance of 1 at every wavelength gives the D65 white, about (1, 1, 1));
+/// otherwise the mean over the wavelengths in all three channels; for a
+/// monochrome render (no wavelengths) three equal channels.
+#[must_use]
+pub fn to_rgb(wavelengths_um: &[f64]) -> Vec<[f64; 3]> {
+    if wavelengths_um.is_empty() {
+        return vec![[1.0; 3]];
+    }
+    match crate::optics::colour::XyzWeights::d65(wavelengths_um) {
+        Some(w) => (0..w.len())
+            .map(|l| {
+                let mut unit = vec![0.0; w.len()];
+                unit[l] = 1.0;
+                let xyz = w.xyz(&unit).unwrap_or_default();
+                crate::optics::colour::xyz_to_linear_srgb(xyz)
+            })
+            .collect(),
+        None => vec![[1.0 / wavelengths_um.len() as f64; 3]; wavelengths_um.len()],
+    }
 }
 
 /// A pinhole camera for object scenes (macro level). Lengths in the scene's
@@ -382,36 +465,58 @@ pub fn render_object(
     camera: &PinholeCamera,
     s: &RenderSettings,
 ) -> (Image, RenderLosses) {
-    use crate::transport::object;
     if let Err(e) = s.validate().and_then(|()| camera.validate()) {
         panic!("render_object: {e}");
     }
     let controls = scene.run.controls;
-    render_pixels(
-        s,
-        || vec![None; scene.models.len()],
-        |scratch: &mut Vec<Option<Scratch>>, i, j, u, v, rng| {
-            let d = camera.ray(i as f64 + u, j as f64 + v, s.width, s.height);
-            let hist = object::trace(
-                &scene.object,
-                &scene.walls,
-                &scene.models,
-                &controls,
-                camera.position,
-                d,
-                1.0,
-                rng,
-                scratch,
-                |_, _| {},
-            );
-            match hist.fate {
-                object::Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
-                object::Fate::Absorbed => PathEnd::Absorbed,
-                object::Fate::Lost { .. } => PathEnd::Lost,
-                object::Fate::Unmodelled { .. } => PathEnd::Unmodelled,
-            }
-        },
-    )
+    let wavelengths = &scene.run.wavelengths_um;
+    let rgb = to_rgb(wavelengths);
+    let scratch = || vec![None; scene.models.len()];
+    if wavelengths.is_empty() {
+        render_pixels(
+            s,
+            &rgb,
+            scratch,
+            object_path(scene, camera, s, controls, 1.0),
+        )
+    } else {
+        let w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, wavelengths.len());
+        render_pixels(s, &rgb, scratch, object_path(scene, camera, s, controls, w))
+    }
+}
+
+/// The camera path of an object render, carrying `w` at launch.
+fn object_path<'a, C: Carrier + 'a>(
+    scene: &'a crate::scene::object::ObjectScene,
+    camera: &'a PinholeCamera,
+    s: &'a RenderSettings,
+    controls: crate::transport::micro::Controls,
+    w: C,
+) -> impl Fn(&mut Vec<Option<Scratch>>, usize, usize, f64, f64, &mut rand_pcg::Pcg64Mcg) -> PathEnd<C>
++ Sync
++ 'a {
+    use crate::transport::object;
+    move |scratch, i, j, u, v, rng| {
+        let d = camera.ray(i as f64 + u, j as f64 + v, s.width, s.height);
+        let hist = object::trace(
+            &scene.object,
+            &scene.walls,
+            &scene.models,
+            &controls,
+            camera.position,
+            d,
+            w,
+            rng,
+            scratch,
+            |_, _, _| {},
+        );
+        match hist.fate {
+            object::Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
+            object::Fate::Absorbed => PathEnd::Absorbed,
+            object::Fate::Lost { .. } => PathEnd::Lost,
+            object::Fate::Unmodelled { .. } => PathEnd::Unmodelled,
+        }
+    }
 }
 
 /// Camera paths of a render that ended without a physical outcome.
@@ -550,6 +655,50 @@ mod tests {
         assert_eq!((img.width, img.height, img.rgb.len()), (16, 12, 16 * 12));
         for p in &img.rgb {
             assert_eq!(*p, [1.5_f32; 3]);
+        }
+    }
+
+    /// A flat mirror whose reflectance varies with wavelength, seen in the
+    /// mirror direction: each pixel is the colour of `rho(λ) L` (linear
+    /// sRGB under D65, computed here from `optics::colour` directly); a
+    /// grey mirror gives `rho L` times D65's white in sRGB, about (1, 1, 1).
+    #[test]
+    fn spectral_flat_mirror_is_the_colour_of_its_reflectance() {
+        use crate::optics::colour::{xyz_d65, xyz_to_linear_srgb};
+        use crate::optics::material::SpectralModel;
+        let wavelengths: Vec<f64> = (0..21).map(|i| 0.38 + 0.02 * f64::from(i)).collect();
+        let rho: Vec<f64> = (0..21).map(|i| 0.2 + 0.03 * f64::from(i)).collect();
+        let model = Reflectance::Spectral(std::sync::Arc::new(SpectralModel::new(
+            rho.iter().map(|&r| Reflectance::Constant(r)).collect(),
+        )));
+        let surface = MicroSurface::new(
+            DVec2::new(30.0, 20.0),
+            Edges::Periodic,
+            vec![],
+            vec![model],
+            0,
+        );
+        let (img, _) = render_at(&surface, &wavelengths, &settings());
+        let radiance: Vec<f64> = rho.iter().map(|r| r * 2.0).collect();
+        let expect = xyz_to_linear_srgb(xyz_d65(&wavelengths, &radiance).unwrap());
+        for p in &img.rgb {
+            for c in 0..3 {
+                assert!(
+                    (f64::from(p[c]) - expect[c]).abs() <= 1e-6 * expect[c].abs(),
+                    "{p:?} vs {expect:?}"
+                );
+            }
+        }
+        // Wavelengths that miss the visible: the mean over them, grey.
+        let ir: Vec<f64> = (0..21).map(|i| 3.0 + 0.5 * f64::from(i)).collect();
+        let (img, _) = render_at(&surface, &ir, &settings());
+        let mean = radiance.iter().sum::<f64>() / 21.0;
+        for p in &img.rgb {
+            assert!(
+                p.iter()
+                    .all(|&c| (f64::from(c) - mean).abs() <= 1e-6 * mean),
+                "{p:?}"
+            );
         }
     }
 

@@ -13,9 +13,16 @@
 //!   polarised cross-check (`test_mitsuba_polarised.py`: the polarised
 //!   Mitsuba tracer, built on Mitsuba's own Mueller matrices, against exact
 //!   flat-plane and V-groove matrices, then `roks brdf --polarisation
-//!   mueller|stokes` against it on a Gaussian height field);
+//!   mueller|stokes` against it on a Gaussian height field); the plugin
+//!   with spectral tables (`test_roks_table_colour.py`: grey = monochrome,
+//!   gold's RGB = roks's colour.csv, spectra at Mitsuba's wavelengths); the spectral
+//!   cross-check (`test_spectral_mitsuba.py`: a Gaussian field of gold,
+//!   roks with Mitsuba's own Au n, k against the tracer in
+//!   `llvm_ad_spectral_polarized` and `llvm_ad_spectral` with Mitsuba's
+//!   conductor spectra, reflectance per wavelength and XYZ per cell);
 //! * every other Python test in one run (`-m "not mitsuba"`: readers on
-//!   files roks writes, the Carlson grid, microfacet theory).
+//!   files roks writes, the Carlson grid, microfacet theory, the colour of
+//!   a flat gold mirror against colour-science).
 //!
 //! Each test runs once: a file with `mitsuba` tests is listed in
 //! [`MITSUBA_FILES`] (checked), its other tests go to the second run.
@@ -31,11 +38,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The files under `python/tests` holding tests marked `mitsuba`.
-const MITSUBA_FILES: [&str; 4] = [
+const MITSUBA_FILES: [&str; 6] = [
     "test_crosscheck.py",
     "test_mitsuba_brdf.py",
     "test_mitsuba_polarised.py",
     "test_roks_bsdf.py",
+    "test_roks_table_colour.py",
+    "test_spectral_mitsuba.py",
 ];
 
 fn root() -> PathBuf {
@@ -123,6 +132,16 @@ fn mitsuba_roks_table_plugin() {
 #[test]
 fn mitsuba_polarised_cross_check() {
     mitsuba_file("test_mitsuba_polarised.py");
+}
+
+#[test]
+fn mitsuba_roks_table_plugin_in_colour() {
+    mitsuba_file("test_roks_table_colour.py");
+}
+
+#[test]
+fn mitsuba_spectral_cross_check() {
+    mitsuba_file("test_spectral_mitsuba.py");
 }
 
 #[test]

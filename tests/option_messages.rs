@@ -964,6 +964,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--seed",
             "--threads",
             "--theta",
+            "--wavelengths",
             "--launch",
             "--symmetry",
             "--polarisation",
@@ -983,6 +984,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--seed",
             "--threads",
             "--no-polarisation",
+            "--wavelengths",
             "--quiet",
             "--help"
         ]

@@ -38,6 +38,12 @@ BRDF_COLUMNS = (
     "fraction", "fraction_stderr", "brdf", "brdf_stderr",
 )
 INPLANE_COLUMNS = ("theta_i_deg", "theta_o_deg", "brdf", "brdf_stderr")
+# A spectral run's brdf.csv and inplane.csv: `wavelength_um` (um) after the
+# incidence columns, one block per incidence and wavelength (incidence-major).
+SPECTRAL_BRDF_COLUMNS = BRDF_COLUMNS[:2] + ("wavelength_um",) + BRDF_COLUMNS[2:]
+SPECTRAL_INPLANE_COLUMNS = INPLANE_COLUMNS[:1] + ("wavelength_um",) + INPLANE_COLUMNS[1:]
+# colour.csv of a spectral run covering the visible: XYZ and linear sRGB of the BRDF (1/sr) per cell.
+COLOUR_COLUMNS = ("theta_i_deg", "phi_i_deg", "band", "cell", "theta_deg", "phi_deg", "X", "Y", "Z", "r", "g", "b")
 STOKES_NAMES = ("s0", "s1", "s2", "s3")
 MUELLER_NAMES = tuple(f"m{i}{j}" for i in range(4) for j in range(4))
 POLAR_KEYS = ("theta_i_deg", "phi_i_deg", "band", "cell", "theta_deg", "phi_deg")
@@ -48,6 +54,16 @@ FARFIELD_COLUMNS = ("source",) + BRDF_COLUMNS[2:]
 FARFIELD_STOKES_COLUMNS = ("source",) + BRDF_COLUMNS[2:12] + tuple(
     c for n in STOKES_NAMES for c in (n, n + "_stderr")) + ("dop",)
 POLAR_FILES = {"stokes": "stokes.csv", "mueller": "mueller.csv"}
+# A spectral `roks trace` run: `wavelength_um` right after the position columns.
+SPECTRAL_REFLECTANCE_COLUMNS = REFLECTANCE_COLUMNS[:3] + ("wavelength_um",) + REFLECTANCE_COLUMNS[3:]
+SPECTRAL_FARFIELD_COLUMNS = ("source", "wavelength_um") + FARFIELD_COLUMNS[1:]
+SPECTRAL_FARFIELD_STOKES_COLUMNS = ("source", "wavelength_um") + FARFIELD_STOKES_COLUMNS[1:]
+SPECTRAL_HEADERS = {
+    "reflectance.csv": SPECTRAL_REFLECTANCE_COLUMNS,
+    "farfield.csv": SPECTRAL_FARFIELD_COLUMNS,
+    "farfield_stokes.csv": SPECTRAL_FARFIELD_STOKES_COLUMNS,
+}
+"""The columns of the files of a spectral `roks trace` run that differ, by file name."""
 
 HEADERS = {
     "brdf.csv": BRDF_COLUMNS,
@@ -57,6 +73,7 @@ HEADERS = {
     "reflectance.csv": REFLECTANCE_COLUMNS,
     "farfield.csv": FARFIELD_COLUMNS,
     "farfield_stokes.csv": FARFIELD_STOKES_COLUMNS,
+    "colour.csv": COLOUR_COLUMNS,
 }
 """The columns of every CSV file roks writes, by file name."""
 
@@ -93,6 +110,16 @@ def read_columns(path: str | Path, columns: tuple[str, ...] | None = None) -> di
     except ValueError as e:
         raise ResultError(f"{path}: not a table of {len(header)} numbers per row: {e}") from e
     return {c: data[:, i] for i, c in enumerate(header)}
+
+
+def _either(path: Path, columns: tuple[str, ...], spectral: tuple[str, ...]) -> tuple[str, ...]:
+    """`spectral` if the file's header is that (a spectral run's), else `columns`."""
+    try:
+        with Path(path).open(newline="") as f:
+            first = f.readline().strip().lstrip("\ufeff")
+    except OSError:
+        return columns  # read_columns names the file
+    return spectral if first == ",".join(spectral) else columns
 
 
 def _table(cls, path: Path, columns: tuple[str, ...], **extra):
@@ -322,7 +349,8 @@ class Summary:
 @dataclass(frozen=True)
 class Reflectance:
     """reflectance.csv of `roks trace`: per beam position (x, y, z) the
-    object's reflectance and its standard error."""
+    object's reflectance and its standard error; a spectral run has a row
+    per position and wavelength (`wavelength_um`, µm; else None)."""
 
     path: Path
     x: np.ndarray
@@ -330,17 +358,21 @@ class Reflectance:
     z: np.ndarray
     reflectance: np.ndarray
     reflectance_stderr: np.ndarray
+    wavelength_um: np.ndarray | None = None
 
     @classmethod
     def read(cls, path: str | Path) -> "Reflectance":
-        return _table(cls, Path(path), REFLECTANCE_COLUMNS)
+        path = Path(path)
+        return _table(cls, path, _either(path, REFLECTANCE_COLUMNS, SPECTRAL_REFLECTANCE_COLUMNS))
 
 
 @dataclass(frozen=True)
 class FarField:
     """farfield.csv of `roks trace`: per beam position (`source`, its row in
     reflectance.csv) and full-sphere Carlson cell (bands -1..-M below the
-    horizon) the fraction of the beam leaving through the cell, as brdf.csv."""
+    horizon) the fraction of the beam leaving through the cell, as brdf.csv;
+    a spectral run has a block per position and wavelength (`wavelength_um`,
+    µm; else None)."""
 
     path: Path
     source: np.ndarray
@@ -358,10 +390,12 @@ class FarField:
     fraction_stderr: np.ndarray
     brdf: np.ndarray
     brdf_stderr: np.ndarray
+    wavelength_um: np.ndarray | None = None
 
     @classmethod
     def read(cls, path: str | Path) -> "FarField":
-        return _table(cls, Path(path), FARFIELD_COLUMNS)
+        path = Path(path)
+        return _table(cls, path, _either(path, FARFIELD_COLUMNS, SPECTRAL_FARFIELD_COLUMNS))
 
 
 def _need(folder: Path, name: str) -> Path:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from roks_tools.carlson import CarlsonGrid
-from roks_tools.results import (HEADERS, BrdfResult, BrdfTable, InPlane, PolarTable, ResultError,
+from roks_tools.results import (HEADERS, SPECTRAL_HEADERS, BrdfResult, BrdfTable, InPlane, PolarTable, ResultError,
                                 Summary, TraceResult, read_columns)
 from roks_tools.runner import repo_root, run
 
@@ -107,6 +107,33 @@ def test_trace_result(trace_run):
         f = ff.fraction[ff.source == k]
         assert abs(f.sum() - t.reflectance.reflectance[k]) < 1e-6 * max(1.0, f.sum()), k
     assert np.allclose(ff.solid_angle_sr, grid.solid_angle, rtol=1e-12, atol=0)
+
+
+def test_spectral_trace_result(roks, tmp_path):
+    """A spectral trace: the readers take the wavelength_um columns; each
+    wavelength's far field adds up to its reflectance, and the summary's
+    spectrum holds the same reflectances and emissivity = 1 - R - missed."""
+    out = tmp_path / "spectral"
+    run([roks, "trace", SCENES / "radiator-spectral.toml", "--photons", 300,
+         "--wavelengths", "3,8,12", "--out", out, "-q"], "test_results", echo=False)
+    t = TraceResult.load(out)
+    assert t.summary["wavelengths_um"] == [3.0, 8.0, 12.0]
+    r, ff = t.reflectance, t.farfield
+    assert (out / "reflectance.csv").read_text().splitlines()[0] == ",".join(
+        SPECTRAL_HEADERS["reflectance.csv"])
+    sources = t.summary["sources"]
+    assert len(r.x) == 3 * len(sources)
+    assert list(r.wavelength_um[:3]) == [3.0, 8.0, 12.0]
+    for k, s in enumerate(sources):
+        spectrum = s["spectrum"]
+        assert [w["wavelength_um"] for w in spectrum] == [3.0, 8.0, 12.0]
+        assert np.allclose(r.reflectance[3 * k:3 * k + 3], [w["reflectance"] for w in spectrum],
+                           rtol=1e-8, atol=1e-300)
+        for w in spectrum:
+            assert abs(w["emissivity"] - (1 - w["reflectance"] - w["missed"])) < 1e-15
+            f = ff.fraction[(ff.source == k) & (ff.wavelength_um == w["wavelength_um"])]
+            assert abs(f.sum() - w["reflectance"]) < 1e-8
+        assert abs(s["reflectance"] - np.mean([w["reflectance"] for w in spectrum])) < 1e-15
 
 
 def test_broken_files_are_refused_naming_them(tmp_path):

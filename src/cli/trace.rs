@@ -13,7 +13,7 @@ use super::common::{progress_bar, result_dir, set_threads, write_folder};
 use crate::output::object_csv;
 use crate::output::summary::{self, TraceSummary};
 use crate::scene::object::ObjectScene;
-use crate::transport::object::PositionResult;
+use crate::transport::object::{ObjectRun, PositionResult};
 
 /// The options of `roks trace`.
 #[derive(Args, Debug)]
@@ -32,6 +32,12 @@ pub struct TraceArgs {
     /// polarisation = false).
     #[arg(long)]
     pub no_polarisation: bool,
+    /// Wavelengths in um, carried by every photon (overrides [light]
+    /// wavelengths_um): comma-separated (3,8,12) or FROM:TO:STEP (3:14:0.5).
+    /// Results get a wavelength_um column and summary.json a spectrum per
+    /// source.
+    #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
+    pub wavelengths: Option<super::parse::Wavelengths>,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -43,7 +49,7 @@ pub struct TraceArgs {
 /// Bad input (scene, options, photons meeting a wall without a model or
 /// starting inside a solid), or a failed write.
 pub fn run(a: TraceArgs) -> Result<(), Failure> {
-    let scene = ObjectScene::load(&a.scene)?;
+    let scene = ObjectScene::load_at(&a.scene, a.wavelengths.as_ref().map(|w| w.0.as_slice()))?;
     let mut run = scene.run.clone();
     let mut photons = scene.photons.clone();
     if let Some(p) = a.run.photons {
@@ -98,7 +104,10 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     {
         return Err(Failure::Input(format!(
             "{}: sources[{}].beam.diameter: {} photons of beam position {} started inside a solid cell",
-            scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
+            scene.source.file,
+            scene.beam_source[k / run.lane_count()],
+            r.tallies.started_inside,
+            r.beam.position
         )));
     }
     let summary = TraceSummary::new(
@@ -107,11 +116,12 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         run.seed,
         &results,
         &scene.object.surface_names,
+        &run.wavelengths_um,
         seconds,
     );
     let text = summary::to_text(&summary);
     let refl = object_csv::reflectance_csv(&results);
-    let png = reflectance_plot(&scene, &results)
+    let png = reflectance_plot(&scene, &run, &results)
         .to_png(900, 560)
         .map_err(Failure::Other)?;
     let farfield = run
@@ -134,25 +144,35 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     write_folder(&out, &files)?;
 
     if !a.quiet {
-        print_table(&results);
+        print_table(&run, &results);
         eprintln!("wrote {} ({seconds:.1} s)", out.display());
     }
     Ok(())
 }
 
-/// The table of results per beam position, on stderr.
-fn print_table(results: &[PositionResult]) {
+/// The table of results per beam position, on stderr (a spectral run:
+/// per position and wavelength).
+fn print_table(run: &ObjectRun, results: &[PositionResult]) {
+    let spectral = !run.wavelengths_um.is_empty();
     eprintln!(
-        "{:>28} {:>12} {:>10} {:>9} {:>8} {:>9}",
-        "beam position", "reflectance", "stderr", "missed", "bounces", "lost"
+        "{:>28}{} {:>12} {:>10} {:>9} {:>8} {:>9}",
+        "beam position",
+        if spectral { "  wavelength_um" } else { "" },
+        "reflectance",
+        "stderr",
+        "missed",
+        "bounces",
+        "lost"
     );
     for r in results {
         let (refl, se) = r.reflectance();
         let n = r.tallies.photons as f64;
         let p = r.beam.position;
         eprintln!(
-            "{:>28} {:>12.4e} {:>10.2e} {:>9.4} {:>8.3} {:>9.2e}",
+            "{:>28}{} {:>12.4e} {:>10.2e} {:>9.4} {:>8.3} {:>9.2e}",
             format!("({:.3}, {:.3}, {:.3})", p.x, p.y, p.z),
+            r.wavelength_um
+                .map_or_else(String::new, |w| format!(" {w:>14}")),
             refl,
             se,
             r.tallies.missed / n,
@@ -164,8 +184,28 @@ fn print_table(results: &[PositionResult]) {
 
 /// Reflectance vs beam position, one curve per `[[sources]]` entry; the x axis
 /// is the distance of the beam axis from the first position of its source.
-fn reflectance_plot(scene: &ObjectScene, results: &[PositionResult]) -> crate::plot::LinePlot {
+/// A spectral run plots the mean over its wavelengths (and the mean of
+/// their standard errors).
+fn reflectance_plot(
+    scene: &ObjectScene,
+    run: &ObjectRun,
+    results: &[PositionResult],
+) -> crate::plot::LinePlot {
     use crate::plot::{LinePlot, Series};
+    let lanes = run.lane_count();
+    let mean = |rs: &[PositionResult]| {
+        let (a, b) = rs
+            .iter()
+            .map(PositionResult::reflectance)
+            .fold((0.0, 0.0), |(a, b), (r, e)| (a + r, b + e));
+        (a / rs.len() as f64, b / rs.len() as f64)
+    };
+    let means: Vec<(f64, f64)> = if lanes == 1 {
+        results.iter().map(PositionResult::reflectance).collect()
+    } else {
+        results.chunks(lanes).map(mean).collect()
+    };
+    let results: Vec<&PositionResult> = results.iter().step_by(lanes).collect();
     let mut series: Vec<Series> = Vec::new();
     for (k, r) in results.iter().enumerate() {
         let src = scene.beam_source[k];
@@ -182,19 +222,24 @@ fn reflectance_plot(scene: &ObjectScene, results: &[PositionResult]) -> crate::p
             });
             series[src].label = format!("source {src} (beam {} mm)", r.beam.diameter);
         }
-        let (refl, se) = r.reflectance();
+        let (refl, se) = means[k];
         series[src]
             .points
             .push(((r.beam.position - first).length(), refl, 2.0 * se));
     }
-    let positive = results.iter().all(|r| r.reflectance().0 > 0.0);
-    let spread = results
+    let positive = means.iter().all(|m| m.0 > 0.0);
+    let spread = means
         .iter()
-        .map(|r| r.reflectance().0)
+        .map(|m| m.0)
         .fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(v), b.max(v)));
+    let what = if lanes == 1 {
+        "reflectance".to_owned()
+    } else {
+        format!("reflectance (mean over {lanes} wavelengths)")
+    };
     LinePlot {
         title: format!(
-            "{}: reflectance vs beam position (error bars: 2 standard errors)",
+            "{}: {what} vs beam position (error bars: 2 standard errors)",
             scene.name
         ),
         x_label: "beam axis offset from the first position (scene units)".into(),

@@ -2,7 +2,7 @@
 //! equations for a complex refractive index, or a measured table of
 //! reflectance against incidence angle.
 
-use super::fresnel::fresnel_unpolarised;
+use super::fresnel::{FresnelLanes, fresnel_unpolarised};
 use thiserror::Error;
 
 /// How much of the light striking a micro facet is reflected, as a function
@@ -28,7 +28,46 @@ pub enum Reflectance {
     /// with model `l`; any other model applies to every wavelength alike.
     /// As a single model (monochrome code: renders, statistics) it is its
     /// first wavelength's.
-    Spectral(std::sync::Arc<[Reflectance]>),
+    Spectral(std::sync::Arc<SpectralModel>),
+}
+
+/// The models of a [`Reflectance::Spectral`], one per wavelength, and, when
+/// all are Fresnel, their indices laid out for reflecting every wavelength
+/// at once ([`FresnelLanes`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpectralModel {
+    lanes: Vec<Reflectance>,
+    fresnel: Option<FresnelLanes>,
+}
+
+impl SpectralModel {
+    /// The models per wavelength (none of them `Spectral`).
+    #[must_use]
+    pub fn new(lanes: Vec<Reflectance>) -> Self {
+        let nk: Option<Vec<(f64, f64)>> = lanes
+            .iter()
+            .map(|m| match m {
+                Reflectance::Fresnel { n, k } => Some((*n, *k)),
+                _ => None,
+            })
+            .collect();
+        Self {
+            fresnel: nk.map(|nk| FresnelLanes::new(&nk)),
+            lanes,
+        }
+    }
+
+    /// The model of each wavelength.
+    #[must_use]
+    pub fn lanes(&self) -> &[Reflectance] {
+        &self.lanes
+    }
+
+    /// All Fresnel: their indices by component.
+    #[must_use]
+    pub fn fresnel(&self) -> Option<&FresnelLanes> {
+        self.fresnel.as_ref()
+    }
 }
 
 impl Reflectance {
@@ -44,7 +83,7 @@ impl Reflectance {
             Self::Constant(r) => r.clamp(0.0, 1.0),
             Self::Fresnel { n, k } => fresnel_unpolarised(cos_i, *n, *k),
             Self::Table(table) => table.reflectance(cos_i),
-            Self::Spectral(lanes) => lanes.first().map_or(f64::NAN, |m| m.reflectance(cos_i)),
+            Self::Spectral(m) => m.lanes.first().map_or(f64::NAN, |m| m.reflectance(cos_i)),
         }
     }
 
@@ -54,7 +93,7 @@ impl Reflectance {
     #[must_use]
     pub fn lane(&self, l: usize) -> &Self {
         match self {
-            Self::Spectral(lanes) => &lanes[l],
+            Self::Spectral(m) => &m.lanes[l],
             other => other,
         }
     }
@@ -65,7 +104,7 @@ impl Reflectance {
     pub fn polarises(&self) -> bool {
         match self {
             Self::Fresnel { .. } => true,
-            Self::Spectral(lanes) => lanes.iter().any(Self::polarises),
+            Self::Spectral(m) => m.lanes.iter().any(Self::polarises),
             _ => false,
         }
     }
@@ -95,7 +134,7 @@ impl Reflectance {
                 }
             }
             Self::Table(_) => Ok(()),
-            Self::Spectral(lanes) => lanes.iter().try_for_each(Self::validate),
+            Self::Spectral(m) => m.lanes.iter().try_for_each(Self::validate),
         }
     }
 }

@@ -183,9 +183,10 @@ mod tests {
     }
 
     /// A flat mirror of constant reflectance 0.5: every wavelength puts
-    /// 0.5 in the specular cell, so its XYZ is 0.5 / proj times D65's white
-    /// point (Y = 1 for the perfect white reflector), and its sRGB that of
-    /// the white point; every other cell is black.
+    /// the same fraction `f` in each cell (0.5 in all, shared between the
+    /// cells that meet at the specular direction), so each cell's XYZ is
+    /// `f / proj` times D65's white point (Y = 1 for the perfect white
+    /// reflector) and its sRGB that of the white point.
     #[test]
     fn a_grey_mirror_has_the_white_point() {
         let s = scene(
@@ -197,28 +198,29 @@ mod tests {
         assert_eq!(results.len(), 2 * 21);
         let grid = run.grid();
         let white = crate::optics::colour::d65_white_xyz();
+        let white_rgb = xyz_to_linear_srgb(white);
         for lanes in results.chunks(21) {
             let colours = cell_colours(&run, lanes).unwrap();
-            let specular = grid
-                .locate(glam::DVec3::new(
-                    lanes[0].theta_i_deg.to_radians().sin(),
-                    0.0,
-                    lanes[0].theta_i_deg.to_radians().cos(),
-                ))
-                .unwrap();
-            let (band, cell) = grid.band_cell(specular);
-            let proj = grid.projected_solid_angle(band, cell);
+            let t = &lanes[0].tallies;
+            let mut total = 0.0;
             for (flat, (xyz, rgb)) in colours.iter().enumerate() {
-                let expect = if flat == specular { 0.5 / proj } else { 0.0 };
+                let (band, cell) = grid.band_cell(flat);
+                let f = t.carlson.mean(flat, t.photons);
+                total += f;
+                let expect = f / grid.projected_solid_angle(band, cell);
                 for c in 0..3 {
+                    let tol = 1e-12 * expect.max(1.0);
                     assert!(
-                        (xyz[c] - expect * white[c]).abs() <= 1e-12 * expect.max(1.0),
+                        (xyz[c] - expect * white[c]).abs() <= tol,
                         "cell {flat}: {xyz:?}"
                     );
-                    let w = xyz_to_linear_srgb(white)[c];
-                    assert!((rgb[c] - expect * w).abs() <= 1e-12 * expect.max(1.0));
+                    assert!(
+                        (rgb[c] - expect * white_rgb[c]).abs() <= tol,
+                        "cell {flat}: {rgb:?}"
+                    );
                 }
             }
+            assert!((total - 0.5).abs() < 1e-12, "{total}");
         }
         let text = write(&run, &results).unwrap();
         assert_eq!(text.lines().next(), Some(HEADER));

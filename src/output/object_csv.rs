@@ -2,6 +2,15 @@
 //! position), `farfield.csv` and `farfield_stokes.csv` (per beam position
 //! and cell of the full-sphere far-field grid). Numbers with 10
 //! significant digits, cell geometry as in `brdf.csv`.
+//!
+//! A spectral run (`[light] wavelengths_um` or `--wavelengths`) has one
+//! more column, `wavelength_um` (µm, shortest round-trip form), right after
+//! the position columns: after `z` in `reflectance.csv`
+//! ([`SPECTRAL_REFLECTANCE_HEADER`]), after `source` in `farfield.csv` and
+//! `farfield_stokes.csv` ([`SPECTRAL_FARFIELD_HEADER`],
+//! [`SPECTRAL_FARFIELD_STOKES_HEADER`]); rows are position-major, then
+//! wavelength in the run's order, then (far field) cell. A monochrome
+//! run's files are unchanged.
 
 use std::fmt::Write as _;
 
@@ -13,15 +22,40 @@ pub const REFLECTANCE_HEADER: &str = "x,y,z,reflectance,reflectance_stderr";
 /// (theta measured from +z, 90-180 degrees there).
 pub const FARFIELD_HEADER: &str = "source,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
 
-/// `reflectance.csv`: one row per beam position.
+/// Columns of a spectral run's `reflectance.csv`.
+pub const SPECTRAL_REFLECTANCE_HEADER: &str = "x,y,z,wavelength_um,reflectance,reflectance_stderr";
+
+/// Columns of a spectral run's `farfield.csv`: [`FARFIELD_HEADER`] with
+/// `wavelength_um` after `source`.
+pub const SPECTRAL_FARFIELD_HEADER: &str = "source,wavelength_um,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// Columns of a spectral run's `farfield_stokes.csv`:
+/// [`FARFIELD_STOKES_HEADER`] with `wavelength_um` after `source`.
+pub const SPECTRAL_FARFIELD_STOKES_HEADER: &str = "source,wavelength_um,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,s0,s0_stderr,s1,s1_stderr,s2,s2_stderr,s3,s3_stderr,dop";
+
+/// Whether results come from a spectral run.
+fn spectral(results: &[crate::transport::object::PositionResult]) -> bool {
+    results.iter().any(|r| r.wavelength_um.is_some())
+}
+
+/// `reflectance.csv`: one row per beam position (and wavelength).
 #[must_use]
 pub fn reflectance_csv(results: &[crate::transport::object::PositionResult]) -> String {
-    let mut s = String::from(REFLECTANCE_HEADER);
+    let spectral = spectral(results);
+    let mut s = String::from(if spectral {
+        SPECTRAL_REFLECTANCE_HEADER
+    } else {
+        REFLECTANCE_HEADER
+    });
     s.push('\n');
     for r in results {
         let p = r.beam.position;
         let (refl, se) = r.reflectance();
-        let _ = writeln!(s, "{},{},{},{refl:.9e},{se:.9e}", p.x, p.y, p.z);
+        let _ = write!(s, "{},{},{},", p.x, p.y, p.z);
+        if let Some(w) = r.wavelength_um {
+            let _ = write!(s, "{w},");
+        }
+        let _ = writeln!(s, "{refl:.9e},{se:.9e}");
     }
     s
 }
@@ -35,12 +69,15 @@ pub fn reflectance_csv(results: &[crate::transport::object::PositionResult]) -> 
 /// ([`crate::transport::object::stokes_reference`]), above and below the horizon.
 pub const FARFIELD_STOKES_HEADER: &str = "source,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,s0,s0_stderr,s1,s1_stderr,s2,s2_stderr,s3,s3_stderr,dop";
 
-/// The rows of a far-field table: per beam position `k` and full-sphere cell
-/// `flat`, `row(s, k, result, flat, projected solid angle)` appends the
-/// columns after the cell's (`source` to `projected_solid_angle_sr`, with
-/// the comma before them written) and the line end.
+/// The rows of a far-field table: per beam position `k` (and wavelength) and
+/// full-sphere cell `flat`, `row(s, result, flat, projected solid angle)`
+/// appends the columns after the cell's (`source` to
+/// `projected_solid_angle_sr`, with the comma before them written) and the
+/// line end. `header` is the monochrome header, `spectral_header` a
+/// spectral run's.
 fn farfield_rows(
     header: &str,
+    spectral_header: &str,
     run: &crate::transport::object::ObjectRun,
     results: &[crate::transport::object::PositionResult],
     row: impl Fn(&mut String, &crate::transport::object::PositionResult, usize, f64),
@@ -48,9 +85,18 @@ fn farfield_rows(
     let grid = run.farfield_grid().grid;
     let half = grid.n_cells();
     let omega = grid.solid_angle();
-    let mut s = String::from(header);
+    let lanes = run.lane_count();
+    let mut s = String::from(if spectral(results) {
+        spectral_header
+    } else {
+        header
+    });
     s.push('\n');
-    for (k, r) in results.iter().enumerate() {
+    for (i, r) in results.iter().enumerate() {
+        let k = i / lanes;
+        let lambda = r
+            .wavelength_um
+            .map_or_else(String::new, |w| format!("{w},"));
         for flat in 0..2 * half {
             let lower = flat >= half;
             let (band, cell) = grid.band_cell(flat % half);
@@ -74,7 +120,7 @@ fn farfield_rows(
             let proj = grid.projected_solid_angle(band, cell);
             let _ = write!(
                 s,
-                "{k},{band_label},{cell},{t_lo},{t_hi},{},{},{t_c},{},{omega:.12e},{proj:.12e},",
+                "{k},{lambda}{band_label},{cell},{t_lo},{t_hi},{},{},{t_c},{},{omega:.12e},{proj:.12e},",
                 phi_lo.to_degrees(),
                 phi_hi.to_degrees(),
                 phi.to_degrees(),
@@ -95,12 +141,18 @@ pub fn farfield_csv(
     run: &crate::transport::object::ObjectRun,
     results: &[crate::transport::object::PositionResult],
 ) -> String {
-    farfield_rows(FARFIELD_HEADER, run, results, |s, r, flat, proj| {
-        let n = r.tallies.photons;
-        let f = r.tallies.farfield.mean(flat, n);
-        let fe = r.tallies.farfield.stderr(flat, n);
-        let _ = write!(s, "{f:.9e},{fe:.9e},{:.9e},{:.9e}", f / proj, fe / proj);
-    })
+    farfield_rows(
+        FARFIELD_HEADER,
+        SPECTRAL_FARFIELD_HEADER,
+        run,
+        results,
+        |s, r, flat, proj| {
+            let n = r.tallies.photons;
+            let f = r.tallies.farfield.mean(flat, n);
+            let fe = r.tallies.farfield.stderr(flat, n);
+            let _ = write!(s, "{f:.9e},{fe:.9e},{:.9e},{:.9e}", f / proj, fe / proj);
+        },
+    )
 }
 
 /// `farfield_stokes.csv` (see [`FARFIELD_STOKES_HEADER`]); the run must
@@ -110,13 +162,19 @@ pub fn farfield_stokes_csv(
     run: &crate::transport::object::ObjectRun,
     results: &[crate::transport::object::PositionResult],
 ) -> String {
-    farfield_rows(FARFIELD_STOKES_HEADER, run, results, |s, r, flat, proj| {
-        let (acc, n) = (&r.tallies.farfield_stokes, r.tallies.photons);
-        let stokes: [f64; 4] = std::array::from_fn(|j| acc.mean(4 * flat + j, n) / proj);
-        for (j, v) in stokes.iter().enumerate() {
-            let _ = write!(s, "{v:.9e},{:.9e},", acc.stderr(4 * flat + j, n) / proj);
-        }
-        let dop = crate::optics::polarisation::degree_of_polarisation(stokes);
-        let _ = write!(s, "{dop:.9e}");
-    })
+    farfield_rows(
+        FARFIELD_STOKES_HEADER,
+        SPECTRAL_FARFIELD_STOKES_HEADER,
+        run,
+        results,
+        |s, r, flat, proj| {
+            let (acc, n) = (&r.tallies.farfield_stokes, r.tallies.photons);
+            let stokes: [f64; 4] = std::array::from_fn(|j| acc.mean(4 * flat + j, n) / proj);
+            for (j, v) in stokes.iter().enumerate() {
+                let _ = write!(s, "{v:.9e},{:.9e},", acc.stderr(4 * flat + j, n) / proj);
+            }
+            let dop = crate::optics::polarisation::degree_of_polarisation(stokes);
+            let _ = write!(s, "{dop:.9e}");
+        },
+    )
 }

@@ -492,6 +492,11 @@ pub struct PositionSummary {
     pub seconds: f64,
     /// Straight flights at the macro level.
     pub segments: u64,
+    /// A spectral run's results per wavelength (the entry's own
+    /// `reflectance`, `missed`, `lost`, `absorbed` and Stokes sums are then
+    /// their means over these wavelengths).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<Vec<PositionWavelengthSummary>>,
     /// Stokes vector of the reflected light (polarised runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stokes: Option<[f64; 4]>,
@@ -500,7 +505,106 @@ pub struct PositionSummary {
     pub stokes_stderr: Option<[f64; 4]>,
 }
 
+/// One wavelength of a beam position of a spectral `roks trace` run.
+///
+/// `emissivity` is `1 - reflectance - missed`: the share of the beam's
+/// flux the object keeps (absorbed, by the energy balance; `lost` aside).
+/// By Kirchhoff's law and reciprocity it is the effective (directional)
+/// emissivity of the cavity toward the reversed beam direction, over the
+/// beam's footprint, when the walls are opaque (no transmission), the
+/// cavity is isothermal and the beam enters it fully (`missed = 0`): then
+/// the directional emissivity equals the directional-hemispherical
+/// absorptance `1 - reflectance`. With `missed > 0` the beam is partly
+/// outside the aperture and the number is only the absorbed share.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PositionWavelengthSummary {
+    /// Weight absorbed per photon, by surface name (surfaces that absorbed
+    /// at this wavelength).
+    pub absorbed: BTreeMap<String, f64>,
+    /// Its standard errors.
+    pub absorbed_stderr: BTreeMap<String, f64>,
+    /// `1 - reflectance - missed` (see the type's docs).
+    pub emissivity: f64,
+    /// Weight lost to caps and guards, per photon.
+    pub lost: f64,
+    /// Weight escaping without a reflection, per photon.
+    pub missed: f64,
+    /// Reflected weight per photon at this wavelength.
+    pub reflectance: f64,
+    /// Its standard error.
+    pub reflectance_stderr: f64,
+    /// Stokes vector of the reflected light (polarised runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stokes: Option<[f64; 4]>,
+    /// Vacuum wavelength (µm).
+    pub wavelength_um: f64,
+}
+
+impl PositionWavelengthSummary {
+    /// The entry of one wavelength's result.
+    #[must_use]
+    pub fn new(r: &PositionResult, surface_names: &[String]) -> Self {
+        let one = PositionSummary::new(r, surface_names);
+        Self {
+            absorbed: one.absorbed,
+            absorbed_stderr: one.absorbed_stderr,
+            emissivity: 1.0 - one.reflectance - one.missed,
+            lost: one.lost,
+            missed: one.missed,
+            reflectance: one.reflectance,
+            reflectance_stderr: one.reflectance_stderr,
+            stokes: one.stokes,
+            wavelength_um: r.wavelength_um.unwrap_or(f64::NAN),
+        }
+    }
+}
+
 impl PositionSummary {
+    /// The entry of one beam position of a spectral run from its results
+    /// per wavelength (`lanes`, in order): counts and times are the trace's
+    /// (the same for every wavelength); `reflectance`, `missed`, `lost`,
+    /// `absorbed` (by every surface that absorbed at some wavelength) and
+    /// the Stokes sums are means over the wavelengths, and their standard
+    /// errors the means of the wavelengths' standard errors, an upper bound
+    /// of the mean's (the wavelengths share their photons).
+    #[must_use]
+    pub fn spectral(lanes: &[PositionResult], surface_names: &[String]) -> Self {
+        let all: Vec<Self> = lanes.iter().map(|r| Self::new(r, surface_names)).collect();
+        let count = all.len().max(1) as f64;
+        let mean = |f: &dyn Fn(&Self) -> f64| all.iter().map(f).sum::<f64>() / count;
+        let mean_map = |f: &dyn Fn(&Self) -> &BTreeMap<String, f64>| {
+            let mut m = BTreeMap::new();
+            for e in &all {
+                for (k, v) in f(e) {
+                    *m.entry(k.clone()).or_insert(0.0) += v;
+                }
+            }
+            m.values_mut().for_each(|v| *v /= count);
+            m
+        };
+        let mean4 = |f: &dyn Fn(&Self) -> Option<[f64; 4]>| {
+            let vs: Option<Vec<[f64; 4]>> = all.iter().map(f).collect();
+            vs.map(|vs| std::array::from_fn(|j| vs.iter().map(|v| v[j]).sum::<f64>() / count))
+        };
+        let mut first = all[0].clone();
+        first.absorbed = mean_map(&|e| &e.absorbed);
+        first.absorbed_stderr = mean_map(&|e| &e.absorbed_stderr);
+        first.lost = mean(&|e| e.lost);
+        first.missed = mean(&|e| e.missed);
+        first.reflectance = mean(&|e| e.reflectance);
+        first.reflectance_stderr = mean(&|e| e.reflectance_stderr);
+        first.stokes = mean4(&|e| e.stokes);
+        first.stokes_stderr = mean4(&|e| e.stokes_stderr);
+        first.spectrum = Some(
+            lanes
+                .iter()
+                .map(|r| PositionWavelengthSummary::new(r, surface_names))
+                .collect(),
+        );
+        first
+    }
+
     /// The entry of one beam position's result; `surface_names` by surface id.
     #[must_use]
     pub fn new(r: &PositionResult, surface_names: &[String]) -> Self {
@@ -531,6 +635,7 @@ impl PositionSummary {
             reflectance_stderr,
             seconds: r.seconds,
             segments: t.segments,
+            spectrum: None,
             stokes: stokes.map(|s| s.0),
             stokes_stderr: stokes.map(|s| s.1),
         }
@@ -553,12 +658,16 @@ pub struct TraceSummary {
     pub sources: Vec<PositionSummary>,
     /// The roks version that ran it.
     pub version: String,
+    /// Wavelengths (µm) of a spectral run (absent: monochrome).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub wavelengths_um: Vec<f64>,
 }
 
 impl TraceSummary {
     /// The summary of a trace of scene file `scene` named `name` with
-    /// `seed`: per beam position `results`, surfaces named by id
-    /// `surface_names`, total time `seconds`.
+    /// `seed`: per beam position `results` (per position and wavelength,
+    /// position-major, for a spectral run of `wavelengths_um`; empty:
+    /// monochrome), surfaces named by id `surface_names`, total time `seconds`.
     #[must_use]
     pub fn new(
         scene: &str,
@@ -566,6 +675,7 @@ impl TraceSummary {
         seed: u64,
         results: &[PositionResult],
         surface_names: &[String],
+        wavelengths_um: &[f64],
         seconds: f64,
     ) -> Self {
         Self {
@@ -573,11 +683,19 @@ impl TraceSummary {
             scene: scene.to_owned(),
             seconds,
             seed,
-            sources: results
-                .iter()
-                .map(|r| PositionSummary::new(r, surface_names))
-                .collect(),
+            sources: if wavelengths_um.is_empty() {
+                results
+                    .iter()
+                    .map(|r| PositionSummary::new(r, surface_names))
+                    .collect()
+            } else {
+                results
+                    .chunks(wavelengths_um.len())
+                    .map(|lanes| PositionSummary::spectral(lanes, surface_names))
+                    .collect()
+            },
             version: env!("CARGO_PKG_VERSION").to_owned(),
+            wavelengths_um: wavelengths_um.to_vec(),
         }
     }
 }
@@ -769,6 +887,17 @@ mod tests {
             reflectance_stderr: 0.01,
             seconds: 0.1,
             segments: 30,
+            spectrum: Some(vec![PositionWavelengthSummary {
+                absorbed: [("b".to_owned(), 0.1), ("a".to_owned(), 0.2)].into(),
+                absorbed_stderr: BTreeMap::new(),
+                emissivity: 0.25,
+                lost: 0.0,
+                missed: 0.25,
+                reflectance: 0.5,
+                reflectance_stderr: 0.01,
+                stokes: Some([0.5, 0.1, 0.0, 0.0]),
+                wavelength_um: 3.0,
+            }]),
             stokes: Some([0.5, 0.1, 0.0, 0.0]),
             stokes_stderr: Some([0.01; 4]),
         };
@@ -779,6 +908,7 @@ mod tests {
             seed: 1,
             sources: vec![position],
             version: "0".into(),
+            wavelengths_um: vec![3.0],
         });
         assert_sorted(&FitSummary {
             converged: true,

@@ -671,7 +671,9 @@ pub fn spectral_model(mut models: Vec<Reflectance>) -> Reflectance {
     if models.len() <= 1 || models.iter().all(|m| *m == models[0]) {
         return models.swap_remove(0);
     }
-    Reflectance::Spectral(models.into())
+    Reflectance::Spectral(std::sync::Arc::new(
+        crate::optics::material::SpectralModel::new(models),
+    ))
 }
 
 /// Build every material of a `[materials]` table; returns names and models in order.

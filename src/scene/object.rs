@@ -50,7 +50,26 @@
 //! max_bounces = 100000
 //! roulette_weight = 0.01
 //! # polarisation = false               # force the scalar (unpolarised) approximation; true: force Stokes
+//!
+//! # [light]                            # optional: a spectral run (see below)
+//! # wavelengths_um = [3.0, 8.0, 12.0]  # or { from = 3.0, to = 14.0, step = 0.5 }
 //! ```
+//!
+//! # Wavelengths
+//!
+//! `[light] wavelengths_um` (the micro scenes' key; `roks trace
+//! --wavelengths` overrides it) makes the run spectral: every photon carries
+//! a weight per wavelength along one path ([`crate::transport::object`]).
+//! The models are sampled at the wavelengths: `n`, `k`, `reflectance` as
+//! numbers (the same at every wavelength) or arrays aligned with the
+//! wavelengths, `nk = "file"` a measured table, `table` a file or an array
+//! of files ([`MaterialSpec`]); a `micro` wall's micro scene is loaded at
+//! the object's wavelengths (its own `[light] wavelengths_um` is replaced),
+//! so its materials are sampled at them. Ideal walls (`specular`,
+//! `diffuse`) and a monochrome `brdf` table apply to every wavelength
+//! alike; a spectral `brdf` table (with a `wavelength_um` column) is not
+//! supported yet. A monochrome object scene refuses a micro scene that has
+//! wavelengths of its own (give the object the `[light]` key instead).
 //!
 //! # Polarisation
 //!
@@ -91,7 +110,8 @@ use serde::Deserialize;
 
 use super::micro::{MicroScene, TransportSpec};
 use super::{
-    Files, MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, Source, Values, parse_toml,
+    Files, MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, Source, Values,
+    WavelengthsSpec, parse_toml,
 };
 use crate::object::source::Beam;
 use crate::object::{Object, SolidZone, VoidZone};
@@ -133,6 +153,18 @@ pub struct ObjectSceneSpec {
     /// decides by the scene, see the module docs).
     #[serde(default)]
     pub transport: TransportSpec,
+    /// The wavelengths of a spectral run (see the module docs).
+    #[serde(default)]
+    pub light: ObjectLightSpec,
+}
+
+/// `[light]` of an object scene: only the wavelengths (the beams are
+/// `[[sources]]`).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectLightSpec {
+    /// Vacuum wavelengths (µm) every photon carries; absent: monochrome.
+    pub wavelengths_um: Option<WavelengthsSpec>,
 }
 
 /// `[[cells]]`: one zone of the object.
@@ -282,15 +314,40 @@ pub struct ObjectScene {
 impl ObjectScene {
     /// Load a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
+        Self::load_at(path, None)
+    }
+
+    /// Load a scene file with its `[light] wavelengths_um` replaced by
+    /// `wavelengths` (µm, `roks trace --wavelengths`; `None`: the file's).
+    pub fn load_at(path: &Path, wavelengths: Option<&[f64]>) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())
+        Self::from_str_at(
+            &text,
+            Source::from_path(path),
+            name.unwrap_or_default(),
+            wavelengths,
+        )
     }
 
     /// Parse and build from TOML text.
     pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        let spec: ObjectSceneSpec = parse_toml(&source, text)
+        Self::from_str_at(text, source, fallback_name, None)
+    }
+
+    /// [`ObjectScene::from_str`] with the wavelengths replaced (see
+    /// [`ObjectScene::load_at`]).
+    pub fn from_str_at(
+        text: &str,
+        source: Source,
+        fallback_name: String,
+        wavelengths: Option<&[f64]>,
+    ) -> Result<Self, SceneError> {
+        let mut spec: ObjectSceneSpec = parse_toml(&source, text)
             .map_err(|e| super::other_kind(text, "surface", e, "a micro scene ([surface]): roks brdf traces it; roks trace takes object scenes ([[cells]])"))?;
+        if let Some(w) = wavelengths {
+            spec.light.wavelengths_um = Some(WavelengthsSpec::List(w.to_vec()));
+        }
         spec.build(source, fallback_name)
     }
 }
@@ -342,10 +399,23 @@ impl ObjectSceneSpec {
             ..Controls::default()
         };
 
+        let wavelengths_um = match &self.light.wavelengths_um {
+            Some(w) => w.resolve().map_err(|(i, e)| match i {
+                Some(i) => source.error(format!("light.wavelengths_um[{i}]"), e),
+                None => source.error("light.wavelengths_um", e),
+            })?,
+            None => Vec::new(),
+        };
+        let lanes = wavelengths_um.len().max(1) as u64;
         let model_names: Vec<String> = self.models.keys().cloned().collect();
         let mut models = Vec::new();
         for (name, m) in &self.models {
-            models.push(m.build(&source, &format!("models.{name}"), controls, &[])?);
+            models.push(m.build(
+                &source,
+                &format!("models.{name}"),
+                controls,
+                &wavelengths_um,
+            )?);
         }
         let mut walls: Walls = vec![None; surface_names.len()];
         for (surface, model) in &self.walls {
@@ -439,7 +509,9 @@ impl ObjectSceneSpec {
                         farfield_stokes,
                     );
                     let positions = (beams.len() as u64).saturating_add(sw.steps as u64);
-                    let bytes = fixed.saturating_add(positions.saturating_mul(per_position));
+                    let bytes = fixed.saturating_mul(lanes).saturating_add(
+                        positions.saturating_mul(per_position.saturating_mul(lanes)),
+                    );
                     source.check_memory(
                         &key("sweep.steps"),
                         &format!("{positions} beam positions (tallies and result tables)"),
@@ -523,11 +595,18 @@ impl ObjectSceneSpec {
         source.check_memory(
             "tally.bands",
             &format!(
-                "the tallies and tables of {} Carlson bands for {} beam positions",
+                "the tallies and tables of {} Carlson bands for {} beam positions{}",
                 tally.bands,
-                beams.len()
+                beams.len(),
+                if wavelengths_um.is_empty() {
+                    String::new()
+                } else {
+                    format!(" and {lanes} wavelengths")
+                }
             ),
-            fixed.saturating_add((beams.len() as u64).saturating_mul(per_position)),
+            fixed.saturating_mul(lanes).saturating_add(
+                (beams.len() as u64).saturating_mul(per_position.saturating_mul(lanes)),
+            ),
         )?;
         let run = ObjectRun {
             seed: self.seed.unwrap_or(1),
@@ -536,6 +615,7 @@ impl ObjectSceneSpec {
             controls,
             polarisation,
             farfield_stokes,
+            wavelengths_um,
         };
         Ok(ObjectScene {
             name: super::scene_name(&source, self.name, fallback_name)?,
@@ -577,8 +657,19 @@ impl ModelSpec {
         }
         if let Some(file) = &self.micro {
             let path = source.dir.join(file);
-            let scene = MicroScene::load(&path)
+            // A spectral object samples the micro scene's materials at its wavelengths.
+            let at = (!wavelengths_um.is_empty()).then_some(wavelengths_um);
+            let scene = MicroScene::load_at(&path, at)
                 .map_err(|e| source.error(format!("{key}.micro"), e.to_string()))?;
+            if at.is_none() && !scene.wavelengths_um.is_empty() {
+                return Err(source.error(
+                    format!("{key}.micro"),
+                    format!(
+                        "the micro scene {} is spectral ([light] wavelengths_um) but this object scene is not: give the object scene [light] wavelengths_um (they replace the micro scene's)",
+                        path.display()
+                    ),
+                ));
+            }
             let Some(micro) = MicroWall::new(scene.surface, controls) else {
                 return Err(source.error(
                     format!("{key}.micro"),
@@ -589,6 +680,7 @@ impl ModelSpec {
         }
         if let Some(file) = &self.brdf {
             let path = source.dir.join(file);
+            refuse_spectral_table(source, &format!("{key}.brdf"), &path)?;
             let mut table = BrdfTable::load(&path)
                 .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
             // The run's summary beside the table carries the exact reflectance errors.
@@ -639,6 +731,34 @@ impl ModelSpec {
         let r: Reflectance = material.build(source, key, wavelengths_um)?;
         Ok(WallModel::Specular(r))
     }
+}
+
+/// A `brdf` wall takes a monochrome table (it then applies to every
+/// wavelength of a spectral run): a table whose header has a
+/// `wavelength_um` column (a spectral `roks brdf` run) is refused at `key`.
+/// An unreadable file is left to the table reader's own message.
+fn refuse_spectral_table(source: &Source, key: &str, path: &Path) -> Result<(), SceneError> {
+    use std::io::BufRead;
+    let Ok(file) = std::fs::File::open(path) else {
+        return Ok(());
+    };
+    let mut header = String::new();
+    if std::io::BufReader::new(file)
+        .read_line(&mut header)
+        .is_err()
+    {
+        return Ok(());
+    }
+    if header.trim_end().split(',').any(|c| c == "wavelength_um") {
+        return Err(source.error(
+            key,
+            format!(
+                "{} is a spectral table (a wavelength_um column): a brdf wall takes a monochrome table for now (it applies to every wavelength); give each wavelength its own monochrome run, or use a micro wall",
+                path.display()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Estimated memory (bytes) of an object run per beam position, and the

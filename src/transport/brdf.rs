@@ -741,7 +741,7 @@ impl BrdfRun {
             self.polarisation.transport,
             self.polarisation.tally,
         ) {
-            (true, false, _) => self.trace_ordered::<Spectral<f64>>(
+            (true, false, _) => self.trace_spectral::<f64>(
                 surface,
                 &grid,
                 &inplane,
@@ -751,7 +751,7 @@ impl BrdfRun {
                 &mut consume,
                 progress,
             ),
-            (true, true, PolarTally::Mueller) => self.trace_ordered::<Spectral<Polarised<4>>>(
+            (true, true, PolarTally::Mueller) => self.trace_spectral::<Polarised<4>>(
                 surface,
                 &grid,
                 &inplane,
@@ -761,7 +761,7 @@ impl BrdfRun {
                 &mut consume,
                 progress,
             ),
-            (true, true, _) => self.trace_ordered::<Spectral<Polarised<1>>>(
+            (true, true, _) => self.trace_spectral::<Polarised<1>>(
                 surface,
                 &grid,
                 &inplane,
@@ -838,6 +838,33 @@ impl BrdfRun {
     /// tally, scored in index order (the same tallies either way), to
     /// `consume(batch index, tally)` in batch order. Batches tally into the
     /// cleared tallies of `spare` while there are any.
+    /// [`BrdfRun::trace_ordered`] with a [`Spectral`] carrier of lanes `C`
+    /// and the smallest capacity (8, 32, 128) that holds the run's wavelengths.
+    #[allow(clippy::too_many_arguments)]
+    fn trace_spectral<C: Carrier<Lane = C>>(
+        &self,
+        surface: &MicroSurface,
+        locator: &Locator,
+        inplane: &InPlaneTally,
+        dir: DVec3,
+        ordered: bool,
+        spare: &Spare,
+        consume: &mut dyn FnMut(u64, Vec<BrdfTallies>),
+        progress: &(dyn Fn(u64) + Sync),
+    ) {
+        match self.lane_count() {
+            0..=8 => self.trace_ordered::<Spectral<C, 8>>(
+                surface, locator, inplane, dir, ordered, spare, consume, progress,
+            ),
+            9..=32 => self.trace_ordered::<Spectral<C, 32>>(
+                surface, locator, inplane, dir, ordered, spare, consume, progress,
+            ),
+            _ => self.trace_ordered::<Spectral<C>>(
+                surface, locator, inplane, dir, ordered, spare, consume, progress,
+            ),
+        }
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn trace_ordered<C: Carrier>(
         &self,
@@ -948,41 +975,54 @@ impl BrdfRun {
         let incident: Stokes = self.polarisation.incident.stokes();
         let mut components = [0.0; 16];
         for (replicate, h, tests) in photons {
-            // The direction's cells once, for every wavelength.
-            let shares = match h.fate {
-                Fate::Escaped { dir: out, .. } => Some((
-                    self.cell_weights(locator, out, 1.0, sin_cos_phi),
-                    inplane.locate(out),
-                )),
-                _ => None,
-            };
-            for (l, t) in lanes.iter_mut().enumerate() {
-                t.intersection_tests += tests;
-                t.photons += 1;
-                t.bounces += u64::from(h.bounces);
-                t.segments += u64::from(h.segments);
-                match h.fate {
-                    Fate::Escaped {
-                        dir: out,
-                        weight: carried,
-                    } => {
+            // Counts are the same at every wavelength: kept in the first
+            // wavelength's tallies and copied to the others below.
+            let t0 = &mut lanes[0];
+            t0.intersection_tests += tests;
+            t0.photons += 1;
+            t0.bounces += u64::from(h.bounces);
+            t0.segments += u64::from(h.segments);
+            // By reference: a spectral carrier is large.
+            match &h.fate {
+                Fate::Escaped {
+                    dir: out,
+                    weight: carried,
+                } => {
+                    let out = *out;
+                    // The direction's cells once, for every wavelength.
+                    let shares = self.cell_weights(locator, out, 1.0, sin_cos_phi);
+                    let bin = inplane.locate(out);
+                    let reference = lanes[0]
+                        .polar
+                        .is_some()
+                        .then(|| hemisphere_reference(out, phi));
+                    // The (cell, share) pairs the weight is scored into.
+                    let mut hits = [(0, 0.0); 8];
+                    let mut n_hits = 0;
+                    for (cs, share) in shares.iter().filter(|h| h.1 != 0.0) {
+                        for &c in cs.as_slice() {
+                            hits[n_hits] = (c, *share);
+                            n_hits += 1;
+                        }
+                    }
+                    for (l, t) in lanes.iter_mut().enumerate() {
                         let carried = carried.lane(l);
                         let weight = carried.weight_for(&incident);
-                        let (shares, bin) = shares.expect("an escaped photon's cells");
                         t.reflected.score(0, weight);
                         // The cells' shares for weight 1 (the polarisation tally's),
                         // then times the weight: the same products as
-                        // `cell_weights(.., weight, ..)`, bit for bit.
-                        let halves = shares.map(|(cells, share)| (cells, share * weight));
-                        for (cs, w) in halves.iter().filter(|h| h.1 != 0.0) {
-                            for &c in cs.as_slice() {
-                                t.carlson.score(c, *w);
+                        // `cell_weights(.., weight, ..)`, bit for bit (a zero
+                        // product adds nothing to the non-negative sums).
+                        if weight != 0.0 {
+                            for &(c, share) in &hits[..n_hits] {
+                                t.carlson.score(c, share * weight);
                             }
                         }
                         if let Some(c) = bin {
                             t.inplane.score(c, weight);
                         }
                         if let Some(r) = &mut t.replicates {
+                            let halves = shares.map(|(cells, share)| (cells, share * weight));
                             r.reflected[replicate] += weight;
                             for (cs, w) in &halves {
                                 for &c in cs.as_slice() {
@@ -994,8 +1034,7 @@ impl BrdfRun {
                             }
                         }
                         t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
-                        if let Some(p) = &mut t.polar {
-                            let reference = hemisphere_reference(out, phi);
+                        if let (Some(p), Some(reference)) = (&mut t.polar, reference) {
                             let k = carried.components(out, reference, &mut components);
                             let mirror = self.symmetry == Symmetry::Mirror;
                             match k {
@@ -1008,20 +1047,33 @@ impl BrdfRun {
                             }
                         }
                     }
-                    Fate::Absorbed => {}
-                    Fate::Wall { weight } => {
+                }
+                Fate::Absorbed => {}
+                Fate::Wall { weight } => {
+                    for (l, t) in lanes.iter_mut().enumerate() {
                         t.lost_walls += weight.lane(l).weight_for(&incident);
                     }
-                    Fate::Capped { weight } => {
+                }
+                Fate::Capped { weight } => {
+                    for (l, t) in lanes.iter_mut().enumerate() {
                         t.lost_cap += weight.lane(l).weight_for(&incident);
                         t.capped_histories += 1;
                     }
-                    Fate::Numeric { weight } => {
+                }
+                Fate::Numeric { weight } => {
+                    for (l, t) in lanes.iter_mut().enumerate() {
                         t.lost_numeric += weight.lane(l).weight_for(&incident);
                         t.numeric_histories += 1;
                     }
                 }
             }
+        }
+        let (first, rest) = lanes.split_first_mut().expect("one wavelength at least");
+        for t in rest {
+            t.intersection_tests = first.intersection_tests;
+            t.photons = first.photons;
+            t.bounces = first.bounces;
+            t.segments = first.segments;
         }
         lanes
     }

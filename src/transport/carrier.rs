@@ -27,8 +27,20 @@
 
 use glam::DVec3;
 
+use crate::optics::fresnel::{CHUNK, FresnelLanes};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::{FresnelMueller, Stokes, rotation};
+
+/// The turn of a carrier's reference frame into the s frame of one
+/// reflection ([`Carrier::s_turn`]): the rotator `(cos 2a, sin 2a)` if the
+/// frame turns, and the s axis, the new reference vector.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct STurn {
+    /// The rotator of [`rotation`], or `None` at normal incidence (any axis is exact).
+    pub rotator: Option<(f64, f64)>,
+    /// The reference vector after the reflection.
+    pub s: DVec3,
+}
 
 /// The weight a photon carries (see the module docs).
 pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
@@ -60,6 +72,22 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     /// the carrier unchanged, when the reflectance is not a finite number >= 0.
     fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool;
 
+    /// Whether the carrier keeps a polarisation state (a Fresnel reflection
+    /// needs all four coefficients of [`FresnelMueller`], not only `a`).
+    const POLARISED: bool = false;
+
+    /// The turn of the reference frame into the s frame of a reflection of
+    /// the flight `d` about the normal `n`: what [`Carrier::fresnel_in`]
+    /// applies (computed once for all wavelengths of a [`Spectral`] carrier,
+    /// whose lanes share their reference vector).
+    fn s_turn(&self, _d: DVec3, _n: DVec3) -> STurn {
+        STurn::default()
+    }
+
+    /// A Fresnel reflection given its coefficients `f` (finite, `a >= 0`)
+    /// and the frame turn `turn` of this reflection ([`Carrier::s_turn`]).
+    fn fresnel_in(&mut self, turn: &STurn, f: &FresnelMueller);
+
     /// Non-polarising specular reflection with reflectance `rho` (>= 0).
     fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3);
 
@@ -82,6 +110,17 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     /// ended as `local`; and the intensity the wall removed.
     #[must_use]
     fn rescaled(&self, local: Self) -> (Self, f64);
+
+    /// [`Carrier::rescaled`], handing the intensity the wall removed from
+    /// each wavelength to `removed(lane, intensity)` (lanes in order; a
+    /// monochrome carrier: lane 0, `rescaled`'s removed intensity).
+    #[must_use]
+    #[inline]
+    fn rescaled_lanes(&self, local: Self, mut removed: impl FnMut(usize, f64)) -> Self {
+        let (out, r) = self.rescaled(local);
+        removed(0, r);
+        out
+    }
 
     /// Map the reference vector into other coordinates (a wall's local frame and back).
     fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3);
@@ -123,6 +162,10 @@ impl Carrier for f64 {
         }
         *self *= r;
         true
+    }
+    #[inline]
+    fn fresnel_in(&mut self, _: &STurn, f: &FresnelMueller) {
+        *self *= f.a;
     }
     #[inline]
     fn mirror(&mut self, rho: f64, _: DVec3, _: DVec3) {
@@ -232,6 +275,42 @@ impl<const N: usize> Carrier for Polarised<N> {
         Self { rows, x: reference }
     }
 
+    const POLARISED: bool = true;
+
+    #[inline]
+    fn s_turn(&self, d: DVec3, n: DVec3) -> STurn {
+        let s = n.cross(d);
+        let len2 = s.length_squared();
+        if len2 > 1e-24 {
+            let s = s / len2.sqrt();
+            STurn {
+                rotator: Some(rotation(d, self.x, s)),
+                s,
+            }
+        } else {
+            STurn {
+                rotator: None,
+                s: self.x,
+            }
+        }
+    }
+
+    #[inline]
+    fn fresnel_in(&mut self, turn: &STurn, f: &FresnelMueller) {
+        if let Some(r) = turn.rotator {
+            rotate_rows(&mut self.rows, r);
+        }
+        let FresnelMueller { a, b, c, d } = *f;
+        let [r0, r1, r2, r3] = self.rows;
+        self.rows = [
+            std::array::from_fn(|j| a * r0[j] + b * r1[j]),
+            std::array::from_fn(|j| b * r0[j] + a * r1[j]),
+            std::array::from_fn(|j| c * r2[j] - d * r3[j]),
+            std::array::from_fn(|j| d * r2[j] + c * r3[j]),
+        ];
+        self.x = turn.s;
+    }
+
     #[inline]
     fn intensity(&self) -> f64 {
         self.rows[0][0]
@@ -253,17 +332,9 @@ impl<const N: usize> Carrier for Polarised<N> {
                 if !(f.a >= 0.0 && [f.a, f.b, f.c, f.d].iter().all(|v| v.is_finite())) {
                     return false;
                 }
-                let s = self.turn_to_s_frame(d, n);
-                // `FresnelMueller::apply` on each column, lane by lane.
-                let FresnelMueller { a, b, c, d } = f;
-                let [r0, r1, r2, r3] = self.rows;
-                self.rows = [
-                    std::array::from_fn(|j| a * r0[j] + b * r1[j]),
-                    std::array::from_fn(|j| b * r0[j] + a * r1[j]),
-                    std::array::from_fn(|j| c * r2[j] - d * r3[j]),
-                    std::array::from_fn(|j| d * r2[j] + c * r3[j]),
-                ];
-                self.x = s;
+                // `FresnelMueller::apply` on each column, in the s frame.
+                let turn = self.s_turn(d, n);
+                self.fresnel_in(&turn, &f);
                 true
             }
             other => {
@@ -377,13 +448,17 @@ pub const MAX_WAVELENGTHS: usize = 128;
 /// * A reflection that fails (a reflectance that is not a finite number,
 ///   e.g. for a NaN cosine) fails at the first lane, leaving the carrier
 ///   unchanged: scene models are valid at every wavelength.
+///
+/// `CAP` is the most wavelengths it can hold (at most [`MAX_WAVELENGTHS`]):
+/// a run uses the smallest of a few capacities that holds its wavelengths,
+/// since a photon's carrier is copied a few times per history.
 #[derive(Debug, Clone, Copy)]
-pub struct Spectral<C> {
-    lanes: [C; MAX_WAVELENGTHS],
+pub struct Spectral<C, const CAP: usize = MAX_WAVELENGTHS> {
+    lanes: [C; CAP],
     len: usize,
 }
 
-impl<C: Carrier<Lane = C>> Spectral<C> {
+impl<C: Carrier<Lane = C>, const CAP: usize> Spectral<C, CAP> {
     /// The lanes in use.
     #[inline]
     fn used(&self) -> &[C] {
@@ -407,6 +482,37 @@ impl<C: Carrier<Lane = C>> Spectral<C> {
         best
     }
 
+    /// A Fresnel reflection of every wavelength: the coefficients of all
+    /// lanes by [`FresnelLanes::chunk`] (vectorised), [`CHUNK`] lanes at a
+    /// time, the frame turn once ([`Carrier::s_turn`]: the lanes share their
+    /// reference vector).
+    #[inline]
+    fn reflect_fresnel(&mut self, fresnel: &FresnelLanes, d: DVec3, n: DVec3, cos_i: f64) -> bool {
+        // Finite coefficients with a >= 0 for every valid index and any
+        // finite cosine (FresnelLanes recomputes the lanes that are not).
+        if !cos_i.is_finite() {
+            return false;
+        }
+        let turn = self.lanes[0].s_turn(d, n);
+        for (index, lanes) in self.lanes[..self.len].chunks_mut(CHUNK).enumerate() {
+            let f = if C::POLARISED {
+                fresnel.chunk::<true>(cos_i, index)
+            } else {
+                fresnel.chunk::<false>(cos_i, index)
+            };
+            for (j, lane) in lanes.iter_mut().enumerate() {
+                let m = FresnelMueller {
+                    a: f.a[j],
+                    b: f.b[j],
+                    c: f.c[j],
+                    d: f.d[j],
+                };
+                lane.fresnel_in(&turn, &m);
+            }
+        }
+        true
+    }
+
     /// Every lane scaled so that the brightest lane has intensity `s`
     /// (that lane exactly `s`).
     #[inline]
@@ -422,13 +528,13 @@ impl<C: Carrier<Lane = C>> Spectral<C> {
     }
 }
 
-impl<C: Carrier<Lane = C>> Carrier for Spectral<C> {
+impl<C: Carrier<Lane = C>, const CAP: usize> Carrier for Spectral<C, CAP> {
     type Lane = C;
 
     fn launch(incident: Stokes, reference: DVec3, lanes: usize) -> Self {
         Self {
-            lanes: [C::launch(incident, reference, 1); MAX_WAVELENGTHS],
-            len: lanes.clamp(1, MAX_WAVELENGTHS),
+            lanes: [C::launch(incident, reference, 1); CAP],
+            len: lanes.clamp(1, CAP),
         }
     }
 
@@ -460,12 +566,25 @@ impl<C: Carrier<Lane = C>> Carrier for Spectral<C> {
 
     #[inline]
     fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool {
+        if let Reflectance::Spectral(m) = material
+            && let Some(fresnel) = m.fresnel()
+            && fresnel.len() >= self.len
+        {
+            return self.reflect_fresnel(fresnel, d, n, cos_i);
+        }
         for (l, c) in self.used_mut().iter_mut().enumerate() {
             if !c.reflect(material.lane(l), d, n, cos_i) {
                 return false;
             }
         }
         true
+    }
+
+    #[inline]
+    fn fresnel_in(&mut self, turn: &STurn, f: &FresnelMueller) {
+        for c in self.used_mut() {
+            c.fresnel_in(turn, f);
+        }
     }
 
     fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3) {
@@ -507,6 +626,30 @@ impl<C: Carrier<Lane = C>> Carrier for Spectral<C> {
         }
         let removed = self.intensity() - out.intensity();
         (out, removed)
+    }
+
+    /// [`Spectral::rescaled`] with each lane's removed intensity: a lane as
+    /// bright as the brightest gets the brightest lane's own removed
+    /// intensity (so equal lanes are the monochrome carrier's bit for bit),
+    /// any other lane its intensity before minus after.
+    fn rescaled_lanes(&self, local: Self, mut removed: impl FnMut(usize, f64)) -> Self {
+        let reference = self.lanes[self.brightest()];
+        let top = reference.intensity();
+        let mut out = local;
+        for (l, (o, loc)) in out.used_mut().iter_mut().zip(local.used()).enumerate() {
+            let (after, r) = reference.rescaled(*loc);
+            *o = after;
+            let before = self.lanes[l].intensity();
+            removed(
+                l,
+                if before == top {
+                    r
+                } else {
+                    before - after.intensity()
+                },
+            );
+        }
+        out
     }
 
     fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3) {
@@ -616,6 +759,36 @@ mod tests {
                 assert!((m.rows[i][j] - f[i][j]).abs() < 1e-15);
             }
         }
+    }
+
+    /// Per-lane removed intensities: each lane's before minus after, and
+    /// equal lanes the monochrome carrier's `rescaled` bit for bit.
+    #[test]
+    fn rescaled_lanes_gives_each_lanes_removed_intensity() {
+        let (d, n) = (DVec3::NEG_Z, DVec3::Z);
+        let mut w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, 3);
+        let lanes = Reflectance::Spectral(std::sync::Arc::new(
+            crate::optics::material::SpectralModel::new(vec![
+                Reflectance::Constant(0.7),
+                Reflectance::Constant(0.35),
+                Reflectance::Constant(0.7),
+            ]),
+        ));
+        assert!(w.reflect(&lanes, d, n, 1.0));
+        let mut local = w.unit();
+        assert!(local.reflect(&Reflectance::Constant(0.3), d, n, 1.0));
+        let mut removed = Vec::new();
+        let out = w.rescaled_lanes(local, |l, r| removed.push((l, r)));
+        let mono = 0.7_f64.rescaled(0.3);
+        assert_eq!((out.lane(0), removed[0]), (mono.0, (0, mono.1)));
+        assert_eq!((out.lane(2), removed[2]), (mono.0, (2, mono.1)));
+        assert_eq!(removed[1].0, 1);
+        assert!((removed[1].1 - 0.35 * 0.7).abs() < 1e-15, "{removed:?}");
+        assert!((out.lane(1) - 0.35 * 0.3).abs() < 1e-15);
+        // The scalar carrier: `rescaled`'s removed intensity, lane 0.
+        let mut one = Vec::new();
+        assert_eq!(0.7.rescaled_lanes(0.3, |l, r| one.push((l, r))), mono.0);
+        assert_eq!(one, [(0, mono.1)]);
     }
 
     #[test]

@@ -20,13 +20,25 @@
 //! about `hemisphere_reference(dir, 0)` of its own exit direction `dir`
 //! ([`stokes_reference`]; below the horizon too), per unit beam power, and
 //! with [`ObjectRun::farfield_stokes`] per far-field cell.
+//!
+//! **Wavelengths.** With [`ObjectRun::wavelengths_um`] the photon carries a
+//! lane per wavelength ([`Spectral`]): one path, each lane weighted by its
+//! wavelength's model ([`crate::optics::material::Reflectance::lane`]; a
+//! BRDF table and ideal walls apply to every wavelength alike). Every tally
+//! is kept per wavelength: reflected, missed, absorbed per surface, lost,
+//! far field and Stokes sums; the counts (photons, bounces, segments) are
+//! the path's, the same in every lane. Russian roulette plays on the
+//! largest lane and scales every lane alike, so it is unbiased at each
+//! wavelength. [`ObjectRun::run`] then returns one [`PositionResult`] per
+//! beam position and wavelength, position-major. With a model that is the
+//! same at every wavelength each lane is the monochrome run bit for bit.
 
 use std::time::Instant;
 
 use glam::DVec3;
 use rand::RngExt;
 
-use super::carrier::{Carrier, Polarised};
+use super::carrier::{Carrier, Polarised, Spectral};
 use super::micro::Controls;
 use super::rng::photon_rng;
 use super::wall::{Interaction, WallModel};
@@ -77,7 +89,11 @@ impl FarField {
 
     /// Score weight `w` of a unit direction into `acc` (one bin per cell).
     pub fn score(&self, acc: &mut Accumulator, dir: DVec3, w: f64) {
-        let (cells, share, offset) = self.cells_of(dir);
+        Self::score_in(acc, &self.cells_of(dir), w);
+    }
+
+    /// [`FarField::score`] into the cells of a direction found once.
+    fn score_in(acc: &mut Accumulator, (cells, share, offset): &(Cells, f64, usize), w: f64) {
         for &c in cells.as_slice() {
             acc.score(offset + c, share * w);
         }
@@ -86,7 +102,15 @@ impl FarField {
     /// Score the Stokes vector `s` of a unit direction into `acc`, four bins
     /// per cell: bin `4 cell + j` holds `S_j`.
     pub fn score_stokes(&self, acc: &mut Accumulator, dir: DVec3, s: &Stokes) {
-        let (cells, share, offset) = self.cells_of(dir);
+        Self::score_stokes_in(acc, &self.cells_of(dir), s);
+    }
+
+    /// [`FarField::score_stokes`] into the cells of a direction found once.
+    fn score_stokes_in(
+        acc: &mut Accumulator,
+        (cells, share, offset): &(Cells, f64, usize),
+        s: &Stokes,
+    ) {
         for &c in cells.as_slice() {
             for (j, v) in s.iter().enumerate() {
                 acc.score(4 * (offset + c) + j, share * v);
@@ -123,6 +147,10 @@ pub struct ObjectRun {
     /// Tally the Stokes vector per far-field cell (with `farfield` and
     /// `polarisation` only).
     pub farfield_stokes: bool,
+    /// Vacuum wavelengths (µm) carried by every photon, one lane each
+    /// ([`Spectral`]); empty for a monochrome run. The wall models must
+    /// have been built at them.
+    pub wavelengths_um: Vec<f64>,
 }
 
 /// Sums for one beam position.
@@ -260,11 +288,13 @@ impl Merge for FirstUnmodelled {
     }
 }
 
-/// The result for one beam position.
+/// The result for one beam position (and, in a spectral run, one wavelength).
 #[derive(Debug, Clone)]
 pub struct PositionResult {
     /// The beam.
     pub beam: Beam,
+    /// The wavelength (µm) of these tallies in a spectral run; `None`: monochrome.
+    pub wavelength_um: Option<f64>,
     /// Sums.
     pub tallies: ObjectTallies,
     /// Wall-clock time (s).
@@ -305,6 +335,18 @@ impl ObjectRun {
         }
     }
 
+    /// Number of wavelengths carried (1 for a monochrome run).
+    #[must_use]
+    pub fn lane_count(&self) -> usize {
+        self.wavelengths_um.len().max(1)
+    }
+
+    /// The wavelength of lane `l` (`None` for a monochrome run).
+    #[must_use]
+    pub fn wavelength(&self, l: usize) -> Option<f64> {
+        self.wavelengths_um.get(l).copied()
+    }
+
     /// Whether the Stokes vector is tallied per far-field cell.
     #[must_use]
     pub fn tallies_farfield_stokes(&self) -> bool {
@@ -323,7 +365,8 @@ impl ObjectRun {
     }
 
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
-    /// receives photons done.
+    /// receives photons done. One result per beam, or per beam and
+    /// wavelength (position-major, [`ObjectRun::lane_count`] per beam).
     pub fn run(
         &self,
         object: &Object,
@@ -333,68 +376,88 @@ impl ObjectRun {
         photons: &[u64],
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<PositionResult> {
+        let spectral = !self.wavelengths_um.is_empty();
         beams
             .iter()
             .zip(photons)
             .enumerate()
-            .map(|(k, (beam, &n_photons))| {
+            .flat_map(|(k, (beam, &n_photons))| {
                 let clock = Instant::now();
                 let ff = self.farfield_grid();
-                let mut total = self.tallies(object.surface_names.len(), &ff);
+                let mut totals: Vec<ObjectTallies> = (0..self.lane_count())
+                    .map(|_| self.tallies(object.surface_names.len(), &ff))
+                    .collect();
+                let bytes = totals.iter().map(ObjectTallies::bytes).sum();
                 let position = k as u64;
                 super::run_batches(
                     n_photons,
-                    total.bytes(),
+                    bytes,
                     |range| {
-                        if self.polarisation {
-                            self.trace_batch::<Polarised<1>>(
-                                object, walls, models, beam, position, &ff, range,
-                            )
-                        } else {
-                            self.trace_batch::<f64>(
-                                object, walls, models, beam, position, &ff, range,
-                            )
+                        let args = (object, walls, models, beam, position, &ff, range);
+                        match (spectral, self.polarisation) {
+                            (false, false) => self.trace_batch::<f64>(args),
+                            (false, true) => self.trace_batch::<Polarised<1>>(args),
+                            // The smallest capacity that holds the wavelengths.
+                            (true, false) => match self.lane_count() {
+                                0..=8 => self.trace_batch::<Spectral<f64, 8>>(args),
+                                9..=32 => self.trace_batch::<Spectral<f64, 32>>(args),
+                                _ => self.trace_batch::<Spectral<f64>>(args),
+                            },
+                            (true, true) => match self.lane_count() {
+                                0..=8 => self.trace_batch::<Spectral<Polarised<1>, 8>>(args),
+                                9..=32 => self.trace_batch::<Spectral<Polarised<1>, 32>>(args),
+                                _ => self.trace_batch::<Spectral<Polarised<1>>>(args),
+                            },
                         }
                     },
-                    |_, part| total.merge(&part),
+                    |_, parts| {
+                        for (total, part) in totals.iter_mut().zip(&parts) {
+                            total.merge(part);
+                        }
+                    },
                     progress,
                 );
-                PositionResult {
-                    beam: *beam,
-                    tallies: total,
-                    seconds: clock.elapsed().as_secs_f64(),
-                }
+                let seconds = clock.elapsed().as_secs_f64();
+                totals
+                    .into_iter()
+                    .enumerate()
+                    .map(|(l, tallies)| PositionResult {
+                        beam: *beam,
+                        wavelength_um: self.wavelength(l),
+                        tallies,
+                        seconds,
+                    })
+                    .collect::<Vec<_>>()
             })
             .collect()
     }
 
-    /// Trace photons `photons` of beam `position`, carrying `C`.
-    #[allow(clippy::too_many_arguments)]
+    /// Trace photons `photons` of beam `position`, carrying `C`: the
+    /// tallies of each wavelength (one for a monochrome carrier).
     fn trace_batch<C: Carrier>(
         &self,
-        object: &Object,
-        walls: &Walls,
-        models: &[WallModel],
-        beam: &Beam,
-        position: u64,
-        ff: &FarField,
-        photons: std::ops::Range<u64>,
-    ) -> ObjectTallies {
+        (object, walls, models, beam, position, ff, photons): BatchArgs<'_>,
+    ) -> Vec<ObjectTallies> {
         let n_surfaces = object.surface_names.len();
-        let mut t = self.tallies(n_surfaces, ff);
-        let launch = C::launch(beam.polarisation.stokes(), beam.reference(), 1);
+        let lanes = self.lane_count();
+        let mut lane_tallies: Vec<ObjectTallies> =
+            (0..lanes).map(|_| self.tallies(n_surfaces, ff)).collect();
+        let launch = C::launch(beam.polarisation.stokes(), beam.reference(), lanes);
         let mut scratch: Vec<Option<Scratch>> = vec![None; models.len()];
-        let mut absorbed = vec![0.0; n_surfaces];
+        // Absorbed in this history, per surface and lane (`sid * lanes + l`).
+        let mut absorbed = vec![0.0; n_surfaces * lanes];
+        let mut is_touched = vec![false; n_surfaces];
         let mut touched: Vec<usize> = Vec::new();
         for n in photons {
             let mut rng = photon_rng(self.seed, (position << 40) | n);
             let p = beam.start(rng.random(), rng.random());
             if object.in_solid(p) {
-                t.photons += 1;
-                t.started_inside += 1;
+                for t in &mut lane_tallies {
+                    t.photons += 1;
+                    t.started_inside += 1;
+                }
                 continue;
             }
-            t.photons += 1;
             let end = trace(
                 object,
                 walls,
@@ -405,54 +468,82 @@ impl ObjectRun {
                 launch,
                 &mut rng,
                 &mut scratch,
-                |sid, a| {
-                    if absorbed[sid] == 0.0 {
+                |sid, l, a| {
+                    if !is_touched[sid] {
+                        is_touched[sid] = true;
                         touched.push(sid);
                     }
-                    absorbed[sid] += a;
+                    absorbed[sid * lanes + l] += a;
                 },
             );
-            match end.fate {
-                Fate::Escaped { dir, weight } => {
-                    let intensity = weight.intensity();
-                    if end.bounces == 0 {
-                        t.missed += intensity;
-                    } else {
-                        t.reflected.score(0, intensity);
-                        if self.farfield {
-                            ff.score(&mut t.farfield, dir, intensity);
-                        }
-                        let mut c = [0.0; 16];
-                        if !t.stokes.is_empty()
-                            && weight.components(dir, stokes_reference(dir), &mut c) == 4
-                        {
-                            let s: Stokes = [c[0], c[1], c[2], c[3]];
-                            for (j, v) in s.iter().enumerate() {
-                                t.stokes.score(j, *v);
+            // The far-field cells of an escape, once for every wavelength.
+            let cells = match end.fate {
+                Fate::Escaped { dir, .. } if end.bounces > 0 && self.farfield => {
+                    Some(ff.cells_of(dir))
+                }
+                _ => None,
+            };
+            for (l, t) in lane_tallies.iter_mut().enumerate() {
+                t.photons += 1;
+                match end.fate {
+                    Fate::Escaped { dir, weight } => {
+                        let weight = weight.lane(l);
+                        let intensity = weight.intensity();
+                        if end.bounces == 0 {
+                            t.missed += intensity;
+                        } else {
+                            t.reflected.score(0, intensity);
+                            if let Some(cells) = &cells {
+                                FarField::score_in(&mut t.farfield, cells, intensity);
                             }
-                            if !t.farfield_stokes.is_empty() {
-                                ff.score_stokes(&mut t.farfield_stokes, dir, &s);
+                            let mut c = [0.0; 16];
+                            if !t.stokes.is_empty()
+                                && weight.components(dir, stokes_reference(dir), &mut c) == 4
+                            {
+                                let s: Stokes = [c[0], c[1], c[2], c[3]];
+                                for (j, v) in s.iter().enumerate() {
+                                    t.stokes.score(j, *v);
+                                }
+                                if let (false, Some(cells)) = (t.farfield_stokes.is_empty(), &cells)
+                                {
+                                    FarField::score_stokes_in(&mut t.farfield_stokes, cells, &s);
+                                }
                             }
                         }
                     }
+                    Fate::Unmodelled { surface } => {
+                        t.unmodelled.record(surface);
+                    }
+                    Fate::Lost { weight } => t.lost += weight.lane(l).intensity(),
+                    Fate::Absorbed => {}
                 }
-                Fate::Unmodelled { surface } => {
-                    t.unmodelled.record(surface);
-                }
-                Fate::Lost { weight } => t.lost += weight,
-                Fate::Absorbed => {}
+                t.segments += u64::from(end.segments);
+                t.bounces += u64::from(end.bounces);
             }
-            t.segments += u64::from(end.segments);
-            t.bounces += u64::from(end.bounces);
             // One score per surface per history (for the standard errors).
             for sid in touched.drain(..) {
-                t.absorbed.score(sid, absorbed[sid]);
-                absorbed[sid] = 0.0;
+                is_touched[sid] = false;
+                for (l, t) in lane_tallies.iter_mut().enumerate() {
+                    t.absorbed.score(sid, absorbed[sid * lanes + l]);
+                    absorbed[sid * lanes + l] = 0.0;
+                }
             }
         }
-        t
+        lane_tallies
     }
 }
+
+/// What [`ObjectRun::trace_batch`] traces: the object, its walls and
+/// models, the beam, its position index, the far-field grid and the photons.
+type BatchArgs<'a> = (
+    &'a Object,
+    &'a Walls,
+    &'a [WallModel],
+    &'a Beam,
+    u64,
+    &'a FarField,
+    std::ops::Range<u64>,
+);
 
 /// How a history through an object ended (see [`trace`]); `C` is what
 /// the photon carried ([`Carrier`]).
@@ -476,8 +567,8 @@ pub enum Fate<C = f64> {
     /// normal, non-finite direction or position, a wall factor that is not a
     /// finite number >= 0), or lost inside a micro descent.
     Lost {
-        /// Weight (intensity) carried when lost.
-        weight: f64,
+        /// What the photon carried when lost (the lost intensity of each wavelength).
+        weight: C,
     },
 }
 
@@ -495,8 +586,9 @@ pub struct History<C = f64> {
 /// Follow one photon (or camera ray, by reciprocity) from `p` along unit `d`
 /// through `object`: the one history loop of the macro level, used by
 /// `roks trace` and by `roks render` of object scenes. At each wall the
-/// model of the surface reflects it; `absorbed(surface id, weight)` receives
-/// the weight each wall removes. `scratch` holds one micro scratch per model.
+/// model of the surface reflects it; `absorbed(surface id, lane, weight)`
+/// receives the weight each wall removes from each wavelength (lane 0 only
+/// for a monochrome carrier). `scratch` holds one micro scratch per model.
 /// The photon starts carrying `w` (see [`Carrier`]; `1.0` unpolarised).
 #[allow(clippy::too_many_arguments)]
 pub fn trace<C: Carrier>(
@@ -509,7 +601,7 @@ pub fn trace<C: Carrier>(
     mut w: C,
     rng: &mut impl rand::Rng,
     scratch: &mut [Option<Scratch>],
-    mut absorbed: impl FnMut(usize, f64),
+    mut absorbed: impl FnMut(usize, usize, f64),
 ) -> History<C> {
     let mut standing = None;
     let mut bounces = 0_u32;
@@ -520,15 +612,7 @@ pub fn trace<C: Carrier>(
         segments,
     };
     // Cut by the cap or a guard: the intensity carried is reported as lost.
-    let lost = |w: &C, bounces, segments| {
-        end(
-            Fate::Lost {
-                weight: w.intensity(),
-            },
-            bounces,
-            segments,
-        )
-    };
+    let lost = |w: &C, bounces, segments| end(Fate::Lost { weight: *w }, bounces, segments);
     loop {
         segments += 1;
         let Some(hit) = object.next_hit(p, d, standing) else {
@@ -556,13 +640,13 @@ pub fn trace<C: Carrier>(
                     // Also NaN: such a weight never reaches a tally.
                     return lost(&w, bounces, segments);
                 }
-                let (after, removed) = w.rescaled(weight);
-                absorbed(sid, removed);
-                w = after;
+                w = w.rescaled_lanes(weight, |l, removed| absorbed(sid, l, removed));
                 d = dir;
             }
             Interaction::Absorbed => {
-                absorbed(sid, w.intensity());
+                for l in 0..w.lanes() {
+                    absorbed(sid, l, w.lane(l).intensity());
+                }
                 return end(Fate::Absorbed, bounces, segments);
             }
             Interaction::Lost => return lost(&w, bounces, segments),

@@ -19,6 +19,15 @@
 //! | Fresnel specular | `n = .., k = ..` | trivial | smooth surface only |
 //! | specular vs angle | `table = "r.csv"` or `reflectance = r` | trivial | smooth surface only |
 //!
+//! **Wavelengths.** A spectral carrier ([`crate::transport::carrier::Spectral`])
+//! goes through every model along one path: Fresnel, angle-table and
+//! constant walls weigh lane `l` with their model at wavelength `l`
+//! ([`Reflectance::lane`]), a micro descent carries the lanes through a
+//! micro surface whose materials were sampled at the run's wavelengths, and
+//! ideal walls and a (monochrome) BRDF table apply the same factor to every
+//! wavelength. What a wall removes is tallied per wavelength
+//! ([`Carrier::rescaled_lanes`]).
+//!
 //! **Micro descent.** At the hit the macro surface's local frame is built
 //! (normal `n` toward the photon's side, a tangent pair turned by a uniform
 //! random angle about `n`); the photon enters the periodic micro surface at a

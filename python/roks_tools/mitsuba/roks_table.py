@@ -19,8 +19,8 @@ Parameters
   ignored in the others): the ``mueller.csv`` of the same run; default:
   ``mueller.csv`` beside ``filename`` if it exists.
 
-What it computes (the same table as roks's ``BrdfTable``, grey, reflection
-only, front side only):
+What it computes (the same table as roks's ``BrdfTable``, grey or spectral
+(below), reflection only, front side only):
 
 * ``eval(wi, wo)`` = f(theta_i; wo) cos(theta_o), Mitsuba's convention (the
   BSDF times the foreshortening of ``wo``). f is the table's BRDF (1/sr):
@@ -42,6 +42,32 @@ only, front side only):
   ``pdf`` returns too, and the weight is eval / pdf (equal to R of the table
   when wi is at a tabulated angle). Integrated over the hemisphere ``eval``
   gives the table's reflectance R(theta_i); the expected weight is R(theta_i).
+
+Spectral tables (a ``brdf.csv`` of a spectral run: ``wavelength_um`` after
+``phi_i_deg``, a block per incidence and wavelength, the same strictly
+increasing wavelengths for every incidence; checked, TableError otherwise):
+
+* spectral variants (``scalar_spectral``, ``llvm_ad_spectral``, ...): eval
+  returns the spectrum at Mitsuba's sampled wavelengths ``si.wavelengths``,
+  the table linear in wavelength between its tabulated wavelengths and, out
+  of its range, the value at the nearest end (clamped: a table of 0.38-0.78
+  um renders under Mitsuba's 360-830 nm sampling without black bands; a
+  renderer that needs zero there must cut the light instead);
+* RGB variants: the linear sRGB of the BRDF under D65, the formula of
+  src/optics/colour.rs (linear interpolation onto 380-780 nm at 5 nm, CIE
+  1931 2-degree XYZ normalised to Y = 1 for the perfect white reflector, the
+  IEC 61966-2-1 matrix), computed by ``roks_tools.colour`` (colour-science's
+  tables); a table whose wavelengths do not cover 0.38-0.78 um is refused
+  (TableError naming the file);
+* mono variants: CIE Y of the same colour;
+* polarised variants: a depolariser per wavelength (m00 as above); a
+  ``mueller_filename`` is refused (Mueller tables of spectral runs are not
+  read) and a ``mueller.csv`` beside the table is not read (with a warning).
+* sample draws directions from the mean over wavelengths of the table (the
+  pdf is that of the mean table) and returns eval / pdf per channel:
+  unbiased for every wavelength, the weights varying with wavelength.
+
+A monochrome table is grey in every variant, as before.
 
 Polarised variants (``*_polarized``): eval and sample return Mueller
 matrices (grey: the same for every wavelength).
@@ -97,9 +123,10 @@ from pathlib import Path
 import numpy as np
 
 from ..carlson import CarlsonGrid
-from ..results import BRDF_COLUMNS, MUELLER_COLUMNS, ResultError, read_columns
+from ..results import BRDF_COLUMNS, MUELLER_COLUMNS, SPECTRAL_BRDF_COLUMNS, ResultError, read_columns
 
 BRDF_HEADER = ",".join(BRDF_COLUMNS)
+SPECTRAL_HEADER = ",".join(SPECTRAL_BRDF_COLUMNS)
 C_THETA_I, C_PHI_I, C_BAND, C_CELL, C_PROJ, C_FRACTION = 0, 1, 2, 3, 11, 12
 MUELLER_HEADER = ",".join(MUELLER_COLUMNS)
 # Q = diag(1, 1, -1, 1): Mueller reciprocity M(o -> i) = Q M(i -> o)^T Q.
@@ -124,6 +151,42 @@ def _read_table(path: Path, header: str, what: str, columns: int) -> np.ndarray:
     return data
 
 
+def _first_line(path: Path) -> str:
+    try:
+        with path.open() as f:
+            return f.readline().strip().lstrip("\ufeff")
+    except OSError as e:
+        raise TableError(f"{path}: cannot read: {e}") from e
+
+
+def _spectral_blocks(path: Path):
+    """A spectral brdf.csv (`wavelength_um` after `phi_i_deg`; a block per
+    incidence and wavelength, incidence-major, as roks writes it) as (rows of
+    the first wavelength of each incidence in the monochrome layout, fractions
+    (incidences, cells, L) in file order, wavelengths (um)); TableError unless
+    every incidence has the same strictly increasing wavelengths and every
+    block the same number of rows."""
+    data = _read_table(path, SPECTRAL_HEADER, "brdf.csv", 17)
+    key = data[:, :3]
+    starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
+    sizes = np.diff(np.r_[starts, len(data)])
+    if np.any(sizes != sizes[0]):
+        raise TableError(f"{path}: (incidence, wavelength) blocks of different sizes")
+    rows = int(sizes[0])
+    inc = key[starts, :2]
+    inc_starts = np.flatnonzero(np.r_[True, np.any(inc[1:] != inc[:-1], axis=1)])
+    per = np.diff(np.r_[inc_starts, len(starts)])
+    if np.any(per != per[0]):
+        raise TableError(f"{path}: incidences with different numbers of wavelengths")
+    lanes = int(per[0])
+    wl = key[starts, 2].reshape(-1, lanes)
+    if np.any(wl <= 0) or np.any(np.diff(wl, axis=1) <= 0) or np.any(wl != wl[0]):
+        raise TableError(f"{path}: wavelength_um must be positive, strictly increasing and the same for every incidence")
+    fr = data[:, 13].reshape(len(inc_starts), lanes, rows)  # (incidences, L, cells)
+    first = np.concatenate([np.arange(s, s + rows) for s in starts[inc_starts]])
+    return np.delete(data[first], 2, axis=1), np.swapaxes(fr, 1, 2).copy(), wl[0].tolist()
+
+
 class CarlsonTable:
     """The BRDF table of a brdf.csv as numpy arrays, with eval / pdf / sample
     on arrays of directions (local frame, z the normal). Pure numpy: the
@@ -131,7 +194,11 @@ class CarlsonTable:
 
     def __init__(self, path: str | Path):
         path = Path(path)
-        data = _read_table(path, BRDF_HEADER, "brdf.csv", 16)
+        spectral, wavelengths = None, None
+        if _first_line(path) == SPECTRAL_HEADER:
+            data, spectral, wavelengths = _spectral_blocks(path)
+        else:
+            data = _read_table(path, BRDF_HEADER, "brdf.csv", 16)
         # Blocks of consecutive rows with the same (theta_i, phi_i).
         key = data[:, [C_THETA_I, C_PHI_I]]
         starts = np.flatnonzero(np.r_[True, np.any(key[1:] != key[:-1], axis=1)])
@@ -155,9 +222,16 @@ class CarlsonTable:
         if np.any((theta_deg < 0) | (theta_deg >= 90)) or len(np.unique(theta_deg)) != len(theta_deg):
             raise TableError(f"{path}: theta_i_deg must be distinct and in [0, 90)")
         fractions = np.stack([data[s : s + rows, C_FRACTION] for s in starts])
-        if np.any(fractions < 0):
+        if spectral is not None:
+            if spectral.shape[1] != rows:
+                raise TableError(f"{path}: incidence blocks are not complete Carlson grids of one size")
+            fractions = spectral.mean(axis=2)  # the sampling table: the mean over wavelengths
+        if np.any(fractions < 0) or (spectral is not None and np.any(spectral < 0)):
             raise TableError(f"{path}: negative fraction")
         order = np.argsort(theta_deg)
+        # Spectral tables: fractions per wavelength (incidences, cells, L) and the wavelengths (um).
+        self.wavelengths_um = wavelengths
+        self.spectral = None if spectral is None else spectral[order]
         self.path = path
         self.theta_deg = theta_deg[order]
         self.phi_i_deg = key[starts, 1][order]
@@ -177,6 +251,61 @@ class CarlsonTable:
         self.proj = grid.projected_solid_angle
         if np.any(np.abs(data[:rows, C_PROJ] - self.proj) > 1e-6 * self.proj):
             raise TableError(f"{path}: projected_solid_angle_sr does not match the Carlson grid of {m} bands")
+
+    # -- spectral tables ----------------------------------------------------
+
+    def brdf_lanes(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """A spectral table's BRDF (N, L), 1/sr, at its own wavelengths (as ``brdf``)."""
+        if self.spectral is None:
+            raise TableError(f"{self.path}: not a spectral table")
+        _, terms = self._terms(wi, wo)
+        return sum(wt[:, None] * self.spectral[idx, c] / self.proj[c][:, None] for wt, idx, c in terms)
+
+    def eval_spectrum(self, wi: np.ndarray, wo: np.ndarray, wavelengths_nm: np.ndarray) -> np.ndarray:
+        """f cos(theta_o) (N, W) at the wavelengths (N, W) in nm (Mitsuba's
+        ``si.wavelengths``): the table linear in wavelength between its
+        tabulated wavelengths; outside its range the nearest end's value
+        (clamped). A monochrome table: the same grey value at every wavelength."""
+        lam = np.atleast_2d(np.asarray(wavelengths_nm, dtype=np.float64))
+        if self.spectral is None:
+            return np.broadcast_to(self.eval(wi, wo)[:, None], lam.shape).copy()
+        lanes = self.brdf_lanes(wi, wo) * np.maximum(wo[:, 2], 0.0)[:, None]
+        grid = 1000.0 * np.asarray(self.wavelengths_um)
+        if len(grid) == 1:
+            return np.broadcast_to(lanes[:, :1], lam.shape).copy()
+        x = np.clip(lam, grid[0], grid[-1])
+        j = np.clip(np.searchsorted(grid, x, side="right") - 1, 0, len(grid) - 2)
+        t = (x - grid[j]) / (grid[j + 1] - grid[j])
+        rows = np.arange(len(lanes))[:, None]
+        return (1.0 - t) * lanes[rows, j] + t * lanes[rows, j + 1]
+
+    def colour_matrix(self) -> np.ndarray:
+        """(6, L): rows X, Y, Z, r, g, b of the colour of a spectrum at the
+        table's wavelengths, D65 (``roks_tools.colour``: the formula of
+        src/optics/colour.rs, colour-science's tables); a TableError unless
+        the wavelengths cover 0.38-0.78 um."""
+        if self.spectral is None:
+            raise TableError(f"{self.path}: not a spectral table")
+        from .. import colour as pc
+
+        if not pc.covers_visible(self.wavelengths_um):
+            raise TableError(
+                f"{self.path}: wavelengths {self.wavelengths_um[0]}-{self.wavelengths_um[-1]} um do not cover "
+                "0.38-0.78 um: no RGB or luminance (use a spectral variant)")
+        w = pc.weights(self.wavelengths_um)
+        return np.vstack([w, pc.xyz_to_srgb_matrix() @ w])
+
+    def eval_rgb(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """f cos(theta_o) (N, 3) as linear sRGB under D65 (a monochrome table: grey)."""
+        if self.spectral is None:
+            return np.repeat(self.eval(wi, wo)[:, None], 3, axis=1)
+        return (self.brdf_lanes(wi, wo) @ self.colour_matrix()[3:].T) * np.maximum(wo[:, 2], 0.0)[:, None]
+
+    def eval_luminance(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """f cos(theta_o) (N,) as CIE Y under D65 (mono variants; a monochrome table: itself)."""
+        if self.spectral is None:
+            return self.eval(wi, wo)
+        return (self.brdf_lanes(wi, wo) @ self.colour_matrix()[1]) * np.maximum(wo[:, 2], 0.0)
 
     def attach_mueller(self, path: str | Path) -> None:
         """Read the Mueller-matrix BRDF of the same run (``mueller.csv``,
@@ -417,14 +546,29 @@ def register(name: str = "roks_table") -> None:
         return np.broadcast_to(np.atleast_1d(np.asarray(active, dtype=bool)), (n,))
 
     polarised = bool(mi.is_polarized)
+    spectral_variant = bool(mi.is_spectral)
+    rgb_variant = bool(mi.is_rgb)
 
     def back_m(a: np.ndarray):
-        """(N, 4, 4) numpy -> mi.Spectrum (a Mueller matrix, grey)."""
+        """(N, 4, 4) numpy -> mi.Spectrum (a Mueller matrix, grey), or
+        (N, 4, 4, C) -> one per channel (a spectral variant's wavelengths)."""
         out = dr.zeros(mi.Spectrum) if scalar else dr.zeros(mi.Spectrum, len(a))
         for i in range(4):
             for j in range(4):
-                out[i, j] = mi.UnpolarizedSpectrum(back_f(a[:, i, j]))
+                if a.ndim == 3:
+                    out[i, j] = mi.UnpolarizedSpectrum(back_f(a[:, i, j]))
+                else:
+                    out[i, j] = mi.UnpolarizedSpectrum(*(back_f(a[:, i, j, c]) for c in range(a.shape[3])))
         return out
+
+    def back_s(a: np.ndarray):
+        """(N, C) numpy -> mi.Spectrum of C channels (unpolarised)."""
+        return mi.Spectrum(*(back_f(a[:, c]) for c in range(a.shape[1])))
+
+    def wavelengths(si) -> np.ndarray:
+        """si.wavelengths (N, W) in nm."""
+        w = si.wavelengths
+        return np.stack([arr(w[c]) for c in range(len(w))], axis=1)
 
     def depolariser(v: np.ndarray) -> np.ndarray:
         m = np.zeros((len(v), 4, 4))
@@ -440,7 +584,17 @@ def register(name: str = "roks_table") -> None:
             # Read (so Mitsuba sees it used) in every variant, used in polarised ones.
             named = str(props["mueller_filename"]) if props.has_property("mueller_filename") else None
             self.mueller_filename = None
-            if polarised:
+            spectral_table = self.table.spectral is not None
+            if spectral_table and not spectral_variant:
+                self.table.colour_matrix()  # refuses (TableError) a table that does not cover the visible
+            if spectral_table and polarised:
+                if named is not None:
+                    raise TableError(f"{named}: Mueller tables of spectral runs are not supported "
+                                     "(a spectral table renders as a depolariser per wavelength)")
+                if (Path(self.filename).parent / "mueller.csv").is_file():
+                    mi.Log(mi.LogLevel.Warn, f"roks_table: {self.filename} is spectral: the mueller.csv "
+                                             "beside it is not used (a depolariser per wavelength)")
+            elif polarised:
                 beside = Path(self.filename).parent / "mueller.csv"
                 self.mueller_filename = named if named is not None else (str(beside) if beside.is_file() else None)
                 if self.mueller_filename is not None:
@@ -449,8 +603,26 @@ def register(name: str = "roks_table") -> None:
             self.m_components = [flags]
             self.m_flags = flags
 
-        def value(self, ctx, wi: np.ndarray, o: np.ndarray) -> np.ndarray:
-            """eval (N,) or, polarised, (N, 4, 4) in Mitsuba's bases."""
+        def channels(self, si, wi: np.ndarray, o: np.ndarray) -> np.ndarray:
+            """A spectral table's eval (N, C): at si.wavelengths (spectral
+            variants), linear sRGB (RGB variants) or Y (mono variants)."""
+            t = self.table
+            if spectral_variant:
+                return t.eval_spectrum(wi, o, wavelengths(si))
+            if rgb_variant:
+                return t.eval_rgb(wi, o)
+            return t.eval_luminance(wi, o)[:, None]
+
+        def value(self, ctx, wi: np.ndarray, o: np.ndarray, si=None) -> np.ndarray:
+            """eval (N,) or, polarised, (N, 4, 4) in Mitsuba's bases; a
+            spectral table: (N, C), polarised (N, 4, 4, C) depolarisers."""
+            if self.table.spectral is not None:
+                v = self.channels(si, wi, o)
+                if not polarised:
+                    return v
+                m = np.zeros((len(v), 4, 4, v.shape[1]))
+                m[:, 0, 0, :] = v
+                return m
             if not polarised:
                 return self.table.eval(wi, o)
             if self.table.mueller is None:
@@ -458,13 +630,15 @@ def register(name: str = "roks_table") -> None:
             return self.table.mueller_eval(wi, o, radiance=ctx.mode == mi.TransportMode.Radiance)
 
         def wrap(self, v: np.ndarray):
-            return back_m(v) if polarised else mi.Color3f(back_f(v))
+            if polarised:
+                return back_m(v)
+            return back_s(v) if v.ndim == 2 else mi.Spectrum(back_f(v))
 
         def eval(self, ctx, si, wo, active=True):
             wi, o = vec(si.wi), vec(wo)
-            v = self.value(ctx, wi, o)
-            m = mask(active, len(wi))
-            return self.wrap(self.scale * (m[:, None, None] * v if polarised else m * v))
+            v = self.value(ctx, wi, o, si)
+            m = mask(active, len(wi)).reshape((-1,) + (1,) * (v.ndim - 1))
+            return self.wrap(self.scale * (m * v))
 
         def pdf(self, ctx, si, wo, active=True):
             wi, o = vec(si.wi), vec(wo)
@@ -484,12 +658,13 @@ def register(name: str = "roks_table") -> None:
             bs.eta = 1.0
             bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
             bs.sampled_component = mi.UInt32(0)
-            if polarised:
-                v = self.value(ctx, wi, wo) / np.where(valid, pdf, 1.0)[:, None, None]
-                w = np.where(valid[:, None, None], self.scale * v, 0.0)
-                return bs, dr.select(back_b(valid), back_m(w), mi.Spectrum(0.0))
+            if self.table.spectral is not None or polarised:
+                v = self.value(ctx, wi, wo, si)
+                shape = (-1,) + (1,) * (v.ndim - 1)
+                w = np.where(valid.reshape(shape), self.scale * (v / np.where(valid, pdf, 1.0).reshape(shape)), 0.0)
+                return bs, dr.select(back_b(valid), self.wrap(w), mi.Spectrum(0.0))
             w = np.where(valid, self.scale * weight, 0.0)
-            return bs, dr.select(back_b(valid), mi.Color3f(back_f(w)), mi.Color3f(0.0))
+            return bs, dr.select(back_b(valid), mi.Spectrum(back_f(w)), mi.Spectrum(0.0))
 
         def traverse(self, callback):
             pass

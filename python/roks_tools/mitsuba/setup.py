@@ -32,14 +32,20 @@ def _find_libllvm() -> str | None:
     return max(cands)[1] if cands else None
 
 
-def setup_mitsuba(variant: str = "auto", polarised: bool = False):
+def setup_mitsuba(variant: str = "auto", polarised: bool = False, spectral: bool = False):
     """Import mitsuba with llvm_ad_rgb if possible, else scalar_rgb (warning);
-    with `polarised`, llvm_ad_mono_polarized, else scalar_spectral_polarized.
+    with `polarised`, llvm_ad_mono_polarized, else scalar_spectral_polarized;
+    with `spectral`, llvm_ad_spectral, else scalar_spectral (both:
+    llvm_ad_spectral_polarized, else scalar_spectral_polarized).
 
     Returns the mitsuba module; `mi.variant()` tells which variant is set.
     """
-    fast, slow = (("llvm_ad_mono_polarized", "scalar_spectral_polarized") if polarised
-                  else ("llvm_ad_rgb", "scalar_rgb"))
+    if spectral:
+        fast, slow = (("llvm_ad_spectral_polarized", "scalar_spectral_polarized") if polarised
+                      else ("llvm_ad_spectral", "scalar_spectral"))
+    else:
+        fast, slow = (("llvm_ad_mono_polarized", "scalar_spectral_polarized") if polarised
+                      else ("llvm_ad_rgb", "scalar_rgb"))
     if variant not in ("auto", "llvm", "scalar"):
         raise SystemExit(f"mitsuba_brdf: unknown --variant {variant!r}")
     lib = None

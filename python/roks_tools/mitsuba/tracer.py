@@ -12,8 +12,8 @@ roks's binning as well as of its transport, so it shares no grid code with
 the readers or with roks.
 
     roks-mitsuba-brdf MESH.ply --size LX,LY [--theta 0,30,60] [--phi 0]
-        [--photons N] [--seed S] (--rho 0.8 | --n N --k K) [--bands 32]
-        [--variant auto|llvm|scalar] [--out DIR]
+        [--photons N] [--seed S] (--rho 0.8 | --n N --k K | --material Au --wavelengths W)
+        [--bands 32] [--variant auto|llvm|scalar] [--out DIR]
         [--polarisation none|stokes|mueller] [--incident STATE]
 
 Method
@@ -60,6 +60,24 @@ Method
   summary.json; brdf.csv, inplane.csv and the reflectance stay the intensity
   S0 for the incident state. Roulette and the losses use the intensity of
   the first column (S0 for the incident state; M00 for Mueller), as roks.
+* Spectral (`--material NAME --wavelengths 0.45,0.55,0.65` or
+  `0.38:0.78:0.02`, um): Mitsuba's own conductor spectra (the preset NAME of
+  its `conductor` plugin, data/ior/NAME.eta.spd and NAME.k.spd), one weight
+  per wavelength along the same path (as roks's `carrier::Spectral`):
+  roulette and the dead test on the largest, survivors scaled so it is the
+  survival weight; losses and every tally per wavelength. Spectral variants
+  draw a path's wavelengths at random; here they are fixed by setting
+  `si.wavelengths` (four at a time) before evaluating. Unpolarised
+  (`llvm_ad_spectral`, fallback scalar_spectral): the weight of a hit is the
+  `conductor` plugin's own `bsdf.sample` weight, fresnel_conductor(cos_i, n +
+  ik) (`MitsubaConductor`). `--polarisation stokes`
+  (`llvm_ad_spectral_polarized`): a Stokes vector of the `--incident` state
+  per wavelength, composed as above from `mi.mueller.specular_reflection`
+  with n, k of Mitsuba's `spectrum` textures of those files evaluated at the
+  wavelengths (`mitsuba_ior`, `SpectralPolarisedCarrier`; no stokes.csv).
+  Writes brdf.csv / inplane.csv with `wavelength_um` after the incidence
+  columns and summary.json with `wavelengths_um` and a `spectrum` per
+  incidence, as roks.
 * Russian roulette below weight 0.01 (survivors carry 0.1, as roks); a bounce
   cap and a segment cap (cut weight reported as `lost_cap`); a ray found
   below the lowest point of the mesh (a leak through a seam) is
@@ -78,12 +96,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..results import BRDF_COLUMNS, INPLANE_COLUMNS
+from ..results import BRDF_COLUMNS, INPLANE_COLUMNS, SPECTRAL_BRDF_COLUMNS, SPECTRAL_INPLANE_COLUMNS
 from .setup import setup_mitsuba  # noqa: F401 (the tracer's entry point sets the variant)
 
 VERSION = "mitsuba_brdf 0.1"
 BRDF_HEADER = ",".join(BRDF_COLUMNS)
 INPLANE_HEADER = ",".join(INPLANE_COLUMNS)
+SPECTRAL_BRDF_HEADER = ",".join(SPECTRAL_BRDF_COLUMNS)
+SPECTRAL_INPLANE_HEADER = ",".join(SPECTRAL_INPLANE_COLUMNS)
 STOKES_NAMES = [f"s{i}" for i in range(4)]
 MUELLER_NAMES = [f"m{i}{j}" for i in range(4) for j in range(4)]
 
@@ -112,6 +132,91 @@ def fresnel_unpolarised(cos_i: np.ndarray, n: float, k: float) -> np.ndarray:
     rs = (c - eta * ct) / (c + eta * ct)
     rp = (eta * c - ct) / (eta * c + ct)
     return 0.5 * (np.abs(rs) ** 2 + np.abs(rp) ** 2)
+
+
+class MitsubaConductor:
+    """Mitsuba's own smooth conductor (the `conductor` plugin with a `material`
+    preset, e.g. "Au": the n, k spectra of Mitsuba's data/ior/NAME.eta.spd and
+    NAME.k.spd, interpolated by Mitsuba's `irregular` spectrum) evaluated at
+    fixed wavelengths, in a spectral variant (llvm_ad_spectral, scalar fallback
+    scalar_spectral).
+
+    Spectral variants draw the wavelengths of a path at random (four per ray);
+    here they are fixed instead: a SurfaceInteraction3f is built for each
+    batch of hits with ``si.wi = (sin t, 0, cos t)`` in the local frame and
+    ``si.wavelengths`` set to four of the requested wavelengths (nm), and
+    ``bsdf.sample`` returns the plugin's weight, ``fresnel_conductor(cos t,
+    n + ik)`` per wavelength (conductor.cpp; unpolarised variants), which is
+    the reflectance of the hit. Float32, as Mitsuba."""
+
+    def __init__(self, mi, material: str, wavelengths_um: list[float]):
+        v = mi.variant()
+        if "spectral" not in v or v.endswith("_polarized"):
+            raise ValueError(f"Mitsuba's conductor spectra need an unpolarised spectral variant, not {v}")
+        import drjit as dr
+
+        self.mi, self.dr = mi, dr
+        self.material = material
+        self.wavelengths_um = [float(x) for x in wavelengths_um]
+        self.bsdf = mi.load_dict({"type": "conductor", "material": material})
+        self.scalar = v.startswith("scalar")
+        self.ctx = mi.BSDFContext()
+
+    @property
+    def lanes(self) -> int:
+        return len(self.wavelengths_um)
+
+    def _groups(self):
+        """The wavelengths (nm) in groups of four (the last padded with its last)."""
+        nm = [1000.0 * x for x in self.wavelengths_um]
+        for g in range(0, len(nm), 4):
+            part = nm[g:g + 4]
+            yield g, len(part), part + [part[-1]] * (4 - len(part))
+
+    def __call__(self, cos_i: np.ndarray) -> np.ndarray:
+        """Reflectance (N, lanes) of hits at cosines cos_i (N,)."""
+        mi, dr = self.mi, self.dr
+        c = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)
+        n = len(c)
+        out = np.zeros((n, self.lanes))
+        if n == 0:
+            return out
+        sin = np.sqrt(np.maximum(1.0 - c * c, 0.0))
+        if self.scalar:
+            for i in range(n):
+                si = dr.zeros(mi.SurfaceInteraction3f)
+                si.wi = mi.Vector3f(float(sin[i]), 0.0, float(c[i]))
+                for g, k, nm in self._groups():
+                    si.wavelengths = type(si.wavelengths)(*nm)
+                    _, val = self.bsdf.sample(self.ctx, si, 0.5, mi.Point2f(0.5, 0.5))
+                    out[i, g:g + k] = np.array(val, dtype=np.float64)[:k]
+            return out
+        f32 = np.float32
+        si = dr.zeros(mi.SurfaceInteraction3f, n)
+        si.wi = mi.Vector3f(mi.Float(sin.astype(f32)), mi.Float(np.zeros(n, f32)), mi.Float(c.astype(f32)))
+        for g, k, nm in self._groups():
+            si.wavelengths = type(si.wavelengths)(*nm)
+            _, val = self.bsdf.sample(self.ctx, si, mi.Float(0.5), mi.Point2f(0.5, 0.5))
+            dr.eval(val)
+            out[:, g:g + k] = np.asarray(val.numpy(), dtype=np.float64)[:k].T
+        return out
+
+
+def parse_wavelengths(text: str) -> list[float]:
+    """`--wavelengths`: a comma-separated list of um, or FROM:TO:STEP (um,
+    both ends included, as roks's `--wavelengths`)."""
+    t = text.strip()
+    if ":" in t:
+        parts = [float(x) for x in t.split(":")]
+        if len(parts) != 3 or not (parts[2] > 0 and parts[1] >= parts[0] > 0):
+            raise ValueError(f"{text!r}: FROM:TO:STEP with 0 < FROM <= TO and STEP > 0")
+        a, b, step = parts
+        count = int(math.floor((b - a) / step * (1.0 + 1e-12))) + 1
+        return [round((a + i * step) * 1e9) / 1e9 for i in range(count)]  # as roks (scene/mod.rs)
+    out = [float(x) for x in t.split(",") if x.strip()]
+    if not out or any(not (x > 0) for x in out) or any(b <= a for a, b in zip(out, out[1:])):
+        raise ValueError(f"{text!r}: positive wavelengths (um), strictly increasing")
+    return out
 
 
 # --------------------------------------------------------------------------
@@ -250,6 +355,86 @@ class PolarisedCarrier:
     def components(self, cols: np.ndarray) -> np.ndarray:
         """(N, 4) Stokes vectors, or (N, 16) Mueller matrices row-major (m_ij at 4 i + j)."""
         return cols.reshape(len(cols), -1)
+
+
+def mitsuba_ior(mi, material: str, wavelengths_um: list[float]) -> tuple[list[float], list[float]]:
+    """Mitsuba's own n and k of a conductor preset at the wavelengths (um):
+    its files data/ior/MATERIAL.eta.spd and .k.spd loaded as Mitsuba
+    `spectrum` textures (the `irregular` spectrum that conductor.cpp's
+    complex_ior_from_file builds) and evaluated by Mitsuba at those
+    wavelengths (a spectral variant; float32)."""
+    import drjit as dr
+
+    if "spectral" not in mi.variant():
+        raise ValueError(f"Mitsuba's conductor spectra need a spectral variant, not {mi.variant()}")
+    root = Path(mi.__file__).resolve().parent / "data" / "ior"
+    texs = []
+    for part in ("eta", "k"):
+        f = root / f"{material}.{part}.spd"
+        if not f.is_file():
+            raise ValueError(f"{f}: no such Mitsuba conductor preset {material!r}")
+        texs.append(mi.load_dict({"type": "spectrum", "filename": str(f)}))
+    out = ([], [])
+    nm = [1000.0 * x for x in wavelengths_um]
+    for g in range(0, len(nm), 4):
+        part = nm[g:g + 4]
+        si = dr.zeros(mi.SurfaceInteraction3f)
+        si.wavelengths = type(si.wavelengths)(*(part + [part[-1]] * (4 - len(part))))
+        for t, o in zip(texs, out):
+            v = np.asarray(t.eval(si).numpy() if hasattr(t.eval(si), "numpy") else t.eval(si),
+                           dtype=np.float64).reshape(-1)
+            o.extend(float(x) for x in v[:len(part)])
+    return out
+
+
+class SpectralPolarisedCarrier:
+    """Stokes vectors of the incident state, one per wavelength, through a batch
+    of paths: columns (N, 4, L), lane l the Stokes vector at wavelength l, with
+    one reference vector per photon (the geometry is shared). At a hit the
+    columns are turned into the s frame by Mitsuba's rotate_stokes_basis (the
+    same for every lane) and multiplied by Mitsuba's
+    specular_reflection(cos_i, n_l + i k_l) per lane, n_l and k_l Mitsuba's own
+    spectra (`mitsuba_ior`). The interface of `PolarisedCarrier` (the tracer's
+    loop is shared): the intensity for roulette is the largest lane's S0, the
+    brdf.csv weight the S0 of every lane (N, L); no Stokes tallies are kept
+    (`names` is empty)."""
+
+    mode = "stokes"
+    names: list[str] = []
+
+    def __init__(self, mi, n: list[float], k: list[float], incident: np.ndarray, pole_phi: float):
+        self.lanes = [MitsubaMueller(mi, a, b) for a, b in zip(n, k)]
+        self.rot = self.lanes[0]
+        self.incident = np.asarray(incident, dtype=np.float64)
+        self.pole_phi = pole_phi
+
+    def launch(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        cols = np.tile(self.incident[None, :, None], (len(d), 1, len(self.lanes)))
+        return cols, hemisphere_reference(d, self.pole_phi)
+
+    def reflect(self, cols, x, d_in, n, cos_i):
+        s = np.cross(n, d_in)
+        len2 = np.einsum("ij,ij->i", s, s)
+        ok = len2 > 1e-24
+        s = np.where(ok[:, None], s / np.sqrt(np.where(ok, len2, 1.0))[:, None], x)
+        turned = np.einsum("nij,njl->nil", self.rot.rotate_stokes_basis(d_in, x, s), cols)
+        out = np.empty_like(cols)
+        for l, m in enumerate(self.lanes):
+            out[:, :, l] = np.einsum("nij,nj->ni", m.specular_reflection(cos_i), turned[:, :, l])
+        return out, s
+
+    def to_hemisphere(self, cols, x, d):
+        R = self.rot.rotate_stokes_basis(d, x, hemisphere_reference(d, self.pole_phi))
+        return np.einsum("nij,njl->nil", R, cols)
+
+    def intensity(self, cols):
+        return cols[:, 0, :].max(axis=1)
+
+    def weight_for(self, cols):
+        return cols[:, 0, :]
+
+    def components(self, cols):
+        return np.zeros((len(cols), 0))
 
 
 # --------------------------------------------------------------------------
@@ -474,22 +659,27 @@ class Tracer:
     def run(self, theta_deg: float, phi_deg: float, photons: int, seed: int, index: int,
             reflectance, bands: int, max_bounces: int = 100_000, max_segments: int = 10_000,
             roulette_weight: float = 0.01, batch: int = 1 << 20, max_misses: int = 1000,
-            polarised: PolarisedCarrier | None = None):
+            polarised: PolarisedCarrier | None = None, lanes: int | None = None):
         """Trace `photons` at incidence (theta, phi). `reflectance(cos_i)` weighs the
         scalar path; with `polarised` the photons carry its Stokes columns instead
-        (and `w` is their intensity, `polarised.intensity`)."""
+        (and `w` is their intensity, `polarised.intensity`). With `lanes` (spectral:
+        one weight per wavelength, `reflectance(cos_i)` then returns (N, lanes)) `w`
+        is (N, lanes), every tally has a component per lane, and roulette and the
+        dead test use the largest lane (survivors are scaled so it is w_s: unbiased
+        for every lane, as roks's `carrier::Spectral`)."""
         lx, ly, B = self.lx, self.ly, self.block
         pol = polarised
         rng = np.random.default_rng([seed, index, int(round(theta_deg * 1e6)) & 0xFFFFFFFF])
         grid = Carlson(bands)
         inpl = InPlane(phi_deg)
-        carl, ipt = Acc(grid.n_cells), Acc(inpl.n_bins)
-        refl = Acc(1)
+        carl, ipt = Acc(grid.n_cells, lanes), Acc(inpl.n_bins, lanes)
+        refl = Acc(1, lanes)
         if pol:
             width = len(pol.names)
             carl_pol, refl_pol = Acc(grid.n_cells, width), Acc(1, width)
-        by_b = np.zeros(BOUNCE_BINS)
-        stats = dict(bounces=0, segments=0, lost_cap=0.0, lost_numeric=0.0,
+        by_b = np.zeros(BOUNCE_BINS if lanes is None else (BOUNCE_BINS, lanes))
+        zero_loss = 0.0 if lanes is None else np.zeros(lanes)
+        stats = dict(bounces=0, segments=0, lost_cap=zero_loss, lost_numeric=zero_loss,
                      capped_histories=0, numeric_histories=0)
         t_, p_ = math.radians(theta_deg), math.radians(phi_deg)
         w_i = np.array([math.sin(t_) * math.cos(p_), math.sin(t_) * math.sin(p_), math.cos(t_)])
@@ -504,7 +694,7 @@ class Tracer:
             o[:, 1] = rng.random(m) * ly
             o[:, 2] = self.ztop
             d = np.tile(-w_i, (m, 1))
-            w = np.ones(m)
+            w = np.ones(m if lanes is None else (m, lanes))
             cols = x = None
             if pol:
                 cols, x = pol.launch(d)
@@ -569,7 +759,7 @@ class Tracer:
                     o[rel] = o[rel] + tr[rel, None] * d[rel]
                     bad |= rel & (o[:, 2] < self.zmin - self.eps)
                     if bad.any():
-                        stats["lost_numeric"] += float(self._score(pol, w, cols, bad).sum())
+                        stats["lost_numeric"] = stats["lost_numeric"] + self._lost(pol, w, cols, bad)
                         stats["numeric_histories"] += int(bad.sum())
                         keep &= ~bad
 
@@ -592,21 +782,25 @@ class Tracer:
                     o[hit] = p + self.eps * nh
                     nb[hit] += 1
                     stats["bounces"] += int(hit.sum())
-                    dead = hit & (w <= 0.0)
+                    lead = w if w.ndim == 1 else w.max(axis=1)
+                    dead = hit & (lead <= 0.0)
                     keep &= ~dead
-                    low = hit & keep & (w < roulette_weight)
+                    low = hit & keep & (lead < roulette_weight)
                     if low.any():
-                        survive = rng.random(int(low.sum())) * w_s < w[low]
+                        survive = rng.random(int(low.sum())) * w_s < lead[low]
                         idx = np.flatnonzero(low)
                         if pol:
                             cols[idx[survive]] *= (w_s / w[idx[survive]])[:, None, None]
-                        w[idx[survive]] = w_s
+                        if w.ndim == 1:
+                            w[idx[survive]] = w_s
+                        else:
+                            w[idx[survive]] *= (w_s / lead[idx[survive]])[:, None]
                         keep[idx[~survive]] = False
 
                 # caps
                 cap = keep & ((nb >= max_bounces) | (ns >= max_segments))
                 if cap.any():
-                    stats["lost_cap"] += float(self._score(pol, w, cols, cap).sum())
+                    stats["lost_cap"] = stats["lost_cap"] + self._lost(pol, w, cols, cap)
                     stats["capped_histories"] += int(cap.sum())
                     keep &= ~cap
 
@@ -619,6 +813,12 @@ class Tracer:
         return dict(theta_deg=theta_deg, phi_deg=phi_deg, photons=photons, grid=grid, inplane=inpl,
                     carlson=carl, inplane_acc=ipt, refl=refl, by_bounces=by_b, seconds=seconds,
                     polar=polar, **stats)
+
+    @classmethod
+    def _lost(cls, pol, w: np.ndarray, cols, sel: np.ndarray):
+        """The summed weight of the photons `sel`: a float, or per lane (spectral)."""
+        v = cls._score(pol, w, cols, sel)
+        return float(v.sum()) if v.ndim == 1 else v.sum(axis=0)
 
     @staticmethod
     def _score(pol, w: np.ndarray, cols, sel: np.ndarray) -> np.ndarray:
@@ -637,6 +837,8 @@ def _atomic_write(path: Path, text: str) -> None:
 
 
 def summary_entry(r: dict) -> dict:
+    if r.get("wavelengths_um") is not None:
+        return spectral_summary_entry(r)
     n = r["photons"]
     segs = r["segments"]
     lost = r["lost_cap"] / n + r["lost_numeric"] / n
@@ -666,7 +868,77 @@ def summary_entry(r: dict) -> dict:
     return entry
 
 
+def spectral_summary_entry(r: dict) -> dict:
+    """A spectral run's incidence entry, as roks's: `spectrum` per wavelength
+    (reflectance, its standard error, the losses); the entry's own
+    reflectance, losses and `reflectance_by_bounces` are the means over the
+    wavelengths, its `reflectance_stderr` the mean of theirs."""
+    n = r["photons"]
+    wl = r["wavelengths_um"]
+    refl, se = r["refl"].mean(n)[0], r["refl"].stderr(n)[0]
+    cap, num = np.asarray(r["lost_cap"]) / n, np.asarray(r["lost_numeric"]) / n
+    spectrum = [{"wavelength_um": float(w), "reflectance": float(refl[l]),
+                 "reflectance_stderr": float(se[l]), "lost": float(cap[l] + num[l]),
+                 "lost_cap": float(cap[l]), "lost_numeric": float(num[l]), "lost_walls": 0.0}
+                for l, w in enumerate(wl)]
+    segs = r["segments"]
+    return {
+        "theta_deg": r["theta_deg"],
+        "phi_deg": r["phi_deg"],
+        "photons": n,
+        "reflectance": float(refl.mean()),
+        "reflectance_stderr": float(se.mean()),
+        "mean_bounces": r["bounces"] / n,
+        "lost": float((cap + num).mean()),
+        "lost_walls": 0.0,
+        "lost_cap": float(cap.mean()),
+        "lost_numeric": float(num.mean()),
+        "capped_histories": r["capped_histories"],
+        "numeric_histories": r["numeric_histories"],
+        "reflectance_by_bounces": [float(x) / n for x in r["by_bounces"].mean(axis=1)],
+        "segments": segs,
+        "seconds": r["seconds"],
+        "segments_per_second": segs / r["seconds"] if r["seconds"] > 0 else 0.0,
+        "spectrum": spectrum,
+    }
+
+
+def write_spectral_outputs(out: Path, results: list[dict], meta: dict) -> None:
+    """brdf.csv and inplane.csv in roks's spectral layout (`wavelength_um`
+    after `phi_i_deg`, resp. `theta_i_deg`; a block per incidence and
+    wavelength, incidence-major) and summary.json with `wavelengths_um` and
+    `spectrum` per incidence."""
+    out.mkdir(parents=True, exist_ok=True)
+    lines = [SPECTRAL_BRDF_HEADER]
+    for r in results:
+        n = r["photons"]
+        f, fe = r["carlson"].mean(n), r["carlson"].stderr(n)
+        for l, wl in enumerate(r["wavelengths_um"]):
+            for flat, row in enumerate(r["grid"].rows()):
+                band, cell, tlo, thi, plo, phi_hi, th, ph, omega, proj = row
+                lines.append(",".join([
+                    rs(r["theta_deg"]), rs(r["phi_deg"]), rs(wl), str(band), str(cell), rs(tlo), rs(thi),
+                    rs(plo), rs(phi_hi), rs(th), rs(ph), re_(omega, 12), re_(proj, 12),
+                    re_(f[flat, l]), re_(fe[flat, l]), re_(f[flat, l] / proj), re_(fe[flat, l] / proj)]))
+    _atomic_write(out / "brdf.csv", "\n".join(lines) + "\n")
+    lines = [SPECTRAL_INPLANE_HEADER]
+    for r in results:
+        n = r["photons"]
+        ip = r["inplane"]
+        f, fe = r["inplane_acc"].mean(n), r["inplane_acc"].stderr(n)
+        for l, wl in enumerate(r["wavelengths_um"]):
+            for b in range(ip.n_bins):
+                pr = ip.proj(b)
+                lines.append(f"{rs(r['theta_deg'])},{rs(wl)},{rs(ip.centre(b))},{re_(f[b, l] / pr)},"
+                             f"{re_(fe[b, l] / pr)}")
+    _atomic_write(out / "inplane.csv", "\n".join(lines) + "\n")
+    summary = {"incidence": [summary_entry(r) for r in results], **meta}
+    _atomic_write(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+
+
 def write_outputs(out: Path, results: list[dict], meta: dict) -> None:
+    if results and results[0].get("wavelengths_um") is not None:
+        return write_spectral_outputs(out, results, meta)
     out.mkdir(parents=True, exist_ok=True)
     lines = [BRDF_HEADER]
     for r in results:
@@ -724,6 +996,11 @@ def parse_args(argv=None):
     ap.add_argument("--rho", type=float, default=None, help="constant reflectance per bounce")
     ap.add_argument("--n", type=float, default=None, help="refractive index (unpolarised Fresnel)")
     ap.add_argument("--k", type=float, default=0.0, help="extinction coefficient (with --n)")
+    ap.add_argument("--material", default=None,
+                    help="Mitsuba conductor preset (e.g. Au: Mitsuba's own n, k spectra), spectral run "
+                         "at --wavelengths in a spectral variant (llvm_ad_spectral)")
+    ap.add_argument("--wavelengths", default=None,
+                    help="with --material: wavelengths in um, W1,W2,... or FROM:TO:STEP (as roks)")
     ap.add_argument("--bands", type=int, default=32, help="Carlson grid bands")
     ap.add_argument("--out", default="out/mitsuba", help="output folder")
     ap.add_argument("--variant", default="auto", choices=["auto", "llvm", "scalar"],
@@ -750,8 +1027,18 @@ def parse_args(argv=None):
         ap.error("--size: periods must be positive")
     if any(not (0 <= t < 90) for t in a.thetas):
         ap.error("--theta: angles in [0, 90)")
-    if (a.rho is None) == (a.n is None):
-        ap.error("give exactly one of --rho or --n [--k]")
+    if sum(x is not None for x in (a.rho, a.n, a.material)) != 1:
+        ap.error("give exactly one of --rho, --n [--k] or --material NAME --wavelengths W")
+    if (a.material is None) != (a.wavelengths is None):
+        ap.error("--material and --wavelengths go together")
+    a.wavelengths_um = None
+    if a.wavelengths is not None:
+        try:
+            a.wavelengths_um = parse_wavelengths(a.wavelengths)
+        except ValueError as e:
+            ap.error(f"--wavelengths: {e}")
+        if a.polarisation == "mueller":
+            ap.error("--material (spectral): --polarisation stokes or none")
     if a.rho is not None and not (0 <= a.rho <= 1):
         ap.error("--rho in [0, 1]")
     try:
@@ -771,7 +1058,7 @@ def parse_args(argv=None):
 
 def main(argv=None) -> int:
     a = parse_args(argv)
-    mi = setup_mitsuba(a.variant, polarised=a.polarisation != "none")
+    mi = setup_mitsuba(a.variant, polarised=a.polarisation != "none", spectral=a.material is not None)
     tracer = Tracer(mi, a.mesh, a.lx, a.ly, block=a.block, offset=a.offset)
     (x0, y0), (x1, y1) = tracer.bbox
     tol = 1e-4 * tracer.scale
@@ -784,6 +1071,9 @@ def main(argv=None) -> int:
         def reflectance(c):
             return np.full(len(c), rho)
         material = {"reflectance": rho}
+    elif a.material is not None:
+        reflectance = None if a.polarisation != "none" else MitsubaConductor(mi, a.material, a.wavelengths_um)
+        material = {"mitsuba_conductor": a.material}
     else:
         n_, k_ = a.n, a.k
 
@@ -791,7 +1081,11 @@ def main(argv=None) -> int:
             return fresnel_unpolarised(c, n_, k_)
         material = {"n": n_, "k": k_}
     polarised = None
-    if a.polarisation != "none":
+    if a.material is not None and a.polarisation != "none":
+        n_, k_ = mitsuba_ior(mi, a.material, a.wavelengths_um)
+        material.update(n=n_, k=k_)
+        polarised = SpectralPolarisedCarrier(mi, n_, k_, a.incident_stokes, math.radians(a.phi))
+    elif a.polarisation != "none":
         polarised = PolarisedCarrier(MitsubaMueller(mi, a.n, a.k), a.polarisation, a.incident_stokes,
                                      math.radians(a.phi))
     results = []
@@ -804,7 +1098,9 @@ def main(argv=None) -> int:
     for i, th in enumerate(a.thetas):
         r = tracer.run(th, a.phi, a.photons, a.seed, i, reflectance, a.bands,
                        max_bounces=a.max_bounces, max_segments=a.max_segments,
-                       roulette_weight=a.roulette_weight, batch=a.batch, polarised=polarised)
+                       roulette_weight=a.roulette_weight, batch=a.batch, polarised=polarised,
+                       lanes=None if a.wavelengths_um is None else len(a.wavelengths_um))
+        r["wavelengths_um"] = a.wavelengths_um
         results.append(r)
         if not a.quiet:
             s = summary_entry(r)
@@ -827,6 +1123,8 @@ def main(argv=None) -> int:
         "version": VERSION,
         "mitsuba_version": mi.__version__,
     }
+    if a.wavelengths_um is not None:
+        meta["wavelengths_um"] = a.wavelengths_um
     write_outputs(Path(a.out), results, meta)
     return 0
 
