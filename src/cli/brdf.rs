@@ -10,7 +10,7 @@ use super::args::RunArgs;
 use super::common::{
     load_scene_at, progress_bar, result_dir, set_threads, stats_grid, write_folder,
 };
-use super::export_brdf::export_table;
+use super::export_brdf::export_tables;
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::micro::surface_stats::surface_stats;
@@ -73,8 +73,10 @@ pub struct BrdfArgs {
     /// that `roks merge` adds up exactly.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<Shard>,
-    /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf),
-    /// merl (DIR/brdf.binary); see `roks export-brdf`.
+    /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf;
+    /// spectral: DIR/brdf_<wavelength>um.bsdf per wavelength), merl
+    /// (DIR/brdf.binary; spectral: linear sRGB, wavelengths covering
+    /// 0.38-0.78 um); see `roks export-brdf`.
     #[arg(
         long,
         value_delimiter = ',',
@@ -138,6 +140,10 @@ impl BrdfArgs {
             run.theta_deg.clone_from(t);
         }
         scene.check_run_memory(&run)?;
+        for f in &self.export {
+            f.check_wavelengths(&run.wavelengths_um)
+                .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
+        }
         Ok(run)
     }
 }
@@ -190,10 +196,9 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         for (k, &f) in a.export.iter().enumerate() {
             // Each format once, in the order given.
             if !a.export[..k].contains(&f) {
-                extra.push((
-                    f.file_name().to_owned(),
-                    export_table(&table, f, &comment, a.quiet)?,
-                ));
+                for file in export_tables(&table, f, &comment, a.quiet, "--export")? {
+                    extra.push((file.file_name, file.bytes));
+                }
             }
         }
     }

@@ -1,15 +1,24 @@
 //! `roks export-brdf`: the BRDF table of a `roks brdf` result folder in a
 //! format other programs read (Zemax tabular BSDF, MERL binary), with the
 //! reflectance of the file read back beside the table's.
+//!
+//! A spectral folder (`brdf.csv` with `wavelength_um`) gives a Zemax file
+//! per wavelength, `--out` with `_<wavelength>um` before its extension
+//! (`--out gold.bsdf`: `gold_0.45um.bsdf`, `gold_0.55um.bsdf`, ...; see
+//! [`wavelength_path`]), and one colour MERL file at `--out` (its
+//! wavelengths must cover the visible). See
+//! [`crate::export::brdf_formats`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 
 use super::Failure;
 use super::common::{check_out_file, write_file};
-use crate::export::brdf_formats::{BrdfFormat, reflectance_check};
-use crate::optics::brdf_table::BrdfTable;
+use crate::export::brdf_formats::{
+    BrdfFormat, ExportFile, ReflectanceCheck, colour_reflectance_check, reflectance_check,
+};
+use crate::optics::brdf_table::BrdfTables;
 
 /// The options of `roks export-brdf`.
 #[derive(Args, Debug)]
@@ -19,7 +28,8 @@ pub struct ExportBrdfArgs {
     /// Output format: zemax or merl.
     #[arg(long, ignore_case = true, hide_possible_values = true)]
     pub format: BrdfFormat,
-    /// Output file.
+    /// Output file (spectral zemax: one file per wavelength, named
+    /// OUT with _<wavelength>um before its extension).
     #[arg(long)]
     pub out: PathBuf,
     /// No reflectance check on stderr.
@@ -27,11 +37,27 @@ pub struct ExportBrdfArgs {
     pub quiet: bool,
 }
 
+/// The file of wavelength `wavelength_um` (µm, shortest round-trip form)
+/// of a spectral Zemax export to `out`: `_<wavelength>um` inserted before
+/// the extension of `out`'s file name (`dir/gold.bsdf` ->
+/// `dir/gold_0.55um.bsdf`; no extension: appended).
+#[must_use]
+pub fn wavelength_path(out: &Path, wavelength_um: f64) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let name = match out.extension() {
+        Some(ext) => format!("{stem}_{wavelength_um}um.{}", ext.to_string_lossy()),
+        None => format!("{stem}_{wavelength_um}um"),
+    };
+    out.with_file_name(name)
+}
+
 /// Run `roks export-brdf`.
 ///
 /// # Errors
-/// Bad input (the result folder, its table or summary, `--out`), or a
-/// failed write.
+/// Bad input (the result folder, its table or summary, `--out`, MERL of
+/// wavelengths that do not cover the visible), or a failed write.
 pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
     let format = a.format;
     check_out_file(&a.out)?;
@@ -42,66 +68,150 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
             a.dir.display()
         )));
     }
-    let mut table = BrdfTable::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    let mut tables = BrdfTables::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
     // The run's summary beside the table must describe the same run (a
     // table cut at a block boundary has lost an incidence it lists).
     let summary = a.dir.join("summary.json");
     if summary.exists() {
-        table = table
+        tables = tables
             .with_summary(&summary)
             .map_err(|e| Failure::Input(e.to_string()))?;
     }
-    let bytes = export_table(&table, format, &format!("from {}", csv.display()), a.quiet)?;
-    write_file(&a.out, &bytes)?;
-    if !a.quiet {
-        eprintln!(
-            "wrote {} ({format}, {} bytes)",
-            a.out.display(),
-            bytes.len()
-        );
+    format
+        .check_wavelengths(tables.wavelengths_um())
+        .map_err(|e| Failure::Input(format!("--format {format}: {}: {e}", csv.display())))?;
+    let paths: Vec<PathBuf> = match (format, tables.spectral()) {
+        (BrdfFormat::Zemax, Some(s)) => s
+            .wavelengths_um()
+            .iter()
+            .map(|&w| wavelength_path(&a.out, w))
+            .collect(),
+        _ => vec![a.out.clone()],
+    };
+    for p in &paths {
+        check_out_file(p)?;
+    }
+    let files = export_tables(
+        &tables,
+        format,
+        &format!("from {}", csv.display()),
+        a.quiet,
+        "--format",
+    )?;
+    for (file, path) in files.iter().zip(&paths) {
+        write_file(path, &file.bytes)?;
+        if !a.quiet {
+            eprintln!(
+                "wrote {} ({format}, {} bytes)",
+                path.display(),
+                file.bytes.len()
+            );
+        }
     }
     Ok(())
 }
 
-/// The export of `table` in `format`, with `comment` in its header where
-/// the format has one; unless `quiet`, the reflectance check on stderr: the
-/// file read back and integrated over the hemisphere beside the table's
-/// reflectance, per incidence.
+/// The export of `tables` in `format` ([`BrdfFormat::export_tables`]), with
+/// `comment` in its header where the format has one; unless `quiet`, the
+/// reflectance check on stderr: each file read back and integrated over the
+/// hemisphere beside the table's reflectance, per incidence (per
+/// wavelength for spectral Zemax files, per channel for a colour MERL
+/// file, with the count of clipped negative sRGB components). `option`
+/// names the option that asked for the format in a refusal.
 ///
 /// # Errors
-/// The export does not read back (a defect of the writer, exit status 1).
-pub fn export_table(
-    table: &BrdfTable,
+/// A refusal (MERL of wavelengths not covering the visible, exit status 2)
+/// or an export that does not read back (a defect of the writer, exit
+/// status 1).
+pub fn export_tables(
+    tables: &BrdfTables,
     format: BrdfFormat,
     comment: &str,
     quiet: bool,
-) -> Result<Vec<u8>, Failure> {
-    let bytes = format.export(table, comment);
-    if !quiet {
-        let check = reflectance_check(table, format, &bytes).map_err(|e| {
-            Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}"))
-        })?;
-        eprintln!(
-            "{format}: reflectance of the file (read back, integrated over the hemisphere) vs the table"
-        );
-        eprintln!(
-            "{:>9} {:>10} {:>10} {:>10}",
-            "theta_i", "table", "file", "relative"
-        );
-        for c in &check {
-            // A table reflectance of 0 (an absorbing surface) has no relative error.
-            let relative = if c.table != 0.0 {
-                format!("{:+.2e}", c.file / c.table - 1.0)
-            } else if c.file == 0.0 {
-                "equal (0)".to_string()
-            } else {
-                "undefined (table 0)".to_string()
-            };
+    option: &str,
+) -> Result<Vec<ExportFile>, Failure> {
+    let files = format
+        .export_tables(tables, comment)
+        .map_err(|e| Failure::Input(format!("{option} {format}: {e}")))?;
+    if quiet {
+        return Ok(files);
+    }
+    let unreadable = |e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}"));
+    match (tables.spectral(), format) {
+        (Some(s), BrdfFormat::Merl) => {
+            let file = &files[0];
+            let check = colour_reflectance_check(s, &file.bytes).map_err(unreadable)?;
             eprintln!(
-                "{:>9.2} {:>10.6} {:>10.6} {relative:>10}",
-                c.theta_i_deg, c.table, c.file
+                "{format}: reflectance of the file (read back, integrated over the hemisphere) vs the table, linear sRGB under D65"
             );
+            for (c, channel) in ["red", "green", "blue"].iter().enumerate() {
+                eprintln!("{channel}:");
+                print_check(&check.iter().map(|k| k[c]).collect::<Vec<_>>());
+            }
+            if let Some(clip) = file.clipped.filter(|c| c.values > 0) {
+                eprintln!(
+                    "{format}: {} values had a negative linear sRGB component (out of gamut), stored as 0; the most negative {:.3e} 1/sr",
+                    clip.values, clip.most_negative
+                );
+            }
+        }
+        _ => {
+            for (file, table) in files.iter().zip(tables.tables()) {
+                let check = reflectance_check(table, format, &file.bytes).map_err(unreadable)?;
+                match file.wavelength_um {
+                    Some(w) => eprintln!(
+                        "{format} ({w} um): reflectance of the file (read back, integrated over the hemisphere) vs the table"
+                    ),
+                    None => eprintln!(
+                        "{format}: reflectance of the file (read back, integrated over the hemisphere) vs the table"
+                    ),
+                }
+                print_check(&check);
+            }
         }
     }
-    Ok(bytes)
+    Ok(files)
+}
+
+/// The table of a reflectance check on stderr.
+fn print_check(check: &[ReflectanceCheck]) {
+    eprintln!(
+        "{:>9} {:>10} {:>10} {:>10}",
+        "theta_i", "table", "file", "relative"
+    );
+    for c in check {
+        // A table reflectance of 0 (an absorbing surface) has no relative error.
+        let relative = if c.table != 0.0 {
+            format!("{:+.2e}", c.file / c.table - 1.0)
+        } else if c.file == 0.0 {
+            "equal (0)".to_string()
+        } else {
+            "undefined (table 0)".to_string()
+        };
+        eprintln!(
+            "{:>9.2} {:>10.6} {:>10.6} {relative:>10}",
+            c.theta_i_deg, c.table, c.file
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wavelength_paths() {
+        assert_eq!(
+            wavelength_path(Path::new("/a/gold.bsdf"), 0.55),
+            Path::new("/a/gold_0.55um.bsdf")
+        );
+        assert_eq!(
+            wavelength_path(Path::new("out"), 10.0),
+            Path::new("out_10um")
+        );
+        assert_eq!(
+            wavelength_path(Path::new("d/x.y.bsdf"), 0.4),
+            Path::new("d/x.y_0.4um.bsdf")
+        );
+    }
 }

@@ -21,12 +21,43 @@
 //! [`reflectance_check`] reads an export back with the format's own reader
 //! and integrates it over the hemisphere: the difference from the table's
 //! reflectance is the resampling error of the export.
+//!
+//! # Spectral tables
+//!
+//! [`BrdfFormat::export_tables`] exports a monochrome table as before (one
+//! file, [`BrdfFormat::file_name`], the same bytes as
+//! [`BrdfFormat::export`]) and a spectral one ([`SpectralTables`]) as:
+//!
+//! * **Zemax**: one `Monochrome` file per wavelength, named
+//!   `brdf_<wavelength>um.bsdf` ([`BrdfFormat::spectral_file_name`]; the
+//!   wavelength in µm as in the `wavelength_um` column of `brdf.csv`, e.g.
+//!   `brdf_0.55um.bsdf`), each the export of that wavelength's table with a
+//!   comment line giving the wavelength. The format cannot hold a spectrum:
+//!   its `SpectralContent` is `Monochrome` or `XYZ` (tristimulus) only
+//!   (R. Rykowski, "BSDF Data Interchange File Format Specification",
+//!   Radiant Imaging / Zemax knowledge base article 229, 2008, Table 1, line
+//!   3; "Zemax Tabular BSDF data file format", Zemax support article
+//!   1500005486801), and OpticStudio's tabular BSDF model reads an `XYZ`
+//!   file as three separate monochrome distributions chosen by its
+//!   `Tristimulus` parameter (Zemax knowledge base article 231, "How to Use
+//!   Tabular BSDF Data to Define the Surface Scattering Distribution"), so
+//!   a scatter model per wavelength is the format's way to a spectral BSDF.
+//! * **MERL**: one file, `brdf.binary`, its red, green and blue channels
+//!   the linear sRGB of the BRDF under D65 ([`merl::Merl::from_spectral`])
+//!   when the wavelengths cover the visible 0.38-0.78 µm. Otherwise the
+//!   export is refused ([`ExportRefusal`]): a MERL file has colour channels
+//!   and nothing else, and filling them from wavelengths outside the
+//!   visible (or with their grey mean) would make a file that reads as a
+//!   colour it is not; the refusal names the way out (Zemax, one file per
+//!   wavelength, or wavelengths covering the visible).
 
 use std::fmt;
 
-use crate::optics::brdf_table::BrdfTable;
+use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
+use crate::optics::colour::{VISIBLE_MAX_UM, VISIBLE_MIN_UM, covers_visible};
 use glam::DVec3;
 use rayon::prelude::*;
+use thiserror::Error;
 
 pub use super::resample::{FormatError, symmetric_eval};
 use super::{merl, zemax};
@@ -72,6 +103,130 @@ impl BrdfFormat {
                 .into_bytes(),
             Self::Merl => merl::Merl::from_table(table).to_bytes(),
         }
+    }
+}
+
+/// One file of an export.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportFile {
+    /// Its name beside `brdf.csv` in a result folder
+    /// ([`BrdfFormat::file_name`], or [`BrdfFormat::spectral_file_name`]).
+    pub file_name: String,
+    /// The wavelength (µm) of a spectral table's Zemax file.
+    pub wavelength_um: Option<f64>,
+    /// The file's bytes.
+    pub bytes: Vec<u8>,
+    /// The colour MERL's linear sRGB components stored as 0.
+    pub clipped: Option<merl::Clipped>,
+}
+
+/// Why a table cannot be exported in a format.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ExportRefusal {
+    /// MERL of a spectral table whose wavelengths do not cover the visible.
+    #[error(
+        "the wavelengths {first}-{last} um do not cover the visible range {VISIBLE_MIN_UM}-{VISIBLE_MAX_UM} um, which the red, green and blue channels of a MERL file (linear sRGB under D65) need; export zemax (one file per wavelength) or trace wavelengths from {VISIBLE_MIN_UM} to {VISIBLE_MAX_UM} um"
+    )]
+    NotVisible {
+        /// First wavelength (µm).
+        first: f64,
+        /// Last wavelength (µm).
+        last: f64,
+    },
+}
+
+impl BrdfFormat {
+    /// The file name `roks brdf --export` writes beside a spectral
+    /// `brdf.csv` for the table of wavelength `wavelength_um` (µm, written
+    /// in its shortest round-trip form): `brdf_<wavelength>um.bsdf` for
+    /// Zemax (one file per wavelength); MERL has one file for all
+    /// wavelengths, [`file_name`](Self::file_name).
+    #[must_use]
+    pub fn spectral_file_name(self, wavelength_um: f64) -> String {
+        match self {
+            Self::Zemax => format!("brdf_{wavelength_um}um.bsdf"),
+            Self::Merl => self.file_name().to_owned(),
+        }
+    }
+
+    /// Whether tables at `wavelengths_um` (µm, increasing; empty:
+    /// monochrome) can be exported in this format (before tracing them).
+    ///
+    /// # Errors
+    /// [`ExportRefusal::NotVisible`] for MERL of wavelengths that do not
+    /// cover the visible.
+    pub fn check_wavelengths(self, wavelengths_um: &[f64]) -> Result<(), ExportRefusal> {
+        match (self, wavelengths_um.first(), wavelengths_um.last()) {
+            (Self::Merl, Some(&first), Some(&last)) if !covers_visible(wavelengths_um) => {
+                Err(ExportRefusal::NotVisible { first, last })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The files of `tables` in this format (see the module documentation):
+    /// one for a monochrome table ([`export`](Self::export)); for a
+    /// spectral one a Zemax file per wavelength (`comment` followed by the
+    /// wavelength) or one colour MERL file.
+    ///
+    /// # Errors
+    /// As [`check_wavelengths`](Self::check_wavelengths).
+    pub fn export_tables(
+        self,
+        tables: &BrdfTables,
+        comment: &str,
+    ) -> Result<Vec<ExportFile>, ExportRefusal> {
+        let spectral = match tables {
+            BrdfTables::Monochrome(t) => {
+                return Ok(vec![ExportFile {
+                    file_name: self.file_name().to_owned(),
+                    wavelength_um: None,
+                    bytes: self.export(t, comment),
+                    clipped: None,
+                }]);
+            }
+            BrdfTables::Spectral(s) => s,
+        };
+        self.check_wavelengths(spectral.wavelengths_um())?;
+        Ok(match self {
+            Self::Zemax => spectral
+                .wavelengths_um()
+                .par_iter()
+                .zip(spectral.tables())
+                .map(|(&w, t)| ExportFile {
+                    file_name: self.spectral_file_name(w),
+                    wavelength_um: Some(w),
+                    bytes: self.export(t, &wavelength_comment(comment, w)),
+                    clipped: None,
+                })
+                .collect(),
+            Self::Merl => {
+                let (m, clipped) = merl::Merl::from_spectral(spectral).ok_or_else(|| {
+                    let w = spectral.wavelengths_um();
+                    ExportRefusal::NotVisible {
+                        first: w[0],
+                        last: w[w.len() - 1],
+                    }
+                })?;
+                vec![ExportFile {
+                    file_name: self.file_name().to_owned(),
+                    wavelength_um: None,
+                    bytes: m.to_bytes(),
+                    clipped: Some(clipped),
+                }]
+            }
+        })
+    }
+}
+
+/// The comment of a spectral table's Zemax file of wavelength
+/// `wavelength_um` (µm).
+#[must_use]
+pub fn wavelength_comment(comment: &str, wavelength_um: f64) -> String {
+    if comment.trim().is_empty() {
+        format!("wavelength {wavelength_um} um")
+    } else {
+        format!("{comment}; wavelength {wavelength_um} um")
     }
 }
 
@@ -174,6 +329,41 @@ pub fn reflectance_check(
                 table: table.reflectance(theta),
                 file: file_r(k, theta),
             }
+        })
+        .collect())
+}
+
+/// [`reflectance_check`] of a colour MERL file (`bytes` written by
+/// [`merl::Merl::from_spectral`] for `tables`): per tabulated incidence and
+/// channel (red, green, blue), the channel of the file integrated over the
+/// hemisphere beside the linear sRGB of the table's reflectance spectrum
+/// (the reflectance of [`merl::srgb_tables`]). Clipped negative
+/// components make the file's value larger than the table's.
+///
+/// # Errors
+/// If the reader rejects `bytes`, or the wavelengths do not cover the
+/// visible.
+pub fn colour_reflectance_check(
+    tables: &SpectralTables,
+    bytes: &[u8],
+) -> Result<Vec<[ReflectanceCheck; 3]>, FormatError> {
+    let name = BrdfFormat::Merl.file_name();
+    let channels = merl::srgb_tables(tables).ok_or_else(|| FormatError {
+        file: name.into(),
+        message: "the wavelengths do not cover the visible: no colour".into(),
+    })?;
+    let m = merl::Merl::parse(bytes, name)?;
+    Ok(tables
+        .thetas_deg()
+        .iter()
+        .map(|&deg| {
+            let theta = deg.to_radians();
+            let light = DVec3::new(theta.sin(), 0.0, theta.cos());
+            [0, 1, 2].map(|c| ReflectanceCheck {
+                theta_i_deg: deg,
+                table: channels[c].reflectance(theta),
+                file: integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[c]),
+            })
         })
         .collect())
 }

@@ -9,8 +9,36 @@
 //! channel (red, green, blue), each channel with `phi_diff` fastest, then
 //! `theta_diff`, then `theta_half`: index `k + 180 j + 180 90 i`. A stored
 //! value times the channel scale [`SCALES`] (`1/1500`, `1.15/1500`,
-//! `1.66/1500`) is the BRDF in sr⁻¹; roks tables are grey, so the three
-//! channels hold the same BRDF (different stored numbers).
+//! `1.66/1500`) is the BRDF in sr⁻¹. A monochrome table is grey: the
+//! three channels hold the same BRDF (different stored numbers).
+//!
+//! # Colour (spectral tables)
+//!
+//! A spectral table ([`SpectralTables`]) whose wavelengths cover the
+//! visible ([`crate::optics::colour::covers_visible`]) fills the channels
+//! with the linear sRGB of its BRDF under the CIE D65 illuminant
+//! ([`Merl::from_spectral`]): channel `c` in a bin is
+//! `Σ_l (M · w_l)_c f_l`, with `f_l` the table of wavelength `l`
+//! resampled at the bin as below, `w_l` the XYZ weights of wavelength `l`
+//! ([`XyzWeights::d65`]: D65 power, CIE 1931 2-degree colour-matching
+//! functions, linear interpolation onto the 5 nm CIE grid, white `Y = 1`)
+//! and `M` the sRGB matrix [`crate::optics::colour::XYZ_TO_SRGB`]. The
+//! resampling is linear in the table's fractions with the same weights for
+//! every wavelength (the tables share their grid and incidences), so this
+//! is the resampling of the three per-cell colour tables
+//! ([`srgb_tables`], the per-cell `(r, g, b)` of `colour.csv`): three
+//! passes over the bins whatever the number of wavelengths (equal to
+//! resampling each wavelength and then mapping to sRGB, to rounding; a unit
+//! test checks it to 1e-12). So a grey spectrum (the same table at every
+//! wavelength) gives the monochrome file's BRDF times the linear sRGB of
+//! the D65 white, `xyz_to_linear_srgb(d65_white_xyz())`, `(1, 1, 1)`
+//! within 1e-3.
+//!
+//! Linear sRGB is negative for colours outside the sRGB gamut (saturated
+//! multiple reflections, e.g. in copper grooves); MERL files mark invalid
+//! bins with negative values and renderers would take them as negative
+//! radiance, so such components are stored as 0 and counted
+//! ([`Clipped`], reported by the export's check).
 //!
 //! # Coordinates (Rusinkiewicz half/difference angles)
 //!
@@ -53,7 +81,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::resample::{FormatError, symmetric_eval};
-use crate::optics::brdf_table::BrdfTable;
+use crate::optics::brdf_table::{BrdfTable, SpectralTables};
+use crate::optics::colour::XyzWeights;
 
 /// Bins in theta_half.
 pub const THETA_H: usize = 90;
@@ -161,28 +190,82 @@ pub fn reciprocal_eval(table: &BrdfTable, wi: DVec3, wo: DVec3) -> f64 {
     v
 }
 
-impl Merl {
-    /// Resample `table` at the bin centres (see the module documentation).
-    /// Bins are computed in parallel; the result does not depend on the
-    /// number of threads.
-    #[must_use]
-    pub fn from_table(table: &BrdfTable) -> Self {
-        let grey: Vec<f64> = (0..THETA_H)
-            .into_par_iter()
-            .flat_map_iter(|i| {
-                (0..THETA_D).flat_map(move |j| {
-                    (0..PHI_D).map(move |k| {
-                        let (wi, wo) = bin_directions(i, j, k);
-                        reciprocal_eval(table, above_horizon(wi), above_horizon(wo))
-                    })
+/// `table` resampled at the bin centres (one channel, sR⁻¹; see the
+/// module documentation). Bins are computed in parallel; the result does
+/// not depend on the number of threads.
+#[must_use]
+pub fn resample(table: &BrdfTable) -> Vec<f64> {
+    (0..THETA_H)
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            (0..THETA_D).flat_map(move |j| {
+                (0..PHI_D).map(move |k| {
+                    let (wi, wo) = bin_directions(i, j, k);
+                    reciprocal_eval(table, above_horizon(wi), above_horizon(wo))
                 })
             })
-            .collect();
+        })
+        .collect()
+}
+
+/// The per-cell linear sRGB tables of a spectral table (red, green, blue):
+/// channel `c` has in every cell the fraction `Σ_l (M · w_l)_c
+/// fraction_l` (see the module documentation), so its BRDF is the cell's
+/// linear sRGB of `colour.csv` and its reflectance the linear sRGB of the
+/// reflectance spectrum. `None` unless the wavelengths cover the visible.
+/// The tables may hold negative fractions (out of gamut); they are for
+/// resampling ([`BrdfTable::eval`], [`BrdfTable::reflectance`]) only.
+#[must_use]
+pub fn srgb_tables(tables: &SpectralTables) -> Option<[BrdfTable; 3]> {
+    let weights = XyzWeights::d65(tables.wavelengths_um())?.srgb_weights();
+    Some([0, 1, 2].map(|c| {
+        let channel: Vec<f64> = weights.iter().map(|w| w[c]).collect();
+        tables.linear_combination(&channel)
+    }))
+}
+
+/// Linear sRGB components below 0 stored as 0 by [`Merl::from_spectral`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Clipped {
+    /// Number of stored values (bins times channels) that were negative.
+    pub values: usize,
+    /// The most negative of them (sr⁻¹; 0 if none).
+    pub most_negative: f64,
+}
+
+impl Merl {
+    /// Resample `table` at the bin centres (see the module documentation):
+    /// three equal channels.
+    #[must_use]
+    pub fn from_table(table: &BrdfTable) -> Self {
+        let grey = resample(table);
         let mut values = Vec::with_capacity(3 * N);
         for _ in 0..3 {
             values.extend_from_slice(&grey);
         }
         Self { values }
+    }
+
+    /// The colour MERL of a spectral table: channel `c` the resampled
+    /// [`srgb_tables`] `c`, negative values stored as 0 (counted in
+    /// [`Clipped`]). `None` unless the wavelengths cover the visible.
+    #[must_use]
+    pub fn from_spectral(tables: &SpectralTables) -> Option<(Self, Clipped)> {
+        let channels = srgb_tables(tables)?;
+        let mut values = Vec::with_capacity(3 * N);
+        let mut clipped = Clipped::default();
+        for t in &channels {
+            for v in resample(t) {
+                if v < 0.0 {
+                    clipped.values += 1;
+                    clipped.most_negative = clipped.most_negative.min(v);
+                    values.push(0.0);
+                } else {
+                    values.push(v);
+                }
+            }
+        }
+        Some((Self { values }, clipped))
     }
 
     /// The file's bytes.
@@ -316,6 +399,83 @@ mod tests {
             }
         }
         assert!(checked > N / 7 / 2, "{checked}");
+    }
+
+    /// The colour path (resampling the three per-cell linear sRGB tables)
+    /// equals resampling every wavelength and then mapping to linear sRGB,
+    /// bin by bin, to 1e-12 of the size of the terms summed (`Σ_l |(M
+    /// w_l)_c f_l|`: the sRGB matrix has negative entries, so a channel can
+    /// be a difference of larger terms); and each cell of the sRGB tables is
+    /// the linear sRGB of the cell's BRDF spectrum as `colour.csv` computes
+    /// it (XYZ, then the matrix).
+    #[test]
+    fn colour_equals_per_wavelength_resampling_then_srgb() {
+        use crate::optics::colour::{XyzWeights, xyz_to_linear_srgb};
+        use crate::tally::CarlsonGrid;
+        let ws = vec![0.38, 0.5, 0.62, 0.7, 0.78];
+        let grid = CarlsonGrid::new(4).unwrap();
+        let n = grid.n_cells();
+        // Per wavelength a different, lumpy BRDF at 0, 35 and 70 degrees.
+        let tables: Vec<BrdfTable> = (0..ws.len())
+            .map(|l| {
+                let blocks = [0.0, 35.0, 70.0]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &t)| {
+                        let f: Vec<f64> = (0..n)
+                            .map(|c| {
+                                let x = (c * 7 + i * 3 + l * 5) % 11;
+                                0.8 * (x as f64 + 0.5) / (11.0 * n as f64)
+                            })
+                            .collect();
+                        (t, 0.0, f, vec![0.0; n])
+                    })
+                    .collect();
+                BrdfTable::from_blocks(grid, blocks, "t").unwrap()
+            })
+            .collect();
+        let spectral = SpectralTables::new(ws.clone(), tables, "t").unwrap();
+        let srgb = XyzWeights::d65(&ws).unwrap().srgb_weights();
+        let channels = srgb_tables(&spectral).unwrap();
+        // Per cell: colour.csv's formula.
+        let weights = XyzWeights::d65(&ws).unwrap();
+        for i in 0..3 {
+            for flat in 0..n {
+                let f: Vec<f64> = spectral
+                    .tables()
+                    .iter()
+                    .map(|t| t.cell_brdf(i, flat))
+                    .collect();
+                let rgb = xyz_to_linear_srgb(weights.xyz(&f).unwrap());
+                for c in 0..3 {
+                    let got = channels[c].cell_brdf(i, flat);
+                    assert!(
+                        (got - rgb[c]).abs() <= 1e-12 * rgb[c].abs().max(1.0),
+                        "{got} {}",
+                        rgb[c]
+                    );
+                }
+            }
+        }
+        // Bin by bin.
+        let per_wavelength: Vec<Vec<f64>> = spectral.tables().iter().map(resample).collect();
+        let (m, _) = Merl::from_spectral(&spectral).unwrap();
+        let mut compared = 0;
+        for c in 0..3 {
+            let colour = resample(&channels[c]);
+            for bin in 0..N {
+                let terms = per_wavelength.iter().zip(&srgb).map(|(v, w)| w[c] * v[bin]);
+                let (sum, size) = terms.fold((0.0, 0.0), |(s, a), t| (s + t, a + t.abs()));
+                assert!(
+                    (colour[bin] - sum).abs() <= 1e-12 * size,
+                    "channel {c} bin {bin}: {} vs {sum}",
+                    colour[bin]
+                );
+                assert_eq!(m.values[c * N + bin], colour[bin].max(0.0));
+                compared += usize::from(size > 0.0);
+            }
+        }
+        assert!(compared > N, "{compared}");
     }
 
     /// Reciprocity fold: swapping light and viewer is phi_diff + 180 deg,

@@ -26,6 +26,13 @@
 //! reflectance) is at most 1 (+1e-9 for rounding: a table may not create
 //! light).
 //!
+//! **Spectral tables.** A spectral run's `brdf.csv` holds a block per
+//! incidence and wavelength; it reads back as a [`SpectralTables`] (inside
+//! a [`BrdfTables::Spectral`]): one [`BrdfTable`] per wavelength, all on
+//! one grid at the same incidences, wavelengths (µm) strictly increasing.
+//! Every table is checked as a monochrome one. [`BrdfTables`] is what the
+//! exports take; a wall that samples one table takes a [`BrdfTable`].
+//!
 //! **Isotropy.** A block's cells are rotated by `-phi_i_deg` into the local
 //! frame, so a table traced at any light azimuth can be used; this assumes
 //! the surface is statistically isotropic (its BRDF depends on the azimuth
@@ -111,17 +118,29 @@ pub enum TableError {
     /// The fractions of a block sum to more than 1: a surface that would
     /// reflect more light than it receives.
     #[error(
-        "{file}: line {line}, column 13 (fraction): the fractions of incidence theta_i_deg = {theta_i_deg} (the block from this line) sum to a reflectance of {total}, more than 1 (a surface that creates light)"
+        "{file}: line {line}, column {column} (fraction): the fractions of incidence theta_i_deg = {theta_i_deg} (the block from this line) sum to a reflectance of {total}, more than 1 (a surface that creates light)"
     )]
     Sum {
         /// File name.
         file: String,
         /// First line of the block.
         line: usize,
+        /// The file's `fraction` column (1-based): 13, or 14 in a spectral
+        /// table.
+        column: usize,
         /// The angle (degrees).
         theta_i_deg: f64,
         /// The sum of the block's fractions.
         total: f64,
+    },
+    /// Tables per wavelength that do not fit together (see
+    /// [`SpectralTables::new`]).
+    #[error("{file}: {message}")]
+    Spectral {
+        /// File name.
+        file: String,
+        /// What is wrong (one line).
+        message: String,
     },
 }
 
@@ -251,6 +270,7 @@ impl BrdfTable {
         let bad = |theta_i_deg: f64, total: f64| TableError::Sum {
             file: file.to_owned(),
             line: 0,
+            column: 13,
             theta_i_deg,
             total,
         };
@@ -327,6 +347,7 @@ impl BrdfTable {
                 return Err(TableError::Sum {
                     file,
                     line: b.line,
+                    column: 13,
                     theta_i_deg: b.theta_deg,
                     total,
                 });
@@ -559,6 +580,201 @@ impl BrdfTable {
     #[cfg(test)]
     pub(crate) fn cell_stderr(&self, i: usize) -> f64 {
         self.incidences[i].cell_stderr
+    }
+}
+
+/// The BRDF of a spectral run (`[light] wavelengths_um`): one
+/// [`BrdfTable`] per wavelength, all on the same Carlson grid at the same
+/// incidences (angles and light azimuths), wavelengths strictly increasing.
+/// Read from a spectral `brdf.csv` by [`BrdfTables::parse`] (in
+/// [`crate::output::brdf_csv`], which owns the file), or built from tables
+/// by [`SpectralTables::new`].
+#[derive(Debug, Clone)]
+pub struct SpectralTables {
+    /// Vacuum wavelengths (µm), strictly increasing.
+    wavelengths_um: Vec<f64>,
+    /// The table of each wavelength, in the same order.
+    tables: Vec<BrdfTable>,
+}
+
+impl SpectralTables {
+    /// The tables of `tables`, table `l` at wavelength `wavelengths_um[l]`
+    /// (µm); `file` names them in messages.
+    ///
+    /// # Errors
+    /// [`TableError::Spectral`] unless there is at least one table, one
+    /// wavelength per table, the wavelengths are finite, `> 0` and strictly
+    /// increasing, and every table has the first one's bands and incidences
+    /// (`theta_i_deg` and `phi_i_deg`, in order).
+    pub fn new(
+        wavelengths_um: Vec<f64>,
+        tables: Vec<BrdfTable>,
+        file: &str,
+    ) -> Result<Self, TableError> {
+        let fail = |message: String| TableError::Spectral {
+            file: file.to_owned(),
+            message,
+        };
+        if tables.is_empty() || tables.len() != wavelengths_um.len() {
+            return Err(fail(format!(
+                "{} tables for {} wavelengths (need one table per wavelength, at least one)",
+                tables.len(),
+                wavelengths_um.len()
+            )));
+        }
+        if let Some(w) = wavelengths_um
+            .iter()
+            .find(|w| !(w.is_finite() && **w > 0.0))
+        {
+            return Err(fail(format!(
+                "wavelength {w} um is not a finite number > 0"
+            )));
+        }
+        if let Some(p) = wavelengths_um.windows(2).find(|p| p[1] <= p[0]) {
+            return Err(fail(format!(
+                "wavelengths must be strictly increasing: {} um after {} um",
+                p[1], p[0]
+            )));
+        }
+        let first = &tables[0];
+        let incidences = |t: &BrdfTable| -> Vec<(f64, f64)> {
+            (0..t.incidences.len())
+                .map(|i| (t.incidences[i].theta_deg, t.incidences[i].phi_i_deg))
+                .collect()
+        };
+        for (t, w) in tables.iter().zip(&wavelengths_um).skip(1) {
+            if t.bands() != first.bands() || incidences(t) != incidences(first) {
+                return Err(fail(format!(
+                    "the table at {w} um has other bands or incidences than the one at {} um",
+                    wavelengths_um[0]
+                )));
+            }
+        }
+        Ok(Self {
+            wavelengths_um,
+            tables,
+        })
+    }
+
+    /// The wavelengths (µm), strictly increasing.
+    #[must_use]
+    pub fn wavelengths_um(&self) -> &[f64] {
+        &self.wavelengths_um
+    }
+
+    /// The table of each wavelength, in the order of
+    /// [`wavelengths_um`](Self::wavelengths_um).
+    #[must_use]
+    pub fn tables(&self) -> &[BrdfTable] {
+        &self.tables
+    }
+
+    /// The tables, mutable (to attach what the summary adds).
+    pub(crate) fn tables_mut(&mut self) -> &mut [BrdfTable] {
+        &mut self.tables
+    }
+
+    /// Tabulated incidence polar angles (degrees), ascending (those of
+    /// every wavelength).
+    #[must_use]
+    pub fn thetas_deg(&self) -> &[f64] {
+        self.tables[0].thetas_deg()
+    }
+
+    /// The linear combination `Σ_l weights[l] f_l` of the wavelengths'
+    /// tables, fraction by fraction (so cell by cell, BRDF by BRDF): for
+    /// resampling a linear function of the spectrum (e.g. one linear sRGB
+    /// channel) in one pass instead of one per wavelength. The result may
+    /// hold negative fractions and is meant for [`BrdfTable::eval`] and
+    /// [`BrdfTable::reflectance`] only, which are linear in the fractions:
+    /// `eval` of the combination is the combination of the `eval`s (to
+    /// rounding). Its sampling is meaningless; it is not part of the public
+    /// API for that reason.
+    ///
+    /// # Panics
+    /// Unless there is one weight per wavelength.
+    #[must_use]
+    pub(crate) fn linear_combination(&self, weights: &[f64]) -> BrdfTable {
+        assert_eq!(
+            weights.len(),
+            self.tables.len(),
+            "one weight per wavelength"
+        );
+        let mut out = self.tables[0].clone();
+        for (i, inc) in out.incidences.iter_mut().enumerate() {
+            let mut total = 0.0;
+            for (flat, f) in inc.fractions.iter_mut().enumerate() {
+                *f = self
+                    .tables
+                    .iter()
+                    .zip(weights)
+                    .map(|(t, w)| w * t.incidences[i].fractions[flat])
+                    .sum();
+            }
+            for (c, f) in inc.cdf.iter_mut().zip(&inc.fractions) {
+                total += f;
+                *c = total;
+            }
+            inc.reflectance = total;
+            inc.last_positive = inc.fractions.iter().rposition(|&f| f > 0.0);
+            inc.stated_stderr = None;
+            inc.mueller = None;
+        }
+        out
+    }
+}
+
+/// The BRDF of a `brdf.csv`: one table (a monochrome run) or one per
+/// wavelength (a spectral run, [`SpectralTables`]).
+#[derive(Debug, Clone)]
+pub enum BrdfTables {
+    /// A monochrome table.
+    Monochrome(BrdfTable),
+    /// A table per wavelength.
+    Spectral(SpectralTables),
+}
+
+impl BrdfTables {
+    /// The tables: the one monochrome table, or one per wavelength.
+    #[must_use]
+    pub fn tables(&self) -> &[BrdfTable] {
+        match self {
+            Self::Monochrome(t) => std::slice::from_ref(t),
+            Self::Spectral(s) => s.tables(),
+        }
+    }
+
+    /// The wavelengths (µm) of a spectral table; empty for a monochrome one.
+    #[must_use]
+    pub fn wavelengths_um(&self) -> &[f64] {
+        match self {
+            Self::Monochrome(_) => &[],
+            Self::Spectral(s) => s.wavelengths_um(),
+        }
+    }
+
+    /// Tabulated incidence polar angles (degrees), ascending.
+    #[must_use]
+    pub fn thetas_deg(&self) -> &[f64] {
+        self.tables()[0].thetas_deg()
+    }
+
+    /// The monochrome table, if it is one.
+    #[must_use]
+    pub fn monochrome(&self) -> Option<&BrdfTable> {
+        match self {
+            Self::Monochrome(t) => Some(t),
+            Self::Spectral(_) => None,
+        }
+    }
+
+    /// The tables per wavelength, if spectral.
+    #[must_use]
+    pub fn spectral(&self) -> Option<&SpectralTables> {
+        match self {
+            Self::Monochrome(_) => None,
+            Self::Spectral(s) => Some(s),
+        }
     }
 }
 

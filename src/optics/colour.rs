@@ -149,6 +149,18 @@ impl XyzWeights {
         self.weights.is_empty()
     }
 
+    /// Per sample `j`, the weights of linear sRGB: `M · w_j` with `M` the
+    /// matrix [`XYZ_TO_SRGB`], so that the linear sRGB of a spectrum `r`
+    /// is `Σ_j (M · w_j) r_j`, which is [`xyz_to_linear_srgb`] of
+    /// [`xyz`](Self::xyz) (to rounding: the same sums in another order).
+    #[must_use]
+    pub fn srgb_weights(&self) -> Vec<[f64; 3]> {
+        self.weights
+            .iter()
+            .map(|&w| xyz_to_linear_srgb(w))
+            .collect()
+    }
+
     /// XYZ (perfect white reflector `Y = 1`) of a spectrum sampled at the
     /// weights' wavelengths; `None` for a wrong length or a value that is
     /// not finite.

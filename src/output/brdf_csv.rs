@@ -2,8 +2,9 @@
 //! incidence and cell. This module owns the file: its columns
 //! ([`HEADER`]), its one writer ([`write`] for a run, [`write_blocks`] for
 //! any fractions, e.g. a synthetic table in a test) and its reader
-//! ([`read`], [`parse`]: a checked [`BrdfTable`]; the checks and their
-//! errors are in [`reader`], the table and its sampling in
+//! ([`read`], [`parse`]: a checked [`BrdfTable`]; [`read_tables`],
+//! [`parse_tables`]: monochrome or spectral, [`BrdfTables`]; the checks and
+//! their errors are in [`reader`], the table and its sampling in
 //! [`crate::optics::brdf_table`]).
 //!
 //! # Columns
@@ -21,13 +22,16 @@
 //! A spectral run (`[light] wavelengths_um`) has one more column,
 //! `wavelength_um` (µm, shortest round-trip form), right after `phi_i_deg`
 //! ([`SPECTRAL_HEADER`]): one block per incidence and wavelength,
-//! incidence-major, wavelengths in the run's order. A monochrome run's file
-//! has no such column.
+//! incidence-major, wavelengths in the run's order (strictly increasing). A
+//! monochrome run's file has no such column. It reads back as one
+//! [`BrdfTable`] per wavelength ([`read_tables`]: a
+//! [`BrdfTables::Spectral`]); [`read`] and [`parse`] take monochrome files
+//! only, as before.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::optics::brdf_table::BrdfTable;
+use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
 use crate::tally::CarlsonGrid;
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
 
@@ -122,10 +126,13 @@ pub fn write_blocks<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Blo
 }
 
 /// Per incidence result: the fractions and their standard errors.
-fn fractions(run: &BrdfRun, results: &[IncidenceResult]) -> Vec<(Vec<f64>, Vec<f64>)> {
+fn fractions<'a>(
+    run: &BrdfRun,
+    results: impl IntoIterator<Item = &'a IncidenceResult>,
+) -> Vec<(Vec<f64>, Vec<f64>)> {
     let cells = run.grid().n_cells();
     results
-        .iter()
+        .into_iter()
         .map(|r| {
             let n = r.tallies.photons;
             (0..cells)
@@ -200,23 +207,59 @@ pub fn parse(text: &str, name: &str) -> Result<BrdfTable, BrdfTableError> {
     BrdfTable::parse(text, name)
 }
 
-/// The table of a run's `results` as its `brdf.csv` holds it (numbers
+/// Read and check a monochrome or spectral `brdf.csv` at `path` (see
+/// [`BrdfTables::load`]).
+///
+/// # Errors
+/// If it cannot be read or fails a check, naming the file.
+pub fn read_tables(path: &Path) -> Result<BrdfTables, BrdfTableError> {
+    BrdfTables::load(path)
+}
+
+/// Parse and check the text of a monochrome or spectral `brdf.csv`,
+/// `name` naming it in messages (see [`BrdfTables::parse`]).
+///
+/// # Errors
+/// The first problem found, naming `name`, the line and the column.
+pub fn parse_tables(text: &str, name: &str) -> Result<BrdfTables, BrdfTableError> {
+    BrdfTables::parse(text, name)
+}
+
+/// The tables of a run's `results` as its `brdf.csv` holds them (numbers
 /// rounded as written), without writing or parsing the file: what
-/// [`read`] of the run's folder gives.
+/// [`read_tables`] of the run's folder gives. A monochrome run gives
+/// [`BrdfTables::Monochrome`], a spectral one a table per wavelength.
 ///
 /// # Panics
 /// If the results are not a valid table (a run's always are).
 #[must_use]
-pub fn table(run: &BrdfRun, results: &[IncidenceResult]) -> BrdfTable {
+pub fn table(run: &BrdfRun, results: &[IncidenceResult]) -> BrdfTables {
+    let lanes = run.wavelengths_um.len();
+    if lanes == 0 {
+        return BrdfTables::Monochrome(lane_table(run, results.iter()));
+    }
+    let tables = (0..lanes)
+        .map(|l| lane_table(run, results.iter().skip(l).step_by(lanes)))
+        .collect();
+    BrdfTables::Spectral(
+        SpectralTables::new(run.wavelengths_um.clone(), tables, "brdf.csv")
+            .expect("a run's wavelengths are strictly increasing"),
+    )
+}
+
+/// The table of `results` (one wavelength's), numbers rounded as
+/// `brdf.csv` writes them.
+fn lane_table<'a>(run: &BrdfRun, results: impl Iterator<Item = &'a IncidenceResult>) -> BrdfTable {
+    let results: Vec<&IncidenceResult> = results.collect();
     // The file's rounding of each number: 10 significant digits.
     let written = |x: f64| -> f64 {
         format!("{x:.9e}")
             .parse()
             .expect("a number written by the file's format reads back")
     };
-    let blocks = fractions(run, results)
+    let blocks = fractions(run, results.iter().copied())
         .into_iter()
-        .zip(results)
+        .zip(&results)
         .map(|((f, e), r)| {
             (
                 r.theta_i_deg,

@@ -17,7 +17,7 @@ use super::summary::{BrdfSummary, ShardSummary, to_text};
 use super::tallies::{Merged, Settings, TALLIES_FILE, TalliesFile};
 use super::{brdf_csv, inplane_csv, polar_csv};
 use crate::micro::MicroSurface;
-use crate::optics::brdf_table::BrdfTable;
+use crate::optics::brdf_table::BrdfTables;
 use crate::shard::Shard;
 use crate::tally::Merge;
 use crate::tally::sum::Node;
@@ -151,10 +151,10 @@ impl BrdfFolder {
         BrdfSummary::new(&self.settings, shard, &self.results, self.seconds)
     }
 
-    /// The BRDF table as `brdf.csv` holds it, for exports (see
-    /// [`brdf_csv::table`]).
+    /// The BRDF table as `brdf.csv` holds it (one per wavelength for a
+    /// spectral run), for exports (see [`brdf_csv::table`]).
     #[must_use]
-    pub fn table(&self) -> BrdfTable {
+    pub fn table(&self) -> BrdfTables {
         brdf_csv::table(&self.run, &self.results)
     }
 

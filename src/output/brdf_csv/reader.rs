@@ -23,16 +23,40 @@
 //! are sorted by `theta_i_deg`. Errors are one line naming the file, the line
 //! and (where there is one) the column. The table itself, its frame and its
 //! sampling: [`crate::optics::brdf_table`].
+//!
+//! # Spectral tables
+//!
+//! [`BrdfTables::parse`] also reads the `brdf.csv` of a spectral run
+//! (header [`SPECTRAL_HEADER`]: `wavelength_um` as column 3, every column
+//! from `band` one place later, 17 columns; error messages give the file's
+//! own column numbers). A block is the rows of one incidence and one
+//! wavelength; each block passes the checks above; each wavelength's
+//! blocks make a table checked as a monochrome one (no incidence twice,
+//! fractions summing to at most 1); and the wavelengths must be finite and
+//! `> 0`, the blocks of one incidence consecutive with strictly increasing
+//! wavelengths, every incidence with exactly the wavelengths of the first
+//! ([`BrdfTableError::Wavelength`] names the line of the block concerned,
+//! column 3, the wavelength found and the one expected or missing).
+//! [`BrdfTable::parse`] keeps its monochrome contract and refuses a
+//! spectral file ([`BrdfTableError::Spectral`]). The `summary.json` of a
+//! spectral run ([`BrdfTables::with_summary_text`]) must list the same
+//! `wavelengths_um`; each wavelength's table takes its reflectance and
+//! standard error from `incidence[k].spectrum[l]`.
 
 use std::path::Path;
 
 use thiserror::Error;
 
-use super::{COLUMNS, HEADER, column};
-use crate::optics::brdf_table::{BlockData, BrdfTable, MAX_FRACTION, TableError};
+use super::{COLUMNS, HEADER, SPECTRAL_HEADER};
+use crate::optics::brdf_table::{
+    BlockData, BrdfTable, BrdfTables, MAX_FRACTION, SpectralTables, TableError,
+};
 use crate::tally::CarlsonGrid;
 
-/// Zero-based column indices.
+/// Zero-based column indices of a monochrome table ([`HEADER`]); a
+/// spectral table ([`SPECTRAL_HEADER`]) has `wavelength_um` at
+/// [`C_WAVELENGTH`] and every column from `band` on one place later
+/// ([`Layout::at`]).
 const C_THETA_I: usize = 0;
 const C_PHI_I: usize = 1;
 const C_BAND: usize = 2;
@@ -49,6 +73,51 @@ const C_FRACTION: usize = 12;
 const C_FRACTION_SE: usize = 13;
 const C_BRDF: usize = 14;
 const C_BRDF_SE: usize = 15;
+/// Zero-based index of `wavelength_um` in a spectral table.
+const C_WAVELENGTH: usize = 2;
+
+/// The columns of a `brdf.csv`: monochrome ([`HEADER`]) or spectral
+/// ([`SPECTRAL_HEADER`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Layout {
+    spectral: bool,
+}
+
+impl Layout {
+    fn header(self) -> &'static str {
+        if self.spectral {
+            SPECTRAL_HEADER
+        } else {
+            HEADER
+        }
+    }
+
+    /// Number of columns.
+    fn columns(self) -> usize {
+        COLUMNS + usize::from(self.spectral)
+    }
+
+    /// Zero-based index in the file of the monochrome column `c`.
+    fn at(self, c: usize) -> usize {
+        if self.spectral && c >= C_BAND {
+            c + 1
+        } else {
+            c
+        }
+    }
+
+    /// Name of the file's column `index` (zero-based).
+    fn name(self, index: usize) -> &'static str {
+        self.header().split(',').nth(index).unwrap_or("?")
+    }
+
+    /// 1-based number and name of the monochrome column `c`, as the file
+    /// has it.
+    fn column(self, c: usize) -> (usize, &'static str) {
+        let i = self.at(c);
+        (i + 1, self.name(i))
+    }
+}
 
 /// Tolerance of the grid check: degrees for angles, relative for solid angles.
 const GRID_TOL: f64 = 1e-6;
@@ -71,25 +140,53 @@ pub enum BrdfTableError {
         /// The operating system's message.
         message: String,
     },
-    /// The first line is not [`HEADER`].
-    #[error("{file}: line 1: header must be exactly `{expected}`, found `{found}`")]
+    /// The first line is not [`HEADER`] (nor, where a spectral table is
+    /// accepted, [`SPECTRAL_HEADER`]).
+    #[error("{file}: line 1: header must be exactly `{expected}`{spectral}, found `{found}`")]
     Header {
         /// File name.
         file: String,
         /// The expected header.
         expected: &'static str,
+        /// Where a spectral table is accepted: `` or, with wavelengths,
+        /// `<SPECTRAL_HEADER>` ``; else empty.
+        spectral: String,
         /// What the file has (shortened to 200 characters).
         found: String,
     },
-    /// A row does not have 16 columns.
-    #[error("{file}: line {line}: expected 16 columns, found {found}")]
+    /// A spectral table (`wavelength_um` column) where a table of one
+    /// wavelength is expected.
+    #[error(
+        "{file}: line 1: a spectral table (column 3, wavelength_um: a block per incidence and wavelength) where a table of one wavelength is expected (header `{expected}`)"
+    )]
+    Spectral {
+        /// File name.
+        file: String,
+        /// The expected header.
+        expected: &'static str,
+    },
+    /// A row does not have 16 columns (17 in a spectral table).
+    #[error("{file}: line {line}: expected {expected} columns, found {found}")]
     Columns {
         /// File name.
         file: String,
         /// Line number.
         line: usize,
+        /// Number of columns of the header.
+        expected: usize,
         /// Number of columns found.
         found: usize,
+    },
+    /// The wavelengths of a spectral table: not the same strictly
+    /// increasing list for every incidence.
+    #[error("{file}: line {line}, column 3 (wavelength_um): {message}")]
+    Wavelength {
+        /// File name.
+        file: String,
+        /// Line number (the first row of the block concerned).
+        line: usize,
+        /// What is wrong (one line).
+        message: String,
     },
     /// A field is not a finite number (or, for `band` and `cell`, not a
     /// non-negative integer).
@@ -262,6 +359,8 @@ struct Row {
     line: usize,
     theta_i: f64,
     phi_i: f64,
+    /// `wavelength_um` of a spectral table.
+    wavelength: Option<f64>,
     band: usize,
     cell: usize,
     /// Edge, centre and solid-angle columns, by column index.
@@ -273,12 +372,22 @@ struct Row {
     brdf_se: f64,
 }
 
-/// Rows of one incidence block, in file order.
+/// Rows of one incidence block (of one wavelength, in a spectral table),
+/// in file order.
 struct Block {
     start: usize,
     theta_i: f64,
     phi_i: f64,
+    wavelength: Option<f64>,
     rows: Vec<Row>,
+}
+
+/// The checked blocks of a `brdf.csv`, in file order, before they are
+/// tables.
+struct Parsed {
+    layout: Layout,
+    grid: CarlsonGrid,
+    blocks: Vec<Block>,
 }
 
 fn shorten(s: &str, n: usize) -> String {
@@ -306,146 +415,417 @@ impl BrdfTable {
         Self::parse(&text, &name)
     }
 
-    /// Parse and check the text of a `brdf.csv`; `name` names the file in
-    /// error messages. Blank lines are skipped, `\r\n` line ends and a byte
-    /// order mark are accepted.
+    /// Parse and check the text of a monochrome `brdf.csv`; `name` names
+    /// the file in error messages. Blank lines are skipped, `\r\n` line
+    /// ends and a byte order mark are accepted. A spectral table is refused
+    /// ([`BrdfTableError::Spectral`]; read it with [`BrdfTables::parse`]).
     ///
     /// # Errors
     /// The first problem found, as a [`BrdfTableError`] naming `name`, the
     /// line and the column.
     pub fn parse(text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let file = || name.to_owned();
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
-        let header = lines.next().map_or("", |(_, l)| l);
-        let header = header.strip_prefix('\u{feff}').unwrap_or(header);
-        if header.trim_end() != HEADER {
+        let parsed = parse_blocks(text, name, false)?;
+        monochrome(parsed, name, 0)
+    }
+}
+
+impl BrdfTables {
+    /// Read and check a `brdf.csv` file, monochrome or spectral.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`parse`](Self::parse), naming the file by `path`.
+    pub fn load(path: &Path) -> Result<Self, BrdfTableError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
+            file: name.clone(),
+            message: e.to_string(),
+        })?;
+        Self::parse(&text, &name)
+    }
+
+    /// Parse and check the text of a `brdf.csv`, monochrome ([`HEADER`]:
+    /// [`BrdfTables::Monochrome`], exactly as [`BrdfTable::parse`]) or
+    /// spectral ([`SPECTRAL_HEADER`]: [`BrdfTables::Spectral`]). A
+    /// spectral table passes every check of a monochrome one for each
+    /// wavelength, and: every block has a `wavelength_um > 0`; the blocks of
+    /// one incidence (`theta_i_deg`, `phi_i_deg`) are consecutive, one per
+    /// wavelength, wavelengths strictly increasing; every incidence lists
+    /// the wavelengths of the first. Incidences may come in any order (they
+    /// are sorted by angle), none twice.
+    ///
+    /// # Errors
+    /// The first problem found, as a [`BrdfTableError`] naming `name`, the
+    /// line and the column.
+    pub fn parse(text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let parsed = parse_blocks(text, name, true)?;
+        if !parsed.layout.spectral {
+            return Ok(Self::Monochrome(monochrome(parsed, name, 0)?));
+        }
+        let Parsed {
+            layout,
+            grid,
+            blocks,
+        } = parsed;
+        let fail = |line: usize, message: String| BrdfTableError::Wavelength {
+            file: name.to_owned(),
+            line,
+            message,
+        };
+        // Consecutive blocks of one incidence.
+        let mut incidences: Vec<Vec<Block>> = Vec::new();
+        for b in blocks {
+            match incidences.last_mut() {
+                Some(group) if group[0].theta_i == b.theta_i && group[0].phi_i == b.phi_i => {
+                    group.push(b);
+                }
+                _ => incidences.push(vec![b]),
+            }
+        }
+        let list = |ws: &[f64]| {
+            ws.iter()
+                .map(|w| format!("{w}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let wavelengths: Vec<f64> = incidences[0]
+            .iter()
+            .map(|b| b.wavelength.unwrap_or(f64::NAN))
+            .collect();
+        for group in &incidences {
+            let first = &group[0];
+            for (k, b) in group.iter().enumerate() {
+                let w = b.wavelength.unwrap_or(f64::NAN);
+                if k > 0 {
+                    let before = group[k - 1].wavelength.unwrap_or(f64::NAN);
+                    // Wavelengths are finite (checked per row).
+                    if w <= before {
+                        return Err(fail(
+                            b.start,
+                            format!(
+                                "{w} um after {before} um: the wavelengths of an incidence (theta_i_deg = {}, from line {}) must be strictly increasing",
+                                first.theta_i, first.start
+                            ),
+                        ));
+                    }
+                }
+                match wavelengths.get(k) {
+                    Some(&want) if want == w => {}
+                    Some(&want) => {
+                        return Err(fail(
+                            b.start,
+                            format!(
+                                "found {w} um, expected {want} um: incidence theta_i_deg = {} (from line {}) must list the wavelengths of the first incidence ({} um), in order",
+                                first.theta_i,
+                                first.start,
+                                list(&wavelengths)
+                            ),
+                        ));
+                    }
+                    None => {
+                        return Err(fail(
+                            b.start,
+                            format!(
+                                "{w} um: incidence theta_i_deg = {} (from line {}) has more wavelengths than the first incidence ({} um)",
+                                first.theta_i,
+                                first.start,
+                                list(&wavelengths)
+                            ),
+                        ));
+                    }
+                }
+            }
+            if group.len() < wavelengths.len() {
+                let last = &group[group.len() - 1];
+                return Err(fail(
+                    last.start,
+                    format!(
+                        "incidence theta_i_deg = {} (from line {}) stops after {} um: it lacks {} um of the wavelengths of the first incidence ({} um)",
+                        first.theta_i,
+                        first.start,
+                        last.wavelength.unwrap_or(f64::NAN),
+                        list(&wavelengths[group.len()..]),
+                        list(&wavelengths)
+                    ),
+                ));
+            }
+        }
+        // One table per wavelength: its block of every incidence.
+        let (column, _) = layout.column(C_FRACTION);
+        let mut per_wavelength: Vec<Vec<Block>> =
+            (0..wavelengths.len()).map(|_| Vec::new()).collect();
+        for group in incidences {
+            for (l, b) in group.into_iter().enumerate() {
+                per_wavelength[l].push(b);
+            }
+        }
+        let tables = per_wavelength
+            .into_iter()
+            .map(|blocks| {
+                monochrome(
+                    Parsed {
+                        layout,
+                        grid,
+                        blocks,
+                    },
+                    name,
+                    column,
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self::Spectral(SpectralTables::new(
+            wavelengths,
+            tables,
+            name,
+        )?))
+    }
+}
+
+impl BrdfTables {
+    /// The same tables with the exact reflectance standard errors of the
+    /// `summary.json` at `path` (see [`with_summary_text`](Self::with_summary_text)).
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`with_summary_text`](Self::with_summary_text).
+    pub fn with_summary(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
+            file: name.clone(),
+            message: e.to_string(),
+        })?;
+        self.with_summary_text(&text, &name)
+    }
+
+    /// As [`BrdfTable::with_summary_text`] for a monochrome table. For a
+    /// spectral one the summary must be that of a spectral run with the
+    /// same wavelengths (top-level `wavelengths_um`), and each wavelength's
+    /// table is checked against, and takes its standard errors from,
+    /// `incidence[k].spectrum[l]` (`wavelength_um`, `reflectance`,
+    /// `reflectance_stderr`) with the checks of the monochrome case.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Summary`] naming the file, the key and what is
+    /// wrong.
+    pub fn with_summary_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let fail = |message: String| BrdfTableError::Summary {
+            file: name.to_owned(),
+            message,
+        };
+        let json: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON: {e}")))?;
+        match self {
+            Self::Monochrome(t) => {
+                if json.get("wavelengths_um").is_some() {
+                    return Err(fail(format!(
+                        "wavelengths_um: the summary of a spectral run, but {} is a table of one wavelength",
+                        t.file()
+                    )));
+                }
+                Ok(Self::Monochrome(t.apply_summary(&json, name, None)?))
+            }
+            Self::Spectral(mut s) => {
+                let listed: Option<Vec<f64>> = json
+                    .get("wavelengths_um")
+                    .and_then(serde_json::Value::as_array)
+                    .map(|a| a.iter().map(|w| w.as_f64().unwrap_or(f64::NAN)).collect());
+                if listed.as_deref() != Some(s.wavelengths_um()) {
+                    return Err(fail(format!(
+                        "wavelengths_um: {} is not the table's wavelengths {:?} um in {} (a summary of another run?)",
+                        json.get("wavelengths_um")
+                            .unwrap_or(&serde_json::Value::Null),
+                        s.wavelengths_um(),
+                        s.tables()[0].file()
+                    )));
+                }
+                let wavelengths = s.wavelengths_um().to_vec();
+                for (l, (t, w)) in s.tables_mut().iter_mut().zip(wavelengths).enumerate() {
+                    *t = t.clone().apply_summary(&json, name, Some((l, w)))?;
+                }
+                Ok(Self::Spectral(s))
+            }
+        }
+    }
+}
+
+/// The table of checked blocks (of one wavelength): sorted by angle, no
+/// angle twice; `fraction_column` (1-based, 0: the monochrome 13) names the
+/// fraction column in an error.
+fn monochrome(
+    parsed: Parsed,
+    name: &str,
+    fraction_column: usize,
+) -> Result<BrdfTable, BrdfTableError> {
+    let Parsed {
+        grid, mut blocks, ..
+    } = parsed;
+    blocks.sort_by(|a, b| a.theta_i.total_cmp(&b.theta_i));
+    for pair in blocks.windows(2) {
+        if pair[0].theta_i == pair[1].theta_i {
+            let (a, b) = if pair[0].start < pair[1].start {
+                (&pair[0], &pair[1])
+            } else {
+                (&pair[1], &pair[0])
+            };
+            return Err(TableError::Duplicate {
+                file: name.to_owned(),
+                line: b.start,
+                first: a.start,
+                theta_i_deg: b.theta_i,
+            }
+            .into());
+        }
+    }
+    let data = blocks
+        .iter()
+        .map(|b| BlockData {
+            line: b.start,
+            theta_deg: b.theta_i,
+            phi_i_deg: b.phi_i,
+            fractions: b.rows.iter().map(|r| r.fraction).collect(),
+            fraction_stderr: b.rows.iter().map(|r| r.fraction_se).collect(),
+        })
+        .collect();
+    BrdfTable::from_checked(grid, data, name.to_owned()).map_err(|mut e| {
+        if let TableError::Sum { column, .. } = &mut e {
+            if fraction_column > 0 {
+                *column = fraction_column;
+            }
+        }
+        e.into()
+    })
+}
+
+/// The rows of a `brdf.csv` (monochrome, or spectral if `spectral_ok`)
+/// grouped into blocks of one incidence (and wavelength), each checked:
+/// grid order, complete, the first block's bands, geometry and derived
+/// columns.
+fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, BrdfTableError> {
+    let file = || name.to_owned();
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
+    let header = lines.next().map_or("", |(_, l)| l);
+    let header = header.strip_prefix('\u{feff}').unwrap_or(header);
+    let layout = match header.trim_end() {
+        HEADER => Layout { spectral: false },
+        SPECTRAL_HEADER if spectral_ok => Layout { spectral: true },
+        SPECTRAL_HEADER => {
+            return Err(BrdfTableError::Spectral {
+                file: file(),
+                expected: HEADER,
+            });
+        }
+        _ => {
             return Err(BrdfTableError::Header {
                 file: file(),
                 expected: HEADER,
+                spectral: if spectral_ok {
+                    format!(" or, with wavelengths, `{SPECTRAL_HEADER}`")
+                } else {
+                    String::new()
+                },
                 found: shorten(header, 200),
             });
         }
+    };
 
-        // Group consecutive rows with the same incidence into blocks.
-        let mut blocks: Vec<Block> = Vec::new();
-        let mut last_line = 1;
-        for (line, text) in lines {
-            last_line = line;
-            if text.trim().is_empty() {
-                continue;
-            }
-            let row = parse_row(text, line, name)?;
-            let same = blocks
-                .last()
-                .is_some_and(|b| b.theta_i == row.theta_i && b.phi_i == row.phi_i);
-            if !same {
-                blocks.push(Block {
-                    start: line,
-                    theta_i: row.theta_i,
-                    phi_i: row.phi_i,
-                    rows: Vec::new(),
-                });
-            }
-            if let Some(b) = blocks.last_mut() {
-                check_order(b, &row, name)?;
-                b.rows.push(row);
-            }
+    // Group consecutive rows with the same incidence (and wavelength)
+    // into blocks.
+    let mut blocks: Vec<Block> = Vec::new();
+    let mut last_line = 1;
+    for (line, text) in lines {
+        last_line = line;
+        if text.trim().is_empty() {
+            continue;
         }
-        if blocks.is_empty() {
-            return Err(BrdfTableError::Empty {
-                file: file(),
-                line: last_line,
+        let row = parse_row(text, line, name, layout)?;
+        let same = blocks.last().is_some_and(|b| {
+            b.theta_i == row.theta_i && b.phi_i == row.phi_i && b.wavelength == row.wavelength
+        });
+        if !same {
+            blocks.push(Block {
+                start: line,
+                theta_i: row.theta_i,
+                phi_i: row.phi_i,
+                wavelength: row.wavelength,
+                rows: Vec::new(),
             });
         }
-
-        // Every block complete, all with the first block's bands.
-        let mut first: Option<(usize, usize)> = None; // (bands, rows)
-        for b in &blocks {
-            let (bands, rows) = check_complete(b, first, name)?;
-            first.get_or_insert((bands, rows));
+        if let Some(b) = blocks.last_mut() {
+            check_order(b, &row, name, layout)?;
+            b.rows.push(row);
         }
-        let bands = first.map_or(1, |(m, _)| m);
-        let grid = CarlsonGrid::new(bands).ok_or_else(|| BrdfTableError::Empty {
+    }
+    if blocks.is_empty() {
+        return Err(BrdfTableError::Empty {
             file: file(),
             line: last_line,
-        })?;
-
-        // Geometry columns against the grid.
-        let omega = grid.solid_angle();
-        for b in &blocks {
-            for (flat, row) in b.rows.iter().enumerate() {
-                let (band, cell) = grid.band_cell(flat);
-                let (mu_bot, mu_top) = grid.mu_edges(band);
-                let (theta_c, phi_c) = grid.centre(band, cell);
-                let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
-                let proj = grid.projected_solid_angle(band, cell);
-                for &(col, found) in &row.geometry {
-                    let (expected, relative) = match col {
-                        C_THETA_LO => (mu_top.acos().to_degrees(), false),
-                        C_THETA_HI => (mu_bot.acos().to_degrees(), false),
-                        C_PHI_LO => (phi_lo.to_degrees(), false),
-                        C_PHI_HI => (phi_hi.to_degrees(), false),
-                        C_THETA_C => (theta_c.to_degrees(), false),
-                        C_PHI_C => (phi_c.to_degrees(), false),
-                        C_OMEGA => (omega, true),
-                        _ => (proj, true),
-                    };
-                    let tol = if relative {
-                        GRID_TOL * expected
-                    } else {
-                        GRID_TOL
-                    };
-                    if (found - expected).abs() > tol {
-                        return Err(BrdfTableError::Grid {
-                            file: file(),
-                            line: row.line,
-                            column: col + 1,
-                            name: column(col),
-                            found,
-                            expected,
-                            bands,
-                        });
-                    }
-                }
-                check_derived(row, proj, name)?;
-            }
-        }
-
-        // Sort by angle; no angle twice.
-        blocks.sort_by(|a, b| a.theta_i.total_cmp(&b.theta_i));
-        for pair in blocks.windows(2) {
-            if pair[0].theta_i == pair[1].theta_i {
-                let (a, b) = if pair[0].start < pair[1].start {
-                    (&pair[0], &pair[1])
-                } else {
-                    (&pair[1], &pair[0])
-                };
-                return Err(TableError::Duplicate {
-                    file: file(),
-                    line: b.start,
-                    first: a.start,
-                    theta_i_deg: b.theta_i,
-                }
-                .into());
-            }
-        }
-
-        let data = blocks
-            .iter()
-            .map(|b| BlockData {
-                line: b.start,
-                theta_deg: b.theta_i,
-                phi_i_deg: b.phi_i,
-                fractions: b.rows.iter().map(|r| r.fraction).collect(),
-                fraction_stderr: b.rows.iter().map(|r| r.fraction_se).collect(),
-            })
-            .collect();
-        Ok(Self::from_checked(grid, data, file())?)
+        });
     }
 
+    // Every block complete, all with the first block's bands.
+    let mut first: Option<(usize, usize)> = None; // (bands, rows)
+    for b in &blocks {
+        let (bands, rows) = check_complete(b, first, name)?;
+        first.get_or_insert((bands, rows));
+    }
+    let bands = first.map_or(1, |(m, _)| m);
+    let grid = CarlsonGrid::new(bands).ok_or_else(|| BrdfTableError::Empty {
+        file: file(),
+        line: last_line,
+    })?;
+
+    // Geometry columns against the grid.
+    let omega = grid.solid_angle();
+    for b in &blocks {
+        for (flat, row) in b.rows.iter().enumerate() {
+            let (band, cell) = grid.band_cell(flat);
+            let (mu_bot, mu_top) = grid.mu_edges(band);
+            let (theta_c, phi_c) = grid.centre(band, cell);
+            let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
+            let proj = grid.projected_solid_angle(band, cell);
+            for &(col, found) in &row.geometry {
+                let (expected, relative) = match col {
+                    C_THETA_LO => (mu_top.acos().to_degrees(), false),
+                    C_THETA_HI => (mu_bot.acos().to_degrees(), false),
+                    C_PHI_LO => (phi_lo.to_degrees(), false),
+                    C_PHI_HI => (phi_hi.to_degrees(), false),
+                    C_THETA_C => (theta_c.to_degrees(), false),
+                    C_PHI_C => (phi_c.to_degrees(), false),
+                    C_OMEGA => (omega, true),
+                    _ => (proj, true),
+                };
+                let tol = if relative {
+                    GRID_TOL * expected
+                } else {
+                    GRID_TOL
+                };
+                if (found - expected).abs() > tol {
+                    let (column, name_of) = layout.column(col);
+                    return Err(BrdfTableError::Grid {
+                        file: file(),
+                        line: row.line,
+                        column,
+                        name: name_of,
+                        found,
+                        expected,
+                        bands,
+                    });
+                }
+            }
+            check_derived(row, proj, name, layout)?;
+        }
+    }
+    Ok(Parsed {
+        layout,
+        grid,
+        blocks,
+    })
+}
+
+impl BrdfTable {
     /// The same table with the exact reflectance standard errors of the
     /// `summary.json` at `path` (written by `roks brdf` beside `brdf.csv`).
     ///
@@ -479,14 +859,31 @@ impl BrdfTable {
     /// # Errors
     /// [`BrdfTableError::Summary`] naming the file, the key and what is
     /// wrong (and the table's file where they disagree).
-    pub fn with_summary_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+    pub fn with_summary_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let json: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| BrdfTableError::Summary {
+                file: name.to_owned(),
+                message: format!("invalid JSON: {e}"),
+            })?;
+        self.apply_summary(&json, name, None)
+    }
+
+    /// [`with_summary_text`](Self::with_summary_text) of the parsed
+    /// `json`; for the table of wavelength `l` of a spectral run (`lane =
+    /// Some((l, wavelength_um))`) the reflectance and its standard error are
+    /// those of `incidence[k].spectrum[l]`, whose `wavelength_um` must be
+    /// the table's.
+    fn apply_summary(
+        mut self,
+        json: &serde_json::Value,
+        name: &str,
+        lane: Option<(usize, f64)>,
+    ) -> Result<Self, BrdfTableError> {
         let fail = |message: String| BrdfTableError::Summary {
             file: name.to_owned(),
             message,
         };
         let table = self.file().to_owned();
-        let json: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON: {e}")))?;
         let entries = json
             .get("incidence")
             .and_then(serde_json::Value::as_array)
@@ -546,19 +943,42 @@ impl BrdfTable {
                         inc.phi_i_deg
                     ))
                 })?;
-            let r = num(entry, "reflectance").unwrap_or(f64::NAN);
+            // The entry holding this table's reflectance, and its key.
+            let (values, key) = match lane {
+                None => (entry, format!("incidence[{k}]")),
+                Some((l, w)) => {
+                    let key = format!("incidence[{k}].spectrum[{l}]");
+                    let v = entry
+                        .get("spectrum")
+                        .and_then(serde_json::Value::as_array)
+                        .and_then(|s| s.get(l))
+                        .ok_or_else(|| {
+                            fail(format!(
+                                "{key}: missing (theta_deg = {theta}; {table} has a table at {w} um)"
+                            ))
+                        })?;
+                    if num(v, "wavelength_um") != Some(w) {
+                        return Err(fail(format!(
+                            "{key}.wavelength_um: {} is not the table's {w} um in {table} (a summary of another run?)",
+                            v.get("wavelength_um").unwrap_or(&serde_json::Value::Null)
+                        )));
+                    }
+                    (v, key)
+                }
+            };
+            let r = num(values, "reflectance").unwrap_or(f64::NAN);
             let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
             if !close {
                 return Err(fail(format!(
-                    "incidence[{k}].reflectance: {r} at theta_deg = {theta} is not the table's {} in {table} (a summary of another run?)",
+                    "{key}.reflectance: {r} at theta_deg = {theta} is not the table's {} in {table} (a summary of another run?)",
                     inc.reflectance
                 )));
             }
-            let se = num(entry, "reflectance_stderr")
+            let se = num(values, "reflectance_stderr")
                 .filter(|v| v.is_finite() && *v >= 0.0)
                 .ok_or_else(|| {
                     fail(format!(
-                        "incidence[{k}].reflectance_stderr: not a finite number >= 0 (theta_deg = {theta})"
+                        "{key}.reflectance_stderr: not a finite number >= 0 (theta_deg = {theta})"
                     ))
                 })?;
             let photons = entry
@@ -571,7 +991,7 @@ impl BrdfTable {
                 let bound = (rc * (1.0 - rc) / dof).sqrt();
                 if se > bound * (1.0 + 1e-6) + 1e-12 {
                     return Err(fail(format!(
-                        "incidence[{k}].reflectance_stderr: {se} exceeds {bound}, the most a mean reflectance of {r} over {photons} photons can have (theta_deg = {theta})"
+                        "{key}.reflectance_stderr: {se} exceeds {bound}, the most a mean reflectance of {r} over {photons} photons can have (theta_deg = {theta})"
                     )));
                 }
             }
@@ -752,59 +1172,85 @@ impl BrdfTable {
 }
 
 /// Parse one data row.
-fn parse_row(text: &str, line: usize, name: &str) -> Result<Row, BrdfTableError> {
+fn parse_row(text: &str, line: usize, name: &str, layout: Layout) -> Result<Row, BrdfTableError> {
     let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-    if fields.len() != COLUMNS {
+    if fields.len() != layout.columns() {
         return Err(BrdfTableError::Columns {
             file: name.to_owned(),
             line,
+            expected: layout.columns(),
             found: fields.len(),
         });
     }
-    let number = |col: usize| -> Result<f64, BrdfTableError> {
-        match fields[col].parse::<f64>() {
+    // `index`: the file's column (0-based).
+    let number = |index: usize| -> Result<f64, BrdfTableError> {
+        match fields[index].parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
             _ => Err(BrdfTableError::Number {
                 file: name.to_owned(),
                 line,
-                column: col + 1,
-                name: column(col),
-                text: shorten(fields[col], 40),
+                column: index + 1,
+                name: layout.name(index),
+                text: shorten(fields[index], 40),
                 what: "finite number",
             }),
         }
     };
-    let integer = |col: usize| -> Result<usize, BrdfTableError> {
-        fields[col]
+    let integer = |index: usize| -> Result<usize, BrdfTableError> {
+        fields[index]
             .parse::<usize>()
             .map_err(|_| BrdfTableError::Number {
                 file: name.to_owned(),
                 line,
-                column: col + 1,
-                name: column(col),
-                text: shorten(fields[col], 40),
+                column: index + 1,
+                name: layout.name(index),
+                text: shorten(fields[index], 40),
                 what: "non-negative integer",
             })
     };
-    let range = |col: usize, value: f64, requirement: &'static str| BrdfTableError::OutOfRange {
-        file: name.to_owned(),
-        line,
-        column: col + 1,
-        name: column(col),
-        value,
-        requirement,
+    // `col`: the monochrome column.
+    let range = |col: usize, value: f64, requirement: &'static str| {
+        let (column, name_of) = layout.column(col);
+        BrdfTableError::OutOfRange {
+            file: name.to_owned(),
+            line,
+            column,
+            name: name_of,
+            value,
+            requirement,
+        }
     };
     // Every numeric column must be finite, in column order.
     let mut v = [0.0; 16];
-    for (col, slot) in v.iter_mut().enumerate() {
+    let mut wavelength = None;
+    for index in 0..layout.columns() {
+        if layout.spectral && index == C_WAVELENGTH {
+            wavelength = Some(number(index)?);
+            continue;
+        }
+        let col = if layout.spectral && index > C_WAVELENGTH {
+            index - 1
+        } else {
+            index
+        };
         if col != C_BAND && col != C_CELL {
-            *slot = number(col)?;
+            v[col] = number(index)?;
         }
     }
-    let band = integer(C_BAND)?;
-    let cell = integer(C_CELL)?;
+    let band = integer(layout.at(C_BAND))?;
+    let cell = integer(layout.at(C_CELL))?;
     if !(0.0..90.0).contains(&v[C_THETA_I]) {
         return Err(range(C_THETA_I, v[C_THETA_I], "must be in [0, 90)"));
+    }
+    if let Some(w) = wavelength.filter(|w| *w <= 0.0) {
+        return Err(BrdfTableError::OutOfRange {
+            file: name.to_owned(),
+            line,
+            column: C_WAVELENGTH + 1,
+            name: layout.name(C_WAVELENGTH),
+            value: w,
+            requirement: "must be > 0 (a vacuum wavelength in um)",
+        });
     }
     for col in [C_FRACTION, C_FRACTION_SE, C_BRDF, C_BRDF_SE] {
         if v[col] < 0.0 {
@@ -822,6 +1268,7 @@ fn parse_row(text: &str, line: usize, name: &str) -> Result<Row, BrdfTableError>
         line,
         theta_i: v[C_THETA_I],
         phi_i: v[C_PHI_I],
+        wavelength,
         band,
         cell,
         geometry: [
@@ -839,7 +1286,7 @@ fn parse_row(text: &str, line: usize, name: &str) -> Result<Row, BrdfTableError>
 /// fraction / proj` and `brdf_stderr = fraction_stderr / proj` (`proj` the
 /// cell's exact projected solid angle, sr) to [`DERIVED_TOL`]. This also
 /// catches a last row cut short inside its last number.
-fn check_derived(row: &Row, proj: f64, name: &str) -> Result<(), BrdfTableError> {
+fn check_derived(row: &Row, proj: f64, name: &str, layout: Layout) -> Result<(), BrdfTableError> {
     for (col, found, from, formula) in [
         (
             C_BRDF,
@@ -857,11 +1304,12 @@ fn check_derived(row: &Row, proj: f64, name: &str) -> Result<(), BrdfTableError>
         let expected = from / proj;
         let off = (found - expected).abs();
         if off.is_nan() || off > DERIVED_TOL * expected.max(found) + 1e-300 {
+            let (column, name_of) = layout.column(col);
             return Err(BrdfTableError::Derived {
                 file: name.to_owned(),
                 line: row.line,
-                column: col + 1,
-                name: column(col),
+                column,
+                name: name_of,
                 found,
                 expected,
                 formula,
@@ -872,19 +1320,22 @@ fn check_derived(row: &Row, proj: f64, name: &str) -> Result<(), BrdfTableError>
 }
 
 /// `row` must be the next cell of `block` in grid order.
-fn check_order(block: &Block, row: &Row, name: &str) -> Result<(), BrdfTableError> {
+fn check_order(block: &Block, row: &Row, name: &str, layout: Layout) -> Result<(), BrdfTableError> {
     let (band, cell) = match block.rows.last() {
         None => (1, 0),
         Some(p) if p.cell + 1 >= 4 * p.band => (p.band + 1, 0),
         Some(p) => (p.band, p.cell + 1),
     };
-    let err = |col: usize, found: usize, expected: usize| BrdfTableError::Order {
-        file: name.to_owned(),
-        line: row.line,
-        column: col + 1,
-        name: column(col),
-        found,
-        expected,
+    let err = |col: usize, found: usize, expected: usize| {
+        let (column, name_of) = layout.column(col);
+        BrdfTableError::Order {
+            file: name.to_owned(),
+            line: row.line,
+            column,
+            name: name_of,
+            found,
+            expected,
+        }
     };
     if row.band != band {
         return Err(err(C_BAND, row.band, band));
@@ -1249,6 +1700,7 @@ mod tests {
         let t = BrdfTable::parse(&text, "roundtrip.csv").unwrap();
         // The table a run holds for exports is the file's, number for number.
         let held = crate::output::brdf_csv::table(&run, &results);
+        let held = held.monochrome().expect("a monochrome run");
         assert_eq!(held.thetas_deg(), t.thetas_deg());
         for i in 0..3 {
             for c in 0..run.grid().n_cells() {
@@ -1294,5 +1746,297 @@ mod tests {
                 assert!(t.eval(theta, d) > 0.0);
             }
         }
+    }
+
+    /// A spectral `brdf.csv` of incidences `thetas` at wavelengths `ws`
+    /// (µm, in file order), written by the file's writer: a Lambertian
+    /// block of albedo `0.2 + 0.1 (i + l)` (incidence `i`, wavelength `l`),
+    /// standard errors 1 % of the fractions.
+    fn spectral_csv(m: usize, thetas: &[f64], ws: &[f64]) -> String {
+        let grid = CarlsonGrid::new(m).unwrap();
+        let mut blocks = Vec::new();
+        for (i, &theta) in thetas.iter().enumerate() {
+            for (l, &w) in ws.iter().enumerate() {
+                let f = lambertian(m, 0.2 + 0.1 * (i + l) as f64);
+                let se: Vec<f64> = f.iter().map(|x| 0.01 * x).collect();
+                blocks.push((theta, w, f, se));
+            }
+        }
+        super::super::write_blocks(
+            &grid,
+            blocks.iter().map(|(theta, w, f, se)| super::super::Block {
+                theta_i_deg: *theta,
+                phi_i_deg: 0.0,
+                wavelength_um: Some(*w),
+                fractions: f,
+                stderr: se,
+            }),
+        )
+    }
+
+    /// Written and read back: one table per wavelength, each the table of
+    /// the monochrome file of that wavelength's blocks, number for number.
+    #[test]
+    fn spectral_round_trip_per_wavelength() {
+        let m = 3;
+        let (thetas, ws) = ([0.0, 40.0], [0.45, 0.55, 0.65]);
+        let text = spectral_csv(m, &thetas, &ws);
+        assert!(text.starts_with(&format!("{SPECTRAL_HEADER}\n")));
+        let tables = BrdfTables::parse(&text, "s.csv").unwrap();
+        let s = tables.spectral().expect("spectral");
+        assert_eq!(s.wavelengths_um(), ws);
+        assert_eq!(tables.wavelengths_um(), ws);
+        assert_eq!(s.thetas_deg(), thetas);
+        for (l, t) in s.tables().iter().enumerate() {
+            let mono: Vec<TestBlock> = thetas
+                .iter()
+                .enumerate()
+                .map(|(i, &theta)| TestBlock {
+                    theta,
+                    phi_i: 0.0,
+                    fractions: lambertian(m, 0.2 + 0.1 * (i + l) as f64),
+                })
+                .collect();
+            let want = BrdfTable::parse(&csv(m, &mono), "m.csv").unwrap();
+            for (i, theta) in thetas.iter().enumerate() {
+                assert_eq!(t.fractions(i), want.fractions(i), "wavelength {l}");
+                assert_eq!(t.cell_stderr(i).to_bits(), want.cell_stderr(i).to_bits());
+                let r = 0.2 + 0.1 * (i + l) as f64;
+                assert!((t.reflectance(theta.to_radians()) - r).abs() < 1e-9);
+            }
+        }
+        // A monochrome file reads as before, as BrdfTables::Monochrome.
+        let mono = csv(
+            m,
+            &[TestBlock {
+                theta: 10.0,
+                phi_i: 0.0,
+                fractions: lambertian(m, 0.5),
+            }],
+        );
+        let t = BrdfTables::parse(&mono, "m.csv").unwrap();
+        assert!(t.monochrome().is_some() && t.wavelengths_um().is_empty());
+        // Incidences in any order (each with its wavelengths together).
+        let lines: Vec<&str> = text.lines().collect();
+        let per_incidence = 3 * 2 * m * (m + 1);
+        let swapped = format!(
+            "{}\n{}\n{}\n",
+            lines[0],
+            lines[1 + per_incidence..].join("\n"),
+            lines[1..=per_incidence].join("\n")
+        );
+        let again = BrdfTables::parse(&swapped, "x").unwrap();
+        assert_eq!(again.thetas_deg(), thetas);
+    }
+
+    /// The round trip through a run: a spectral run of the default scene
+    /// (its reflectance 0.8 at every wavelength), `write`, parse: every
+    /// wavelength is the table held for exports, and that of the
+    /// monochrome run, bit for bit; its summary gives each wavelength its
+    /// exact standard errors.
+    #[test]
+    fn spectral_round_trip_with_the_writer() {
+        let scene = crate::scene::micro::MicroScene::default_scene();
+        let mut run = scene.brdf_run();
+        run.photons = 4096;
+        run.theta_deg = vec![0.0, 50.0];
+        let mono_results = run.run(&scene.surface, &|_| {});
+        let mono_tables = crate::output::brdf_csv::table(&run, &mono_results);
+        let mono_run = run.clone();
+        run.wavelengths_um = vec![0.4, 0.5, 0.6];
+        let results = run.run(&scene.surface, &|_| {});
+        let text = crate::output::brdf_csv::write(&run, &results);
+        let read = BrdfTables::parse(&text, "s.csv").unwrap();
+        let held = crate::output::brdf_csv::table(&run, &results);
+        let mono = mono_tables.monochrome().unwrap();
+        for tables in [&read, &held] {
+            let s = tables.spectral().unwrap();
+            assert_eq!(s.wavelengths_um(), [0.4, 0.5, 0.6]);
+            for t in s.tables() {
+                assert_eq!(t.thetas_deg(), mono.thetas_deg());
+                for i in 0..2 {
+                    assert_eq!(t.fractions(i), mono.fractions(i));
+                    assert_eq!(t.cell_stderr(i).to_bits(), mono.cell_stderr(i).to_bits());
+                }
+            }
+        }
+        // With its summary: per wavelength the exact standard errors.
+        let stats = crate::micro::surface_stats::surface_stats(&scene.surface.height_map(8, 8));
+        let settings = crate::output::tallies::Settings::new(
+            "default",
+            "default",
+            "periodic",
+            &run,
+            crate::output::summary::Surface::new(&stats, 8),
+        );
+        let summary = crate::output::summary::BrdfSummary::new(&settings, None, &results, 1.0);
+        let json = crate::output::summary::to_text(&summary);
+        let with = read
+            .clone()
+            .with_summary_text(&json, "summary.json")
+            .unwrap();
+        for (l, t) in with.tables().iter().enumerate() {
+            assert!(t.has_stated_stderr());
+            for (i, r) in results.iter().skip(l).step_by(3).enumerate() {
+                let (_, se) = r.reflectance();
+                let got = t.reflectance_stderr(t.thetas_deg()[i].to_radians());
+                assert!((got - se).abs() <= 1e-12 * se, "{got} vs {se}");
+            }
+        }
+        // The summary of another run: wavelengths, a spectrum entry.
+        let bad = |json: String, needle: &str| {
+            let e = read
+                .clone()
+                .with_summary_text(&json, "summary.json")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with("summary.json: ") && e.contains(needle) && !e.contains('\n'),
+                "{e}"
+            );
+        };
+        let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v["wavelengths_um"] = serde_json::json!([0.4, 0.5, 0.65]);
+        bad(v.to_string(), "wavelengths_um");
+        let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v["incidence"][1]["spectrum"][2]["reflectance"] = serde_json::json!(0.1);
+        bad(v.to_string(), "incidence[1].spectrum[2].reflectance: 0.1");
+        let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v["incidence"][0]["spectrum"][1]["wavelength_um"] = serde_json::json!(0.55);
+        bad(
+            v.to_string(),
+            "incidence[0].spectrum[1].wavelength_um: 0.55",
+        );
+        // A monochrome table with a spectral summary.
+        let m = BrdfTables::parse(
+            &crate::output::brdf_csv::write(&mono_run, &mono_results),
+            "m.csv",
+        )
+        .unwrap();
+        let e = m
+            .with_summary_text(&json, "summary.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("summary of a spectral run"), "{e}");
+    }
+
+    #[test]
+    fn spectral_errors_name_file_line_and_column() {
+        let m = 1; // 4 rows per block
+        let ws = [0.45, 0.55, 0.65];
+        let good = spectral_csv(m, &[0.0, 30.0], &ws);
+        assert!(BrdfTables::parse(&good, "good.csv").is_ok());
+        let lines: Vec<&str> = good.lines().collect();
+        // Lines 2-5: (0, 0.45), 6-9: (0, 0.55), 10-13: (0, 0.65),
+        // 14-17: (30, 0.45), 18-21: (30, 0.55), 22-25: (30, 0.65).
+        let without = |skip: std::ops::Range<usize>| -> String {
+            lines
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !skip.contains(&(i + 1)))
+                .map(|(_, l)| *l)
+                .collect::<Vec<_>>()
+                .join("\n")
+        };
+        let errs = |text: &str| BrdfTables::parse(text, "bad.csv").unwrap_err().to_string();
+        let check = |e: String, needles: &[&str]| {
+            assert!(!e.contains('\n') && e.starts_with("bad.csv: "), "{e}");
+            for n in needles {
+                assert!(e.contains(n), "`{n}` not in: {e}");
+            }
+        };
+        // A wavelength missing in the middle of the second incidence.
+        check(
+            errs(&without(18..22)),
+            &[
+                "line 18, column 3 (wavelength_um)",
+                "found 0.65 um, expected 0.55 um",
+                "theta_i_deg = 30",
+            ],
+        );
+        // The last wavelength of the second incidence missing.
+        check(
+            errs(&without(22..26)),
+            &[
+                "line 18, column 3 (wavelength_um)",
+                "stops after 0.55 um",
+                "lacks 0.65 um",
+            ],
+        );
+        // A wavelength missing in the first incidence: the second has more.
+        check(
+            errs(&without(10..14)),
+            &["line 18", "more wavelengths than the first"],
+        );
+        // Unsorted wavelengths: blocks 0.55 and 0.65 of the first incidence
+        // swapped.
+        let mut swapped: Vec<&str> = lines.clone();
+        swapped[5..9].copy_from_slice(&lines[9..13]);
+        swapped[9..13].copy_from_slice(&lines[5..9]);
+        check(
+            errs(&swapped.join("\n")),
+            &[
+                "line 10, column 3 (wavelength_um)",
+                "0.55 um after 0.65 um",
+                "strictly increasing",
+            ],
+        );
+        // The same wavelength twice in a row: one block of twice the rows.
+        let twice = good.replace("\n0,0,0.55,", "\n0,0,0.45,");
+        check(errs(&twice), &["line 6", "column 4 (band)"]);
+        // A wavelength that is not a number, or not > 0.
+        check(
+            errs(&edit(&good, 7, 2, "abc")),
+            &["line 7, column 3 (wavelength_um)", "`abc`"],
+        );
+        check(
+            errs(&edit(&good, 2, 2, "-0.5")),
+            &["line 2, column 3 (wavelength_um)", "must be > 0"],
+        );
+        // The other columns one place later: fraction is column 14.
+        check(
+            errs(&edit(&good, 3, 13, "-1e-3")),
+            &["line 3", "column 14 (fraction)", ">= 0"],
+        );
+        check(
+            errs(&edit(&good, 4, 3, "7")),
+            &["line 4", "column 4 (band)"],
+        );
+        check(
+            errs(&edit(&good, 5, 16, "1")),
+            &["line 5", "column 17 (brdf_stderr)"],
+        );
+        check(
+            errs(&edit(&good, 6, 15, "1,2")),
+            &["line 6", "expected 17 columns, found 18"],
+        );
+        // An incidence twice (not consecutive).
+        let again = format!("{good}{}\n", lines[1..13].join("\n"));
+        check(errs(&again), &["line 26", "already tabulated from line 2"]);
+        // A block that creates light names the spectral fraction column.
+        let grid = CarlsonGrid::new(m).unwrap();
+        let bright = super::super::write_blocks(
+            &grid,
+            [super::super::Block {
+                theta_i_deg: 10.0,
+                phi_i_deg: 0.0,
+                wavelength_um: Some(0.5),
+                fractions: &[0.5; 4],
+                stderr: &[0.0; 4],
+            }],
+        );
+        check(
+            errs(&bright),
+            &["line 2, column 14 (fraction)", "more than 1"],
+        );
+        // The monochrome reader refuses a spectral table; a bad header names
+        // both headers where both are accepted.
+        let e = BrdfTable::parse(&good, "bad.csv").unwrap_err().to_string();
+        check(e, &["line 1", "a spectral table", "wavelength_um"]);
+        let renamed = good.replacen("wavelength_um", "lambda_um", 1);
+        check(
+            errs(&renamed),
+            &["line 1", "header must be exactly", "with wavelengths"],
+        );
     }
 }
