@@ -187,10 +187,14 @@ pub fn trace<C: Carrier>(
             }
         }
         bounces += 1;
-        if w.intensity() <= 0.0 {
+        // The intensity once (a spectral carrier's is a pass over its
+        // wavelengths); a survivor keeping its weight is left as it is.
+        let intensity = w.intensity();
+        if intensity <= 0.0 {
             return end(Fate::Absorbed, bounces, segments);
         }
-        match super::roulette(w.intensity(), controls.roulette_weight, rng) {
+        match super::roulette(intensity, controls.roulette_weight, rng) {
+            Some(survivor) if survivor == intensity => {}
             Some(survivor) => w.survive(survivor),
             None => return end(Fate::Absorbed, bounces, segments),
         }

@@ -651,14 +651,18 @@ pub fn trace<C: Carrier>(
             }
             Interaction::Lost => return lost(&w, bounces, segments),
         }
-        if w.intensity() <= 0.0 {
+        // The intensity once (a spectral carrier's is a pass over its
+        // wavelengths); a survivor keeping its weight is left as it is.
+        let intensity = w.intensity();
+        if intensity <= 0.0 {
             return end(Fate::Absorbed, bounces, segments);
         }
         if !d.is_finite() {
             return lost(&w, bounces, segments);
         }
         standing = Some((hit.zone, hit.surface));
-        match super::roulette(w.intensity(), controls.roulette_weight, rng) {
+        match super::roulette(intensity, controls.roulette_weight, rng) {
+            Some(survivor) if survivor == intensity => {}
             Some(survivor) => w.survive(survivor),
             None => return end(Fate::Absorbed, bounces, segments),
         }
