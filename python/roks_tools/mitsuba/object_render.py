@@ -83,7 +83,7 @@ def bsdf(a, mi):
         return {"type": "twosided", "material": {"type": "conductor", "material": "none",
                                                  "specular_reflectance": {"type": "rgb", "value": [a.mirror] * 3}}}
     import drjit as dr
-    import roks_bsdf  # registers `roks_table` (Python plugin)
+    from roks_tools.mitsuba import roks_table as roks_bsdf  # registers `roks_table`
     if "llvm" in mi.variant():
         # a Python BSDF inside JIT-compiled loops: see `roks_tools.mitsuba.roks_table`
         dr.set_flag(dr.JitFlag.SymbolicLoops, False)

@@ -42,7 +42,7 @@ def main() -> int:
     if dr.is_array_v(mi.Float):
         dr.set_flag(dr.JitFlag.SymbolicLoops, False)
         dr.set_flag(dr.JitFlag.SymbolicCalls, False)
-    import roks_bsdf
+    from roks_tools.mitsuba import roks_table as roks_bsdf
 
     roks_bsdf.register()
     table = roks_bsdf.CarlsonTable(csv)
