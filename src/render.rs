@@ -373,14 +373,7 @@ pub fn to_rgb(wavelengths_um: &[f64]) -> Vec<[f64; 3]> {
         return vec![[1.0; 3]];
     }
     match crate::optics::colour::XyzWeights::d65(wavelengths_um) {
-        Some(w) => (0..w.len())
-            .map(|l| {
-                let mut unit = vec![0.0; w.len()];
-                unit[l] = 1.0;
-                let xyz = w.xyz(&unit).unwrap_or_default();
-                crate::optics::colour::xyz_to_linear_srgb(xyz)
-            })
-            .collect(),
+        Some(w) => w.srgb_weights(),
         None => vec![[1.0 / wavelengths_um.len() as f64; 3]; wavelengths_um.len()],
     }
 }
@@ -558,15 +551,6 @@ pub fn write_exr(img: &Image) -> Result<Vec<u8>, String> {
     Ok(buf.into_inner())
 }
 
-/// sRGB transfer function (IEC 61966-2-1) of a linear value in `[0, 1]`.
-fn srgb_encode(x: f64) -> f64 {
-    if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    }
-}
-
 /// Tone-mapped 8-bit RGB PNG preview, in memory: every channel is scaled so
 /// that the 99th percentile of the pixels' luminance (Rec. 709 weights) maps
 /// to 1 (the maximum if that percentile is 0; an all-black image stays
@@ -602,7 +586,7 @@ pub fn write_png_preview(img: &Image) -> Result<Vec<u8>, String> {
                 } else {
                     0.0
                 };
-                (srgb_encode(x) * 255.0).round() as u8
+                (crate::optics::colour::srgb_encode(x) * 255.0).round() as u8
             })
         })
         .collect();

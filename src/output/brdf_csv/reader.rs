@@ -400,6 +400,21 @@ fn shorten(s: &str, n: usize) -> String {
     }
 }
 
+/// The file at `path` as text and its name for messages.
+///
+/// # Errors
+/// [`BrdfTableError::Io`] naming the file.
+fn read_text(path: &Path) -> Result<(String, String), BrdfTableError> {
+    let name = path.display().to_string();
+    match std::fs::read_to_string(path) {
+        Ok(text) => Ok((name, text)),
+        Err(e) => Err(BrdfTableError::Io {
+            file: name,
+            message: e.to_string(),
+        }),
+    }
+}
+
 impl BrdfTable {
     /// Read and check a `brdf.csv` file.
     ///
@@ -407,11 +422,7 @@ impl BrdfTable {
     /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
     /// [`parse`](Self::parse), naming the file by `path`.
     pub fn load(path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
+        let (name, text) = read_text(path)?;
         Self::parse(&text, &name)
     }
 
@@ -436,11 +447,7 @@ impl BrdfTables {
     /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
     /// [`parse`](Self::parse), naming the file by `path`.
     pub fn load(path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
+        let (name, text) = read_text(path)?;
         Self::parse(&text, &name)
     }
 
