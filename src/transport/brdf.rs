@@ -25,7 +25,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rand::RngExt;
 
-use super::carrier::{Carrier, Polarised, Spectral};
+use super::carrier::{Carrier, LaneCarrier, MAX_WAVELENGTHS, Polarised};
 use super::launch::{Lattices, Launch, replicate_stderr};
 use super::micro::{Controls, Fate, History, trace};
 use super::order;
@@ -73,7 +73,7 @@ pub struct BrdfRun {
     /// Polarised transport, incident state and polarisation tallies.
     pub polarisation: Polarisation,
     /// Vacuum wavelengths (µm, strictly increasing) of a spectral run, each
-    /// carried by every photon ([`Spectral`]); empty for a monochrome run.
+    /// carried by every photon ([`crate::transport::carrier::LaneCarrier::Spectrum`]); empty for a monochrome run.
     pub wavelengths_um: Vec<f64>,
 }
 
@@ -785,18 +785,18 @@ impl BrdfRun {
         }
     }
 
-    /// [`BrdfRun::trace_ordered`] with a [`Spectral`] carrier of lanes `C`
+    /// [`BrdfRun::trace_ordered`] with the spectral carrier of lanes `C` ([`LaneCarrier::Spectrum`])
     /// and the smallest capacity (8, 32, 128) that holds the run's wavelengths.
-    fn trace_spectral<C: Carrier<Lane = C>>(
+    fn trace_spectral<C: LaneCarrier>(
         &self,
         args: &TraceArgs,
         consume: &mut dyn FnMut(u64, Vec<BrdfTallies>),
         progress: &(dyn Fn(u64) + Sync),
     ) {
         match self.lane_count() {
-            0..=8 => self.trace_ordered::<Spectral<C, 8>>(args, consume, progress),
-            9..=32 => self.trace_ordered::<Spectral<C, 32>>(args, consume, progress),
-            _ => self.trace_ordered::<Spectral<C>>(args, consume, progress),
+            0..=8 => self.trace_ordered::<C::Spectrum<8>>(args, consume, progress),
+            9..=32 => self.trace_ordered::<C::Spectrum<32>>(args, consume, progress),
+            _ => self.trace_ordered::<C::Spectrum<MAX_WAVELENGTHS>>(args, consume, progress),
         }
     }
 

@@ -38,7 +38,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rand::RngExt;
 
-use super::carrier::{Carrier, Polarised, Spectral};
+use super::carrier::{Carrier, Polarised, Spectral, SpectralPolarised};
 use super::micro::Controls;
 use super::rng::photon_rng;
 use super::wall::{Interaction, WallModel};
@@ -404,9 +404,9 @@ impl ObjectRun {
                                 _ => self.trace_batch::<Spectral<f64>>(args),
                             },
                             (true, true) => match self.lane_count() {
-                                0..=8 => self.trace_batch::<Spectral<Polarised<1>, 8>>(args),
-                                9..=32 => self.trace_batch::<Spectral<Polarised<1>, 32>>(args),
-                                _ => self.trace_batch::<Spectral<Polarised<1>>>(args),
+                                0..=8 => self.trace_batch::<SpectralPolarised<1, 8>>(args),
+                                9..=32 => self.trace_batch::<SpectralPolarised<1, 32>>(args),
+                                _ => self.trace_batch::<SpectralPolarised<1>>(args),
                             },
                         }
                     },

@@ -27,9 +27,12 @@
 
 use glam::DVec3;
 
-use crate::optics::fresnel::{CHUNK, FresnelLanes};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::{FresnelMueller, Stokes, rotation};
+
+mod spectral;
+
+pub use spectral::{LaneCarrier, MAX_WAVELENGTHS, Spectral, SpectralPolarised};
 
 /// The turn of a carrier's reference frame into the s frame of one
 /// reflection ([`Carrier::s_turn`]): the rotator `(cos 2a, sin 2a)` if the
@@ -244,6 +247,26 @@ impl<const N: usize> Polarised<N> {
     }
 }
 
+/// The turn of the reference vector `x` into the s frame of a reflection
+/// of the flight `d` about the normal `n` ([`Carrier::s_turn`]).
+#[inline]
+fn s_turn_from(x: DVec3, d: DVec3, n: DVec3) -> STurn {
+    let s = n.cross(d);
+    let len2 = s.length_squared();
+    if len2 > 1e-24 {
+        let s = s / len2.sqrt();
+        STurn {
+            rotator: Some(rotation(d, x, s)),
+            s,
+        }
+    } else {
+        STurn {
+            rotator: None,
+            s: x,
+        }
+    }
+}
+
 /// Apply the rotator `(cos 2a, sin 2a)` of [`rotation`] to every column of
 /// `rows` (component-major, see [`Polarised`]): [`rotate`](crate::optics::polarisation::rotate)
 /// column by column, the same products and sums.
@@ -279,20 +302,7 @@ impl<const N: usize> Carrier for Polarised<N> {
 
     #[inline]
     fn s_turn(&self, d: DVec3, n: DVec3) -> STurn {
-        let s = n.cross(d);
-        let len2 = s.length_squared();
-        if len2 > 1e-24 {
-            let s = s / len2.sqrt();
-            STurn {
-                rotator: Some(rotation(d, self.x, s)),
-                s,
-            }
-        } else {
-            STurn {
-                rotator: None,
-                s: self.x,
-            }
-        }
+        s_turn_from(self.x, d, n)
     }
 
     #[inline]
@@ -432,242 +442,6 @@ impl<const N: usize> Carrier for Polarised<N> {
     }
 }
 
-/// Most wavelengths one trace carries ([`Spectral`]): enough for the
-/// visible at 5 nm (81) or the thermal infrared from 3 to 14 µm at 0.1 µm (111).
-pub const MAX_WAVELENGTHS: usize = 128;
-
-/// A carrier per wavelength: the photon's path does not depend on the
-/// wavelength in geometric optics, only its weights do, so one trace carries
-/// lane `l` through every reflection with model [`Reflectance::lane`]`(l)`.
-///
-/// * Roulette and bookkeeping see the largest intensity of the lanes
-///   ([`Carrier::intensity`]); a survivor scales every lane by the same
-///   factor, so the roulette is unbiased at every wavelength.
-/// * With equal lanes (a material that does not vary) every lane is the
-///   monochrome carrier bit for bit.
-/// * A reflection that fails (a reflectance that is not a finite number,
-///   e.g. for a NaN cosine) fails at the first lane, leaving the carrier
-///   unchanged: scene models are valid at every wavelength.
-///
-/// `CAP` is the most wavelengths it can hold (at most [`MAX_WAVELENGTHS`]):
-/// a run uses the smallest of a few capacities that holds its wavelengths,
-/// since a photon's carrier is copied a few times per history.
-#[derive(Debug, Clone, Copy)]
-pub struct Spectral<C, const CAP: usize = MAX_WAVELENGTHS> {
-    lanes: [C; CAP],
-    len: usize,
-}
-
-impl<C: Carrier<Lane = C>, const CAP: usize> Spectral<C, CAP> {
-    /// The lanes in use.
-    #[inline]
-    fn used(&self) -> &[C] {
-        &self.lanes[..self.len]
-    }
-
-    #[inline]
-    fn used_mut(&mut self) -> &mut [C] {
-        &mut self.lanes[..self.len]
-    }
-
-    /// The index of a lane of largest intensity (the first one).
-    #[inline]
-    fn brightest(&self) -> usize {
-        let mut best = 0;
-        for (l, c) in self.used().iter().enumerate().skip(1) {
-            if c.intensity() > self.lanes[best].intensity() {
-                best = l;
-            }
-        }
-        best
-    }
-
-    /// A Fresnel reflection of every wavelength: the coefficients of all
-    /// lanes by [`FresnelLanes::chunk`] (vectorised), [`CHUNK`] lanes at a
-    /// time, the frame turn once ([`Carrier::s_turn`]: the lanes share their
-    /// reference vector).
-    #[inline]
-    fn reflect_fresnel(&mut self, fresnel: &FresnelLanes, d: DVec3, n: DVec3, cos_i: f64) -> bool {
-        // Finite coefficients with a >= 0 for every valid index and any
-        // finite cosine (FresnelLanes recomputes the lanes that are not).
-        if !cos_i.is_finite() {
-            return false;
-        }
-        let turn = self.lanes[0].s_turn(d, n);
-        for (index, lanes) in self.lanes[..self.len].chunks_mut(CHUNK).enumerate() {
-            let f = if C::POLARISED {
-                fresnel.chunk::<true>(cos_i, index)
-            } else {
-                fresnel.chunk::<false>(cos_i, index)
-            };
-            for (j, lane) in lanes.iter_mut().enumerate() {
-                let m = FresnelMueller {
-                    a: f.a[j],
-                    b: f.b[j],
-                    c: f.c[j],
-                    d: f.d[j],
-                };
-                lane.fresnel_in(&turn, &m);
-            }
-        }
-        true
-    }
-
-    /// Every lane scaled so that the brightest lane has intensity `s`
-    /// (that lane exactly `s`).
-    #[inline]
-    fn scale_to(&mut self, s: f64) {
-        let i = self.intensity();
-        if i > 0.0 && s != i {
-            let f = s / i;
-            for c in self.used_mut() {
-                let ci = c.intensity();
-                c.survive(if ci == i { s } else { ci * f });
-            }
-        }
-    }
-}
-
-impl<C: Carrier<Lane = C>, const CAP: usize> Carrier for Spectral<C, CAP> {
-    type Lane = C;
-
-    fn launch(incident: Stokes, reference: DVec3, lanes: usize) -> Self {
-        Self {
-            lanes: [C::launch(incident, reference, 1); CAP],
-            len: lanes.clamp(1, CAP),
-        }
-    }
-
-    #[inline]
-    fn lanes(&self) -> usize {
-        self.len
-    }
-
-    #[inline]
-    fn lane(&self, l: usize) -> C {
-        self.lanes[l]
-    }
-
-    /// The largest intensity of the lanes.
-    #[inline]
-    fn intensity(&self) -> f64 {
-        self.used().iter().fold(
-            0.0,
-            |m: f64, c| if c.intensity() > m { c.intensity() } else { m },
-        )
-    }
-
-    /// The largest of the lanes' weights (tallies score each lane's own).
-    fn weight_for(&self, incident: &Stokes) -> f64 {
-        self.used()
-            .iter()
-            .fold(0.0, |m: f64, c| m.max(c.weight_for(incident)))
-    }
-
-    #[inline]
-    fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool {
-        if let Reflectance::Spectral(m) = material
-            && let Some(fresnel) = m.fresnel()
-            && fresnel.len() >= self.len
-        {
-            return self.reflect_fresnel(fresnel, d, n, cos_i);
-        }
-        for (l, c) in self.used_mut().iter_mut().enumerate() {
-            if !c.reflect(material.lane(l), d, n, cos_i) {
-                return false;
-            }
-        }
-        true
-    }
-
-    #[inline]
-    fn fresnel_in(&mut self, turn: &STurn, f: &FresnelMueller) {
-        for c in self.used_mut() {
-            c.fresnel_in(turn, f);
-        }
-    }
-
-    fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3) {
-        for c in self.used_mut() {
-            c.mirror(rho, d, n);
-        }
-    }
-
-    fn depolarise(&mut self, factor: f64, d_out: DVec3) {
-        for c in self.used_mut() {
-            c.depolarise(factor, d_out);
-        }
-    }
-
-    fn transfer(&mut self, d: DVec3, x_in: DVec3, m: &[f64; 16], factor: f64, x_out: DVec3) {
-        for c in self.used_mut() {
-            c.transfer(d, x_in, m, factor, x_out);
-        }
-    }
-
-    #[inline]
-    fn survive(&mut self, s: f64) {
-        self.scale_to(s);
-    }
-
-    fn unit(&self) -> Self {
-        let mut u = *self;
-        u.scale_to(1.0);
-        u
-    }
-
-    /// The local history's lanes times this carrier's largest intensity;
-    /// the intensity removed is that of the brightest lane.
-    fn rescaled(&self, local: Self) -> (Self, f64) {
-        let reference = self.lanes[self.brightest()];
-        let mut out = local;
-        for (o, l) in out.used_mut().iter_mut().zip(local.used()) {
-            *o = reference.rescaled(*l).0;
-        }
-        let removed = self.intensity() - out.intensity();
-        (out, removed)
-    }
-
-    /// [`Spectral::rescaled`] with each lane's removed intensity: a lane as
-    /// bright as the brightest gets the brightest lane's own removed
-    /// intensity (so equal lanes are the monochrome carrier's bit for bit),
-    /// any other lane its intensity before minus after.
-    fn rescaled_lanes(&self, local: Self, mut removed: impl FnMut(usize, f64)) -> Self {
-        let reference = self.lanes[self.brightest()];
-        let top = reference.intensity();
-        let mut out = local;
-        for (l, (o, loc)) in out.used_mut().iter_mut().zip(local.used()).enumerate() {
-            let (after, r) = reference.rescaled(*loc);
-            *o = after;
-            let before = self.lanes[l].intensity();
-            removed(
-                l,
-                if before == top {
-                    r
-                } else {
-                    before - after.intensity()
-                },
-            );
-        }
-        out
-    }
-
-    fn map_frame(&mut self, f: impl Fn(DVec3) -> DVec3) {
-        for c in self.used_mut() {
-            c.map_frame(&f);
-        }
-    }
-
-    fn is_valid(&self) -> bool {
-        self.used().iter().all(Carrier::is_valid)
-    }
-
-    /// The components of the first lane (tallies take each lane's own).
-    fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize {
-        self.lanes[0].components(d, to, out)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -759,36 +533,6 @@ mod tests {
                 assert!((m.rows[i][j] - f[i][j]).abs() < 1e-15);
             }
         }
-    }
-
-    /// Per-lane removed intensities: each lane's before minus after, and
-    /// equal lanes the monochrome carrier's `rescaled` bit for bit.
-    #[test]
-    fn rescaled_lanes_gives_each_lanes_removed_intensity() {
-        let (d, n) = (DVec3::NEG_Z, DVec3::Z);
-        let mut w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, 3);
-        let lanes = Reflectance::Spectral(std::sync::Arc::new(
-            crate::optics::material::SpectralModel::new(vec![
-                Reflectance::Constant(0.7),
-                Reflectance::Constant(0.35),
-                Reflectance::Constant(0.7),
-            ]),
-        ));
-        assert!(w.reflect(&lanes, d, n, 1.0));
-        let mut local = w.unit();
-        assert!(local.reflect(&Reflectance::Constant(0.3), d, n, 1.0));
-        let mut removed = Vec::new();
-        let out = w.rescaled_lanes(local, |l, r| removed.push((l, r)));
-        let mono = 0.7_f64.rescaled(0.3);
-        assert_eq!((out.lane(0), removed[0]), (mono.0, (0, mono.1)));
-        assert_eq!((out.lane(2), removed[2]), (mono.0, (2, mono.1)));
-        assert_eq!(removed[1].0, 1);
-        assert!((removed[1].1 - 0.35 * 0.7).abs() < 1e-15, "{removed:?}");
-        assert!((out.lane(1) - 0.35 * 0.3).abs() < 1e-15);
-        // The scalar carrier: `rescaled`'s removed intensity, lane 0.
-        let mut one = Vec::new();
-        assert_eq!(0.7.rescaled_lanes(0.3, |l, r| one.push((l, r))), mono.0);
-        assert_eq!(one, [(0, mono.1)]);
     }
 
     #[test]
