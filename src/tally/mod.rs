@@ -12,6 +12,7 @@
 //! - [`InPlaneTally`]: a fine goniometer tally in the plane of incidence.
 //! - [`Symmetry`]: folding mirror images in the plane of incidence.
 //! - [`PolarTallies`]: Stokes and Mueller-matrix BRDFs per cell.
+//! - [`lanes`]: one batch's sums of many wavelengths, by bin and wavelength.
 //! - [`Merge`]: adding tallies field by field ([`merge_fields!`](crate::merge_fields)
 //!   derives it from one list of fields).
 //! - [`sum`]: the fixed batch tree every run sums its batch tallies over.
@@ -21,6 +22,7 @@ pub mod accumulator;
 pub mod carlson;
 pub mod exact;
 pub mod inplane;
+pub mod lanes;
 pub mod merge;
 pub mod polar;
 pub mod sum;

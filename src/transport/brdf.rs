@@ -33,6 +33,7 @@ use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
 use crate::tally::exact;
+use crate::tally::lanes::{LaneSums, LaneTally};
 use crate::tally::polar::mirror_sign;
 use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{
@@ -293,7 +294,15 @@ impl BrdfTallies {
 /// Zero batch tallies of one run's layout, for batches to tally into
 /// instead of allocating and clearing fresh ones (they come back cleared
 /// from [`BrdfTallies::merge_clearing`] in the batch tree).
-type Spare = std::sync::Mutex<Vec<BrdfTallies>>;
+/// Cleared batch tallies (and spectral batch sums) for the next batches
+/// of a trace.
+#[derive(Default)]
+struct Spare {
+    /// Batch tallies, one per wavelength of a batch.
+    tallies: std::sync::Mutex<Vec<BrdfTallies>>,
+    /// A spectral batch's interleaved sums ([`LaneSums`]).
+    lane_sums: std::sync::Mutex<Vec<LaneSums>>,
+}
 
 /// The result for one incidence direction (of a spectral run: for one
 /// incidence direction and wavelength).
@@ -730,7 +739,7 @@ impl BrdfRun {
                         value,
                     },
                     &BrdfTallies::merge_clearing,
-                    &mut |t| spare.lock().expect("spare tallies").push(t),
+                    &mut |t| spare.tallies.lock().expect("spare tallies").push(t),
                 )
                 .expect("batches in order");
             }
@@ -904,7 +913,7 @@ impl BrdfRun {
     ) -> Vec<BrdfTallies> {
         let grid = locator.grid();
         let mut lanes: Vec<BrdfTallies> = {
-            let mut spare = spare.lock().expect("spare tallies");
+            let mut spare = spare.tallies.lock().expect("spare tallies");
             (0..self.lane_count())
                 .map(|_| {
                     spare
@@ -917,6 +926,18 @@ impl BrdfRun {
         let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
         let mut components = [0.0; 16];
+        // Several wavelengths: the escaping photons' weights scored bin by
+        // bin for all wavelengths at once (`LaneSums`), handed to each
+        // wavelength's tallies (cleared ones: the same bits) at the end.
+        let n_lanes = self.lane_count();
+        let shape = (n_lanes, grid.n_cells(), inplane.n_bins(), BOUNCE_BINS);
+        let mut interleaved = (n_lanes > 1).then(|| {
+            let found = spare.lane_sums.lock().expect("spare sums").pop();
+            found
+                .filter(|s| s.fits(shape.0, shape.1, shape.2, shape.3))
+                .unwrap_or_else(|| LaneSums::new(shape.0, shape.1, shape.2, shape.3))
+        });
+        let mut weights = [0.0; MAX_WAVELENGTHS];
         for (replicate, h, tests) in photons {
             // Counts are the same at every wavelength: kept in the first
             // wavelength's tallies and copied to the others below.
@@ -948,21 +969,42 @@ impl BrdfRun {
                             n_hits += 1;
                         }
                     }
-                    for (l, t) in lanes.iter_mut().enumerate() {
-                        let carried = carried.lane(l);
-                        let weight = carried.weight_for(&incident);
-                        t.reflected.score(0, weight);
-                        // The cells' shares for weight 1 (the polarisation tally's),
-                        // then times the weight: the same products as
-                        // `cell_weights(.., weight, ..)`, bit for bit (a zero
-                        // product adds nothing to the non-negative sums).
-                        if weight != 0.0 {
-                            for &(c, share) in &hits[..n_hits] {
-                                t.carlson.score(c, share * weight);
-                            }
+                    let extras = lanes[0].replicates.is_some() || lanes[0].polar.is_some();
+                    if let Some(sums) = &mut interleaved {
+                        // All wavelengths at once, bin by bin.
+                        let w = &mut weights[..n_lanes];
+                        carried.weights_for(&incident, w);
+                        sums.reflected.score(0, w);
+                        for &(c, share) in &hits[..n_hits] {
+                            sums.carlson.score_scaled(c, share, w);
                         }
                         if let Some(c) = bin {
-                            t.inplane.score(c, weight);
+                            sums.inplane.score(c, w);
+                        }
+                        sums.by_bounces
+                            .add((h.bounces as usize).min(BOUNCE_BINS - 1), w);
+                    }
+                    // Lane by lane: everything of a monochrome run, the
+                    // replicate and polarisation sums of a spectral one.
+                    let by_lane = interleaved.is_none() || extras;
+                    for (l, t) in lanes.iter_mut().enumerate().filter(|_| by_lane) {
+                        let carried = carried.lane(l);
+                        let weight = carried.weight_for(&incident);
+                        if interleaved.is_none() {
+                            t.reflected.score(0, weight);
+                            // The cells' shares for weight 1 (the polarisation tally's),
+                            // then times the weight: the same products as
+                            // `cell_weights(.., weight, ..)`, bit for bit (a zero
+                            // product adds nothing to the non-negative sums).
+                            if weight != 0.0 {
+                                for &(c, share) in &hits[..n_hits] {
+                                    t.carlson.score(c, share * weight);
+                                }
+                            }
+                            if let Some(c) = bin {
+                                t.inplane.score(c, weight);
+                            }
+                            t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
                         }
                         if let Some(r) = &mut t.replicates {
                             let halves = shares.map(|(cells, share)| (cells, share * weight));
@@ -976,7 +1018,6 @@ impl BrdfRun {
                                 r.inplane[replicate * inplane.n_bins() + c] += weight;
                             }
                         }
-                        t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
                         if let (Some(p), Some(reference)) = (&mut t.polar, reference) {
                             let k = carried.components(out, reference, &mut components);
                             let mirror = self.symmetry == Symmetry::Mirror;
@@ -1010,6 +1051,20 @@ impl BrdfRun {
                     }
                 }
             }
+        }
+        if let Some(mut sums) = interleaved {
+            let mut slots: Vec<Option<&mut BrdfTallies>> = lanes.iter_mut().map(Some).collect();
+            sums.drain_into(|l| {
+                let t = slots[l].take().expect("each wavelength once");
+                debug_assert!(t.carlson.sum.iter().all(|&v| v == 0.0), "cleared tallies");
+                LaneTally {
+                    reflected: &mut t.reflected,
+                    carlson: &mut t.carlson,
+                    inplane: &mut t.inplane,
+                    by_bounces: &mut t.by_bounces,
+                }
+            });
+            spare.lane_sums.lock().expect("spare sums").push(sums);
         }
         let (first, rest) = lanes.split_first_mut().expect("one wavelength at least");
         for t in rest {

@@ -70,6 +70,15 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     /// The intensity scored for `incident` (the `brdf.csv` weight).
     fn weight_for(&self, incident: &Stokes) -> f64;
 
+    /// [`Carrier::weight_for`] of every wavelength: `out[l]` for lane `l`
+    /// (`out` holds [`Carrier::lanes`] numbers).
+    #[inline]
+    fn weights_for(&self, incident: &Stokes, out: &mut [f64]) {
+        for (l, o) in out.iter_mut().enumerate() {
+            *o = self.lane(l).weight_for(incident);
+        }
+    }
+
     /// Specular reflection off a facet of `material`: unit incoming `d`,
     /// unit normal `n` facing it, `cos_i = -d · n`. Returns false, leaving
     /// the carrier unchanged, when the reflectance is not a finite number >= 0.
