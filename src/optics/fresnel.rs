@@ -177,7 +177,7 @@ pub struct FresnelLanes {
 
 /// The Fresnel coefficients of one chunk of wavelengths (see
 /// [`FresnelLanes::chunk`]); `b`, `c`, `d` are zero when not asked for.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FresnelChunk {
     /// `(Rs + Rp) / 2`.
     pub a: [f64; CHUNK],
@@ -187,6 +187,16 @@ pub struct FresnelChunk {
     pub c: [f64; CHUNK],
     /// `Im(rs rp*)`.
     pub d: [f64; CHUNK],
+}
+
+impl FresnelChunk {
+    /// Every coefficient zero.
+    pub const ZERO: Self = Self {
+        a: [0.0; CHUNK],
+        b: [0.0; CHUNK],
+        c: [0.0; CHUNK],
+        d: [0.0; CHUNK],
+    };
 }
 
 impl FresnelLanes {
@@ -234,11 +244,24 @@ impl FresnelLanes {
     /// If the chunk lies past the lanes.
     #[must_use]
     pub fn chunk<const MUELLER: bool>(&self, cos_i: f64, index: usize) -> FresnelChunk {
-        self.chunk_body::<MUELLER>(cos_i, index)
+        let mut out = FresnelChunk::ZERO;
+        self.chunk_into::<MUELLER>(cos_i, index, &mut out);
+        out
     }
 
+    /// [`FresnelLanes::chunk`] into `out` (without `MUELLER`, `b`, `c`, `d`
+    /// are left as they are): the form for loops over chunks, which keep
+    /// one `out`.
+    ///
+    /// # Panics
+    /// If the chunk lies past the lanes.
     #[inline(always)]
-    fn chunk_body<const MUELLER: bool>(&self, cos_i: f64, index: usize) -> FresnelChunk {
+    pub fn chunk_into<const MUELLER: bool>(
+        &self,
+        cos_i: f64,
+        index: usize,
+        out: &mut FresnelChunk,
+    ) {
         let c = cos_i.clamp(0.0, 1.0);
         let c2 = c * c;
         let range = CHUNK * index..CHUNK * (index + 1);
@@ -250,12 +273,6 @@ impl FresnelLanes {
             take(&self.m2r),
             take(&self.m2i),
         );
-        let mut out = FresnelChunk {
-            a: [0.0; CHUNK],
-            b: [0.0; CHUNK],
-            c: [0.0; CHUNK],
-            d: [0.0; CHUNK],
-        };
         // NaN where a lane is not ordinary: a result that is not finite, or
         // a denominator that is zero (inv infinite) or overflows (infinite).
         let mut check = [0.0; CHUNK];
@@ -288,14 +305,17 @@ impl FresnelLanes {
                 out.c[l] = (zs0 * zp0 + zs1 * zp1) * inv;
                 out.d[l] = (zs1 * zp0 - zs0 * zp1) * inv;
             }
-            check[l] = (out.a[l] + out.b[l] + out.c[l] + out.d[l] + den + inv) * 0.0;
+            let mut sum = out.a[l] + den + inv;
+            if MUELLER {
+                sum += out.b[l] + out.c[l] + out.d[l];
+            }
+            check[l] = sum * 0.0;
         }
         let lanes = (self.len - CHUNK * index).min(CHUNK);
         // NaN propagates through the sum (a scalar reduction of CHUNK adds).
         if check[..lanes].iter().sum::<f64>().is_nan() {
-            self.redo(c, index, lanes, &check, &mut out);
+            self.redo(c, index, lanes, &check, out);
         }
-        out
     }
 
     /// The lanes that are not ordinary, by the exact scalar functions.

@@ -872,12 +872,13 @@ impl BrdfRun {
             // score each photon in turn, batch by batch.
             let batch = |range: std::ops::Range<u64>| {
                 let mut scratch = Scratch::new(surface);
-                let photons = range.map(|n| {
-                    let e = entry(n);
-                    let (h, tests) = history(&e, &mut scratch);
-                    (e.replicate, h, tests)
-                });
-                self.score_batch(locator, inplane, spare, photons)
+                self.score_batch(locator, inplane, spare, |score| {
+                    for n in range {
+                        let e = entry(n);
+                        let (h, tests) = history(&e, &mut scratch);
+                        score(e.replicate, &h, tests);
+                    }
+                })
             };
             return super::run_batches(self.photons, tally_bytes, batch, consume, progress);
         }
@@ -891,11 +892,11 @@ impl BrdfRun {
             || Scratch::new(surface),
             history,
             |_, entries, histories| {
-                let photons = entries
-                    .iter()
-                    .zip(histories)
-                    .map(|(e, &&(h, tests))| (e.replicate, h, tests));
-                self.score_batch(locator, inplane, spare, photons)
+                self.score_batch(locator, inplane, spare, |score| {
+                    for (e, (h, tests)) in entries.iter().zip(histories) {
+                        score(e.replicate, h, *tests);
+                    }
+                })
             },
             consume,
             progress,
@@ -903,13 +904,15 @@ impl BrdfRun {
     }
 
     /// The tally of a batch from its photons' lattice replicates, histories
-    /// and the intersection tests each took, in photon index order.
+    /// and the intersection tests each took, in photon index order:
+    /// `photons(score)` calls `score(replicate, history, tests)` for each
+    /// (by reference: a spectral carrier is large).
     fn score_batch<C: Carrier>(
         &self,
         locator: &Locator,
         inplane: &InPlaneTally,
         spare: &Spare,
-        photons: impl Iterator<Item = (usize, History<C>, u64)>,
+        photons: impl FnOnce(&mut dyn FnMut(usize, &History<C>, u64)),
     ) -> Vec<BrdfTallies> {
         let grid = locator.grid();
         let mut lanes: Vec<BrdfTallies> = {
@@ -938,7 +941,7 @@ impl BrdfRun {
                 .unwrap_or_else(|| LaneSums::new(shape.0, shape.1, shape.2, shape.3))
         });
         let mut weights = [0.0; MAX_WAVELENGTHS];
-        for (replicate, h, tests) in photons {
+        let mut score = |replicate: usize, h: &History<C>, tests: u64| {
             // Counts are the same at every wavelength: kept in the first
             // wavelength's tallies and copied to the others below.
             let t0 = &mut lanes[0];
@@ -1051,7 +1054,8 @@ impl BrdfRun {
                     }
                 }
             }
-        }
+        };
+        photons(&mut score);
         if let Some(mut sums) = interleaved {
             let mut slots: Vec<Option<&mut BrdfTallies>> = lanes.iter_mut().map(Some).collect();
             sums.drain_into(|l| {

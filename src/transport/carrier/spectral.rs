@@ -77,12 +77,13 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Spectral<C, CAP> {
             return false;
         }
         let turn = self.lanes[0].s_turn(d, n);
+        let mut f = FresnelChunk::ZERO;
         for (index, lanes) in self.lanes[..self.len].chunks_mut(CHUNK).enumerate() {
-            let f = if C::POLARISED {
-                fresnel.chunk::<true>(cos_i, index)
+            if C::POLARISED {
+                fresnel.chunk_into::<true>(cos_i, index, &mut f);
             } else {
-                fresnel.chunk::<false>(cos_i, index)
-            };
+                fresnel.chunk_into::<false>(cos_i, index, &mut f);
+            }
             for (j, lane) in lanes.iter_mut().enumerate() {
                 let m = FresnelMueller {
                     a: f.a[j],
@@ -379,8 +380,10 @@ impl<const N: usize, const CAP: usize> SpectralPolarised<N, CAP> {
         if let Some(r) = turn.rotator {
             self.rotate(r);
         }
+        let mut f = FresnelChunk::ZERO;
         for index in 0..self.len.div_ceil(CHUNK) {
-            self.apply(CHUNK * index, &fresnel.chunk::<true>(cos_i, index));
+            fresnel.chunk_into::<true>(cos_i, index, &mut f);
+            self.apply(CHUNK * index, &f);
         }
         self.x = turn.s;
         true
