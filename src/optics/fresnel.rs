@@ -273,18 +273,33 @@ impl FresnelLanes {
             take(&self.m2r),
             take(&self.m2i),
         );
+        // The lanes in passes, each with one long-latency operation (square
+        // root, division) per lane, so that the lanes' square roots and
+        // divisions overlap instead of waiting on each other: the same
+        // expressions as one pass, so the same numbers.
+        let mut t0 = [0.0; CHUNK];
+        let mut q = [0.0; CHUNK];
+        for l in 0..CHUNK {
+            t0[l] = t[l] + c2;
+            q[l] = (t0[l] * t0[l] + 4.0 * nk[l] * nk[l]).sqrt();
+        }
+        let mut big = [0.0; CHUNK];
+        for l in 0..CHUNK {
+            big[l] = (0.5 * (q[l] + t0[l].abs())).sqrt();
+        }
+        let (mut ua, mut ub) = ([0.0; CHUNK], [0.0; CHUNK]);
+        for l in 0..CHUNK {
+            // big = 0 only for n k = 0 and t0 = 0: then small = 0 too.
+            let small = nk[l] / big[l].max(f64::MIN_POSITIVE);
+            let pos = t0[l] >= 0.0;
+            ua[l] = if pos { big[l] } else { small };
+            ub[l] = if pos { small } else { big[l] };
+        }
         // NaN where a lane is not ordinary: a result that is not finite, or
         // a denominator that is zero (inv infinite) or overflows (infinite).
         let mut check = [0.0; CHUNK];
         for l in 0..CHUNK {
-            let t0 = t[l] + c2;
-            let q = (t0 * t0 + 4.0 * nk[l] * nk[l]).sqrt();
-            let big = (0.5 * (q + t0.abs())).sqrt();
-            // big = 0 only for n k = 0 and t0 = 0: then small = 0 too.
-            let small = nk[l] / big.max(f64::MIN_POSITIVE);
-            let pos = t0 >= 0.0;
-            let ua = if pos { big } else { small };
-            let ub = if pos { small } else { big };
+            let (ua, ub) = (ua[l], ub[l]);
             // rs = (c - u) / (c + u); rp = (m² c - u) / (m² c + u).
             let (sn0, sn1, sd0, sd1) = (c - ua, -ub, c + ua, ub);
             let (pn0, pn1) = (m2r[l] * c - ua, m2i[l] * c - ub);
