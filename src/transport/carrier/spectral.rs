@@ -135,10 +135,7 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Carrier for Spectral<C, CAP> {
     /// The largest intensity of the lanes.
     #[inline]
     fn intensity(&self) -> f64 {
-        self.used().iter().fold(
-            0.0,
-            |m: f64, c| if c.intensity() > m { c.intensity() } else { m },
-        )
+        largest(self.used(), C::intensity)
     }
 
     /// The largest of the lanes' weights (tallies score each lane's own).
@@ -146,6 +143,13 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Carrier for Spectral<C, CAP> {
         self.used()
             .iter()
             .fold(0.0, |m: f64, c| m.max(c.weight_for(incident)))
+    }
+
+    #[inline]
+    fn weights_for(&self, incident: &Stokes, out: &mut [f64]) {
+        for (o, c) in out.iter_mut().zip(self.used()) {
+            *o = c.weight_for(incident);
+        }
     }
 
     #[inline]
@@ -288,10 +292,21 @@ impl<const N: usize, const CAP: usize> SpectralPolarised<N, CAP> {
     }
 
     /// The Fresnel matrices of lanes `at..` (as many as `f` holds, up to
-    /// the lanes in use) in the s frame: the products and sums of
-    /// [`Polarised::fresnel_in`].
+    /// the lanes in use) in the s frame, after the frame turn `rotator`
+    /// ([`SpectralPolarised::rotate`], in the same pass): the products and
+    /// sums of [`Polarised::fresnel_in`].
     #[inline]
-    fn apply(&mut self, at: usize, f: &FresnelChunk) {
+    fn turn_and_apply(&mut self, at: usize, f: &FresnelChunk, rotator: Option<(f64, f64)>) {
+        match rotator {
+            Some(r) => self.apply::<true>(at, f, r),
+            None => self.apply::<false>(at, f, (1.0, 0.0)),
+        }
+    }
+
+    /// [`SpectralPolarised::turn_and_apply`], turning the frame by
+    /// `(c2, s2)` if `TURN`.
+    #[inline]
+    fn apply<const TURN: bool>(&mut self, at: usize, f: &FresnelChunk, (c2, s2): (f64, f64)) {
         let to = (at + CHUNK).min(self.len);
         let m = to - at;
         let [r0, r1, r2, r3] = &mut self.rows;
@@ -305,7 +320,10 @@ impl<const N: usize, const CAP: usize> SpectralPolarised<N, CAP> {
                 .zip(&f.b[..m])
                 .zip(f.c[..m].iter().zip(&f.d[..m]));
             for (((v0, v1), (v2, v3)), ((&a, &b), (&c, &d))) in lanes.zip(coefficients) {
-                let (x0, x1, x2, x3) = (*v0, *v1, *v2, *v3);
+                let (x0, mut x1, mut x2, x3) = (*v0, *v1, *v2, *v3);
+                if TURN {
+                    (x1, x2) = (c2 * x1 + s2 * x2, -s2 * x1 + c2 * x2);
+                }
                 *v0 = a * x0 + b * x1;
                 *v1 = b * x0 + a * x1;
                 *v2 = c * x2 - d * x3;
@@ -377,13 +395,10 @@ impl<const N: usize, const CAP: usize> SpectralPolarised<N, CAP> {
             return false;
         }
         let turn = self.s_turn(d, n);
-        if let Some(r) = turn.rotator {
-            self.rotate(r);
-        }
         let mut f = FresnelChunk::ZERO;
         for index in 0..self.len.div_ceil(CHUNK) {
             fresnel.chunk_into::<true>(cos_i, index, &mut f);
-            self.apply(CHUNK * index, &f);
+            self.turn_and_apply(CHUNK * index, &f, turn.rotator);
         }
         self.x = turn.s;
         true
@@ -443,14 +458,24 @@ impl<const N: usize, const CAP: usize> Carrier for SpectralPolarised<N, CAP> {
     /// The largest intensity of the lanes.
     #[inline]
     fn intensity(&self) -> f64 {
-        self.rows[0][0][..self.len]
-            .iter()
-            .fold(0.0, |m: f64, &c| if c > m { c } else { m })
+        largest(&self.rows[0][0][..self.len], |&c| c)
     }
 
     /// The largest of the lanes' weights (tallies score each lane's own).
     fn weight_for(&self, incident: &Stokes) -> f64 {
         (0..self.len).fold(0.0, |m: f64, l| m.max(self.lane(l).weight_for(incident)))
+    }
+
+    #[inline]
+    fn weights_for(&self, incident: &Stokes, out: &mut [f64]) {
+        if N == 1 {
+            // `Polarised::<1>::weight_for`: S0.
+            out.copy_from_slice(&self.rows[0][0][..out.len()]);
+        } else {
+            for (l, o) in out.iter_mut().enumerate() {
+                *o = self.lane(l).weight_for(incident);
+            }
+        }
     }
 
     #[inline]
@@ -492,9 +517,6 @@ impl<const N: usize, const CAP: usize> Carrier for SpectralPolarised<N, CAP> {
 
     #[inline]
     fn fresnel_in(&mut self, turn: &STurn, f: &FresnelMueller) {
-        if let Some(r) = turn.rotator {
-            self.rotate(r);
-        }
         let chunk = FresnelChunk {
             a: [f.a; CHUNK],
             b: [f.b; CHUNK],
@@ -502,7 +524,7 @@ impl<const N: usize, const CAP: usize> Carrier for SpectralPolarised<N, CAP> {
             d: [f.d; CHUNK],
         };
         for at in (0..self.len).step_by(CHUNK) {
-            self.apply(at, &chunk);
+            self.turn_and_apply(at, &chunk, turn.rotator);
         }
         self.x = turn.s;
     }
@@ -604,6 +626,32 @@ impl<const N: usize, const CAP: usize> Carrier for SpectralPolarised<N, CAP> {
     fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize {
         self.lane(0).components(d, to, out)
     }
+}
+
+/// The largest of `f(item)` and 0 (NaN never wins): the number
+/// `items.fold(0.0, |m, x| if f(x) > m { f(x) } else { m })` gives, by four
+/// running maxima (a fold of one is a chain of dependent comparisons).
+#[inline]
+fn largest<T>(items: &[T], f: impl Fn(&T) -> f64) -> f64 {
+    let mut m = [0.0_f64; 4];
+    let chunks = items.chunks_exact(4);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (m, x) in m.iter_mut().zip(chunk) {
+            let v = f(x);
+            if v > *m {
+                *m = v;
+            }
+        }
+    }
+    for (m, x) in m.iter_mut().zip(rest) {
+        let v = f(x);
+        if v > *m {
+            *m = v;
+        }
+    }
+    let pick = |a: f64, b: f64| if b > a { b } else { a };
+    pick(pick(m[0], m[1]), pick(m[2], m[3]))
 }
 
 /// A monochrome carrier (the lane) and the carrier of many wavelengths made
@@ -790,6 +838,32 @@ mod tests {
         assert!(!b.reflect(&fresnel, d, -d, f64::NAN));
         same(&a, &b);
         same(&a0, &b0);
+    }
+
+    /// `largest` is the sequential fold's number, NaN, zeros and ties included.
+    #[test]
+    fn largest_is_the_fold() {
+        let mut x = 7_u64;
+        for len in 0..40 {
+            for _ in 0..50 {
+                let v: Vec<f64> = (0..len)
+                    .map(|_| {
+                        x = x
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        match x >> 60 {
+                            0 => f64::NAN,
+                            1 => -0.0,
+                            2 => 0.0,
+                            3 => -1.0,
+                            _ => ((x >> 11) % 5) as f64 * 0.25,
+                        }
+                    })
+                    .collect();
+                let fold = v.iter().fold(0.0, |m: f64, &c| if c > m { c } else { m });
+                assert_eq!(largest(&v, |&c| c).to_bits(), fold.to_bits(), "{v:?}");
+            }
+        }
     }
 
     #[test]
