@@ -17,7 +17,9 @@
 //!   `scenes/materials/aluminium.csv` at 60 degrees, one thread: a
 //!   monochrome run at 0.55 um against one trace carrying 32 wavelengths
 //!   (0.40-0.71 um), scalar weight and Stokes vectors (the same paths, so
-//!   the time ratio is the ratio per segment).
+//!   the time ratio is the ratio per segment; 200 000 photons per run, so
+//!   that the start and end of a run, which allocate and merge 32 tallies,
+//!   weigh little).
 //! * `heightfield/gaussian_{256,1024}_60deg`: photons of `scenes/gaussian.toml`
 //!   (a Gaussian height field of Al, sigma 1, tau 11.9 on 64 x 64) at 60
 //!   degrees on 256² and 1024² grids (segments per photon printed once).
@@ -208,7 +210,7 @@ fn spectral(c: &mut Criterion) {
             .unwrap();
         }
         let mut run = scene.brdf_run();
-        run.photons = 20_000;
+        run.photons = 200_000;
         run.polarisation.transport = polarised;
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(name, |b| {
