@@ -179,13 +179,16 @@ impl LaneSums {
 mod tests {
     use super::*;
 
+    /// One lane's four tallies: reflected, Carlson, in-plane, by reflections.
+    type Four = (Accumulator, Accumulator, Accumulator, Vec<f64>);
+
     /// Interleaved scoring then draining gives each lane's accumulator the
     /// same bits as scoring it directly, and leaves the sums cleared.
     #[test]
     fn drained_sums_are_direct_scores() {
         let lanes = 5;
         let mut sums = LaneSums::new(lanes, 7, 3, 4);
-        let mut direct: Vec<(Accumulator, Accumulator, Accumulator, Vec<f64>)> = (0..lanes)
+        let mut direct: Vec<Four> = (0..lanes)
             .map(|_| {
                 (
                     Accumulator::new(1),
@@ -215,7 +218,7 @@ mod tests {
                 d.3[b] += w[l];
             }
         }
-        let mut got: Vec<(Accumulator, Accumulator, Accumulator, Vec<f64>)> = (0..lanes)
+        let mut got: Vec<Four> = (0..lanes)
             .map(|_| {
                 (
                     Accumulator::new(1),
@@ -226,8 +229,7 @@ mod tests {
             })
             .collect();
         {
-            let mut slots: Vec<Option<&mut (Accumulator, Accumulator, Accumulator, Vec<f64>)>> =
-                got.iter_mut().map(Some).collect();
+            let mut slots: Vec<Option<&mut Four>> = got.iter_mut().map(Some).collect();
             sums.drain_into(|l| {
                 let g = slots[l].take().expect("each lane once");
                 LaneTally {
