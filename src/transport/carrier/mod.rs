@@ -276,6 +276,39 @@ fn s_turn_from(x: DVec3, d: DVec3, n: DVec3) -> STurn {
     }
 }
 
+/// [`Carrier::reflect`] of a polarised carrier off a model that is the same
+/// at every wavelength: a Fresnel matrix in the s frame, or a mirror
+/// scaled by the reflectance (false, unchanged, when the coefficients are
+/// not finite with `a >= 0`).
+fn reflect_polarised<C: Carrier>(
+    carrier: &mut C,
+    material: &Reflectance,
+    d: DVec3,
+    n: DVec3,
+    cos_i: f64,
+) -> bool {
+    match material {
+        Reflectance::Fresnel { n: re, k } => {
+            let f = FresnelMueller::new(cos_i, *re, *k);
+            if !(f.a >= 0.0 && [f.a, f.b, f.c, f.d].iter().all(|v| v.is_finite())) {
+                return false;
+            }
+            // `FresnelMueller::apply` on each column, in the s frame.
+            let turn = carrier.s_turn(d, n);
+            carrier.fresnel_in(&turn, &f);
+            true
+        }
+        other => {
+            let r = other.reflectance(cos_i);
+            if !(r >= 0.0 && r.is_finite()) {
+                return false;
+            }
+            carrier.mirror(r, d, n);
+            true
+        }
+    }
+}
+
 /// Apply the rotator `(cos 2a, sin 2a)` of [`rotation`] to every column of
 /// `rows` (component-major, see [`Polarised`]): [`rotate`](crate::optics::polarisation::rotate)
 /// column by column, the same products and sums.
@@ -345,26 +378,7 @@ impl<const N: usize> Carrier for Polarised<N> {
     }
 
     fn reflect(&mut self, material: &Reflectance, d: DVec3, n: DVec3, cos_i: f64) -> bool {
-        match material.lane(0) {
-            Reflectance::Fresnel { n: re, k } => {
-                let f = FresnelMueller::new(cos_i, *re, *k);
-                if !(f.a >= 0.0 && [f.a, f.b, f.c, f.d].iter().all(|v| v.is_finite())) {
-                    return false;
-                }
-                // `FresnelMueller::apply` on each column, in the s frame.
-                let turn = self.s_turn(d, n);
-                self.fresnel_in(&turn, &f);
-                true
-            }
-            other => {
-                let r = other.reflectance(cos_i);
-                if !(r >= 0.0 && r.is_finite()) {
-                    return false;
-                }
-                self.mirror(r, d, n);
-                true
-            }
-        }
+        reflect_polarised(self, material.lane(0), d, n, cos_i)
     }
 
     fn mirror(&mut self, rho: f64, d: DVec3, n: DVec3) {

@@ -10,7 +10,7 @@
 
 use glam::DVec3;
 
-use super::{Carrier, Polarised, STurn, s_turn_from};
+use super::{Carrier, Polarised, STurn, reflect_polarised, s_turn_from};
 use crate::optics::fresnel::{CHUNK, FresnelChunk, FresnelLanes};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::{FresnelMueller, Stokes, rotation};
@@ -488,23 +488,7 @@ impl<const N: usize, const CAP: usize> Carrier for SpectralPolarised<N, CAP> {
                 _ => self.reflect_each(material, d, n, cos_i),
             },
             // One model for every wavelength: `Polarised::reflect`, once.
-            Reflectance::Fresnel { n: re, k } => {
-                let f = FresnelMueller::new(cos_i, *re, *k);
-                if !(f.a >= 0.0 && [f.a, f.b, f.c, f.d].iter().all(|v| v.is_finite())) {
-                    return false;
-                }
-                let turn = self.s_turn(d, n);
-                self.fresnel_in(&turn, &f);
-                true
-            }
-            other => {
-                let r = other.reflectance(cos_i);
-                if !(r >= 0.0 && r.is_finite()) {
-                    return false;
-                }
-                self.mirror(r, d, n);
-                true
-            }
+            other => reflect_polarised(self, other, d, n, cos_i),
         }
     }
 
