@@ -148,26 +148,19 @@ impl LaneSums {
         }
     }
 
-    /// Whether these sums have this shape (so they can serve a batch of it).
-    #[must_use]
-    pub fn fits(&self, lanes: usize, cells: usize, bins: usize, bounce_bins: usize) -> bool {
-        self.reflected.lanes == lanes
-            && self.carlson.acc.len() == cells * lanes
-            && self.inplane.acc.len() == bins * lanes
-            && self.by_bounces.sum.len() == bounce_bins * lanes
-    }
-
-    /// Add wavelength `l`'s sums into `to(l)` for every wavelength, then
-    /// clear. Into zero tallies this gives each wavelength's sums bit for
-    /// bit as if scored there directly (`0 + s = s`).
-    pub fn drain_into<'a>(&mut self, mut to: impl FnMut(usize) -> LaneTally<'a>) {
-        for l in 0..self.reflected.lanes {
-            let t = to(l);
+    /// Add wavelength `l`'s sums into the `l`-th of `to` (one per
+    /// wavelength, in order), then clear. Into zero tallies this gives each
+    /// wavelength's sums bit for bit as if scored there directly (`0 + s = s`).
+    pub fn drain_into<'a>(&mut self, to: impl IntoIterator<Item = LaneTally<'a>>) {
+        let mut drained = 0;
+        for (l, t) in to.into_iter().enumerate() {
             self.reflected.add_lane_into(l, t.reflected);
             self.carlson.add_lane_into(l, t.carlson);
             self.inplane.add_lane_into(l, t.inplane);
             self.by_bounces.add_lane_into(l, t.by_bounces);
+            drained += 1;
         }
+        debug_assert_eq!(drained, self.reflected.lanes, "one tally per wavelength");
         self.reflected.clear();
         self.carlson.clear();
         self.inplane.clear();
@@ -228,18 +221,12 @@ mod tests {
                 )
             })
             .collect();
-        {
-            let mut slots: Vec<Option<&mut Four>> = got.iter_mut().map(Some).collect();
-            sums.drain_into(|l| {
-                let g = slots[l].take().expect("each lane once");
-                LaneTally {
-                    reflected: &mut g.0,
-                    carlson: &mut g.1,
-                    inplane: &mut g.2,
-                    by_bounces: &mut g.3,
-                }
-            });
-        }
+        sums.drain_into(got.iter_mut().map(|g| LaneTally {
+            reflected: &mut g.0,
+            carlson: &mut g.1,
+            inplane: &mut g.2,
+            by_bounces: &mut g.3,
+        }));
         let bits = |a: &Accumulator| {
             a.sum
                 .iter()

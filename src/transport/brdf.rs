@@ -291,11 +291,10 @@ impl BrdfTallies {
     }
 }
 
-/// Zero batch tallies of one run's layout, for batches to tally into
+/// Zero batch tallies of one trace's layout, for batches to tally into
 /// instead of allocating and clearing fresh ones (they come back cleared
-/// from [`BrdfTallies::merge_clearing`] in the batch tree).
-/// Cleared batch tallies (and spectral batch sums) for the next batches
-/// of a trace.
+/// from [`BrdfTallies::merge_clearing`] in the batch tree, spectral batch
+/// sums from [`LaneSums::drain_into`]).
 #[derive(Default)]
 struct Spare {
     /// Batch tallies, one per wavelength of a batch.
@@ -933,13 +932,16 @@ impl BrdfRun {
         // bin for all wavelengths at once (`LaneSums`), handed to each
         // wavelength's tallies (cleared ones: the same bits) at the end.
         let n_lanes = self.lane_count();
-        let shape = (n_lanes, grid.n_cells(), inplane.n_bins(), BOUNCE_BINS);
         let mut interleaved = (n_lanes > 1).then(|| {
             let found = spare.lane_sums.lock().expect("spare sums").pop();
-            found
-                .filter(|s| s.fits(shape.0, shape.1, shape.2, shape.3))
-                .unwrap_or_else(|| LaneSums::new(shape.0, shape.1, shape.2, shape.3))
+            found.unwrap_or_else(|| {
+                LaneSums::new(n_lanes, grid.n_cells(), inplane.n_bins(), BOUNCE_BINS)
+            })
         });
+        // Lane by lane: everything of a monochrome run, the replicate and
+        // polarisation sums of a spectral one.
+        let by_lane =
+            interleaved.is_none() || lanes[0].replicates.is_some() || lanes[0].polar.is_some();
         let mut weights = [0.0; MAX_WAVELENGTHS];
         let mut score = |replicate: usize, h: &History<C>, tests: u64| {
             // Counts are the same at every wavelength: kept in the first
@@ -972,7 +974,7 @@ impl BrdfRun {
                             n_hits += 1;
                         }
                     }
-                    let extras = lanes[0].replicates.is_some() || lanes[0].polar.is_some();
+                    let bounce_bin = (h.bounces as usize).min(BOUNCE_BINS - 1);
                     if let Some(sums) = &mut interleaved {
                         // All wavelengths at once, bin by bin.
                         let w = &mut weights[..n_lanes];
@@ -984,12 +986,8 @@ impl BrdfRun {
                         if let Some(c) = bin {
                             sums.inplane.score(c, w);
                         }
-                        sums.by_bounces
-                            .add((h.bounces as usize).min(BOUNCE_BINS - 1), w);
+                        sums.by_bounces.add(bounce_bin, w);
                     }
-                    // Lane by lane: everything of a monochrome run, the
-                    // replicate and polarisation sums of a spectral one.
-                    let by_lane = interleaved.is_none() || extras;
                     for (l, t) in lanes.iter_mut().enumerate().filter(|_| by_lane) {
                         let carried = carried.lane(l);
                         let weight = carried.weight_for(&incident);
@@ -1007,7 +1005,7 @@ impl BrdfRun {
                             if let Some(c) = bin {
                                 t.inplane.score(c, weight);
                             }
-                            t.by_bounces[(h.bounces as usize).min(BOUNCE_BINS - 1)] += weight;
+                            t.by_bounces[bounce_bin] += weight;
                         }
                         if let Some(r) = &mut t.replicates {
                             let halves = shares.map(|(cells, share)| (cells, share * weight));
@@ -1057,9 +1055,7 @@ impl BrdfRun {
         };
         photons(&mut score);
         if let Some(mut sums) = interleaved {
-            let mut slots: Vec<Option<&mut BrdfTallies>> = lanes.iter_mut().map(Some).collect();
-            sums.drain_into(|l| {
-                let t = slots[l].take().expect("each wavelength once");
+            sums.drain_into(lanes.iter_mut().map(|t| {
                 debug_assert!(t.carlson.sum.iter().all(|&v| v == 0.0), "cleared tallies");
                 LaneTally {
                     reflected: &mut t.reflected,
@@ -1067,7 +1063,7 @@ impl BrdfRun {
                     inplane: &mut t.inplane,
                     by_bounces: &mut t.by_bounces,
                 }
-            });
+            }));
             spare.lane_sums.lock().expect("spare sums").push(sums);
         }
         let (first, rest) = lanes.split_first_mut().expect("one wavelength at least");
