@@ -352,24 +352,24 @@ impl<const N: usize, const CAP: usize> SpectralPolarised<N, CAP> {
             return;
         }
         let f = s / i;
+        // Lane l: factor g[l] and new intensity `after[l]` (a lane that
+        // `Polarised::survive` leaves as it is keeps factor 1 and its own).
         let mut g = [1.0; CAP];
-        let mut target = [0.0; CAP];
+        let mut after = self.rows[0][0];
         let mut any = false;
-        for l in 0..self.len {
-            let ci = self.rows[0][0][l];
+        for (l, a) in after[..self.len].iter_mut().enumerate() {
+            let ci = *a;
             let t = if ci == i { s } else { ci * f };
-            target[l] = t;
             if t != ci && ci > 0.0 {
                 g[l] = t / ci;
+                *a = t;
                 any = true;
-            } else {
-                target[l] = ci;
             }
         }
         if any {
             self.scale_lanes(&g);
             // Exactly the target, as `Polarised::survive` leaves it.
-            self.rows[0][0][..self.len].copy_from_slice(&target[..self.len]);
+            self.rows[0][0][..self.len].copy_from_slice(&after[..self.len]);
         }
     }
 
