@@ -1090,6 +1090,7 @@ struct TraceArgs<'a> {
     spare: &'a Spare,
 }
 
+#[derive(Clone)]
 struct Entry {
     /// Its stream, after the two draws of the random entry point.
     rng: rand_pcg::Pcg64Mcg,

@@ -105,7 +105,7 @@ const PIECE: usize = 1024;
 /// at most about [`ORDERED_BYTES`] of entries and histories, and at most
 /// [`pending_batches`] of batch tallies of `tally_bytes`.
 #[allow(clippy::too_many_arguments)]
-pub fn run_ordered<E: Send + Sync, H: Send + Sync, S, T: Send>(
+pub fn run_ordered<E: Clone + Send + Sync, H: Send + Sync, S, T: Send>(
     photons: u64,
     tally_bytes: u64,
     entry: impl Fn(u64) -> (u16, E) + Sync,
@@ -131,14 +131,22 @@ pub fn run_ordered<E: Send + Sync, H: Send + Sync, S, T: Send>(
             // A scratch per rayon job, not per piece: a large surface's
             // mailbox is big, and zeroing it per piece would flush the caches
             // the order is there to keep warm.
-            .map_init(&scratch, |s, piece| {
-                let h = piece
-                    .iter()
-                    .map(|&i| trace(&entries[i as usize], s))
-                    .collect();
-                progress(piece.len() as u64);
-                h
-            })
+            //
+            // The piece's entries are first copied out of the index-ordered
+            // array: the copies are independent loads that the core overlaps,
+            // whereas reading each entry just before tracing it would stall
+            // on a cache miss per photon (a chunk's entries far exceed the
+            // caches).
+            .map_init(
+                || (scratch(), Vec::with_capacity(PIECE)),
+                |(s, local), piece| {
+                    local.clear();
+                    local.extend(piece.iter().map(|&i| entries[i as usize].clone()));
+                    let h = local.iter().map(|e| trace(e, s)).collect();
+                    progress(piece.len() as u64);
+                    h
+                },
+            )
             .collect();
         // Where each photon's history is in `pieces`.
         let mut at = vec![0_u32; sorted.len()];
