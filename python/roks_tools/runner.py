@@ -1,8 +1,13 @@
 """Running roks (and other programs) from the studies and tests: one `run`.
 
 `run` starts a command, waits for it and returns a `Completed` with its
-output, wall-clock and CPU seconds and peak resident memory (from the
-child's own resource usage, `os.wait4`, so no `/usr/bin/time` is needed).
+output, wall-clock and CPU seconds and peak resident memory. The memory is
+read by GNU `/usr/bin/time -f %M` where it exists: Linux counts the memory a
+process held before `exec` in its peak, and Python starts children by
+(v)fork, so `os.wait4` on a child of this process reports at least this
+process's own peak (about 29 MB with numpy loaded, more than a small roks
+run needs). Without `/usr/bin/time` the `os.wait4` figure is used, with that
+floor.
 On failure it writes the command's output to stderr and exits naming the
 caller (`who`) and the command, the way every study reports a failed run.
 
@@ -13,6 +18,7 @@ caller (`who`) and the command, the way every study reports a failed run.
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -34,7 +40,20 @@ class Completed:
     cpu_s: float
     """User + system CPU seconds of the child (less sensitive to other load than the wall clock)."""
     max_rss_mb: float
-    """Peak resident set size of the child in MiB (Linux reports KiB)."""
+    """Peak resident set size of the child in MiB (Linux reports KiB): the
+    command's own when `/usr/bin/time` exists, else bounded below by this
+    process's peak (see the module's doc)."""
+
+
+_GNU_TIME = "/usr/bin/time"
+
+
+def _peak_memory_wrapper(path: str) -> list[str]:
+    """The prefix that makes GNU time write the command's peak RSS (KiB) to `path`,
+    or [] when GNU time is not installed."""
+    if os.access(_GNU_TIME, os.X_OK) and shutil.which(_GNU_TIME):
+        return [_GNU_TIME, "-f", "%M", "-o", path]
+    return []
 
 
 def repo_root() -> Path:
@@ -61,19 +80,32 @@ def run(cmd: list, who: str, echo: bool = True, cwd: Path | None = None,
     cmd = [str(c) for c in cmd]
     if echo:
         print("+ " + " ".join(cmd), file=sys.stderr, flush=True)
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+    if shutil.which(cmd[0], path=None if os.sep not in cmd[0] else "") is None \
+            and not (Path(cwd or ".") / cmd[0]).exists():
+        raise SystemExit(f"{who}: cannot run {cmd[0]}: not found")
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err, \
+            tempfile.TemporaryDirectory() as tmp:
+        peak_file = str(Path(tmp) / "peak_kib")
+        wrapper = _peak_memory_wrapper(peak_file)
         t0 = time.perf_counter()
         try:
-            p = subprocess.Popen(cmd, cwd=cwd, stdout=out, stderr=err, text=True)
+            p = subprocess.Popen(wrapper + cmd, cwd=cwd, stdout=out, stderr=err, text=True)
         except OSError as e:
             raise SystemExit(f"{who}: cannot run {cmd[0]}: {e}") from e
         _, status, usage = os.wait4(p.pid, 0)
         wall = time.perf_counter() - t0
         p.returncode = os.waitstatus_to_exitcode(status)
+        peak_kib = usage.ru_maxrss
+        if wrapper:
+            # GNU time writes "Command exited with non-zero status N" before
+            # the figure when the command fails; the figure is the last line.
+            lines = Path(peak_file).read_text().split() if Path(peak_file).exists() else []
+            if lines and lines[-1].isdigit():
+                peak_kib = int(lines[-1])
         out.seek(0)
         err.seek(0)
         done = Completed(cmd, p.returncode, out.read(), err.read(), wall,
-                         usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024)
+                         usage.ru_utime + usage.ru_stime, peak_kib / 1024)
     if check and done.returncode != 0:
         sys.stderr.write(done.stdout + done.stderr)
         raise SystemExit(f"{who}: failed (exit {done.returncode}): {' '.join(cmd)}")

@@ -11,7 +11,7 @@ tau 8 pitches, 256² to 4096² squares of pitch 0.25. Each scene is traced at
 `--threads 1` and `--threads 2`. Recorded: segments per second (from
 summary.json), intersection tests per segment (summary.json: quadrics whose
 ray polynomial was formed, or height-field squares tested), peak memory
-(maximum resident set size of the child, from wait4), and for bumps the candidate solids per acceleration-grid cell (`roks stats`,
+(maximum resident set size of the roks process, from `/usr/bin/time -f %M`), and for bumps the candidate solids per acceleration-grid cell (`roks stats`,
 the quadric bodies a flight through one grid cell may test). Writes
 OUT/report.md and OUT/scaling.json. Wall-clock speeds depend on what else
 the machine runs; compare within one run. Each row's one-thread rate is also
@@ -139,8 +139,8 @@ def main() -> int:
                         a.roks, scene, tmp, (4_000, 20_000) if a.quick else (20_000, 100_000))
                 rows.append(row)
     lines = ["# Scaling of the micro tracer", "",
-             "`scripts/scaling.py`: 60 degrees, `roks brdf`, segments per second from summary.json, peak "
-             "peak memory of the child (wait4, the figure /usr/bin/time reports). Bumps at constant density (cell side 3 sqrt(N)); height fields "
+             "`scripts/scaling.py`: 60 degrees, `roks brdf`, segments per second from summary.json, "
+             "peak memory of the roks process (`/usr/bin/time -f %M`). Bumps at constant density (cell side 3 sqrt(N)); height fields "
              "Gaussian, tau = 8 pitches. Tests/segment: quadrics whose ray polynomial was formed (bumps) "
              "or squares of two triangles tested (height fields).", "",
              "| surface | size | photons | segments/photon | M segments/s, 1 thread | vs 100 bumps / 256² | 2 threads "

@@ -11,7 +11,7 @@ folder there (kept, so a second run does not rebuild), and this tree's
 baseline and the new alternating, `--rounds` times, and the median of each
 is kept (the machine is shared and noisy: only ratios measured in one run
 mean something). Figures come from the runs' own summary.json (tracing time
-only, start-up excluded), peak memory from the child's resource usage (wait4).
+only, start-up excluded), peak memory from GNU `/usr/bin/time -f %M` (`roks_tools.runner`).
 
 Cases, each against its target:
 
@@ -266,8 +266,8 @@ def write_report(a, res: dict, mi: dict | None, cg: dict) -> None:
     L = ["# Speed targets", "",
          f"`scripts/speed_targets.py`: baseline commit {a.base} and this tree built side by side, "
          f"every case alternated base/new, median of {1 if a.quick else a.rounds} rounds; tracing time "
-         "from summary.json (start-up excluded), peak memory from the child's resource usage "
-         "(wait4, the figure /usr/bin/time reports).", "",
+         "from summary.json (start-up excluded), peak memory of the roks process from "
+         "`/usr/bin/time -f %M`.", "",
          "| case | base | new | new / base | target | met |", "|---|---:|---:|---:|---:|---|"]
 
     def row(label, b, n, ratio, target, ok, unit=""):
