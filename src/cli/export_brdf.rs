@@ -5,7 +5,8 @@
 //! A spectral folder (`brdf.csv` with `wavelength_um`) gives a Zemax file
 //! per wavelength, `--out` with `_<wavelength>um` before its extension
 //! (`--out gold.bsdf`: `gold_0.45um.bsdf`, `gold_0.55um.bsdf`, ...; see
-//! [`wavelength_path`]), and one colour MERL file at `--out` (its
+//! [`wavelength_path`]; the wavelengths written with the same digits, so the
+//! names sort as they do), and one colour MERL file at `--out` (its
 //! wavelengths must cover the visible). See
 //! [`crate::export::brdf_formats`].
 
@@ -17,6 +18,7 @@ use super::Failure;
 use super::common::{check_out_file, write_file};
 use crate::export::brdf_formats::{
     BrdfFormat, ExportFile, ReflectanceCheck, colour_reflectance_check, reflectance_check,
+    wavelength_labels,
 };
 use crate::optics::brdf_table::BrdfTables;
 
@@ -29,7 +31,8 @@ pub struct ExportBrdfArgs {
     #[arg(long, ignore_case = true, hide_possible_values = true)]
     pub format: BrdfFormat,
     /// Output file (spectral zemax: one file per wavelength, named
-    /// OUT with _<wavelength>um before its extension).
+    /// OUT with _<wavelength>um before its extension, the wavelengths
+    /// written with the same number of digits so the names sort).
     #[arg(long)]
     pub out: PathBuf,
     /// No reflectance check on stderr.
@@ -37,18 +40,18 @@ pub struct ExportBrdfArgs {
     pub quiet: bool,
 }
 
-/// The file of wavelength `wavelength_um` (µm, shortest round-trip form)
-/// of a spectral Zemax export to `out`: `_<wavelength>um` inserted before
-/// the extension of `out`'s file name (`dir/gold.bsdf` ->
-/// `dir/gold_0.55um.bsdf`; no extension: appended).
+/// The file of the wavelength labelled `wavelength` (µm, one of
+/// [`wavelength_labels`]) of a spectral Zemax export to `out`:
+/// `_<wavelength>um` inserted before the extension of `out`'s file name
+/// (`dir/gold.bsdf` -> `dir/gold_0.55um.bsdf`; no extension: appended).
 #[must_use]
-pub fn wavelength_path(out: &Path, wavelength_um: f64) -> PathBuf {
+pub fn wavelength_path(out: &Path, wavelength: &str) -> PathBuf {
     let stem = out
         .file_stem()
         .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
     let name = match out.extension() {
-        Some(ext) => format!("{stem}_{wavelength_um}um.{}", ext.to_string_lossy()),
-        None => format!("{stem}_{wavelength_um}um"),
+        Some(ext) => format!("{stem}_{wavelength}um.{}", ext.to_string_lossy()),
+        None => format!("{stem}_{wavelength}um"),
     };
     out.with_file_name(name)
 }
@@ -81,10 +84,9 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
         .check_wavelengths(tables.wavelengths_um())
         .map_err(|e| Failure::Input(format!("--format {format}: {}: {e}", csv.display())))?;
     let paths: Vec<PathBuf> = match (format, tables.spectral()) {
-        (BrdfFormat::Zemax, Some(s)) => s
-            .wavelengths_um()
+        (BrdfFormat::Zemax, Some(s)) => wavelength_labels(s.wavelengths_um())
             .iter()
-            .map(|&w| wavelength_path(&a.out, w))
+            .map(|w| wavelength_path(&a.out, w))
             .collect(),
         _ => vec![a.out.clone()],
     };
@@ -202,15 +204,15 @@ mod tests {
     #[test]
     fn wavelength_paths() {
         assert_eq!(
-            wavelength_path(Path::new("/a/gold.bsdf"), 0.55),
+            wavelength_path(Path::new("/a/gold.bsdf"), "0.55"),
             Path::new("/a/gold_0.55um.bsdf")
         );
         assert_eq!(
-            wavelength_path(Path::new("out"), 10.0),
+            wavelength_path(Path::new("out"), "10"),
             Path::new("out_10um")
         );
         assert_eq!(
-            wavelength_path(Path::new("d/x.y.bsdf"), 0.4),
+            wavelength_path(Path::new("d/x.y.bsdf"), "0.4"),
             Path::new("d/x.y_0.4um.bsdf")
         );
     }

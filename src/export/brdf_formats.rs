@@ -29,10 +29,13 @@
 //! [`BrdfFormat::export`]) and a spectral one ([`SpectralTables`]) as:
 //!
 //! * **Zemax**: one `Monochrome` file per wavelength, named
-//!   `brdf_<wavelength>um.bsdf` ([`BrdfFormat::spectral_file_name`]; the
-//!   wavelength in µm as in the `wavelength_um` column of `brdf.csv`, e.g.
-//!   `brdf_0.55um.bsdf`), each the export of that wavelength's table with a
-//!   comment line giving the wavelength. The format cannot hold a spectrum:
+//!   `brdf_<wavelength>um.bsdf` ([`BrdfFormat::spectral_file_names`]; the
+//!   wavelength in µm, written by [`wavelength_labels`] with the same
+//!   number of digits for every file of the set, so that the names sort
+//!   as the wavelengths do: `brdf_0.38um.bsdf`, `brdf_0.40um.bsdf`, ...,
+//!   or `brdf_03.0um.bsdf` ... `brdf_14.0um.bsdf`), each the export of
+//!   that wavelength's table with a comment line giving the wavelength as
+//!   in the `wavelength_um` column of `brdf.csv`. The format cannot hold a spectrum:
 //!   its `SpectralContent` is `Monochrome` or `XYZ` (tristimulus) only
 //!   (R. Rykowski, "BSDF Data Interchange File Format Specification",
 //!   Radiant Imaging / Zemax knowledge base article 229, 2008, Table 1, line
@@ -135,17 +138,47 @@ pub enum ExportRefusal {
     },
 }
 
+/// Labels of the wavelengths `wavelengths_um` (µm, positive and finite)
+/// for file names that sort as the wavelengths do: each in decimal with as
+/// many decimals as the longest of their shortest round-trip forms needs,
+/// and its integer part padded with zeros to the widest one's
+/// (`[0.38, 0.4, 0.42]` -> `0.38, 0.40, 0.42`; `[3.0, 10.6]` -> `03.0,
+/// 10.6`; `[3.0, 8.0, 12.0]` -> `03, 08, 12`). Distinct wavelengths get
+/// distinct labels: a shortest form with at most that many decimals is the
+/// nearest such decimal to its value, so the padded form is the same digits.
+#[must_use]
+pub fn wavelength_labels(wavelengths_um: &[f64]) -> Vec<String> {
+    let decimals = wavelengths_um
+        .iter()
+        .map(|w| w.to_string().split_once('.').map_or(0, |(_, f)| f.len()))
+        .max()
+        .unwrap_or(0);
+    let fixed: Vec<String> = wavelengths_um
+        .iter()
+        .map(|w| format!("{w:.decimals$}"))
+        .collect();
+    let int_width = |s: &str| s.find('.').unwrap_or(s.len());
+    let width = fixed.iter().map(|s| int_width(s)).max().unwrap_or(0);
+    fixed
+        .into_iter()
+        .map(|s| format!("{}{s}", "0".repeat(width - int_width(&s))))
+        .collect()
+}
+
 impl BrdfFormat {
-    /// The file name `roks brdf --export` writes beside a spectral
-    /// `brdf.csv` for the table of wavelength `wavelength_um` (µm, written
-    /// in its shortest round-trip form): `brdf_<wavelength>um.bsdf` for
-    /// Zemax (one file per wavelength); MERL has one file for all
-    /// wavelengths, [`file_name`](Self::file_name).
+    /// The file names `roks brdf --export` writes beside a spectral
+    /// `brdf.csv` with wavelengths `wavelengths_um` (µm, increasing), one
+    /// per wavelength: `brdf_<label>um.bsdf` for Zemax, the labels of
+    /// [`wavelength_labels`]; MERL has one file for all wavelengths,
+    /// [`file_name`](Self::file_name), repeated.
     #[must_use]
-    pub fn spectral_file_name(self, wavelength_um: f64) -> String {
+    pub fn spectral_file_names(self, wavelengths_um: &[f64]) -> Vec<String> {
         match self {
-            Self::Zemax => format!("brdf_{wavelength_um}um.bsdf"),
-            Self::Merl => self.file_name().to_owned(),
+            Self::Zemax => wavelength_labels(wavelengths_um)
+                .iter()
+                .map(|w| format!("brdf_{w}um.bsdf"))
+                .collect(),
+            Self::Merl => vec![self.file_name().to_owned(); wavelengths_um.len()],
         }
     }
 
@@ -193,8 +226,9 @@ impl BrdfFormat {
                 .wavelengths_um()
                 .par_iter()
                 .zip(spectral.tables())
-                .map(|(&w, t)| ExportFile {
-                    file_name: self.spectral_file_name(w),
+                .zip(self.spectral_file_names(spectral.wavelengths_um()))
+                .map(|((&w, t), file_name)| ExportFile {
+                    file_name,
                     wavelength_um: Some(w),
                     bytes: self.export(t, &wavelength_comment(comment, w)),
                     clipped: None,
@@ -382,6 +416,34 @@ mod tests {
             assert_eq!(f.to_possible_value().unwrap().get_name(), f.name());
             assert_eq!(f.to_string(), f.name());
         }
+    }
+
+    #[test]
+    fn wavelength_labels_sort_as_the_wavelengths() {
+        let labels = |w: &[f64]| wavelength_labels(w);
+        assert_eq!(labels(&[0.38, 0.4, 0.42]), ["0.38", "0.40", "0.42"]);
+        assert_eq!(labels(&[3.0, 10.6]), ["03.0", "10.6"]);
+        assert_eq!(labels(&[3.0, 8.0, 12.0]), ["03", "08", "12"]);
+        assert_eq!(labels(&[0.55]), ["0.55"]);
+        assert!(labels(&[]).is_empty());
+        // Grid points are rounded to 1e-9 um: 9 decimals stay distinct.
+        let grid: Vec<f64> = (0..=400)
+            .map(|i| ((0.38 + f64::from(i) * 0.001) * 1e9).round() / 1e9)
+            .chain([0.780_000_001, 0.780_000_002, 12.5])
+            .collect();
+        let l = labels(&grid);
+        let mut sorted = l.clone();
+        sorted.sort();
+        assert_eq!(sorted, l, "lexical order is numeric order");
+        sorted.dedup();
+        assert_eq!(sorted.len(), grid.len(), "distinct");
+        for (label, w) in l.iter().zip(&grid) {
+            assert_eq!(label.parse::<f64>().unwrap(), *w, "{label}");
+        }
+        assert_eq!(
+            BrdfFormat::Zemax.spectral_file_names(&[0.4, 0.41]),
+            ["brdf_0.40um.bsdf", "brdf_0.41um.bsdf"]
+        );
     }
 
     /// Constants integrate exactly (`∫ cos dω = pi`); `∫ cos² dω = 2 pi / 3`
