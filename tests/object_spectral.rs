@@ -564,6 +564,23 @@ fn bad_spectral_input_is_one_line() {
         format!("{}\n", roks::output::brdf_csv::SPECTRAL_HEADER),
     )
     .unwrap();
+    // A spectral table (a flat surface of n = 1.5 and 1.6), and one with a
+    // mueller.csv beside it.
+    let o = roks(&[
+        "brdf",
+        micro_spectral.to_str().unwrap(),
+        "--theta",
+        "0,40",
+        "--photons",
+        "1000",
+        "--out",
+        dir.join("tab").to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::create_dir_all(dir.join("tabm")).unwrap();
+    std::fs::copy(dir.join("tab/brdf.csv"), dir.join("tabm/brdf.csv")).unwrap();
+    std::fs::write(dir.join("tabm/mueller.csv"), "not read\n").unwrap();
     let nk = scenes().join("materials/gold.csv");
     let cases: Vec<(&str, String, Vec<&str>, &[&str])> = vec![
         (
@@ -624,14 +641,47 @@ fn bad_spectral_input_is_one_line() {
             &[],
         ),
         (
-            "a spectral brdf table",
+            "a spectral brdf table in a monochrome object",
+            cavity("brdf = \"tab/brdf.csv\"", 1, 0.2, ""),
+            vec![
+                "models.wall.brdf",
+                "spectral table",
+                "monochrome",
+                "0.5, 0.6",
+            ],
+            &[],
+        ),
+        (
+            "a wavelength the spectral table does not have",
+            cavity(
+                "brdf = \"tab/brdf.csv\"",
+                1,
+                0.2,
+                "[light]\nwavelengths_um = [0.5, 0.55]\n",
+            ),
+            vec!["models.wall.brdf", "no table at 0.55 um"],
+            &[],
+        ),
+        (
+            "a spectral table with mueller.csv beside it",
+            cavity(
+                "brdf = \"tabm/brdf.csv\"",
+                1,
+                0.2,
+                "[light]\nwavelengths_um = [0.5]\n",
+            ),
+            vec!["models.wall.brdf", "mueller.csv", "depolarises"],
+            &[],
+        ),
+        (
+            "an empty spectral table",
             cavity(
                 "brdf = \"brdf.csv\"",
                 1,
                 0.2,
                 "[light]\nwavelengths_um = [0.5]\n",
             ),
-            vec!["models.wall.brdf", "spectral table", "monochrome"],
+            vec!["models.wall.brdf", "brdf.csv"],
             &[],
         ),
     ];
@@ -744,4 +794,202 @@ fn a_rough_spectral_wall_agrees_with_monochrome_runs_statistically() {
     let (r3, e3) = spectral[0].reflectance();
     let (r12, e12) = spectral[1].reflectance();
     assert!((r3 - r12).abs() > 4.0 * e3.hypot(e12), "{r3} {r12}");
+}
+
+/// `roks brdf` of micro scene `scene` (`None`: the default scene) at
+/// `theta` (degrees, comma separated): its monochrome `brdf.csv`, in
+/// `dir/name`.
+fn micro_table(scene: Option<&str>, dir: &Path, name: &str, theta: &str) -> PathBuf {
+    let out = dir.join(name);
+    let scene = scene.map(|s| scenes().join(s).to_str().unwrap().to_owned());
+    let mut args: Vec<&str> = vec!["brdf"];
+    args.extend(scene.as_deref());
+    args.extend([
+        "--theta",
+        theta,
+        "--photons",
+        "20000",
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    let o = roks(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out.join("brdf.csv")
+}
+
+/// A spectral `brdf.csv` in `dir/name` made of monochrome tables (on one
+/// grid at the same incidences): at wavelength `lanes[l].0` the table at
+/// `lanes[l].1` with every fraction, BRDF and standard error times
+/// `lanes[l].2` (a power of two, so exactly).
+fn spectral_table(dir: &Path, name: &str, lanes: &[(f64, &Path, f64)]) -> PathBuf {
+    let rows: Vec<Vec<Vec<String>>> = lanes
+        .iter()
+        .map(|(_, p, _)| {
+            let text = std::fs::read_to_string(p).unwrap();
+            let mut lines = text.lines();
+            assert_eq!(lines.next(), Some(roks::output::brdf_csv::HEADER));
+            lines
+                .map(|l| l.split(',').map(str::to_owned).collect())
+                .collect()
+        })
+        .collect();
+    let mut out = format!("{}\n", roks::output::brdf_csv::SPECTRAL_HEADER);
+    // Blocks of one incidence are consecutive; each is repeated per wavelength.
+    let first = &rows[0];
+    let mut start = 0;
+    while start < first.len() {
+        let end = start
+            + first[start..]
+                .iter()
+                .take_while(|r| r[..2] == first[start][..2])
+                .count();
+        for ((w, _, c), rows) in lanes.iter().zip(&rows) {
+            for r in &rows[start..end] {
+                assert_eq!(r[..2], first[start][..2], "same incidences");
+                let mut cols = r.clone();
+                for v in &mut cols[12..16] {
+                    *v = format!("{:e}", c * v.parse::<f64>().unwrap());
+                }
+                cols.insert(2, w.to_string());
+                out.push_str(&cols.join(","));
+                out.push('\n');
+            }
+        }
+        start = end;
+    }
+    let d = dir.join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("brdf.csv"), out).unwrap();
+    d.join("brdf.csv")
+}
+
+/// A spectral BRDF table as an object wall (each wavelength its own table,
+/// directions sampled from their mean, lane `l` weighed by `f_l / f_mean`):
+/// * every wavelength holding the same table: each lane is the monochrome
+///   table's run bit for bit (the mean of two equal tables is the table,
+///   so the path and every factor are the same numbers), also for the
+///   object's wavelengths a subset of the table's;
+/// * tables in proportion `c_l` on a flat plate lit once at the table's one
+///   incidence: lane `l` reflects exactly `c_l R` with `R` the table's sum
+///   of fractions (no variance), to 1e-12, and absorbs the rest;
+/// * two different tables (the default scene's and the Z-302 stand-in's) in
+///   the cavity: each lane agrees with the monochrome run of its own table
+///   (another seed) within four combined standard errors, reflectance and
+///   absorbed share, and the two lanes differ by more than that.
+#[test]
+fn a_spectral_brdf_table_wall_weighs_each_wavelength_by_its_table() {
+    let dir = scratch("spectral-table-wall");
+    let mono_csv = micro_table(None, &dir, "mono", "0,30,60");
+    let same = spectral_table(
+        &dir,
+        "same",
+        &[(0.5, &mono_csv, 1.0), (0.6, &mono_csv, 1.0)],
+    );
+    let model = |p: &Path| format!("brdf = \"{}\"", p.display());
+    let extra = "[tally]\nbands = 5\nfarfield = true\n";
+    let mono_csv_cavity = mono_csv.clone();
+    let mono = run(&scene_at(
+        "t",
+        &cavity(&model(&mono_csv), 2, 0.2, extra),
+        &dir,
+        None,
+    ));
+    assert!(
+        mono.iter()
+            .all(|r| r.tallies.bounces > 2 * r.tallies.photons)
+    );
+    for lanes in [&[0.5, 0.6][..], &[0.6][..]] {
+        let text = cavity(&model(&same), 2, 0.2, extra);
+        let spectral = run(&scene_at("t", &text, &dir, Some(lanes)));
+        assert_lanes_equal("equal tables", &mono, &spectral, lanes);
+    }
+
+    // One incidence, three wavelengths in proportion 1 : 1/2 : 1/4.
+    let one = scratch("spectral-table-plate");
+    let mono_csv = micro_table(None, &one, "mono", "30");
+    let r: f64 = std::fs::read_to_string(&mono_csv)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(12).unwrap().parse::<f64>().unwrap())
+        .sum();
+    assert!(r > 0.5 && r < 1.0, "{r}");
+    let c = [(0.4, 1.0), (0.5, 0.5), (0.6, 0.25)];
+    let scaled: Vec<(f64, &Path, f64)> =
+        c.iter().map(|&(w, c)| (w, mono_csv.as_path(), c)).collect();
+    let prop = spectral_table(&one, "prop", &scaled);
+    let (s, co) = (30_f64.to_radians().sin(), 30_f64.to_radians().cos());
+    let plate = format!(
+        "seed = 5\n[quadrics]\ntop = {{ plane = [0.0, 0.0, 1.0, 0.0] }}\n[[cells]]\nname = \"slab\"\nregion = \"-top\"\nfill = \"solid\"\n[walls]\ntop = \"wall\"\n[models.wall]\n{}\n[[sources]]\nbeam = {{ direction = [{s:?}, 0.0, {:?}], diameter = 1.0 }}\nposition = [0.0, 0.0, 5.0]\nphotons = 3000\n",
+        model(&prop),
+        -co
+    );
+    let lanes: Vec<f64> = c.iter().map(|l| l.0).collect();
+    let res = run(&scene_at("plate", &plate, &one, Some(&lanes)));
+    assert_eq!(res.len(), 3);
+    for (res, (w, c)) in res.iter().zip(c) {
+        assert_eq!(res.wavelength_um, Some(w));
+        let (got, _) = res.reflectance();
+        close(&format!("plate at {w} um"), got, c * r, 1e-12, 1.0);
+        let n = res.tallies.photons;
+        let absorbed: f64 = (0..res.tallies.absorbed.len())
+            .map(|b| res.tallies.absorbed.mean(b, n))
+            .sum();
+        close(
+            &format!("plate at {w} um: absorbed"),
+            absorbed,
+            1.0 - c * r,
+            1e-12,
+            1.0,
+        );
+    }
+
+    // Two different tables, against monochrome runs of each.
+    let z302 = micro_table(Some("z302-micro.toml"), &dir, "z302", "0,30,60");
+    let two = spectral_table(
+        &dir,
+        "two",
+        &[(0.5, &mono_csv_cavity, 1.0), (0.6, &z302, 1.0)],
+    );
+    let spectral = run(&scene_at(
+        "two",
+        &cavity(&model(&two), 1, 0.2, ""),
+        &dir,
+        Some(&[0.5, 0.6]),
+    ));
+    for (l, table) in [&mono_csv_cavity, &z302].into_iter().enumerate() {
+        let text = cavity(&model(table), 1, 0.2, "").replace("seed = 11", "seed = 12");
+        let mono = run(&scene_at("one", &text, &dir, None));
+        let s = &spectral[l];
+        let m = &mono[0];
+        let what = format!("table {l}");
+        let ((rs, es), (rm, em)) = (s.reflectance(), m.reflectance());
+        assert!(es > 0.0 && em > 0.0, "{what}");
+        close(
+            &format!("{what}: reflectance"),
+            rs,
+            rm,
+            4.0 * es.hypot(em),
+            1.0,
+        );
+        let n = (s.tallies.photons, m.tallies.photons);
+        let a = (
+            s.tallies.absorbed.mean(0, n.0),
+            s.tallies.absorbed.stderr(0, n.0),
+        );
+        let b = (
+            m.tallies.absorbed.mean(0, n.1),
+            m.tallies.absorbed.stderr(0, n.1),
+        );
+        close(
+            &format!("{what}: absorbed"),
+            a.0,
+            b.0,
+            4.0 * a.1.hypot(b.1),
+            1.0,
+        );
+    }
+    let ((r0, e0), (r1, e1)) = (spectral[0].reflectance(), spectral[1].reflectance());
+    assert!((r0 - r1).abs() > 4.0 * e0.hypot(e1), "{r0} {r1}");
 }

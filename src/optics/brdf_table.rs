@@ -570,6 +570,14 @@ impl BrdfTable {
         self.incidences[i].mueller = Some(normalised);
     }
 
+    /// The fraction of flat cell `flat` of incidence `i` (dimensionless).
+    ///
+    /// # Panics
+    /// If there is no such incidence or cell.
+    pub(crate) fn fraction(&self, i: usize, flat: usize) -> f64 {
+        self.incidences[i].fractions[flat]
+    }
+
     /// The fractions of incidence `i`.
     #[cfg(test)]
     pub(crate) fn fractions(&self, i: usize) -> &[f64] {
@@ -679,6 +687,37 @@ impl SpectralTables {
     #[must_use]
     pub fn thetas_deg(&self) -> &[f64] {
         self.tables[0].thetas_deg()
+    }
+
+    /// The mean of the wavelengths' tables, fraction by fraction: the table
+    /// a spectral BRDF wall samples directions from (one path for every
+    /// wavelength), each wavelength then weighed by its own fraction over
+    /// the mean's in the cell chosen. A mean of non-negative fractions,
+    /// so a table like any other (no stated standard errors, no Mueller
+    /// matrices).
+    #[must_use]
+    pub fn mean(&self) -> BrdfTable {
+        let n = self.tables.len() as f64;
+        self.linear_combination(&vec![1.0 / n; self.tables.len()])
+    }
+
+    /// The tables at `wavelengths_um` (µm), each one of this set's
+    /// wavelengths exactly, in the order given.
+    ///
+    /// # Errors
+    /// The first wavelength that is not one of the set's.
+    pub fn select(&self, wavelengths_um: &[f64]) -> Result<SpectralTables, f64> {
+        let tables = wavelengths_um
+            .iter()
+            .map(|&w| {
+                let l = self.wavelengths_um.iter().position(|&x| x == w).ok_or(w)?;
+                Ok(self.tables[l].clone())
+            })
+            .collect::<Result<Vec<_>, f64>>()?;
+        Ok(SpectralTables {
+            wavelengths_um: wavelengths_um.to_vec(),
+            tables,
+        })
     }
 
     /// The linear combination `Σ_l weights[l] f_l` of the wavelengths'

@@ -67,9 +67,12 @@
 //! the object's wavelengths (its own `[light] wavelengths_um` is replaced),
 //! so its materials are sampled at them. Ideal walls (`specular`,
 //! `diffuse`) and a monochrome `brdf` table apply to every wavelength
-//! alike; a spectral `brdf` table (with a `wavelength_um` column) is not
-//! supported yet. A monochrome object scene refuses a micro scene that has
-//! wavelengths of its own (give the object the `[light]` key instead).
+//! alike; a spectral `brdf` table (with a `wavelength_um` column, from a
+//! spectral `roks brdf`) gives each wavelength its own table: the object's
+//! wavelengths must be among the table's, and the wall depolarises
+//! ([`crate::transport::wall::SpectralTableWall`]). A monochrome object
+//! scene refuses a micro scene that has wavelengths of its own (give the
+//! object the `[light]` key instead), and a spectral table.
 //!
 //! # Polarisation
 //!
@@ -115,13 +118,13 @@ use super::{
 };
 use crate::object::source::Beam;
 use crate::object::{Object, SolidZone, VoidZone};
-use crate::optics::brdf_table::BrdfTable;
+use crate::optics::brdf_table::BrdfTables;
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
 use crate::tally::PolarTally;
 use crate::transport::micro::Controls;
 use crate::transport::object::{ObjectRun, Walls};
-use crate::transport::wall::{MicroWall, WallModel};
+use crate::transport::wall::{MicroWall, SpectralTableWall, WallModel};
 
 /// The object scene as written.
 #[derive(Debug, Clone, Deserialize)]
@@ -680,24 +683,7 @@ impl ModelSpec {
         }
         if let Some(file) = &self.brdf {
             let path = source.dir.join(file);
-            refuse_spectral_table(source, &format!("{key}.brdf"), &path)?;
-            let mut table = BrdfTable::load(&path)
-                .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
-            // The run's summary beside the table carries the exact reflectance errors.
-            let summary = path.with_file_name("summary.json");
-            if summary.exists() {
-                table = table
-                    .with_summary(&summary)
-                    .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
-            }
-            // A Mueller table of the same run beside it: the wall keeps polarisation.
-            let mueller = path.with_file_name("mueller.csv");
-            if mueller.exists() {
-                table = table
-                    .with_mueller(&mueller)
-                    .map_err(|e| source.error(format!("{key}.brdf"), e.to_string()))?;
-            }
-            return Ok(WallModel::Table(Box::new(table)));
+            return brdf_wall(source, &format!("{key}.brdf"), &path, wavelengths_um);
         }
         if ideal {
             let (s, d) = (self.specular.unwrap_or(0.0), self.diffuse.unwrap_or(0.0));
@@ -733,32 +719,70 @@ impl ModelSpec {
     }
 }
 
-/// A `brdf` wall takes a monochrome table (it then applies to every
-/// wavelength of a spectral run): a table whose header has a
-/// `wavelength_um` column (a spectral `roks brdf` run) is refused at `key`.
-/// An unreadable file is left to the table reader's own message.
-fn refuse_spectral_table(source: &Source, key: &str, path: &Path) -> Result<(), SceneError> {
-    use std::io::BufRead;
-    let Ok(file) = std::fs::File::open(path) else {
-        return Ok(());
+/// The wall of the `brdf.csv` at `path` (scene key `key`), with the
+/// `summary.json` beside it (exact reflectance errors) and, for a
+/// monochrome table, the `mueller.csv` beside it (the wall then keeps
+/// polarisation). A monochrome table applies to every wavelength of a
+/// spectral object. A spectral table (a `wavelength_um` column) needs a
+/// spectral object whose every wavelength is one of the table's (each
+/// lane takes the table of its wavelength, [`SpectralTableWall`]); it has
+/// no Mueller reader yet, so a `mueller.csv` beside it is refused rather
+/// than ignored.
+fn brdf_wall(
+    source: &Source,
+    key: &str,
+    path: &Path,
+    wavelengths_um: &[f64],
+) -> Result<WallModel, SceneError> {
+    let fail = |e: &dyn std::fmt::Display| source.error(key, e.to_string());
+    let mut tables = BrdfTables::load(path).map_err(|e| fail(&e))?;
+    // The run's summary beside the table carries the exact reflectance errors.
+    let summary = path.with_file_name("summary.json");
+    if summary.exists() {
+        tables = tables.with_summary(&summary).map_err(|e| fail(&e))?;
+    }
+    let mueller = path.with_file_name("mueller.csv");
+    let spectral = match tables {
+        BrdfTables::Monochrome(mut table) => {
+            // A Mueller table of the same run beside it: the wall keeps polarisation.
+            if mueller.exists() {
+                table = table.with_mueller(&mueller).map_err(|e| fail(&e))?;
+            }
+            return Ok(WallModel::Table(Box::new(table)));
+        }
+        BrdfTables::Spectral(s) => s,
     };
-    let mut header = String::new();
-    if std::io::BufReader::new(file)
-        .read_line(&mut header)
-        .is_err()
-    {
-        return Ok(());
+    let listed = |w: &[f64]| {
+        w.iter()
+            .map(|w| Num(*w).to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if wavelengths_um.is_empty() {
+        return Err(fail(&format_args!(
+            "{} is a spectral table (wavelengths {} um) but this object scene is monochrome: give it [light] wavelengths_um from the table's, or use a monochrome table",
+            path.display(),
+            listed(spectral.wavelengths_um())
+        )));
     }
-    if header.trim_end().split(',').any(|c| c == "wavelength_um") {
-        return Err(source.error(
-            key,
-            format!(
-                "{} is a spectral table (a wavelength_um column): a brdf wall takes a monochrome table for now (it applies to every wavelength); give each wavelength its own monochrome run, or use a micro wall",
-                path.display()
-            ),
-        ));
+    if mueller.exists() {
+        return Err(fail(&format_args!(
+            "{} is a spectral table with {} beside it: a spectral brdf wall depolarises (spectral Mueller tables are not read yet); move mueller.csv away to trace it depolarising, or use a micro wall",
+            path.display(),
+            mueller.display()
+        )));
     }
-    Ok(())
+    let selected = spectral.select(wavelengths_um).map_err(|w| {
+        fail(&format_args!(
+            "{} has no table at {} um (its wavelengths: {} um); the object's [light] wavelengths_um must be among them",
+            path.display(),
+            Num(w),
+            listed(spectral.wavelengths_um())
+        ))
+    })?;
+    SpectralTableWall::new(selected)
+        .map(|w| WallModel::SpectralTable(Box::new(w)))
+        .ok_or_else(|| fail(&"more wavelengths than a run carries"))
 }
 
 /// Estimated memory (bytes) of an object run per beam position, and the

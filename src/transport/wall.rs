@@ -15,6 +15,7 @@
 //! |---|---|---|---|
 //! | micro descent (ROKS-RG) | `micro = "scene.toml"` | a micro trace per hit | none beyond Monte Carlo |
 //! | tabulated BRDF | `brdf = "brdf.csv"` (and `mueller.csv` beside it, if there) | a table lookup | the table's (binning, interpolation in incidence angle, its own noise); without `mueller.csv` it depolarises |
+//! | spectral tabulated BRDF | `brdf = "brdf.csv"` of a spectral run | a table lookup and a factor per wavelength | as the tabulated BRDF; depolarises |
 //! | ideal specular + diffuse | `specular = s`, `diffuse = d` | trivial | model error |
 //! | Fresnel specular | `n = .., k = ..` | trivial | smooth surface only |
 //! | specular vs angle | `table = "r.csv"` or `reflectance = r` | trivial | smooth surface only |
@@ -23,10 +24,13 @@
 //! goes through every model along one path: Fresnel, angle-table and
 //! constant walls weigh lane `l` with their model at wavelength `l`
 //! ([`Reflectance::lane`]), a micro descent carries the lanes through a
-//! micro surface whose materials were sampled at the run's wavelengths, and
-//! ideal walls and a (monochrome) BRDF table apply the same factor to every
-//! wavelength. What a wall removes is tallied per wavelength
-//! ([`Carrier::rescaled_lanes`]).
+//! micro surface whose materials were sampled at the run's wavelengths,
+//! ideal walls and a monochrome BRDF table apply the same factor to every
+//! wavelength, and a spectral BRDF table ([`SpectralTableWall`]) samples
+//! the direction from the mean of its wavelengths' tables and weighs lane
+//! `l` by `f_l / f_mean` of the cell chosen (unbiased for every
+//! wavelength: the expected weight into a cell is `f_l`). What a wall
+//! removes is tallied per wavelength ([`Carrier::rescaled_lanes`]).
 //!
 //! **Micro descent.** At the hit the macro surface's local frame is built
 //! (normal `n` toward the photon's side, a tangent pair turned by a uniform
@@ -38,10 +42,10 @@
 use glam::DVec3;
 use rand::RngExt;
 
-use super::carrier::Carrier;
+use super::carrier::{Carrier, MAX_WAVELENGTHS};
 use super::micro::{Controls, Fate, trace};
 use crate::micro::{Edges, MicroSurface, Scratch};
-use crate::optics::brdf_table::BrdfTable;
+use crate::optics::brdf_table::{BrdfTable, SpectralTables};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::hemisphere_reference;
 
@@ -75,6 +79,36 @@ impl MicroWall {
     }
 }
 
+/// A BRDF table per wavelength of the run (a spectral `roks brdf` table at
+/// the object's wavelengths), sampled through their mean (see the module
+/// docs). It depolarises.
+#[derive(Debug, Clone)]
+pub struct SpectralTableWall {
+    /// The mean of the tables: where directions are sampled from.
+    mean: BrdfTable,
+    /// The table of each wavelength (lane), in the run's order.
+    tables: SpectralTables,
+}
+
+impl SpectralTableWall {
+    /// The wall of `tables`, one per wavelength of the run, in its order;
+    /// `None` for more wavelengths than a carrier holds
+    /// ([`MAX_WAVELENGTHS`]).
+    #[must_use]
+    pub fn new(tables: SpectralTables) -> Option<Self> {
+        (tables.tables().len() <= MAX_WAVELENGTHS).then(|| Self {
+            mean: tables.mean(),
+            tables,
+        })
+    }
+
+    /// The tables, one per wavelength.
+    #[must_use]
+    pub fn tables(&self) -> &SpectralTables {
+        &self.tables
+    }
+}
+
 /// How a wall reflects.
 #[derive(Debug, Clone)]
 pub enum WallModel {
@@ -82,6 +116,8 @@ pub enum WallModel {
     Micro(Box<MicroWall>),
     /// Sample a BRDF table written by `roks brdf`.
     Table(Box<BrdfTable>),
+    /// Sample the tables of a spectral `roks brdf` run, one per wavelength.
+    SpectralTable(Box<SpectralTableWall>),
     /// Ideal reflection: specular with probability `specular`, Lambertian
     /// with probability `diffuse`, absorbed otherwise.
     Ideal {
@@ -112,6 +148,20 @@ pub enum Interaction<C = f64> {
     /// Lost: a reflectance that is not a finite number >= 0, or inside a
     /// micro descent (bounce cap or numerical guard).
     Lost,
+}
+
+/// The local frame of a BRDF table at a wall of unit normal `n` met by the
+/// flight `d`: tangents `(t1, t2)` with `t1` toward the light's side of the
+/// plane of incidence (a random azimuth at normal incidence), `t2 = n x t1`.
+fn table_frame(d: DVec3, n: DVec3, rng: &mut impl rand::Rng) -> (DVec3, DVec3) {
+    let toward_light = -d;
+    let tangential = toward_light - toward_light.dot(n) * n;
+    let t1 = tangential.try_normalize().unwrap_or_else(|| {
+        let (e1, e2) = n.any_orthonormal_pair();
+        let a = std::f64::consts::TAU * rng.random::<f64>();
+        a.cos() * e1 + a.sin() * e2
+    });
+    (t1, n.cross(t1))
 }
 
 /// A unit vector uniformly distributed in cosine about +z (Lambertian).
@@ -169,15 +219,7 @@ impl WallModel {
                 Interaction::Reflected { dir, weight: w }
             }
             Self::Table(table) => {
-                // Local frame: x toward the light's side of the plane of incidence.
-                let toward_light = -d;
-                let tangential = toward_light - toward_light.dot(n) * n;
-                let t1 = tangential.try_normalize().unwrap_or_else(|| {
-                    let (e1, e2) = n.any_orthonormal_pair();
-                    let a = std::f64::consts::TAU * rng.random::<f64>();
-                    a.cos() * e1 + a.sin() * e2
-                });
-                let t2 = n.cross(t1);
+                let (t1, t2) = table_frame(d, n, rng);
                 let u: [f64; 4] = std::array::from_fn(|_| rng.random());
                 match table.sample_cell(cos_i.acos(), u) {
                     Some((l, factor, incidence, cell)) => {
@@ -198,6 +240,23 @@ impl WallModel {
                     }
                     None => Interaction::Absorbed,
                 }
+            }
+            Self::SpectralTable(wall) => {
+                let (t1, t2) = table_frame(d, n, rng);
+                let u: [f64; 4] = std::array::from_fn(|_| rng.random());
+                let Some((l, factor, incidence, cell)) = wall.mean.sample_cell(cos_i.acos(), u)
+                else {
+                    return Interaction::Absorbed;
+                };
+                let dir = (l.x * t1 + l.y * t2 + l.z * n).normalize();
+                // The cell chosen has a mean fraction > 0 (sample_cell).
+                let mean = wall.mean.fraction(incidence, cell);
+                let mut factors = [0.0; MAX_WAVELENGTHS];
+                for (f, t) in factors.iter_mut().zip(wall.tables.tables()) {
+                    *f = factor * (t.fraction(incidence, cell) / mean);
+                }
+                w.depolarise_lanes(&factors[..wall.tables.tables().len()], dir);
+                Interaction::Reflected { dir, weight: w }
             }
             Self::Micro(micro) => {
                 let MicroWall { surface, controls } = micro.as_ref();
@@ -247,7 +306,7 @@ impl WallModel {
             Self::Specular(r) => r.polarises(),
             Self::Micro(micro) => micro.surface.materials.iter().any(Reflectance::polarises),
             Self::Table(t) => t.has_mueller(),
-            Self::Ideal { .. } => false,
+            Self::SpectralTable(_) | Self::Ideal { .. } => false,
         }
     }
 }

@@ -106,6 +106,15 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     /// Multiply by `factor` and depolarise; `d_out` is the new flight.
     fn depolarise(&mut self, factor: f64, d_out: DVec3);
 
+    /// [`Carrier::depolarise`] with a factor per wavelength: lane `l` by
+    /// `factors[l]` (`factors` holds at least [`Carrier::lanes`] numbers;
+    /// a monochrome carrier takes `factors[0]`). A spectral BRDF table wall
+    /// weighs each wavelength by its own table.
+    #[inline]
+    fn depolarise_lanes(&mut self, factors: &[f64], d_out: DVec3) {
+        self.depolarise(factors[0], d_out);
+    }
+
     /// A tabulated Mueller-matrix reflection: turn into the reference vector
     /// `x_in` (⟂ the incoming flight `d`), apply `m` (row-major, divided by
     /// its `m00`) times `factor`, and continue about `x_out` (⟂ the new flight).

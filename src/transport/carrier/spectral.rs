@@ -187,6 +187,12 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Carrier for Spectral<C, CAP> {
         }
     }
 
+    fn depolarise_lanes(&mut self, factors: &[f64], d_out: DVec3) {
+        for (c, &f) in self.used_mut().iter_mut().zip(factors) {
+            c.depolarise(f, d_out);
+        }
+    }
+
     fn transfer(&mut self, d: DVec3, x_in: DVec3, m: &[f64; 16], factor: f64, x_out: DVec3) {
         for c in self.used_mut() {
             c.transfer(d, x_in, m, factor, x_out);
@@ -535,6 +541,19 @@ impl<const N: usize, const CAP: usize> Carrier for SpectralPolarised<N, CAP> {
         for row in &mut self.rows[0] {
             for v in &mut row[..len] {
                 *v *= factor;
+            }
+        }
+        for rows in &mut self.rows[1..] {
+            *rows = [[0.0; CAP]; N];
+        }
+        self.x = d_out.any_orthonormal_vector();
+    }
+
+    fn depolarise_lanes(&mut self, factors: &[f64], d_out: DVec3) {
+        let len = self.len;
+        for row in &mut self.rows[0] {
+            for (v, f) in row[..len].iter_mut().zip(factors) {
+                *v *= f;
             }
         }
         for rows in &mut self.rows[1..] {
