@@ -565,7 +565,7 @@ fn bad_spectral_input_is_one_line() {
     )
     .unwrap();
     // A spectral table (a flat surface of n = 1.5 and 1.6), and one with a
-    // mueller.csv beside it.
+    // broken mueller.csv beside it.
     let o = roks(&[
         "brdf",
         micro_spectral.to_str().unwrap(),
@@ -663,14 +663,14 @@ fn bad_spectral_input_is_one_line() {
             &[],
         ),
         (
-            "a spectral table with mueller.csv beside it",
+            "a spectral table with a mueller.csv that is not one beside it",
             cavity(
                 "brdf = \"tabm/brdf.csv\"",
                 1,
                 0.2,
                 "[light]\nwavelengths_um = [0.5]\n",
             ),
-            vec!["models.wall.brdf", "mueller.csv", "depolarises"],
+            vec!["models.wall.brdf", "mueller.csv", "header"],
             &[],
         ),
         (
@@ -992,4 +992,253 @@ fn a_spectral_brdf_table_wall_weighs_each_wavelength_by_its_table() {
     }
     let ((r0, e0), (r1, e1)) = (spectral[0].reflectance(), spectral[1].reflectance());
     assert!((r0 - r1).abs() > 4.0 * e0.hypot(e1), "{r0} {r1}");
+}
+
+/// A spectral `mueller.csv` in `dir/name` beside `brdf.csv` (made by
+/// [`spectral_table`] from the same monochrome tables): at wavelength
+/// `lanes[l].0` the monochrome `mueller.csv` at `lanes[l].1`, or with
+/// `lanes[l].2` only its `m00` (the BRDF of a depolarising wall: every
+/// other element and standard error 0).
+fn spectral_mueller(dir: &Path, name: &str, lanes: &[(f64, &Path, bool)]) -> PathBuf {
+    let header = roks::output::polar_csv::MUELLER_HEADER;
+    let rows: Vec<Vec<Vec<String>>> = lanes
+        .iter()
+        .map(|(_, p, _)| {
+            let text = std::fs::read_to_string(p).unwrap();
+            let mut lines = text.lines();
+            assert_eq!(lines.next(), Some(header));
+            lines
+                .map(|l| l.split(',').map(str::to_owned).collect())
+                .collect()
+        })
+        .collect();
+    let mut out = format!(
+        "{}\n",
+        header.replacen("phi_i_deg,", "phi_i_deg,wavelength_um,", 1)
+    );
+    let first = &rows[0];
+    let mut start = 0;
+    while start < first.len() {
+        let end = start
+            + first[start..]
+                .iter()
+                .take_while(|r| r[..2] == first[start][..2])
+                .count();
+        for ((w, _, m00_only), rows) in lanes.iter().zip(&rows) {
+            for r in &rows[start..end] {
+                let mut cols = r.clone();
+                if *m00_only {
+                    for v in &mut cols[7..] {
+                        *v = "0".into();
+                    }
+                }
+                cols.insert(2, w.to_string());
+                out.push_str(&cols.join(","));
+                out.push('\n');
+            }
+        }
+        start = end;
+    }
+    let path = dir.join(name).join("mueller.csv");
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+/// A spectral BRDF table with its run's spectral `mueller.csv` as an
+/// object wall: each wavelength is transferred by the Mueller matrix of its
+/// own table in the cell chosen. A polarising table (the default bumps in
+/// aluminium, n = 1.015 + 6.627i; 3 beams: unpolarised, s and right
+/// circular), without Russian roulette:
+/// * the same table and Mueller table at two wavelengths: each lane is the
+///   monochrome run of the table with its `mueller.csv` bit for bit;
+/// * the same table at two wavelengths, the first with its Mueller table
+///   and the second with only `m00` (a depolarising table): both lanes
+///   follow the same path (equal fractions), and lane 0 agrees with the
+///   monochrome Mueller run, lane 1 with the monochrome run of the table
+///   without `mueller.csv` (a depolarising wall), to 1e-12 relative: a
+///   wall's local history is scaled to the brightest lane and back, so only
+///   that rounding separates them, while the two monochrome runs differ by
+///   far more (checked), so the matrices are the lanes' own.
+///
+/// A spectral `mueller.csv` that does not fit (a monochrome file, a
+/// wavelength the table lacks, a file cut short) is one line naming it.
+#[test]
+fn a_spectral_mueller_table_wall_transfers_each_wavelength_by_its_matrix() {
+    let dir = scratch("spectral-mueller-wall");
+    let al = dir.join("al.toml");
+    let text = std::fs::read_to_string(scenes().join("default.toml")).unwrap();
+    assert!(text.contains("reflectance = 0.8"));
+    std::fs::write(
+        &al,
+        text.replace("reflectance = 0.8", "n = 1.015\nk = 6.627"),
+    )
+    .unwrap();
+    let mono_dir = dir.join("mono");
+    let o = roks(&[
+        "brdf",
+        al.to_str().unwrap(),
+        "--theta",
+        "0,30,60",
+        "--photons",
+        "20000",
+        "--polarisation",
+        "mueller",
+        "--out",
+        mono_dir.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (mono_csv, mono_mueller) = (mono_dir.join("brdf.csv"), mono_dir.join("mueller.csv"));
+    // The same table without its mueller.csv: a depolarising wall.
+    let plain = dir.join("plain");
+    std::fs::create_dir_all(&plain).unwrap();
+    std::fs::copy(&mono_csv, plain.join("brdf.csv")).unwrap();
+    let model = |p: &Path| format!("brdf = \"{}\"", p.display());
+    let extra = "[tally]\nbands = 5\nfarfield = true\n";
+    let with = run(&scene_at(
+        "w",
+        &cavity(&model(&mono_csv), 3, 0.0, extra),
+        &dir,
+        None,
+    ));
+    let without = run(&scene_at(
+        "p",
+        &cavity(&model(&plain.join("brdf.csv")), 3, 0.0, extra),
+        &dir,
+        None,
+    ));
+    let lanes = [0.5, 0.6];
+    let same = spectral_table(
+        &dir,
+        "same",
+        &[(0.5, &mono_csv, 1.0), (0.6, &mono_csv, 1.0)],
+    );
+    spectral_mueller(
+        &dir,
+        "same",
+        &[(0.5, &mono_mueller, false), (0.6, &mono_mueller, false)],
+    );
+    let spectral = run(&scene_at(
+        "s",
+        &cavity(&model(&same), 3, 0.0, extra),
+        &dir,
+        Some(&lanes),
+    ));
+    assert_lanes_equal("equal Mueller tables", &with, &spectral, &lanes);
+
+    let both = spectral_table(
+        &dir,
+        "both",
+        &[(0.5, &mono_csv, 1.0), (0.6, &mono_csv, 1.0)],
+    );
+    spectral_mueller(
+        &dir,
+        "both",
+        &[(0.5, &mono_mueller, false), (0.6, &mono_mueller, true)],
+    );
+    let spectral = run(&scene_at(
+        "b",
+        &cavity(&model(&both), 3, 0.0, extra),
+        &dir,
+        Some(&lanes),
+    ));
+    assert_eq!(spectral.len(), 2 * with.len());
+    let rel = |a: f64, b: f64| (a - b).abs() / a.abs().max(b.abs()).max(1e-300);
+    let sums = |t: &roks::transport::object::ObjectTallies| -> Vec<f64> {
+        let mut v = t.reflected.sum.clone();
+        v.extend(&t.absorbed.sum);
+        v.extend(&t.farfield.sum);
+        v
+    };
+    for (k, (w, p)) in with.iter().zip(&without).enumerate() {
+        let (a, b) = (sums(&w.tallies), sums(&p.tallies));
+        let apart = a
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| rel(*a, *b))
+            .fold(0.0, f64::max);
+        assert!(
+            apart > 1e-6,
+            "position {k}: polarisation changes the cavity ({apart})"
+        );
+        for (l, mono) in [w, p].into_iter().enumerate() {
+            let s = &spectral[2 * k + l];
+            assert_eq!(s.wavelength_um, Some(lanes[l]));
+            assert_eq!(
+                (s.tallies.bounces, s.tallies.segments),
+                (mono.tallies.bounces, mono.tallies.segments)
+            );
+            let (mut got, mut want) = (sums(&s.tallies), sums(&mono.tallies));
+            if l == 0 {
+                got.extend(&s.tallies.stokes.sum);
+                want.extend(&mono.tallies.stokes.sum);
+            } else {
+                // Depolarised at every wall (the scalar monochrome run has
+                // no Stokes tally).
+                let st = &s.tallies.stokes.sum;
+                assert_eq!(st[0], s.tallies.reflected.sum[0]);
+                assert_eq!(st[1..], [0.0; 3], "position {k}, lane 1");
+            }
+            assert_eq!(got.len(), want.len());
+            for (i, (g, m)) in got.iter().zip(&want).enumerate() {
+                assert!(
+                    rel(*g, *m) <= 1e-12 || (g - m).abs() < 1e-12,
+                    "position {k}, lane {l}, sum {i}: {g} against {m}"
+                );
+            }
+        }
+    }
+
+    // Spectral Mueller files that do not fit: one line naming the file.
+    let good = std::fs::read_to_string(dir.join("both/mueller.csv")).unwrap();
+    let cut: String = good
+        .lines()
+        .take(good.lines().count() / 2)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let cases = [
+        (
+            "a monochrome mueller.csv beside a spectral table",
+            std::fs::read_to_string(&mono_mueller).unwrap(),
+            vec!["mueller.csv", "line 1", "one wavelength"],
+        ),
+        (
+            "a wavelength the table lacks",
+            good.replacen(",0.6,", ",0.7,", 1),
+            vec!["mueller.csv", "wavelength_um = 0.7"],
+        ),
+        (
+            "a file cut short",
+            cut,
+            vec!["mueller.csv", "incidence block"],
+        ),
+    ];
+    for (case, text, expect) in cases {
+        let bad = dir.join("bad");
+        std::fs::create_dir_all(&bad).unwrap();
+        std::fs::copy(&both, bad.join("brdf.csv")).unwrap();
+        std::fs::write(bad.join("mueller.csv"), text).unwrap();
+        let scene = dir.join("bad.toml");
+        std::fs::write(
+            &scene,
+            cavity(
+                "brdf = \"bad/brdf.csv\"",
+                1,
+                0.2,
+                "[light]\nwavelengths_um = [0.5, 0.6]\n",
+            ),
+        )
+        .unwrap();
+        let out = dir.join("out");
+        let o = roks(&[
+            "trace",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        let mut expect = expect;
+        expect.insert(0, "models.wall.brdf");
+        assert_input_error(case, &o, &scene, &out, &expect);
+    }
 }

@@ -725,9 +725,8 @@ impl ModelSpec {
 /// polarisation). A monochrome table applies to every wavelength of a
 /// spectral object. A spectral table (a `wavelength_um` column) needs a
 /// spectral object whose every wavelength is one of the table's (each
-/// lane takes the table of its wavelength, [`SpectralTableWall`]); it has
-/// no Mueller reader yet, so a `mueller.csv` beside it is refused rather
-/// than ignored.
+/// lane takes the table of its wavelength, [`SpectralTableWall`]), and a
+/// spectral `mueller.csv` beside it gives each lane its own Mueller table.
 fn brdf_wall(
     source: &Source,
     key: &str,
@@ -765,13 +764,13 @@ fn brdf_wall(
             listed(spectral.wavelengths_um())
         )));
     }
-    if mueller.exists() {
-        return Err(fail(&format_args!(
-            "{} is a spectral table with {} beside it: a spectral brdf wall depolarises (spectral Mueller tables are not read yet); move mueller.csv away to trace it depolarising, or use a micro wall",
-            path.display(),
-            mueller.display()
-        )));
-    }
+    // The spectral Mueller table of the same run beside it: each lane keeps
+    // its polarisation.
+    let spectral = if mueller.exists() {
+        spectral.with_mueller(&mueller).map_err(|e| fail(&e))?
+    } else {
+        spectral
+    };
     let selected = spectral.select(wavelengths_um).map_err(|w| {
         fail(&format_args!(
             "{} has no table at {} um (its wavelengths: {} um); the object's [light] wavelengths_um must be among them",

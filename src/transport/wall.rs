@@ -29,7 +29,9 @@
 //! wavelength, and a spectral BRDF table ([`SpectralTableWall`]) samples
 //! the direction from the mean of its wavelengths' tables and weighs lane
 //! `l` by `f_l / f_mean` of the cell chosen (unbiased for every
-//! wavelength: the expected weight into a cell is `f_l`). What a wall
+//! wavelength: the expected weight into a cell is `f_l`); with the
+//! `mueller.csv` of its run, lane `l` also takes the Mueller matrix of its
+//! own table in that cell, otherwise it depolarises. What a wall
 //! removes is tallied per wavelength ([`Carrier::rescaled_lanes`]).
 //!
 //! **Micro descent.** At the hit the macro surface's local frame is built
@@ -81,7 +83,9 @@ impl MicroWall {
 
 /// A BRDF table per wavelength of the run (a spectral `roks brdf` table at
 /// the object's wavelengths), sampled through their mean (see the module
-/// docs). It depolarises.
+/// docs). With Mueller tables attached to every wavelength's table (the
+/// run's spectral `mueller.csv`) each lane is transferred by its own
+/// matrix; without, the wall depolarises.
 #[derive(Debug, Clone)]
 pub struct SpectralTableWall {
     /// The mean of the tables: where directions are sampled from.
@@ -106,6 +110,12 @@ impl SpectralTableWall {
     #[must_use]
     pub fn tables(&self) -> &SpectralTables {
         &self.tables
+    }
+
+    /// Whether every wavelength's table has its Mueller table.
+    #[must_use]
+    pub fn polarising(&self) -> bool {
+        self.tables.tables().iter().all(BrdfTable::has_mueller)
     }
 }
 
@@ -251,11 +261,31 @@ impl WallModel {
                 let dir = (l.x * t1 + l.y * t2 + l.z * n).normalize();
                 // The cell chosen has a mean fraction > 0 (sample_cell).
                 let mean = wall.mean.fraction(incidence, cell);
+                let tables = wall.tables.tables();
                 let mut factors = [0.0; MAX_WAVELENGTHS];
-                for (f, t) in factors.iter_mut().zip(wall.tables.tables()) {
+                for (f, t) in factors.iter_mut().zip(tables) {
                     *f = factor * (t.fraction(incidence, cell) / mean);
                 }
-                w.depolarise_lanes(&factors[..wall.tables.tables().len()], dir);
+                let factors = &factors[..tables.len()];
+                // Each lane's matrix in the cell chosen (all or none attached).
+                let mut ms = [&[0.0; 16]; MAX_WAVELENGTHS];
+                let mut with_mueller = !tables.is_empty();
+                for (m, t) in ms.iter_mut().zip(tables) {
+                    match t.mueller(incidence, cell) {
+                        Some(tm) => *m = tm,
+                        None => with_mueller = false,
+                    }
+                }
+                if with_mueller {
+                    // Frames as for a monochrome table with its Mueller table.
+                    let world = |v: DVec3| v.x * t1 + v.y * t2 + v.z * n;
+                    let local_in = DVec3::new(d.dot(t1), d.dot(t2), d.dot(n));
+                    let x_in = world(hemisphere_reference(local_in, 0.0));
+                    let x_out = world(hemisphere_reference(l, 0.0));
+                    w.transfer_lanes(d, x_in, &ms[..tables.len()], factors, x_out);
+                } else {
+                    w.depolarise_lanes(factors, dir);
+                }
                 Interaction::Reflected { dir, weight: w }
             }
             Self::Micro(micro) => {
@@ -306,7 +336,8 @@ impl WallModel {
             Self::Specular(r) => r.polarises(),
             Self::Micro(micro) => micro.surface.materials.iter().any(Reflectance::polarises),
             Self::Table(t) => t.has_mueller(),
-            Self::SpectralTable(_) | Self::Ideal { .. } => false,
+            Self::SpectralTable(w) => w.polarising(),
+            Self::Ideal { .. } => false,
         }
     }
 }

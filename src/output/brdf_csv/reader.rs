@@ -655,6 +655,77 @@ impl BrdfTables {
     }
 }
 
+impl BrdfTables {
+    /// The same tables with the Mueller-matrix BRDF of the same run
+    /// (`mueller.csv` beside `brdf.csv`), see
+    /// [`with_mueller_text`](Self::with_mueller_text).
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`with_mueller_text`](Self::with_mueller_text).
+    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
+            file: name.clone(),
+            message: e.to_string(),
+        })?;
+        self.with_mueller_text(&text, &name)
+    }
+
+    /// As [`BrdfTable::with_mueller_text`] for a monochrome table. A
+    /// spectral table needs the `mueller.csv` of a spectral run
+    /// (`wavelength_um` after `phi_i_deg`, one block per incidence and
+    /// wavelength): each wavelength's table takes the rows of its
+    /// wavelength, with the checks of the monochrome case (every incidence
+    /// complete, `m00` the table's BRDF), and every row must name one of
+    /// the table's wavelengths.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
+    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        match self {
+            Self::Monochrome(t) => Ok(Self::Monochrome(t.attach_mueller(text, name, None)?)),
+            Self::Spectral(s) => Ok(Self::Spectral(s.with_mueller_text(text, name)?)),
+        }
+    }
+}
+
+impl SpectralTables {
+    /// [`BrdfTables::with_mueller`] of spectral tables.
+    ///
+    /// # Errors
+    /// As [`BrdfTables::with_mueller`].
+    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
+            file: name.clone(),
+            message: e.to_string(),
+        })?;
+        self.with_mueller_text(&text, &name)
+    }
+
+    /// [`BrdfTables::with_mueller_text`] of spectral tables.
+    ///
+    /// # Errors
+    /// As [`BrdfTables::with_mueller_text`].
+    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let wavelengths = self.wavelengths_um().to_vec();
+        for (t, &w) in self.tables_mut().iter_mut().zip(&wavelengths) {
+            *t = t
+                .clone()
+                .attach_mueller(text, name, Some((w, &wavelengths)))?;
+        }
+        Ok(self)
+    }
+}
+
+/// The header of a spectral run's `mueller.csv`: that of
+/// [`crate::output::polar_csv::MUELLER_HEADER`] with `wavelength_um` after
+/// `phi_i_deg`.
+fn spectral_mueller_header() -> String {
+    crate::output::polar_csv::MUELLER_HEADER.replacen("phi_i_deg,", "phi_i_deg,wavelength_um,", 1)
+}
+
 /// The table of checked blocks (of one wavelength): sorted by angle, no
 /// angle twice; `fraction_column` (1-based, 0: the monochrome 13) names the
 /// fraction column in an error.
@@ -1034,12 +1105,29 @@ impl BrdfTable {
     ///
     /// # Errors
     /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
-    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        self.attach_mueller(text, name, None)
+    }
+
+    /// [`with_mueller_text`](Self::with_mueller_text); for the table of one
+    /// wavelength of a spectral run (`lane = Some((wavelength_um, all the
+    /// table's wavelengths))`) the file has `wavelength_um` after
+    /// `phi_i_deg` and only the rows of that wavelength are read (every row
+    /// must name one of the wavelengths).
+    fn attach_mueller(
+        mut self,
+        text: &str,
+        name: &str,
+        lane: Option<(f64, &[f64])>,
+    ) -> Result<Self, BrdfTableError> {
         let fail = |line: usize, message: String| BrdfTableError::Mueller {
             file: name.to_owned(),
             line,
             message,
         };
+        // Columns after `phi_i_deg` move by one in a spectral file.
+        let off = usize::from(lane.is_some());
+        let at_w = lane.map_or(String::new(), |(w, _)| format!(" at {w} um"));
         let mut lines = text
             .lines()
             .enumerate()
@@ -1047,8 +1135,30 @@ impl BrdfTable {
             .filter(|(_, l)| !l.trim().is_empty());
         let header = lines.next().map_or("", |(_, l)| l);
         let header = header.strip_prefix('\u{feff}').unwrap_or(header);
-        if header.trim_end() != crate::output::polar_csv::MUELLER_HEADER {
-            return Err(fail(1, "header is not that of mueller.csv".into()));
+        let mono = crate::output::polar_csv::MUELLER_HEADER;
+        let spectral = spectral_mueller_header();
+        match (header.trim_end(), lane) {
+            (h, None) if h == mono => {}
+            (h, Some(_)) if h == spectral => {}
+            (h, None) if h == spectral => {
+                return Err(fail(
+                    1,
+                    format!(
+                        "a spectral mueller.csv (wavelength_um column), but {} is a table of one wavelength",
+                        self.file()
+                    ),
+                ));
+            }
+            (h, Some(_)) if h == mono => {
+                return Err(fail(
+                    1,
+                    format!(
+                        "a mueller.csv of one wavelength, but {} is a spectral table (it needs the wavelength_um column of a spectral run's mueller.csv)",
+                        self.file()
+                    ),
+                ));
+            }
+            _ => return Err(fail(1, "header is not that of mueller.csv".into())),
         }
         let n = self.grid().n_cells();
         // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
@@ -1058,10 +1168,10 @@ impl BrdfTable {
         for (line, l) in lines {
             last_line = line;
             let f: Vec<&str> = l.split(',').map(str::trim).collect();
-            if f.len() != 38 {
+            if f.len() != 38 + off {
                 return Err(fail(
                     line,
-                    format!("expected 38 columns, found {}", f.len()),
+                    format!("expected {} columns, found {}", 38 + off, f.len()),
                 ));
             }
             let num = |i: usize| -> Result<f64, BrdfTableError> {
@@ -1080,6 +1190,21 @@ impl BrdfTable {
                     })
             };
             let (theta, phi) = (num(0)?, num(1)?);
+            if let Some((w, all)) = lane {
+                let at = num(2)?;
+                if !all.contains(&at) {
+                    return Err(fail(
+                        line,
+                        format!(
+                            "column 3: wavelength_um = {at} is not one of the wavelengths of {}",
+                            self.file()
+                        ),
+                    ));
+                }
+                if at != w {
+                    continue;
+                }
+            }
             if blocks.last().is_none_or(|b| b.2.len() == n) {
                 blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
             }
@@ -1088,14 +1213,14 @@ impl BrdfTable {
                 return Err(fail(
                     line,
                     format!(
-                        "incidence block theta_i_deg = {} ends after {} of {n} cells",
+                        "incidence block theta_i_deg = {}{at_w} ends after {} of {n} cells",
                         block.0,
                         block.2.len()
                     ),
                 ));
             }
             let (band, cell) = self.grid().band_cell(block.2.len());
-            if f[2] != band.to_string() || f[3] != cell.to_string() {
+            if f[2 + off] != band.to_string() || f[3 + off] != cell.to_string() {
                 return Err(fail(
                     line,
                     format!("expected band {band}, cell {cell} (grid order)"),
@@ -1103,12 +1228,15 @@ impl BrdfTable {
             }
             let mut m = [0.0; 16];
             for (k, v) in m.iter_mut().enumerate() {
-                *v = num(6 + 2 * k)?;
-                let se = num(7 + 2 * k)?;
+                *v = num(6 + off + 2 * k)?;
+                let se = num(7 + off + 2 * k)?;
                 if se < 0.0 {
                     return Err(fail(
                         line,
-                        format!("column {} (a standard error): {se} must be >= 0", 8 + 2 * k),
+                        format!(
+                            "column {} (a standard error): {se} must be >= 0",
+                            8 + off + 2 * k
+                        ),
                     ));
                 }
             }
@@ -1119,7 +1247,7 @@ impl BrdfTable {
             return Err(fail(
                 last_line,
                 format!(
-                    "incidence block theta_i_deg = {} has {} of {n} cells",
+                    "incidence block theta_i_deg = {}{at_w} has {} of {n} cells",
                     b.0,
                     b.2.len()
                 ),
@@ -1129,7 +1257,7 @@ impl BrdfTable {
             return Err(fail(
                 last_line,
                 format!(
-                    "{} incidence blocks, but {} has {} (a file of another run?)",
+                    "{} incidence blocks{at_w}, but {} has {} (a file of another run?)",
                     blocks.len(),
                     self.file(),
                     self.thetas_deg().len()
@@ -1145,7 +1273,7 @@ impl BrdfTable {
                     fail(
                         last_line,
                         format!(
-                            "no block for theta_i_deg = {}, phi_i_deg = {} (tabulated in {})",
+                            "no block for theta_i_deg = {}, phi_i_deg = {}{at_w} (tabulated in {})",
                             inc.theta_deg,
                             inc.phi_i_deg,
                             self.file()
@@ -1159,7 +1287,7 @@ impl BrdfTable {
                     return Err(fail(
                         block.3[flat],
                         format!(
-                            "theta_i_deg = {}: cell {flat}: m00 = {} is not the brdf {brdf} of {} (a file of another run?)",
+                            "theta_i_deg = {}{at_w}: cell {flat}: m00 = {} is not the brdf {brdf} of {} (a file of another run?)",
                             inc.theta_deg,
                             m[0],
                             self.file()

@@ -120,6 +120,22 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     /// its `m00`) times `factor`, and continue about `x_out` (⟂ the new flight).
     fn transfer(&mut self, d: DVec3, x_in: DVec3, m: &[f64; 16], factor: f64, x_out: DVec3);
 
+    /// [`Carrier::transfer`] with a matrix and a factor per wavelength:
+    /// lane `l` by `ms[l]` times `factors[l]` (both hold at least
+    /// [`Carrier::lanes`] entries; a monochrome carrier takes entry 0). A
+    /// spectral BRDF table wall with its Mueller tables.
+    #[inline]
+    fn transfer_lanes(
+        &mut self,
+        d: DVec3,
+        x_in: DVec3,
+        ms: &[&[f64; 16]],
+        factors: &[f64],
+        x_out: DVec3,
+    ) {
+        self.transfer(d, x_in, ms[0], factors[0], x_out);
+    }
+
     /// A roulette survivor: the intensity becomes `s`.
     fn survive(&mut self, s: f64);
 

@@ -199,6 +199,19 @@ impl<C: Carrier<Lane = C>, const CAP: usize> Carrier for Spectral<C, CAP> {
         }
     }
 
+    fn transfer_lanes(
+        &mut self,
+        d: DVec3,
+        x_in: DVec3,
+        ms: &[&[f64; 16]],
+        factors: &[f64],
+        x_out: DVec3,
+    ) {
+        for ((c, m), &f) in self.used_mut().iter_mut().zip(ms).zip(factors) {
+            c.transfer(d, x_in, m, f, x_out);
+        }
+    }
+
     #[inline]
     fn survive(&mut self, s: f64) {
         self.scale_to(s);
@@ -579,6 +592,33 @@ impl<const N: usize, const CAP: usize> Carrier for SpectralPolarised<N, CAP> {
         self.x = x_out;
     }
 
+    /// Lane `l` by `ms[l]` and `factors[l]`: the arithmetic of `transfer`
+    /// lane by lane, so equal matrices and factors give its bits.
+    fn transfer_lanes(
+        &mut self,
+        d: DVec3,
+        x_in: DVec3,
+        ms: &[&[f64; 16]],
+        factors: &[f64],
+        x_out: DVec3,
+    ) {
+        self.rotate(rotation(d, self.x, x_in));
+        let v = self.rows;
+        for (i, rows) in self.rows.iter_mut().enumerate() {
+            for (j, row) in rows.iter_mut().enumerate() {
+                for (l, o) in row[..self.len].iter_mut().enumerate() {
+                    let (m, factor) = (ms[l], factors[l]);
+                    *o = factor
+                        * (m[4 * i] * v[0][j][l]
+                            + m[4 * i + 1] * v[1][j][l]
+                            + m[4 * i + 2] * v[2][j][l]
+                            + m[4 * i + 3] * v[3][j][l]);
+                }
+            }
+        }
+        self.x = x_out;
+    }
+
     #[inline]
     fn survive(&mut self, s: f64) {
         self.scale_to(s);
@@ -800,6 +840,25 @@ mod tests {
                     let (x_in, x_out) = (d.any_orthonormal_vector(), out.any_orthonormal_vector());
                     a.transfer(d, x_in, &m, 0.7, x_out);
                     b.transfer(d, x_in, &m, 0.7, x_out);
+                    // And a matrix and factor of each lane's own.
+                    let ms: Vec<[f64; 16]> = (0..lanes)
+                        .map(|_| {
+                            std::array::from_fn(|i| {
+                                if i == 0 {
+                                    1.0
+                                } else {
+                                    0.4 * rng.random::<f64>() - 0.2
+                                }
+                            })
+                        })
+                        .collect();
+                    let refs: Vec<&[f64; 16]> = ms.iter().collect();
+                    let f: Vec<f64> = (0..lanes)
+                        .map(|_| 0.5 + 0.5 * rng.random::<f64>())
+                        .collect();
+                    let (x_in, x_out) = (d.any_orthonormal_vector(), out.any_orthonormal_vector());
+                    a.transfer_lanes(d, x_in, &refs, &f, x_out);
+                    b.transfer_lanes(d, x_in, &refs, &f, x_out);
                 }
                 6 => {
                     a.mirror(0.9, d, n);
