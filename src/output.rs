@@ -154,16 +154,36 @@ pub fn dop_map(
     })
 }
 
+/// Longest number written in decimal in a file name; longer ones (such as
+/// an angle of 1e-300 degrees, 300 digits in decimal) are written in
+/// exponent form.
+pub const LABEL_DIGITS: usize = 24;
+
+/// `x` as it appears in file names: its shortest round-trip decimal form
+/// (`30`, `0.5`, `89.9999999`), or, when that is longer than
+/// [`LABEL_DIGITS`], its shortest round-trip exponent form (`1e-300`).
+/// Distinct numbers get distinct labels, and file names stay far below
+/// the file system's limit.
+#[must_use]
+pub fn number_label(x: f64) -> String {
+    let decimal = x.to_string();
+    if decimal.len() <= LABEL_DIGITS {
+        decimal
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// File name of the degree-of-polarisation map of incidence `theta_i_deg`.
 #[must_use]
 pub fn dop_file(theta_i_deg: f64) -> String {
-    format!("dop_{theta_i_deg}deg.png")
+    format!("dop_{}deg.png", number_label(theta_i_deg))
 }
 
 /// File name of the hemisphere map of incidence `theta_i_deg`.
 #[must_use]
 pub fn hemisphere_file(theta_i_deg: f64) -> String {
-    format!("hemisphere_{theta_i_deg}deg.png")
+    format!("hemisphere_{}deg.png", number_label(theta_i_deg))
 }
 
 /// The in-plane BRDF curves of a run as a plot (`inplane.png`): one curve
@@ -205,5 +225,27 @@ pub fn inplane_plot(
         y_label: "BRDF (1/sr), error bars 2 standard errors".into(),
         log_y: true,
         series,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ordinary numbers keep their decimal form in file names; one whose
+    /// decimal form passes `LABEL_DIGITS` characters gets its exponent form,
+    /// which parses back to it.
+    #[test]
+    fn number_labels() {
+        assert_eq!(hemisphere_file(30.0), "hemisphere_30deg.png");
+        assert_eq!(dop_file(89.9999999), "dop_89.9999999deg.png");
+        assert_eq!(number_label(0.1 + 0.2), "0.30000000000000004");
+        assert_eq!(hemisphere_file(1e-300), "hemisphere_1e-300deg.png");
+        assert_eq!(number_label(1e-30), "1e-30");
+        for x in [1e-300, 1e-30, 123.456, 0.1 + 0.2, 5e-324] {
+            let l = number_label(x);
+            assert!(l.len() <= LABEL_DIGITS, "{l}");
+            assert_eq!(l.parse::<f64>().unwrap(), x);
+        }
     }
 }

@@ -559,3 +559,41 @@ photons = 64
         assert!(r > 0.9 && r <= 1.0, "phi {phi}: reflectance {r}");
     }
 }
+
+/// A tiny incidence angle is a valid one: `--theta 1e-300` completes, and
+/// its pictures are named with the exponent form of the angle
+/// (`hemisphere_1e-300deg.png`; in decimal the name would pass the file
+/// system's 255-byte limit). The same for a spectral Zemax export with a
+/// wavelength of 1e-300 um beside 0.5 um.
+#[test]
+fn tiny_angles_and_wavelengths_give_short_file_names() {
+    let dir = scratch("tiny-labels");
+    let scene = dir.join("tiny.toml");
+    let text = scene_text("size = [30.0, 30.0]", &bumps(""));
+    std::fs::write(&scene, &text).unwrap();
+    let inc = completes(
+        "tiny theta",
+        &scene,
+        &["--theta", "1e-300", "--photons", "2000"],
+    );
+    assert_eq!(inc["theta_deg"].as_f64(), Some(1e-300));
+    let out = scene.with_extension("out");
+    assert!(out.join("hemisphere_1e-300deg.png").is_file());
+
+    let spectral = dir.join("spectral.toml");
+    std::fs::write(
+        &spectral,
+        text.replace("reflectance = 0.8", "n = 1.5\nk = 0.1")
+            .replace("[light]\n", "[light]\nwavelengths_um = [1e-300, 0.5]\n"),
+    )
+    .unwrap();
+    completes(
+        "tiny wavelength",
+        &spectral,
+        &["--theta", "30", "--photons", "2000", "--export", "zemax"],
+    );
+    let out = spectral.with_extension("out");
+    for name in ["brdf_1e-300um.bsdf", "brdf_5e-1um.bsdf"] {
+        assert!(out.join(name).is_file(), "{name}");
+    }
+}

@@ -146,8 +146,20 @@ pub enum ExportRefusal {
 /// 10.6`; `[3.0, 8.0, 12.0]` -> `03, 08, 12`). Distinct wavelengths get
 /// distinct labels: a shortest form with at most that many decimals is the
 /// nearest such decimal to its value, so the padded form is the same digits.
+/// Should a label pass [`crate::output::LABEL_DIGITS`] characters (such as
+/// `[1e-300, 0.5]`), every label is the shortest exponent form instead
+/// (`1e-300, 5e-1`: distinct, though no longer sorting as the wavelengths).
 #[must_use]
 pub fn wavelength_labels(wavelengths_um: &[f64]) -> Vec<String> {
+    let labels = padded_labels(wavelengths_um);
+    if labels.iter().any(|l| l.len() > crate::output::LABEL_DIGITS) {
+        return wavelengths_um.iter().map(|w| format!("{w:e}")).collect();
+    }
+    labels
+}
+
+/// The padded decimal labels of [`wavelength_labels`].
+fn padded_labels(wavelengths_um: &[f64]) -> Vec<String> {
     let decimals = wavelengths_um
         .iter()
         .map(|w| w.to_string().split_once('.').map_or(0, |(_, f)| f.len()))
@@ -444,6 +456,19 @@ mod tests {
             BrdfFormat::Zemax.spectral_file_names(&[0.4, 0.41]),
             ["brdf_0.40um.bsdf", "brdf_0.41um.bsdf"]
         );
+    }
+
+    /// A wavelength whose decimal form is hundreds of digits long (1e-300
+    /// um) gives every label its exponent form, distinct and short, rather
+    /// than a file name too long for the file system.
+    #[test]
+    fn extreme_wavelengths_get_exponent_labels() {
+        let l = wavelength_labels(&[1e-300, 0.5]);
+        assert_eq!(l, ["1e-300", "5e-1"]);
+        assert_eq!(wavelength_labels(&[0.5, 1e30]), ["5e-1", "1e30"]);
+        for (label, w) in l.iter().zip([1e-300, 0.5]) {
+            assert_eq!(label.parse::<f64>().unwrap(), w);
+        }
     }
 
     /// Constants integrate exactly (`∫ cos dω = pi`); `∫ cos² dω = 2 pi / 3`

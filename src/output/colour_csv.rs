@@ -128,7 +128,7 @@ fn display_colours(colours: &[([f64; 3], [f64; 3])]) -> Vec<[u8; 3]> {
 /// File name of the colour map of incidence `theta_i_deg`.
 #[must_use]
 pub fn colour_file(theta_i_deg: f64) -> String {
-    format!("colour_{theta_i_deg}deg.png")
+    format!("colour_{}deg.png", super::number_label(theta_i_deg))
 }
 
 /// The colour maps of a spectral run covering the visible: per incidence its
