@@ -262,7 +262,9 @@ impl Incident {
                 // Exact at multiples of 45 deg (0, ±1): `sin(2 * 90 deg)` in
                 // floating point is 1.2e-16, not the 0 of p light, which
                 // would e.g. make linear 90 deg look mirror-asymmetric.
-                let twice = (2.0 * deg).rem_euclid(360.0);
+                // Reduced before doubling (exactly: both steps are exact),
+                // so that a huge angle (1e308) does not overflow to NaN.
+                let twice = 2.0 * deg.rem_euclid(180.0);
                 if twice == 0.0 {
                     [1.0, 1.0, 0.0, 0.0]
                 } else if twice == 90.0 {
@@ -487,6 +489,18 @@ mod tests {
         assert!(Incident::Stokes([0.0, 0.0, 0.0, 0.0]).validate().is_err());
         assert!(Incident::Stokes([1.0, 0.6, 0.8, 0.0]).validate().is_ok());
         assert!(Incident::P.is_mirror_symmetric() && !Incident::Right.is_mirror_symmetric());
+        // Huge angles are reduced modulo 180 deg before doubling (2 x 1e308
+        // overflowed to a NaN state, found by fuzzing); 1e308 deg is
+        // 1e308 mod 180 deg, exactly, and the state is fully polarised.
+        for a in [1e308, -1e308, f64::MAX, 1e20] {
+            let l = Incident::Linear(a).stokes();
+            assert_eq!(l, Incident::Linear(a.rem_euclid(180.0)).stokes(), "{a}");
+            assert!(close(l[1].hypot(l[2]), 1.0, 1e-15), "{a}: {l:?}");
+        }
+        assert_eq!(
+            Incident::Linear(180.0 * 2f64.powi(60)).stokes(),
+            Incident::S.stokes()
+        );
     }
 
     proptest::proptest! {
