@@ -570,6 +570,72 @@ fn a_bad_out_file_is_refused_before_any_work() {
         &before,
     );
 
+    // An output that is one of the command's inputs, which writing would
+    // replace (the scene; the result's table or summary, also through
+    // another spelling of the path): refused, the input untouched (found by
+    // fuzzing: export-mesh --out scene.toml overwrote the scene).
+    let scene_bytes = std::fs::read(&scene).unwrap();
+    let table = result.join("brdf.csv");
+    let table_bytes = std::fs::read(&table).unwrap();
+    let other_spelling = dir.join("res/../res/summary.json");
+    let summary_bytes = std::fs::read(&other_spelling).unwrap();
+    let cases: [(Vec<&str>, &Path); 5] = [
+        (vec!["export-mesh", s(&scene), "--out", s(&scene)], &scene),
+        (
+            vec!["export-heightfield", s(&scene), "--out", s(&scene)],
+            &scene,
+        ),
+        (
+            vec![
+                "render",
+                s(&scene),
+                "--out",
+                s(&scene),
+                "--spp",
+                "1000000000",
+            ],
+            &scene,
+        ),
+        (
+            vec![
+                "export-brdf",
+                s(&result),
+                "--format",
+                "zemax",
+                "--out",
+                s(&table),
+                "-q",
+            ],
+            &table,
+        ),
+        (
+            vec![
+                "export-brdf",
+                s(&result),
+                "--format",
+                "zemax",
+                "--out",
+                s(&other_spelling),
+                "-q",
+            ],
+            &other_spelling,
+        ),
+    ];
+    for (a, out) in cases {
+        let case = format!("{} --out {}", a[0], out.display());
+        assert_out_refused(
+            &case,
+            &roks_in(&dir, &a),
+            out,
+            "is the input",
+            &dir,
+            &before,
+        );
+    }
+    assert_eq!(std::fs::read(&scene).unwrap(), scene_bytes);
+    assert_eq!(std::fs::read(&table).unwrap(), table_bytes);
+    assert_eq!(std::fs::read(&other_spelling).unwrap(), summary_bytes);
+
     // Rewrites replace the files in place, EXR and PNG each atomically.
     let exr = dir.join("r.exr");
     for spp in ["1", "2"] {

@@ -135,13 +135,27 @@ pub fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
         .map_err(|e| Failure::Input(format!("{key}: {}: {e}", out.display())))
 }
 
-/// Check an output file (`--out`) before any work is done.
+/// Check an output file (`--out`) before any work is done: it can be
+/// written as a file, and it is none of `inputs`, the files the command
+/// reads (a scene, a result's table), which it would replace.
 ///
 /// # Errors
-/// Bad input when `out` cannot be written as a file.
-pub fn check_out_file(out: &Path) -> Result<(), Failure> {
+/// Bad input when `out` cannot be written as a file or is one of `inputs`.
+pub fn check_out_file(out: &Path, inputs: &[&Path]) -> Result<(), Failure> {
     crate::outdir::check_file(out)
-        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))
+        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))?;
+    // Both exist when they are the same file; compare where they resolve to.
+    let resolved = |p: &Path| std::fs::canonicalize(p).ok();
+    if let Some(o) = resolved(out) {
+        if let Some(input) = inputs.iter().find(|i| resolved(i).as_ref() == Some(&o)) {
+            return Err(Failure::Input(format!(
+                "--out: {}: is the input {}, which writing would replace; write elsewhere",
+                out.display(),
+                input.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Write `bytes` to `path` atomically, creating its folder.

@@ -63,8 +63,15 @@ pub fn wavelength_path(out: &Path, wavelength: &str) -> PathBuf {
 /// wavelengths that do not cover the visible), or a failed write.
 pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
     let format = a.format;
-    check_out_file(&a.out)?;
     let csv = a.dir.join("brdf.csv");
+    // The files of the result this export reads.
+    let inputs = [
+        csv.clone(),
+        a.dir.join("summary.json"),
+        a.dir.join("mueller.csv"),
+    ];
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    check_out_file(&a.out, &inputs)?;
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(
             "{}: not a folder (expected the result folder of `roks brdf`, with brdf.csv)",
@@ -91,7 +98,7 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
         _ => vec![a.out.clone()],
     };
     for p in &paths {
-        check_out_file(p)?;
+        check_out_file(p, &inputs)?;
     }
     let files = export_tables(
         &tables,
