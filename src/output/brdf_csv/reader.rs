@@ -596,11 +596,7 @@ impl BrdfTables {
     /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
     /// [`with_summary_text`](Self::with_summary_text).
     pub fn with_summary(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
+        let (name, text) = read_text(path)?;
         self.with_summary_text(&text, &name)
     }
 
@@ -664,11 +660,7 @@ impl BrdfTables {
     /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
     /// [`with_mueller_text`](Self::with_mueller_text).
     pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
+        let (name, text) = read_text(path)?;
         self.with_mueller_text(&text, &name)
     }
 
@@ -696,11 +688,7 @@ impl SpectralTables {
     /// # Errors
     /// As [`BrdfTables::with_mueller`].
     pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
+        let (name, text) = read_text(path)?;
         self.with_mueller_text(&text, &name)
     }
 
@@ -911,11 +899,7 @@ impl BrdfTable {
     /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
     /// [`with_summary_text`](Self::with_summary_text).
     pub fn with_summary(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
+        let (name, text) = read_text(path)?;
         self.with_summary_text(&text, &name)
     }
 
@@ -1089,11 +1073,7 @@ impl BrdfTable {
     /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
     /// [`with_mueller_text`](Self::with_mueller_text).
     pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| BrdfTableError::Io {
-            file: name.clone(),
-            message: e.to_string(),
-        })?;
+        let (name, text) = read_text(path)?;
         self.with_mueller_text(&text, &name)
     }
 
