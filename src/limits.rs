@@ -15,6 +15,8 @@
 //! roks: scenes/x.toml: bumps[0]: periodic ghost copies (about 3.6e7 solids) would take about 7.5 GiB, above the memory limit 23.4 GiB (set ROKS_MAX_MEMORY to change it)
 //! ```
 
+use std::io::Read as _;
+use std::path::Path;
 use std::sync::OnceLock;
 
 /// The environment variable that sets the limit (bytes, with an optional suffix).
@@ -22,6 +24,56 @@ pub const ENV: &str = "ROKS_MAX_MEMORY";
 
 /// The limit when neither `ROKS_MAX_MEMORY` nor `/proc/meminfo` gives one: 8 GiB.
 pub const FALLBACK: u64 = 8 << 30;
+
+/// The most bytes roks reads from a scene file (TOML): far above any scene
+/// (the largest shipped is a few kB; inline arrays of per-wavelength values
+/// are kB too), far below what parsing it would take in memory (the TOML
+/// parser holds several times the text).
+pub const MAX_SCENE_BYTES: u64 = 64 << 20;
+
+/// The most bytes roks reads from a data file (a table, a height map, a
+/// shard's tallies, a measured BRDF): an eighth of the memory limit, since
+/// parsing holds the text and the values it gives.
+#[must_use]
+pub fn max_data_bytes() -> u64 {
+    max_memory().unwrap_or(FALLBACK) / 8
+}
+
+/// The bytes of the file at `path`, reading at most `cap` of them: a larger
+/// file (or an endless one such as `/dev/zero`) is an error saying so, so
+/// memory stays bounded whatever the path names.
+///
+/// # Errors
+/// The I/O error, or one of kind `InvalidData` for a file above `cap`.
+pub fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(cap.saturating_add(1))
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > cap {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "larger than {}, the most roks reads from such a file",
+                format_bytes(cap)
+            ),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// [`read_capped`] as UTF-8 text.
+///
+/// # Errors
+/// As [`read_capped`], or `InvalidData` for text that is not UTF-8.
+pub fn read_text_capped(path: &Path, cap: u64) -> std::io::Result<String> {
+    String::from_utf8(read_capped(path, cap)?).map_err(|_| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "stream did not contain valid UTF-8",
+        )
+    })
+}
 
 /// The memory limit in bytes, or the one-line reason `ROKS_MAX_MEMORY` is
 /// unusable (naming it). Read once per process.

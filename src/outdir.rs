@@ -134,7 +134,7 @@ fn replaceable(dir: &Path) -> Result<(), String> {
         return refuse(format!("holds the folder {:?}", sub.file_name()));
     }
     let marked = RESULT_MARKERS.iter().any(|m| {
-        std::fs::read(dir.join(m))
+        crate::limits::read_capped(&dir.join(m), crate::limits::MAX_SCENE_BYTES)
             .ok()
             .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
             .is_some_and(|v| v.get("version").is_some_and(serde_json::Value::is_string))

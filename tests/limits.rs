@@ -661,3 +661,65 @@ fn worker_threads_are_refused_above_the_limit() {
         &["1000000 worker threads", "TiB"],
     );
 }
+
+/// Input files are read up to a bound (a scene file 64 MiB, a data file an
+/// eighth of the memory limit), so an endless or huge file is one line,
+/// exit 2, in bounded memory: `/dev/zero` as the scene, as an angle table,
+/// as an nk table and as the measured BRDF of `fit`, and a
+/// 70 MB scene of comment lines (before the bound, it went to the TOML
+/// parser, which asked for several times its size and aborted under the
+/// 4 GB address-space limit: found by fuzzing).
+#[test]
+fn endless_and_huge_input_files_are_refused_in_bounded_memory() {
+    let dir = scratch("endless");
+    let out = dir.join("out");
+    let micro = |material: &str, extra: &str| {
+        format!(
+            "[surface]\nsize = [30.0, 30.0]\nedges = \"periodic\"\nmaterial = \"m\"\n{extra}\n[materials.m]\n{material}\n[light]\ntheta_deg = [30]\nwavelengths_um = [0.5]\n"
+        )
+    };
+    let zero = Path::new("/dev/zero");
+    let o = roks_limited(Some("100M"), &["stats", "/dev/zero"]);
+    assert_input_error("stats /dev/zero", &o, zero, &out, &["larger than 64.0 MiB"]);
+    // An nk table is named by its extension: a link zero.csv to /dev/zero.
+    let link = dir.join("zero.csv");
+    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    for (case, key, file) in [
+        ("table", "materials.m.table", "/dev/zero"),
+        ("nk", "materials.m.nk", link.to_str().unwrap()),
+    ] {
+        let text = micro(&format!("{case} = \"{file}\""), "");
+        let scene = write(&dir, &format!("{case}.toml"), &text);
+        let o = roks_limited(Some("100M"), &["stats", scene.to_str().unwrap()]);
+        assert_input_error(case, &o, &scene, &out, &[key, file, "larger than 12.5 MiB"]);
+    }
+    let scene = write(&dir, "s.toml", &micro("reflectance = 0.5", ""));
+    let o = roks_limited(
+        Some("100M"),
+        &[
+            "fit",
+            scene.to_str().unwrap(),
+            "/dev/zero",
+            "--param",
+            "materials.m.reflectance=0.1:0.9",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let line = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        line.contains("/dev/zero") && line.contains("larger than"),
+        "{line}"
+    );
+    assert!(!out.exists());
+    let big = dir.join("big.toml");
+    std::fs::write(&big, "#".repeat(70 << 20)).unwrap();
+    let o = roks_limited(None, &["stats", big.to_str().unwrap()]);
+    assert_input_error("a 70 MB scene", &o, &big, &out, &["larger than 64.0 MiB"]);
+}

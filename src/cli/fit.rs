@@ -68,8 +68,9 @@ pub fn run(a: FitArgs) -> Result<(), Failure> {
     let input = |e: FitError| Failure::Input(e.to_string());
     let text = crate::scene::read_scene_text(&a.scene)?;
     let source = crate::scene::Source::from_path(&a.scene);
-    let measured_text = std::fs::read_to_string(&a.measured)
-        .map_err(|e| Failure::Input(format!("{}: cannot read: {e}", a.measured.display())))?;
+    let measured_text =
+        crate::limits::read_text_capped(&a.measured, crate::limits::max_data_bytes())
+            .map_err(|e| Failure::Input(format!("{}: cannot read: {e}", a.measured.display())))?;
     let measured =
         Measured::parse(&measured_text, &a.measured.display().to_string()).map_err(input)?;
     let params = a

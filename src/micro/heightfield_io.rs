@@ -95,7 +95,8 @@ pub fn read_memory_bytes(path: &Path) -> Result<(u64, Option<(usize, usize)>), S
 
 /// Read a height grid; the error is one line without the path.
 pub fn read(path: &Path) -> Result<HeightGrid, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    let bytes = crate::limits::read_capped(path, crate::limits::max_data_bytes())
+        .map_err(|e| format!("cannot read: {e}"))?;
     let grid = match Format::of(path) {
         Format::Exr => read_exr(&bytes)?,
         Format::Png => read_png(&bytes)?,

@@ -650,9 +650,11 @@ pub(super) fn bracket(abscissae: &[f64], at: f64) -> Option<(usize, usize, f64)>
 
 /// Reads a file as UTF-8 text, naming it in the error.
 fn read_text(path: &Path, file: &str) -> Result<String, SpectrumError> {
-    std::fs::read_to_string(path).map_err(|e| SpectrumError::Io {
-        file: file.to_owned(),
-        message: e.to_string(),
+    crate::limits::read_text_capped(path, crate::limits::max_data_bytes()).map_err(|e| {
+        SpectrumError::Io {
+            file: file.to_owned(),
+            message: e.to_string(),
+        }
     })
 }
 

@@ -747,7 +747,8 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
     let path = dir.join(TALLIES_FILE);
     let file = path.display().to_string();
     let err = |key: &str, message: String| FieldError::new(key, message).in_file(&file);
-    let text = std::fs::read_to_string(&path).map_err(|e| err("", format!("cannot read: {e}")))?;
+    let text = crate::limits::read_text_capped(&path, crate::limits::max_data_bytes())
+        .map_err(|e| err("", format!("cannot read: {e}")))?;
     let v: Value =
         serde_json::from_str(&text).map_err(|e| err("", format!("invalid JSON: {e}")))?;
     if v["format"] != FORMAT || v["format_version"] != FORMAT_VERSION {

@@ -173,7 +173,7 @@ pub fn scene_name(
 
 /// Read a scene file to a string; a missing file is a scene error.
 pub fn read_scene_text(path: &Path) -> Result<String, SceneError> {
-    std::fs::read_to_string(path).map_err(|e| SceneError {
+    crate::limits::read_text_capped(path, crate::limits::MAX_SCENE_BYTES).map_err(|e| SceneError {
         file: path.display().to_string(),
         key: String::new(),
         message: format!("cannot read: {e}"),
@@ -636,9 +636,10 @@ impl MaterialSpec {
                 }
                 let at = lane_key(key, "table", many, l);
                 let path = source.dir.join(file);
-                let text = std::fs::read_to_string(&path).map_err(|e| {
-                    source.error(&at, format!("cannot read {}: {e}", path.display()))
-                })?;
+                let text = crate::limits::read_text_capped(&path, crate::limits::max_data_bytes())
+                    .map_err(|e| {
+                        source.error(&at, format!("cannot read {}: {e}", path.display()))
+                    })?;
                 let table = AngleTable::parse_csv(&text)
                     .map_err(|e| source.error(&at, format!("{}: {e}", path.display())))?;
                 models.push(Reflectance::Table(table));

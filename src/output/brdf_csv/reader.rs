@@ -406,7 +406,7 @@ fn shorten(s: &str, n: usize) -> String {
 /// [`BrdfTableError::Io`] naming the file.
 fn read_text(path: &Path) -> Result<(String, String), BrdfTableError> {
     let name = path.display().to_string();
-    match std::fs::read_to_string(path) {
+    match crate::limits::read_text_capped(path, crate::limits::max_data_bytes()) {
         Ok(text) => Ok((name, text)),
         Err(e) => Err(BrdfTableError::Io {
             file: name,
