@@ -771,7 +771,11 @@ pub fn region_body(
 ///
 /// Frames and signs: [`crate::optics::polarisation`].
 #[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    deny_unknown_fields,
+    expecting = "a state name (unpolarised, s, p, right, left), { linear = deg } (no other key), or a Stokes vector [S0, S1, S2, S3]"
+)]
 pub enum PolarisationSpec {
     /// A named state.
     Name(String),
