@@ -1108,40 +1108,30 @@ fn a_spectral_mueller_table_wall_transfers_each_wavelength_by_its_matrix() {
         None,
     ));
     let lanes = [0.5, 0.6];
-    let same = spectral_table(
-        &dir,
-        "same",
-        &[(0.5, &mono_csv, 1.0), (0.6, &mono_csv, 1.0)],
+    // The table at both wavelengths, the second lane's Mueller table
+    // reduced to m00 when `m00_only`; traced at both.
+    let traced = |name: &str, m00_only: bool| {
+        let table = spectral_table(&dir, name, &[(0.5, &mono_csv, 1.0), (0.6, &mono_csv, 1.0)]);
+        spectral_mueller(
+            &dir,
+            name,
+            &[(0.5, &mono_mueller, false), (0.6, &mono_mueller, m00_only)],
+        );
+        run(&scene_at(
+            name,
+            &cavity(&model(&table), 3, 0.0, extra),
+            &dir,
+            Some(&lanes),
+        ))
+    };
+    assert_lanes_equal(
+        "equal Mueller tables",
+        &with,
+        &traced("same", false),
+        &lanes,
     );
-    spectral_mueller(
-        &dir,
-        "same",
-        &[(0.5, &mono_mueller, false), (0.6, &mono_mueller, false)],
-    );
-    let spectral = run(&scene_at(
-        "s",
-        &cavity(&model(&same), 3, 0.0, extra),
-        &dir,
-        Some(&lanes),
-    ));
-    assert_lanes_equal("equal Mueller tables", &with, &spectral, &lanes);
 
-    let both = spectral_table(
-        &dir,
-        "both",
-        &[(0.5, &mono_csv, 1.0), (0.6, &mono_csv, 1.0)],
-    );
-    spectral_mueller(
-        &dir,
-        "both",
-        &[(0.5, &mono_mueller, false), (0.6, &mono_mueller, true)],
-    );
-    let spectral = run(&scene_at(
-        "b",
-        &cavity(&model(&both), 3, 0.0, extra),
-        &dir,
-        Some(&lanes),
-    ));
+    let spectral = traced("both", true);
     assert_eq!(spectral.len(), 2 * with.len());
     let rel = |a: f64, b: f64| (a - b).abs() / a.abs().max(b.abs()).max(1e-300);
     let sums = |t: &roks::transport::object::ObjectTallies| -> Vec<f64> {
@@ -1216,7 +1206,7 @@ fn a_spectral_mueller_table_wall_transfers_each_wavelength_by_its_matrix() {
     for (case, text, expect) in cases {
         let bad = dir.join("bad");
         std::fs::create_dir_all(&bad).unwrap();
-        std::fs::copy(&both, bad.join("brdf.csv")).unwrap();
+        std::fs::copy(dir.join("both/brdf.csv"), bad.join("brdf.csv")).unwrap();
         std::fs::write(bad.join("mueller.csv"), text).unwrap();
         let scene = dir.join("bad.toml");
         std::fs::write(
