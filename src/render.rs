@@ -59,8 +59,8 @@ pub struct RenderSettings {
     pub light_radius_deg: f64,
     /// Radiance of the disc (finite, >= 0; default 1): the unit of the image.
     pub light_radiance: f64,
-    /// Radiance of the uniform background outside the disc (finite, >= 0;
-    /// default 0).
+    /// Radiance of the uniform background outside the disc (finite, >= 0,
+    /// at most [`MAX_RADIANCE`]; default 0).
     pub background_radiance: f64,
     /// Seed of the per-pixel random streams.
     pub seed: u64,
@@ -83,6 +83,11 @@ impl Default for RenderSettings {
         }
     }
 }
+
+/// The largest light or background radiance a render takes: the image
+/// holds f32 radiances (up to 3.4e38), and a background of 1e308 gave an
+/// image of infinities.
+pub const MAX_RADIANCE: f64 = 1e30;
 
 impl RenderSettings {
     /// Check the settings; `Err` is one line starting with the `roks render`
@@ -136,6 +141,11 @@ impl RenderSettings {
         ] {
             if !(x.is_finite() && x >= 0.0) {
                 return Err(format!("{name} = {x} must be finite and >= 0"));
+            }
+            if x > MAX_RADIANCE {
+                return Err(format!(
+                    "{name} = {x} is above {MAX_RADIANCE:e}: the image holds f32 radiances (at most 3.4e38)"
+                ));
             }
         }
         Ok(())
@@ -812,6 +822,10 @@ mod tests {
         let mut s = settings();
         s.background_radiance = -1.0;
         assert!(s.validate().is_err());
+        s.background_radiance = 1e308;
+        assert!(s.validate().unwrap_err().starts_with("--background:"));
+        s.background_radiance = MAX_RADIANCE;
+        assert!(s.validate().is_ok());
         assert!(settings().validate().is_ok());
     }
 

@@ -377,6 +377,11 @@ fn every_bad_option_is_one_line_naming_it() {
             vec!["--background:", ">= 0"],
         ),
         (
+            "render background 1e308",
+            vec!["render", s, "--out", e, "--background", "1e308"],
+            vec!["--background:", "above 1e30", "f32"],
+        ),
+        (
             "render light theta 200",
             vec!["render", s, "--out", e, "--light", "200,0"],
             vec!["--light:", "[0, 180]"],
