@@ -387,6 +387,17 @@ fn every_bad_option_is_one_line_naming_it() {
             vec!["--light:", "[0, 180]"],
         ),
         (
+            // A value starting with `-` is the option's value, not an option.
+            "render light theta -1",
+            vec!["render", s, "--out", e, "--light", "-1,0"],
+            vec!["--light:", "[0, 180]"],
+        ),
+        (
+            "shard -1/2",
+            with_out!("brdf", s, "--shard", "-1/2", "--photons", "8192"),
+            vec!["--shard:", "`-1`"],
+        ),
+        (
             "render view 3 values",
             vec!["render", s, "--out", e, "--view", "1,2,3"],
             vec!["--view:", "two comma-separated"],

@@ -71,7 +71,7 @@ pub struct BrdfArgs {
     /// Run only photon block I of N (0-based; whole batches of 4096 photons)
     /// of every incidence angle and also write DIR/tallies.json, the raw sums
     /// that `roks merge` adds up exactly.
-    #[arg(long, value_name = "I/N")]
+    #[arg(long, value_name = "I/N", allow_hyphen_values = true)]
     pub shard: Option<Shard>,
     /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf;
     /// spectral: DIR/brdf_<wavelength>um.bsdf per wavelength), merl

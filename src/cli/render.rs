@@ -26,7 +26,7 @@ pub struct RenderArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], value_parser = number)]
     pub view: Vec<f64>,
     /// Light direction THETA,PHI in degrees (default: the scene's first incidence).
-    #[arg(long, value_delimiter = ',', value_parser = number)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
     pub light: Option<Vec<f64>>,
     /// Angular radius of the light disc (degrees).
     #[arg(long, default_value_t = 5.0, value_parser = number)]
