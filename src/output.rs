@@ -47,6 +47,14 @@ pub fn with_wavelength(header: &str, after: &str, run: &BrdfRun) -> String {
     if run.wavelengths_um.is_empty() {
         return header.to_owned();
     }
+    spectral_header(header, after)
+}
+
+/// `header` with `wavelength_um` after column `after`: the header of a
+/// spectral run's file (written by [`with_wavelength`], checked by the
+/// readers).
+#[must_use]
+pub fn spectral_header(header: &str, after: &str) -> String {
     header
         .split(',')
         .flat_map(|c| {

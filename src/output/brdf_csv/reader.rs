@@ -676,7 +676,7 @@ impl BrdfTables {
     /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
     pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
         match self {
-            Self::Monochrome(t) => Ok(Self::Monochrome(t.attach_mueller(text, name, None)?)),
+            Self::Monochrome(t) => Ok(Self::Monochrome(t.with_mueller_text(text, name)?)),
             Self::Spectral(s) => Ok(Self::Spectral(s.with_mueller_text(text, name)?)),
         }
     }
@@ -697,21 +697,78 @@ impl SpectralTables {
     /// # Errors
     /// As [`BrdfTables::with_mueller_text`].
     pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let fail = |line: usize, message: String| BrdfTableError::Mueller {
+            file: name.to_owned(),
+            line,
+            message,
+        };
+        let (header, rows, last_line) = mueller_rows(text);
+        if header == crate::output::polar_csv::MUELLER_HEADER {
+            return Err(fail(
+                1,
+                format!(
+                    "a mueller.csv of one wavelength, but {} is a spectral table (it needs the wavelength_um column of a spectral run's mueller.csv)",
+                    self.tables()[0].file()
+                ),
+            ));
+        }
+        if header != spectral_mueller_header() {
+            return Err(fail(1, "header is not that of mueller.csv".into()));
+        }
+        // One pass: each row to the table of its wavelength (column 3).
         let wavelengths = self.wavelengths_um().to_vec();
-        for (t, &w) in self.tables_mut().iter_mut().zip(&wavelengths) {
-            *t = t
-                .clone()
-                .attach_mueller(text, name, Some((w, &wavelengths)))?;
+        let mut lanes: Vec<Vec<(usize, &str)>> = vec![Vec::new(); wavelengths.len()];
+        for &(line, l) in &rows {
+            let field = l.split(',').nth(2).unwrap_or("").trim();
+            let at = field
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    fail(
+                        line,
+                        format!("column 3: `{}` is not a finite number", shorten(field, 40)),
+                    )
+                })?;
+            let lane = wavelengths.iter().position(|&w| w == at).ok_or_else(|| {
+                fail(
+                    line,
+                    format!(
+                        "column 3: wavelength_um = {at} is not one of the wavelengths of {}",
+                        self.tables()[0].file()
+                    ),
+                )
+            })?;
+            lanes[lane].push((line, l));
+        }
+        for ((t, &w), rows) in self.tables_mut().iter_mut().zip(&wavelengths).zip(&lanes) {
+            *t = t.clone().attach_mueller(rows, last_line, name, Some(w))?;
         }
         Ok(self)
     }
+}
+
+/// The header (byte-order mark and trailing blanks dropped), the data rows
+/// (line number, text without `\r`; blank lines skipped) and the last line
+/// number of a `mueller.csv`.
+fn mueller_rows(text: &str) -> (&str, Vec<(usize, &str)>, usize) {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
+        .filter(|(_, l)| !l.trim().is_empty());
+    let header = lines.next().map_or("", |(_, l)| l);
+    let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
+    let rows: Vec<(usize, &str)> = lines.collect();
+    let last_line = rows.last().map_or(1, |r| r.0);
+    (header, rows, last_line)
 }
 
 /// The header of a spectral run's `mueller.csv`: that of
 /// [`crate::output::polar_csv::MUELLER_HEADER`] with `wavelength_um` after
 /// `phi_i_deg`.
 fn spectral_mueller_header() -> String {
-    crate::output::polar_csv::MUELLER_HEADER.replacen("phi_i_deg,", "phi_i_deg,wavelength_um,", 1)
+    crate::output::spectral_header(crate::output::polar_csv::MUELLER_HEADER, "phi_i_deg")
 }
 
 /// The table of checked blocks (of one wavelength): sorted by angle, no
@@ -1086,19 +1143,36 @@ impl BrdfTable {
     /// # Errors
     /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
     pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        self.attach_mueller(text, name, None)
+        let fail = |message: String| BrdfTableError::Mueller {
+            file: name.to_owned(),
+            line: 1,
+            message,
+        };
+        let (header, rows, last_line) = mueller_rows(text);
+        if header == spectral_mueller_header() {
+            return Err(fail(format!(
+                "a spectral mueller.csv (wavelength_um column), but {} is a table of one wavelength",
+                self.file()
+            )));
+        }
+        if header != crate::output::polar_csv::MUELLER_HEADER {
+            return Err(fail("header is not that of mueller.csv".into()));
+        }
+        self.attach_mueller(&rows, last_line, name, None)
     }
 
-    /// [`with_mueller_text`](Self::with_mueller_text); for the table of one
-    /// wavelength of a spectral run (`lane = Some((wavelength_um, all the
-    /// table's wavelengths))`) the file has `wavelength_um` after
-    /// `phi_i_deg` and only the rows of that wavelength are read (every row
-    /// must name one of the wavelengths).
+    /// Attach the Mueller blocks of `rows` (line number, text: the data rows
+    /// of one table; `last_line` the file's last) as
+    /// [`with_mueller_text`](Self::with_mueller_text) describes; for the
+    /// table of one wavelength of a spectral run (`wavelength =
+    /// Some(wavelength_um)`) the rows have `wavelength_um` after
+    /// `phi_i_deg` (the rows of that wavelength only).
     fn attach_mueller(
         mut self,
-        text: &str,
+        rows: &[(usize, &str)],
+        last_line: usize,
         name: &str,
-        lane: Option<(f64, &[f64])>,
+        wavelength: Option<f64>,
     ) -> Result<Self, BrdfTableError> {
         let fail = |line: usize, message: String| BrdfTableError::Mueller {
             file: name.to_owned(),
@@ -1106,47 +1180,13 @@ impl BrdfTable {
             message,
         };
         // Columns after `phi_i_deg` move by one in a spectral file.
-        let off = usize::from(lane.is_some());
-        let at_w = lane.map_or(String::new(), |(w, _)| format!(" at {w} um"));
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
-            .filter(|(_, l)| !l.trim().is_empty());
-        let header = lines.next().map_or("", |(_, l)| l);
-        let header = header.strip_prefix('\u{feff}').unwrap_or(header);
-        let mono = crate::output::polar_csv::MUELLER_HEADER;
-        let spectral = spectral_mueller_header();
-        match (header.trim_end(), lane) {
-            (h, None) if h == mono => {}
-            (h, Some(_)) if h == spectral => {}
-            (h, None) if h == spectral => {
-                return Err(fail(
-                    1,
-                    format!(
-                        "a spectral mueller.csv (wavelength_um column), but {} is a table of one wavelength",
-                        self.file()
-                    ),
-                ));
-            }
-            (h, Some(_)) if h == mono => {
-                return Err(fail(
-                    1,
-                    format!(
-                        "a mueller.csv of one wavelength, but {} is a spectral table (it needs the wavelength_um column of a spectral run's mueller.csv)",
-                        self.file()
-                    ),
-                ));
-            }
-            _ => return Err(fail(1, "header is not that of mueller.csv".into())),
-        }
+        let off = usize::from(wavelength.is_some());
+        let at_w = wavelength.map_or(String::new(), |w| format!(" at {w} um"));
         let n = self.grid().n_cells();
         // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
         type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
         let mut blocks: Vec<MuellerBlock> = Vec::new();
-        let mut last_line = 1;
-        for (line, l) in lines {
-            last_line = line;
+        for &(line, l) in rows {
             let f: Vec<&str> = l.split(',').map(str::trim).collect();
             if f.len() != 38 + off {
                 return Err(fail(
@@ -1170,21 +1210,6 @@ impl BrdfTable {
                     })
             };
             let (theta, phi) = (num(0)?, num(1)?);
-            if let Some((w, all)) = lane {
-                let at = num(2)?;
-                if !all.contains(&at) {
-                    return Err(fail(
-                        line,
-                        format!(
-                            "column 3: wavelength_um = {at} is not one of the wavelengths of {}",
-                            self.file()
-                        ),
-                    ));
-                }
-                if at != w {
-                    continue;
-                }
-            }
             if blocks.last().is_none_or(|b| b.2.len() == n) {
                 blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
             }
