@@ -141,7 +141,7 @@ pub fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
 ///
 /// # Errors
 /// Bad input when `out` cannot be written as a file or is one of `inputs`.
-pub fn check_out_file(out: &Path, inputs: &[&Path]) -> Result<(), Failure> {
+pub fn check_out_file(out: &Path, inputs: &[PathBuf]) -> Result<(), Failure> {
     crate::outdir::check_file(out)
         .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))?;
     // Both exist when they are the same file; compare where they resolve to.

@@ -70,7 +70,6 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
         a.dir.join("summary.json"),
         a.dir.join("mueller.csv"),
     ];
-    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     check_out_file(&a.out, &inputs)?;
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(

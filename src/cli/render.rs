@@ -85,7 +85,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         &format!("a {w} x {h} image (radiance, EXR and PNG)"),
         crate::render::image_memory_bytes(w, h),
     )?;
-    check_out_file(&a.out, &a.scene.as_deref().into_iter().collect::<Vec<_>>())?;
+    check_out_file(&a.out, a.scene.as_slice())?;
     let png = a.out.with_extension("png");
     if png == a.out {
         return Err(Failure::Input(format!(
@@ -93,7 +93,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
             a.out.display()
         )));
     }
-    check_out_file(&png, &a.scene.as_deref().into_iter().collect::<Vec<_>>())?;
+    check_out_file(&png, a.scene.as_slice())?;
     // A file that cannot be read is left to the micro loader's message.
     if let Some(path) = a
         .scene
