@@ -92,6 +92,8 @@ pub struct SpectralTableWall {
     mean: BrdfTable,
     /// The table of each wavelength (lane), in the run's order.
     tables: SpectralTables,
+    /// Whether every wavelength's table has its Mueller table.
+    polarising: bool,
 }
 
 impl SpectralTableWall {
@@ -102,6 +104,7 @@ impl SpectralTableWall {
     pub fn new(tables: SpectralTables) -> Option<Self> {
         (tables.tables().len() <= MAX_WAVELENGTHS).then(|| Self {
             mean: tables.mean(),
+            polarising: tables.tables().iter().all(BrdfTable::has_mueller),
             tables,
         })
     }
@@ -115,7 +118,7 @@ impl SpectralTableWall {
     /// Whether every wavelength's table has its Mueller table.
     #[must_use]
     pub fn polarising(&self) -> bool {
-        self.tables.tables().iter().all(BrdfTable::has_mueller)
+        self.polarising
     }
 }
 
@@ -172,6 +175,19 @@ fn table_frame(d: DVec3, n: DVec3, rng: &mut impl rand::Rng) -> (DVec3, DVec3) {
         a.cos() * e1 + a.sin() * e2
     });
     (t1, n.cross(t1))
+}
+
+/// The Stokes reference vectors of a table reflection in world coordinates:
+/// the incoming flight `d`'s and the outgoing local direction `l`'s, each
+/// the hemisphere reference of the table's local frame `(t1, t2, n)` (light
+/// azimuth 0), as a `mueller.csv` tabulates them.
+fn table_references(d: DVec3, l: DVec3, (t1, t2, n): (DVec3, DVec3, DVec3)) -> (DVec3, DVec3) {
+    let world = |v: DVec3| v.x * t1 + v.y * t2 + v.z * n;
+    let local_in = DVec3::new(d.dot(t1), d.dot(t2), d.dot(n));
+    (
+        world(hemisphere_reference(local_in, 0.0)),
+        world(hemisphere_reference(l, 0.0)),
+    )
 }
 
 /// A unit vector uniformly distributed in cosine about +z (Lambertian).
@@ -239,9 +255,7 @@ impl WallModel {
                             // Frames of the table: hemisphere references in
                             // its local frame (light azimuth 0).
                             Some(m) => {
-                                let local_in = DVec3::new(d.dot(t1), d.dot(t2), d.dot(n));
-                                let x_in = world(hemisphere_reference(local_in, 0.0));
-                                let x_out = world(hemisphere_reference(l, 0.0));
+                                let (x_in, x_out) = table_references(d, l, (t1, t2, n));
                                 w.transfer(d, x_in, m, factor, x_out);
                             }
                             None => w.depolarise(factor, dir),
@@ -267,21 +281,16 @@ impl WallModel {
                     *f = factor * (t.fraction(incidence, cell) / mean);
                 }
                 let factors = &factors[..tables.len()];
-                // Each lane's matrix in the cell chosen (all or none attached).
-                let mut ms = [&[0.0; 16]; MAX_WAVELENGTHS];
-                let mut with_mueller = !tables.is_empty();
-                for (m, t) in ms.iter_mut().zip(tables) {
-                    match t.mueller(incidence, cell) {
-                        Some(tm) => *m = tm,
-                        None => with_mueller = false,
+                if wall.polarising {
+                    // Each lane's matrix in the cell chosen (every table has
+                    // its Mueller table, so every cell has its matrix).
+                    let mut ms = [&[0.0; 16]; MAX_WAVELENGTHS];
+                    for (m, t) in ms.iter_mut().zip(tables) {
+                        if let Some(tm) = t.mueller(incidence, cell) {
+                            *m = tm;
+                        }
                     }
-                }
-                if with_mueller {
-                    // Frames as for a monochrome table with its Mueller table.
-                    let world = |v: DVec3| v.x * t1 + v.y * t2 + v.z * n;
-                    let local_in = DVec3::new(d.dot(t1), d.dot(t2), d.dot(n));
-                    let x_in = world(hemisphere_reference(local_in, 0.0));
-                    let x_out = world(hemisphere_reference(l, 0.0));
+                    let (x_in, x_out) = table_references(d, l, (t1, t2, n));
                     w.transfer_lanes(d, x_in, &ms[..tables.len()], factors, x_out);
                 } else {
                     w.depolarise_lanes(factors, dir);
