@@ -122,6 +122,12 @@ pub enum FieldEvent {
     },
     /// Rises above the highest point: nothing more to meet.
     Escapes,
+    /// Passes above everything for whole periods: the flight goes on from
+    /// `at` (in the period, same direction), where a new walk starts.
+    Moved {
+        /// The new start.
+        at: DVec3,
+    },
     /// Horizontal above everything, walked `MAX_STEPS` (2^24) steps, or
     /// crossed [`super::MAX_CROSSINGS`] periods.
     Trapped,
@@ -166,8 +172,10 @@ const SKIP_AFTER: u32 = 64;
 /// What [`HeightField::skip_periods`] found.
 enum FieldSkip {
     None,
-    /// Continue the walk at this `t` (whole periods on).
-    To(f64),
+    /// The flight continues from this point (folded into the period), whole
+    /// periods on: a new walk starts there (a distance from the old start
+    /// would be too coarse after, say, 1e15 periods).
+    To(DVec3),
     Escapes,
 }
 
@@ -389,12 +397,15 @@ impl HeightField {
         if drift_mod.is_nan() || 16.0 * drift_mod.abs() > self.pitch[b] {
             return FieldSkip::None;
         }
-        let margin = 1e-9
-            * self
-                .size
-                .max_element()
-                .max(self.max.abs())
-                .max(self.min.abs());
+        // A hair relative to the scene (`COARSE`), then, for a flight that
+        // stays within it, `FINE` (see `MicroSurface::skip_periods`).
+        const COARSE: f64 = 1e-9;
+        const FINE: f64 = 1e-13;
+        let scale = self
+            .size
+            .max_element()
+            .max(self.max.abs())
+            .max(self.min.abs());
         // The surface's highest point along the next period's segment.
         let (u0, v0) = (ray.ou + t * ray.du, ray.ov + t * ray.dv);
         let (u1, v1) = (u0 + dt * ray.du, v0 + dt * ray.dv);
@@ -423,21 +434,43 @@ impl HeightField {
         let g = self.max_slope;
         let z = ray.z_at(t);
         let dz = dt * d.z;
+        // The start `k` periods on, folded into the period.
+        let moved = |k: f64| {
+            let mut p = DVec3::new(u0 * self.pitch.x, v0 * self.pitch.y, z + k * dz);
+            p[b] += k * drift * self.pitch[b];
+            FieldSkip::To(self.fold(p))
+        };
         if dz < 0.0 {
             // Lowest point of period k (0-based) at its far end: z + (k + 1) dz.
-            let room = z - line - (g + 1.0) * margin - margin;
-            let k = (room / (-dz + g * drift_mod.abs())).floor() - 1.0;
-            if k.is_nan() || k < 1.0 {
-                return FieldSkip::None;
+            let descend = |rel: f64| {
+                let margin = rel * scale;
+                let room = z - line - (g + 1.0) * margin - margin;
+                let k = (room / (-dz + g * drift_mod.abs())).floor() - 1.0;
+                (k >= 1.0).then_some(k)
+            };
+            match descend(COARSE).or_else(|| descend(FINE)) {
+                Some(k) => moved(k),
+                None => FieldSkip::None,
             }
-            FieldSkip::To(t + k * dt)
         } else {
+            // Rising: above the surface within `k` periods' band, from the
+            // start (its lowest point in each period)?
+            let above = |k: f64, rel: f64| {
+                let margin = rel * scale;
+                z > line + g * (k * drift_mod.abs() + margin) + margin
+            };
             let k_top = ((self.max - z) / dz).ceil().max(1.0);
-            if z > line + g * (k_top * drift_mod.abs() + margin) + margin {
-                FieldSkip::Escapes
-            } else {
-                FieldSkip::None
+            if above(k_top, COARSE) || above(k_top, FINE) {
+                return FieldSkip::Escapes;
             }
+            // Otherwise the most periods, doubling from one, above the
+            // surface within their band.
+            let (mut k, mut next) = (0.0_f64, 1.0_f64);
+            while next < k_top && above(next, FINE) {
+                k = next;
+                next *= 2.0;
+            }
+            if k >= 1.0 { moved(k) } else { FieldSkip::None }
         }
     }
 
@@ -684,15 +717,7 @@ impl HeightField {
                     match self.skip_periods(&ray, t, exit_u) {
                         FieldSkip::None => {}
                         FieldSkip::Escapes => return FieldEvent::Escapes,
-                        FieldSkip::To(t_new) => {
-                            // Whole periods on, from the top of the hierarchy.
-                            t = t_new;
-                            (i, bi) = wrap(floor_i64(ray.ou + t * ray.du), self.nx);
-                            (j, bj) = wrap(floor_i64(ray.ov + t * ray.dv), self.ny);
-                            level = top;
-                            f_carried = None;
-                            continue;
-                        }
+                        FieldSkip::To(at) => return FieldEvent::Moved { at },
                     }
                 }
             }
@@ -1369,15 +1394,7 @@ mod tests {
                     match f.skip_periods(&ray, t, exit_u) {
                         FieldSkip::None => {}
                         FieldSkip::Escapes => return FieldEvent::Escapes,
-                        FieldSkip::To(t_new) => {
-                            // Whole periods on, from the top of the hierarchy.
-                            t = t_new;
-                            (i, bi) = wrap(floor_i64(ray.ou + t * ray.du), f.nx);
-                            (j, bj) = wrap(floor_i64(ray.ov + t * ray.dv), f.ny);
-                            level = top;
-                            f_carried = None;
-                            continue;
-                        }
+                        FieldSkip::To(at) => return FieldEvent::Moved { at },
                     }
                 }
             }

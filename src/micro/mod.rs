@@ -74,7 +74,9 @@ impl Solid {
     /// heights fall with the scaled distance from their centre, plus the
     /// same relative pad as [`Self::max_height_over`]; the bounds' top
     /// otherwise).
-    fn max_height_near(&self, a: DVec2, b: DVec2, w: f64) -> f64 {
+    /// `pad` is the relative pad above the exact profile (of the bump's height)
+    /// that keeps the bound above rounding in the body's own test.
+    fn max_height_near(&self, a: DVec2, b: DVec2, w: f64, pad: f64) -> f64 {
         match &self.bump {
             Some((shape, bump)) => {
                 let r = DVec2::new(bump.radius, bump.radius_y);
@@ -87,7 +89,7 @@ impl Solid {
                     0.0
                 };
                 let s = (qa + t * e).length() - w / r.min_element();
-                shape.profile(bump, s.max(0.0)) + 1e-9 * bump.height
+                shape.profile(bump, s.max(0.0)) + pad * bump.height
             }
             None => self.body.bounds.max.z,
         }
@@ -145,6 +147,13 @@ pub enum Event {
         axis: usize,
         /// True at `x = Lx` (or `y = Ly`), false at 0.
         upper: bool,
+    },
+    /// Passes above everything for whole periods (a height field's walk
+    /// skipped them, see [`HeightField`]): the flight goes on from `at`, in
+    /// the period, with the same direction.
+    Moved {
+        /// The new start.
+        at: DVec3,
     },
     /// The flight never ends in the period (horizontal and above everything); counted as lost.
     Trapped,
@@ -721,8 +730,16 @@ impl MicroSurface {
             return Skip::None;
         }
         // Rounding of positions and of the solids' heights: a hair relative
-        // to the scene, as the launch plane's.
-        let margin = 1e-9 * self.size.max_element().max(self.max_height.abs());
+        // to the scene, as the launch plane's (`COARSE`); a flight that
+        // stays within that hair of what it can meet descends so slowly
+        // that it would cross the period for ever (e.g. at one ulp below 90
+        // degrees, 5e-15 a period: 6e6 periods through the launch plane's
+        // 3e-8), so it is asked again with `FINE`, still a hundred times
+        // the rounding of a position (an ulp of the height) and ten times
+        // that of a bump's test (about 1e-14 of its height).
+        const COARSE: f64 = 1e-9;
+        const FINE: f64 = 1e-13;
+        let scale = self.size.max_element().max(self.max_height.abs());
         // The first period's path, folded into the period: pieces between the
         // crossings of the other axis' sides.
         let point = |sigma: f64| {
@@ -753,32 +770,37 @@ impl MicroSurface {
             })
             .collect();
         // The highest solid within `w` of the pieces (and of their copies
-        // one period away across the other axis' sides).
-        let highest_near = |w: f64| -> f64 {
+        // one period away across the other axis' sides), padded by `rel`.
+        let highest_near = |w: f64, rel: f64| -> f64 {
             let mut top = 0.0_f64;
             for solid in &solids.list[1..] {
                 for &(a0, a1) in &pieces {
                     for shift in [-len_b, 0.0, len_b] {
                         let mut s = DVec2::ZERO;
                         s[b] = shift;
-                        top = top.max(solid.max_height_near(a0 + s, a1 + s, w));
+                        top = top.max(solid.max_height_near(a0 + s, a1 + s, w, rel));
                     }
                 }
             }
             top
         };
         if dz < 0.0 {
-            // The lowest point of period n (0-based) is at its far end: p.z + (n + 1) dz.
-            let k1 = ((p.z - highest_near(margin) - margin) / -dz).floor() - 1.0;
-            if k1.is_nan() || k1 < 1.0 {
+            // Whole periods to skip with tolerance `rel`, if at least one.
+            let descend = |rel: f64| -> Option<f64> {
+                let margin = rel * scale;
+                // The lowest point of period n (0-based) is at its far end: p.z + (n + 1) dz.
+                let k1 = ((p.z - highest_near(margin, rel) - margin) / -dz).floor() - 1.0;
+                if k1.is_nan() || k1 < 1.0 {
+                    return None;
+                }
+                // Every band of fewer periods lies within the band of k1.
+                let m = highest_near((k1 * drift_mod).abs() + margin, rel);
+                let k = k1.min(((p.z - m - margin) / -dz).floor() - 1.0);
+                (k >= 1.0).then_some(k)
+            };
+            let Some(k) = descend(COARSE).or_else(|| descend(FINE)) else {
                 return Skip::None;
-            }
-            // Every band of fewer periods lies within the band of k1.
-            let m = highest_near((k1 * drift_mod).abs() + margin);
-            let k = k1.min(((p.z - m - margin) / -dz).floor() - 1.0);
-            if k.is_nan() || k < 1.0 {
-                return Skip::None;
-            }
+            };
             let mut at = p;
             at[b] += k * drift;
             at[b] -= (at[b] / len_b).floor() * len_b;
@@ -787,12 +809,34 @@ impl MicroSurface {
         } else {
             // Rising: above everything it passes over until the launch plane?
             let k_top = ((self.top - p.z) / dz).ceil().max(1.0);
-            let m = highest_near((k_top * drift_mod).abs() + margin);
-            if p.z > m + margin {
-                Skip::Escapes
-            } else {
-                Skip::None
+            // Above everything within `band + margin` of the path from its
+            // start (a rising flight's lowest point in each period)?
+            let above = |band: f64, rel: f64| {
+                let margin = rel * scale;
+                p.z > highest_near(band + margin, rel) + margin
+            };
+            let band = |k: f64| (k * drift_mod).abs();
+            if above(band(k_top), COARSE) || above(band(k_top), FINE) {
+                return Skip::Escapes;
             }
+            // Not above all it may pass before the launch plane, e.g. just
+            // off the top of the bump it left, drifting over it: skip the
+            // most periods, doubling from one, above everything within
+            // their band (the band grows with the periods, the flight's
+            // lowest point is where it starts).
+            let (mut k, mut next) = (0.0_f64, 1.0_f64);
+            while next < k_top && above(band(next), FINE) {
+                k = next;
+                next *= 2.0;
+            }
+            if k < 1.0 {
+                return Skip::None;
+            }
+            let mut at = p;
+            at[b] += k * drift;
+            at[b] -= (at[b] / len_b).floor() * len_b;
+            at.z += k * dz;
+            Skip::To { at, periods: k }
         }
     }
 
@@ -819,6 +863,7 @@ impl MicroSurface {
             FieldEvent::Escapes => Event::Top {
                 t: ((self.top - o.z) / d.z).max(0.0),
             },
+            FieldEvent::Moved { at } => Event::Moved { at },
             FieldEvent::Trapped => Event::Trapped,
         }
     }

@@ -119,6 +119,16 @@ pub fn trace<C: Carrier>(
                 return end(Fate::Escaped { dir: d, weight: w }, bounces, segments);
             }
             Event::Trapped => return end(Fate::Capped { weight: w }, bounces, segments),
+            Event::Moved { at } => {
+                // Whole periods on (counted as one crossing of the flight).
+                p = at;
+                standing = None;
+                crossings += 1;
+                if crossings >= MAX_CROSSINGS {
+                    return end(Fate::Capped { weight: w }, bounces, segments);
+                }
+                continue;
+            }
             Event::Hit { t, facet } => {
                 if bounces >= controls.max_bounces {
                     return end(Fate::Capped { weight: w }, bounces, segments);
