@@ -99,6 +99,8 @@
 //! directions).
 
 use glam::{DVec2, DVec3};
+
+use super::{SKIP_COARSE, SKIP_FINE, doubling_periods};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rustfft::FftPlanner;
@@ -397,10 +399,8 @@ impl HeightField {
         if drift_mod.is_nan() || 16.0 * drift_mod.abs() > self.pitch[b] {
             return FieldSkip::None;
         }
-        // A hair relative to the scene (`COARSE`), then, for a flight that
-        // stays within it, `FINE` (see `MicroSurface::skip_periods`).
-        const COARSE: f64 = 1e-9;
-        const FINE: f64 = 1e-13;
+        // A hair relative to the scene, then, for a flight that stays
+        // within it, the fine tolerance (see [`SKIP_FINE`]).
         let scale = self
             .size
             .max_element()
@@ -448,7 +448,7 @@ impl HeightField {
                 let k = (room / (-dz + g * drift_mod.abs())).floor() - 1.0;
                 (k >= 1.0).then_some(k)
             };
-            match descend(COARSE).or_else(|| descend(FINE)) {
+            match descend(SKIP_COARSE).or_else(|| descend(SKIP_FINE)) {
                 Some(k) => moved(k),
                 None => FieldSkip::None,
             }
@@ -460,16 +460,12 @@ impl HeightField {
                 z > line + g * (k * drift_mod.abs() + margin) + margin
             };
             let k_top = ((self.max - z) / dz).ceil().max(1.0);
-            if above(k_top, COARSE) || above(k_top, FINE) {
+            if above(k_top, SKIP_COARSE) || above(k_top, SKIP_FINE) {
                 return FieldSkip::Escapes;
             }
             // Otherwise the most periods, doubling from one, above the
             // surface within their band.
-            let (mut k, mut next) = (0.0_f64, 1.0_f64);
-            while next < k_top && above(next, FINE) {
-                k = next;
-                next *= 2.0;
-            }
+            let k = doubling_periods(k_top, |k| above(k, SKIP_FINE));
             if k >= 1.0 { moved(k) } else { FieldSkip::None }
         }
     }

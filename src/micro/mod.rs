@@ -159,6 +159,30 @@ pub enum Event {
     Trapped,
 }
 
+/// Tolerance of the period skips (bumps and height fields), relative to the
+/// scene's scale: a hair, as the launch plane's margin above the highest point.
+pub(crate) const SKIP_COARSE: f64 = 1e-9;
+
+/// The skips' second tolerance, for a flight within [`SKIP_COARSE`] of what
+/// it can meet: such a flight descends so slowly that it would cross the
+/// period for ever (at one ulp below 90 degrees, 5e-15 a period: 6e6
+/// periods through the launch plane's 3e-8). Still a hundred times the
+/// rounding of a position (an ulp of the height) and ten times that of a
+/// bump's test (about 1e-14 of its height).
+pub(crate) const SKIP_FINE: f64 = 1e-13;
+
+/// The most periods, doubling from one and fewer than `limit`, for which
+/// `clear(k)` holds (0 if not even one): `clear` holds for fewer periods
+/// whenever it holds for more (a band that grows with the periods).
+pub(crate) fn doubling_periods(limit: f64, clear: impl Fn(f64) -> bool) -> f64 {
+    let (mut k, mut next) = (0.0_f64, 1.0_f64);
+    while next < limit && clear(next) {
+        k = next;
+        next *= 2.0;
+    }
+    k
+}
+
 /// What [`MicroSurface::skip_periods`] found for a flight on a periodic side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Skip {
@@ -729,16 +753,8 @@ impl MicroSurface {
         if drift_mod.is_nan() || 16.0 * drift_mod.abs() > solids.grid.pitch[b] {
             return Skip::None;
         }
-        // Rounding of positions and of the solids' heights: a hair relative
-        // to the scene, as the launch plane's (`COARSE`); a flight that
-        // stays within that hair of what it can meet descends so slowly
-        // that it would cross the period for ever (e.g. at one ulp below 90
-        // degrees, 5e-15 a period: 6e6 periods through the launch plane's
-        // 3e-8), so it is asked again with `FINE`, still a hundred times
-        // the rounding of a position (an ulp of the height) and ten times
-        // that of a bump's test (about 1e-14 of its height).
-        const COARSE: f64 = 1e-9;
-        const FINE: f64 = 1e-13;
+        // What the tolerances (rounding of positions and of the solids'
+        // heights) are relative to.
         let scale = self.size.max_element().max(self.max_height.abs());
         // The first period's path, folded into the period: pieces between the
         // crossings of the other axis' sides.
@@ -784,6 +800,14 @@ impl MicroSurface {
             }
             top
         };
+        // The start `k` periods on, on the same side of the period.
+        let moved = |k: f64| {
+            let mut at = p;
+            at[b] += k * drift;
+            at[b] -= (at[b] / len_b).floor() * len_b;
+            at.z += k * dz;
+            Skip::To { at, periods: k }
+        };
         if dz < 0.0 {
             // Whole periods to skip with tolerance `rel`, if at least one.
             let descend = |rel: f64| -> Option<f64> {
@@ -798,14 +822,10 @@ impl MicroSurface {
                 let k = k1.min(((p.z - m - margin) / -dz).floor() - 1.0);
                 (k >= 1.0).then_some(k)
             };
-            let Some(k) = descend(COARSE).or_else(|| descend(FINE)) else {
-                return Skip::None;
-            };
-            let mut at = p;
-            at[b] += k * drift;
-            at[b] -= (at[b] / len_b).floor() * len_b;
-            at.z += k * dz;
-            Skip::To { at, periods: k }
+            match descend(SKIP_COARSE).or_else(|| descend(SKIP_FINE)) {
+                Some(k) => moved(k),
+                None => Skip::None,
+            }
         } else {
             // Rising: above everything it passes over until the launch plane?
             let k_top = ((self.top - p.z) / dz).ceil().max(1.0);
@@ -816,7 +836,7 @@ impl MicroSurface {
                 p.z > highest_near(band + margin, rel) + margin
             };
             let band = |k: f64| (k * drift_mod).abs();
-            if above(band(k_top), COARSE) || above(band(k_top), FINE) {
+            if above(band(k_top), SKIP_COARSE) || above(band(k_top), SKIP_FINE) {
                 return Skip::Escapes;
             }
             // Not above all it may pass before the launch plane, e.g. just
@@ -824,19 +844,8 @@ impl MicroSurface {
             // most periods, doubling from one, above everything within
             // their band (the band grows with the periods, the flight's
             // lowest point is where it starts).
-            let (mut k, mut next) = (0.0_f64, 1.0_f64);
-            while next < k_top && above(band(next), FINE) {
-                k = next;
-                next *= 2.0;
-            }
-            if k < 1.0 {
-                return Skip::None;
-            }
-            let mut at = p;
-            at[b] += k * drift;
-            at[b] -= (at[b] / len_b).floor() * len_b;
-            at.z += k * dz;
-            Skip::To { at, periods: k }
+            let k = doubling_periods(k_top, |k| above(band(k), SKIP_FINE));
+            if k >= 1.0 { moved(k) } else { Skip::None }
         }
     }
 
