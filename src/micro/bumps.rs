@@ -98,6 +98,24 @@ impl Shape {
         self.profile(b, q.length())
     }
 
+    /// The lowest point of the bump's top over the rectangle `[lo, hi]` of
+    /// the plane (length units): its height at the rectangle's point farthest
+    /// from the centre in scaled coordinates (exact, since heights fall with
+    /// `s`); `-inf` when that point is outside the footprint.
+    ///
+    /// Every shape is solid below its top: over the rectangle, its body holds
+    /// every point from the substrate `z = 0` up to this height (the
+    /// ellipsoid's underside, the cone's lower nappe, the paraboloid, the
+    /// post and the hyperboloid base all reach below `z = 0` inside the
+    /// footprint). Whatever lies under it there cannot be reached by a flight.
+    #[must_use]
+    pub fn min_height_over(self, b: &Bump, lo: DVec2, hi: DVec2) -> f64 {
+        let far = |c: f64, lo: f64, hi: f64| if c - lo > hi - c { lo } else { hi };
+        let farthest = DVec2::new(far(b.center.x, lo.x, hi.x), far(b.center.y, lo.y, hi.y));
+        let q = (farthest - b.center) / DVec2::new(b.radius, b.radius_y);
+        self.profile(b, q.length())
+    }
+
     /// The solid for one bump, with its bounds and top.
     #[must_use]
     pub fn body(self, b: &Bump, material: usize) -> Placed {
@@ -271,6 +289,66 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Every shape's body holds the column from the substrate up to its
+    /// lowest top over a rectangle, for rectangles inside, across and
+    /// beyond the footprint (random bumps of every shape).
+    #[test]
+    fn bodies_hold_the_column_under_their_lowest_top() {
+        let mut state = 7_u64;
+        let mut u = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut covered = 0;
+        for _ in 0..400 {
+            let b = Bump {
+                center: DVec2::new(10.0 * u(), 10.0 * u()),
+                radius: 0.5 + 5.0 * u(),
+                radius_y: 0.5 + 5.0 * u(),
+                height: 0.1 + 4.0 * u(),
+                depth: 2.0 * u(),
+                cap: 0.05 + 0.95 * u(),
+                base: 1.01 + 2.0 * u(),
+            };
+            for shape in [
+                Shape::Ellipsoid,
+                Shape::EllipsoidOnHyperboloid,
+                Shape::Paraboloid,
+                Shape::Cone,
+                Shape::Cylinder,
+            ] {
+                let body = shape.body(&b, 0).body;
+                let lo = DVec2::new(12.0 * u() - 1.0, 12.0 * u() - 1.0);
+                let hi = lo + DVec2::new(3.0 * u(), 3.0 * u());
+                let floor = shape.min_height_over(&b, lo, hi);
+                if floor <= 0.0 {
+                    continue;
+                }
+                covered += 1;
+                // The lowest top is the least profile over the rectangle.
+                let mut least = f64::INFINITY;
+                for i in 0..=8 {
+                    for j in 0..=8 {
+                        let xy = lo + (hi - lo) * DVec2::new(f64::from(i), f64::from(j)) / 8.0;
+                        let s = ((xy - b.center) / DVec2::new(b.radius, b.radius_y)).length();
+                        least = least.min(shape.profile(&b, s));
+                        for k in 0..=8 {
+                            let z = floor * (1.0 - 1e-9) * f64::from(k) / 8.0;
+                            assert!(
+                                body.contains(DVec3::new(xy.x, xy.y, z)),
+                                "{shape:?} {b:?} at {xy} z {z} under {floor}"
+                            );
+                        }
+                    }
+                }
+                assert!((least - floor).abs() <= 1e-12 * b.height.max(1.0), "{shape:?}");
+            }
+        }
+        assert!(covered > 300, "{covered} rectangles under a top");
     }
 
     /// Footprints at the substrate: the bounds hold the body at z >= 0.

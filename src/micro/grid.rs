@@ -18,6 +18,12 @@
 //!   grid cell as an `f32` rounded up (a conservative filter); where the
 //!   `f32` cannot decide, the exact `f64` height is read, so the solids tested
 //!   are exactly those of an `f64` grid.
+//! * A solid is left out of a grid cell's list where it lies wholly under a
+//!   bump that fills the cell's whole column up to some height (bumps are
+//!   solid below their tops, see [`super::bumps::Shape::min_height_over`]):
+//!   no flight reaches it there. Bumps wider than the period overlap by the
+//!   hundreds in every cell, their periodic copies included, and most of
+//!   them are buried so.
 
 use glam::{DVec2, DVec3};
 
@@ -267,6 +273,11 @@ impl Grid {
         }
         let mut lists = vec![Vec::new(); nx * ny];
         let mut zmax = vec![f64::NEG_INFINITY; nx * ny];
+        // The height up to which some solid fills the grid cell's whole
+        // column: a flight over the cell (outside every solid) stays above
+        // it, so a solid wholly below it there is not listed there (buried
+        // under larger bumps; it is listed wherever it reaches above them).
+        let mut floor = vec![f64::NEG_INFINITY; nx * ny];
         for &i in gridded {
             let b = &solids[i].body.bounds;
             for iy in range(b.min.y, b.max.y, pitch.y, ny) {
@@ -278,6 +289,8 @@ impl Grid {
                     }
                     lists[iy * nx + ix].push((record_of[i], top));
                     zmax[iy * nx + ix] = zmax[iy * nx + ix].max(top);
+                    floor[iy * nx + ix] =
+                        floor[iy * nx + ix].max(solids[i].covers_over(lo, lo + pitch));
                 }
             }
         }
@@ -295,6 +308,7 @@ impl Grid {
         let mut exact = Vec::new();
         for c in by_morton {
             let mut l = std::mem::take(&mut lists[c]);
+            l.retain(|&(_, top)| top >= floor[c]);
             // Tallest first (stable: ties keep the solids' order), so a
             // flight stops scanning at the first solid below it.
             l.sort_by(|a, b| b.1.total_cmp(&a.1));

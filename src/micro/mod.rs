@@ -95,6 +95,18 @@ impl Solid {
         }
     }
 
+    /// A height up to which the solid holds the whole column over the
+    /// rectangle `[lo, hi]` from the substrate (a lower bound: a bump's
+    /// lowest top there, less the relative pad of [`Self::max_height_over`];
+    /// `-inf` for other solids, or where the rectangle is not all under the
+    /// bump).
+    fn covers_over(&self, lo: DVec2, hi: DVec2) -> f64 {
+        match &self.bump {
+            Some((shape, b)) => shape.min_height_over(b, lo, hi) - 1e-9 * b.height,
+            None => f64::NEG_INFINITY,
+        }
+    }
+
     /// Highest point of the solid over the rectangle `[lo, hi]` (an upper bound).
     fn max_height_over(&self, lo: DVec2, hi: DVec2) -> f64 {
         match &self.bump {
