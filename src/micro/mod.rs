@@ -1019,6 +1019,104 @@ mod tests {
         ));
     }
 
+    /// The nearest entry into any solid, by testing every one of them
+    /// (the grid's independent reference).
+    fn nearest_by_scan(
+        s: &MicroSurface,
+        o: DVec3,
+        d: DVec3,
+        standing: Option<Facet>,
+    ) -> Option<(f64, Facet)> {
+        let ray = Ray::new(o, d);
+        let mut best: Option<(f64, Facet)> = None;
+        for (i, solid) in s.solids().iter().enumerate() {
+            let on = match standing {
+                Some(Facet::Solid { solid, surface }) if solid == i => Some(surface),
+                _ => None,
+            };
+            let t_max = best.map_or(f64::INFINITY, |b| b.0);
+            if let Some(e) = solid.body.first_entry(&ray, t_max, on) {
+                let facet = Facet::Solid {
+                    solid: i,
+                    surface: e.surface,
+                };
+                best = Some((e.t, facet));
+            }
+        }
+        best
+    }
+
+    /// Bumps wider than the period, of every shape: hundreds of copies over
+    /// every grid cell, most of them buried under others and left out of
+    /// the grid. Flights from the launch plane and from the points they hit
+    /// meet exactly what a scan over every solid meets.
+    #[test]
+    fn buried_solids_left_out_of_the_grid_change_no_event() {
+        use bumps::{Bump, Shape};
+        let mut state = 11_u64;
+        let mut u = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let shapes = [
+            Shape::Ellipsoid,
+            Shape::EllipsoidOnHyperboloid,
+            Shape::Paraboloid,
+            Shape::Cone,
+            Shape::Cylinder,
+        ];
+        let placed = (0..40)
+            .map(|k| {
+                let b = Bump {
+                    center: DVec2::new(30.0 * u(), 30.0 * u()),
+                    radius: 20.0 + 25.0 * u(),
+                    radius_y: 20.0 + 25.0 * u(),
+                    height: 0.5 + 4.0 * u(),
+                    depth: u(),
+                    cap: 0.2 + 0.8 * u(),
+                    base: 1.2 + u(),
+                };
+                shapes[k % shapes.len()].body(&b, 0)
+            })
+            .collect();
+        let s = MicroSurface::new(DVec2::new(30.0, 30.0), Edges::Periodic, placed, white(), 0);
+        let (_, per_cell) = s.acceleration_stats();
+        // Each of the 40 bumps reaches over every grid cell in some copy.
+        assert!(per_cell < 40.0, "{per_cell} listed per grid cell");
+        assert!(s.solids().len() > 400, "{} solids", s.solids().len());
+        let mut scratch = Scratch::new(&s);
+        let (mut hits, mut exits) = (0, 0);
+        for _ in 0..3000 {
+            let o = DVec3::new(30.0 * u(), 30.0 * u(), s.top);
+            let (ct, phi) = (0.05 + 0.95 * u(), std::f64::consts::TAU * u());
+            let st = (1.0 - ct * ct).sqrt();
+            let d = DVec3::new(st * phi.cos(), st * phi.sin(), -ct);
+            let (mut o, mut d, mut standing) = (o, d, None);
+            for _ in 0..3 {
+                let e = s.next_event(o, d, standing, &mut scratch);
+                let scan = nearest_by_scan(&s, o, d, standing);
+                match e {
+                    Event::Hit { t, facet } => {
+                        assert_eq!(scan, Some((t, facet)), "{o} {d}");
+                        hits += 1;
+                        let mut p = o + t * d;
+                        let (n, _) = s.hit_normal(&mut p, d, facet).expect("a normal");
+                        (o, d, standing) = (p, d - 2.0 * d.dot(n) * n, Some(facet));
+                    }
+                    Event::Top { t } | Event::Side { t, .. } => {
+                        assert!(scan.is_none_or(|(ts, _)| ts > t), "{o} {d} {e:?} {scan:?}");
+                        exits += 1;
+                        break;
+                    }
+                    other => panic!("{other:?}"),
+                }
+            }
+        }
+        assert!(hits > 2000 && exits > 2000, "{hits} hits, {exits} exits");
+    }
+
     #[test]
     fn a_height_field_surface_names_its_triangles() {
         let field = HeightField::new(2, 2, DVec2::ONE, vec![0.0; 4]);
