@@ -345,7 +345,10 @@ mod tests {
                         }
                     }
                 }
-                assert!((least - floor).abs() <= 1e-12 * b.height.max(1.0), "{shape:?}");
+                assert!(
+                    (least - floor).abs() <= 1e-12 * b.height.max(1.0),
+                    "{shape:?}"
+                );
             }
         }
         assert!(covered > 200, "{covered} rectangles under a top");
