@@ -1,12 +1,15 @@
-"""Scaling of the micro tracer: bump count and height-field resolution, 1 and 2 threads.
+"""Scaling of the micro tracer: bump count, bump size and height-field resolution, 1 and 2 threads.
 
     .venv/bin/python scripts/scaling.py [--roks target/release/roks] [--out results/scaling] [--quick]
-        [--callgrind]
+        [--callgrind] [--kinds bumps,radius,field]
 
 Bumps: the default scene's ellipsoids (radii 2.5-3.5, heights 0.8-4.8) at
 constant density, N = 36, 100, 1000, 10 000, 100 000 bumps on a periodic cell
 of side 3 sqrt(N) (30 for 100 bumps). Height fields: Gaussian, sigma 1,
-tau 8 pitches, 256² to 4096² squares of pitch 0.25. Each scene is traced at
+tau 8 pitches, 256² to 4096² squares of pitch 0.25. Bump radius: the
+default scene (100 such bumps on a 30 x 30 cell) with every radius set to
+R = 3, 15, 30, 60, 120, up to four periods wide (hundreds of periodic copies
+over every grid cell). Each scene is traced at
 60 degrees with `roks brdf` (10^6 photons; 2x10^5 for the largest) with
 `--threads 1` and `--threads 2`. Recorded: segments per second (from
 summary.json), intersection tests per segment (summary.json: quadrics whose
@@ -15,7 +18,7 @@ ray polynomial was formed, or height-field squares tested), peak memory
 the quadric bodies a flight through one grid cell may test). Writes
 OUT/report.md and OUT/scaling.json. Wall-clock speeds depend on what else
 the machine runs; compare within one run. Each row's one-thread rate is also
-given relative to 100 bumps or the 256² field (the flat-cost targets:
+given relative to 100 bumps, radius 3 or the 256² field (the flat-cost targets:
 100 000 bumps >= 0.6 of 100 bumps' rate, a 4096² field >= 0.5 of
 256²'s). --callgrind adds instructions per segment (valgrind's callgrind,
 one thread, the difference of two photon counts over the difference of
@@ -58,6 +61,11 @@ seed = 1
 theta_deg = [60]
 phi_deg = 0.0
 """
+
+
+def radius_scene(r: int) -> str:
+    """The default scene's 100 bumps, every radius `r`, on its 30 x 30 cell."""
+    return bump_scene(100).replace("radius = [2.5, 3.5]", f"radius = [{float(r)!r}, {float(r)!r}]")
 
 
 def field_scene(n: int) -> str:
@@ -113,23 +121,33 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "scaling")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--callgrind", action="store_true", help="also count instructions per segment")
+    ap.add_argument("--kinds", default="bumps,radius,field",
+                    help="comma-separated: bumps (count), radius (bump size), field (height-field resolution)")
     a = ap.parse_args()
+    kinds = set(a.kinds.split(","))
+    if not kinds <= {"bumps", "radius", "field"}:
+        raise SystemExit(f"scaling: --kinds {a.kinds}: the kinds are bumps, radius, field")
     a.out.mkdir(parents=True, exist_ok=True)
     bumps = [36, 100, 1000] if a.quick else [36, 100, 1000, 10_000, 100_000]
     fields = [256, 512] if a.quick else [256, 1024, 4096]
+    radii = [3, 30, 120] if a.quick else [3, 15, 30, 60, 120]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for kind, sizes, make in (("bumps", bumps, bump_scene), ("height field", fields, field_scene)):
+        for key, kind, sizes, make in (("bumps", "bumps", bumps, bump_scene),
+                                       ("radius", "bump radius", radii, radius_scene),
+                                       ("field", "height field", fields, field_scene)):
+            if key not in kinds:
+                continue
             for n in sizes:
                 scene = tmp / f"{kind[0]}{n}.toml"
                 scene.write_text(make(n))
-                photons = 200_000 if (kind == "bumps" and n >= 100_000) or (kind != "bumps" and n >= 4096) \
+                photons = 200_000 if (kind == "bumps" and n >= 100_000) or (kind == "height field" and n >= 4096) \
                     else 1_000_000
                 if a.quick:
                     photons = 100_000
                 row = {"kind": kind, "n": n, "photons": photons,
-                       "candidates_per_cell": candidates(a.roks, scene) if kind == "bumps" else None}
+                       "candidates_per_cell": candidates(a.roks, scene) if kind != "height field" else None}
                 for t in (1, 2):
                     row[f"threads_{t}"] = measure(a.roks, scene, t, photons, tmp / f"out_{kind[0]}{n}_{t}")
                     print(f"{kind} {n} threads {t}: {row[f'threads_{t}']['segments_per_second'] / 1e6:.2f} M seg/s, "
@@ -141,19 +159,20 @@ def main() -> int:
     lines = ["# Scaling of the micro tracer", "",
              "`scripts/scaling.py`: 60 degrees, `roks brdf`, segments per second from summary.json, "
              "peak memory of the roks process (`/usr/bin/time -f %M`). Bumps at constant density (cell side 3 sqrt(N)); height fields "
-             "Gaussian, tau = 8 pitches. Tests/segment: quadrics whose ray polynomial was formed (bumps) "
+             "Gaussian, tau = 8 pitches. Bump radius: 100 bumps of radius R on a 30 x 30 cell. Tests/segment: quadrics whose ray polynomial was formed (bumps) "
              "or squares of two triangles tested (height fields).", "",
-             "| surface | size | photons | segments/photon | M segments/s, 1 thread | vs 100 bumps / 256² | 2 threads "
+             "| surface | size | photons | segments/photon | M segments/s, 1 thread | vs 100 bumps / R 3 / 256² | 2 threads "
              "| speed-up | peak memory (MB) | tests/segment | candidate solids per grid cell | instructions/segment |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    # The reference of each kind: 100 bumps and the 256² field (else the kind's first row).
+    # The reference of each kind: 100 bumps, radius 3 and the 256² field (else the kind's first row).
+    reference = {"bumps": 100, "bump radius": 3, "height field": 256}
     smallest = {}
     for r in rows:
-        if r["n"] in (100, 256) or r["kind"] not in smallest:
+        if r["n"] == reference[r["kind"]] or r["kind"] not in smallest:
             smallest[r["kind"]] = r["threads_1"]["segments_per_second"]
     for r in rows:
         t1, t2 = r["threads_1"], r["threads_2"]
-        size = f"{r['n']} bumps" if r["kind"] == "bumps" else f"{r['n']}²"
+        size = {"bumps": f"{r['n']} bumps", "bump radius": f"R = {r['n']}"}.get(r["kind"], f"{r['n']}²")
         cand = f"{r['candidates_per_cell']:.1f}" if r["candidates_per_cell"] is not None else "-"
         ips = f"{r['instructions_per_segment']:.0f}" if "instructions_per_segment" in r else "-"
         lines.append(f"| {r['kind']} | {size} | {r['photons']:.0e} | {t1['segments_per_photon']:.2f} | "
