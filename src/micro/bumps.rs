@@ -59,6 +59,15 @@ pub struct Bump {
 }
 
 impl Shape {
+    /// Every shape.
+    pub const ALL: [Self; 5] = [
+        Self::Ellipsoid,
+        Self::EllipsoidOnHyperboloid,
+        Self::Paraboloid,
+        Self::Cone,
+        Self::Cylinder,
+    ];
+
     /// Height of the bump's top surface at scaled radial distance
     /// `s = sqrt(((x - cx)/rx)² + ((y - cy)/ry)²)` from its centre
     /// (`-inf` outside its footprint). Non-increasing in `s` for every shape.
@@ -227,13 +236,7 @@ mod tests {
     /// contains points just below it but not just above.
     #[test]
     fn every_shape_peaks_at_its_height_over_its_centre() {
-        for shape in [
-            Shape::Ellipsoid,
-            Shape::EllipsoidOnHyperboloid,
-            Shape::Paraboloid,
-            Shape::Cone,
-            Shape::Cylinder,
-        ] {
+        for shape in Shape::ALL {
             let p = shape.body(&bump(1.7), 0);
             assert_eq!(p.max_height, 1.7);
             let e = p
@@ -259,13 +262,7 @@ mod tests {
     #[test]
     fn profile_matches_vertical_rays() {
         let b = bump(1.7);
-        for shape in [
-            Shape::Ellipsoid,
-            Shape::EllipsoidOnHyperboloid,
-            Shape::Paraboloid,
-            Shape::Cone,
-            Shape::Cylinder,
-        ] {
+        for shape in Shape::ALL {
             let p = shape.body(&b, 0);
             for k in 0..40 {
                 let s = k as f64 * 0.04;
@@ -296,13 +293,7 @@ mod tests {
     /// beyond the footprint (random bumps of every shape).
     #[test]
     fn bodies_hold_the_column_under_their_lowest_top() {
-        let mut state = 7_u64;
-        let mut u = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut u = super::super::uniform_stream(7);
         let mut covered = 0;
         for _ in 0..400 {
             let b = Bump {
@@ -314,13 +305,7 @@ mod tests {
                 cap: 0.05 + 0.95 * u(),
                 base: 1.01 + 2.0 * u(),
             };
-            for shape in [
-                Shape::Ellipsoid,
-                Shape::EllipsoidOnHyperboloid,
-                Shape::Paraboloid,
-                Shape::Cone,
-                Shape::Cylinder,
-            ] {
+            for shape in Shape::ALL {
                 let body = shape.body(&b, 0).body;
                 let lo = DVec2::new(12.0 * u() - 1.0, 12.0 * u() - 1.0);
                 let hi = lo + DVec2::new(3.0 * u(), 3.0 * u());

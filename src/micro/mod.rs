@@ -971,6 +971,18 @@ fn overlaps_xy(a: &Aabb, b: &Aabb) -> bool {
     a.min.x < b.max.x && a.max.x > b.min.x && a.min.y < b.max.y && a.max.y > b.min.y
 }
 
+/// A deterministic stream of numbers in [0, 1) for tests (a 64-bit LCG).
+#[cfg(test)]
+fn uniform_stream(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1053,20 +1065,8 @@ mod tests {
     #[test]
     fn buried_solids_left_out_of_the_grid_change_no_event() {
         use bumps::{Bump, Shape};
-        let mut state = 11_u64;
-        let mut u = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let shapes = [
-            Shape::Ellipsoid,
-            Shape::EllipsoidOnHyperboloid,
-            Shape::Paraboloid,
-            Shape::Cone,
-            Shape::Cylinder,
-        ];
+        let mut u = super::uniform_stream(11);
+        let shapes = Shape::ALL;
         let placed = (0..40)
             .map(|k| {
                 let b = Bump {
