@@ -28,7 +28,9 @@
 //!   ellipsoids at constant density on a cell of side 3 sqrt(N); Gaussian
 //!   fields of sigma 1, tau 8 pitches, pitch 0.25): the rate per thread of
 //!   100 000 bumps against 100, and of a 4096² field against 256²
-//!   (segments per photon printed once for each).
+//!   (segments per photon printed once for each); `bumps_r60`: the 100
+//!   bumps of `bumps_100` with radius 60, two periods wide (the bump-size
+//!   rows of `scripts/scaling.py`), against `bumps_100`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
@@ -257,6 +259,10 @@ fn scaling(c: &mut Criterion) {
     for (name, text) in [
         ("bumps_100", bump_scene(100)),
         ("bumps_100000", bump_scene(100_000)),
+        (
+            "bumps_r60",
+            bump_scene(100).replace("radius = [2.5, 3.5]", "radius = [60.0, 60.0]"),
+        ),
         ("field_256", field_scene(256)),
         ("field_4096", field_scene(4096)),
     ] {

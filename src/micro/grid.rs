@@ -191,6 +191,11 @@ fn morton(ix: usize, iy: usize) -> u64 {
     spread(ix) | (spread(iy) << 1)
 }
 
+/// The finest grid [`Grid::build`] lays: cells per gridded solid ...
+const GRID_CELLS_PER_SOLID: usize = 64;
+/// ... unless the grid has fewer cells than this.
+const MIN_GRID_CELLS: usize = 4096;
+
 /// The `f32` nearest above or at `z` (`-inf` stays `-inf`).
 #[inline(always)]
 pub(super) fn f32_up(z: f64) -> f32 {
@@ -226,6 +231,12 @@ impl Grid {
         let target = sides
             .get(sides.len() / 2)
             .map_or(size.max_element(), |s| s / 5.0);
+        // But no finer than GRID_CELLS_PER_SOLID cells a solid (at least
+        // MIN_GRID_CELLS in all): small sparse bumps would otherwise get up
+        // to 2048² cells, nearly all empty, which take memory to build and
+        // time to walk through.
+        let budget = (GRID_CELLS_PER_SOLID * gridded.len()).max(MIN_GRID_CELLS) as f64;
+        let target = target.max((size.x * size.y / budget).sqrt());
         let nx = ((size.x / target).ceil() as usize).clamp(1, 2048);
         let ny = ((size.y / target).ceil() as usize).clamp(1, 2048);
         let pitch = DVec2::new(size.x / nx as f64, size.y / ny as f64);

@@ -1086,17 +1086,92 @@ mod tests {
         // Each of the 40 bumps reaches over every grid cell in some copy.
         assert!(per_cell < 40.0, "{per_cell} listed per grid cell");
         assert!(s.solids().len() > 400, "{} solids", s.solids().len());
+        let (hits, exits) = events_against_scan(&s, &mut u, 3000, None);
+        assert!(hits > 2000 && exits > 2000, "{hits} hits, {exits} exits");
+    }
+
+    /// Small sparse bumps (100 of radius 0.025-0.035 on a 30 x 30 cell):
+    /// their footprints would ask for 2048² grid cells, nearly all empty;
+    /// the grid stops at 64 cells a solid, and flights meet what a scan
+    /// over every solid meets.
+    #[test]
+    fn small_sparse_bumps_get_a_grid_of_a_few_cells_a_solid() {
+        use bumps::{Bump, Shape};
+        let mut u = super::uniform_stream(13);
+        let centres: Vec<DVec2> = (0..100)
+            .map(|_| DVec2::new(30.0 * u(), 30.0 * u()))
+            .collect();
+        let placed = centres
+            .iter()
+            .map(|&center| {
+                let b = Bump {
+                    center,
+                    radius: 0.025 + 0.01 * u(),
+                    radius_y: 0.025 + 0.01 * u(),
+                    height: 0.008 + 0.04 * u(),
+                    depth: 0.0,
+                    cap: 1.0,
+                    base: 1.5,
+                };
+                Shape::Ellipsoid.body(&b, 0)
+            })
+            .collect();
+        let s = MicroSurface::new(DVec2::new(30.0, 30.0), Edges::Periodic, placed, white(), 0);
+        let Relief::Solids(solids) = &s.relief else {
+            panic!("a bump surface")
+        };
+        let cells = solids.grid.n[0] * solids.grid.n[1];
+        // 64 a solid, give or take the rounding of the sides: not 2048².
+        assert!(cells > 1000 && cells < 8000, "{cells} grid cells");
+        // Aimed at the bumps.
+        let (hits, exits) = events_against_scan(&s, &mut u, 3000, Some((&centres, 0.03)));
+        assert!(hits > 2000 && exits > 2000, "{hits} hits, {exits} exits");
+        // Straight down onto a centre meets its bump.
         let mut scratch = Scratch::new(&s);
+        let on_bumps = centres
+            .iter()
+            .filter(|c| {
+                let o = DVec3::new(c.x, c.y, s.top);
+                matches!(
+                    s.next_event(o, DVec3::NEG_Z, None, &mut scratch),
+                    Event::Hit { facet: Facet::Solid { solid, .. }, .. } if solid > 0
+                )
+            })
+            .count();
+        assert_eq!(on_bumps, centres.len());
+    }
+
+    /// `flights` flights from the launch plane of a 30 x 30 cell in random
+    /// directions, followed over up to three events: each event is what a
+    /// scan over every solid gives. A flight starts at a random point, or
+    /// with `aim`, on its way to a point within `aim.1` of a random one of
+    /// `aim.0` on the substrate. Returns (hits, exits).
+    fn events_against_scan(
+        s: &MicroSurface,
+        u: &mut impl FnMut() -> f64,
+        flights: usize,
+        aim: Option<(&[DVec2], f64)>,
+    ) -> (usize, usize) {
+        let mut scratch = Scratch::new(s);
         let (mut hits, mut exits) = (0, 0);
-        for _ in 0..3000 {
-            let o = DVec3::new(30.0 * u(), 30.0 * u(), s.top);
+        for _ in 0..flights {
             let (ct, phi) = (0.05 + 0.95 * u(), std::f64::consts::TAU * u());
             let st = (1.0 - ct * ct).sqrt();
             let d = DVec3::new(st * phi.cos(), st * phi.sin(), -ct);
+            let xy = match aim {
+                Some((points, r)) => {
+                    let at = points[(u() * points.len() as f64) as usize]
+                        + r * DVec2::new(2.0 * u() - 1.0, 2.0 * u() - 1.0);
+                    let back = at - d.truncate() * (s.top / ct);
+                    DVec2::new(back.x.rem_euclid(30.0), back.y.rem_euclid(30.0))
+                }
+                None => DVec2::new(30.0 * u(), 30.0 * u()),
+            };
+            let o = DVec3::new(xy.x, xy.y, s.top);
             let (mut o, mut d, mut standing) = (o, d, None);
             for _ in 0..3 {
                 let e = s.next_event(o, d, standing, &mut scratch);
-                let scan = nearest_by_scan(&s, o, d, standing);
+                let scan = nearest_by_scan(s, o, d, standing);
                 match e {
                     Event::Hit { t, facet } => {
                         assert_eq!(scan, Some((t, facet)), "{o} {d}");
@@ -1114,7 +1189,7 @@ mod tests {
                 }
             }
         }
-        assert!(hits > 2000 && exits > 2000, "{hits} hits, {exits} exits");
+        (hits, exits)
     }
 
     #[test]
