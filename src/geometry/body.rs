@@ -9,8 +9,8 @@
 
 use glam::DVec3;
 
-use super::quadric::{Diagonal, Quadric, entry_negative, standing_far_root};
-use super::region::Region;
+use super::quadric::{Crossings, Diagonal, Quadric, entry_negative, standing_far_root};
+use super::region::{Flat, Region};
 
 /// Most surfaces a body may have (keeps the per-ray work on the stack).
 pub const MAX_SURFACES: usize = 16;
@@ -116,6 +116,8 @@ pub struct Body {
     single: Option<(usize, Quadric)>,
     /// The single quadric's diagonal form when it has one (most bumps).
     diagonal: Option<Diagonal>,
+    /// `region` compiled for the sides of a point (see [`Body::inside`]).
+    flat: Option<Flat>,
 }
 
 impl Body {
@@ -123,7 +125,9 @@ impl Body {
     /// allocator overhead per allocation: for memory estimates.
     #[must_use]
     pub fn heap_bytes(&self) -> usize {
-        16 + self.surfaces.capacity() * std::mem::size_of::<Quadric>() + self.region.heap_bytes()
+        16 + self.surfaces.capacity() * std::mem::size_of::<Quadric>()
+            + self.region.heap_bytes()
+            + self.flat.as_ref().map_or(0, Flat::heap_bytes)
     }
 
     /// A body; `region` must only name indices below `surfaces.len()`,
@@ -133,6 +137,7 @@ impl Body {
         debug_assert!(surfaces.len() <= MAX_SURFACES);
         let single = region.single_negative().map(|i| (i, surfaces[i]));
         let diagonal = single.and_then(|(_, q)| Diagonal::of(&q));
+        let flat = region.flat();
         Self {
             surfaces,
             region,
@@ -140,6 +145,19 @@ impl Body {
             material,
             single,
             diagonal,
+            flat,
+        }
+    }
+
+    /// Whether a point with sides `positive` (bit `i`: `f_i > 0`) is inside:
+    /// exactly [`Region::contains`], without recursion where the region has
+    /// a flat form.
+    #[must_use]
+    #[inline]
+    pub fn inside(&self, positive: u64) -> bool {
+        match &self.flat {
+            Some(flat) => flat.contains(positive),
+            None => self.region.contains(|i| positive >> i & 1 == 1),
         }
     }
 
@@ -242,36 +260,133 @@ impl Body {
         t_max: f64,
         standing: Option<usize>,
     ) -> Option<(Entry, bool)> {
-        let n = self.surfaces.len();
-        debug_assert!(n <= MAX_SURFACES);
-        let mut positive = 0_u64;
-        let mut ill = 0_u64;
-        // Events (t, surface), at most two per surface.
-        let mut events = [(0.0_f64, 0_usize); 2 * MAX_SURFACES];
-        let mut n_events = 0;
-        for (i, q) in self.surfaces.iter().enumerate() {
-            let c = q.crossings(o, d, t_max, standing == Some(i));
-            positive |= u64::from(c.positive_at_start) << i;
-            ill |= u64::from(c.ill_conditioned) << i;
-            for &t in &c.t[..c.n] {
-                events[n_events] = (t, i);
-                n_events += 1;
-            }
+        debug_assert!(self.surfaces.len() <= MAX_SURFACES);
+        match self.surfaces.len() {
+            0..=4 => self.first_entry_in::<8>(o, d, t_max, standing),
+            5..=8 => self.first_entry_in::<16>(o, d, t_max, standing),
+            _ => self.first_entry_in::<{ 2 * MAX_SURFACES }>(o, d, t_max, standing),
         }
-        let inside = |positive: u64| self.region.contains(|i| positive >> i & 1 == 1);
-        let (t, surface) = first_entering_event(&mut events[..n_events], positive, inside)?;
-        Some((Entry { t, surface }, ill >> surface & 1 == 1))
+    }
+
+    /// [`Self::first_entry_csg`] with `S >= 2 * surfaces` crossing slots.
+    #[inline(always)]
+    fn first_entry_in<const S: usize>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        t_max: f64,
+        standing: Option<usize>,
+    ) -> Option<(Entry, bool)> {
+        let mut sweep = Sweep::<S>::new();
+        for (i, q) in self.surfaces.iter().enumerate() {
+            sweep.add(i, &q.crossings(o, d, t_max, standing == Some(i)));
+        }
+        let (t, surface, ill) = sweep.first_entry(|positive| self.inside(positive))?;
+        Some((Entry { t, surface }, ill))
+    }
+}
+
+/// The CSG sweep of both levels, [`Body`]'s entries and the macro level's
+/// zones ([`crate::object`]): the crossings of a flight with a body's
+/// surfaces, kept in fixed places, and the first after which the region
+/// holds where it did not before.
+///
+/// Slot `2 i + k` holds the `k`-th (ascending) crossing of surface `i`.
+/// Nothing is sorted or moved: the nearest crossings left are picked in
+/// turn, all those at one distance applied before the region is asked
+/// (edges, tangents), and a flight usually enters at its first. `S` is at
+/// least twice the number of surfaces.
+pub struct Sweep<const S: usize> {
+    /// Crossing distances by slot; only those in `present` are set.
+    t: [f64; S],
+    /// Bit `k`: slot `k` holds a crossing.
+    present: u64,
+    /// Bit `i`: the flight starts on the positive side of surface `i`.
+    positive: u64,
+    /// Bit `i`: surface `i`'s roots are ill-conditioned.
+    ill: u64,
+}
+
+impl<const S: usize> Default for Sweep<S> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const S: usize> Sweep<S> {
+    /// No surfaces yet.
+    #[must_use]
+    #[inline(always)]
+    pub fn new() -> Self {
+        Self {
+            t: [0.0; S],
+            present: 0,
+            positive: 0,
+            ill: 0,
+        }
+    }
+
+    /// Surface `i`'s crossings and sides.
+    #[inline(always)]
+    pub fn add(&mut self, i: usize, c: &Crossings) {
+        self.positive |= u64::from(c.positive_at_start) << i;
+        self.ill |= u64::from(c.ill_conditioned) << i;
+        self.t[2 * i] = c.t[0];
+        self.t[2 * i + 1] = c.t[1];
+        self.present |= ((1_u64 << c.n) - 1) << (2 * i);
+    }
+
+    /// The first crossing after which `inside` holds where it did not
+    /// before: (distance, surface, ill-conditioned). Exactly
+    /// [`first_entering_event`] of the crossings listed surface by surface:
+    /// the slots' order is that list's, so the order of its stable sort
+    /// among equal distances, whose last is the surface reported.
+    #[inline(always)]
+    pub fn first_entry(mut self, inside: impl Fn(u64) -> bool) -> Option<(f64, usize, bool)> {
+        let mut positive = self.positive;
+        let mut was_inside = inside(positive);
+        while self.present != 0 {
+            // The nearest distance left (crossings are never NaN).
+            let mut rest = self.present;
+            let mut nearest = self.t[rest.trailing_zeros() as usize];
+            rest &= rest - 1;
+            while rest != 0 {
+                let t = self.t[rest.trailing_zeros() as usize];
+                if t < nearest {
+                    nearest = t;
+                }
+                rest &= rest - 1;
+            }
+            // Every crossing at it, in slot order.
+            let mut last = 0;
+            let mut rest = self.present;
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                if self.t[k] == nearest {
+                    last = k / 2;
+                    positive ^= 1 << last;
+                    self.present &= !(1 << k);
+                }
+                rest &= rest - 1;
+            }
+            let now_inside = inside(positive);
+            if now_inside && !was_inside {
+                return Some((nearest, last, self.ill >> last & 1 == 1));
+            }
+            was_inside = now_inside;
+        }
+        None
     }
 }
 
 /// The first of `events` (distance, surface index) after which `inside`
 /// holds where it did not before: `(distance, surface)`. `positive` has bit
 /// `i` set where the flight starts on the positive side of surface `i`;
-/// each event flips its surface's bit. The events are sorted here (a
-/// handful: insertion sort), and all events at one distance are applied
-/// before `inside` is asked (edges, tangents). The CSG sweep of both
-/// levels: [`Body`]'s entries and the macro level's cells
-/// ([`crate::object`]).
+/// each event flips its surface's bit. The events are sorted (a stable
+/// insertion sort), and all events at one distance are applied before
+/// `inside` is asked (edges, tangents). The reference [`Sweep`] is checked
+/// against.
+#[cfg(test)]
 pub fn first_entering_event(
     events: &mut [(f64, usize)],
     mut positive: u64,
@@ -311,6 +426,56 @@ mod tests {
     fn body(surfaces: Vec<Quadric>, expr: &str, names: &[&str]) -> Body {
         let region = region::parse(expr, |s| names.iter().position(|n| *n == s)).unwrap();
         Body::new(surfaces, region, Aabb::EVERYTHING, 0)
+    }
+
+    /// The sweep gives the sorted sweep's answer for crossings with many
+    /// ties (distances from a set of five, infinity included), random sides
+    /// at the start and random regions (truth tables), 1 to 16 surfaces.
+    #[test]
+    fn the_sweep_is_the_sorted_sweep() {
+        let mut state = 3_u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            state >> 11
+        };
+        let values = [0.5, 1.0, 1.5, 2.0, f64::INFINITY];
+        let mut entered = 0;
+        for _ in 0..20_000 {
+            let n = 1 + (next() % 16) as usize;
+            let table = next() ^ (next() << 21);
+            let inside = |positive: u64| {
+                table >> (positive.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 58) & 1 == 1
+            };
+            let mut sweep = Sweep::<{ 2 * MAX_SURFACES }>::new();
+            let mut events = Vec::new();
+            let mut positive = 0;
+            let mut ill = 0;
+            for i in 0..n {
+                let k = (next() % 3) as usize;
+                let mut t = [f64::INFINITY; 2];
+                for slot in t.iter_mut().take(k) {
+                    *slot = values[(next() % 5) as usize];
+                }
+                t.sort_by(f64::total_cmp);
+                let c = Crossings {
+                    t,
+                    n: k,
+                    positive_at_start: next() % 2 == 0,
+                    ill_conditioned: next() % 4 == 0,
+                };
+                positive |= u64::from(c.positive_at_start) << i;
+                ill |= u64::from(c.ill_conditioned) << i;
+                events.extend(c.t[..k].iter().map(|&t| (t, i)));
+                sweep.add(i, &c);
+            }
+            let want = first_entering_event(&mut events, positive, inside)
+                .map(|(t, s)| (t, s, ill >> s & 1 == 1));
+            assert_eq!(sweep.first_entry(inside), want);
+            entered += usize::from(want.is_some());
+        }
+        assert!(entered > 5000, "{entered}");
     }
 
     #[test]

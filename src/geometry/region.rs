@@ -211,6 +211,17 @@ pub enum Flat {
 }
 
 impl Flat {
+    /// Heap bytes it owns (with a 16-byte allocator overhead), for memory
+    /// estimates.
+    #[must_use]
+    pub fn heap_bytes(&self) -> usize {
+        match self {
+            Self::Intersection { .. } | Self::Never => 0,
+            Self::Table { bits, .. } => 16 + bits.capacity() * std::mem::size_of::<u64>(),
+            Self::Program(ops) => 16 + ops.capacity() * std::mem::size_of::<Op>(),
+        }
+    }
+
     /// Whether a point with the sides `positive` (bit `i`: positive side of
     /// surface `i`) is inside the region.
     #[must_use]

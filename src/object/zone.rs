@@ -23,9 +23,9 @@
 
 use glam::DVec3;
 
-use crate::geometry::body::{Aabb, Body, MAX_SURFACES, Ray, first_entering_event};
+use crate::geometry::body::{Aabb, Body, MAX_SURFACES, Ray, Sweep};
 use crate::geometry::quadric::{Diagonal, Quadric, RayForm, entry_negative, standing_far_root};
-use crate::geometry::region::{Flat, Sense};
+use crate::geometry::region::Sense;
 
 /// Relative widening of a zone's box (of its size and of its distance from
 /// the origin): far above the rounding of any root inside it.
@@ -47,10 +47,6 @@ pub struct ZoneEntry {
 /// A solid zone's body in the form the flight loop evaluates.
 #[derive(Clone, Debug)]
 pub struct CompiledZone {
-    /// The region over the body's surfaces (`None`: evaluated by
-    /// [`crate::geometry::region::Region::contains`], for regions nested
-    /// beyond the flat form's stack).
-    flat: Option<Flat>,
     /// `Some((i, surfaces[i], diagonal form))` when the region is exactly `-i`.
     single: Option<(usize, Quadric, Option<Diagonal>)>,
     /// The body's surfaces in their ray forms, in order.
@@ -72,19 +68,9 @@ impl CompiledZone {
             .region
             .bounding_box(&|i, sense| half_space_box(&body.surfaces[i], sense));
         Self {
-            flat: body.region.flat(),
             single,
             forms: body.surfaces.iter().map(RayForm::of).collect(),
             bounds: widened(bounds),
-        }
-    }
-
-    /// Whether a point with sides `positive` (bit `i`: `f_i > 0`) is inside.
-    #[inline]
-    fn inside(&self, body: &Body, positive: u64) -> bool {
-        match &self.flat {
-            Some(flat) => flat.contains(positive),
-            None => body.region.contains(|i| positive >> i & 1 == 1),
         }
     }
 
@@ -95,7 +81,7 @@ impl CompiledZone {
         for (i, q) in body.surfaces.iter().enumerate() {
             positive |= u64::from(q.eval(p) > 0.0) << i;
         }
-        self.inside(body, positive)
+        body.inside(positive)
     }
 
     /// The first entry of `ray` into `body` (this zone's body) for any
@@ -143,23 +129,27 @@ impl CompiledZone {
         d: DVec3,
         standing: Option<usize>,
     ) -> Option<(f64, usize, bool)> {
-        let mut positive = 0_u64;
-        let mut ill = 0_u64;
-        // Events (t, surface), at most two per surface.
-        let mut events = [(0.0_f64, 0_usize); 2 * MAX_SURFACES];
-        let mut n_events = 0;
-        for (i, q) in self.forms.iter().enumerate() {
-            let c = q.crossings(o, d, f64::INFINITY, standing == Some(i));
-            positive |= u64::from(c.positive_at_start) << i;
-            ill |= u64::from(c.ill_conditioned) << i;
-            for &t in &c.t[..c.n] {
-                events[n_events] = (t, i);
-                n_events += 1;
-            }
+        match self.forms.len() {
+            0..=4 => self.csg_entry_in::<8>(body, o, d, standing),
+            5..=8 => self.csg_entry_in::<16>(body, o, d, standing),
+            _ => self.csg_entry_in::<{ 2 * MAX_SURFACES }>(body, o, d, standing),
         }
-        let inside = |positive: u64| self.inside(body, positive);
-        let (t, surface) = first_entering_event(&mut events[..n_events], positive, inside)?;
-        Some((t, surface, ill >> surface & 1 == 1))
+    }
+
+    /// [`Self::csg_entry`] with `S >= 2 * surfaces` crossing slots.
+    #[inline(always)]
+    fn csg_entry_in<const S: usize>(
+        &self,
+        body: &Body,
+        o: DVec3,
+        d: DVec3,
+        standing: Option<usize>,
+    ) -> Option<(f64, usize, bool)> {
+        let mut sweep = Sweep::<S>::new();
+        for (i, q) in self.forms.iter().enumerate() {
+            sweep.add(i, &q.crossings(o, d, f64::INFINITY, standing == Some(i)));
+        }
+        sweep.first_entry(|positive| body.inside(positive))
     }
 }
 
