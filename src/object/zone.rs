@@ -1,10 +1,10 @@
-//! A solid zone compiled for the flight loop: its region in flat form (see
-//! [`Flat`]), its single-quadric fast path, and a bounding box derived from
-//! its region.
+//! A solid zone compiled for the flight loop: its surfaces in their ray
+//! forms, its single-quadric fast path, and a bounding box derived from its
+//! region (the region's flat form is the body's, [`Body::inside`]).
 //!
 //! [`CompiledZone::entry`] computes where a flight first enters the zone with
 //! exactly the arithmetic of [`Body::first_entry`] (the same crossings, the
-//! same event order, the same root polishing), over an unbounded flight,
+//! same sweep, the same root polishing), over an unbounded flight,
 //! and reports with the distance the threshold `key` for which
 //! `Body::first_entry(ray, t_max, standing)` returns it: `key <= t_max`. The
 //! nearest-hit search of [`super::Object::next_hit`] uses both to give the
