@@ -338,7 +338,7 @@ impl<const S: usize> Sweep<S> {
 
     /// The first crossing after which `inside` holds where it did not
     /// before: (distance, surface, ill-conditioned). Exactly
-    /// [`first_entering_event`] of the crossings listed surface by surface:
+    /// `first_entering_event` (the tests' reference) of the crossings listed surface by surface:
     /// the slots' order is that list's, so the order of its stable sort
     /// among equal distances, whose last is the surface reported.
     #[inline(always)]
