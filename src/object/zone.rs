@@ -136,7 +136,10 @@ impl CompiledZone {
         }
     }
 
-    /// [`Self::csg_entry`] with `S >= 2 * surfaces` crossing slots.
+    /// [`Self::csg_entry`] with `S >= 2 * surfaces` crossing slots. The
+    /// same few lines as `Body::first_entry_in` over the zone's ray forms (a
+    /// helper shared by both, taking the crossings as a closure or an
+    /// iterator, cost the radiator 3-6 % more instructions per photon).
     #[inline(always)]
     fn csg_entry_in<const S: usize>(
         &self,
