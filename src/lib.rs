@@ -103,3 +103,6 @@ pub mod scene;
 pub mod shard;
 pub mod tally;
 pub mod transport;
+
+#[cfg(test)]
+mod test_streams;

@@ -433,13 +433,7 @@ mod tests {
     /// at the start and random regions (truth tables), 1 to 16 surfaces.
     #[test]
     fn the_sweep_is_the_sorted_sweep() {
-        let mut state = 3_u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            state >> 11
-        };
+        let mut next = crate::test_streams::bits(3);
         let values = [0.5, 1.0, 1.5, 2.0, f64::INFINITY];
         let mut entered = 0;
         for _ in 0..20_000 {

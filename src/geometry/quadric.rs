@@ -612,13 +612,8 @@ mod tests {
     /// A deterministic stream of numbers in [-1, 1) (a 64-bit LCG), the
     /// rays and coefficients of the sweeps below.
     fn stream(seed: u64) -> impl FnMut() -> f64 {
-        let mut state = seed;
-        move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        }
+        let mut uniform = crate::test_streams::uniform(seed);
+        move || uniform() * 2.0 - 1.0
     }
 
     fn side_by_eval(q: &Quadric, o: DVec3, d: DVec3, t: f64) -> bool {

@@ -293,7 +293,7 @@ mod tests {
     /// beyond the footprint (random bumps of every shape).
     #[test]
     fn bodies_hold_the_column_under_their_lowest_top() {
-        let mut u = super::super::uniform_stream(7);
+        let mut u = crate::test_streams::uniform(7);
         let mut covered = 0;
         for _ in 0..400 {
             let b = Bump {

@@ -68,6 +68,11 @@ pub struct Solid {
     pub bump: Option<(bumps::Shape, bumps::Bump)>,
 }
 
+/// The relative pad (of a bump's height) around its exact heights over a
+/// grid cell: above its highest point and below its lowest top, so that the
+/// bounds stay clear of rounding in the body's own test.
+const GRID_HEIGHT_PAD: f64 = 1e-9;
+
 impl Solid {
     /// Highest point of the solid within horizontal distance `w` of the
     /// segment from `a` to `b` (an upper bound: exact for bumps, whose
@@ -97,23 +102,23 @@ impl Solid {
 
     /// A height up to which the solid holds the whole column over the
     /// rectangle `[lo, hi]` from the substrate (a lower bound: a bump's
-    /// lowest top there, less the relative pad of [`Self::max_height_over`];
+    /// lowest top there, less [`GRID_HEIGHT_PAD`];
     /// `-inf` for other solids, or where the rectangle is not all under the
     /// bump).
     fn covers_over(&self, lo: DVec2, hi: DVec2) -> f64 {
         match &self.bump {
-            Some((shape, b)) => shape.min_height_over(b, lo, hi) - 1e-9 * b.height,
+            Some((shape, b)) => shape.min_height_over(b, lo, hi) - GRID_HEIGHT_PAD * b.height,
             None => f64::NEG_INFINITY,
         }
     }
 
-    /// Highest point of the solid over the rectangle `[lo, hi]` (an upper bound).
+    /// Highest point of the solid over the rectangle `[lo, hi]` (an upper
+    /// bound: a bump's exact highest point there plus [`GRID_HEIGHT_PAD`]).
     fn max_height_over(&self, lo: DVec2, hi: DVec2) -> f64 {
         match &self.bump {
             Some((shape, b)) => {
-                // A relative pad keeps the bound above rounding in the body's own test.
                 let z = shape.max_height_over(b, lo, hi);
-                z + 1e-9 * b.height
+                z + GRID_HEIGHT_PAD * b.height
             }
             None => self.body.bounds.max.z,
         }
@@ -971,18 +976,6 @@ fn overlaps_xy(a: &Aabb, b: &Aabb) -> bool {
     a.min.x < b.max.x && a.max.x > b.min.x && a.min.y < b.max.y && a.max.y > b.min.y
 }
 
-/// A deterministic stream of numbers in [0, 1) for tests (a 64-bit LCG).
-#[cfg(test)]
-fn uniform_stream(seed: u64) -> impl FnMut() -> f64 {
-    let mut state = seed;
-    move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1065,7 +1058,7 @@ mod tests {
     #[test]
     fn buried_solids_left_out_of_the_grid_change_no_event() {
         use bumps::{Bump, Shape};
-        let mut u = super::uniform_stream(11);
+        let mut u = crate::test_streams::uniform(11);
         let shapes = Shape::ALL;
         let placed = (0..40)
             .map(|k| {
@@ -1097,7 +1090,7 @@ mod tests {
     #[test]
     fn small_sparse_bumps_get_a_grid_of_a_few_cells_a_solid() {
         use bumps::{Bump, Shape};
-        let mut u = super::uniform_stream(13);
+        let mut u = crate::test_streams::uniform(13);
         let centres: Vec<DVec2> = (0..100)
             .map(|_| DVec2::new(30.0 * u(), 30.0 * u()))
             .collect();

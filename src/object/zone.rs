@@ -138,8 +138,10 @@ impl CompiledZone {
 
     /// [`Self::csg_entry`] with `S >= 2 * surfaces` crossing slots. The
     /// same few lines as `Body::first_entry_in` over the zone's ray forms (a
-    /// helper shared by both, taking the crossings as a closure or an
-    /// iterator, cost the radiator 3-6 % more instructions per photon).
+    /// helper shared by both, taking the crossings as a closure by index, by
+    /// slice element or as an iterator, cost the radiator 1.4-6 % more
+    /// instructions per photon, and bumps tested through their bodies up to
+    /// 16 %).
     #[inline(always)]
     fn csg_entry_in<const S: usize>(
         &self,

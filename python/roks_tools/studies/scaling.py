@@ -140,7 +140,7 @@ def main() -> int:
             if key not in kinds:
                 continue
             for n in sizes:
-                scene = tmp / f"{kind[0]}{n}.toml"
+                scene = tmp / f"{key}{n}.toml"
                 scene.write_text(make(n))
                 photons = 200_000 if (kind == "bumps" and n >= 100_000) or (kind == "height field" and n >= 4096) \
                     else 1_000_000
@@ -149,7 +149,7 @@ def main() -> int:
                 row = {"kind": kind, "n": n, "photons": photons,
                        "candidates_per_cell": candidates(a.roks, scene) if kind != "height field" else None}
                 for t in (1, 2):
-                    row[f"threads_{t}"] = measure(a.roks, scene, t, photons, tmp / f"out_{kind[0]}{n}_{t}")
+                    row[f"threads_{t}"] = measure(a.roks, scene, t, photons, tmp / f"out_{key}{n}_{t}")
                     print(f"{kind} {n} threads {t}: {row[f'threads_{t}']['segments_per_second'] / 1e6:.2f} M seg/s, "
                           f"{row[f'threads_{t}']['max_rss_mb']:.0f} MB", file=sys.stderr)
                 if a.callgrind:
