@@ -191,6 +191,26 @@ fn morton(ix: usize, iy: usize) -> u64 {
     spread(ix) | (spread(iy) << 1)
 }
 
+/// The cells `iy * nx + ix` of an `nx x ny` grid in increasing Morton
+/// order of `(ix, iy)` ([`morton`]), without a sort: the codes of the
+/// enclosing power-of-two square in turn, decoded, those outside skipped
+/// (fewer than 4 times the cells).
+fn morton_order(nx: usize, ny: usize) -> impl Iterator<Item = usize> {
+    let side = nx.max(ny).next_power_of_two() as u64;
+    let compact = |v: u64| {
+        let mut v = v & 0x5555_5555_5555_5555;
+        v = (v | (v >> 1)) & 0x3333_3333_3333_3333;
+        v = (v | (v >> 2)) & 0x0f0f_0f0f_0f0f_0f0f;
+        v = (v | (v >> 4)) & 0x00ff_00ff_00ff_00ff;
+        v = (v | (v >> 8)) & 0x0000_ffff_0000_ffff;
+        ((v | (v >> 16)) & 0xffff_ffff) as usize
+    };
+    (0..side * side)
+        .map(move |m| (compact(m), compact(m >> 1)))
+        .filter(move |&(ix, iy)| ix < nx && iy < ny)
+        .map(move |(ix, iy)| iy * nx + ix)
+}
+
 /// The finest grid [`Grid::build`] lays: cells per gridded solid ...
 const GRID_CELLS_PER_SOLID: usize = 64;
 /// ... unless the grid has fewer cells than this.
@@ -282,7 +302,35 @@ impl Grid {
                 }),
             }
         }
-        let mut lists = vec![Vec::new(); nx * ny];
+        // The lists in one flat array, each cell's slots reserved by a first
+        // pass over the solids' bounds (an upper bound: a solid leaves the
+        // cells where it does not reach up); no list of its own per cell.
+        let cell_ranges = |i: usize| {
+            let b = &solids[i].body.bounds;
+            (
+                range(b.min.x, b.max.x, pitch.x, nx),
+                range(b.min.y, b.max.y, pitch.y, ny),
+            )
+        };
+        let mut first = vec![0_u32; nx * ny + 1];
+        for &i in gridded {
+            let (xs, ys) = cell_ranges(i);
+            for iy in ys {
+                for ix in xs.clone() {
+                    first[iy * nx + ix + 1] += 1;
+                }
+            }
+        }
+        for c in 0..nx * ny {
+            // At most 2048² cells, and Placed solids x cells far below 2^32
+            // (placed_cost bounds the scene's memory before it is built).
+            first[c + 1] += first[c];
+        }
+        let slots = first[nx * ny] as usize;
+        let mut len = vec![0_u32; nx * ny];
+        // Record and height of each slot, in two arrays (no padding).
+        let mut listed_rec = vec![0_u32; slots];
+        let mut listed_top = vec![0.0_f64; slots];
         let mut zmax = vec![f64::NEG_INFINITY; nx * ny];
         // The height up to which some solid fills the grid cell's whole
         // column: a flight over the cell (outside every solid) stays above
@@ -290,23 +338,23 @@ impl Grid {
         // under larger bumps; it is listed wherever it reaches above them).
         let mut floor = vec![f64::NEG_INFINITY; nx * ny];
         for &i in gridded {
-            let b = &solids[i].body.bounds;
-            for iy in range(b.min.y, b.max.y, pitch.y, ny) {
-                for ix in range(b.min.x, b.max.x, pitch.x, nx) {
+            let (xs, ys) = cell_ranges(i);
+            for iy in ys {
+                for ix in xs.clone() {
                     let lo = DVec2::new(ix as f64, iy as f64) * pitch;
                     let top = solids[i].max_height_over(lo, lo + pitch);
                     if top == f64::NEG_INFINITY {
                         continue;
                     }
-                    lists[iy * nx + ix].push((record_of[i], top));
-                    zmax[iy * nx + ix] = zmax[iy * nx + ix].max(top);
-                    floor[iy * nx + ix] =
-                        floor[iy * nx + ix].max(solids[i].covers_over(lo, lo + pitch));
+                    let c = iy * nx + ix;
+                    let slot = (first[c] + len[c]) as usize;
+                    (listed_rec[slot], listed_top[slot]) = (record_of[i], top);
+                    len[c] += 1;
+                    zmax[c] = zmax[c].max(top);
+                    floor[c] = floor[c].max(solids[i].covers_over(lo, lo + pitch));
                 }
             }
         }
-        let mut by_morton: Vec<usize> = (0..nx * ny).collect();
-        by_morton.sort_unstable_by_key(|&c| morton(c % nx, c / nx));
         let mut cells = vec![
             GridCell {
                 zmax: f64::NEG_INFINITY,
@@ -315,16 +363,32 @@ impl Grid {
             };
             nx * ny
         ];
-        let mut items = Vec::new();
-        let mut exact = Vec::new();
-        for c in by_morton {
-            let mut l = std::mem::take(&mut lists[c]);
-            l.retain(|&(_, top)| top >= floor[c]);
+        let kept = (0..nx * ny)
+            .map(|c| {
+                let own = first[c] as usize..(first[c] + len[c]) as usize;
+                listed_top[own]
+                    .iter()
+                    .filter(|&&top| top >= floor[c])
+                    .count()
+            })
+            .sum();
+        let mut items = Vec::with_capacity(kept);
+        let mut exact = Vec::with_capacity(kept);
+        let mut l: Vec<(u32, f64)> = Vec::new();
+        for c in morton_order(nx, ny) {
+            l.clear();
+            let own = first[c] as usize..(first[c] + len[c]) as usize;
+            let slots = listed_rec[own.clone()].iter().zip(&listed_top[own]);
+            l.extend(
+                slots
+                    .filter(|&(_, &top)| top >= floor[c])
+                    .map(|(&r, &t)| (r, t)),
+            );
             // Tallest first (stable: ties keep the solids' order), so a
             // flight stops scanning at the first solid below it.
             l.sort_by(|a, b| b.1.total_cmp(&a.1));
             let start = items.len() as u32;
-            for (rec, top) in l {
+            for &(rec, top) in &l {
                 items.push(Item {
                     rec,
                     z_up: f32_up(top),
@@ -354,6 +418,19 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn morton_order_is_the_order_of_the_codes() {
+        for (nx, ny) in [(1, 1), (3, 5), (8, 8), (13, 2), (64, 33)] {
+            let mut want: Vec<usize> = (0..nx * ny).collect();
+            want.sort_by_key(|&c| morton(c % nx, c / nx));
+            assert_eq!(
+                morton_order(nx, ny).collect::<Vec<_>>(),
+                want,
+                "{nx} x {ny}"
+            );
+        }
+    }
 
     #[test]
     fn morton_interleaves_bits() {

@@ -303,8 +303,9 @@ pub struct Placed {
     pub bump: Option<(bumps::Shape, bumps::Bump)>,
 }
 
-/// Bytes one grid item costs while [`Grid::build`] runs: the entry in its
-/// cell's list (with the list's growth slack) and in the final `items`.
+/// Bytes one grid item costs while [`Grid::build`] runs: its slot in the
+/// flat array of the cells' lists (12) and its entry in the final `items`
+/// and `exact` (16), rounded up.
 const GRID_ITEM_BYTES: u64 = 32;
 
 /// Estimated peak memory (bytes) and solid count that one body adds to a
@@ -383,37 +384,53 @@ impl MicroSurface {
             min: DVec3::new(0.0, 0.0, f64::NEG_INFINITY),
             max: DVec3::new(size.x, size.y, f64::INFINITY),
         };
+        // Every whole-period shift whose copy of a bounded, wrapping body
+        // reaches into the period.
+        let shifts = |b: Aabb| {
+            let kx = ((b.max.x - b.min.x) / size.x + 1.0).ceil() as i64;
+            let ky = ((b.max.y - b.min.y) / size.y + 1.0).ceil() as i64;
+            (-ky..=ky)
+                .flat_map(move |jy| {
+                    (-kx..=kx)
+                        .map(move |jx| DVec3::new(jx as f64 * size.x, jy as f64 * size.y, 0.0))
+                })
+                .filter(move |&shift| overlaps_xy(&b.translated(shift), &period))
+        };
+        let bounded = |b: &Aabb| {
+            b.min.x.is_finite() && b.max.x.is_finite() && b.min.y.is_finite() && b.max.y.is_finite()
+        };
+        let copied = |p: &Placed| edges == Edges::Periodic && p.wraps && bounded(&p.body.bounds);
+        // The solids counted first: a list grown by doubling would hold two
+        // copies of itself at its peak (of the order of 100 MB for 10^5 bumps).
+        let count = bodies
+            .iter()
+            .map(|p| {
+                if copied(p) {
+                    shifts(p.body.bounds).count()
+                } else {
+                    1
+                }
+            })
+            .sum::<usize>();
+        solids.reserve_exact(count);
         for (source, placed) in bodies.into_iter().enumerate() {
             // Bodies are far fewer than 2^32 (each costs memory).
             let source = Some(source as u32);
             max_height = max_height.max(placed.max_height);
             let b = placed.body.bounds;
-            let bounded = b.min.x.is_finite()
-                && b.max.x.is_finite()
-                && b.min.y.is_finite()
-                && b.max.y.is_finite();
-            if edges == Edges::Periodic && placed.wraps && bounded {
-                // Every whole-period shift whose copy reaches into the period.
-                let kx = (b.max.x - b.min.x) / size.x + 1.0;
-                let ky = (b.max.y - b.min.y) / size.y + 1.0;
-                let (kx, ky) = (kx.ceil() as i64, ky.ceil() as i64);
-                for jy in -ky..=ky {
-                    for jx in -kx..=kx {
-                        let shift = DVec3::new(jx as f64 * size.x, jy as f64 * size.y, 0.0);
-                        if overlaps_xy(&b.translated(shift), &period) {
-                            let bump = placed.bump.map(|(shape, mut bump)| {
-                                bump.center += shift.truncate();
-                                (shape, bump)
-                            });
-                            solids.push(Solid {
-                                body: placed.body.translated(shift),
-                                source,
-                                bump,
-                            });
-                        }
-                    }
+            if copied(&placed) {
+                for shift in shifts(b) {
+                    let bump = placed.bump.map(|(shape, mut bump)| {
+                        bump.center += shift.truncate();
+                        (shape, bump)
+                    });
+                    solids.push(Solid {
+                        body: placed.body.translated(shift),
+                        source,
+                        bump,
+                    });
                 }
-            } else if !bounded || overlaps_xy(&b, &period) {
+            } else if !bounded(&b) || overlaps_xy(&b, &period) {
                 solids.push(Solid {
                     body: placed.body,
                     source,
