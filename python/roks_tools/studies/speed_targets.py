@@ -18,8 +18,10 @@ Cases, each against its target:
 * default scene, 60 deg, 2 threads, 2x10^6 photons: segments per second,
   new / base (target >= 3); and new / the Mitsuba 3 tracer of the
   cross-check (`roks_tools.mitsuba.tracer`) on the same surface exported as a
-  1025^2-vertex mesh (`roks export-mesh --resolution 1024`), 2x10^5 photons
-  (target >= 15);
+  1025^2-vertex mesh (`roks export-mesh --resolution 1024`), 2x10^5 photons,
+  run once a round beside roks, the ratio taken within each round (target >= 15);
+  for scale, the default surface's substrate alone (no bumps: two segments a
+  photon), the fixed cost of a history against which 3x is to be read;
 * scaling, one thread: 100 000 bumps against 100 at constant density (cell
   side 3 sqrt(N), `scripts/scaling.py`'s scenes), rate ratio (target >= 0.6);
   a 4096^2 Gaussian height field against 256^2 (target >= 0.5);
@@ -148,24 +150,27 @@ def callgrind_per_segment(cmd_for, photons: tuple[int, int], unit=brdf_segments)
     return (counts[1] - counts[0]) / (segs[1] - segs[0])
 
 
-def mitsuba_rate(photons: int) -> dict | None:
-    """Segments per second of the Mitsuba tracer on the default scene's 1025² mesh (None without Mitsuba)."""
+def mitsuba_case(work: Path, photons: int):
+    """The Mitsuba tracer on the default scene's 1025² mesh as a case of `alternate` (None without
+    Mitsuba): the mesh is exported once, the tracer runs once a round beside roks."""
     try:
         import mitsuba  # noqa: F401
     except ImportError:
         print("speed_targets: mitsuba not importable, skipping its case", file=sys.stderr)
         return None
-    with tempfile.TemporaryDirectory() as tmp:
-        mesh = Path(tmp) / "default_1024.ply"
-        subprocess.run([str(ROOT / "target" / "release" / "roks"), "export-mesh", "--resolution", "1024",
-                        "--out", str(mesh)], check=True, capture_output=True)
-        out = Path(tmp) / "mi"
-        subprocess.run([sys.executable, "-m", "roks_tools.mitsuba.tracer", str(mesh), "--size", "30,30",
-                        "--theta", "60", "--rho", "0.8", "--photons", str(photons), "--out", str(out), "-q"],
-                       check=True)
-        inc = json.loads((out / "summary.json").read_text())["incidence"][0]
-        return {"segments_per_second": inc["segments_per_second"], "segments": inc["segments"],
-                "photons": inc["photons"]}
+    mesh = work / "default_1024.ply"
+    subprocess.run([str(ROOT / "target" / "release" / "roks"), "export-mesh", "--resolution", "1024",
+                    "--out", str(mesh)], check=True, capture_output=True)
+    make = lambda out: [sys.executable, "-m", "roks_tools.mitsuba.tracer", mesh, "--size", "30,30",  # noqa: E731
+                        "--theta", 60, "--rho", 0.8, "--photons", photons, "--out", out, "-q"]
+    return make, brdf_rate
+
+
+def paired_ratio(res: dict, a: str, b: str) -> float:
+    """Median over the rounds of the rate of case `a` over that of case `b` in the same round (the
+    machine's speed drifts between rounds; a ratio within one round is steadier)."""
+    return statistics.median(rb["per_segment_s"] / ra["per_segment_s"]
+                             for ra, rb in zip(res[a]["runs"], res[b]["runs"]))
 
 
 def main() -> int:
@@ -188,6 +193,10 @@ def main() -> int:
               "field256": field_scene(256), "field4096": field_scene(4096),
               "al": (ROOT / "scenes" / "default.toml").read_text()
               .replace("reflectance = 0.8", "n = 1.015\nk = 6.627")}
+    # The default surface without its bumps.
+    scenes["flat"] = ("name = \"flat\"\n[surface]\nsize = [30.0, 30.0]\nedges = \"periodic\"\n"
+                      "material = \"paint\"\n[materials.paint]\nreflectance = 0.8\n"
+                      "[light]\ntheta_deg = [60]\nphi_deg = 0.0\n[tally]\nbands = 32\n")
     paths = {}
     for name, text in scenes.items():
         paths[name] = work / f"{name}.toml"
@@ -221,6 +230,12 @@ def main() -> int:
             if scene.exists():
                 cases[f"tube{vanes}/{who}"] = trace(exe, scene, 20_000 if vanes < 1000 else 5_000)
         cases[f"radiator_micro/{who}"] = trace(exe, ROOT / "scenes" / "radiator.toml", 5_000)
+    # The fixed cost of a history: the default scene's substrate alone (two
+    # segments a photon, no bump to test), the yardstick of the 3x target.
+    cases["flat_2t/new"] = brdf(new, paths["flat"], 2_000_000, 2)
+    mi_case = None if a.no_mitsuba else mitsuba_case(work, 200_000 // scale)
+    if mi_case:
+        cases["mitsuba/tracer"] = mi_case
     cases["al_scalar/new"] = brdf(new, al_scalar, 1_000_000, 1)
     cases["al_stokes/new"] = brdf(new, paths["al"], 1_000_000, 1)
     cases["al_mueller/new"] = brdf(new, al_mueller, 1_000_000, 1)
@@ -228,7 +243,12 @@ def main() -> int:
     order = sorted(cases, key=lambda k: (k.split("/")[0], k.split("/")[1]))
     res = alternate({k: cases[k] for k in order}, rounds)
 
-    mi = None if a.no_mitsuba else mitsuba_rate(200_000 // scale)
+    mi = None
+    if "mitsuba/tracer" in res:
+        m = res["mitsuba/tracer"]
+        mi = {"segments_per_second": 1.0 / m["per_segment_s"], "segments": m["segments"],
+              "photons": m["photons"], "roks_over_mitsuba": paired_ratio(res, "default_2t/new", "mitsuba/tracer"),
+              "base_over_mitsuba": paired_ratio(res, "default_2t/base", "mitsuba/tracer")}
     cg = {}
     if a.callgrind:
         for who, exe in bins.items():
@@ -276,9 +296,13 @@ def write_report(a, res: dict, mi: dict | None, cg: dict) -> None:
     b, n = rate(res, "default_2t/base"), rate(res, "default_2t/new")
     row("default scene 60°, 2 threads, M segments/s", f"{b:.2f}", f"{n:.2f}", n / b, ">= 3", n / b >= 3)
     if mi:
-        m = mi["segments_per_second"] / 1e6
-        L.append(f"| Mitsuba tracer, 1025² mesh, M segments/s | | {m:.2f} | roks / Mitsuba {n / m:.1f} "
-                 f"(base {b / m:.1f}) | >= 15 | {'yes' if n / m >= 15 else 'no'} |")
+        m, r = mi["segments_per_second"] / 1e6, mi["roks_over_mitsuba"]
+        L.append(f"| Mitsuba tracer, 1025² mesh, M segments/s | | {m:.2f} | roks / Mitsuba {r:.1f} "
+                 f"(base {mi['base_over_mitsuba']:.1f}; ratios within a round, median) | >= 15 | "
+                 f"{'yes' if r >= 15 else 'no'} |")
+    f = rate(res, "flat_2t/new")
+    L.append(f"| for scale: flat substrate alone (2 segments a photon, no bump), 2 threads, M segments/s | | "
+             f"{f:.2f} | 3x the base default = {3 * b:.2f} | | |")
     for big, small, label, target in (("bumps100000_1t", "bumps100_1t", "100 000 / 100 bumps, rate per thread", 0.6),
                                       ("field4096_1t", "field256_1t", "4096² / 256² field, rate per thread", 0.5)):
         rb = rate(res, f"{big}/base") / rate(res, f"{small}/base")
