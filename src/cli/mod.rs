@@ -20,6 +20,11 @@
 //! * Nothing is written before every input is checked; result folders are
 //!   replaced whole ([`crate::outdir`]).
 
+// The doc comments of the commands' arguments are their `--help` text,
+// written for a terminal: `[tally] farfield`, `bumps[0].height` are scene
+// keys in brackets and `out/<scene name>/` a placeholder, not links or tags.
+#![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
+
 pub mod args;
 pub mod brdf;
 pub mod common;

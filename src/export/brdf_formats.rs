@@ -113,7 +113,7 @@ impl BrdfFormat {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExportFile {
     /// Its name beside `brdf.csv` in a result folder
-    /// ([`BrdfFormat::file_name`], or [`BrdfFormat::spectral_file_name`]).
+    /// ([`BrdfFormat::file_name`], or [`BrdfFormat::spectral_file_names`]).
     pub file_name: String,
     /// The wavelength (µm) of a spectral table's Zemax file.
     pub wavelength_um: Option<f64>,

@@ -316,7 +316,7 @@ const GRID_ITEM_BYTES: u64 = 32;
 /// random) with its heap, its mailbox stamp per worker thread, and its
 /// entries in the acceleration grid (one per grid cell its bounds cover,
 /// the grid pitch being a fifth of the body's footprint side as
-/// [`Grid::build`] takes it from the median, at most 2048 cells a side).
+/// `Grid::build` takes it from the median, at most 2048 cells a side).
 /// Right to a factor of about 2; used to refuse a scene before allocating.
 #[must_use]
 pub fn placed_cost(placed: &Placed, size: DVec2, edges: Edges) -> (u64, u64) {

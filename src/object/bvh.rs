@@ -1,7 +1,7 @@
 //! A bounding-volume hierarchy over the boxes of an object's bounded solid
 //! zones: a binary tree of axis-aligned boxes, split at the median of the
 //! zones' box centres along the axis where they spread most, with at most
-//! [`LEAF_SIZE`] zones per leaf. Flights visit it nearest box first and skip
+//! `LEAF_SIZE` (2) zones per leaf. Flights visit it nearest box first and skip
 //! every box that starts beyond the best distance found so far.
 
 use crate::geometry::body::{Aabb, Ray};

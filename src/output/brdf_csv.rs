@@ -1,6 +1,6 @@
 //! `brdf.csv`: the BRDF of a run tabulated on its Carlson grid, one row per
 //! incidence and cell. This module owns the file: its columns
-//! ([`HEADER`]), its one writer ([`write`] for a run, [`write_blocks`] for
+//! ([`HEADER`]), its one writer ([`write()`] for a run, [`write_blocks`] for
 //! any fractions, e.g. a synthetic table in a test) and its reader
 //! ([`read`], [`parse`]: a checked [`BrdfTable`]; [`read_tables`],
 //! [`parse_tables`]: monochrome or spectral, [`BrdfTables`]; the checks and

@@ -540,7 +540,7 @@ const SUM_TOL: f64 = 1e-6;
 /// the lost weights and the replicate sums in `[0, n]` (polarisation
 /// replicates `|x| <= n`); reflected plus lost weight at most `n`; counted
 /// histories at most `n`; `bounces <= n max_bounces`, `segments <= n
-/// max_segments`. All up to [`SUM_TOL`] relative.
+/// max_segments`. All up to `SUM_TOL` (1e-6) relative.
 ///
 /// # Errors
 /// The first value out of bounds, at its key.

@@ -182,7 +182,7 @@ impl CarlsonGrid {
     ///
     /// The band is exact with respect to [`mu_edges`](Self::mu_edges):
     /// a closed-form guess is corrected against those edges. The azimuth
-    /// cell is the one of `phi = atan2(y, x)` (see [`cell_of_xy`]).
+    /// cell is the one of `phi = atan2(y, x)` (see `cell_of_xy`).
     #[must_use]
     pub fn locate(&self, dir: DVec3) -> Option<usize> {
         if !dir.is_finite() || dir.z <= 0.0 {

@@ -4,7 +4,7 @@
 //! finite ones accepted.
 //!
 //! [`Exact`] is the number as a value; the functions of this module and of
-//! [`vec`] and [`opt_vec`] are the same codec for `#[serde(with = ...)]` on
+//! [`vec`](mod@vec) and [`opt_vec`] are the same codec for `#[serde(with = ...)]` on
 //! fields of type `f64`, `Vec<f64>` and `Option<Vec<f64>>`. A value that is
 //! not such a string is refused with "expected a number as a string"; a
 //! string that reads as NaN or an infinity with "`x` is not a finite

@@ -34,7 +34,7 @@ const PENDING_BYTES: usize = 8 << 20;
 
 /// Batches traced in one chunk (whose tallies are all held until the chunk
 /// is done) when one batch tally takes `tally_bytes` and `threads` threads
-/// trace: as many as fit in [`PENDING_BYTES`], but at least two per thread
+/// trace: as many as fit in `PENDING_BYTES` (8 MiB), but at least two per thread
 /// and at most 64.
 #[must_use]
 pub fn pending_batches(tally_bytes: u64, threads: u64) -> u64 {
@@ -92,7 +92,7 @@ const PIECE: usize = 1024;
 
 /// Like [`run_batches`], but each chunk of batches is traced in the Morton
 /// order of its photons' entry points ([`order`]), so that photons entering
-/// near each other are traced one after the other (by pieces of [`PIECE`]
+/// near each other are traced one after the other (by pieces of `PIECE` (1024)
 /// photons spread over the threads), and each batch is then scored from its
 /// histories in photon index order: the tallies are bit-identical to
 /// [`run_batches`]'s for any thread count.
@@ -102,7 +102,7 @@ const PIECE: usize = 1024;
 /// history, with a scratch from `scratch()` per rayon job (reused over its
 /// pieces); `score(range, entries, histories)` a batch's tally from its
 /// entries and histories in index order; `consume` and `progress` as for [`run_batches`]. Chunks hold
-/// at most about [`ORDERED_BYTES`] of entries and histories, and at most
+/// at most about `ORDERED_BYTES` (32 MiB) of entries and histories, and at most
 /// [`pending_batches`] of batch tallies of `tally_bytes`.
 #[allow(clippy::too_many_arguments)]
 pub fn run_ordered<E: Clone + Send + Sync, H: Send + Sync, S, T: Send>(

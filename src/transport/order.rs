@@ -18,7 +18,7 @@ use crate::micro::{MicroSurface, Relief};
 const ORDER_ABOVE_BYTES: usize = 1 << 20;
 
 /// Whether `surface` is large enough for the Morton order to pay
-/// ([`ORDER_ABOVE_BYTES`]). Either order gives the same tallies.
+/// (`ORDER_ABOVE_BYTES`, 1 MiB). Either order gives the same tallies.
 #[must_use]
 pub fn pays(surface: &MicroSurface) -> bool {
     let bytes = match &surface.relief {
