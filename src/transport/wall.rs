@@ -207,6 +207,12 @@ impl WallModel {
     /// the specular part of ideal walls are non-polarising mirrors; the
     /// Lambertian part and BRDF tables depolarise; a micro descent carries
     /// the state through the micro geometry.
+    ///
+    /// Always inlined into its one caller, the object loop: left to the
+    /// compiler, it was inlined or not as unrelated code changed, and out of
+    /// line the carrier's copies in and out cost the radiator 1.1 % more
+    /// instructions per photon (41 832 against 41 359).
+    #[inline(always)]
     pub fn interact<C: Carrier>(
         &self,
         d: DVec3,
