@@ -1,7 +1,7 @@
 """The speed targets, measured as ratios in one run: today's code against a baseline build.
 
     .venv/bin/python scripts/speed_targets.py [--base 6ce6b98] [--out results/speed] [--rounds 3]
-        [--quick] [--no-mitsuba] [--callgrind]
+        [--quick] [--no-mitsuba] [--callgrind] [--from-json SPEED_JSON]
 
 Builds the baseline commit (default 6ce6b98, the main of before the speed
 work) beside the working tree: `git archive BASE` into
@@ -38,7 +38,13 @@ thread, the difference of two photon counts over the difference of their
 segments, so start-up and output do not count) for the default scene and
 the 100 000-bump scene, base and new, per photon for the radiator with micro
 walls, base and new, and per segment for the three aluminium cases (new). Writes OUT/report.md and
-OUT/speed.json. --quick: fewer photons and one round, for a smoke test.
+OUT/speed.json. --quick: fewer photons and one round, for a smoke test. --from-json SPEED_JSON
+writes the report again from a saved speed.json, without running anything.
+
+Rates are the medians of the rounds; every ratio (new / base, big / small scene,
+roks / Mitsuba, polarised / scalar) is the median of the ratios taken within each
+round, since the shared machine's speed drifts between rounds more than between
+two runs of one round.
 """
 
 from __future__ import annotations
@@ -181,7 +187,14 @@ def main() -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--no-mitsuba", action="store_true")
     ap.add_argument("--callgrind", action="store_true")
+    ap.add_argument("--from-json", type=Path, metavar="SPEED_JSON",
+                    help="write the report again from a saved speed.json (no runs)")
     a = ap.parse_args()
+    if a.from_json:
+        saved = json.loads(a.from_json.read_text())
+        a.base = saved["base"]
+        write_report(a, saved["cases"], saved["mitsuba"], saved["callgrind"], saved.get("rounds", 3))
+        return 0
     rounds = 1 if a.quick else a.rounds
     scale = 10 if a.quick else 1
     print("building ...", file=sys.stderr)
@@ -270,7 +283,7 @@ def main() -> int:
             cg[f"{label}/new"] = callgrind_per_segment(make, (20_000 // scale, 100_000 // scale))
             print(f"  callgrind {label}/new: {cg[f'{label}/new']:.0f} instructions/segment", file=sys.stderr)
 
-    write_report(a, res, mi, cg)
+    write_report(a, res, mi, cg, rounds)
     return 0
 
 
@@ -279,22 +292,24 @@ def rate(res: dict, name: str) -> float:
     return 1e-6 / res[name]["per_segment_s"]
 
 
-def write_report(a, res: dict, mi: dict | None, cg: dict) -> None:
+def write_report(a, res: dict, mi: dict | None, cg: dict, rounds: int) -> None:
     a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "speed.json").write_text(json.dumps({"base": a.base, "cases": res, "mitsuba": mi,
+    (a.out / "speed.json").write_text(json.dumps({"base": a.base, "rounds": rounds, "cases": res, "mitsuba": mi,
                                                   "callgrind": cg}, indent=1))
     L = ["# Speed targets", "",
          f"`scripts/speed_targets.py`: baseline commit {a.base} and this tree built side by side, "
-         f"every case alternated base/new, median of {1 if a.quick else a.rounds} rounds; tracing time "
+         f"every case alternated base/new, {rounds} rounds; tracing time "
          "from summary.json (start-up excluded), peak memory of the roks process from "
-         "`/usr/bin/time -f %M`.", "",
+         "`/usr/bin/time -f %M`. Rates are medians over the rounds; every ratio is the median of the "
+         "ratios taken within each round (the machine's speed drifts between rounds).", "",
          "| case | base | new | new / base | target | met |", "|---|---:|---:|---:|---:|---|"]
 
     def row(label, b, n, ratio, target, ok, unit=""):
         L.append(f"| {label} | {b}{unit} | {n}{unit} | {ratio:.2f} | {target} | {'yes' if ok else 'no'} |")
 
     b, n = rate(res, "default_2t/base"), rate(res, "default_2t/new")
-    row("default scene 60°, 2 threads, M segments/s", f"{b:.2f}", f"{n:.2f}", n / b, ">= 3", n / b >= 3)
+    r = paired_ratio(res, "default_2t/new", "default_2t/base")
+    row("default scene 60°, 2 threads, M segments/s", f"{b:.2f}", f"{n:.2f}", r, ">= 3", r >= 3)
     if mi:
         m, r = mi["segments_per_second"] / 1e6, mi["roks_over_mitsuba"]
         L.append(f"| Mitsuba tracer, 1025² mesh, M segments/s | | {m:.2f} | roks / Mitsuba {r:.1f} "
@@ -305,20 +320,21 @@ def write_report(a, res: dict, mi: dict | None, cg: dict) -> None:
              f"{f:.2f} | 3x the base default = {3 * b:.2f} | | |")
     for big, small, label, target in (("bumps100000_1t", "bumps100_1t", "100 000 / 100 bumps, rate per thread", 0.6),
                                       ("field4096_1t", "field256_1t", "4096² / 256² field, rate per thread", 0.5)):
-        rb = rate(res, f"{big}/base") / rate(res, f"{small}/base")
-        rn = rate(res, f"{big}/new") / rate(res, f"{small}/new")
+        rb = paired_ratio(res, f"{big}/base", f"{small}/base")
+        rn = paired_ratio(res, f"{big}/new", f"{small}/new")
         L.append(f"| {label} | {rb:.2f} | {rn:.2f} | {rn / rb:.2f} | >= {target} | {'yes' if rn >= target else 'no'} |")
     if all(f"tube{v}/new" in res for v in (10, 1000)):
-        tb = res["tube1000/base"]["per_segment_s"] / res["tube10/base"]["per_segment_s"]
-        tn = res["tube1000/new"]["per_segment_s"] / res["tube10/new"]["per_segment_s"]
+        tb = paired_ratio(res, "tube10/base", "tube1000/base")
+        tn = paired_ratio(res, "tube10/new", "tube1000/new")
         L.append(f"| baffled tube, time per macro segment 1000 / 10 vanes | {tb:.1f} | {tn:.2f} | | <= 2 | "
                  f"{'yes' if tn <= 2 else 'no'} |")
     rb, rn = res["radiator_micro/base"]["per_photon_s"], res["radiator_micro/new"]["per_photon_s"]
-    L.append(f"| radiator, micro walls, µs per photon | {rb * 1e6:.1f} | {rn * 1e6:.1f} | speed-up {rb / rn:.2f} "
-             f"| >= 2 | {'yes' if rb / rn >= 2 else 'no'} |")
-    sc = res["al_scalar/new"]["per_segment_s"]
+    # The same histories (same segments a photon), so the ratio of rates is that of times per photon.
+    up = paired_ratio(res, "radiator_micro/new", "radiator_micro/base")
+    L.append(f"| radiator, micro walls, µs per photon | {rb * 1e6:.1f} | {rn * 1e6:.1f} | speed-up {up:.2f} "
+             f"| >= 2 | {'yes' if up >= 2 else 'no'} |")
     for mode in ("stokes", "mueller"):
-        r = res[f"al_{mode}/new"]["per_segment_s"] / sc
+        r = paired_ratio(res, "al_scalar/new", f"al_{mode}/new")
         L.append(f"| Al scene, {mode} / scalar, time per segment | | {r:.2f} | | <= 1.5 | {'yes' if r <= 1.5 else 'no'} |")
     L += ["", "## Every case", "",
           "| case | ns per segment | M segments/s | µs per photon | peak memory (MB) |", "|---|---:|---:|---:|---:|"]
