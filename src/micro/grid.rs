@@ -312,7 +312,7 @@ impl Grid {
                 range(b.min.y, b.max.y, pitch.y, ny),
             )
         };
-        let mut first = vec![0_u32; nx * ny + 1];
+        let mut first = vec![0_usize; nx * ny + 1];
         for &i in gridded {
             let (xs, ys) = cell_ranges(i);
             for iy in ys {
@@ -322,11 +322,9 @@ impl Grid {
             }
         }
         for c in 0..nx * ny {
-            // At most 2048² cells, and Placed solids x cells far below 2^32
-            // (placed_cost bounds the scene's memory before it is built).
             first[c + 1] += first[c];
         }
-        let slots = first[nx * ny] as usize;
+        let slots = first[nx * ny];
         let mut len = vec![0_u32; nx * ny];
         // Record and height of each slot, in two arrays (no padding).
         let mut listed_rec = vec![0_u32; slots];
@@ -347,7 +345,7 @@ impl Grid {
                         continue;
                     }
                     let c = iy * nx + ix;
-                    let slot = (first[c] + len[c]) as usize;
+                    let slot = first[c] + len[c] as usize;
                     (listed_rec[slot], listed_top[slot]) = (record_of[i], top);
                     len[c] += 1;
                     zmax[c] = zmax[c].max(top);
@@ -365,7 +363,7 @@ impl Grid {
         ];
         let kept = (0..nx * ny)
             .map(|c| {
-                let own = first[c] as usize..(first[c] + len[c]) as usize;
+                let own = first[c]..first[c] + len[c] as usize;
                 listed_top[own]
                     .iter()
                     .filter(|&&top| top >= floor[c])
@@ -377,7 +375,7 @@ impl Grid {
         let mut l: Vec<(u32, f64)> = Vec::new();
         for c in morton_order(nx, ny) {
             l.clear();
-            let own = first[c] as usize..(first[c] + len[c]) as usize;
+            let own = first[c]..first[c] + len[c] as usize;
             let slots = listed_rec[own.clone()].iter().zip(&listed_top[own]);
             l.extend(
                 slots
