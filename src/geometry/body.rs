@@ -134,10 +134,21 @@ impl Body {
     /// at most [`MAX_SURFACES`] of them.
     #[must_use]
     pub fn new(surfaces: Vec<Quadric>, region: Region, bounds: Aabb, material: usize) -> Self {
+        let flat = region.flat();
+        Self::with_flat(surfaces, region, flat, bounds, material)
+    }
+
+    /// [`Body::new`] with the region's flat form already at hand.
+    fn with_flat(
+        surfaces: Vec<Quadric>,
+        region: Region,
+        flat: Option<Flat>,
+        bounds: Aabb,
+        material: usize,
+    ) -> Self {
         debug_assert!(surfaces.len() <= MAX_SURFACES);
         let single = region.single_negative().map(|i| (i, surfaces[i]));
         let diagonal = single.and_then(|(_, q)| Diagonal::of(&q));
-        let flat = region.flat();
         Self {
             surfaces,
             region,
@@ -164,20 +175,15 @@ impl Body {
     /// The same body moved by `delta` (exact).
     #[must_use]
     pub fn translated(&self, delta: DVec3) -> Self {
-        let surfaces: Vec<Quadric> = self.surfaces.iter().map(|q| q.translated(delta)).collect();
-        // As `new` derives them, except the region's flat form, which a
-        // move does not change (a surface of 10^5 bumps made each copy's anew).
-        let single = self.single.map(|(i, _)| (i, surfaces[i]));
-        let diagonal = single.and_then(|(_, q)| Diagonal::of(&q));
-        Self {
-            surfaces,
-            region: self.region.clone(),
-            bounds: self.bounds.translated(delta),
-            material: self.material,
-            single,
-            diagonal,
-            flat: self.flat.clone(),
-        }
+        // The region's flat form is kept: a move does not change it (a
+        // surface of 10^5 bumps compiled each copy's anew).
+        Self::with_flat(
+            self.surfaces.iter().map(|q| q.translated(delta)).collect(),
+            self.region.clone(),
+            self.flat.clone(),
+            self.bounds.translated(delta),
+            self.material,
+        )
     }
 
     /// The same body with all lengths multiplied by `s > 0`.

@@ -361,26 +361,30 @@ impl Grid {
             };
             nx * ny
         ];
-        let kept = (0..nx * ny)
-            .map(|c| {
-                let own = first[c]..first[c] + len[c] as usize;
-                listed_top[own]
-                    .iter()
-                    .filter(|&&top| top >= floor[c])
-                    .count()
-            })
-            .sum();
+        // Buried solids leave their cells' slots (in place, in order).
+        for c in 0..nx * ny {
+            let mut kept = 0;
+            for k in first[c]..first[c] + len[c] as usize {
+                if listed_top[k] >= floor[c] {
+                    let to = first[c] + kept;
+                    (listed_rec[to], listed_top[to]) = (listed_rec[k], listed_top[k]);
+                    kept += 1;
+                }
+            }
+            len[c] = kept as u32;
+        }
+        let kept: usize = len.iter().map(|&n| n as usize).sum();
         let mut items = Vec::with_capacity(kept);
         let mut exact = Vec::with_capacity(kept);
         let mut l: Vec<(u32, f64)> = Vec::new();
         for c in morton_order(nx, ny) {
             l.clear();
             let own = first[c]..first[c] + len[c] as usize;
-            let slots = listed_rec[own.clone()].iter().zip(&listed_top[own]);
             l.extend(
-                slots
-                    .filter(|&(_, &top)| top >= floor[c])
-                    .map(|(&r, &t)| (r, t)),
+                listed_rec[own.clone()]
+                    .iter()
+                    .copied()
+                    .zip(listed_top[own].iter().copied()),
             );
             // Tallest first (stable: ties keep the solids' order), so a
             // flight stops scanning at the first solid below it.

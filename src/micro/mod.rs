@@ -438,13 +438,8 @@ impl MicroSurface {
                 });
             }
         }
-        let (global, gridded): (Vec<usize>, Vec<usize>) = (0..solids.len()).partition(|&i| {
-            let b = &solids[i].body.bounds;
-            !(b.min.x.is_finite()
-                && b.max.x.is_finite()
-                && b.min.y.is_finite()
-                && b.max.y.is_finite())
-        });
+        let (global, gridded): (Vec<usize>, Vec<usize>) =
+            (0..solids.len()).partition(|&i| !bounded(&solids[i].body.bounds));
         let grid = Grid::build(size, &solids, &gridded);
         // The launch plane sits a hair above the highest point so that no
         // photon starts on or inside a body (relative to the scene's scale).
