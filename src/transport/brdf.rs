@@ -890,11 +890,9 @@ impl BrdfRun {
             },
             || Scratch::new(surface),
             history,
-            |_, entries, histories| {
+            |_, visit| {
                 self.score_batch(locator, inplane, spare, |score| {
-                    for (e, (h, tests)) in entries.iter().zip(histories) {
-                        score(e.replicate, h, *tests);
-                    }
+                    visit(&mut |e, (h, tests)| score(e.replicate, h, *tests));
                 })
             },
             consume,

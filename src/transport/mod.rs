@@ -87,6 +87,10 @@ pub fn run_batches<T: Send>(
 /// (whole batches, at least one).
 const ORDERED_BYTES: usize = 32 << 20;
 
+/// Bytes of histories [`run_ordered`] copies into index order at a time for
+/// scoring (a block that stays in the first-level cache).
+const GATHER_BYTES: usize = 16 << 10;
+
 /// Photons a thread traces in one piece of the Morton order of [`run_ordered`].
 const PIECE: usize = 1024;
 
@@ -100,24 +104,27 @@ const PIECE: usize = 1024;
 /// `entry(n)` gives photon `n`'s Morton code and what its history starts
 /// from (`E`: its stream and entry point); `trace(entry, scratch)` its
 /// history, with a scratch from `scratch()` per rayon job (reused over its
-/// pieces); `score(range, entries, histories)` a batch's tally from its
-/// entries and histories in index order; `consume` and `progress` as for [`run_batches`]. Chunks hold
+/// pieces); `score(range, visit)` a batch's tally, where `visit(f)` calls
+/// `f(entry, history)` for the batch's photons in index order; `consume` and
+/// `progress` as for [`run_batches`]. Chunks hold
 /// at most about `ORDERED_BYTES` (32 MiB) of entries and histories, and at most
 /// [`pending_batches`] of batch tallies of `tally_bytes`.
 #[allow(clippy::too_many_arguments)]
-pub fn run_ordered<E: Clone + Send + Sync, H: Send + Sync, S, T: Send>(
+pub fn run_ordered<E: Clone + Send + Sync, H: Clone + Send + Sync, S, T: Send>(
     photons: u64,
     tally_bytes: u64,
     entry: impl Fn(u64) -> (u16, E) + Sync,
     scratch: impl Fn() -> S + Sync,
     trace: impl Fn(&E, &mut S) -> H + Sync,
-    score: impl Fn(std::ops::Range<u64>, &[E], &[&H]) -> T + Sync,
+    score: impl Fn(std::ops::Range<u64>, &dyn Fn(&mut dyn FnMut(&E, &H))) -> T + Sync,
     mut consume: impl FnMut(u64, T),
     progress: &(dyn Fn(u64) + Sync),
 ) {
     let per_photon = std::mem::size_of::<E>() + std::mem::size_of::<H>() + 16;
     let chunk = ((ORDERED_BYTES / (per_photon * BATCH as usize)).clamp(1, 64) as u64)
         .min(pending_here(tally_bytes));
+    // Histories copied at a time for scoring: about `GATHER_BYTES` (at least one).
+    let gather = (GATHER_BYTES / std::mem::size_of::<H>().max(1)).clamp(1, BATCH as usize);
     let n_batches = photons.div_ceil(BATCH);
     let mut b0 = 0;
     while b0 < n_batches {
@@ -158,11 +165,29 @@ pub fn run_ordered<E: Clone + Send + Sync, H: Send + Sync, S, T: Send>(
             .map(|b| {
                 let range = b * BATCH..((b + 1) * BATCH).min(photons);
                 let local = (range.start - first) as usize..(range.end - first) as usize;
-                let histories: Vec<&H> = at[local.clone()]
-                    .iter()
-                    .map(|&k| &pieces[k as usize / PIECE][k as usize % PIECE])
-                    .collect();
-                score(range, &entries[local], &histories)
+                // The histories are where their pieces put them, scattered
+                // over the chunk (far beyond the caches): they are copied in
+                // blocks, in index order, before they are scored. The copies
+                // are independent loads that the core overlaps, whereas
+                // scoring each in place would stall on a cache miss per
+                // photon (the scoring of one photon fills the core's window).
+                let visit = |f: &mut dyn FnMut(&E, &H)| {
+                    let mut block: Vec<H> = Vec::with_capacity(gather);
+                    for (es, ks) in entries[local.clone()]
+                        .chunks(gather)
+                        .zip(at[local.clone()].chunks(gather))
+                    {
+                        block.clear();
+                        block.extend(
+                            ks.iter()
+                                .map(|&k| pieces[k as usize / PIECE][k as usize % PIECE].clone()),
+                        );
+                        for (e, h) in es.iter().zip(&block) {
+                            f(e, h);
+                        }
+                    }
+                };
+                score(range, &visit)
             })
             .collect();
         for (b, part) in (b0..b1).zip(parts) {
@@ -182,4 +207,55 @@ pub fn roulette(w: f64, threshold: f64, rng: &mut impl rand::Rng) -> Option<f64>
     }
     let survival = (10.0 * threshold).min(1.0);
     (rng.random::<f64>() * survival < w).then_some(survival)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A history of `N` words: the photon's index and a payload derived from it.
+    #[derive(Clone)]
+    struct Words<const N: usize>([u64; N]);
+
+    /// `run_ordered` hands every batch its photons in index order, each with
+    /// its own entry and history, whether the histories are copied for
+    /// scoring many at a time (small), a few (medium) or one (large, above
+    /// `GATHER_BYTES`).
+    fn visits_in_index_order<const N: usize>() {
+        let photons = 3 * BATCH + 1000;
+        let mut seen = Vec::new();
+        run_ordered(
+            photons,
+            1,
+            // Codes that scatter the photons over the Morton order.
+            |n| ((n.wrapping_mul(40_503) % 65_536) as u16, n),
+            || (),
+            |&n, ()| Words::<N>(std::array::from_fn(|k| n * 7 + k as u64)),
+            |range, visit| {
+                let mut got = Vec::new();
+                visit(&mut |&n, h: &Words<N>| {
+                    assert!(
+                        h.0.iter().enumerate().all(|(k, &x)| x == n * 7 + k as u64),
+                        "photon {n}: another photon's history"
+                    );
+                    got.push(n);
+                });
+                (range, got)
+            },
+            |b, (range, got)| {
+                assert_eq!(range, b * BATCH..((b + 1) * BATCH).min(photons));
+                assert_eq!(got, range.collect::<Vec<u64>>(), "batch {b}");
+                seen.push(b);
+            },
+            &|_| {},
+        );
+        assert_eq!(seen, (0..photons.div_ceil(BATCH)).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn ordered_runs_score_in_index_order() {
+        visits_in_index_order::<1>();
+        visits_in_index_order::<100>();
+        visits_in_index_order::<4096>();
+    }
 }
