@@ -312,9 +312,14 @@ impl Grid {
                 range(b.min.y, b.max.y, pitch.y, ny),
             )
         };
+        // Both passes below visit the solids in the records' order (the
+        // Morton order of their centres), so that neighbouring solids write
+        // neighbouring cells one after the other: in the solids' own order
+        // (random places) every solid's cells were cache misses. Their cell
+        // ranges are gathered first, in a loop of independent loads.
+        let ranges: Vec<_> = order.iter().map(|&(_, _, i)| cell_ranges(i)).collect();
         let mut first = vec![0_usize; nx * ny + 1];
-        for &i in gridded {
-            let (xs, ys) = cell_ranges(i);
+        for (xs, ys) in ranges.iter().cloned() {
             for iy in ys {
                 for ix in xs.clone() {
                     first[iy * nx + ix + 1] += 1;
@@ -335,8 +340,7 @@ impl Grid {
         // it, so a solid wholly below it there is not listed there (buried
         // under larger bumps; it is listed wherever it reaches above them).
         let mut floor = vec![f64::NEG_INFINITY; nx * ny];
-        for &i in gridded {
-            let (xs, ys) = cell_ranges(i);
+        for (&(_, _, i), (xs, ys)) in order.iter().zip(ranges) {
             for iy in ys {
                 for ix in xs.clone() {
                     let lo = DVec2::new(ix as f64, iy as f64) * pitch;
@@ -386,9 +390,12 @@ impl Grid {
                     .copied()
                     .zip(listed_top[own].iter().copied()),
             );
-            // Tallest first (stable: ties keep the solids' order), so a
-            // flight stops scanning at the first solid below it.
-            l.sort_by(|a, b| b.1.total_cmp(&a.1));
+            // Tallest first (ties in the solids' order), so a flight stops
+            // scanning at the first solid below it.
+            l.sort_unstable_by(|a, b| {
+                b.1.total_cmp(&a.1)
+                    .then_with(|| ids[a.0 as usize].solid.cmp(&ids[b.0 as usize].solid))
+            });
             let start = items.len() as u32;
             for &(rec, top) in &l {
                 items.push(Item {

@@ -1095,6 +1095,55 @@ mod tests {
         assert!(hits > 2000 && exits > 2000, "{hits} hits, {exits} exits");
     }
 
+    /// Every grid cell lists its solids tallest first over it, ties in the
+    /// solids' order, however the grid was filled: posts of one height tie
+    /// over every grid cell two of them reach, and the Morton order the
+    /// grid is filled in differs from the solids' order.
+    #[test]
+    fn grid_cells_list_tallest_first_ties_in_solid_order() {
+        use bumps::{Bump, Shape};
+        let mut u = crate::test_streams::uniform(17);
+        let placed = (0..60)
+            .map(|_| {
+                let r = 2.0 + 2.0 * u();
+                let b = Bump {
+                    center: DVec2::new(30.0 * u(), 30.0 * u()),
+                    radius: r,
+                    radius_y: r,
+                    height: 2.0,
+                    depth: 0.0,
+                    cap: 0.5,
+                    base: 1.5,
+                };
+                Shape::Cylinder.body(&b, 0)
+            })
+            .collect();
+        let s = MicroSurface::new(DVec2::new(30.0, 30.0), Edges::Periodic, placed, white(), 0);
+        let Relief::Solids(solids) = &s.relief else {
+            panic!("bumps make solids")
+        };
+        let g = &solids.grid;
+        let solid = |k: usize| g.ids[g.items[k].rec as usize].solid;
+        let (mut ties, mut out_of_index_order) = (0, 0);
+        for cell in &g.cells {
+            for k in cell.start as usize + 1..cell.end as usize {
+                assert!(g.exact[k - 1] >= g.exact[k], "not tallest first");
+                if g.exact[k - 1] == g.exact[k] {
+                    ties += 1;
+                    assert!(solid(k - 1) < solid(k), "a tie out of the solids' order");
+                }
+            }
+        }
+        // The records (the grid's fill order) are not in the solids' order.
+        for r in 1..g.ids.len() {
+            if g.ids[r - 1].solid > g.ids[r].solid {
+                out_of_index_order += 1;
+            }
+        }
+        assert!(ties > 100, "{ties} ties");
+        assert!(out_of_index_order > 10, "{out_of_index_order}");
+    }
+
     /// Small sparse bumps (100 of radius 0.025-0.035 on a 30 x 30 cell):
     /// their footprints would ask for 2048² grid cells, nearly all empty;
     /// the grid stops at 64 cells a solid, and flights meet what a scan
