@@ -154,18 +154,14 @@ impl std::fmt::Display for TauUndefined {
 }
 
 /// Estimated peak memory (bytes) of [`surface_stats`] on an `nx x ny` map,
-/// the map itself included: per sample 8 bytes of height, and the complex
-/// autocorrelation buffer with its transpose (16 + 16 bytes, on a grid
-/// padded to `2nx x 2ny` when not periodic) or the lag list (24 bytes).
-/// For memory checks before the map is sampled.
+/// the map itself included: per sample 8 bytes of height and 16 of the
+/// complex autocorrelation buffer (on a grid padded to `2nx x 2ny` when not
+/// periodic), and the FFT's strip of columns ([`STRIP`] values). For memory
+/// checks before the map is sampled.
 #[must_use]
 pub fn memory_bytes(nx: usize, ny: usize, periodic: bool) -> u64 {
-    let per_sample = if periodic {
-        8 + 16 + 24
-    } else {
-        8 + 4 * (16 + 16)
-    };
-    crate::limits::product(&[nx as u64, ny as u64, per_sample])
+    let per_sample = if periodic { 8 + 16 } else { 8 + 4 * 16 };
+    crate::limits::product(&[nx as u64, ny as u64, per_sample]).saturating_add(16 * STRIP as u64)
 }
 
 /// Computes the roughness statistics of `map`.
@@ -313,7 +309,16 @@ fn slope_square_sums(map: &HeightMap) -> (f64, f64) {
     (sum_gx2, sum_gy2)
 }
 
+/// Complex values a strip of columns of [`fft2`] holds: 1 MiB.
+const STRIP: usize = 1 << 16;
+
 /// In-place 2-D FFT (unnormalised) of a row-major `nx × ny` complex grid.
+///
+/// The rows are transformed in place; the columns a strip at a time (a
+/// strip of columns copied out, transformed and copied back, about
+/// [`STRIP`] values), so the only memory besides the grid is the strip.
+/// Each column is transformed by the same plan whatever the strip, so the
+/// result does not depend on the strip's width.
 pub(crate) fn fft2(
     planner: &mut FftPlanner<f64>,
     data: &mut [Complex<f64>],
@@ -328,22 +333,28 @@ pub(crate) fn fft2(
     };
     // Rows: the buffer is a whole number of rows, processed one by one.
     fx.process(data);
-    // Columns: transpose, transform rows of the transpose, transpose back.
-    let mut t = vec![Complex::new(0.0, 0.0); nx * ny];
-    for iy in 0..ny {
-        for ix in 0..nx {
-            t[ix * ny + iy] = data[iy * nx + ix];
-        }
-    }
-    fy.process(&mut t);
-    for ix in 0..nx {
+    // Columns: a strip of `width` columns, each contiguous in `t`.
+    let width = (STRIP / ny.max(1)).clamp(1, nx.max(1));
+    let mut t = vec![Complex::new(0.0, 0.0); width * ny];
+    for x0 in (0..nx).step_by(width) {
+        let w = width.min(nx - x0);
+        let t = &mut t[..w * ny];
         for iy in 0..ny {
-            data[iy * nx + ix] = t[ix * ny + iy];
+            for (k, &v) in data[iy * nx + x0..iy * nx + x0 + w].iter().enumerate() {
+                t[k * ny + iy] = v;
+            }
+        }
+        fy.process(t);
+        for iy in 0..ny {
+            for (k, v) in data[iy * nx + x0..iy * nx + x0 + w].iter_mut().enumerate() {
+                *v = t[k * ny + iy];
+            }
         }
     }
 }
 
 /// Normalised autocorrelation at one signed lag (in samples).
+#[cfg(test)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct LagAcf {
     lx: isize,
@@ -361,13 +372,20 @@ fn signed_lag(i: usize, len: usize) -> isize {
     }
 }
 
-/// Normalised autocorrelation of `map` (mean `mean` removed) at every lag the
-/// estimator uses; empty if the zero-lag value is not positive and finite
-/// (flat map or non-finite heights).
+/// Calls `f(lx, ly, acf)` with the normalised autocorrelation of `map`
+/// (mean `mean` removed) at every lag the estimator uses, `ly` outer and
+/// `lx` inner in FFT index order; returns `false`, with no call, if the
+/// zero-lag value is not positive and finite (flat map or non-finite
+/// heights). The lags are handed over one by one, not collected: a list
+/// would take 24 bytes a sample, more than the FFT buffer.
 ///
 /// Periodic: all `nx * ny` minimum-image lags. Non-periodic: lags with
 /// `|lx| <= nx/2`, `|ly| <= ny/2`.
-fn normalised_acf(map: &HeightMap, mean: f64) -> Vec<LagAcf> {
+fn for_each_normalised_lag(
+    map: &HeightMap,
+    mean: f64,
+    mut f: impl FnMut(isize, isize, f64),
+) -> bool {
     let (nx, ny) = (map.nx, map.ny);
     let (px, py) = if map.periodic {
         (nx, ny)
@@ -401,10 +419,8 @@ fn normalised_acf(map: &HeightMap, mean: f64) -> Vec<LagAcf> {
     };
     let c0 = buf[0].re / m_f / pairs(0, 0);
     if !(c0.is_finite() && c0 > 0.0) {
-        return Vec::new();
+        return false;
     }
-
-    let mut out = Vec::with_capacity(if map.periodic { m } else { m / 4 + nx + ny });
     for iy in 0..py {
         let ly = signed_lag(iy, py);
         let ay = ly.unsigned_abs();
@@ -418,22 +434,22 @@ fn normalised_acf(map: &HeightMap, mean: f64) -> Vec<LagAcf> {
                 continue;
             }
             let c = buf[iy * px + ix].re / m_f / pairs(ax, ay);
-            out.push(LagAcf {
-                lx,
-                ly,
-                acf: c / c0,
-            });
+            f(lx, ly, c / c0);
         }
     }
+    true
+}
+
+/// Every lag of [`for_each_normalised_lag`], in its order (empty for a flat map).
+#[cfg(test)]
+fn normalised_acf(map: &HeightMap, mean: f64) -> Vec<LagAcf> {
+    let mut out = Vec::new();
+    for_each_normalised_lag(map, mean, |lx, ly, acf| out.push(LagAcf { lx, ly, acf }));
     out
 }
 
 /// Radially binned normalised autocorrelation (see the module docs).
 fn radial_profile(map: &HeightMap, mean: f64) -> Vec<(f64, f64)> {
-    let lags = normalised_acf(map, mean);
-    if lags.is_empty() {
-        return Vec::new();
-    }
     let w = map.dx.min(map.dy);
     let r_max = (map.nx as f64 * map.dx).min(map.ny as f64 * map.dy) / 2.0;
     // Tolerance so that lags lying exactly on r_max survive rounding.
@@ -442,17 +458,20 @@ fn radial_profile(map: &HeightMap, mean: f64) -> Vec<(f64, f64)> {
     let mut sum_r = vec![0.0; nbins];
     let mut sum_c = vec![0.0; nbins];
     let mut count = vec![0usize; nbins];
-    for lag in &lags {
-        let rx = lag.lx as f64 * map.dx;
-        let ry = lag.ly as f64 * map.dy;
+    let correlated = for_each_normalised_lag(map, mean, |lx, ly, acf| {
+        let rx = lx as f64 * map.dx;
+        let ry = ly as f64 * map.dy;
         let r = (rx * rx + ry * ry).sqrt();
         if r > r_cut {
-            continue;
+            return;
         }
         let k = ((r / w).round() as usize).min(nbins - 1);
         sum_r[k] += r;
-        sum_c[k] += lag.acf;
+        sum_c[k] += acf;
         count[k] += 1;
+    });
+    if !correlated {
+        return Vec::new();
     }
     (0..nbins)
         .filter(|&k| count[k] > 0)
@@ -986,5 +1005,53 @@ mod tests {
         // about 0.7 % here), averaging a curved profile over width-1 bins, and
         // linear interpolation between bins. Together they stay below 1 %.
         assert_close(s.tau, tau, 0.01 * tau, "tau");
+    }
+
+    /// The 2-D FFT by strips of columns gives the bits of the plain one (the
+    /// columns moved out by a whole transpose), forward and inverse, on
+    /// square, oblong, odd and one-wide grids, with strips of one column, of
+    /// several, and of the whole grid.
+    #[test]
+    fn fft2_by_strips_is_the_whole_transpose_bit_for_bit() {
+        fn by_transpose(data: &mut [Complex<f64>], nx: usize, ny: usize, inverse: bool) {
+            let mut planner = FftPlanner::new();
+            let (fx, fy) = if inverse {
+                (planner.plan_fft_inverse(nx), planner.plan_fft_inverse(ny))
+            } else {
+                (planner.plan_fft_forward(nx), planner.plan_fft_forward(ny))
+            };
+            fx.process(data);
+            let mut t = vec![Complex::new(0.0, 0.0); nx * ny];
+            for iy in 0..ny {
+                for ix in 0..nx {
+                    t[ix * ny + iy] = data[iy * nx + ix];
+                }
+            }
+            fy.process(&mut t);
+            for ix in 0..nx {
+                for iy in 0..ny {
+                    data[iy * nx + ix] = t[ix * ny + iy];
+                }
+            }
+        }
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+        // (1000, 70): strips of 936 columns (STRIP / ny), the last of 64;
+        // (3, 40000): strips of one column; the others: one strip.
+        for (nx, ny) in [(64, 64), (30, 17), (1, 9), (9, 1), (1000, 70), (3, 40_000)] {
+            for inverse in [false, true] {
+                let data: Vec<Complex<f64>> = (0..nx * ny)
+                    .map(|_| Complex::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5))
+                    .collect();
+                let (mut a, mut b) = (data.clone(), data);
+                fft2(&mut FftPlanner::new(), &mut a, nx, ny, inverse);
+                by_transpose(&mut b, nx, ny, inverse);
+                let bits = |v: &[Complex<f64>]| {
+                    v.iter()
+                        .map(|c| (c.re.to_bits(), c.im.to_bits()))
+                        .collect::<Vec<_>>()
+                };
+                assert!(bits(&a) == bits(&b), "{nx} x {ny}, inverse {inverse}");
+            }
+        }
     }
 }
