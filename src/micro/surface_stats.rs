@@ -156,7 +156,7 @@ impl std::fmt::Display for TauUndefined {
 /// Estimated peak memory (bytes) of [`surface_stats`] on an `nx x ny` map,
 /// the map itself included: per sample 8 bytes of height and 16 of the
 /// complex autocorrelation buffer (on a grid padded to `2nx x 2ny` when not
-/// periodic), and the FFT's strip of columns ([`STRIP`] values). For memory
+/// periodic), and the FFT's strip of columns (`STRIP`, 65 536 values). For memory
 /// checks before the map is sampled.
 #[must_use]
 pub fn memory_bytes(nx: usize, ny: usize, periodic: bool) -> u64 {
