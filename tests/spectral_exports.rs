@@ -430,3 +430,51 @@ fn bad_spectral_folders_exit_2_naming_the_file() {
     assert!(!dir.join("x").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A run of one wavelength reads and exports like a monochrome one: `roks
+/// brdf --export merl` of the default scene (reflectance constant in
+/// wavelength) at 0.55 um alone writes a grey MERL file, byte for byte the
+/// file of the monochrome run with the same seed (each channel the BRDF),
+/// where several wavelengths off the visible are refused (above).
+#[test]
+fn merl_of_one_wavelength_is_the_grey_monochrome_file() {
+    let dir = scratch("one");
+    let run = |name: &str, extra: &str| {
+        let scene = dir.join(format!("{name}.toml"));
+        std::fs::write(&scene, default_with(extra, "0, 30")).unwrap();
+        let out = dir.join(name);
+        let o = roks(&[
+            "brdf",
+            s(&scene),
+            "--out",
+            s(&out),
+            "--export",
+            "merl",
+            "-q",
+        ]);
+        assert!(
+            o.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        std::fs::read(out.join("brdf.binary")).unwrap()
+    };
+    let one = run("one", "wavelengths_um = [0.55]");
+    let mono = run("mono", "");
+    assert!(
+        one == mono,
+        "the MERL file of one wavelength is not the monochrome one"
+    );
+    // Grey: the three channels agree at the specular direction of 30 degrees.
+    let m = Merl::parse(&one, "one").unwrap();
+    let theta = 30f64.to_radians();
+    let got = m.lookup(
+        DVec3::new(theta.sin(), 0.0, theta.cos()),
+        DVec3::new(-theta.sin(), 0.0, theta.cos()),
+    );
+    assert!(
+        got[0] > 0.0 && got[0] == got[1] && got[1] == got[2],
+        "{got:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

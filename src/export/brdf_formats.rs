@@ -198,11 +198,14 @@ impl BrdfFormat {
     /// monochrome) can be exported in this format (before tracing them).
     ///
     /// # Errors
-    /// [`ExportRefusal::NotVisible`] for MERL of wavelengths that do not
-    /// cover the visible.
+    /// [`ExportRefusal::NotVisible`] for MERL of several wavelengths that do
+    /// not cover the visible (one wavelength exports as a grey table).
     pub fn check_wavelengths(self, wavelengths_um: &[f64]) -> Result<(), ExportRefusal> {
         match (self, wavelengths_um.first(), wavelengths_um.last()) {
-            (Self::Merl, Some(&first), Some(&last)) if !covers_visible(wavelengths_um) => {
+            // One wavelength is a monochrome table: a grey MERL file.
+            (Self::Merl, Some(&first), Some(&last))
+                if wavelengths_um.len() > 1 && !covers_visible(wavelengths_um) =>
+            {
                 Err(ExportRefusal::NotVisible { first, last })
             }
             _ => Ok(()),
@@ -246,6 +249,13 @@ impl BrdfFormat {
                     clipped: None,
                 })
                 .collect(),
+            // A run of one wavelength exports as a monochrome one: grey.
+            Self::Merl if spectral.wavelengths_um().len() == 1 => vec![ExportFile {
+                file_name: self.file_name().to_owned(),
+                wavelength_um: None,
+                bytes: self.export(&spectral.tables()[0], comment),
+                clipped: None,
+            }],
             Self::Merl => {
                 let (m, clipped) = merl::Merl::from_spectral(spectral).ok_or_else(|| {
                     let w = spectral.wavelengths_um();
