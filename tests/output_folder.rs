@@ -814,3 +814,66 @@ fn an_input_error_after_tracing_writes_nothing() {
     assert_input_error("unmodelled wall", &o, &scene, &out, &["walls.s"]);
     assert_eq!(names(&dir), ["scene.toml"]);
 }
+
+/// An edited copy of a scene that kept its `name` never silently replaces
+/// the original's result in the default folder `out/<name>`: refused (exit
+/// 2, one line naming the copy's `name` key and the other scene file, the
+/// folder untouched). The same scene file by another spelling of its path
+/// reruns into it, and `--out` writes the copy's result on purpose.
+#[test]
+fn a_copy_of_a_scene_never_replaces_the_original_result() {
+    let dir = scratch("copy");
+    let original = write_scene(&dir, MICRO);
+    let copy = dir.join("copy.toml");
+    std::fs::write(
+        &copy,
+        MICRO.replace("reflectance = 0.8", "reflectance = 0.7"),
+    )
+    .unwrap();
+    let run = |scene: &str| {
+        roks_in(
+            &dir,
+            &[
+                "brdf",
+                scene,
+                "--photons",
+                "4096",
+                "--stats-resolution",
+                "32",
+                "-q",
+            ],
+        )
+    };
+    ok(&run("scene.toml"), "original");
+    let result = dir.join("out").join("small");
+    let before = contents(&result);
+    let o = run("copy.toml");
+    assert_input_error(
+        "copy",
+        &o,
+        Path::new("copy.toml"),
+        &dir.join("never-created"),
+        &["name", "holds the result of scene.toml", "--out"],
+    );
+    assert_eq!(contents(&result), before, "the original's result changed");
+    // The same file by another path: a rerun.
+    ok(&run("./scene.toml"), "same file, other path");
+    ok(&run(s(&original)), "same file, absolute path");
+    // On purpose: --out.
+    let o = roks_in(
+        &dir,
+        &[
+            "brdf",
+            "copy.toml",
+            "--out",
+            "out/small",
+            "--photons",
+            "4096",
+            "--stats-resolution",
+            "32",
+            "-q",
+        ],
+    );
+    ok(&o, "copy with --out");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -114,15 +114,49 @@ pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Fai
 /// The result folder: `given` (`--out`), or `out/<name>` (named in messages
 /// by the scene file's `name` key), checked before any work is done.
 ///
+/// The default folder is never taken over from another scene file: when
+/// `out/<name>` holds the result of a scene at another path (its
+/// `summary.json` names it), the run is refused, so an edited copy of a
+/// scene that kept its `name` cannot silently replace the original's
+/// result. `--out` names a folder on purpose and may replace any result.
+///
 /// # Errors
-/// Bad input when the folder cannot be a result folder.
+/// Bad input when the folder cannot be a result folder, or is the default
+/// folder of another scene file.
 pub fn result_dir(given: Option<&Path>, scene_file: &str, name: &str) -> Result<PathBuf, Failure> {
-    let (out, key) = match given {
-        Some(p) => (p.to_path_buf(), "--out".to_string()),
-        None => (Path::new("out").join(name), format!("{scene_file}: name")),
+    let Some(out) = given else {
+        let out = Path::new("out").join(name);
+        let key = format!("{scene_file}: name");
+        check_out_dir(&out, &key)?;
+        if let Some(other) = recorded_scene(&out).filter(|o| !same_file(o, scene_file)) {
+            return Err(Failure::Input(format!(
+                "{key}: {} holds the result of {}, another scene named {name:?}; give --out, or another name",
+                out.display(),
+                other.escape_debug()
+            )));
+        }
+        return Ok(out);
     };
-    check_out_dir(&out, &key)?;
-    Ok(out)
+    check_out_dir(out, "--out")?;
+    Ok(out.to_path_buf())
+}
+
+/// The scene file recorded in the `summary.json` of the result folder
+/// `out` (`None` when there is none to read).
+fn recorded_scene(out: &Path) -> Option<String> {
+    let text = std::fs::read(out.join("summary.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_slice(&text).ok()?;
+    v.get("scene")?.as_str().map(str::to_owned)
+}
+
+/// Whether the scene paths `a` and `b` (as given, relative to the working
+/// folder) name one file: the same text, or the same file once resolved.
+fn same_file(a: &str, b: &str) -> bool {
+    a == b
+        || matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(x), Ok(y)) if x == y
+        )
 }
 
 /// Check a result folder before any work is done; `key` names it in the
