@@ -225,6 +225,33 @@ fn good_scene_runs() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A BRDF table that does not exist yet names the command that makes it:
+/// the micro scene beside the object scene whose result folder it is
+/// (`micro.toml`, named by its file stem, writes `out/micro/`), else the
+/// command's general form.
+#[test]
+fn missing_brdf_table_names_the_command_that_makes_it() {
+    check(
+        "missing_table",
+        &broken("diffuse = 0.7", r#"brdf = "out/micro/brdf.csv""#),
+        &[
+            "models.paint.brdf",
+            "out/micro/brdf.csv: no such file",
+            "`roks brdf ",
+            "micro.toml --out ",
+            "run that first",
+        ],
+    );
+    check(
+        "missing_table_unknown",
+        &broken("diffuse = 0.7", r#"brdf = "tables/brdf.csv""#),
+        &[
+            "tables/brdf.csv: no such file",
+            "`roks brdf MICRO_SCENE --out ",
+        ],
+    );
+}
+
 #[test]
 fn unknown_key() {
     check(

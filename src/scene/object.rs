@@ -106,7 +106,7 @@
 
 use super::Num;
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use serde::Deserialize;
@@ -734,6 +734,13 @@ fn brdf_wall(
     wavelengths_um: &[f64],
 ) -> Result<WallModel, SceneError> {
     let fail = |e: &dyn std::fmt::Display| source.error(key, e.to_string());
+    if !path.exists() {
+        return Err(fail(&format_args!(
+            "{}: no such file: {}",
+            path.display(),
+            table_recipe(source, path)
+        )));
+    }
     let mut tables = BrdfTables::load(path).map_err(|e| fail(&e))?;
     // The run's summary beside the table carries the exact reflectance errors.
     let summary = path.with_file_name("summary.json");
@@ -782,6 +789,55 @@ fn brdf_wall(
     SpectralTableWall::new(selected)
         .map(|w| WallModel::SpectralTable(Box::new(w)))
         .ok_or_else(|| fail(&"more wavelengths than a run carries"))
+}
+
+/// How to make the missing BRDF table `path` of an object scene: the `roks
+/// brdf` command of the micro scene beside the object scene (in
+/// `source.dir`) whose `name` is the table's folder name (the folder `roks
+/// brdf` writes by default), else the command's general form.
+fn table_recipe(source: &Source, path: &Path) -> String {
+    let dir = path.parent().unwrap_or_else(|| Path::new("."));
+    let maker = dir
+        .file_name()
+        .and_then(|n| n.to_str())
+        .and_then(|name| micro_scene_named(&source.dir, name));
+    match maker {
+        Some(scene) => format!(
+            "it is the table of `roks brdf {} --out {}`: run that first",
+            scene.display(),
+            dir.display()
+        ),
+        None => format!(
+            "it is a table written by `roks brdf MICRO_SCENE --out {}`: run that first",
+            dir.display()
+        ),
+    }
+}
+
+/// The first (by file name) micro scene (`[surface]`) of the folder `dir`
+/// whose `name` (or, without one, file stem) is `name`; files over 1 MiB
+/// are skipped (scenes are small).
+fn micro_scene_named(dir: &Path, name: &str) -> Option<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .filter(|p| std::fs::metadata(p).is_ok_and(|m| m.is_file() && m.len() <= 1 << 20))
+        .collect();
+    files.sort();
+    files.into_iter().find(|p| {
+        std::fs::read_to_string(p)
+            .ok()
+            .and_then(|t| t.parse::<toml::Table>().ok())
+            .is_some_and(|t| {
+                // A scene without `name` is named by its file stem.
+                let named = t.get("name").map_or_else(
+                    || p.file_stem().and_then(|s| s.to_str()) == Some(name),
+                    |n| n.as_str() == Some(name),
+                );
+                t.contains_key("surface") && named
+            })
+    })
 }
 
 /// Estimated memory (bytes) of an object run per beam position, and the
