@@ -93,6 +93,32 @@ fn stats_gives_back_sigma_of_a_generated_field() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `roks stats` and the `surface` of `roks brdf`'s summary.json describe
+/// the same height map by default (512 x 512 samples of the default
+/// scene's bumps): the same numbers, to the last bit.
+#[test]
+fn stats_equals_the_surface_of_the_brdf_summary() {
+    let dir = scratch("stats-summary");
+    let out = dir.join("run");
+    roks(&[
+        "brdf",
+        "--photons",
+        "4096",
+        "--theta",
+        "0",
+        "--out",
+        path(&out),
+        "-q",
+    ]);
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let o = roks(&["stats", "--json"]);
+    let stats: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(stats["height_map_resolution"], 512);
+    assert_eq!(stats, summary["surface"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The measured-map round trip: a generated field written by
 /// `roks export-heightfield` as text (exact decimals) and as EXR (f32; the
 /// generated heights are f32 numbers) and loaded back as

@@ -17,7 +17,8 @@ use crate::output::summary::Surface;
 pub struct StatsArgs {
     /// Micro scene file (TOML); omitted: the embedded default scene.
     pub scene: Option<PathBuf>,
-    /// Height-map samples per side of the cell (default 1024; a height
+    /// Height-map samples per side of the cell (default 512, as `roks brdf`
+    /// writes in summary.json; a height
     /// field: its own grid, whose vertex heights are used exactly).
     #[arg(long, value_parser = integer::<usize>)]
     pub resolution: Option<usize>,
@@ -32,7 +33,7 @@ pub struct StatsArgs {
 /// Bad input (scene, `--resolution`), or a failed write to stdout.
 pub fn run(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
-    let (r, ry) = stats_grid(&scene, a.resolution, 1024, "--resolution")?;
+    let (r, ry) = stats_grid(&scene, a.resolution, 512, "--resolution")?;
     let s = surface_stats(&scene.surface.height_map(r, ry));
     let mut out = String::new();
     if a.json {
