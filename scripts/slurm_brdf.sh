@@ -102,14 +102,19 @@ partition_cpus() {
 load_run() {
     STATE=$OUT.shards/slurm_run.env
     [ -f "$STATE" ] || die "$OUT: no run of $PROG there (no $STATE)"
-    # shellcheck disable=SC1090
-    . "$STATE"
+    ROKS="" SCENE="" SHARDS="" CPUS="" TIME="" EXTRA="" JOBS=""
+    # shellcheck disable=SC1090 # the file this script wrote at submission
+    . "$STATE" 2>/dev/null || die "$STATE: cannot read it"
+    if [ -z "$ROKS" ] || [ -z "$SCENE" ] || ! [[ $SHARDS =~ ^[1-9][0-9]*$ ]] || [ -z "$CPUS" ] || [ -z "$TIME" ]; then
+        die "$STATE: not a run file of $PROG (ROKS, SCENE, SHARDS, CPUS, TIME)"
+    fi
 }
 
 # Submit the shards listed in $1 (Slurm array syntax, e.g. 0-7 or 1,3; empty:
-# none) and a merge after them; record the job ids. Prints the job ids.
+# none) and, unless $3 is "no", a merge after them and after the shard jobs
+# listed in $2 (job ids such as 14_2, colon-separated); record the job ids.
 submit() {
-    local list=$1 out_q shards_q merge_dep=() array_id="" merge_id i dirs=""
+    local list=$1 after=${2:-} out_q shards_q merge_dep=() array_id="" merge_id i dirs=""
     out_q=$(printf '%q' "$OUT")
     shards_q=$(printf '%q' "$OUT.shards")
     if [ -n "$list" ]; then
@@ -123,9 +128,14 @@ submit() {
             --wrap="$(printf '%q' "$ROKS") brdf $(printf '%q' "$SCENE") -q --threads \$SLURM_CPUS_PER_TASK --shard \$SLURM_ARRAY_TASK_ID/$SHARDS --out $shards_q/\$(printf %03d \$SLURM_ARRAY_TASK_ID)$EXTRA" 2>&1) ||
             die "sbatch refused the shards: $(first_line "$array_id")"
         array_id=${array_id%%;*}
-        merge_dep=(--dependency=afterok:"$array_id" --kill-on-invalid-dep=yes)
+        after=$array_id${after:+:$after}
         echo "JOBS=\"\$JOBS $array_id\"" >>"$STATE"
     fi
+    if [ "${3:-}" = no ]; then
+        echo "submitted shards $list of $SHARDS as job array $array_id"
+        return
+    fi
+    [ -z "$after" ] || merge_dep=(--dependency=afterok:"$after" --kill-on-invalid-dep=yes)
     # The merge takes exactly shards 000 .. SHARDS-1.
     for ((i = 0; i < SHARDS; i++)); do
         dirs+=" $shards_q/$(shard_name "$i")"
@@ -151,21 +161,23 @@ submit() {
 }
 
 # Sets DONE, RUNNING, PENDING, FAILED, MISSING (space-separated shard
-# indices), FAILED_WHY (one line per failed shard), MERGE (one line) and
-# MERGE_STATE (queued, merged or none).
+# indices), FAILED_WHY (one line per failed shard), MERGE (one line),
+# MERGE_STATE (queued, merged or none), and QUEUED and QUEUED_JOB (state and
+# job id of each queued shard, by index).
 survey() {
-    local jobs="" j name task state i dir log why merge_queued=""
-    declare -A queued=()
+    local jobs="" j name job task state i dir log why merge_queued=""
+    declare -gA QUEUED=() QUEUED_JOB=()
     squeue -h -o '%i' >/dev/null 2>&1 || die "squeue cannot reach the Slurm controller: $(first_line "$(squeue -h -o '%i' 2>&1)")"
     for j in $JOBS; do
-        jobs+=$(squeue -h -r -j "$j" -o '%j %K %T' 2>/dev/null || true)$'\n'
+        jobs+=$(squeue -h -r -j "$j" -o '%j %F %K %T' 2>/dev/null || true)$'\n'
     done
-    while read -r name task state; do
+    while read -r name job task state; do
         [ -n "$name" ] || continue
         if [ "$name" = roks-merge ]; then
             merge_queued=$state
         elif [[ $task =~ ^[0-9]+$ ]]; then
-            queued[$task]=$state
+            QUEUED[$task]=$state
+            QUEUED_JOB[$task]=${job}_$task
         fi
     done <<<"$jobs"
     DONE="" RUNNING="" PENDING="" FAILED="" MISSING="" FAILED_WHY=""
@@ -174,8 +186,8 @@ survey() {
         log=$OUT.logs/shard-$(shard_name "$i").out
         if [ -f "$dir/tallies.json" ]; then
             DONE+=" $i"
-        elif [ -n "${queued[$i]:-}" ]; then
-            case ${queued[$i]} in
+        elif [ -n "${QUEUED[$i]:-}" ]; then
+            case ${QUEUED[$i]} in
                 PENDING) PENDING+=" $i" ;;
                 *) RUNNING+=" $i" ;;
             esac
@@ -212,9 +224,11 @@ newer_than_shards() {
 }
 
 # The shard indices in $1 (space-separated) sorted, comma-separated: "3 1" -> "1,3".
+# shellcheck disable=SC2086 # $1 is split into indices
 commas() { printf '%s\n' $1 | sort -n | paste -s -d , -; }
 
 # The number of shard indices in $1.
+# shellcheck disable=SC2086 # $1 is split into indices
 count() { set -- $1; echo $#; }
 
 # The folder names of the shard indices in $1: " 1 3" -> " 001 003".
@@ -245,29 +259,49 @@ status() {
 }
 
 resubmit() {
-    local list=${1:-} i j old
+    local list=${1:-} i j old rest after=""
     survey
     local left=" $FAILED $MISSING "
     if [ -z "$list" ]; then
         list=$(commas "$FAILED $MISSING")
     else
         [[ $list =~ ^[0-9]+(,[0-9]+)*$ ]] || die "resubmit: bad shard list \`$list\` (expected e.g. 1,3)"
+        local wanted=""
         for i in ${list//,/ }; do
             i=$((10#$i))
             ((i < SHARDS)) || die "resubmit: shard $i does not exist (the run has shards 0-$((SHARDS - 1)))"
             [[ $left == *" $i "* ]] || die "resubmit: shard $i is done, pending or running, not failed or missing (see: $PROG status $OUT)"
+            [[ " $wanted " == *" $i "* ]] || wanted+=" $i"
         done
+        list=$(commas "$wanted")
     fi
-    if [ "$list" = "" ] && [ -n "$RUNNING$PENDING" ]; then
-        die "resubmit: nothing failed or missing; shards$RUNNING$PENDING are still queued (see: $PROG status $OUT)"
+    if [ -z "$list" ] && [ -n "$RUNNING$PENDING" ]; then
+        die "resubmit: nothing failed or missing; shards$(names "$RUNNING$PENDING") are still queued (see: $PROG status $OUT)"
     fi
+    if [ -z "$list" ] && [ "$MERGE_STATE" = merged ]; then
+        die "resubmit: nothing to do, $OUT is merged from all $SHARDS shards"
+    fi
+    # Shards failed or missing and not in the list: no merge yet.
+    rest=""
+    for i in $FAILED $MISSING; do
+        [[ ,$list, == *",$i,"* ]] || rest+=" $i"
+    done
     # A merge still waiting on the old shards would never run (or run on a
     # partial set): cancel it.
     for j in $JOBS; do
         old=$(squeue -h -j "$j" -o '%j %i' 2>/dev/null | awk '$1 == "roks-merge" {print $2}' || true)
         [ -z "$old" ] || scancel "$old"
     done
-    submit "$list"
+    if [ -n "$rest" ]; then
+        submit "$list" "" no
+        echo "the merge waits until shards$(names "$rest") are resubmitted too: $SELF resubmit $(printf '%q' "$OUT") $(commas "$rest")"
+        return
+    fi
+    # The new merge also waits for the shards still queued from before.
+    for i in $RUNNING $PENDING; do
+        after+=${after:+:}${QUEUED_JOB[$i]}
+    done
+    submit "$list" "$after"
 }
 
 case ${1:-} in
@@ -278,8 +312,9 @@ case ${1:-} in
         ;;
     status | resubmit)
         mode=$1
-        [ $# -ge 2 ] || die "$USAGE"
-        [ $# -le 3 ] && { [ "$mode" = resubmit ] || [ $# -eq 2 ]; } || die "$USAGE"
+        if [ $# -lt 2 ] || [ $# -gt 3 ] || { [ "$mode" = status ] && [ $# -eq 3 ]; }; then
+            die "$USAGE"
+        fi
         need_slurm
         OUT=$(absolute_out "$2")
         load_run
@@ -312,7 +347,9 @@ EXTRA=$(printf ' %q' "${opts[@]+"${opts[@]}"}")
 [ ${#opts[@]} -gt 0 ] || EXTRA=""
 
 ROKS=${ROKS:-$(pwd)/target/release/roks}
-[ -f "$ROKS" ] && [ -x "$ROKS" ] || die "ROKS: no roks binary at $ROKS (cargo build --release, or set ROKS)"
+if ! [ -f "$ROKS" ] || ! [ -x "$ROKS" ]; then
+    die "ROKS: no roks binary at $ROKS (cargo build --release, or set ROKS)"
+fi
 ROKS=$(realpath -- "$ROKS")
 [ -f "$SCENE" ] || die "$SCENE: no such scene file"
 SCENE=$(realpath -- "$SCENE")
@@ -321,9 +358,10 @@ TIME=${TIME:-04:00:00}
 if [ -e "$OUT" ] || [ -L "$OUT" ]; then
     [ -d "$OUT" ] || die "OUT: $OUT exists and is not a folder"
     if [ -n "$(ls -A -- "$OUT")" ]; then
-        [ -z "$(find "$OUT/" -mindepth 1 -maxdepth 1 -type d -print -quit)" ] &&
-            grep -qs '"version"' "$OUT/summary.json" ||
+        if [ -n "$(find "$OUT/" -mindepth 1 -maxdepth 1 -type d -print -quit)" ] ||
+            ! grep -qs '"version"' "$OUT/summary.json"; then
             die "OUT: $OUT exists and is neither empty nor a roks result folder, which the merge replaces whole; choose a new folder"
+        fi
     fi
 fi
 require_empty "$OUT.shards"
