@@ -396,59 +396,43 @@ fn slurm_runs_merge_into_the_single_run_and_recover_from_a_killed_shard() {
 
     // Bad input, refused before anything is submitted.
     let bad = path("bad");
-    let cases: [(&str, Vec<&str>, &[(&str, &str)], Vec<&str>); 6] = [
-        (
-            "no scene",
-            vec!["nowhere.toml", "OUT", "4"],
-            &[],
-            vec!["nowhere.toml", "no such scene file"],
-        ),
-        (
-            "more shards than batches",
-            vec![scene, "OUT", "9", "--photons", PHOTONS],
-            &[],
-            vec!["--shard", "9 shards but only 8 batches"],
-        ),
-        (
-            "options without SHARDS, default 8 > 1 batch",
-            vec![scene, "OUT", "--photons", "4096"],
-            &[],
-            vec!["--shard", "8 shards but only 1 batches"],
-        ),
-        (
-            "an option roks refuses",
-            vec![scene, "OUT", "2", "--photons", "0"],
-            &[],
-            vec!["--photons"],
-        ),
-        (
-            "more cores than a node has",
-            vec![scene, "OUT", "2", "--photons", PHOTONS],
-            &[("CPUS", "100000")],
-            vec!["CPUS", "100000", "at most"],
-        ),
-        (
-            "--out given",
-            vec![scene, "OUT", "2", "--out", "x"],
-            &[],
-            vec!["--out"],
-        ),
-    ];
-    for (case, args, env, expect) in &cases {
-        let args: Vec<String> = args
-            .iter()
-            .map(|a| {
-                if *a == "OUT" {
-                    s(&bad)
-                } else {
-                    (*a).to_owned()
-                }
-            })
-            .collect();
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        let o = cluster.script(&args, env);
-        assert_refused(&cluster, case, &o, &bad, expect);
-    }
+    let bad_out = s(&bad);
+    let refused = |case: &str, args: &[&str], env: &[(&str, &str)], expect: &[&str]| {
+        let mut all = vec![args[0], bad_out.as_str()];
+        all.extend_from_slice(&args[1..]);
+        assert_refused(&cluster, case, &cluster.script(&all, env), &bad, expect);
+    };
+    refused(
+        "no scene",
+        &["nowhere.toml", "4"],
+        &[],
+        &["nowhere.toml", "no such scene file"],
+    );
+    refused(
+        "more shards than batches",
+        &[scene, "9", "--photons", PHOTONS],
+        &[],
+        &["--shard", "9 shards but only 8 batches"],
+    );
+    refused(
+        "options without SHARDS, default 8 > 1 batch",
+        &[scene, "--photons", "4096"],
+        &[],
+        &["--shard", "8 shards but only 1 batches"],
+    );
+    refused(
+        "an option roks refuses",
+        &[scene, "2", "--photons", "0"],
+        &[],
+        &["--photons"],
+    );
+    refused(
+        "more cores than a node has",
+        &[scene, "2", "--photons", PHOTONS],
+        &[("CPUS", "100000")],
+        &["CPUS", "100000", "at most"],
+    );
+    refused("--out given", &[scene, "2", "--out", "x"], &[], &["--out"]);
     let not_result = path("not-a-result");
     fs::create_dir(&not_result).unwrap();
     fs::write(not_result.join("notes.txt"), "mine").unwrap();
@@ -543,6 +527,26 @@ fn slurm_runs_merge_into_the_single_run_and_recover_from_a_killed_shard() {
     assert!(
         command.ends_with(&format!("resubmit {} 1,3", s(&broken))),
         "{report}"
+    );
+
+    // Shards that are done are not resubmitted; a folder without a run has
+    // no status.
+    let broken_out = s(&broken);
+    for (args, expect) in [
+        (vec!["resubmit", &broken_out, "0"], "shard 0 is done"),
+        (vec!["status", &bad_out], "no run of slurm_brdf.sh"),
+    ] {
+        let o = cluster.script(&args, &[]);
+        let stderr = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(expect) && stderr.lines().count() == 1,
+            "{args:?}: {stderr}"
+        );
+    }
+    assert!(
+        cluster.queue().is_empty(),
+        "a refused resubmission submitted jobs"
     );
 
     // The printed command, as a user would paste it.
