@@ -1,8 +1,8 @@
 #!/bin/bash
 # Run `roks brdf` as a Slurm job array, one photon block per array task, then
 # merge the blocks in a dependent job. The merged result equals a single run
-# exactly (see src/shard.rs). From the repository, roks built with
-# `cargo build --release` (or ROKS=/path/to/roks):
+# exactly (see src/shard.rs). Runs the repository's target/release/roks
+# (`cargo build --release`; or set ROKS=/path/to/roks) from any folder:
 #
 #   scripts/slurm_brdf.sh SCENE.toml OUT [SHARDS] [roks brdf options...]
 #   scripts/slurm_brdf.sh status OUT
@@ -28,7 +28,8 @@
 #     (SBATCH_PARTITION, else the default one); unset, it is 8 or the node's
 #     cores if fewer.
 # Settings from the environment: ROKS, CPUS, TIME (per shard, default
-# 04:00:00), and sbatch's own SBATCH_PARTITION, SBATCH_ACCOUNT, ...
+# 04:00:00), and sbatch's own SBATCH_PARTITION, SBATCH_ACCOUNT,
+# SBATCH_MEM_PER_CPU, ... (the shards and the merge all read them).
 # The run's settings and job ids are kept in OUT.shards/slurm_run.env.
 #
 # The merge job depends on every shard (afterok) and takes exactly the
@@ -223,9 +224,29 @@ newer_than_shards() {
     done
 }
 
-# The shard indices in $1 (space-separated) sorted, comma-separated: "3 1" -> "1,3".
+# The shard indices in $1 (space-separated) as a Slurm array list, sorted,
+# runs as ranges: "5 3 1 2" -> "1-3,5".
 # shellcheck disable=SC2086 # $1 is split into indices
-commas() { printf '%s\n' $1 | sort -n | paste -s -d , -; }
+commas() {
+    printf '%s\n' $1 | sort -n | awk '
+        function run(a, b) { return a == b ? a : a "-" b }
+        NF { if (n && $1 == last + 1) { last = $1; next }
+             if (n) { out = out sep run(first, last); sep = "," }
+             first = last = $1; n++ }
+        END { if (n) out = out sep run(first, last); print out }'
+}
+
+# The indices of a Slurm array list: "1-3,5" -> " 1 2 3 5"; dies on others.
+expand() {
+    local part a b
+    [[ $1 =~ ^[0-9]+(-[0-9]+)?(,[0-9]+(-[0-9]+)?)*$ ]] || die "resubmit: bad shard list \`$1\` (expected e.g. 1,3 or 2-5)"
+    for part in ${1//,/ }; do
+        a=$((10#${part%-*})) b=$((10#${part#*-}))
+        ((a <= b)) || die "resubmit: bad range \`$part\` in \`$1\`"
+        ((b < SHARDS)) || die "resubmit: shard $b does not exist (the run has shards 0-$((SHARDS - 1)))"
+        seq -s ' ' "$a" "$b" | sed 's/^/ /'
+    done | tr -d '\n'
+}
 
 # The number of shard indices in $1.
 # shellcheck disable=SC2086 # $1 is split into indices
@@ -265,11 +286,9 @@ resubmit() {
     if [ -z "$list" ]; then
         list=$(commas "$FAILED $MISSING")
     else
-        [[ $list =~ ^[0-9]+(,[0-9]+)*$ ]] || die "resubmit: bad shard list \`$list\` (expected e.g. 1,3)"
-        local wanted=""
-        for i in ${list//,/ }; do
-            i=$((10#$i))
-            ((i < SHARDS)) || die "resubmit: shard $i does not exist (the run has shards 0-$((SHARDS - 1)))"
+        local wanted="" all
+        all=$(expand "$list")
+        for i in $all; do
             [[ $left == *" $i "* ]] || die "resubmit: shard $i is done, pending or running, not failed or missing (see: $PROG status $OUT)"
             [[ " $wanted " == *" $i "* ]] || wanted+=" $i"
         done
@@ -284,7 +303,7 @@ resubmit() {
     # Shards failed or missing and not in the list: no merge yet.
     rest=""
     for i in $FAILED $MISSING; do
-        [[ ,$list, == *",$i,"* ]] || rest+=" $i"
+        [[ " $(expand "$list") " == *" $i "* ]] || rest+=" $i"
     done
     # A merge still waiting on the old shards would never run (or run on a
     # partial set): cancel it.
@@ -346,9 +365,9 @@ done
 EXTRA=$(printf ' %q' "${opts[@]+"${opts[@]}"}")
 [ ${#opts[@]} -gt 0 ] || EXTRA=""
 
-ROKS=${ROKS:-$(pwd)/target/release/roks}
+ROKS=${ROKS:-$(dirname "$SELF")/../target/release/roks}
 if ! [ -f "$ROKS" ] || ! [ -x "$ROKS" ]; then
-    die "ROKS: no roks binary at $ROKS (cargo build --release, or set ROKS)"
+    die "ROKS: no roks binary at $ROKS (run cargo build --release, or set ROKS)"
 fi
 ROKS=$(realpath -- "$ROKS")
 [ -f "$SCENE" ] || die "$SCENE: no such scene file"

@@ -91,12 +91,12 @@ fn wait_for(what: &str, limit: Duration, mut ready: impl FnMut() -> bool) {
     }
 }
 
-/// A free TCP port (bound once to port 0, then released).
-fn free_port() -> u16 {
-    TcpListener::bind("0.0.0.0:0")
-        .and_then(|l| l.local_addr())
-        .expect("bind a free port")
-        .port()
+/// Two distinct free TCP ports (bound at once to port 0, then released).
+fn free_ports() -> (u16, u16) {
+    let bind = || TcpListener::bind("0.0.0.0:0").expect("bind a free port");
+    let (a, b) = (bind(), bind());
+    let port = |l: &TcpListener| l.local_addr().expect("a bound port").port();
+    (port(&a), port(&b))
 }
 
 /// A private single-node Slurm: munged, slurmctld and slurmd as children of
@@ -169,6 +169,7 @@ impl Cluster {
             .expect("NodeName in slurmd -C")
             .to_owned();
         let d = dir.display();
+        let ports = free_ports();
         let text = format!(
             "ClusterName=rokstest\n\
              SlurmctldHost={host}(127.0.0.1)\n\
@@ -196,8 +197,8 @@ impl Cluster {
              ReturnToService=2\n\
              {node} NodeAddr=127.0.0.1 State=UNKNOWN\n\
              PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n",
-            ctld = free_port(),
-            slurmd = free_port(),
+            ctld = ports.0,
+            slurmd = ports.1,
             socket = socket.display(),
         );
         fs::write(&conf, text).unwrap();
