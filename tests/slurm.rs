@@ -104,7 +104,7 @@ fn free_ports() -> (u16, u16) {
 struct Cluster {
     dir: PathBuf,
     conf: PathBuf,
-    daemons: Vec<(&'static str, Child)>,
+    daemons: Vec<Child>,
 }
 
 impl Cluster {
@@ -214,7 +214,7 @@ impl Cluster {
     }
 
     /// Start a daemon in the foreground, its output in log/NAME.out.
-    fn spawn(&mut self, name: &'static str, cmd: &mut Command) {
+    fn spawn(&mut self, name: &str, cmd: &mut Command) {
         let out = fs::File::create(self.dir.join(format!("log/{name}.out"))).unwrap();
         let child = cmd
             .env("SLURM_CONF", &self.conf)
@@ -223,7 +223,7 @@ impl Cluster {
             .stderr(out)
             .spawn()
             .unwrap_or_else(|e| panic!("start {name}: {e}"));
-        self.daemons.push((name, child));
+        self.daemons.push(child);
     }
 
     /// A Slurm client command against this cluster; its stdout.
@@ -277,7 +277,7 @@ impl Drop for Cluster {
                 std::thread::sleep(Duration::from_millis(100));
             }
         }
-        for (_, child) in self.daemons.iter_mut().rev() {
+        for child in self.daemons.iter_mut().rev() {
             if let Some(pid) = Pid::from_raw(child.id() as i32) {
                 let _ = kill_process(pid, Signal::TERM);
             }
