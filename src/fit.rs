@@ -711,7 +711,18 @@ impl Problem {
             .file_stem()
             .map_or_else(|| "fit".to_string(), |s| s.to_string_lossy().into_owned());
         // The scene as given must be valid (this also reports TOML syntax errors).
-        MicroScene::from_str(scene_text, source.clone(), name.clone())?;
+        let scene = MicroScene::from_str(scene_text, source.clone(), name.clone())?;
+        // A measured in-plane BRDF is one curve per incidence angle: the
+        // model must be one too, so one wavelength at most.
+        let wavelengths = scene.brdf_run().wavelengths_um.len();
+        if wavelengths > 1 {
+            return Err(FitError::Scene(source.error(
+                "light.wavelengths_um",
+                format!(
+                    "roks fit compares one in-plane curve per incidence angle with the measurement, but the scene traces {wavelengths} wavelengths: fit one wavelength at a time ([light] wavelengths_um = [W])"
+                ),
+            )));
+        }
         let table: Table = toml::from_str(scene_text)
             .map_err(|e| source.error("", format!("invalid TOML: {}", e.message())))?;
         let opt = |option: &str, message: String| FitError::Options {
@@ -1705,6 +1716,18 @@ mod tests {
             new("materials.m.reflectance=0.5:1.5"),
             "test.toml: --param materials.m.reflectance=0.5:1.5: at materials.m.reflectance = 1.5, the scene is invalid: materials.m.reflectance: must be in [0, 1], got 1.5"
         );
+        // A spectral scene: one model curve per angle and wavelength, where
+        // the measurement has one per angle; one wavelength is fine.
+        let spectral = |w: &str| {
+            let text = truth.replace("[light]\n", &format!("[light]\nwavelengths_um = {w}\n"));
+            let p: FitParam = "bumps[0].radius=1:3".parse().unwrap();
+            Problem::new(&text, &source(), &[p], &m, &opts()).map(|_| ())
+        };
+        assert_eq!(
+            spectral("[0.45, 0.65]").unwrap_err().to_string(),
+            "test.toml: light.wavelengths_um: roks fit compares one in-plane curve per incidence angle with the measurement, but the scene traces 2 wavelengths: fit one wavelength at a time ([light] wavelengths_um = [W])"
+        );
+        assert!(spectral("[0.55]").is_ok());
         let bad_scene = truth.replace("\"ellipsoid\"", "\"blob\"");
         let p: FitParam = "bumps[0].radius=1:2".parse().unwrap();
         let e =

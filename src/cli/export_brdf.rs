@@ -17,8 +17,8 @@ use clap::Args;
 use super::Failure;
 use super::common::{check_out_file, write_file};
 use crate::export::brdf_formats::{
-    BrdfFormat, ExportFile, ReflectanceCheck, colour_reflectance_check, reflectance_check,
-    wavelength_labels,
+    BrdfFormat, ExportFile, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
+    reflectance_check, wavelength_labels,
 };
 use crate::optics::brdf_table::BrdfTables;
 
@@ -35,9 +35,38 @@ pub struct ExportBrdfArgs {
     /// written with the same number of digits so the names sort).
     #[arg(long)]
     pub out: PathBuf,
-    /// No reflectance check on stderr.
+    /// Zemax grid AZIMUTH_STEP,RADIAL_STEP in degrees (default 2,1): finer
+    /// steps follow a narrow peak more closely, in a larger file.
+    #[arg(long, value_name = "AZIMUTH_DEG,RADIAL_DEG", value_parser = grid)]
+    pub grid: Option<ZemaxGrid>,
+    /// No reflectance table on stderr (a warning still says when the
+    /// file's reflectance is off the table's).
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// The value of `--grid`: two steps in degrees, each in (0, 90] and
+/// dividing 180 into whole steps (to 1e-9).
+fn grid(s: &str) -> Result<ZemaxGrid, String> {
+    let steps: Vec<f64> = s
+        .split(',')
+        .map(|v| super::parse::number(v.trim()))
+        .collect::<Result<_, _>>()?;
+    let [azimuth_step_deg, radial_step_deg] = steps[..] else {
+        return Err(format!("expected AZIMUTH_DEG,RADIAL_DEG, got {s:?}"));
+    };
+    for step in [azimuth_step_deg, radial_step_deg] {
+        let n = 180.0 / step;
+        if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
+            return Err(format!(
+                "each step must be in (0, 90] degrees and divide 180, got {step}"
+            ));
+        }
+    }
+    Ok(ZemaxGrid {
+        azimuth_step_deg,
+        radial_step_deg,
+    })
 }
 
 /// The file of the wavelength labelled `wavelength` (µm, one of
@@ -99,12 +128,18 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
     for p in &paths {
         check_out_file(p, &inputs)?;
     }
-    let files = export_tables(
+    if a.grid.is_some() && format != BrdfFormat::Zemax {
+        return Err(Failure::Input(format!(
+            "--grid: only for --format zemax (the {format} grid is fixed by its format)"
+        )));
+    }
+    let files = export_tables_on(
         &tables,
         format,
         &format!("from {}", csv.display()),
         a.quiet,
         "--format",
+        a.grid.unwrap_or_default(),
     )?;
     for (file, path) in files.iter().zip(&paths) {
         write_file(path, &file.bytes)?;
@@ -120,12 +155,16 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
 }
 
 /// The export of `tables` in `format` ([`BrdfFormat::export_tables`]), with
-/// `comment` in its header where the format has one; unless `quiet`, the
-/// reflectance check on stderr: each file read back and integrated over the
-/// hemisphere beside the table's reflectance, per incidence (per
-/// wavelength for spectral Zemax files, per channel for a colour MERL
-/// file, with the count of clipped negative sRGB components). `option`
-/// names the option that asked for the format in a refusal.
+/// `comment` in its header where the format has one, judged: each file is
+/// read back and integrated over the hemisphere beside the table's
+/// reflectance, per incidence (per wavelength for spectral Zemax files, per
+/// channel for a colour MERL file, with the count of clipped negative sRGB
+/// components). Unless `quiet`, the comparison is printed on stderr; a
+/// warning line is printed, quiet or not, for every incidence where the
+/// file is off the table by more than `max(1 %, 4 standard errors)`
+/// ([`ReflectanceCheck::passes`]), with the finer Zemax grid that passes
+/// when there is one. `option` names the option that asked for the format
+/// in a refusal.
 ///
 /// # Errors
 /// A refusal (MERL of wavelengths not covering the visible, exit status 2)
@@ -138,25 +177,43 @@ pub fn export_tables(
     quiet: bool,
     option: &str,
 ) -> Result<Vec<ExportFile>, Failure> {
+    export_tables_on(tables, format, comment, quiet, option, ZemaxGrid::default())
+}
+
+/// [`export_tables`] with Zemax files on `grid`.
+///
+/// # Errors
+/// As [`export_tables`].
+pub fn export_tables_on(
+    tables: &BrdfTables,
+    format: BrdfFormat,
+    comment: &str,
+    quiet: bool,
+    option: &str,
+    grid: ZemaxGrid,
+) -> Result<Vec<ExportFile>, Failure> {
     let files = format
-        .export_tables(tables, comment)
+        .export_tables_on(tables, comment, grid)
         .map_err(|e| Failure::Input(format!("{option} {format}: {e}")))?;
-    if quiet {
-        return Ok(files);
-    }
     let unreadable = |e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}"));
+    let heading =
+        "reflectance of the file (read back, integrated over the hemisphere) vs the table";
     match (tables.spectral(), format) {
-        (Some(s), BrdfFormat::Merl) => {
+        (Some(s), BrdfFormat::Merl) if s.wavelengths_um().len() > 1 => {
             let file = &files[0];
             let check = colour_reflectance_check(s, &file.bytes).map_err(unreadable)?;
-            eprintln!(
-                "{format}: reflectance of the file (read back, integrated over the hemisphere) vs the table, linear sRGB under D65"
-            );
             for (c, channel) in ["red", "green", "blue"].iter().enumerate() {
-                eprintln!("{channel}:");
-                print_check(&check.iter().map(|k| k[c]).collect::<Vec<_>>());
+                let channel_check: Vec<_> = check.iter().map(|k| k[c]).collect();
+                if !quiet {
+                    if c == 0 {
+                        eprintln!("{format}: {heading}, linear sRGB under D65");
+                    }
+                    eprintln!("{channel}:");
+                    print_check(&channel_check);
+                }
+                warn_off(&format!("{format} ({channel})"), &channel_check, None);
             }
-            if let Some(clip) = file.clipped.filter(|c| c.values > 0) {
+            if let Some(clip) = file.clipped.filter(|c| c.values > 0 && !quiet) {
                 eprintln!(
                     "{format}: {} values had a negative linear sRGB component (out of gamut), stored as 0; the most negative {:.3e} 1/sr",
                     clip.values, clip.most_negative
@@ -165,20 +222,73 @@ pub fn export_tables(
         }
         _ => {
             for (file, table) in files.iter().zip(tables.tables()) {
-                let check = reflectance_check(table, format, &file.bytes).map_err(unreadable)?;
-                match file.wavelength_um {
-                    Some(w) => eprintln!(
-                        "{format} ({w} um): reflectance of the file (read back, integrated over the hemisphere) vs the table"
-                    ),
-                    None => eprintln!(
-                        "{format}: reflectance of the file (read back, integrated over the hemisphere) vs the table"
-                    ),
+                let bytes = &file.bytes;
+                let check = reflectance_check(table, format, bytes).map_err(unreadable)?;
+                let what = match file.wavelength_um {
+                    Some(w) => format!("{format} ({w} um)"),
+                    None => format.to_string(),
+                };
+                if !quiet {
+                    eprintln!("{what}: {heading}");
+                    print_check(&check);
                 }
-                print_check(&check);
+                let finer = || grid.finer_that_passes(table);
+                warn_off(
+                    &what,
+                    &check,
+                    (format == BrdfFormat::Zemax).then_some((grid, &finer)),
+                );
             }
         }
     }
     Ok(files)
+}
+
+/// A warning line on stderr for every check of `what` (a format, a
+/// wavelength, a channel) whose file is off its table
+/// ([`ReflectanceCheck::passes`]): the difference in percent and in
+/// standard errors, and what would do better: for Zemax (`zemax`: the grid
+/// used and the search for a finer one) the finer grid that passes, or
+/// that no grid does; for MERL that its grid is fixed.
+fn warn_off(
+    what: &str,
+    check: &[ReflectanceCheck],
+    zemax: Option<(ZemaxGrid, &dyn Fn() -> Option<ZemaxGrid>)>,
+) {
+    let off: Vec<&ReflectanceCheck> = check.iter().filter(|c| !c.passes()).collect();
+    if off.is_empty() {
+        return;
+    }
+    let remedy = match zemax {
+        Some((grid, finer)) => match finer() {
+            Some(g) => format!(
+                "the finer grid `--grid {},{}` of roks export-brdf passes",
+                g.azimuth_step_deg, g.radial_step_deg
+            ),
+            None => format!(
+                "no finer grid (to an eighth of {},{} degrees) passes: the difference is not the grid's",
+                grid.azimuth_step_deg, grid.radial_step_deg
+            ),
+        },
+        None => "the MERL grid is fixed by its format; export zemax for a finer one".to_string(),
+    };
+    for c in off {
+        let sigmas = if c.table_stderr > 0.0 {
+            format!(
+                "{:.1} standard errors",
+                (c.file - c.table).abs() / c.table_stderr
+            )
+        } else {
+            "no standard error".to_string()
+        };
+        eprintln!(
+            "warning: {what}: theta_i {} deg: the file's reflectance {:.6} is {:+.2} % off the table's {:.6} ({sigmas}; allowed: max(1 %, 4 standard errors)); {remedy}",
+            c.theta_i_deg,
+            c.file,
+            100.0 * (c.file / c.table - 1.0),
+            c.table
+        );
+    }
 }
 
 /// The table of a reflectance check on stderr.

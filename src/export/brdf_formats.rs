@@ -100,10 +100,15 @@ impl BrdfFormat {
     /// Zemax header and is ignored by MERL, which has none.
     #[must_use]
     pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
+        self.export_on(table, comment, ZemaxGrid::default())
+    }
+
+    /// [`export`](Self::export) with a Zemax file on `grid` (MERL's grid
+    /// is fixed by its format).
+    #[must_use]
+    pub fn export_on(self, table: &BrdfTable, comment: &str, grid: ZemaxGrid) -> Vec<u8> {
         match self {
-            Self::Zemax => zemax::ZemaxBsdf::from_table(table)
-                .to_text(comment)
-                .into_bytes(),
+            Self::Zemax => grid.export(table, comment),
             Self::Merl => merl::Merl::from_table(table).to_bytes(),
         }
     }
@@ -224,12 +229,25 @@ impl BrdfFormat {
         tables: &BrdfTables,
         comment: &str,
     ) -> Result<Vec<ExportFile>, ExportRefusal> {
+        self.export_tables_on(tables, comment, ZemaxGrid::default())
+    }
+
+    /// [`export_tables`](Self::export_tables) with Zemax files on `grid`.
+    ///
+    /// # Errors
+    /// As [`check_wavelengths`](Self::check_wavelengths).
+    pub fn export_tables_on(
+        self,
+        tables: &BrdfTables,
+        comment: &str,
+        grid: ZemaxGrid,
+    ) -> Result<Vec<ExportFile>, ExportRefusal> {
         let spectral = match tables {
             BrdfTables::Monochrome(t) => {
                 return Ok(vec![ExportFile {
                     file_name: self.file_name().to_owned(),
                     wavelength_um: None,
-                    bytes: self.export(t, comment),
+                    bytes: self.export_on(t, comment, grid),
                     clipped: None,
                 }]);
             }
@@ -245,7 +263,7 @@ impl BrdfFormat {
                 .map(|((&w, t), file_name)| ExportFile {
                     file_name,
                     wavelength_um: Some(w),
-                    bytes: self.export(t, &wavelength_comment(comment, w)),
+                    bytes: self.export_on(t, &wavelength_comment(comment, w), grid),
                     clipped: None,
                 })
                 .collect(),
@@ -336,6 +354,78 @@ pub struct ReflectanceCheck {
     /// The file read back by its reader and integrated over the hemisphere
     /// (first channel for MERL; the channels are equal).
     pub file: f64,
+    /// The standard error of `table` (the run's stated one when
+    /// `summary.json` was read, else the cells' errors added in quadrature;
+    /// for a colour channel the wavelengths' errors added with the
+    /// channel's absolute weights, an upper bound).
+    pub table_stderr: f64,
+}
+
+impl ReflectanceCheck {
+    /// The largest difference between file and table that the export is
+    /// allowed: `max(1 % of the table's reflectance, 4 standard errors)`.
+    #[must_use]
+    pub fn tolerance(&self) -> f64 {
+        (0.01 * self.table.abs()).max(4.0 * self.table_stderr)
+    }
+
+    /// Whether the file's reflectance is the table's within
+    /// [`tolerance`](Self::tolerance).
+    #[must_use]
+    pub fn passes(&self) -> bool {
+        (self.file - self.table).abs() <= self.tolerance()
+    }
+}
+
+/// A Zemax grid: the steps of the azimuth and radial angles (degrees).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZemaxGrid {
+    /// Azimuth step, degrees (the grid runs 0-180).
+    pub azimuth_step_deg: f64,
+    /// Radial step, degrees (the grid runs 0-180).
+    pub radial_step_deg: f64,
+}
+
+impl Default for ZemaxGrid {
+    fn default() -> Self {
+        Self {
+            azimuth_step_deg: zemax::AZIMUTH_STEP_DEG,
+            radial_step_deg: zemax::RADIAL_STEP_DEG,
+        }
+    }
+}
+
+impl ZemaxGrid {
+    /// The Zemax file of `table` on this grid, with `comment`.
+    #[must_use]
+    pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
+        zemax::ZemaxBsdf::from_table_on(
+            table,
+            zemax::steps(self.azimuth_step_deg, 180.0),
+            zemax::steps(self.radial_step_deg, 180.0),
+        )
+        .to_text(comment)
+        .into_bytes()
+    }
+
+    /// The first of this grid's steps halved once, twice and three times
+    /// whose file of `table` passes the reflectance check at every
+    /// incidence ([`ReflectanceCheck::passes`]); `None` if none does (the
+    /// difference then does not come from the grid).
+    #[must_use]
+    pub fn finer_that_passes(self, table: &BrdfTable) -> Option<Self> {
+        (1..=3).map(|k| f64::from(1 << k)).find_map(|f| {
+            let grid = Self {
+                azimuth_step_deg: self.azimuth_step_deg / f,
+                radial_step_deg: self.radial_step_deg / f,
+            };
+            let bytes = grid.export(table, "");
+            reflectance_check(table, BrdfFormat::Zemax, &bytes)
+                .ok()
+                .filter(|c| c.iter().all(ReflectanceCheck::passes))
+                .map(|_| grid)
+        })
+    }
 }
 
 /// Read an export back (`bytes` as written by [`BrdfFormat::export`]) and
@@ -384,6 +474,7 @@ pub fn reflectance_check(
                 theta_i_deg: deg,
                 table: table.reflectance(theta),
                 file: file_r(k, theta),
+                table_stderr: table.reflectance_stderr(theta),
             }
         })
         .collect())
@@ -408,6 +499,9 @@ pub fn colour_reflectance_check(
         file: name.into(),
         message: "the wavelengths do not cover the visible: no colour".into(),
     })?;
+    let weights = crate::optics::colour::XyzWeights::d65(tables.wavelengths_um())
+        .map(|w| w.srgb_weights())
+        .unwrap_or_default();
     let m = merl::Merl::parse(bytes, name)?;
     Ok(tables
         .thetas_deg()
@@ -419,6 +513,11 @@ pub fn colour_reflectance_check(
                 theta_i_deg: deg,
                 table: channels[c].reflectance(theta),
                 file: integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[c]),
+                table_stderr: weights
+                    .iter()
+                    .zip(tables.tables())
+                    .map(|(w, t)| w[c].abs() * t.reflectance_stderr(theta))
+                    .sum(),
             })
         })
         .collect())
@@ -427,6 +526,29 @@ pub fn colour_reflectance_check(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The tolerance is max(1 % of the table, 4 standard errors).
+    #[test]
+    fn reflectance_checks_pass_within_the_larger_of_1_percent_and_4_sigma() {
+        let check = |file, table_stderr| ReflectanceCheck {
+            theta_i_deg: 0.0,
+            table: 0.5,
+            file,
+            table_stderr,
+        };
+        assert_eq!(check(0.5, 1e-4).tolerance(), 0.005);
+        assert_eq!(check(0.5, 0.002).tolerance(), 0.008);
+        assert!(check(0.5049, 1e-4).passes());
+        assert!(!check(0.5051, 1e-4).passes());
+        assert!(check(0.4921, 0.002).passes());
+        assert!(!check(0.4919, 0.002).passes());
+        // An absorbing surface: a file of 0 passes, anything else does not.
+        let zero = |file| ReflectanceCheck {
+            table: 0.0,
+            ..check(file, 0.0)
+        };
+        assert!(zero(0.0).passes() && !zero(1e-9).passes());
+    }
 
     #[test]
     fn format_names_are_the_option_values() {

@@ -94,7 +94,7 @@ pub struct ZemaxBsdf {
 }
 
 /// `0, step, 2 step, ... , max` (degrees).
-fn steps(step: f64, max: f64) -> Vec<f64> {
+pub(crate) fn steps(step: f64, max: f64) -> Vec<f64> {
     let n = (max / step).round() as usize;
     (0..=n).map(|i| i as f64 * step).collect()
 }
