@@ -309,3 +309,20 @@ fn a_failing_command_is_named() {
     assert!(python[0].python);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// CI runs the README's test command: the `cargo test` line of the
+/// README's shell blocks is a line of `.ci/run`.
+#[test]
+fn ci_runs_the_readme_test_command() {
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
+    let command = readme
+        .lines()
+        .map(|l| l.split('#').next().unwrap_or("").trim())
+        .find(|l| l.starts_with("cargo test"))
+        .expect("README.md names its test command (a line beginning `cargo test`)");
+    let ci = std::fs::read_to_string(root().join(".ci/run")).expect(".ci/run");
+    assert!(
+        ci.lines().any(|l| l.trim() == command),
+        ".ci/run does not run the README's test command `{command}`"
+    );
+}
