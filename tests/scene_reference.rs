@@ -65,8 +65,19 @@ impl Kind {
     }
 }
 
-/// The path as the page writes it: `bumps[].shape`, `materials.<name>.n`.
+/// The path as the page writes it (`bumps[].shape`, `materials.<>.n`,
+/// any `<name>` read as `<>`).
 fn render(path: &[Step]) -> String {
+    spell(path, "[]", "<>")
+}
+
+/// The path as the loader's messages write it for a probe document
+/// (`bumps[0].shape`, `materials.zz_name.n`).
+fn render_message_key(path: &[Step]) -> String {
+    spell(path, "[0]", NAME)
+}
+
+fn spell(path: &[Step], elem: &str, name: &str) -> String {
     let mut s = String::new();
     for step in path {
         match step {
@@ -76,8 +87,11 @@ fn render(path: &[Step]) -> String {
                 }
                 s.push_str(k);
             }
-            Step::Elem => s.push_str("[]"),
-            Step::Name => s.push_str(".<>"),
+            Step::Elem => s.push_str(elem),
+            Step::Name => {
+                s.push('.');
+                s.push_str(name);
+            }
         }
     }
     s
@@ -382,28 +396,6 @@ fn examples_load(kind: Kind) {
         checked += 1;
     }
     assert!(checked > 10, "{PAGE}: only {checked} examples");
-}
-
-/// The key path as the loader's messages write it (`bumps[0].shape`,
-/// `materials.zz_name.n`), up to the first step.
-fn render_message_key(path: &[Step]) -> String {
-    let mut s = String::new();
-    for step in path {
-        match step {
-            Step::Key(k) => {
-                if !s.is_empty() {
-                    s.push('.');
-                }
-                s.push_str(k);
-            }
-            Step::Elem => s.push_str("[0]"),
-            Step::Name => {
-                s.push('.');
-                s.push_str(NAME);
-            }
-        }
-    }
-    s
 }
 
 #[test]
