@@ -14,7 +14,8 @@
 //! `bash` script (`set -euo pipefail`), with the `roks` cargo built first on
 //! `PATH`, and small work through the variables the recipes read with their
 //! defaults: `ROKS_PHOTONS` (photons per angle or beam position) and
-//! `ROKS_SPP` (samples per pixel of a render). Lines that begin with
+//! `ROKS_SPP` (samples per pixel of a render). `ROKS_BIN` names the same
+//! binary for the Python tools. Lines that begin with
 //! `cargo install` or `pip install` are not run (installing is the reader's
 //! step, not the test's). A failing command fails the test, naming the
 //! file, the line of the command and the command.
@@ -193,6 +194,7 @@ fn run(r: &Recipe, dir: &Path, python: Option<&Path>) -> Result<(), String> {
         .args(["--noprofile", "--norc", "-c", &script(r)])
         .current_dir(dir)
         .env("PATH", std::env::join_paths(path).expect("PATH"))
+        .env("ROKS_BIN", &roks)
         .env("ROKS_PHOTONS", PHOTONS)
         .env("ROKS_SPP", SPP)
         .env("MPLBACKEND", "Agg")
