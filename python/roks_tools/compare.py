@@ -50,7 +50,9 @@ import math
 import sys
 from pathlib import Path
 
-from .results import POLAR_FILES, BrdfTable, PolarTable, Summary
+from .errors import ResultError, cli, show
+from .results import POLAR_FILES, BrdfTable, PolarTable
+from .summary import BrdfSummary, read_summary
 from .stats import cell_z_limit, gap, normal_two_sided, wilson_hilferty  # noqa: F401 (re-exported)
 
 ROUNDING = 1e-6  # relative rounding of a component (Mitsuba's matrices are float32)
@@ -58,7 +60,10 @@ ROUNDING = 1e-6  # relative rounding of a component (Mitsuba's matrices are floa
 
 def load(d: Path):
     """summary entries by theta, and {theta: {(band, cell): (fraction, stderr)}}."""
-    return Summary.read(Path(d) / "summary.json").by_theta(), BrdfTable.read(Path(d) / "brdf.csv").cells()
+    s = read_summary(Path(d) / "summary.json")
+    if not isinstance(s, BrdfSummary):
+        raise ResultError(f"{show(s.path)}: a `roks trace` summary; compare_brdf compares `roks brdf` folders")
+    return s.by_theta(), BrdfTable.read(Path(d) / "brdf.csv").cells()
 
 
 def compare(dir_a: Path, dir_b: Path) -> list[dict]:
@@ -199,6 +204,11 @@ def main(argv=None) -> int:
     ap.add_argument("--min-signal", type=float, default=0.1,
                     help="polarised cells: largest relative standard error of S0 (m00) on both sides")
     a = ap.parse_args(argv)
+    return cli("compare_brdf", lambda: report(a))
+
+
+def report(a: argparse.Namespace) -> int:
+    """Print the comparison of folders a.a and a.b; 0 if it passes, else 1."""
     rows = compare(a.a, a.b)
     print(table(rows))
     ok = bool(rows) and all(r["pass"] for r in rows)
