@@ -12,13 +12,14 @@ turn an error into a message and an exit status, through `cli`:
 * `MitsubaError`: Mitsuba cannot be imported or no variant works.
 * `UsageError`: a bad option value of a tool.
 
-`cli(prog, main)` runs `main()` and maps `UsageError`, `ResultError` and
+`cli(prog, main)` (or the decorator `command(prog)`) runs `main()` and maps `UsageError`, `ResultError` and
 `BinaryNotFound` to exit status 2 (bad input), any other `RoksToolsError` to
 1, each with the one-line message `prog: error: ...` on stderr.
 """
 
 from __future__ import annotations
 
+import functools
 import sys
 from typing import Callable
 
@@ -63,6 +64,17 @@ def cli(prog: str, main: Callable[[], int | None]) -> int:
     except RoksToolsError as e:
         print(f"{prog}: error: {e}", file=sys.stderr)
         return 1
+
+
+def command(prog: str):
+    """Decorator of a tool's `main`: runs it through `cli(prog, ...)`, so a
+    `RoksToolsError` becomes a one-line message and an exit status."""
+    def wrap(main):
+        @functools.wraps(main)
+        def run(*args, **kwargs):
+            return cli(prog, lambda: main(*args, **kwargs))
+        return run
+    return wrap
 
 
 def show(path) -> str:

@@ -16,6 +16,9 @@ and the bottom at Lx/2, walls at `alpha` degrees from horizontal.
 
 from __future__ import annotations
 
+from .errors import command
+
+
 import argparse
 import math
 from pathlib import Path
@@ -81,6 +84,7 @@ def sine(lx: float, ly: float, amp: float = 1.0, res: int = 64) -> tuple[np.ndar
     return grid_mesh(xs, ys, z)
 
 
+@command("make_test_ply")
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("kind", choices=["flat", "vgroove", "sine"])

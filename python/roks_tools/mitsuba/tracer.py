@@ -86,6 +86,9 @@ Method
 
 from __future__ import annotations
 
+from ..errors import command
+
+
 import argparse
 import json
 import math
@@ -1056,6 +1059,7 @@ def parse_args(argv=None):
     return a
 
 
+@command("mitsuba_brdf")
 def main(argv=None) -> int:
     a = parse_args(argv)
     mi = setup_mitsuba(a.variant, polarised=a.polarisation != "none", spectral=a.material is not None)

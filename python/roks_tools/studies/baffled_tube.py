@@ -17,6 +17,8 @@ plus Lambertian) so the macro geometry dominates the cost.
 Usage: scripts/make_baffled_tube.py [N ...]   (default: 10 100 1000)
 """
 
+from ..errors import command
+
 import math
 import sys
 
@@ -90,6 +92,7 @@ def scene(n: int) -> str:
     return "\n".join(lines)
 
 
+@command("make_baffled_tube")
 def main() -> None:
     counts = [int(a) for a in sys.argv[1:]] or [10, 100, 1000]
     out = repo_root() / "scenes"

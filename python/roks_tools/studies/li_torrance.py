@@ -26,6 +26,8 @@ OUT/data.json.
 
 from __future__ import annotations
 
+from ..errors import command
+
 import argparse
 import json
 import math
@@ -43,7 +45,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from roks_tools import microfacet as mf
 from roks_tools.results import read_columns
-from roks_tools.runner import run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, run as run_cmd
 
 WHO = "li_torrance"
 
@@ -122,13 +124,15 @@ def tune_bumps(roks: str, d: Path, ratio: float) -> tuple[float, list, dict]:
 
 
 
+@command("li_torrance")
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--roks", default="target/release/roks")
-    p.add_argument("--out", default="results/li_torrance")
+    add_out_argument(p, "li_torrance")
     p.add_argument("--photons", type=int, default=1_000_000)
     p.add_argument("--keep-runs", action="store_true")
     a = p.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
     out = Path(a.out)
     runs = out / "runs"
     runs.mkdir(parents=True, exist_ok=True)

@@ -18,6 +18,8 @@ Writes results/polarisation/report.md, report.json and dop_gaussian-rough_60deg.
 
 from __future__ import annotations
 
+from ..errors import command
+
 import argparse
 import json
 import shutil
@@ -66,6 +68,7 @@ def compare(pol: tuple[dict, dict], unp: tuple[dict, dict]) -> list[dict]:
     return rows
 
 
+@command("polarisation_study")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))

@@ -22,6 +22,8 @@ roks's. Writes OUT/mesh_study.md and OUT/mesh_study.json.
 
 from __future__ import annotations
 
+from ..errors import command
+
 import argparse
 import json
 import sys
@@ -31,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from roks_tools.results import read_exr
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -53,6 +55,7 @@ def stats(images: list[np.ndarray]) -> dict:
     return out
 
 
+@command("radiator_mesh_study")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--roks", default=str(ROOT / "target" / "release" / "roks"))
@@ -60,8 +63,9 @@ def main() -> int:
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--roks-seeds", type=int, default=10)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "radiator")
+    add_out_argument(ap, "radiator_mesh")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     run = lambda cmd: run_cmd(cmd, "radiator_mesh_study", echo=False, cwd=ROOT).wall_s  # noqa: E731
     if not (ROOT / "out" / "z302" / "brdf.csv").exists():
         run([a.roks, "brdf", "scenes/z302-micro.toml", "--out", "out/z302", "-q"])

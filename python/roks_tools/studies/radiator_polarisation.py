@@ -27,6 +27,8 @@ polarisation.png (reflectance vs offset, and the defect / ideal ratio).
 
 from __future__ import annotations
 
+from ..errors import command
+
 import argparse
 import csv
 import json
@@ -72,6 +74,7 @@ def scene_text(scene: str, state: str | None, mueller: bool) -> str:
     return text
 
 
+@command("radiator_polarisation")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))

@@ -30,6 +30,8 @@ out/radiator_preview/.
 
 from __future__ import annotations
 
+from ..errors import command
+
 import argparse
 import json
 import sys
@@ -157,6 +159,7 @@ def cutaway(a, plt) -> Path:
     return dest
 
 
+@command("radiator_preview")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))

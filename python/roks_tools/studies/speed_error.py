@@ -40,6 +40,8 @@ OUT/micro.png, OUT/radiator.png. --quick: small ladders for a smoke test.
 
 from __future__ import annotations
 
+from ..errors import command
+
 import argparse
 import json
 import math
@@ -50,7 +52,7 @@ import numpy as np
 
 from roks_tools import compare as cb
 from roks_tools.results import InPlane, Reflectance
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -107,16 +109,18 @@ def time_to(runs: list[tuple[int, float, float]], n_ref: int, target: float) -> 
     return t0 + max(t - t0, 0.0) * (e_true / target) ** 2
 
 
+@command("speed_error")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--roks", type=Path, default=ROOT / "target" / "release" / "roks")
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "speed_error")
+    add_out_argument(ap, "speed_error")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--skip-radiator", action="store_true")
     ap.add_argument("--reuse-radiator", action="store_true",
                     help="keep the radiator part of OUT/speed_error.json instead of rerunning it")
     ap.add_argument("--report-only", action="store_true", help="redo the report from OUT/speed_error.json")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     if a.report_only:
         report_only(a.out)
         return 0
