@@ -16,7 +16,11 @@ two intervals (0 where they overlap); with nothing lost it is R_a - R_b.
 Verdict per angle (`verdict()`): fail if the reflectance |z| > 4, or any cell
 |z| > 4 + a Bonferroni allowance for the number of cells (`cell_z_limit`), or
 the cell chi-square exceeds its p = 1e-3 point (Wilson-Hilferty), or an exact
-cell differs. Exit status 1 on any failure. `roks_tools.studies.crosscheck` uses
+cell differs. Exit status 1 on any failure. A failed angle with sparse cells
+(relative standard error above 20 % on a side: a few photons, whose z is far
+from normal) gets one more line (`sparse_advice`): how many, and the photons
+per angle on each side that would bring 90 % of the cells with weight below
+20 % (a relative error falls as 1/sqrt(photons): `photons_needed`). `roks_tools.studies.crosscheck` uses
 `compare()` for its markdown report.
 
 Polarisation (`compare_polarised()`, when both folders hold stokes.csv, or

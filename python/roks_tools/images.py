@@ -36,8 +36,6 @@ Tests (`compare()`; each must hold for PASS):
 
 from __future__ import annotations
 
-from .errors import RunError, UsageError, command
-
 
 import argparse
 import math
@@ -46,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import RunError, UsageError, command
 from .results import read_exr  # noqa: F401 (the reader lives in results)
 from .stats import cell_z_limit, wilson_hilferty
 

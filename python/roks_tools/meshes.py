@@ -16,14 +16,14 @@ and the bottom at Lx/2, walls at `alpha` degrees from horizontal.
 
 from __future__ import annotations
 
-from .errors import command
-
 
 import argparse
 import math
 from pathlib import Path
 
 import numpy as np
+
+from .errors import command
 
 
 def write_ply(path: str | Path, vertices: np.ndarray, faces: np.ndarray) -> None:

@@ -83,7 +83,7 @@ def load(folder: Path, wavelength_um: float | None = None
     waves = r.brdf.wavelengths
     if waves:
         if wavelength_um is None:
-            wavelength_um = min(waves, key=lambda w: abs(w - 0.55))
+            wavelength_um = min(waves, key=lambda w: (round(abs(w - 0.55), 9), w))  # a tie: the shorter
         match = [w for w in waves if abs(w - wavelength_um) <= 1e-9]
         if not match:
             fail(f"--wavelength: {wavelength_um:g} um is not in the result "
@@ -249,9 +249,7 @@ def panel_map(fig, ax, brdf: dict[str, np.ndarray], theta_i: float, phi_i: float
     # (cells below that are drawn in blue, with an arrow on the colour bar).
     vmin = max(vmin, vmax * 1e-5)
     norm = LogNorm(vmin=vmin, vmax=vmax)
-    cmap = plt.get_cmap("magma").copy()
-    cmap.set_bad("0.8")  # cells with no photon
-    cmap.set_under("tab:blue")
+    cmap = plt.get_cmap("magma").with_extremes(bad="0.8", under="tab:blue")  # bad: cells with no photon
     coll = PolyCollection(polys, array=np.ma.masked_where(~pos, val), cmap=cmap, norm=norm,
                           edgecolors="face", linewidths=0.2)
     ax.add_collection(coll)

@@ -796,11 +796,22 @@ def read_file(path: str | Path):
 
 def read_exr(path: str | Path) -> np.ndarray:
     """An EXR render (roks render, Mitsuba) as a 2-D float64 array: the mean
-    of its first three channels (needs mitsuba, whose Bitmap reads EXR)."""
-    import mitsuba as mi
+    of its first three channels (needs mitsuba, whose Bitmap reads EXR;
+    sets scalar_rgb when no variant is set)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ResultError(f"{show(path)}: not found")
+    try:
+        import mitsuba as mi
+    except ImportError:
+        from .errors import MitsubaError
+        raise MitsubaError(f"{show(path)}: reading EXR needs mitsuba (pip install './python[mitsuba]')") from None
     if mi.variant() is None:
         mi.set_variant("scalar_rgb")
-    a = np.array(mi.Bitmap(str(path)), dtype=np.float64)
+    try:
+        a = np.array(mi.Bitmap(str(path)), dtype=np.float64)
+    except Exception as e:  # noqa: BLE001 (mitsuba raises RuntimeError and others on bad bytes)
+        raise ResultError(f"{show(path)}: not an EXR image mitsuba reads: {str(e).splitlines()[0][:120] if str(e) else type(e).__name__}") from None
     if a.ndim == 3:
         a = a[..., :3].mean(axis=2)
     return a

@@ -113,6 +113,15 @@ def roks_binary() -> Path:
                          f"or set ROKS_BIN")
 
 
+def default_roks() -> Path:
+    """The `--roks` default of the studies: `roks_binary()`, or `roks` when
+    none is found (running it then raises the BinaryNotFound of `run`)."""
+    try:
+        return roks_binary()
+    except BinaryNotFound:
+        return Path("roks")
+
+
 def run(cmd: list, who: str, echo: bool = True, cwd: Path | None = None,
         check: bool = True) -> Completed:
     """Run `cmd` (items converted to str) and wait for it.
@@ -127,6 +136,8 @@ def run(cmd: list, who: str, echo: bool = True, cwd: Path | None = None,
         print("+ " + " ".join(cmd), file=sys.stderr, flush=True)
     if shutil.which(cmd[0], path=None if os.sep not in cmd[0] else "") is None \
             and not (Path(cwd or ".") / cmd[0]).exists():
+        if cmd[0] == "roks":
+            roks_binary()  # raises BinaryNotFound saying where it looked
         raise RunError(f"{who}: cannot run {show(cmd[0])}: not found")
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err, \
             tempfile.TemporaryDirectory() as tmp:

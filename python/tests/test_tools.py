@@ -105,3 +105,18 @@ def test_no_system_exit_in_library_code():
            if ("SystemExit" in line or "sys.exit(" in line) and "main())" not in line
            and not line.lstrip().startswith("#")]
     assert bad == []
+
+
+def test_plot_brdf_draws_a_spectral_result(roks, tmp_path):
+    """roks-plot-brdf on a spectral folder (it said "not a roks result folder"): one wavelength drawn."""
+    from roks_tools import plot
+    from roks_tools.runner import run
+    run([roks, "brdf", ROOT / "scenes" / "gold-spectral.toml", "--photons", 1024, "--theta", "0,60",
+         "--wavelengths", "0.45,0.65", "--out", tmp_path / "gold", "-q"], "test_tools", echo=False)
+    assert plot.main([str(tmp_path / "gold"), "--out", str(tmp_path / "a.png"), "--dpi", "40"]) == 0
+    assert plot.main([str(tmp_path / "gold"), "--wavelength", "0.65", "--out", str(tmp_path / "b.png"),
+                      "--dpi", "40"]) == 0
+    assert (tmp_path / "a.png").stat().st_size > 0 and (tmp_path / "b.png").stat().st_size > 0
+    assert plot.main([str(tmp_path / "gold"), "--wavelength", "0.55", "--out", str(tmp_path / "c.png")]) == 2
+    entries, _, _, brdf, w = plot.load(tmp_path / "gold")
+    assert w == 0.45 and set(brdf["theta_i_deg"]) == {0.0, 60.0}  # nearest 0.55 of 0.45, 0.65: the first

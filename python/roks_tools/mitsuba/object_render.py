@@ -26,8 +26,6 @@ toward --look-at and the film's right and up edges must lie along
 
 from __future__ import annotations
 
-from ..errors import RunError, UsageError, command
-
 
 import argparse
 import math
@@ -37,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import RunError, UsageError, command
 from .render import direction, frame, mesh_bounds
 from .setup import setup_mitsuba
 

@@ -51,8 +51,6 @@ write_async=False). Prints the image mean and timing.
 
 from __future__ import annotations
 
-from ..errors import RunError, UsageError, command
-
 
 import argparse
 import math
@@ -62,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import RunError, UsageError, command
 from .setup import setup_mitsuba
 
 

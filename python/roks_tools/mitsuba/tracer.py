@@ -86,8 +86,6 @@ Method
 
 from __future__ import annotations
 
-from ..errors import command
-
 
 import argparse
 import json
@@ -99,6 +97,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import command
 from ..results import BRDF_COLUMNS, INPLANE_COLUMNS, SPECTRAL_BRDF_COLUMNS, SPECTRAL_INPLANE_COLUMNS
 from .setup import setup_mitsuba  # noqa: F401 (the tracer's entry point sets the variant)
 

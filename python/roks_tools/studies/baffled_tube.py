@@ -17,11 +17,10 @@ plus Lambertian) so the macro geometry dominates the cost.
 Usage: scripts/make_baffled_tube.py [N ...]   (default: 10 100 1000)
 """
 
-from ..errors import command
-
 import math
 import sys
 
+from roks_tools.errors import command
 from roks_tools.runner import repo_root
 
 BORE = 15.0  # inner radius of the vanes (mm)

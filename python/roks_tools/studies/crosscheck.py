@@ -47,8 +47,6 @@ the verdict is FAIL. Work files (meshes, runs) go to OUT/runs/ (kept with
 
 from __future__ import annotations
 
-from ..errors import RunError, UsageError, command
-
 import argparse
 import json
 import math
@@ -62,8 +60,9 @@ import numpy as np
 
 from roks_tools import compare as cb
 from roks_tools import images as ci
+from roks_tools.errors import RunError, UsageError, command
 from roks_tools.results import InPlane
-from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -88,7 +87,7 @@ def parse_args(argv=None):
     ap.add_argument("--image", default="256,256", help="W,H pixels (empty: no images)")
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--exact-mesh", action="store_true", help="the mesh is the exact geometry")
-    ap.add_argument("--roks", type=Path, default=ROOT / "target" / "release" / "roks")
+    ap.add_argument("--roks", type=Path, default=default_roks())
     ap.add_argument("--variant", default="auto", choices=("auto", "llvm", "scalar"))
     ap.add_argument("--seed", type=int, default=1)
     add_out_argument(ap, "crosscheck")

@@ -3,7 +3,7 @@ plugin (a spectral roks table of a Gaussian gold micro surface) and with
 Mitsuba's own `roughconductor` (material Au, Beckmann, matched alpha), side by
 side, with the difference measured and explained.
 
-    roks-gold-sphere [--out results/spectral] [--size 160] [--spp 64]
+    .venv/bin/python scripts/gold_sphere.py [--out gold_sphere] [--size 160] [--spp 64]
         [--photons 100000] [--roks target/release/roks] [--keep-runs]
 
 Steps:
@@ -45,8 +45,6 @@ OUT/gold_sphere.md and OUT/gold_sphere.json.
 
 from __future__ import annotations
 
-from ..errors import RunError, command
-
 import argparse
 import json
 import math
@@ -56,6 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
+from roks_tools.errors import RunError, command
 from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 
 ROOT = repo_root()

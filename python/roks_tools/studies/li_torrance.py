@@ -26,8 +26,6 @@ OUT/data.json.
 
 from __future__ import annotations
 
-from ..errors import command
-
 import argparse
 import json
 import math
@@ -44,8 +42,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from roks_tools import microfacet as mf
+from roks_tools.errors import command
 from roks_tools.results import read_columns
-from roks_tools.runner import add_out_argument, check_output, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, run as run_cmd
 
 WHO = "li_torrance"
 
@@ -127,7 +126,7 @@ def tune_bumps(roks: str, d: Path, ratio: float) -> tuple[float, list, dict]:
 @command("li_torrance")
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--roks", default="target/release/roks")
+    p.add_argument("--roks", default=str(default_roks()))
     add_out_argument(p, "li_torrance")
     p.add_argument("--photons", type=int, default=1_000_000)
     p.add_argument("--keep-runs", action="store_true")

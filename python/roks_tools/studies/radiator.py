@@ -35,8 +35,6 @@ Needs numpy and matplotlib (scripts/setup_venv.sh).
 
 from __future__ import annotations
 
-from ..errors import RunError, UsageError, command
-
 import argparse
 import csv
 import json
@@ -53,7 +51,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd  # noqa: E402
+from roks_tools.errors import RunError, UsageError, command
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd  # noqa: E402
 
 REPO = repo_root()
 SCENES_DIR = REPO / "scenes"
@@ -91,7 +90,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--roks", default="target/release/roks",
+    p.add_argument("--roks", default=str(default_roks()),
                    help="path to the roks binary (default: %(default)s)")
     p.add_argument("--photons", type=int, default=100_000,
                    help="photons per beam position (default: %(default)s)")

@@ -1,7 +1,7 @@
 """Radiator with the apex defect, table walls: roks vs Mitsuba on voxel meshes of growing resolution.
 
     .venv/bin/python scripts/radiator_mesh_study.py [--roks target/release/roks]
-        [--resolutions 192,384,768] [--spp 64] [--size 128] [--out results/radiator]
+        [--resolutions 192,384,768] [--spp 64] [--size 128] [--out radiator_mesh]
 
 The view of scripts/radiator_preview.py (camera on the axis 40 mm above the
 aperture, looking down, 30 deg field of view, a 5 deg disc light along the
@@ -22,8 +22,6 @@ roks's. Writes OUT/mesh_study.md and OUT/mesh_study.json.
 
 from __future__ import annotations
 
-from ..errors import command
-
 import argparse
 import json
 import sys
@@ -32,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from roks_tools.errors import command
 from roks_tools.results import read_exr
-from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -58,7 +57,7 @@ def stats(images: list[np.ndarray]) -> dict:
 @command("radiator_mesh_study")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", default=str(ROOT / "target" / "release" / "roks"))
+    ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--resolutions", default="192,384,768")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--size", type=int, default=128)

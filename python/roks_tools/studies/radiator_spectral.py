@@ -31,8 +31,6 @@ Runs in about a minute on 2 cores with the scenes' photons.
 
 from __future__ import annotations
 
-from ..errors import RunError, command
-
 import argparse
 import json
 import tempfile
@@ -45,7 +43,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from roks_tools.runner import add_out_argument, check_output, repo_root, run  # noqa: E402
+from roks_tools.errors import RunError, command
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run  # noqa: E402
 
 REPO = repo_root()
 # (scene, label, n + ik table)
@@ -83,7 +82,7 @@ def trace(roks: str, scene: str, photons: int | None, out: Path) -> tuple[dict, 
 @command("radiator_spectral")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))
+    ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--photons", type=int, default=None,
                     help="photons per beam position (default: the scenes')")
     add_out_argument(ap, "radiator_spectral")

@@ -1,6 +1,6 @@
 """Scaling of the micro tracer: bump count, bump size and height-field resolution, 1 and 2 threads.
 
-    .venv/bin/python scripts/scaling.py [--roks target/release/roks] [--out results/scaling] [--quick]
+    .venv/bin/python scripts/scaling.py [--roks target/release/roks] [--out scaling] [--quick]
         [--callgrind] [--kinds bumps,radius,field]
 
 Bumps: the default scene's ellipsoids (radii 2.5-3.5, heights 0.8-4.8) at
@@ -28,8 +28,6 @@ machine's noise.
 
 from __future__ import annotations
 
-from ..errors import RunError, UsageError, command
-
 import argparse
 import json
 import math
@@ -39,7 +37,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
+from roks_tools.errors import RunError, UsageError, command
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -120,7 +119,7 @@ def candidates(roks: Path, scene: Path) -> float | None:
 @command("scaling")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", type=Path, default=ROOT / "target" / "release" / "roks")
+    ap.add_argument("--roks", type=Path, default=default_roks())
     add_out_argument(ap, "scaling")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--callgrind", action="store_true", help="also count instructions per segment")

@@ -1,6 +1,6 @@
 """Spectral cross-check of roks against Mitsuba 3 with Mitsuba's own gold.
 
-    roks-spectral-crosscheck [--out results/spectral/crosscheck] [--theta 0,50]
+    .venv/bin/python scripts/spectral_crosscheck.py [--out spectral_crosscheck] [--theta 0,50]
         [--wavelengths 0.45,0.55,0.65] [--colour-wavelengths 0.38:0.78:0.02]
         [--photons 200000] [--roks-photons 400000] [--resolution 64] [--bands 8]
         [--roks target/release/roks] [--variant auto|llvm|scalar]
@@ -58,8 +58,6 @@ files go to OUT/runs (removed unless --keep-runs).
 
 from __future__ import annotations
 
-from ..errors import RunError, UsageError, command
-
 import argparse
 import json
 import math
@@ -70,6 +68,7 @@ from pathlib import Path
 import numpy as np
 
 from roks_tools import colour as pc
+from roks_tools.errors import RunError, UsageError, command
 from roks_tools.results import SPECTRAL_BRDF_COLUMNS, read_columns
 from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 from roks_tools.stats import cell_z_limit, gap

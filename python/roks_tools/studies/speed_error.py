@@ -1,6 +1,6 @@
 """Speed against error: roks vs the Mitsuba tracer, and the radiator's two wall models.
 
-    .venv/bin/python scripts/speed_error.py [--roks target/release/roks] [--out results/speed_error]
+    .venv/bin/python scripts/speed_error.py [--roks target/release/roks] [--out speed_error]
         [--quick]
 
 Part 1, micro level (the default scene at 30 and 60 degrees). `roks brdf`
@@ -40,8 +40,6 @@ OUT/micro.png, OUT/radiator.png. --quick: small ladders for a smoke test.
 
 from __future__ import annotations
 
-from ..errors import command
-
 import argparse
 import json
 import math
@@ -51,8 +49,9 @@ from pathlib import Path
 import numpy as np
 
 from roks_tools import compare as cb
+from roks_tools.errors import command
 from roks_tools.results import InPlane, Reflectance
-from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -112,7 +111,7 @@ def time_to(runs: list[tuple[int, float, float]], n_ref: int, target: float) -> 
 @command("speed_error")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", type=Path, default=ROOT / "target" / "release" / "roks")
+    ap.add_argument("--roks", type=Path, default=default_roks())
     add_out_argument(ap, "speed_error")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--skip-radiator", action="store_true")

@@ -1,6 +1,6 @@
 """The speed targets, measured as ratios in one run: today's code against a baseline build.
 
-    .venv/bin/python scripts/speed_targets.py [--base 6ce6b98] [--out results/speed] [--rounds 3]
+    .venv/bin/python scripts/speed_targets.py [--base 6ce6b98] [--out speed] [--rounds 3]
         [--quick] [--no-mitsuba] [--callgrind] [--from-json SPEED_JSON]
 
 Builds the baseline commit (default 6ce6b98, the main of before the speed
@@ -49,8 +49,6 @@ two runs of one round.
 
 from __future__ import annotations
 
-from ..errors import RunError, command
-
 import argparse
 import json
 import re
@@ -60,6 +58,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from roks_tools.errors import RunError, command
 from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 from roks_tools.studies.scaling import bump_scene, field_scene
 
