@@ -6,7 +6,8 @@ grid, see `roks_tools.carlson`), `inplane.csv`, with `--polarisation`
 `colour.csv`, and with `--shard` (and from `roks merge`) `tallies.json`;
 a spectral run's tables have a `wavelength_um` column (um). `roks trace`
 writes `summary.json`, `reflectance.csv` and, with `[tally] farfield =
-true`, `farfield.csv` (and `farfield_stokes.csv`). Each reader checks the
+true`, `farfield.csv` (and `farfield_stokes.csv`); `roks fit` writes `fit.json`,
+`fit_inplane.csv` and `fitted.toml`. Each reader checks the
 file's header against roks's (src/output/*.rs) and the shape of the table
 (whole blocks, one per incidence or beam position and wavelength, each a
 complete Carlson grid) and returns a frozen dataclass of numpy arrays,
@@ -42,12 +43,12 @@ import numpy as np
 
 from .carlson import CarlsonGrid
 from .errors import ResultError, show
-from .summary import BrdfSummary, Tallies, TraceSummary, read_summary, read_tallies
+from .summary import BrdfSummary, FitSummary, Tallies, TraceSummary, read_fit, read_summary, read_tallies
 
 __all__ = [
     "ResultError", "read_columns", "BrdfTable", "InPlane", "PolarTable", "ColourTable", "Reflectance",
-    "FarField", "FarFieldStokes", "BrdfResult", "TraceResult", "load_result", "read_file", "read_exr",
-    "read_summary", "read_tallies", "HEADERS", "SPECTRAL_HEADERS",
+    "FarField", "FarFieldStokes", "FitInPlane", "BrdfResult", "TraceResult", "FitResult", "load_result",
+    "read_file", "read_exr", "read_summary", "read_tallies", "read_fit", "read_toml", "HEADERS", "SPECTRAL_HEADERS",
 ]
 
 BRDF_COLUMNS = (
@@ -94,6 +95,7 @@ HEADERS = {
     "farfield.csv": FARFIELD_COLUMNS,
     "farfield_stokes.csv": FARFIELD_STOKES_COLUMNS,
     "colour.csv": COLOUR_COLUMNS,
+    "fit_inplane.csv": ("theta_i_deg", "theta_o_deg", "measured", "model"),
 }
 """The columns of every CSV file roks writes (a monochrome run), by file name."""
 
@@ -108,10 +110,11 @@ SPECTRAL_HEADERS = {
 }
 """The columns of the files of a spectral run (`wavelength_um` added), by file name."""
 
-EXTRA_POLAR_COLUMN = re.compile(r"^[ms][0-3]{1,2}_[a-z_]+$")
+EXTRA_POLAR_COLUMN = re.compile(r"^[ms][0-3]{1,2}[a-z0-9_]*$")
 """Columns that may follow the known ones of stokes.csv / mueller.csv (e.g.
 standard errors of the normalised elements, `m01_norm_stderr`): read into
-`PolarTable.extra`, so a file that gains such columns still reads."""
+`PolarTable.extra` (NaN allowed: a ratio where m00 = 0), so a file that
+gains such columns still reads."""
 
 NAN_COLUMNS = frozenset({"dop"})
 """Columns where NaN is a value (an undefined degree of polarisation)."""
@@ -177,8 +180,9 @@ def _table_text(path: Path, accept: tuple[tuple[str, ...], ...] | None, extra=No
     if data is None or data.shape[1] != ncol:
         _explain(path, header, lines[1:])
     bad = ~np.isfinite(data)
+    extras = set(header) - set(next((a for a in accept or () if header[:len(a)] == a), header))
     for j, name in enumerate(header):
-        if name in NAN_COLUMNS:
+        if name in NAN_COLUMNS or name in extras:
             bad[:, j] &= ~np.isnan(data[:, j])
     if bad.any():
         i, j = np.argwhere(bad)[0]
@@ -626,6 +630,41 @@ class FarFieldStokes(_Spectral):
         return t
 
 
+@dataclass(frozen=True)
+class FitInPlane:
+    """fit_inplane.csv of `roks fit`: the measured in-plane BRDF (1/sr) and
+    the fitted model's at each measured point (theta_i_deg, signed theta_o_deg)."""
+
+    FILE = "fit_inplane.csv"
+
+    path: Path
+    theta_i_deg: np.ndarray
+    theta_o_deg: np.ndarray
+    measured: np.ndarray
+    model: np.ndarray
+
+    @classmethod
+    def read(cls, path: str | Path) -> "FitInPlane":
+        return _table(cls, Path(path))
+
+    def _check(self):
+        if np.any(self.model < 0):
+            raise ResultError(f"{show(self.path)}: a negative model BRDF")
+
+
+def read_toml(path: str | Path) -> dict:
+    """A TOML file roks writes (fitted.toml of `roks fit`: the scene with the
+    fitted values) as a dict; ResultError naming the file."""
+    import tomllib
+    path = Path(path)
+    try:
+        return tomllib.loads(_text(path))
+    except tomllib.TOMLDecodeError as e:
+        raise ResultError(f"{show(path)}: not TOML: {str(e).splitlines()[0]}") from None
+    except RecursionError:
+        raise ResultError(f"{show(path)}: TOML nested too deeply") from None
+
+
 def _need(folder: Path, name: str) -> Path:
     p = folder / name
     if not p.is_file():
@@ -740,12 +779,38 @@ class TraceResult:
                                   f"of summary.json (a cut file?)")
 
 
-def load_result(folder: str | Path) -> BrdfResult | TraceResult:
-    """The result folder of `roks brdf` / `roks merge` (BrdfResult) or of
-    `roks trace` (TraceResult), by its summary.json."""
+@dataclass(frozen=True)
+class FitResult:
+    """A `roks fit` result folder: fit.json (typed), fit_inplane.csv and
+    fitted.toml (the scene with the fitted values, as a dict)."""
+
+    folder: Path
+    summary: FitSummary
+    inplane: FitInPlane
+    fitted: dict
+
+    @classmethod
+    def load(cls, folder: str | Path) -> "FitResult":
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise ResultError(f"{show(folder)}: not a folder")
+        r = cls(folder, read_fit(_need(folder, "fit.json")), FitInPlane.read(_need(folder, "fit_inplane.csv")),
+                read_toml(_need(folder, "fitted.toml")))
+        for p in r.summary.parameters:
+            if not p.lo <= p.fitted <= p.hi:
+                raise ResultError(f"{show(r.summary.path)}: {p.key} = {p.fitted} outside its bounds [{p.lo}, {p.hi}]")
+        return r
+
+
+def load_result(folder: str | Path) -> BrdfResult | TraceResult | FitResult:
+    """The result folder of `roks brdf` / `roks merge` (BrdfResult), of
+    `roks trace` (TraceResult), by its summary.json, or of `roks fit`
+    (FitResult, by its fit.json)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ResultError(f"{show(folder)}: not a folder")
+    if (folder / "fit.json").is_file() and not (folder / "summary.json").exists():
+        return FitResult.load(folder)
     s = read_summary(_need(folder, "summary.json"))
     return (BrdfResult if isinstance(s, BrdfSummary) else TraceResult).load(folder)
 
@@ -773,6 +838,9 @@ READERS = {
     "reflectance.csv": Reflectance.read,
     "farfield.csv": FarField.read,
     "farfield_stokes.csv": FarFieldStokes.read,
+    "fit.json": read_fit,
+    "fit_inplane.csv": FitInPlane.read,
+    "fitted.toml": read_toml,
 }
 """The reader of every file roks writes, by name (pictures: `read_file`)."""
 
@@ -780,13 +848,10 @@ READERS = {
 def read_file(path: str | Path):
     """Any file roks writes into a result folder, by its name: the tables
     and JSON files (`READERS`), `*.png` pictures (`read_png`), `*.exr`
-    renders (`read_exr`, needs mitsuba); fit.json of `roks fit`."""
+    renders (`read_exr`, needs mitsuba)."""
     path = Path(path)
     if path.name in READERS:
         return READERS[path.name](path)
-    if path.name == "fit.json":
-        from .summary import read_fit
-        return read_fit(path)
     if path.suffix == ".png":
         return read_png(path)
     if path.suffix == ".exr":

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roks_tools.results import (BrdfResult, ResultError, TraceResult, load_result, read_file)
+from roks_tools.results import (BrdfResult, FitResult, ResultError, TraceResult, load_result, read_file)
 from roks_tools.runner import repo_root, run
 
 SCENES = repo_root() / "scenes"
@@ -83,7 +83,7 @@ def _run(roks, workspace: Path, scene: str, out: Path, extra: list) -> Path:
 def _read_every_file(folder: Path):
     """Read every file of the folder with its reader; the result folder whole."""
     names = sorted(p.name for p in folder.iterdir())
-    assert "summary.json" in names
+    assert "summary.json" in names or "fit.json" in names
     for name in names:
         read_file(folder / name)  # a file without a reader raises ResultError
     return load_result(folder)
@@ -220,6 +220,24 @@ def test_shards_and_merge_read(roks, workspace, spectral):
         t = merged.brdf.at(e.theta_deg)
         t = t if w is None else t.at_wavelength(w)
         assert np.allclose(sum(parts) / e.photons, t.fraction, rtol=1e-9, atol=1e-15)
+
+
+def test_fit_folder_reads(roks, workspace):
+    """`roks fit` of the default scene to its own in-plane BRDF: fit.json, fit_inplane.csv, fitted.toml."""
+    measured = workspace / "results" / "fit-measured"
+    _run(roks, workspace, "default", measured, ["--theta", "30"])
+    out = workspace / "results" / "fit"
+    run([roks, "fit", workspace / "scenes" / "default.toml", measured / "inplane.csv", "--param",
+         "bumps[0].height[1]=3:6", "--photons", PHOTONS, "--max-evals", 4, "--out", out, "-q"],
+        "test_every_scene", echo=False)
+    r = _read_every_file(out)
+    assert isinstance(r, FitResult)
+    (p,) = r.summary.parameters
+    assert p.key == "bumps[0].height[1]" and (p.lo, p.hi) == (3.0, 6.0)
+    ip = read_file(measured / "inplane.csv")
+    assert np.array_equal(r.inplane.theta_o_deg, ip.theta_o_deg)
+    assert np.allclose(r.inplane.measured, ip.brdf, rtol=1e-9, atol=0)
+    assert r.fitted["bumps"][0]["height"][1] == p.fitted
 
 
 def test_a_file_without_reader_is_named(tmp_path):

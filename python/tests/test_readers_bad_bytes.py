@@ -6,7 +6,7 @@ JSON file cut anywhere, even inside its last number, is refused.
 
 The genuine files come from small runs of the roks binary: a Stokes and a
 Mueller run of the default scene, a spectral run of gold (colour.csv), a
-shard (tallies.json) and an object scene with a Stokes far field. The
+shard (tallies.json), an object scene with a Stokes far field and a fit. The
 random corruptions use a fixed seed, so a failure repeats.
 """
 
@@ -43,6 +43,8 @@ def genuine(roks, tmp_path_factory) -> dict[str, Path]:
     (tmp / "scenes" / "cavity.toml").write_text(text + 'polarisation = "stokes"\n')
     run([roks, "trace", tmp / "scenes" / "cavity.toml", "--photons", 500, "--out", tmp / "trace", *q],
         "test_readers_bad_bytes", echo=False)
+    run([roks, "fit", SCENES / "default.toml", tmp / "stokes" / "inplane.csv", "--param", "bumps[0].height[1]=3:6",
+         "--photons", 1024, "--max-evals", 3, "--out", tmp / "fit", *q], "test_readers_bad_bytes", echo=False)
     files = {
         "brdf.csv": tmp / "stokes" / "brdf.csv",
         "inplane.csv": tmp / "stokes" / "inplane.csv",
@@ -55,6 +57,8 @@ def genuine(roks, tmp_path_factory) -> dict[str, Path]:
         "farfield.csv": tmp / "trace" / "farfield.csv",
         "farfield_stokes.csv": tmp / "trace" / "farfield_stokes.csv",
         "trace-summary.json": tmp / "trace" / "summary.json",
+        "fit.json": tmp / "fit" / "fit.json",
+        "fit_inplane.csv": tmp / "fit" / "fit_inplane.csv",
     }
     for path in files.values():
         read_file(path)  # the genuine files read
@@ -80,7 +84,7 @@ def _refused(path: Path, what: str = ""):
 
 
 NAMES = ["brdf.csv", "inplane.csv", "stokes.csv", "mueller.csv", "colour.csv", "summary.json", "tallies.json",
-         "reflectance.csv", "farfield.csv", "farfield_stokes.csv", "trace-summary.json"]
+         "reflectance.csv", "farfield.csv", "farfield_stokes.csv", "trace-summary.json", "fit.json", "fit_inplane.csv"]
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -210,3 +214,17 @@ def test_a_file_name_with_an_end_of_line_is_one_line(tmp_path):
     with pytest.raises(ResultError) as e:
         read_file(folder / "brdf.csv")
     assert "\n" not in str(e.value) and "a\\nb" in str(e.value)
+
+
+def test_polar_table_with_more_columns_reads(genuine, tmp_path):
+    """mueller.csv that gains columns (e.g. standard errors of m_ij/m00, NaN where m00 = 0) still reads;
+    a column of another name is refused."""
+    from roks_tools.results import PolarTable
+    lines = genuine["mueller.csv"].read_text().splitlines()
+    head = lines[0] + ",m01_norm_stderr"
+    body = [ln + (",nan" if i == 0 else ",0.5") for i, ln in enumerate(lines[1:])]
+    p = _broken(tmp_path, genuine["mueller.csv"], ("\n".join([head, *body]) + "\n").encode())
+    t = PolarTable.read(p)
+    assert list(t.extra) == ["m01_norm_stderr"] and t.extra["m01_norm_stderr"][1] == 0.5
+    p.write_text("\n".join([lines[0] + ",other", *(ln + ",1" for ln in lines[1:])]) + "\n")
+    _refused(p, "not the header")
