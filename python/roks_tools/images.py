@@ -36,7 +36,6 @@ Tests (`compare()`; each must hold for PASS):
 
 from __future__ import annotations
 
-
 import argparse
 import math
 import sys
@@ -47,7 +46,6 @@ import numpy as np
 from .errors import RunError, UsageError, command
 from .results import read_exr  # noqa: F401 (the reader lives in results)
 from .stats import cell_z_limit, wilson_hilferty
-
 
 
 def block_sums(x: np.ndarray, k: int) -> np.ndarray:

@@ -16,7 +16,6 @@ and the bottom at Lx/2, walls at `alpha` degrees from horizontal.
 
 from __future__ import annotations
 
-
 import argparse
 import math
 from pathlib import Path

@@ -56,7 +56,6 @@ MAX_DEFAULT_THETAS = 6
 ANGLE_TOL = 1e-6
 
 
-
 def fail(msg: str):
     """A bad option or a result without what was asked for (exit status 2 in `main`)."""
     raise UsageError(msg)

@@ -26,7 +26,6 @@ toward --look-at and the film's right and up edges must lie along
 
 from __future__ import annotations
 
-
 import argparse
 import math
 import sys

@@ -51,7 +51,6 @@ write_async=False). Prints the image mean and timing.
 
 from __future__ import annotations
 
-
 import argparse
 import math
 import sys

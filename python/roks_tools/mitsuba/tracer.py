@@ -86,7 +86,6 @@ Method
 
 from __future__ import annotations
 
-
 import argparse
 import json
 import math

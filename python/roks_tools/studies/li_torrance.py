@@ -122,7 +122,6 @@ def tune_bumps(roks: str, d: Path, ratio: float) -> tuple[float, list, dict]:
     return h0, scan, final
 
 
-
 @command("li_torrance")
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

@@ -89,7 +89,6 @@ bands = 24
 {tr}"""
 
 
-
 def measure_case(roks: str, runs: Path, label: str, s_over_t: float, tau: float, seed: int,
                  photons: int, single_photons: int, brdf: bool) -> dict:
     d = runs / label
