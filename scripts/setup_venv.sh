@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
-# Create (or update) the project's Python environment in .venv at the repo root,
-# install scripts/requirements.txt into it and the package roks_tools (python/,
-# editable: edits to python/roks_tools take effect without reinstalling). Safe
-# to run again: an existing .venv is reused and pip only installs what is
-# missing or at another version.
+# Create (or update) the project's Python environment in .venv at the repo
+# root and install the package roks_tools (python/, editable: edits to
+# python/roks_tools take effect without reinstalling) with its extras
+# `mitsuba` (mitsuba, drjit) and `test` (pytest). The one dependency list,
+# pinned, is python/pyproject.toml. Safe to run again: an existing .venv is
+# reused and pip only installs what is missing or at another version.
 #
 #   scripts/setup_venv.sh          # then: .venv/bin/python scripts/edge_study.py
-#                                  #   or: .venv/bin/roks-edge-study
+#                                  #   or: .venv/bin/roks-plot-brdf out/default
 #                                  # tests: .venv/bin/python -m pytest python/tests
 #   PYTHON=python3.12 scripts/setup_venv.sh
+#   EXTRAS=test scripts/setup_venv.sh   # without Mitsuba
 set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="$repo/.venv"
-req="$repo/scripts/requirements.txt"
 python="${PYTHON:-python3}"
+extras="${EXTRAS-mitsuba,test}"
 
 if [ ! -x "$venv/bin/python" ]; then
     echo "setup_venv: creating $venv with $("$python" --version 2>&1)"
@@ -22,14 +24,20 @@ if [ ! -x "$venv/bin/python" ]; then
 else
     echo "setup_venv: reusing $venv ($("$venv/bin/python" --version 2>&1))"
 fi
-"$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req"
-"$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-deps -e "$repo/python"
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check -e "$repo/python${extras:+[$extras]}"
 "$venv/bin/python" - <<'PY'
 import warnings
-import numpy, matplotlib, pytest, roks_tools
+import numpy, matplotlib, roks_tools
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")  # colour-science runs without its optional SciPy
     import colour
+extra = []
+for name in ("pytest", "mitsuba", "drjit"):
+    try:
+        extra.append(f"{name} {__import__(name).__version__}")
+    except ImportError:
+        pass
 print(f"setup_venv: ok: numpy {numpy.__version__}, matplotlib {matplotlib.__version__}, "
-      f"pytest {pytest.__version__}, colour-science {colour.__version__}, roks_tools from {roks_tools.__path__[0]}")
+      f"colour-science {colour.__version__}, {', '.join(extra) or 'no extras'}, "
+      f"roks_tools from {roks_tools.__path__[0]}")
 PY

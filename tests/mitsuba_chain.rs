@@ -19,10 +19,14 @@
 //!   cross-check (`test_spectral_mitsuba.py`: a Gaussian field of gold,
 //!   roks with Mitsuba's own Au n, k against the tracer in
 //!   `llvm_ad_spectral_polarized` and `llvm_ad_spectral` with Mitsuba's
-//!   conductor spectra, reflectance per wavelength and XYZ per cell);
-//! * every other Python test in one run (`-m "not mitsuba"`: readers on
-//!   files roks writes, the Carlson grid, microfacet theory, the colour of
-//!   a flat gold mirror against colour-science).
+//!   conductor spectra, reflectance per wavelength and XYZ per cell); the
+//!   variant choice (`test_mitsuba_setup.py`: an LLVM that aborts the
+//!   process is caught in a child process and the tools fall back to
+//!   scalar);
+//! * every other Python test in one run (`-m "not mitsuba"`: every scene
+//!   in scenes/ run small and every file of its folder read, the readers'
+//!   refusal of bad bytes, the Carlson grid, microfacet theory, the colour
+//!   of a flat gold mirror against colour-science).
 //!
 //! Each test runs once: a file with `mitsuba` tests is listed in
 //! [`MITSUBA_FILES`] (checked), its other tests go to the second run.
@@ -38,10 +42,11 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The files under `python/tests` holding tests marked `mitsuba`.
-const MITSUBA_FILES: [&str; 6] = [
+const MITSUBA_FILES: [&str; 7] = [
     "test_crosscheck.py",
     "test_mitsuba_brdf.py",
     "test_mitsuba_polarised.py",
+    "test_mitsuba_setup.py",
     "test_roks_bsdf.py",
     "test_roks_table_colour.py",
     "test_spectral_mitsuba.py",
@@ -122,6 +127,11 @@ fn mitsuba_tracer_exact_checks() {
 #[test]
 fn whole_chain_on_exact_v_grooves() {
     mitsuba_file("test_crosscheck.py");
+}
+
+#[test]
+fn mitsuba_variant_falls_back_instead_of_aborting() {
+    mitsuba_file("test_mitsuba_setup.py");
 }
 
 #[test]

@@ -16,7 +16,11 @@ two intervals (0 where they overlap); with nothing lost it is R_a - R_b.
 Verdict per angle (`verdict()`): fail if the reflectance |z| > 4, or any cell
 |z| > 4 + a Bonferroni allowance for the number of cells (`cell_z_limit`), or
 the cell chi-square exceeds its p = 1e-3 point (Wilson-Hilferty), or an exact
-cell differs. Exit status 1 on any failure. `roks_tools.studies.crosscheck` uses
+cell differs. Exit status 1 on any failure. A failed angle with sparse cells
+(relative standard error above 20 % on a side: a few photons, whose z is far
+from normal) gets one more line (`sparse_advice`): how many, and the photons
+per angle on each side that would bring 90 % of the cells with weight below
+20 % (a relative error falls as 1/sqrt(photons): `photons_needed`). `roks_tools.studies.crosscheck` uses
 `compare()` for its markdown report.
 
 Polarisation (`compare_polarised()`, when both folders hold stokes.csv, or
@@ -50,15 +54,28 @@ import math
 import sys
 from pathlib import Path
 
-from .results import POLAR_FILES, BrdfTable, PolarTable, Summary
+import numpy as np
+
+from .errors import ResultError, cli, show
+from .results import POLAR_FILES, BrdfTable, PolarTable
+from .summary import BrdfSummary, read_summary
 from .stats import cell_z_limit, gap, normal_two_sided, wilson_hilferty  # noqa: F401 (re-exported)
 
 ROUNDING = 1e-6  # relative rounding of a component (Mitsuba's matrices are float32)
+SPARSE_REL_SE = 0.2
+"""A cell whose fraction has a relative standard error above this on either
+side holds a few photons: its z is far from normal (`sparse_advice`)."""
+SPARSE_QUANTILE = 0.9
+"""`sparse_advice` asks for the photons that bring this share of the cells
+with weight to `SPARSE_REL_SE` on both sides."""
 
 
 def load(d: Path):
     """summary entries by theta, and {theta: {(band, cell): (fraction, stderr)}}."""
-    return Summary.read(Path(d) / "summary.json").by_theta(), BrdfTable.read(Path(d) / "brdf.csv").cells()
+    s = read_summary(Path(d) / "summary.json")
+    if not isinstance(s, BrdfSummary):
+        raise ResultError(f"{show(s.path)}: a `roks trace` summary; compare_brdf compares `roks brdf` folders")
+    return s.by_theta(), BrdfTable.read(Path(d) / "brdf.csv").cells()
 
 
 def compare(dir_a: Path, dir_b: Path) -> list[dict]:
@@ -72,6 +89,7 @@ def compare(dir_a: Path, dir_b: Path) -> list[dict]:
         d = gap(ea["reflectance"], ea.get("lost", 0.0), eb["reflectance"], eb.get("lost", 0.0))
         z = d / se if se > 0 else (0.0 if abs(d) < 1e-9 else math.inf)
         chi2, dof, zmax, exact_bad, exact_n = 0.0, 0, 0.0, 0, 0
+        rel_a, rel_b, sparse = [], [], 0
         for key in set(ca[th]) | set(cb[th]):
             fa, sea = ca[th].get(key, (0.0, 0.0))
             fb, seb = cb[th].get(key, (0.0, 0.0))
@@ -86,6 +104,10 @@ def compare(dir_a: Path, dir_b: Path) -> list[dict]:
             chi2 += zc * zc
             dof += 1
             zmax = max(zmax, abs(zc))
+            ra_, rb_ = (sea / fa if fa > 0 else math.inf), (seb / fb if fb > 0 else math.inf)
+            rel_a.append(ra_)
+            rel_b.append(rb_)
+            sparse += max(ra_, rb_) > SPARSE_REL_SE
         red = chi2 / dof if dof else 0.0
         rows.append({
             "theta": th, "r_a": ea["reflectance"], "se_a": ea["reflectance_stderr"],
@@ -93,10 +115,44 @@ def compare(dir_a: Path, dir_b: Path) -> list[dict]:
             "lost_a": ea.get("lost", 0.0), "lost_b": eb.get("lost", 0.0),
             "cells": dof, "chi2_dof": red, "chi2_z": wilson_hilferty(red, dof), "max_cell_z": zmax,
             "cell_z_limit": cell_z_limit(dof), "exact": exact_n, "exact_bad": exact_bad,
+            "sparse": sparse, "photons_a": int(ea.get("photons", 0)), "photons_b": int(eb.get("photons", 0)),
+            "photons_needed_a": photons_needed(rel_a, int(ea.get("photons", 0))),
+            "photons_needed_b": photons_needed(rel_b, int(eb.get("photons", 0))),
         })
     for r in rows:
         r["pass"] = verdict(r)
     return rows
+
+
+def photons_needed(rel_se: list[float], photons: int) -> int | None:
+    """Photons per angle that would bring the `SPARSE_QUANTILE` quantile of
+    the cells' relative standard errors `rel_se` (at `photons` photons) down
+    to `SPARSE_REL_SE`: a relative standard error falls as 1/sqrt(photons).
+    A cell with no weight on this side counts as the largest finite one times
+    sqrt(2) (at least one photon more). None when there is nothing to scale."""
+    finite = [r for r in rel_se if math.isfinite(r)]
+    if not finite or photons <= 0:
+        return None
+    worst = max(finite) * math.sqrt(2)
+    q = float(np.quantile([r if math.isfinite(r) else worst for r in rel_se], SPARSE_QUANTILE))
+    need = photons * (q / SPARSE_REL_SE) ** 2
+    return max(photons, int(math.ceil(need / 1000.0)) * 1000)
+
+
+def sparse_advice(r: dict) -> str | None:
+    """For a failed row with sparse cells: one line saying so and how many
+    photons per angle on each side would do (`photons_needed`); None when
+    the row passes or has no sparse cell."""
+    if r.get("pass", True) or not r.get("sparse"):
+        return None
+    a, b = r.get("photons_needed_a"), r.get("photons_needed_b")
+    more = [f"{name} {need:,} (now {now:,})" for name, need, now in
+            (("A", a, r["photons_a"]), ("B", b, r["photons_b"])) if need and need > now]
+    tail = ("; photons per angle that bring {:.0%} of the cells below {:.0%}: {}".format(
+        SPARSE_QUANTILE, SPARSE_REL_SE, ", ".join(more)) if more else "")
+    return (f"theta {r['theta']:g}: {r['sparse']} of {r['cells']} cells are sparse (relative standard "
+            f"error above {SPARSE_REL_SE:.0%} on a side: a few photons, whose z is far from normal), so "
+            f"this FAIL may be too few photons rather than a difference{tail}")
 
 
 def verdict(r: dict) -> bool:
@@ -199,8 +255,17 @@ def main(argv=None) -> int:
     ap.add_argument("--min-signal", type=float, default=0.1,
                     help="polarised cells: largest relative standard error of S0 (m00) on both sides")
     a = ap.parse_args(argv)
+    return cli("compare_brdf", lambda: report(a))
+
+
+def report(a: argparse.Namespace) -> int:
+    """Print the comparison of folders a.a and a.b; 0 if it passes, else 1."""
     rows = compare(a.a, a.b)
     print(table(rows))
+    for r in rows:
+        advice = sparse_advice(r)
+        if advice:
+            print(advice)
     ok = bool(rows) and all(r["pass"] for r in rows)
     prow = compare_polarised(a.a, a.b, a.min_signal)
     if prow:

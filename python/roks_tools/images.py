@@ -43,9 +43,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import RunError, UsageError, command
 from .results import read_exr  # noqa: F401 (the reader lives in results)
 from .stats import cell_z_limit, wilson_hilferty
-
 
 
 def block_sums(x: np.ndarray, k: int) -> np.ndarray:
@@ -57,9 +57,9 @@ def compare(a1, b1, a2=None, b2=None, spp=None, block=8) -> dict:
     """Statistics and verdict of two renders (paths), see the module doc."""
     A1, B1 = read_exr(a1), read_exr(b1)
     if A1.shape != B1.shape:
-        raise SystemExit(f"compare_images: sizes differ: {A1.shape} vs {B1.shape}")
+        raise RunError(f"sizes differ: {A1.shape} vs {B1.shape}")
     if (a2 is None) != (b2 is None):
-        raise SystemExit("compare_images: give both --a2 and --b2, or neither")
+        raise UsageError("give both --a2 and --b2, or neither")
     n = A1.size
     if a2 is not None:
         A2, B2 = read_exr(a2), read_exr(b2)
@@ -72,7 +72,7 @@ def compare(a1, b1, a2=None, b2=None, spp=None, block=8) -> dict:
         vb = np.clip(B, 0, 1) * (1 - np.clip(B, 0, 1)) / spp
         noise = f"bound x (1 - x) / spp, spp = {spp}"
     else:
-        raise SystemExit("compare_images: need --a2 and --b2, or --spp, for the noise")
+        raise UsageError("need --a2 and --b2, or --spp, for the noise")
     ma, mb = A.mean(), B.mean()
     sea, seb = math.sqrt(va.sum()) / n, math.sqrt(vb.sum()) / n
     comb = math.hypot(sea, seb)
@@ -171,6 +171,7 @@ def report_lines(r: dict, label_a: str, label_b: str) -> list[str]:
     ]
 
 
+@command("compare_images")
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("a")

@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import command
+
 
 def write_ply(path: str | Path, vertices: np.ndarray, faces: np.ndarray) -> None:
     """Binary little-endian PLY: float x, y, z; list uchar int vertex_indices."""
@@ -81,6 +83,7 @@ def sine(lx: float, ly: float, amp: float = 1.0, res: int = 64) -> tuple[np.ndar
     return grid_mesh(xs, ys, z)
 
 
+@command("make_test_ply")
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("kind", choices=["flat", "vgroove", "sine"])

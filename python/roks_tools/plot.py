@@ -20,8 +20,13 @@ writes one PNG with three panels:
     .venv/bin/python scripts/plot_brdf.py out/default
     .venv/bin/python scripts/plot_brdf.py out/default --theta 0,30,60,85 --out /tmp/b.png
 
+A spectral result is drawn at one wavelength (`--wavelength`, default the
+one nearest 0.55 um; the reflectance panel then shows that wavelength's
+reflectance, without the split by bounces, which roks gives for the mean).
+
 Needs numpy and matplotlib (scripts/setup_venv.sh). Exits with status 2 and a
-message on stderr if RESULT_DIR is not a roks result folder.
+one-line message on stderr naming the file if RESULT_DIR is not a complete,
+readable roks result folder (`roks_tools.results`).
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +47,8 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from .results import BRDF_COLUMNS, INPLANE_COLUMNS, ResultError, Summary, read_columns  # noqa: E402
+from .errors import UsageError, cli  # noqa: E402
+from .results import BrdfResult  # noqa: E402
 
 PROG = "plot_brdf"
 MAX_DEFAULT_THETAS = 6
@@ -49,14 +56,9 @@ MAX_DEFAULT_THETAS = 6
 ANGLE_TOL = 1e-6
 
 
-
-class NotAResult(Exception):
-    """The folder is not (or not a complete, readable) roks result."""
-
-
-def fail(msg: str) -> None:
-    print(f"{PROG}: error: {msg}", file=sys.stderr)
-    sys.exit(2)
+def fail(msg: str):
+    """A bad option or a result without what was asked for (exit status 2 in `main`)."""
+    raise UsageError(msg)
 
 
 # --------------------------------------------------------------------------- #
@@ -64,34 +66,37 @@ def fail(msg: str) -> None:
 # --------------------------------------------------------------------------- #
 
 
-def read_summary(folder: Path) -> dict:
-    if not (folder / "summary.json").is_file():
-        raise NotAResult(f"{folder / 'summary.json'} not found")
-    try:
-        summary = Summary.read(folder / "summary.json")
-    except ResultError as e:
-        raise NotAResult(str(e)) from e
-    if not summary.incidence:
-        raise NotAResult(f"{folder / 'summary.json'}: no 'incidence' list")
-    return summary.data
+def _columns(table) -> dict[str, np.ndarray]:
+    """The array fields of a table dataclass, by column name."""
+    return {f.name: getattr(table, f.name) for f in fields(table)
+            if isinstance(getattr(table, f.name), np.ndarray)}
 
 
-def read_csv(path: Path, columns: list[str]) -> dict[str, np.ndarray]:
-    if not path.is_file():
-        raise NotAResult(f"{path} not found")
-    try:
-        return read_columns(path, tuple(columns))
-    except ResultError as e:
-        raise NotAResult(str(e)) from e
-
-
-def load(folder: Path) -> tuple[dict, dict[str, np.ndarray], dict[str, np.ndarray]]:
-    if not folder.is_dir():
-        raise NotAResult(f"{folder} is not a folder")
-    summary = read_summary(folder)
-    inplane = read_csv(folder / "inplane.csv", INPLANE_COLUMNS)
-    brdf = read_csv(folder / "brdf.csv", BRDF_COLUMNS)
-    return summary, inplane, brdf
+def load(folder: Path, wavelength_um: float | None = None
+         ) -> tuple[list[dict], dict, dict[str, np.ndarray], dict[str, np.ndarray], float | None]:
+    """(incidence entries, summary, in-plane columns, brdf columns, wavelength) of a
+    `roks brdf` folder; a spectral run at `wavelength_um` (default: the one
+    nearest 0.55 um), whose entries then hold that wavelength's reflectance."""
+    r = BrdfResult.load(folder)
+    entries = [dict(e.raw) for e in r.summary.incidence]
+    waves = r.brdf.wavelengths
+    if waves:
+        if wavelength_um is None:
+            wavelength_um = min(waves, key=lambda w: (round(abs(w - 0.55), 9), w))  # a tie: the shorter
+        match = [w for w in waves if abs(w - wavelength_um) <= 1e-9]
+        if not match:
+            fail(f"--wavelength: {wavelength_um:g} um is not in the result "
+                 f"(available: {', '.join(f'{w:g}' for w in waves)})")
+        wavelength_um = match[0]
+        r = r.at_wavelength(wavelength_um)
+        for e, inc in zip(entries, r.summary.incidence):
+            w = next(x for x in inc.spectrum if x.wavelength_um == wavelength_um)
+            # by_bounces is of the mean over the wavelengths: not drawn for one wavelength
+            e.update(reflectance=w.reflectance, reflectance_stderr=w.reflectance_stderr, lost=w.lost,
+                     reflectance_by_bounces=None)
+    elif wavelength_um is not None:
+        fail(f"--wavelength: {folder} is a monochrome result")
+    return entries, r.summary.raw, _columns(r.inplane), _columns(r.brdf), wavelength_um
 
 
 # --------------------------------------------------------------------------- #
@@ -139,15 +144,17 @@ def panel_reflectance(ax, incidence: list[dict]) -> None:
     theta = np.array([e["theta_deg"] for e in inc], float)
     refl = np.array([e["reflectance"] for e in inc], float)
     se = np.array([e["reflectance_stderr"] for e in inc], float)
-    by = [list(e["reflectance_by_bounces"]) + [0.0, 0.0] for e in inc]
+    split = all(e.get("reflectance_by_bounces") is not None for e in inc)
+    by = [list(e["reflectance_by_bounces"] if split else []) + [0.0, 0.0] for e in inc]
     b0 = np.array([b[0] for b in by], float)
     b1 = np.array([b[1] for b in by], float)
     multi = refl - b0 - b1
 
     ax.errorbar(theta, refl, yerr=2 * se, fmt="o-", color="k", ms=4, capsize=3,
                 label="total reflectance (±2 SE)")
-    ax.plot(theta, b1, "s--", color="tab:blue", ms=4, label="single bounce")
-    ax.plot(theta, multi, "^--", color="tab:red", ms=4, label="multiple bounces (≥ 2)")
+    if split:
+        ax.plot(theta, b1, "s--", color="tab:blue", ms=4, label="single bounce")
+        ax.plot(theta, multi, "^--", color="tab:red", ms=4, label="multiple bounces (≥ 2)")
     if np.any(b0 > 0):
         ax.plot(theta, b0, "x:", color="tab:gray", label="no bounce (passed through)")
     lost = np.array([e.get("lost", 0.0) or 0.0 for e in inc], float)
@@ -241,9 +248,7 @@ def panel_map(fig, ax, brdf: dict[str, np.ndarray], theta_i: float, phi_i: float
     # (cells below that are drawn in blue, with an arrow on the colour bar).
     vmin = max(vmin, vmax * 1e-5)
     norm = LogNorm(vmin=vmin, vmax=vmax)
-    cmap = plt.get_cmap("magma").copy()
-    cmap.set_bad("0.8")  # cells with no photon
-    cmap.set_under("tab:blue")
+    cmap = plt.get_cmap("magma").with_extremes(bad="0.8", under="tab:blue")  # bad: cells with no photon
     coll = PolyCollection(polys, array=np.ma.masked_where(~pos, val), cmap=cmap, norm=norm,
                           edgecolors="face", linewidths=0.2)
     ax.add_collection(coll)
@@ -307,19 +312,20 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--map-theta", metavar="DEG", type=float,
                    help="incidence angle of the hemisphere map (default: the largest chosen angle)")
+    p.add_argument("--wavelength", metavar="UM", type=float,
+                   help="a spectral result: the wavelength (um) to draw (default: the one nearest 0.55)")
     p.add_argument("--dpi", type=int, default=150, help="PNG resolution (default: %(default)s)")
     return p.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    folder = Path(args.result_dir)
-    try:
-        summary, inplane, brdf = load(folder)
-    except NotAResult as e:
-        fail(f"{folder} is not a roks result folder: {e}")
+    return cli(PROG, lambda: plot(Path(args.result_dir), args))
 
-    incidence = summary["incidence"]
+
+def plot(folder: Path, args: argparse.Namespace) -> int:
+    """Draw the picture of `folder` as `args` asks; returns 0."""
+    incidence, summary, inplane, brdf, wavelength = load(folder, args.wavelength)
     available = sorted({float(e["theta_deg"]) for e in incidence})
     thetas = parse_thetas(args.theta, available) if args.theta else default_thetas(available)
     map_theta = max(thetas)
@@ -353,7 +359,8 @@ def main(argv: list[str] | None = None) -> int:
     panel_reflectance(ax1, incidence)
     panel_inplane(ax2, inplane, thetas)
     panel_map(fig, ax3, brdf, map_theta, phi_i)
-    fig.suptitle(f"roks BRDF of scene '{name}' — {ph}", fontsize=14, y=0.995)
+    at = f" at {wavelength:g} µm" if wavelength is not None else ""
+    fig.suptitle(f"roks BRDF of scene '{name}'{at} — {ph}", fontsize=14, y=0.995)
     fig.text(0.5, 0.925, " · ".join(d for d in details if d), ha="center", fontsize=9,
              color="0.3")
     fig.subplots_adjust(left=0.045, right=0.95, top=0.84, bottom=0.14)

@@ -8,11 +8,20 @@ process held before `exec` in its peak, and Python starts children by
 process's own peak (about 29 MB with numpy loaded, more than a small roks
 run needs). Without `/usr/bin/time` the `os.wait4` figure is used, with that
 floor.
-On failure it writes the command's output to stderr and exits naming the
-caller (`who`) and the command, the way every study reports a failed run.
+On failure it raises `RunError` (roks_tools.errors) naming the caller
+(`who`), the command and the last line of its stderr, after writing the
+command's output to stderr; the tools' `main` functions turn it into a
+one-line message and exit status 1.
 
-`repo_root()` and `roks_binary()` find the repository and its release build
-(`target/release/roks`) when the package is used from a checkout.
+`add_out_argument` / `check_output` give the studies their `--out`: a folder
+named after the study in the current folder by default, never one holding
+files committed to git unless `--overwrite-committed` (regenerating results/).
+
+`roks_binary()` finds roks: `$ROKS_BIN`, then `roks` on PATH (`cargo install
+--path .`), then the repository's release build (`target/release/roks`);
+`BinaryNotFound` says which places were tried. `repo_root()` finds the
+repository (the checkout holding this package, else the current folder or
+one above it with Cargo.toml and scenes/).
 """
 
 from __future__ import annotations
@@ -25,6 +34,8 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from .errors import BinaryNotFound, RunError, UsageError, show
 
 
 @dataclass(frozen=True)
@@ -56,33 +67,78 @@ def _peak_memory_wrapper(path: str) -> list[str]:
     return []
 
 
-def repo_root() -> Path:
-    """The repository holding this package (python/roks_tools/ -> the repo), or
-    the current folder when the package is installed elsewhere."""
+def _is_repo(p: Path) -> bool:
+    return (p / "Cargo.toml").is_file() and (p / "scenes").is_dir()
+
+
+def find_repo() -> Path | None:
+    """The roks repository: the checkout holding this package (an editable
+    install), else the current folder or the nearest folder above it with
+    Cargo.toml and scenes/; None outside one."""
     here = Path(__file__).resolve().parents[2]
-    return here if (here / "Cargo.toml").is_file() else Path.cwd()
+    if _is_repo(here):
+        return here
+    cwd = Path.cwd().resolve()
+    return next((p for p in (cwd, *cwd.parents) if _is_repo(p)), None)
+
+
+def repo_root() -> Path:
+    """`find_repo()`, or the current folder outside a checkout."""
+    return find_repo() or Path.cwd()
+
+
+def _executable(p: Path) -> bool:
+    return p.is_file() and os.access(p, os.X_OK)
 
 
 def roks_binary() -> Path:
-    """`$ROKS_BIN` if set, else the repository's `target/release/roks`."""
+    """The roks binary: `$ROKS_BIN` if set (it must exist), else `roks` on
+    PATH, else the repository's `target/release/roks`; BinaryNotFound
+    naming the places tried."""
     env = os.environ.get("ROKS_BIN")
-    return Path(env) if env else repo_root() / "target" / "release" / "roks"
+    if env:
+        if not _executable(Path(env)):
+            raise BinaryNotFound(f"ROKS_BIN={show(env)}: no executable file there")
+        return Path(env)
+    on_path = shutil.which("roks")
+    if on_path:
+        return Path(on_path)
+    repo = find_repo()
+    build = repo / "target" / "release" / "roks" if repo else None
+    if build is not None and _executable(build):
+        return build
+    tried = "ROKS_BIN unset, no roks on PATH, " + (
+        f"no {show(build)} (cargo build --release)" if build else "not in a roks checkout")
+    raise BinaryNotFound(f"no roks binary: {tried}; install it with `cargo install --path .` "
+                         f"or set ROKS_BIN")
+
+
+def default_roks() -> Path:
+    """The `--roks` default of the studies: `roks_binary()`, or `roks` when
+    none is found (running it then raises the BinaryNotFound of `run`)."""
+    try:
+        return roks_binary()
+    except BinaryNotFound:
+        return Path("roks")
 
 
 def run(cmd: list, who: str, echo: bool = True, cwd: Path | None = None,
         check: bool = True) -> Completed:
     """Run `cmd` (items converted to str) and wait for it.
 
-    `echo` prints the command (prefixed `+ `) to stderr first. With `check`
-    (the default) a non-zero exit writes the command's stdout and stderr to
-    stderr and raises SystemExit naming `who` and the command.
+    `echo` prints the command (prefixed `+ `) to stderr first. A command
+    that cannot be started raises RunError. With `check` (the default) a
+    non-zero exit writes the command's stdout and stderr to stderr and
+    raises RunError naming `who`, the command and its last stderr line.
     """
     cmd = [str(c) for c in cmd]
     if echo:
         print("+ " + " ".join(cmd), file=sys.stderr, flush=True)
     if shutil.which(cmd[0], path=None if os.sep not in cmd[0] else "") is None \
             and not (Path(cwd or ".") / cmd[0]).exists():
-        raise SystemExit(f"{who}: cannot run {cmd[0]}: not found")
+        if cmd[0] == "roks":
+            roks_binary()  # raises BinaryNotFound saying where it looked
+        raise RunError(f"{who}: cannot run {show(cmd[0])}: not found")
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err, \
             tempfile.TemporaryDirectory() as tmp:
         peak_file = str(Path(tmp) / "peak_kib")
@@ -91,7 +147,7 @@ def run(cmd: list, who: str, echo: bool = True, cwd: Path | None = None,
         try:
             p = subprocess.Popen(wrapper + cmd, cwd=cwd, stdout=out, stderr=err, text=True)
         except OSError as e:
-            raise SystemExit(f"{who}: cannot run {cmd[0]}: {e}") from e
+            raise RunError(f"{who}: cannot run {show(cmd[0])}: {e.strerror or e}") from None
         _, status, usage = os.wait4(p.pid, 0)
         wall = time.perf_counter() - t0
         p.returncode = os.waitstatus_to_exitcode(status)
@@ -108,5 +164,46 @@ def run(cmd: list, who: str, echo: bool = True, cwd: Path | None = None,
                          usage.ru_utime + usage.ru_stime, peak_kib / 1024)
     if check and done.returncode != 0:
         sys.stderr.write(done.stdout + done.stderr)
-        raise SystemExit(f"{who}: failed (exit {done.returncode}): {' '.join(cmd)}")
+        last = (done.stderr.strip().splitlines() or [""])[-1]
+        raise RunError(f"{who}: failed (exit {done.returncode}): {show(' '.join(cmd))}"
+                       + (f": {show(last)}" if last else ""))
     return done
+
+
+def committed_files(folder: Path) -> list[str]:
+    """The files under `folder` that git tracks (none when it does not exist,
+    is outside a git work tree, or git is not installed)."""
+    folder = Path(folder)
+    if not folder.exists() or shutil.which("git") is None:
+        return []
+    where = folder if folder.is_dir() else folder.parent
+    try:
+        p = subprocess.run(["git", "-C", str(where), "ls-files", "-z", "--", str(folder.resolve())],
+                           capture_output=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired):
+        return []
+    if p.returncode != 0:
+        return []
+    return [f for f in p.stdout.decode("utf-8", "replace").split("\0") if f]
+
+
+def add_out_argument(ap, name: str) -> None:
+    """`--out` (default: ./NAME, a folder in the current folder) and
+    `--overwrite-committed` of a study's argument parser; call
+    `check_output(a.out, a.overwrite_committed)` after parsing."""
+    ap.add_argument("--out", type=Path, default=Path(name),
+                    help=f"output folder (default: ./{name}); one holding files committed to git is refused "
+                         "unless --overwrite-committed")
+    ap.add_argument("--overwrite-committed", action="store_true",
+                    help="let --out replace files committed to git (regenerating the repository's results/)")
+
+
+def check_output(out: Path, overwrite_committed: bool = False) -> None:
+    """UsageError, before any work, when `out` holds files committed to git
+    (e.g. the repository's results/) and `overwrite_committed` is not set."""
+    if overwrite_committed:
+        return
+    files = committed_files(out)
+    if files:
+        raise UsageError(f"--out {show(out)}: holds {len(files)} file(s) committed to git (e.g. {show(files[0])}); "
+                         "give another folder, or --overwrite-committed to regenerate them")

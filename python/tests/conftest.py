@@ -1,8 +1,9 @@
 """Fixtures and markers of the roks_tools tests.
 
-* `roks`: the roks binary: `$ROKS_BIN` (tests/mitsuba_chain.rs sets it to
-  the binary cargo built), else the repository's target/release/roks. A
-  missing binary fails the tests that need it (build it first).
+* `roks`: the roks binary (`roks_tools.runner.roks_binary`): `$ROKS_BIN`
+  (tests/mitsuba_chain.rs sets it to the binary cargo built), else `roks`
+  on PATH, else the repository's target/release/roks. A missing binary
+  fails the tests that need it (build it first).
 * `mi`: the mitsuba module with the variant `setup_mitsuba("auto")` picks.
 * Tests marked `mitsuba` are skipped when mitsuba cannot be imported,
   unless `ROKS_REQUIRE_MITSUBA=1`, where that is a failure.
@@ -12,10 +13,10 @@ from __future__ import annotations
 
 import importlib.util
 import os
-from pathlib import Path
 
 import pytest
 
+from roks_tools.errors import BinaryNotFound
 from roks_tools.runner import roks_binary
 
 
@@ -32,10 +33,10 @@ def pytest_runtest_setup(item):
 
 @pytest.fixture(scope="session")
 def roks() -> str:
-    path = roks_binary()
-    if not Path(path).is_file():
-        pytest.fail(f"no roks binary at {path}: run cargo build --release, or set ROKS_BIN")
-    return str(path)
+    try:
+        return str(roks_binary())
+    except BinaryNotFound as e:
+        pytest.fail(str(e))
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,7 @@ import pytest
 
 from roks_tools.carlson import CarlsonGrid
 from roks_tools.results import (HEADERS, SPECTRAL_HEADERS, BrdfResult, BrdfTable, InPlane, PolarTable, ResultError,
-                                Summary, TraceResult, read_columns)
+                                TraceResult, read_columns, read_summary)
 from roks_tools.runner import repo_root, run
 
 SCENES = repo_root() / "scenes"
@@ -152,11 +152,11 @@ def test_broken_files_are_refused_naming_them(tmp_path):
         BrdfResult.load(tmp_path)
     js = tmp_path / "summary.json"
     js.write_text("[1, 2]")
-    with pytest.raises(ResultError, match="JSON object"):
-        Summary.read(js)
+    with pytest.raises(ResultError, match="not a roks summary.json"):
+        read_summary(js)
     js.write_text('{"incidence": [{"theta_deg": 0}]}')
-    with pytest.raises(ResultError, match="summary.json"):
-        Summary.read(js)
+    with pytest.raises(ResultError, match=r"summary.json: incidence\[0\]: lacks the key 'phi_deg'"):
+        read_summary(js)
     with pytest.raises(ResultError):
         PolarTable.read(tmp_path / "other.csv")
 

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import RunError, UsageError, command
 from .render import direction, frame, mesh_bounds
 from .setup import setup_mitsuba
 
@@ -44,7 +45,7 @@ def triple(s: str, name: str) -> np.ndarray:
     except ValueError:
         v = np.array([])
     if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise SystemExit(f"mitsuba_object_render: {name}: give three comma-separated numbers")
+        raise UsageError(f"{name}: give three comma-separated numbers")
     return v
 
 
@@ -92,6 +93,7 @@ def bsdf(a, mi):
     return {"type": "twosided", "material": {"type": "roks_table", "filename": str(a.brdf)}}
 
 
+@command("mitsuba_object_render")
 def main(argv=None) -> int:
     a = parse_args(argv)
     mi = setup_mitsuba(a.variant)
@@ -131,7 +133,7 @@ def main(argv=None) -> int:
         return np.array([float(np.ravel(c)[0]) for c in (ray.d.x, ray.d.y, ray.d.z)])
     if np.max(np.abs(ray_dir(0.5, 0.5) - axis)) > 1e-5 or np.dot(ray_dir(1.0, 0.5) - ray_dir(0.0, 0.5), right) <= 0 \
             or np.dot(ray_dir(0.5, 0.0) - ray_dir(0.5, 1.0), np.cross(right, axis)) <= 0:
-        raise SystemExit("mitsuba_object_render: camera orientation check failed")
+        raise RunError("camera orientation check failed")
     t0 = time.time()
     img = mi.render(scene, spp=a.spp, seed=a.seed)
     dt = time.time() - t0

@@ -59,6 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import RunError, UsageError, command
 from .setup import setup_mitsuba
 
 
@@ -71,7 +72,7 @@ def pair(s: str, name: str, typ=float):
     try:
         a, b = (typ(x) for x in s.split(","))
     except ValueError:
-        raise SystemExit(f"mitsuba_render: {name} must be A,B (got {s!r})")
+        raise UsageError(f"{name} must be A,B (got {s!r})")
     return a, b
 
 
@@ -97,11 +98,11 @@ def parse_args(argv=None):
     a.lt, a.lp = pair(a.light, "--light")
     a.w, a.h = pair(a.res, "--res", int)
     if not (0 <= a.vt < 90):
-        raise SystemExit("mitsuba_render: view theta must be in [0, 90)")
+        raise UsageError("view theta must be in [0, 90)")
     if not (0 < a.disc < 90):
-        raise SystemExit("mitsuba_render: --disc must be in (0, 90) for a disc emitter")
+        raise UsageError("--disc must be in (0, 90) for a disc emitter")
     if a.w < 1 or a.h < 1 or a.spp < 1:
-        raise SystemExit("mitsuba_render: --res and --spp must be positive")
+        raise UsageError("--res and --spp must be positive")
     return a
 
 
@@ -199,12 +200,12 @@ def check_sensor(mi, sensor, a, top):
     pts = [(0, 0), (1, 0), (0, 1), (1, 1), (0.25, 0.75)]
     for (u, v), (o, d) in zip(pts, _rays(mi, sensor, pts)):
         if d[2] >= 0 or o[2] <= top:
-            raise SystemExit(f"mitsuba_render: camera ray {o} + t {d} does not come down onto z = {top}")
+            raise RunError(f"camera ray {o} + t {d} does not come down onto z = {top}")
         o = o + d * ((top - o[2]) / d[2])
         want = np.array([u * a.lx, (1 - v) * a.ly, top])
         scale = max(a.lx, a.ly, abs(top), 1.0)
         if np.max(np.abs(o - want)) > 1e-4 * scale or np.max(np.abs(d + view)) > 1e-5:
-            raise SystemExit(f"mitsuba_render: camera check failed at film ({u}, {v}): "
+            raise RunError(f"camera check failed at film ({u}, {v}): "
                              f"origin {o}, want {want}; dir {d}, want {-view}")
 
 
@@ -227,7 +228,7 @@ def check_bsdf(mi, rho):
         bs, val = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5))
         r = float(np.ravel(val.x)[0])
         if abs(r - rho) > 1e-6 * max(rho, 1.0):
-            raise SystemExit(f"mitsuba_render: conductor reflects {r} at {th} deg, want {rho}")
+            raise RunError(f"conductor reflects {r} at {th} deg, want {rho}")
 
 
 def mesh_bounds(mi, path):
@@ -238,6 +239,7 @@ def mesh_bounds(mi, path):
     return lo, hi
 
 
+@command("mitsuba_render")
 def main(argv=None) -> int:
     a = parse_args(argv)
     mi = setup_mitsuba(a.variant)
@@ -249,7 +251,7 @@ def main(argv=None) -> int:
     zmin, zmax = lo[2], hi[2]
     top = zmax if a.top is None else a.top
     if top < zmax:
-        raise SystemExit(f"mitsuba_render: --top {top} is below the mesh's highest point {zmax}")
+        raise UsageError(f"--top {top} is below the mesh's highest point {zmax}")
     reach = (top - zmin) * math.tan(math.radians(a.vt))
     block = a.block if a.block is not None else 1 + math.ceil(reach / min(a.lx, a.ly))
     scene, dist = build_scene(mi, a, zmin, zmax, top, block)

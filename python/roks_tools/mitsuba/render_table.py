@@ -3,12 +3,13 @@ the BRDF table of a `roks brdf` result (plugin `roks_table`,
 `roks_tools.mitsuba.roks_table`), the right one Lambertian with the table's normal-
 incidence reflectance, under a sun (directional emitter) and a dim sky.
 
-    DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \\
-        .venv/bin/python scripts/render_roks_bsdf.py out/default --out spheres.png
+    roks-render-table out/default --out spheres.png
 
-Options: --variant (default llvm_ad_rgb; scalar_rgb works but calls Python per
-sample: minutes), --spp (64), --size W,H (320,200). Writes OUT (PNG, sRGB) and
-OUT with .exr (linear). The LLVM variants run the plugin in wavefront mode
+Options: --variant (default auto: llvm_ad_rgb when a test process shows it
+works with the libLLVM found, else scalar_rgb with a warning, see
+`roks_tools.mitsuba.setup`; scalar_rgb calls Python per sample: minutes),
+--spp (64), --size W,H (320,200). Writes OUT (PNG, sRGB; default
+spheres.png in the current folder) and OUT with .exr (linear). The LLVM variants run the plugin in wavefront mode
 (symbolic loops and calls off), see `roks_tools.mitsuba.roks_table`.
 """
 
@@ -19,26 +20,28 @@ import sys
 import time
 from pathlib import Path
 
+from ..errors import ResultError, command, show
+from .setup import setup_mitsuba
 
 
+@command("render_roks_bsdf")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("result", type=Path, help="roks brdf result folder (with brdf.csv)")
     ap.add_argument("--out", type=Path, default=Path("spheres.png"))
-    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--variant", default="auto",
+                    help="auto (llvm_ad_rgb when it works here, else scalar_rgb), llvm, scalar, or a variant name")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--size", default="320,200")
     a = ap.parse_args()
     csv = a.result / "brdf.csv"
     if not csv.is_file():
-        print(f"render_roks_bsdf: {csv}: not found", file=sys.stderr)
-        return 2
+        raise ResultError(f"{show(csv)}: not found")
     w, h = (int(v) for v in a.size.split(","))
 
     import drjit as dr
-    import mitsuba as mi
 
-    mi.set_variant(a.variant)
+    mi = setup_mitsuba(a.variant)
     if dr.is_array_v(mi.Float):
         dr.set_flag(dr.JitFlag.SymbolicLoops, False)
         dr.set_flag(dr.JitFlag.SymbolicCalls, False)

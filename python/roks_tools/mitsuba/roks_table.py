@@ -579,10 +579,10 @@ def register(name: str = "roks_table") -> None:
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
             self.filename = str(props["filename"])
-            self.scale = float(props["scale"]) if props.has_property("scale") else 1.0
+            self.scale = float(props["scale"]) if "scale" in props else 1.0
             self.table = CarlsonTable(self.filename)
             # Read (so Mitsuba sees it used) in every variant, used in polarised ones.
-            named = str(props["mueller_filename"]) if props.has_property("mueller_filename") else None
+            named = str(props["mueller_filename"]) if "mueller_filename" in props else None
             self.mueller_filename = None
             spectral_table = self.table.spectral is not None
             if spectral_table and not spectral_variant:

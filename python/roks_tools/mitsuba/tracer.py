@@ -96,6 +96,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import command
 from ..results import BRDF_COLUMNS, INPLANE_COLUMNS, SPECTRAL_BRDF_COLUMNS, SPECTRAL_INPLANE_COLUMNS
 from .setup import setup_mitsuba  # noqa: F401 (the tracer's entry point sets the variant)
 
@@ -1056,6 +1057,7 @@ def parse_args(argv=None):
     return a
 
 
+@command("mitsuba_brdf")
 def main(argv=None) -> int:
     a = parse_args(argv)
     mi = setup_mitsuba(a.variant, polarised=a.polarisation != "none", spectral=a.material is not None)

@@ -20,6 +20,7 @@ Usage: scripts/make_baffled_tube.py [N ...]   (default: 10 100 1000)
 import math
 import sys
 
+from roks_tools.errors import command
 from roks_tools.runner import repo_root
 
 BORE = 15.0  # inner radius of the vanes (mm)
@@ -90,6 +91,7 @@ def scene(n: int) -> str:
     return "\n".join(lines)
 
 
+@command("make_baffled_tube")
 def main() -> None:
     counts = [int(a) for a in sys.argv[1:]] or [10, 100, 1000]
     out = repo_root() / "scenes"

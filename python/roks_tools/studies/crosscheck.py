@@ -3,7 +3,7 @@
     crosscheck.py [--scene SCENE.toml] [--rho 0.8,1] [--resolutions 256,512,1024,2048]
         [--theta 0,30,60] [--photons 2000000] [--roks-photons 4000000]
         [--view 30,180] [--light 30,0] [--disc 5] [--image 256,256] [--spp 16]
-        [--exact-mesh] [--roks target/release/roks] [--out results/crosscheck]
+        [--exact-mesh] [--roks ROKS] [--out crosscheck] [--overwrite-committed]
 
 For every per-bounce reflectance rho (the scene's materials are replaced by a
 constant rho; `--rho scene` keeps a scene's single constant or n, k material)
@@ -32,7 +32,14 @@ weight (float32 seams in Mitsuba) is handled as an interval: a run's true
 reflectance lies in [R, R + lost]. Per-N verdicts are reported too (they should fail at coarse N where the bias exceeds the noise:
 that is the test's power, not a defect).
 
-Writes OUT/report.md, OUT/crosscheck.json, OUT/convergence.png,
+A FAIL with sparse Carlson cells (relative standard error above 20 % on a
+side: a few photons, whose z is far from normal) says so, in the report and
+on stdout, with the photons per angle on each side that would bring 90 % of
+the cells below 20 % (`roks_tools.compare.sparse_advice`).
+
+OUT defaults to ./crosscheck in the current folder; a folder holding files
+committed to git (the repository's results/crosscheck) is refused unless
+--overwrite-committed. Writes OUT/report.md, OUT/crosscheck.json, OUT/convergence.png,
 OUT/inplane_rho*.png, OUT/images_rho*/ (side by side, difference). Exit 1 if
 the verdict is FAIL. Work files (meshes, runs) go to OUT/runs/ (kept with
 --keep-runs; ignored by git).
@@ -53,8 +60,9 @@ import numpy as np
 
 from roks_tools import compare as cb
 from roks_tools import images as ci
+from roks_tools.errors import RunError, UsageError, command
 from roks_tools.results import InPlane
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -79,10 +87,10 @@ def parse_args(argv=None):
     ap.add_argument("--image", default="256,256", help="W,H pixels (empty: no images)")
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--exact-mesh", action="store_true", help="the mesh is the exact geometry")
-    ap.add_argument("--roks", type=Path, default=ROOT / "target" / "release" / "roks")
+    ap.add_argument("--roks", type=Path, default=default_roks())
     ap.add_argument("--variant", default="auto", choices=("auto", "llvm", "scalar"))
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "crosscheck")
+    add_out_argument(ap, "crosscheck")
     ap.add_argument("--keep-runs", action="store_true")
     ap.add_argument("--reuse", action="store_true",
                     help="keep the outputs of an earlier --keep-runs run found in OUT/runs (report only)")
@@ -90,6 +98,7 @@ def parse_args(argv=None):
                     help="testing only: Mitsuba's rho times this factor (the verdict must then fail)")
     ap.add_argument("-q", "--quiet", action="store_true")
     a = ap.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
     a.resolutions = [int(x) for x in floats(a.resolutions)]
     a.thetas = floats(a.theta)
     a.rhos = ["scene"] if a.rho == "scene" else floats(a.rho)
@@ -113,13 +122,13 @@ def scene_material(spec: dict) -> dict:
     """The scene's one material as mitsuba_brdf arguments (constant rho or n, k)."""
     mats = spec.get("materials", {})
     if len(mats) != 1:
-        raise SystemExit("crosscheck: --rho scene needs exactly one material in the scene")
+        raise UsageError("--rho scene needs exactly one material in the scene")
     (m,) = mats.values()
     if "reflectance" in m and isinstance(m["reflectance"], (int, float)):
         return {"rho": float(m["reflectance"])}
     if "n" in m:
         return {"n": float(m["n"]), "k": float(m.get("k", 0.0))}
-    raise SystemExit("crosscheck: the scene's material is neither a constant reflectance nor n, k")
+    raise RunError("the scene's material is neither a constant reflectance nor n, k")
 
 
 def scene_with_rho(text: str, rho: float) -> str:
@@ -291,6 +300,7 @@ def variant(work: Path) -> str:
     return "?"
 
 
+@command("crosscheck")
 def main(argv=None) -> int:
     a = parse_args(argv)
     run = Runner(a.quiet, a.reuse)
@@ -309,7 +319,7 @@ def main(argv=None) -> int:
                  "photons": a.photons, "roks_photons": a.roks_photons, "exact_mesh": a.exact_mesh,
                  "brdf": {}, "images": {}, "seconds": {}}
     if not a.roks.exists():
-        raise SystemExit(f"crosscheck: {a.roks} not found: build it with `cargo build --release`")
+        raise UsageError(f"{a.roks} not found: build it with `cargo build --release`")
 
     meshes = {}
     for n in a.resolutions:
@@ -318,6 +328,7 @@ def main(argv=None) -> int:
 
     lines = ["# Mitsuba 3 cross-check of roks", ""]
     overall = True
+    sparse_notes: list[str] = []
     for rho in a.rhos:
         key = "scene" if rho == "scene" else f"{rho:g}"
         if rho == "scene" and a.phi == 0.0:
@@ -364,9 +375,13 @@ def main(argv=None) -> int:
                     f"| {p['diff']:+.5f} | {p['z']:+.2f} | {p['cells']} | {p['chi2_dof']:.3f} "
                     f"| {p['max_cell_z']:.2f} ({p['cell_z_limit']:.2f}) | {'pass' if p['pass'] else 'fail'} |")
         lines += [""]
+        advice = [f"rho {key}, N {p['N']}, {x}" for pts in per_theta.values() for p in pts
+                  for x in [cb.sparse_advice(p)] if x]
         if a.exact_mesh:
             ok = all(p["pass"] for pts in per_theta.values() for p in pts)
             lines += [f"Exact mesh: every row must pass: **{'PASS' if ok else 'FAIL'}**", ""]
+            lines += [f"* {x}" for x in advice] + ([""] if advice else [])
+            sparse_notes.extend(advice)
         else:
             ns = [p["N"] for p in next(iter(per_theta.values()))]
             lines += ["Mitsuba extrapolated to N -> infinity (weighted least squares in 1/N"
@@ -500,6 +515,9 @@ def main(argv=None) -> int:
     if not a.keep_runs:
         shutil.rmtree(work)
     print(f"crosscheck: {res['verdict']}: report in {out / 'report.md'}")
+    if not overall:
+        for x in sparse_notes:
+            print(f"crosscheck: {x}")
     return 0 if overall else 1
 
 

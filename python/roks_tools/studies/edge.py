@@ -39,7 +39,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from roks_tools.runner import repo_root, run  # noqa: E402
+from roks_tools.errors import RunError, UsageError, command
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run  # noqa: E402
 
 REPO = repo_root()
 SCENES_DIR = REPO / "scenes"
@@ -63,7 +64,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument(
         "--roks",
-        default="target/release/roks",
+        default=str(default_roks()),
         help="path to the roks binary (default: %(default)s)",
     )
     p.add_argument(
@@ -72,11 +73,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=1_000_000,
         help="photons per incidence angle (default: %(default)s)",
     )
-    p.add_argument(
-        "--out",
-        default="results/edge_study",
-        help="output folder for csv/md/png (default: %(default)s)",
-    )
+    add_out_argument(p, "edge_study")
     p.add_argument(
         "--scenes",
         default=str(SCENES_DIR),
@@ -95,6 +92,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "(give the --photons it was made with, for the labels)",
     )
     a = p.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
     if a.photons <= 0:
         p.error("--photons must be > 0")
     return a
@@ -106,14 +104,14 @@ def run_roks(roks: str, scene: Path, out: Path, photons: int) -> dict:
     try:
         summary = json.loads(summary_path.read_text())
     except (OSError, ValueError) as e:
-        sys.exit(f"edge_study: cannot read {summary_path}: {e}")
+        raise RunError(f"cannot read {summary_path}: {e}")
     print(f"  {done.wall_s:.1f} s", file=sys.stderr, flush=True)
     return summary
 
 
 def rows_from_summary(scene: str, cell: str, edges: str, summary: dict) -> list[dict]:
     if summary.get("edges") not in (None, edges):
-        sys.exit(f"edge_study: {scene}: summary says edges={summary['edges']}, expected {edges}")
+        raise RunError(f"{scene}: summary says edges={summary['edges']}, expected {edges}")
     rows = []
     for inc in summary["incidence"]:
         rows.append(
@@ -129,7 +127,7 @@ def rows_from_summary(scene: str, cell: str, edges: str, summary: dict) -> list[
             }
         )
     if not rows:
-        sys.exit(f"edge_study: {scene}: no incidence results")
+        raise RunError(f"{scene}: no incidence results")
     return rows
 
 
@@ -162,7 +160,7 @@ def tabulate(rows: list[dict]) -> tuple[np.ndarray, dict]:
             sel = {r["theta_deg"]: r for r in rows if r["cell"] == cell and r["edges"] == edges}
             missing = [t for t in thetas if t not in sel]
             if missing:
-                sys.exit(f"edge_study: {cell} {edges}: no result at theta {missing}")
+                raise RunError(f"{cell} {edges}: no result at theta {missing}")
             data[cell, edges] = (
                 np.array([sel[t]["reflectance"] for t in thetas]),
                 np.array([sel[t]["reflectance_stderr"] for t in thetas]),
@@ -260,7 +258,7 @@ def read_csv(path: Path) -> list[dict]:
         with path.open(newline="") as f:
             raw = list(csv.DictReader(f))
     except OSError as e:
-        sys.exit(f"edge_study: cannot read {path}: {e}")
+        raise RunError(f"cannot read {path}: {e}")
     num = ("theta_deg", "reflectance", "reflectance_stderr", "lost", "mean_bounces")
     return [{k: (float(v) if k in num else v) for k, v in r.items()} for r in raw]
 
@@ -273,6 +271,7 @@ def report(out: Path, rows: list[dict], photons: int) -> None:
     print(md, end="")
 
 
+@command("edge_study")
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     if a.replot:
@@ -281,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     roks = a.roks
     if not Path(roks).exists() and shutil.which(roks) is None:
-        sys.exit(f"edge_study: roks binary not found: {roks} (build it: cargo build --release)")
+        raise UsageError(f"roks binary not found: {roks} (build it: cargo build --release)")
     scenes_dir = Path(a.scenes)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -301,7 +300,7 @@ def main(argv: list[str] | None = None) -> int:
                 name = scene_name(cell, edges)
                 scene = scenes_dir / f"{name}.toml"
                 if not scene.is_file():
-                    sys.exit(f"edge_study: scene not found: {scene}")
+                    raise RunError(f"scene not found: {scene}")
                 summary = run_roks(roks, scene, runs / name, a.photons)
                 rows.extend(rows_from_summary(name, cell, edges, summary))
     finally:

@@ -3,7 +3,7 @@ plugin (a spectral roks table of a Gaussian gold micro surface) and with
 Mitsuba's own `roughconductor` (material Au, Beckmann, matched alpha), side by
 side, with the difference measured and explained.
 
-    roks-gold-sphere [--out results/spectral] [--size 160] [--spp 64]
+    .venv/bin/python scripts/gold_sphere.py [--out gold_sphere] [--size 160] [--spp 64]
         [--photons 100000] [--roks target/release/roks] [--keep-runs]
 
 Steps:
@@ -54,7 +54,8 @@ from pathlib import Path
 
 import numpy as np
 
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.errors import RunError, command
+from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 
 ROOT = repo_root()
 SUN_DEG = 35.0
@@ -63,7 +64,7 @@ THETAS = [0, 10, 20, 30, 40, 50, 60, 70, 80, 85]
 
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "spectral")
+    add_out_argument(ap, "gold_sphere")
     ap.add_argument("--size", type=int, default=160, help="image side in pixels")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--photons", type=int, default=400_000, help="roks photons per incidence")
@@ -74,7 +75,9 @@ def parse_args(argv=None):
     ap.add_argument("--roks", type=Path, default=None)
     ap.add_argument("--keep-runs", action="store_true")
     ap.add_argument("-q", "--quiet", action="store_true")
-    return ap.parse_args(argv)
+    a = ap.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
+    return a
 
 
 def facet_alpha(mesh: Path) -> tuple[float, float]:
@@ -87,7 +90,7 @@ def facet_alpha(mesh: Path) -> tuple[float, float]:
     n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     n /= n[:, 2:3]
     if not np.all(np.isfinite(n)):
-        raise SystemExit(f"gold_sphere: {mesh}: a vertical facet")
+        raise RunError(f"{mesh}: a vertical facet")
     tan2 = n[:, 0] ** 2 + n[:, 1] ** 2
     return float(math.sqrt(tan2.mean())), float(math.sqrt(0.5 * tan2.mean()))
 
@@ -139,6 +142,7 @@ def luminance(img: np.ndarray) -> np.ndarray:
     return img @ np.array([0.2126, 0.7152, 0.0722])  # Y of linear sRGB (IEC 61966-2-1)
 
 
+@command("gold_sphere")
 def main(argv=None) -> int:
     from roks_tools.runner import roks_binary
     from roks_tools.mitsuba.setup import setup_mitsuba

@@ -42,8 +42,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from roks_tools import microfacet as mf
+from roks_tools.errors import command
 from roks_tools.results import read_columns
-from roks_tools.runner import run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, run as run_cmd
 
 WHO = "li_torrance"
 
@@ -121,14 +122,15 @@ def tune_bumps(roks: str, d: Path, ratio: float) -> tuple[float, list, dict]:
     return h0, scan, final
 
 
-
+@command("li_torrance")
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--roks", default="target/release/roks")
-    p.add_argument("--out", default="results/li_torrance")
+    p.add_argument("--roks", default=str(default_roks()))
+    add_out_argument(p, "li_torrance")
     p.add_argument("--photons", type=int, default=1_000_000)
     p.add_argument("--keep-runs", action="store_true")
     a = p.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
     out = Path(a.out)
     runs = out / "runs"
     runs.mkdir(parents=True, exist_ok=True)

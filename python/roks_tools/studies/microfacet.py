@@ -42,8 +42,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from roks_tools import microfacet as mf
+from roks_tools.errors import RunError, command
 from roks_tools.results import read_columns
-from roks_tools.runner import run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, run as run_cmd
 
 WHO = "microfacet_study"
 
@@ -86,7 +87,6 @@ seed = 1
 [tally]
 bands = 24
 {tr}"""
-
 
 
 def measure_case(roks: str, runs: Path, label: str, s_over_t: float, tau: float, seed: int,
@@ -348,17 +348,19 @@ def report(out: Path, cases: dict, cells: dict, args) -> str:
     return "\n".join(L) + "\n"
 
 
+@command("microfacet_study")
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--roks", default="target/release/roks")
-    p.add_argument("--out", default="results/microfacet")
+    p.add_argument("--roks", default=str(default_roks()))
+    add_out_argument(p, "microfacet")
     p.add_argument("--photons", type=int, default=1_000_000)
     p.add_argument("--single-photons", type=int, default=2_000_000)
     p.add_argument("--paths", type=int, default=200_000)
     p.add_argument("--keep-runs", action="store_true")
     a = p.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
     if shutil.which(a.roks) is None and not Path(a.roks).exists():
-        sys.exit(f"microfacet_study: roks not found: {a.roks}")
+        raise RunError(f"roks not found: {a.roks}")
     out = Path(a.out)
     runs = out / "runs"
     out.mkdir(parents=True, exist_ok=True)

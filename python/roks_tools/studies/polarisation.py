@@ -25,8 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+from roks_tools.errors import command
 from roks_tools.results import read_columns
-from roks_tools.runner import repo_root, run
+from roks_tools.runner import default_roks, repo_root, run
 
 REPO = repo_root()
 
@@ -66,9 +67,10 @@ def compare(pol: tuple[dict, dict], unp: tuple[dict, dict]) -> list[dict]:
     return rows
 
 
+@command("polarisation_study")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))
+    ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--photons", type=int, default=1_000_000)
     a = ap.parse_args()
     work = REPO / "out" / "polarisation_study"

@@ -51,7 +51,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from roks_tools.runner import repo_root, run as run_cmd  # noqa: E402
+from roks_tools.errors import RunError, UsageError, command
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd  # noqa: E402
 
 REPO = repo_root()
 SCENES_DIR = REPO / "scenes"
@@ -89,12 +90,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--roks", default="target/release/roks",
+    p.add_argument("--roks", default=str(default_roks()),
                    help="path to the roks binary (default: %(default)s)")
     p.add_argument("--photons", type=int, default=100_000,
                    help="photons per beam position (default: %(default)s)")
-    p.add_argument("--out", default="results/radiator",
-                   help="output folder for csv/md/png (default: %(default)s)")
+    add_out_argument(p, "radiator")
     p.add_argument("--keep-runs", action="store_true",
                    help="keep the per-scene roks output folders in OUT/runs/ "
                    "(default: a temporary folder, deleted at the end)")
@@ -102,6 +102,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="do not run roks: redraw OUT/radiator.md and .png from OUT/radiator.csv "
                    "and OUT/timings.json")
     a = p.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
     if a.photons <= 0:
         p.error("--photons must be > 0")
     return a
@@ -120,7 +121,7 @@ def read_json(path: Path) -> dict:
     try:
         return json.loads(path.read_text())
     except (OSError, ValueError) as e:
-        sys.exit(f"radiator_study: cannot read {path}: {e}")
+        raise RunError(f"cannot read {path}: {e}")
 
 
 def rows_from_summary(scene: str, model: str, defect: bool, summary: dict) -> list[dict]:
@@ -135,7 +136,7 @@ def rows_from_summary(scene: str, model: str, defect: bool, summary: dict) -> li
             "seconds": float(s["seconds"]),
         })
     if not rows:
-        sys.exit(f"radiator_study: {scene}: no beam positions in summary.json")
+        raise RunError(f"{scene}: no beam positions in summary.json")
     return rows
 
 
@@ -160,7 +161,7 @@ def read_csv(path: Path) -> list[dict]:
         with path.open(newline="") as f:
             raw = list(csv.DictReader(f))
     except OSError as e:
-        sys.exit(f"radiator_study: cannot read {path}: {e}")
+        raise RunError(f"cannot read {path}: {e}")
     out = []
     for r in raw:
         d = {k: (float(v) if k not in ("scene", "model", "defect") else v) for k, v in r.items()}
@@ -180,7 +181,7 @@ def tabulate(rows: list[dict]) -> tuple[np.ndarray, dict]:
         sel = {offset(r): r for r in rows if r["scene"] == scene}
         missing = [o for o in offs if o not in sel]
         if missing:
-            sys.exit(f"radiator_study: {scene}: no result at offsets {missing}")
+            raise RunError(f"{scene}: no result at offsets {missing}")
         data[model, defect] = tuple(
             np.array([sel[o][k] for o in offs])
             for k in ("reflectance", "reflectance_stderr", "mean_bounces")
@@ -359,6 +360,7 @@ def report(out: Path, rows: list[dict], timings: dict, photons: int) -> None:
     print(md, end="")
 
 
+@command("radiator_study")
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     out = Path(a.out).resolve()
@@ -370,10 +372,10 @@ def main(argv: list[str] | None = None) -> int:
     if Path(roks).exists():
         roks = str(Path(roks).resolve())
     elif shutil.which(roks) is None:
-        sys.exit(f"radiator_study: roks binary not found: {roks} (build it: cargo build --release)")
+        raise UsageError(f"roks binary not found: {roks} (build it: cargo build --release)")
     for scene, _, _ in SCENES:
         if not (SCENES_DIR / f"{scene}.toml").is_file():
-            sys.exit(f"radiator_study: scene not found: {SCENES_DIR / scene}.toml")
+            raise RunError(f"scene not found: {SCENES_DIR / scene}.toml")
     out.mkdir(parents=True, exist_ok=True)
     if a.keep_runs:
         runs = out / "runs"

@@ -1,7 +1,7 @@
 """Radiator with the apex defect, table walls: roks vs Mitsuba on voxel meshes of growing resolution.
 
     .venv/bin/python scripts/radiator_mesh_study.py [--roks target/release/roks]
-        [--resolutions 192,384,768] [--spp 64] [--size 128] [--out results/radiator]
+        [--resolutions 192,384,768] [--spp 64] [--size 128] [--out radiator_mesh]
 
 The view of scripts/radiator_preview.py (camera on the axis 40 mm above the
 aperture, looking down, 30 deg field of view, a 5 deg disc light along the
@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from roks_tools.errors import command
 from roks_tools.results import read_exr
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -53,15 +54,17 @@ def stats(images: list[np.ndarray]) -> dict:
     return out
 
 
+@command("radiator_mesh_study")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", default=str(ROOT / "target" / "release" / "roks"))
+    ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--resolutions", default="192,384,768")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--roks-seeds", type=int, default=10)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "radiator")
+    add_out_argument(ap, "radiator_mesh")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     run = lambda cmd: run_cmd(cmd, "radiator_mesh_study", echo=False, cwd=ROOT).wall_s  # noqa: E731
     if not (ROOT / "out" / "z302" / "brdf.csv").exists():
         run([a.roks, "brdf", "scenes/z302-micro.toml", "--out", "out/z302", "-q"])

@@ -41,7 +41,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from roks_tools.runner import repo_root, run
+from roks_tools.errors import command
+from roks_tools.runner import default_roks, repo_root, run
 
 REPO = repo_root()
 
@@ -72,9 +73,10 @@ def scene_text(scene: str, state: str | None, mueller: bool) -> str:
     return text
 
 
+@command("radiator_polarisation")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))
+    ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--photons", type=int, default=100_000)
     ap.add_argument("--replot", action="store_true", help="only redraw from polarisation.csv")
     a = ap.parse_args()

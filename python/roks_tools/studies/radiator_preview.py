@@ -37,8 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
+from roks_tools.errors import command
 from roks_tools.results import read_exr
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.runner import default_roks, repo_root, run as run_cmd
 
 REPO = repo_root()
 
@@ -157,9 +158,10 @@ def cutaway(a, plt) -> Path:
     return dest
 
 
+@command("radiator_preview")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))
+    ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--cutaway", action="store_true", help="the cutaway picture instead of the axis previews")
     ap.add_argument("--spp", type=int, help="roks samples per pixel (default 256; cutaway 1024)")
     ap.add_argument("--size", type=int, help="image side in pixels (default 256; cutaway 512)")

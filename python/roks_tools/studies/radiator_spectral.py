@@ -43,7 +43,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from roks_tools.runner import repo_root, run  # noqa: E402
+from roks_tools.errors import RunError, command
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run  # noqa: E402
 
 REPO = repo_root()
 # (scene, label, n + ik table)
@@ -78,13 +79,15 @@ def trace(roks: str, scene: str, photons: int | None, out: Path) -> tuple[dict, 
     return json.loads((out / "summary.json").read_text()), done.wall_s
 
 
+@command("radiator_spectral")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", default=str(REPO / "target" / "release" / "roks"))
+    ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--photons", type=int, default=None,
                     help="photons per beam position (default: the scenes')")
-    ap.add_argument("--out", default=str(REPO / "results" / "radiator"))
+    add_out_argument(ap, "radiator_spectral")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     res = Path(a.out)
     res.mkdir(parents=True, exist_ok=True)
     data = {"scenes": []}
@@ -97,7 +100,7 @@ def main() -> int:
                 spec = s["spectrum"]
                 missed = max(w["missed"] for w in spec)
                 if missed != 0.0:
-                    raise SystemExit(f"{scene}: beam at {s['position']} misses the cavity "
+                    raise RunError(f"{scene}: beam at {s['position']} misses the cavity "
                                      f"({missed}): emissivity = 1 - R does not hold")
                 positions.append({
                     "offset_mm": s["position"][0],

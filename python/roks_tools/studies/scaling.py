@@ -1,6 +1,6 @@
 """Scaling of the micro tracer: bump count, bump size and height-field resolution, 1 and 2 threads.
 
-    .venv/bin/python scripts/scaling.py [--roks target/release/roks] [--out results/scaling] [--quick]
+    .venv/bin/python scripts/scaling.py [--roks target/release/roks] [--out scaling] [--quick]
         [--callgrind] [--kinds bumps,radius,field]
 
 Bumps: the default scene's ellipsoids (radii 2.5-3.5, heights 0.8-4.8) at
@@ -37,7 +37,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.errors import RunError, UsageError, command
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -103,7 +104,7 @@ def instructions_per_segment(roks: Path, scene: Path, out: Path, photons: tuple[
         p = subprocess.run(cmd, capture_output=True, text=True)
         if p.returncode != 0:
             sys.stderr.write(p.stderr)
-            raise SystemExit(f"scaling: failed: {' '.join(cmd)}")
+            raise RunError(f"failed: {' '.join(cmd)}")
         counts.append(int(re.search(r"Collected : (\d+)", p.stderr).group(1)))
         segs.append(json.loads((d / "summary.json").read_text())["incidence"][0]["segments"])
     return (counts[1] - counts[0]) / (segs[1] - segs[0])
@@ -115,18 +116,20 @@ def candidates(roks: Path, scene: Path) -> float | None:
     return float(m.group(2)) if m else None
 
 
+@command("scaling")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", type=Path, default=ROOT / "target" / "release" / "roks")
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "scaling")
+    ap.add_argument("--roks", type=Path, default=default_roks())
+    add_out_argument(ap, "scaling")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--callgrind", action="store_true", help="also count instructions per segment")
     ap.add_argument("--kinds", default="bumps,radius,field",
                     help="comma-separated: bumps (count), radius (bump size), field (height-field resolution)")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     kinds = set(a.kinds.split(","))
     if not kinds <= {"bumps", "radius", "field"}:
-        raise SystemExit(f"scaling: --kinds {a.kinds}: the kinds are bumps, radius, field")
+        raise UsageError(f"--kinds {a.kinds}: the kinds are bumps, radius, field")
     a.out.mkdir(parents=True, exist_ok=True)
     bumps = [36, 100, 1000] if a.quick else [36, 100, 1000, 10_000, 100_000]
     fields = [256, 512] if a.quick else [256, 1024, 4096]

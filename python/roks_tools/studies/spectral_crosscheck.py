@@ -1,6 +1,6 @@
 """Spectral cross-check of roks against Mitsuba 3 with Mitsuba's own gold.
 
-    roks-spectral-crosscheck [--out results/spectral/crosscheck] [--theta 0,50]
+    .venv/bin/python scripts/spectral_crosscheck.py [--out spectral_crosscheck] [--theta 0,50]
         [--wavelengths 0.45,0.55,0.65] [--colour-wavelengths 0.38:0.78:0.02]
         [--photons 200000] [--roks-photons 400000] [--resolution 64] [--bands 8]
         [--roks target/release/roks] [--variant auto|llvm|scalar]
@@ -68,8 +68,9 @@ from pathlib import Path
 import numpy as np
 
 from roks_tools import colour as pc
+from roks_tools.errors import RunError, UsageError, command
 from roks_tools.results import SPECTRAL_BRDF_COLUMNS, read_columns
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 from roks_tools.stats import cell_z_limit, gap
 
 ROOT = repo_root()
@@ -82,7 +83,7 @@ def mitsuba_ior_dir() -> Path:
 
     spec = importlib.util.find_spec("mitsuba")
     if spec is None or spec.origin is None:
-        raise SystemExit("spectral_crosscheck: mitsuba is not installed (scripts/setup_venv.sh)")
+        raise RunError("mitsuba is not installed (scripts/setup_venv.sh)")
     return Path(spec.origin).resolve().parent / "data" / "ior"
 
 
@@ -142,7 +143,7 @@ def compare_reflectance(a: dict, b: dict) -> list[dict]:
     for th in sorted(a):
         A, B = a[th], b[th]
         if not np.allclose(A["wl"], B["wl"], atol=1e-9):
-            raise SystemExit(f"spectral_crosscheck: theta {th}: the two runs have other wavelengths")
+            raise RunError(f"theta {th}: the two runs have other wavelengths")
         for l, w in enumerate(A["wl"]):
             d = gap(A["R"][l], A["lost"][l], B["R"][l], B["lost"][l])
             se = math.hypot(A["se"][l], B["se"][l])
@@ -203,7 +204,7 @@ def gold_data_table(ior: Path, wavelengths: list[float]) -> list[dict]:
 
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "spectral" / "crosscheck")
+    add_out_argument(ap, "spectral_crosscheck")
     ap.add_argument("--theta", default="0,50")
     ap.add_argument("--wavelengths", default="0.45,0.55,0.65")
     ap.add_argument("--colour-wavelengths", default="0.38:0.78:0.02",
@@ -218,17 +219,19 @@ def parse_args(argv=None):
     ap.add_argument("--keep-runs", action="store_true")
     ap.add_argument("-q", "--quiet", action="store_true")
     a = ap.parse_args(argv)
+    check_output(a.out, a.overwrite_committed)
     a.thetas = [float(x) for x in a.theta.split(",") if x.strip()]
     return a
 
 
+@command("spectral_crosscheck")
 def main(argv=None) -> int:
     from roks_tools.runner import roks_binary
 
     a = parse_args(argv)
     roks = a.roks or roks_binary()
     if not Path(roks).is_file():
-        raise SystemExit(f"spectral_crosscheck: {roks} not found: build it with `cargo build --release`")
+        raise UsageError(f"{roks} not found: build it with `cargo build --release`")
     out, work = a.out, a.out / "runs"
     work.mkdir(parents=True, exist_ok=True)
     ior = mitsuba_ior_dir()

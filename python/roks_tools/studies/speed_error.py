@@ -1,6 +1,6 @@
 """Speed against error: roks vs the Mitsuba tracer, and the radiator's two wall models.
 
-    .venv/bin/python scripts/speed_error.py [--roks target/release/roks] [--out results/speed_error]
+    .venv/bin/python scripts/speed_error.py [--roks target/release/roks] [--out speed_error]
         [--quick]
 
 Part 1, micro level (the default scene at 30 and 60 degrees). `roks brdf`
@@ -49,8 +49,9 @@ from pathlib import Path
 import numpy as np
 
 from roks_tools import compare as cb
+from roks_tools.errors import command
 from roks_tools.results import InPlane, Reflectance
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 ROOT = repo_root()
 
@@ -107,16 +108,18 @@ def time_to(runs: list[tuple[int, float, float]], n_ref: int, target: float) -> 
     return t0 + max(t - t0, 0.0) * (e_true / target) ** 2
 
 
+@command("speed_error")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--roks", type=Path, default=ROOT / "target" / "release" / "roks")
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "speed_error")
+    ap.add_argument("--roks", type=Path, default=default_roks())
+    add_out_argument(ap, "speed_error")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--skip-radiator", action="store_true")
     ap.add_argument("--reuse-radiator", action="store_true",
                     help="keep the radiator part of OUT/speed_error.json instead of rerunning it")
     ap.add_argument("--report-only", action="store_true", help="redo the report from OUT/speed_error.json")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     if a.report_only:
         report_only(a.out)
         return 0

@@ -1,6 +1,6 @@
 """The speed targets, measured as ratios in one run: today's code against a baseline build.
 
-    .venv/bin/python scripts/speed_targets.py [--base 6ce6b98] [--out results/speed] [--rounds 3]
+    .venv/bin/python scripts/speed_targets.py [--base 6ce6b98] [--out speed] [--rounds 3]
         [--quick] [--no-mitsuba] [--callgrind] [--from-json SPEED_JSON]
 
 Builds the baseline commit (default 6ce6b98, the main of before the speed
@@ -58,7 +58,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from roks_tools.runner import repo_root, run as run_cmd
+from roks_tools.errors import RunError, command
+from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 from roks_tools.studies.scaling import bump_scene, field_scene
 
 ROOT = repo_root()
@@ -149,7 +150,7 @@ def callgrind_per_segment(cmd_for, photons: tuple[int, int], unit=brdf_segments)
                                capture_output=True, text=True)
             if p.returncode != 0:
                 sys.stderr.write(p.stderr)
-                raise SystemExit("speed_targets: callgrind failed")
+                raise RunError("callgrind failed")
             counts.append(int(re.search(r"Collected : (\d+)", p.stderr).group(1)))
             summary = json.loads((out / "summary.json").read_text())
             segs.append(unit(summary))
@@ -179,10 +180,11 @@ def paired_ratio(res: dict, a: str, b: str) -> float:
                              for ra, rb in zip(res[a]["runs"], res[b]["runs"]))
 
 
+@command("speed_targets")
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--base", default="6ce6b98", help="baseline commit")
-    ap.add_argument("--out", type=Path, default=ROOT / "results" / "speed")
+    add_out_argument(ap, "speed")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--no-mitsuba", action="store_true")
@@ -190,6 +192,7 @@ def main() -> int:
     ap.add_argument("--from-json", type=Path, metavar="SPEED_JSON",
                     help="write the report again from a saved speed.json (no runs)")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     if a.from_json:
         saved = json.loads(a.from_json.read_text())
         a.base = saved["base"]

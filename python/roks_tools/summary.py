@@ -1,0 +1,543 @@
+"""summary.json, tallies.json and fit.json as typed dataclasses: the one place
+that knows their keys.
+
+roks's run descriptions (src/output/summary.rs, src/output/tallies.rs) may
+gain or lose keys; each key is one field here, so adapting is one line.
+A field with a default is optional (absent in older files, in a monochrome
+run, or in the Mitsuba tracer's folders, which write the same `incidence`
+entries with fewer run keys); a field without one is required. Keys a
+class does not list are kept, untouched, in its `raw` dict (`raw` holds the
+whole JSON object), and `obj["key"]` / `obj.get("key")` read `raw`.
+
+Types are checked: `float` takes a JSON number (not a boolean), `int` an
+integer, `str` a string, `list[float]` a list of numbers, a dataclass an
+object, `dict[str, float]` an object of numbers, `X | None` also null. A
+wrong or missing value raises `ResultError` naming the file and the key's
+JSON path (e.g. `out/summary.json: incidence[2].photons: expected an
+integer, got "12"`). tallies.json writes its floating-point sums as
+decimal strings (exact); `ExactFloat` fields read them as floats.
+
+    from roks_tools.summary import read_summary
+    s = read_summary("out/default/summary.json")   # BrdfSummary or TraceSummary
+    s.incidence[0].reflectance, s.surface.sigma
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, NewType, Union
+
+from .errors import ResultError, show
+
+ExactFloat = NewType("ExactFloat", float)
+"""A float written as a decimal string (tallies.json), read back bit for bit."""
+
+MAX_JSON_BYTES = 1 << 30
+"""Largest JSON file read (1 GiB): a larger one is not a roks file."""
+
+
+class _Fields:
+    """Mixin of the typed JSON objects: `raw` access by key."""
+
+    raw: dict
+
+    def __getitem__(self, key: str):
+        return self.raw[key]
+
+    def get(self, key: str, default=None):
+        return self.raw.get(key, default)
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.raw
+
+
+def _kind(t) -> str:
+    return getattr(t, "__name__", None) or str(t)
+
+
+def _convert(t, v, where: str):
+    """`v` (parsed JSON) as type `t`, or ResultError naming `where`."""
+    origin = typing.get_origin(t)
+    if origin in (Union, types.UnionType):
+        args = typing.get_args(t)
+        if v is None and type(None) in args:
+            return None
+        options = [a for a in args if a is not type(None)]
+        for inner in options[:-1]:
+            try:
+                return _convert(inner, v, where)
+            except ResultError:
+                pass
+        return _convert(options[-1], v, where)
+    if t is Any:
+        return v
+    if t is ExactFloat:
+        if isinstance(v, str):
+            try:
+                v = float(v)
+            except ValueError:
+                raise ResultError(f"{where}: {v[:40]!r} is not a decimal number") from None
+        t = float
+    if t is float:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ResultError(f"{where}: expected a number, got {_short(v)}")
+        try:
+            x = float(v)
+        except OverflowError:
+            x = math.inf
+        if not math.isfinite(x):
+            raise ResultError(f"{where}: {_short(v)} is out of the range of a float")
+        return x
+    if t is int:
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ResultError(f"{where}: expected an integer, got {_short(v)}")
+        return v
+    if t is str:
+        if not isinstance(v, str):
+            raise ResultError(f"{where}: expected a string, got {_short(v)}")
+        return v
+    if t is bool:
+        if not isinstance(v, bool):
+            raise ResultError(f"{where}: expected true or false, got {_short(v)}")
+        return v
+    if origin is list:
+        (inner,) = typing.get_args(t)
+        if not isinstance(v, list):
+            raise ResultError(f"{where}: expected a list, got {_short(v)}")
+        return [_convert(inner, x, f"{where}[{i}]") for i, x in enumerate(v)]
+    if origin is dict:
+        _, inner = typing.get_args(t)
+        if not isinstance(v, dict):
+            raise ResultError(f"{where}: expected an object, got {_short(v)}")
+        return {k: _convert(inner, x, _key(where, k)) for k, x in v.items()}
+    if dataclasses.is_dataclass(t):
+        return _object(t, v, where)
+    raise TypeError(f"summary: no conversion for {_kind(t)}")  # a bug of this module
+
+
+def _short(v) -> str:
+    s = json.dumps(v) if not isinstance(v, (dict, list)) else type(v).__name__
+    return s if len(s) <= 40 else s[:37] + "..."
+
+
+_HINTS: dict[type, dict] = {}
+
+
+def _object(cls, v, where: str, **given):
+    """The dataclass `cls` from the JSON object `v`; `given` fields are set as is."""
+    if not isinstance(v, dict):
+        raise ResultError(f"{where}: expected an object, got {_short(v)}")
+    hints = _HINTS.get(cls)
+    if hints is None:
+        hints = _HINTS[cls] = typing.get_type_hints(cls)
+    kw = dict(given)
+    for f in dataclasses.fields(cls):
+        if f.name == "raw" or f.name in given:
+            continue
+        required = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        if f.name not in v:
+            if required:
+                raise ResultError(f"{where}: lacks the key {f.name!r}")
+            continue
+        kw[f.name] = _convert(hints[f.name], v[f.name], _key(where, f.name))
+    return cls(**kw, raw=v)
+
+
+def _key(where: str, name: str) -> str:
+    """`where` + `.name`, or `where name` after the file's `path:` prefix."""
+    return f"{where} {name}" if where.endswith(":") else f"{where}.{name}"
+
+
+def read_json(path: str | Path) -> Any:
+    """A JSON file, or ResultError naming it for any bytes that are not
+    UTF-8 JSON (nesting too deep, numbers out of range, a cut file)."""
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            data = f.read(MAX_JSON_BYTES + 1)
+    except OSError as e:
+        raise ResultError(f"{show(path)}: cannot read: {e.strerror or e}") from None
+    if len(data) > MAX_JSON_BYTES:
+        raise ResultError(f"{show(path)}: larger than {MAX_JSON_BYTES >> 20} MiB, not a roks file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ResultError(f"{show(path)}: byte {e.start}: not UTF-8 text") from None
+    try:
+        return json.loads(text, parse_constant=_no_constant)
+    except json.JSONDecodeError as e:
+        cut = " (the file is cut?)" if e.pos >= len(text.rstrip()) else ""
+        raise ResultError(f"{show(path)}: line {e.lineno} column {e.colno}: not JSON: {e.msg}{cut}") from None
+    except RecursionError:
+        raise ResultError(f"{show(path)}: JSON nested too deeply, not a roks file") from None
+    except ValueError as e:  # NaN/Infinity (parse_constant), huge integers
+        raise ResultError(f"{show(path)}: not JSON roks writes: {e}") from None
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def read_typed(cls, path: str | Path):
+    """A JSON file as the dataclass `cls` (types checked, ResultError naming
+    the file and key)."""
+    path = Path(path)
+    return _object(cls, read_json(path), show(path) + ":")
+
+
+# ----------------------------------------------------------------------------
+# summary.json of `roks brdf` (and `roks merge`, and the Mitsuba tracer)
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Colour(_Fields):
+    """The colour of the reflected light of a spectral run covering the visible."""
+
+    xyz: list[float]
+    srgb_linear: list[float]
+    srgb8: list[int] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class WavelengthResult(_Fields):
+    """One wavelength of a spectral `roks brdf` incidence (`spectrum`)."""
+
+    wavelength_um: float
+    reflectance: float
+    reflectance_stderr: float
+    lost: float | None = None
+    lost_cap: float | None = None
+    lost_numeric: float | None = None
+    lost_walls: float | None = None
+    reflected_stokes: list[float] | None = None
+    reflected_mueller: list[float] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class Incidence(_Fields):
+    """One incidence entry of a `roks brdf` summary.json: reflectance (mean
+    over the wavelengths of a spectral run) with its standard error, the
+    reflectance by number of bounces, losses, cost."""
+
+    theta_deg: float
+    phi_deg: float
+    photons: int
+    reflectance: float
+    reflectance_stderr: float
+    reflectance_by_bounces: list[float]
+    mean_bounces: float | None = None
+    lost: float | None = None
+    lost_cap: float | None = None
+    lost_numeric: float | None = None
+    lost_walls: float | None = None
+    capped_photons: int | None = None
+    numeric_guard_photons: int | None = None
+    intersection_tests: int | None = None
+    segments: int | None = None
+    seconds: float | None = None
+    segments_per_second: float | None = None
+    tests_per_segment: float | None = None
+    reflected_stokes: list[float] | None = None
+    reflected_stokes_stderr: list[float] | None = None
+    reflected_mueller: list[float] | None = None
+    reflected_mueller_stderr: list[float] | None = None
+    spectrum: list[WavelengthResult] | None = None
+    colour: Colour | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class Surface(_Fields):
+    """Statistics of the micro surface's height map (scene units); None
+    where undefined (`undefined` says why)."""
+
+    height_map_resolution: int
+    sigma: float | None = None
+    tau: float | None = None
+    sigma_over_tau: float | None = None
+    rms_slope: float | None = None
+    mean_height: float | None = None
+    min_height: float | None = None
+    max_height: float | None = None
+    undefined: dict[str, str] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class Polarisation(_Fields):
+    """The polarisation settings of a run: incident state, tally, transport."""
+
+    incident: str
+    incident_stokes: list[float]
+    tally: str
+    transport: str
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class ShardRange(_Fields):
+    """Which photons a `--shard I/N` run traced (of every incidence)."""
+
+    index: int
+    count: int
+    first_photon: int | None = None
+    last_photon: int | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class BrdfSummary(_Fields):
+    """summary.json of `roks brdf` / `roks merge` (also the Mitsuba tracer's,
+    which has `incidence`, `bands`, `seed` and its own run keys)."""
+
+    path: Path
+    incidence: list[Incidence]
+    bands: int | None = None
+    seed: int | None = None
+    name: str | None = None
+    scene: str | None = None
+    version: str | None = None
+    edges: str | None = None
+    launch: str | None = None
+    symmetry: str | None = None
+    photons_per_incidence: int | None = None
+    seconds: float | None = None
+    surface: Surface | None = None
+    polarisation: Polarisation | str | None = None
+    shard: ShardRange | None = None
+    wavelengths_um: list[float] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+    kind = "brdf"
+
+    @property
+    def spectral(self) -> bool:
+        """True for a run with `wavelengths_um` (its files have a wavelength_um column)."""
+        return bool(self.wavelengths_um)
+
+    @property
+    def polar_tally(self) -> str:
+        """"stokes", "mueller" or "none": the polarisation file of the folder."""
+        p = self.polarisation
+        if isinstance(p, Polarisation):
+            return p.tally
+        return p if p in ("stokes", "mueller") else "none"
+
+    def by_theta(self) -> dict[float, Incidence]:
+        return {e.theta_deg: e for e in self.incidence}
+
+
+# ----------------------------------------------------------------------------
+# summary.json of `roks trace`
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SourceWavelength(_Fields):
+    """One wavelength of a spectral `roks trace` beam position."""
+
+    wavelength_um: float
+    reflectance: float
+    reflectance_stderr: float
+    absorbed: dict[str, float]
+    absorbed_stderr: dict[str, float]
+    emissivity: float
+    lost: float
+    missed: float
+    stokes: list[float] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class Source(_Fields):
+    """One beam position of `roks trace`: where, and what became of the beam."""
+
+    position: list[float]
+    direction: list[float]
+    diameter: float
+    photons: int
+    reflectance: float
+    reflectance_stderr: float
+    absorbed: dict[str, float]
+    absorbed_stderr: dict[str, float]
+    missed: float
+    lost: float
+    mean_bounces: float | None = None
+    seconds: float | None = None
+    segments: int | None = None
+    polarisation: str | None = None
+    stokes: list[float] | None = None
+    stokes_stderr: list[float] | None = None
+    spectrum: list[SourceWavelength] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class TraceSummary(_Fields):
+    """summary.json of `roks trace`."""
+
+    path: Path
+    sources: list[Source]
+    name: str | None = None
+    scene: str | None = None
+    seed: int | None = None
+    seconds: float | None = None
+    version: str | None = None
+    shard: ShardRange | None = None
+    wavelengths_um: list[float] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+    kind = "trace"
+
+    @property
+    def spectral(self) -> bool:
+        return bool(self.wavelengths_um)
+
+
+# ----------------------------------------------------------------------------
+# fit.json of `roks fit`
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FitParameter(_Fields):
+    key: str
+    fitted: float
+    start: float
+    lo: float
+    hi: float
+    at_bound: str
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class FitSummary(_Fields):
+    """fit.json of `roks fit`."""
+
+    path: Path
+    converged: bool
+    misfit: float
+    start_misfit: float
+    evaluations: int
+    parameters: list[FitParameter]
+    measured: str | None = None
+    scene: str | None = None
+    seed: int | None = None
+    photons: int | None = None
+    version: str | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+def read_summary(path: str | Path) -> BrdfSummary | TraceSummary:
+    """summary.json of `roks brdf`/`roks merge` (with `incidence`) or of
+    `roks trace` (with `sources`), typed; ResultError naming the file."""
+    path = Path(path)
+    data = read_json(path)
+    where = show(path) + ":"
+    if isinstance(data, dict) and "sources" in data and "incidence" not in data:
+        cls = TraceSummary
+    elif isinstance(data, dict) and "incidence" in data:
+        cls = BrdfSummary
+    else:
+        raise ResultError(f"{show(path)}: not a roks summary.json (an object with 'incidence' or 'sources')")
+    return _object(cls, data, where, path=path)
+
+
+def read_fit(path: str | Path) -> FitSummary:
+    """fit.json of `roks fit`, typed."""
+    path = Path(path)
+    data = read_json(path)
+    if not isinstance(data, dict):
+        raise ResultError(f"{show(path)}: expected a JSON object")
+    return _object(FitSummary, data, show(path) + ":", path=path)
+
+
+# ----------------------------------------------------------------------------
+# tallies.json of `roks brdf --shard I/N` and `roks merge`
+# ----------------------------------------------------------------------------
+
+TALLIES_FORMAT = "roks-tallies"
+TALLIES_VERSION = 1
+
+
+@dataclass(frozen=True)
+class TallyNode(_Fields):
+    """A complete node of the batch tree: `level`, `index` and its raw sums
+    (`tallies`: `photons`, `carlson.sum`, ... as JSON, floats as decimal strings)."""
+
+    level: int
+    index: int
+    tallies: dict[str, Any]
+    raw: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def photons(self) -> int:
+        return int(self.tallies.get("photons", 0))
+
+    def sums(self, name: str, key: str = "sum") -> list[float]:
+        """The float sums of tally `name` (e.g. `carlson`, `inplane`), exactly."""
+        v = self.tallies.get(name)
+        if not isinstance(v, dict):
+            raise ResultError(f"tallies.json: node ({self.level}, {self.index}) has no tally {name!r}")
+        return _convert(list[ExactFloat], v.get(key), f"tallies.json: {name}.{key}")
+
+
+@dataclass(frozen=True)
+class TalliesIncidence(_Fields):
+    """One incidence (of a spectral run: one incidence and wavelength,
+    incidence-major) of tallies.json: its photons and its tree nodes."""
+
+    theta_deg: ExactFloat
+    photons: int
+    seconds: ExactFloat
+    nodes: list[TallyNode]
+    wavelength_um: ExactFloat | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+    def carlson_fraction(self) -> list[float]:
+        """The mean weight per Carlson cell (and wavelength) over the nodes'
+        photons: sum over nodes of `carlson.sum`, over `photons` (as brdf.csv's fraction)."""
+        total = None
+        for n in self.nodes:
+            s = n.sums("carlson")
+            total = s if total is None else [a + b for a, b in zip(total, s)]
+        return [x / self.photons for x in (total or [])]
+
+
+@dataclass(frozen=True)
+class Tallies(_Fields):
+    """tallies.json: the raw sums of a shard (or of a merge), exactly."""
+
+    path: Path
+    format: str
+    format_version: int
+    batch: int
+    first_photon: int
+    last_photon: int
+    seconds: ExactFloat
+    settings: dict[str, Any]
+    incidence: list[TalliesIncidence]
+    shard: ShardRange | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+def read_tallies(path: str | Path) -> Tallies:
+    """tallies.json, typed (format `roks-tallies` version 1); ResultError naming the file."""
+    path = Path(path)
+    data = read_json(path)
+    where = show(path) + ":"
+    if not isinstance(data, dict) or data.get("format") != TALLIES_FORMAT:
+        raise ResultError(f"{where} not a roks tallies.json (format {TALLIES_FORMAT!r})")
+    t = _object(Tallies, data, where, path=path)
+    if t.format_version != TALLIES_VERSION:
+        raise ResultError(f"{where} format_version {t.format_version}, this reader knows {TALLIES_VERSION}")
+    return t
