@@ -2,7 +2,7 @@
 //!
 //! * `brdf/default_60deg`: photons of the embedded default scene (100
 //!   overlapping ellipsoids, rho = 0.8) at 60 degrees incidence, the
-//!   figure the README quotes. Throughput is in photons; the number of
+//!   figure docs/src/performance.md quotes. Throughput is in photons; the number of
 //!   straight flights per photon is printed once so the criterion time
 //!   converts to segments per second.
 //! * `entry/*`: one ray-body entry test, single quadric vs CSG body.

@@ -1,5 +1,5 @@
 //! The bad-input corpus: every file `tests/bad_inputs/*.toml` is one bad or
-//! extreme input, and `roks` must answer each the way the README promises:
+//! extreme input, and `roks` must answer each as docs/src/commands.md promises:
 //! exit status 2, exactly one line on stderr naming the file and the key,
 //! nothing on stdout, no output folder, no panic, and no hang or blow-up
 //! (every case runs under a 4 GiB address-space limit and a 60 s kill, which

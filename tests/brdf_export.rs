@@ -2,7 +2,7 @@
 //! files round-trip through their readers, hold exactly rho/pi for a
 //! Lambertian table, carry the table's reflectance as TIS, look up the
 //! table's values, and integrate back to the table's reflectance within the
-//! resampling errors stated in the README.
+//! resampling errors stated in docs/src/exports.md.
 
 use std::f64::consts::PI;
 
@@ -269,7 +269,7 @@ fn merl_round_trip_and_lookups() {
     }
 }
 
-/// The measured resampling error of the default scene's table (the README's:
+/// The measured resampling error of the default scene's table (docs/src/exports.md's:
 /// 10 angles x 10^6 photons, seed 1): TIS is the table's reflectance to 7 digits; the files
 /// read back and integrated over the hemisphere (0.2 degree quadrature;
 /// halving its cells changes the results by < 1e-6 for Zemax, < 6e-4 for MERL) give the table's reflectance within 0.5 % (Zemax,

@@ -15,7 +15,7 @@ use super::{brdf, export_brdf, export_heightfield, export_mesh, fit, merge, rend
 ///
 /// A rough surface is modelled explicitly: a substrate with bumps bounded by
 /// planes and quadrics, in which photons reflect specularly as often as the
-/// geometry makes them. Scene files are TOML; see `scenes/` and the README.
+/// geometry makes them. Scene files are TOML; see `scenes/` and docs/src/scene-reference.md.
 #[derive(Parser, Debug)]
 #[command(name = "roks", version, about, long_about)]
 pub struct Cli {

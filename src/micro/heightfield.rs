@@ -886,7 +886,7 @@ impl HeightField {
     /// EXR and PLY (`f32`) bit for bit. The realised RMS is `sigma` to that
     /// rounding; the realised autocorrelation length carries sampling error,
     /// and its estimate from one period is biased low by the missing `k = 0`
-    /// power (see the README, "Height fields").
+    /// power (see the guide, docs/src/height-fields.md).
     ///
     /// # Panics
     ///
