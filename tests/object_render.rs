@@ -167,6 +167,26 @@ fn cli_renders_an_object_scene_and_rejects_a_camera_inside_a_solid() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.exists() && out.with_extension("png").exists());
+    // A linear preview at exposure 0: the mirror's 0.75 inside the disc's
+    // image, 0.75 times the object default background 1e-3 outside it.
+    let o = Command::new(exe)
+        .args([
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(["--camera", "0,0,10", "--look-at", "0,0,0", "--light", "0,0"])
+        .args(["--size", "32,24", "--spp", "2"])
+        .args(["--tonemap", "linear", "--exposure", "0"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("preview: linear, --exposure 0.000"));
+    let png = image::open(out.with_extension("png")).unwrap().to_rgb8();
+    let srgb = |x: f64| (roks::optics::colour::srgb_encode(x) * 255.0).round() as u8;
+    assert_eq!(png.get_pixel(16, 12).0, [srgb(0.75); 3]);
+    assert_eq!(png.get_pixel(0, 0).0, [srgb(0.75e-3); 3]);
     let bad = dir.join("bad.exr");
     let o = Command::new(exe)
         .args([

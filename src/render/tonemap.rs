@@ -58,12 +58,18 @@ pub const MAX_EV: f64 = 1000.0;
 impl ToneSettings {
     /// Check the settings; `Err` is one line starting with the option.
     pub fn validate(&self) -> Result<(), String> {
-        if let Some(ev) = self.exposure_ev.filter(|ev| !(ev.abs() <= MAX_EV)) {
+        if let Some(ev) = self
+            .exposure_ev
+            .filter(|ev| ev.is_nan() || ev.abs() > MAX_EV)
+        {
             return Err(format!(
                 "--exposure: EV = {ev} must be finite and in [-{MAX_EV}, {MAX_EV}]"
             ));
         }
-        if let Some(d) = self.decades.filter(|d| !(*d > 0.0 && *d <= 300.0)) {
+        if let Some(d) = self
+            .decades
+            .filter(|d| d.is_nan() || *d <= 0.0 || *d > 300.0)
+        {
             return Err(format!("--decades: D = {d} must be in (0, 300]"));
         }
         Ok(())
