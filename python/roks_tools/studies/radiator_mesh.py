@@ -36,7 +36,7 @@ from roks_tools.runner import repo_root, run as run_cmd
 ROOT = repo_root()
 
 SCENE = "scenes/radiator-defect-brdf.toml"
-VIEW = ["--camera", "0,0,40", "--look-at", "0,0,-115", "--fov", "30", "--light", "0,0", "--disc", "5"]
+VIEW = ["--camera", "0,0,40", "--look-at", "0,0,-115", "--fov", "30", "--light", "0,0", "--disc", "5", "--background", "0"]
 BOUNDS = "-55,-55,-140,55,55,5"
 SIDE_MM = 145.0
 
