@@ -1,5 +1,7 @@
-//! Radiance maps of a micro surface (`roks render`), written as
-//! OpenEXR with a tone-mapped PNG preview.
+//! Radiance maps (`roks render`) of a micro surface (below) and of an
+//! object scene ([`render_object`], with light sampling: the `lit`
+//! submodule), written as OpenEXR (linear radiance) with a PNG preview
+//! tone-mapped by [`tonemap`].
 //!
 //! Camera: orthographic, its footprint exactly one period `Lx x Ly` of the
 //! substrate on the launch plane `z = surface.top`. Pixel `(i, j)` (column
