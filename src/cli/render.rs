@@ -71,17 +71,17 @@ pub struct RenderArgs {
     #[arg(long)]
     pub no_light_sampling: bool,
     /// Tone curve of the PNG preview (the EXR stays linear radiance): log
-    /// (DECADES decades from white to black), linear, or filmic (ACES fit).
+    /// (--decades from white to black), linear, or filmic (ACES fit).
     #[arg(long, value_enum, default_value_t = Tonemap::Log)]
     pub tonemap: Tonemap,
     /// Exposure of the PNG preview in stops: radiance times 2^EV before the
-    /// tone curve (1 is white) [default: automatic, the 99th percentile of
+    /// tone curve (1 is white) [default: automatic, the 99.9th percentile of
     /// the non-zero pixels' luminance is white].
     #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = number)]
     pub exposure: Option<f64>,
-    /// Decades of radiance from white to black of the log curve [default:
-    /// automatic, log10 of the 99th over the 1st percentile of the non-zero
-    /// pixels' luminance, within 1..8].
+    /// Log curve: decades of radiance from white to black [default:
+    /// automatic, log10 of the 99.9th over the 1st percentile of the
+    /// non-zero pixels' luminance, within 1..8].
     #[arg(long, value_name = "D", value_parser = number)]
     pub decades: Option<f64>,
 }
