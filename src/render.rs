@@ -1,5 +1,7 @@
-//! Radiance maps of a micro surface (`roks render`), written as
-//! OpenEXR with a tone-mapped PNG preview.
+//! Radiance maps (`roks render`) of a micro surface (below) and of an
+//! object scene ([`render_object`], with light sampling: the `lit`
+//! submodule), written as OpenEXR (linear radiance) with a PNG preview
+//! tone-mapped by [`tonemap`].
 //!
 //! Camera: orthographic, its footprint exactly one period `Lx x Ly` of the
 //! substrate on the launch plane `z = surface.top`. Pixel `(i, j)` (column
@@ -36,6 +38,11 @@ use crate::transport::carrier::{Carrier, Spectral};
 use crate::transport::micro::{Controls, Fate, trace};
 use crate::transport::rng::photon_rng;
 
+mod lit;
+pub mod tonemap;
+
+pub use tonemap::{ToneSettings, Tonemap};
+
 /// What to render. Angles in degrees; directions are
 /// `(sin t cos p, sin t sin p, cos t)`, pointing away from the surface.
 #[derive(Debug, Clone, PartialEq)]
@@ -64,6 +71,10 @@ pub struct RenderSettings {
     pub background_radiance: f64,
     /// Seed of the per-pixel random streams.
     pub seed: u64,
+    /// Object scenes: sample the disc's light at every wall with a BRDF to
+    /// evaluate (next-event estimation, see [`render_object`]); default
+    /// true. Same expectation either way; micro renders ignore it.
+    pub light_sampling: bool,
 }
 
 impl Default for RenderSettings {
@@ -80,6 +91,7 @@ impl Default for RenderSettings {
             light_radiance: 1.0,
             background_radiance: 0.0,
             seed: 1,
+            light_sampling: true,
         }
     }
 }
@@ -201,8 +213,10 @@ fn below(x: f64) -> f64 {
 
 /// How a camera path ended, for [`render_pixels`]; `C` is what it carried.
 enum PathEnd<C> {
-    /// Left the scene along `dir` with `weight`.
-    Escaped { dir: DVec3, weight: C },
+    /// Left the scene along `dir` with `weight`; `disc`: whether the light
+    /// disc is seen there (false when the last wall sampled the disc's
+    /// light: an escape into the disc then adds 0, see [`render_object`]).
+    Escaped { dir: DVec3, weight: C, disc: bool },
     /// Absorbed (physics): adds 0.
     Absorbed,
     /// Cut by a cap or guard, or absorbed by an edge wall: adds 0, counted.
@@ -213,9 +227,10 @@ enum PathEnd<C> {
 
 /// The pixel loop of both renders. Pixel `(i, j)` draws its `spp` sub-pixel
 /// positions `(u, v)` in `[0, 1)²` (u first) and every path from
-/// `photon_rng(seed, j w + i)`; `path(scratch, i, j, u, v, rng)` follows one
-/// camera path. A path that escapes within the light disc adds
-/// `weight * light_radiance`, one that escapes elsewhere
+/// `photon_rng(seed, j w + i)`; `path(scratch, i, j, u, v, rng, lit)` follows one
+/// camera path and adds the radiance it samples from the light to `lit`
+/// (one entry per wavelength). A path that escapes within the light disc
+/// (and sees it) adds `weight * light_radiance`, one that escapes elsewhere
 /// `weight * background_radiance`. Rows run in parallel with one `scratch` each;
 /// the image does not depend on the thread count.
 ///
@@ -225,7 +240,8 @@ fn render_pixels<S, C: Carrier>(
     s: &RenderSettings,
     to_rgb: &[[f64; 3]],
     scratch: impl Fn() -> S + Sync,
-    path: impl Fn(&mut S, usize, usize, f64, f64, &mut rand_pcg::Pcg64Mcg) -> PathEnd<C> + Sync,
+    path: impl Fn(&mut S, usize, usize, f64, f64, &mut rand_pcg::Pcg64Mcg, &mut [f64]) -> PathEnd<C>
+    + Sync,
 ) -> (Image, RenderLosses) {
     use rand::RngExt;
     let (w, h) = (s.width, s.height);
@@ -236,30 +252,37 @@ fn render_pixels<S, C: Carrier>(
         .map(|j| {
             let mut state = scratch();
             let mut losses = RenderLosses::default();
+            // The pixel's radiance per wavelength, summed over its samples.
+            let mut lanes = vec![0.0_f64; to_rgb.len()];
             let row = (0..w)
                 .map(|i| {
                     let mut rng = photon_rng(s.seed, (j * w + i) as u64);
-                    let mut sum = [0.0_f64; 3];
+                    lanes.fill(0.0);
                     for _ in 0..s.spp {
                         let u: f64 = rng.random();
                         let v: f64 = rng.random();
-                        match path(&mut state, i, j, u, v, &mut rng) {
-                            PathEnd::Escaped { dir, weight } => {
-                                let radiance = if dir.dot(light) >= cos_r {
+                        match path(&mut state, i, j, u, v, &mut rng, &mut lanes) {
+                            PathEnd::Escaped { dir, weight, disc } => {
+                                let radiance = if dir.dot(light) < cos_r {
+                                    s.background_radiance
+                                } else if disc {
                                     s.light_radiance
                                 } else {
-                                    s.background_radiance
+                                    0.0
                                 };
-                                for (l, m) in to_rgb.iter().enumerate() {
-                                    let lw = weight.lane(l).intensity() * radiance;
-                                    for (c, f) in sum.iter_mut().zip(m) {
-                                        *c += lw * f;
-                                    }
+                                for (l, sum) in lanes.iter_mut().enumerate() {
+                                    *sum += weight.lane(l).intensity() * radiance;
                                 }
                             }
                             PathEnd::Absorbed => {}
                             PathEnd::Lost => losses.lost += 1,
                             PathEnd::Unmodelled => losses.unmodelled += 1,
+                        }
+                    }
+                    let mut sum = [0.0_f64; 3];
+                    for (lane, m) in lanes.iter().zip(to_rgb) {
+                        for (c, f) in sum.iter_mut().zip(m) {
+                            *c += lane * f;
                         }
                     }
                     sum.map(|c| (c / f64::from(s.spp)) as f32)
@@ -323,7 +346,7 @@ pub fn render_at(
             s,
             &rgb,
             || Scratch::new(surface),
-            |scratch, i, j, u, v, rng| {
+            |scratch, i, j, u, v, rng, _| {
                 let start = pixel_start(surface, (px, py), i, j, u, v);
                 let w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, lanes);
                 micro_end(trace(surface, start, dir, w, &controls, rng, scratch).fate)
@@ -334,7 +357,7 @@ pub fn render_at(
         s,
         &rgb,
         || Scratch::new(surface),
-        |scratch, i, j, u, v, rng| {
+        |scratch, i, j, u, v, rng, _| {
             let start = pixel_start(surface, (px, py), i, j, u, v);
             micro_end(trace(surface, start, dir, 1.0, &controls, rng, scratch).fate)
         },
@@ -365,7 +388,11 @@ fn pixel_start(
 /// A micro history's end as a camera path's.
 fn micro_end<C>(fate: Fate<C>) -> PathEnd<C> {
     match fate {
-        Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
+        Fate::Escaped { dir, weight } => PathEnd::Escaped {
+            dir,
+            weight,
+            disc: true,
+        },
         Fate::Absorbed => PathEnd::Absorbed,
         Fate::Wall { .. } | Fate::Capped { .. } | Fate::Numeric { .. } => PathEnd::Lost,
     }
@@ -449,16 +476,21 @@ impl PinholeCamera {
 /// Radiance map of an object scene seen through a pinhole camera.
 ///
 /// Each camera ray is followed backward through the object by the macro
-/// history loop ([`crate::transport::object::trace`], the same wall models
-/// as `roks trace`); by reciprocity of the walls' BRDFs a path that leaves
-/// the object (or misses it) in a direction within `light_radius_deg` of the
-/// light direction contributes `weight * light_radiance`, any other
-/// `weight * background_radiance`. The light is a disc
-/// at infinity in world direction `(light_theta_deg, light_phi_deg)` (polar
-/// angle from world +z). `view_*` of `s` are not used. Pixel `(i, j)` draws
-/// from `photon_rng(seed, j w + i)`: the same image for any thread count.
-/// Histories cut by caps or guards, or hitting unmodelled surfaces, add 0
-/// and are counted in the returned [`RenderLosses`].
+/// history loop (that of [`crate::transport::object::trace`], the same wall
+/// models as `roks trace`); by reciprocity of the walls' BRDFs a path that
+/// leaves the object (or misses it) in a direction within
+/// `light_radius_deg` of the light direction contributes
+/// `weight * light_radiance`, any other `weight * background_radiance`.
+/// The light is a disc at infinity in world direction `(light_theta_deg,
+/// light_phi_deg)` (polar angle from world +z). With `light_sampling`, the
+/// disc's light is also sampled at every wall that has a BRDF to evaluate
+/// (tables, Lambertian walls: next-event estimation, the estimator of the
+/// `lit` module's documentation), and a path escaping into the disc after
+/// such a wall adds 0 instead: the same expectation, far less noise on
+/// glossy and diffuse walls. `view_*` of `s` are not used. Pixel `(i, j)`
+/// draws from `photon_rng(seed, j w + i)`: the same image for any thread
+/// count. Histories cut by caps or guards, or hitting unmodelled surfaces,
+/// add 0 and are counted in the returned [`RenderLosses`].
 ///
 /// # Panics
 /// If `s` or `camera` fail their `validate`.
@@ -471,20 +503,14 @@ pub fn render_object(
     if let Err(e) = s.validate().and_then(|()| camera.validate()) {
         panic!("render_object: {e}");
     }
-    let controls = scene.run.controls;
     let wavelengths = &scene.run.wavelengths_um;
     let rgb = to_rgb(wavelengths);
-    let scratch = || vec![None; scene.models.len()];
+    let scratch = || lit::LitScratch::new(scene.models.len(), wavelengths.len());
     if wavelengths.is_empty() {
-        render_pixels(
-            s,
-            &rgb,
-            scratch,
-            object_path(scene, camera, s, controls, 1.0),
-        )
+        render_pixels(s, &rgb, scratch, object_path(scene, camera, s, 1.0))
     } else {
         let w = Spectral::<f64>::launch([1.0, 0.0, 0.0, 0.0], DVec3::X, wavelengths.len());
-        render_pixels(s, &rgb, scratch, object_path(scene, camera, s, controls, w))
+        render_pixels(s, &rgb, scratch, object_path(scene, camera, s, w))
     }
 }
 
@@ -493,32 +519,32 @@ fn object_path<'a, C: Carrier + 'a>(
     scene: &'a crate::scene::object::ObjectScene,
     camera: &'a PinholeCamera,
     s: &'a RenderSettings,
-    controls: crate::transport::micro::Controls,
     w: C,
-) -> impl Fn(&mut Vec<Option<Scratch>>, usize, usize, f64, f64, &mut rand_pcg::Pcg64Mcg) -> PathEnd<C>
+) -> impl Fn(
+    &mut lit::LitScratch,
+    usize,
+    usize,
+    f64,
+    f64,
+    &mut rand_pcg::Pcg64Mcg,
+    &mut [f64],
+) -> PathEnd<C>
 + Sync
 + 'a {
-    use crate::transport::object;
-    move |scratch, i, j, u, v, rng| {
+    let disc = lit::Disc::new(s);
+    move |scratch, i, j, u, v, rng, lit| {
         let d = camera.ray(i as f64 + u, j as f64 + v, s.width, s.height);
-        let hist = object::trace(
-            &scene.object,
-            &scene.walls,
-            &scene.models,
-            &controls,
+        lit::trace_lit(
+            scene,
+            &disc,
+            s.light_sampling,
             camera.position,
             d,
             w,
             rng,
             scratch,
-            |_, _, _| {},
-        );
-        match hist.fate {
-            object::Fate::Escaped { dir, weight } => PathEnd::Escaped { dir, weight },
-            object::Fate::Absorbed => PathEnd::Absorbed,
-            object::Fate::Lost { .. } => PathEnd::Lost,
-            object::Fate::Unmodelled { .. } => PathEnd::Unmodelled,
-        }
+            lit,
+        )
     }
 }
 
@@ -561,52 +587,23 @@ pub fn write_exr(img: &Image) -> Result<Vec<u8>, String> {
     Ok(buf.into_inner())
 }
 
-/// Tone-mapped 8-bit RGB PNG preview, in memory: every channel is scaled so
-/// that the 99th percentile of the pixels' luminance (Rec. 709 weights) maps
-/// to 1 (the maximum if that percentile is 0; an all-black image stays
-/// black), clamped to `[0, 1]`, sRGB-encoded.
-pub fn write_png_preview(img: &Image) -> Result<Vec<u8>, String> {
+/// Tone-mapped 8-bit RGB PNG preview, in memory (exposure, curve and
+/// sRGB encoding: [`tonemap`]), and the exposure and decades used.
+pub fn write_png_preview(
+    img: &Image,
+    tone: &ToneSettings,
+) -> Result<(Vec<u8>, tonemap::Applied), String> {
     use image::ImageEncoder;
     img.check()?;
-    let lum = |p: &[f32; 3]| {
-        0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])
-    };
-    let mut l: Vec<f64> = img
-        .rgb
-        .iter()
-        .map(lum)
-        .map(|x| if x.is_finite() { x } else { 0.0 })
-        .collect();
-    l.sort_by(f64::total_cmp);
-    let n = l.len();
-    let k = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
-    let mut white = l[k];
-    if white <= 0.0 {
-        white = l[n - 1];
-    }
-    let scale = if white > 0.0 { 1.0 / white } else { 0.0 };
-    let bytes: Vec<u8> = img
-        .rgb
-        .iter()
-        .flat_map(|p| {
-            p.map(|c| {
-                let x = f64::from(c) * scale;
-                let x = if x.is_finite() {
-                    x.clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (crate::optics::colour::srgb_encode(x) * 255.0).round() as u8
-            })
-        })
-        .collect();
+    tone.validate()?;
+    let (bytes, applied) = tonemap::map(img, tone);
     let mut out = Vec::new();
     let width = u32::try_from(img.width).map_err(|_| "image too wide for PNG".to_string())?;
     let height = u32::try_from(img.height).map_err(|_| "image too tall for PNG".to_string())?;
     image::codecs::png::PngEncoder::new(&mut out)
         .write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)
         .map_err(|e| format!("writing PNG: {e}"))?;
-    Ok(out)
+    Ok((out, applied))
 }
 
 #[cfg(test)]
@@ -640,6 +637,7 @@ mod tests {
             light_radiance: 2.0,
             background_radiance: 0.0,
             seed: 3,
+            light_sampling: true,
         }
     }
 
@@ -795,7 +793,7 @@ mod tests {
     #[test]
     fn png_preview_has_the_requested_size() {
         let (img, _) = render(&flat(0.75), &settings());
-        let png = write_png_preview(&img).unwrap();
+        let (png, _) = write_png_preview(&img, &ToneSettings::default()).unwrap();
         let dec = image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap();
         assert_eq!((dec.width(), dec.height()), (16, 12));
         // A uniform image maps to white.
@@ -806,7 +804,8 @@ mod tests {
             height: 2,
             rgb: vec![[0.0; 3]; 6],
         };
-        let dec = image::load_from_memory(&write_png_preview(&black).unwrap()).unwrap();
+        let (png, _) = write_png_preview(&black, &ToneSettings::default()).unwrap();
+        let dec = image::load_from_memory(&png).unwrap();
         assert_eq!((dec.width(), dec.height()), (3, 2));
         assert!(dec.to_rgb8().pixels().all(|p| p.0 == [0, 0, 0]));
     }

@@ -74,14 +74,16 @@ pub enum Command {
     /// (text grid, shortest exact decimals). Row j of the file is y = j pixel.
     /// The scene line to load it is printed on stderr.
     ExportHeightfield(export_heightfield::ExportHeightfieldArgs),
-    /// Render a radiance map of a micro scene to OpenEXR (plus a PNG preview).
+    /// Render a radiance map of a micro or an object scene to OpenEXR (plus a PNG preview).
     ///
-    /// An orthographic camera whose footprint is exactly one period of the
-    /// substrate looks from --view; the light is a small bright disc (radiance
-    /// 1, angular radius --disc) in the scene's first incidence direction
-    /// ([light] theta_deg[0], phi_deg) or --light. Pixel values are radiance in
-    /// units of the disc's. Writes OUT (EXR: scanline, ZIP, f32 RGB) and OUT
-    /// with the extension .png (tone-mapped preview).
+    /// A micro scene: an orthographic camera whose footprint is exactly one
+    /// period of the substrate looks from --view. An object scene (one with
+    /// [[cells]]): a pinhole camera (--camera, --look-at, --up, --fov), the
+    /// disc's light sampled at table and Lambertian walls, and a background of
+    /// 1e-3 unless --background. The light is a small bright disc (radiance 1,
+    /// angular radius --disc) toward --light. Pixel values are radiance in
+    /// units of the disc's. Writes OUT (EXR: linear radiance, scanline, ZIP,
+    /// f32 RGB) and OUT with the extension .png (preview: --tonemap, --exposure).
     Render(render::RenderArgs),
     /// Merge the shards of one `roks brdf --shard I/N` run into one result.
     ///

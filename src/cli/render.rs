@@ -1,6 +1,7 @@
 //! `roks render`: a radiance map (EXR and a PNG preview) of a micro scene
 //! seen by an orthographic camera over one period, or of an object scene
-//! seen by a pinhole camera, lit by a small bright disc.
+//! seen by a pinhole camera, lit by a small bright disc (and, for an object
+//! scene, a dim uniform background by default, so that its walls show).
 
 use std::path::{Path, PathBuf};
 
@@ -9,7 +10,7 @@ use clap::Args;
 use super::Failure;
 use super::common::{check_memory, check_out_file, load_scene, set_threads, write_file};
 use super::parse::{integer, number, positive};
-use crate::render::{PinholeCamera, RenderSettings};
+use crate::render::{PinholeCamera, RenderSettings, ToneSettings, Tonemap};
 use crate::scene::SceneKind;
 use crate::scene::object::ObjectScene;
 
@@ -22,21 +23,24 @@ pub struct RenderArgs {
     /// Output EXR file.
     #[arg(long)]
     pub out: PathBuf,
-    /// View direction THETA,PHI in degrees (toward the camera).
-    #[arg(long, value_delimiter = ',', default_values_t = [0.0, 0.0], value_parser = number)]
+    /// Micro scenes: view direction THETA,PHI in degrees (toward the camera).
+    #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', default_value = "0,0", value_parser = number)]
     pub view: Vec<f64>,
-    /// Light direction THETA,PHI in degrees (default: the scene's first incidence).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    /// Direction THETA,PHI toward the light disc's centre, in degrees, polar
+    /// angle from +z [default: a micro scene's first incidence; an object
+    /// scene's: against its first beam].
+    #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
     pub light: Option<Vec<f64>>,
     /// Angular radius of the light disc (degrees).
-    #[arg(long, default_value_t = 5.0, value_parser = number)]
+    #[arg(long, value_name = "DEG", default_value_t = 5.0, value_parser = number)]
     pub disc: f64,
     /// Radiance of a uniform background outside the disc, in the disc's units
-    /// (default 0: black; a small value shows walls the disc leaves dark).
-    #[arg(long, default_value_t = 0.0, value_parser = number)]
-    pub background: f64,
+    /// (a small value shows walls the disc leaves dark) [default: 0 for a
+    /// micro scene, 1e-3 for an object scene].
+    #[arg(long, value_name = "B", value_parser = number)]
+    pub background: Option<f64>,
     /// Image size W,H in pixels.
-    #[arg(long, value_delimiter = ',', default_values_t = [512, 512], value_parser = positive::<usize>)]
+    #[arg(long, value_name = "W,H", value_delimiter = ',', default_value = "512,512", value_parser = positive::<usize>)]
     pub size: Vec<usize>,
     /// Samples per pixel.
     #[arg(long, default_value_t = 16, value_parser = positive::<u32>)]
@@ -47,21 +51,59 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores). Does not change results.
     #[arg(long, value_parser = positive::<usize>)]
     pub threads: Option<usize>,
-    /// Object scenes: pinhole camera position X,Y,Z (default: on the first
-    /// beam's axis, 2.5 beam-sweep lengths before its start, at least 50 units).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    /// Object scenes: pinhole camera position X,Y,Z [default: on the first
+    /// beam's axis, 2.5 beam-sweep lengths before its start, at least 50 units].
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
     pub camera: Option<Vec<f64>>,
-    /// Object scenes: point the camera looks at X,Y,Z (default: the first
-    /// beam's start point moved 100 units along the beam).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    /// Object scenes: point the camera looks at X,Y,Z [default: the first
+    /// beam's start point moved 100 units along the beam].
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
     pub look_at: Option<Vec<f64>>,
     /// Object scenes: up direction X,Y,Z of the image.
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = [0.0, 1.0, 0.0], value_parser = number)]
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, default_value = "0,1,0", value_parser = number)]
     pub up: Vec<f64>,
     /// Object scenes: vertical field of view (degrees).
-    #[arg(long, default_value_t = 40.0, value_parser = number)]
+    #[arg(long, value_name = "DEG", default_value_t = 40.0, value_parser = number)]
     pub fov: f64,
+    /// Object scenes: do not sample the disc's light at table and Lambertian
+    /// walls (next-event estimation); the disc is then only met by chance.
+    /// Same expectation, far more noise.
+    #[arg(long)]
+    pub no_light_sampling: bool,
+    /// Tone curve of the PNG preview (the EXR stays linear radiance): log
+    /// (--decades from white to black), linear, or filmic (ACES fit).
+    #[arg(long, value_enum, default_value_t = Tonemap::Log)]
+    pub tonemap: Tonemap,
+    /// Exposure of the PNG preview in stops: radiance times 2^EV before the
+    /// tone curve (1 is white) [default: automatic, the 99.9th percentile of
+    /// the non-zero pixels' luminance is white].
+    #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = number)]
+    pub exposure: Option<f64>,
+    /// Log curve: decades of radiance from white to black [default:
+    /// automatic, log10 of the 99.9th over the 1st percentile of the
+    /// non-zero pixels' luminance, within 1..8].
+    #[arg(long, value_name = "D", value_parser = number)]
+    pub decades: Option<f64>,
 }
+
+impl RenderArgs {
+    /// The preview's tone settings, checked.
+    fn tone(&self) -> Result<ToneSettings, Failure> {
+        let t = ToneSettings {
+            tonemap: self.tonemap,
+            exposure_ev: self.exposure,
+            decades: self.decades,
+        };
+        t.validate().map_err(Failure::Input)?;
+        Ok(t)
+    }
+}
+
+/// The background of an object render when `--background` is not given:
+/// 1e-3 of the disc's radiance, so that walls the disc leaves dark still
+/// show their shape (walls of a few percent reflectance are then a few
+/// 1e-5, inside the log preview's automatic range).
+pub const OBJECT_BACKGROUND: f64 = 1e-3;
 
 /// Run `roks render`.
 ///
@@ -94,13 +136,14 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         )));
     }
     check_out_file(&png, a.scene.as_slice())?;
+    let tone = a.tone()?;
     // A file that cannot be read is left to the micro loader's message.
     if let Some(path) = a
         .scene
         .as_deref()
         .filter(|p| matches!(crate::scene::kind(p), Ok(SceneKind::Object)))
     {
-        return object(&a, path);
+        return object(&a, path, &tone);
     }
     let scene = load_scene(a.scene.as_deref())?;
     let (light_theta, light_phi) = match &a.light {
@@ -117,18 +160,19 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         light_phi_deg: light_phi,
         light_radius_deg: a.disc,
         light_radiance: 1.0,
-        background_radiance: a.background,
+        background_radiance: a.background.unwrap_or(0.0),
         seed: a.seed,
+        light_sampling: !a.no_light_sampling,
     };
     settings.validate().map_err(Failure::Input)?;
     set_threads(a.threads)?;
     let (img, losses) = crate::render::render_at(&scene.surface, &scene.wavelengths_um, &settings);
     let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
-    write_images(&a.out, &img, losses.lost, paths)
+    write_images(&a.out, &img, &tone, losses.lost, paths)
 }
 
 /// `roks render` of an object scene: a pinhole camera view.
-fn object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
+fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failure> {
     let scene = ObjectScene::load(path)?;
     for (name, v) in [("--camera", &a.camera), ("--look-at", &a.look_at)] {
         if v.as_ref().is_some_and(|v| v.len() != 3) {
@@ -182,8 +226,9 @@ fn object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
         light_phi_deg: light_phi,
         light_radius_deg: a.disc,
         light_radiance: 1.0,
-        background_radiance: a.background,
+        background_radiance: a.background.unwrap_or(OBJECT_BACKGROUND),
         seed: a.seed,
+        light_sampling: !a.no_light_sampling,
         ..RenderSettings::default()
     };
     settings
@@ -210,17 +255,18 @@ fn object(a: &RenderArgs, path: &Path) -> Result<(), Failure> {
         )));
     }
     let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
-    write_images(&a.out, &img, losses.lost, paths)
+    write_images(&a.out, &img, tone, losses.lost, paths)
 }
 
-/// Write `img` as OUT (EXR) and OUT.png (preview), and report the mean and
-/// the `lost` camera paths (caps, guards, edge walls, micro descents). Each
+/// Write `img` as OUT (EXR) and OUT.png (preview, tone-mapped by `tone`),
+/// and report the mean, the exposure used and the `lost` camera paths (caps, guards, edge walls, micro descents). Each
 /// file is replaced atomically, the EXR first: a reader sees each old or
 /// new, and for an instant (or after a kill between the two) a new EXR
 /// beside the old PNG.
 fn write_images(
     out: &Path,
     img: &crate::render::Image,
+    tone: &ToneSettings,
     lost: u64,
     paths: u64,
 ) -> Result<(), Failure> {
@@ -231,16 +277,22 @@ fn write_images(
     }
     use crate::render::{write_exr, write_png_preview};
     let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let png = write_png_preview(img).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (png, applied) = write_png_preview(img, tone).map_err(|e| anyhow::anyhow!("{e}"))?;
     let png_path = out.with_extension("png");
     for (path, bytes) in [(out, &exr), (png_path.as_path(), &png)] {
         write_file(path, bytes)?;
     }
     let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
+    let curve = match tone.tonemap {
+        Tonemap::Log => format!("log, --decades {:.3}", applied.decades),
+        Tonemap::Linear => "linear".into(),
+        Tonemap::Filmic => "filmic".into(),
+    };
     eprintln!(
-        "wrote {} and {} (mean radiance {mean:.4} of the disc's)",
+        "wrote {} and {} (mean radiance {mean:.4e} of the disc's; preview: {curve}, --exposure {:.3})",
         out.display(),
-        png_path.display()
+        png_path.display(),
+        applied.exposure_ev
     );
     Ok(())
 }

@@ -37,7 +37,7 @@ from roks_tools.runner import add_out_argument, check_output, default_roks, repo
 ROOT = repo_root()
 
 SCENE = "scenes/radiator-defect-brdf.toml"
-VIEW = ["--camera", "0,0,40", "--look-at", "0,0,-115", "--fov", "30", "--light", "0,0", "--disc", "5"]
+VIEW = ["--camera", "0,0,40", "--look-at", "0,0,-115", "--fov", "30", "--light", "0,0", "--disc", "5", "--background", "0"]
 BOUNDS = "-55,-55,-140,55,55,5"
 SIDE_MM = 145.0
 

@@ -90,7 +90,7 @@ def axis_previews(a, plt) -> Path:
     for scene, title in (("radiator-brdf", "ideal cone"), ("radiator-defect-brdf", "45 deg apex defect")):
         exr = OUT / f"{scene}.exr"
         run_cmd([a.roks, "render", f"scenes/{scene}.toml", "--camera", "0,0,40", "--look-at", "0,0,-115",
-                     "--fov", "30", "--light", "0,0", "--disc", "5", "--size", f"{a.size},{a.size}",
+                     "--fov", "30", "--light", "0,0", "--disc", "5", "--background", "0", "--size", f"{a.size},{a.size}",
                      "--spp", a.spp, "--out", exr], "radiator_preview", cwd=REPO)
         imgs.append((read_exr(exr), title))
     fig, ax = plt.subplots(1, 2, figsize=(10, 4.6))
