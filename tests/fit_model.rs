@@ -178,13 +178,21 @@ fn microfacet_models_give_back_alpha() {
     }
 }
 
-/// A Gaussian height field (sigma 1, tau 8: alpha = 2 sigma / tau = 0.25 for
-/// the ensemble; this realisation's RMS slope from `roks stats`) traced by
-/// `roks brdf`, then fitted: Beckmann's alpha (the RMS slope by definition)
-/// lands within 10 % of `roks stats`'s rms_slope and GGX's within 20 %
-/// (GGX has no RMS slope; its alpha matches Beckmann's at the peak); the
-/// table's reflectance exceeds the single-scattering model's (multiple
-/// scattering), shown per incidence.
+/// A Gaussian height field (sigma 0.3, tau 3: alpha = 2 sigma / tau = 0.2
+/// for the ensemble, 16 correlation lengths across the period) traced by
+/// `roks brdf`, then fitted, the material taken from the scene its
+/// summary.json names. Beckmann's alpha is by definition the RMS slope
+/// `sqrt(<|grad h|²>)`, the `rms_slope` of `roks stats` (for this
+/// realisation 0.197; its table's second moment at normal incidence,
+/// `sqrt(Σ f tan²(theta_o/2) / Σ f)`, gives 0.198): the fit lands within 10 %
+/// of it (0.183 measured: one realisation's slopes are not exactly Gaussian,
+/// and the weighted fit follows the lobe's core, where the errors are
+/// smallest). GGX has no RMS slope (its slope variance is infinite); its
+/// tails (r^-4 in slope) put light where a Gaussian surface has none, which
+/// the fit pays for by a narrower core: GGX's alpha is below Beckmann's
+/// (0.102 measured) and its chi²/dof far above (177 against 13). The
+/// light scattered more than once, which neither model holds, is printed
+/// per incidence (table minus model reflectance).
 #[test]
 fn microfacet_fits_to_a_gaussian_field_land_near_its_rms_slope() {
     let dir = folder("gaussian");
@@ -196,7 +204,7 @@ fn microfacet_fits_to_a_gaussian_field_land_near_its_rms_slope() {
 size = [48.0, 48.0]
 edges = "periodic"
 material = "al"
-heightfield = { gaussian = { sigma = 1.0, tau = 8.0 }, resolution = 192, seed = 7 }
+heightfield = { gaussian = { sigma = 0.3, tau = 3.0 }, resolution = 256, seed = 7 }
 [materials.al]
 n = 1.015
 k = 6.627
@@ -228,14 +236,15 @@ bands = 24
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stats: Value = serde_json::from_slice(&o.stdout).unwrap();
     let slope = stats["rms_slope"].as_f64().unwrap();
-    for (model, tol) in [("beckmann", 0.10), ("ggx", 0.20)] {
+    let mut fitted = Vec::new();
+    for model in ["beckmann", "ggx"] {
         let v = fit(&out, &["--model", model]);
         let f = &v["fits"][0];
         let alpha = f["parameters"][0]["value"].as_f64().unwrap();
+        let chi2 = f["chi2_per_dof"].as_f64().unwrap();
         eprintln!(
-            "{model}: alpha {alpha:.4} +- {:.4}, rms_slope {slope:.4}, chi2/dof {:.2}",
+            "{model}: alpha {alpha:.4} +- {:.4}, rms_slope {slope:.4}, chi2/dof {chi2:.2}",
             f["parameters"][0]["stderr"].as_f64().unwrap(),
-            f["chi2_per_dof"].as_f64().unwrap()
         );
         // The material from the scene summary.json names.
         assert!(
@@ -256,11 +265,17 @@ bands = 24
                 r["chi2_per_cell"].as_f64().unwrap()
             );
         }
-        assert!(
-            (alpha / slope - 1.0).abs() < tol,
-            "{model}: alpha {alpha} vs rms slope {slope}"
-        );
+        fitted.push((alpha, chi2));
     }
+    let ((beckmann, chi2_b), (ggx, chi2_g)) = (fitted[0], fitted[1]);
+    assert!(
+        (beckmann / slope - 1.0).abs() < 0.10,
+        "beckmann: alpha {beckmann} vs rms slope {slope}"
+    );
+    assert!(
+        ggx < beckmann && chi2_g > chi2_b,
+        "ggx {ggx} ({chi2_g}), beckmann {beckmann} ({chi2_b})"
+    );
 }
 
 #[test]
