@@ -1,6 +1,7 @@
 //! The plot of a fit: the table's BRDF and the model's, cell by cell, in
 //! the plane of incidence (top) and across it through the specular
-//! direction (bottom), for up to four incidences.
+//! direction (bottom), for up to three incidences (the first, middle and
+//! last: six curves, six colours of the palette).
 
 use glam::DVec3;
 
@@ -58,10 +59,10 @@ pub fn png(
         .collect();
     all.sort_by_key(|p| p.0);
     let n = all.len();
-    let chosen: Vec<(usize, &[f64])> = if n <= 4 {
+    let chosen: Vec<(usize, &[f64])> = if n <= 3 {
         all
     } else {
-        (0..4).map(|k| all[k * (n - 1) / 3]).collect()
+        (0..3).map(|k| all[k * (n - 1) / 2]).collect()
     };
     let half = std::f64::consts::FRAC_PI_2 * (1.0 - 1e-9);
     let cut = |across: bool| {
