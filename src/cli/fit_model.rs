@@ -289,13 +289,8 @@ pub fn run(a: FitModelArgs) -> Result<(), Failure> {
             doc["definition"] = json!(
                 "BSDF = b0 (1 + (|beta - beta0| / l)^2)^(s/2) (1/sr); beta, beta0 as for ABg; per incidence"
             );
-            let near30 = fits
-                .iter()
-                .min_by(|x, y| {
-                    (x.theta_i_deg[0] - 30.0)
-                        .abs()
-                        .total_cmp(&(y.theta_i_deg[0] - 30.0).abs())
-                })
+            let near30 = (!fits.is_empty())
+                .then(|| fit_model::nearest(&fits, 30.0))
                 .map(|f| {
                     json!({
                         "b0": f.parameters[0].value,

@@ -150,14 +150,7 @@ pub fn opticstudio_rows(fits: &[FitResult]) -> Vec<OpticStudioRow> {
 /// If `fits` is empty.
 #[must_use]
 pub fn fred(fits: &[FitResult]) -> Fred {
-    let f = fits
-        .iter()
-        .min_by(|a, b| {
-            (a.theta_i_deg[0] - 30.0)
-                .abs()
-                .total_cmp(&(b.theta_i_deg[0] - 30.0).abs())
-        })
-        .expect("at least one fit");
+    let f = super::nearest(fits, 30.0);
     Fred {
         acoef: f.parameters[0].value,
         bcoef: f.parameters[1].value,

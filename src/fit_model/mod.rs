@@ -325,7 +325,8 @@ pub struct FitResult {
     pub covariance_scaled: bool,
     /// Cells fitted.
     pub cells: usize,
-    /// Cells left out (no standard error; see the module documentation).
+    /// Cells of the whole table left out (no standard error and no photon
+    /// count; see the module documentation).
     pub cells_left_out: usize,
     /// Levenberg-Marquardt's termination, as the crate names it.
     pub termination: String,
@@ -506,8 +507,7 @@ pub fn per_incidence(
     (0..table.thetas_deg().len())
         .map(|i| {
             let cells: Vec<&Observation> = obs.cells.iter().filter(|o| o.incidence == i).collect();
-            let left_out = obs.left_out; // counted over the table
-            fit(model, table, &cells, &starts(&cells), left_out)
+            fit(model, table, &cells, &starts(&cells), obs.left_out)
                 .map_err(|e| FitError(format!("theta_i_deg = {}: {}", table.thetas_deg()[i], e.0)))
         })
         .collect()
@@ -539,6 +539,19 @@ pub fn linear_starts(
             })
         })
         .collect()
+}
+
+/// The per-incidence fit whose incidence is nearest `theta_deg` (degrees):
+/// the one set a program whose model does not depend on incidence takes.
+///
+/// # Panics
+/// If `fits` is empty.
+#[must_use]
+pub fn nearest(fits: &[FitResult], theta_deg: f64) -> &FitResult {
+    let off = |f: &FitResult| (f.theta_i_deg[0] - theta_deg).abs();
+    fits.iter()
+        .min_by(|a, b| off(a).total_cmp(&off(b)))
+        .expect("at least one fit")
 }
 
 /// `n` points from `lo` to `hi` evenly.
