@@ -31,6 +31,8 @@
 //!   BRDF tables as Zemax tabular BSDF and MERL binary files.
 //! * [`render`]: radiance maps of a micro surface or an object (EXR, PNG preview).
 //! * [`fit`]: fitting a micro scene to a measured in-plane BRDF (`roks fit`).
+//! * [`fit_model`]: analytic BRDF models (ABg, Harvey-Shack, GGX, Beckmann)
+//!   fitted to a table (`roks fit-model`).
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
 //! * [`limits`]: the memory budget (`ROKS_MAX_MEMORY`): sizes estimated before allocating.
 //! * [`cli`]: the command line: one module per command over shared arguments,
@@ -90,6 +92,7 @@
 pub mod cli;
 pub mod export;
 pub mod fit;
+pub mod fit_model;
 pub mod geometry;
 pub mod limits;
 pub mod micro;

@@ -9,7 +9,9 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 
 use super::parse::{integer, positive};
-use super::{brdf, export_brdf, export_heightfield, export_mesh, fit, merge, render, stats, trace};
+use super::{
+    brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, render, stats, trace,
+};
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
 ///
@@ -104,6 +106,16 @@ pub enum Command {
     /// intensity only (the BRDF for the run's incident state; their formats
     /// cannot hold polarisation: mueller.csv stays beside brdf.csv).
     ExportBrdf(export_brdf::ExportBrdfArgs),
+    /// Fit an analytic BRDF model to the table of a `roks brdf` result folder.
+    ///
+    /// Weighted least squares with the table's standard errors: ABg or
+    /// Harvey-Shack (stray-light programs) per incidence, GGX or Beckmann
+    /// with Smith shadowing and the material's Fresnel factor (renderers)
+    /// for all incidences at once. Writes RESULT_DIR/fit_<model>.json
+    /// (parameters with standard errors, chi2/dof, largest residuals),
+    /// fit_<model>.png (table and fit in and across the plane of incidence)
+    /// and, for ABg, fit_abg_opticstudio.txt (OpticStudio's ABg data rows).
+    FitModel(fit_model::FitModelArgs),
 }
 
 /// The options of both tracing commands (`roks brdf`, `roks trace`): the

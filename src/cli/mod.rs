@@ -32,6 +32,7 @@ pub mod export_brdf;
 pub mod export_heightfield;
 pub mod export_mesh;
 pub mod fit;
+pub mod fit_model;
 pub mod merge;
 pub mod messages;
 pub mod parse;

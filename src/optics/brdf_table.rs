@@ -173,6 +173,8 @@ struct Incidence {
     reflectance: f64,
     /// Last cell with a positive fraction (`None`: all zero).
     last_positive: Option<usize>,
+    /// Standard error of each fraction (dimensionless).
+    fraction_stderr: Vec<f64>,
     /// `sqrt(sum fraction_stderr²)`.
     cell_stderr: f64,
     /// Incidence angle and light azimuth as written (degrees), to match
@@ -362,6 +364,7 @@ impl BrdfTable {
                 stated_stderr: None,
                 mueller: None,
                 fractions: b.fractions,
+                fraction_stderr: b.fraction_stderr,
                 cdf,
                 reflectance: total,
             });
@@ -579,9 +582,15 @@ impl BrdfTable {
     }
 
     /// The fractions of incidence `i`.
-    #[cfg(test)]
     pub(crate) fn fractions(&self, i: usize) -> &[f64] {
         &self.incidences[i].fractions
+    }
+
+    /// The standard error of each fraction of incidence `i` (the file's
+    /// `fraction_stderr`; for a [`SpectralTables::linear_combination`]
+    /// the bound `Σ |w_l| se_l`, whatever the wavelengths' correlation).
+    pub(crate) fn fraction_stderrs(&self, i: usize) -> &[f64] {
+        &self.incidences[i].fraction_stderr
     }
 
     /// `sqrt(sum fraction_stderr²)` of incidence `i`.
@@ -748,6 +757,14 @@ impl SpectralTables {
                     .iter()
                     .zip(weights)
                     .map(|(t, w)| w * t.incidences[i].fractions[flat])
+                    .sum();
+            }
+            for (flat, e) in inc.fraction_stderr.iter_mut().enumerate() {
+                *e = self
+                    .tables
+                    .iter()
+                    .zip(weights)
+                    .map(|(t, w)| w.abs() * t.incidences[i].fraction_stderr[flat])
                     .sum();
             }
             for (c, f) in inc.cdf.iter_mut().zip(&inc.fractions) {
