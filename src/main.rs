@@ -8,7 +8,8 @@ use std::process::ExitCode;
 
 use roks::cli::args::{Cli, Command};
 use roks::cli::{
-    brdf, export_brdf, export_heightfield, export_mesh, fit, merge, messages, render, stats, trace,
+    brdf, export_brdf, export_heightfield, export_mesh, fit, merge, messages, plot, render, stats,
+    trace,
 };
 
 fn main() -> ExitCode {
@@ -30,6 +31,7 @@ fn main() -> ExitCode {
         Command::Render(a) => render::run(a),
         Command::Merge(a) => merge::run(a),
         Command::ExportBrdf(a) => export_brdf::run(a),
+        Command::Plot(a) => plot::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,7 +9,9 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 
 use super::parse::{integer, positive};
-use super::{brdf, export_brdf, export_heightfield, export_mesh, fit, merge, render, stats, trace};
+use super::{
+    brdf, export_brdf, export_heightfield, export_mesh, fit, merge, plot, render, stats, trace,
+};
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
 ///
@@ -31,9 +33,10 @@ pub enum Command {
     ///
     /// Writes DIR/summary.json (reflectance per incidence with standard
     /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid),
-    /// DIR/inplane.csv (plane of incidence), DIR/inplane.png (in-plane curves),
-    /// DIR/hemisphere_<theta>deg.png (equal-area map of the BRDF per incidence)
-    /// and, with --export, DIR/brdf.bsdf and DIR/brdf.binary. DIR defaults to
+    /// DIR/inplane.csv (plane of incidence), its pictures (see `roks plot`:
+    /// inplane.png, reflectance.png, hemisphere_<theta>deg.png, ...), the
+    /// picture of the surface DIR/surface.png and, with --export, the
+    /// exported tables. DIR defaults to
     /// out/<scene name>/.
     Brdf(brdf::BrdfArgs),
     /// Print the surface statistics of a micro scene: RMS height sigma,
@@ -46,7 +49,8 @@ pub enum Command {
     /// transport the Stokes vector of the reflected light), DIR/reflectance.csv
     /// (x,y,z,reflectance,reflectance_stderr) and, with [tally] farfield = true,
     /// DIR/farfield.csv (and DIR/farfield_stokes.csv with [tally]
-    /// polarisation = "stokes"). DIR defaults to out/<scene name>/.
+    /// polarisation = "stokes"), and DIR/reflectance.png (reflectance against
+    /// beam position). DIR defaults to out/<scene name>/.
     Trace(trace::TraceArgs),
     /// Fit micro-scene parameters to a measured in-plane BRDF.
     ///
@@ -89,7 +93,8 @@ pub enum Command {
     /// same run (scene, seed, settings) and that their photon ranges are
     /// disjoint and cover the run, sums them in shard order and writes
     /// OUT/brdf.csv, OUT/inplane.csv, OUT/summary.json and OUT/tallies.json,
-    /// exactly as the single run would (only timings differ).
+    /// exactly as the single run would (only timings differ), and their
+    /// pictures (see `roks plot`).
     Merge(merge::MergeArgs),
     /// Export the BRDF table of a `roks brdf` result folder for other programs.
     ///
@@ -102,6 +107,17 @@ pub enum Command {
     /// intensity only (the BRDF for the run's incident state; their formats
     /// cannot hold polarisation: mueller.csv stays beside brdf.csv).
     ExportBrdf(export_brdf::ExportBrdfArgs),
+    /// Redraw every picture of a result folder from its files.
+    ///
+    /// Reads DIR/summary.json and the tables beside it (brdf.csv,
+    /// inplane.csv, stokes.csv, mueller.csv, colour.csv) and writes into DIR:
+    /// a micro folder's hemisphere_<theta>deg.png, inplane.png,
+    /// reflectance.png (against incidence), dop_<theta>deg.png,
+    /// mueller_<theta>deg.png and mueller_stderr_<theta>deg.png, and
+    /// colour_<theta>deg.png (those its tables allow), and surface.png when
+    /// the scene file still gives the run's surface; an object folder's
+    /// reflectance.png. Works on shard and merged folders alike.
+    Plot(plot::PlotArgs),
 }
 
 /// The options of both tracing commands (`roks brdf`, `roks trace`): the

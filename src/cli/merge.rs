@@ -49,7 +49,10 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
         },
     )?;
     let folder = BrdfFolder::merged(merged);
-    write_folder(&a.out, &folder.files(Vec::new()))?;
+    let mut files = folder.files(Vec::new());
+    let pictures = crate::plot::folder::pictures_of(&files).map_err(anyhow::Error::msg)?;
+    files.extend(pictures);
+    write_folder(&a.out, &files)?;
     if !a.quiet {
         print_table(&folder.results);
         eprintln!("merged {n_parts} shards into {}", a.out.display());

@@ -35,6 +35,7 @@ pub mod fit;
 pub mod merge;
 pub mod messages;
 pub mod parse;
+pub mod plot;
 pub mod render;
 pub mod stats;
 pub mod trace;
