@@ -796,7 +796,9 @@ fn a_link_to_a_result_folder_is_followed() {
                 png.as_str(),
                 "inplane.csv",
                 "inplane.png",
-                "summary.json"
+                "reflectance.png",
+                "summary.json",
+                "surface.png"
             ]
         );
         assert_eq!(names(&dir), ["link", "scene.toml", "target"]);

@@ -3,7 +3,7 @@
 
 use plotters::prelude::*;
 
-use super::{TickFormat, encode_png, register_font, ticks};
+use super::{TickFormat, encode_png, log_ticks, register_font, ticks};
 use crate::tally::CarlsonGrid;
 
 /// The two colours of the stripes that fill a cell without a value (no
@@ -311,7 +311,7 @@ impl HemisphereMap {
                 HPos::Center
             };
             root.draw(&Text::new(
-                format!("φ = {phi}°"),
+                format!("{phi}°"),
                 at(MAP_R + 14.0),
                 text(14, BLACK, h),
             ))
@@ -402,7 +402,7 @@ impl HemisphereMap {
             .map_err(e)?;
             root.draw(&Text::new(
                 self.empty_label.clone(),
-                (kx + ks + 6, ky + ks / 2),
+                (kx - 20, ky + ks + 14),
                 text(13, BLACK, HPos::Left),
             ))
             .map_err(e)?;
@@ -412,16 +412,12 @@ impl HemisphereMap {
     }
 
     /// The colour bar's ticks: position on the bar's range and label
-    /// (unique; decades of a log scale, the range's ends when it holds
-    /// fewer than two decades).
+    /// (unique; on a log scale [`log_ticks`]).
     #[must_use]
     pub fn bar_ticks(&self) -> Vec<(f64, String)> {
         let (lo, hi) = self.range();
         let mut t: Vec<f64> = if self.log() {
-            let t: Vec<f64> = ((lo.ceil() as i32)..=(hi + 1e-9).floor() as i32)
-                .map(f64::from)
-                .collect();
-            if t.len() < 2 { vec![lo, hi] } else { t }
+            log_ticks(lo, hi, 8)
         } else {
             ticks(lo, hi, 6)
         };

@@ -5,7 +5,7 @@
 
 use plotters::prelude::*;
 
-use super::{Rect, TickFormat, encode_png, register_font, ticks};
+use super::{Rect, TickFormat, encode_png, log_ticks, register_font, ticks};
 
 /// One curve: points `(x, y, y_error)` (error bars of ±`y_error`; 0 for
 /// none). A point whose `y` is not finite (or not positive on a log axis)
@@ -196,18 +196,24 @@ impl LinePlot {
         (x, y)
     }
 
-    /// Tick labels of the two axes (`x`, `y`) as drawn.
+    /// The ticks of the two axes (plotted coordinates) and their labels:
+    /// `(x, y)`, each a list of `(tick, label)`.
     #[must_use]
-    pub fn tick_labels(&self) -> (Vec<String>, Vec<String>) {
+    pub fn axis_ticks(&self) -> (Vec<(f64, String)>, Vec<(f64, String)>) {
         let ((x0, x1), (y0, y1)) = self.ranges();
-        let (tx, ty) = (ticks(x0, x1, LABELS), ticks(y0, y1, LABELS));
+        let tx = ticks(x0, x1, LABELS);
+        let ty = if self.log_y {
+            log_ticks(y0, y1, LABELS)
+        } else {
+            ticks(y0, y1, LABELS)
+        };
         let (fx, fy) = (
             TickFormat::for_ticks(&tx, false),
             TickFormat::for_ticks(&ty, self.log_y),
         );
         (
-            tx.iter().map(|&t| fx.label(t)).collect(),
-            ty.iter().map(|&t| fy.label(t)).collect(),
+            tx.iter().map(|&t| (t, fx.label(t))).collect(),
+            ty.iter().map(|&t| (t, fy.label(t))).collect(),
         )
     }
 
@@ -241,11 +247,7 @@ impl LinePlot {
         ))
         .map_err(e)?;
         let ((x0, x1), (y0, y1)) = self.ranges();
-        let (tx, ty) = (ticks(x0, x1, LABELS), ticks(y0, y1, LABELS));
-        let (fx, fy) = (
-            TickFormat::for_ticks(&tx, false),
-            TickFormat::for_ticks(&ty, self.log_y),
-        );
+        let (tx, ty) = self.axis_ticks();
         let layout = self.layout(width, height);
         let mut first = 0;
         for (series, (chart_r, legend_r)) in self.panels().into_iter().zip(&layout.panels) {
@@ -262,17 +264,63 @@ impl LinePlot {
                 .y_label_area_size(80)
                 .build_cartesian_2d(x0..x1, y0..y1)
                 .map_err(|e| e.to_string())?;
+            // Axes and their labels; the ticks, grid lines and tick labels
+            // are this plot's own (unique, at whole decades on a log axis).
             chart
                 .configure_mesh()
-                .x_labels(LABELS)
-                .y_labels(LABELS)
+                .disable_mesh()
+                .x_labels(0)
+                .y_labels(0)
                 .x_desc(&self.x_label)
                 .y_desc(&self.y_label)
-                .x_label_formatter(&|v| fx.label(*v))
-                .y_label_formatter(&|v| fy.label(*v))
-                .label_style(("sans-serif", 14))
+                .axis_desc_style(("sans-serif", 14))
                 .draw()
                 .map_err(|e| e.to_string())?;
+            let grid = RGBColor(220, 220, 220);
+            for (t, _) in &ty {
+                chart
+                    .draw_series(LineSeries::new([(x0, *t), (x1, *t)], grid.stroke_width(1)))
+                    .map_err(|e| e.to_string())?;
+            }
+            for (t, _) in &tx {
+                chart
+                    .draw_series(LineSeries::new([(*t, y0), (*t, y1)], grid.stroke_width(1)))
+                    .map_err(|e| e.to_string())?;
+            }
+            let tick = |h: HPos, v: VPos| {
+                ("sans-serif", 14)
+                    .into_font()
+                    .color(&BLACK)
+                    .pos(Pos::new(h, v))
+            };
+            for (t, label) in &ty {
+                let (px, py) = chart.backend_coord(&(x0, *t));
+                root.draw(&PathElement::new(
+                    vec![(px - 5, py), (px, py)],
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(e)?;
+                root.draw(&Text::new(
+                    label.clone(),
+                    (px - 8, py),
+                    tick(HPos::Right, VPos::Center),
+                ))
+                .map_err(e)?;
+            }
+            for (t, label) in &tx {
+                let (px, py) = chart.backend_coord(&(*t, y0));
+                root.draw(&PathElement::new(
+                    vec![(px, py), (px, py + 5)],
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(e)?;
+                root.draw(&Text::new(
+                    label.clone(),
+                    (px, py + 8),
+                    tick(HPos::Center, VPos::Top),
+                ))
+                .map_err(e)?;
+            }
             for (k, s) in series.iter().enumerate() {
                 let colour = Self::colour(k);
                 for run in self.segments(s) {
@@ -492,8 +540,9 @@ mod tests {
         let ((x0, x1), (y0, y1)) = p.ranges();
         assert!((0.5 * (x0 + x1) - 3.0).abs() < 1e-12 && x1 > x0);
         assert!(y0 < 2.4e-5 && y1 > 2.6e-5);
-        let (xl, yl) = p.tick_labels();
+        let (xl, yl) = p.axis_ticks();
         for labels in [xl, yl] {
+            let labels: Vec<String> = labels.into_iter().map(|t| t.1).collect();
             let mut u = labels.clone();
             u.sort();
             u.dedup();

@@ -157,6 +157,36 @@ pub fn ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     RangedCoordf64::from(lo..hi).key_points(BoldPoints(n))
 }
 
+/// Ticks of a logarithmic axis over `lo..hi` (`log10` of the quantity),
+/// at most about `n`: whole decades when the range holds two or more
+/// (every k-th when too many), else the 1-2-5 (or 1..9) multiples inside
+/// it, else the linear ticks of the range.
+#[must_use]
+pub fn log_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    let (a, b) = (lo.ceil() as i64, (hi + 1e-9).floor() as i64);
+    if b - a >= 1 {
+        let step = ((b - a + 1) as usize).div_ceil(n.max(1)).max(1);
+        return (a..=b).step_by(step).map(|d| d as f64).collect();
+    }
+    for mantissas in [
+        &[1.0, 2.0, 5.0][..],
+        &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0],
+    ] {
+        let t: Vec<f64> = ((lo.floor() as i64)..=(hi.ceil() as i64))
+            .flat_map(|k| {
+                mantissas
+                    .iter()
+                    .map(move |m| (m * 10f64.powi(k as i32)).log10())
+            })
+            .filter(|t| (lo..=hi).contains(t))
+            .collect();
+        if t.len() >= 2 {
+            return t;
+        }
+    }
+    ticks(lo, hi, n)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -183,7 +213,11 @@ mod tests {
             (-4.7, -4.5, true),
             (-300.0, -290.0, true),
         ] {
-            let t = ticks(lo, hi, 8);
+            let t = if log {
+                log_ticks(lo, hi, 8)
+            } else {
+                ticks(lo, hi, 8)
+            };
             assert!(t.len() >= 2, "{lo}..{hi}: {t:?}");
             let f = TickFormat::for_ticks(&t, log);
             let labels: Vec<String> = t.iter().map(|&v| f.label(v)).collect();
@@ -191,6 +225,21 @@ mod tests {
             // Readable: short.
             assert!(labels.iter().all(|l| l.len() <= 12), "{labels:?}");
         }
+        // Decades on a log axis; 1-2-5 under two decades.
+        assert_eq!(
+            log_ticks(-6.2, 2.0, 10),
+            [-6.0, -5.0, -4.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0]
+        );
+        assert_eq!(
+            log_ticks(-12.0, 3.0, 8),
+            [-12.0, -10.0, -8.0, -6.0, -4.0, -2.0, 0.0, 2.0]
+        );
+        let f = TickFormat::for_ticks(&log_ticks(-4.7, -4.1, 8), true);
+        let l: Vec<String> = log_ticks(-4.7, -4.1, 8)
+            .iter()
+            .map(|&t| f.label(t))
+            .collect();
+        assert_eq!(l, ["2e-5", "5e-5"]);
         // The old formatter's case: four labels 0.00003.
         let f = TickFormat::for_ticks(&[2.5e-5, 2.75e-5, 3e-5, 3.25e-5], false);
         assert_eq!(f.label(2.75e-5), "2.75e-5");

@@ -79,16 +79,27 @@ pub struct MuellerMaps {
 }
 
 impl MuellerMaps {
-    /// The shared scale of the 15 normalised panels (or of all 16 errors):
-    /// `(lo, hi)`.
+    /// The shared scale `(lo, hi)` of the 15 normalised panels: symmetric
+    /// about 0 over their largest magnitude; or of the errors: from 0 to the
+    /// 98th percentile of the 15 normalised elements' errors (a few cells
+    /// of two or three photons would otherwise darken every other; larger
+    /// errors take the top colour, as the bar says).
     #[must_use]
     pub fn range(&self) -> (f64, f64) {
-        let skip = usize::from(self.kind == MuellerKind::Normalised);
-        let top = self.values[skip..]
+        let mut v: Vec<f64> = self.values[1..]
             .iter()
             .flatten()
             .filter(|v| v.is_finite())
-            .fold(0.0_f64, |m, v| m.max(v.abs()));
+            .map(|v| v.abs())
+            .collect();
+        let top = match self.kind {
+            MuellerKind::Normalised => v.iter().copied().fold(0.0_f64, f64::max),
+            MuellerKind::Errors if v.is_empty() => 0.0,
+            MuellerKind::Errors => {
+                let k = ((v.len() - 1) as f64 * 0.98).round() as usize;
+                *v.select_nth_unstable_by(k, f64::total_cmp).1
+            }
+        };
         let top = if top > 0.0 { top } else { 1.0 };
         match self.kind {
             MuellerKind::Normalised => (-top, top),
@@ -242,6 +253,20 @@ impl MuellerMaps {
             MuellerKind::Normalised => "m_ij / m00",
             MuellerKind::Errors => "standard error",
         };
+        if self.kind == MuellerKind::Errors {
+            root.draw(&Text::new(
+                "top: 98th percentile",
+                (BAR_X + 12, BAR.0 - 60),
+                text(12, HPos::Center),
+            ))
+            .map_err(e)?;
+            root.draw(&Text::new(
+                "and above",
+                (BAR_X + 12, BAR.0 - 46),
+                text(12, HPos::Center),
+            ))
+            .map_err(e)?;
+        }
         root.draw(&Text::new(
             label,
             (BAR_X + 12, BAR.0 - 28),

@@ -1131,12 +1131,12 @@ impl BrdfTable {
         self.attach_mueller(&rows, file.last_line, name, None)
     }
 
-    /// Attach the Mueller blocks of `rows` (line number, text: the data rows
-    /// of one table; `last_line` the file's last) as
+    /// Attach the Mueller blocks of `rows` (the parsed data rows of one
+    /// table, [`MuellerFile::parse`]; `last_line` the file's last) as
     /// [`with_mueller_text`](Self::with_mueller_text) describes; for the
     /// table of one wavelength of a spectral run (`wavelength =
-    /// Some(wavelength_um)`) the rows have `wavelength_um` after
-    /// `phi_i_deg` (the rows of that wavelength only).
+    /// Some(wavelength_um)`, named in errors) the rows of that wavelength
+    /// only.
     fn attach_mueller(
         mut self,
         rows: &[&MuellerRow],
