@@ -169,8 +169,8 @@ fn merged_shards_have_the_whole_runs_pictures() {
         ok(&args);
     };
     run(&whole, None);
-    run(&a, Some("1/2"));
-    run(&b, Some("2/2"));
+    run(&a, Some("0/2"));
+    run(&b, Some("1/2"));
     ok(&[
         "merge",
         a.to_str().unwrap(),

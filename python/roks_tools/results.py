@@ -265,9 +265,13 @@ class PolarTable:
         if mode == "stokes":
             cols = read_columns(path, STOKES_COLUMNS)
         else:
-            cols = read_columns(path, None)
-            if tuple(cols) not in (MUELLER_COLUMNS, MUELLER_MATRIX_COLUMNS):
-                read_columns(path, MUELLER_COLUMNS)  # raises the header error
+            try:
+                cols = read_columns(path, MUELLER_COLUMNS)
+            except ResultError as e:
+                try:
+                    cols = read_columns(path, MUELLER_MATRIX_COLUMNS)
+                except ResultError:
+                    raise e from None
         return cls(path=path, mode=mode, names=names,
                    **{k: cols[k] for k in POLAR_KEYS},
                    values=np.stack([cols[n] for n in names], axis=1),

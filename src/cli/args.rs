@@ -40,7 +40,9 @@ pub enum Command {
     /// out/<scene name>/.
     Brdf(brdf::BrdfArgs),
     /// Print the surface statistics of a micro scene: RMS height sigma,
-    /// autocorrelation length tau, sigma/tau, RMS slope, heights.
+    /// autocorrelation length tau, sigma/tau, RMS slope, heights (and with
+    /// --png FILE, draw the height map with them, as surface.png of `roks
+    /// brdf`).
     Stats(stats::StatsArgs),
     /// Trace a 3-D object of quadric cells with rough walls (the macro level).
     ///

@@ -334,12 +334,16 @@ impl HemisphereMap {
             }
         }
         // Title and legend.
-        root.draw(&Text::new(
-            self.title.clone(),
-            (MAP_W as i32 / 2, 22),
-            text(17, BLACK, HPos::Center),
-        ))
-        .map_err(e)?;
+        let title = super::title_lines(&self.title, 80);
+        for (k, l) in title.iter().enumerate() {
+            root.draw(&Text::new(
+                l.clone(),
+                (MAP_W as i32 / 2, 18 + 20 * k as i32),
+                text(if k == 0 { 17 } else { 14 }, BLACK, HPos::Center),
+            ))
+            .map_err(e)?;
+        }
+        let below = 50 + 16 * (title.len() as i32 - 1);
         let lines = [
             "outgoing directions over the hemisphere, equal-area projection (radius ∝ sin(θ/2));"
                 .to_string(),
@@ -352,7 +356,7 @@ impl HemisphereMap {
         for (k, l) in lines.iter().enumerate() {
             root.draw(&Text::new(
                 l.clone(),
-                (MAP_W as i32 / 2, 50 + 18 * k as i32),
+                (MAP_W as i32 / 2, below + 17 * k as i32),
                 text(13, BLACK, HPos::Center),
             ))
             .map_err(e)?;

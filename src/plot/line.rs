@@ -240,12 +240,16 @@ impl LinePlot {
                 .color(&BLACK)
                 .pos(Pos::new(HPos::Center, VPos::Center))
         };
-        root.draw(&Text::new(
-            self.title.clone(),
-            (width as i32 / 2, TITLE_H / 2),
-            centred(19),
-        ))
-        .map_err(e)?;
+        let title = super::title_lines(&self.title, (width / 11) as usize);
+        for (k, l) in title.iter().enumerate() {
+            let (y, size) = match (title.len(), k) {
+                (1, _) => (TITLE_H / 2, 19),
+                (_, 0) => (11, 16),
+                _ => (29, 14),
+            };
+            root.draw(&Text::new(l.clone(), (width as i32 / 2, y), centred(size)))
+                .map_err(e)?;
+        }
         let ((x0, x1), (y0, y1)) = self.ranges();
         let (tx, ty) = self.axis_ticks();
         let layout = self.layout(width, height);

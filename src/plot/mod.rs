@@ -39,6 +39,18 @@ fn register_font() {
     });
 }
 
+/// A title as one line, or, past `width` characters, two: before and from
+/// its first ` (` (the parenthesis on the second line).
+#[must_use]
+pub fn title_lines(title: &str, width: usize) -> Vec<String> {
+    match title.find(" (") {
+        Some(at) if title.chars().count() > width => {
+            vec![title[..at].to_owned(), title[at + 1..].to_owned()]
+        }
+        _ => vec![title.to_owned()],
+    }
+}
+
 /// An RGB buffer of `width x height` pixels as PNG bytes.
 fn encode_png(width: u32, height: u32, buf: Vec<u8>) -> anyhow::Result<Vec<u8>> {
     let img = image::RgbImage::from_raw(width, height, buf)
@@ -246,6 +258,19 @@ mod tests {
         assert_eq!(
             TickFormat::for_ticks(&[-1.0, 0.0, 1.0], false).label(-0.0),
             "0"
+        );
+    }
+
+    #[test]
+    fn long_titles_take_two_lines() {
+        assert_eq!(title_lines("a: b (c)", 80), ["a: b (c)"]);
+        let long = format!("{}: BRDF ({})", "x".repeat(40), "y".repeat(60));
+        assert_eq!(
+            title_lines(&long, 80),
+            [
+                format!("{}: BRDF", "x".repeat(40)),
+                format!("({})", "y".repeat(60))
+            ]
         );
     }
 

@@ -188,12 +188,16 @@ impl MuellerMaps {
                 .color(&BLACK)
                 .pos(Pos::new(h, VPos::Center))
         };
-        root.draw(&Text::new(
-            self.title.clone(),
-            (W as i32 / 2, 20),
-            text(17, HPos::Center),
-        ))
-        .map_err(e)?;
+        let title = super::title_lines(&self.title, 110);
+        for (k, l) in title.iter().enumerate() {
+            root.draw(&Text::new(
+                l.clone(),
+                (W as i32 / 2, 16 + 18 * k as i32),
+                text(if k == 0 { 17 } else { 14 }, HPos::Center),
+            ))
+            .map_err(e)?;
+        }
+        let below = 40 + 12 * (title.len() as i32 - 1);
         let note = match self.kind {
             MuellerKind::Normalised => {
                 "row i: outgoing Stokes component, column j: incident; panels m_ij / m00, m00 itself: BRDF (1/sr, log, 4 decades)"
@@ -202,14 +206,18 @@ impl MuellerMaps {
                 "standard errors of m_ij / m00 (from each element's covariance with m00); m00 panel: relative error of m00"
             }
         };
-        root.draw(&Text::new(note, (W as i32 / 2, 44), text(13, HPos::Center)))
-            .map_err(e)?;
+        root.draw(&Text::new(
+            note,
+            (W as i32 / 2, below),
+            text(13, HPos::Center),
+        ))
+        .map_err(e)?;
         root.draw(&Text::new(
             format!(
                 "each disc: the hemisphere in equal-area projection, φ = 0 to the right; ring: specular direction (θi = {}°)",
                 self.theta_i_deg
             ),
-            (W as i32 / 2, 62),
+            (W as i32 / 2, below + 17),
             text(13, HPos::Center),
         ))
         .map_err(e)?;
