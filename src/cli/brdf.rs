@@ -206,8 +206,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         }
     }
     let mut files = folder.files(extra);
-    let pictures = crate::plot::folder::pictures_of(&files).map_err(anyhow::Error::msg)?;
-    files.extend(pictures);
+    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     files.push(("surface.png".into(), surface));
     write_folder(&out, &files)?;
 

@@ -50,8 +50,7 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
     )?;
     let folder = BrdfFolder::merged(merged);
     let mut files = folder.files(Vec::new());
-    let pictures = crate::plot::folder::pictures_of(&files).map_err(anyhow::Error::msg)?;
-    files.extend(pictures);
+    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files)?;
     if !a.quiet {
         print_table(&folder.results);

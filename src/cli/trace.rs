@@ -135,8 +135,7 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         files.push(("farfield_stokes.csv".into(), f.into_bytes()));
     }
     files.push(("summary.json".into(), text.into_bytes()));
-    let pictures = crate::plot::folder::pictures_of(&files).map_err(anyhow::Error::msg)?;
-    files.extend(pictures);
+    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     write_folder(&out, &files)?;
 
     if !a.quiet {

@@ -169,6 +169,16 @@ pub fn pictures_of(files: &[(String, Vec<u8>)]) -> Result<Vec<(String, Vec<u8>)>
     })
 }
 
+/// Add the [`pictures`] of a folder's files (about to be written) to them.
+///
+/// # Errors
+/// As [`pictures`].
+pub fn add_pictures(files: &mut Vec<(String, Vec<u8>)>) -> Result<(), String> {
+    let pictures = pictures_of(files)?;
+    files.extend(pictures);
+    Ok(())
+}
+
 /// [`pictures`] of the folder `dir` on disk.
 ///
 /// # Errors
