@@ -210,7 +210,7 @@ fn micro(
     let spectral = !s.wavelengths_um.is_empty();
     let photons = photons_text(s);
     let mean = if spectral {
-        format!(", mean over {lanes} wavelengths")
+        ", mean over the wavelengths".to_owned()
     } else {
         String::new()
     };
@@ -424,7 +424,9 @@ fn inplane_plot(s: &BrdfSummary, t: &Csv, lanes: usize, photons: &str) -> LinePl
         t.col("brdf_stderr"),
     );
     // Per incidence, per theta_o: sums of brdf and stderr.
-    let mut curves: Vec<(f64, BTreeMap<u64, (f64, f64, f64)>)> = Vec::new();
+    // Per incidence: theta_i and, by theta_o's order key, (theta_o, brdf, stderr).
+    type Curve = (f64, BTreeMap<u64, (f64, f64, f64)>);
+    let mut curves: Vec<Curve> = Vec::new();
     for r in &t.rows {
         let at = match curves.iter().position(|c| c.0 == r[ci]) {
             Some(k) => k,
@@ -460,7 +462,7 @@ fn inplane_plot(s: &BrdfSummary, t: &Csv, lanes: usize, photons: &str) -> LinePl
         })
         .collect();
     let spectral = if lanes > 1 {
-        format!(", mean over {lanes} wavelengths")
+        ", mean over the wavelengths".to_owned()
     } else {
         String::new()
     };

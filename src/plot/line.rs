@@ -55,6 +55,9 @@ const LEGEND_ROW: i32 = 20;
 /// Labels per axis (at most).
 const LABELS: usize = 8;
 
+/// An axis's ticks: position (plotted coordinates) and label.
+pub type Ticks = Vec<(f64, String)>;
+
 /// Where the parts of a [`LinePlot`] go: per panel, the chart (axes and
 /// data) and, to its right and apart from it, the legend.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -199,7 +202,7 @@ impl LinePlot {
     /// The ticks of the two axes (plotted coordinates) and their labels:
     /// `(x, y)`, each a list of `(tick, label)`.
     #[must_use]
-    pub fn axis_ticks(&self) -> (Vec<(f64, String)>, Vec<(f64, String)>) {
+    pub fn axis_ticks(&self) -> (Ticks, Ticks) {
         let ((x0, x1), (y0, y1)) = self.ranges();
         let tx = ticks(x0, x1, LABELS);
         let ty = if self.log_y {

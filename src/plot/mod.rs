@@ -6,7 +6,7 @@
 //! only). The font, DejaVu Sans, is embedded (assets/fonts, free licence), so
 //! pictures look the same on every machine and need no system fonts.
 //!
-//! * [`line`]: line plots with error bars ([`LinePlot`]).
+//! * [`line`](mod@line): line plots with error bars ([`LinePlot`]).
 //! * [`hemisphere`]: equal-area maps over the hemisphere ([`HemisphereMap`]).
 //! * [`mueller`]: the 4 x 4 grid of normalised Mueller elements
 //!   ([`MuellerMaps`]).

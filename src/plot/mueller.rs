@@ -364,8 +364,8 @@ mod tests {
         let mut values = vec![vec![0.0; n]; 16];
         values[0] = vec![0.2; n];
         values[5] = vec![0.5; n]; // m11 / m00
-        for k in 1..16 {
-            values[k][n - 1] = f64::NAN;
+        for v in values.iter_mut().skip(1) {
+            v[n - 1] = f64::NAN;
         }
         values[0][n - 1] = f64::NAN;
         let maps = MuellerMaps {
