@@ -22,12 +22,13 @@
 //! azimuth), then the colour (10 significant digits).
 //!
 //! # The picture
-//! `colour_<theta>deg.png` ([`crate::plot::folder`]) is the equal-area hemisphere map of
-//! `hemisphere_<theta>deg.png` painted with each cell's colour: its
-//! chromaticity at a brightness that is the log of its luminance `Y` over
-//! four decades below the brightest cell (linear sRGB divided by `Y`, times
-//! that brightness, scaled down to fit in `[0, 1]` keeping the hue, then
-//! the sRGB transfer function).
+//! `colour_<theta>deg.png` ([`crate::plot::folder`], from `colour.csv`) is
+//! the equal-area hemisphere map of `hemisphere_<theta>deg.png` painted
+//! with each cell's colour ([`display_colours`]): its chromaticity at a
+//! brightness that is the log of its luminance `Y` over four decades below
+//! the brightest cell (linear sRGB divided by `Y`, times that brightness,
+//! scaled down to fit in `[0, 1]` keeping the hue, then the sRGB transfer
+//! function); cells without a photon are striped, with a key.
 
 use std::fmt::Write as _;
 
