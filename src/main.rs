@@ -8,8 +8,8 @@ use std::process::ExitCode;
 
 use roks::cli::args::{Cli, Command};
 use roks::cli::{
-    brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, messages, render,
-    stats, trace,
+    brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, messages, plot,
+    render, stats, trace,
 };
 
 fn main() -> ExitCode {
@@ -32,6 +32,7 @@ fn main() -> ExitCode {
         Command::Merge(a) => merge::run(a),
         Command::ExportBrdf(a) => export_brdf::run(a),
         Command::FitModel(a) => fit_model::run(a),
+        Command::Plot(a) => plot::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -12,12 +12,12 @@
 //!   statistics; the seed, scene file and roks version.
 //! * `tallies.json` ([`tallies`], with `--shard`, and from `roks merge`):
 //!   the raw sums, exactly, for merging shards.
-//! * With `[tally] polarisation = "stokes"`: `stokes.csv` and
-//!   `dop_<theta>deg.png`; with `"mueller"`: `mueller.csv` ([`polar_csv`]).
-//! * `hemisphere_<theta>deg.png` and `inplane.png` ([`hemisphere_map`],
-//!   [`inplane_plot`]).
+//! * With `[tally] polarisation = "stokes"`: `stokes.csv`; with
+//!   `"mueller"`: `mueller.csv` ([`polar_csv`]).
 //! * A spectral run (`[light] wavelengths_um`) covering the visible:
-//!   `colour.csv` and `colour_<theta>deg.png` ([`colour_csv`]).
+//!   `colour.csv` ([`colour_csv`]).
+//! * Pictures made from these files ([`crate::plot::folder`]) and of the
+//!   surface (`surface.png`, [`crate::plot::SurfacePicture`]).
 //!
 //! `roks trace` writes `reflectance.csv`, `farfield.csv` and
 //! `farfield_stokes.csv` ([`object_csv`]) and `summary.json`
@@ -27,8 +27,6 @@
 use std::io::Write as _;
 use std::path::Path;
 
-use crate::optics::polarisation::degree_of_polarisation;
-use crate::tally::InPlaneTally;
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
 
 pub mod brdf_csv;
@@ -95,73 +93,6 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     result
 }
 
-/// The BRDF of one incidence of a run as an equal-area hemisphere map
-/// (`hemisphere_<theta>deg.png`).
-#[must_use]
-pub fn hemisphere_map(
-    name: &str,
-    run: &BrdfRun,
-    r: &IncidenceResult,
-) -> crate::plot::HemisphereMap {
-    let grid = run.grid();
-    let n = r.tallies.photons;
-    let brdf = (0..grid.n_cells())
-        .map(|flat| {
-            let (band, cell) = grid.band_cell(flat);
-            r.tallies.carlson.mean(flat, n) / grid.projected_solid_angle(band, cell)
-        })
-        .collect();
-    crate::plot::HemisphereMap {
-        title: format!(
-            "{name}: BRDF at incidence θi = {}° ({} photons)",
-            r.theta_i_deg, n
-        ),
-        grid,
-        brdf,
-        scale: crate::plot::MapScale::LogBrdf,
-        theta_i_deg: r.theta_i_deg,
-        phi_i_deg: r.phi_i_deg,
-    }
-}
-
-/// The degree of polarisation of the reflected light per Carlson cell of
-/// one incidence of a run with a Stokes tally (`dop_<theta>deg.png`), on a
-/// linear scale from 0 to 1; cells without light show 0. `None` without a
-/// Stokes tally.
-#[must_use]
-pub fn dop_map(
-    name: &str,
-    run: &BrdfRun,
-    r: &IncidenceResult,
-) -> Option<crate::plot::HemisphereMap> {
-    let p = r.tallies.polar.as_ref().filter(|p| p.components == 4)?;
-    let grid = run.grid();
-    let dop = (0..grid.n_cells())
-        .map(|flat| {
-            let s: [f64; 4] =
-                std::array::from_fn(|i| r.polar(p.cell_bin(flat, i)).unwrap_or_default().0);
-            degree_of_polarisation(s)
-        })
-        .collect();
-    Some(crate::plot::HemisphereMap {
-        title: format!(
-            "{name}: degree of polarisation at θi = {}° ({}, {} photons)",
-            r.theta_i_deg,
-            run.polarisation.incident.name(),
-            r.tallies.photons
-        ),
-        grid,
-        brdf: dop,
-        scale: crate::plot::MapScale::Linear {
-            label: "degree of polarisation".into(),
-            lo: 0.0,
-            hi: 1.0,
-        },
-        theta_i_deg: r.theta_i_deg,
-        phi_i_deg: r.phi_i_deg,
-    })
-}
-
 /// Longest number written in decimal in a file name; longer ones (such as
 /// an angle of 1e-300 degrees, 300 digits in decimal) are written in
 /// exponent form.
@@ -192,48 +123,6 @@ pub fn dop_file(theta_i_deg: f64) -> String {
 #[must_use]
 pub fn hemisphere_file(theta_i_deg: f64) -> String {
     format!("hemisphere_{}deg.png", number_label(theta_i_deg))
-}
-
-/// The in-plane BRDF curves of a run as a plot (`inplane.png`): one curve
-/// per incidence angle, log BRDF vs signed theta_o, 2-sigma error bars.
-#[must_use]
-pub fn inplane_plot(
-    name: &str,
-    run: &BrdfRun,
-    results: &[IncidenceResult],
-) -> crate::plot::LinePlot {
-    use crate::plot::{LinePlot, Series};
-    let tally: InPlaneTally = run.inplane();
-    let series = results
-        .iter()
-        .map(|r| {
-            let n = r.tallies.photons;
-            let points = (0..tally.n_bins())
-                .map(|bin| {
-                    let proj = tally.projected_solid_angle(bin);
-                    (
-                        tally.centre_deg(bin),
-                        r.tallies.inplane.mean(bin, n) / proj,
-                        2.0 * r.inplane_stderr(bin) / proj,
-                    )
-                })
-                .collect();
-            Series {
-                label: format!("theta_i = {} deg", r.theta_i_deg),
-                points,
-            }
-        })
-        .collect();
-    LinePlot {
-        title: format!(
-            "{name}: BRDF in the plane of incidence ({} photons per angle)",
-            run.photons
-        ),
-        x_label: "theta_o (deg): negative toward the light, positive on the specular side".into(),
-        y_label: "BRDF (1/sr), error bars 2 standard errors".into(),
-        log_y: true,
-        series,
-    }
 }
 
 #[cfg(test)]

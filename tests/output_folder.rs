@@ -262,8 +262,8 @@ fn trace_and_merge_replace_their_folders_whole() {
         ];
         ok(&roks_in(&dir, &a), "shard");
     }
-    // Merge into the first shard's own folder: its hemisphere map and
-    // inplane.png (a merge writes neither) must go.
+    // Merge into the first shard's own folder: its surface.png (a merge
+    // has no surface to draw) must go; the pictures are the merge's own.
     let a = [
         "merge",
         s(&shards[0]),
@@ -275,7 +275,15 @@ fn trace_and_merge_replace_their_folders_whole() {
     ok(&roks_in(&dir, &a), "merge");
     assert_eq!(
         names(&shards[0]),
-        ["brdf.csv", "inplane.csv", "summary.json", "tallies.json"]
+        [
+            "brdf.csv",
+            "hemisphere_30deg.png",
+            "inplane.csv",
+            "inplane.png",
+            "reflectance.png",
+            "summary.json",
+            "tallies.json"
+        ]
     );
 }
 
@@ -796,7 +804,9 @@ fn a_link_to_a_result_folder_is_followed() {
                 png.as_str(),
                 "inplane.csv",
                 "inplane.png",
-                "summary.json"
+                "reflectance.png",
+                "summary.json",
+                "surface.png"
             ]
         );
         assert_eq!(names(&dir), ["link", "scene.toml", "target"]);

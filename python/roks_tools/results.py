@@ -63,7 +63,11 @@ STOKES_NAMES = ("s0", "s1", "s2", "s3")
 MUELLER_NAMES = tuple(f"m{i}{j}" for i in range(4) for j in range(4))
 POLAR_KEYS = ("theta_i_deg", "phi_i_deg", "band", "cell", "theta_deg", "phi_deg")
 STOKES_COLUMNS = POLAR_KEYS + tuple(c for n in STOKES_NAMES for c in (n, n + "_stderr")) + ("dop",)
-MUELLER_COLUMNS = POLAR_KEYS + tuple(c for n in MUELLER_NAMES for c in (n, n + "_stderr"))
+# mueller.csv: the matrix and its standard errors, then the standard errors of
+# m_ij / m00 (nan where m00 = 0); files of roks before these (and the Mitsuba
+# tracer's) have the matrix columns only.
+MUELLER_MATRIX_COLUMNS = POLAR_KEYS + tuple(c for n in MUELLER_NAMES for c in (n, n + "_stderr"))
+MUELLER_COLUMNS = MUELLER_MATRIX_COLUMNS + tuple(n + "_m00_stderr" for n in MUELLER_NAMES[1:])
 REFLECTANCE_COLUMNS = ("x", "y", "z", "reflectance", "reflectance_stderr")
 FARFIELD_COLUMNS = ("source",) + BRDF_COLUMNS[2:]
 FARFIELD_STOKES_COLUMNS = ("source",) + BRDF_COLUMNS[2:12] + tuple(
@@ -462,9 +466,12 @@ class PolarTable(_Spectral):
         if mode is None:
             raise ResultError(f"{show(path)}: neither stokes.csv nor mueller.csv")
         names = STOKES_NAMES if mode == "stokes" else MUELLER_NAMES
-        header, data = _table_text(path, (HEADERS[path.name], SPECTRAL_HEADERS[path.name]), EXTRA_POLAR_COLUMN)
+        # The matrix columns first; what follows (mueller.csv's m_ij/m00
+        # errors, absent in older files and the Mitsuba tracer's) is extra.
+        base = STOKES_COLUMNS if mode == "stokes" else MUELLER_MATRIX_COLUMNS
+        header, data = _table_text(path, (base, _spectral(base, "phi_i_deg")), EXTRA_POLAR_COLUMN)
         cols = {c: data[:, i] for i, c in enumerate(header)}
-        known = set(SPECTRAL_HEADERS[path.name])
+        known = set(_spectral(base, "phi_i_deg"))
         t = cls(path=path, mode=mode, names=names,
                 **{k: cols[k] for k in POLAR_KEYS},
                 values=np.stack([cols[n] for n in names], axis=1),

@@ -10,7 +10,8 @@ use clap::{Args, Parser, Subcommand};
 
 use super::parse::{integer, positive};
 use super::{
-    brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, render, stats, trace,
+    brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, plot, render, stats,
+    trace,
 };
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
@@ -33,13 +34,16 @@ pub enum Command {
     ///
     /// Writes DIR/summary.json (reflectance per incidence with standard
     /// errors, losses, speed, surface statistics), DIR/brdf.csv (Carlson grid),
-    /// DIR/inplane.csv (plane of incidence), DIR/inplane.png (in-plane curves),
-    /// DIR/hemisphere_<theta>deg.png (equal-area map of the BRDF per incidence)
-    /// and, with --export, DIR/brdf.bsdf and DIR/brdf.binary. DIR defaults to
+    /// DIR/inplane.csv (plane of incidence), its pictures (see `roks plot`:
+    /// inplane.png, reflectance.png, hemisphere_<theta>deg.png, ...), the
+    /// picture of the surface DIR/surface.png and, with --export, the
+    /// exported tables. DIR defaults to
     /// out/<scene name>/.
     Brdf(brdf::BrdfArgs),
     /// Print the surface statistics of a micro scene: RMS height sigma,
-    /// autocorrelation length tau, sigma/tau, RMS slope, heights.
+    /// autocorrelation length tau, sigma/tau, RMS slope, heights (and with
+    /// --png FILE, draw the height map with them, as surface.png of `roks
+    /// brdf`).
     Stats(stats::StatsArgs),
     /// Trace a 3-D object of quadric cells with rough walls (the macro level).
     ///
@@ -48,7 +52,8 @@ pub enum Command {
     /// transport the Stokes vector of the reflected light), DIR/reflectance.csv
     /// (x,y,z,reflectance,reflectance_stderr) and, with [tally] farfield = true,
     /// DIR/farfield.csv (and DIR/farfield_stokes.csv with [tally]
-    /// polarisation = "stokes"). DIR defaults to out/<scene name>/.
+    /// polarisation = "stokes"), and DIR/reflectance.png (reflectance against
+    /// beam position). DIR defaults to out/<scene name>/.
     Trace(trace::TraceArgs),
     /// Fit micro-scene parameters to a measured in-plane BRDF.
     ///
@@ -93,7 +98,8 @@ pub enum Command {
     /// same run (scene, seed, settings) and that their photon ranges are
     /// disjoint and cover the run, sums them in shard order and writes
     /// OUT/brdf.csv, OUT/inplane.csv, OUT/summary.json and OUT/tallies.json,
-    /// exactly as the single run would (only timings differ).
+    /// exactly as the single run would (only timings differ), and their
+    /// pictures (see `roks plot`).
     Merge(merge::MergeArgs),
     /// Export the BRDF table of a `roks brdf` result folder for other programs.
     ///
@@ -116,6 +122,17 @@ pub enum Command {
     /// fit_<model>.png (table and fit in and across the plane of incidence)
     /// and, for ABg, fit_abg_opticstudio.txt (OpticStudio's ABg data rows).
     FitModel(fit_model::FitModelArgs),
+    /// Redraw every picture of a result folder from its files.
+    ///
+    /// Reads DIR/summary.json and the tables beside it (brdf.csv,
+    /// inplane.csv, stokes.csv, mueller.csv, colour.csv) and writes into DIR:
+    /// a micro folder's hemisphere_<theta>deg.png, inplane.png,
+    /// reflectance.png (against incidence), dop_<theta>deg.png,
+    /// mueller_<theta>deg.png and mueller_stderr_<theta>deg.png, and
+    /// colour_<theta>deg.png (those its tables allow), and surface.png when
+    /// the scene file still gives the run's surface; an object folder's
+    /// reflectance.png. Works on shard and merged folders alike.
+    Plot(plot::PlotArgs),
 }
 
 /// The options of both tracing commands (`roks brdf`, `roks trace`): the

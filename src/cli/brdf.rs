@@ -167,7 +167,10 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     set_threads(a.run.threads)?;
     let out = result_dir(a.run.out.as_deref(), &scene.source.file, &scene.name)?;
 
-    let stats = surface_stats(&scene.surface.height_map(rx, ry));
+    let map = scene.surface.height_map(rx, ry);
+    let stats = surface_stats(&map);
+    let surface = super::plot::surface_png(&scene, &map, &stats)?;
+    drop(map);
     let edges = format!("{:?}", scene.surface.edges).to_lowercase();
     let settings = Settings::new(
         &scene.source.file,
@@ -186,7 +189,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
     bar.finish_and_clear();
 
-    let mut extra = folder.images(&scene.name).map_err(Failure::Other)?;
+    let mut extra = Vec::new();
     if !a.export.is_empty() {
         let table = folder.table();
         let comment = format!(
@@ -202,7 +205,10 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
             }
         }
     }
-    write_folder(&out, &folder.files(extra))?;
+    let mut files = folder.files(extra);
+    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
+    files.push(("surface.png".into(), surface));
+    write_folder(&out, &files)?;
 
     if !a.quiet {
         print_table(&folder.results);

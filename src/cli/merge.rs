@@ -49,7 +49,9 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
         },
     )?;
     let folder = BrdfFolder::merged(merged);
-    write_folder(&a.out, &folder.files(Vec::new()))?;
+    let mut files = folder.files(Vec::new());
+    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
+    write_folder(&a.out, &files)?;
     if !a.quiet {
         print_table(&folder.results);
         eprintln!("merged {n_parts} shards into {}", a.out.display());

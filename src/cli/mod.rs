@@ -36,6 +36,7 @@ pub mod fit_model;
 pub mod merge;
 pub mod messages;
 pub mod parse;
+pub mod plot;
 pub mod render;
 pub mod stats;
 pub mod trace;

@@ -25,6 +25,9 @@ pub struct StatsArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also draw the height map with its statistics into this PNG file.
+    #[arg(long, value_name = "FILE")]
+    pub png: Option<PathBuf>,
 }
 
 /// Run `roks stats`.
@@ -34,7 +37,14 @@ pub struct StatsArgs {
 pub fn run(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
     let (r, ry) = stats_grid(&scene, a.resolution, 512, "--resolution")?;
-    let s = surface_stats(&scene.surface.height_map(r, ry));
+    let map = scene.surface.height_map(r, ry);
+    let s = surface_stats(&map);
+    if let Some(path) = &a.png {
+        let png = super::plot::surface_png(&scene, &map, &s)?;
+        crate::output::write_atomic(path, &png)
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    }
+    drop(map);
     let mut out = String::new();
     if a.json {
         let v = Surface::new(&s, r);

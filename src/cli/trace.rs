@@ -121,26 +121,21 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     );
     let text = summary::to_text(&summary);
     let refl = object_csv::reflectance_csv(&results);
-    let png = reflectance_plot(&scene, &run, &results)
-        .to_png(900, 560)
-        .map_err(Failure::Other)?;
     let farfield = run
         .farfield
         .then(|| object_csv::farfield_csv(&run, &results));
     let farfield_stokes = run
         .tallies_farfield_stokes()
         .then(|| object_csv::farfield_stokes_csv(&run, &results));
-    let mut files: Vec<(&str, &[u8])> = vec![
-        ("reflectance.csv", refl.as_bytes()),
-        ("reflectance.png", &png),
-    ];
-    if let Some(f) = &farfield {
-        files.push(("farfield.csv", f.as_bytes()));
+    let mut files: Vec<(String, Vec<u8>)> = vec![("reflectance.csv".into(), refl.into_bytes())];
+    if let Some(f) = farfield {
+        files.push(("farfield.csv".into(), f.into_bytes()));
     }
-    if let Some(f) = &farfield_stokes {
-        files.push(("farfield_stokes.csv", f.as_bytes()));
+    if let Some(f) = farfield_stokes {
+        files.push(("farfield_stokes.csv".into(), f.into_bytes()));
     }
-    files.push(("summary.json", text.as_bytes()));
+    files.push(("summary.json".into(), text.into_bytes()));
+    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     write_folder(&out, &files)?;
 
     if !a.quiet {
@@ -179,72 +174,5 @@ fn print_table(run: &ObjectRun, results: &[PositionResult]) {
             r.tallies.bounces as f64 / n,
             r.tallies.lost / n
         );
-    }
-}
-
-/// Reflectance vs beam position, one curve per `[[sources]]` entry; the x axis
-/// is the distance of the beam axis from the first position of its source.
-/// A spectral run plots the mean over its wavelengths (and the mean of
-/// their standard errors).
-fn reflectance_plot(
-    scene: &ObjectScene,
-    run: &ObjectRun,
-    results: &[PositionResult],
-) -> crate::plot::LinePlot {
-    use crate::plot::{LinePlot, Series};
-    let lanes = run.lane_count();
-    let mean = |rs: &[PositionResult]| {
-        let (a, b) = rs
-            .iter()
-            .map(PositionResult::reflectance)
-            .fold((0.0, 0.0), |(a, b), (r, e)| (a + r, b + e));
-        (a / rs.len() as f64, b / rs.len() as f64)
-    };
-    let means: Vec<(f64, f64)> = if lanes == 1 {
-        results.iter().map(PositionResult::reflectance).collect()
-    } else {
-        results.chunks(lanes).map(mean).collect()
-    };
-    let results: Vec<&PositionResult> = results.iter().step_by(lanes).collect();
-    let mut series: Vec<Series> = Vec::new();
-    for (k, r) in results.iter().enumerate() {
-        let src = scene.beam_source[k];
-        let first = scene.beams[scene
-            .beam_source
-            .iter()
-            .position(|&s| s == src)
-            .unwrap_or(0)]
-        .position;
-        if series.len() <= src {
-            series.resize_with(src + 1, || Series {
-                label: String::new(),
-                points: Vec::new(),
-            });
-            series[src].label = format!("source {src} (beam {} mm)", r.beam.diameter);
-        }
-        let (refl, se) = means[k];
-        series[src]
-            .points
-            .push(((r.beam.position - first).length(), refl, 2.0 * se));
-    }
-    let positive = means.iter().all(|m| m.0 > 0.0);
-    let spread = means
-        .iter()
-        .map(|m| m.0)
-        .fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(v), b.max(v)));
-    let what = if lanes == 1 {
-        "reflectance".to_owned()
-    } else {
-        format!("reflectance (mean over {lanes} wavelengths)")
-    };
-    LinePlot {
-        title: format!(
-            "{}: {what} vs beam position (error bars: 2 standard errors)",
-            scene.name
-        ),
-        x_label: "beam axis offset from the first position (scene units)".into(),
-        y_label: "reflectance (fraction of the beam's flux)".into(),
-        log_y: positive && spread.1 > 20.0 * spread.0,
-        series,
     }
 }

@@ -8,7 +8,7 @@
 //! root), and a shard keeps the nodes for its `tallies.json`.
 //! [`BrdfFolder::merged`] is the folder of merged shards. [`BrdfFolder::files`]
 //! writes either: `brdf.csv`, `inplane.csv`, the polarisation table,
-//! the images (if asked for), exports, `tallies.json` (shards and merges)
+//! extra files (pictures, exports), `tallies.json` (shards and merges)
 //! and `summary.json`.
 
 use std::time::Instant;
@@ -156,70 +156,6 @@ impl BrdfFolder {
     #[must_use]
     pub fn table(&self) -> BrdfTables {
         brdf_csv::table(&self.run, &self.results)
-    }
-
-    /// The images: `inplane.png`, `hemisphere_<theta>deg.png` per
-    /// incidence and, with a Stokes tally, `dop_<theta>deg.png`; titled
-    /// with the scene's `name`. For a spectral run these show the mean over
-    /// the wavelengths, and a run covering the visible adds
-    /// `colour_<theta>deg.png` ([`super::colour_csv`]).
-    ///
-    /// # Errors
-    /// If an image cannot be drawn.
-    pub fn images(&self, name: &str) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
-        use rayon::prelude::*;
-        let means = self.wavelength_means();
-        let run = &self.run;
-        let results = means.as_deref().unwrap_or(&self.results);
-        let mut images = vec![(
-            "inplane.png".to_owned(),
-            super::inplane_plot(name, run, results).to_png(1000, 620)?,
-        )];
-        let maps: Vec<(String, Vec<u8>)> = results
-            .par_iter()
-            .map(|r| {
-                super::hemisphere_map(name, run, r)
-                    .to_png()
-                    .map(|png| (super::hemisphere_file(r.theta_i_deg), png))
-            })
-            .collect::<anyhow::Result<_>>()?;
-        let dop: Vec<(String, Vec<u8>)> = results
-            .par_iter()
-            .filter_map(|r| {
-                super::dop_map(name, run, r)
-                    .map(|m| m.to_png().map(|png| (super::dop_file(r.theta_i_deg), png)))
-            })
-            .collect::<anyhow::Result<_>>()?;
-        images.extend(maps);
-        images.extend(dop);
-        let colour: Vec<(String, Vec<u8>)> = super::colour_csv::maps(name, run, &self.results)
-            .par_iter()
-            .map(|(file, m)| m.to_png().map(|png| (file.clone(), png)))
-            .collect::<anyhow::Result<_>>()?;
-        images.extend(colour);
-        Ok(images)
-    }
-
-    /// For a spectral run, per incidence the mean over its wavelengths (the
-    /// sums of all wavelengths over all their photons, so every mean is the
-    /// mean of the wavelengths' means): what the BRDF pictures show. `None`
-    /// for a monochrome run.
-    fn wavelength_means(&self) -> Option<Vec<IncidenceResult>> {
-        let lanes = self.run.wavelengths_um.len();
-        (lanes > 0).then(|| {
-            self.results
-                .chunks(lanes)
-                .map(|group| {
-                    let mut mean = group[0].clone();
-                    for r in &group[1..] {
-                        mean.tallies.merge(&r.tallies);
-                    }
-                    mean.tallies.replicates = None;
-                    mean.wavelength_um = None;
-                    mean
-                })
-                .collect()
-        })
     }
 
     /// Every file of the folder, with `extra` files (images, exports)

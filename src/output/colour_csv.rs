@@ -22,17 +22,17 @@
 //! azimuth), then the colour (10 significant digits).
 //!
 //! # The picture
-//! `colour_<theta>deg.png` is the equal-area hemisphere map of
-//! `hemisphere_<theta>deg.png` painted with each cell's colour: its
-//! chromaticity at a brightness that is the log of its luminance `Y` over
-//! four decades below the brightest cell (linear sRGB divided by `Y`, times
-//! that brightness, scaled down to fit in `[0, 1]` keeping the hue, then
-//! the sRGB transfer function).
+//! `colour_<theta>deg.png` ([`crate::plot::folder`], from `colour.csv`) is
+//! the equal-area hemisphere map of `hemisphere_<theta>deg.png` painted
+//! with each cell's colour ([`display_colours`]): its chromaticity at a
+//! brightness that is the log of its luminance `Y` over four decades below
+//! the brightest cell (linear sRGB divided by `Y`, times that brightness,
+//! scaled down to fit in `[0, 1]` keeping the hue, then the sRGB transfer
+//! function); cells without a photon are striped, with a key.
 
 use std::fmt::Write as _;
 
 use crate::optics::colour::{XyzWeights, xyz_to_linear_srgb};
-use crate::plot::{HemisphereMap, MapScale};
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
 
 /// Columns of `colour.csv`.
@@ -103,8 +103,9 @@ pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> Option<String> {
 }
 
 /// The display colour (8-bit sRGB) of each cell for the picture (see the
-/// module docs).
-fn display_colours(colours: &[([f64; 3], [f64; 3])]) -> Vec<[u8; 3]> {
+/// module docs), from its XYZ and linear sRGB (as `colour.csv` holds them).
+#[must_use]
+pub fn display_colours(colours: &[([f64; 3], [f64; 3])]) -> Vec<[u8; 3]> {
     let top = colours.iter().map(|c| c.0[1]).fold(0.0, f64::max);
     let (hi, lo) = if top > 0.0 {
         (top.log10(), top.log10() - 4.0)
@@ -129,40 +130,6 @@ fn display_colours(colours: &[([f64; 3], [f64; 3])]) -> Vec<[u8; 3]> {
 #[must_use]
 pub fn colour_file(theta_i_deg: f64) -> String {
     format!("colour_{}deg.png", super::number_label(theta_i_deg))
-}
-
-/// The colour maps of a spectral run covering the visible: per incidence its
-/// file name and map (titled with the scene's `name`); empty otherwise.
-#[must_use]
-pub fn maps(
-    name: &str,
-    run: &BrdfRun,
-    results: &[IncidenceResult],
-) -> Vec<(String, HemisphereMap)> {
-    let Some(groups) = per_incidence(run, results) else {
-        return Vec::new();
-    };
-    groups
-        .filter_map(|lanes| {
-            let colours = cell_colours(run, lanes)?;
-            let r0 = &lanes[0];
-            let map = HemisphereMap {
-                title: format!(
-                    "{name}: colour of the BRDF (D65, sRGB), theta_i = {}°",
-                    r0.theta_i_deg
-                ),
-                grid: run.grid(),
-                brdf: colours.iter().map(|c| c.0[1]).collect(),
-                scale: MapScale::Rgb {
-                    label: "log10 Y of the BRDF (1/sr)".into(),
-                    colours: display_colours(&colours),
-                },
-                theta_i_deg: r0.theta_i_deg,
-                phi_i_deg: r0.phi_i_deg,
-            };
-            Some((colour_file(r0.theta_i_deg), map))
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -225,7 +192,6 @@ mod tests {
         let text = write(&run, &results).unwrap();
         assert_eq!(text.lines().next(), Some(HEADER));
         assert_eq!(text.lines().count(), 1 + 2 * grid.n_cells());
-        assert_eq!(maps("t", &run, &results).len(), 2);
     }
 
     #[test]
@@ -234,6 +200,5 @@ mod tests {
         let run = s.brdf_run();
         let results = run.run(&s.surface, &|_| {});
         assert!(write(&run, &results).is_none());
-        assert!(maps("t", &run, &results).is_empty());
     }
 }

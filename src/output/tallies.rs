@@ -503,6 +503,7 @@ pub fn check_layout(t: &BrdfTallies, run: &BrdfRun, photons: u64) -> Result<(), 
             }
             let polar_bins = k * (1 + cells);
             acc(&p.sums, "polar.sums", polar_bins)?;
+            len(&p.cross, "polar.cross", polar_bins)?;
             match (replicates, &p.replicates) {
                 (None, None) => {}
                 (Some(r), Some(x)) => len(x, "polar.replicates", r * polar_bins)?,
@@ -645,6 +646,9 @@ pub fn check_tallies(t: &BrdfTallies, run: &BrdfRun) -> Result<(), FieldError> {
         acc(&p.sums, "polar.sums", true)?;
         for (i, &x) in p.replicates.iter().flatten().enumerate() {
             in_range(x, format!("polar.replicates[{i}]"), true)?;
+        }
+        for (i, &x) in p.cross.iter().enumerate() {
+            in_range(x, format!("polar.cross[{i}]"), true)?;
         }
     }
     Ok(())

@@ -535,7 +535,8 @@ impl BrdfRun {
     /// Estimated size (bytes) of one [`BrdfTallies`]: 16 bytes per Carlson
     /// cell and in-plane bin (sum and sum of squares), 8 more per lattice
     /// replicate, and its polarisation sums (4 or 16 components per cell and
-    /// the hemisphere, alike).
+    /// the hemisphere, alike, with 8 more per bin for the products with
+    /// component 0).
     #[must_use]
     pub fn tally_bytes(&self) -> u64 {
         use crate::limits::product;
@@ -550,7 +551,7 @@ impl BrdfRun {
         let per_bin = 16 + 8 * replicates;
         let k = self.polarisation.tally.components() as u64;
         let one = product(&[cells + bins + 1, per_bin])
-            .saturating_add(product(&[k, cells + 1, per_bin]))
+            .saturating_add(product(&[k, cells + 1, per_bin + 8]))
             .saturating_add(8 * BOUNCE_BINS as u64 + 256);
         product(&[one, self.lane_count() as u64])
     }

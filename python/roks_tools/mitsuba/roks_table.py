@@ -123,7 +123,8 @@ from pathlib import Path
 import numpy as np
 
 from ..carlson import CarlsonGrid
-from ..results import BRDF_COLUMNS, MUELLER_COLUMNS, SPECTRAL_BRDF_COLUMNS, ResultError, read_columns
+from ..results import (BRDF_COLUMNS, MUELLER_COLUMNS, MUELLER_MATRIX_COLUMNS, SPECTRAL_BRDF_COLUMNS,
+                       ResultError, read_columns)
 
 BRDF_HEADER = ",".join(BRDF_COLUMNS)
 SPECTRAL_HEADER = ",".join(SPECTRAL_BRDF_COLUMNS)
@@ -137,17 +138,21 @@ class TableError(ResultError):
     """A brdf.csv this plugin cannot use (message names the file)."""
 
 
-def _read_table(path: Path, header: str, what: str, columns: int) -> np.ndarray:
+def _read_table(path: Path, header: str, what: str, columns: int, keep: int | None = None) -> np.ndarray:
     """The numbers of a roks CSV file `what` (brdf.csv, mueller.csv) with
-    exactly `header`, as a 2-D array of `columns` finite columns; a
-    TableError naming the file otherwise."""
+    exactly `header` of `columns` columns, as a 2-D array of its first `keep`
+    (default: all) columns, which must be finite; a TableError naming the
+    file otherwise."""
     try:
         cols = read_columns(path, tuple(header.split(",")))
     except ResultError as e:
         raise TableError(str(e)) from e
     data = np.stack(list(cols.values()), axis=1)
-    if data.shape[0] == 0 or data.shape[1] != columns or not np.all(np.isfinite(data)):
-        raise TableError(f"{path}: no data rows, or not {columns} finite columns")
+    if data.shape[1] != columns:
+        raise TableError(f"{path}: not {columns} columns")
+    data = data[:, :keep]
+    if data.shape[0] == 0 or not np.all(np.isfinite(data)):
+        raise TableError(f"{path}: no data rows, or not {data.shape[1]} finite columns")
     return data
 
 
@@ -317,7 +322,9 @@ class CarlsonTable:
         its m00 times the table's brdf, so m00 is exactly the intensity
         table (a cell with brdf 0 gets the zero matrix)."""
         path = Path(path)
-        data = _read_table(path, MUELLER_HEADER, "mueller.csv", 38)
+        # The matrix columns (the normalised errors after them may be nan).
+        header = MUELLER_HEADER if _first_line(path) == MUELLER_HEADER else ",".join(MUELLER_MATRIX_COLUMNS)
+        data = _read_table(path, header, "mueller.csv", 53 if header == MUELLER_HEADER else 38, keep=38)
         k = self.fractions.shape[1]  # cells per block
         if data.shape[0] % k:
             raise TableError(f"{path}: {data.shape[0]} rows are not whole blocks of {k} cells")

@@ -51,6 +51,7 @@ use super::{COLUMNS, HEADER, SPECTRAL_HEADER};
 use crate::optics::brdf_table::{
     BlockData, BrdfTable, BrdfTables, MAX_FRACTION, SpectralTables, TableError,
 };
+use crate::output::polar_csv::{MuellerFile, MuellerRow};
 use crate::tally::CarlsonGrid;
 
 /// Zero-based column indices of a monochrome table ([`HEADER`]); a
@@ -390,7 +391,8 @@ struct Parsed {
     blocks: Vec<Block>,
 }
 
-fn shorten(s: &str, n: usize) -> String {
+/// At most `n` characters of `s`, with `...` when cut.
+pub(crate) fn shorten(s: &str, n: usize) -> String {
     if s.chars().count() <= n {
         s.to_owned()
     } else {
@@ -702,8 +704,8 @@ impl SpectralTables {
             line,
             message,
         };
-        let (header, rows, last_line) = mueller_rows(text);
-        if header == crate::output::polar_csv::MUELLER_HEADER {
+        let file = MuellerFile::parse(text).map_err(|e| fail(e.line, e.message))?;
+        if !file.spectral {
             return Err(fail(
                 1,
                 format!(
@@ -712,63 +714,29 @@ impl SpectralTables {
                 ),
             ));
         }
-        if header != spectral_mueller_header() {
-            return Err(fail(1, "header is not that of mueller.csv".into()));
-        }
-        // One pass: each row to the table of its wavelength (column 3).
+        // One pass: each row to the table of its wavelength.
         let wavelengths = self.wavelengths_um().to_vec();
-        let mut lanes: Vec<Vec<(usize, &str)>> = vec![Vec::new(); wavelengths.len()];
-        for &(line, l) in &rows {
-            let field = l.split(',').nth(2).unwrap_or("").trim();
-            let at = field
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    fail(
-                        line,
-                        format!("column 3: `{}` is not a finite number", shorten(field, 40)),
-                    )
-                })?;
+        let mut lanes: Vec<Vec<&MuellerRow>> = vec![Vec::new(); wavelengths.len()];
+        for row in &file.rows {
+            let at = row.wavelength_um.unwrap_or(f64::NAN);
             let lane = wavelengths.iter().position(|&w| w == at).ok_or_else(|| {
                 fail(
-                    line,
+                    row.line,
                     format!(
                         "column 3: wavelength_um = {at} is not one of the wavelengths of {}",
                         self.tables()[0].file()
                     ),
                 )
             })?;
-            lanes[lane].push((line, l));
+            lanes[lane].push(row);
         }
         for ((t, &w), rows) in self.tables_mut().iter_mut().zip(&wavelengths).zip(&lanes) {
-            *t = t.clone().attach_mueller(rows, last_line, name, Some(w))?;
+            *t = t
+                .clone()
+                .attach_mueller(rows, file.last_line, name, Some(w))?;
         }
         Ok(self)
     }
-}
-
-/// The header (byte-order mark and trailing blanks dropped), the data rows
-/// (line number, text without `\r`; blank lines skipped) and the last line
-/// number of a `mueller.csv`.
-fn mueller_rows(text: &str) -> (&str, Vec<(usize, &str)>, usize) {
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
-        .filter(|(_, l)| !l.trim().is_empty());
-    let header = lines.next().map_or("", |(_, l)| l);
-    let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
-    let rows: Vec<(usize, &str)> = lines.collect();
-    let last_line = rows.last().map_or(1, |r| r.0);
-    (header, rows, last_line)
-}
-
-/// The header of a spectral run's `mueller.csv`: that of
-/// [`crate::output::polar_csv::MUELLER_HEADER`] with `wavelength_um` after
-/// `phi_i_deg`.
-fn spectral_mueller_header() -> String {
-    crate::output::spectral_header(crate::output::polar_csv::MUELLER_HEADER, "phi_i_deg")
 }
 
 /// The table of checked blocks (of one wavelength): sorted by angle, no
@@ -1148,28 +1116,30 @@ impl BrdfTable {
             line: 1,
             message,
         };
-        let (header, rows, last_line) = mueller_rows(text);
-        if header == spectral_mueller_header() {
+        let file = MuellerFile::parse(text).map_err(|e| BrdfTableError::Mueller {
+            file: name.to_owned(),
+            line: e.line,
+            message: e.message,
+        })?;
+        if file.spectral {
             return Err(fail(format!(
                 "a spectral mueller.csv (wavelength_um column), but {} is a table of one wavelength",
                 self.file()
             )));
         }
-        if header != crate::output::polar_csv::MUELLER_HEADER {
-            return Err(fail("header is not that of mueller.csv".into()));
-        }
-        self.attach_mueller(&rows, last_line, name, None)
+        let rows: Vec<&MuellerRow> = file.rows.iter().collect();
+        self.attach_mueller(&rows, file.last_line, name, None)
     }
 
-    /// Attach the Mueller blocks of `rows` (line number, text: the data rows
-    /// of one table; `last_line` the file's last) as
+    /// Attach the Mueller blocks of `rows` (the parsed data rows of one
+    /// table, [`MuellerFile::parse`]; `last_line` the file's last) as
     /// [`with_mueller_text`](Self::with_mueller_text) describes; for the
     /// table of one wavelength of a spectral run (`wavelength =
-    /// Some(wavelength_um)`) the rows have `wavelength_um` after
-    /// `phi_i_deg` (the rows of that wavelength only).
+    /// Some(wavelength_um)`, named in errors) the rows of that wavelength
+    /// only.
     fn attach_mueller(
         mut self,
-        rows: &[(usize, &str)],
+        rows: &[&MuellerRow],
         last_line: usize,
         name: &str,
         wavelength: Option<f64>,
@@ -1179,37 +1149,13 @@ impl BrdfTable {
             line,
             message,
         };
-        // Columns after `phi_i_deg` move by one in a spectral file.
-        let off = usize::from(wavelength.is_some());
         let at_w = wavelength.map_or(String::new(), |w| format!(" at {w} um"));
         let n = self.grid().n_cells();
         // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
         type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
         let mut blocks: Vec<MuellerBlock> = Vec::new();
-        for &(line, l) in rows {
-            let f: Vec<&str> = l.split(',').map(str::trim).collect();
-            if f.len() != 38 + off {
-                return Err(fail(
-                    line,
-                    format!("expected {} columns, found {}", 38 + off, f.len()),
-                ));
-            }
-            let num = |i: usize| -> Result<f64, BrdfTableError> {
-                f[i].parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| {
-                        fail(
-                            line,
-                            format!(
-                                "column {}: `{}` is not a finite number",
-                                i + 1,
-                                shorten(f[i], 40)
-                            ),
-                        )
-                    })
-            };
-            let (theta, phi) = (num(0)?, num(1)?);
+        for row in rows {
+            let (line, theta, phi) = (row.line, row.theta_i_deg, row.phi_i_deg);
             if blocks.last().is_none_or(|b| b.2.len() == n) {
                 blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
             }
@@ -1225,27 +1171,13 @@ impl BrdfTable {
                 ));
             }
             let (band, cell) = self.grid().band_cell(block.2.len());
-            if f[2 + off] != band.to_string() || f[3 + off] != cell.to_string() {
+            if row.band != band.to_string() || row.cell != cell.to_string() {
                 return Err(fail(
                     line,
                     format!("expected band {band}, cell {cell} (grid order)"),
                 ));
             }
-            let mut m = [0.0; 16];
-            for (k, v) in m.iter_mut().enumerate() {
-                *v = num(6 + off + 2 * k)?;
-                let se = num(7 + off + 2 * k)?;
-                if se < 0.0 {
-                    return Err(fail(
-                        line,
-                        format!(
-                            "column {} (a standard error): {se} must be >= 0",
-                            8 + off + 2 * k
-                        ),
-                    ));
-                }
-            }
-            block.2.push(m);
+            block.2.push(row.m);
             block.3.push(line);
         }
         if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {

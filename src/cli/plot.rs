@@ -1,0 +1,129 @@
+//! `roks plot`: redraw every picture of a result folder from its files
+//! (micro, object, spectral, polarised, merged or shard folders), and the
+//! picture of a micro surface that `roks brdf` and `roks stats --png` draw.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use super::Failure;
+use crate::micro::surface_stats::{HeightMap, SurfaceStats, surface_stats};
+use crate::output::summary::{BrdfSummary, Surface};
+use crate::plot::SurfacePicture;
+use crate::scene::micro::MicroScene;
+
+/// The options of `roks plot`.
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    /// A result folder of `roks brdf`, `merge` or `trace`.
+    pub dir: PathBuf,
+    /// Nothing on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Run `roks plot`: the pictures made from the folder's files
+/// ([`crate::plot::folder`]) written into it, each atomically (a temporary
+/// file, then a rename); `surface.png` too when the folder's scene file
+/// (`summary.json`'s `scene`) still gives the surface of the run (the same
+/// statistics).
+///
+/// # Errors
+/// Bad input: not a result folder, or a file of it that cannot be read
+/// (one line naming it); a failed write.
+pub fn run(a: PlotArgs) -> Result<(), Failure> {
+    let dir = &a.dir;
+    if !dir.join("summary.json").is_file() {
+        return Err(Failure::Input(format!(
+            "{}: not a roks result folder (no summary.json)",
+            dir.display()
+        )));
+    }
+    let mut pictures = crate::plot::folder::pictures_in(dir).map_err(Failure::Input)?;
+    let surface = surface_of(dir);
+    match &surface {
+        Ok(Some(png)) => pictures.push(("surface.png".to_owned(), png.clone())),
+        Ok(None) => {}
+        Err(why) if !a.quiet => eprintln!("roks: surface.png not redrawn: {why}"),
+        Err(_) => {}
+    }
+    for (name, png) in &pictures {
+        let path = dir.join(name);
+        crate::output::write_atomic(&path, png)
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    }
+    if !a.quiet {
+        let names: Vec<&str> = pictures.iter().map(|p| p.0.as_str()).collect();
+        eprintln!(
+            "redrew {} pictures in {}: {}",
+            names.len(),
+            dir.display(),
+            names.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// `surface.png` of a micro folder from its scene file: `None` for an
+/// object folder; an error (why not) when the scene cannot be loaded or
+/// its surface's statistics differ from the run's.
+fn surface_of(dir: &Path) -> Result<Option<Vec<u8>>, String> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).map_err(|e| e.to_string())?;
+    let Ok(s) = serde_json::from_str::<BrdfSummary>(&text) else {
+        return Ok(None);
+    };
+    let scene = if s.scene == "<default scene>" {
+        MicroScene::default_scene()
+    } else {
+        MicroScene::load(Path::new(&s.scene)).map_err(|e| e.to_string())?
+    };
+    let r = s.surface.height_map_resolution;
+    let (rx, ry) = scene.surface.heightfield().map_or((r, r), |f| (f.nx, f.ny));
+    let map = scene.surface.height_map(rx, ry);
+    let stats = surface_stats(&map);
+    let now = Surface::new(&stats, rx);
+    // The same to 1e-9 (summary.json's numbers read back may be an ulp off).
+    let close = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) => (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-300),
+        (a, b) => a.is_none() && b.is_none(),
+    };
+    let (a, b) = (&now, &s.surface);
+    let same = a.height_map_resolution == b.height_map_resolution
+        && close(a.sigma, b.sigma)
+        && close(a.tau, b.tau)
+        && close(a.rms_slope, b.rms_slope)
+        && close(a.mean_height, b.mean_height)
+        && close(a.min_height, b.min_height)
+        && close(a.max_height, b.max_height);
+    if !same {
+        return Err(format!(
+            "the surface of {} differs from the run's (the scene was edited since)",
+            s.scene
+        ));
+    }
+    surface_png(&scene, &map, &stats)
+        .map(Some)
+        .map_err(|e| e.to_string())
+}
+
+/// `surface.png`: the height map `map` of `scene`'s surface with its
+/// statistics `stats`.
+///
+/// # Errors
+/// If the picture cannot be drawn.
+pub fn surface_png(
+    scene: &MicroScene,
+    map: &HeightMap,
+    stats: &SurfaceStats,
+) -> Result<Vec<u8>, Failure> {
+    SurfacePicture {
+        title: format!(
+            "{}: the micro surface, one period ({} x {} scene units)",
+            scene.name, scene.surface.size.x, scene.surface.size.y
+        ),
+        map,
+        stats: Surface::new(stats, map.nx),
+    }
+    .to_png()
+    .map_err(Failure::Other)
+}

@@ -1,0 +1,393 @@
+//! The Mueller matrix of a BRDF over the hemisphere ([`MuellerMaps`],
+//! `mueller_<theta>deg.png` and `mueller_stderr_<theta>deg.png`): a 4 x 4
+//! grid of equal-area maps, one per element.
+
+use plotters::prelude::*;
+
+use super::hemisphere::{NO_VALUE, paint_disc, viridis};
+use super::{TickFormat, encode_png, register_font, ticks};
+use crate::tally::CarlsonGrid;
+
+/// Picture size and layout (pixels).
+const W: u32 = 1100;
+const H: u32 = 1060;
+const PANEL: i32 = 240;
+const TOP: i32 = 90;
+const LEFT: i32 = 20;
+const R: f64 = 100.0;
+const BAR_X: i32 = 1000;
+const BAR: (i32, i32) = (200, 800);
+
+/// ColorBrewer's RdBu, 11 stops from blue (lowest) to red (highest).
+const DIVERGING: [[u8; 3]; 11] = [
+    [5, 48, 97],
+    [33, 102, 172],
+    [67, 147, 195],
+    [146, 197, 222],
+    [209, 229, 240],
+    [247, 247, 247],
+    [253, 219, 199],
+    [244, 165, 130],
+    [214, 96, 77],
+    [178, 24, 43],
+    [103, 0, 31],
+];
+
+/// The diverging colour at `t` in `[0, 1]` (0.5 the middle, white).
+#[must_use]
+pub fn diverging(t: f64) -> [u8; 3] {
+    let t = if t.is_nan() { 0.5 } else { t.clamp(0.0, 1.0) } * 10.0;
+    let k = (t.floor() as usize).min(9);
+    let w = t - k as f64;
+    let (a, b) = (DIVERGING[k], DIVERGING[k + 1]);
+    std::array::from_fn(|i| {
+        (f64::from(a[i]) + w * (f64::from(b[i]) - f64::from(a[i]))).round() as u8
+    })
+}
+
+/// What the panels show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MuellerKind {
+    /// `m_ij / m00` on a diverging scale symmetric about 0 over the largest
+    /// magnitude; the `m00` panel the BRDF on a log scale (4 decades).
+    Normalised,
+    /// The standard errors of `m_ij / m00` on a linear scale from 0; the
+    /// `m00` panel its relative standard error on the same scale.
+    Errors,
+}
+
+/// The 16 elements of a Mueller-matrix BRDF over the hemisphere: panel
+/// `(i, j)` (row `i` = outgoing Stokes component, column `j` = incident)
+/// is the equal-area map of `values[4 i + j]` per Carlson cell (the
+/// projection of [`super::HemisphereMap`]; the specular direction marked).
+/// Cells without light (`m00 = 0`: NaN) are striped in [`NO_VALUE`] with a
+/// key.
+#[derive(Debug, Clone)]
+pub struct MuellerMaps {
+    /// Title (top line).
+    pub title: String,
+    /// The cells' grid.
+    pub grid: CarlsonGrid,
+    /// Per element (row-major), per flat cell.
+    pub values: Vec<Vec<f64>>,
+    /// What the values are.
+    pub kind: MuellerKind,
+    /// Incidence polar angle (degrees).
+    pub theta_i_deg: f64,
+    /// Light azimuth (degrees).
+    pub phi_i_deg: f64,
+}
+
+impl MuellerMaps {
+    /// The shared scale `(lo, hi)` of the 15 normalised panels: symmetric
+    /// about 0 over their largest magnitude; or of the errors: from 0 to the
+    /// 98th percentile of the 15 normalised elements' errors (a few cells
+    /// of two or three photons would otherwise darken every other; larger
+    /// errors take the top colour, as the bar says).
+    #[must_use]
+    pub fn range(&self) -> (f64, f64) {
+        let mut v: Vec<f64> = self.values[1..]
+            .iter()
+            .flatten()
+            .filter(|v| v.is_finite())
+            .map(|v| v.abs())
+            .collect();
+        let top = match self.kind {
+            MuellerKind::Normalised => v.iter().copied().fold(0.0_f64, f64::max),
+            MuellerKind::Errors if v.is_empty() => 0.0,
+            MuellerKind::Errors => {
+                let k = ((v.len() - 1) as f64 * 0.98).round() as usize;
+                *v.select_nth_unstable_by(k, f64::total_cmp).1
+            }
+        };
+        let top = if top > 0.0 { top } else { 1.0 };
+        match self.kind {
+            MuellerKind::Normalised => (-top, top),
+            MuellerKind::Errors => (0.0, top),
+        }
+    }
+
+    /// The colour of every cell of element `k` (`None`: no value).
+    fn colours(&self, k: usize) -> Vec<Option<[u8; 3]>> {
+        let (lo, hi) = self.range();
+        if k == 0 && self.kind == MuellerKind::Normalised {
+            let top = self.values[0]
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold(0.0_f64, |m, &v| m.max(v));
+            let (l1, l0) = (top.log10(), top.log10() - 4.0);
+            return self.values[0]
+                .iter()
+                .map(|&v| (v.is_finite() && v > 0.0).then(|| viridis((v.log10() - l0) / (l1 - l0))))
+                .collect();
+        }
+        self.values[k]
+            .iter()
+            .map(|&v| {
+                v.is_finite().then(|| match self.kind {
+                    MuellerKind::Normalised => diverging((v - lo) / (hi - lo)),
+                    MuellerKind::Errors => viridis((v - lo) / (hi - lo)),
+                })
+            })
+            .collect()
+    }
+
+    /// Centre of panel `(i, j)` (pixels).
+    fn centre(i: usize, j: usize) -> (f64, f64) {
+        (
+            f64::from(LEFT + PANEL * j as i32 + PANEL / 2),
+            f64::from(TOP + PANEL * i as i32 + PANEL / 2 + 8),
+        )
+    }
+
+    /// Render to PNG bytes (1100 x 1060 pixels).
+    ///
+    /// # Errors
+    /// If drawing or encoding fails.
+    pub fn to_png(&self) -> anyhow::Result<Vec<u8>> {
+        register_font();
+        let mut buf = vec![255u8; (W * H * 3) as usize];
+        let mut empty = false;
+        for k in 0..16 {
+            let c = self.colours(k);
+            empty |= c.iter().any(Option::is_none);
+            let (cx, cy) = Self::centre(k / 4, k % 4);
+            paint_disc(&mut buf, W, (cx, cy, R), &self.grid, &c);
+        }
+        for y in BAR.0..=BAR.1 {
+            let t = f64::from(BAR.1 - y) / f64::from(BAR.1 - BAR.0);
+            let c = match self.kind {
+                MuellerKind::Normalised => diverging(t),
+                MuellerKind::Errors => viridis(t),
+            };
+            for x in BAR_X..BAR_X + 24 {
+                let at = 3 * (y as u32 * W + x as u32) as usize;
+                buf[at..at + 3].copy_from_slice(&c);
+            }
+        }
+        if empty {
+            for y in BAR.1 + 40..BAR.1 + 62 {
+                for x in BAR_X..BAR_X + 22 {
+                    let at = 3 * (y as u32 * W + x as u32) as usize;
+                    buf[at..at + 3].copy_from_slice(&NO_VALUE[(((x + y) / 4) % 2) as usize]);
+                }
+            }
+        }
+        self.overlay(&mut buf, empty)
+            .map_err(|e| anyhow::anyhow!("Mueller maps: {e}"))?;
+        encode_png(W, H, buf)
+    }
+
+    fn overlay(&self, buf: &mut [u8], empty: bool) -> Result<(), String> {
+        use plotters::style::text_anchor::{HPos, Pos, VPos};
+        let root = BitMapBackend::with_buffer(buf, (W, H)).into_drawing_area();
+        let e = |e: DrawingAreaErrorKind<_>| e.to_string();
+        let text = |size: u32, h: HPos| {
+            ("sans-serif", size)
+                .into_font()
+                .color(&BLACK)
+                .pos(Pos::new(h, VPos::Center))
+        };
+        let title = super::title_lines(&self.title, 110);
+        for (k, l) in title.iter().enumerate() {
+            root.draw(&Text::new(
+                l.clone(),
+                (W as i32 / 2, 16 + 18 * k as i32),
+                text(if k == 0 { 17 } else { 14 }, HPos::Center),
+            ))
+            .map_err(e)?;
+        }
+        let below = 40 + 12 * (title.len() as i32 - 1);
+        let note = match self.kind {
+            MuellerKind::Normalised => {
+                "row i: outgoing Stokes component, column j: incident; panels m_ij / m00, m00 itself: BRDF (1/sr, log, 4 decades)"
+            }
+            MuellerKind::Errors => {
+                "standard errors of m_ij / m00 (from each element's covariance with m00); m00 panel: relative error of m00"
+            }
+        };
+        root.draw(&Text::new(
+            note,
+            (W as i32 / 2, below),
+            text(13, HPos::Center),
+        ))
+        .map_err(e)?;
+        root.draw(&Text::new(
+            format!(
+                "each disc: the hemisphere in equal-area projection, φ = 0 to the right; ring: specular direction (θi = {}°)",
+                self.theta_i_deg
+            ),
+            (W as i32 / 2, below + 17),
+            text(13, HPos::Center),
+        ))
+        .map_err(e)?;
+        let spec_theta = self.theta_i_deg.to_radians();
+        let rho = R * super::hemisphere::equal_area_radius(spec_theta);
+        let (s, c) = (self.phi_i_deg + 180.0).to_radians().sin_cos();
+        for k in 0..16 {
+            let (i, j) = (k / 4, k % 4);
+            let (cx, cy) = Self::centre(i, j);
+            root.draw(&Circle::new(
+                (cx.round() as i32, cy.round() as i32),
+                R as i32,
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?;
+            let name = if k == 0 && self.kind == MuellerKind::Normalised {
+                "m00 (1/sr)".to_owned()
+            } else if k == 0 {
+                "m00: relative error".to_owned()
+            } else {
+                format!("m{i}{j} / m00")
+            };
+            root.draw(&Text::new(
+                name,
+                (cx.round() as i32, (cy - R - 12.0).round() as i32),
+                text(14, HPos::Center),
+            ))
+            .map_err(e)?;
+            let spec = ((cx + rho * c).round() as i32, (cy - rho * s).round() as i32);
+            root.draw(&Circle::new(spec, 7, BLACK.stroke_width(3)))
+                .map_err(e)?;
+            root.draw(&Circle::new(spec, 7, WHITE.stroke_width(1)))
+                .map_err(e)?;
+        }
+        root.draw(&Rectangle::new(
+            [(BAR_X - 1, BAR.0 - 1), (BAR_X + 24, BAR.1 + 1)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(e)?;
+        let label = match self.kind {
+            MuellerKind::Normalised => "m_ij / m00",
+            MuellerKind::Errors => "standard error",
+        };
+        if self.kind == MuellerKind::Errors {
+            root.draw(&Text::new(
+                "top: 98th percentile",
+                (BAR_X + 12, BAR.0 - 60),
+                text(12, HPos::Center),
+            ))
+            .map_err(e)?;
+            root.draw(&Text::new(
+                "and above",
+                (BAR_X + 12, BAR.0 - 46),
+                text(12, HPos::Center),
+            ))
+            .map_err(e)?;
+        }
+        root.draw(&Text::new(
+            label,
+            (BAR_X + 12, BAR.0 - 28),
+            text(14, HPos::Center),
+        ))
+        .map_err(e)?;
+        root.draw(&Text::new(
+            "linear scale",
+            (BAR_X + 12, BAR.0 - 12),
+            text(12, HPos::Center),
+        ))
+        .map_err(e)?;
+        let (lo, hi) = self.range();
+        let t: Vec<f64> = ticks(lo, hi, 8)
+            .into_iter()
+            .filter(|v| (lo..=hi).contains(v))
+            .collect();
+        let f = TickFormat::for_ticks(&t, false);
+        for v in t {
+            let y = BAR.1 - ((v - lo) / (hi - lo) * f64::from(BAR.1 - BAR.0)).round() as i32;
+            root.draw(&PathElement::new(
+                vec![(BAR_X + 24, y), (BAR_X + 30, y)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?;
+            root.draw(&Text::new(
+                f.label(v),
+                (BAR_X + 33, y),
+                text(13, HPos::Left),
+            ))
+            .map_err(e)?;
+        }
+        if empty {
+            root.draw(&Rectangle::new(
+                [(BAR_X - 1, BAR.1 + 39), (BAR_X + 22, BAR.1 + 62)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?;
+            root.draw(&Text::new(
+                "no light:",
+                (BAR_X, BAR.1 + 76),
+                text(13, HPos::Left),
+            ))
+            .map_err(e)?;
+            root.draw(&Text::new(
+                "undefined",
+                (BAR_X, BAR.1 + 92),
+                text(13, HPos::Left),
+            ))
+            .map_err(e)?;
+        }
+        root.present().map_err(e)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The diverging scale is white at 0 and its colours, like viridis's,
+    /// stay far from the stripes of cells without light.
+    #[test]
+    fn diverging_scale_and_no_value() {
+        assert_eq!(diverging(0.5), [247, 247, 247]);
+        assert_eq!(diverging(0.0), DIVERGING[0]);
+        assert_eq!(diverging(1.0), DIVERGING[10]);
+        for c in NO_VALUE {
+            for k in 0..=1000 {
+                let v = diverging(f64::from(k) / 1000.0);
+                let d: f64 = (0..3)
+                    .map(|i| (f64::from(c[i]) - f64::from(v[i])).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                assert!(d > 40.0, "{c:?} near {v:?}");
+            }
+        }
+    }
+
+    /// A depolarising surface (m00 only; every other element 0, cells
+    /// without light NaN): the normalised panels are white where there is
+    /// light, striped where there is none; the scale is symmetric.
+    #[test]
+    fn panels_show_each_element() {
+        let grid = CarlsonGrid::new(6).unwrap();
+        let n = grid.n_cells();
+        let mut values = vec![vec![0.0; n]; 16];
+        values[0] = vec![0.2; n];
+        values[5] = vec![0.5; n]; // m11 / m00
+        for v in values.iter_mut().skip(1) {
+            v[n - 1] = f64::NAN;
+        }
+        values[0][n - 1] = f64::NAN;
+        let maps = MuellerMaps {
+            title: "t".into(),
+            grid,
+            values,
+            kind: MuellerKind::Normalised,
+            theta_i_deg: 0.0,
+            phi_i_deg: 0.0,
+        };
+        assert_eq!(maps.range(), (-0.5, 0.5));
+        let img = image::load_from_memory(&maps.to_png().unwrap())
+            .unwrap()
+            .to_rgb8();
+        // Half way out along phi = 225 degrees (clear of the markers).
+        let at = |i: usize, j: usize| {
+            let (cx, cy) = MuellerMaps::centre(i, j);
+            let d = 0.5 * R * std::f64::consts::FRAC_1_SQRT_2;
+            img.get_pixel((cx - d) as u32, (cy + d) as u32).0
+        };
+        assert_eq!(at(0, 1), diverging(0.5));
+        assert_eq!(at(1, 1), diverging(1.0));
+        assert_eq!(at(0, 0), viridis(1.0)); // constant m00: the top of its scale
+    }
+}

@@ -1,0 +1,229 @@
+//! `roks plot` and the pictures of result folders: drawn from the folder's
+//! files by one code path, so that `roks plot` redraws exactly what `roks
+//! brdf`, `merge` and `trace` wrote; merged folders get the whole run's
+//! pictures; bad folders are one-line input errors that change nothing.
+
+mod cli_common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use cli_common::{read, roks};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("roks-plots-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn ok(args: &[&str]) {
+    let o = roks(args);
+    assert!(
+        o.status.success(),
+        "roks {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// The PNG files of `dir`, by name.
+fn pictures(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".png"))
+        .map(|n| {
+            let b = read(dir, &n);
+            (n, b)
+        })
+        .collect()
+}
+
+/// Delete the pictures of `dir`, run `roks plot dir`, and check it drew the
+/// same files, byte for byte.
+fn redraw_is_identical(dir: &Path, expect: &[&str]) {
+    let before = pictures(dir);
+    for e in expect {
+        assert!(
+            before.contains_key(*e),
+            "{}: no {e} in {:?}",
+            dir.display(),
+            before.keys()
+        );
+    }
+    for n in before.keys() {
+        std::fs::remove_file(dir.join(n)).unwrap();
+    }
+    ok(&["plot", dir.to_str().unwrap(), "-q"]);
+    let after = pictures(dir);
+    assert_eq!(
+        before.keys().collect::<Vec<_>>(),
+        after.keys().collect::<Vec<_>>()
+    );
+    for (n, b) in &before {
+        assert!(after[n] == *b, "{}: {n} redrawn differently", dir.display());
+    }
+}
+
+/// A polarised micro run (Mueller and Stokes), a spectral run, and an
+/// object run: `roks plot` redraws every picture exactly (surface.png from
+/// the scene file named in summary.json).
+#[test]
+fn plot_redraws_what_the_runs_drew() {
+    let mueller = scratch("mueller");
+    ok(&[
+        "brdf",
+        "scenes/gaussian-rough.toml",
+        "--polarisation",
+        "mueller",
+        "--theta",
+        "0,45",
+        "--photons",
+        "3000",
+        "--out",
+        mueller.to_str().unwrap(),
+        "-q",
+    ]);
+    redraw_is_identical(
+        &mueller,
+        &[
+            "hemisphere_0deg.png",
+            "hemisphere_45deg.png",
+            "inplane.png",
+            "reflectance.png",
+            "mueller_45deg.png",
+            "mueller_stderr_45deg.png",
+            "surface.png",
+        ],
+    );
+    let stokes = scratch("stokes");
+    ok(&[
+        "brdf",
+        "scenes/gaussian-rough.toml",
+        "--polarisation",
+        "stokes",
+        "--theta",
+        "30",
+        "--photons",
+        "2000",
+        "--out",
+        stokes.to_str().unwrap(),
+        "-q",
+    ]);
+    redraw_is_identical(&stokes, &["dop_30deg.png", "hemisphere_30deg.png"]);
+    let spectral = scratch("spectral");
+    ok(&[
+        "brdf",
+        "scenes/gold-spectral.toml",
+        "--theta",
+        "20",
+        "--photons",
+        "1000",
+        "--out",
+        spectral.to_str().unwrap(),
+        "-q",
+    ]);
+    redraw_is_identical(&spectral, &["colour_20deg.png", "hemisphere_20deg.png"]);
+    let object = scratch("object");
+    ok(&[
+        "trace",
+        "scenes/cylinder-cavity.toml",
+        "--photons",
+        "200",
+        "--out",
+        object.to_str().unwrap(),
+        "-q",
+    ]);
+    redraw_is_identical(&object, &["reflectance.png"]);
+    for d in [mueller, stokes, spectral, object] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// `roks merge` draws the pictures of the whole run: every picture of the
+/// merged folder is byte for byte the whole run's (surface.png aside: a
+/// merge has no surface).
+#[test]
+fn merged_shards_have_the_whole_runs_pictures() {
+    let (whole, a, b, merged) = (
+        scratch("whole"),
+        scratch("a"),
+        scratch("b"),
+        scratch("merged"),
+    );
+    let run = |out: &Path, shard: Option<&str>| {
+        let mut args = vec![
+            "brdf",
+            "--polarisation",
+            "mueller",
+            "--theta",
+            "0,60",
+            "--photons",
+            "12000",
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ];
+        if let Some(s) = shard {
+            args.extend(["--shard", s]);
+        }
+        ok(&args);
+    };
+    run(&whole, None);
+    run(&a, Some("0/2"));
+    run(&b, Some("1/2"));
+    ok(&[
+        "merge",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+        "-q",
+    ]);
+    let (w, m) = (pictures(&whole), pictures(&merged));
+    let mut names: Vec<&String> = w.keys().filter(|n| *n != "surface.png").collect();
+    names.sort();
+    assert_eq!(names, m.keys().collect::<Vec<_>>());
+    assert!(names.len() >= 7, "{names:?}");
+    for n in names {
+        assert!(w[n] == m[n], "{n} differs");
+    }
+    for d in [whole, a, b, merged] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// Bad folders: one line naming the folder (and file), exit status 2, and
+/// no picture written or changed.
+#[test]
+fn bad_folders_are_input_errors() {
+    let missing = scratch("missing");
+    let o = roks(&["plot", missing.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.lines().count() == 1 && e.contains("summary.json"), "{e}");
+    let dir = scratch("broken");
+    ok(&[
+        "brdf",
+        "--theta",
+        "10",
+        "--photons",
+        "500",
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+    ]);
+    let before = pictures(&dir);
+    let text = String::from_utf8(read(&dir, "brdf.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    lines[1].push_str(",junk");
+    std::fs::write(dir.join("brdf.csv"), lines.join("\n") + "\n").unwrap();
+    let o = roks(&["plot", dir.to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.lines().count() == 1 && e.contains("brdf.csv: line 2") && !e.contains("panicked"),
+        "{e}"
+    );
+    assert!(pictures(&dir) == before);
+    let _ = std::fs::remove_dir_all(dir);
+}
