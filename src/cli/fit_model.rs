@@ -365,7 +365,13 @@ pub fn run(a: FitModelArgs) -> Result<(), Failure> {
             let params: Vec<String> = f
                 .parameters
                 .iter()
-                .map(|p| format!("{} = {:.5e} +- {:.2e}", p.name, p.value, p.stderr))
+                .map(|p| {
+                    if p.stderr.is_nan() {
+                        format!("{} = {:.5e} (undetermined)", p.name, p.value)
+                    } else {
+                        format!("{} = {:.5e} +- {:.2e}", p.name, p.value, p.stderr)
+                    }
+                })
                 .collect();
             let at = if f.theta_i_deg.len() == 1 {
                 format!("theta_i {:>5} deg", f.theta_i_deg[0])

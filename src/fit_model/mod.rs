@@ -278,8 +278,20 @@ pub struct Parameter {
     pub name: String,
     /// Fitted value.
     pub value: f64,
-    /// Standard error (see [`FitResult::covariance_scaled`]).
+    /// Standard error (see [`FitResult::covariance_scaled`]); NaN, written
+    /// `null`, when the fit's covariance is singular (undetermined).
     pub stderr: f64,
+}
+
+/// The standard error of a physical parameter whose derivative with
+/// respect to the fitted one is `d`, from the fitted one's variance `var`:
+/// `|d| sqrt(var)`, and NaN (written `null`: undetermined) when the
+/// covariance is singular (`var` NaN), never 0 for an unknown error.
+fn standard_error(d: f64, var: f64) -> f64 {
+    if var.is_nan() {
+        return f64::NAN;
+    }
+    d.abs() * var.max(0.0).sqrt()
 }
 
 /// One cell's residual in standard errors, and where it is.
@@ -421,7 +433,7 @@ pub fn fit(
         .map(|(k, ((value, d), name))| Parameter {
             name: (*name).to_owned(),
             value,
-            stderr: d.abs() * cov[(k, k)].max(0.0).sqrt(),
+            stderr: standard_error(d, cov[(k, k)]),
         })
         .collect();
     let grid = table.grid();
@@ -621,6 +633,15 @@ pub fn synthetic(
 
 #[cfg(test)]
 mod tests {
+
+    /// A singular covariance gives an undetermined (NaN) error, not 0; a
+    /// regular one the delta method's |d| sqrt(var).
+    #[test]
+    fn singular_covariance_gives_no_standard_error() {
+        assert!(super::standard_error(2.0, f64::NAN).is_nan());
+        assert_eq!(super::standard_error(-2.0, 0.25), 1.0);
+        assert_eq!(super::standard_error(3.0, -1e-30), 0.0);
+    }
     use super::*;
 
     /// ABg and GGX fitted to tables made from themselves with 3 % noise
