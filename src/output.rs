@@ -227,7 +227,7 @@ pub fn inplane_plot(
     LinePlot {
         title: format!(
             "{name}: BRDF in the plane of incidence ({} photons per angle)",
-            run.photons
+            run.photon_range().1 - run.photon_range().0
         ),
         x_label: "theta_o (deg): negative toward the light, positive on the specular side".into(),
         y_label: "BRDF (1/sr), error bars 2 standard errors".into(),
