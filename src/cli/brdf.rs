@@ -115,10 +115,7 @@ impl BrdfArgs {
             Some(path) => MicroScene::load_with(path, &overrides),
             None => MicroScene::default_with(&overrides),
         }
-        .map_err(|e| match overrides.option_error(&e) {
-            Some((option, message)) => Failure::Input(format!("{option}: {message}")),
-            None => e.into(),
-        })
+        .map_err(|e| Failure::Input(e.to_string()))
     }
 }
 
@@ -412,7 +409,7 @@ mod tests {
         );
         assert_eq!(
             refusal(&["--no-polarisation", "--polarisation", "mueller"]),
-            "--polarisation: `mueller` needs polarised transport, but [transport] polarisation = false"
+            "--no-polarisation: `mueller` needs polarised transport, but [transport] polarisation = false"
         );
         assert_eq!(
             refusal(&["--wavelengths", "0.5,0.4"]),

@@ -469,9 +469,16 @@ pub struct Overrides {
 }
 
 impl Overrides {
-    /// The scene keys these overrides replace, each with its option.
+    /// The scene keys these overrides replace, each with its option. A
+    /// polarisation tally refused for want of polarised transport
+    /// (`tally.polarisation`) is `--no-polarisation`'s doing when given.
     fn keys(&self) -> Vec<(&'static str, &'static str)> {
         [
+            (
+                self.polarised_transport == Some(false),
+                "tally.polarisation",
+                "--no-polarisation",
+            ),
             (self.photons.is_some(), "light.photons", "--photons"),
             (self.seed.is_some(), "light.seed", "--seed"),
             (self.theta_deg.is_some(), "light.theta_deg", "--theta"),
@@ -527,13 +534,33 @@ impl Overrides {
         }
     }
 
-    /// The option that set the key `e` is about, and `e`'s message for it
-    /// ([`super::option_error`]); `None` when `e` concerns a key the scene
-    /// file set.
+    /// `e` of a scene built with these overrides: at a key an option
+    /// set, the option's error ([`super::option_error`]); else the scene
+    /// file's.
     #[must_use]
-    pub fn option_error(&self, e: &SceneError) -> Option<(&'static str, String)> {
-        super::option_error(&self.keys(), e)
+    pub fn blame(&self, e: SceneError) -> BuildError {
+        match super::option_error(&self.keys(), &e) {
+            Some((option, message)) => BuildError::Option { option, message },
+            None => BuildError::Scene(e),
+        }
     }
+}
+
+/// Why a micro scene with command-line [`Overrides`] cannot be built: its
+/// file (a key it set), or an option (a key the option set).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    /// The scene file's error, naming the file and the key.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// An option's value refused by the check of the key it replaces.
+    #[error("{option}: {message}")]
+    Option {
+        /// The option (`--theta`, ...).
+        option: &'static str,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl MicroScene {
@@ -551,12 +578,14 @@ impl MicroScene {
 
     /// Load a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        Self::load_with(path, &Overrides::default())
+        let text = super::read_scene_text(path)?;
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())
     }
 
     /// Load a scene file with `overrides` laid over its keys before it is
     /// built (its materials are sampled at overriding wavelengths).
-    pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Self, SceneError> {
+    pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Self, BuildError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         Self::from_str_with(
@@ -579,7 +608,11 @@ impl MicroScene {
 
     /// Parse and build from TOML text.
     pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        Self::from_str_with(text, source, fallback_name, &Overrides::default())
+        Self::from_str_with(text, source, fallback_name, &Overrides::default()).map_err(|e| match e
+        {
+            BuildError::Scene(e) => e,
+            BuildError::Option { .. } => unreachable!("no overrides"),
+        })
     }
 
     /// [`MicroScene::from_str`] with `overrides` (see [`MicroScene::load_with`]).
@@ -588,18 +621,39 @@ impl MicroScene {
         source: Source,
         fallback_name: String,
         overrides: &Overrides,
-    ) -> Result<Self, SceneError> {
+    ) -> Result<Self, BuildError> {
         let mut spec: MicroSceneSpec = parse_toml(&source, text)
             .map_err(|e| super::other_kind(text, "cells", e, "an object scene ([[cells]]): roks trace traces it; this command takes micro scenes ([surface])"))?;
+        if *overrides != Overrides::default() {
+            // The file's own run values, which the options replace, are
+            // still the file's: checked (once) as written.
+            let wavelengths = match &spec.light.wavelengths_um {
+                Some(w) => w
+                    .expand()
+                    .map_err(|e| source.error("light.wavelengths_um", e))?,
+                None => Vec::new(),
+            };
+            brdf_run_of(
+                &spec.light,
+                &spec.tally,
+                &spec.transport,
+                Polarisation::default(),
+                wavelengths,
+            )
+            .check()
+            .map_err(|(field, e)| source.error(field.scene_key(), e))?;
+        }
         overrides.apply(&mut spec);
         let files = spec.files();
-        let mut scene = spec.build(source, fallback_name)?;
+        let mut scene = spec
+            .build(source, fallback_name)
+            .map_err(|e| overrides.blame(e))?;
         scene.content = Content::of(&scene.source, text, &files)?;
         Ok(scene)
     }
 
     /// The embedded default scene with `overrides`.
-    pub fn default_with(overrides: &Overrides) -> Result<Self, SceneError> {
+    pub fn default_with(overrides: &Overrides) -> Result<Self, BuildError> {
         let source = Source {
             file: "<default scene>".into(),
             dir: ".".into(),
