@@ -935,7 +935,7 @@ impl Problem {
         run.theta_deg.clone_from(&self.thetas);
         run.photons = self.opts.photons;
         run.seed = self.opts.seed;
-        run.first_photon = 0;
+        run.shard = None;
         if let Some(s) = self.opts.inplane_step_deg {
             run.inplane_step_deg = s;
         }

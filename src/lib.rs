@@ -80,7 +80,16 @@
 //! * **Batch**: [`transport::BATCH`] consecutive photons, the unit of
 //!   parallel work; batches are summed in index order, so results are
 //!   bit-identical for any thread count. **Shard**: a contiguous range of
-//!   a BRDF run's batches run on its own and merged exactly (`roks merge`).
+//!   a BRDF run's batches run on its own and merged exactly (`roks merge`);
+//!   its block is [`transport::brdf::ShardRange`], beside the photons of
+//!   the whole run in the run's description.
+//! * **Run description**: what a BRDF run traces,
+//!   [`transport::brdf::BrdfRun`], built once from the scene's `[light]`,
+//!   `[tally]` and `[transport]` with the command line's
+//!   [`scene::micro::Overrides`] laid over them; with the scene's
+//!   [`scene::Content`] (hashes of its text and files), path, name and
+//!   statistics it is the [`output::summary::Description`] that
+//!   `summary.json` and `tallies.json` hold and `roks merge` compares.
 //! * **Stream**: the random numbers of one photon, from (seed, photon
 //!   index) ([`transport::rng`]). **Replicate**: one of the 16 shifted
 //!   lattices of a `launch = "lattice"` run ([`transport::launch`]).

@@ -125,7 +125,7 @@ fn flat_reflection_lands_in_the_specular_carlson_cell() {
     let thetas = [0.0, 10.0, 25.0, 40.0, 55.0, 70.0, 85.0];
     let scene = flat_al_scene(&thetas, phi_deg);
     let results = common::run(&scene);
-    let bands = scene.tally.bands;
+    let bands = scene.run.bands;
     for r in &results {
         let total = r.tallies.reflected.sum[0];
         let hit: Vec<usize> = (0..r.tallies.carlson.len())

@@ -219,7 +219,7 @@ fn measure() -> BTreeMap<String, BTreeMap<String, (usize, u64)>> {
 }
 
 /// `tallies.json` without what measures the machine (as [`summary_physics`])
-/// and without the scene's path in `settings`.
+/// and without the scene's path in `description`.
 fn tallies_physics(dir: &Path) -> Vec<u8> {
     fn strip(v: &mut Value) {
         match v {
@@ -234,7 +234,7 @@ fn tallies_physics(dir: &Path) -> Vec<u8> {
         }
     }
     let mut v: Value = serde_json::from_slice(&cli_common::read(dir, "tallies.json")).unwrap();
-    v["settings"].as_object_mut().unwrap().remove("scene");
+    v["description"].as_object_mut().unwrap().remove("scene");
     strip(&mut v);
     serde_json::to_vec(&v).unwrap()
 }

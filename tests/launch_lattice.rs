@@ -189,7 +189,7 @@ fn lattice_runs_are_reproducible_across_threads_and_shards() {
     }
     let summary = summary_without_timing(&one);
     assert_eq!(summary, summary_without_timing(&two));
-    assert_eq!(summary["launch"], "lattice");
+    assert_eq!(summary["run"]["launch"], "lattice");
     // Three shards merged: the same bytes as the single run.
     let shards: Vec<PathBuf> = (0..3).map(|i| root.join(format!("s{i}"))).collect();
     for (i, d) in shards.iter().enumerate() {

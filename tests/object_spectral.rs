@@ -46,7 +46,8 @@ fn scene_at(name: &str, text: &str, dir: &Path, wavelengths: Option<&[f64]>) -> 
         file: format!("{name}.toml"),
         dir: dir.to_path_buf(),
     };
-    ObjectScene::from_str_at(text, source, name.into(), wavelengths)
+    let wavelengths = wavelengths.map(|w| roks::scene::WavelengthsSpec::List(w.to_vec()));
+    ObjectScene::from_str_at(text, source, name.into(), wavelengths.as_ref())
         .unwrap_or_else(|e| panic!("scene {name}: {e}"))
 }
 

@@ -508,8 +508,8 @@ fn exact_exponent_forms_and_negative_values_are_accepted() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: Value = serde_json::from_slice(&read(&out, "summary.json")).unwrap();
-    assert_eq!(v["photons_per_incidence"], 4096);
-    assert_eq!(v["seed"], 100);
+    assert_eq!(v["run"]["photons_per_incidence"], 4096);
+    assert_eq!(v["run"]["seed"], 100);
     assert_eq!(v["surface"]["height_map_resolution"], 64);
     // The same run written plainly gives the same result.
     let plain = dir.join("plain");

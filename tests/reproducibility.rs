@@ -105,7 +105,7 @@ fn same_seed_same_bytes_for_any_thread_count() {
     assert!(raw["seconds"].is_number());
     assert!(raw["incidence"][0]["segments_per_second"].is_number());
     assert_eq!(s1["incidence"].as_array().map(Vec::len), Some(3));
-    assert_eq!(s1["seed"], 17);
+    assert_eq!(s1["run"]["seed"], 17);
     assert_eq!(s1["incidence"][0]["photons"], 40000);
 
     // Another seed: other photons, other tallies.

@@ -111,7 +111,11 @@ fn incompatible_shards_are_refused() {
         args.extend(["--out".into(), out.display().to_string()]);
         roks(&args.iter().map(String::as_str).collect::<Vec<_>>())
     };
-    assert_merge_error(&merge(&["a0", "b1"]), &s("b1"), "`seed` differs");
+    assert_merge_error(
+        &merge(&["a0", "b1"]),
+        &s("b1"),
+        "`description.run.seed` differs",
+    );
     assert_merge_error(&merge(&["a0"]), &s("a0"), "missing");
     assert_merge_error(&merge(&["a0", "a1", "c1"]), &s("c1"), "overlap");
     assert_merge_error(&merge(&["a0", "nowhere"]), &s("nowhere"), "tallies.json");

@@ -275,7 +275,7 @@ fn shards_threads_and_options_per_wavelength() {
     assert!(text.starts_with("theta_i_deg,phi_i_deg,wavelength_um,band,"));
     let summary: serde_json::Value = serde_json::from_slice(&read(&whole, "summary.json")).unwrap();
     assert_eq!(
-        summary["wavelengths_um"],
+        summary["run"]["wavelengths_um"],
         serde_json::json!([0.5, 0.6, 0.7])
     );
     for inc in summary["incidence"].as_array().unwrap() {

@@ -417,7 +417,7 @@ fn bad_spectral_folders_exit_2_naming_the_file() {
     std::fs::create_dir_all(&other).unwrap();
     std::fs::write(other.join("brdf.csv"), &csv).unwrap();
     let mut v: serde_json::Value = serde_json::from_str(&summary).unwrap();
-    v["wavelengths_um"] = serde_json::json!([0.45, 0.55, 0.7]);
+    v["run"]["wavelengths_um"] = serde_json::json!([0.45, 0.55, 0.7]);
     std::fs::write(other.join("summary.json"), v.to_string()).unwrap();
     let o = export(&other);
     assert_input_error(

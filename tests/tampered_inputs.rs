@@ -346,7 +346,7 @@ fn summaries_that_disagree_with_their_table_are_refused() {
         ),
         (
             "bands",
-            |s| s["bands"] = 3.into(),
+            |s| s["run"]["bands"] = 3.into(),
             &["bands: 3 is not the 1 bands of"],
         ),
         (
@@ -744,7 +744,7 @@ fn tampered_shards_are_refused_and_blamed() {
             |v| v["incidence"][1]["theta_deg"] = "41.0".into(),
             &[
                 "incidence[1].theta_deg",
-                "is not settings.theta_deg[1] = 40",
+                "is not description.run.theta_deg[1] = 40",
             ],
         ),
         (
@@ -762,7 +762,11 @@ fn tampered_shards_are_refused_and_blamed() {
             |v| v["batch"] = 1024.into(),
             &["batch", "1024 is not this version's batch of 4096"],
         ),
-        ("range", |v| v["last_photon"] = 3.into(), &["last_photon"]),
+        (
+            "range",
+            |v| v["description"]["run"]["shard"]["last_photon"] = 3.into(),
+            &["description.run.shard", "are not block"],
+        ),
         (
             "polar",
             |v| {
@@ -853,98 +857,98 @@ fn tampered_lattice_shards_are_refused() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
-/// Settings edited alike in every shard must pass the scene's run checks
-/// (no panic on `bands = 0`), named under `settings`; settings that differ
-/// are blamed on the shard that differs.
+/// A description edited alike in every shard must pass the scene's run
+/// checks (no panic on `bands = 0`), named under `description`; one that
+/// differs is blamed on the shard that differs.
 #[test]
 fn shard_settings_are_checked_like_a_scene() {
     let cases: &[(&str, JsonTamper, &[&str])] = &[
         (
             "bands-0",
-            |s| s["bands"] = 0.into(),
-            &["settings.bands", "must be in 1..=1000, got 0"],
+            |s| s["run"]["bands"] = 0.into(),
+            &["description.run.bands", "must be in 1..=1000, got 0"],
         ),
         (
             "bands-huge",
-            |s| s["bands"] = u64::MAX.into(),
-            &["settings.bands"],
+            |s| s["run"]["bands"] = u64::MAX.into(),
+            &["description.run.bands"],
         ),
         (
             "theta",
-            |s| s["theta_deg"][0] = "-5.0".into(),
-            &["settings.theta_deg[0]", "must be in [0, 90)"],
+            |s| s["run"]["theta_deg"][0] = (-5.0).into(),
+            &["description.run.theta_deg[0]", "must be in [0, 90)"],
         ),
         (
             "theta-twice",
-            |s| s["theta_deg"][1] = "0.0".into(),
-            &["settings.theta_deg[1]", "given twice"],
+            |s| s["run"]["theta_deg"][1] = 0.0.into(),
+            &["description.run.theta_deg[1]", "given twice"],
         ),
         (
             "theta-none",
-            |s| s["theta_deg"] = Value::Array(vec![]),
-            &["settings.theta_deg", "at least one angle"],
+            |s| s["run"]["theta_deg"] = Value::Array(vec![]),
+            &["description.run.theta_deg", "at least one angle"],
         ),
         (
             "phi",
-            |s| s["phi_deg"] = "inf".into(),
-            &["settings.phi_deg", "not a finite number"],
+            |s| s["run"]["phi_deg"] = "inf".into(),
+            &["description.run.phi_deg", "invalid type"],
         ),
         (
             "photons",
-            |s| s["photons_per_incidence"] = 0.into(),
-            &["settings.photons_per_incidence", "must be > 0"],
+            |s| s["run"]["photons_per_incidence"] = 0.into(),
+            &["description.run.photons_per_incidence", "must be > 0"],
         ),
         (
             "step",
-            |s| s["inplane_step_deg"] = "1e-9".into(),
-            &["settings.inplane_step_deg", "must divide 180"],
+            |s| s["run"]["inplane_step_deg"] = 1e-9.into(),
+            &["description.run.inplane_step_deg", "must divide 180"],
         ),
         (
             "width",
-            |s| s["inplane_width_deg"] = "0.0".into(),
-            &["settings.inplane_width_deg", "(0, 180]"],
+            |s| s["run"]["inplane_width_deg"] = 0.0.into(),
+            &["description.run.inplane_width_deg", "(0, 180]"],
         ),
         (
             "bounces",
-            |s| s["max_bounces"] = 0.into(),
-            &["settings.max_bounces", "must be > 0"],
+            |s| s["run"]["controls"]["max_bounces"] = 0.into(),
+            &["description.run.controls.max_bounces", "must be > 0"],
         ),
         (
             "segments",
-            |s| s["max_segments"] = 0.into(),
-            &["settings.max_segments", "must be > 0"],
+            |s| s["run"]["controls"]["max_segments"] = 0.into(),
+            &["description.run.controls.max_segments", "must be > 0"],
         ),
         (
             "roulette",
-            |s| s["roulette_weight"] = "1.5".into(),
-            &["settings.roulette_weight", "[0, 1)"],
+            |s| s["run"]["controls"]["roulette_weight"] = 1.5.into(),
+            &["description.run.controls.roulette_weight", "[0, 1)"],
         ),
         (
             "launch",
-            |s| s["launch"] = "grid".into(),
-            &["settings.launch", "unknown `grid`"],
+            |s| s["run"]["launch"] = "grid".into(),
+            &["description.run.launch", "unknown variant `grid`"],
         ),
         (
             "symmetry",
-            |s| s["symmetry"] = 3.into(),
-            &["settings.symmetry", "expected a string"],
+            |s| s["run"]["symmetry"] = 3.into(),
+            &["description.run.symmetry", "invalid type"],
         ),
         (
             "lattice",
-            |s| s["launch"] = "lattice".into(),
-            &["settings.photons_per_incidence", "multiple of 16"],
+            |s| s["run"]["launch"] = "lattice".into(),
+            &["description.run.photons_per_incidence", "multiple of 16"],
         ),
         (
             "missing",
             |s| {
-                s.as_object_mut().unwrap().remove("seed");
+                s["run"].as_object_mut().unwrap().remove("seed");
             },
-            &["settings.seed", "missing"],
+            &["description.run.seed", "missing"],
         ),
         (
             "surface",
             |s| s["surface"]["tau"] = "NaN".into(),
-            &["settings.surface.tau", "not a finite number"],
+            &["description.surface.tau", "invalid type"],
         ),
     ];
     let root = scratch("settings");
@@ -957,7 +961,7 @@ fn shard_settings_are_checked_like_a_scene() {
                 copy_dir(s, &d);
                 let path = d.join("tallies.json");
                 let mut v: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
-                tamper(&mut v["settings"]);
+                tamper(&mut v["description"]);
                 std::fs::write(&path, v.to_string()).unwrap();
                 d
             })
@@ -985,13 +989,13 @@ fn shard_settings_are_checked_like_a_scene() {
         .collect();
     let path = dirs[1].join("tallies.json");
     let mut v: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
-    v["settings"]["bands"] = 0.into();
+    v["description"]["run"]["seed"] = 7.into();
     std::fs::write(&path, v.to_string()).unwrap();
     assert_merge_refused(
         "one",
         &dirs,
         &dirs[1],
-        &["settings.bands", "`bands` differs"],
+        &["description.run.seed", "`description.run.seed` differs"],
     );
     let _ = std::fs::remove_dir_all(&root);
 }

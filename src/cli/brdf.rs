@@ -7,21 +7,19 @@ use clap::Args;
 
 use super::Failure;
 use super::args::RunArgs;
-use super::common::{
-    load_scene_at, progress_bar, result_dir, set_threads, stats_grid, write_folder,
-};
+use super::common::{progress_bar, result_dir, set_threads, stats_grid, write_folder};
 use super::export_brdf::export_tables;
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::micro::surface_stats::surface_stats;
 use crate::output::brdf_folder::BrdfFolder;
-use crate::output::summary::Surface;
-use crate::output::tallies::Settings;
-use crate::scene::micro::MicroScene;
+use crate::output::summary::{Description, Surface};
+use crate::scene::WavelengthsSpec;
+use crate::scene::micro::{MicroScene, Overrides};
 use crate::shard::Shard;
 use crate::tally::{PolarTally, Symmetry};
-use crate::transport::brdf::{BrdfRun, IncidenceResult, Polarisation, check_incidence};
-use crate::transport::launch::{Launch, check_photons};
+use crate::transport::brdf::{IncidenceResult, ShardRange};
+use crate::transport::launch::Launch;
 
 /// The options of `roks brdf`.
 #[derive(Args, Debug)]
@@ -42,7 +40,7 @@ pub struct BrdfArgs {
     /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
     /// (0.38:0.78:0.01). Results get a wavelength_um column.
     #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
-    pub wavelengths: Option<super::parse::Wavelengths>,
+    pub wavelengths: Option<WavelengthsSpec>,
     /// Entry points (overrides [light] launch): random, or lattice (16
     /// randomly shifted R2 lattices; standard errors from their spread;
     /// photons a multiple of 16).
@@ -90,61 +88,34 @@ pub struct BrdfArgs {
 }
 
 impl BrdfArgs {
-    /// The BRDF run of `scene` with these options applied. Each value is
-    /// checked by the check the scene loader applies to the key it
-    /// overrides, the message naming the option.
+    /// The options that override scene keys, as one value.
+    #[must_use]
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            photons: self.run.photons,
+            seed: self.run.seed,
+            theta_deg: self.theta.clone(),
+            wavelengths_um: self.wavelengths.clone(),
+            launch: self.launch,
+            symmetry: self.symmetry,
+            polarisation_tally: self.polarisation,
+            polarised_transport: self.no_polarisation.then_some(false),
+        }
+    }
+
+    /// The scene (the embedded default without a file) with the overrides
+    /// laid over its keys, built and checked once: an error at a key an
+    /// option set names the option.
     ///
     /// # Errors
-    /// Bad input naming the option (or the scene file, for memory).
-    pub fn apply(&self, scene: &MicroScene) -> Result<BrdfRun, Failure> {
-        let mut run = scene.brdf_run();
-        if let Some(p) = self.run.photons {
-            run.photons = p;
+    /// Bad input naming the option or the scene file and key.
+    pub fn scene(&self) -> Result<MicroScene, Failure> {
+        let overrides = self.overrides();
+        match &self.scene {
+            Some(path) => MicroScene::load_with(path, &overrides),
+            None => MicroScene::default_with(&overrides),
         }
-        if let Some(s) = self.run.seed {
-            run.seed = s;
-        }
-        if let Some(l) = self.launch {
-            run.launch = l;
-        }
-        if let Some(s) = self.symmetry {
-            run.symmetry = s;
-        }
-        if self.polarisation.is_some() || self.no_polarisation || self.symmetry.is_some() {
-            let tally = self.polarisation.unwrap_or(scene.tally.polarisation);
-            let transport = if self.no_polarisation {
-                Some(false)
-            } else {
-                scene.transport.polarisation
-            };
-            run.polarisation = Polarisation::resolve(
-                scene.has_fresnel(),
-                transport,
-                run.polarisation.incident,
-                tally,
-                run.symmetry,
-            )
-            .map_err(|(key, e)| {
-                let option = match key {
-                    "tally.symmetry" => "--symmetry",
-                    _ if self.no_polarisation => "--no-polarisation",
-                    _ => "--polarisation",
-                };
-                Failure::Input(format!("{option}: {e}"))
-            })?;
-        }
-        check_photons(run.launch, run.photons)
-            .map_err(|e| Failure::Input(format!("--photons: {e}")))?;
-        if let Some(t) = &self.theta {
-            check_incidence(t).map_err(|(_, e)| Failure::Input(format!("--theta: {e}")))?;
-            run.theta_deg.clone_from(t);
-        }
-        scene.check_run_memory(&run)?;
-        for f in &self.export {
-            f.check_wavelengths(&run.wavelengths_um)
-                .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
-        }
-        Ok(run)
+        .map_err(|e| Failure::Input(e.to_string()))
     }
 }
 
@@ -153,17 +124,24 @@ impl BrdfArgs {
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
 pub fn run(a: BrdfArgs) -> Result<(), Failure> {
-    let scene = load_scene_at(
-        a.scene.as_deref(),
-        a.wavelengths.as_ref().map(|w| w.0.as_slice()),
-    )?;
-    let run = a.apply(&scene)?;
+    let scene = a.scene()?;
+    let mut run = scene.brdf_run();
+    for f in &a.export {
+        f.check_wavelengths(&run.wavelengths_um)
+            .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
+    }
     let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
-    let range = a
-        .shard
-        .map(|s| s.photon_range(run.photons))
-        .transpose()
-        .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
+    if let Some(s) = a.shard {
+        let (first_photon, last_photon) = s
+            .photon_range(run.photons)
+            .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
+        run.shard = Some(ShardRange {
+            count: s.count,
+            first_photon,
+            index: s.index,
+            last_photon,
+        });
+    }
     set_threads(a.run.threads)?;
     let out = result_dir(a.run.out.as_deref(), &scene.source.file, &scene.name)?;
 
@@ -171,31 +149,27 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let stats = surface_stats(&map);
     let surface = super::plot::surface_png(&scene, &map, &stats)?;
     drop(map);
-    let edges = format!("{:?}", scene.surface.edges).to_lowercase();
-    let settings = Settings::new(
+    let (first, last) = run.photon_range();
+    let description = Description::new(
+        scene.content.clone(),
         &scene.source.file,
         &scene.name,
-        &edges,
-        &run,
+        scene.surface.edges,
+        run,
         Surface::new(&stats, rx),
     );
-    let block_photons = range.map_or(run.photons, |(first, last)| last - first);
     let bar = progress_bar(
-        block_photons.saturating_mul(run.theta_deg.len() as u64),
+        (last - first).saturating_mul(description.run.theta_deg.len() as u64),
         a.quiet,
         &scene.name,
     );
-    let folder = BrdfFolder::trace(&scene.surface, run, settings, a.shard, &|n| bar.inc(n))
-        .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
+    let folder = BrdfFolder::trace(&scene.surface, description, &|n| bar.inc(n));
     bar.finish_and_clear();
 
     let mut extra = Vec::new();
     if !a.export.is_empty() {
         let table = folder.table();
-        let comment = format!(
-            "scene {}, {} photons per angle",
-            scene.name, folder.run.photons
-        );
+        let comment = format!("scene {}, {} photons per angle", scene.name, last - first);
         for (k, &f) in a.export.iter().enumerate() {
             // Each format once, in the order given.
             if !a.export[..k].contains(&f) {
@@ -269,43 +243,137 @@ mod tests {
 
     /// The message of the options' refusal.
     fn refusal(a: &[&str]) -> String {
-        match args(a).apply(&MicroScene::default_scene()) {
+        match args(a).scene() {
             Err(Failure::Input(m)) => m,
             other => panic!("{a:?}: {other:?}"),
         }
     }
 
+    /// The default scene with a Fresnel material (so that polarised
+    /// transport is on by default).
+    fn fresnel_text() -> String {
+        crate::scene::micro::DEFAULT_SCENE.replace("reflectance = 0.8", "n = 1.5\nk = 0.1")
+    }
+
+    /// [`fresnel_text`] with `[section] key = value`.
+    fn with_key(section: &str, key: &str, value: toml::Value) -> MicroScene {
+        let mut t: toml::Table = fresnel_text().parse().unwrap();
+        t.entry(section)
+            .or_insert_with(|| toml::Table::new().into())
+            .as_table_mut()
+            .unwrap()
+            .insert(key.into(), value);
+        let source = crate::scene::Source {
+            file: "<default scene>".into(),
+            dir: ".".into(),
+        };
+        MicroScene::from_str(&toml::to_string(&t).unwrap(), source, "default".into()).unwrap()
+    }
+
+    /// Bits of a value through its JSON form (shortest round-trip floats:
+    /// distinct bits, distinct text).
+    fn bits<T: serde::Serialize>(x: &T) -> String {
+        serde_json::to_string(x).unwrap()
+    }
+
+    /// Every option that overrides a scene key gives the run (and, traced,
+    /// the tallies) of the scene with that key, bit for bit.
     #[test]
-    fn options_override_the_scene() {
-        let scene = MicroScene::default_scene();
-        // No options: the scene's run.
+    fn every_option_is_its_scene_key() {
+        use toml::Value as V;
+        let list = |xs: &[f64]| V::Array(xs.iter().map(|&x| V::Float(x)).collect());
+        let mut grid = toml::Table::new();
+        grid.insert("from".into(), V::Float(0.4));
+        grid.insert("to".into(), V::Float(0.6));
+        grid.insert("step".into(), V::Float(0.1));
+        let cases: Vec<(Vec<&str>, &str, &str, V)> = vec![
+            (
+                vec!["--photons", "5000"],
+                "light",
+                "photons",
+                V::Integer(5000),
+            ),
+            (vec!["--seed", "9"], "light", "seed", V::Integer(9)),
+            (
+                vec!["--theta", "0,45"],
+                "light",
+                "theta_deg",
+                list(&[0.0, 45.0]),
+            ),
+            (
+                vec!["--wavelengths", "0.45,0.55"],
+                "light",
+                "wavelengths_um",
+                list(&[0.45, 0.55]),
+            ),
+            (
+                vec!["--wavelengths", "0.4:0.6:0.1"],
+                "light",
+                "wavelengths_um",
+                V::Table(grid),
+            ),
+            (
+                vec!["--launch", "lattice"],
+                "light",
+                "launch",
+                V::String("lattice".into()),
+            ),
+            (
+                vec!["--symmetry", "mirror"],
+                "tally",
+                "symmetry",
+                V::String("mirror".into()),
+            ),
+            (
+                vec!["--polarisation", "stokes"],
+                "tally",
+                "polarisation",
+                V::String("stokes".into()),
+            ),
+            (
+                vec!["--no-polarisation"],
+                "transport",
+                "polarisation",
+                V::Boolean(false),
+            ),
+        ];
+        let dir = std::env::temp_dir().join(format!("roks-options-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("fresnel.toml");
+        std::fs::write(&file, fresnel_text()).unwrap();
+        let path = file.to_str().unwrap();
+        let plain = args(&[path]).scene().unwrap().run;
+        assert!(plain.polarisation.transport);
+        for (options, section, key, value) in cases {
+            let by_option = args(&[&[path], &options[..]].concat()).scene().unwrap();
+            let by_key = with_key(section, key, value);
+            assert_eq!(bits(&by_option.run), bits(&by_key.run), "{options:?}");
+            assert_ne!(
+                bits(&by_option.run),
+                bits(&plain),
+                "{options:?} changes nothing"
+            );
+            // Traced (a few photons at one angle), the same tallies.
+            let trace = |scene: &MicroScene| {
+                let mut run = scene.brdf_run();
+                run.photons = 64;
+                run.theta_deg.truncate(1);
+                run.bands = 4;
+                run.run(&scene.surface, &|_| {})
+            };
+            let (a, b) = (trace(&by_option), trace(&by_key));
+            assert_eq!(a.len(), b.len());
+            for (x, y) in a.iter().zip(&b) {
+                assert_eq!(bits(&x.tallies), bits(&y.tallies), "{options:?}");
+            }
+        }
+        // No option: the scene's own run; formats each once, in the order
+        // given, names in any case; the shard's block.
+        let _ = std::fs::remove_dir_all(&dir);
         assert_eq!(
-            format!("{:?}", args(&[]).apply(&scene).unwrap()),
-            format!("{:?}", scene.brdf_run())
+            bits(&args(&[]).scene().unwrap().run),
+            bits(&MicroScene::default_scene().run)
         );
-        let run = args(&[
-            "--photons",
-            "4096",
-            "--seed",
-            "9",
-            "--theta",
-            "0,45",
-            "--launch",
-            "lattice",
-            "--symmetry",
-            "mirror",
-        ])
-        .apply(&scene)
-        .unwrap();
-        assert_eq!(run.photons, 4096);
-        assert_eq!(run.seed, 9);
-        assert_eq!(run.theta_deg, [0.0, 45.0]);
-        assert_eq!(run.launch, Launch::Lattice);
-        assert_eq!(run.symmetry, Symmetry::Mirror);
-        let stokes = args(&["--polarisation", "stokes"]).apply(&scene).unwrap();
-        assert_eq!(stokes.polarisation.tally, PolarTally::Stokes);
-        assert!(stokes.polarisation.transport);
-        // Formats each once, in the order given; names in any case.
         assert_eq!(
             args(&["--export", "MERL,zemax"]).export,
             [BrdfFormat::Merl, BrdfFormat::Zemax]
@@ -314,17 +382,28 @@ mod tests {
             args(&["--shard", "1/4"]).shard,
             Some(Shard { index: 1, count: 4 })
         );
+        let stokes = args(&["--polarisation", "stokes"]).scene().unwrap().run;
+        assert_eq!(stokes.polarisation.tally, PolarTally::Stokes);
+        assert!(stokes.polarisation.transport);
+        let mirror = args(&["--symmetry", "mirror", "--launch", "lattice"])
+            .scene()
+            .unwrap()
+            .run;
+        assert_eq!(
+            (mirror.symmetry, mirror.launch),
+            (Symmetry::Mirror, Launch::Lattice)
+        );
     }
 
     #[test]
     fn options_are_checked_as_the_scene_keys_they_override() {
         assert_eq!(
             refusal(&["--theta", "95"]),
-            "--theta: must be in [0, 90), got 95"
+            "--theta: angle 1: must be in [0, 90), got 95"
         );
         assert_eq!(
             refusal(&["--theta", "10,20,10"]),
-            "--theta: 10 is given twice (each incidence angle once: a BRDF table holds one block per angle)"
+            "--theta: angle 3: 10 is given twice (each incidence angle once: a BRDF table holds one block per angle)"
         );
         assert_eq!(
             refusal(&["--photons", "9007199254740993"]),
@@ -337,6 +416,14 @@ mod tests {
         assert_eq!(
             refusal(&["--no-polarisation", "--polarisation", "mueller"]),
             "--no-polarisation: `mueller` needs polarised transport, but [transport] polarisation = false"
+        );
+        assert_eq!(
+            refusal(&["--wavelengths", "0.5,0.4"]),
+            "--wavelengths: wavelength 2: 0.4 um is not greater than the previous 0.5 um (wavelengths strictly increasing)"
+        );
+        assert_eq!(
+            refusal(&["--wavelengths", "0.6:0.4:0.1"]),
+            "--wavelengths: needs finite from <= to, got 0.6 and 0.4"
         );
     }
 }

@@ -14,33 +14,9 @@ use crate::scene::micro::MicroScene;
 /// # Errors
 /// The scene file's error (bad input).
 pub fn load_scene(path: Option<&Path>) -> Result<MicroScene, Failure> {
-    load_scene_at(path, None)
-}
-
-/// [`load_scene`] with `[light] wavelengths_um` replaced by `wavelengths`
-/// (`--wavelengths`; `None`: the scene's own).
-///
-/// # Errors
-/// Bad input: the scene's one-line error.
-pub fn load_scene_at(
-    path: Option<&Path>,
-    wavelengths: Option<&[f64]>,
-) -> Result<MicroScene, Failure> {
-    Ok(match (path, wavelengths) {
-        (Some(p), w) => MicroScene::load_at(p, w)?,
-        (None, None) => MicroScene::default_scene(),
-        (None, Some(w)) => {
-            let source = crate::scene::Source {
-                file: "<default scene>".into(),
-                dir: ".".into(),
-            };
-            MicroScene::from_str_at(
-                crate::scene::micro::DEFAULT_SCENE,
-                source,
-                "default".into(),
-                Some(w),
-            )?
-        }
+    Ok(match path {
+        Some(p) => MicroScene::load(p)?,
+        None => MicroScene::default_scene(),
     })
 }
 

@@ -40,14 +40,13 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
         .collect::<Result<Vec<_>, _>>()?;
     let n_parts = parts.len();
     let merged = tallies::merge_shards(parts)?;
-    crate::limits::check("the merged tallies and tables", merged.run.memory_bytes()).map_err(
-        |e| {
-            Failure::Input(format!(
-                "{}: {TALLIES_FILE}: settings.bands: {e}",
-                a.dirs[0].display(),
-            ))
-        },
-    )?;
+    let bytes = merged.description.run.memory_bytes();
+    crate::limits::check("the merged tallies and tables", bytes).map_err(|e| {
+        Failure::Input(format!(
+            "{}: {TALLIES_FILE}: description.run.bands: {e}",
+            a.dirs[0].display(),
+        ))
+    })?;
     let folder = BrdfFolder::merged(merged);
     let mut files = folder.files(Vec::new());
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;

@@ -171,36 +171,28 @@ pub fn number(s: &str) -> Result<f64, String> {
 }
 
 /// `--wavelengths`: comma-separated wavelengths in µm (`0.45,0.55,0.65`)
-/// or an even grid `FROM:TO:STEP` (`0.38:0.78:0.01`), checked as
-/// `[light] wavelengths_um` is.
+/// or an even grid `FROM:TO:STEP` (`0.38:0.78:0.01`), read into the value
+/// of `[light] wavelengths_um` it overrides; the scene checks it as it
+/// checks that key.
 ///
 /// # Errors
-/// A bad number, grid or list.
-pub fn wavelengths(s: &str) -> Result<Wavelengths, String> {
-    let spec = match s.split(':').collect::<Vec<_>>().as_slice() {
-        [from, to, step] => crate::scene::WavelengthsSpec::Grid {
+/// A value that is not a number, or neither form.
+pub fn wavelengths(s: &str) -> Result<crate::scene::WavelengthsSpec, String> {
+    use crate::scene::WavelengthsSpec;
+    match s.split(':').collect::<Vec<_>>().as_slice() {
+        [from, to, step] => Ok(WavelengthsSpec::Grid {
             from: number(from)?,
             to: number(to)?,
             step: number(step)?,
-        },
-        [_] => crate::scene::WavelengthsSpec::List(
+        }),
+        [_] => Ok(WavelengthsSpec::List(
             s.split(',').map(number).collect::<Result<Vec<_>, _>>()?,
-        ),
-        _ => {
-            return Err(format!(
-                "expected W1,W2,... or FROM:TO:STEP (um), got `{s}`"
-            ));
-        }
-    };
-    spec.resolve().map(Wavelengths).map_err(|(i, e)| match i {
-        Some(i) => format!("wavelength {}: {e}", i + 1),
-        None => e,
-    })
+        )),
+        _ => Err(format!(
+            "expected W1,W2,... or FROM:TO:STEP (um), got `{s}`"
+        )),
+    }
 }
-
-/// The wavelengths (µm) of `--wavelengths`, checked ([`wavelengths`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Wavelengths(pub Vec<f64>);
 
 #[cfg(test)]
 mod tests {

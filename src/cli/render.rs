@@ -166,7 +166,8 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     };
     settings.validate().map_err(Failure::Input)?;
     set_threads(a.threads)?;
-    let (img, losses) = crate::render::render_at(&scene.surface, &scene.wavelengths_um, &settings);
+    let (img, losses) =
+        crate::render::render_at(&scene.surface, &scene.run.wavelengths_um, &settings);
     let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
     write_images(&a.out, &img, &tone, losses.lost, paths)
 }

@@ -37,7 +37,7 @@ pub struct TraceArgs {
     /// Results get a wavelength_um column and summary.json a spectrum per
     /// source.
     #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
-    pub wavelengths: Option<super::parse::Wavelengths>,
+    pub wavelengths: Option<crate::scene::WavelengthsSpec>,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -49,7 +49,13 @@ pub struct TraceArgs {
 /// Bad input (scene, options, photons meeting a wall without a model or
 /// starting inside a solid), or a failed write.
 pub fn run(a: TraceArgs) -> Result<(), Failure> {
-    let scene = ObjectScene::load_at(&a.scene, a.wavelengths.as_ref().map(|w| w.0.as_slice()))?;
+    let scene = ObjectScene::load_at(&a.scene, a.wavelengths.as_ref()).map_err(|e| {
+        let keys = [("light.wavelengths_um", "--wavelengths")];
+        match crate::scene::option_error(&keys[..usize::from(a.wavelengths.is_some())], &e) {
+            Some((option, message)) => Failure::Input(format!("{option}: {message}")),
+            None => e.into(),
+        }
+    })?;
     let mut run = scene.run.clone();
     let mut photons = scene.photons.clone();
     if let Some(p) = a.run.photons {

@@ -44,8 +44,10 @@ use heightfield::{FieldEvent, HeightField};
 /// surfaces whose heights are many periods tall.
 pub const MAX_CROSSINGS: u32 = 1 << 16;
 
-/// What happens where a photon reaches a side of the period below the top.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What happens where a photon reaches a side of the period below the top
+/// (`[surface] edges`; in result files the names in lower case).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Edges {
     /// The period tiles the plane: the photon re-enters on the opposite side.
     Periodic,

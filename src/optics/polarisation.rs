@@ -230,8 +230,12 @@ pub fn hemisphere_reference(d: DVec3, pole_phi: f64) -> DVec3 {
 }
 
 /// A polarisation state of incident light, as written in scene files
-/// (`[light] polarisation`, `[[sources]] polarisation`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// (`[light] polarisation`, `[[sources]] polarisation`). In a run's
+/// description ([`crate::transport::brdf::BrdfRun`]) it is written as the
+/// scene writes it: `"unpolarised"`, `"s"`, `"p"`, `"right"`, `"left"`,
+/// `{"linear": deg}` or `{"stokes": [S0, S1, S2, S3]}`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Incident {
     /// Natural light `(1, 0, 0, 0)` (the default).
     Unpolarised,

@@ -3,7 +3,7 @@
 //! ([`HEADER`]), its one writer ([`write()`] for a run, [`write_blocks`] for
 //! any fractions, e.g. a synthetic table in a test) and its reader
 //! ([`read`], [`parse`]: a checked [`BrdfTable`]; [`read_tables`],
-//! [`parse_tables`]: monochrome or spectral, [`BrdfTables`]; the checks and
+//! [`BrdfTables::parse`]: monochrome or spectral, [`BrdfTables`]; the checks and
 //! their errors are in [`reader`], the table and its sampling in
 //! [`crate::optics::brdf_table`]).
 //!
@@ -214,15 +214,6 @@ pub fn parse(text: &str, name: &str) -> Result<BrdfTable, BrdfTableError> {
 /// If it cannot be read or fails a check, naming the file.
 pub fn read_tables(path: &Path) -> Result<BrdfTables, BrdfTableError> {
     BrdfTables::load(path)
-}
-
-/// Parse and check the text of a monochrome or spectral `brdf.csv`,
-/// `name` naming it in messages (see [`BrdfTables::parse`]).
-///
-/// # Errors
-/// The first problem found, naming `name`, the line and the column.
-pub fn parse_tables(text: &str, name: &str) -> Result<BrdfTables, BrdfTableError> {
-    BrdfTables::parse(text, name)
 }
 
 /// The tables of a run's `results` as its `brdf.csv` holds them (numbers

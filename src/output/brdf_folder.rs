@@ -1,8 +1,8 @@
 //! The result folder of `roks brdf` (a whole run or one shard of it) and of
 //! `roks merge`: one path from a run to its files.
 //!
-//! [`BrdfFolder::trace`] traces a run, whole or block `--shard I/N` of it,
-//! the same way: each incidence's batches are summed over the fixed batch
+//! [`BrdfFolder::trace`] traces a run, whole or block `--shard I/N` of it
+//! ([`BrdfRun::photon_range`]), the same way: each incidence's batches are summed over the fixed batch
 //! tree ([`crate::tally::sum`]) into its complete nodes; the folder's sums
 //! are those nodes added left to right (for a whole run the one node is the
 //! root), and a shard keeps the nodes for its `tallies.json`.
@@ -13,25 +13,20 @@
 
 use std::time::Instant;
 
-use super::summary::{BrdfSummary, ShardSummary, to_text};
-use super::tallies::{Merged, Settings, TALLIES_FILE, TalliesFile};
+use super::summary::{BrdfSummary, Description, to_text};
+use super::tallies::{Merged, TALLIES_FILE, TalliesFile};
 use super::{brdf_csv, inplane_csv, polar_csv};
 use crate::micro::MicroSurface;
 use crate::optics::brdf_table::BrdfTables;
-use crate::shard::Shard;
 use crate::tally::Merge;
-use crate::tally::sum::Node;
-use crate::transport::brdf::{BrdfRun, BrdfTallies, IncidenceResult};
+use crate::transport::brdf::{BrdfRun, IncidenceResult, add_up};
 
 /// A result folder's contents, before they are written.
 #[derive(Debug, Clone)]
 pub struct BrdfFolder {
-    /// The run of this folder (for a shard: its photons, from its first).
-    pub run: BrdfRun,
-    /// The settings of the whole run.
-    pub settings: Settings,
-    /// For a shard: which block, and its photon indices `[first, last)`.
-    pub shard: Option<(Shard, (u64, u64))>,
+    /// The run of this folder (for a shard: the whole run's photons, the
+    /// shard's block in `run.shard`) and its scene.
+    pub description: Description,
     /// Per incidence angle: this folder's sums.
     pub results: Vec<IncidenceResult>,
     /// The raw sums for `tallies.json` (shards and merges).
@@ -40,45 +35,21 @@ pub struct BrdfFolder {
     pub seconds: f64,
 }
 
-/// The sum of complete tree nodes in batch order, added left to right
-/// (`None` without nodes).
-fn add_up(nodes: &[Node<BrdfTallies>]) -> Option<BrdfTallies> {
-    let (first, rest) = nodes.split_first()?;
-    let mut t = first.value.clone();
-    for n in rest {
-        t.merge(&n.value);
-    }
-    Some(t)
-}
-
 impl BrdfFolder {
-    /// Trace `run` (all its photons, or block `shard` of them) on
-    /// `surface`, with `settings` those of the whole run; `progress` is
-    /// called with photons done.
-    ///
-    /// # Errors
-    /// If the run has fewer batches than `shard` has blocks
-    /// ([`Shard::photon_range`]).
+    /// Trace the run of `description` (all its photons, or its shard's
+    /// block of them) on `surface`; `progress` is called with photons done.
+    #[must_use]
     pub fn trace(
         surface: &MicroSurface,
-        mut run: BrdfRun,
-        settings: Settings,
-        shard: Option<Shard>,
+        description: Description,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Result<Self, String> {
-        let total = run.photons;
-        let block = shard
-            .map(|s| s.photon_range(total).map(|r| (s, r)))
-            .transpose()?;
-        if let Some((_, (first, last))) = block {
-            run.first_photon = first;
-            run.photons = last - first;
-        }
+    ) -> Self {
+        let run = &description.run;
         let clock = Instant::now();
         let mut results = Vec::with_capacity(run.blocks().len());
         let mut parts = Vec::new();
         for &theta in &run.theta_deg {
-            let (lanes, seconds) = run.run_shard_one(surface, theta, total, progress);
+            let (lanes, seconds) = run.run_shard_one(surface, theta, progress);
             for (l, nodes) in lanes.into_iter().enumerate() {
                 let tallies = add_up(&nodes)
                     .unwrap_or_else(|| run.empty_tallies(&run.grid(), &run.inplane()));
@@ -89,31 +60,31 @@ impl BrdfFolder {
                     tallies,
                     seconds,
                 });
-                if block.is_some() {
+                if run.shard.is_some() {
                     parts.push((theta, run.wavelength(l), seconds, nodes));
                 }
             }
         }
         let seconds = clock.elapsed().as_secs_f64();
-        let tallies = block.map(|(s, range)| TalliesFile::new(&settings, s, range, parts, seconds));
-        Ok(Self {
-            run,
-            settings,
-            shard: block,
+        let tallies = run
+            .shard
+            .is_some()
+            .then(|| TalliesFile::new(&description, parts, seconds));
+        Self {
+            description,
             results,
             tallies,
             seconds,
-        })
+        }
     }
 
     /// The folder of merged shards: the whole run's sums, and its
-    /// `tallies.json` (one shard of one, the tree's roots).
+    /// `tallies.json` (the tree's roots).
     #[must_use]
     pub fn merged(merged: Merged) -> Self {
         let tallies = merged.tallies_file();
         let Merged {
-            run,
-            settings,
+            description,
             incidence,
             seconds,
         } = merged;
@@ -121,41 +92,37 @@ impl BrdfFolder {
             .into_iter()
             .map(|i| IncidenceResult {
                 theta_i_deg: i.theta_deg,
-                phi_i_deg: run.phi_deg,
+                phi_i_deg: description.run.phi_deg,
                 wavelength_um: i.wavelength_um,
                 tallies: i.tallies,
                 seconds: i.seconds,
             })
             .collect();
         Self {
-            run,
-            settings,
-            shard: None,
+            description,
             results,
             tallies: Some(tallies),
             seconds,
         }
     }
 
+    /// The run of this folder.
+    #[must_use]
+    pub fn run(&self) -> &BrdfRun {
+        &self.description.run
+    }
+
     /// `summary.json`.
     #[must_use]
     pub fn summary(&self) -> BrdfSummary {
-        let shard = self
-            .shard
-            .map(|(s, (first_photon, last_photon))| ShardSummary {
-                count: s.count,
-                first_photon,
-                index: s.index,
-                last_photon,
-            });
-        BrdfSummary::new(&self.settings, shard, &self.results, self.seconds)
+        BrdfSummary::new(&self.description, &self.results, self.seconds)
     }
 
     /// The BRDF table as `brdf.csv` holds it (one per wavelength for a
     /// spectral run), for exports (see [`brdf_csv::table`]).
     #[must_use]
     pub fn table(&self) -> BrdfTables {
-        brdf_csv::table(&self.run, &self.results)
+        brdf_csv::table(self.run(), &self.results)
     }
 
     /// Every file of the folder, with `extra` files (images, exports)
@@ -166,17 +133,17 @@ impl BrdfFolder {
         let mut files = vec![
             (
                 "brdf.csv".to_owned(),
-                brdf_csv::write(&self.run, &self.results).into_bytes(),
+                brdf_csv::write(self.run(), &self.results).into_bytes(),
             ),
             (
                 "inplane.csv".to_owned(),
-                inplane_csv::write(&self.run, &self.results).into_bytes(),
+                inplane_csv::write(self.run(), &self.results).into_bytes(),
             ),
         ];
-        if let Some((name, text)) = polar_csv::write(&self.run, &self.results) {
+        if let Some((name, text)) = polar_csv::write(self.run(), &self.results) {
             files.push((name.to_owned(), text.into_bytes()));
         }
-        if let Some(text) = super::colour_csv::write(&self.run, &self.results) {
+        if let Some(text) = super::colour_csv::write(self.run(), &self.results) {
             files.push(("colour.csv".to_owned(), text.into_bytes()));
         }
         files.extend(extra);

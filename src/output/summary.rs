@@ -14,10 +14,10 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::tallies::Settings;
+use crate::micro::Edges;
 use crate::micro::surface_stats::SurfaceStats;
-use crate::tally::exact::Exact;
-use crate::transport::brdf::IncidenceResult;
+use crate::scene::Content;
+use crate::transport::brdf::{BrdfRun, IncidenceResult};
 use crate::transport::object::PositionResult;
 
 /// A summary's text: pretty-printed JSON and a line end.
@@ -40,12 +40,10 @@ pub struct Undefined {
 }
 
 /// Statistics of a surface's height map (lengths in the scene's units,
-/// slopes dimensionless): numbers `F` (`f64` in `summary.json`, exact
-/// strings in the settings of `tallies.json`), `null` where undefined (then
-/// `undefined` says why).
+/// slopes dimensionless), `null` where undefined (then `undefined` says why).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Surface<F> {
+pub struct Surface<F = f64> {
     /// Samples per side of the height map the statistics are taken on.
     pub height_map_resolution: usize,
     /// Highest height.
@@ -90,51 +88,54 @@ impl Surface<f64> {
     }
 }
 
-impl<F: Copy> Surface<F> {
-    /// The same statistics with numbers `f(x)`.
-    #[must_use]
-    pub fn map<G>(&self, f: impl Fn(F) -> G) -> Surface<G> {
-        let m = |x: Option<F>| x.map(&f);
-        Surface {
-            height_map_resolution: self.height_map_resolution,
-            max_height: m(self.max_height),
-            mean_height: m(self.mean_height),
-            min_height: m(self.min_height),
-            rms_slope: m(self.rms_slope),
-            sigma: m(self.sigma),
-            sigma_over_tau: m(self.sigma_over_tau),
-            tau: m(self.tau),
-            undefined: self.undefined.clone(),
-        }
-    }
-}
-
-/// Polarised transport of a run: numbers `F` as in [`Surface`].
+/// What identifies a `roks brdf` run besides its tallies, as
+/// `summary.json` and `tallies.json` record it: the scene (its file as
+/// given, name, edges and height-map statistics), the run as traced
+/// ([`BrdfRun`]) and the roks version. Shards of one run have equal
+/// descriptions but for `scene` (a path) and `run.shard`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct PolarisationSettings<F> {
-    /// The incident state's name.
-    pub incident: String,
-    /// Its Stokes vector of unit intensity.
-    pub incident_stokes: Vec<F>,
-    /// The polarisation tally (`none`, `stokes`, `mueller`).
-    pub tally: String,
-    /// `stokes`.
-    pub transport: String,
+pub struct Description {
+    /// The scene's text and the files it reads, hashed: a scene given by
+    /// another path to the same content is the same scene.
+    pub content: Content,
+    /// How the surface's edges are treated.
+    pub edges: Edges,
+    /// The scene's `name`.
+    pub name: String,
+    /// The run.
+    pub run: BrdfRun,
+    /// The scene file as given.
+    pub scene: String,
+    /// Statistics of the surface's height map.
+    pub surface: Surface,
+    /// The roks version that ran it.
+    pub version: String,
 }
 
-/// `shard` of a shard's `summary.json`: which block, which photons.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ShardSummary {
-    /// Number of blocks.
-    pub count: u64,
-    /// First photon index traced.
-    pub first_photon: u64,
-    /// 0-based block index.
-    pub index: u64,
-    /// One past the last photon index traced.
-    pub last_photon: u64,
+impl Description {
+    /// The description of `run` of the scene of `content` given as the
+    /// file `scene`, named `name`, with `edges` and height-map statistics
+    /// `surface`, by this roks.
+    #[must_use]
+    pub fn new(
+        content: Content,
+        scene: &str,
+        name: &str,
+        edges: Edges,
+        run: BrdfRun,
+        surface: Surface,
+    ) -> Self {
+        Self {
+            content,
+            edges,
+            name: name.to_owned(),
+            run,
+            scene: scene.to_owned(),
+            surface,
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+        }
+    }
 }
 
 /// One incidence of `summary.json` of `roks brdf`.
@@ -374,87 +375,56 @@ impl IncidenceSummary {
     }
 }
 
-/// `summary.json` of `roks brdf` (and `roks merge`).
+/// `summary.json` of `roks brdf` (and `roks merge`): the run's
+/// [`Description`] (its fields at the top level, the run under `run`), its
+/// results per incidence and the time.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BrdfSummary {
-    /// Carlson bands.
-    pub bands: usize,
+    /// The scene's text and the files it reads, hashed.
+    pub content: Content,
     /// How the surface's edges are treated.
-    pub edges: String,
+    pub edges: Edges,
     /// Per incidence angle.
     pub incidence: Vec<IncidenceSummary>,
-    /// Entry points: `random` or `lattice`.
-    pub launch: String,
     /// The scene's `name`.
     pub name: String,
-    /// Photons per incidence of this folder (of the shard, for a shard).
-    pub photons_per_incidence: u64,
-    /// Polarised transport (absent: scalar).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub polarisation: Option<PolarisationSettings<f64>>,
+    /// The run (for a shard: the whole run's photons and the shard's block).
+    pub run: BrdfRun,
     /// The scene file as given.
     pub scene: String,
     /// Total wall-clock time (the shards' sum, for a merge).
     pub seconds: f64,
-    /// Tracing seed.
-    pub seed: u64,
-    /// For a shard: which block and photons.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub shard: Option<ShardSummary>,
     /// Statistics of the surface's height map.
-    pub surface: Surface<f64>,
-    /// Mirror folding: `none` or `mirror`.
-    pub symmetry: String,
+    pub surface: Surface,
     /// The roks version that ran it.
     pub version: String,
-    /// Wavelengths (µm) of a spectral run (absent: monochrome).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub wavelengths_um: Vec<f64>,
 }
 
 impl BrdfSummary {
-    /// The summary of a run with `settings`, per incidence `results`, total
-    /// time `seconds`; for a shard its block (and `photons_per_incidence`
-    /// the shard's photons).
+    /// The summary of the run `description`, per incidence `results`
+    /// (incidence-major, then wavelength), total time `seconds`.
     #[must_use]
-    pub fn new(
-        settings: &Settings,
-        shard: Option<ShardSummary>,
-        results: &[IncidenceResult],
-        seconds: f64,
-    ) -> Self {
-        let s = settings;
+    pub fn new(description: &Description, results: &[IncidenceResult], seconds: f64) -> Self {
+        let d = description.clone();
+        let lanes = d.run.wavelengths_um.len();
         Self {
-            bands: s.bands,
-            edges: s.edges.clone(),
-            incidence: if s.wavelengths_um.is_empty() {
+            content: d.content,
+            edges: d.edges,
+            incidence: if lanes == 0 {
                 results.iter().map(IncidenceSummary::new).collect()
             } else {
                 results
-                    .chunks(s.wavelengths_um.len())
+                    .chunks(lanes)
                     .map(IncidenceSummary::spectral)
                     .collect()
             },
-            launch: s.launch.clone(),
-            name: s.name.clone(),
-            photons_per_incidence: shard.map_or(s.photons_per_incidence, |sh| {
-                sh.last_photon - sh.first_photon
-            }),
-            polarisation: s.polarisation.as_ref().map(|p| PolarisationSettings {
-                incident: p.incident.clone(),
-                incident_stokes: p.incident_stokes.iter().map(|x| x.0).collect(),
-                tally: p.tally.clone(),
-                transport: p.transport.clone(),
-            }),
-            scene: s.scene.clone(),
+            name: d.name,
+            run: d.run,
+            scene: d.scene,
             seconds,
-            seed: s.seed,
-            shard,
-            surface: s.surface.map(|x: Exact| x.0),
-            symmetry: s.symmetry.clone(),
-            version: s.version.clone(),
-            wavelengths_um: s.wavelengths_um.clone(),
+            surface: d.surface,
+            version: d.version,
         }
     }
 }
@@ -819,7 +789,6 @@ mod tests {
     use super::*;
     use crate::output::brdf_folder::BrdfFolder;
     use crate::scene::micro::MicroScene;
-    use crate::shard::Shard;
 
     /// The text with keys in declaration order equals the text of the same
     /// JSON with sorted keys (`serde_json::Value` sorts them): the structs
@@ -845,25 +814,27 @@ mod tests {
             sigma_over_tau: "tau is x".into(),
             tau: "x".into(),
         });
-        let mut settings =
-            super::super::tallies::Settings::new("s.toml", "s", "periodic", &run, surface);
-        settings.polarisation = Some(PolarisationSettings {
-            incident: "s".into(),
-            incident_stokes: vec![Exact(1.0), Exact(1.0), Exact(0.0), Exact(0.0)],
-            tally: "stokes".into(),
-            transport: "stokes".into(),
+        run.polarisation.transport = true;
+        run.polarisation.incident = crate::optics::polarisation::Incident::Linear(30.0);
+        run.polarisation.tally = crate::tally::PolarTally::Stokes;
+        run.shard = Some(crate::transport::brdf::ShardRange {
+            count: 2,
+            first_photon: 4096,
+            index: 1,
+            last_photon: 5000,
         });
-        let folder = BrdfFolder::trace(
-            &scene.surface,
+        let description = Description::new(
+            scene.content.clone(),
+            "s.toml",
+            "s",
+            Edges::Periodic,
             run,
-            settings,
-            Some(Shard { index: 1, count: 2 }),
-            &|_| {},
-        )
-        .unwrap();
+            surface,
+        );
+        let folder = BrdfFolder::trace(&scene.surface, description, &|_| {});
         let mut summary = folder.summary();
-        assert_eq!(summary.photons_per_incidence, 5000 - 4096);
-        assert!(summary.shard.is_some() && summary.polarisation.is_some());
+        assert_eq!(summary.run.photons, 5000);
+        assert_eq!(summary.incidence[0].photons, 5000 - 4096);
         summary.incidence[0].reflected_stokes = Some(vec![0.5; 4]);
         summary.incidence[0].reflected_stokes_stderr = Some(vec![0.1; 4]);
         assert_sorted(&summary);

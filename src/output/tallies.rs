@@ -1,26 +1,26 @@
 //! `tallies.json`: the raw sums of a `roks brdf --shard I/N` run (and of
-//! `roks merge`), exactly, for merging shards; and the run settings every
-//! shard of one run shares.
+//! `roks merge`), exactly, for merging shards.
 //!
 //! # The file
 //!
-//! [`TalliesFile`]: `format: "roks-tallies"`, `format_version`,
-//! `shard {index, count}`, `first_photon`, `last_photon`, `batch`, the
-//! [`Settings`] of the run (equal in all its shards), the total `seconds`,
-//! and per incidence angle `theta_deg`, `photons`, `seconds` and `nodes`:
+//! [`TalliesFile`]: `format: "roks-tallies"`, `format_version`, `batch`,
+//! the run's [`Description`] (equal in all its shards but for the scene's
+//! path and `run.shard`, the block of photons the file holds), the total
+//! `seconds`, and per incidence angle `theta_deg`, `photons`, `seconds` and `nodes`:
 //! `{level, index, tallies}`, the complete nodes of the batch tree
 //! ([`crate::tally::sum`]) with their raw sums ([`BrdfTallies`], serialised
-//! field by field). Keys are written in alphabetical order. Floating-point
-//! numbers are decimal strings ([`crate::tally::exact`]), so they read back
-//! bit for bit.
+//! field by field). Keys are written in alphabetical order. The sums'
+//! floating-point numbers are decimal strings ([`crate::tally::exact`]),
+//! the description's are JSON numbers in their shortest round-trip form:
+//! both read back bit for bit.
 //!
 //! # Reading it back
 //!
 //! `roks merge` ([`read_shard`], [`merge_shards`]) trusts nothing in the
 //! file: it must be JSON of [`FORMAT`] version [`FORMAT_VERSION`] with the
-//! fields of [`TalliesFile`] and no others; the settings must describe a
-//! valid run ([`run_from_settings`] applies the scene's run checks,
-//! [`BrdfRun::check`]), every tally must have the run's layout and its
+//! fields of [`TalliesFile`] and no others; the description must hold a
+//! valid run (the scene's run checks, [`BrdfRun::check`]) and be the same
+//! in every shard (compared field by field, [`first_difference`]), every tally must have the run's layout and its
 //! numbers be within what the photon count allows ([`check_tallies`]),
 //! each tree node must hold exactly the photons of its batches, and each
 //! shard's nodes must tile exactly its own photon range. Errors are one
@@ -33,17 +33,14 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::summary::{PolarisationSettings, Surface};
-use crate::optics::polarisation::Incident;
+use super::summary::Description;
 use crate::scene::SceneError;
 use crate::shard::Shard;
 use crate::tally::exact::{self, Exact};
 use crate::tally::sum::{DyadicSum, Node};
-use crate::tally::{Accumulator, Merge, PolarTally, Symmetry};
+use crate::tally::{Accumulator, Merge, PolarTally};
 use crate::transport::BATCH;
-use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, BrdfTallies, Polarisation};
-use crate::transport::launch::Launch;
-use crate::transport::micro::Controls;
+use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, BrdfTallies};
 
 /// `format` of `tallies.json`.
 pub const FORMAT: &str = "roks-tallies";
@@ -138,201 +135,39 @@ fn typed<T: serde::de::DeserializeOwned>(v: Value) -> Result<T, FieldError> {
     serde_path_to_error::deserialize(v).map_err(FieldError::from_serde)
 }
 
-/// The settings of a run that must agree between its shards (`settings` of
-/// `tallies.json`); floats exact. The run-level fields of `summary.json`
-/// come from them ([`super::summary::BrdfSummary::new`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Settings {
-    /// Carlson bands.
-    pub bands: usize,
-    /// How the surface's edges are treated (`periodic`, `reflecting`, ...).
-    pub edges: String,
-    /// In-plane bin width (degrees).
-    #[serde(with = "exact")]
-    pub inplane_step_deg: f64,
-    /// In-plane detector full width (degrees).
-    #[serde(with = "exact")]
-    pub inplane_width_deg: f64,
-    /// [`Launch::name`].
-    pub launch: String,
-    /// History cap on reflections.
-    pub max_bounces: u32,
-    /// History cap on straight flights.
-    pub max_segments: u32,
-    /// The scene's `name`.
-    pub name: String,
-    /// Incidence azimuth (degrees).
-    #[serde(with = "exact")]
-    pub phi_deg: f64,
-    /// Photons per incidence of the whole run.
-    pub photons_per_incidence: u64,
-    /// Polarised transport (absent: scalar).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub polarisation: Option<PolarisationSettings<Exact>>,
-    /// Russian roulette threshold weight.
-    #[serde(with = "exact")]
-    pub roulette_weight: f64,
-    /// The scene file as given.
-    pub scene: String,
-    /// Tracing seed.
-    pub seed: u64,
-    /// Statistics of the surface's height map.
-    pub surface: Surface<Exact>,
-    /// [`Symmetry::name`].
-    pub symmetry: String,
-    /// Incidence polar angles (degrees).
-    #[serde(with = "exact::vec")]
-    pub theta_deg: Vec<f64>,
-    /// The roks version that ran it.
-    pub version: String,
-    /// Wavelengths (µm) of a spectral run (absent: monochrome).
-    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "exact::vec")]
-    pub wavelengths_um: Vec<f64>,
-}
-
-impl Settings {
-    /// The settings of `run` of scene file `scene` named `name`, its
-    /// surface's `edges` and height-map statistics `surface`.
-    #[must_use]
-    pub fn new(scene: &str, name: &str, edges: &str, run: &BrdfRun, surface: Surface<f64>) -> Self {
-        let p = &run.polarisation;
-        Self {
-            bands: run.bands,
-            edges: edges.to_owned(),
-            inplane_step_deg: run.inplane_step_deg,
-            inplane_width_deg: run.inplane_width_deg,
-            launch: run.launch.name().to_owned(),
-            max_bounces: run.controls.max_bounces,
-            max_segments: run.controls.max_segments,
-            name: name.to_owned(),
-            phi_deg: run.phi_deg,
-            photons_per_incidence: run.photons,
-            polarisation: p.transport.then(|| PolarisationSettings {
-                incident: p.incident.name(),
-                incident_stokes: p.incident.stokes().map(Exact).to_vec(),
-                tally: p.tally.name().to_owned(),
-                transport: "stokes".to_owned(),
-            }),
-            roulette_weight: run.controls.roulette_weight,
-            scene: scene.to_owned(),
-            seed: run.seed,
-            surface: surface.map(Exact),
-            symmetry: run.symmetry.name().to_owned(),
-            theta_deg: run.theta_deg.clone(),
-            version: env!("CARGO_PKG_VERSION").to_owned(),
-            wavelengths_um: run.wavelengths_um.clone(),
-        }
-    }
-
-    /// The first key (in file order) whose value differs from `other`'s.
-    fn first_difference(&self, other: &Self) -> String {
-        let (a, b) = (
-            serde_json::to_value(self).unwrap_or_default(),
-            serde_json::to_value(other).unwrap_or_default(),
-        );
-        let keys = |v: &Value| {
-            v.as_object()
-                .map(|m| m.keys().cloned().collect::<Vec<_>>())
-                .unwrap_or_default()
-        };
-        let mut all = keys(&a);
-        all.extend(keys(&b));
-        all.into_iter()
-            .find(|k| a.get(k) != b.get(k))
-            .unwrap_or_default()
-    }
-}
-
-/// The key of `settings` holding the run value a scene holds at
-/// `scene_key` (as [`BrdfRun::check`] names it): `light.photons` is
-/// `photons_per_incidence`, the others lose their section
-/// (`tally.bands` is `bands`, `light.theta_deg[1]` is `theta_deg[1]`).
+/// The first field (a JSON path, in key order) at which `a` and `b`
+/// differ, `None` when they are equal: objects key by key, arrays index by
+/// index (a longer array differs at its first extra index).
 #[must_use]
-pub fn settings_key(scene_key: &str) -> String {
-    if scene_key == "light.photons" {
-        return "photons_per_incidence".into();
-    }
-    scene_key
-        .split_once('.')
-        .map_or(scene_key, |(_, rest)| rest)
-        .to_owned()
-}
-
-/// The polarisation of `settings` (scalar transport when absent).
-fn polarisation_from_settings(
-    s: &Settings,
-    symmetry: Symmetry,
-) -> Result<Polarisation, FieldError> {
-    let Some(p) = &s.polarisation else {
-        return Ok(Polarisation::default());
-    };
-    let stokes: [f64; 4] = match p.incident_stokes.as_slice() {
-        [a, b, c, d] => [a.0, b.0, c.0, d.0],
-        other => {
-            return Err(FieldError::new(
-                "polarisation.incident_stokes",
-                format!("{} values, expected 4", other.len()),
-            ));
+pub fn first_difference(a: &Value, b: &Value) -> Option<String> {
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            keys.into_iter().find_map(|k| match (x.get(k), y.get(k)) {
+                (Some(u), Some(v)) => first_difference(u, v).map(|rest| join_key(k, &rest)),
+                _ => Some(k.clone()),
+            })
         }
-    };
-    let incident = Incident::Stokes(stokes);
-    incident
-        .validate()
-        .map_err(|e| FieldError::new("polarisation.incident_stokes", e))?;
-    let tally = PolarTally::from_name(&p.tally)
-        .ok_or_else(|| FieldError::new("polarisation.tally", format!("unknown `{}`", p.tally)))?;
-    Polarisation::resolve(true, Some(true), incident, tally, symmetry).map_err(|(key, e)| {
-        let key = if key == "tally.symmetry" {
-            "symmetry"
-        } else {
-            "polarisation"
-        };
-        FieldError::new(key, e)
-    })
+        (Value::Array(x), Value::Array(y)) => (0..x.len().max(y.len())).find_map(|i| {
+            let at = format!("[{i}]");
+            match (x.get(i), y.get(i)) {
+                (Some(u), Some(v)) => first_difference(u, v).map(|rest| join_key(&at, &rest)),
+                _ => Some(at),
+            }
+        }),
+        _ => (a != b).then(String::new),
+    }
 }
 
-/// The run `settings` describe (all photons, from index 0), checked as a
-/// scene's run is ([`BrdfRun::check`]).
-///
-/// # Errors
-/// On an invalid field, at its key under `settings`' root (e.g. `bands`).
-pub fn run_from_settings(s: &Settings) -> Result<BrdfRun, FieldError> {
-    let symmetry = Symmetry::from_name(&s.symmetry)
-        .ok_or_else(|| FieldError::new("symmetry", format!("unknown `{}`", s.symmetry)))?;
-    let run = BrdfRun {
-        theta_deg: s.theta_deg.clone(),
-        phi_deg: s.phi_deg,
-        photons: s.photons_per_incidence,
-        first_photon: 0,
-        seed: s.seed,
-        bands: s.bands,
-        inplane_step_deg: s.inplane_step_deg,
-        inplane_width_deg: s.inplane_width_deg,
-        controls: Controls {
-            max_bounces: s.max_bounces,
-            roulette_weight: s.roulette_weight,
-            max_segments: s.max_segments,
-        },
-        launch: Launch::from_name(&s.launch)
-            .ok_or_else(|| FieldError::new("launch", format!("unknown `{}`", s.launch)))?,
-        symmetry,
-        polarisation: polarisation_from_settings(s, symmetry)?,
-        wavelengths_um: s.wavelengths_um.clone(),
-    };
-    run.check()
-        .map_err(|(key, e)| FieldError::new(settings_key(&key), e))?;
-    Ok(run)
-}
-
-/// `shard` of `tallies.json`: which block of how many.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ShardIndex {
-    /// Number of blocks.
-    pub count: u64,
-    /// 0-based block index.
-    pub index: u64,
+/// What must agree between the shards of one run: the description
+/// without the scene's path and the shard's block.
+fn shared(d: &Description) -> Value {
+    let mut d = d.clone();
+    d.scene = String::new();
+    d.run.shard = None;
+    serde_json::to_value(d).unwrap_or_default()
 }
 
 /// A complete node of the batch tree as stored: its sums `T`
@@ -375,40 +210,33 @@ pub struct IncidenceNodes<T = BrdfTallies> {
 pub struct TalliesFile<T = BrdfTallies> {
     /// Photons per batch ([`BATCH`]).
     pub batch: u64,
-    /// First photon index held.
-    pub first_photon: u64,
+    /// The run (with the block of photons held, `run.shard`).
+    pub description: Description,
     /// [`FORMAT`].
     pub format: String,
     /// [`FORMAT_VERSION`].
     pub format_version: u64,
     /// Per incidence angle of the run.
     pub incidence: Vec<IncidenceNodes<T>>,
-    /// One past the last photon index held.
-    pub last_photon: u64,
     /// Total wall-clock time (s).
     #[serde(with = "exact")]
     pub seconds: f64,
-    /// The run's settings.
-    pub settings: Settings,
-    /// Which block of the run.
-    pub shard: ShardIndex,
 }
 
 impl TalliesFile {
-    /// The file of shard `shard` holding photons `[first, last)`, per
-    /// incidence (and wavelength) `(theta_deg, wavelength_um, seconds,
-    /// nodes)`, with total time `seconds`.
+    /// The file of the run `description` (its photons
+    /// [`BrdfRun::photon_range`]), per incidence (and wavelength)
+    /// `(theta_deg, wavelength_um, seconds, nodes)`, with total time
+    /// `seconds`.
     #[must_use]
     pub fn new(
-        settings: &Settings,
-        shard: Shard,
-        (first, last): (u64, u64),
+        description: &Description,
         incidence: Vec<(f64, Option<f64>, f64, Vec<Node<BrdfTallies>>)>,
         seconds: f64,
     ) -> Self {
         Self {
             batch: BATCH,
-            first_photon: first,
+            description: description.clone(),
             format: FORMAT.to_owned(),
             format_version: FORMAT_VERSION,
             incidence: incidence
@@ -430,13 +258,7 @@ impl TalliesFile {
                     },
                 )
                 .collect(),
-            last_photon: last,
             seconds,
-            settings: settings.clone(),
-            shard: ShardIndex {
-                count: shard.count,
-                index: shard.index,
-            },
         }
     }
 
@@ -737,13 +559,13 @@ impl ShardFile {
     /// Photon indices `[first, last)` it holds.
     #[must_use]
     pub fn photons(&self) -> (u64, u64) {
-        (self.tallies.first_photon, self.tallies.last_photon)
+        self.tallies.description.run.photon_range()
     }
 }
 
 /// Read `dir/tallies.json`: JSON of [`FORMAT`] version [`FORMAT_VERSION`]
-/// with the fields of [`TalliesFile`], `first_photon <= last_photon` and
-/// `batch` = [`BATCH`].
+/// with the fields of [`TalliesFile`], `batch` = [`BATCH`], a valid run
+/// ([`BrdfRun::check`]) and, for a shard, the block `--shard I/N` gives.
 ///
 /// # Errors
 /// One [`SceneError`] naming the file and the key.
@@ -771,12 +593,26 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
             format!("{batch} is not this version's batch of {BATCH} photons"),
         ));
     }
-    let (first, last) = (tallies.first_photon, tallies.last_photon);
-    if last < first {
-        return Err(err(
-            "last_photon",
-            format!("{last} is below first_photon = {first}"),
-        ));
+    let run = &tallies.description.run;
+    run.check()
+        .map_err(|(field, e)| err(&format!("description.run.{}", field.run_key()), e))?;
+    if let Some(s) = run.shard {
+        let block = Shard {
+            index: s.index,
+            count: s.count,
+        };
+        let expected = (s.count > 0 && s.index < s.count)
+            .then(|| block.photon_range(run.photons).ok())
+            .flatten();
+        if expected != Some((s.first_photon, s.last_photon)) {
+            return Err(err(
+                "description.run.shard",
+                format!(
+                    "photons [{}, {}) are not block {} of {} of the run's {} photons",
+                    s.first_photon, s.last_photon, s.index, s.count, run.photons
+                ),
+            ));
+        }
     }
     Ok(ShardFile {
         dir: dir.to_path_buf(),
@@ -802,10 +638,8 @@ pub struct MergedIncidence {
 /// Shards of one run, checked against each other and summed.
 #[derive(Debug, Clone)]
 pub struct Merged {
-    /// The run (all photons).
-    pub run: BrdfRun,
-    /// Its settings, as in every shard.
-    pub settings: Settings,
+    /// The run (all photons: no shard), as the first shard describes it.
+    pub description: Description,
     /// Per incidence angle of the run.
     pub incidence: Vec<MergedIncidence>,
     /// Sum of the shards' total times (s).
@@ -817,7 +651,7 @@ impl Merged {
     /// incidence's root node.
     #[must_use]
     pub fn tallies_file(&self) -> TalliesFile {
-        let batches = self.run.photons.div_ceil(BATCH);
+        let batches = self.description.run.photons.div_ceil(BATCH);
         let level = batches.next_power_of_two().trailing_zeros();
         let incidence = self
             .incidence
@@ -831,13 +665,7 @@ impl Merged {
                 (i.theta_deg, i.wavelength_um, i.seconds, vec![root])
             })
             .collect();
-        TalliesFile::new(
-            &self.settings,
-            Shard { index: 0, count: 1 },
-            (0, self.run.photons),
-            incidence,
-            self.seconds,
-        )
+        TalliesFile::new(&self.description, incidence, self.seconds)
     }
 }
 
@@ -854,9 +682,9 @@ fn check_tiling(parts: &[ShardFile], total: u64) -> Result<(), SceneError> {
         if first % BATCH != 0 || last > total || (last % BATCH != 0 && last != total) {
             return err(
                 if first % BATCH == 0 {
-                    "last_photon"
+                    "description.run.shard.last_photon"
                 } else {
-                    "first_photon"
+                    "description.run.shard.first_photon"
                 },
                 format!(
                     "photons [{first}, {last}) are not a block of whole batches of the run's {total}"
@@ -865,7 +693,7 @@ fn check_tiling(parts: &[ShardFile], total: u64) -> Result<(), SceneError> {
         }
         if first < next {
             return err(
-                "first_photon",
+                "description.run.shard.first_photon",
                 format!(
                     "photons [{first}, {last}) overlap those of {}",
                     parts[k - 1].file
@@ -874,7 +702,7 @@ fn check_tiling(parts: &[ShardFile], total: u64) -> Result<(), SceneError> {
         }
         if first > next {
             return err(
-                "first_photon",
+                "description.run.shard.first_photon",
                 format!("photons [{next}, {first}) are missing before this shard"),
             );
         }
@@ -883,7 +711,7 @@ fn check_tiling(parts: &[ShardFile], total: u64) -> Result<(), SceneError> {
     if next != total {
         let last = &parts[parts.len() - 1];
         return Err(FieldError::new(
-            "last_photon",
+            "description.run.shard.last_photon",
             format!("photons [{next}, {total}) are missing after this shard"),
         )
         .in_file(&last.file));
@@ -936,8 +764,8 @@ fn check_seconds(s: f64) -> Result<f64, FieldError> {
     Ok(s)
 }
 
-/// Merge shard files (any order): equal `settings` that describe a valid
-/// run ([`run_from_settings`]), photon ranges that tile the run in whole
+/// Merge shard files (any order): equal descriptions (but for the scene's
+/// path and the shard, [`first_difference`]), photon ranges that tile the run in whole
 /// batches, per shard an `incidence` list of the run's angles whose nodes
 /// tile exactly that shard's batches and pass [`checked_nodes`], and
 /// counts that add up without overflow. The nodes of all shards are pushed
@@ -951,19 +779,21 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     let Some(p0) = parts.first() else {
         return Err(FieldError::new("", "no shard folders").in_file("merge"));
     };
-    let settings = p0.tallies.settings.clone();
+    let mut description = p0.tallies.description.clone();
     let f0 = p0.file.clone();
+    let first = shared(&description);
     for p in &parts[1..] {
-        if p.tallies.settings != settings {
-            let key = settings.first_difference(&p.tallies.settings);
+        if let Some(key) = first_difference(&first, &shared(&p.tallies.description)) {
+            let key = join_key("description", &key);
             return Err(FieldError::new(
-                join_key("settings", &key),
+                key.clone(),
                 format!("differs from {f0} (`{key}` differs: not a shard of the same run)"),
             )
             .in_file(&p.file));
         }
     }
-    let run = run_from_settings(&settings).map_err(|e| e.under("settings").in_file(&f0))?;
+    description.run.shard = None;
+    let run = description.run.clone();
     let total = run.photons;
     parts.sort_by_key(ShardFile::photons);
     check_tiling(&parts, total)?;
@@ -1006,7 +836,10 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 let t = i / run.lane_count();
                 return Err(at(FieldError::new(
                     "theta_deg",
-                    format!("{} is not settings.theta_deg[{t}] = {theta}", inc.theta_deg),
+                    format!(
+                        "{} is not description.run.theta_deg[{t}] = {theta}",
+                        inc.theta_deg
+                    ),
                 )));
             }
             if inc.wavelength_um.map(|w| w.0.to_bits()) != wavelength.map(f64::to_bits) {
@@ -1015,7 +848,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                     "wavelength_um",
                     match (inc.wavelength_um, wavelength) {
                         (_, Some(w)) => format!(
-                            "{} is not settings.wavelengths_um[{l}] = {w}",
+                            "{} is not description.run.wavelengths_um[{l}] = {w}",
                             inc.wavelength_um
                                 .map_or("absent".into(), |w| w.0.to_string())
                         ),
@@ -1067,8 +900,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         })
         .collect::<Result<Vec<_>, SceneError>>()?;
     Ok(Merged {
-        run,
-        settings,
+        description,
         incidence,
         seconds,
     })
@@ -1077,6 +909,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::micro::Edges;
     use crate::output::brdf_folder::BrdfFolder;
     use crate::output::summary::Surface;
     use crate::scene::micro::MicroScene;
@@ -1091,7 +924,7 @@ mod tests {
         (scene, run)
     }
 
-    fn settings(run: &BrdfRun) -> Settings {
+    fn description(run: &BrdfRun) -> Description {
         let surface = Surface {
             height_map_resolution: 8,
             max_height: Some(0.1 + 0.2),
@@ -1103,7 +936,28 @@ mod tests {
             tau: None,
             undefined: None,
         };
-        Settings::new("s.toml", "s", "periodic", run, surface)
+        let content = MicroScene::default_scene().content;
+        Description::new(
+            content,
+            "s.toml",
+            "s",
+            Edges::Periodic,
+            run.clone(),
+            surface,
+        )
+    }
+
+    /// `run` as block `index` of `count`.
+    fn block(run: &BrdfRun, index: u64, count: u64) -> BrdfRun {
+        let (first_photon, last_photon) = Shard { index, count }.photon_range(run.photons).unwrap();
+        let mut run = run.clone();
+        run.shard = Some(crate::transport::brdf::ShardRange {
+            count,
+            first_photon,
+            index,
+            last_photon,
+        });
+        run
     }
 
     /// The shard folders' `tallies.json` of `run` cut in `count` blocks.
@@ -1112,12 +966,9 @@ mod tests {
             .map(|index| {
                 let f = BrdfFolder::trace(
                     &scene.surface,
-                    run.clone(),
-                    settings(run),
-                    Some(Shard { index, count }),
+                    description(&block(run, index, count)),
                     &|_| {},
-                )
-                .unwrap();
+                );
                 let text = f.tallies.unwrap().to_text();
                 ShardFile {
                     dir: PathBuf::from(format!("s{index}")),
@@ -1129,58 +980,61 @@ mod tests {
     }
 
     #[test]
-    fn settings_round_trip_exactly_and_describe_the_run() {
-        let (_, run) = scene_and_run();
-        let s = settings(&run);
-        let text = serde_json::to_string(&s).unwrap();
+    fn descriptions_round_trip_exactly() {
+        let (_, mut run) = scene_and_run();
+        run.theta_deg = vec![0.1 + 0.2, 89.999_999_999_999_99, 5e-324];
+        run.controls.roulette_weight = 1.0 / 3.0;
+        run.polarisation.incident = crate::optics::polarisation::Incident::Linear(0.1 + 0.7);
+        let d = description(&block(&run, 1, 3));
+        let text = serde_json::to_string(&d).unwrap();
         assert!(
-            text.contains(r#""max_height":"0.30000000000000004""#),
+            text.contains(r#""max_height":0.30000000000000004"#),
             "{text}"
         );
-        assert!(text.contains(r#""sigma":null"#), "{text}");
-        let back: Settings = serde_json::from_str(&text).unwrap();
-        assert_eq!(back, s);
-        let again = run_from_settings(&back).unwrap();
-        assert_eq!(again.theta_deg, run.theta_deg);
-        assert_eq!(again.photons, run.photons);
-        assert_eq!(again.bands, run.bands);
-        assert_eq!(again.seed, run.seed);
-        assert_eq!(again.launch, run.launch);
+        assert!(
+            text.contains(r#""incident":{"linear":0.7999999999999999}"#),
+            "{text}"
+        );
+        let back: Description = serde_json::from_str(&text).unwrap();
+        assert_eq!(serde_json::to_string(&back).unwrap(), text);
+        assert_eq!(back, d);
+        for (a, b) in back.run.theta_deg.iter().zip(&d.run.theta_deg) {
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+        // A missing or bad field is named by its key.
+        let mut v = serde_json::to_value(&d).unwrap();
+        v["run"].as_object_mut().unwrap().remove("seed");
         assert_eq!(
-            again.controls.roulette_weight.to_bits(),
-            run.controls.roulette_weight.to_bits()
+            typed::<Description>(v).unwrap_err(),
+            FieldError::new("run.seed", "missing")
         );
     }
 
+    /// The first differing field of two values, by its path.
     #[test]
-    fn a_missing_or_bad_setting_is_named_by_its_key() {
-        let (_, run) = scene_and_run();
-        let mut v = serde_json::to_value(settings(&run)).unwrap();
-        v.as_object_mut().unwrap().remove("seed");
-        let e = typed::<Settings>(v).unwrap_err();
-        assert_eq!(e, FieldError::new("seed", "missing"));
-        let mut v = serde_json::to_value(settings(&run)).unwrap();
-        v["theta_deg"][1] = "NaN".into();
-        let e = typed::<Settings>(v).unwrap_err();
-        assert_eq!(
-            e,
-            FieldError::new("theta_deg[1]", "NaN is not a finite number")
-        );
-        let mut s = settings(&run);
-        s.bands = 0;
-        assert_eq!(run_from_settings(&s).unwrap_err().key, "bands");
+    fn first_differences() {
+        use serde_json::json;
+        let a = json!({"a": 1, "b": {"c": [1, 2, {"d": "x"}]}});
+        assert_eq!(first_difference(&a, &a), None);
+        let b = json!({"a": 1, "b": {"c": [1, 2, {"d": "y"}]}});
+        assert_eq!(first_difference(&a, &b).as_deref(), Some("b.c[2].d"));
+        let c = json!({"a": 2, "b": {"c": [1]}});
+        assert_eq!(first_difference(&a, &c).as_deref(), Some("a"));
+        let d = json!({"a": 1, "b": {"c": [1, 2]}});
+        assert_eq!(first_difference(&a, &d).as_deref(), Some("b.c[2]"));
+        let e = json!({"a": 1, "b": {"c": [1, 2, {"d": "x"}]}, "e": null});
+        assert_eq!(first_difference(&a, &e).as_deref(), Some("e"));
     }
 
     #[test]
     fn merged_shards_are_the_whole_run_bit_for_bit() {
         let (scene, run) = scene_and_run();
-        let whole =
-            BrdfFolder::trace(&scene.surface, run.clone(), settings(&run), None, &|_| {}).unwrap();
+        let whole = BrdfFolder::trace(&scene.surface, description(&run), &|_| {});
         for count in [2, 3, 4] {
             let mut parts = shards(&scene, &run, count);
             parts.reverse(); // any order
             let merged = merge_shards(parts).unwrap();
-            assert_eq!(merged.settings, settings(&run));
+            assert_eq!(merged.description, description(&run));
             for (m, w) in merged.incidence.iter().zip(&whole.results) {
                 assert_eq!(m.theta_deg, w.theta_i_deg);
                 // Equal bits (PartialEq on f64 would also accept -0 for 0).
@@ -1192,7 +1046,7 @@ mod tests {
             }
             // The merge's own file holds the roots.
             let file = merged.tallies_file();
-            assert_eq!((file.first_photon, file.last_photon), (0, run.photons));
+            assert_eq!(file.description.run.photon_range(), (0, run.photons));
             assert_eq!(file.incidence[0].nodes.len(), 1);
             assert_eq!(file.incidence[0].nodes[0].level, 2);
         }
@@ -1206,7 +1060,7 @@ mod tests {
         let e = merge_shards(gap).err().unwrap();
         assert_eq!(
             (e.file.as_str(), e.key.as_str()),
-            ("s2/tallies.json", "first_photon")
+            ("s2/tallies.json", "description.run.shard.first_photon")
         );
         assert!(e.message.contains("are missing before this shard"), "{e}");
         let twice = vec![
@@ -1224,16 +1078,16 @@ mod tests {
         let e = merge_shards(short).err().unwrap();
         assert_eq!(
             (e.file.as_str(), e.key.as_str()),
-            ("s1/tallies.json", "last_photon")
+            ("s1/tallies.json", "description.run.shard.last_photon")
         );
         let mut other = parts.clone();
-        other[1].tallies.settings.seed += 1;
+        other[1].tallies.description.run.seed += 1;
         let e = merge_shards(other).err().unwrap();
         assert_eq!(
             (e.file.as_str(), e.key.as_str()),
-            ("s1/tallies.json", "settings.seed")
+            ("s1/tallies.json", "description.run.seed")
         );
-        assert!(e.message.contains("`seed` differs"), "{e}");
+        assert!(e.message.contains("`description.run.seed` differs"), "{e}");
         assert!(merge_shards(Vec::new()).is_err());
     }
 

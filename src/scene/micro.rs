@@ -75,8 +75,8 @@ use rand_pcg::Pcg64Mcg;
 use serde::Deserialize;
 
 use super::{
-    MaterialSpec, PolarisationSpec, QuadricSpec, Range, SceneError, Source, WavelengthsSpec,
-    build_materials, material_index, parse_toml,
+    Content, MaterialSpec, PolarisationSpec, QuadricSpec, Range, SceneError, Source,
+    WavelengthsSpec, build_materials, material_index, parse_toml,
 };
 use crate::geometry::body::{Body, Ray};
 use crate::geometry::quadric::Quadric;
@@ -435,16 +435,132 @@ pub struct MicroScene {
     pub surface: MicroSurface,
     /// Material names, in the order of `surface.materials`.
     pub material_names: Vec<String>,
-    /// Illumination.
+    /// Illumination as written (with the overrides applied).
     pub light: LightSpec,
-    /// Tallies.
-    pub tally: TallySpec,
-    /// Transport controls.
-    pub transport: TransportSpec,
-    /// Polarisation of the run (resolved from the three sections).
-    pub polarisation: Polarisation,
-    /// Wavelengths (µm) of a spectral scene; empty: monochrome.
-    pub wavelengths_um: Vec<f64>,
+    /// The run this scene describes (`[light]`, `[tally]`, `[transport]`
+    /// and the overrides it was built with), checked.
+    pub run: BrdfRun,
+    /// What the scene is made of: its text and the files it reads, hashed.
+    pub content: Content,
+}
+
+/// The command line's overrides of a micro scene's run keys, laid over its
+/// specification before it is built ([`MicroSceneSpec::build`]), so that
+/// each value goes through the one check of the key it replaces. `None`:
+/// the scene's own value.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Overrides {
+    /// `--photons`: `[light] photons`.
+    pub photons: Option<u64>,
+    /// `--seed`: `[light] seed`.
+    pub seed: Option<u64>,
+    /// `--theta`: `[light] theta_deg`.
+    pub theta_deg: Option<Vec<f64>>,
+    /// `--wavelengths`: `[light] wavelengths_um`.
+    pub wavelengths_um: Option<WavelengthsSpec>,
+    /// `--launch`: `[light] launch`.
+    pub launch: Option<Launch>,
+    /// `--symmetry`: `[tally] symmetry`.
+    pub symmetry: Option<Symmetry>,
+    /// `--polarisation`: `[tally] polarisation`.
+    pub polarisation_tally: Option<PolarTally>,
+    /// `--no-polarisation` (`Some(false)`): `[transport] polarisation`.
+    pub polarised_transport: Option<bool>,
+}
+
+impl Overrides {
+    /// The scene keys these overrides replace, each with its option. A
+    /// polarisation tally refused for want of polarised transport
+    /// (`tally.polarisation`) is `--no-polarisation`'s doing when given.
+    fn keys(&self) -> Vec<(&'static str, &'static str)> {
+        [
+            (
+                self.polarised_transport == Some(false),
+                "tally.polarisation",
+                "--no-polarisation",
+            ),
+            (self.photons.is_some(), "light.photons", "--photons"),
+            (self.seed.is_some(), "light.seed", "--seed"),
+            (self.theta_deg.is_some(), "light.theta_deg", "--theta"),
+            (
+                self.wavelengths_um.is_some(),
+                "light.wavelengths_um",
+                "--wavelengths",
+            ),
+            (self.launch.is_some(), "light.launch", "--launch"),
+            (self.symmetry.is_some(), "tally.symmetry", "--symmetry"),
+            (
+                self.polarisation_tally.is_some(),
+                "tally.polarisation",
+                "--polarisation",
+            ),
+            (
+                self.polarised_transport.is_some(),
+                "transport.polarisation",
+                "--no-polarisation",
+            ),
+        ]
+        .into_iter()
+        .filter_map(|(given, key, option)| given.then_some((key, option)))
+        .collect()
+    }
+
+    /// Lay the overrides over `spec`.
+    pub fn apply(&self, spec: &mut MicroSceneSpec) {
+        let light = &mut spec.light;
+        if let Some(p) = self.photons {
+            light.photons = p;
+        }
+        if let Some(s) = self.seed {
+            light.seed = s;
+        }
+        if let Some(t) = &self.theta_deg {
+            light.theta_deg.clone_from(t);
+        }
+        if let Some(w) = &self.wavelengths_um {
+            light.wavelengths_um = Some(w.clone());
+        }
+        if let Some(l) = self.launch {
+            light.launch = l;
+        }
+        if let Some(s) = self.symmetry {
+            spec.tally.symmetry = s;
+        }
+        if let Some(p) = self.polarisation_tally {
+            spec.tally.polarisation = p;
+        }
+        if let Some(t) = self.polarised_transport {
+            spec.transport.polarisation = Some(t);
+        }
+    }
+
+    /// `e` of a scene built with these overrides: at a key an option
+    /// set, the option's error ([`super::option_error`]); else the scene
+    /// file's.
+    #[must_use]
+    pub fn blame(&self, e: SceneError) -> BuildError {
+        match super::option_error(&self.keys(), &e) {
+            Some((option, message)) => BuildError::Option { option, message },
+            None => BuildError::Scene(e),
+        }
+    }
+}
+
+/// Why a micro scene with command-line [`Overrides`] cannot be built: its
+/// file (a key it set), or an option (a key the option set).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    /// The scene file's error, naming the file and the key.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// An option's value refused by the check of the key it replaces.
+    #[error("{option}: {message}")]
+    Option {
+        /// The option (`--theta`, ...).
+        option: &'static str,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl MicroScene {
@@ -454,34 +570,29 @@ impl MicroScene {
         any_fresnel(&self.surface.materials)
     }
 
-    /// The BRDF run this scene describes (`[light]`, `[tally]`, `[transport]`).
+    /// The BRDF run this scene describes (a copy of [`MicroScene::run`]).
     #[must_use]
     pub fn brdf_run(&self) -> BrdfRun {
-        brdf_run_of(
-            &self.light,
-            &self.tally,
-            &self.transport,
-            self.polarisation,
-            &self.wavelengths_um,
-        )
+        self.run.clone()
     }
 
     /// Load a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        Self::load_at(path, None)
-    }
-
-    /// Load a scene file with its `[light] wavelengths_um` replaced by
-    /// `wavelengths` (µm; `None`: the file's): its materials are sampled
-    /// at them.
-    pub fn load_at(path: &Path, wavelengths: Option<&[f64]>) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        Self::from_str_at(
+        Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())
+    }
+
+    /// Load a scene file with `overrides` laid over its keys before it is
+    /// built (its materials are sampled at overriding wavelengths).
+    pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Self, BuildError> {
+        let text = super::read_scene_text(path)?;
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        Self::from_str_with(
             &text,
             Source::from_path(path),
             name.unwrap_or_default(),
-            wavelengths,
+            overrides,
         )
     }
 
@@ -497,28 +608,94 @@ impl MicroScene {
 
     /// Parse and build from TOML text.
     pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        Self::from_str_at(text, source, fallback_name, None)
+        Self::from_str_with(text, source, fallback_name, &Overrides::default()).map_err(|e| match e
+        {
+            BuildError::Scene(e) => e,
+            BuildError::Option { .. } => unreachable!("no overrides"),
+        })
     }
 
-    /// [`MicroScene::from_str`] with the wavelengths replaced (see
-    /// [`MicroScene::load_at`]).
-    pub fn from_str_at(
+    /// [`MicroScene::from_str`] with `overrides` (see [`MicroScene::load_with`]).
+    pub fn from_str_with(
         text: &str,
         source: Source,
         fallback_name: String,
-        wavelengths: Option<&[f64]>,
-    ) -> Result<Self, SceneError> {
+        overrides: &Overrides,
+    ) -> Result<Self, BuildError> {
         let mut spec: MicroSceneSpec = parse_toml(&source, text)
             .map_err(|e| super::other_kind(text, "cells", e, "an object scene ([[cells]]): roks trace traces it; this command takes micro scenes ([surface])"))?;
-        if let Some(w) = wavelengths {
-            spec.light.wavelengths_um = Some(WavelengthsSpec::List(w.to_vec()));
+        if *overrides != Overrides::default() {
+            // The file's own run values, which the options replace, are
+            // still the file's: checked (once) as written.
+            let wavelengths = match &spec.light.wavelengths_um {
+                Some(w) => w
+                    .expand()
+                    .map_err(|e| source.error("light.wavelengths_um", e))?,
+                None => Vec::new(),
+            };
+            brdf_run_of(
+                &spec.light,
+                &spec.tally,
+                &spec.transport,
+                Polarisation::default(),
+                wavelengths,
+            )
+            .check()
+            .map_err(|(field, e)| source.error(field.scene_key(), e))?;
         }
-        spec.build(source, fallback_name)
+        overrides.apply(&mut spec);
+        let files = spec.files();
+        let mut scene = spec
+            .build(source, fallback_name)
+            .map_err(|e| overrides.blame(e))?;
+        scene.content = Content::of(&scene.source, text, &files)?;
+        Ok(scene)
+    }
+
+    /// The embedded default scene with `overrides`.
+    pub fn default_with(overrides: &Overrides) -> Result<Self, BuildError> {
+        let source = Source {
+            file: "<default scene>".into(),
+            dir: ".".into(),
+        };
+        Self::from_str_with(DEFAULT_SCENE, source, "default".into(), overrides)
     }
 }
 
 impl MicroSceneSpec {
-    /// Check everything and build the scene.
+    /// The files the scene reads, `(key, path relative to the scene's
+    /// folder)`: n, k tables, angle tables and a height map.
+    #[must_use]
+    pub fn files(&self) -> Vec<(String, String)> {
+        let mut files = Vec::new();
+        for (name, m) in &self.materials {
+            let key = format!("materials.{name}");
+            if let Some(f) = &m.nk {
+                files.push((format!("{key}.nk"), f.clone()));
+            }
+            match &m.table {
+                Some(super::Files::One(f)) => files.push((format!("{key}.table"), f.clone())),
+                Some(super::Files::Many(fs)) => files.extend(
+                    fs.iter()
+                        .enumerate()
+                        .map(|(i, f)| (format!("{key}.table[{i}]"), f.clone())),
+                ),
+                None => {}
+            }
+        }
+        if let Some(f) = self
+            .surface
+            .heightfield
+            .as_ref()
+            .and_then(|h| h.file.as_ref())
+        {
+            files.push(("surface.heightfield.file".into(), f.clone()));
+        }
+        files
+    }
+
+    /// Check everything and build the scene (its [`MicroScene::content`]
+    /// empty: [`MicroScene::from_str_with`] hashes it).
     pub fn build(self, source: Source, fallback_name: String) -> Result<MicroScene, SceneError> {
         let given_size = self
             .surface
@@ -526,13 +703,24 @@ impl MicroSceneSpec {
             .map(|size| check_size(&source, size))
             .transpose()?;
         let wavelengths_um = match &self.light.wavelengths_um {
-            Some(w) => w.resolve().map_err(|(i, e)| match i {
-                Some(i) => source.error(format!("light.wavelengths_um[{i}]"), e),
-                None => source.error("light.wavelengths_um", e),
-            })?,
+            Some(w) => w
+                .expand()
+                .map_err(|e| source.error("light.wavelengths_um", e))?,
             None => Vec::new(),
         };
-        let (names, materials) = build_materials(&source, &self.materials, &wavelengths_um)?;
+        // The run's values, checked here once (a merge checks a run read
+        // back the same way); the polarisation, which needs the materials,
+        // is resolved below.
+        let mut run = brdf_run_of(
+            &self.light,
+            &self.tally,
+            &self.transport,
+            Polarisation::default(),
+            wavelengths_um,
+        );
+        run.check()
+            .map_err(|(field, e)| source.error(field.scene_key(), e))?;
+        let (names, materials) = build_materials(&source, &self.materials, &run.wavelengths_um)?;
         let substrate =
             material_index(&source, &names, &self.surface.material, "surface.material")?;
         let edges = match self.surface.edges {
@@ -597,22 +785,11 @@ impl MicroSceneSpec {
         }
 
         let (light, tally, transport) = (self.light, self.tally, self.transport);
-        // The run's values, checked where every run is (also merged shards';
-        // the checks do not look at the polarisation, resolved below).
-        brdf_run_of(
-            &light,
-            &tally,
-            &transport,
-            Polarisation::default(),
-            &wavelengths_um,
-        )
-        .check()
-        .map_err(|(key, e)| source.error(key, e))?;
         let incident = match &light.polarisation {
             Some(p) => p.build(&source, "light.polarisation")?,
             None => Incident::Unpolarised,
         };
-        let polarisation = Polarisation::resolve(
+        run.polarisation = Polarisation::resolve(
             any_fresnel(&materials),
             transport.polarisation,
             incident,
@@ -631,12 +808,10 @@ impl MicroSceneSpec {
             surface,
             material_names: names,
             light,
-            tally,
-            transport,
-            polarisation,
-            wavelengths_um,
+            run,
+            content: Content::default(),
         };
-        scene.check_run_memory(&scene.brdf_run())?;
+        scene.check_run_memory(&scene.run)?;
         Ok(scene)
     }
 }
@@ -672,17 +847,17 @@ fn brdf_run_of(
     tally: &TallySpec,
     transport: &TransportSpec,
     polarisation: Polarisation,
-    wavelengths_um: &[f64],
+    wavelengths_um: Vec<f64>,
 ) -> BrdfRun {
     BrdfRun {
         theta_deg: light.theta_deg.clone(),
         phi_deg: light.phi_deg,
         photons: light.photons,
-        first_photon: 0,
+        shard: None,
         seed: light.seed,
         launch: light.launch,
         polarisation,
-        wavelengths_um: wavelengths_um.to_vec(),
+        wavelengths_um,
         bands: tally.bands,
         inplane_step_deg: tally.inplane_step_deg,
         inplane_width_deg: tally.inplane_width_deg,

@@ -104,6 +104,67 @@ impl Source {
     }
 }
 
+/// What a scene is made of, so that runs are told apart by content and
+/// not by the path they were given: the SHA-256 of the scene text and of
+/// every file it reads (n, k tables, angle tables, height maps), each
+/// named by the key that names the file.
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Content {
+    /// SHA-256 (lower-case hex) of each file the scene reads, by its key
+    /// (`materials.gold.nk`, `materials.paint.table[1]`,
+    /// `surface.heightfield.file`).
+    pub files: BTreeMap<String, String>,
+    /// SHA-256 (lower-case hex) of the scene text.
+    pub scene_sha256: String,
+}
+
+impl Content {
+    /// The content of the scene `text` of `source` that reads `files`
+    /// (`(key, path relative to the scene's folder)`).
+    ///
+    /// # Errors
+    /// A file that cannot be read, at its key.
+    pub fn of(source: &Source, text: &str, files: &[(String, String)]) -> Result<Self, SceneError> {
+        let files = files
+            .iter()
+            .map(|(key, file)| {
+                let path = source.dir.join(file);
+                sha256_file(&path)
+                    .map(|h| (key.clone(), h))
+                    .map_err(|e| source.error(key, format!("{}: cannot read: {e}", path.display())))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Self {
+            files,
+            scene_sha256: hex(&sha2::Sha256::digest(text.as_bytes())),
+        })
+    }
+}
+
+use sha2::Digest as _;
+
+/// Lower-case hex of `bytes`.
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// SHA-256 (lower-case hex) of the file at `path`, read in blocks of 1 MiB.
+fn sha256_file(path: &Path) -> std::io::Result<String> {
+    use std::io::Read as _;
+    let mut file = std::fs::File::open(path)?;
+    let mut hasher = sha2::Sha256::new();
+    let mut buf = vec![0; 1 << 20];
+    loop {
+        let n = file.read(&mut buf)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hex(&hasher.finalize()))
+}
+
 fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
@@ -169,6 +230,31 @@ pub fn scene_name(
         )),
         Some(why) => Err(source.error("name", why)),
     }
+}
+
+/// The command-line option of `keys` (`(scene key, option)` pairs: the
+/// keys the options replaced) that set the key of `e`, and `e`'s message
+/// for it, with the position in the option's list for a listed value
+/// (`light.theta_deg[2]` is `--theta: angle 3: ...`); `None` when `e`
+/// concerns a key the scene file set.
+#[must_use]
+pub fn option_error(
+    keys: &[(&'static str, &'static str)],
+    e: &SceneError,
+) -> Option<(&'static str, String)> {
+    keys.iter().find_map(|&(key, option)| {
+        let rest = e.key.strip_prefix(key)?;
+        if rest.is_empty() {
+            return Some((option, e.message.clone()));
+        }
+        let i: usize = rest.strip_prefix('[')?.strip_suffix(']')?.parse().ok()?;
+        let what = if key == "light.theta_deg" {
+            "angle"
+        } else {
+            "wavelength"
+        };
+        Some((option, format!("{what} {}: {}", i + 1, e.message)))
+    })
 }
 
 /// Read a scene file to a string; a missing file is a scene error.
@@ -444,37 +530,48 @@ pub enum WavelengthsSpec {
 
 impl WavelengthsSpec {
     /// The wavelengths (µm): the list, or the grid's points rounded to
-    /// 1e-9 µm (so that `0.38 + 3 * 0.01` is written `0.41`); checked by
-    /// [`crate::optics::spectrum::check_wavelengths`].
+    /// 1e-9 µm (so that `0.38 + 3 * 0.01` is written `0.41`), not yet
+    /// checked (a micro scene checks them with its run,
+    /// [`crate::transport::brdf::BrdfRun::check`]).
     ///
     /// # Errors
-    /// The message for the key (a bad grid, a bad or long list).
-    pub fn resolve(&self) -> Result<Vec<f64>, (Option<usize>, String)> {
-        let values = match *self {
+    /// The message for the key: a bad grid.
+    pub fn expand(&self) -> Result<Vec<f64>, String> {
+        Ok(match *self {
             Self::List(ref v) => v.clone(),
             Self::Grid { from, to, step } => {
                 if !(step.is_finite() && step > 0.0) {
-                    return Err((None, format!("step must be > 0, got {}", Num(step))));
+                    return Err(format!("step must be > 0, got {}", Num(step)));
                 }
                 if !(from.is_finite() && to.is_finite() && to >= from) {
-                    return Err((
-                        None,
-                        format!("needs finite from <= to, got {} and {}", Num(from), Num(to)),
+                    return Err(format!(
+                        "needs finite from <= to, got {} and {}",
+                        Num(from),
+                        Num(to)
                     ));
                 }
                 let count = ((to - from) / step * (1.0 + 1e-12)).floor() + 1.0;
                 let max = crate::transport::carrier::MAX_WAVELENGTHS;
                 if count > max as f64 {
-                    return Err((
-                        None,
-                        format!("gives {count} wavelengths, more than the {max} one trace carries"),
+                    return Err(format!(
+                        "gives {count} wavelengths, more than the {max} one trace carries"
                     ));
                 }
                 (0..count as usize)
                     .map(|i| ((from + i as f64 * step) * 1e9).round() / 1e9)
                     .collect()
             }
-        };
+        })
+    }
+
+    /// [`WavelengthsSpec::expand`], checked by
+    /// [`crate::optics::spectrum::check_wavelengths`].
+    ///
+    /// # Errors
+    /// The index of the offending wavelength (`None`: the whole key) and
+    /// the message for the key.
+    pub fn resolve(&self) -> Result<Vec<f64>, (Option<usize>, String)> {
+        let values = self.expand().map_err(|e| (None, e))?;
         crate::optics::spectrum::check_wavelengths(&values)?;
         Ok(values)
     }

@@ -321,8 +321,9 @@ impl ObjectScene {
     }
 
     /// Load a scene file with its `[light] wavelengths_um` replaced by
-    /// `wavelengths` (µm, `roks trace --wavelengths`; `None`: the file's).
-    pub fn load_at(path: &Path, wavelengths: Option<&[f64]>) -> Result<Self, SceneError> {
+    /// `wavelengths` (`roks trace --wavelengths`; `None`: the file's),
+    /// checked as the key is.
+    pub fn load_at(path: &Path, wavelengths: Option<&WavelengthsSpec>) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         Self::from_str_at(
@@ -344,12 +345,12 @@ impl ObjectScene {
         text: &str,
         source: Source,
         fallback_name: String,
-        wavelengths: Option<&[f64]>,
+        wavelengths: Option<&WavelengthsSpec>,
     ) -> Result<Self, SceneError> {
         let mut spec: ObjectSceneSpec = parse_toml(&source, text)
             .map_err(|e| super::other_kind(text, "surface", e, "a micro scene ([surface]): roks brdf traces it; roks trace takes object scenes ([[cells]])"))?;
         if let Some(w) = wavelengths {
-            spec.light.wavelengths_um = Some(WavelengthsSpec::List(w.to_vec()));
+            spec.light.wavelengths_um = Some(w.clone());
         }
         spec.build(source, fallback_name)
     }
@@ -662,9 +663,13 @@ impl ModelSpec {
             let path = source.dir.join(file);
             // A spectral object samples the micro scene's materials at its wavelengths.
             let at = (!wavelengths_um.is_empty()).then_some(wavelengths_um);
-            let scene = MicroScene::load_at(&path, at)
+            let overrides = super::micro::Overrides {
+                wavelengths_um: at.map(|w| WavelengthsSpec::List(w.to_vec())),
+                ..Default::default()
+            };
+            let scene = MicroScene::load_with(&path, &overrides)
                 .map_err(|e| source.error(format!("{key}.micro"), e.to_string()))?;
-            if at.is_none() && !scene.wavelengths_um.is_empty() {
+            if at.is_none() && !scene.run.wavelengths_um.is_empty() {
                 return Err(source.error(
                     format!("{key}.micro"),
                     format!(

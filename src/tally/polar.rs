@@ -29,7 +29,9 @@ use crate::optics::polarisation::MIRROR_SIGNS;
 
 /// Which polarisation tally a run keeps (`[tally] polarisation`,
 /// `--polarisation`: the names in lower case).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, clap::ValueEnum)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, Deserialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum PolarTally {
     /// None: the intensity tallies only.

@@ -24,7 +24,17 @@ use glam::DVec3;
 
 /// Whether the tallies fold mirror images in the plane of incidence
 /// (`[tally] symmetry`, `--symmetry`: the names in lower case).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, clap::ValueEnum)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Symmetry {
     /// Score every photon in its own direction only.
@@ -34,27 +44,6 @@ pub enum Symmetry {
     /// Score half in its own direction and half in its mirror image.
     #[value(help = None::<&str>)]
     Mirror,
-}
-
-impl Symmetry {
-    /// The name used in scene files, on the command line and in summaries.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::None => "none",
-            Self::Mirror => "mirror",
-        }
-    }
-
-    /// Parse [`Symmetry::name`] (also the option's value names, which
-    /// clap derives from the same variants).
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        <Self as clap::ValueEnum>::value_variants()
-            .iter()
-            .copied()
-            .find(|v| v.name() == name)
-    }
 }
 
 /// The mirror image of `dir` in the vertical plane at azimuth `phi` (radians):
@@ -79,14 +68,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn option_values_are_the_names() {
+    fn option_values_are_the_scene_and_file_names() {
         use clap::ValueEnum as _;
         for v in Symmetry::value_variants() {
-            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
-            assert_eq!(Symmetry::from_name(v.name()), Some(*v));
+            let name = v.to_possible_value().unwrap().get_name().to_owned();
+            assert_eq!(serde_json::to_value(v).unwrap(), name.as_str());
+            assert_eq!(serde_json::from_value::<Symmetry>(name.into()).unwrap(), *v);
         }
         assert_eq!(Symmetry::value_variants().len(), 2);
-        assert_eq!(Symmetry::from_name("nonsense"), None);
+        assert!(serde_json::from_value::<Symmetry>("nonsense".into()).is_err());
     }
 
     #[test]

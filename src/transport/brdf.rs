@@ -46,49 +46,162 @@ pub use super::BATCH;
 /// Bounce counts tallied individually; longer histories share the last bin.
 pub const BOUNCE_BINS: usize = 64;
 
-/// What to run.
-#[derive(Debug, Clone)]
+/// What to run: the one description of a `roks brdf` run, built once from
+/// the scene and the command line's overrides
+/// ([`crate::scene::micro::Overrides`]), traced as it is, and written as it
+/// is into `summary.json` and `tallies.json` (key `run`; keys in
+/// alphabetical order, as the fields are declared; floats in the shortest
+/// form that reads back (serde_json with `float_roundtrip`), so
+/// a run read back is bit for bit the run written).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct BrdfRun {
-    /// Incidence polar angles (degrees).
-    pub theta_deg: Vec<f64>,
-    /// Incidence azimuth (degrees).
-    pub phi_deg: f64,
-    /// Photons per incidence angle.
-    pub photons: u64,
-    /// Index of the first photon (shards run disjoint index ranges).
-    pub first_photon: u64,
-    /// Tracing seed.
-    pub seed: u64,
     /// Carlson bands.
     pub bands: usize,
+    /// History limits.
+    pub controls: Controls,
     /// In-plane bin width (degrees).
     pub inplane_step_deg: f64,
     /// In-plane detector full width out of the plane (degrees).
     pub inplane_width_deg: f64,
-    /// History limits.
-    pub controls: Controls,
     /// Entry points: random, or lattice replicates.
     pub launch: Launch,
-    /// Fold mirror images in the plane of incidence into the Carlson cells.
-    pub symmetry: Symmetry,
+    /// Incidence azimuth (degrees).
+    pub phi_deg: f64,
+    /// Photons per incidence angle of the whole run (of all its shards).
+    #[serde(rename = "photons_per_incidence")]
+    pub photons: u64,
     /// Polarised transport, incident state and polarisation tallies.
     pub polarisation: Polarisation,
+    /// Tracing seed.
+    pub seed: u64,
+    /// The block of the run's photons this run traces (`--shard I/N`);
+    /// `None`: all of them.
+    pub shard: Option<ShardRange>,
+    /// Fold mirror images in the plane of incidence into the Carlson cells.
+    pub symmetry: Symmetry,
+    /// Incidence polar angles (degrees).
+    pub theta_deg: Vec<f64>,
     /// Vacuum wavelengths (µm, strictly increasing) of a spectral run, each
     /// carried by every photon ([`crate::transport::carrier::LaneCarrier::Spectrum`]); empty for a monochrome run.
     pub wavelengths_um: Vec<f64>,
 }
 
+/// A checked field of a [`BrdfRun`] ([`BrdfRun::check`]), with its index
+/// in a list where it has one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunField {
+    /// `theta_deg` (an angle of it).
+    ThetaDeg(Option<usize>),
+    /// `phi_deg`.
+    PhiDeg,
+    /// `wavelengths_um` (a wavelength of it).
+    WavelengthsUm(Option<usize>),
+    /// `photons_per_incidence`.
+    Photons,
+    /// `bands`.
+    Bands,
+    /// `inplane_step_deg`.
+    InplaneStepDeg,
+    /// `inplane_width_deg`.
+    InplaneWidthDeg,
+    /// `controls.max_bounces`.
+    MaxBounces,
+    /// `controls.max_segments`.
+    MaxSegments,
+    /// `controls.roulette_weight`.
+    RouletteWeight,
+    /// `polarisation.incident`.
+    Incident,
+    /// `polarisation.tally`.
+    PolarTally,
+    /// `symmetry`.
+    Symmetry,
+}
+
+impl RunField {
+    /// The key a micro scene holds it at (`light.theta_deg[1]`,
+    /// `tally.bands`; `transport.max_segments`, which a scene cannot set,
+    /// for the segment cap).
+    #[must_use]
+    pub fn scene_key(self) -> String {
+        let (key, index) = match self {
+            Self::ThetaDeg(i) => ("light.theta_deg", i),
+            Self::PhiDeg => ("light.phi_deg", None),
+            Self::WavelengthsUm(i) => ("light.wavelengths_um", i),
+            Self::Photons => ("light.photons", None),
+            Self::Bands => ("tally.bands", None),
+            Self::InplaneStepDeg => ("tally.inplane_step_deg", None),
+            Self::InplaneWidthDeg => ("tally.inplane_width_deg", None),
+            Self::MaxBounces => ("transport.max_bounces", None),
+            Self::MaxSegments => ("transport.max_segments", None),
+            Self::RouletteWeight => ("transport.roulette_weight", None),
+            Self::Incident => ("light.polarisation", None),
+            Self::PolarTally => ("tally.polarisation", None),
+            Self::Symmetry => ("tally.symmetry", None),
+        };
+        with_index(key, index)
+    }
+
+    /// Its key in a serialised [`BrdfRun`] (`theta_deg[1]`, `bands`,
+    /// `controls.max_bounces`).
+    #[must_use]
+    pub fn run_key(self) -> String {
+        let (key, index) = match self {
+            Self::ThetaDeg(i) => ("theta_deg", i),
+            Self::PhiDeg => ("phi_deg", None),
+            Self::WavelengthsUm(i) => ("wavelengths_um", i),
+            Self::Photons => ("photons_per_incidence", None),
+            Self::Bands => ("bands", None),
+            Self::InplaneStepDeg => ("inplane_step_deg", None),
+            Self::InplaneWidthDeg => ("inplane_width_deg", None),
+            Self::MaxBounces => ("controls.max_bounces", None),
+            Self::MaxSegments => ("controls.max_segments", None),
+            Self::RouletteWeight => ("controls.roulette_weight", None),
+            Self::Incident => ("polarisation.incident", None),
+            Self::PolarTally => ("polarisation.tally", None),
+            Self::Symmetry => ("symmetry", None),
+        };
+        with_index(key, index)
+    }
+}
+
+/// `key[i]`, or `key` without an index.
+fn with_index(key: &str, index: Option<usize>) -> String {
+    match index {
+        Some(i) => format!("{key}[{i}]"),
+        None => key.to_owned(),
+    }
+}
+
+/// Block `index` of `count` of a run's photons (`--shard I/N`): the photon
+/// indices `[first_photon, last_photon)` of every incidence
+/// ([`crate::shard::Shard::photon_range`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShardRange {
+    /// Number of blocks.
+    pub count: u64,
+    /// First photon index traced (a multiple of [`BATCH`]).
+    pub first_photon: u64,
+    /// 0-based block index.
+    pub index: u64,
+    /// One past the last photon index traced.
+    pub last_photon: u64,
+}
+
 /// Polarisation settings of a run (`[light] polarisation`, `[tally]
 /// polarisation`, `[transport] polarisation`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Polarisation {
-    /// Carry a Stokes vector (or Mueller columns) per photon; false: the
-    /// scalar weight (unpolarised reflectance per bounce).
-    pub transport: bool,
     /// Incident state, in the frame of the incident flight (s = `(1, 1, 0, 0)`).
     pub incident: Incident,
     /// Polarisation tallies (need `transport`).
     pub tally: PolarTally,
+    /// Carry a Stokes vector (or Mueller columns) per photon; false: the
+    /// scalar weight (unpolarised reflectance per bounce).
+    pub transport: bool,
 }
 
 impl Polarisation {
@@ -397,6 +510,18 @@ impl IncidenceResult {
     }
 }
 
+/// The sum of complete tree nodes in batch order, added left to right
+/// (`None` without nodes): a whole run's root, or a shard's sums.
+#[must_use]
+pub fn add_up(nodes: &[Node<BrdfTallies>]) -> Option<BrdfTallies> {
+    let (first, rest) = nodes.split_first()?;
+    let mut t = first.value.clone();
+    for n in rest {
+        t.merge(&n.value);
+    }
+    Some(t)
+}
+
 /// The unit vector toward the light, `(sin t cos p, sin t sin p, cos t)`.
 #[must_use]
 pub fn toward_light(theta_deg: f64, phi_deg: f64) -> DVec3 {
@@ -435,68 +560,74 @@ pub fn check_incidence(theta_deg: &[f64]) -> Result<(), (Option<usize>, String)>
 
 impl BrdfRun {
     /// Check what the run later assumes, for every source of a run (a
-    /// scene's `[light]`, `[tally]` and `[transport]`, or the `settings` of
-    /// a `tallies.json`): incidence angles in `[0, 90)` and each once, a
-    /// finite azimuth, photons > 0 (a multiple of 16 with a lattice launch),
-    /// bands in `1..=1000`, an in-plane step the tally accepts, an in-plane
-    /// width in `(0, 180]`, history caps > 0 and a roulette weight in
-    /// `[0, 1)`.
+    /// scene's `[light]`, `[tally]` and `[transport]` with the command
+    /// line's overrides, or the `run` of a `tallies.json`): incidence
+    /// angles in `[0, 90)` and each once, a finite azimuth, wavelengths
+    /// ([`crate::optics::spectrum::check_wavelengths`]), photons > 0 (a
+    /// multiple of 16 with a lattice launch), bands in `1..=1000`, an
+    /// in-plane step the tally accepts, an in-plane width in `(0, 180]`,
+    /// history caps > 0, a roulette weight in `[0, 1)`, and an incident
+    /// state that is a state.
     ///
     /// # Errors
-    /// `(key, message)` with the key in scene terms (`light.theta_deg[1]`,
-    /// `tally.bands`, ...; `transport.max_segments`, which a scene cannot
-    /// set, for the segment cap).
-    pub fn check(&self) -> Result<(), (String, String)> {
-        let err = |key: &str, message: String| Err((key.to_owned(), message));
+    /// The field at fault ([`RunField`]: named as the scene key or the
+    /// file's key) and the message for the user.
+    pub fn check(&self) -> Result<(), (RunField, String)> {
         if let Err((i, e)) = check_incidence(&self.theta_deg) {
-            return match i {
-                Some(i) => err(&format!("light.theta_deg[{i}]"), e),
-                None => err("light.theta_deg", e),
-            };
+            return Err((RunField::ThetaDeg(i), e));
         }
         if !self.phi_deg.is_finite() {
-            return err("light.phi_deg", "must be finite".into());
+            return Err((RunField::PhiDeg, "must be finite".into()));
         }
         if !self.wavelengths_um.is_empty() {
-            if let Err((i, e)) = crate::optics::spectrum::check_wavelengths(&self.wavelengths_um) {
-                return match i {
-                    Some(i) => err(&format!("light.wavelengths_um[{i}]"), e),
-                    None => err("light.wavelengths_um", e),
-                };
-            }
+            crate::optics::spectrum::check_wavelengths(&self.wavelengths_um)
+                .map_err(|(i, e)| (RunField::WavelengthsUm(i), e))?;
         }
-        if let Err(e) = super::launch::check_photons(self.launch, self.photons) {
-            return err("light.photons", e);
-        }
+        super::launch::check_photons(self.launch, self.photons)
+            .map_err(|e| (RunField::Photons, e))?;
         if !(1..=1000).contains(&self.bands) {
-            return err(
-                "tally.bands",
+            return Err((
+                RunField::Bands,
                 format!("must be in 1..=1000, got {}", self.bands),
-            );
+            ));
         }
         let step = self.inplane_step_deg;
         if InPlaneTally::new(step, 0.5, 0.0).is_none() {
-            return err(
-                "tally.inplane_step_deg",
+            return Err((
+                RunField::InplaneStepDeg,
                 format!(
                     "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {}",
                     crate::tally::inplane::MAX_BINS,
                     Num(step)
                 ),
-            );
+            ));
         }
         if let Some(e) = InPlaneTally::width_error(self.inplane_width_deg) {
-            return err("tally.inplane_width_deg", e);
+            return Err((RunField::InplaneWidthDeg, e));
         }
         if self.controls.max_bounces == 0 {
-            return err("transport.max_bounces", "must be > 0".into());
+            return Err((RunField::MaxBounces, "must be > 0".into()));
         }
         if self.controls.max_segments == 0 {
-            return err("transport.max_segments", "must be > 0".into());
+            return Err((RunField::MaxSegments, "must be > 0".into()));
         }
         let rr = self.controls.roulette_weight;
         if !(0.0..1.0).contains(&rr) {
-            return err("transport.roulette_weight", "must be in [0, 1)".into());
+            return Err((RunField::RouletteWeight, "must be in [0, 1)".into()));
+        }
+        let p = &self.polarisation;
+        p.incident.validate().map_err(|e| (RunField::Incident, e))?;
+        if p.tally != PolarTally::None && !p.transport {
+            return Err((
+                RunField::PolarTally,
+                "a polarisation tally needs polarised transport".into(),
+            ));
+        }
+        if p.transport && self.symmetry == Symmetry::Mirror && !p.incident.is_mirror_symmetric() {
+            return Err((
+                RunField::Symmetry,
+                "mirror symmetry needs an incident state the mirror keeps (S2 = S3 = 0)".into(),
+            ));
         }
         Ok(())
     }
@@ -615,9 +746,9 @@ impl BrdfRun {
             .collect()
     }
 
-    /// Trace one incidence angle: all `photons` (indices from `first_photon`),
-    /// reduced over the fixed batch tree of this run alone; the result of
-    /// the first wavelength (of the one, for a monochrome run).
+    /// Trace one incidence angle: this run's photons
+    /// ([`BrdfRun::photon_range`]), their tree nodes added left to right;
+    /// the result of the first wavelength (of the one, for a monochrome run).
     pub fn run_one(
         &self,
         surface: &MicroSurface,
@@ -635,61 +766,52 @@ impl BrdfRun {
         theta_deg: f64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<IncidenceResult> {
-        let clock = Instant::now();
-        let batches = self.photons.div_ceil(BATCH);
-        let lanes = self.run_nodes(surface, theta_deg, 0, batches, progress);
-        let seconds = clock.elapsed().as_secs_f64();
-        let grid = self.grid();
-        let inplane = self.inplane();
+        let (lanes, seconds) = self.run_shard_one(surface, theta_deg, progress);
         lanes
-            .into_iter()
+            .iter()
             .enumerate()
-            .map(|(l, nodes)| {
-                let mut sum = DyadicSum::new(batches);
-                for n in nodes {
-                    sum.push(n, &BrdfTallies::merge)
-                        .expect("complete nodes in order");
-                }
-                IncidenceResult {
-                    theta_i_deg: theta_deg,
-                    phi_i_deg: self.phi_deg,
-                    wavelength_um: self.wavelength(l),
-                    tallies: sum
-                        .finish()
-                        .unwrap_or_else(|_| self.empty_tallies(&grid, &inplane)),
-                    seconds,
-                }
+            .map(|(l, nodes)| IncidenceResult {
+                theta_i_deg: theta_deg,
+                phi_i_deg: self.phi_deg,
+                wavelength_um: self.wavelength(l),
+                tallies: add_up(nodes)
+                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
+                seconds,
             })
             .collect()
     }
 
-    /// Trace one incidence angle of a block of a run: this run's photons are
-    /// the indices `[first_photon, first_photon + photons)` of a run of
-    /// `total_photons` (a shard; the whole run with `first_photon` 0 and
-    /// `total_photons = photons`); `first_photon` must be a multiple of
-    /// [`BATCH`]. Returns the complete nodes of the full run's batch tree
-    /// (see [`crate::tally::sum`]; the root alone for a whole run), one
-    /// list per wavelength ([`BrdfRun::lane_count`]), and the time (s). `roks brdf` traces whole runs and shards this way
-    /// ([`crate::output::brdf_folder::BrdfFolder::trace`]).
+    /// The photon indices `[first, last)` this run traces of every
+    /// incidence: its shard's, or all `[0, photons)`.
+    #[must_use]
+    pub fn photon_range(&self) -> (u64, u64) {
+        self.shard
+            .map_or((0, self.photons), |s| (s.first_photon, s.last_photon))
+    }
+
+    /// Trace one incidence angle of this run's photons
+    /// ([`BrdfRun::photon_range`]: a shard's block, or the whole run).
+    /// Returns the complete nodes of the whole run's batch tree (see
+    /// [`crate::tally::sum`]; the root alone for a whole run), one list per
+    /// wavelength ([`BrdfRun::lane_count`]), and the time (s).
     ///
     /// # Panics
-    /// If `first_photon` is not a multiple of [`BATCH`] or the range exceeds
-    /// `total_photons`.
+    /// If the range does not start on a batch or exceeds the run's photons.
     pub fn run_shard_one(
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
-        total_photons: u64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> (Vec<Vec<Node<BrdfTallies>>>, f64) {
-        assert!(self.first_photon % BATCH == 0, "shards start on a batch");
-        assert!(self.first_photon + self.photons <= total_photons);
+        let (first, last) = self.photon_range();
+        assert!(first % BATCH == 0, "shards start on a batch");
+        assert!(first <= last && last <= self.photons);
         let clock = Instant::now();
         let nodes = self.run_nodes(
             surface,
             theta_deg,
-            self.first_photon / BATCH,
-            total_photons.div_ceil(BATCH),
+            first / BATCH,
+            self.photons.div_ceil(BATCH),
             progress,
         );
         (nodes, clock.elapsed().as_secs_f64())
@@ -835,8 +957,9 @@ impl BrdfRun {
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi), self.lane_count());
         // Photon n's stream (after the entry draws) and entry point.
+        let (first, last) = self.photon_range();
         let entry = |n: u64| {
-            let g = self.first_photon + n;
+            let g = first + n;
             let mut rng = photon_rng(self.seed, g);
             let (mut u, mut v): (f64, f64) = (rng.random(), rng.random());
             let mut replicate = 0;
@@ -880,10 +1003,10 @@ impl BrdfRun {
                     }
                 })
             };
-            return super::run_batches(self.photons, tally_bytes, batch, consume, progress);
+            return super::run_batches(last - first, tally_bytes, batch, consume, progress);
         }
         super::run_ordered(
-            self.photons,
+            last - first,
             tally_bytes,
             |n| {
                 let e = entry(n);

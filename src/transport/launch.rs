@@ -62,7 +62,17 @@ const SHIFT_SALT: u64 = 0x6c61_7474_6963_6521;
 
 /// How entry points are chosen (`[light] launch`, `--launch`: the names in
 /// lower case).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, clap::ValueEnum)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Launch {
     /// Independent uniform points, one per photon stream.
@@ -75,25 +85,6 @@ pub enum Launch {
 }
 
 impl Launch {
-    /// The name used in scene files, on the command line and in summaries.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Random => "random",
-            Self::Lattice => "lattice",
-        }
-    }
-
-    /// Parse [`Launch::name`] (also the option's value names, which
-    /// clap derives from the same variants).
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        <Self as clap::ValueEnum>::value_variants()
-            .iter()
-            .copied()
-            .find(|v| v.name() == name)
-    }
-
     /// Replicates whose spread gives the standard errors (`None`: per photon).
     #[must_use]
     pub fn replicates(self) -> Option<u64> {
@@ -202,14 +193,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn option_values_are_the_names() {
+    fn option_values_are_the_scene_and_file_names() {
         use clap::ValueEnum as _;
         for v in Launch::value_variants() {
-            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
-            assert_eq!(Launch::from_name(v.name()), Some(*v));
+            let name = v.to_possible_value().unwrap().get_name().to_owned();
+            assert_eq!(serde_json::to_value(v).unwrap(), name.as_str());
+            assert_eq!(serde_json::from_value::<Launch>(name.into()).unwrap(), *v);
         }
         assert_eq!(Launch::value_variants().len(), 2);
-        assert_eq!(Launch::from_name("nonsense"), None);
+        assert!(serde_json::from_value::<Launch>("nonsense".into()).is_err());
     }
 
     #[test]

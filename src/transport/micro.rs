@@ -23,14 +23,15 @@ use crate::micro::{Edges, Event, Facet, MAX_CROSSINGS, MicroSurface, Scratch, Sk
 const SKIP_AFTER: u32 = 64;
 
 /// Limits of a history.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Controls {
     /// Most reflections before the photon is cut (reported as lost).
     pub max_bounces: u32,
-    /// Russian roulette below this weight; survivors carry `min(10 w_rr, 1)`.
-    pub roulette_weight: f64,
     /// Most straight flights (including periodic wraps) before the photon is cut.
     pub max_segments: u32,
+    /// Russian roulette below this weight; survivors carry `min(10 w_rr, 1)`.
+    pub roulette_weight: f64,
 }
 
 impl Default for Controls {

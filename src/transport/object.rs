@@ -99,13 +99,9 @@ impl FarField {
         }
     }
 
-    /// Score the Stokes vector `s` of a unit direction into `acc`, four bins
+    /// Score the Stokes vector `s` of a direction into `acc`, into the
+    /// cells of the direction found once ([`FarField::cells_of`]), four bins
     /// per cell: bin `4 cell + j` holds `S_j`.
-    pub fn score_stokes(&self, acc: &mut Accumulator, dir: DVec3, s: &Stokes) {
-        Self::score_stokes_in(acc, &self.cells_of(dir), s);
-    }
-
-    /// [`FarField::score_stokes`] into the cells of a direction found once.
     fn score_stokes_in(
         acc: &mut Accumulator,
         (cells, share, offset): &(Cells, f64, usize),

@@ -619,9 +619,12 @@ impl BrdfTables {
         };
         let json: serde_json::Value =
             serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON: {e}")))?;
+        // The wavelengths of a spectral run (an empty list: monochrome).
+        let wavelengths = run_value(&json, "wavelengths_um")
+            .filter(|w| w.as_array().is_none_or(|a| !a.is_empty()));
         match self {
             Self::Monochrome(t) => {
-                if json.get("wavelengths_um").is_some() {
+                if wavelengths.is_some() {
                     return Err(fail(format!(
                         "wavelengths_um: the summary of a spectral run, but {} is a table of one wavelength",
                         t.file()
@@ -630,15 +633,13 @@ impl BrdfTables {
                 Ok(Self::Monochrome(t.apply_summary(&json, name, None)?))
             }
             Self::Spectral(mut s) => {
-                let listed: Option<Vec<f64>> = json
-                    .get("wavelengths_um")
+                let listed: Option<Vec<f64>> = wavelengths
                     .and_then(serde_json::Value::as_array)
                     .map(|a| a.iter().map(|w| w.as_f64().unwrap_or(f64::NAN)).collect());
                 if listed.as_deref() != Some(s.wavelengths_um()) {
                     return Err(fail(format!(
                         "wavelengths_um: {} is not the table's wavelengths {:?} um in {} (a summary of another run?)",
-                        json.get("wavelengths_um")
-                            .unwrap_or(&serde_json::Value::Null),
+                        wavelengths.unwrap_or(&serde_json::Value::Null),
                         s.wavelengths_um(),
                         s.tables()[0].file()
                     )));
@@ -976,7 +977,7 @@ impl BrdfTable {
             .and_then(serde_json::Value::as_array)
             .ok_or_else(|| fail("no `incidence` list".into()))?;
         let num = |e: &serde_json::Value, key: &str| e.get(key).and_then(serde_json::Value::as_f64);
-        if let Some(b) = json.get("bands") {
+        if let Some(b) = run_value(json, "bands") {
             if b.as_u64() != Some(self.grid().bands() as u64) {
                 return Err(fail(format!(
                     "bands: {b} is not the {} bands of {table} (a summary of another run?)",
@@ -984,9 +985,17 @@ impl BrdfTable {
                 )));
             }
         }
-        let per_incidence = json
-            .get("photons_per_incidence")
-            .and_then(serde_json::Value::as_u64);
+        // Photons per incidence of this summary's folder: the run's, or
+        // its shard's block.
+        let per_incidence = match run_value(json, "shard").filter(|s| !s.is_null()) {
+            Some(shard) => {
+                let at = |k: &str| shard.get(k).and_then(serde_json::Value::as_u64);
+                at("last_photon")
+                    .zip(at("first_photon"))
+                    .map(|(l, f)| l.saturating_sub(f))
+            }
+            None => run_value(json, "photons_per_incidence").and_then(serde_json::Value::as_u64),
+        };
         for (k, e) in entries.iter().enumerate() {
             let (t, p) = (num(e, "theta_deg"), num(e, "phi_deg"));
             let listed = (0..self.thetas_deg().len())
@@ -1458,6 +1467,11 @@ fn check_complete(
     }
 }
 
+/// The value at `key` of the run a `summary.json` describes (`run.key`).
+fn run_value<'a>(json: &'a serde_json::Value, key: &str) -> Option<&'a serde_json::Value> {
+    json.get("run")?.get(key)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1744,8 +1758,8 @@ mod tests {
                 .to_string(),
             "incidence[1].photons: must be an integer > 0",
         );
-        bad(serde_json::json!({"photons_per_incidence": 999, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[0].photons: 1000 is not photons_per_incidence = 999");
-        bad(serde_json::json!({"bands": 7, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "bands: 7 is not the 8 bands of lambert.csv");
+        bad(serde_json::json!({"run": {"photons_per_incidence": 999}, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[0].photons: 1000 is not photons_per_incidence = 999");
+        bad(serde_json::json!({"run": {"bands": 7}, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "bands: 7 is not the 8 bands of lambert.csv");
         bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 0.2), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[1].reflectance_stderr: 0.2 exceeds");
         let e = t
             .with_summary(Path::new("/nonexistent/summary.json"))
@@ -1934,14 +1948,15 @@ mod tests {
         }
         // With its summary: per wavelength the exact standard errors.
         let stats = crate::micro::surface_stats::surface_stats(&scene.surface.height_map(8, 8));
-        let settings = crate::output::tallies::Settings::new(
+        let description = crate::output::summary::Description::new(
+            scene.content.clone(),
             "default",
             "default",
-            "periodic",
-            &run,
+            crate::micro::Edges::Periodic,
+            run.clone(),
             crate::output::summary::Surface::new(&stats, 8),
         );
-        let summary = crate::output::summary::BrdfSummary::new(&settings, None, &results, 1.0);
+        let summary = crate::output::summary::BrdfSummary::new(&description, &results, 1.0);
         let json = crate::output::summary::to_text(&summary);
         let with = read
             .clone()
@@ -1968,7 +1983,7 @@ mod tests {
             );
         };
         let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
-        v["wavelengths_um"] = serde_json::json!([0.4, 0.5, 0.65]);
+        v["run"]["wavelengths_um"] = serde_json::json!([0.4, 0.5, 0.65]);
         bad(v.to_string(), "wavelengths_um");
         let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
         v["incidence"][1]["spectrum"][2]["reflectance"] = serde_json::json!(0.1);

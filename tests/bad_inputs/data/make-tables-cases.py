@@ -169,7 +169,7 @@ table_case("summary-photons-differ", "summary.json: photons differ from photons_
            summary=lambda s: s["incidence"][0].__setitem__("photons", 4000))
 table_case("summary-bands", "summary.json of a run with other bands",
            ["models.rough.brdf", "summary.json", "bands: 8 is not the 1 bands of", "brdf.csv"],
-           summary=lambda s: s.__setitem__("bands", 8))
+           summary=lambda s: s["run"].__setitem__("bands", 8))
 table_case("summary-json", "summary.json cut short", ["models.rough.brdf", "summary.json", "invalid JSON"],
            with_summary=True)
 with open(os.path.join(DATA, "tables-summary-json", "summary.json"), "r+") as f:
@@ -244,17 +244,17 @@ merge_case("merge-cauchy-schwarz", "a sum of squares too small for its sum", ["i
            lambda v: node(v, 1)["carlson"]["sum_sq"].__setitem__(0, "1e-6"))
 merge_case("merge-sumsq-above-sum", "a sum of squares above its sum (scores are at most 1)", ["incidence[0].nodes[0].tallies.carlson.sum_sq[3]", "exceeds the sum"],
            lambda v: node(v)["carlson"]["sum_sq"].__setitem__(3, "800.0"))
-def bands0(v): v["settings"]["bands"] = 0
-merge_case("merge-bands-zero", "settings edited to bands = 0 (alike in all shards: here the one of the whole run)", ["settings.bands", "must be in 1..=1000, got 0"],
+def bands0(v): v["description"]["run"]["bands"] = 0
+merge_case("merge-bands-zero", "the run edited to bands = 0 (alike in all shards: here the one of the whole run)", ["description.run.bands", "must be in 1..=1000, got 0"],
            bands0, whole=True)
-def theta95(v): v["settings"]["theta_deg"][1] = "95.0"
-merge_case("merge-theta-settings", "settings edited alike in all shards: an incidence of 95 deg", ["settings.theta_deg[1]", "must be in [0, 90)"],
+def theta95(v): v["description"]["run"]["theta_deg"][1] = 95.0
+merge_case("merge-theta-settings", "the run edited alike in all shards: an incidence of 95 deg", ["description.run.theta_deg[1]", "must be in [0, 90)"],
            theta95, whole=True)
-def step(v): v["settings"]["inplane_step_deg"] = "7.0"
-merge_case("merge-inplane-step", "settings edited alike in all shards: in-plane step 7 deg", ["settings.inplane_step_deg", "must divide 180"],
+def step(v): v["description"]["run"]["inplane_step_deg"] = 7.0
+merge_case("merge-inplane-step", "the run edited alike in all shards: in-plane step 7 deg", ["description.run.inplane_step_deg", "must divide 180"],
            step, whole=True)
-def roulette(v): v["settings"]["roulette_weight"] = "NaN"
-merge_case("merge-roulette-nan", "settings edited alike in all shards: roulette weight NaN", ["settings.roulette_weight", "not a finite number"],
+def roulette(v): v["description"]["run"]["controls"]["roulette_weight"] = "NaN"
+merge_case("merge-roulette-nan", "the run edited alike in all shards: roulette weight NaN", ["description.run.controls.roulette_weight", "invalid type"],
            roulette, whole=True)
 merge_case("merge-node-photons", "a node with more photons than its batches", ["incidence[0].nodes[0].tallies.photons", "is not the 904 photons of its batches"],
            lambda v: node(v).__setitem__("photons", 5000))
@@ -272,13 +272,13 @@ merge_case("merge-incidence-missing", "an incidence dropped from the second shar
            lambda v: v["incidence"].pop())
 merge_case("merge-seconds-nan", "a total time of NaN", ["seconds", "not a finite number"],
            lambda v: v.__setitem__("seconds", "NaN"))
-merge_case("merge-seed-differs", "a shard of another run (seed)", ["settings.seed", "`seed` differs"],
-           lambda v: v["settings"].__setitem__("seed", 2))
+merge_case("merge-seed-differs", "a shard of another run (seed)", ["description.run.seed", "`description.run.seed` differs"],
+           lambda v: v["description"]["run"].__setitem__("seed", 2))
 merge_case("merge-replicates", "lattice replicates in a random-launch shard", ["incidence[0].nodes[0].tallies.replicates", "must be null for a random launch"],
            lambda v: node(v).__setitem__("replicates", {"count": 16, "reflected": [], "carlson": [], "inplane": []}))
 merge_case("merge-format", "not a tallies file", ["format", "not a roks tallies file"],
            lambda v: v.__setitem__("format_version", 7))
 case("merge-one-shard", "one shard alone: the second half of the photons is missing",
-     ["last_photon", "photons [4096, 5000) are missing after this shard"],
+     ["description.run.shard.last_photon", "photons [4096, 5000) are missing after this shard"],
      args="merge {data}/tables-shards/s0 --out {out} -q", file="{data}/tables-shards/s0/tallies.json")
 shutil.rmtree(tmp)
