@@ -274,12 +274,15 @@ class Surface(_Fields):
 
 @dataclass(frozen=True)
 class Polarisation(_Fields):
-    """The polarisation settings of a run: incident state, tally, transport."""
+    """The polarisation settings of a run: the incident state as the scene
+    writes it (`"unpolarised"`, `"s"`, `{"linear": 30}`, a Stokes vector...),
+    the tally (`"none"`, `"stokes"`, `"mueller"`) and whether the transport
+    is polarised."""
 
-    incident: str
-    incident_stokes: list[float]
+    incident: Any
     tally: str
-    transport: str
+    transport: Any
+    incident_stokes: list[float] | None = None
     raw: dict = field(default_factory=dict, repr=False)
 
 
@@ -295,12 +298,40 @@ class ShardRange(_Fields):
 
 
 @dataclass(frozen=True)
+class Content(_Fields):
+    """The identity of a run's input: the SHA-256 of the scene text and of
+    every file it reads, by scene key."""
+
+    scene_sha256: str
+    files: dict[str, str] = field(default_factory=dict)
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+RUN_KEYS = ("bands", "seed", "launch", "symmetry", "photons_per_incidence", "polarisation", "shard",
+            "wavelengths_um")
+"""Keys of roks's run description (`run` in summary.json, `description.run`
+in tallies.json) also offered at the top of a BrdfSummary, where roks wrote
+them before the description was one object (and the Mitsuba tracer still
+does)."""
+
+
+def _lift_run(data: dict, run) -> dict:
+    """`data` with the RUN_KEYS of the run description `run` at its top
+    level (keys already there win)."""
+    if not isinstance(run, dict):
+        return data
+    return {**{k: run[k] for k in RUN_KEYS if k in run}, **data}
+
+
+@dataclass(frozen=True)
 class BrdfSummary(_Fields):
     """summary.json of `roks brdf` / `roks merge` (also the Mitsuba tracer's,
     which has `incidence`, `bands`, `seed` and its own run keys)."""
 
     path: Path
     incidence: list[Incidence]
+    run: dict[str, Any] | None = None
+    content: Content | None = None
     bands: int | None = None
     seed: int | None = None
     name: str | None = None
@@ -447,6 +478,7 @@ def read_summary(path: str | Path) -> BrdfSummary | TraceSummary:
         cls = TraceSummary
     elif isinstance(data, dict) and "incidence" in data:
         cls = BrdfSummary
+        data = _lift_run(data, data.get("run"))
     else:
         raise ResultError(f"{show(path)}: not a roks summary.json (an object with 'incidence' or 'sources')")
     return _object(cls, data, where, path=path)
@@ -521,13 +553,18 @@ class Tallies(_Fields):
     format: str
     format_version: int
     batch: int
-    first_photon: int
-    last_photon: int
     seconds: ExactFloat
-    settings: dict[str, Any]
+    description: dict[str, Any]
     incidence: list[TalliesIncidence]
+    first_photon: int = 0
+    last_photon: int = 0
     shard: ShardRange | None = None
     raw: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def run(self) -> dict[str, Any]:
+        """The run description (as summary.json's `run`)."""
+        return self.description.get("run", {})
 
 
 def read_tallies(path: str | Path) -> Tallies:
@@ -537,6 +574,17 @@ def read_tallies(path: str | Path) -> Tallies:
     where = show(path) + ":"
     if not isinstance(data, dict) or data.get("format") != TALLIES_FORMAT:
         raise ResultError(f"{where} not a roks tallies.json (format {TALLIES_FORMAT!r})")
+    if data.get("format_version") != TALLIES_VERSION:
+        raise ResultError(f"{where} format_version {data.get('format_version')!r}, this reader knows {TALLIES_VERSION}")
+    # The photons held: the shard's block of the run, or the whole run.
+    run = data.get("description", {}).get("run", {}) if isinstance(data.get("description"), dict) else {}
+    if isinstance(run, dict):
+        shard = run.get("shard")
+        if isinstance(shard, dict):
+            data = {"first_photon": shard.get("first_photon"), "last_photon": shard.get("last_photon"),
+                    "shard": shard, **data}
+        elif isinstance(run.get("photons_per_incidence"), int):
+            data = {"first_photon": 0, "last_photon": run["photons_per_incidence"], **data}
     t = _object(Tallies, data, where, path=path)
     if t.format_version != TALLIES_VERSION:
         raise ResultError(f"{where} format_version {t.format_version}, this reader knows {TALLIES_VERSION}")

@@ -108,14 +108,14 @@ fn material(
     };
     let path = Path::new(scene);
     let loaded = if scene == "<default scene>" {
-        super::common::load_scene_at(None, (!wavelengths.is_empty()).then_some(wavelengths))
+        load_at(None, wavelengths)
     } else if !path.exists() {
         return Err(Failure::Input(format!(
             "{}: scene: {scene}: no such file (relative to the folder roks brdf ran in?): run from there, or give --n N --k K or --reflectance R",
             a.dir.join("summary.json").display()
         )));
     } else {
-        super::common::load_scene_at(Some(path), (!wavelengths.is_empty()).then_some(wavelengths))
+        load_at(Some(path), wavelengths)
     }?;
     let surface = &loaded.surface;
     let m = surface.materials[surface.substrate_material]
@@ -404,4 +404,23 @@ pub fn run(a: FitModelArgs) -> Result<(), Failure> {
         );
     }
     Ok(())
+}
+
+/// The micro scene at `path` (`None`: the embedded default) built at
+/// `wavelengths_um` (µm; empty: as the scene says), for its material.
+fn load_at(
+    path: Option<&Path>,
+    wavelengths_um: &[f64],
+) -> Result<crate::scene::micro::MicroScene, Failure> {
+    use crate::scene::micro::{MicroScene, Overrides};
+    let overrides = Overrides {
+        wavelengths_um: (!wavelengths_um.is_empty())
+            .then(|| crate::scene::WavelengthsSpec::List(wavelengths_um.to_vec())),
+        ..Overrides::default()
+    };
+    match path {
+        Some(p) => MicroScene::load_with(p, &overrides),
+        None => MicroScene::default_with(&overrides),
+    }
+    .map_err(|e| Failure::Input(e.to_string()))
 }

@@ -18,7 +18,6 @@ use super::tallies::{Merged, TALLIES_FILE, TalliesFile};
 use super::{brdf_csv, inplane_csv, polar_csv};
 use crate::micro::MicroSurface;
 use crate::optics::brdf_table::BrdfTables;
-use crate::tally::Merge;
 use crate::transport::brdf::{BrdfRun, IncidenceResult, add_up};
 
 /// A result folder's contents, before they are written.

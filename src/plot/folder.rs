@@ -191,8 +191,9 @@ pub fn pictures_in(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, String> {
 /// What a micro run's titles say of its photons: per incidence, and for a
 /// spectral run that they carry every wavelength.
 fn photons_text(s: &BrdfSummary) -> String {
-    let n = s.photons_per_incidence;
-    match s.wavelengths_um.len() {
+    // The photons this folder holds (a shard's block, or the whole run).
+    let n = s.incidence.first().map_or(s.run.photons, |i| i.photons);
+    match s.run.wavelengths_um.len() {
         0 => format!("{n} photons per incidence"),
         l => format!("{n} photons per incidence, each carrying all {l} wavelengths"),
     }
@@ -203,11 +204,13 @@ fn micro(
     s: &BrdfSummary,
     file: &dyn Fn(&str) -> Option<String>,
 ) -> Result<Vec<(String, Picture)>, String> {
-    let grid = CarlsonGrid::new(s.bands)
-        .ok_or(format!("summary.json: bands: {} is not a grid", s.bands))?;
+    let grid = CarlsonGrid::new(s.run.bands).ok_or(format!(
+        "summary.json: bands: {} is not a grid",
+        s.run.bands
+    ))?;
     let n = grid.n_cells();
-    let lanes = s.wavelengths_um.len().max(1);
-    let spectral = !s.wavelengths_um.is_empty();
+    let lanes = s.run.wavelengths_um.len().max(1);
+    let spectral = !s.run.wavelengths_um.is_empty();
     let photons = photons_text(s);
     let mean = if spectral {
         ", mean over the wavelengths".to_owned()
@@ -267,10 +270,7 @@ fn micro(
             &text,
             &headers(crate::output::polar_csv::STOKES_HEADER, "phi_i_deg"),
         )?;
-        let incident = s
-            .polarisation
-            .as_ref()
-            .map_or("unpolarised", |p| p.incident.as_str());
+        let incident = s.run.polarisation.incident.name();
         for ((theta, phi), sums) in
             incidence_blocks(&stokes, "stokes.csv", n, lanes, &["s0", "s1", "s2", "s3"])?
         {
@@ -481,7 +481,7 @@ fn inplane_plot(s: &BrdfSummary, t: &Csv, lanes: usize, photons: &str) -> LinePl
 /// `reflectance.png` of a micro run: the directional-hemispherical
 /// reflectance against the incidence angle, error bars of 2 standard errors.
 fn micro_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
-    let lanes = s.wavelengths_um.len();
+    let lanes = s.run.wavelengths_um.len();
     let label = if lanes > 0 {
         format!("mean over {lanes} wavelengths")
     } else {
