@@ -120,3 +120,28 @@ def test_plot_brdf_draws_a_spectral_result(roks, tmp_path):
     assert plot.main([str(tmp_path / "gold"), "--wavelength", "0.55", "--out", str(tmp_path / "c.png")]) == 2
     entries, _, _, brdf, w = plot.load(tmp_path / "gold")
     assert w == 0.45 and set(brdf["theta_i_deg"]) == {0.0, 60.0}  # nearest 0.55 of 0.45, 0.65: the first
+
+
+def test_every_study_writes_to_its_out_and_refuses_committed_results():
+    """Every study script takes --out (default ./<name> in the current folder)
+    and refuses, before any work, a folder of the repository's committed
+    results/ unless --overwrite-committed (exit 2, one line naming --out)."""
+    import subprocess
+    import sys
+    scripts = sorted((ROOT / "scripts").glob("*.py"))
+    # make_baffled_tube.py generates the committed scenes/baffled-tube-*.toml
+    # on purpose: a scene generator, not a study with results.
+    studies = [s for s in scripts if "roks_tools.studies" in s.read_text() and s.name != "make_baffled_tube.py"]
+    assert len(studies) >= 10, studies
+    committed = ROOT / "results" / "radiator"
+    if not committed_files(committed):
+        pytest.skip("results/radiator is not committed in this checkout")
+    for script in studies:
+        helps = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True)
+        assert helps.returncode == 0, (script, helps.stderr)
+        assert "--out" in helps.stdout and "--overwrite-committed" in helps.stdout, script.name
+        o = subprocess.run([sys.executable, str(script), "--out", str(committed)],
+                           capture_output=True, text=True, timeout=120)
+        assert o.returncode == 2, (script.name, o.returncode, o.stderr)
+        line = o.stderr.strip()
+        assert "\n" not in line and "committed to git" in line, (script.name, o.stderr)

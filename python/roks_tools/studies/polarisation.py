@@ -13,7 +13,8 @@ the Carlson cells between the two (cells lit in both): near 1 where polarisation
 changes nothing detectable. Also writes the degree-of-polarisation map of gaussian-rough.toml
 at 60 degrees (`--polarisation stokes`).
 
-Writes results/polarisation/report.md, report.json and dop_gaussian-rough_60deg.png.
+Writes OUT/report.md, report.json and dop_gaussian-rough_60deg.png (--out, default
+./polarisation; the repository's results/polarisation with --overwrite-committed).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import numpy as np
 
 from roks_tools.errors import command
 from roks_tools.results import read_columns
-from roks_tools.runner import default_roks, repo_root, run
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run
 
 REPO = repo_root()
 
@@ -72,9 +73,11 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--photons", type=int, default=1_000_000)
+    add_out_argument(ap, "polarisation")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
     work = REPO / "out" / "polarisation_study"
-    res = REPO / "results" / "polarisation"
+    res = a.out
     res.mkdir(parents=True, exist_ok=True)
     report = {"photons": a.photons, "scenes": {}}
     lines = [

@@ -21,7 +21,7 @@ mueller` into out/z302/, as scripts/radiator_study.py writes it), runs
 
 Each run uses its own seed (1 + run number), so the runs are independent and
 differences are compared with the root sum of squares of the standard errors.
-Writes results/radiator/polarisation.md, polarisation.csv and
+Writes OUT/polarisation.md, polarisation.csv and
 polarisation.png (reflectance vs offset, and the defect / ideal ratio).
 """
 
@@ -42,7 +42,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from roks_tools.errors import command
-from roks_tools.runner import default_roks, repo_root, run
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run
 
 REPO = repo_root()
 
@@ -79,8 +79,10 @@ def main() -> int:
     ap.add_argument("--roks", default=str(default_roks()))
     ap.add_argument("--photons", type=int, default=100_000)
     ap.add_argument("--replot", action="store_true", help="only redraw from polarisation.csv")
+    add_out_argument(ap, "radiator_polarisation")
     a = ap.parse_args()
-    res = REPO / "results" / "radiator"
+    check_output(a.out, a.overwrite_committed)
+    res = a.out
     res.mkdir(parents=True, exist_ok=True)
     if a.replot:
         with (res / "polarisation.csv").open(newline="") as f:

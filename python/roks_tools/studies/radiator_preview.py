@@ -11,7 +11,8 @@ Both modes write the Z-302 BRDF table out/z302/brdf.csv first if missing
 Default: renders scenes/radiator-brdf.toml and scenes/radiator-defect-brdf.toml
 with `roks render`: a camera on the axis 40 mm above the aperture looking down
 into the cavity (30 deg field of view, so the whole image lies inside the
-aperture but for the corners). Writes results/radiator/preview.png: both
+aperture but for the corners). Writes OUT/preview.png (--out, default
+./radiator_preview; results/radiator with --overwrite-committed): both
 images on a log10 scale of radiance in the disc's units (4 x 4-pixel means
 for display), and the EXRs to out/radiator_preview/.
 
@@ -22,8 +23,8 @@ leaves dark still show their shape. `roks render` traces the exact quadrics;
 Mitsuba renders the walls exported by `roks export-mesh --bounds` (voxels
 along the 143 mm side: --resolution) with scripts/mitsuba_object_render.py
 (same camera, disc and background, `roks_table` walls). Writes
-results/radiator/cutaway.png (roks and Mitsuba side by side, log10 radiance,
-with the apex region enlarged below) and results/radiator/cutaway.json (wall
+OUT/cutaway.png (roks and Mitsuba side by side, log10 radiance,
+with the apex region enlarged below) and OUT/cutaway.json (wall
 times of each step, image and apex-window means), the EXRs and the mesh to
 out/radiator_preview/.
 """
@@ -39,12 +40,12 @@ import numpy as np
 
 from roks_tools.errors import command
 from roks_tools.results import read_exr
-from roks_tools.runner import default_roks, repo_root, run as run_cmd
+from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run as run_cmd
 
 REPO = repo_root()
 
 OUT = REPO / "out" / "radiator_preview"
-RESULTS = REPO / "results" / "radiator"
+RESULTS = Path("radiator_preview")  # --out
 # The cutaway view: from the open (+x) side, 34 deg above the apex; image up +z.
 CUT_CAMERA, CUT_LOOK_AT, CUT_UP, CUT_FOV = (300.0, 90.0, 90.0), (0.0, 0.0, -42.0), (0.0, 0.0, 1.0), 31.0
 CUT_LIGHT = ["--light", "0,0", "--disc", "5", "--background", "1e-3"]
@@ -167,7 +168,12 @@ def main() -> int:
     ap.add_argument("--size", type=int, help="image side in pixels (default 256; cutaway 512)")
     ap.add_argument("--mitsuba-spp", type=int, default=64, help="cutaway: Mitsuba samples per pixel")
     ap.add_argument("--resolution", type=int, default=384, help="cutaway: voxels of the exported mesh")
+    add_out_argument(ap, "radiator_preview")
     a = ap.parse_args()
+    check_output(a.out, a.overwrite_committed)
+    global RESULTS
+    RESULTS = a.out
+    RESULTS.mkdir(parents=True, exist_ok=True)
     a.spp = a.spp or (1024 if a.cutaway else 256)
     a.size = a.size or (512 if a.cutaway else 256)
     OUT.mkdir(parents=True, exist_ok=True)
