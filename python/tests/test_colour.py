@@ -56,7 +56,7 @@ bands = 4
     out = tmp_path / "out"
     run([roks, "brdf", scene, "--out", out, "-q"], "test_colour", echo=False)
     summary = json.loads((out / "summary.json").read_text())
-    wl = np.array(summary["wavelengths_um"])
+    wl = np.array(summary["run"]["wavelengths_um"])
     assert len(wl) == 81 and abs(wl[0] - 0.38) < 1e-12 and abs(wl[-1] - 0.78) < 1e-12
     table = pc.read_nk_csv(GOLD)
     expected_r = pc.fresnel_normal(np.interp(wl, table[:, 0], table[:, 1]), np.interp(wl, table[:, 0], table[:, 2]))

@@ -225,6 +225,8 @@ def test_polar_table_with_more_columns_reads(genuine, tmp_path):
     body = [ln + (",nan" if i == 0 else ",0.5") for i, ln in enumerate(lines[1:])]
     p = _broken(tmp_path, genuine["mueller.csv"], ("\n".join([head, *body]) + "\n").encode())
     t = PolarTable.read(p)
-    assert list(t.extra) == ["m01_norm_stderr"] and t.extra["m01_norm_stderr"][1] == 0.5
+    # roks's own m_ij/m00 errors are extra columns too, then the new one.
+    assert list(t.extra) == [f"m{i}{j}_m00_stderr" for i in range(4) for j in range(4)][1:] + ["m01_norm_stderr"]
+    assert t.extra["m01_norm_stderr"][1] == 0.5
     p.write_text("\n".join([lines[0] + ",other", *(ln + ",1" for ln in lines[1:])]) + "\n")
     _refused(p, "not the header")

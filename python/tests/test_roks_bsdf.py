@@ -106,7 +106,7 @@ Q = np.diag([1.0, 1.0, -1.0, 1.0])
 def write_mueller(path: Path, blocks: list[tuple[float, float, np.ndarray]], m: int = M) -> None:
     """mueller.csv rows (stderr 0) of per-cell matrices (cells, 4, 4)."""
     g = grid(m)
-    lines = [roks_bsdf.MUELLER_HEADER]
+    lines = [",".join(roks_bsdf.MUELLER_MATRIX_COLUMNS)]  # the matrix columns (as older files and the Mitsuba tracer write)
     for theta, phi_i, mats in blocks:
         for (j, c, bot, top, lo, hi, proj), mat in zip(g, mats):
             vals = ",".join(f"{float(v)!r},0" for v in mat.reshape(16))

@@ -672,12 +672,19 @@ mod tests {
     /// the wavelengths.
     #[test]
     fn titles_and_units() {
-        let text = r#"{"bands":2,"edges":"periodic","incidence":[
-            {"capped_photons":0,"intersection_tests":1,"lost":0,"lost_cap":0,"lost_numeric":0,"lost_walls":0,"mean_bounces":1,"numeric_guard_photons":0,"phi_deg":0,"photons":1000,"reflectance":0.5,"reflectance_by_bounces":[0.5],"reflectance_stderr":0.01,"seconds":1,"segments":1,"segments_per_second":1,"tests_per_segment":1,"theta_deg":30}],
-            "launch":"random","name":"s","photons_per_incidence":1000,"scene":"s.toml","seconds":1,"seed":1,
-            "surface":{"height_map_resolution":4,"max_height":0,"mean_height":0,"min_height":0,"rms_slope":0,"sigma":0,"sigma_over_tau":null,"tau":null},
-            "symmetry":"none","version":"0","wavelengths_um":[0.5,0.6,0.7]}"#;
-        let s: BrdfSummary = serde_json::from_str(text).unwrap();
+        let mut run = crate::scene::micro::MicroScene::default_scene().brdf_run();
+        run.photons = 1000;
+        run.theta_deg = vec![30.0];
+        run.wavelengths_um = vec![0.5, 0.6, 0.7];
+        let text = format!(
+            r#"{{"content":{{"files":{{}},"scene_sha256":"0"}},"edges":"periodic","incidence":[
+            {{"capped_photons":0,"intersection_tests":1,"lost":0,"lost_cap":0,"lost_numeric":0,"lost_walls":0,"mean_bounces":1,"numeric_guard_photons":0,"phi_deg":0,"photons":1000,"reflectance":0.5,"reflectance_by_bounces":[0.5],"reflectance_stderr":0.01,"seconds":1,"segments":1,"segments_per_second":1,"tests_per_segment":1,"theta_deg":30}}],
+            "name":"s","run":{},"scene":"s.toml","seconds":1,
+            "surface":{{"height_map_resolution":4,"max_height":0,"mean_height":0,"min_height":0,"rms_slope":0,"sigma":0,"sigma_over_tau":null,"tau":null}},
+            "version":"0"}}"#,
+            serde_json::to_string(&run).unwrap()
+        );
+        let s: BrdfSummary = serde_json::from_str(&text).unwrap();
         let photons = photons_text(&s);
         assert_eq!(
             photons,
