@@ -120,8 +120,9 @@ standard errors of the normalised elements, `m01_norm_stderr`): read into
 `PolarTable.extra` (NaN allowed: a ratio where m00 = 0), so a file that
 gains such columns still reads."""
 
-NAN_COLUMNS = frozenset({"dop"})
-"""Columns where NaN is a value (an undefined degree of polarisation)."""
+NAN_COLUMNS = frozenset({"dop"} | {n + "_m00_stderr" for n in MUELLER_NAMES[1:]})
+"""Columns where NaN is a value (an undefined degree of polarisation; the
+error of m_ij/m00 where m00 = 0)."""
 
 MAX_TABLE_BYTES = 4 << 30
 """Largest CSV file read (4 GiB)."""
