@@ -110,12 +110,7 @@ impl BrdfArgs {
     /// # Errors
     /// Bad input naming the option or the scene file and key.
     pub fn scene(&self) -> Result<MicroScene, Failure> {
-        let overrides = self.overrides();
-        match &self.scene {
-            Some(path) => MicroScene::load_with(path, &overrides),
-            None => MicroScene::default_with(&overrides),
-        }
-        .map_err(|e| Failure::Input(e.to_string()))
+        super::common::load_scene_with(self.scene.as_deref(), &self.overrides())
     }
 }
 
@@ -130,7 +125,12 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         f.check_wavelengths(&run.wavelengths_um)
             .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
     }
-    let (rx, ry) = stats_grid(&scene, a.stats_resolution, 512, "--stats-resolution")?;
+    let (rx, ry) = stats_grid(
+        &scene,
+        a.stats_resolution,
+        super::common::STATS_RESOLUTION,
+        "--stats-resolution",
+    )?;
     if let Some(s) = a.shard {
         let (first_photon, last_photon) = s
             .photon_range(run.photons)

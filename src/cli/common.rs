@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 
 use super::Failure;
-use crate::scene::micro::MicroScene;
+use crate::scene::micro::{MicroScene, Overrides};
 
 /// The micro scene at `path`, or the embedded default scene.
 ///
@@ -18,6 +18,24 @@ pub fn load_scene(path: Option<&Path>) -> Result<MicroScene, Failure> {
         Some(p) => MicroScene::load(p)?,
         None => MicroScene::default_scene(),
     })
+}
+
+/// Height-map samples per side of the grid of the surface statistics,
+/// unless given: the same for `roks brdf` (summary.json's `surface`) and
+/// `roks stats`, so the two print the same figures.
+pub const STATS_RESOLUTION: usize = 512;
+
+/// The micro scene at `path` (`None`: the embedded default) with
+/// `overrides` laid over its keys, built and checked once.
+///
+/// # Errors
+/// Bad input naming the option or the scene file and key.
+pub fn load_scene_with(path: Option<&Path>, overrides: &Overrides) -> Result<MicroScene, Failure> {
+    match path {
+        Some(p) => MicroScene::load_with(p, overrides),
+        None => MicroScene::default_with(overrides),
+    }
+    .map_err(|e| Failure::Input(e.to_string()))
 }
 
 /// Use `threads` worker threads (`--threads`; `None`: all cores).
@@ -104,7 +122,9 @@ pub fn result_dir(given: Option<&Path>, scene_file: &str, name: &str) -> Result<
         let out = Path::new("out").join(name);
         let key = format!("{scene_file}: name");
         check_out_dir(&out, &key)?;
-        if let Some(other) = recorded_scene(&out).filter(|o| !same_file(o, scene_file)) {
+        if let Some(other) = recorded_scene(&out)
+            .filter(|o| o != scene_file && !same_file(Path::new(o), Path::new(scene_file)))
+        {
             return Err(Failure::Input(format!(
                 "{key}: {} holds the result of {}, another scene named {name:?}; give --out, or another name",
                 out.display(),
@@ -125,14 +145,13 @@ fn recorded_scene(out: &Path) -> Option<String> {
     v.get("scene")?.as_str().map(str::to_owned)
 }
 
-/// Whether the scene paths `a` and `b` (as given, relative to the working
-/// folder) name one file: the same text, or the same file once resolved.
-fn same_file(a: &str, b: &str) -> bool {
-    a == b
-        || matches!(
-            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
-            (Ok(x), Ok(y)) if x == y
-        )
+/// Whether `a` and `b` are one existing file: both resolve (links, `..`,
+/// relative to the working folder) to the same path.
+fn same_file(a: &Path, b: &Path) -> bool {
+    matches!(
+        (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+        (Ok(x), Ok(y)) if x == y
+    )
 }
 
 /// Check a result folder before any work is done; `key` names it in the
@@ -154,16 +173,12 @@ pub fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
 pub fn check_out_file(out: &Path, inputs: &[PathBuf]) -> Result<(), Failure> {
     crate::outdir::check_file(out)
         .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))?;
-    // Both exist when they are the same file; compare where they resolve to.
-    let resolved = |p: &Path| std::fs::canonicalize(p).ok();
-    if let Some(o) = resolved(out) {
-        if let Some(input) = inputs.iter().find(|i| resolved(i).as_ref() == Some(&o)) {
-            return Err(Failure::Input(format!(
-                "--out: {}: is the input {}, which writing would replace; write elsewhere",
-                out.display(),
-                input.display()
-            )));
-        }
+    if let Some(input) = inputs.iter().find(|i| same_file(out, i)) {
+        return Err(Failure::Input(format!(
+            "--out: {}: is the input {}, which writing would replace; write elsewhere",
+            out.display(),
+            input.display()
+        )));
     }
     Ok(())
 }

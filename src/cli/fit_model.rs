@@ -412,15 +412,10 @@ fn load_at(
     path: Option<&Path>,
     wavelengths_um: &[f64],
 ) -> Result<crate::scene::micro::MicroScene, Failure> {
-    use crate::scene::micro::{MicroScene, Overrides};
-    let overrides = Overrides {
+    let overrides = crate::scene::micro::Overrides {
         wavelengths_um: (!wavelengths_um.is_empty())
             .then(|| crate::scene::WavelengthsSpec::List(wavelengths_um.to_vec())),
-        ..Overrides::default()
+        ..Default::default()
     };
-    match path {
-        Some(p) => MicroScene::load_with(p, &overrides),
-        None => MicroScene::default_with(&overrides),
-    }
-    .map_err(|e| Failure::Input(e.to_string()))
+    super::common::load_scene_with(path, &overrides)
 }

@@ -36,7 +36,12 @@ pub struct StatsArgs {
 /// Bad input (scene, `--resolution`), or a failed write to stdout.
 pub fn run(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
-    let (r, ry) = stats_grid(&scene, a.resolution, 512, "--resolution")?;
+    let (r, ry) = stats_grid(
+        &scene,
+        a.resolution,
+        super::common::STATS_RESOLUTION,
+        "--resolution",
+    )?;
     let map = scene.surface.height_map(r, ry);
     let s = surface_stats(&map);
     if let Some(path) = &a.png {
