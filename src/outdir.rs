@@ -198,7 +198,91 @@ pub fn check_file(path: &Path) -> Result<(), String> {
     if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
         return Err("is a folder, not a file".into());
     }
+    let text = path.as_os_str().as_encoded_bytes();
+    if text.ends_with(b"/") || text.ends_with(b"/.") || text == b"." {
+        return Err("ends with `/`, so it names a folder; a file is written here".into());
+    }
     check_parent(&parent)
+}
+
+/// `path` as the system reaches it: absolute (from the working folder), its
+/// existing part resolved (symbolic links, `.`, `..`), the rest (which does
+/// not exist yet) normalised by name. Two spellings of one place give the
+/// same path; a trailing `/` is no part of it.
+#[must_use]
+pub fn resolved(path: &Path) -> PathBuf {
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir().unwrap_or_default().join(path)
+    };
+    let mut out = PathBuf::new();
+    let mut exists = true;
+    for c in abs.components() {
+        match c {
+            Component::Prefix(_) | Component::RootDir => out.push(c.as_os_str()),
+            Component::CurDir => {}
+            // `out` is resolved (no link in it) or names nothing yet: its
+            // parent is the parent by name.
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::Normal(n) => {
+                out.push(n);
+                if exists {
+                    match std::fs::canonicalize(&out) {
+                        Ok(p) => out = p,
+                        Err(_) => exists = false,
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The places `path` stands for: [`resolved`], and its folder resolved
+/// with its own last name kept (a symbolic link itself, which a rename
+/// replaces and a folder swap deletes).
+fn places(path: &Path) -> Vec<PathBuf> {
+    let mut v = vec![resolved(path)];
+    if let Ok((parent, name)) = split(path) {
+        v.push(resolved(&parent).join(name));
+    }
+    v
+}
+
+/// Whether writing `out`, a result folder replaced whole (`folder`) or one
+/// file, would replace, delete or overwrite `input`, a file or folder the
+/// run reads: `out` is `input` (however either is spelt: links, `..`,
+/// trailing `/`, hard links of one file), or, for a folder, holds it.
+#[must_use]
+pub fn replaces(out: &Path, folder: bool, input: &Path) -> bool {
+    let (outs, ins) = (places(out), places(input));
+    let hit = outs.iter().any(|o| {
+        ins.iter()
+            .any(|i| if folder { i.starts_with(o) } else { i == o })
+    });
+    hit || same_inode(out, input)
+}
+
+/// Whether `a` and `b` exist and are one file (one inode: hard links too).
+fn same_inode(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        matches!(
+            (std::fs::metadata(a), std::fs::metadata(b)),
+            (Ok(x), Ok(y)) if (x.dev(), x.ino()) == (y.dev(), y.ino())
+        )
+    }
+    #[cfg(not(unix))]
+    {
+        matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(x), Ok(y)) if x == y
+        )
+    }
 }
 
 /// Whether process `pid` may still be running (and so own its staging

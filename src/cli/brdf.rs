@@ -143,7 +143,12 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         });
     }
     set_threads(a.run.threads)?;
-    let out = result_dir(a.run.out.as_deref(), &scene.source.file, &scene.name)?;
+    let out = result_dir(
+        a.run.out.as_deref(),
+        &scene.source.file,
+        &scene.name,
+        &scene.reads,
+    )?;
 
     let map = scene.surface.height_map(rx, ry);
     let stats = surface_stats(&map);

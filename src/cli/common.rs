@@ -106,7 +106,9 @@ pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Fai
 }
 
 /// The result folder: `given` (`--out`), or `out/<name>` (named in messages
-/// by the scene file's `name` key), checked before any work is done.
+/// by the scene file's `name` key), checked before any work is done: it
+/// can be a result folder, and replacing it destroys none of `reads`, the
+/// files the run reads ([`check_kept`]).
 ///
 /// The default folder is never taken over from another scene file: when
 /// `out/<name>` holds the result of a scene at another path (its
@@ -117,23 +119,30 @@ pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Fai
 /// # Errors
 /// Bad input when the folder cannot be a result folder, or is the default
 /// folder of another scene file.
-pub fn result_dir(given: Option<&Path>, scene_file: &str, name: &str) -> Result<PathBuf, Failure> {
+pub fn result_dir(
+    given: Option<&Path>,
+    scene_file: &str,
+    name: &str,
+    reads: &[PathBuf],
+) -> Result<PathBuf, Failure> {
     let Some(out) = given else {
         let out = Path::new("out").join(name);
         let key = format!("{scene_file}: name");
         check_out_dir(&out, &key)?;
+        check_kept(&key, &[Written::Folder(&out)], reads)?;
         if let Some(other) = recorded_scene(&out)
             .filter(|o| o != scene_file && !same_file(Path::new(o), Path::new(scene_file)))
         {
             return Err(Failure::Input(format!(
                 "{key}: {} holds the result of {}, another scene named {name:?}; give --out, or another name",
-                out.display(),
+                shown(&out),
                 other.escape_debug()
             )));
         }
         return Ok(out);
     };
     check_out_dir(out, "--out")?;
+    check_kept("--out", &[Written::Folder(out)], reads)?;
     Ok(out.to_path_buf())
 }
 
@@ -161,26 +170,103 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// Bad input when the folder exists and is neither empty nor a roks result.
 pub fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
     crate::outdir::check_folder(out)
-        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", out.display())))
+        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", shown(out))))
 }
 
 /// Check an output file (`--out`) before any work is done: it can be
-/// written as a file, and it is none of `inputs`, the files the command
-/// reads (a scene, a result's table), which it would replace.
+/// written as a file (not a folder, nor a path ending in `/`; its folder
+/// can be made), and writing it replaces none of `inputs`, the files the
+/// command reads ([`check_kept`]).
 ///
 /// # Errors
-/// Bad input when `out` cannot be written as a file or is one of `inputs`.
+/// Bad input when `out` cannot be written as a file or would replace one
+/// of `inputs`.
 pub fn check_out_file(out: &Path, inputs: &[PathBuf]) -> Result<(), Failure> {
+    check_out_file_as("--out", out, inputs)
+}
+
+/// [`check_out_file`] of the output of `option`.
+///
+/// # Errors
+/// As [`check_out_file`].
+pub fn check_out_file_as(option: &str, out: &Path, inputs: &[PathBuf]) -> Result<(), Failure> {
     crate::outdir::check_file(out)
-        .map_err(|e| Failure::Input(format!("--out: {}: {e}", out.display())))?;
-    if let Some(input) = inputs.iter().find(|i| same_file(out, i)) {
-        return Err(Failure::Input(format!(
-            "--out: {}: is the input {}, which writing would replace; write elsewhere",
-            out.display(),
-            input.display()
-        )));
+        .map_err(|e| Failure::Input(format!("{option}: {}: {e}", shown(out))))?;
+    check_kept(option, &[Written::File(out)], inputs)
+}
+
+/// What a command writes, to be checked against what it reads.
+#[derive(Debug, Clone, Copy)]
+pub enum Written<'a> {
+    /// A result folder, replaced whole (every file in it goes).
+    Folder(&'a Path),
+    /// One file, replaced.
+    File(&'a Path),
+}
+
+/// The one decision, for every command, that its outputs destroy no input:
+/// refuse (naming `option`) when one of `outputs` is, holds (a folder
+/// replaced whole) or would replace one of `inputs` (the scene, every file
+/// it names, a table wall's files, merged folders), however either path is
+/// spelt: symbolic links, `..`, trailing `/`, hard links
+/// ([`crate::outdir::replaces`]). Call it before any work.
+///
+/// # Errors
+/// Bad input naming the option, the output and the input.
+pub fn check_kept(
+    option: &str,
+    outputs: &[Written<'_>],
+    inputs: &[PathBuf],
+) -> Result<(), Failure> {
+    for w in outputs {
+        let (out, folder) = match *w {
+            Written::Folder(p) => (p, true),
+            Written::File(p) => (p, false),
+        };
+        if let Some(input) = inputs
+            .iter()
+            .find(|i| crate::outdir::replaces(out, folder, i))
+        {
+            let how = if folder && !crate::outdir::replaces(out, false, input) {
+                "holds"
+            } else {
+                "is"
+            };
+            return Err(Failure::Input(format!(
+                "{option}: {}: {how} {}, a file this run reads, which writing {} would destroy; write elsewhere",
+                shown(out),
+                shown(input),
+                if folder {
+                    "the folder (replaced whole)"
+                } else {
+                    "it"
+                }
+            )));
+        }
     }
     Ok(())
+}
+
+/// `path` for a message: as given, with control characters (a newline in
+/// a file name) escaped as `\n`, `\u{1b}`, so that every message stays one
+/// line.
+#[must_use]
+pub fn shown(path: &Path) -> String {
+    escape_controls(&path.display().to_string())
+}
+
+/// `text` with its control characters escaped (`\n`, `\t`, `\u{7f}`).
+#[must_use]
+pub fn escape_controls(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// Write `bytes` to `path` atomically, creating its folder.
@@ -304,15 +390,15 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let given = dir.join("given");
-        assert_eq!(result_dir(Some(&given), "s.toml", "x").unwrap(), given);
+        assert_eq!(result_dir(Some(&given), "s.toml", "x", &[]).unwrap(), given);
         assert_eq!(
-            result_dir(None, "s.toml", "x").unwrap(),
+            result_dir(None, "s.toml", "x", &[]).unwrap(),
             Path::new("out").join("x")
         );
         // A file that is not a roks result is never replaced.
         let foreign = dir.join("notes.txt");
         std::fs::write(&foreign, "mine").unwrap();
-        let e = result_dir(Some(&foreign), "s.toml", "x").unwrap_err();
+        let e = result_dir(Some(&foreign), "s.toml", "x", &[]).unwrap_err();
         assert!(
             matches!(&e, Failure::Input(m) if m.starts_with(&format!("--out: {}: ", foreign.display()))),
             "{e}"

@@ -37,7 +37,7 @@ pub fn run(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
-    check_out_file(&a.out, a.scene.as_slice())?;
+    check_out_file(&a.out, &scene.reads)?;
     let ext = a
         .out
         .extension()

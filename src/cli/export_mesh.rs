@@ -64,7 +64,7 @@ pub fn run(a: ExportMeshArgs) -> Result<(), Failure> {
         &format!("a mesh of {} x {} grid squares", n.0, n.1),
         crate::export::mesh_memory_bytes(n.0, n.1),
     )?;
-    check_out_file(&a.out, a.scene.as_slice())?;
+    check_out_file(&a.out, &scene.reads)?;
     let mesh = match scene.surface.heightfield() {
         Some(field) => crate::export::field_mesh(field),
         None => crate::export::height_field_mesh(&scene.surface, resolution),
@@ -103,7 +103,7 @@ fn object(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
         let what = format!("the voxel grid of resolution {resolution} over --bounds");
         check_memory("--resolution", &what, bytes)?;
     }
-    check_out_file(&a.out, a.scene.as_slice())?;
+    check_out_file(&a.out, &scene.reads)?;
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
     if mesh.faces.is_empty() {

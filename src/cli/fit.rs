@@ -101,6 +101,9 @@ pub fn run(a: FitArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
     check_out_dir(&out, "--out")?;
+    let mut reads = crate::scene::micro::MicroScene::reads_of(&a.scene);
+    reads.push(a.measured.clone());
+    super::common::check_kept("--out", &[super::common::Written::Folder(&out)], &reads)?;
     let quiet = a.quiet;
     let result = problem
         .fit_observed(&mut |k, values, misfit, rejected| {

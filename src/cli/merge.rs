@@ -33,6 +33,7 @@ pub struct MergeArgs {
 /// overlaps, `--out`, memory), or a failed write.
 pub fn run(a: MergeArgs) -> Result<(), Failure> {
     check_out_dir(&a.out, "--out")?;
+    super::common::check_kept("--out", &[super::common::Written::Folder(&a.out)], &a.dirs)?;
     let parts = a
         .dirs
         .iter()

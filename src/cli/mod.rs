@@ -69,10 +69,12 @@ impl Failure {
 
 impl fmt::Display for Failure {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Input(message) => f.write_str(message),
-            Self::Other(e) => write!(f, "{e:#}"),
-        }
+        // One line, whatever a quoted file name holds.
+        let text = match self {
+            Self::Input(message) => common::escape_controls(message),
+            Self::Other(e) => common::escape_controls(&format!("{e:#}")),
+        };
+        f.write_str(&text)
     }
 }
 

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{check_memory, check_out_file, load_scene, set_threads, write_file};
+use super::common::{Written, check_memory, check_out_file, load_scene, set_threads, write_file};
 use super::parse::{integer, number, positive};
 use crate::render::{PinholeCamera, RenderSettings, ToneSettings, Tonemap};
 use crate::scene::SceneKind;
@@ -79,6 +79,10 @@ pub struct RenderArgs {
     /// the non-zero pixels' luminance is white].
     #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = number)]
     pub exposure: Option<f64>,
+    /// Render even when the estimated cost exceeds MAX_PATHS (1e10 camera
+    /// paths: width x height x spp), which is otherwise refused up front.
+    #[arg(long)]
+    pub force_long_render: bool,
     /// Log curve: decades of radiance from white to black [default:
     /// automatic, log10 of the 99.9th over the 1st percentile of the
     /// non-zero pixels' luminance, within 1..8].
@@ -104,6 +108,34 @@ impl RenderArgs {
 /// show their shape (walls of a few percent reflectance are then a few
 /// 1e-5, inside the log preview's automatic range).
 pub const OBJECT_BACKGROUND: f64 = 1e-3;
+
+/// The most camera paths (width x height x samples per pixel) a render
+/// starts without `--force-long-render`: about an hour on one core at
+/// [`PATHS_PER_CORE_SECOND`].
+pub const MAX_PATHS: u64 = 10_000_000_000;
+
+/// Camera paths per second and core of the default micro scene's render,
+/// measured (`/usr/bin/time roks render --size 512,512 --spp 64 --threads
+/// 1`: 16.8e6 paths in 5.5 s of user time); object scenes with micro
+/// walls are slower, so the estimate is a lower bound of the time.
+pub const PATHS_PER_CORE_SECOND: f64 = 3e6;
+
+/// The cost of a `w` x `h` render at `spp` samples per pixel on `threads`
+/// cores: its camera paths and an estimate of its seconds; refused above
+/// [`MAX_PATHS`] unless `force`.
+///
+/// # Errors
+/// Bad input naming `--spp` and `--size`, the paths and the time.
+pub fn check_cost(w: u64, h: u64, spp: u32, threads: usize, force: bool) -> Result<u64, Failure> {
+    let paths = w.saturating_mul(h).saturating_mul(u64::from(spp));
+    if paths > MAX_PATHS && !force {
+        let hours = paths as f64 / (PATHS_PER_CORE_SECOND * threads.max(1) as f64) / 3600.0;
+        return Err(Failure::Input(format!(
+            "--spp: {w} x {h} pixels x {spp} samples = {paths:.3e} camera paths, above the bound of {MAX_PATHS:.0e} (about {hours:.1} h on {threads} cores at {PATHS_PER_CORE_SECOND:.0e} paths/s per core); lower --spp or --size, or give --force-long-render"
+        )));
+    }
+    Ok(paths)
+}
 
 /// Run `roks render`.
 ///
@@ -136,6 +168,10 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         )));
     }
     check_out_file(&png, a.scene.as_slice())?;
+    let threads = a.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    check_cost(w, h, a.spp, threads, a.force_long_render)?;
     let tone = a.tone()?;
     // A file that cannot be read is left to the micro loader's message.
     if let Some(path) = a
@@ -146,6 +182,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         return object(&a, path, &tone);
     }
     let scene = load_scene(a.scene.as_deref())?;
+    check_kept(&a.out, &scene.reads)?;
     let (light_theta, light_phi) = match &a.light {
         Some(l) => (l[0], l[1]),
         None => (scene.light.theta_deg[0], scene.light.phi_deg),
@@ -175,6 +212,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
 /// `roks render` of an object scene: a pinhole camera view.
 fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failure> {
     let scene = ObjectScene::load(path)?;
+    check_kept(&a.out, &scene.reads)?;
     for (name, v) in [("--camera", &a.camera), ("--look-at", &a.look_at)] {
         if v.as_ref().is_some_and(|v| v.len() != 3) {
             return Err(Failure::Input(format!(
@@ -257,6 +295,15 @@ fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failur
     }
     let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
     write_images(&a.out, &img, tone, losses.lost, paths)
+}
+
+/// Refuse an `out` (EXR) or its PNG preview beside it that would replace
+/// one of `reads`, the files the scene reads (a height map, a 16-bit PNG
+/// map, an n, k table).
+fn check_kept(out: &Path, reads: &[PathBuf]) -> Result<(), Failure> {
+    let png = out.with_extension("png");
+    let written = [Written::File(out), Written::File(&png)];
+    super::common::check_kept("--out", &written, reads)
 }
 
 /// Write `img` as OUT (EXR) and OUT.png (preview, tone-mapped by `tone`),

@@ -36,6 +36,9 @@ pub struct StatsArgs {
 /// Bad input (scene, `--resolution`), or a failed write to stdout.
 pub fn run(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
+    if let Some(path) = &a.png {
+        super::common::check_out_file_as("--png", path, &scene.reads)?;
+    }
     let (r, ry) = stats_grid(
         &scene,
         a.resolution,

@@ -77,7 +77,12 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         run.polarisation = false;
     }
     set_threads(a.run.threads)?;
-    let out = result_dir(a.run.out.as_deref(), &scene.source.file, &scene.name)?;
+    let out = result_dir(
+        a.run.out.as_deref(),
+        &scene.source.file,
+        &scene.name,
+        &scene.reads,
+    )?;
     let bar = progress_bar(
         photons.iter().fold(0, |a: u64, &b| a.saturating_add(b)),
         a.quiet,

@@ -67,7 +67,7 @@
 
 use super::Num;
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3};
 use rand::{RngExt, SeedableRng};
@@ -442,6 +442,11 @@ pub struct MicroScene {
     pub run: BrdfRun,
     /// What the scene is made of: its text and the files it reads, hashed.
     pub content: Content,
+    /// The files the scene reads, as reached from the working folder: the
+    /// scene file itself (loaded from a file) and every file it names (n, k
+    /// tables, angle tables, height maps). No output may replace one
+    /// ([`crate::cli::common::check_kept`]).
+    pub reads: Vec<PathBuf>,
 }
 
 /// The command line's overrides of a micro scene's run keys, laid over its
@@ -580,7 +585,24 @@ impl MicroScene {
     pub fn load(path: &Path) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())
+        let mut scene = Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())?;
+        scene.reads.insert(0, path.to_path_buf());
+        Ok(scene)
+    }
+
+    /// The files the scene file at `path` reads, as [`MicroScene::reads`]
+    /// (without building it: a scene that does not parse reads itself only).
+    #[must_use]
+    pub fn reads_of(path: &Path) -> Vec<PathBuf> {
+        let mut reads = vec![path.to_path_buf()];
+        let source = Source::from_path(path);
+        let spec = super::read_scene_text(path)
+            .ok()
+            .and_then(|text| parse_toml::<MicroSceneSpec>(&source, &text).ok());
+        if let Some(spec) = spec {
+            reads.extend(spec.files().into_iter().map(|(_, f)| source.dir.join(f)));
+        }
+        reads
     }
 
     /// Load a scene file with `overrides` laid over its keys before it is
@@ -588,12 +610,14 @@ impl MicroScene {
     pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Self, BuildError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        Self::from_str_with(
+        let mut scene = Self::from_str_with(
             &text,
             Source::from_path(path),
             name.unwrap_or_default(),
             overrides,
-        )
+        )?;
+        scene.reads.insert(0, path.to_path_buf());
+        Ok(scene)
     }
 
     /// The embedded default scene.
@@ -649,6 +673,10 @@ impl MicroScene {
             .build(source, fallback_name)
             .map_err(|e| overrides.blame(e))?;
         scene.content = Content::of(&scene.source, text, &files)?;
+        scene.reads = files
+            .iter()
+            .map(|(_, f)| scene.source.dir.join(f))
+            .collect();
         Ok(scene)
     }
 
@@ -669,19 +697,7 @@ impl MicroSceneSpec {
     pub fn files(&self) -> Vec<(String, String)> {
         let mut files = Vec::new();
         for (name, m) in &self.materials {
-            let key = format!("materials.{name}");
-            if let Some(f) = &m.nk {
-                files.push((format!("{key}.nk"), f.clone()));
-            }
-            match &m.table {
-                Some(super::Files::One(f)) => files.push((format!("{key}.table"), f.clone())),
-                Some(super::Files::Many(fs)) => files.extend(
-                    fs.iter()
-                        .enumerate()
-                        .map(|(i, f)| (format!("{key}.table[{i}]"), f.clone())),
-                ),
-                None => {}
-            }
+            files.extend(m.files(&format!("materials.{name}")));
         }
         if let Some(f) = self
             .surface
@@ -810,6 +826,7 @@ impl MicroSceneSpec {
             light,
             run,
             content: Content::default(),
+            reads: Vec::new(),
         };
         scene.check_run_memory(&scene.run)?;
         Ok(scene)

@@ -512,7 +512,8 @@ pub enum Files {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(
     untagged,
-    expecting = "an array of wavelengths in um, or { from = .., to = .., step = .. }"
+    deny_unknown_fields,
+    expecting = "an array of wavelengths in um, or { from = .., to = .., step = .. } (no other key)"
 )]
 pub enum WavelengthsSpec {
     /// The wavelengths (µm), strictly increasing.
@@ -599,6 +600,26 @@ pub struct MaterialSpec {
 }
 
 impl MaterialSpec {
+    /// The files this material reads, `(key, path relative to the scene's
+    /// folder)`, its keys under `key`: an n, k table and angle tables.
+    #[must_use]
+    pub fn files(&self, key: &str) -> Vec<(String, String)> {
+        let mut files = Vec::new();
+        if let Some(f) = &self.nk {
+            files.push((format!("{key}.nk"), f.clone()));
+        }
+        match &self.table {
+            Some(Files::One(f)) => files.push((format!("{key}.table"), f.clone())),
+            Some(Files::Many(fs)) => files.extend(
+                fs.iter()
+                    .enumerate()
+                    .map(|(i, f)| (format!("{key}.table[{i}]"), f.clone())),
+            ),
+            None => {}
+        }
+        files
+    }
+
     /// The reflectance model at `wavelengths_um` (empty: a monochrome
     /// scene), or an error at `key`: one model, or for a model that varies
     /// with wavelength [`Reflectance::Spectral`].

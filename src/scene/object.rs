@@ -312,6 +312,13 @@ pub struct ObjectScene {
     pub photons: Vec<u64>,
     /// What to run (photons per position is per source; see `photons`).
     pub run: ObjectRun,
+    /// The files the scene reads, as reached from the working folder: the
+    /// scene file (loaded from a file), every file its models name (n, k
+    /// and angle tables), each `micro` wall's scene and its files, and each
+    /// `brdf` wall's `brdf.csv` with the `summary.json` and `mueller.csv`
+    /// beside it. No output may replace one
+    /// ([`crate::cli::common::check_kept`]).
+    pub reads: Vec<PathBuf>,
 }
 
 impl ObjectScene {
@@ -326,12 +333,14 @@ impl ObjectScene {
     pub fn load_at(path: &Path, wavelengths: Option<&WavelengthsSpec>) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        Self::from_str_at(
+        let mut scene = Self::from_str_at(
             &text,
             Source::from_path(path),
             name.unwrap_or_default(),
             wavelengths,
-        )
+        )?;
+        scene.reads.insert(0, path.to_path_buf());
+        Ok(scene)
     }
 
     /// Parse and build from TOML text.
@@ -413,12 +422,14 @@ impl ObjectSceneSpec {
         let lanes = wavelengths_um.len().max(1) as u64;
         let model_names: Vec<String> = self.models.keys().cloned().collect();
         let mut models = Vec::new();
+        let mut reads = Vec::new();
         for (name, m) in &self.models {
             models.push(m.build(
                 &source,
                 &format!("models.{name}"),
                 controls,
                 &wavelengths_um,
+                &mut reads,
             )?);
         }
         let mut walls: Walls = vec![None; surface_names.len()];
@@ -632,17 +643,20 @@ impl ObjectSceneSpec {
             beam_source,
             photons,
             run,
+            reads,
         })
     }
 }
 
 impl ModelSpec {
+    /// The wall model at `key`; the files it reads are added to `reads`.
     fn build(
         &self,
         source: &Source,
         key: &str,
         controls: Controls,
         wavelengths_um: &[f64],
+        reads: &mut Vec<PathBuf>,
     ) -> Result<WallModel, SceneError> {
         let ideal = self.specular.is_some() || self.diffuse.is_some();
         let kinds = [
@@ -669,6 +683,7 @@ impl ModelSpec {
             };
             let scene = MicroScene::load_with(&path, &overrides)
                 .map_err(|e| source.error(format!("{key}.micro"), e.to_string()))?;
+            reads.extend(scene.reads.iter().cloned());
             if at.is_none() && !scene.run.wavelengths_um.is_empty() {
                 return Err(source.error(
                     format!("{key}.micro"),
@@ -688,6 +703,13 @@ impl ModelSpec {
         }
         if let Some(file) = &self.brdf {
             let path = source.dir.join(file);
+            reads.extend(
+                ["brdf.csv", "summary.json", "mueller.csv"]
+                    .map(|f| path.with_file_name(f))
+                    .into_iter()
+                    .filter(|p| *p != path),
+            );
+            reads.push(path.clone());
             return brdf_wall(source, &format!("{key}.brdf"), &path, wavelengths_um);
         }
         if ideal {
@@ -720,6 +742,12 @@ impl ModelSpec {
             table: self.table.clone(),
         };
         let r: Reflectance = material.build(source, key, wavelengths_um)?;
+        reads.extend(
+            material
+                .files(key)
+                .into_iter()
+                .map(|(_, f)| source.dir.join(f)),
+        );
         Ok(WallModel::Specular(r))
     }
 }
