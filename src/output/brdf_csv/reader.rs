@@ -1226,20 +1226,51 @@ impl BrdfTable {
                         ),
                     )
                 })?;
-            let mut normalised = Vec::with_capacity(n);
             for (flat, m) in block.2.iter().enumerate() {
-                let brdf = self.cell_brdf(i, flat);
-                if (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300 {
+                if let Some(why) = crate::optics::brdf_table::unrealisable(m) {
                     return Err(fail(
                         block.3[flat],
                         format!(
-                            "theta_i_deg = {}{at_w}: cell {flat}: m00 = {} is not the brdf {brdf} of {} (a file of another run?)",
+                            "theta_i_deg = {}{at_w}: cell {flat}: not a physical Mueller matrix: {why}",
+                            inc.theta_deg
+                        ),
+                    ));
+                }
+            }
+            let brdfs: Vec<f64> = (0..n).map(|flat| self.cell_brdf(i, flat)).collect();
+            match incident_state(&block.2, &brdfs) {
+                Err(flat) => {
+                    return Err(fail(
+                        block.3[flat],
+                        format!(
+                            "theta_i_deg = {}{at_w}: cell {flat}: m00 = {} is not the brdf {} of {}, nor is that brdf m00 + m01 s1 + m02 s2 + m03 s3 for one incident state s of every cell (a file of another run?)",
                             inc.theta_deg,
-                            m[0],
+                            block.2[flat][0],
+                            brdfs[flat],
                             self.file()
                         ),
                     ));
                 }
+                // A polarised incident state: the wall meets every state, so
+                // it samples the unpolarised BRDF, m00.
+                Ok(Some(_)) => {
+                    let fractions = (0..n)
+                        .map(|flat| block.2[flat][0] * self.cell_proj(flat))
+                        .collect();
+                    self.set_fractions(i, fractions).map_err(|total| {
+                        fail(
+                            last_line,
+                            format!(
+                                "theta_i_deg = {}{at_w}: the m00 column adds up to a reflectance of {total} > 1",
+                                inc.theta_deg
+                            ),
+                        )
+                    })?;
+                }
+                Ok(None) => {}
+            }
+            let mut normalised = Vec::with_capacity(n);
+            for m in &block.2 {
                 normalised.push(if m[0] > 0.0 {
                     m.map(|v| v / m[0])
                 } else {
@@ -1249,6 +1280,46 @@ impl BrdfTable {
             self.set_mueller(i, normalised);
         }
         Ok(self)
+    }
+}
+
+/// The incident state of the run that wrote `brdfs` (a `brdf.csv` block's
+/// BRDF per cell) beside `matrices` (its `mueller.csv` block): `None` when
+/// every `brdf` is `m00` (unpolarised light, within 1e-6 relative), else
+/// `(s1, s2, s3)`, `|s| <= 1`, with `brdf = m00 + m01 s1 + m02 s2 + m03 s3`
+/// in every cell (the BRDF of that state; least squares over the cells,
+/// then each cell within 1e-6 of the sum of the absolute terms).
+///
+/// # Errors
+/// The first cell that fits neither.
+fn incident_state(matrices: &[[f64; 16]], brdfs: &[f64]) -> Result<Option<glam::DVec3>, usize> {
+    let off =
+        |m: &[f64; 16], brdf: f64| (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300;
+    let Some(first) = matrices.iter().zip(brdfs).position(|(m, &b)| off(m, b)) else {
+        return Ok(None);
+    };
+    let row = |m: &[f64; 16]| glam::DVec3::new(m[1], m[2], m[3]);
+    let (mut a, mut b) = (glam::DMat3::ZERO, glam::DVec3::ZERO);
+    for (m, &brdf) in matrices.iter().zip(brdfs) {
+        let v = row(m);
+        a += glam::DMat3::from_cols(v * v.x, v * v.y, v * v.z);
+        b += v * (brdf - m[0]);
+    }
+    // A column of zeros (no circular part) leaves its component free: the
+    // small ridge sets it to 0.
+    let ridge = 1e-12 * (a.x_axis.x + a.y_axis.y + a.z_axis.z) + 1e-300;
+    let s = (a + glam::DMat3::from_diagonal(glam::DVec3::splat(ridge))).inverse() * b;
+    if !(s.length() <= 1.0 + 1e-6) {
+        return Err(first);
+    }
+    let fits = |m: &[f64; 16], brdf: f64| {
+        let v = row(m);
+        let scale = brdf.abs() + m[0].abs() + v.abs().dot(glam::DVec3::ONE);
+        (m[0] + v.dot(s) - brdf).abs() <= 1e-6 * scale + 1e-300
+    };
+    match matrices.iter().zip(brdfs).position(|(m, &b)| !fits(m, b)) {
+        Some(flat) => Err(flat),
+        None => Ok(Some(s)),
     }
 }
 
