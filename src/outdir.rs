@@ -32,8 +32,9 @@ use std::path::{Component, Path, PathBuf};
 pub const MAX_NAME_BYTES: usize = 200;
 
 /// Files by which a folder is recognised as a roks result (with a `version`
-/// key inside).
-const RESULT_MARKERS: [&str; 2] = ["summary.json", "fit.json"];
+/// key inside): a run's summary, a fit's, a folder of per-wavelength
+/// exports' (`roks export-brdf`).
+const RESULT_MARKERS: [&str; 3] = ["summary.json", "fit.json", "export.json"];
 
 /// Why `name` cannot be the name of a result folder `out/NAME`, or `None`
 /// when it can: it must be one plain path component (not empty, no `/`,
@@ -142,7 +143,7 @@ fn replaceable(dir: &Path) -> Result<(), String> {
     if marked {
         Ok(())
     } else {
-        refuse("has no roks summary.json or fit.json".into())
+        refuse("has no roks summary.json, fit.json or export.json".into())
     }
 }
 

@@ -145,8 +145,9 @@ fn spectral_folders_export_through_the_binary() {
         assert_eq!(without_comments(&got), without_comments(&want), "{w}");
         assert!(String::from_utf8_lossy(&got).contains(&format!("; wavelength {w} um\n")));
     }
-    // export-brdf of the spectral folder.
-    let out = dir.join("x").join("gold.bsdf");
+    // export-brdf of the spectral folder: the files into --out as a folder,
+    // named as roks brdf --export names them, and export.json.
+    let out = dir.join("x").join("gold");
     let o = roks(&[
         "export-brdf",
         s(&spec),
@@ -161,7 +162,20 @@ fn spectral_folders_export_through_the_binary() {
         stderr.contains("zemax (0.55 um): reflectance of the file"),
         "{stderr}"
     );
-    assert!(!out.exists());
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "brdf_0.45um.bsdf",
+            "brdf_0.55um.bsdf",
+            "brdf_0.65um.bsdf",
+            "export.json"
+        ]
+    );
     let csv = spec.join("brdf.csv");
     let t = BrdfTables::load(&csv)
         .unwrap()
@@ -171,7 +185,7 @@ fn spectral_folders_export_through_the_binary() {
         .export_tables(&t, &format!("from {}", csv.display()))
         .unwrap();
     for (f, w) in library.iter().zip(["0.45", "0.55", "0.65"]) {
-        let written = std::fs::read(dir.join("x").join(format!("gold_{w}um.bsdf"))).unwrap();
+        let written = std::fs::read(out.join(format!("brdf_{w}um.bsdf"))).unwrap();
         assert!(written == f.bytes, "{w}");
     }
     // MERL of the visible: the same file from both commands, and the

@@ -3,10 +3,13 @@
 //! reflectance of the file read back beside the table's.
 //!
 //! A spectral folder (`brdf.csv` with `wavelength_um`) gives a Zemax file
-//! per wavelength, `--out` with `_<wavelength>um` before its extension
-//! (`--out gold.bsdf`: `gold_0.45um.bsdf`, `gold_0.55um.bsdf`, ...; see
-//! [`wavelength_path`]; the wavelengths written with the same digits, so the
-//! names sort as they do), and one colour MERL file at `--out` (its
+//! per wavelength, written into `--out` as a folder (`--out gold`:
+//! `gold/brdf_0.45um.bsdf`, `gold/brdf_0.55um.bsdf`, ..., the names of
+//! `roks brdf --export zemax`, the wavelengths written with the same
+//! digits so that they sort; and `gold/export.json`, which names the set),
+//! all or nothing: the folder is staged and swapped in whole
+//! ([`crate::outdir`]), so a kill or a full disk leaves the old set or the
+//! new one, never a mix; and one colour MERL file at `--out` (its
 //! wavelengths must cover the visible). See
 //! [`crate::export::brdf_formats`].
 
@@ -15,7 +18,9 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{check_out_file, write_file};
+use super::common::{
+    Written, check_kept, check_out_dir, check_out_file, shown, write_file, write_folder,
+};
 use crate::export::brdf_formats::{
     BrdfFormat, ExportFile, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
     reflectance_check, wavelength_labels,
@@ -30,9 +35,10 @@ pub struct ExportBrdfArgs {
     /// Output format: zemax or merl.
     #[arg(long, ignore_case = true, hide_possible_values = true)]
     pub format: BrdfFormat,
-    /// Output file (spectral zemax: one file per wavelength, named
-    /// OUT with _<wavelength>um before its extension, the wavelengths
-    /// written with the same number of digits so the names sort).
+    /// Output file (spectral zemax: a folder, replaced whole, holding one
+    /// file per wavelength, OUT/brdf_<wavelength>um.bsdf, the wavelengths
+    /// written with the same number of digits so the names sort, and
+    /// OUT/export.json naming the set).
     #[arg(long)]
     pub out: PathBuf,
     /// Zemax grid AZIMUTH_STEP,RADIAL_STEP in degrees (default 2,1): finer
@@ -69,22 +75,6 @@ fn grid(s: &str) -> Result<ZemaxGrid, String> {
     })
 }
 
-/// The file of the wavelength labelled `wavelength` (µm, one of
-/// [`wavelength_labels`]) of a spectral Zemax export to `out`:
-/// `_<wavelength>um` inserted before the extension of `out`'s file name
-/// (`dir/gold.bsdf` -> `dir/gold_0.55um.bsdf`; no extension: appended).
-#[must_use]
-pub fn wavelength_path(out: &Path, wavelength: &str) -> PathBuf {
-    let stem = out
-        .file_stem()
-        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-    let name = match out.extension() {
-        Some(ext) => format!("{stem}_{wavelength}um.{}", ext.to_string_lossy()),
-        None => format!("{stem}_{wavelength}um"),
-    };
-    out.with_file_name(name)
-}
-
 /// Run `roks export-brdf`.
 ///
 /// # Errors
@@ -99,14 +89,21 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
         a.dir.join("summary.json"),
         a.dir.join("mueller.csv"),
     ];
-    check_out_file(&a.out, &inputs)?;
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(
             "{}: not a folder (expected the result folder of `roks brdf`, with brdf.csv)",
-            a.dir.display()
+            shown(&a.dir)
         )));
     }
     let mut tables = BrdfTables::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    // Several files (a spectral Zemax export) go into --out as a folder.
+    let folder = format == BrdfFormat::Zemax && tables.spectral().is_some();
+    if folder {
+        check_out_dir(&a.out, "--out")?;
+        check_kept("--out", &[Written::Folder(&a.out)], &inputs)?;
+    } else {
+        check_out_file(&a.out, &inputs)?;
+    }
     // The run's summary beside the table must describe the same run (a
     // table cut at a block boundary has lost an incidence it lists).
     let summary = a.dir.join("summary.json");
@@ -117,17 +114,7 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
     }
     format
         .check_wavelengths(tables.wavelengths_um())
-        .map_err(|e| Failure::Input(format!("--format {format}: {}: {e}", csv.display())))?;
-    let paths: Vec<PathBuf> = match (format, tables.spectral()) {
-        (BrdfFormat::Zemax, Some(s)) => wavelength_labels(s.wavelengths_um())
-            .iter()
-            .map(|w| wavelength_path(&a.out, w))
-            .collect(),
-        _ => vec![a.out.clone()],
-    };
-    for p in &paths {
-        check_out_file(p, &inputs)?;
-    }
+        .map_err(|e| Failure::Input(format!("--format {format}: {}: {e}", shown(&csv))))?;
     if a.grid.is_some() && format != BrdfFormat::Zemax {
         return Err(Failure::Input(format!(
             "--grid: only for --format zemax (the {format} grid is fixed by its format)"
@@ -141,18 +128,41 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
         "--format",
         a.grid.unwrap_or_default(),
     )?;
-    for (file, path) in files.iter().zip(&paths) {
-        write_file(path, &file.bytes)?;
+    if folder {
+        let marker = serde_json::json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "format": format.to_string(),
+            "from": csv.display().to_string(),
+            "files": files.iter().map(|f| f.file_name.as_str()).collect::<Vec<_>>(),
+        });
+        let mut written: Vec<(String, Vec<u8>)> = files
+            .iter()
+            .map(|f| (f.file_name.clone(), f.bytes.clone()))
+            .collect();
+        let text = serde_json::to_string_pretty(&marker).map_err(anyhow::Error::from)?;
+        written.push((EXPORT_MARKER.to_owned(), (text + "\n").into_bytes()));
+        write_folder(&a.out, &written)?;
+        if !a.quiet {
+            eprintln!("wrote {} ({format}, {} files)", shown(&a.out), files.len());
+        }
+        return Ok(());
+    }
+    for file in &files {
+        write_file(&a.out, &file.bytes)?;
         if !a.quiet {
             eprintln!(
                 "wrote {} ({format}, {} bytes)",
-                path.display(),
+                shown(&a.out),
                 file.bytes.len()
             );
         }
     }
     Ok(())
 }
+
+/// The file that names a folder of per-wavelength exports (its format,
+/// table and files, and the roks version, which lets a rerun replace it).
+pub const EXPORT_MARKER: &str = "export.json";
 
 /// The export of `tables` in `format` ([`BrdfFormat::export_tables`]), with
 /// `comment` in its header where the format has one, judged: each file is
@@ -309,27 +319,6 @@ fn print_check(check: &[ReflectanceCheck]) {
         eprintln!(
             "{:>9.2} {:>10.6} {:>10.6} {relative:>10}",
             c.theta_i_deg, c.table, c.file
-        );
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn wavelength_paths() {
-        assert_eq!(
-            wavelength_path(Path::new("/a/gold.bsdf"), "0.55"),
-            Path::new("/a/gold_0.55um.bsdf")
-        );
-        assert_eq!(
-            wavelength_path(Path::new("out"), "10"),
-            Path::new("out_10um")
-        );
-        assert_eq!(
-            wavelength_path(Path::new("d/x.y.bsdf"), "0.4"),
-            Path::new("d/x.y_0.4um.bsdf")
         );
     }
 }
