@@ -262,8 +262,7 @@ fn trace_and_merge_replace_their_folders_whole() {
         ];
         ok(&roks_in(&dir, &a), "shard");
     }
-    // Merge into the first shard's own folder: its surface.png (a merge
-    // has no surface to draw) must go; the pictures are the merge's own.
+    // Merge into the first shard's own folder: refused, it is an input.
     let a = [
         "merge",
         s(&shards[0]),
@@ -272,9 +271,30 @@ fn trace_and_merge_replace_their_folders_whole() {
         s(&shards[0]),
         "-q",
     ];
+    assert_eq!(
+        roks_in(&dir, &a).status.code(),
+        Some(2),
+        "merge into a shard"
+    );
+    // Merge into a copy of a shard's folder: its surface.png (a merge has
+    // no surface to draw) must go; the pictures are the merge's own.
+    let copy = dir.join("copy");
+    std::fs::create_dir(&copy).unwrap();
+    for name in names(&shards[0]) {
+        std::fs::copy(shards[0].join(&name), copy.join(&name)).unwrap();
+    }
+    assert!(copy.join("surface.png").exists());
+    let a = [
+        "merge",
+        s(&shards[0]),
+        s(&shards[1]),
+        "--out",
+        s(&copy),
+        "-q",
+    ];
     ok(&roks_in(&dir, &a), "merge");
     assert_eq!(
-        names(&shards[0]),
+        names(&copy),
         [
             "brdf.csv",
             "hemisphere_30deg.png",
@@ -635,7 +655,7 @@ fn a_bad_out_file_is_refused_before_any_work() {
             &case,
             &roks_in(&dir, &a),
             out,
-            "is the input",
+            "a file this run reads",
             &dir,
             &before,
         );
