@@ -13,7 +13,7 @@
 //! wavelengths must cover the visible). See
 //! [`crate::export::brdf_formats`].
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::Args;
 
@@ -23,7 +23,7 @@ use super::common::{
 };
 use crate::export::brdf_formats::{
     BrdfFormat, ExportFile, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
-    reflectance_check, wavelength_labels,
+    reflectance_check,
 };
 use crate::optics::brdf_table::BrdfTables;
 

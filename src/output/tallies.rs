@@ -870,6 +870,12 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 )));
             }
             for (k, node) in nodes.into_iter().enumerate() {
+                crate::tally::realisable::check_sums(
+                    node.value.polar.as_ref(),
+                    &node.value.carlson,
+                    run.polarisation.incident.stokes(),
+                )
+                .map_err(|e| at(FieldError::new(format!("nodes[{k}].tallies.polar"), e)))?;
                 *tests = tests
                     .checked_add(node.value.intersection_tests)
                     .ok_or_else(|| {

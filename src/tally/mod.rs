@@ -25,6 +25,7 @@ pub mod inplane;
 pub mod lanes;
 pub mod merge;
 pub mod polar;
+pub mod realisable;
 pub mod sum;
 pub mod symmetry;
 

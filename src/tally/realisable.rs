@@ -1,0 +1,119 @@
+//! Physical realisability of summed polarisation tallies, checked when
+//! `roks merge` reads a shard: every history scores a realisable Stokes
+//! vector (or Mueller matrix) into a cell, and realisable ones form a convex
+//! cone, so each cell's sum must be realisable too, and its intensity must
+//! be the Carlson sum of the same cell.
+
+use super::{Accumulator, PolarTallies};
+
+/// Relative tolerance of the Stokes and Carlson checks: the sums are of the
+/// same scores in one order, differing only by rounding (about 1e-16 per
+/// addition), far below 1e-9.
+pub const SUM_TOLERANCE: f64 = 1e-9;
+
+/// Why the polarisation sums `polar` (with the Carlson sums `carlson` of
+/// the same histories, and the run's incident Stokes vector `incident`,
+/// `S0 = 1`) cannot be those of a run, or `Ok`: per Carlson cell, a Stokes
+/// sum has `S0 >= sqrt(S1² + S2² + S3²)` and `S0` equal to the Carlson sum;
+/// a Mueller sum is realisable
+/// ([`crate::optics::brdf_table::unrealisable`]) and `m00 + m01 s1 + m02
+/// s2 + m03 s3` (its intensity for the incident state `s`) equals the
+/// Carlson sum; each within [`SUM_TOLERANCE`] of the sum of the absolute
+/// terms.
+///
+/// # Errors
+/// The cell and the check, for a message after the file and key.
+pub fn check_sums(
+    polar: Option<&PolarTallies>,
+    carlson: &Accumulator,
+    incident: [f64; 4],
+) -> Result<(), String> {
+    let Some(p) = polar else { return Ok(()) };
+    let k = p.components;
+    for (cell, &c) in carlson.sum.iter().enumerate() {
+        let bin = p.cell_bin(cell, 0);
+        let Some(v) = p.sums.sum.get(bin..bin + k) else {
+            return Err(format!("has no sums for Carlson cell {cell}"));
+        };
+        let (intensity, scale) = if k == 16 {
+            let m: [f64; 16] = v.try_into().expect("16 components");
+            if let Some(why) = crate::optics::brdf_table::unrealisable(&m) {
+                return Err(format!(
+                    "cell {cell}: the Mueller sum is not physical: {why}"
+                ));
+            }
+            let i: f64 = (0..4).map(|j| m[j] * incident[j]).sum();
+            let s: f64 = (0..4).map(|j| (m[j] * incident[j]).abs()).sum();
+            (i, s)
+        } else {
+            let pol = (v[1] * v[1] + v[2] * v[2] + v[3] * v[3]).sqrt();
+            let scale = v.iter().map(|x| x.abs()).sum::<f64>();
+            if !(v[0] + SUM_TOLERANCE * scale >= pol) {
+                return Err(format!(
+                    "cell {cell}: the Stokes sum has S0 = {} < |S1, S2, S3| = {pol} (degree of polarisation above 1)",
+                    v[0]
+                ));
+            }
+            (v[0], scale)
+        };
+        if !((intensity - c).abs() <= SUM_TOLERANCE * (scale + c.abs()) + f64::MIN_POSITIVE) {
+            return Err(format!(
+                "cell {cell}: the polarisation sums give the intensity {intensity}, not the Carlson sum {c} of the same histories"
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tallies(components: usize, cell: &[f64]) -> PolarTallies {
+        let mut p = PolarTallies::new(components, 1, None);
+        let bin = p.cell_bin(0, 0);
+        p.sums.sum[bin..bin + components].copy_from_slice(cell);
+        p
+    }
+
+    fn carlson(c: f64) -> Accumulator {
+        let mut a = Accumulator::new(1);
+        a.sum[0] = c;
+        a
+    }
+
+    const UNPOLARISED: [f64; 4] = [1.0, 0.0, 0.0, 0.0];
+
+    #[test]
+    fn stokes_sums_beyond_full_polarisation_are_refused() {
+        let ok = tallies(4, &[2.0, 1.2, 1.6, 0.0]); // fully polarised
+        assert_eq!(check_sums(Some(&ok), &carlson(2.0), UNPOLARISED), Ok(()));
+        let bad = tallies(4, &[2.0, 3.0, 0.0, 0.0]); // S1 = 1.5 S0
+        let e = check_sums(Some(&bad), &carlson(2.0), UNPOLARISED).unwrap_err();
+        assert!(e.contains("degree of polarisation above 1"), "{e}");
+        let e = check_sums(Some(&ok), &carlson(2.1), UNPOLARISED).unwrap_err();
+        assert!(e.contains("not the Carlson sum"), "{e}");
+        assert_eq!(check_sums(None, &carlson(2.1), UNPOLARISED), Ok(()));
+    }
+
+    #[test]
+    fn mueller_sums_are_realisable_and_match_the_carlson_sum() {
+        // An ideal linear polariser along s, times 0.5: m00 = m01 = m10 =
+        // m11 = 0.25.
+        let mut m = [0.0; 16];
+        for i in [0, 1, 4, 5] {
+            m[i] = 0.25;
+        }
+        let p = tallies(16, &m);
+        assert_eq!(check_sums(Some(&p), &carlson(0.25), UNPOLARISED), Ok(()));
+        // s light: intensity m00 + m01 = 0.5.
+        let s = [1.0, 1.0, 0.0, 0.0];
+        assert_eq!(check_sums(Some(&p), &carlson(0.5), s), Ok(()));
+        assert!(check_sums(Some(&p), &carlson(0.25), s).is_err());
+        // m01 = 5 m00: unpolarised... and s-state outputs beyond DoP 1.
+        m[1] = 1.25;
+        m[4] = 1.25;
+        let e = check_sums(Some(&tallies(16, &m)), &carlson(0.25), UNPOLARISED).unwrap_err();
+        assert!(e.contains("not physical"), "{e}");
+    }
+}
