@@ -8,8 +8,7 @@ use std::time::Instant;
 use clap::Args;
 
 use super::Failure;
-use super::args::RunArgs;
-use super::common::{progress_bar, result_dir, set_threads, write_folder};
+use super::common::{TracingArgs, progress_bar, result_dir, set_threads, write_folder};
 use crate::output::object_csv;
 use crate::output::summary::{self, TraceSummary};
 use crate::scene::object::ObjectScene;
@@ -26,7 +25,7 @@ pub struct TraceArgs {
     pub scene: PathBuf,
     /// The result folder, photons per beam position, seed and threads.
     #[command(flatten)]
-    pub run: RunArgs,
+    pub tracing: TracingArgs,
     /// Scalar transport even with Fresnel walls: each Fresnel bounce weighs
     /// (Rs + Rp) / 2, the unpolarised approximation (as [transport]
     /// polarisation = false).
@@ -58,13 +57,13 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     })?;
     let mut run = scene.run.clone();
     let mut photons = scene.photons.clone();
-    if let Some(p) = a.run.photons {
+    if let Some(p) = a.tracing.photons {
         // The scene loader's check of `sources[i].photons`.
         crate::transport::launch::check_count(p)
             .map_err(|e| Failure::Input(format!("--photons: {e}")))?;
         photons.iter_mut().for_each(|n| *n = p);
     }
-    if let Some(s) = a.run.seed {
+    if let Some(s) = a.tracing.seed {
         run.seed = s;
     }
     if a.no_polarisation {
@@ -76,8 +75,8 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         }
         run.polarisation = false;
     }
-    set_threads(a.run.threads)?;
-    let out = result_dir(a.run.out.as_deref(), &scene.source.file, &scene.name)?;
+    set_threads(a.tracing.threads)?;
+    let out = result_dir(a.tracing.out.as_deref(), &scene.source.file, &scene.name)?;
     let bar = progress_bar(
         photons.iter().fold(0, |a: u64, &b| a.saturating_add(b)),
         a.quiet,
@@ -103,17 +102,13 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
             scene.source.file, r.tallies.unmodelled.0, r.beam.position
         )));
     }
-    if let Some((k, r)) = results
-        .iter()
-        .enumerate()
-        .find(|(_, r)| r.tallies.started_inside > 0)
-    {
+    if let Some((k, r)) = results.groups().enumerate().find_map(|(k, lanes)| {
+        let r = lanes.iter().find(|r| r.tallies.started_inside > 0)?;
+        Some((k, r))
+    }) {
         return Err(Failure::Input(format!(
             "{}: sources[{}].beam.diameter: {} photons of beam position {} started inside a solid cell",
-            scene.source.file,
-            scene.beam_source[k / run.lane_count()],
-            r.tallies.started_inside,
-            r.beam.position
+            scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
         )));
     }
     let summary = TraceSummary::new(
@@ -126,6 +121,8 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         seconds,
     );
     let text = summary::to_text(&summary);
+    // The files list the leaves in order: position, then wavelength.
+    let results = results.into_leaves();
     let refl = object_csv::reflectance_csv(&results);
     let farfield = run
         .farfield

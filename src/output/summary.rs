@@ -18,7 +18,7 @@ use crate::micro::Edges;
 use crate::micro::surface_stats::SurfaceStats;
 use crate::scene::Content;
 use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult};
-use crate::transport::object::PositionResult;
+use crate::transport::object::{ObjectResult, PositionResult};
 
 /// A summary's text: pretty-printed JSON and a line end.
 ///
@@ -638,15 +638,15 @@ pub struct TraceSummary {
 
 impl TraceSummary {
     /// The summary of a trace of scene file `scene` named `name` with
-    /// `seed`: per beam position `results` (per position and wavelength,
-    /// position-major, for a spectral run of `wavelengths_um`; empty:
+    /// `seed`: one entry per beam position of `results` (its wavelengths
+    /// summed up for a spectral run of `wavelengths_um`; empty:
     /// monochrome), surfaces named by id `surface_names`, total time `seconds`.
     #[must_use]
     pub fn new(
         scene: &str,
         name: &str,
         seed: u64,
-        results: &[PositionResult],
+        results: &ObjectResult,
         surface_names: &[String],
         wavelengths_um: &[f64],
         seconds: f64,
@@ -656,17 +656,16 @@ impl TraceSummary {
             scene: scene.to_owned(),
             seconds,
             seed,
-            sources: if wavelengths_um.is_empty() {
-                results
-                    .iter()
-                    .map(|r| PositionSummary::new(r, surface_names))
-                    .collect()
-            } else {
-                results
-                    .chunks(wavelengths_um.len())
-                    .map(|lanes| PositionSummary::spectral(lanes, surface_names))
-                    .collect()
-            },
+            sources: results
+                .groups()
+                .map(|lanes| {
+                    if wavelengths_um.is_empty() {
+                        PositionSummary::new(&lanes[0], surface_names)
+                    } else {
+                        PositionSummary::spectral(lanes, surface_names)
+                    }
+                })
+                .collect(),
             version: env!("CARGO_PKG_VERSION").to_owned(),
             wavelengths_um: wavelengths_um.to_vec(),
         }

@@ -284,7 +284,55 @@ impl Merge for FirstUnmodelled {
     }
 }
 
-/// The result for one beam position (and, in a spectral run, one wavelength).
+/// The result of an object trace ([`ObjectRun::run`]), nested as beam
+/// position x wavelength: `position[k].wavelength[l]` is the leaf of beam
+/// position `k` (the scene's beams in order) and wavelength `l` (the one
+/// lane of a monochrome run).
+#[derive(Debug, Clone)]
+pub struct ObjectResult {
+    /// One entry per beam position.
+    pub position: Vec<ByPosition>,
+}
+
+/// The results at one beam position.
+#[derive(Debug, Clone)]
+pub struct ByPosition {
+    /// One leaf per wavelength (one for a monochrome run).
+    pub wavelength: Vec<PositionResult>,
+}
+
+impl ObjectResult {
+    /// The leaf of beam position `k` and wavelength `l`.
+    ///
+    /// # Panics
+    /// If an index is out of its axis.
+    #[must_use]
+    pub fn leaf(&self, k: usize, l: usize) -> &PositionResult {
+        &self.position[k].wavelength[l]
+    }
+
+    /// The leaves of each beam position, one slice of wavelengths each.
+    pub fn groups(&self) -> impl Iterator<Item = &[PositionResult]> {
+        self.position.iter().map(|p| p.wavelength.as_slice())
+    }
+
+    /// Every leaf in file order: position, then wavelength.
+    pub fn iter(&self) -> impl Iterator<Item = &PositionResult> {
+        self.groups().flatten()
+    }
+
+    /// The leaves in file order, owned.
+    #[must_use]
+    pub fn into_leaves(self) -> Vec<PositionResult> {
+        self.position
+            .into_iter()
+            .flat_map(|p| p.wavelength)
+            .collect()
+    }
+}
+
+/// The leaf of an [`ObjectResult`]: one beam position (and, in a spectral
+/// run, one wavelength).
 #[derive(Debug, Clone)]
 pub struct PositionResult {
     /// The beam.
@@ -361,8 +409,8 @@ impl ObjectRun {
     }
 
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
-    /// receives photons done. One result per beam, or per beam and
-    /// wavelength (position-major, [`ObjectRun::lane_count`] per beam).
+    /// receives photons done. The object level's one transport entry
+    /// point: a result per beam position and wavelength.
     pub fn run(
         &self,
         object: &Object,
@@ -371,13 +419,13 @@ impl ObjectRun {
         beams: &[Beam],
         photons: &[u64],
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<PositionResult> {
+    ) -> ObjectResult {
         let spectral = !self.wavelengths_um.is_empty();
-        beams
+        let position = beams
             .iter()
             .zip(photons)
             .enumerate()
-            .flat_map(|(k, (beam, &n_photons))| {
+            .map(|(k, (beam, &n_photons))| {
                 let clock = Instant::now();
                 let ff = self.farfield_grid();
                 let mut totals: Vec<ObjectTallies> = (0..self.lane_count())
@@ -414,7 +462,7 @@ impl ObjectRun {
                     progress,
                 );
                 let seconds = clock.elapsed().as_secs_f64();
-                totals
+                let wavelength = totals
                     .into_iter()
                     .enumerate()
                     .map(|(l, tallies)| PositionResult {
@@ -423,9 +471,11 @@ impl ObjectRun {
                         tallies,
                         seconds,
                     })
-                    .collect::<Vec<_>>()
+                    .collect();
+                ByPosition { wavelength }
             })
-            .collect()
+            .collect();
+        ObjectResult { position }
     }
 
     /// Trace photons `photons` of beam `position`, carrying `C`: the
