@@ -90,6 +90,15 @@
 //!   [`scene::Content`] (hashes of its text and files), path, name and
 //!   statistics it is the [`output::summary::Description`] that
 //!   `summary.json` and `tallies.json` hold and `roks merge` compares.
+//! * **Result** of a BRDF trace: [`transport::brdf::BrdfResult`], returned
+//!   by the one entry point [`transport::brdf::BrdfRun::trace`] and nested
+//!   as incidence x light azimuth x wavelength; a **leaf**
+//!   ([`transport::brdf::IncidenceResult`]) holds one incidence's,
+//!   azimuth's and wavelength's batch-tree nodes and their sums.
+//! * **Filter** and **score** (after OpenMC): a filter decides which bins
+//!   an escaping photon lands in (Carlson cells, in-plane bin, bounce bin,
+//!   replicate), a score what is added there (weight, Stokes, Mueller, per
+//!   wavelength).
 //! * **Stream**: the random numbers of one photon, from (seed, photon
 //!   index) ([`transport::rng`]). **Replicate**: one of the 16 shifted
 //!   lattices of a `launch = "lattice"` run ([`transport::launch`]).

@@ -6,8 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::args::RunArgs;
-use super::common::{progress_bar, result_dir, set_threads, stats_grid, write_folder};
+use super::common::{TracingArgs, progress_bar, result_dir, set_threads, stats_grid, write_folder};
 use super::export_brdf::export_tables;
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
@@ -32,7 +31,7 @@ pub struct BrdfArgs {
     pub scene: Option<PathBuf>,
     /// The result folder, photons per incidence angle, seed and threads.
     #[command(flatten)]
-    pub run: RunArgs,
+    pub tracing: TracingArgs,
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
     pub theta: Option<Vec<f64>>,
@@ -92,8 +91,8 @@ impl BrdfArgs {
     #[must_use]
     pub fn overrides(&self) -> Overrides {
         Overrides {
-            photons: self.run.photons,
-            seed: self.run.seed,
+            photons: self.tracing.photons,
+            seed: self.tracing.seed,
             theta_deg: self.theta.clone(),
             wavelengths_um: self.wavelengths.clone(),
             launch: self.launch,
@@ -142,8 +141,8 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
             last_photon,
         });
     }
-    set_threads(a.run.threads)?;
-    let out = result_dir(a.run.out.as_deref(), &scene.source.file, &scene.name)?;
+    set_threads(a.tracing.threads)?;
+    let out = result_dir(a.tracing.out.as_deref(), &scene.source.file, &scene.name)?;
 
     let map = scene.surface.height_map(rx, ry);
     let stats = surface_stats(&map);

@@ -875,16 +875,6 @@ fn any_fresnel(materials: &[Reflectance]) -> bool {
     materials.iter().any(Reflectance::polarises)
 }
 
-/// The first angle that repeats an earlier one: its index and value.
-#[must_use]
-pub fn first_repeat(angles: &[f64]) -> Option<(usize, f64)> {
-    angles
-        .iter()
-        .enumerate()
-        .find(|(i, t)| angles[..*i].contains(t))
-        .map(|(i, t)| (i, *t))
-}
-
 /// A checked cell size.
 fn check_size(source: &Source, [lx, ly]: [f64; 2]) -> Result<DVec2, SceneError> {
     for (i, l) in [lx, ly].into_iter().enumerate() {

@@ -227,7 +227,9 @@ impl Polarisation {
                 "tally.polarisation",
                 format!(
                     "`{}` needs polarised transport, but [transport] polarisation = false",
-                    tally.name()
+                    clap::ValueEnum::to_possible_value(&tally)
+                        .expect("no variant is skipped")
+                        .get_name()
                 ),
             ));
         }
@@ -615,6 +617,15 @@ pub fn add_up(nodes: &[Node<BrdfTallies>]) -> Option<BrdfTallies> {
     Some(t)
 }
 
+/// The first angle that repeats an earlier one: its index and value.
+fn first_repeat(angles: &[f64]) -> Option<(usize, f64)> {
+    angles
+        .iter()
+        .enumerate()
+        .find(|(i, t)| angles[..*i].contains(t))
+        .map(|(i, t)| (i, *t))
+}
+
 /// The unit vector toward the light, `(sin t cos p, sin t sin p, cos t)`.
 #[must_use]
 pub fn toward_light(theta_deg: f64, phi_deg: f64) -> DVec3 {
@@ -640,7 +651,7 @@ pub fn check_incidence(theta_deg: &[f64]) -> Result<(), (Option<usize>, String)>
     {
         return Err((Some(i), format!("must be in [0, 90), got {}", Num(*t))));
     }
-    if let Some((i, t)) = crate::scene::micro::first_repeat(theta_deg) {
+    if let Some((i, t)) = first_repeat(theta_deg) {
         return Err((
             Some(i),
             format!(
