@@ -20,6 +20,8 @@ use crate::scene::Content;
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
 use crate::transport::object::PositionResult;
 
+mod reader;
+
 /// A summary's text: pretty-printed JSON and a line end.
 ///
 /// # Panics
