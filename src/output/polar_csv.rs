@@ -303,6 +303,130 @@ fn matrix_header() -> &'static str {
     &MUELLER_HEADER[..end]
 }
 
+/// A wavelength in a message: ` at W um`, or nothing for a monochrome table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AtWavelength(pub Option<f64>);
+
+impl std::fmt::Display for AtWavelength {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(w) => write!(f, " at {w} um"),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Why a `mueller.csv` does not fit the BRDF table it is read with
+/// ([`BrdfTableError::Mueller`] names the file and line). Angles in
+/// degrees; `table` is the table's file; `at` the wavelength of a
+/// spectral run's table.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MuellerTableProblem {
+    /// The file cannot be parsed.
+    #[error("{0}")]
+    File(MuellerProblem),
+    /// A monochrome file beside a spectral table.
+    #[error(
+        "a mueller.csv of one wavelength, but {table} is a spectral table (it needs the wavelength_um column of a spectral run's mueller.csv)"
+    )]
+    OneWavelength {
+        /// The table's file.
+        table: String,
+    },
+    /// A spectral file beside a monochrome table.
+    #[error(
+        "a spectral mueller.csv (wavelength_um column), but {table} is a table of one wavelength"
+    )]
+    SpectralFile {
+        /// The table's file.
+        table: String,
+    },
+    /// A row of a wavelength the table does not have (µm).
+    #[error("column 3: wavelength_um = {found} is not one of the wavelengths of {table}")]
+    NotAWavelength {
+        /// The row's wavelength.
+        found: f64,
+        /// The table's file.
+        table: String,
+    },
+    /// A block that ends before its last cell.
+    #[error("incidence block theta_i_deg = {theta_i_deg}{at} ends after {found} of {cells} cells")]
+    BlockEnds {
+        /// The block's incidence.
+        theta_i_deg: f64,
+        /// Its wavelength.
+        at: AtWavelength,
+        /// Cells found.
+        found: usize,
+        /// Cells of the grid.
+        cells: usize,
+    },
+    /// A row out of grid order.
+    #[error("expected band {band}, cell {cell} (grid order)")]
+    Order {
+        /// The band expected.
+        band: usize,
+        /// The cell expected.
+        cell: usize,
+    },
+    /// The file's last block is incomplete.
+    #[error("incidence block theta_i_deg = {theta_i_deg}{at} has {found} of {cells} cells")]
+    Incomplete {
+        /// The block's incidence.
+        theta_i_deg: f64,
+        /// Its wavelength.
+        at: AtWavelength,
+        /// Cells found.
+        found: usize,
+        /// Cells of the grid.
+        cells: usize,
+    },
+    /// Another number of blocks than the table's incidences.
+    #[error("{found} incidence blocks{at}, but {table} has {expected} (a file of another run?)")]
+    Blocks {
+        /// Blocks found.
+        found: usize,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The table's file.
+        table: String,
+        /// The table's incidences.
+        expected: usize,
+    },
+    /// A tabulated incidence without a block.
+    #[error(
+        "no block for theta_i_deg = {theta_i_deg}, phi_i_deg = {phi_i_deg}{at} (tabulated in {table})"
+    )]
+    NoBlock {
+        /// The incidence angle.
+        theta_i_deg: f64,
+        /// The light azimuth.
+        phi_i_deg: f64,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The table's file.
+        table: String,
+    },
+    /// An `m00` other than the table's BRDF.
+    #[error(
+        "theta_i_deg = {theta_i_deg}{at}: cell {cell}: m00 = {m00} is not the brdf {brdf} of {table} (a file of another run?)"
+    )]
+    M00 {
+        /// The incidence angle.
+        theta_i_deg: f64,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The flat cell index.
+        cell: usize,
+        /// The file's `m00`.
+        m00: f64,
+        /// The table's BRDF (1/sr).
+        brdf: f64,
+        /// The table's file.
+        table: String,
+    },
+}
+
 impl BrdfTables {
     /// The same tables with the Mueller-matrix BRDF of the same run
     /// (`mueller.csv` beside `brdf.csv`), see
@@ -349,19 +473,19 @@ impl SpectralTables {
     /// # Errors
     /// As [`BrdfTables::with_mueller_text`].
     pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, message: String| BrdfTableError::Mueller {
+        let fail = |line: usize, problem| BrdfTableError::Mueller {
             file: name.to_owned(),
             line,
-            message,
+            problem,
         };
-        let file = MuellerFile::parse(text).map_err(|e| fail(e.line, e.problem.to_string()))?;
+        let file = MuellerFile::parse(text)
+            .map_err(|e| fail(e.line, MuellerTableProblem::File(e.problem)))?;
         if !file.spectral {
             return Err(fail(
                 1,
-                format!(
-                    "a mueller.csv of one wavelength, but {} is a spectral table (it needs the wavelength_um column of a spectral run's mueller.csv)",
-                    self.tables()[0].file()
-                ),
+                MuellerTableProblem::OneWavelength {
+                    table: self.tables()[0].file().to_owned(),
+                },
             ));
         }
         // One pass: each row to the table of its wavelength.
@@ -372,10 +496,10 @@ impl SpectralTables {
             let lane = wavelengths.iter().position(|&w| w == at).ok_or_else(|| {
                 fail(
                     row.line,
-                    format!(
-                        "column 3: wavelength_um = {at} is not one of the wavelengths of {}",
-                        self.tables()[0].file()
-                    ),
+                    MuellerTableProblem::NotAWavelength {
+                        found: at,
+                        table: self.tables()[0].file().to_owned(),
+                    },
                 )
             })?;
             lanes[lane].push(row);
@@ -414,21 +538,20 @@ impl BrdfTable {
     /// # Errors
     /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
     pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |message: String| BrdfTableError::Mueller {
+        let fail = |line: usize, problem| BrdfTableError::Mueller {
             file: name.to_owned(),
-            line: 1,
-            message,
+            line,
+            problem,
         };
-        let file = MuellerFile::parse(text).map_err(|e| BrdfTableError::Mueller {
-            file: name.to_owned(),
-            line: e.line,
-            message: e.problem.to_string(),
-        })?;
+        let file = MuellerFile::parse(text)
+            .map_err(|e| fail(e.line, MuellerTableProblem::File(e.problem)))?;
         if file.spectral {
-            return Err(fail(format!(
-                "a spectral mueller.csv (wavelength_um column), but {} is a table of one wavelength",
-                self.file()
-            )));
+            return Err(fail(
+                1,
+                MuellerTableProblem::SpectralFile {
+                    table: self.file().to_owned(),
+                },
+            ));
         }
         let rows: Vec<&MuellerRow> = file.rows.iter().collect();
         self.attach_mueller(&rows, file.last_line, name, None)
@@ -447,12 +570,12 @@ impl BrdfTable {
         name: &str,
         wavelength: Option<f64>,
     ) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, message: String| BrdfTableError::Mueller {
+        let fail = |line: usize, problem| BrdfTableError::Mueller {
             file: name.to_owned(),
             line,
-            message,
+            problem,
         };
-        let at_w = wavelength.map_or(String::new(), |w| format!(" at {w} um"));
+        let at = AtWavelength(wavelength);
         let n = self.grid().n_cells();
         // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
         type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
@@ -466,19 +589,17 @@ impl BrdfTable {
             if (theta, phi) != (block.0, block.1) {
                 return Err(fail(
                     line,
-                    format!(
-                        "incidence block theta_i_deg = {}{at_w} ends after {} of {n} cells",
-                        block.0,
-                        block.2.len()
-                    ),
+                    MuellerTableProblem::BlockEnds {
+                        theta_i_deg: block.0,
+                        at,
+                        found: block.2.len(),
+                        cells: n,
+                    },
                 ));
             }
             let (band, cell) = self.grid().band_cell(block.2.len());
             if row.band != band.to_string() || row.cell != cell.to_string() {
-                return Err(fail(
-                    line,
-                    format!("expected band {band}, cell {cell} (grid order)"),
-                ));
+                return Err(fail(line, MuellerTableProblem::Order { band, cell }));
             }
             block.2.push(row.m);
             block.3.push(line);
@@ -486,22 +607,23 @@ impl BrdfTable {
         if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {
             return Err(fail(
                 last_line,
-                format!(
-                    "incidence block theta_i_deg = {}{at_w} has {} of {n} cells",
-                    b.0,
-                    b.2.len()
-                ),
+                MuellerTableProblem::Incomplete {
+                    theta_i_deg: b.0,
+                    at,
+                    found: b.2.len(),
+                    cells: n,
+                },
             ));
         }
         if blocks.len() != self.thetas_deg().len() {
             return Err(fail(
                 last_line,
-                format!(
-                    "{} incidence blocks{at_w}, but {} has {} (a file of another run?)",
-                    blocks.len(),
-                    self.file(),
-                    self.thetas_deg().len()
-                ),
+                MuellerTableProblem::Blocks {
+                    found: blocks.len(),
+                    at,
+                    table: self.file().to_owned(),
+                    expected: self.thetas_deg().len(),
+                },
             ));
         }
         for i in 0..self.thetas_deg().len() {
@@ -512,12 +634,12 @@ impl BrdfTable {
                 .ok_or_else(|| {
                     fail(
                         last_line,
-                        format!(
-                            "no block for theta_i_deg = {}, phi_i_deg = {}{at_w} (tabulated in {})",
-                            inc.theta_deg,
-                            inc.phi_i_deg,
-                            self.file()
-                        ),
+                        MuellerTableProblem::NoBlock {
+                            theta_i_deg: inc.theta_deg,
+                            phi_i_deg: inc.phi_i_deg,
+                            at,
+                            table: self.file().to_owned(),
+                        },
                     )
                 })?;
             let mut normalised = Vec::with_capacity(n);
@@ -526,12 +648,14 @@ impl BrdfTable {
                 if (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300 {
                     return Err(fail(
                         block.3[flat],
-                        format!(
-                            "theta_i_deg = {}{at_w}: cell {flat}: m00 = {} is not the brdf {brdf} of {} (a file of another run?)",
-                            inc.theta_deg,
-                            m[0],
-                            self.file()
-                        ),
+                        MuellerTableProblem::M00 {
+                            theta_i_deg: inc.theta_deg,
+                            at,
+                            cell: flat,
+                            m00: m[0],
+                            brdf,
+                            table: self.file().to_owned(),
+                        },
                     ));
                 }
                 normalised.push(if m[0] > 0.0 {

@@ -22,6 +22,8 @@ use crate::transport::object::PositionResult;
 
 mod reader;
 
+pub use reader::{EntryKey, SummaryProblem};
+
 /// A summary's text: pretty-printed JSON and a line end.
 ///
 /// # Panics

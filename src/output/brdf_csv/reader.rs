@@ -328,23 +328,25 @@ pub enum BrdfTableError {
         /// How it is derived, e.g. `fraction / projected_solid_angle_sr`.
         formula: &'static str,
     },
-    /// A `summary.json` that does not fit the table.
-    #[error("{file}: {message}")]
+    /// A `summary.json` that does not fit the table (read in
+    /// `output::summary`).
+    #[error("{file}: {problem}")]
     Summary {
         /// File name.
         file: String,
-        /// What is wrong (one line).
-        message: String,
+        /// What is wrong.
+        problem: crate::output::summary::SummaryProblem,
     },
-    /// A `mueller.csv` that does not fit the table.
-    #[error("{file}: line {line}: {message}")]
+    /// A `mueller.csv` that does not fit the table (read in
+    /// [`crate::output::polar_csv`]).
+    #[error("{file}: line {line}: {problem}")]
     Mueller {
         /// File name.
         file: String,
         /// Line number.
         line: usize,
-        /// What is wrong (one line).
-        message: String,
+        /// What is wrong.
+        problem: crate::output::polar_csv::MuellerTableProblem,
     },
     /// A header and no data rows.
     #[error("{file}: line {line}: no data rows after the header")]

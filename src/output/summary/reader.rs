@@ -9,24 +9,219 @@
 //! the key, line and column; the checks against the table name the key
 //! (`incidence[k].reflectance`, `run.bands`, ...) and the table's file.
 
+use std::fmt;
 use std::path::Path;
+
+use thiserror::Error;
 
 use super::{BrdfSummary, IncidenceSummary};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
 use crate::output::brdf_csv::BrdfTableError;
 use crate::output::brdf_csv::reader::read_text;
 
+/// The entry of `summary.json` that holds a table's reflectance:
+/// `incidence[k]`, or `incidence[k].spectrum[l]` for wavelength `l` of a
+/// spectral run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EntryKey {
+    /// `k`, 0-based.
+    pub incidence: usize,
+    /// `l`, 0-based (`None`: a monochrome run).
+    pub spectrum: Option<usize>,
+}
+
+impl fmt::Display for EntryKey {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "incidence[{}]", self.incidence)?;
+        match self.spectrum {
+            Some(l) => write!(f, ".spectrum[{l}]"),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Why a `summary.json` does not fit the BRDF table it is read with
+/// ([`BrdfTableError::Summary`] names the file). Each names the key; angles
+/// in degrees, wavelengths in µm; `table` is the table's file.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SummaryProblem {
+    /// Not JSON (serde's message, with line and column).
+    #[error("invalid JSON: {0}")]
+    Json(String),
+    /// JSON that is not a `roks brdf` summary: the key (empty: the whole
+    /// file) and serde's message (with line and column).
+    #[error("{}{message}", if key.is_empty() { "not the summary.json of a roks brdf run".to_owned() } else { key.clone() } + ": ")]
+    NotASummary {
+        /// Dotted key path, e.g. `incidence[1].reflectance_stderr`.
+        key: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The summary of a spectral run beside a table of one wavelength.
+    #[error(
+        "wavelengths_um: the summary of a spectral run, but {table} is a table of one wavelength"
+    )]
+    Spectral {
+        /// The table's file.
+        table: String,
+    },
+    /// Other wavelengths than the table's.
+    #[error(
+        "wavelengths_um: {found:?} is not the table's wavelengths {expected:?} um in {table} (a summary of another run?)"
+    )]
+    Wavelengths {
+        /// The summary's.
+        found: Vec<f64>,
+        /// The table's.
+        expected: Vec<f64>,
+        /// The table's file.
+        table: String,
+    },
+    /// Other bands than the table's.
+    #[error("bands: {found} is not the {expected} bands of {table} (a summary of another run?)")]
+    Bands {
+        /// The summary's.
+        found: usize,
+        /// The table's.
+        expected: usize,
+        /// The table's file.
+        table: String,
+    },
+    /// An entry of an incidence the table does not have.
+    #[error(
+        "incidence[{k}]: theta_deg = {theta_deg:?}, phi_deg = {phi_deg:?} is not tabulated in {table} (a truncated table, or a summary of another run?)"
+    )]
+    NotTabulated {
+        /// The entry, 0-based.
+        k: usize,
+        /// Its incidence angle.
+        theta_deg: f64,
+        /// Its light azimuth.
+        phi_deg: f64,
+        /// The table's file.
+        table: String,
+    },
+    /// An entry without photons.
+    #[error("incidence[{0}].photons: must be an integer > 0")]
+    NoPhotons(usize),
+    /// An entry whose photons are not those of the run (or shard).
+    #[error("incidence[{k}].photons: {found} is not photons_per_incidence = {expected}")]
+    Photons {
+        /// The entry, 0-based.
+        k: usize,
+        /// Its photons.
+        found: u64,
+        /// The folder's photons per incidence.
+        expected: u64,
+    },
+    /// A tabulated incidence without an entry.
+    #[error(
+        "incidence: no entry with theta_deg = {theta_deg}, phi_deg = {phi_deg} (tabulated in {table})"
+    )]
+    NoEntry {
+        /// The incidence angle.
+        theta_deg: f64,
+        /// The light azimuth.
+        phi_deg: f64,
+        /// The table's file.
+        table: String,
+    },
+    /// An entry without the spectrum entry of a wavelength's table.
+    #[error("{key}: missing (theta_deg = {theta_deg}; {table} has a table at {wavelength_um} um)")]
+    NoWavelength {
+        /// The missing entry.
+        key: EntryKey,
+        /// The incidence angle.
+        theta_deg: f64,
+        /// The table's file.
+        table: String,
+        /// The wavelength.
+        wavelength_um: f64,
+    },
+    /// A spectrum entry of another wavelength.
+    #[error(
+        "{key}.wavelength_um: {found:?} is not the table's {expected} um in {table} (a summary of another run?)"
+    )]
+    Wavelength {
+        /// The entry.
+        key: EntryKey,
+        /// Its wavelength.
+        found: f64,
+        /// The table's.
+        expected: f64,
+        /// The table's file.
+        table: String,
+    },
+    /// A reflectance other than the table's sum of fractions.
+    #[error(
+        "{key}.reflectance: {found} at theta_deg = {theta_deg} is not the table's {expected} in {table} (a summary of another run?)"
+    )]
+    Reflectance {
+        /// The entry.
+        key: EntryKey,
+        /// Its reflectance.
+        found: f64,
+        /// The incidence angle.
+        theta_deg: f64,
+        /// The table's reflectance.
+        expected: f64,
+        /// The table's file.
+        table: String,
+    },
+    /// A standard error that is negative or not finite.
+    #[error("{key}.reflectance_stderr: not a finite number >= 0 (theta_deg = {theta_deg})")]
+    Stderr {
+        /// The entry.
+        key: EntryKey,
+        /// The incidence angle.
+        theta_deg: f64,
+    },
+    /// A standard error no mean of scores in `[0, 1]` can have.
+    #[error(
+        "{key}.reflectance_stderr: {found} exceeds {bound}, the most a mean reflectance of {reflectance} over {photons} photons can have (theta_deg = {theta_deg})"
+    )]
+    StderrBound {
+        /// The entry.
+        key: EntryKey,
+        /// Its standard error.
+        found: f64,
+        /// The largest possible.
+        bound: f64,
+        /// Its reflectance.
+        reflectance: f64,
+        /// Its photons.
+        photons: u64,
+        /// The incidence angle.
+        theta_deg: f64,
+    },
+}
+
 /// The summary in `text` (of the file `name`), or the one-line reason it
-/// is not that of a `roks brdf` run.
+/// is not that of a `roks brdf` run, naming the key.
 fn parse(text: &str, name: &str) -> Result<BrdfSummary, BrdfTableError> {
-    serde_json::from_str(text).map_err(|e| BrdfTableError::Summary {
-        file: name.to_owned(),
-        message: if e.is_syntax() || e.is_eof() {
-            format!("invalid JSON: {e}")
+    let problem = |e: serde_json::Error, key: String| {
+        if e.is_syntax() || e.is_eof() {
+            SummaryProblem::Json(e.to_string())
         } else {
-            format!("not the summary.json of a roks brdf run: {e}")
-        },
-    })
+            SummaryProblem::NotASummary {
+                key,
+                message: e.to_string(),
+            }
+        }
+    };
+    let fail = |problem| BrdfTableError::Summary {
+        file: name.to_owned(),
+        problem,
+    };
+    let mut de = serde_json::Deserializer::from_str(text);
+    let summary = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let key = e.path().to_string();
+        let key = if key == "." { String::new() } else { key };
+        fail(problem(e.into_inner(), key))
+    })?;
+    // Nothing but white space after the summary.
+    de.end().map_err(|e| fail(problem(e, String::new())))?;
+    Ok(summary)
 }
 
 impl BrdfTables {
@@ -53,29 +248,28 @@ impl BrdfTables {
     /// wrong.
     pub fn with_summary_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
         let summary = parse(text, name)?;
-        let fail = |message: String| BrdfTableError::Summary {
+        let fail = |problem| BrdfTableError::Summary {
             file: name.to_owned(),
-            message,
+            problem,
         };
         // The wavelengths of a spectral run (an empty list: monochrome).
         let wavelengths = &summary.run.wavelengths_um;
         match self {
             Self::Monochrome(t) => {
                 if !wavelengths.is_empty() {
-                    return Err(fail(format!(
-                        "wavelengths_um: the summary of a spectral run, but {} is a table of one wavelength",
-                        t.file()
-                    )));
+                    return Err(fail(SummaryProblem::Spectral {
+                        table: t.file().to_owned(),
+                    }));
                 }
                 Ok(Self::Monochrome(t.apply_summary(&summary, name, None)?))
             }
             Self::Spectral(mut s) => {
                 if wavelengths.as_slice() != s.wavelengths_um() {
-                    return Err(fail(format!(
-                        "wavelengths_um: {wavelengths:?} is not the table's wavelengths {:?} um in {} (a summary of another run?)",
-                        s.wavelengths_um(),
-                        s.tables()[0].file()
-                    )));
+                    return Err(fail(SummaryProblem::Wavelengths {
+                        found: wavelengths.clone(),
+                        expected: s.wavelengths_um().to_vec(),
+                        table: s.tables()[0].file().to_owned(),
+                    }));
                 }
                 let wavelengths = s.wavelengths_um().to_vec();
                 for (l, (t, w)) in s.tables_mut().iter_mut().zip(wavelengths).enumerate() {
@@ -134,19 +328,19 @@ impl BrdfTable {
         name: &str,
         lane: Option<(usize, f64)>,
     ) -> Result<Self, BrdfTableError> {
-        let fail = |message: String| BrdfTableError::Summary {
+        let fail = |problem| BrdfTableError::Summary {
             file: name.to_owned(),
-            message,
+            problem,
         };
         let table = self.file().to_owned();
         let entries = &summary.incidence;
         let run = &summary.run;
         if run.bands != self.grid().bands() {
-            return Err(fail(format!(
-                "bands: {} is not the {} bands of {table} (a summary of another run?)",
-                run.bands,
-                self.grid().bands()
-            )));
+            return Err(fail(SummaryProblem::Bands {
+                found: run.bands,
+                expected: self.grid().bands(),
+                table,
+            }));
         }
         // Photons per incidence of this summary's folder: the run's, or
         // its shard's block.
@@ -160,21 +354,22 @@ impl BrdfTable {
                 .map(|i| self.incidence(i))
                 .any(|inc| at(e, inc.theta_deg, inc.phi_i_deg));
             if !listed {
-                return Err(fail(format!(
-                    "incidence[{k}]: theta_deg = {:?}, phi_deg = {:?} is not tabulated in {table} (a truncated table, or a summary of another run?)",
-                    e.theta_deg, e.phi_deg,
-                )));
+                return Err(fail(SummaryProblem::NotTabulated {
+                    k,
+                    theta_deg: e.theta_deg,
+                    phi_deg: e.phi_deg,
+                    table,
+                }));
             }
             if e.photons == 0 {
-                return Err(fail(format!(
-                    "incidence[{k}].photons: must be an integer > 0"
-                )));
+                return Err(fail(SummaryProblem::NoPhotons(k)));
             }
             if e.photons != per_incidence {
-                return Err(fail(format!(
-                    "incidence[{k}].photons: {} is not photons_per_incidence = {per_incidence}",
-                    e.photons
-                )));
+                return Err(fail(SummaryProblem::Photons {
+                    k,
+                    found: e.photons,
+                    expected: per_incidence,
+                }));
             }
         }
         for i in 0..self.thetas_deg().len() {
@@ -185,49 +380,65 @@ impl BrdfTable {
                 .enumerate()
                 .find(|(_, e)| at(e, theta, inc.phi_i_deg))
                 .ok_or_else(|| {
-                    fail(format!(
-                        "incidence: no entry with theta_deg = {theta}, phi_deg = {} (tabulated in {table})",
-                        inc.phi_i_deg
-                    ))
+                    fail(SummaryProblem::NoEntry {
+                        theta_deg: theta,
+                        phi_deg: inc.phi_i_deg,
+                        table: table.clone(),
+                    })
                 })?;
             // This table's reflectance and its standard error, and their key.
             let (r, se, key) = match lane {
                 None => (
                     entry.reflectance,
                     entry.reflectance_stderr,
-                    format!("incidence[{k}]"),
+                    EntryKey {
+                        incidence: k,
+                        spectrum: None,
+                    },
                 ),
                 Some((l, w)) => {
-                    let key = format!("incidence[{k}].spectrum[{l}]");
+                    let key = EntryKey {
+                        incidence: k,
+                        spectrum: Some(l),
+                    };
                     let v = entry
                         .spectrum
                         .as_ref()
                         .and_then(|s| s.get(l))
                         .ok_or_else(|| {
-                            fail(format!(
-                                "{key}: missing (theta_deg = {theta}; {table} has a table at {w} um)"
-                            ))
+                            fail(SummaryProblem::NoWavelength {
+                                key,
+                                theta_deg: theta,
+                                table: table.clone(),
+                                wavelength_um: w,
+                            })
                         })?;
                     if v.wavelength_um != w {
-                        return Err(fail(format!(
-                            "{key}.wavelength_um: {:?} is not the table's {w} um in {table} (a summary of another run?)",
-                            v.wavelength_um
-                        )));
+                        return Err(fail(SummaryProblem::Wavelength {
+                            key,
+                            found: v.wavelength_um,
+                            expected: w,
+                            table,
+                        }));
                     }
                     (v.reflectance, v.reflectance_stderr, key)
                 }
             };
             let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
             if !close {
-                return Err(fail(format!(
-                    "{key}.reflectance: {r} at theta_deg = {theta} is not the table's {} in {table} (a summary of another run?)",
-                    inc.reflectance
-                )));
+                return Err(fail(SummaryProblem::Reflectance {
+                    key,
+                    found: r,
+                    theta_deg: theta,
+                    expected: inc.reflectance,
+                    table,
+                }));
             }
             if !(se.is_finite() && se >= 0.0) {
-                return Err(fail(format!(
-                    "{key}.reflectance_stderr: not a finite number >= 0 (theta_deg = {theta})"
-                )));
+                return Err(fail(SummaryProblem::Stderr {
+                    key,
+                    theta_deg: theta,
+                }));
             }
             let photons = entry.photons;
             if photons >= 2 {
@@ -235,9 +446,14 @@ impl BrdfTable {
                 let rc = r.clamp(0.0, 1.0);
                 let bound = (rc * (1.0 - rc) / dof).sqrt();
                 if se > bound * (1.0 + 1e-6) + 1e-12 {
-                    return Err(fail(format!(
-                        "{key}.reflectance_stderr: {se} exceeds {bound}, the most a mean reflectance of {r} over {photons} photons can have (theta_deg = {theta})"
-                    )));
+                    return Err(fail(SummaryProblem::StderrBound {
+                        key,
+                        found: se,
+                        bound,
+                        reflectance: r,
+                        photons,
+                        theta_deg: theta,
+                    }));
                 }
             }
             self.set_stated_stderr(i, se);
@@ -321,6 +537,10 @@ mod tests {
         bad(
             &|j| *j = json!({}),
             "not the summary.json of a roks brdf run: missing field",
+        );
+        bad(
+            &|j| j["incidence"][1]["reflectance_stderr"] = Value::Null,
+            "s.json: incidence[1].reflectance_stderr: invalid type: null, expected f64",
         );
         bad(
             &|j| {
