@@ -113,8 +113,8 @@ pub const MIN_LENGTH: f64 = 1e-30;
 /// ([`crate::micro::MAX_CROSSINGS`]) between events.
 pub const MAX_ASPECT: f64 = 1e9;
 
-/// A length of a micro scene that roks cannot trace ([`aspect_bound`],
-/// [`length_bounds`]); the caller names the key.
+/// A length of a micro scene that roks cannot trace (a height too large
+/// for its cell, or a length out of range); the caller names the key.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum LengthError {
     /// A height more than [`MAX_ASPECT`] times the cell's shorter side.
