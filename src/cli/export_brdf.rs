@@ -45,22 +45,34 @@ pub struct ExportBrdfArgs {
     pub quiet: bool,
 }
 
+/// Why a `--grid` value was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GridError {
+    /// A step that is not a number.
+    #[error(transparent)]
+    Number(#[from] super::parse::ValueError),
+    /// Not two steps.
+    #[error("expected AZIMUTH_DEG,RADIAL_DEG, got {0:?}")]
+    Form(String),
+    /// A step outside (0, 90] or not dividing 180.
+    #[error("each step must be in (0, 90] degrees and divide 180, got {0}")]
+    Step(f64),
+}
+
 /// The value of `--grid`: two steps in degrees, each in (0, 90] and
 /// dividing 180 into whole steps (to 1e-9).
-fn grid(s: &str) -> Result<ZemaxGrid, String> {
+fn grid(s: &str) -> Result<ZemaxGrid, GridError> {
     let steps: Vec<f64> = s
         .split(',')
         .map(|v| super::parse::number(v.trim()))
         .collect::<Result<_, _>>()?;
     let [azimuth_step_deg, radial_step_deg] = steps[..] else {
-        return Err(format!("expected AZIMUTH_DEG,RADIAL_DEG, got {s:?}"));
+        return Err(GridError::Form(s.to_owned()));
     };
     for step in [azimuth_step_deg, radial_step_deg] {
         let n = 180.0 / step;
         if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
-            return Err(format!(
-                "each step must be in (0, 90] degrees and divide 180, got {step}"
-            ));
+            return Err(GridError::Step(step));
         }
     }
     Ok(ZemaxGrid {

@@ -20,6 +20,10 @@ use crate::scene::Content;
 use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult};
 use crate::transport::object::{ObjectResult, PositionResult};
 
+mod reader;
+
+pub use reader::{EntryKey, SummaryProblem};
+
 /// A summary's text: pretty-printed JSON and a line end.
 ///
 /// # Panics

@@ -113,25 +113,42 @@ pub const MIN_LENGTH: f64 = 1e-30;
 /// ([`crate::micro::MAX_CROSSINGS`]) between events.
 pub const MAX_ASPECT: f64 = 1e9;
 
-/// `Err(message)` when `height` exceeds [`MAX_ASPECT`] times the shorter side of `size`.
-fn aspect_bound(height: f64, size: DVec2) -> Result<(), String> {
+/// A length of a micro scene that roks cannot trace (a height too large
+/// for its cell, or a length out of range); the caller names the key.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum LengthError {
+    /// A height more than [`MAX_ASPECT`] times the cell's shorter side.
+    #[error(
+        "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {}: positions that high do not resolve the cell",
+        Num(*side)
+    )]
+    Aspect {
+        /// The height (scene length units).
+        height: f64,
+        /// The cell's shorter side (scene length units).
+        side: f64,
+    },
+    /// A non-zero length outside [`MIN_LENGTH`, `MAX_LENGTH`].
+    #[error(
+        "{0:e} is outside the lengths roks traces, [{MIN_LENGTH:e}, {MAX_LENGTH:e}] (scene length units)"
+    )]
+    Range(f64),
+}
+
+/// [`LengthError::Aspect`] when `height` exceeds [`MAX_ASPECT`] times the shorter side of `size`.
+fn aspect_bound(height: f64, size: DVec2) -> Result<(), LengthError> {
     let side = size.min_element();
     if height > MAX_ASPECT * side {
-        return Err(format!(
-            "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {}: positions that high do not resolve the cell",
-            Num(side)
-        ));
+        return Err(LengthError::Aspect { height, side });
     }
     Ok(())
 }
 
-/// `Err(message)` when the non-zero length `v` lies outside
+/// [`LengthError::Range`] when the non-zero length `v` lies outside
 /// [`MIN_LENGTH`, `MAX_LENGTH`] (checked after the key's own sign rule).
-fn length_bounds(v: f64) -> Result<(), String> {
+fn length_bounds(v: f64) -> Result<(), LengthError> {
     if v != 0.0 && !(MIN_LENGTH..=MAX_LENGTH).contains(&v.abs()) {
-        return Err(format!(
-            "{v:e} is outside the lengths roks traces, [{MIN_LENGTH:e}, {MAX_LENGTH:e}] (scene length units)"
-        ));
+        return Err(LengthError::Range(v));
     }
     Ok(())
 }
@@ -986,8 +1003,9 @@ impl HeightFieldSpec {
                     }
                     None => 1.0,
                 };
-                let file_error =
-                    |e: String| source.error(key("file"), format!("{}: {e}", path.display()));
+                let file_error = |e: heightfield_io::HeightMapError| {
+                    source.error(key("file"), format!("{}: {e}", path.display()))
+                };
                 // The memory from the header (or the text's length) before decoding.
                 let check = |bytes: u64, (nx, ny): (usize, usize)| {
                     let what = format!(

@@ -688,7 +688,7 @@ impl BrdfRun {
                 .map_err(|(i, e)| (RunField::WavelengthsUm(i), e))?;
         }
         super::launch::check_photons(self.launch, self.photons)
-            .map_err(|e| (RunField::Photons, e))?;
+            .map_err(|e| (RunField::Photons, e.to_string()))?;
         if !(1..=1000).contains(&self.bands) {
             return Err((
                 RunField::Bands,
@@ -720,7 +720,9 @@ impl BrdfRun {
             return Err((RunField::RouletteWeight, "must be in [0, 1)".into()));
         }
         let p = &self.polarisation;
-        p.incident.validate().map_err(|e| (RunField::Incident, e))?;
+        p.incident
+            .validate()
+            .map_err(|e| (RunField::Incident, e.to_string()))?;
         if p.tally != PolarTally::None && !p.transport {
             return Err((
                 RunField::PolarTally,
