@@ -163,7 +163,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         a.quiet,
         &scene.name,
     );
-    let folder = BrdfFolder::trace(&scene.surface, description, &|n| bar.inc(n));
+    let folder = BrdfFolder::trace(&scene.surfaces(), description, &|n| bar.inc(n));
     bar.finish_and_clear();
 
     let mut extra = Vec::new();

@@ -18,7 +18,7 @@ use super::tallies::{Merged, TALLIES_FILE, TalliesFile};
 use super::{brdf_csv, inplane_csv, polar_csv};
 use crate::micro::MicroSurface;
 use crate::optics::brdf_table::BrdfTables;
-use crate::transport::brdf::{BrdfRun, IncidenceResult, add_up};
+use crate::transport::brdf::{BrdfRun, IncidenceResult};
 
 /// A result folder's contents, before they are written.
 #[derive(Debug, Clone)]
@@ -36,10 +36,11 @@ pub struct BrdfFolder {
 
 impl BrdfFolder {
     /// Trace the run of `description` (all its photons, or its shard's
-    /// block of them) on `surface`; `progress` is called with photons done.
+    /// block of them) on `surfaces` (one per realisation); `progress` is
+    /// called with photons done.
     #[must_use]
     pub fn trace(
-        surface: &MicroSurface,
+        surfaces: &[&MicroSurface],
         description: Description,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Self {
@@ -48,17 +49,9 @@ impl BrdfFolder {
         let mut results = Vec::with_capacity(run.blocks().len());
         let mut parts = Vec::new();
         for &theta in &run.theta_deg {
-            let (lanes, seconds) = run.run_shard_one(surface, theta, progress);
+            let (lanes, seconds) = run.run_shard_one(surfaces, theta, progress);
             for (l, nodes) in lanes.into_iter().enumerate() {
-                let tallies = add_up(&nodes)
-                    .unwrap_or_else(|| run.empty_tallies(&run.grid(), &run.inplane()));
-                results.push(IncidenceResult {
-                    theta_i_deg: theta,
-                    phi_i_deg: run.phi_deg,
-                    wavelength_um: run.wavelength(l),
-                    tallies,
-                    seconds,
-                });
+                results.push(run.result(theta, l, &nodes, seconds));
                 if run.shard.is_some() {
                     parts.push((theta, run.wavelength(l), seconds, nodes));
                 }
@@ -93,6 +86,7 @@ impl BrdfFolder {
                 theta_i_deg: i.theta_deg,
                 phi_i_deg: description.run.phi_deg,
                 wavelength_um: i.wavelength_um,
+                realisations: description.run.realisation_results(i.theta_deg, &i.nodes),
                 tallies: i.tallies,
                 seconds: i.seconds,
             })

@@ -633,6 +633,10 @@ pub struct MergedIncidence {
     pub seconds: f64,
     /// The sums over the whole run (the tree's root).
     pub tallies: BrdfTallies,
+    /// With several surface realisations: the shards' nodes in batch
+    /// order (each within one realisation's block), for the sums per
+    /// realisation ([`BrdfRun::realisation_results`]); empty for one.
+    pub nodes: Vec<Node<BrdfTallies>>,
 }
 
 /// Shards of one run, checked against each other and summed.
@@ -824,10 +828,16 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         .iter()
         .map(|_| (DyadicSum::new(batches), 0.0, 0))
         .collect();
+    let mut kept: Vec<Vec<Node<BrdfTallies>>> = vec![Vec::new(); blocks.len()];
     for p in parts {
         let range = p.photons();
-        for (i, (inc, (sum, secs, tests))) in
-            p.tallies.incidence.into_iter().zip(&mut sums).enumerate()
+        for (i, ((inc, (sum, secs, tests)), kept)) in p
+            .tallies
+            .incidence
+            .into_iter()
+            .zip(&mut sums)
+            .zip(&mut kept)
+            .enumerate()
         {
             let key = format!("incidence[{i}]");
             let at = |e: FieldError| e.under(&key).in_file(&p.file);
@@ -878,6 +888,9 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                             "the shards' counts add up past 2^64",
                         ))
                     })?;
+                if run.realisations > 1 {
+                    kept.push(node.clone());
+                }
                 sum.push(node, &BrdfTallies::merge)
                     .map_err(|e| at(FieldError::new(format!("nodes[{k}]"), e)))?;
             }
@@ -885,19 +898,23 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     }
     let incidence = sums
         .into_iter()
+        .zip(kept)
         .zip(&blocks)
         .enumerate()
-        .map(|(i, ((sum, seconds, _), &(theta, wavelength_um)))| {
-            let tallies = sum
-                .finish()
-                .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0))?;
-            Ok(MergedIncidence {
-                theta_deg: theta,
-                wavelength_um,
-                seconds,
-                tallies,
-            })
-        })
+        .map(
+            |(i, (((sum, seconds, _), nodes), &(theta, wavelength_um)))| {
+                let tallies = sum.finish().map_err(|e| {
+                    FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0)
+                })?;
+                Ok(MergedIncidence {
+                    theta_deg: theta,
+                    wavelength_um,
+                    seconds,
+                    tallies,
+                    nodes,
+                })
+            },
+        )
         .collect::<Result<Vec<_>, SceneError>>()?;
     Ok(Merged {
         description,
@@ -965,7 +982,7 @@ mod tests {
         (0..count)
             .map(|index| {
                 let f = BrdfFolder::trace(
-                    &scene.surface,
+                    &scene.surfaces(),
                     description(&block(run, index, count)),
                     &|_| {},
                 );
@@ -1029,7 +1046,7 @@ mod tests {
     #[test]
     fn merged_shards_are_the_whole_run_bit_for_bit() {
         let (scene, run) = scene_and_run();
-        let whole = BrdfFolder::trace(&scene.surface, description(&run), &|_| {});
+        let whole = BrdfFolder::trace(&scene.surfaces(), description(&run), &|_| {});
         for count in [2, 3, 4] {
             let mut parts = shards(&scene, &run, count);
             parts.reverse(); // any order

@@ -73,6 +73,11 @@ pub struct BrdfRun {
     pub photons: u64,
     /// Polarised transport, incident state and polarisation tallies.
     pub polarisation: Polarisation,
+    /// Surface realisations (`[surface] realisations`): realisation `r`
+    /// traces the whole batches [`BrdfRun::realisation_batches`] of every
+    /// incidence on its own surface. Absent from the files when 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub realisations: u64,
     /// Tracing seed.
     pub seed: u64,
     /// The block of the run's photons this run traces (`--shard I/N`);
@@ -85,6 +90,15 @@ pub struct BrdfRun {
     /// Vacuum wavelengths (µm, strictly increasing) of a spectral run, each
     /// carried by every photon ([`crate::transport::carrier::LaneCarrier::Spectrum`]); empty for a monochrome run.
     pub wavelengths_um: Vec<f64>,
+}
+
+fn one() -> u64 {
+    1
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_one(n: &u64) -> bool {
+    *n == 1
 }
 
 /// A checked field of a [`BrdfRun`] ([`BrdfRun::check`]), with its index
@@ -117,6 +131,8 @@ pub enum RunField {
     PolarTally,
     /// `symmetry`.
     Symmetry,
+    /// `realisations`.
+    Realisations,
 }
 
 impl RunField {
@@ -139,6 +155,7 @@ impl RunField {
             Self::Incident => ("light.polarisation", None),
             Self::PolarTally => ("tally.polarisation", None),
             Self::Symmetry => ("tally.symmetry", None),
+            Self::Realisations => ("surface.realisations", None),
         };
         with_index(key, index)
     }
@@ -161,6 +178,7 @@ impl RunField {
             Self::Incident => ("polarisation.incident", None),
             Self::PolarTally => ("polarisation.tally", None),
             Self::Symmetry => ("symmetry", None),
+            Self::Realisations => ("realisations", None),
         };
         with_index(key, index)
     }
@@ -430,6 +448,45 @@ pub struct IncidenceResult {
     pub tallies: BrdfTallies,
     /// Wall-clock time (s).
     pub seconds: f64,
+    /// With several surface realisations, each one's reflectance (from the
+    /// tree nodes over its block of batches); empty for one.
+    pub realisations: Vec<RealisationResult>,
+}
+
+/// The reflectance of one surface realisation of a run (its block of
+/// batches, [`BrdfRun::realisation_batches`]) at one incidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RealisationResult {
+    /// Photons of the realisation traced.
+    pub photons: u64,
+    /// Reflected weight per photon (0 without photons).
+    pub reflectance: f64,
+    /// Its standard error (Monte Carlo only: the realisation's own photons).
+    pub reflectance_stderr: f64,
+}
+
+impl RealisationResult {
+    /// The reflectance of the realisation summed in `tallies`.
+    fn of(tallies: BrdfTallies, theta_deg: f64, run: &BrdfRun) -> Self {
+        let r = IncidenceResult {
+            theta_i_deg: theta_deg,
+            phi_i_deg: run.phi_deg,
+            wavelength_um: None,
+            tallies,
+            seconds: 0.0,
+            realisations: Vec::new(),
+        };
+        let (reflectance, reflectance_stderr) = if r.tallies.photons == 0 {
+            (0.0, 0.0)
+        } else {
+            r.reflectance()
+        };
+        Self {
+            photons: r.tallies.photons,
+            reflectance,
+            reflectance_stderr,
+        }
+    }
 }
 
 impl IncidenceResult {
@@ -585,6 +642,16 @@ impl BrdfRun {
         }
         super::launch::check_photons(self.launch, self.photons)
             .map_err(|e| (RunField::Photons, e))?;
+        let batches = self.photons.div_ceil(BATCH);
+        if self.realisations == 0 || self.realisations > batches {
+            return Err((
+                RunField::Realisations,
+                format!(
+                    "must be in 1..={batches} (each realisation traces whole batches of {BATCH} of the {} photons per incidence), got {}",
+                    self.photons, self.realisations
+                ),
+            ));
+        }
         if !(1..=1000).contains(&self.bands) {
             return Err((
                 RunField::Bands,
@@ -732,9 +799,10 @@ impl BrdfRun {
         .expect("in-plane settings checked by the scene")
     }
 
-    /// Trace every incidence angle; `progress` is called with photons done.
-    /// One result per incidence, or for a spectral run per incidence and
-    /// wavelength (incidence-major, wavelengths in order).
+    /// Trace every incidence angle on `surface` (every realisation's);
+    /// `progress` is called with photons done. One result per incidence,
+    /// or for a spectral run per incidence and wavelength (incidence-major,
+    /// wavelengths in order).
     pub fn run(
         &self,
         surface: &MicroSurface,
@@ -759,26 +827,108 @@ impl BrdfRun {
     }
 
     /// [`BrdfRun::run_one`], one result per wavelength (one for a
-    /// monochrome run); the time is the whole trace's.
+    /// monochrome run), with `surface` as every realisation; the time is
+    /// the whole trace's.
     pub fn run_lanes(
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<IncidenceResult> {
-        let (lanes, seconds) = self.run_shard_one(surface, theta_deg, progress);
+        let surfaces = vec![surface; self.realisations as usize];
+        let (lanes, seconds) = self.run_shard_one(&surfaces, theta_deg, progress);
         lanes
             .iter()
             .enumerate()
-            .map(|(l, nodes)| IncidenceResult {
-                theta_i_deg: theta_deg,
-                phi_i_deg: self.phi_deg,
-                wavelength_um: self.wavelength(l),
-                tallies: add_up(nodes)
-                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
-                seconds,
+            .map(|(l, nodes)| self.result(theta_deg, l, nodes, seconds))
+            .collect()
+    }
+
+    /// The result of incidence `theta_deg`, wavelength lane `l`, from the
+    /// tree nodes a trace (or a merge) gave, each within one realisation's
+    /// block ([`BrdfRun::run_shard_one`]): the sums over the nodes pushed
+    /// into the run's tree ([`BrdfRun::combine`]) added left to right (for
+    /// a whole run, the root), and per realisation the sums over its nodes.
+    #[must_use]
+    pub fn result(
+        &self,
+        theta_deg: f64,
+        l: usize,
+        nodes: &[Node<BrdfTallies>],
+        seconds: f64,
+    ) -> IncidenceResult {
+        let empty = || self.empty_tallies(&self.grid(), &self.inplane());
+        let tallies = add_up(&self.combine(nodes.iter())).unwrap_or_else(empty);
+        let realisations = self.realisation_results(theta_deg, nodes);
+        IncidenceResult {
+            theta_i_deg: theta_deg,
+            phi_i_deg: self.phi_deg,
+            wavelength_um: self.wavelength(l),
+            tallies,
+            seconds,
+            realisations,
+        }
+    }
+
+    /// With several realisations, each one's reflectance at incidence
+    /// `theta_deg` from the tree `nodes` of a trace or of merged shards, in
+    /// batch order, each within one realisation's block: realisation `r`'s
+    /// sums are its nodes pushed into the run's tree and added left to
+    /// right (so a shard split anywhere gives the same bits). Empty for one
+    /// realisation.
+    #[must_use]
+    pub fn realisation_results(
+        &self,
+        theta_deg: f64,
+        nodes: &[Node<BrdfTallies>],
+    ) -> Vec<RealisationResult> {
+        if self.realisations <= 1 {
+            return Vec::new();
+        }
+        (0..self.realisations)
+            .map(|r| {
+                let (b0, b1) = self.realisation_batches(r);
+                let inside = nodes
+                    .iter()
+                    .filter(|n| n.start() >= u128::from(b0) && n.start() < u128::from(b1));
+                let sums = add_up(&self.combine(inside))
+                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
+                RealisationResult::of(sums, theta_deg, self)
             })
             .collect()
+    }
+
+    /// `nodes` (in batch order, contiguous) pushed into the run's batch
+    /// tree: its complete nodes (the root alone when they cover the run).
+    /// The nodes of a piece of the run, split anywhere on node bounds,
+    /// combine to the nodes of the piece's leaves, bit for bit.
+    ///
+    /// # Panics
+    /// If the nodes are not contiguous or lie past the run.
+    #[must_use]
+    pub fn combine<'a>(
+        &self,
+        nodes: impl Iterator<Item = &'a Node<BrdfTallies>>,
+    ) -> Vec<Node<BrdfTallies>> {
+        let mut sum = DyadicSum::new(self.photons.div_ceil(BATCH));
+        for n in nodes {
+            sum.push(n.clone(), &BrdfTallies::merge)
+                .expect("contiguous nodes of the run");
+        }
+        sum.into_nodes()
+    }
+
+    /// The batches `[b0, b1)` (of every incidence) that realisation `r`
+    /// traces: of the run's `B = ceil(photons / BATCH)` batches,
+    /// `[floor(r B / R), floor((r + 1) B / R))` for `R` realisations (the
+    /// rule of [`crate::shard::Shard::photon_range`]): whole batches,
+    /// their numbers differing by one at most, realisation 0 first.
+    #[must_use]
+    pub fn realisation_batches(&self, r: u64) -> (u64, u64) {
+        let b = u128::from(self.photons.div_ceil(BATCH));
+        let n = u128::from(self.realisations.max(1));
+        let at = |k: u64| (u128::from(k) * b / n) as u64;
+        (at(r), at(r + 1))
     }
 
     /// The photon indices `[first, last)` this run traces of every
@@ -790,49 +940,62 @@ impl BrdfRun {
     }
 
     /// Trace one incidence angle of this run's photons
-    /// ([`BrdfRun::photon_range`]: a shard's block, or the whole run).
-    /// Returns the complete nodes of the whole run's batch tree (see
-    /// [`crate::tally::sum`]; the root alone for a whole run), one list per
-    /// wavelength ([`BrdfRun::lane_count`]), and the time (s).
+    /// ([`BrdfRun::photon_range`]: a shard's block, or the whole run), the
+    /// batches of realisation `r` ([`BrdfRun::realisation_batches`]) on
+    /// `surfaces[r]`. Returns the complete nodes of the whole run's batch
+    /// tree over each realisation's part of the range, in batch order (see
+    /// [`crate::tally::sum`]; the root alone for a whole run of one
+    /// realisation), one list per wavelength ([`BrdfRun::lane_count`]),
+    /// and the time (s).
     ///
     /// # Panics
-    /// If the range does not start on a batch or exceeds the run's photons.
+    /// If the range does not start on a batch or exceeds the run's
+    /// photons, or `surfaces` is not one per realisation.
     pub fn run_shard_one(
         &self,
-        surface: &MicroSurface,
+        surfaces: &[&MicroSurface],
         theta_deg: f64,
         progress: &(dyn Fn(u64) + Sync),
     ) -> (Vec<Vec<Node<BrdfTallies>>>, f64) {
         let (first, last) = self.photon_range();
         assert!(first % BATCH == 0, "shards start on a batch");
         assert!(first <= last && last <= self.photons);
-        let clock = Instant::now();
-        let nodes = self.run_nodes(
-            surface,
-            theta_deg,
-            first / BATCH,
-            self.photons.div_ceil(BATCH),
-            progress,
+        assert_eq!(
+            surfaces.len() as u64,
+            self.realisations,
+            "one surface per realisation"
         );
-        (nodes, clock.elapsed().as_secs_f64())
+        let clock = Instant::now();
+        let mut lanes = vec![Vec::new(); self.lane_count()];
+        for (r, surface) in (0..).zip(surfaces) {
+            let (b0, b1) = self.realisation_batches(r);
+            let from = (b0 * BATCH).max(first);
+            let to = (b1 * BATCH).min(last);
+            if from >= to {
+                continue;
+            }
+            let nodes = self.run_nodes(surface, theta_deg, (from, to), progress);
+            for (all, some) in lanes.iter_mut().zip(nodes) {
+                all.extend(some);
+            }
+        }
+        (lanes, clock.elapsed().as_secs_f64())
     }
 
-    /// Trace this run's photons in batches (batch `k` of this run is batch
-    /// `base + k` of a run of `total_batches`), in parallel, and reduce them
-    /// in batch order over the fixed tree; returns its complete nodes, one
-    /// list per wavelength. Large
-    /// surfaces are traced in the Morton order of the entry points
-    /// ([`order::pays`]).
+    /// Trace the photons `[range.0, range.1)` (`range.0` on a batch) in
+    /// batches, in parallel, and reduce them in batch order over the run's
+    /// fixed tree; returns its complete nodes over the range, one list per
+    /// wavelength. Large surfaces are traced in the Morton order of the
+    /// entry points ([`order::pays`]).
     fn run_nodes(
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
-        base: u64,
-        total_batches: u64,
+        range: (u64, u64),
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Vec<Node<BrdfTallies>>> {
         let ordered = order::pays(surface);
-        self.run_nodes_in(surface, theta_deg, base, total_batches, ordered, progress)
+        self.run_nodes_in(surface, theta_deg, range, ordered, progress)
     }
 
     /// [`BrdfRun::run_nodes`], in Morton order if `ordered`.
@@ -840,16 +1003,16 @@ impl BrdfRun {
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
-        base: u64,
-        total_batches: u64,
+        range: (u64, u64),
         ordered: bool,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Vec<Node<BrdfTallies>>> {
         let grid = Locator::new(self.grid());
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
+        let base = range.0 / BATCH;
         let mut sums: Vec<_> = (0..self.lane_count())
-            .map(|_| DyadicSum::new(total_batches))
+            .map(|_| DyadicSum::new(self.photons.div_ceil(BATCH)))
             .collect();
         let spare = Spare::default();
         let mut consume = |k, values: Vec<BrdfTallies>| {
@@ -871,6 +1034,7 @@ impl BrdfRun {
             locator: &grid,
             inplane: &inplane,
             dir,
+            range,
             ordered,
             spare: &spare,
         };
@@ -948,6 +1112,7 @@ impl BrdfRun {
             locator,
             inplane,
             dir,
+            range: (first, last),
             ordered,
             spare,
         } = *args;
@@ -957,7 +1122,6 @@ impl BrdfRun {
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi), self.lane_count());
         // Photon n's stream (after the entry draws) and entry point.
-        let (first, last) = self.photon_range();
         let entry = |n: u64| {
             let g = first + n;
             let mut rng = photon_rng(self.seed, g);
@@ -1207,6 +1371,8 @@ struct TraceArgs<'a> {
     inplane: &'a InPlaneTally,
     /// The incident flight (unit, z < 0).
     dir: DVec3,
+    /// The photon indices `[first, last)` traced.
+    range: (u64, u64),
     /// Trace in the Morton order of the entry points.
     ordered: bool,
     spare: &'a Spare,
@@ -1343,9 +1509,9 @@ mod tests {
             run.symmetry = symmetry;
             run.polarisation.tally = tally;
             run.polarisation.transport = tally != PolarTally::None;
-            let batches = run.photons.div_ceil(BATCH);
-            let nodes =
-                |ordered| run.run_nodes_in(&scene.surface, 60.0, 0, batches, ordered, &|_| {});
+            let nodes = |ordered| {
+                run.run_nodes_in(&scene.surface, 60.0, (0, run.photons), ordered, &|_| {})
+            };
             let (by_index, by_morton) = (nodes(false), nodes(true));
             assert!(by_index[0][0].value.photons > 0);
             assert_eq!(by_index, by_morton, "{tally:?} {launch:?} {symmetry:?}");
