@@ -427,3 +427,72 @@ fn the_ensemble_table_is_mirror_symmetric_where_one_realisation_is_not() {
     assert!(many < bound, "ensemble {many} >= {bound}");
     assert!(one > 3.0 * bound, "one realisation {one}: not asymmetric");
 }
+
+/// The memory limit counts every realisation's surface: 64 fields of
+/// 512 x 512 (about 15 MiB each) are refused under a 512 MiB limit that one
+/// field passes, naming the key.
+#[test]
+fn the_memory_limit_counts_every_realisation() {
+    let root = scratch("memory");
+    let scene = root.join("big.toml");
+    let text = |r: u32| {
+        format!(
+            "[surface]\nsize = [64.0, 64.0]\nmaterial = \"m\"\nheightfield = {{ gaussian = {{ sigma = 1.0, tau = 2.0 }}, resolution = 512 }}\nrealisations = {r}\n[materials.m]\nreflectance = 0.5\n[light]\nphotons = 300000\ntheta_deg = [0]\n"
+        )
+    };
+    let run = |r: u32| {
+        std::fs::write(&scene, text(r)).unwrap();
+        let out = root.join(format!("out{r}"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_roks"))
+            .args(["stats", scene.to_str().unwrap()])
+            .env("ROKS_MAX_MEMORY", "512M")
+            .output()
+            .unwrap();
+        (o, out)
+    };
+    let (o, _) = run(1);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (o, out) = run(64);
+    cli_common::assert_input_error(
+        "64 realisations",
+        &o,
+        &scene,
+        &out,
+        &[
+            "surface.realisations",
+            "64 surface realisations",
+            "memory limit",
+        ],
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// The example scene `scenes/gaussian-ensemble.toml` runs (16 realisations,
+/// one batch each at 65 536 photons) and reports every realisation.
+#[test]
+fn the_example_ensemble_scene_runs() {
+    let root = scratch("example");
+    let scene =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gaussian-ensemble.toml");
+    let out = root.join("out");
+    let o = cli_common::roks(&[
+        "brdf",
+        scene.to_str().unwrap(),
+        "-q",
+        "--photons",
+        "65536",
+        "--theta",
+        "30",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = cli_common::summary_without_timing(&out);
+    let r = &s["incidence"][0]["realisations"];
+    assert_eq!(r["photons"].as_array().unwrap().len(), 16, "{r}");
+    assert!(
+        r["photons"].as_array().unwrap().iter().all(|p| p == 4096),
+        "{r}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -221,6 +221,30 @@ pub fn print_table(results: &[IncidenceResult]) {
             r.segments_per_second() / 1e6
         );
     }
+    // Several surface realisations: their spread beside the photon noise.
+    if results.iter().any(|r| r.realisations.len() > 1) {
+        eprintln!(
+            "{:>9}{} {:>12} {:>14} {:>14}  ({} realisations)",
+            "theta_i",
+            if spectral { "  lambda_um" } else { "" },
+            "spread",
+            "surface_spread",
+            "monte_carlo",
+            results[0].realisations.len()
+        );
+        for r in results {
+            if let Some(s) = crate::output::summary::RealisationsSummary::new(&r.realisations) {
+                eprintln!(
+                    "{:>9.2}{} {:>12.2e} {:>14.2e} {:>14.2e}",
+                    r.theta_i_deg,
+                    lambda(r),
+                    s.spread,
+                    s.surface_spread,
+                    s.monte_carlo_spread
+                );
+            }
+        }
+    }
 }
 
 #[cfg(test)]
