@@ -15,7 +15,7 @@ mod common;
 use roks::scene::micro::{MicroScene, realisation_seed};
 use roks::tally::sum::Node;
 use roks::transport::BATCH;
-use roks::transport::brdf::{BrdfRun, BrdfTallies, ShardRange, add_up};
+use roks::transport::brdf::{BrdfRun, BrdfTallies, IncidenceResult, ShardRange, add_up};
 
 /// A Gaussian field of `cells` correlation lengths (tau = 2) per side, 8
 /// grid squares per correlation length, geometry seed `seed`.
@@ -93,13 +93,23 @@ bands = 8
     )
 }
 
-/// The nodes of one incidence (first wavelength) of `run` on `surfaces`.
+/// The leaf of incidence `theta` (first wavelength) of `run`'s photons
+/// ([`BrdfRun::photon_range`]) on `surfaces`.
+fn leaf(run: &BrdfRun, surfaces: &[&roks::micro::MicroSurface], theta: f64) -> IncidenceResult {
+    let mut run = run.clone();
+    run.theta_deg = vec![theta];
+    run.trace_realisations(surfaces, run.photon_range(), &|_| {})
+        .into_leaves()
+        .swap_remove(0)
+}
+
+/// The nodes of [`leaf`].
 fn nodes(
     run: &BrdfRun,
     surfaces: &[&roks::micro::MicroSurface],
     theta: f64,
 ) -> Vec<Node<BrdfTallies>> {
-    run.run_shard_one(surfaces, theta, &|_| {}).0.swap_remove(0)
+    leaf(run, surfaces, theta).nodes
 }
 
 /// The ensemble against single-realisation runs of the seeds of each
@@ -110,8 +120,7 @@ fn check_ensemble(ensemble: &MicroScene, single: impl Fn(u64) -> MicroScene) {
     assert!(r_count > 1);
     assert_eq!(ensemble.surfaces().len() as u64, r_count);
     for &theta in &run.theta_deg {
-        let whole = nodes(&run, &ensemble.surfaces(), theta);
-        let result = run.result(theta, 0, &whole, 0.0);
+        let result = leaf(&run, &ensemble.surfaces(), theta);
         let mut pieces = Vec::new();
         for r in 0..r_count {
             let scene = single(r);
@@ -194,7 +203,7 @@ fn bump_ensemble_is_the_single_realisation_runs_bit_for_bit() {
 fn ensembles_are_the_same_for_any_thread_count() {
     let scene = gaussian(4, 3, 3, 6 * BATCH + 1000, "60");
     let run = scene.brdf_run();
-    let trace = || run.result(60.0, 0, &nodes(&run, &scene.surfaces(), 60.0), 0.0);
+    let trace = || leaf(&run, &scene.surfaces(), 60.0);
     let many = trace();
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -213,7 +222,7 @@ fn spread(cells: u32) -> (f64, f64, f64) {
     let r = 24;
     let scene = gaussian(cells, 3, r, r * 2 * BATCH, "70");
     let run = scene.brdf_run();
-    let result = run.result(70.0, 0, &nodes(&run, &scene.surfaces(), 70.0), 0.0);
+    let result = leaf(&run, &scene.surfaces(), 70.0);
     let s = roks::output::summary::RealisationsSummary::new(&result.realisations).unwrap();
     // Standard error of a sample standard deviation of R normal values.
     (
@@ -376,7 +385,7 @@ fn realisations_of_one_surface_are_refused() {
 /// both counted once with `z = (f_a - f_b) / sqrt(s_a² + s_b²)` (`f` the
 /// fraction, `s` its standard error; the cells' small multinomial
 /// covariance `-f_a f_b / N` is neglected). `(chi^2 / dof, dof)`.
-fn mirror_chi2(run: &BrdfRun, r: &roks::transport::brdf::IncidenceResult) -> (f64, usize) {
+fn mirror_chi2(run: &BrdfRun, r: &IncidenceResult) -> (f64, usize) {
     let grid = run.grid();
     let t = &r.tallies;
     let (mut chi2, mut dof) = (0.0, 0);
@@ -416,7 +425,7 @@ fn the_ensemble_table_is_mirror_symmetric_where_one_realisation_is_not() {
     for r in [1, 64] {
         let scene = gaussian_at(24, 3, r, photons, "30", 45.0);
         let run = scene.brdf_run();
-        let result = run.result(30.0, 0, &nodes(&run, &scene.surfaces(), 30.0), 0.0);
+        let result = leaf(&run, &scene.surfaces(), 30.0);
         chi2.push(mirror_chi2(&run, &result));
     }
     let [(one, dof1), (many, dof)] = chi2[..] else {

@@ -18,7 +18,7 @@ use crate::scene::WavelengthsSpec;
 use crate::scene::micro::{MicroScene, Overrides};
 use crate::shard::Shard;
 use crate::tally::{PolarTally, Symmetry};
-use crate::transport::brdf::{IncidenceResult, ShardRange};
+use crate::transport::brdf::{BrdfResult, IncidenceResult, ShardRange};
 use crate::transport::launch::Launch;
 
 /// The options of `roks brdf`.
@@ -149,7 +149,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let stats = surface_stats(&map);
     let surface = super::plot::surface_png(&scene, &map, &stats)?;
     drop(map);
-    let (first, last) = run.photon_range();
+    let photons = run.photon_range();
     let description = Description::new(
         scene.content.clone(),
         &scene.source.file,
@@ -158,18 +158,23 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         run,
         Surface::new(&stats, rx),
     );
+    let per_angle = photons.end - photons.start;
     let bar = progress_bar(
-        (last - first).saturating_mul(description.run.theta_deg.len() as u64),
+        per_angle.saturating_mul(description.run.theta_deg.len() as u64),
         a.quiet,
         &scene.name,
     );
-    let folder = BrdfFolder::trace(&scene.surfaces(), description, &|n| bar.inc(n));
+    let clock = std::time::Instant::now();
+    let results = description
+        .run
+        .trace_realisations(&scene.surfaces(), photons, &|n| bar.inc(n));
+    let folder = BrdfFolder::traced(description, results, clock.elapsed().as_secs_f64());
     bar.finish_and_clear();
 
     let mut extra = Vec::new();
     if !a.export.is_empty() {
         let table = folder.table();
-        let comment = format!("scene {}, {} photons per angle", scene.name, last - first);
+        let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
         for (k, &f) in a.export.iter().enumerate() {
             // Each format once, in the order given.
             if !a.export[..k].contains(&f) {
@@ -192,7 +197,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
 }
 
 /// The table of results per incidence angle, on stderr (also `roks merge`).
-pub fn print_table(results: &[IncidenceResult]) {
+pub fn print_table(results: &BrdfResult) {
     let spectral = results.iter().any(|r| r.wavelength_um.is_some());
     let lambda = |r: &IncidenceResult| match r.wavelength_um {
         Some(w) => format!(" {w:>8}"),
@@ -230,7 +235,11 @@ pub fn print_table(results: &[IncidenceResult]) {
             "spread",
             "surface_spread",
             "monte_carlo",
-            results[0].realisations.len()
+            results
+                .iter()
+                .map(|r| r.realisations.len())
+                .max()
+                .unwrap_or(0)
         );
         for r in results {
             if let Some(s) = crate::output::summary::RealisationsSummary::new(&r.realisations) {

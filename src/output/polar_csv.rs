@@ -11,7 +11,7 @@ use std::fmt::Write as _;
 use crate::optics::polarisation::degree_of_polarisation;
 use crate::output::brdf_csv::reader::shorten;
 use crate::tally::{CarlsonGrid, PolarTally};
-use crate::transport::brdf::{BrdfRun, IncidenceResult};
+use crate::transport::brdf::{BrdfResult, BrdfRun};
 
 /// Columns of `stokes.csv`: per incidence and Carlson cell, the Stokes BRDF
 /// `s_i` (1/sr) of the reflected light for the incident state in the cell
@@ -37,7 +37,7 @@ pub const MUELLER_MATRIX_COLUMNS: usize = 38;
 /// The polarisation table of a run with a polarisation tally: its file name
 /// (`stokes.csv` or `mueller.csv`) and text; `None` without one.
 #[must_use]
-pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> Option<(&'static str, String)> {
+pub fn write(run: &BrdfRun, results: &BrdfResult) -> Option<(&'static str, String)> {
     let (name, header) = match run.polarisation.tally {
         PolarTally::None => return None,
         PolarTally::Stokes => ("stokes.csv", STOKES_HEADER),

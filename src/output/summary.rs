@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::micro::Edges;
 use crate::micro::surface_stats::SurfaceStats;
 use crate::scene::Content;
-use crate::transport::brdf::{BrdfRun, IncidenceResult, RealisationResult};
+use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult, RealisationResult};
 use crate::transport::object::PositionResult;
 
 /// A summary's text: pretty-printed JSON and a line end.
@@ -488,23 +488,26 @@ pub struct BrdfSummary {
 }
 
 impl BrdfSummary {
-    /// The summary of the run `description`, per incidence `results`
-    /// (incidence-major, then wavelength), total time `seconds`.
+    /// The summary of the run `description`, its `results`, total time
+    /// `seconds`: one entry per incidence (and azimuth), its wavelengths
+    /// summed up ([`IncidenceSummary::spectral`]) for a spectral run.
     #[must_use]
-    pub fn new(description: &Description, results: &[IncidenceResult], seconds: f64) -> Self {
+    pub fn new(description: &Description, results: &BrdfResult, seconds: f64) -> Self {
         let d = description.clone();
-        let lanes = d.run.wavelengths_um.len();
+        let spectral = !d.run.wavelengths_um.is_empty();
         Self {
             content: d.content,
             edges: d.edges,
-            incidence: if lanes == 0 {
-                results.iter().map(IncidenceSummary::new).collect()
-            } else {
-                results
-                    .chunks(lanes)
-                    .map(IncidenceSummary::spectral)
-                    .collect()
-            },
+            incidence: results
+                .groups()
+                .map(|lanes| {
+                    if spectral {
+                        IncidenceSummary::spectral(lanes)
+                    } else {
+                        IncidenceSummary::new(&lanes[0])
+                    }
+                })
+                .collect(),
             name: d.name,
             run: d.run,
             scene: d.scene,
@@ -917,7 +920,8 @@ mod tests {
             run,
             surface,
         );
-        let folder = BrdfFolder::trace(&scene.surfaces(), description, &|_| {});
+        let results = description.run.run(&scene.surface, &|_| {});
+        let folder = BrdfFolder::traced(description, results, 0.0);
         let mut summary = folder.summary();
         assert_eq!(summary.run.photons, 5000);
         assert_eq!(summary.incidence[0].photons, 5000 - 4096);
