@@ -591,7 +591,7 @@ impl MicroScene {
 
     /// The surface of every realisation, realisation 0 first: the
     /// relief the batches of each realisation's block are traced on
-    /// ([`BrdfRun::run_shard_one`]).
+    /// ([`BrdfRun::trace_realisations`]).
     #[must_use]
     pub fn surfaces(&self) -> Vec<&MicroSurface> {
         std::iter::once(&self.surface)
