@@ -166,7 +166,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let clock = std::time::Instant::now();
     let results = description
         .run
-        .trace(&scene.surface, photons, &|n| bar.inc(n));
+        .trace_realisations(&scene.surfaces(), photons, &|n| bar.inc(n));
     let folder = BrdfFolder::traced(description, results, clock.elapsed().as_secs_f64());
     bar.finish_and_clear();
 
@@ -224,6 +224,34 @@ pub fn print_table(results: &BrdfResult) {
             r.lost(),
             r.segments_per_second() / 1e6
         );
+    }
+    // Several surface realisations: their spread beside the photon noise.
+    if results.iter().any(|r| r.realisations.len() > 1) {
+        eprintln!(
+            "{:>9}{} {:>12} {:>14} {:>14}  ({} realisations)",
+            "theta_i",
+            if spectral { "  lambda_um" } else { "" },
+            "spread",
+            "surface_spread",
+            "monte_carlo",
+            results
+                .iter()
+                .map(|r| r.realisations.len())
+                .max()
+                .unwrap_or(0)
+        );
+        for r in results {
+            if let Some(s) = crate::output::summary::RealisationsSummary::new(&r.realisations) {
+                eprintln!(
+                    "{:>9.2}{} {:>12.2e} {:>14.2e} {:>14.2e}",
+                    r.theta_i_deg,
+                    lambda(r),
+                    s.spread,
+                    s.surface_spread,
+                    s.monte_carlo_spread
+                );
+            }
+        }
     }
 }
 

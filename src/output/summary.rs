@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::micro::Edges;
 use crate::micro::surface_stats::SurfaceStats;
 use crate::scene::Content;
-use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult};
+use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult, RealisationResult};
 use crate::transport::object::{ObjectResult, PositionResult};
 
 mod reader;
@@ -170,6 +170,10 @@ pub struct IncidenceSummary {
     pub phi_deg: f64,
     /// Photons launched.
     pub photons: u64,
+    /// With several surface realisations: each one's reflectance and the
+    /// spread between them beside the Monte Carlo error.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub realisations: Option<RealisationsSummary>,
     /// Reflected weight per photon.
     pub reflectance: f64,
     /// Reflectance by number of reflections.
@@ -203,6 +207,82 @@ pub struct IncidenceSummary {
     pub tests_per_segment: Option<f64>,
     /// Incidence polar angle.
     pub theta_deg: f64,
+}
+
+/// The reflectances of the surface realisations of one incidence
+/// (`[surface] realisations = R`, R > 1) and how far they spread.
+///
+/// With `r_k` realisation `k`'s reflectance and `s_k` its Monte Carlo
+/// standard error (its own photons): `spread` is the sample standard
+/// deviation `sqrt(sum (r_k - mean)² / (R - 1))`; `monte_carlo_spread` =
+/// `sqrt(sum s_k² / R)` the spread photon noise alone would give;
+/// `surface_spread` = `sqrt(max(0, spread² - monte_carlo_spread²))` the
+/// part that comes from the surfaces differing. When `surface_spread`
+/// dominates, more realisations (not more photons) narrow the ensemble's
+/// error; the incidence's `reflectance_stderr` is the Monte Carlo error of
+/// the ensemble mean over all photons, and `spread / sqrt(R)` the error of
+/// the mean over realisations, which includes the surfaces' variation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RealisationsSummary {
+    /// `sqrt(sum s_k² / R)`.
+    pub monte_carlo_spread: f64,
+    /// Photons of each realisation.
+    pub photons: Vec<u64>,
+    /// Reflectance of each realisation.
+    pub reflectance: Vec<f64>,
+    /// Its Monte Carlo standard error.
+    pub reflectance_stderr: Vec<f64>,
+    /// Sample standard deviation of the realisations' reflectances.
+    pub spread: f64,
+    /// `spread / sqrt(R)`: the standard error of the mean over realisations.
+    pub spread_stderr_of_mean: f64,
+    /// `sqrt(max(0, spread² - monte_carlo_spread²))`.
+    pub surface_spread: f64,
+}
+
+impl RealisationsSummary {
+    /// The summary of `realisations` (`None` for fewer than 2).
+    #[must_use]
+    pub fn new(realisations: &[RealisationResult]) -> Option<Self> {
+        let count = realisations.len();
+        if count < 2 {
+            return None;
+        }
+        let n = count as f64;
+        let reflectance: Vec<f64> = realisations.iter().map(|r| r.reflectance).collect();
+        let reflectance_stderr: Vec<f64> =
+            realisations.iter().map(|r| r.reflectance_stderr).collect();
+        let mean = reflectance.iter().sum::<f64>() / n;
+        let spread =
+            (reflectance.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let monte_carlo_spread = (reflectance_stderr.iter().map(|s| s * s).sum::<f64>() / n).sqrt();
+        Some(Self {
+            monte_carlo_spread,
+            photons: realisations.iter().map(|r| r.photons).collect(),
+            reflectance,
+            reflectance_stderr,
+            spread,
+            spread_stderr_of_mean: spread / n.sqrt(),
+            surface_spread: (spread * spread - monte_carlo_spread * monte_carlo_spread)
+                .max(0.0)
+                .sqrt(),
+        })
+    }
+
+    /// The mean, realisation by realisation, of the summaries of several
+    /// wavelengths (of a spectral run: reflectances and their errors
+    /// averaged, spreads recomputed from those).
+    fn mean(all: &[&Self]) -> Option<Self> {
+        let first = all.first()?;
+        let n = all.len() as f64;
+        let per = |k: usize| RealisationResult {
+            photons: first.photons[k],
+            reflectance: all.iter().map(|a| a.reflectance[k]).sum::<f64>() / n,
+            reflectance_stderr: all.iter().map(|a| a.reflectance_stderr[k]).sum::<f64>() / n,
+        };
+        Self::new(&(0..first.photons.len()).map(per).collect::<Vec<_>>())
+    }
 }
 
 /// The colour of a reflectance spectrum under the CIE D65 illuminant
@@ -323,6 +403,11 @@ impl IncidenceSummary {
         let reflectances: Vec<f64> = all.iter().map(|e| e.reflectance).collect();
         first.colour = ColourSummary::new(&wavelengths, &reflectances);
         first.spectrum = Some(lanes.iter().map(WavelengthSummary::new).collect());
+        first.realisations = RealisationsSummary::mean(
+            &all.iter()
+                .filter_map(|e| e.realisations.as_ref())
+                .collect::<Vec<_>>(),
+        );
         first
     }
 }
@@ -362,6 +447,7 @@ impl IncidenceSummary {
             numeric_guard_photons: t.numeric_histories,
             phi_deg: r.phi_i_deg,
             photons: t.photons,
+            realisations: RealisationsSummary::new(&r.realisations),
             reflectance,
             reflectance_by_bounces: t.by_bounces.iter().map(|w| w / n).collect(),
             reflectance_stderr,

@@ -783,13 +783,15 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
             )));
         }
     }
-    // Per incidence angle and wavelength: the tree's sum, time and tests.
-    let mut sums: Vec<Vec<(DyadicSum<BrdfTallies>, f64, u64)>> = run
+    // Per incidence angle and wavelength: the tree's sum, time, tests and
+    // (several realisations) the nodes.
+    #[allow(clippy::type_complexity)]
+    let mut sums: Vec<Vec<(DyadicSum<BrdfTallies>, f64, u64, Vec<Node<BrdfTallies>>)>> = run
         .theta_deg
         .iter()
         .map(|_| {
             (0..lanes)
-                .map(|_| (DyadicSum::new(batches), 0.0, 0))
+                .map(|_| (DyadicSum::new(batches), 0.0, 0, Vec::new()))
                 .collect()
         })
         .collect();
@@ -798,7 +800,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         // The file lists the leaves incidence-major, then wavelength.
         let mut entries = p.tallies.incidence.into_iter().enumerate();
         for (t, (&theta, lane_sums)) in run.theta_deg.iter().zip(&mut sums).enumerate() {
-            for (l, (sum, secs, tests)) in lane_sums.iter_mut().enumerate() {
+            for (l, (sum, secs, tests, kept)) in lane_sums.iter_mut().enumerate() {
                 let (i, inc) = entries.next().expect("the number of leaves was checked");
                 let key = format!("incidence[{i}]");
                 let at = |e: FieldError| e.under(&key).in_file(&p.file);
@@ -847,6 +849,11 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                                 "the shards' counts add up past 2^64",
                             ))
                         })?;
+                    // Several realisations: the shards' nodes (each within
+                    // one realisation's block) kept for the sums of each.
+                    if run.realisations > 1 {
+                        kept.push(node.clone());
+                    }
                     sum.push(node, &BrdfTallies::merge)
                         .map_err(|e| at(FieldError::new(format!("nodes[{k}]"), e)))?;
                 }
@@ -859,7 +866,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     let mut incidence = Vec::with_capacity(sums.len());
     for (&theta, lane_sums) in run.theta_deg.iter().zip(sums) {
         let mut wavelength = Vec::with_capacity(lanes);
-        for (l, (sum, seconds, _)) in lane_sums.into_iter().enumerate() {
+        for (l, (sum, seconds, _, kept)) in lane_sums.into_iter().enumerate() {
             let tallies = sum
                 .finish()
                 .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0))?;
@@ -875,6 +882,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 }],
                 tallies,
                 seconds,
+                realisations: run.realisation_results(theta, &kept),
             });
         }
         incidence.push(ByIncidence {

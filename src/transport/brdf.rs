@@ -73,6 +73,11 @@ pub struct BrdfRun {
     pub photons: u64,
     /// Polarised transport, incident state and polarisation tallies.
     pub polarisation: Polarisation,
+    /// Surface realisations (`[surface] realisations`): realisation `r`
+    /// traces the whole batches [`BrdfRun::realisation_batches`] of every
+    /// incidence on its own surface. Absent from the files when 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub realisations: u64,
     /// Tracing seed.
     pub seed: u64,
     /// The block of the run's photons this run traces (`--shard I/N`);
@@ -85,6 +90,15 @@ pub struct BrdfRun {
     /// Vacuum wavelengths (µm, strictly increasing) of a spectral run, each
     /// carried by every photon ([`crate::transport::carrier::LaneCarrier::Spectrum`]); empty for a monochrome run.
     pub wavelengths_um: Vec<f64>,
+}
+
+fn one() -> u64 {
+    1
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_one(n: &u64) -> bool {
+    *n == 1
 }
 
 /// A checked field of a [`BrdfRun`] ([`BrdfRun::check`]), with its index
@@ -117,6 +131,8 @@ pub enum RunField {
     PolarTally,
     /// `symmetry`.
     Symmetry,
+    /// `realisations`.
+    Realisations,
 }
 
 impl RunField {
@@ -139,6 +155,7 @@ impl RunField {
             Self::Incident => ("light.polarisation", None),
             Self::PolarTally => ("tally.polarisation", None),
             Self::Symmetry => ("tally.symmetry", None),
+            Self::Realisations => ("surface.realisations", None),
         };
         with_index(key, index)
     }
@@ -161,6 +178,7 @@ impl RunField {
             Self::Incident => ("polarisation.incident", None),
             Self::PolarTally => ("polarisation.tally", None),
             Self::Symmetry => ("symmetry", None),
+            Self::Realisations => ("realisations", None),
         };
         with_index(key, index)
     }
@@ -525,6 +543,46 @@ pub struct IncidenceResult {
     pub nodes: Vec<Node<BrdfTallies>>,
     /// Wall-clock time (s) of the incidence's trace (all its wavelengths).
     pub seconds: f64,
+    /// With several surface realisations, each one's reflectance (from the
+    /// tree nodes over its block of batches); empty for one.
+    pub realisations: Vec<RealisationResult>,
+}
+
+/// The reflectance of one surface realisation of a run (its block of
+/// batches, [`BrdfRun::realisation_batches`]) at one incidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RealisationResult {
+    /// Photons of the realisation traced.
+    pub photons: u64,
+    /// Reflected weight per photon (0 without photons).
+    pub reflectance: f64,
+    /// Its standard error (Monte Carlo only: the realisation's own photons).
+    pub reflectance_stderr: f64,
+}
+
+impl RealisationResult {
+    /// The reflectance of the realisation summed in `tallies`.
+    fn of(tallies: BrdfTallies, theta_deg: f64, run: &BrdfRun) -> Self {
+        let r = IncidenceResult {
+            theta_i_deg: theta_deg,
+            phi_i_deg: run.phi_deg,
+            wavelength_um: None,
+            tallies,
+            nodes: Vec::new(),
+            seconds: 0.0,
+            realisations: Vec::new(),
+        };
+        let (reflectance, reflectance_stderr) = if r.tallies.photons == 0 {
+            (0.0, 0.0)
+        } else {
+            r.reflectance()
+        };
+        Self {
+            photons: r.tallies.photons,
+            reflectance,
+            reflectance_stderr,
+        }
+    }
 }
 
 impl IncidenceResult {
@@ -689,6 +747,16 @@ impl BrdfRun {
         }
         super::launch::check_photons(self.launch, self.photons)
             .map_err(|e| (RunField::Photons, e.to_string()))?;
+        let batches = self.photons.div_ceil(BATCH);
+        if self.realisations == 0 || self.realisations > batches {
+            return Err((
+                RunField::Realisations,
+                format!(
+                    "must be in 1..={batches} (each realisation traces whole batches of {BATCH} of the {} photons per incidence), got {}",
+                    self.photons, self.realisations
+                ),
+            ));
+        }
         if !(1..=1000).contains(&self.bands) {
             return Err((
                 RunField::Bands,
@@ -830,10 +898,8 @@ impl BrdfRun {
 
     /// Trace the photons `photons` (a range of photon indices that starts
     /// on a batch: [`BrdfRun::photon_range`] for the run's own) of every
-    /// incidence angle on `surface`; `progress` is called with photons done.
-    /// This is the micro level's one transport entry point: each leaf of
-    /// the result has the complete nodes of the whole run's batch tree that
-    /// the range fills, and their sum.
+    /// incidence angle on `surface` (as every realisation's);
+    /// [`BrdfRun::trace_realisations`] with `surface` for each.
     ///
     /// # Panics
     /// If the range does not start on a batch or exceeds the run's photons.
@@ -843,14 +909,54 @@ impl BrdfRun {
         photons: std::ops::Range<u64>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> BrdfResult {
+        let surfaces = vec![surface; self.realisations as usize];
+        self.trace_realisations(&surfaces, photons, progress)
+    }
+
+    /// Trace the photons `photons` (a range of photon indices that starts
+    /// on a batch) of every incidence angle, the batches of realisation `r`
+    /// ([`BrdfRun::realisation_batches`]) on `surfaces[r]`; `progress` is
+    /// called with photons done. This is the micro level's one transport
+    /// entry point: each leaf of the result has the complete nodes of the
+    /// whole run's batch tree over each realisation's part of the range, in
+    /// batch order (the root alone for a whole run of one realisation), the
+    /// sums of those nodes pushed into the tree ([`BrdfRun::combine`]) and
+    /// added left to right, and per realisation its sums
+    /// ([`BrdfRun::realisation_results`]).
+    ///
+    /// # Panics
+    /// If the range does not start on a batch or exceeds the run's
+    /// photons, or `surfaces` is not one per realisation.
+    pub fn trace_realisations(
+        &self,
+        surfaces: &[&MicroSurface],
+        photons: std::ops::Range<u64>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> BrdfResult {
         assert!(photons.start % BATCH == 0, "shards start on a batch");
         assert!(photons.start <= photons.end && photons.end <= self.photons);
+        assert_eq!(
+            surfaces.len() as u64,
+            self.realisations,
+            "one surface per realisation"
+        );
         let incidence = self
             .theta_deg
             .iter()
             .map(|&theta| {
                 let clock = Instant::now();
-                let lanes = self.run_nodes(surface, theta, photons.clone(), progress);
+                let mut lanes = vec![Vec::new(); self.lane_count()];
+                for (r, surface) in (0..).zip(surfaces) {
+                    let (b0, b1) = self.realisation_batches(r);
+                    let part = (b0 * BATCH).max(photons.start)..(b1 * BATCH).min(photons.end);
+                    if part.is_empty() {
+                        continue;
+                    }
+                    let nodes = self.run_nodes(surface, theta, part, progress);
+                    for (all, some) in lanes.iter_mut().zip(nodes) {
+                        all.extend(some);
+                    }
+                }
                 let seconds = clock.elapsed().as_secs_f64();
                 let wavelength = lanes
                     .into_iter()
@@ -859,8 +965,9 @@ impl BrdfRun {
                         theta_i_deg: theta,
                         phi_i_deg: self.phi_deg,
                         wavelength_um: self.wavelength(l),
-                        tallies: add_up(&nodes)
+                        tallies: add_up(&self.combine(nodes.iter()))
                             .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
+                        realisations: self.realisation_results(theta, &nodes),
                         nodes,
                         seconds,
                     })
@@ -875,6 +982,67 @@ impl BrdfRun {
             })
             .collect();
         BrdfResult { incidence }
+    }
+
+    /// With several realisations, each one's reflectance at incidence
+    /// `theta_deg` from the tree `nodes` of a trace or of merged shards, in
+    /// batch order, each within one realisation's block: realisation `r`'s
+    /// sums are its nodes pushed into the run's tree and added left to
+    /// right (so a shard split anywhere gives the same bits). Empty for one
+    /// realisation.
+    #[must_use]
+    pub fn realisation_results(
+        &self,
+        theta_deg: f64,
+        nodes: &[Node<BrdfTallies>],
+    ) -> Vec<RealisationResult> {
+        if self.realisations <= 1 {
+            return Vec::new();
+        }
+        (0..self.realisations)
+            .map(|r| {
+                let (b0, b1) = self.realisation_batches(r);
+                let inside = nodes
+                    .iter()
+                    .filter(|n| n.start() >= u128::from(b0) && n.start() < u128::from(b1));
+                let sums = add_up(&self.combine(inside))
+                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
+                RealisationResult::of(sums, theta_deg, self)
+            })
+            .collect()
+    }
+
+    /// `nodes` (in batch order, contiguous) pushed into the run's batch
+    /// tree: its complete nodes (the root alone when they cover the run).
+    /// The nodes of a piece of the run, split anywhere on node bounds,
+    /// combine to the nodes of the piece's leaves, bit for bit.
+    ///
+    /// # Panics
+    /// If the nodes are not contiguous or lie past the run.
+    #[must_use]
+    pub fn combine<'a>(
+        &self,
+        nodes: impl Iterator<Item = &'a Node<BrdfTallies>>,
+    ) -> Vec<Node<BrdfTallies>> {
+        let mut sum = DyadicSum::new(self.photons.div_ceil(BATCH));
+        for n in nodes {
+            sum.push(n.clone(), &BrdfTallies::merge)
+                .expect("contiguous nodes of the run");
+        }
+        sum.into_nodes()
+    }
+
+    /// The batches `[b0, b1)` (of every incidence) that realisation `r`
+    /// traces: of the run's `B = ceil(photons / BATCH)` batches,
+    /// `[floor(r B / R), floor((r + 1) B / R))` for `R` realisations (the
+    /// rule of [`crate::shard::Shard::photon_range`]): whole batches,
+    /// their numbers differing by one at most, realisation 0 first.
+    #[must_use]
+    pub fn realisation_batches(&self, r: u64) -> (u64, u64) {
+        let b = u128::from(self.photons.div_ceil(BATCH));
+        let n = u128::from(self.realisations.max(1));
+        let at = |k: u64| (u128::from(k) * b / n) as u64;
+        (at(r), at(r + 1))
     }
 
     /// [`BrdfRun::trace`] of the run's own photons ([`BrdfRun::photon_range`]).
