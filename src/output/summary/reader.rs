@@ -471,11 +471,7 @@ mod tests {
     /// A short run of the default scene (8 bands, incidences 0, 30 and 60
     /// degrees): its `brdf.csv` read back as a table, its results, and its
     /// `summary.json` as JSON, both from the writers.
-    fn run_files() -> (
-        BrdfTable,
-        Vec<crate::transport::brdf::IncidenceResult>,
-        Value,
-    ) {
+    fn run_files() -> (BrdfTable, crate::transport::brdf::BrdfResult, Value) {
         let scene = crate::scene::micro::MicroScene::default_scene();
         let mut run = scene.brdf_run();
         run.photons = 1024;
