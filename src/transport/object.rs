@@ -8,8 +8,12 @@
 //! counts as reflected (tallied on the full-sphere far-field grid); escaping
 //! without any is `missed`. Weight removed at a wall is tallied as absorbed
 //! by that surface. Photon `n` of position `k` draws from the stream
-//! `(seed, k 2^40 + n)`; batches are summed in order, so results are
-//! bit-identical for any thread count.
+//! `(seed, k 2^40 + n)`. Each position's batches of [`BATCH`] photons are
+//! summed over the fixed batch tree of [`crate::tally::sum`], so results
+//! are bit-identical for any thread count and any shard split: a shard
+//! (`roks trace --shard I/N`, [`shard_blocks`]) traces a block of whole
+//! batches and keeps the complete tree nodes ([`ObjectRun::run_nodes`]),
+//! which `roks merge` adds into the single run's root.
 //!
 //! **Polarisation.** With [`ObjectRun::polarisation`] the photon carries a
 //! Stokes vector ([`Polarised<1>`]) launched with its beam's state about
@@ -46,8 +50,10 @@ use crate::micro::Scratch;
 use crate::object::Object;
 use crate::object::source::Beam;
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
+use crate::shard::Shard;
 use crate::tally::Merge;
 use crate::tally::carlson::Cells;
+use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{Accumulator, CarlsonGrid};
 
 pub use super::BATCH;
@@ -127,7 +133,8 @@ pub fn stokes_reference(dir: DVec3) -> DVec3 {
 pub type Walls = Vec<Option<usize>>;
 
 /// What to run.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ObjectRun {
     /// Tracing seed.
     pub seed: u64,
@@ -149,14 +156,17 @@ pub struct ObjectRun {
     pub wavelengths_um: Vec<f64>,
 }
 
-/// Sums for one beam position.
-#[derive(Debug, Clone, PartialEq)]
+/// Sums for one beam position (stored exactly in a shard's `tallies.json`:
+/// the floating-point sums as [`crate::tally::exact`] numbers).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ObjectTallies {
     /// Photons launched.
     pub photons: u64,
     /// Weight escaping after at least one reflection.
     pub reflected: Accumulator,
     /// Weight escaping without a reflection.
+    #[serde(with = "crate::tally::exact")]
     pub missed: f64,
     /// Weight absorbed per surface id.
     pub absorbed: Accumulator,
@@ -174,6 +184,7 @@ pub struct ObjectTallies {
     /// Straight flights at the macro level.
     pub segments: u64,
     /// Weight cut by caps or guards (macro or inside micro descents).
+    #[serde(with = "crate::tally::exact")]
     pub lost: f64,
     /// Histories that hit a surface without a model: their count and the
     /// surface id of the first.
@@ -185,7 +196,13 @@ pub struct ObjectTallies {
 impl ObjectTallies {
     /// Zero sums with `n_surfaces` absorbed bins, `farfield_cells` far-field
     /// cells; Stokes bins if `stokes` (4) and `farfield_stokes` (4 per cell).
-    fn new(n_surfaces: usize, farfield_cells: usize, stokes: bool, farfield_stokes: bool) -> Self {
+    #[must_use]
+    pub fn new(
+        n_surfaces: usize,
+        farfield_cells: usize,
+        stokes: bool,
+        farfield_stokes: bool,
+    ) -> Self {
         Self {
             photons: 0,
             reflected: Accumulator::new(1),
@@ -246,7 +263,7 @@ crate::merge_fields!(ObjectTallies {
 /// with [`first`](Self::first)). Merging adds the counts and keeps the
 /// first surface of the first tally that has one, so merged batches name
 /// the surface a whole run in batch order would.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FirstUnmodelled(pub u64, pub usize);
 
 impl FirstUnmodelled {
@@ -322,6 +339,95 @@ impl PositionResult {
     }
 }
 
+/// The complete batch-tree nodes of one beam position (and, in a spectral
+/// run, one wavelength) over a block of its batches: what
+/// [`ObjectRun::run_nodes`] returns and a shard stores.
+#[derive(Debug, Clone)]
+pub struct PositionNodes {
+    /// The beam.
+    pub beam: Beam,
+    /// The wavelength (µm) of a spectral run; `None`: monochrome.
+    pub wavelength_um: Option<f64>,
+    /// Batches of the whole run at this position (the tree's leaves).
+    pub batches: u64,
+    /// Complete nodes, in batch order.
+    pub nodes: Vec<Node<ObjectTallies>>,
+    /// Wall-clock time (s).
+    pub seconds: f64,
+}
+
+impl PositionNodes {
+    /// The result of the whole run at this position: the root of its
+    /// tree (`zero`: the run's zero sums, for a position without photons).
+    ///
+    /// # Errors
+    /// When the nodes do not cover every batch (a shard's).
+    pub fn into_root(self, zero: &dyn Fn() -> ObjectTallies) -> Result<PositionResult, String> {
+        Ok(PositionResult {
+            beam: self.beam,
+            wavelength_um: self.wavelength_um,
+            tallies: root(self.nodes, self.batches, zero)?,
+            seconds: self.seconds,
+        })
+    }
+}
+
+/// The root of the batch tree over `batches` batches from its complete
+/// `nodes` in batch order (those of one run, or of all shards in shard
+/// order); zero sums from `zero` for a position without photons.
+///
+/// # Errors
+/// When the nodes do not follow each other or do not cover every batch.
+pub fn root(
+    nodes: Vec<Node<ObjectTallies>>,
+    batches: u64,
+    zero: &dyn Fn() -> ObjectTallies,
+) -> Result<ObjectTallies, String> {
+    if batches == 0 && nodes.is_empty() {
+        return Ok(zero());
+    }
+    let mut sum = DyadicSum::new(batches);
+    for node in nodes {
+        sum.push(node, &ObjectTallies::merge)?;
+    }
+    sum.finish()
+}
+
+/// The batches of each beam position that shard `shard` traces, for a run
+/// of `photons[k]` photons at position `k`: the positions' batches of
+/// [`BATCH`] photons are laid end to end (position-major, `B` in all) and
+/// the shard takes the whole batches `[floor(I B / N), floor((I + 1) B /
+/// N))` of them, so a beam sweep of many short positions splits as well as
+/// one long one. Returns one range of batch indices per position (empty
+/// where the shard has none).
+///
+/// # Errors
+/// When there are fewer batches than shards.
+pub fn shard_blocks(photons: &[u64], shard: Shard) -> Result<Vec<std::ops::Range<u64>>, String> {
+    let total: u64 = photons
+        .iter()
+        .fold(0, |a: u64, n| a.saturating_add(n.div_ceil(BATCH)));
+    if shard.count > total {
+        return Err(format!(
+            "{} shards but only {total} batches of {BATCH} photons over the beam positions: use at most {total} shards or more photons",
+            shard.count
+        ));
+    }
+    let at = |i: u64| (u128::from(i) * u128::from(total) / u128::from(shard.count)) as u64;
+    let (b0, b1) = (at(shard.index), at(shard.index + 1));
+    let mut offset = 0_u64;
+    Ok(photons
+        .iter()
+        .map(|n| {
+            let batches = n.div_ceil(BATCH);
+            let lo = b0.clamp(offset, offset + batches) - offset;
+            let hi = b1.clamp(offset, offset + batches) - offset;
+            offset += batches;
+            lo..hi
+        })
+        .collect())
+}
+
 impl ObjectRun {
     /// The far-field grid.
     #[must_use]
@@ -349,9 +455,15 @@ impl ObjectRun {
         self.farfield && self.farfield_stokes && self.polarisation
     }
 
-    /// Zero sums for this run.
-    fn tallies(&self, n_surfaces: usize, ff: &FarField) -> ObjectTallies {
-        let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
+    /// Zero sums for this run with `n_surfaces` surfaces: the layout every
+    /// batch, tree node and total of the run has.
+    #[must_use]
+    pub fn tallies(&self, n_surfaces: usize) -> ObjectTallies {
+        let ff_cells = if self.farfield {
+            self.farfield_grid().n_cells()
+        } else {
+            0
+        };
         ObjectTallies::new(
             n_surfaces,
             ff_cells,
@@ -362,7 +474,8 @@ impl ObjectRun {
 
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
     /// receives photons done. One result per beam, or per beam and
-    /// wavelength (position-major, [`ObjectRun::lane_count`] per beam).
+    /// wavelength (position-major, [`ObjectRun::lane_count`] per beam):
+    /// the root of each one's batch tree.
     pub fn run(
         &self,
         object: &Object,
@@ -372,23 +485,57 @@ impl ObjectRun {
         photons: &[u64],
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<PositionResult> {
+        let blocks: Vec<_> = photons.iter().map(|n| 0..n.div_ceil(BATCH)).collect();
+        let n_surfaces = object.surface_names.len();
+        self.run_nodes(object, walls, models, beams, photons, &blocks, progress)
+            .into_iter()
+            .map(|p| {
+                p.into_root(&|| self.tallies(n_surfaces))
+                    .expect("a whole run covers its batches")
+            })
+            .collect()
+    }
+
+    /// Trace the batches `blocks[k]` (batch indices, of [`BATCH`] photons)
+    /// of beam `k`'s `photons[k]` photons, for every beam, and reduce each
+    /// beam's (and wavelength's) batches over the fixed tree: its complete
+    /// nodes, one [`PositionNodes`] per beam, or per beam and wavelength
+    /// (position-major). An empty block traces nothing (no nodes).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_nodes(
+        &self,
+        object: &Object,
+        walls: &Walls,
+        models: &[WallModel],
+        beams: &[Beam],
+        photons: &[u64],
+        blocks: &[std::ops::Range<u64>],
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<PositionNodes> {
         let spectral = !self.wavelengths_um.is_empty();
+        let n_surfaces = object.surface_names.len();
         beams
             .iter()
             .zip(photons)
+            .zip(blocks)
             .enumerate()
-            .flat_map(|(k, (beam, &n_photons))| {
+            .flat_map(|(k, ((beam, &n_photons), block))| {
                 let clock = Instant::now();
                 let ff = self.farfield_grid();
-                let mut totals: Vec<ObjectTallies> = (0..self.lane_count())
-                    .map(|_| self.tallies(object.surface_names.len(), &ff))
+                let batches = n_photons.div_ceil(BATCH);
+                let mut sums: Vec<DyadicSum<ObjectTallies>> = (0..self.lane_count())
+                    .map(|_| DyadicSum::new(batches))
                     .collect();
-                let bytes = totals.iter().map(ObjectTallies::bytes).sum();
+                let bytes = self.lane_count() as u64 * self.tallies(n_surfaces).bytes();
                 let position = k as u64;
+                // The block's photons, from its first batch's first photon.
+                let first = block.start * BATCH;
+                let last = (block.end * BATCH).min(n_photons);
                 super::run_batches(
-                    n_photons,
+                    last.saturating_sub(first),
                     bytes,
                     |range| {
+                        let range = first + range.start..first + range.end;
                         let args = (object, walls, models, beam, position, &ff, range);
                         match (spectral, self.polarisation) {
                             (false, false) => self.trace_batch::<f64>(args),
@@ -406,21 +553,29 @@ impl ObjectRun {
                             },
                         }
                     },
-                    |_, parts| {
-                        for (total, part) in totals.iter_mut().zip(&parts) {
-                            total.merge(part);
+                    |b, parts| {
+                        for (sum, value) in sums.iter_mut().zip(parts) {
+                            sum.push(
+                                Node {
+                                    level: 0,
+                                    index: block.start + b,
+                                    value,
+                                },
+                                &ObjectTallies::merge,
+                            )
+                            .expect("batches in order");
                         }
                     },
                     progress,
                 );
                 let seconds = clock.elapsed().as_secs_f64();
-                totals
-                    .into_iter()
+                sums.into_iter()
                     .enumerate()
-                    .map(|(l, tallies)| PositionResult {
+                    .map(|(l, sum)| PositionNodes {
                         beam: *beam,
                         wavelength_um: self.wavelength(l),
-                        tallies,
+                        batches,
+                        nodes: sum.into_nodes(),
                         seconds,
                     })
                     .collect::<Vec<_>>()
@@ -437,7 +592,7 @@ impl ObjectRun {
         let n_surfaces = object.surface_names.len();
         let lanes = self.lane_count();
         let mut lane_tallies: Vec<ObjectTallies> =
-            (0..lanes).map(|_| self.tallies(n_surfaces, ff)).collect();
+            (0..lanes).map(|_| self.tallies(n_surfaces)).collect();
         let launch = C::launch(beam.polarisation.stokes(), beam.reference(), lanes);
         let mut scratch: Vec<Option<Scratch>> = vec![None; models.len()];
         // Absorbed in this history, per surface and lane (`sid * lanes + l`).
