@@ -9,14 +9,13 @@ use std::time::Instant;
 
 use clap::Args;
 
-use crate::transport::BATCH;
-
 use super::Failure;
 use super::args::RunArgs;
 use super::common::{progress_bar, result_dir, set_threads, write_folder};
 use crate::output::object_tallies::{self, TraceDescription, TraceTalliesFile};
 use crate::scene::object::ObjectScene;
 use crate::shard::Shard;
+use crate::transport::BATCH;
 use crate::transport::object::{ObjectRun, PositionResult};
 
 /// The options of `roks trace`.
@@ -164,7 +163,7 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
 }
 
 /// The table of results per beam position, on stderr (a spectral run:
-/// per position and wavelength).
+/// per position and wavelength; a shard: the positions it traced).
 pub(super) fn print_table(run: &ObjectRun, results: &[PositionResult]) {
     let spectral = !run.wavelengths_um.is_empty();
     eprintln!(
@@ -177,7 +176,7 @@ pub(super) fn print_table(run: &ObjectRun, results: &[PositionResult]) {
         "bounces",
         "lost"
     );
-    for r in results {
+    for r in results.iter().filter(|r| r.tallies.photons > 0) {
         let (refl, se) = r.reflectance();
         let n = r.tallies.photons as f64;
         let p = r.beam.position;

@@ -203,8 +203,8 @@ impl TraceDescription {
     /// The result folder's files for per position `results` (the roots, or
     /// a shard's partial sums) and total time `seconds`: `reflectance.csv`,
     /// `farfield.csv` and `farfield_stokes.csv` when tallied,
-    /// `summary.json` and, unless `shard_only`, their pictures. A shard
-    /// (`shard_only`) writes `summary.json` and its `tallies.json` only.
+    /// `summary.json` and the pictures; a shard (with its `tallies` file)
+    /// writes `summary.json` and `tallies.json` only.
     ///
     /// # Errors
     /// A picture that cannot be drawn.
@@ -212,11 +212,11 @@ impl TraceDescription {
         &self,
         results: &[PositionResult],
         seconds: f64,
-        nodes: Option<TraceTalliesFile>,
+        tallies: Option<TraceTalliesFile>,
     ) -> Result<Vec<(String, Vec<u8>)>, String> {
         let summary = summary::to_text(&TraceSummary::new(self, results, seconds));
         let mut files: Vec<(String, Vec<u8>)> = Vec::new();
-        if let Some(t) = nodes {
+        if let Some(t) = tallies {
             files.push(("summary.json".into(), summary.into_bytes()));
             files.push((TALLIES_FILE.into(), t.to_text().into_bytes()));
             return Ok(files);
@@ -270,8 +270,18 @@ impl TraceDescription {
             return Err(FieldError::new("beams", "needs at least one beam position"));
         }
         for (k, b) in self.beams.iter().enumerate() {
+            let at = |key: &str, m: &str| Err(FieldError::new(format!("beams[{k}].{key}"), m));
             crate::transport::launch::check_count(b.photons)
                 .map_err(|e| FieldError::new(format!("beams[{k}].photons"), e))?;
+            if !DVec3::from_array(b.position).is_finite() {
+                return at("position", "must be finite");
+            }
+            if !DVec3::from_array(b.direction).is_normalized() {
+                return at("direction", "must be a unit vector");
+            }
+            if !(b.diameter.is_finite() && b.diameter >= 0.0) {
+                return at("diameter", "must be a finite number >= 0");
+            }
         }
         if let Some(s) = self.shard {
             if s.count == 0 || s.index >= s.count {

@@ -824,6 +824,41 @@ pub fn trace<C: Carrier>(
 mod tests {
     use super::*;
 
+    /// The shards' blocks tile every position's batches exactly once, in
+    /// shard order, and differ in size by at most one batch.
+    #[test]
+    fn shard_blocks_tile_every_position() {
+        let b = BATCH;
+        for photons in [vec![1], vec![3 * b, 1, 5 * b - 7, b], vec![b; 40]] {
+            let total: u64 = photons.iter().map(|n| n.div_ceil(b)).sum();
+            for count in 1..=total {
+                let mut next = vec![0_u64; photons.len()];
+                let mut sizes = Vec::new();
+                for index in 0..count {
+                    let blocks = shard_blocks(&photons, Shard { index, count }).unwrap();
+                    let mut size = 0;
+                    for (k, r) in blocks.iter().enumerate() {
+                        if !r.is_empty() {
+                            assert_eq!(r.start, next[k], "{photons:?} {index}/{count}");
+                            next[k] = r.end;
+                        }
+                        size += r.end - r.start;
+                    }
+                    sizes.push(size);
+                }
+                let full: Vec<u64> = photons.iter().map(|n| n.div_ceil(b)).collect();
+                assert_eq!(next, full, "{photons:?} in {count}");
+                let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+                assert!(hi - lo <= 1 && *lo >= 1, "{sizes:?}");
+            }
+            let over = Shard {
+                index: 0,
+                count: total + 1,
+            };
+            assert!(shard_blocks(&photons, over).is_err());
+        }
+    }
+
     /// Counts add; the first surface is the first tally's that has one.
     #[test]
     fn first_unmodelled_merges_first_wins() {
