@@ -305,6 +305,12 @@ fn merge_refuses_shards_of_other_runs_gaps_repeats_and_tampering() {
     std::fs::write(bad.join("tallies.json"), swapped).unwrap();
     let o = merge(&[dirs[0].clone(), bad.clone(), dirs[2].clone()], &out);
     assert_error(&o, &shown(&bad), "positions[0].nodes[0].tallies.photons");
+    // A node index at the end of u64: refused, no overflow.
+    let mut far = v.clone();
+    far["positions"][0]["nodes"][0]["index"] = u64::MAX.into();
+    std::fs::write(bad.join("tallies.json"), far.to_string()).unwrap();
+    let o = merge(&[dirs[0].clone(), bad.clone(), dirs[2].clone()], &out);
+    assert_error(&o, &shown(&bad), "positions[0].nodes[0]: tree node");
     assert!(!out.exists(), "a refused merge wrote {}", out.display());
     std::fs::remove_dir_all(&root).ok();
 }

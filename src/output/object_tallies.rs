@@ -139,6 +139,7 @@ impl TraceDescription {
     /// `scene`, named `name`, with surfaces `surfaces`, beams `beams` of
     /// `photons[k]` photons each, and the block `shard`.
     #[must_use]
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         content: &Content,
         scene: &str,
@@ -546,7 +547,8 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
                 "is not the run's wavelength of this entry",
             )));
         }
-        if !(p.seconds >= 0.0) {
+        // Exact numbers are finite.
+        if p.seconds < 0.0 {
             return Err(at(FieldError::new("seconds", "must be >= 0")));
         }
         let n_photons = d.beams[k].photons;
@@ -560,8 +562,15 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
                 index: n.index,
                 value: (),
             };
-            let end = node.end().min(u128::from(batches));
-            if node.start() != next || end > u128::from(blocks[k].end) {
+            // The start first: a node that starts at `next` has an index
+            // within the run (no overflow in its end).
+            let follows = node.start() == next;
+            let end = if follows {
+                node.end().min(u128::from(batches))
+            } else {
+                0
+            };
+            if !follows || end > u128::from(blocks[k].end) {
                 return Err(at(FieldError::new(
                     "",
                     format!(
@@ -597,7 +606,7 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
         }
         positions.push((nodes, p.seconds));
     }
-    if !(t.seconds >= 0.0) {
+    if t.seconds < 0.0 {
         return Err(err(FieldError::new("seconds", "must be >= 0")));
     }
     Ok(ShardFile {
