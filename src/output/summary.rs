@@ -16,9 +16,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::micro::Edges;
 use crate::micro::surface_stats::SurfaceStats;
+use crate::output::object_tallies::{TraceDescription, TraceShard};
 use crate::scene::Content;
 use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult, RealisationResult};
-use crate::transport::object::{ObjectResult, PositionResult};
+use crate::transport::object::PositionResult;
 
 mod reader;
 
@@ -672,7 +673,8 @@ impl PositionSummary {
     #[must_use]
     pub fn new(r: &PositionResult, surface_names: &[String]) -> Self {
         let t = &r.tallies;
-        let n = t.photons as f64;
+        // A shard's position without photons of its own: zeros, not NaN.
+        let n = t.photons.max(1) as f64;
         let (reflectance, reflectance_stderr) = r.reflectance();
         let absorbed = |f: &dyn Fn(usize) -> f64| -> BTreeMap<String, f64> {
             surface_names
@@ -709,6 +711,10 @@ impl PositionSummary {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TraceSummary {
+    /// The scene's text and the files it reads, hashed (empty when read
+    /// from an older file without it).
+    #[serde(default)]
+    pub content: Content,
     /// The scene's `name`.
     pub name: String,
     /// The scene file as given.
@@ -717,6 +723,10 @@ pub struct TraceSummary {
     pub seconds: f64,
     /// Tracing seed.
     pub seed: u64,
+    /// The block of a shard (`roks trace --shard I/N`; its sums are that
+    /// block's only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<TraceShard>,
     /// Per beam position, in the order of the scene's sources.
     pub sources: Vec<PositionSummary>,
     /// The roks version that ran it.
@@ -727,37 +737,33 @@ pub struct TraceSummary {
 }
 
 impl TraceSummary {
-    /// The summary of a trace of scene file `scene` named `name` with
-    /// `seed`: one entry per beam position of `results` (its wavelengths
-    /// summed up for a spectral run of `wavelengths_um`; empty:
-    /// monochrome), surfaces named by id `surface_names`, total time `seconds`.
+    /// The summary of the run `d` (a whole run, a merge or a shard): per
+    /// beam position `results` (per position and wavelength,
+    /// position-major, for a spectral run), total time `seconds`.
     #[must_use]
-    pub fn new(
-        scene: &str,
-        name: &str,
-        seed: u64,
-        results: &ObjectResult,
-        surface_names: &[String],
-        wavelengths_um: &[f64],
-        seconds: f64,
-    ) -> Self {
+    pub fn new(d: &TraceDescription, results: &[PositionResult], seconds: f64) -> Self {
+        let wavelengths_um = &d.run.wavelengths_um;
+        let surface_names = &d.surfaces;
         Self {
-            name: name.to_owned(),
-            scene: scene.to_owned(),
+            content: d.content.clone(),
+            name: d.name.clone(),
+            scene: d.scene.clone(),
             seconds,
-            seed,
-            sources: results
-                .groups()
-                .map(|lanes| {
-                    if wavelengths_um.is_empty() {
-                        PositionSummary::new(&lanes[0], surface_names)
-                    } else {
-                        PositionSummary::spectral(lanes, surface_names)
-                    }
-                })
-                .collect(),
-            version: env!("CARGO_PKG_VERSION").to_owned(),
-            wavelengths_um: wavelengths_um.to_vec(),
+            seed: d.run.seed,
+            shard: d.shard,
+            sources: if wavelengths_um.is_empty() {
+                results
+                    .iter()
+                    .map(|r| PositionSummary::new(r, surface_names))
+                    .collect()
+            } else {
+                results
+                    .chunks(wavelengths_um.len())
+                    .map(|lanes| PositionSummary::spectral(lanes, surface_names))
+                    .collect()
+            },
+            version: d.version.clone(),
+            wavelengths_um: wavelengths_um.clone(),
         }
     }
 }
@@ -966,10 +972,12 @@ mod tests {
             stokes_stderr: Some([0.01; 4]),
         };
         assert_sorted(&TraceSummary {
+            content: Content::default(),
             name: "n".into(),
             scene: "s.toml".into(),
             seconds: 1.0,
             seed: 1,
+            shard: None,
             sources: vec![position],
             version: "0".into(),
             wavelengths_um: vec![3.0],
