@@ -7,7 +7,7 @@ use clap::Args;
 
 use super::Failure;
 use super::common::{TracingArgs, progress_bar, result_dir, set_threads, stats_grid, write_folder};
-use super::export_brdf::export_tables;
+use super::export_brdf::export_tables_of;
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::micro::surface_stats::surface_stats;
@@ -73,7 +73,8 @@ pub struct BrdfArgs {
     /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf;
     /// spectral: DIR/brdf_<wavelength>um.bsdf per wavelength), merl
     /// (DIR/brdf.binary; spectral: linear sRGB, wavelengths covering
-    /// 0.38-0.78 um); see `roks export-brdf`.
+    /// 0.38-0.78 um), rgl (DIR/brdf_rgl.bsdf, Mitsuba 3 / pbrt-v4 `measured`);
+    /// see `roks export-brdf`.
     #[arg(
         long,
         value_delimiter = ',',
@@ -177,7 +178,9 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         for (k, &f) in a.export.iter().enumerate() {
             // Each format once, in the order given.
             if !a.export[..k].contains(&f) {
-                for file in export_tables(&table, f, &comment, a.quiet, "--export")? {
+                for file in
+                    export_tables_of(&table, f, &comment, a.quiet, "--export", &scene.surface)?
+                {
                     extra.push((file.file_name, file.bytes));
                 }
             }

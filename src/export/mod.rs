@@ -47,6 +47,7 @@ pub mod brdf_formats;
 pub mod merl;
 pub mod object_mesh;
 pub mod resample;
+pub mod rgl;
 pub mod zemax;
 
 use glam::DVec2;
