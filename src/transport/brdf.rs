@@ -666,7 +666,7 @@ impl IncidenceResult {
 /// The sum of complete tree nodes in batch order, added left to right
 /// (`None` without nodes): a whole run's root, or a shard's sums.
 #[must_use]
-pub fn add_up(nodes: &[Node<BrdfTallies>]) -> Option<BrdfTallies> {
+fn add_up(nodes: &[Node<BrdfTallies>]) -> Option<BrdfTallies> {
     let (first, rest) = nodes.split_first()?;
     let mut t = first.value.clone();
     for n in rest {
@@ -1138,6 +1138,7 @@ impl BrdfRun {
     /// of its mirror image in the plane of incidence at azimuth `phi`
     /// (given as `(sin phi, cos phi)`; the whole weight once when both are
     /// the same cells). An unused set has weight 0.
+    #[inline]
     fn cell_weights(
         &self,
         grid: &Locator,
@@ -1161,6 +1162,7 @@ impl BrdfRun {
     /// reflections): which Carlson cells (with their shares of weight 1,
     /// [`BrdfRun::cell_weights`]), which in-plane bin and which
     /// reflection-count bin it is scored in.
+    #[inline]
     fn filter(
         &self,
         locator: &Locator,
@@ -1455,6 +1457,7 @@ impl Bins {
 /// Score the counts of a history (the same at every wavelength: kept in the
 /// first wavelength's tallies, copied to the others at the end of a batch):
 /// photons, reflections, straight flights and intersection tests.
+#[inline]
 fn score_counts<C: Carrier>(t: &mut BrdfTallies, h: &History<C>, tests: u64) {
     t.intersection_tests += tests;
     t.photons += 1;
@@ -1464,6 +1467,7 @@ fn score_counts<C: Carrier>(t: &mut BrdfTallies, h: &History<C>, tests: u64) {
 
 /// Score the weights `w` (one per wavelength) of an escaping photon in the
 /// interleaved sums of all wavelengths at once, bin by bin.
+#[inline]
 fn score_all_lanes(sums: &mut LaneSums, bins: &Bins, w: &[f64]) {
     sums.reflected.score(0, w);
     for &(c, share) in bins.hits() {
@@ -1477,6 +1481,7 @@ fn score_all_lanes(sums: &mut LaneSums, bins: &Bins, w: &[f64]) {
 
 /// Score the weight of an escaping photon in one wavelength's tallies: the
 /// reflectance, its cells, its in-plane bin and its reflection count.
+#[inline]
 fn score_weight(t: &mut BrdfTallies, bins: &Bins, weight: f64) {
     t.reflected.score(0, weight);
     // The cells' shares for weight 1 (the polarisation tally's), then times
@@ -1495,6 +1500,7 @@ fn score_weight(t: &mut BrdfTallies, bins: &Bins, weight: f64) {
 
 /// Score the weight of an escaping photon in the sums of its lattice
 /// replicate `replicate` (`n_bins`: Carlson cells and in-plane bins).
+#[inline]
 fn score_replicate(
     r: &mut Replicates,
     replicate: usize,
@@ -1516,6 +1522,7 @@ fn score_replicate(
 
 /// Score the polarisation components `c` (4 Stokes or 16 Mueller, in the
 /// photon's outgoing frame) of an escaping photon ([`score_polar`]).
+#[inline]
 fn score_polarisation(
     p: &mut PolarTallies,
     c: &[f64],
@@ -1534,6 +1541,7 @@ fn score_polarisation(
 
 /// Score the weight a history lost (absorbed by a wall, cut by a cap or by
 /// a numerical guard) in every wavelength's tallies.
+#[inline]
 fn score_loss<C: Carrier>(lanes: &mut [BrdfTallies], fate: &Fate<C>, incident: &Stokes) {
     for (l, t) in lanes.iter_mut().enumerate() {
         match fate {
