@@ -24,7 +24,7 @@ fn trace(scene: &ObjectScene, photons: u64) -> (u64, u64) {
         &[photons],
         &|_| {},
     );
-    let t = &results[0].tallies;
+    let t = &results.leaf(0, 0).tallies;
     (t.photons, t.segments)
 }
 

@@ -40,11 +40,29 @@ use roks::geometry::region;
 use roks::scene::micro::MicroScene;
 use std::hint::black_box;
 
+/// The run traced at 60 degrees incidence only: every wavelength's leaf.
+fn at_60_all(
+    run: &roks::transport::brdf::BrdfRun,
+    surface: &roks::micro::MicroSurface,
+) -> roks::transport::brdf::BrdfResult {
+    let mut run = run.clone();
+    run.theta_deg = vec![60.0];
+    run.run(surface, &|_| {})
+}
+
+/// The run traced at 60 degrees incidence only: the first wavelength's leaf.
+fn at_60(
+    run: &roks::transport::brdf::BrdfRun,
+    surface: &roks::micro::MicroSurface,
+) -> roks::transport::brdf::IncidenceResult {
+    at_60_all(run, surface).into_leaves().swap_remove(0)
+}
+
 /// The scene's run with 20 000 photons, after printing its segments per photon at 60 degrees.
 fn probe_run(scene: &MicroScene, label: &str) -> roks::transport::brdf::BrdfRun {
     let mut run = scene.brdf_run();
     run.photons = 20_000;
-    let probe = run.run_one(&scene.surface, 60.0, &|_| {});
+    let probe = at_60(&run, &scene.surface);
     eprintln!(
         "{label}, 60 deg: {:.3} segments per photon",
         probe.tallies.segments as f64 / probe.tallies.photons as f64
@@ -59,7 +77,7 @@ fn brdf(c: &mut Criterion) {
     g.sample_size(20);
     g.throughput(Throughput::Elements(run.photons));
     g.bench_function("default_60deg", |b| {
-        b.iter(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {})));
+        b.iter(|| black_box(at_60(&run, &scene.surface)));
     });
     g.finish();
 }
@@ -115,7 +133,7 @@ fn heightfield(c: &mut Criterion) {
         let run = probe_run(&scene, &format!("gaussian {n}²"));
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(format!("gaussian_{n}_60deg"), |b| {
-            b.iter(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {})));
+            b.iter(|| black_box(at_60(&run, &scene.surface)));
         });
     }
     g.finish();
@@ -146,14 +164,14 @@ fn polarisation(c: &mut Criterion) {
             tally,
             ..run.polarisation
         };
-        let probe = run.run_one(&scene.surface, 60.0, &|_| {});
+        let probe = at_60(&run, &scene.surface);
         eprintln!(
             "default scene, Al, {name}, 60 deg: {:.4} segments per photon",
             probe.tallies.segments as f64 / probe.tallies.photons as f64
         );
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(name, |b| {
-            b.iter(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {})));
+            b.iter(|| black_box(at_60(&run, &scene.surface)));
         });
     }
     g.finish();
@@ -216,7 +234,7 @@ fn spectral(c: &mut Criterion) {
         run.polarisation.transport = polarised;
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(name, |b| {
-            b.iter(|| pool.install(|| black_box(run.run_lanes(&scene.surface, 60.0, &|_| {}))));
+            b.iter(|| pool.install(|| black_box(at_60_all(&run, &scene.surface))));
         });
     }
     g.finish();
@@ -277,7 +295,7 @@ fn scaling(c: &mut Criterion) {
         run.photons = 200_000;
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(name, |b| {
-            b.iter(|| pool.install(|| black_box(run.run_one(&scene.surface, 60.0, &|_| {}))));
+            b.iter(|| pool.install(|| black_box(at_60(&run, &scene.surface))));
         });
     }
     g.finish();

@@ -1,14 +1,17 @@
 #!/bin/bash
-# Run `roks brdf` as a Slurm job array, one photon block per array task, then
+# Run `roks brdf` (a micro scene) or `roks trace` (an object scene, one with
+# [[cells]]) as a Slurm job array, one photon block per array task, then
 # merge the blocks in a dependent job. The merged result equals a single run
-# exactly (see src/shard.rs). Runs the repository's target/release/roks
-# (`cargo build --release`; or set ROKS=/path/to/roks) from any folder:
+# exactly (see src/shard.rs and src/output/object_tallies.rs). Runs the
+# repository's target/release/roks (`cargo build --release`; or set
+# ROKS=/path/to/roks) from any folder:
 #
-#   scripts/slurm_brdf.sh SCENE.toml OUT [SHARDS] [roks brdf options...]
+#   scripts/slurm_brdf.sh SCENE.toml OUT [SHARDS] [roks brdf|trace options...]
 #   scripts/slurm_brdf.sh status OUT
 #   scripts/slurm_brdf.sh resubmit OUT [I,J,...]
 #
 #   e.g. scripts/slurm_brdf.sh scenes/default.toml results/default 16 --photons 100000000
+#        scripts/slurm_brdf.sh scenes/cylinder-cavity.toml results/cavity 32
 #
 # Submitting: shard I of SHARDS (default 8) goes to OUT.shards/III (three
 # digits: 000, 001, ...), Slurm's logs to OUT.logs/shard-III.out and
@@ -16,9 +19,12 @@
 # roks replaces a result folder whole). Nothing is submitted unless all of
 # this holds (otherwise one line on stderr, exit status 2):
 #   * the roks binary exists, the scene file exists (its absolute path is
-#     submitted), and `roks brdf` accepts the scene, the options and
-#     `--shard SHARDS-1/SHARDS` (a shard is whole batches of 4096 photons of
-#     every incidence angle: SHARDS may not exceed ceil(photons / 4096));
+#     submitted), and `roks brdf` (`roks trace` for an object scene) accepts
+#     the scene, the options and `--shard SHARDS-1/SHARDS` (a shard is whole
+#     batches of 4096 photons: of every incidence angle for brdf, so SHARDS
+#     may not exceed ceil(photons / 4096); of the beam positions laid end to
+#     end for trace, so SHARDS may not exceed the sum over the positions of
+#     ceil(photons / 4096));
 #   * the options do not set --out, --shard or --threads (the script does);
 #   * OUT does not exist, or is an empty folder, or a roks result folder;
 #   * OUT.shards and OUT.logs do not exist or are empty (an earlier run's
@@ -51,12 +57,13 @@
 #      are kept) and a new merge after them. Without a list it resubmits every
 #      failed and missing shard; when none is left it submits only the merge.
 #   The merged OUT is then byte for byte the single run's result (brdf.csv,
-#   inplane.csv; summary.json except its timings).
+#   inplane.csv, or reflectance.csv, farfield.csv, farfield_stokes.csv, and
+#   the pictures; summary.json except its timings).
 set -euo pipefail
 
 PROG=slurm_brdf.sh
 SELF=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)/$(basename "${BASH_SOURCE[0]}")
-USAGE="usage: $PROG SCENE.toml OUT [SHARDS] [roks brdf options...] | $PROG status OUT | $PROG resubmit OUT [I,J,...]"
+USAGE="usage: $PROG SCENE.toml OUT [SHARDS] [roks brdf|trace options...] | $PROG status OUT | $PROG resubmit OUT [I,J,...]"
 
 # Bad input: one line naming what is wrong, exit status 2.
 die() {
@@ -103,11 +110,11 @@ partition_cpus() {
 load_run() {
     STATE=$OUT.shards/slurm_run.env
     [ -f "$STATE" ] || die "$OUT: no run of $PROG there (no $STATE)"
-    ROKS="" SCENE="" SHARDS="" CPUS="" TIME="" EXTRA="" JOBS=""
+    ROKS="" SCENE="" SHARDS="" CPUS="" TIME="" EXTRA="" JOBS="" CMD=brdf
     # shellcheck disable=SC1090 # the file this script wrote at submission
     . "$STATE" 2>/dev/null || die "$STATE: cannot read it"
-    if [ -z "$ROKS" ] || [ -z "$SCENE" ] || ! [[ $SHARDS =~ ^[1-9][0-9]*$ ]] || [ -z "$CPUS" ] || [ -z "$TIME" ]; then
-        die "$STATE: not a run file of $PROG (ROKS, SCENE, SHARDS, CPUS, TIME)"
+    if [ -z "$ROKS" ] || [ -z "$SCENE" ] || ! [[ $SHARDS =~ ^[1-9][0-9]*$ ]] || [ -z "$CPUS" ] || [ -z "$TIME" ] || ! [[ $CMD =~ ^(brdf|trace)$ ]]; then
+        die "$STATE: not a run file of $PROG (ROKS, SCENE, SHARDS, CPUS, TIME, CMD)"
     fi
 }
 
@@ -121,12 +128,12 @@ submit() {
     if [ -n "$list" ]; then
         # One shard per array task: task I runs block I of SHARDS.
         array_id=$(sbatch --parsable \
-            --job-name=roks-brdf \
+            --job-name="roks-$CMD" \
             --array="$list" \
             --cpus-per-task="$CPUS" \
             --time="$TIME" \
             --output="$OUT.logs/shard-%3a.out" \
-            --wrap="$(printf '%q' "$ROKS") brdf $(printf '%q' "$SCENE") -q --threads \$SLURM_CPUS_PER_TASK --shard \$SLURM_ARRAY_TASK_ID/$SHARDS --out $shards_q/\$(printf %03d \$SLURM_ARRAY_TASK_ID)$EXTRA" 2>&1) ||
+            --wrap="$(printf '%q' "$ROKS") $CMD $(printf '%q' "$SCENE") -q --threads \$SLURM_CPUS_PER_TASK --shard \$SLURM_ARRAY_TASK_ID/$SHARDS --out $shards_q/\$(printf %03d \$SLURM_ARRAY_TASK_ID)$EXTRA" 2>&1) ||
             die "sbatch refused the shards: $(first_line "$array_id")"
         array_id=${array_id%%;*}
         after=$array_id${after:+:$after}
@@ -206,7 +213,7 @@ survey() {
         if [ -n "$FAILED$MISSING" ] && [ "$merge_queued" = PENDING ]; then
             MERGE+=" (it cannot start: shards failed; resubmitting cancels it)"
         fi
-    elif [ -f "$OUT/tallies.json" ] && newer_than_shards "$OUT/tallies.json"; then
+    elif [ -f "$OUT/summary.json" ] && newer_than_shards "$OUT/summary.json"; then
         MERGE_STATE=merged
         MERGE="merged: $OUT"
     else
@@ -258,7 +265,7 @@ names() { local i; for i in $1; do printf ' %s' "$(shard_name "$i")"; done; }
 status() {
     local left
     survey
-    echo "run: $SHARDS shards of $SCENE into $OUT (roks brdf options:${EXTRA:- none})"
+    echo "run: $SHARDS shards of $SCENE into $OUT (roks $CMD options:${EXTRA:- none})"
     echo "done: $(count "$DONE") of $SHARDS"
     [ -z "$RUNNING" ] || echo "running:$(names "$RUNNING")"
     [ -z "$PENDING" ] || echo "pending:$(names "$PENDING")"
@@ -372,6 +379,11 @@ fi
 ROKS=$(realpath -- "$ROKS")
 [ -f "$SCENE" ] || die "$SCENE: no such scene file"
 SCENE=$(realpath -- "$SCENE")
+# An object scene (zones, `[[cells]]`) is traced by roks trace.
+CMD=brdf
+if grep -qE '^[[:space:]]*\[\[[[:space:]]*cells[[:space:]]*\]\]' -- "$SCENE"; then
+    CMD=trace
+fi
 TIME=${TIME:-04:00:00}
 
 if [ -e "$OUT" ] || [ -L "$OUT" ]; then
@@ -408,19 +420,19 @@ probe=$(mktemp)
 trap 'rm -f -- "$probe"' EXIT
 set +e
 # shellcheck disable=SC2086
-why=$(eval "$(printf '%q' "$ROKS") brdf $(printf '%q' "$SCENE") -q --shard $((SHARDS - 1))/$SHARDS --out $(printf '%q' "$probe")$EXTRA" 2>&1 >/dev/null)
+why=$(eval "$(printf '%q' "$ROKS") $CMD $(printf '%q' "$SCENE") -q --shard $((SHARDS - 1))/$SHARDS --out $(printf '%q' "$probe")$EXTRA" 2>&1 >/dev/null)
 rc=$?
 set -e
 case $why in
     *"--out: $probe: is a file, not a folder"*) ;;
-    *) why=$(first_line "$why") && die "roks brdf refuses the run: ${why#roks: }${why:+ }(exit status $rc)" ;;
+    *) why=$(first_line "$why") && die "roks $CMD refuses the run: ${why#roks: }${why:+ }(exit status $rc)" ;;
 esac
 
 mkdir -p -- "$OUT.shards" "$OUT.logs" || die "OUT: cannot create $OUT.shards and $OUT.logs"
 STATE=$OUT.shards/slurm_run.env
 {
     echo "# $PROG run: sourced by \`$PROG status|resubmit\`"
-    printf 'ROKS=%q\nSCENE=%q\nSHARDS=%q\nCPUS=%q\nTIME=%q\nEXTRA=%q\nJOBS=""\n' \
-        "$ROKS" "$SCENE" "$SHARDS" "$CPUS" "$TIME" "$EXTRA"
+    printf 'ROKS=%q\nSCENE=%q\nCMD=%q\nSHARDS=%q\nCPUS=%q\nTIME=%q\nEXTRA=%q\nJOBS=""\n' \
+        "$ROKS" "$SCENE" "$CMD" "$SHARDS" "$CPUS" "$TIME" "$EXTRA"
 } >"$STATE"
 submit "0-$((SHARDS - 1))"

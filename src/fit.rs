@@ -194,10 +194,138 @@ impl fmt::Display for KeyPath {
     }
 }
 
-impl FromStr for KeyPath {
-    type Err = String;
+/// Why a text is not a key path ([`KeyPath`]'s `FromStr`).
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum KeyPathError {
+    /// No key where one is due.
+    #[error("expected a key at position {position} of `{path}`")]
+    ExpectedKey {
+        /// 1-based position.
+        position: usize,
+        /// The path as given.
+        path: String,
+    },
+    /// `[` without `]`.
+    #[error("unclosed `[` in `{0}`")]
+    Unclosed(String),
+    /// An index that is not a whole number.
+    #[error("bad index `[{digits}]` in `{path}`")]
+    Index {
+        /// The text between the brackets.
+        digits: String,
+        /// The path as given.
+        path: String,
+    },
+    /// A character that is neither key, `.` nor `[`.
+    #[error(
+        "unexpected `{found}` at position {position} of `{path}` (keys are A-Z a-z 0-9 _ -, joined by `.`, with `[i]` indices)"
+    )]
+    Unexpected {
+        /// The character.
+        found: String,
+        /// 1-based position.
+        position: usize,
+        /// The path as given.
+        path: String,
+    },
+    /// An empty path.
+    #[error("empty key")]
+    Empty,
+    /// A path ending with `.`.
+    #[error("`{0}` ends with `.`")]
+    TrailingDot(String),
+}
 
-    fn from_str(s: &str) -> Result<Self, String> {
+/// Why a key path leads to no number of a scene table ([`KeyPath::get`],
+/// [`KeyPath::get_number`]); `done` is the part of the path that was found.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum KeyError {
+    /// A path that does not start with a key.
+    #[error("a key path starts with a key")]
+    NoFirstKey,
+    /// No such key at the top level.
+    #[error("no key `{key}` at the top level (keys: {keys})")]
+    NoTopKey {
+        /// The key.
+        key: String,
+        /// The keys there are.
+        keys: String,
+    },
+    /// No such key in a table.
+    #[error("no key `{key}` in `{done}` (keys: {keys})")]
+    NoKey {
+        /// The key.
+        key: String,
+        /// The table's path.
+        done: String,
+        /// The keys there are.
+        keys: String,
+    },
+    /// An index past the end of an array.
+    #[error("index [{index}] out of range: `{done}` has {len} element{}", if *len == 1 { "" } else { "s" })]
+    OutOfRange {
+        /// The index.
+        index: usize,
+        /// The array's path.
+        done: String,
+        /// Its length.
+        len: usize,
+    },
+    /// A key into a value that is not a table.
+    #[error("`{done}` is {found}, not a table (no key `{key}`)")]
+    NotTable {
+        /// The value's path.
+        done: String,
+        /// What it is, e.g. "a float".
+        found: &'static str,
+        /// The key.
+        key: String,
+    },
+    /// An index into a value that is not an array.
+    #[error("`{done}` is {found}, not an array (no index [{index}])")]
+    NotArray {
+        /// The value's path.
+        done: String,
+        /// What it is.
+        found: &'static str,
+        /// The index.
+        index: usize,
+    },
+    /// A `[lo, hi]` range, of which one end is to be fitted.
+    #[error("is a range [{lo}, {hi}]; fit one end: {path}[0] or {path}[1]")]
+    Range {
+        /// The range's path.
+        path: String,
+        /// Its first element as written.
+        lo: String,
+        /// Its second element.
+        hi: String,
+    },
+    /// A value that is not a number.
+    #[error("is {0}, not a number")]
+    NotANumber(&'static str),
+}
+
+/// Bounds `lo:hi` of a fitted parameter that cannot be searched.
+#[derive(Debug, Clone, Copy, PartialEq, Error)]
+pub enum BoundsError {
+    /// A bound that is not finite.
+    #[error("bounds must be finite")]
+    NotFinite,
+    /// `lo >= hi`.
+    #[error("bounds {lo}:{hi} must have lo < hi")]
+    NotOrdered {
+        /// Lower bound.
+        lo: f64,
+        /// Upper bound.
+        hi: f64,
+    },
+}
+
+impl FromStr for KeyPath {
+    type Err = KeyPathError;
+
+    fn from_str(s: &str) -> Result<Self, KeyPathError> {
         let bare = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
         let b = s.as_bytes();
         let mut segments = Vec::new();
@@ -210,7 +338,10 @@ impl FromStr for KeyPath {
                     i += 1;
                 }
                 if i == start {
-                    return Err(format!("expected a key at position {} of `{s}`", start + 1));
+                    return Err(KeyPathError::ExpectedKey {
+                        position: start + 1,
+                        path: s.to_owned(),
+                    });
                 }
                 segments.push(Segment::Key(s[start..i].to_string()));
                 expect_key = false;
@@ -220,26 +351,27 @@ impl FromStr for KeyPath {
             } else if b[i] == b'[' {
                 let close = s[i..]
                     .find(']')
-                    .ok_or_else(|| format!("unclosed `[` in `{s}`"))?;
+                    .ok_or_else(|| KeyPathError::Unclosed(s.to_owned()))?;
                 let digits = &s[i + 1..i + close];
-                let n = digits
-                    .parse::<usize>()
-                    .map_err(|_| format!("bad index `[{digits}]` in `{s}`"))?;
+                let n = digits.parse::<usize>().map_err(|_| KeyPathError::Index {
+                    digits: digits.to_owned(),
+                    path: s.to_owned(),
+                })?;
                 segments.push(Segment::Index(n));
                 i += close + 1;
             } else {
-                return Err(format!(
-                    "unexpected `{}` at position {} of `{s}` (keys are A-Z a-z 0-9 _ -, joined by `.`, with `[i]` indices)",
-                    &s[i..=i],
-                    i + 1
-                ));
+                return Err(KeyPathError::Unexpected {
+                    found: s[i..=i].to_owned(),
+                    position: i + 1,
+                    path: s.to_owned(),
+                });
             }
         }
         if expect_key {
             return Err(if s.is_empty() {
-                "empty key".to_string()
+                KeyPathError::Empty
             } else {
-                format!("`{s}` ends with `.`")
+                KeyPathError::TrailingDot(s.to_owned())
             });
         }
         Ok(Self { segments })
@@ -267,24 +399,27 @@ fn keys_of(t: &Table) -> String {
 }
 
 impl KeyPath {
-    /// The value at this path, or a message naming the first step that fails.
-    pub fn get<'a>(&self, root: &'a Table) -> Result<&'a Value, String> {
+    /// The value at this path.
+    ///
+    /// # Errors
+    /// A [`KeyError`] naming the first step that fails.
+    pub fn get<'a>(&self, root: &'a Table) -> Result<&'a Value, KeyError> {
         let mut segs = self.segments.iter();
         let Some(Segment::Key(first)) = segs.next() else {
-            return Err("a key path starts with a key".into());
+            return Err(KeyError::NoFirstKey);
         };
-        let mut here = root.get(first).ok_or_else(|| {
-            format!(
-                "no key `{first}` at the top level (keys: {})",
-                keys_of(root)
-            )
+        let mut here = root.get(first).ok_or_else(|| KeyError::NoTopKey {
+            key: first.clone(),
+            keys: keys_of(root),
         })?;
         let mut done = first.clone();
         for seg in segs {
             here = match (seg, here) {
                 (Segment::Key(k), Value::Table(t)) => {
-                    let v = t.get(k).ok_or_else(|| {
-                        format!("no key `{k}` in `{done}` (keys: {})", keys_of(t))
+                    let v = t.get(k).ok_or_else(|| KeyError::NoKey {
+                        key: k.clone(),
+                        done: done.clone(),
+                        keys: keys_of(t),
                     })?;
                     done.push('.');
                     done.push_str(k);
@@ -292,26 +427,27 @@ impl KeyPath {
                 }
                 (Segment::Index(n), Value::Array(a)) => {
                     let len = a.len();
-                    let v = a.get(*n).ok_or_else(|| {
-                        format!(
-                            "index [{n}] out of range: `{done}` has {len} element{}",
-                            if len == 1 { "" } else { "s" }
-                        )
+                    let v = a.get(*n).ok_or_else(|| KeyError::OutOfRange {
+                        index: *n,
+                        done: done.clone(),
+                        len,
                     })?;
                     done.push_str(&format!("[{n}]"));
                     v
                 }
                 (Segment::Key(k), v) => {
-                    return Err(format!(
-                        "`{done}` is {}, not a table (no key `{k}`)",
-                        type_name(v)
-                    ));
+                    return Err(KeyError::NotTable {
+                        done,
+                        found: type_name(v),
+                        key: k.clone(),
+                    });
                 }
                 (Segment::Index(n), v) => {
-                    return Err(format!(
-                        "`{done}` is {}, not an array (no index [{n}])",
-                        type_name(v)
-                    ));
+                    return Err(KeyError::NotArray {
+                        done,
+                        found: type_name(v),
+                        index: *n,
+                    });
                 }
             };
         }
@@ -319,7 +455,10 @@ impl KeyPath {
     }
 
     /// As [`get`](Self::get), mutably.
-    pub fn get_mut<'a>(&self, root: &'a mut Table) -> Result<&'a mut Value, String> {
+    ///
+    /// # Errors
+    /// As [`get`](Self::get).
+    pub fn get_mut<'a>(&self, root: &'a mut Table) -> Result<&'a mut Value, KeyError> {
         self.get(root)?;
         let mut segs = self.segments.iter();
         let Some(Segment::Key(first)) = segs.next() else {
@@ -337,12 +476,18 @@ impl KeyPath {
     }
 
     /// The number at this path (integers are read as floats).
-    pub fn get_number(&self, root: &Table) -> Result<f64, String> {
+    ///
+    /// # Errors
+    /// As [`get`](Self::get), or a value that is not a number.
+    pub fn get_number(&self, root: &Table) -> Result<f64, KeyError> {
         number_of(self, self.get(root)?)
     }
 
     /// Write `value` (as a float) at this path; the old value must be a number.
-    pub fn set_number(&self, root: &mut Table, value: f64) -> Result<(), String> {
+    ///
+    /// # Errors
+    /// As [`get_number`](Self::get_number).
+    pub fn set_number(&self, root: &mut Table, value: f64) -> Result<(), KeyError> {
         let v = self.get_mut(root)?;
         number_of(self, v)?;
         *v = Value::Float(value);
@@ -350,19 +495,18 @@ impl KeyPath {
     }
 }
 
-fn number_of(path: &KeyPath, v: &Value) -> Result<f64, String> {
+fn number_of(path: &KeyPath, v: &Value) -> Result<f64, KeyError> {
     match v {
         Value::Float(x) => Ok(*x),
         Value::Integer(i) => Ok(*i as f64),
         Value::Array(a) if a.len() == 2 && a.iter().all(|x| x.is_float() || x.is_integer()) => {
-            let show = |x: &Value| x.to_string();
-            Err(format!(
-                "is a range [{}, {}]; fit one end: {path}[0] or {path}[1]",
-                show(&a[0]),
-                show(&a[1])
-            ))
+            Err(KeyError::Range {
+                path: path.to_string(),
+                lo: a[0].to_string(),
+                hi: a[1].to_string(),
+            })
         }
-        other => Err(format!("is {}, not a number", type_name(other))),
+        other => Err(KeyError::NotANumber(type_name(other))),
     }
 }
 
@@ -411,7 +555,7 @@ impl FromStr for FitParam {
             .split_once('=')
             .ok_or_else(|| err("expected key=lo:hi".into()))?;
         let key = key.trim();
-        key.parse::<KeyPath>().map_err(err)?;
+        key.parse::<KeyPath>().map_err(|e| err(e.to_string()))?;
         let (lo, hi) = bounds
             .split_once(':')
             .ok_or_else(|| err("expected bounds lo:hi after `=`".into()))?;
@@ -425,18 +569,21 @@ impl FromStr for FitParam {
             lo: num(lo)?,
             hi: num(hi)?,
         };
-        p.check().map_err(err)?;
+        p.check().map_err(|e| err(e.to_string()))?;
         Ok(p)
     }
 }
 
 impl FitParam {
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), BoundsError> {
         if !(self.lo.is_finite() && self.hi.is_finite()) {
-            return Err("bounds must be finite".into());
+            return Err(BoundsError::NotFinite);
         }
         if self.lo >= self.hi {
-            return Err(format!("bounds {}:{} must have lo < hi", self.lo, self.hi));
+            return Err(BoundsError::NotOrdered {
+                lo: self.lo,
+                hi: self.hi,
+            });
         }
         Ok(())
     }
@@ -734,24 +881,24 @@ impl Problem {
         }
         let mut paths = Vec::new();
         for p in params {
-            let key_err = |message: String| FitError::Key {
+            let key_err = |message: &dyn std::fmt::Display| FitError::Key {
                 file: source.file.clone(),
                 key: p.key.clone(),
-                message,
+                message: message.to_string(),
             };
             p.check().map_err(|m| FitError::Param {
                 spec: format!("{}={}:{}", p.key, p.lo, p.hi),
-                message: m,
+                message: m.to_string(),
             })?;
-            let path: KeyPath = p.key.parse().map_err(key_err)?;
-            path.get_number(&table).map_err(key_err)?;
+            let path: KeyPath = p.key.parse().map_err(|e| key_err(&e))?;
+            path.get_number(&table).map_err(|e| key_err(&e))?;
             if paths.contains(&path) {
-                return Err(key_err("given twice".into()));
+                return Err(key_err(&"given twice"));
             }
             paths.push(path);
         }
         if let Err(e) = crate::transport::launch::check_count(opts.photons) {
-            return Err(opt("--photons", e));
+            return Err(opt("--photons", e.to_string()));
         }
         if opts.max_evaluations == 0 {
             return Err(opt("--max-evals", "must be > 0".into()));
@@ -1349,7 +1496,7 @@ mod tests {
     #[test]
     fn key_path_errors() {
         let mut t = table("s = \"text\"\n[a.b]\nc = 2.5\nr = [1.0, 2.0]\n[[arr]]\nv = 3.0\n");
-        let err = |p: &str| path(p).get_number(&t).unwrap_err();
+        let err = |p: &str| path(p).get_number(&t).unwrap_err().to_string();
         assert_eq!(err("zz"), "no key `zz` at the top level (keys: a, arr, s)");
         assert_eq!(err("a.x.c"), "no key `x` in `a` (keys: b)");
         assert_eq!(err("a.b.cc"), "no key `cc` in `a.b` (keys: c, r)");

@@ -22,7 +22,8 @@
 //!   accumulators with standard errors, adding tallies ([`tally::Merge`]) and
 //!   the fixed batch tree every run sums over ([`tally::sum`]).
 //! * [`scene`]: TOML scene files, validated with one-line errors.
-//! * [`shard`]: splitting a BRDF run across machines in blocks of whole batches.
+//! * [`shard`]: splitting a BRDF run across machines in blocks of whole batches
+//!   (an object run: [`transport::object::shard_blocks`]).
 //! * [`output`]: result files, one submodule per format (`brdf.csv`,
 //!   `summary.json`, `tallies.json`, ...), the result folder of `roks brdf`
 //!   and `roks merge`, written atomically; [`outdir`]: result folders
@@ -82,7 +83,9 @@
 //!   bit-identical for any thread count. **Shard**: a contiguous range of
 //!   a BRDF run's batches run on its own and merged exactly (`roks merge`);
 //!   its block is [`transport::brdf::ShardRange`], beside the photons of
-//!   the whole run in the run's description.
+//!   the whole run in the run's description (an object run's shard: a
+//!   block of its positions' batches laid end to end,
+//!   [`output::object_tallies`]).
 //! * **Run description**: what a BRDF run traces,
 //!   [`transport::brdf::BrdfRun`], built once from the scene's `[light]`,
 //!   `[tally]` and `[transport]` with the command line's
@@ -90,6 +93,15 @@
 //!   [`scene::Content`] (hashes of its text and files), path, name and
 //!   statistics it is the [`output::summary::Description`] that
 //!   `summary.json` and `tallies.json` hold and `roks merge` compares.
+//! * **Result** of a BRDF trace: [`transport::brdf::BrdfResult`], returned
+//!   by the one entry point [`transport::brdf::BrdfRun::trace`] and nested
+//!   as incidence x light azimuth x wavelength; a **leaf**
+//!   ([`transport::brdf::IncidenceResult`]) holds one incidence's,
+//!   azimuth's and wavelength's batch-tree nodes and their sums.
+//! * **Filter** and **score** (after OpenMC): a filter decides which bins
+//!   an escaping photon lands in (Carlson cells, in-plane bin, bounce bin,
+//!   replicate), a score what is added there (weight, Stokes, Mueller, per
+//!   wavelength).
 //! * **Stream**: the random numbers of one photon, from (seed, photon
 //!   index) ([`transport::rng`]). **Replicate**: one of the 16 shifted
 //!   lattices of a `launch = "lattice"` run ([`transport::launch`]).

@@ -75,16 +75,48 @@ pub fn read_text_capped(path: &Path, cap: u64) -> std::io::Result<String> {
     })
 }
 
+/// Why a memory estimate is refused, or `ROKS_MAX_MEMORY` is unusable.
+/// Messages are one line without file or key (callers put those in front).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MemoryError {
+    /// `ROKS_MAX_MEMORY` is not a byte count.
+    #[error("{ENV}: {0}")]
+    Env(BytesError),
+    /// `ROKS_MAX_MEMORY` is not UTF-8.
+    #[error("{ENV}: not valid UTF-8 (give bytes, e.g. 512M, 8G or 1.5G)")]
+    EnvNotUnicode,
+    /// An estimate above the limit.
+    #[error(
+        "{what} would take about {}, above the memory limit {} (set {ENV} to change it)",
+        format_bytes(*bytes),
+        format_bytes(*limit)
+    )]
+    Above {
+        /// What would take the memory, e.g. "periodic ghost copies".
+        what: String,
+        /// The estimate (bytes).
+        bytes: u64,
+        /// The limit (bytes).
+        limit: u64,
+    },
+}
+
+/// A text that is not a byte count ([`parse_bytes`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("must be a byte count like 512M, 8G or 1.5G, got `{0}`")]
+pub struct BytesError(pub String);
+
 /// The memory limit in bytes, or the one-line reason `ROKS_MAX_MEMORY` is
 /// unusable (naming it). Read once per process.
-pub fn max_memory() -> Result<u64, String> {
-    static LIMIT: OnceLock<Result<u64, String>> = OnceLock::new();
+///
+/// # Errors
+/// [`MemoryError::Env`] or [`MemoryError::EnvNotUnicode`].
+pub fn max_memory() -> Result<u64, MemoryError> {
+    static LIMIT: OnceLock<Result<u64, MemoryError>> = OnceLock::new();
     LIMIT
         .get_or_init(|| match std::env::var(ENV) {
-            Ok(v) => parse_bytes(&v).map_err(|e| format!("{ENV}: {e}")),
-            Err(std::env::VarError::NotUnicode(_)) => Err(format!(
-                "{ENV}: not valid UTF-8 (give bytes, e.g. 512M, 8G or 1.5G)"
-            )),
+            Ok(v) => parse_bytes(&v).map_err(MemoryError::Env),
+            Err(std::env::VarError::NotUnicode(_)) => Err(MemoryError::EnvNotUnicode),
             Err(std::env::VarError::NotPresent) => Ok(default_limit()),
         })
         .clone()
@@ -139,8 +171,11 @@ pub fn machine_memory() -> Option<u64> {
 /// A byte count as `ROKS_MAX_MEMORY` takes it: a positive number (decimals
 /// allowed) with an optional suffix `K`, `M`, `G` or `T` (powers of 1024,
 /// either case), optionally followed by `B` or `iB`.
-pub fn parse_bytes(s: &str) -> Result<u64, String> {
-    let bad = || format!("must be a byte count like 512M, 8G or 1.5G, got `{s}`");
+///
+/// # Errors
+/// [`BytesError`] naming the text.
+pub fn parse_bytes(s: &str) -> Result<u64, BytesError> {
+    let bad = || BytesError(s.to_owned());
     let t = s.trim();
     let t = t
         .strip_suffix("iB")
@@ -186,16 +221,19 @@ pub fn format_bytes(bytes: u64) -> String {
 /// fits the limit; else the one-line message, without file or key (callers
 /// put those in front):
 /// `periodic ghost copies would take about 7.5 GiB, above the memory limit 4.0 GiB (set ROKS_MAX_MEMORY to change it)`.
-pub fn check(what: &str, bytes: u64) -> Result<(), String> {
+///
+/// # Errors
+/// [`MemoryError::Above`], or the reason the limit is unusable.
+pub fn check(what: &str, bytes: u64) -> Result<(), MemoryError> {
     let limit = max_memory()?;
     if bytes <= limit {
         return Ok(());
     }
-    Err(format!(
-        "{what} would take about {}, above the memory limit {} (set {ENV} to change it)",
-        format_bytes(bytes),
-        format_bytes(limit)
-    ))
+    Err(MemoryError::Above {
+        what: what.to_owned(),
+        bytes,
+        limit,
+    })
 }
 
 /// `a * b * ...` in bytes, saturating (an estimate never wraps around).

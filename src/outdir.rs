@@ -36,36 +36,137 @@ pub const MAX_NAME_BYTES: usize = 200;
 /// exports' (`roks export-brdf`).
 const RESULT_MARKERS: [&str; 3] = ["summary.json", "fit.json", "export.json"];
 
+/// Why a result folder or file cannot be written at a path ([`check_folder`],
+/// [`check_file`]): the reason, for a message after the option and path.
+#[derive(Debug, thiserror::Error)]
+pub enum OutPathError {
+    /// `/`, `.`, `..`: no name to create.
+    #[error("must name a file or folder to create (not `/`, `.` or `..`)")]
+    NoName,
+    /// An ancestor that is a file.
+    #[error("{} is a file, not a folder", .0.display())]
+    AncestorIsFile(PathBuf),
+    /// The file system's refusal to look at `path`.
+    #[error("{}: {source}", path.display())]
+    Metadata {
+        /// The path looked at.
+        path: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+    /// Nothing can be created in the nearest existing folder.
+    #[error("cannot create anything in {}: {source}", folder.display())]
+    NotWritable {
+        /// The folder.
+        folder: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+    /// The existing folder cannot be listed.
+    #[error("cannot read the folder: {0}")]
+    Unreadable(std::io::Error),
+    /// An existing folder that is not a roks result (`why`: what it holds).
+    #[error(
+        "exists and {0}, so it is not a roks result folder, which a run replaces whole; choose a new folder"
+    )]
+    NotAResult(NotAResult),
+    /// A symbolic link to a file where a folder is wanted.
+    #[error("is a link to a file, not a folder")]
+    LinkToFile,
+    /// A symbolic link to nothing.
+    #[error("is a dangling symbolic link ({0})")]
+    Dangling(std::io::Error),
+    /// A file where a folder is wanted.
+    #[error("is a file, not a folder")]
+    IsFile,
+    /// A folder where a file is wanted.
+    #[error("is a folder, not a file")]
+    IsFolder,
+    /// A path ending in `/` where a file is wanted.
+    #[error("ends with `/`, so it names a folder; a file is written here")]
+    SlashEnded,
+    /// A symbolic link that cannot be resolved.
+    #[error("cannot resolve the symbolic link: {0}")]
+    Resolve(std::io::Error),
+    /// The folder beside a replaced result cannot be written.
+    #[error("{0} (a result folder is replaced whole, beside itself)")]
+    Beside(Box<OutPathError>),
+    /// Another error of the file system.
+    #[error("{0}")]
+    Io(std::io::Error),
+}
+
+/// What makes an existing folder not a roks result ([`OutPathError::NotAResult`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NotAResult {
+    /// It holds a subfolder.
+    #[error("holds the folder {0:?}")]
+    Subfolder(std::ffi::OsString),
+    /// No result marker with a `version`.
+    #[error("has no roks summary.json, fit.json or export.json")]
+    NoMarker,
+}
+
+/// Why a name cannot be the result folder `out/NAME` ([`check_name`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "{why}: the name is the result folder out/NAME, so it must be one plain folder name, got {name:?}"
+)]
+pub struct NameError {
+    /// What is wrong with it.
+    pub why: NameProblem,
+    /// The name.
+    pub name: String,
+}
+
+/// What is wrong with a result folder's name ([`NameError`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NameProblem {
+    /// No name.
+    #[error("is empty")]
+    Empty,
+    /// A separator or control character.
+    #[error("contains {0:?}")]
+    Contains(char),
+    /// A leading `.`.
+    #[error("starts with `.` (`.` and `..` lead outside out/, others are hidden)")]
+    Dot,
+    /// Too long.
+    #[error("is {0} bytes long (at most {MAX_NAME_BYTES})")]
+    TooLong(usize),
+}
+
 /// Why `name` cannot be the name of a result folder `out/NAME`, or `None`
 /// when it can: it must be one plain path component (not empty, no `/`,
 /// `\`, NUL or control character, not starting with `.`, which also rules
 /// out `.` and `..`), at most [`MAX_NAME_BYTES`] bytes.
 #[must_use]
-pub fn check_name(name: &str) -> Option<String> {
+pub fn check_name(name: &str) -> Option<NameError> {
     let why = if name.is_empty() {
-        "is empty".to_string()
+        NameProblem::Empty
     } else if let Some(c) = name
         .chars()
         .find(|&c| c == '/' || c == '\\' || c.is_control())
     {
-        format!("contains {c:?}")
+        NameProblem::Contains(c)
     } else if name.starts_with('.') {
-        "starts with `.` (`.` and `..` lead outside out/, others are hidden)".to_string()
+        NameProblem::Dot
     } else if name.len() > MAX_NAME_BYTES {
-        format!("is {} bytes long (at most {MAX_NAME_BYTES})", name.len())
+        NameProblem::TooLong(name.len())
     } else {
         return None;
     };
-    Some(format!(
-        "{why}: the name is the result folder out/NAME, so it must be one plain folder name, got {name:?}"
-    ))
+    Some(NameError {
+        why,
+        name: name.to_owned(),
+    })
 }
 
 /// The parent folder of `path` (`.` for a bare name) and its last
 /// component, or why `path` names no file or folder (`/`, `..`, `a/..`).
 /// The parent is rebuilt from the components, so that `a/b/.` is `a` and
 /// `b`, as the file system sees it.
-fn split(path: &Path) -> Result<(PathBuf, std::ffi::OsString), String> {
+fn split(path: &Path) -> Result<(PathBuf, std::ffi::OsString), OutPathError> {
     let mut components = path.components();
     match components.next_back() {
         Some(Component::Normal(name)) => {
@@ -77,7 +178,7 @@ fn split(path: &Path) -> Result<(PathBuf, std::ffi::OsString), String> {
             };
             Ok((parent, name.to_os_string()))
         }
-        _ => Err("must name a file or folder to create (not `/`, `.` or `..`)".into()),
+        _ => Err(OutPathError::NoName),
     }
 }
 
@@ -94,45 +195,49 @@ fn absent(e: &std::io::Error) -> bool {
 /// part of it later): its nearest existing ancestor is a folder in which a
 /// folder can be made (tried: made and removed, which also catches read-only
 /// file systems and `/proc`, where permission bits do not tell).
-fn check_parent(parent: &Path) -> Result<(), String> {
+fn check_parent(parent: &Path) -> Result<(), OutPathError> {
     let mut p = parent;
     let existing = loop {
         match std::fs::metadata(p) {
             Ok(m) if m.is_dir() => break p,
-            Ok(_) => return Err(format!("{} is a file, not a folder", p.display())),
+            Ok(_) => return Err(OutPathError::AncestorIsFile(p.to_path_buf())),
             Err(e) if absent(&e) => match p.parent().filter(|q| !q.as_os_str().is_empty()) {
                 Some(q) => p = q,
                 None => break Path::new("."),
             },
-            Err(e) => return Err(format!("{}: {e}", p.display())),
+            Err(source) => {
+                return Err(OutPathError::Metadata {
+                    path: p.to_path_buf(),
+                    source,
+                });
+            }
         }
     };
     remove_stale(existing, &[(".roks-probe-".into(), "")]);
     let probe = existing.join(format!(".roks-probe-{}", std::process::id()));
     std::fs::create_dir(&probe)
         .and_then(|()| std::fs::remove_dir(&probe))
-        .map_err(|e| format!("cannot create anything in {}: {e}", existing.display()))
+        .map_err(|source| OutPathError::NotWritable {
+            folder: existing.to_path_buf(),
+            source,
+        })
 }
 
 /// Whether `dir` may be replaced by a new result: empty, or a roks result
 /// folder (no subfolder, and a [`RESULT_MARKERS`] file with a `version`).
-fn replaceable(dir: &Path) -> Result<(), String> {
+fn replaceable(dir: &Path) -> Result<(), OutPathError> {
     let entries = std::fs::read_dir(dir)
         .and_then(Iterator::collect::<Result<Vec<_>, _>>)
-        .map_err(|e| format!("cannot read the folder: {e}"))?;
+        .map_err(OutPathError::Unreadable)?;
     if entries.is_empty() {
         return Ok(());
     }
-    let refuse = |why: String| {
-        Err(format!(
-            "exists and {why}, so it is not a roks result folder, which a run replaces whole; choose a new folder"
-        ))
-    };
+    let refuse = |why| Err(OutPathError::NotAResult(why));
     if let Some(sub) = entries
         .iter()
         .find(|e| e.file_type().is_ok_and(|t| t.is_dir()))
     {
-        return refuse(format!("holds the folder {:?}", sub.file_name()));
+        return refuse(NotAResult::Subfolder(sub.file_name()));
     }
     let marked = RESULT_MARKERS.iter().any(|m| {
         crate::limits::read_capped(&dir.join(m), crate::limits::MAX_SCENE_BYTES)
@@ -143,7 +248,7 @@ fn replaceable(dir: &Path) -> Result<(), String> {
     if marked {
         Ok(())
     } else {
-        refuse("has no roks summary.json, fit.json or export.json".into())
+        refuse(NotAResult::NoMarker)
     }
 }
 
@@ -155,7 +260,7 @@ fn replaceable(dir: &Path) -> Result<(), String> {
 /// `path` is a file or a link to one, names no folder (`/`, `..`), is a
 /// folder that is neither empty nor a roks result, or no folder can be
 /// created beside it.
-pub fn check_folder(path: &Path) -> Result<(), String> {
+pub fn check_folder(path: &Path) -> Result<(), OutPathError> {
     let (parent, name) = split(path)?;
     let path = &parent.join(name);
     match std::fs::symlink_metadata(path) {
@@ -163,27 +268,26 @@ pub fn check_folder(path: &Path) -> Result<(), String> {
             let target = if m.file_type().is_symlink() {
                 match std::fs::metadata(path) {
                     Ok(t) if t.is_dir() => resolve(path)?,
-                    Ok(_) => return Err("is a link to a file, not a folder".into()),
-                    Err(e) => return Err(format!("is a dangling symbolic link ({e})")),
+                    Ok(_) => return Err(OutPathError::LinkToFile),
+                    Err(e) => return Err(OutPathError::Dangling(e)),
                 }
             } else if m.is_dir() {
                 path.to_path_buf()
             } else {
-                return Err("is a file, not a folder".into());
+                return Err(OutPathError::IsFile);
             };
             replaceable(&target)?;
-            check_parent(&split(&target)?.0)
-                .map_err(|e| format!("{e} (a result folder is replaced whole, beside itself)"))
+            check_parent(&split(&target)?.0).map_err(|e| OutPathError::Beside(Box::new(e)))
         }
         Err(e) if absent(&e) => check_parent(&parent),
-        Err(e) => Err(e.to_string()),
+        Err(e) => Err(OutPathError::Io(e)),
     }
 }
 
 /// `path`, or its target when it is a symbolic link.
-fn resolve(path: &Path) -> Result<PathBuf, String> {
+fn resolve(path: &Path) -> Result<PathBuf, OutPathError> {
     if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
-        std::fs::canonicalize(path).map_err(|e| format!("cannot resolve the symbolic link: {e}"))
+        std::fs::canonicalize(path).map_err(OutPathError::Resolve)
     } else {
         Ok(path.to_path_buf())
     }
@@ -194,14 +298,14 @@ fn resolve(path: &Path) -> Result<PathBuf, String> {
 ///
 /// # Errors
 /// The reason, as for [`check_folder`].
-pub fn check_file(path: &Path) -> Result<(), String> {
+pub fn check_file(path: &Path) -> Result<(), OutPathError> {
     let (parent, _) = split(path)?;
     if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
-        return Err("is a folder, not a file".into());
+        return Err(OutPathError::IsFolder);
     }
     let text = path.as_os_str().as_encoded_bytes();
     if text.ends_with(b"/") || text.ends_with(b"/.") || text == b"." {
-        return Err("ends with `/`, so it names a folder; a file is written here".into());
+        return Err(OutPathError::SlashEnded);
     }
     check_parent(&parent)
 }
@@ -509,13 +613,14 @@ mod tests {
     #[test]
     fn only_empty_or_result_folders_are_replaced() {
         let d = scratch("replaceable");
-        assert_eq!(check_folder(&d.join("new")), Ok(()));
+        assert!(check_folder(&d.join("new")).is_ok());
         std::fs::create_dir(d.join("empty")).unwrap();
         assert!(check_folder(&d.join("empty")).is_ok());
         std::fs::create_dir_all(d.join("mine/sub")).unwrap();
         assert!(
             check_folder(&d.join("mine"))
                 .unwrap_err()
+                .to_string()
                 .contains("holds the folder")
         );
         std::fs::create_dir(d.join("notes")).unwrap();
@@ -523,6 +628,7 @@ mod tests {
         assert!(
             check_folder(&d.join("notes"))
                 .unwrap_err()
+                .to_string()
                 .contains("no roks summary.json")
         );
         std::fs::write(d.join("notes/summary.json"), b"{\"version\": \"0.1.0\"}").unwrap();
@@ -531,17 +637,19 @@ mod tests {
         assert!(
             check_folder(&d.join("file"))
                 .unwrap_err()
+                .to_string()
                 .contains("is a file")
         );
         assert!(
             check_folder(&d.join("file/x"))
                 .unwrap_err()
+                .to_string()
                 .contains("is a file")
         );
         assert!(check_folder(Path::new("/")).is_err());
         assert!(check_folder(&d.join("..")).is_err());
-        assert_eq!(split(Path::new("a/b/.")), Ok(("a".into(), "b".into())));
-        assert_eq!(split(Path::new("b/")), Ok((".".into(), "b".into())));
-        assert_eq!(split(Path::new("/b")), Ok(("/".into(), "b".into())));
+        assert_eq!(split(Path::new("a/b/.")).unwrap(), ("a".into(), "b".into()));
+        assert_eq!(split(Path::new("b/")).unwrap(), (".".into(), "b".into()));
+        assert_eq!(split(Path::new("/b")).unwrap(), ("/".into(), "b".into()));
     }
 }

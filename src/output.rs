@@ -21,7 +21,8 @@
 //!
 //! `roks trace` writes `reflectance.csv`, `farfield.csv` and
 //! `farfield_stokes.csv` ([`object_csv`]) and `summary.json`
-//! ([`summary::TraceSummary`]); `roks fit` writes `fit.json`
+//! ([`summary::TraceSummary`]); with `--shard` `summary.json` and
+//! `tallies.json` ([`object_tallies`]); `roks fit` writes `fit.json`
 //! ([`summary::FitSummary`]).
 
 use std::io::Write as _;
@@ -34,6 +35,7 @@ pub mod brdf_folder;
 pub mod colour_csv;
 pub mod inplane_csv;
 pub mod object_csv;
+pub mod object_tallies;
 pub mod polar_csv;
 pub mod summary;
 pub mod tallies;

@@ -101,64 +101,191 @@ impl Default for RenderSettings {
 /// image of infinities.
 pub const MAX_RADIANCE: f64 = 1e30;
 
+/// Why a render cannot be made or written: the `roks render` option that
+/// sets the offending value (none for values no option sets), and what is
+/// wrong. Shown as one line, `OPTION: PROBLEM`.
+#[derive(Debug, thiserror::Error)]
+#[error("{}{problem}", option.map_or_else(String::new, |o| format!("{o}: ")))]
+pub struct RenderError {
+    /// The option, e.g. `--size`.
+    pub option: Option<&'static str>,
+    /// What is wrong.
+    pub problem: RenderProblem,
+}
+
+impl RenderError {
+    fn at(option: &'static str, problem: RenderProblem) -> Self {
+        Self {
+            option: Some(option),
+            problem,
+        }
+    }
+}
+
+impl From<RenderProblem> for RenderError {
+    fn from(problem: RenderProblem) -> Self {
+        Self {
+            option: None,
+            problem,
+        }
+    }
+}
+
+/// What is wrong with a render's settings, camera, tone mapping or image
+/// ([`RenderError`]). Angles in degrees.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderProblem {
+    /// An image without pixels.
+    #[error("image size {width}x{height} must be at least 1x1")]
+    Size {
+        /// Width (pixels).
+        width: usize,
+        /// Height (pixels).
+        height: usize,
+    },
+    /// No samples per pixel.
+    #[error("spp must be at least 1")]
+    Spp,
+    /// An angle that is not finite (`name`, e.g. "view phi").
+    #[error("{name} = {value} is not finite")]
+    NotFinite {
+        /// The value's name.
+        name: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A view polar angle outside `[0, 90)`.
+    #[error("view theta = {0} degrees must be in [0, 90)")]
+    ViewTheta(f64),
+    /// A light polar angle outside `[0, 180]`.
+    #[error("light theta = {0} degrees must be in [0, 180]")]
+    LightTheta(f64),
+    /// A light disc radius outside `(0, 180]`.
+    #[error("light radius = {0} degrees must be in (0, 180]")]
+    LightRadius(f64),
+    /// A negative or non-finite radiance.
+    #[error("{name} = {value} must be finite and >= 0")]
+    Radiance {
+        /// The radiance's name.
+        name: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A radiance above [`MAX_RADIANCE`].
+    #[error(
+        "{name} = {value} is above {MAX_RADIANCE:e}: the image holds f32 radiances (at most 3.4e38)"
+    )]
+    RadianceTooLarge {
+        /// The radiance's name.
+        name: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A camera vector that is not finite.
+    #[error("{0} must be finite")]
+    Vector(DVec3),
+    /// A look-at point at the camera.
+    #[error("must differ from the camera position")]
+    LookAtIsCamera,
+    /// An up vector that is zero or along the viewing axis.
+    #[error("must not be zero or parallel to the viewing axis")]
+    Up,
+    /// A field of view outside `(0, 180)`.
+    #[error("fov = {0} degrees must be in (0, 180)")]
+    Fov(f64),
+    /// An exposure that is NaN or beyond [`tonemap::MAX_EV`].
+    #[error("EV = {0} must be finite and in [-{max}, {max}]", max = tonemap::MAX_EV)]
+    Exposure(f64),
+    /// Log-curve decades outside `(0, 300]`.
+    #[error("D = {0} must be in (0, 300]")]
+    Decades(f64),
+    /// An image whose pixels do not fill it.
+    #[error("image of {width}x{height} with {pixels} pixels cannot be written")]
+    Image {
+        /// Width (pixels).
+        width: usize,
+        /// Height (pixels).
+        height: usize,
+        /// Pixels held.
+        pixels: usize,
+    },
+    /// The EXR encoder failed.
+    #[error("writing EXR: {0}")]
+    Exr(exr::error::Error),
+    /// An image wider than PNG allows.
+    #[error("image too wide for PNG")]
+    PngWidth,
+    /// An image taller than PNG allows.
+    #[error("image too tall for PNG")]
+    PngHeight,
+    /// The PNG encoder failed.
+    #[error("writing PNG: {0}")]
+    Png(image::ImageError),
+}
+
 impl RenderSettings {
     /// Check the settings; `Err` is one line starting with the `roks render`
     /// option that sets the offending field (`--size`, `--spp`, `--view`,
     /// `--light`, `--disc`, `--background`), then the field and its range.
-    pub fn validate(&self) -> Result<(), String> {
+    ///
+    /// # Errors
+    /// The first offending field, as a [`RenderError`].
+    pub fn validate(&self) -> Result<(), RenderError> {
+        use RenderProblem as P;
         if self.width == 0 || self.height == 0 {
-            return Err(format!(
-                "--size: image size {}x{} must be at least 1x1",
-                self.width, self.height
+            return Err(RenderError::at(
+                "--size",
+                P::Size {
+                    width: self.width,
+                    height: self.height,
+                },
             ));
         }
         if self.spp == 0 {
-            return Err("--spp: spp must be at least 1".into());
+            return Err(RenderError::at("--spp", P::Spp));
         }
-        let fin = |name: &str, x: f64| {
-            if x.is_finite() {
+        let fin = |option, name, value: f64| {
+            if value.is_finite() {
                 Ok(())
             } else {
-                Err(format!("{name} = {x} is not finite"))
+                Err(RenderError::at(option, P::NotFinite { name, value }))
             }
         };
-        fin("--view: view phi", self.view_phi_deg)?;
-        fin("--light: light phi", self.light_phi_deg)?;
+        fin("--view", "view phi", self.view_phi_deg)?;
+        fin("--light", "light phi", self.light_phi_deg)?;
         if !(0.0..90.0).contains(&self.view_theta_deg) {
-            return Err(format!(
-                "--view: view theta = {} degrees must be in [0, 90)",
-                self.view_theta_deg
-            ));
+            return Err(RenderError::at("--view", P::ViewTheta(self.view_theta_deg)));
         }
         // Above 90 degrees (object scenes: light from below) is allowed; a
         // micro surface is then simply dark.
         if !(0.0..=180.0).contains(&self.light_theta_deg) {
-            return Err(format!(
-                "--light: light theta = {} degrees must be in [0, 180]",
-                self.light_theta_deg
+            return Err(RenderError::at(
+                "--light",
+                P::LightTheta(self.light_theta_deg),
             ));
         }
         if !(self.light_radius_deg > 0.0 && self.light_radius_deg <= 180.0) {
-            return Err(format!(
-                "--disc: light radius = {} degrees must be in (0, 180]",
-                self.light_radius_deg
+            return Err(RenderError::at(
+                "--disc",
+                P::LightRadius(self.light_radius_deg),
             ));
         }
-        for (name, x) in [
-            ("light radiance", self.light_radiance),
+        for (option, name, value) in [
+            (None, "light radiance", self.light_radiance),
             (
-                "--background: background radiance",
+                Some("--background"),
+                "background radiance",
                 self.background_radiance,
             ),
         ] {
-            if !(x.is_finite() && x >= 0.0) {
-                return Err(format!("{name} = {x} must be finite and >= 0"));
-            }
-            if x > MAX_RADIANCE {
-                return Err(format!(
-                    "{name} = {x} is above {MAX_RADIANCE:e}: the image holds f32 radiances (at most 3.4e38)"
-                ));
-            }
+            let problem = if !(value.is_finite() && value >= 0.0) {
+                P::Radiance { name, value }
+            } else if value > MAX_RADIANCE {
+                P::RadianceTooLarge { name, value }
+            } else {
+                continue;
+            };
+            return Err(RenderError { option, problem });
         }
         Ok(())
     }
@@ -177,14 +304,13 @@ pub struct Image {
 
 impl Image {
     /// `Err` unless the image has at least one pixel and `width * height` of them.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), RenderProblem> {
         if self.width == 0 || self.height == 0 || self.rgb.len() != self.width * self.height {
-            return Err(format!(
-                "image of {}x{} with {} pixels cannot be written",
-                self.width,
-                self.height,
-                self.rgb.len()
-            ));
+            return Err(RenderProblem::Image {
+                width: self.width,
+                height: self.height,
+                pixels: self.rgb.len(),
+            });
         }
         Ok(())
     }
@@ -433,28 +559,29 @@ impl PinholeCamera {
     /// Check the camera; `Err` is one line starting with the `roks render`
     /// option that sets the offending field (`--camera`, `--look-at`,
     /// `--up`, `--fov`).
-    pub fn validate(&self) -> Result<(), String> {
+    ///
+    /// # Errors
+    /// The first offending field, as a [`RenderError`].
+    pub fn validate(&self) -> Result<(), RenderError> {
+        use RenderProblem as P;
         for (option, v) in [
             ("--camera", self.position),
             ("--look-at", self.look_at),
             ("--up", self.up),
         ] {
             if !v.is_finite() {
-                return Err(format!("{option}: {v} must be finite"));
+                return Err(RenderError::at(option, P::Vector(v)));
             }
         }
         let f = self.look_at - self.position;
         if f.length() == 0.0 {
-            return Err("--look-at: must differ from the camera position".into());
+            return Err(RenderError::at("--look-at", P::LookAtIsCamera));
         }
         if f.normalize().cross(self.up).length() < 1e-9 {
-            return Err("--up: must not be zero or parallel to the viewing axis".into());
+            return Err(RenderError::at("--up", P::Up));
         }
         if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            return Err(format!(
-                "--fov: fov = {} degrees must be in (0, 180)",
-                self.fov_deg
-            ));
+            return Err(RenderError::at("--fov", P::Fov(self.fov_deg)));
         }
         Ok(())
     }
@@ -560,7 +687,10 @@ pub struct RenderLosses {
 /// The image as an OpenEXR file in memory: one layer, scanline blocks, ZIP
 /// compression (16 lines per block), f32 channels R, G, B, increasing line
 /// order. Write the bytes to a path with `crate::output`'s atomic writer.
-pub fn write_exr(img: &Image) -> Result<Vec<u8>, String> {
+///
+/// # Errors
+/// An image without its pixels, or the encoder's failure.
+pub fn write_exr(img: &Image) -> Result<Vec<u8>, RenderProblem> {
     use exr::prelude::*;
     img.check()?;
     let encoding = Encoding {
@@ -583,26 +713,29 @@ pub fn write_exr(img: &Image) -> Result<Vec<u8>, String> {
     image
         .write()
         .to_buffered(&mut buf)
-        .map_err(|e| format!("writing EXR: {e}"))?;
+        .map_err(RenderProblem::Exr)?;
     Ok(buf.into_inner())
 }
 
 /// Tone-mapped 8-bit RGB PNG preview, in memory (exposure, curve and
 /// sRGB encoding: [`tonemap`]), and the exposure and decades used.
+///
+/// # Errors
+/// An image without its pixels, bad tone settings, or the encoder's failure.
 pub fn write_png_preview(
     img: &Image,
     tone: &ToneSettings,
-) -> Result<(Vec<u8>, tonemap::Applied), String> {
+) -> Result<(Vec<u8>, tonemap::Applied), RenderError> {
     use image::ImageEncoder;
     img.check()?;
     tone.validate()?;
     let (bytes, applied) = tonemap::map(img, tone);
     let mut out = Vec::new();
-    let width = u32::try_from(img.width).map_err(|_| "image too wide for PNG".to_string())?;
-    let height = u32::try_from(img.height).map_err(|_| "image too tall for PNG".to_string())?;
+    let width = u32::try_from(img.width).map_err(|_| RenderProblem::PngWidth)?;
+    let height = u32::try_from(img.height).map_err(|_| RenderProblem::PngHeight)?;
     image::codecs::png::PngEncoder::new(&mut out)
         .write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)
-        .map_err(|e| format!("writing PNG: {e}"))?;
+        .map_err(RenderProblem::Png)?;
     Ok((out, applied))
 }
 
@@ -822,7 +955,9 @@ mod tests {
         s.background_radiance = -1.0;
         assert!(s.validate().is_err());
         s.background_radiance = 1e308;
-        assert!(s.validate().unwrap_err().starts_with("--background:"));
+        let e = s.validate().unwrap_err();
+        assert_eq!(e.option, Some("--background"));
+        assert!(e.to_string().starts_with("--background: "), "{e}");
         s.background_radiance = MAX_RADIANCE;
         assert!(s.validate().is_ok());
         assert!(settings().validate().is_ok());

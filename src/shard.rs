@@ -34,22 +34,59 @@ pub struct Shard {
     pub count: u64,
 }
 
+/// Why a `--shard` value, or a shard of a run, was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ShardError {
+    /// No `/`.
+    #[error("expected I/N (e.g. 0/4), got `{0}`")]
+    Form(String),
+    /// `I` is not a whole number.
+    #[error("bad shard index `{index}` in `{given}`")]
+    Index {
+        /// The index text.
+        index: String,
+        /// The whole value.
+        given: String,
+    },
+    /// `N` is not a whole number.
+    #[error("bad shard count `{count}` in `{given}`")]
+    Count {
+        /// The count text.
+        count: String,
+        /// The whole value.
+        given: String,
+    },
+    /// Not `0 <= I < N`.
+    #[error("need 0 <= I < N, got `{0}`")]
+    Range(String),
+    /// More shards than batches.
+    #[error(
+        "{shards} shards but only {batches} batches of {BATCH} photons: use at most {batches} shards or more photons"
+    )]
+    TooMany {
+        /// The shards asked for.
+        shards: u64,
+        /// The batches of the run.
+        batches: u64,
+    },
+}
+
 impl std::str::FromStr for Shard {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = ShardError;
+    fn from_str(s: &str) -> Result<Self, ShardError> {
         let (i, n) = s
             .split_once('/')
-            .ok_or_else(|| format!("expected I/N (e.g. 0/4), got `{s}`"))?;
-        let index: u64 = i
-            .trim()
-            .parse()
-            .map_err(|_| format!("bad shard index `{i}` in `{s}`"))?;
-        let count: u64 = n
-            .trim()
-            .parse()
-            .map_err(|_| format!("bad shard count `{n}` in `{s}`"))?;
+            .ok_or_else(|| ShardError::Form(s.to_owned()))?;
+        let index: u64 = i.trim().parse().map_err(|_| ShardError::Index {
+            index: i.to_owned(),
+            given: s.to_owned(),
+        })?;
+        let count: u64 = n.trim().parse().map_err(|_| ShardError::Count {
+            count: n.to_owned(),
+            given: s.to_owned(),
+        })?;
         if count == 0 || index >= count {
-            return Err(format!("need 0 <= I < N, got `{s}`"));
+            return Err(ShardError::Range(s.to_owned()));
         }
         Ok(Self { index, count })
     }
@@ -60,14 +97,14 @@ impl Shard {
     /// photons per incidence: whole batches, `first` a multiple of [`BATCH`].
     ///
     /// # Errors
-    /// When there are fewer batches than shards.
-    pub fn photon_range(self, photons: u64) -> Result<(u64, u64), String> {
+    /// [`ShardError::TooMany`]: fewer batches than shards.
+    pub fn photon_range(self, photons: u64) -> Result<(u64, u64), ShardError> {
         let batches = photons.div_ceil(BATCH);
         if self.count > batches {
-            return Err(format!(
-                "{} shards but only {batches} batches of {BATCH} photons: use at most {batches} shards or more photons",
-                self.count
-            ));
+            return Err(ShardError::TooMany {
+                shards: self.count,
+                batches,
+            });
         }
         let b0 = (u128::from(self.index) * u128::from(batches) / u128::from(self.count)) as u64;
         let b1 = (u128::from(self.index + 1) * u128::from(batches) / u128::from(self.count)) as u64;

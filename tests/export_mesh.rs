@@ -3,7 +3,7 @@
 
 mod common;
 
-use roks::export::{Mesh, height_field_mesh, read_ply, write_ply};
+use roks::export::{Mesh, PlyError, height_field_mesh, read_ply, write_ply};
 use roks::micro::bumps::Shape;
 use roks::scene::micro::MicroScene;
 
@@ -214,23 +214,21 @@ fn read_ply_rejects_damaged_files() {
         + 11;
 
     let err = read_ply(&bytes[..bytes.len() - 1]).unwrap_err();
-    assert!(err.contains("bytes of data"), "{err}");
+    assert!(matches!(err, PlyError::Length { .. }), "{err}");
+    assert!(err.to_string().contains("bytes of data"), "{err}");
     let err = read_ply(b"ply\nformat ascii 1.0\nend_header\n").unwrap_err();
-    assert!(err.contains("binary_little_endian"), "{err}");
-    assert!(read_ply(b"not a ply").unwrap_err().contains("end_header"));
+    assert!(err.to_string().contains("binary_little_endian"), "{err}");
+    assert_eq!(read_ply(b"not a ply").unwrap_err(), PlyError::NoEnd);
 
     let mut quad = bytes.clone();
     quad[header_len + 9 * 12] = 4;
-    assert!(
-        read_ply(&quad)
-            .unwrap_err()
-            .contains("face 0 has 4 vertices")
+    assert_eq!(
+        read_ply(&quad).unwrap_err(),
+        PlyError::NotTriangle { face: 0, count: 4 }
     );
     let mut out_of_range = bytes.clone();
     out_of_range[header_len + 9 * 12 + 1] = 9;
-    assert!(
-        read_ply(&out_of_range)
-            .unwrap_err()
-            .contains("out of range")
-    );
+    let err = read_ply(&out_of_range).unwrap_err();
+    assert!(matches!(err, PlyError::Index { face: 0, .. }), "{err}");
+    assert!(err.to_string().contains("out of range"), "{err}");
 }

@@ -42,11 +42,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The files under `python/tests` holding tests marked `mitsuba`.
-const MITSUBA_FILES: [&str; 7] = [
+const MITSUBA_FILES: [&str; 8] = [
     "test_crosscheck.py",
     "test_mitsuba_brdf.py",
     "test_mitsuba_polarised.py",
     "test_mitsuba_setup.py",
+    "test_rgl.py",
     "test_roks_bsdf.py",
     "test_roks_table_colour.py",
     "test_spectral_mitsuba.py",

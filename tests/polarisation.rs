@@ -1390,7 +1390,8 @@ fn lattice_launch_with_a_stokes_tally() {
             .replace("seed = 8\n", "seed = 8\nlaunch = \"lattice\"\n");
     let scene = common::scene("lattice", &text);
     let run = scene.brdf_run();
-    let r = run.run(&scene.surface, &|_| {}).remove(0);
+    let result = run.run(&scene.surface, &|_| {});
+    let r = result.leaf(0, 0, 0);
     let p = r.tallies.polar.as_ref().unwrap();
     assert!(p.replicates.is_some());
     for c in 0..r.tallies.carlson.len() {
@@ -1406,10 +1407,8 @@ fn lattice_launch_with_a_stokes_tally() {
         );
     }
     assert_eq!(r.polar(0).unwrap(), r.reflectance());
-    let stokes = roks::output::polar_csv::write(&run, std::slice::from_ref(&r))
-        .unwrap()
-        .1;
-    let brdf = roks::output::brdf_csv::write(&run, std::slice::from_ref(&r));
+    let stokes = roks::output::polar_csv::write(&run, &result).unwrap().1;
+    let brdf = roks::output::brdf_csv::write(&run, &result);
     assert_eq!(column(&stokes, "s0"), column(&brdf, "brdf"));
     assert_eq!(column(&stokes, "s0_stderr"), column(&brdf, "brdf_stderr"));
 }

@@ -14,6 +14,10 @@
 //!   (it does not pend forever), `status` lists shard 001 as failed and 003
 //!   as missing and prints the command resubmitting exactly those two;
 //!   running that command gives the single run's bytes again.
+//! * An object scene (`scenes/baffled-tube-10.toml`) in 3 shards: the
+//!   script runs `roks trace`, refuses more shards than batches, and the
+//!   merge gives the single run's `reflectance.csv`, `farfield.csv` and
+//!   picture byte for byte (`summary.json` but timings).
 //!
 //! Skipped with a message when the Slurm and munge commands are missing or
 //! the test is not root, unless `ROKS_REQUIRE_SLURM=1` (set by `.ci/run`
@@ -45,6 +49,9 @@ const COMMANDS: [&str; 7] = [
 
 /// Photons per incidence angle of the runs: 8 batches of 4096.
 const PHOTONS: &str = "32768";
+
+/// Photons of the object scene's one beam position: 3 batches of 4096.
+const TUBE_PHOTONS: &str = "12288";
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -571,7 +578,56 @@ fn slurm_runs_merge_into_the_single_run_and_recover_from_a_killed_shard() {
     );
     assert_same_as_single("killed and resubmitted", &broken, &single);
     eprintln!(
-        "slurm: killed, resubmitted and merged in {:.1} s; whole test {:.1} s",
+        "slurm: killed, resubmitted and merged in {:.1} s",
+        t.elapsed().as_secs_f64(),
+    );
+
+    // (3) An object scene: the same script runs `roks trace` shards.
+    let t = Instant::now();
+    let tube = root().join("scenes/baffled-tube-10.toml");
+    let tube = tube.to_str().unwrap();
+    let tube_single = path("tube-single");
+    let o = Command::new(env!("CARGO_BIN_EXE_roks"))
+        .args(["trace", tube, "-q", "--photons", TUBE_PHOTONS])
+        .args(["--out", &s(&tube_single)])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "single trace: {}", text(&o.stderr));
+    refused(
+        "more object shards than batches",
+        &[tube, "4", "--photons", TUBE_PHOTONS],
+        &[],
+        &["roks trace refuses", "4 shards but only 3 batches"],
+    );
+    let tube_out = path("tube");
+    let o = cluster.script(
+        &[tube, &s(&tube_out), "3", "--photons", TUBE_PHOTONS],
+        &[("CPUS", "1")],
+    );
+    assert!(o.status.success(), "object run: {}", text(&o.stderr));
+    cluster.drain(Duration::from_secs(120));
+    let status = cluster.script(&["status", &s(&tube_out)], &[]);
+    let report = text(&status.stdout);
+    assert_eq!(status.status.code(), Some(0), "object status: {report}");
+    assert!(
+        report.contains("done: 3 of 3")
+            && report.contains("merged: ")
+            && report.contains("roks trace options"),
+        "{report}"
+    );
+    for name in ["reflectance.csv", "farfield.csv", "reflectance.png"] {
+        assert!(
+            read(&tube_out, name) == read(&tube_single, name),
+            "object run: {name} differs from the single run's"
+        );
+    }
+    assert_eq!(
+        summary_without_timing(&tube_out),
+        summary_without_timing(&tube_single),
+        "object run: summary.json differs beyond timings"
+    );
+    eprintln!(
+        "slurm: object scene in 3 shards merged in {:.1} s; whole test {:.1} s",
         t.elapsed().as_secs_f64(),
         started.elapsed().as_secs_f64()
     );

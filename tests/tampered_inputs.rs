@@ -368,7 +368,7 @@ fn summaries_that_disagree_with_their_table_are_refused() {
         (
             "not-json",
             |s| *s = Value::String("x".into()),
-            &["no `incidence` list"],
+            &["not the summary.json of a roks brdf run"],
         ),
     ];
     let root = scratch("summaries");

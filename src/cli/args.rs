@@ -1,14 +1,12 @@
-//! The command line's arguments: the subcommands, and the options shared by
-//! the tracing commands. Each command's own options live in its module.
+//! The command line's arguments: the subcommands. Each command's own
+//! options live in its module; the options the tracing commands share
+//! ([`super::common::TracingArgs`]) in `common`.
 //!
 //! The doc comments of the items deriving clap's traits are the help text
 //! of `roks --help` and `roks <command> --help`.
 
-use std::path::PathBuf;
+use clap::{Parser, Subcommand};
 
-use clap::{Args, Parser, Subcommand};
-
-use super::parse::{integer, positive};
 use super::{
     brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, plot, render, stats,
     trace,
@@ -135,27 +133,6 @@ pub enum Command {
     Plot(plot::PlotArgs),
 }
 
-/// The options of both tracing commands (`roks brdf`, `roks trace`): the
-/// result folder, the photons and seed overriding the scene's, the worker
-/// threads. A command states what its photons count and which scene key
-/// they override in the help of `photons` and `seed` (clap's `mut_arg`).
-#[derive(Args, Debug, Clone, PartialEq, Eq)]
-pub struct RunArgs {
-    /// Output folder (default: out/<scene name>/), replaced whole by the run
-    /// (an existing one must be empty or a roks result).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Photons per incidence angle or beam position (overrides the scene's).
-    #[arg(long, value_parser = positive::<u64>)]
-    pub photons: Option<u64>,
-    /// Tracing seed (overrides the scene's).
-    #[arg(long, value_parser = integer::<u64>)]
-    pub seed: Option<u64>,
-    /// Worker threads (default: all cores). Does not change results.
-    #[arg(long, value_parser = positive::<usize>)]
-    pub threads: Option<usize>,
-}
-
 #[cfg(test)]
 mod tests {
     use clap::CommandFactory;
@@ -189,13 +166,13 @@ mod tests {
             .unwrap();
             let cli = <Cli as clap::FromArgMatches>::from_arg_matches(&m).unwrap();
             let run = match cli.command {
-                Command::Brdf(a) => a.run,
-                Command::Trace(a) => a.run,
+                Command::Brdf(a) => a.tracing,
+                Command::Trace(a) => a.tracing,
                 other => panic!("{other:?}"),
             };
             assert_eq!(
                 run,
-                RunArgs {
+                crate::cli::common::TracingArgs {
                     out: Some("d".into()),
                     photons: Some(1000),
                     seed: Some(7),

@@ -6,9 +6,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::args::RunArgs;
-use super::common::{progress_bar, result_dir, set_threads, stats_grid, write_folder};
-use super::export_brdf::export_tables;
+use super::common::{TracingArgs, progress_bar, result_dir, set_threads, stats_grid, write_folder};
+use super::export_brdf::export_tables_of;
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::micro::surface_stats::surface_stats;
@@ -18,7 +17,7 @@ use crate::scene::WavelengthsSpec;
 use crate::scene::micro::{MicroScene, Overrides};
 use crate::shard::Shard;
 use crate::tally::{PolarTally, Symmetry};
-use crate::transport::brdf::{IncidenceResult, ShardRange};
+use crate::transport::brdf::{BrdfResult, IncidenceResult, ShardRange};
 use crate::transport::launch::Launch;
 
 /// The options of `roks brdf`.
@@ -32,7 +31,7 @@ pub struct BrdfArgs {
     pub scene: Option<PathBuf>,
     /// The result folder, photons per incidence angle, seed and threads.
     #[command(flatten)]
-    pub run: RunArgs,
+    pub tracing: TracingArgs,
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
     pub theta: Option<Vec<f64>>,
@@ -74,7 +73,8 @@ pub struct BrdfArgs {
     /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf;
     /// spectral: DIR/brdf_<wavelength>um.bsdf per wavelength), merl
     /// (DIR/brdf.binary; spectral: linear sRGB, wavelengths covering
-    /// 0.38-0.78 um); see `roks export-brdf`.
+    /// 0.38-0.78 um), rgl (DIR/brdf_rgl.bsdf, Mitsuba 3 / pbrt-v4 `measured`);
+    /// see `roks export-brdf`.
     #[arg(
         long,
         value_delimiter = ',',
@@ -92,8 +92,8 @@ impl BrdfArgs {
     #[must_use]
     pub fn overrides(&self) -> Overrides {
         Overrides {
-            photons: self.run.photons,
-            seed: self.run.seed,
+            photons: self.tracing.photons,
+            seed: self.tracing.seed,
             theta_deg: self.theta.clone(),
             wavelengths_um: self.wavelengths.clone(),
             launch: self.launch,
@@ -142,9 +142,9 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
             last_photon,
         });
     }
-    set_threads(a.run.threads)?;
+    set_threads(a.tracing.threads)?;
     let out = result_dir(
-        a.run.out.as_deref(),
+        a.tracing.out.as_deref(),
         &scene.source.file,
         &scene.name,
         &scene.reads,
@@ -154,7 +154,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let stats = surface_stats(&map);
     let surface = super::plot::surface_png(&scene, &map, &stats)?;
     drop(map);
-    let (first, last) = run.photon_range();
+    let photons = run.photon_range();
     let description = Description::new(
         scene.content.clone(),
         &scene.source.file,
@@ -163,22 +163,29 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
         run,
         Surface::new(&stats, rx),
     );
+    let per_angle = photons.end - photons.start;
     let bar = progress_bar(
-        (last - first).saturating_mul(description.run.theta_deg.len() as u64),
+        per_angle.saturating_mul(description.run.theta_deg.len() as u64),
         a.quiet,
         &scene.name,
     );
-    let folder = BrdfFolder::trace(&scene.surface, description, &|n| bar.inc(n));
+    let clock = std::time::Instant::now();
+    let results = description
+        .run
+        .trace_realisations(&scene.surfaces(), photons, &|n| bar.inc(n));
+    let folder = BrdfFolder::traced(description, results, clock.elapsed().as_secs_f64());
     bar.finish_and_clear();
 
     let mut extra = Vec::new();
     if !a.export.is_empty() {
         let table = folder.table();
-        let comment = format!("scene {}, {} photons per angle", scene.name, last - first);
+        let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
         for (k, &f) in a.export.iter().enumerate() {
             // Each format once, in the order given.
             if !a.export[..k].contains(&f) {
-                for file in export_tables(&table, f, &comment, a.quiet, "--export")? {
+                for file in
+                    export_tables_of(&table, f, &comment, a.quiet, "--export", &scene.surface)?
+                {
                     extra.push((file.file_name, file.bytes));
                 }
             }
@@ -197,7 +204,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
 }
 
 /// The table of results per incidence angle, on stderr (also `roks merge`).
-pub fn print_table(results: &[IncidenceResult]) {
+pub fn print_table(results: &BrdfResult) {
     let spectral = results.iter().any(|r| r.wavelength_um.is_some());
     let lambda = |r: &IncidenceResult| match r.wavelength_um {
         Some(w) => format!(" {w:>8}"),
@@ -225,6 +232,34 @@ pub fn print_table(results: &[IncidenceResult]) {
             r.lost(),
             r.segments_per_second() / 1e6
         );
+    }
+    // Several surface realisations: their spread beside the photon noise.
+    if results.iter().any(|r| r.realisations.len() > 1) {
+        eprintln!(
+            "{:>9}{} {:>12} {:>14} {:>14}  ({} realisations)",
+            "theta_i",
+            if spectral { "  lambda_um" } else { "" },
+            "spread",
+            "surface_spread",
+            "monte_carlo",
+            results
+                .iter()
+                .map(|r| r.realisations.len())
+                .max()
+                .unwrap_or(0)
+        );
+        for r in results {
+            if let Some(s) = crate::output::summary::RealisationsSummary::new(&r.realisations) {
+                eprintln!(
+                    "{:>9.2}{} {:>12.2e} {:>14.2e} {:>14.2e}",
+                    r.theta_i_deg,
+                    lambda(r),
+                    s.spread,
+                    s.surface_spread,
+                    s.monte_carlo_spread
+                );
+            }
+        }
     }
 }
 

@@ -369,6 +369,27 @@ fn photon_rate(s: &ProgressState) -> Option<f64> {
     (s.pos() > 0 && secs > 0.0).then(|| s.pos() as f64 / secs)
 }
 
+/// The options of both tracing commands (`roks brdf`, `roks trace`): the
+/// result folder, the photons and seed overriding the scene's, the worker
+/// threads. A command states what its photons count and which scene key
+/// they override in the help of `photons` and `seed` (clap's `mut_arg`).
+#[derive(clap::Args, Debug, Clone, PartialEq, Eq)]
+pub struct TracingArgs {
+    /// Output folder (default: out/<scene name>/), replaced whole by the run
+    /// (an existing one must be empty or a roks result).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Photons per incidence angle or beam position (overrides the scene's).
+    #[arg(long, value_parser = super::parse::positive::<u64>)]
+    pub photons: Option<u64>,
+    /// Tracing seed (overrides the scene's).
+    #[arg(long, value_parser = super::parse::integer::<u64>)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores). Does not change results.
+    #[arg(long, value_parser = super::parse::positive::<usize>)]
+    pub threads: Option<usize>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

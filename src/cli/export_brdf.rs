@@ -13,7 +13,7 @@
 //! wavelengths must cover the visible). See
 //! [`crate::export::brdf_formats`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 
@@ -32,7 +32,7 @@ use crate::optics::brdf_table::BrdfTables;
 pub struct ExportBrdfArgs {
     /// Result folder of `roks brdf` (with brdf.csv).
     pub dir: PathBuf,
-    /// Output format: zemax or merl.
+    /// Output format: zemax, merl or rgl (Mitsuba 3 `measured`, pbrt-v4).
     #[arg(long, ignore_case = true, hide_possible_values = true)]
     pub format: BrdfFormat,
     /// Output file (spectral zemax: a folder, replaced whole, holding one
@@ -45,28 +45,45 @@ pub struct ExportBrdfArgs {
     /// steps follow a narrow peak more closely, in a larger file.
     #[arg(long, value_name = "AZIMUTH_DEG,RADIAL_DEG", value_parser = grid)]
     pub grid: Option<ZemaxGrid>,
+    /// The micro scene the folder was traced from, for the NDF of an rgl
+    /// file (default: the scene summary.json names, if it is there, or the
+    /// embedded default scene).
+    #[arg(long, value_name = "SCENE")]
+    pub scene: Option<PathBuf>,
     /// No reflectance table on stderr (a warning still says when the
     /// file's reflectance is off the table's).
     #[arg(long, short)]
     pub quiet: bool,
 }
 
+/// Why a `--grid` value was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GridError {
+    /// A step that is not a number.
+    #[error(transparent)]
+    Number(#[from] super::parse::ValueError),
+    /// Not two steps.
+    #[error("expected AZIMUTH_DEG,RADIAL_DEG, got {0:?}")]
+    Form(String),
+    /// A step outside (0, 90] or not dividing 180.
+    #[error("each step must be in (0, 90] degrees and divide 180, got {0}")]
+    Step(f64),
+}
+
 /// The value of `--grid`: two steps in degrees, each in (0, 90] and
 /// dividing 180 into whole steps (to 1e-9).
-fn grid(s: &str) -> Result<ZemaxGrid, String> {
+fn grid(s: &str) -> Result<ZemaxGrid, GridError> {
     let steps: Vec<f64> = s
         .split(',')
         .map(|v| super::parse::number(v.trim()))
         .collect::<Result<_, _>>()?;
     let [azimuth_step_deg, radial_step_deg] = steps[..] else {
-        return Err(format!("expected AZIMUTH_DEG,RADIAL_DEG, got {s:?}"));
+        return Err(GridError::Form(s.to_owned()));
     };
     for step in [azimuth_step_deg, radial_step_deg] {
         let n = 180.0 / step;
         if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
-            return Err(format!(
-                "each step must be in (0, 90] degrees and divide 180, got {step}"
-            ));
+            return Err(GridError::Step(step));
         }
     }
     Ok(ZemaxGrid {
@@ -84,11 +101,12 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
     let format = a.format;
     let csv = a.dir.join("brdf.csv");
     // The files of the result this export reads.
-    let inputs = [
+    let mut inputs = vec![
         csv.clone(),
         a.dir.join("summary.json"),
         a.dir.join("mueller.csv"),
     ];
+    inputs.extend(a.scene.clone());
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(
             "{}: not a folder (expected the result folder of `roks brdf`, with brdf.csv)",
@@ -120,14 +138,30 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
             "--grid: only for --format zemax (the {format} grid is fixed by its format)"
         )));
     }
-    let files = export_tables_on(
-        &tables,
-        format,
-        &format!("from {}", csv.display()),
-        a.quiet,
-        "--format",
-        a.grid.unwrap_or_default(),
-    )?;
+    if a.scene.is_some() && format != BrdfFormat::Rgl {
+        return Err(Failure::Input(
+            "--scene: only for --format rgl (the NDF of its micro surface)".into(),
+        ));
+    }
+    let comment = format!("from {}", csv.display());
+    let files = if format == BrdfFormat::Rgl {
+        let scene = rgl_scene(a.scene.as_deref(), &summary)?;
+        export_rgl(
+            &tables,
+            &comment,
+            a.quiet,
+            scene.as_ref().map(|s| &s.surface),
+        )?
+    } else {
+        export_tables_on(
+            &tables,
+            format,
+            &comment,
+            a.quiet,
+            "--format",
+            a.grid.unwrap_or_default(),
+        )?
+    };
     if folder {
         let marker = serde_json::json!({
             "version": env!("CARGO_PKG_VERSION"),
@@ -163,6 +197,102 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
 /// The file that names a folder of per-wavelength exports (its format,
 /// table and files, and the roks version, which lets a rerun replace it).
 pub const EXPORT_MARKER: &str = "export.json";
+
+/// The micro scene whose NDF an rgl export of a result folder writes:
+/// `scene` if given, else the scene that `summary` (the folder's
+/// summary.json) names when that file is there (the embedded default for
+/// `<default scene>`); `None` when there is none to be had.
+///
+/// # Errors
+/// A scene that does not load.
+fn rgl_scene(
+    scene: Option<&Path>,
+    summary: &Path,
+) -> Result<Option<crate::scene::micro::MicroScene>, Failure> {
+    if let Some(p) = scene {
+        return super::common::load_scene(Some(p)).map(Some);
+    }
+    let named = std::fs::read_to_string(summary)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v.get("scene").and_then(|s| s.as_str()).map(str::to_owned));
+    match named.as_deref() {
+        Some("<default scene>") => super::common::load_scene(None).map(Some),
+        Some(p) if Path::new(p).is_file() => {
+            super::common::load_scene(Some(Path::new(p))).map(Some)
+        }
+        _ => Ok(None),
+    }
+}
+
+/// The RGL file of `tables` ([`crate::export::rgl`]) with the NDF of
+/// `surface` (none: the uniform NDF, with a note), read back and judged
+/// like the other exports: per wavelength (one line for a monochrome
+/// table, written grey) and incidence, the file's reflectance beside the
+/// table's, and a warning line where it is off.
+///
+/// # Errors
+/// A file that does not read back (a defect of the writer, exit status 1).
+pub fn export_rgl(
+    tables: &BrdfTables,
+    comment: &str,
+    quiet: bool,
+    surface: Option<&crate::micro::MicroSurface>,
+) -> Result<Vec<ExportFile>, Failure> {
+    use crate::export::rgl;
+    let format = BrdfFormat::Rgl;
+    let ndf = match surface {
+        Some(s) => rgl::surface_ndf(s, rgl::smoothing_for(tables.tables()[0].bands())),
+        None => {
+            eprintln!(
+                "note: rgl: no micro scene (--scene) for the NDF: the uniform NDF 1/pi is written; the file's values are the same, its importance sampling follows the table alone"
+            );
+            rgl::Ndf::uniform()
+        }
+    };
+    let bytes = rgl::Rgl::from_tables(tables, &ndf, comment).to_bytes();
+    let checks = rgl::check(tables, &bytes, format.file_name())
+        .map_err(|e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}")))?;
+    for (k, check) in checks.iter().enumerate() {
+        let what = match tables.wavelengths_um().get(k) {
+            Some(w) => format!("{format} ({w} um)"),
+            None => format.to_string(),
+        };
+        if !quiet {
+            eprintln!(
+                "{what}: reflectance of the file (read back, integrated over the hemisphere) vs the table"
+            );
+            print_check(check);
+        }
+        warn_off(&what, check, None);
+    }
+    Ok(vec![ExportFile {
+        file_name: format.file_name().to_owned(),
+        wavelength_um: None,
+        bytes,
+        clipped: None,
+    }])
+}
+
+/// [`export_tables`] for `roks brdf --export`, which has the micro
+/// `surface`: an rgl file gets the NDF of its facets ([`export_rgl`]).
+///
+/// # Errors
+/// As [`export_tables`].
+pub fn export_tables_of(
+    tables: &BrdfTables,
+    format: BrdfFormat,
+    comment: &str,
+    quiet: bool,
+    option: &str,
+    surface: &crate::micro::MicroSurface,
+) -> Result<Vec<ExportFile>, Failure> {
+    if format == BrdfFormat::Rgl {
+        export_rgl(tables, comment, quiet, Some(surface))
+    } else {
+        export_tables(tables, format, comment, quiet, option)
+    }
+}
 
 /// The export of `tables` in `format` ([`BrdfFormat::export_tables`]), with
 /// `comment` in its header where the format has one, judged: each file is
@@ -280,6 +410,10 @@ fn warn_off(
                 grid.azimuth_step_deg, grid.radial_step_deg
             ),
         },
+        None if what.starts_with("rgl") => format!(
+            "the rgl grids are fixed ({0} x {0} samples per incidence); export zemax for a finer one",
+            crate::export::rgl::SAMPLE_RES
+        ),
         None => "the MERL grid is fixed by its format; export zemax for a finer one".to_string(),
     };
     for c in off {

@@ -18,7 +18,7 @@ use super::parse::number;
 use crate::fit_model::microfacet::{Distribution, Microfacet};
 use crate::fit_model::{self, FitResult, ModelKind, abg, harvey, observations};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
-use crate::optics::material::Reflectance;
+use crate::optics::material::{Reflectance, ReflectanceError};
 
 /// The options of `roks fit-model`.
 #[derive(Args, Debug)]
@@ -87,10 +87,9 @@ fn material(
         let k = a.k.unwrap_or(0.0);
         let m = Reflectance::Fresnel { n, k };
         m.validate().map_err(|e| {
-            let option = if e.to_string().starts_with("extinction") {
-                "--k"
-            } else {
-                "--n"
+            let option = match e {
+                ReflectanceError::InvalidK(_) => "--k",
+                _ => "--n",
             };
             bad(option, e.to_string())
         })?;
@@ -182,30 +181,16 @@ pub fn run(a: FitModelArgs) -> Result<(), Failure> {
         // Checked by with_summary: the same run. Its scene and photons.
         let text = crate::limits::read_text_capped(&summary_path, crate::limits::max_data_bytes())
             .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
-        let json: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| input(format!("{}: invalid JSON: {e}", summary_path.display())))?;
-        scene = json
-            .get("scene")
-            .and_then(serde_json::Value::as_str)
-            .map(str::to_owned);
-        let incidence = json.get("incidence").and_then(serde_json::Value::as_array);
-        photons = incidence.map(|list| {
-            let mut by_angle: Vec<(f64, u64)> = list
-                .iter()
-                .map(|e| {
-                    (
-                        e.get("theta_deg")
-                            .and_then(serde_json::Value::as_f64)
-                            .unwrap_or(f64::NAN),
-                        e.get("photons")
-                            .and_then(serde_json::Value::as_u64)
-                            .unwrap_or(0),
-                    )
-                })
-                .collect();
-            by_angle.sort_by(|x, y| x.0.total_cmp(&y.0));
-            by_angle.into_iter().map(|p| p.1).collect()
-        });
+        let summary: crate::output::summary::BrdfSummary = serde_json::from_str(&text)
+            .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
+        let mut by_angle: Vec<(f64, u64)> = summary
+            .incidence
+            .iter()
+            .map(|e| (e.theta_deg, e.photons))
+            .collect();
+        by_angle.sort_by(|x, y| x.0.total_cmp(&y.0));
+        photons = Some(by_angle.into_iter().map(|p| p.1).collect());
+        scene = Some(summary.scene);
     }
     let wavelengths = tables.wavelengths_um().to_vec();
     let (table, lane): (&BrdfTable, usize) = match (tables.spectral(), a.wavelength) {

@@ -114,35 +114,110 @@ pub fn exact_integer(s: &str) -> Result<u64, NotInteger> {
     u64::try_from(v).map_err(|_| NotInteger::TooLarge)
 }
 
+/// The text a value parser was given, as its messages show it: `` `s` ``,
+/// or "an empty value".
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Given(pub String);
+
+impl std::fmt::Display for Given {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_empty() {
+            f.write_str("an empty value")
+        } else {
+            write!(f, "`{}`", self.0)
+        }
+    }
+}
+
+/// Why a value parser refused an option's value (the option's name is
+/// added by clap, or by the caller).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ValueError {
+    /// Not an integer at all.
+    #[error("expected an integer >= {min} (digits, or exact forms like 1e6 or 2.5e3), got {given}")]
+    NotAnInteger {
+        /// The smallest value allowed.
+        min: u64,
+        /// What was given.
+        given: Given,
+    },
+    /// An integer below `min` (or negative).
+    #[error("must be an integer >= {min} (digits, or exact forms like 1e6 or 2.5e3), got {given}")]
+    TooSmall {
+        /// The smallest value allowed.
+        min: u64,
+        /// What was given.
+        given: Given,
+    },
+    /// A number with a fractional part.
+    #[error(
+        "must be an integer >= {min} (digits, or exact forms like 1e6 or 2.5e3), got {given} (not a whole number)"
+    )]
+    NotWhole {
+        /// The smallest value allowed.
+        min: u64,
+        /// What was given.
+        given: Given,
+    },
+    /// An integer beyond the option's type.
+    #[error("must be at most {max}, got {given}")]
+    TooLarge {
+        /// The largest value allowed.
+        max: u64,
+        /// What was given.
+        given: Given,
+    },
+    /// Not a number (or empty).
+    #[error("expected a number, got {0}")]
+    NotANumber(Given),
+    /// `inf` or `nan`.
+    #[error("must be a finite number, got {0}")]
+    NotFinite(Given),
+    /// `--wavelengths` in neither form.
+    #[error("expected W1,W2,... or FROM:TO:STEP (um), got `{0}`")]
+    WavelengthsForm(String),
+}
+
 /// An integer of at least `min` and at most `T::MAX`, with the message
 /// saying what is allowed.
-fn at_least<T: Unsigned>(s: &str, min: u64) -> Result<T, String> {
-    let allowed = format!("an integer >= {min} (digits, or exact forms like 1e6 or 2.5e3)");
-    let got = if s.is_empty() {
-        "an empty value".to_string()
-    } else {
-        format!("`{s}`")
+fn at_least<T: Unsigned>(s: &str, min: u64) -> Result<T, ValueError> {
+    let given = || Given(s.to_owned());
+    let too_large = || ValueError::TooLarge {
+        max: T::MAX,
+        given: given(),
     };
     let v = exact_integer(s).map_err(|why| match why {
-        NotInteger::NotANumber => format!("expected {allowed}, got {got}"),
-        NotInteger::Negative => format!("must be {allowed}, got {got}"),
-        NotInteger::NotWhole => format!("must be {allowed}, got {got} (not a whole number)"),
-        NotInteger::TooLarge => format!("must be at most {}, got {got}", T::MAX),
+        NotInteger::NotANumber => ValueError::NotAnInteger {
+            min,
+            given: given(),
+        },
+        NotInteger::Negative => ValueError::TooSmall {
+            min,
+            given: given(),
+        },
+        NotInteger::NotWhole => ValueError::NotWhole {
+            min,
+            given: given(),
+        },
+        NotInteger::TooLarge => too_large(),
     })?;
     if v < min {
-        return Err(format!("must be {allowed}, got {got}"));
+        return Err(ValueError::TooSmall {
+            min,
+            given: given(),
+        });
     }
     if v > T::MAX {
-        return Err(format!("must be at most {}, got {got}", T::MAX));
+        return Err(too_large());
     }
-    T::try_from(v).map_err(|_| format!("must be at most {}, got {got}", T::MAX))
+    T::try_from(v).map_err(|_| too_large())
 }
 
 /// Value parser of integer options that may be 0 (`--seed`, `--scan`, ...).
 ///
 /// # Errors
-/// A message naming what is allowed and what was given.
-pub fn integer<T: Unsigned>(s: &str) -> Result<T, String> {
+/// A [`ValueError`] naming what is allowed and what was given.
+pub fn integer<T: Unsigned>(s: &str) -> Result<T, ValueError> {
     at_least(s, 0)
 }
 
@@ -150,23 +225,20 @@ pub fn integer<T: Unsigned>(s: &str) -> Result<T, String> {
 /// `--threads`, `--size`, ...).
 ///
 /// # Errors
-/// A message naming what is allowed and what was given.
-pub fn positive<T: Unsigned>(s: &str) -> Result<T, String> {
+/// A [`ValueError`] naming what is allowed and what was given.
+pub fn positive<T: Unsigned>(s: &str) -> Result<T, ValueError> {
     at_least(s, 1)
 }
 
 /// Value parser of real options: a finite decimal number.
 ///
 /// # Errors
-/// A message naming what is allowed and what was given.
-pub fn number(s: &str) -> Result<f64, String> {
-    if s.is_empty() {
-        return Err("expected a number, got an empty value".into());
-    }
+/// A [`ValueError`] naming what is allowed and what was given.
+pub fn number(s: &str) -> Result<f64, ValueError> {
     match s.parse::<f64>() {
         Ok(x) if x.is_finite() => Ok(x),
-        Ok(_) => Err(format!("must be a finite number, got `{s}`")),
-        Err(_) => Err(format!("expected a number, got `{s}`")),
+        Ok(_) => Err(ValueError::NotFinite(Given(s.to_owned()))),
+        Err(_) => Err(ValueError::NotANumber(Given(s.to_owned()))),
     }
 }
 
@@ -177,7 +249,7 @@ pub fn number(s: &str) -> Result<f64, String> {
 ///
 /// # Errors
 /// A value that is not a number, or neither form.
-pub fn wavelengths(s: &str) -> Result<crate::scene::WavelengthsSpec, String> {
+pub fn wavelengths(s: &str) -> Result<crate::scene::WavelengthsSpec, ValueError> {
     use crate::scene::WavelengthsSpec;
     match s.split(':').collect::<Vec<_>>().as_slice() {
         [from, to, step] => Ok(WavelengthsSpec::Grid {
@@ -188,9 +260,7 @@ pub fn wavelengths(s: &str) -> Result<crate::scene::WavelengthsSpec, String> {
         [_] => Ok(WavelengthsSpec::List(
             s.split(',').map(number).collect::<Result<Vec<_>, _>>()?,
         )),
-        _ => Err(format!(
-            "expected W1,W2,... or FROM:TO:STEP (um), got `{s}`"
-        )),
+        _ => Err(ValueError::WavelengthsForm(s.to_owned())),
     }
 }
 
@@ -251,31 +321,40 @@ mod tests {
         assert_eq!(integer::<u64>("1e6"), Ok(1_000_000));
         assert_eq!(positive::<u32>("16"), Ok(16));
         assert_eq!(
-            integer::<u64>("-1").unwrap_err(),
+            integer::<u64>("-1").unwrap_err().to_string(),
             "must be an integer >= 0 (digits, or exact forms like 1e6 or 2.5e3), got `-1`"
         );
         assert_eq!(
-            positive::<usize>("0").unwrap_err(),
+            positive::<usize>("0").unwrap_err().to_string(),
             "must be an integer >= 1 (digits, or exact forms like 1e6 or 2.5e3), got `0`"
         );
         assert_eq!(
-            positive::<u32>("5e9").unwrap_err(),
+            positive::<u32>("5e9").unwrap_err().to_string(),
             "must be at most 4294967295, got `5e9`"
         );
-        assert!(positive::<u64>("1.5").unwrap_err().contains("whole number"));
+        assert!(
+            positive::<u64>("1.5")
+                .unwrap_err()
+                .to_string()
+                .contains("whole number")
+        );
         assert!(
             integer::<u64>("")
                 .unwrap_err()
+                .to_string()
                 .ends_with("got an empty value")
         );
         assert_eq!(number("-2.5"), Ok(-2.5));
-        assert_eq!(number("a").unwrap_err(), "expected a number, got `a`");
         assert_eq!(
-            number("").unwrap_err(),
+            number("a").unwrap_err().to_string(),
+            "expected a number, got `a`"
+        );
+        assert_eq!(
+            number("").unwrap_err().to_string(),
             "expected a number, got an empty value"
         );
         assert_eq!(
-            number("inf").unwrap_err(),
+            number("inf").unwrap_err().to_string(),
             "must be a finite number, got `inf`"
         );
         assert!(number("1e400").is_err());

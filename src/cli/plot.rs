@@ -39,7 +39,8 @@ pub fn run(a: PlotArgs) -> Result<(), Failure> {
             dir.display()
         )));
     }
-    let mut pictures = crate::plot::folder::pictures_in(dir).map_err(Failure::Input)?;
+    let mut pictures =
+        crate::plot::folder::pictures_in(dir).map_err(|e| Failure::Input(e.to_string()))?;
     let surface = surface_of(dir);
     match &surface {
         Ok(Some(png)) => pictures.push(("surface.png".to_owned(), png.clone())),
@@ -64,18 +65,35 @@ pub fn run(a: PlotArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Why `surface.png` is not redrawn ([`surface_of`]).
+#[derive(Debug, thiserror::Error)]
+enum NoSurface {
+    /// `summary.json` cannot be read.
+    #[error("{0}")]
+    Summary(std::io::Error),
+    /// The scene cannot be loaded.
+    #[error("{0}")]
+    Scene(crate::scene::SceneError),
+    /// The scene's surface is not the run's.
+    #[error("the surface of {0} differs from the run's (the scene was edited since)")]
+    Edited(String),
+    /// The picture cannot be drawn.
+    #[error("{0}")]
+    Draw(Failure),
+}
+
 /// `surface.png` of a micro folder from its scene file: `None` for an
 /// object folder; an error (why not) when the scene cannot be loaded or
 /// its surface's statistics differ from the run's.
-fn surface_of(dir: &Path) -> Result<Option<Vec<u8>>, String> {
-    let text = std::fs::read_to_string(dir.join("summary.json")).map_err(|e| e.to_string())?;
+fn surface_of(dir: &Path) -> Result<Option<Vec<u8>>, NoSurface> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).map_err(NoSurface::Summary)?;
     let Ok(s) = serde_json::from_str::<BrdfSummary>(&text) else {
         return Ok(None);
     };
     let scene = if s.scene == "<default scene>" {
         MicroScene::default_scene()
     } else {
-        MicroScene::load(Path::new(&s.scene)).map_err(|e| e.to_string())?
+        MicroScene::load(Path::new(&s.scene)).map_err(NoSurface::Scene)?
     };
     let r = s.surface.height_map_resolution;
     let (rx, ry) = scene.surface.heightfield().map_or((r, r), |f| (f.nx, f.ny));
@@ -96,14 +114,11 @@ fn surface_of(dir: &Path) -> Result<Option<Vec<u8>>, String> {
         && close(a.min_height, b.min_height)
         && close(a.max_height, b.max_height);
     if !same {
-        return Err(format!(
-            "the surface of {} differs from the run's (the scene was edited since)",
-            s.scene
-        ));
+        return Err(NoSurface::Edited(s.scene));
     }
     surface_png(&scene, &map, &stats)
         .map(Some)
-        .map_err(|e| e.to_string())
+        .map_err(NoSurface::Draw)
 }
 
 /// `surface.png`: the height map `map` of `scene`'s surface with its

@@ -98,7 +98,7 @@ impl RenderArgs {
             exposure_ev: self.exposure,
             decades: self.decades,
         };
-        t.validate().map_err(Failure::Input)?;
+        t.validate().map_err(|e| Failure::Input(e.to_string()))?;
         Ok(t)
     }
 }
@@ -201,7 +201,9 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
         seed: a.seed,
         light_sampling: !a.no_light_sampling,
     };
-    settings.validate().map_err(Failure::Input)?;
+    settings
+        .validate()
+        .map_err(|e| Failure::Input(e.to_string()))?;
     set_threads(a.threads)?;
     let (img, losses) =
         crate::render::render_at(&scene.surface, &scene.run.wavelengths_um, &settings);

@@ -1,6 +1,8 @@
 //! `roks trace`: trace an object scene (the macro level) and write its
 //! result folder: summary.json, reflectance.csv and its plot, and the far
-//! field when the scene tallies it.
+//! field when the scene tallies it; with `--shard I/N` one block of the
+//! run's batches, its `summary.json` and `tallies.json`, for `roks merge`
+//! ([`crate::output::object_tallies`]).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -8,11 +10,11 @@ use std::time::Instant;
 use clap::Args;
 
 use super::Failure;
-use super::args::RunArgs;
-use super::common::{progress_bar, result_dir, set_threads, write_folder};
-use crate::output::object_csv;
-use crate::output::summary::{self, TraceSummary};
+use super::common::{TracingArgs, progress_bar, result_dir, set_threads, write_folder};
+use crate::output::object_tallies::{self, TraceDescription, TraceTalliesFile};
 use crate::scene::object::ObjectScene;
+use crate::shard::Shard;
+use crate::transport::BATCH;
 use crate::transport::object::{ObjectRun, PositionResult};
 
 /// The options of `roks trace`.
@@ -26,7 +28,7 @@ pub struct TraceArgs {
     pub scene: PathBuf,
     /// The result folder, photons per beam position, seed and threads.
     #[command(flatten)]
-    pub run: RunArgs,
+    pub tracing: TracingArgs,
     /// Scalar transport even with Fresnel walls: each Fresnel bounce weighs
     /// (Rs + Rp) / 2, the unpolarised approximation (as [transport]
     /// polarisation = false).
@@ -38,6 +40,11 @@ pub struct TraceArgs {
     /// source.
     #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
     pub wavelengths: Option<crate::scene::WavelengthsSpec>,
+    /// Trace only block I of N of the run (0-based): whole batches of 4096
+    /// photons of the beam positions laid end to end. The folder holds
+    /// summary.json (this block's sums) and tallies.json, for `roks merge`.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<Shard>,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -58,13 +65,13 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     })?;
     let mut run = scene.run.clone();
     let mut photons = scene.photons.clone();
-    if let Some(p) = a.run.photons {
+    if let Some(p) = a.tracing.photons {
         // The scene loader's check of `sources[i].photons`.
         crate::transport::launch::check_count(p)
             .map_err(|e| Failure::Input(format!("--photons: {e}")))?;
         photons.iter_mut().for_each(|n| *n = p);
     }
-    if let Some(s) = a.run.seed {
+    if let Some(s) = a.tracing.seed {
         run.seed = s;
     }
     if a.no_polarisation {
@@ -76,29 +83,57 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         }
         run.polarisation = false;
     }
-    set_threads(a.run.threads)?;
+    let description = TraceDescription::new(
+        &scene.content,
+        &scene.source.file,
+        &scene.name,
+        &scene.object.surface_names,
+        &run,
+        &scene.beams,
+        &photons,
+        a.shard,
+    );
+    let blocks = description
+        .blocks()
+        .map_err(|e| Failure::Input(format!("--shard: {e}")))?;
+    set_threads(a.tracing.threads)?;
     let out = result_dir(
-        a.run.out.as_deref(),
+        a.tracing.out.as_deref(),
         &scene.source.file,
         &scene.name,
         &scene.reads,
     )?;
-    let bar = progress_bar(
-        photons.iter().fold(0, |a: u64, &b| a.saturating_add(b)),
-        a.quiet,
-        &scene.name,
-    );
+    let traced = blocks.iter().zip(&photons).fold(0, |s: u64, (b, &n)| {
+        s.saturating_add(((b.end * BATCH).min(n)).saturating_sub(b.start * BATCH))
+    });
+    let bar = progress_bar(traced, a.quiet, &scene.name);
     let clock = Instant::now();
-    let results = run.run(
+    let nodes = run.run_nodes(
         &scene.object,
         &scene.walls,
         &scene.models,
         &scene.beams,
         &photons,
+        &blocks,
         &|n| bar.inc(n),
     );
+    // The files list the leaves in order: position, then wavelength.
+    let nodes: Vec<_> = nodes.into_iter().flatten().collect();
     bar.finish_and_clear();
     let seconds = clock.elapsed().as_secs_f64();
+    let n_surfaces = scene.object.surface_names.len();
+    let (results, tallies) = if a.shard.is_some() {
+        let results = object_tallies::partial_results(&description, &nodes);
+        let file = TraceTalliesFile::new(&description, nodes, seconds);
+        (results, Some(file))
+    } else {
+        let zero = || run.tallies(n_surfaces);
+        let results = nodes
+            .into_iter()
+            .map(|p| p.into_root(&zero).expect("a whole run covers its batches"))
+            .collect::<Vec<_>>();
+        (results, None)
+    };
 
     // A photon met a wall without a model: a scene error, before any output.
     if let Some(r) = results.iter().find(|r| r.tallies.unmodelled.0 > 0) {
@@ -109,44 +144,18 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         )));
     }
     if let Some((k, r)) = results
-        .iter()
+        .chunks(run.lane_count())
         .enumerate()
-        .find(|(_, r)| r.tallies.started_inside > 0)
+        .find_map(|(k, lanes)| Some((k, lanes.iter().find(|r| r.tallies.started_inside > 0)?)))
     {
         return Err(Failure::Input(format!(
             "{}: sources[{}].beam.diameter: {} photons of beam position {} started inside a solid cell",
-            scene.source.file,
-            scene.beam_source[k / run.lane_count()],
-            r.tallies.started_inside,
-            r.beam.position
+            scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
         )));
     }
-    let summary = TraceSummary::new(
-        &scene.source.file,
-        &scene.name,
-        run.seed,
-        &results,
-        &scene.object.surface_names,
-        &run.wavelengths_um,
-        seconds,
-    );
-    let text = summary::to_text(&summary);
-    let refl = object_csv::reflectance_csv(&results);
-    let farfield = run
-        .farfield
-        .then(|| object_csv::farfield_csv(&run, &results));
-    let farfield_stokes = run
-        .tallies_farfield_stokes()
-        .then(|| object_csv::farfield_stokes_csv(&run, &results));
-    let mut files: Vec<(String, Vec<u8>)> = vec![("reflectance.csv".into(), refl.into_bytes())];
-    if let Some(f) = farfield {
-        files.push(("farfield.csv".into(), f.into_bytes()));
-    }
-    if let Some(f) = farfield_stokes {
-        files.push(("farfield_stokes.csv".into(), f.into_bytes()));
-    }
-    files.push(("summary.json".into(), text.into_bytes()));
-    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
+    let files = description
+        .folder(&results, seconds, tallies)
+        .map_err(anyhow::Error::msg)?;
     write_folder(&out, &files)?;
 
     if !a.quiet {
@@ -157,8 +166,8 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
 }
 
 /// The table of results per beam position, on stderr (a spectral run:
-/// per position and wavelength).
-fn print_table(run: &ObjectRun, results: &[PositionResult]) {
+/// per position and wavelength; a shard: the positions it traced).
+pub(super) fn print_table(run: &ObjectRun, results: &[PositionResult]) {
     let spectral = !run.wavelengths_um.is_empty();
     eprintln!(
         "{:>28}{} {:>12} {:>10} {:>9} {:>8} {:>9}",
@@ -170,7 +179,7 @@ fn print_table(run: &ObjectRun, results: &[PositionResult]) {
         "bounces",
         "lost"
     );
-    for r in results {
+    for r in results.iter().filter(|r| r.tallies.photons > 0) {
         let (refl, se) = r.reflectance();
         let n = r.tallies.photons as f64;
         let p = r.beam.position;

@@ -6,9 +6,12 @@
 //!   (`brdf.bsdf`; [`super::zemax`]), read by OpticStudio's tabular BSDF
 //!   scatter model and other stray-light tools;
 //! * [`BrdfFormat::Merl`]: the MERL binary format (`brdf.binary`;
-//!   [`super::merl`]), read by graphics BRDF tools.
+//!   [`super::merl`]), read by graphics BRDF tools;
+//! * [`BrdfFormat::Rgl`]: the RGL measured-BRDF tensor file
+//!   (`brdf_rgl.bsdf`; [`super::rgl`], its own resampling onto the
+//!   renderer's warped grid), read by Mitsuba 3 and pbrt-v4.
 //!
-//! Both resample the table with [`symmetric_eval`] (in
+//! Zemax and MERL resample the table with [`symmetric_eval`] (in
 //! [`super::resample`], which the formats share; this module only
 //! dispatches to them): the table's BRDF
 //! (constant over each Carlson cell, linear in the incidence angle between
@@ -63,7 +66,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 pub use super::resample::{FormatError, symmetric_eval};
-use super::{merl, zemax};
+use super::{merl, rgl, zemax};
 
 /// An export format of `roks export-brdf --format` and `roks brdf
 /// --export` (the names in lower case).
@@ -75,6 +78,10 @@ pub enum BrdfFormat {
     /// MERL binary (`brdf.binary`).
     #[value(help = None::<&str>)]
     Merl,
+    /// RGL measured BRDF tensor file (`brdf_rgl.bsdf`; [`super::rgl`]),
+    /// read by Mitsuba 3's `measured` and pbrt-v4's `measured` materials.
+    #[value(help = None::<&str>)]
+    Rgl,
 }
 
 impl BrdfFormat {
@@ -84,6 +91,7 @@ impl BrdfFormat {
         match self {
             Self::Zemax => "zemax",
             Self::Merl => "merl",
+            Self::Rgl => "rgl",
         }
     }
 
@@ -93,6 +101,7 @@ impl BrdfFormat {
         match self {
             Self::Zemax => "brdf.bsdf",
             Self::Merl => "brdf.binary",
+            Self::Rgl => "brdf_rgl.bsdf",
         }
     }
 
@@ -110,6 +119,12 @@ impl BrdfFormat {
         match self {
             Self::Zemax => grid.export(table, comment),
             Self::Merl => merl::Merl::from_table(table).to_bytes(),
+            Self::Rgl => rgl::Rgl::from_tables(
+                &BrdfTables::Monochrome(table.clone()),
+                &rgl::Ndf::uniform(),
+                comment,
+            )
+            .to_bytes(),
         }
     }
 }
@@ -195,7 +210,7 @@ impl BrdfFormat {
                 .iter()
                 .map(|w| format!("brdf_{w}um.bsdf"))
                 .collect(),
-            Self::Merl => vec![self.file_name().to_owned(); wavelengths_um.len()],
+            Self::Merl | Self::Rgl => vec![self.file_name().to_owned(); wavelengths_um.len()],
         }
     }
 
@@ -255,6 +270,13 @@ impl BrdfFormat {
         };
         self.check_wavelengths(spectral.wavelengths_um())?;
         Ok(match self {
+            // One file holds every wavelength.
+            Self::Rgl => vec![ExportFile {
+                file_name: self.file_name().to_owned(),
+                wavelength_um: None,
+                bytes: rgl::Rgl::from_tables(tables, &rgl::Ndf::uniform(), comment).to_bytes(),
+                clipped: None,
+            }],
             Self::Zemax => spectral
                 .wavelengths_um()
                 .par_iter()
@@ -462,6 +484,10 @@ pub fn reflectance_check(
                 let light = DVec3::new(theta.sin(), 0.0, theta.cos());
                 integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[0])
             })
+        }
+        BrdfFormat::Rgl => {
+            let checks = rgl::check(&BrdfTables::Monochrome(table.clone()), bytes, name)?;
+            return Ok(checks.into_iter().next().unwrap_or_default());
         }
     };
     Ok(table

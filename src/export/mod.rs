@@ -47,6 +47,7 @@ pub mod brdf_formats;
 pub mod merl;
 pub mod object_mesh;
 pub mod resample;
+pub mod rgl;
 pub mod zemax;
 
 use glam::DVec2;
@@ -251,36 +252,111 @@ pub fn write_ply(mesh: &Mesh) -> Vec<u8> {
     out
 }
 
+/// Why bytes are not a PLY as [`write_ply`] writes it ([`read_ply`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PlyError {
+    /// No `end_header` line.
+    #[error("PLY: no end_header line")]
+    NoEnd,
+    /// A header that is not UTF-8.
+    #[error("PLY: header is not UTF-8")]
+    NotUtf8,
+    /// A header line other than the one expected (`found`: `None` at the
+    /// header's end).
+    #[error("PLY header: expected `{expected}`, {}", found.as_ref().map_or_else(|| "header ended".to_owned(), |l| format!("got `{l}`")))]
+    Line {
+        /// The line expected.
+        expected: String,
+        /// The line found.
+        found: Option<String>,
+    },
+    /// No `element` line.
+    #[error("PLY header: no `element {0}` line")]
+    NoElement(&'static str),
+    /// A malformed `element` line.
+    #[error("PLY header: expected `element {element} <count>`, got `{found}`")]
+    Element {
+        /// `vertex` or `face`.
+        element: &'static str,
+        /// The line found.
+        found: String,
+    },
+    /// A line after the face list's property.
+    #[error("PLY header: unexpected line `{0}`")]
+    Unexpected(String),
+    /// Element counts whose data size overflows.
+    #[error("PLY: element counts overflow")]
+    Overflow,
+    /// Data of the wrong length.
+    #[error(
+        "PLY: {found} bytes of data, expected {expected} for {vertices} vertices and {faces} triangles"
+    )]
+    Length {
+        /// Bytes found.
+        found: usize,
+        /// Bytes expected.
+        expected: usize,
+        /// Vertices declared.
+        vertices: usize,
+        /// Faces declared.
+        faces: usize,
+    },
+    /// A face that is not a triangle.
+    #[error("PLY: face {face} has {count} vertices, expected 3")]
+    NotTriangle {
+        /// 0-based face.
+        face: usize,
+        /// Its vertex count.
+        count: u8,
+    },
+    /// A vertex index out of range.
+    #[error("PLY: face {face} vertex index {index} out of range (0..{vertices})")]
+    Index {
+        /// 0-based face.
+        face: usize,
+        /// The index.
+        index: i64,
+        /// Vertices declared.
+        vertices: usize,
+    },
+}
+
 /// Parse a binary little-endian PLY as [`write_ply`] writes it.
 ///
 /// Accepted: the header of [`write_ply`], with optional `comment` and
 /// `obj_info` lines and the face index type `int` or `uint`; every face must
 /// be a triangle with indices in range and the data must end exactly after
 /// the last face. Anything else is an error naming what is wrong.
-pub fn read_ply(bytes: &[u8]) -> Result<Mesh, String> {
+///
+/// # Errors
+/// A [`PlyError`].
+pub fn read_ply(bytes: &[u8]) -> Result<Mesh, PlyError> {
     const END: &[u8] = b"end_header\n";
     let end = bytes
         .windows(END.len())
         .position(|w| w == END)
-        .ok_or("PLY: no end_header line")?
+        .ok_or(PlyError::NoEnd)?
         + END.len();
-    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "PLY: header is not UTF-8")?;
+    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| PlyError::NotUtf8)?;
     let mut lines = header
         .lines()
         .filter(|l| !(l.starts_with("comment") || l.starts_with("obj_info")));
     let expect = |line: Option<&str>, want: &str| match line {
         Some(l) if l.trim_end() == want => Ok(()),
-        Some(l) => Err(format!("PLY header: expected `{want}`, got `{l}`")),
-        None => Err(format!("PLY header: expected `{want}`, header ended")),
+        found => Err(PlyError::Line {
+            expected: want.to_owned(),
+            found: found.map(str::to_owned),
+        }),
     };
     expect(lines.next(), "ply")?;
     expect(lines.next(), "format binary_little_endian 1.0")?;
-    let count = |line: Option<&str>, element: &str| -> Result<usize, String> {
-        let line = line.ok_or_else(|| format!("PLY header: no `element {element}` line"))?;
+    let count = |line: Option<&str>, element: &'static str| -> Result<usize, PlyError> {
+        let line = line.ok_or(PlyError::NoElement(element))?;
         line.strip_prefix(&format!("element {element} "))
             .and_then(|n| n.trim_end().parse().ok())
-            .ok_or_else(|| {
-                format!("PLY header: expected `element {element} <count>`, got `{line}`")
+            .ok_or_else(|| PlyError::Element {
+                element,
+                found: line.to_owned(),
             })
     };
     let n_vertices = count(lines.next(), "vertex")?;
@@ -292,28 +368,30 @@ pub fn read_ply(bytes: &[u8]) -> Result<Mesh, String> {
         Some("property list uchar int vertex_indices") => true,
         Some("property list uchar uint vertex_indices") => false,
         other => {
-            return Err(format!(
-                "PLY header: expected `property list uchar int vertex_indices`, got `{}`",
-                other.unwrap_or("end of header")
-            ));
+            return Err(PlyError::Line {
+                expected: "property list uchar int vertex_indices".to_owned(),
+                found: Some(other.unwrap_or("end of header").to_owned()),
+            });
         }
     };
     match lines.next() {
         Some("end_header") => {}
-        Some(l) => return Err(format!("PLY header: unexpected line `{l}`")),
-        None => return Err("PLY header: no end_header line".into()),
+        Some(l) => return Err(PlyError::Unexpected(l.to_owned())),
+        None => return Err(PlyError::NoEnd),
     }
 
     let body = &bytes[end..];
     let want = n_vertices
         .checked_mul(12)
         .and_then(|v| n_faces.checked_mul(13).and_then(|f| v.checked_add(f)))
-        .ok_or("PLY: element counts overflow")?;
+        .ok_or(PlyError::Overflow)?;
     if body.len() != want {
-        return Err(format!(
-            "PLY: {} bytes of data, expected {want} for {n_vertices} vertices and {n_faces} triangles",
-            body.len()
-        ));
+        return Err(PlyError::Length {
+            found: body.len(),
+            expected: want,
+            vertices: n_vertices,
+            faces: n_faces,
+        });
     }
     let word = |at: usize| -> [u8; 4] { body[at..at + 4].try_into().expect("4 bytes") };
     let vertices = (0..n_vertices)
@@ -324,10 +402,10 @@ pub fn read_ply(bytes: &[u8]) -> Result<Mesh, String> {
     for k in 0..n_faces {
         let at = faces_at + 13 * k;
         if body[at] != 3 {
-            return Err(format!(
-                "PLY: face {k} has {} vertices, expected 3",
-                body[at]
-            ));
+            return Err(PlyError::NotTriangle {
+                face: k,
+                count: body[at],
+            });
         }
         let mut f = [0u32; 3];
         for (c, slot) in f.iter_mut().enumerate() {
@@ -338,9 +416,11 @@ pub fn read_ply(bytes: &[u8]) -> Result<Mesh, String> {
                 i64::from(u32::from_le_bytes(raw))
             };
             if !(0..n_vertices as i64).contains(&index) {
-                return Err(format!(
-                    "PLY: face {k} vertex index {index} out of range (0..{n_vertices})"
-                ));
+                return Err(PlyError::Index {
+                    face: k,
+                    index,
+                    vertices: n_vertices,
+                });
             }
             *slot = index as u32;
         }

@@ -58,6 +58,25 @@ pub fn memory_bytes(lo: DVec3, hi: DVec3, n: usize) -> u64 {
     crate::limits::product(&[a, b, c, 40])
 }
 
+/// Why an object cannot be meshed ([`object_mesh`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    /// An empty or non-finite box.
+    #[error("box {lo} .. {hi} must be finite with positive sides")]
+    Box {
+        /// Low corner.
+        lo: DVec3,
+        /// High corner.
+        hi: DVec3,
+    },
+    /// A resolution outside `1..=MAX_VOXELS_PER_SIDE`.
+    #[error("resolution {0} must be in 1..={MAX_VOXELS_PER_SIDE}")]
+    Resolution(usize),
+    /// A vertex grid beyond 2^31 vertices.
+    #[error("{0} grid vertices are too many: lower the resolution")]
+    TooManyVertices(usize),
+}
+
 /// The boundary of the solid zones of `object` inside the box `[lo, hi]`,
 /// with `n` voxels along the box's longest side (see the module
 /// documentation).
@@ -65,16 +84,12 @@ pub fn memory_bytes(lo: DVec3, hi: DVec3, n: usize) -> u64 {
 /// # Errors
 /// If the box is empty or not finite, or `n` is 0 or above
 /// [`MAX_VOXELS_PER_SIDE`], or the grid would exceed 2^31 vertices.
-pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Mesh, String> {
+pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Mesh, MeshError> {
     if !(lo.is_finite() && hi.is_finite()) || (hi - lo).min_element() <= 0.0 {
-        return Err(format!(
-            "box {lo} .. {hi} must be finite with positive sides"
-        ));
+        return Err(MeshError::Box { lo, hi });
     }
     if n == 0 || n > MAX_VOXELS_PER_SIDE {
-        return Err(format!(
-            "resolution {n} must be in 1..={MAX_VOXELS_PER_SIDE}"
-        ));
+        return Err(MeshError::Resolution(n));
     }
     let size = hi - lo;
     let h = size.max_element() / n as f64;
@@ -88,9 +103,7 @@ pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Me
     let dims = cells.map(|c| c + 3);
     let total = dims[0] * dims[1] * dims[2];
     if total > i32::MAX as usize {
-        return Err(format!(
-            "{total} grid vertices are too many: lower the resolution"
-        ));
+        return Err(MeshError::TooManyVertices(total));
     }
     let point = |i: usize, j: usize, k: usize| {
         lo + DVec3::new(

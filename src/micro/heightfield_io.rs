@@ -57,29 +57,103 @@ impl Format {
     }
 }
 
+/// Why a height map cannot be read or written. One line without the path
+/// (the caller puts the file and key in front).
+#[derive(Debug, thiserror::Error)]
+pub enum HeightMapError {
+    /// The file cannot be read.
+    #[error("cannot read: {0}")]
+    Io(std::io::Error),
+    /// A PNG the decoder refuses.
+    #[error("PNG: {0}")]
+    Png(image::ImageError),
+    /// A PNG that is not 16-bit grayscale.
+    #[error("PNG: {0:?} pixels, expected 16-bit grayscale")]
+    PngColour(image::ColorType),
+    /// An EXR the decoder refuses.
+    #[error("EXR: {0}")]
+    Exr(exr::error::Error),
+    /// An EXR without channels.
+    #[error("EXR: no channels")]
+    ExrNoChannels,
+    /// An EXR channel that does not fill its layer.
+    #[error("EXR: channel {channel} has {samples} samples for {nx} x {ny} pixels (subsampled?)")]
+    ExrSamples {
+        /// The channel's name.
+        channel: String,
+        /// Its samples.
+        samples: usize,
+        /// Layer width.
+        nx: usize,
+        /// Layer height.
+        ny: usize,
+    },
+    /// A text grid that is not UTF-8.
+    #[error("not UTF-8 text")]
+    NotUtf8,
+    /// A word of a text grid that is not a number.
+    #[error("line {line}: `{word}` is not a number")]
+    Number {
+        /// 1-based line.
+        line: usize,
+        /// The word.
+        word: String,
+    },
+    /// A row of a text grid longer or shorter than the first.
+    #[error("line {line}: {found} heights, the first row has {first}")]
+    Ragged {
+        /// 1-based line.
+        line: usize,
+        /// Heights on it.
+        found: usize,
+        /// Heights on the first row.
+        first: usize,
+    },
+    /// Fewer than 2 x 2 heights.
+    #[error("{nx} x {ny} heights: need at least 2 x 2")]
+    TooSmall {
+        /// Columns.
+        nx: usize,
+        /// Rows.
+        ny: usize,
+    },
+    /// A height that is not finite (0-based row and column).
+    #[error("height at row {row}, column {column} is not finite")]
+    NotFinite {
+        /// Row.
+        row: usize,
+        /// Column.
+        column: usize,
+    },
+    /// PNG height maps are read only.
+    #[error("writing PNG height maps is not supported (use .exr or .txt)")]
+    PngWrite,
+    /// The EXR encoder failed.
+    #[error("writing EXR: {0}")]
+    ExrWrite(exr::error::Error),
+}
+
 /// Estimated peak memory (bytes) of [`read`] on `path`, from what the file
 /// declares without decoding it: the grid size in a PNG or EXR header
 /// (`Some((nx, ny))`) with the decoded samples (up to 4 bytes) and the
 /// heights (8 bytes) per pixel beside the file; for a text grid, whose size
 /// is bounded by the file's, 5 times the file (every height takes at least
 /// two characters and becomes 8 bytes). The error is one line without the path.
-pub fn read_memory_bytes(path: &Path) -> Result<(u64, Option<(usize, usize)>), String> {
-    let file = std::fs::metadata(path)
-        .map_err(|e| format!("cannot read: {e}"))?
-        .len();
+pub fn read_memory_bytes(path: &Path) -> Result<(u64, Option<(usize, usize)>), HeightMapError> {
+    let file = std::fs::metadata(path).map_err(HeightMapError::Io)?.len();
     let size = match Format::of(path) {
         Format::Png => {
             let (w, h) = image::ImageReader::open(path)
-                .map_err(|e| format!("cannot read: {e}"))?
+                .map_err(HeightMapError::Io)?
                 .with_guessed_format()
-                .map_err(|e| format!("cannot read: {e}"))?
+                .map_err(HeightMapError::Io)?
                 .into_dimensions()
-                .map_err(|e| format!("PNG: {e}"))?;
+                .map_err(HeightMapError::Png)?;
             Some((w as usize, h as usize))
         }
         Format::Exr => {
-            let meta = exr::meta::MetaData::read_from_file(path, false)
-                .map_err(|e| format!("EXR: {e}"))?;
+            let meta =
+                exr::meta::MetaData::read_from_file(path, false).map_err(HeightMapError::Exr)?;
             meta.headers
                 .first()
                 .map(|h| (h.layer_size.width(), h.layer_size.height()))
@@ -94,32 +168,34 @@ pub fn read_memory_bytes(path: &Path) -> Result<(u64, Option<(usize, usize)>), S
 }
 
 /// Read a height grid; the error is one line without the path.
-pub fn read(path: &Path) -> Result<HeightGrid, String> {
+///
+/// # Errors
+/// A [`HeightMapError`].
+pub fn read(path: &Path) -> Result<HeightGrid, HeightMapError> {
     let bytes = crate::limits::read_capped(path, crate::limits::max_data_bytes())
-        .map_err(|e| format!("cannot read: {e}"))?;
+        .map_err(HeightMapError::Io)?;
     let grid = match Format::of(path) {
         Format::Exr => read_exr(&bytes)?,
         Format::Png => read_png(&bytes)?,
         Format::Text => read_text(&bytes)?,
     };
     if grid.nx < 2 || grid.ny < 2 {
-        return Err(format!(
-            "{} x {} heights: need at least 2 x 2",
-            grid.nx, grid.ny
-        ));
+        return Err(HeightMapError::TooSmall {
+            nx: grid.nx,
+            ny: grid.ny,
+        });
     }
     if let Some(k) = grid.h.iter().position(|z| !z.is_finite()) {
-        return Err(format!(
-            "height at row {}, column {} is not finite",
-            k / grid.nx,
-            k % grid.nx
-        ));
+        return Err(HeightMapError::NotFinite {
+            row: k / grid.nx,
+            column: k % grid.nx,
+        });
     }
     Ok(grid)
 }
 
-fn read_text(bytes: &[u8]) -> Result<HeightGrid, String> {
-    let text = std::str::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string())?;
+fn read_text(bytes: &[u8]) -> Result<HeightGrid, HeightMapError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| HeightMapError::NotUtf8)?;
     let mut h = Vec::new();
     let (mut nx, mut ny) = (0, 0);
     for (line_no, line) in text.lines().enumerate() {
@@ -132,40 +208,38 @@ fn read_text(bytes: &[u8]) -> Result<HeightGrid, String> {
             if word.is_empty() {
                 continue;
             }
-            h.push(
-                word.parse::<f64>()
-                    .map_err(|_| format!("line {}: `{word}` is not a number", line_no + 1))?,
-            );
+            h.push(word.parse::<f64>().map_err(|_| HeightMapError::Number {
+                line: line_no + 1,
+                word: word.to_owned(),
+            })?);
         }
         let n = h.len() - before;
         if ny == 0 {
             nx = n;
         } else if n != nx {
-            return Err(format!(
-                "line {}: {n} heights, the first row has {nx}",
-                line_no + 1
-            ));
+            return Err(HeightMapError::Ragged {
+                line: line_no + 1,
+                found: n,
+                first: nx,
+            });
         }
         ny += 1;
     }
     Ok(HeightGrid { nx, ny, h })
 }
 
-fn read_png(bytes: &[u8]) -> Result<HeightGrid, String> {
+fn read_png(bytes: &[u8]) -> Result<HeightGrid, HeightMapError> {
     let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
-        .map_err(|e| format!("PNG: {e}"))?;
+        .map_err(HeightMapError::Png)?;
     let image::DynamicImage::ImageLuma16(gray) = img else {
-        return Err(format!(
-            "PNG: {:?} pixels, expected 16-bit grayscale",
-            img.color()
-        ));
+        return Err(HeightMapError::PngColour(img.color()));
     };
     let (nx, ny) = (gray.width() as usize, gray.height() as usize);
     let h = gray.into_raw().into_iter().map(f64::from).collect();
     Ok(HeightGrid { nx, ny, h })
 }
 
-fn read_exr(bytes: &[u8]) -> Result<HeightGrid, String> {
+fn read_exr(bytes: &[u8]) -> Result<HeightGrid, HeightMapError> {
     use exr::prelude::*;
     let image = read()
         .no_deep_data()
@@ -174,14 +248,14 @@ fn read_exr(bytes: &[u8]) -> Result<HeightGrid, String> {
         .first_valid_layer()
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| format!("EXR: {e}"))?;
+        .map_err(HeightMapError::Exr)?;
     let layer = image.layer_data;
     let channels = &layer.channel_data.list;
     let channel = channels
         .iter()
         .find(|c| c.name.to_string() == "Y")
         .or_else(|| channels.first())
-        .ok_or("EXR: no channels")?;
+        .ok_or(HeightMapError::ExrNoChannels)?;
     let h: Vec<f64> = match &channel.sample_data {
         FlatSamples::F16(v) => v.iter().map(|x| f64::from(x.to_f32())).collect(),
         FlatSamples::F32(v) => v.iter().map(|&x| f64::from(x)).collect(),
@@ -189,18 +263,22 @@ fn read_exr(bytes: &[u8]) -> Result<HeightGrid, String> {
     };
     let (nx, ny) = (layer.size.width(), layer.size.height());
     if h.len() != nx * ny {
-        return Err(format!(
-            "EXR: channel {} has {} samples for {nx} x {ny} pixels (subsampled?)",
-            channel.name,
-            h.len()
-        ));
+        return Err(HeightMapError::ExrSamples {
+            channel: channel.name.to_string(),
+            samples: h.len(),
+            nx,
+            ny,
+        });
     }
     Ok(HeightGrid { nx, ny, h })
 }
 
 /// The grid as a file of `format` (EXR: one `f32` channel `Y`, so heights are
 /// rounded to `f32`; text: exact). PNG is not written.
-pub fn write(grid: &HeightGrid, format: Format, comment: &str) -> Result<Vec<u8>, String> {
+///
+/// # Errors
+/// [`HeightMapError::PngWrite`], or the EXR encoder's failure.
+pub fn write(grid: &HeightGrid, format: Format, comment: &str) -> Result<Vec<u8>, HeightMapError> {
     match format {
         Format::Text => {
             let mut out = String::new();
@@ -217,11 +295,11 @@ pub fn write(grid: &HeightGrid, format: Format, comment: &str) -> Result<Vec<u8>
             Ok(out.into_bytes())
         }
         Format::Exr => write_exr(grid),
-        Format::Png => Err("writing PNG height maps is not supported (use .exr or .txt)".into()),
+        Format::Png => Err(HeightMapError::PngWrite),
     }
 }
 
-fn write_exr(grid: &HeightGrid) -> Result<Vec<u8>, String> {
+fn write_exr(grid: &HeightGrid) -> Result<Vec<u8>, HeightMapError> {
     use exr::prelude::*;
     let samples: Vec<f32> = grid.h.iter().map(|&z| z as f32).collect();
     let channel = AnyChannel::new("Y", FlatSamples::F32(samples));
@@ -240,7 +318,7 @@ fn write_exr(grid: &HeightGrid) -> Result<Vec<u8>, String> {
     exr::image::Image::from_layer(layer)
         .write()
         .to_buffered(&mut buf)
-        .map_err(|e| format!("writing EXR: {e}"))?;
+        .map_err(HeightMapError::ExrWrite)?;
     Ok(buf.into_inner())
 }
 
@@ -288,14 +366,15 @@ mod tests {
         let mut b8 = std::io::Cursor::new(Vec::new());
         img8.write_to(&mut b8, image::ImageFormat::Png).unwrap();
         let e = read_png(b8.get_ref()).unwrap_err();
-        assert!(e.contains("16-bit grayscale"), "{e}");
+        assert!(matches!(e, HeightMapError::PngColour(_)), "{e}");
+        assert!(e.to_string().contains("16-bit grayscale"), "{e}");
     }
 
     #[test]
     fn ragged_text_is_an_error_naming_the_line() {
-        let e = read_text(b"# c\n1 2 3\n4 5\n").unwrap_err();
+        let e = read_text(b"# c\n1 2 3\n4 5\n").unwrap_err().to_string();
         assert_eq!(e, "line 3: 2 heights, the first row has 3");
-        let e = read_text(b"1 x\n").unwrap_err();
+        let e = read_text(b"1 x\n").unwrap_err().to_string();
         assert!(e.contains("line 1") && e.contains("`x`"), "{e}");
     }
 }

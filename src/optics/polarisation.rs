@@ -254,6 +254,25 @@ pub enum Incident {
     Stokes(Stokes),
 }
 
+/// Why a given incident polarisation state is refused ([`Incident::validate`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum IncidentError {
+    /// A Stokes vector that is not finite, or has `S0 <= 0`.
+    #[error("Stokes vector {0:?} must be finite with S0 > 0")]
+    Stokes([f64; 4]),
+    /// A Stokes vector polarised more than fully.
+    #[error("Stokes vector {stokes:?} has a degree of polarisation {degree} > 1")]
+    Degree {
+        /// The vector.
+        stokes: [f64; 4],
+        /// Its degree of polarisation.
+        degree: f64,
+    },
+    /// A linear polarisation angle that is not finite (degrees).
+    #[error("linear polarisation angle {0} is not finite")]
+    Angle(f64),
+}
+
 impl Incident {
     /// The Stokes vector of unit intensity.
     #[must_use]
@@ -300,25 +319,23 @@ impl Incident {
     /// polarisation at most 1 (to 1e-12).
     ///
     /// # Errors
-    /// A one-line reason.
-    pub fn validate(&self) -> Result<(), String> {
+    /// The reason, as an [`IncidentError`].
+    pub fn validate(&self) -> Result<(), IncidentError> {
         match *self {
             Self::Stokes(s) => {
                 if !s.iter().all(|x| x.is_finite()) || s[0] <= 0.0 {
-                    return Err(format!("Stokes vector {s:?} must be finite with S0 > 0"));
+                    return Err(IncidentError::Stokes(s));
                 }
                 let p2 = s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
                 if p2 > s[0] * s[0] * (1.0 + 1e-12) {
-                    return Err(format!(
-                        "Stokes vector {s:?} has a degree of polarisation {} > 1",
-                        p2.sqrt() / s[0]
-                    ));
+                    return Err(IncidentError::Degree {
+                        stokes: s,
+                        degree: p2.sqrt() / s[0],
+                    });
                 }
                 Ok(())
             }
-            Self::Linear(a) if !a.is_finite() => {
-                Err(format!("linear polarisation angle {a} is not finite"))
-            }
+            Self::Linear(a) if !a.is_finite() => Err(IncidentError::Angle(a)),
             _ => Ok(()),
         }
     }

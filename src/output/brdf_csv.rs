@@ -33,7 +33,7 @@ use std::path::Path;
 
 use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
 use crate::tally::CarlsonGrid;
-use crate::transport::brdf::{BrdfRun, IncidenceResult};
+use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult};
 
 pub mod reader;
 
@@ -142,14 +142,18 @@ fn fractions<'a>(
         .collect()
 }
 
-/// `brdf.csv` of a run's `results`.
+/// `brdf.csv` of a run's `results` (its leaves in file order: a
+/// [`BrdfResult`], or some of its leaves).
 #[must_use]
-pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> String {
+pub fn write<'a>(
+    run: &BrdfRun,
+    results: impl IntoIterator<Item = &'a IncidenceResult> + Copy,
+) -> String {
     let f = fractions(run, results);
     write_blocks(
         &run.grid(),
         results
-            .iter()
+            .into_iter()
             .zip(&f)
             .map(|(r, (fractions, stderr))| Block {
                 theta_i_deg: r.theta_i_deg,
@@ -224,13 +228,12 @@ pub fn read_tables(path: &Path) -> Result<BrdfTables, BrdfTableError> {
 /// # Panics
 /// If the results are not a valid table (a run's always are).
 #[must_use]
-pub fn table(run: &BrdfRun, results: &[IncidenceResult]) -> BrdfTables {
-    let lanes = run.wavelengths_um.len();
-    if lanes == 0 {
-        return BrdfTables::Monochrome(lane_table(run, results.iter()));
+pub fn table(run: &BrdfRun, results: &BrdfResult) -> BrdfTables {
+    if run.wavelengths_um.is_empty() {
+        return BrdfTables::Monochrome(lane_table(run, results.lane(0)));
     }
-    let tables = (0..lanes)
-        .map(|l| lane_table(run, results.iter().skip(l).step_by(lanes)))
+    let tables = (0..run.wavelengths_um.len())
+        .map(|l| lane_table(run, results.lane(l)))
         .collect();
     BrdfTables::Spectral(
         SpectralTables::new(run.wavelengths_um.clone(), tables, "brdf.csv")

@@ -1,24 +1,19 @@
 //! The result folder of `roks brdf` (a whole run or one shard of it) and of
 //! `roks merge`: one path from a run to its files.
 //!
-//! [`BrdfFolder::trace`] traces a run, whole or block `--shard I/N` of it
-//! ([`BrdfRun::photon_range`]), the same way: each incidence's batches are summed over the fixed batch
-//! tree ([`crate::tally::sum`]) into its complete nodes; the folder's sums
-//! are those nodes added left to right (for a whole run the one node is the
-//! root), and a shard keeps the nodes for its `tallies.json`.
-//! [`BrdfFolder::merged`] is the folder of merged shards. [`BrdfFolder::files`]
+//! [`BrdfFolder::traced`] is the folder of a trace ([`BrdfRun::trace`]):
+//! a whole run, or block `--shard I/N` of it, whose leaves' tree nodes go
+//! to its `tallies.json`. [`BrdfFolder::merged`] is the folder of merged
+//! shards. Neither traces: this module only formats. [`BrdfFolder::files`]
 //! writes either: `brdf.csv`, `inplane.csv`, the polarisation table,
 //! extra files (pictures, exports), `tallies.json` (shards and merges)
 //! and `summary.json`.
 
-use std::time::Instant;
-
 use super::summary::{BrdfSummary, Description, to_text};
 use super::tallies::{Merged, TALLIES_FILE, TalliesFile};
 use super::{brdf_csv, inplane_csv, polar_csv};
-use crate::micro::MicroSurface;
 use crate::optics::brdf_table::BrdfTables;
-use crate::transport::brdf::{BrdfRun, IncidenceResult, add_up};
+use crate::transport::brdf::{BrdfResult, BrdfRun};
 
 /// A result folder's contents, before they are written.
 #[derive(Debug, Clone)]
@@ -26,8 +21,8 @@ pub struct BrdfFolder {
     /// The run of this folder (for a shard: the whole run's photons, the
     /// shard's block in `run.shard`) and its scene.
     pub description: Description,
-    /// Per incidence angle: this folder's sums.
-    pub results: Vec<IncidenceResult>,
+    /// This folder's sums, nested by incidence, azimuth and wavelength.
+    pub results: BrdfResult,
     /// The raw sums for `tallies.json` (shards and merges).
     pub tallies: Option<TalliesFile>,
     /// Wall-clock time (s; for a merge the shards' sum).
@@ -35,40 +30,16 @@ pub struct BrdfFolder {
 }
 
 impl BrdfFolder {
-    /// Trace the run of `description` (all its photons, or its shard's
-    /// block of them) on `surface`; `progress` is called with photons done.
+    /// The folder of `results`, traced for the run of `description` (all
+    /// its photons, or its shard's block of them) in `seconds`; a shard
+    /// keeps its leaves' tree nodes for its `tallies.json`.
     #[must_use]
-    pub fn trace(
-        surface: &MicroSurface,
-        description: Description,
-        progress: &(dyn Fn(u64) + Sync),
-    ) -> Self {
-        let run = &description.run;
-        let clock = Instant::now();
-        let mut results = Vec::with_capacity(run.blocks().len());
-        let mut parts = Vec::new();
-        for &theta in &run.theta_deg {
-            let (lanes, seconds) = run.run_shard_one(surface, theta, progress);
-            for (l, nodes) in lanes.into_iter().enumerate() {
-                let tallies = add_up(&nodes)
-                    .unwrap_or_else(|| run.empty_tallies(&run.grid(), &run.inplane()));
-                results.push(IncidenceResult {
-                    theta_i_deg: theta,
-                    phi_i_deg: run.phi_deg,
-                    wavelength_um: run.wavelength(l),
-                    tallies,
-                    seconds,
-                });
-                if run.shard.is_some() {
-                    parts.push((theta, run.wavelength(l), seconds, nodes));
-                }
-            }
-        }
-        let seconds = clock.elapsed().as_secs_f64();
-        let tallies = run
+    pub fn traced(description: Description, results: BrdfResult, seconds: f64) -> Self {
+        let tallies = description
+            .run
             .shard
             .is_some()
-            .then(|| TalliesFile::new(&description, parts, seconds));
+            .then(|| TalliesFile::new(&description, &results, seconds));
         Self {
             description,
             results,
@@ -81,26 +52,16 @@ impl BrdfFolder {
     /// `tallies.json` (the tree's roots).
     #[must_use]
     pub fn merged(merged: Merged) -> Self {
-        let tallies = merged.tallies_file();
         let Merged {
             description,
-            incidence,
+            results,
             seconds,
         } = merged;
-        let results = incidence
-            .into_iter()
-            .map(|i| IncidenceResult {
-                theta_i_deg: i.theta_deg,
-                phi_i_deg: description.run.phi_deg,
-                wavelength_um: i.wavelength_um,
-                tallies: i.tallies,
-                seconds: i.seconds,
-            })
-            .collect();
+        let tallies = Some(TalliesFile::new(&description, &results, seconds));
         Self {
             description,
             results,
-            tallies: Some(tallies),
+            tallies,
             seconds,
         }
     }

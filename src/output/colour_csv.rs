@@ -33,7 +33,7 @@
 use std::fmt::Write as _;
 
 use crate::optics::colour::{XyzWeights, xyz_to_linear_srgb};
-use crate::transport::brdf::{BrdfRun, IncidenceResult};
+use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult};
 
 /// Columns of `colour.csv`.
 pub const HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_deg,phi_deg,X,Y,Z,r,g,b";
@@ -62,24 +62,18 @@ pub fn cell_colours(run: &BrdfRun, lanes: &[IncidenceResult]) -> Option<Vec<([f6
         .collect()
 }
 
-/// The results of a spectral run grouped per incidence (each group one
-/// result per wavelength); `None` for a monochrome run.
-fn per_incidence<'a>(
-    run: &BrdfRun,
-    results: &'a [IncidenceResult],
-) -> Option<std::slice::Chunks<'a, IncidenceResult>> {
-    (!run.wavelengths_um.is_empty()).then(|| results.chunks(run.wavelengths_um.len()))
-}
-
 /// `colour.csv` of a run; `None` for a monochrome run or wavelengths that do
 /// not cover the visible.
 #[must_use]
-pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> Option<String> {
+pub fn write(run: &BrdfRun, results: &BrdfResult) -> Option<String> {
+    if run.wavelengths_um.is_empty() {
+        return None;
+    }
     let grid = run.grid();
     let mut s = String::with_capacity(160 * grid.n_cells() * run.theta_deg.len() + 100);
     s.push_str(HEADER);
     s.push('\n');
-    for lanes in per_incidence(run, results)? {
+    for lanes in results.groups() {
         let colours = cell_colours(run, lanes)?;
         let r0 = &lanes[0];
         for (flat, (xyz, rgb)) in colours.iter().enumerate() {
@@ -166,7 +160,8 @@ mod tests {
         let grid = run.grid();
         let white = crate::optics::colour::d65_white_xyz();
         let white_rgb = xyz_to_linear_srgb(white);
-        for lanes in results.chunks(21) {
+        for lanes in results.groups() {
+            assert_eq!(lanes.len(), 21);
             let colours = cell_colours(&run, lanes).unwrap();
             let t = &lanes[0].tallies;
             let mut total = 0.0;

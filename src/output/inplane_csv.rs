@@ -12,9 +12,10 @@ use crate::transport::brdf::{BrdfRun, IncidenceResult};
 /// Columns of `inplane.csv`.
 pub const HEADER: &str = "theta_i_deg,theta_o_deg,brdf,brdf_stderr";
 
-/// `inplane.csv` for all incidences.
+/// `inplane.csv` of a run's `results` (its leaves in file order: a
+/// [`crate::transport::brdf::BrdfResult`], or some of its leaves).
 #[must_use]
-pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> String {
+pub fn write<'a>(run: &BrdfRun, results: impl IntoIterator<Item = &'a IncidenceResult>) -> String {
     let tally: InPlaneTally = run.inplane();
     let mut s = String::new();
     s.push_str(&super::with_wavelength(HEADER, "theta_i_deg", run));

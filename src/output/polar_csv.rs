@@ -5,13 +5,22 @@
 //! one that of the incident flight (the s axis of the plane of incidence).
 //! Numbers with 10 significant digits. A spectral run has `wavelength_um`
 //! (µm) after `phi_i_deg`, one block per incidence and wavelength.
+//!
+//! The reader of `mueller.csv` lives here too: [`MuellerFile::parse`]
+//! reads the rows, and [`BrdfTable::with_mueller`] (with
+//! [`BrdfTables::with_mueller`] and [`SpectralTables::with_mueller`])
+//! checks them against the `brdf.csv` of the same run and attaches the
+//! matrices to the table.
 
 use std::fmt::Write as _;
+use std::path::Path;
 
+use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
 use crate::optics::polarisation::degree_of_polarisation;
-use crate::output::brdf_csv::reader::shorten;
+use crate::output::brdf_csv::BrdfTableError;
+use crate::output::brdf_csv::reader::{read_text, shorten};
 use crate::tally::{CarlsonGrid, PolarTally};
-use crate::transport::brdf::{BrdfRun, IncidenceResult};
+use crate::transport::brdf::{BrdfResult, BrdfRun};
 
 /// Columns of `stokes.csv`: per incidence and Carlson cell, the Stokes BRDF
 /// `s_i` (1/sr) of the reflected light for the incident state in the cell
@@ -37,7 +46,7 @@ pub const MUELLER_MATRIX_COLUMNS: usize = 38;
 /// The polarisation table of a run with a polarisation tally: its file name
 /// (`stokes.csv` or `mueller.csv`) and text; `None` without one.
 #[must_use]
-pub fn write(run: &BrdfRun, results: &[IncidenceResult]) -> Option<(&'static str, String)> {
+pub fn write(run: &BrdfRun, results: &BrdfResult) -> Option<(&'static str, String)> {
     let (name, header) = match run.polarisation.tally {
         PolarTally::None => return None,
         PolarTally::Stokes => ("stokes.csv", STOKES_HEADER),
@@ -129,12 +138,46 @@ pub struct MuellerFile {
 }
 
 /// Why a `mueller.csv` cannot be read: the line and what is wrong.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("line {line}: {problem}")]
 pub struct MuellerError {
     /// Line number (1 for the header).
     pub line: usize,
-    /// What is wrong (one line).
-    pub message: String,
+    /// What is wrong.
+    pub problem: MuellerProblem,
+}
+
+/// What is wrong with a line of a `mueller.csv` ([`MuellerError`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MuellerProblem {
+    /// The first line is none of the headers of `mueller.csv`.
+    #[error("header is not that of mueller.csv")]
+    Header,
+    /// A row without the header's column count.
+    #[error("expected {expected} columns, found {found}")]
+    Columns {
+        /// The header's columns.
+        expected: usize,
+        /// The row's.
+        found: usize,
+    },
+    /// A field that is not a finite number (1-based column; the field
+    /// shortened to 40 characters).
+    #[error("column {column}: `{text}` is not a finite number")]
+    Number {
+        /// 1-based column.
+        column: usize,
+        /// The field.
+        text: String,
+    },
+    /// A negative standard error.
+    #[error("column {column} (a standard error): {value} must be >= 0")]
+    Negative {
+        /// 1-based column.
+        column: usize,
+        /// The value.
+        value: f64,
+    },
 }
 
 impl MuellerFile {
@@ -169,7 +212,7 @@ impl MuellerFile {
         } else {
             return Err(MuellerError {
                 line: 1,
-                message: "header is not that of mueller.csv".into(),
+                problem: MuellerProblem::Header,
             });
         };
         let off = usize::from(spectral);
@@ -183,33 +226,32 @@ impl MuellerFile {
         let mut last_line = 1;
         for (line, l) in lines {
             last_line = line;
-            let fail = |message: String| MuellerError { line, message };
+            let fail = |problem| MuellerError { line, problem };
             let f: Vec<&str> = l.split(',').map(str::trim).collect();
             if f.len() != columns {
-                return Err(fail(format!(
-                    "expected {columns} columns, found {}",
-                    f.len()
-                )));
+                return Err(fail(MuellerProblem::Columns {
+                    expected: columns,
+                    found: f.len(),
+                }));
             }
             let parse = |i: usize, nan_ok: bool| -> Result<f64, MuellerError> {
                 f[i].parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite() || (nan_ok && v.is_nan()))
                     .ok_or_else(|| {
-                        fail(format!(
-                            "column {}: `{}` is not a finite number",
-                            i + 1,
-                            shorten(f[i], 40)
-                        ))
+                        fail(MuellerProblem::Number {
+                            column: i + 1,
+                            text: shorten(f[i], 40),
+                        })
                     })
             };
             let error = |i: usize, nan_ok: bool| -> Result<f64, MuellerError> {
                 let se = parse(i, nan_ok)?;
                 if se < 0.0 {
-                    return Err(fail(format!(
-                        "column {} (a standard error): {se} must be >= 0",
-                        i + 1
-                    )));
+                    return Err(fail(MuellerProblem::Negative {
+                        column: i + 1,
+                        value: se,
+                    }));
                 }
                 Ok(se)
             };
@@ -259,4 +301,469 @@ fn matrix_header() -> &'static str {
         .nth(MUELLER_MATRIX_COLUMNS - 1)
         .map_or(MUELLER_HEADER.len(), |(i, _)| i);
     &MUELLER_HEADER[..end]
+}
+
+/// A wavelength in a message: ` at W um`, or nothing for a monochrome table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AtWavelength(pub Option<f64>);
+
+impl std::fmt::Display for AtWavelength {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(w) => write!(f, " at {w} um"),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Why a `mueller.csv` does not fit the BRDF table it is read with
+/// ([`BrdfTableError::Mueller`] names the file and line). Angles in
+/// degrees; `table` is the table's file; `at` the wavelength of a
+/// spectral run's table.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MuellerTableProblem {
+    /// The file cannot be parsed.
+    #[error("{0}")]
+    File(MuellerProblem),
+    /// A monochrome file beside a spectral table.
+    #[error(
+        "a mueller.csv of one wavelength, but {table} is a spectral table (it needs the wavelength_um column of a spectral run's mueller.csv)"
+    )]
+    OneWavelength {
+        /// The table's file.
+        table: String,
+    },
+    /// A spectral file beside a monochrome table.
+    #[error(
+        "a spectral mueller.csv (wavelength_um column), but {table} is a table of one wavelength"
+    )]
+    SpectralFile {
+        /// The table's file.
+        table: String,
+    },
+    /// A row of a wavelength the table does not have (µm).
+    #[error("column 3: wavelength_um = {found} is not one of the wavelengths of {table}")]
+    NotAWavelength {
+        /// The row's wavelength.
+        found: f64,
+        /// The table's file.
+        table: String,
+    },
+    /// A block that ends before its last cell.
+    #[error("incidence block theta_i_deg = {theta_i_deg}{at} ends after {found} of {cells} cells")]
+    BlockEnds {
+        /// The block's incidence.
+        theta_i_deg: f64,
+        /// Its wavelength.
+        at: AtWavelength,
+        /// Cells found.
+        found: usize,
+        /// Cells of the grid.
+        cells: usize,
+    },
+    /// A row out of grid order.
+    #[error("expected band {band}, cell {cell} (grid order)")]
+    Order {
+        /// The band expected.
+        band: usize,
+        /// The cell expected.
+        cell: usize,
+    },
+    /// The file's last block is incomplete.
+    #[error("incidence block theta_i_deg = {theta_i_deg}{at} has {found} of {cells} cells")]
+    Incomplete {
+        /// The block's incidence.
+        theta_i_deg: f64,
+        /// Its wavelength.
+        at: AtWavelength,
+        /// Cells found.
+        found: usize,
+        /// Cells of the grid.
+        cells: usize,
+    },
+    /// Another number of blocks than the table's incidences.
+    #[error("{found} incidence blocks{at}, but {table} has {expected} (a file of another run?)")]
+    Blocks {
+        /// Blocks found.
+        found: usize,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The table's file.
+        table: String,
+        /// The table's incidences.
+        expected: usize,
+    },
+    /// A tabulated incidence without a block.
+    #[error(
+        "no block for theta_i_deg = {theta_i_deg}, phi_i_deg = {phi_i_deg}{at} (tabulated in {table})"
+    )]
+    NoBlock {
+        /// The incidence angle.
+        theta_i_deg: f64,
+        /// The light azimuth.
+        phi_i_deg: f64,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The table's file.
+        table: String,
+    },
+    /// An `m00` other than the table's BRDF.
+    #[error(
+        "theta_i_deg = {theta_i_deg}{at}: cell {cell}: m00 = {m00} is not the brdf {brdf} of {table}, nor is that brdf m00 + m01 s1 + m02 s2 + m03 s3 for one incident state s of every cell (a file of another run?)"
+    )]
+    M00 {
+        /// The incidence angle.
+        theta_i_deg: f64,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The flat cell index.
+        cell: usize,
+        /// The file's `m00`.
+        m00: f64,
+        /// The table's BRDF (1/sr).
+        brdf: f64,
+        /// The table's file.
+        table: String,
+    },
+    /// A cell whose matrix no physical surface has
+    /// ([`crate::optics::brdf_table::unrealisable`]).
+    #[error("theta_i_deg = {theta_i_deg}{at}: cell {cell}: not a physical Mueller matrix: {why}")]
+    Unrealisable {
+        /// The incidence angle.
+        theta_i_deg: f64,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The flat cell index.
+        cell: usize,
+        /// Which condition fails.
+        why: String,
+    },
+    /// An `m00` column that reflects more than it receives.
+    #[error(
+        "theta_i_deg = {theta_i_deg}{at}: the m00 column adds up to a reflectance of {total} > 1"
+    )]
+    M00Above {
+        /// The incidence angle.
+        theta_i_deg: f64,
+        /// The wavelength.
+        at: AtWavelength,
+        /// The m00 column's reflectance.
+        total: f64,
+    },
+}
+
+impl BrdfTables {
+    /// The same tables with the Mueller-matrix BRDF of the same run
+    /// (`mueller.csv` beside `brdf.csv`), see
+    /// [`with_mueller_text`](Self::with_mueller_text).
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`with_mueller_text`](Self::with_mueller_text).
+    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let (name, text) = read_text(path)?;
+        self.with_mueller_text(&text, &name)
+    }
+
+    /// As [`BrdfTable::with_mueller_text`] for a monochrome table. A
+    /// spectral table needs the `mueller.csv` of a spectral run
+    /// (`wavelength_um` after `phi_i_deg`, one block per incidence and
+    /// wavelength): each wavelength's table takes the rows of its
+    /// wavelength, with the checks of the monochrome case (every incidence
+    /// complete, `m00` the table's BRDF), and every row must name one of
+    /// the table's wavelengths.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
+    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        match self {
+            Self::Monochrome(t) => Ok(Self::Monochrome(t.with_mueller_text(text, name)?)),
+            Self::Spectral(s) => Ok(Self::Spectral(s.with_mueller_text(text, name)?)),
+        }
+    }
+}
+
+impl SpectralTables {
+    /// [`BrdfTables::with_mueller`] of spectral tables.
+    ///
+    /// # Errors
+    /// As [`BrdfTables::with_mueller`].
+    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let (name, text) = read_text(path)?;
+        self.with_mueller_text(&text, &name)
+    }
+
+    /// [`BrdfTables::with_mueller_text`] of spectral tables.
+    ///
+    /// # Errors
+    /// As [`BrdfTables::with_mueller_text`].
+    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let fail = |line: usize, problem| BrdfTableError::Mueller {
+            file: name.to_owned(),
+            line,
+            problem,
+        };
+        let file = MuellerFile::parse(text)
+            .map_err(|e| fail(e.line, MuellerTableProblem::File(e.problem)))?;
+        if !file.spectral {
+            return Err(fail(
+                1,
+                MuellerTableProblem::OneWavelength {
+                    table: self.tables()[0].file().to_owned(),
+                },
+            ));
+        }
+        // One pass: each row to the table of its wavelength.
+        let wavelengths = self.wavelengths_um().to_vec();
+        let mut lanes: Vec<Vec<&MuellerRow>> = vec![Vec::new(); wavelengths.len()];
+        for row in &file.rows {
+            let at = row.wavelength_um.unwrap_or(f64::NAN);
+            let lane = wavelengths.iter().position(|&w| w == at).ok_or_else(|| {
+                fail(
+                    row.line,
+                    MuellerTableProblem::NotAWavelength {
+                        found: at,
+                        table: self.tables()[0].file().to_owned(),
+                    },
+                )
+            })?;
+            lanes[lane].push(row);
+        }
+        for ((t, &w), rows) in self.tables_mut().iter_mut().zip(&wavelengths).zip(&lanes) {
+            *t = t
+                .clone()
+                .attach_mueller(rows, file.last_line, name, Some(w))?;
+        }
+        Ok(self)
+    }
+}
+
+impl BrdfTable {
+    /// Attach the Mueller-matrix BRDF of the same run (`mueller.csv`
+    /// beside `brdf.csv`, written by `roks brdf --polarisation mueller`):
+    /// [`sample_cell`](Self::sample_cell)'s cells then carry their Mueller
+    /// matrix divided by `m00` ([`mueller`](Self::mueller)). Frames: those
+    /// of [`crate::optics::polarisation`], rotated into the local frame of
+    /// the table (light azimuth 0).
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`with_mueller_text`](Self::with_mueller_text).
+    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+        let (name, text) = read_text(path)?;
+        self.with_mueller_text(&text, &name)
+    }
+
+    /// As [`with_mueller`](Self::with_mueller), from the text of
+    /// `mueller.csv` ([`MUELLER_HEADER`]); `name` names it in
+    /// errors. Every tabulated incidence needs a complete block of rows in
+    /// grid order with the table's `theta_i_deg` and `phi_i_deg`; numbers
+    /// finite; `m00` within 1e-6 (relative) of the table's BRDF.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
+    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+        let fail = |line: usize, problem| BrdfTableError::Mueller {
+            file: name.to_owned(),
+            line,
+            problem,
+        };
+        let file = MuellerFile::parse(text)
+            .map_err(|e| fail(e.line, MuellerTableProblem::File(e.problem)))?;
+        if file.spectral {
+            return Err(fail(
+                1,
+                MuellerTableProblem::SpectralFile {
+                    table: self.file().to_owned(),
+                },
+            ));
+        }
+        let rows: Vec<&MuellerRow> = file.rows.iter().collect();
+        self.attach_mueller(&rows, file.last_line, name, None)
+    }
+
+    /// Attach the Mueller blocks of `rows` (the parsed data rows of one
+    /// table, [`MuellerFile::parse`]; `last_line` the file's last) as
+    /// [`with_mueller_text`](Self::with_mueller_text) describes; for the
+    /// table of one wavelength of a spectral run (`wavelength =
+    /// Some(wavelength_um)`, named in errors) the rows of that wavelength
+    /// only.
+    fn attach_mueller(
+        mut self,
+        rows: &[&MuellerRow],
+        last_line: usize,
+        name: &str,
+        wavelength: Option<f64>,
+    ) -> Result<Self, BrdfTableError> {
+        let fail = |line: usize, problem| BrdfTableError::Mueller {
+            file: name.to_owned(),
+            line,
+            problem,
+        };
+        let at = AtWavelength(wavelength);
+        let n = self.grid().n_cells();
+        // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
+        type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
+        let mut blocks: Vec<MuellerBlock> = Vec::new();
+        for row in rows {
+            let (line, theta, phi) = (row.line, row.theta_i_deg, row.phi_i_deg);
+            if blocks.last().is_none_or(|b| b.2.len() == n) {
+                blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
+            }
+            let block = blocks.last_mut().expect("pushed");
+            if (theta, phi) != (block.0, block.1) {
+                return Err(fail(
+                    line,
+                    MuellerTableProblem::BlockEnds {
+                        theta_i_deg: block.0,
+                        at,
+                        found: block.2.len(),
+                        cells: n,
+                    },
+                ));
+            }
+            let (band, cell) = self.grid().band_cell(block.2.len());
+            if row.band != band.to_string() || row.cell != cell.to_string() {
+                return Err(fail(line, MuellerTableProblem::Order { band, cell }));
+            }
+            block.2.push(row.m);
+            block.3.push(line);
+        }
+        if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {
+            return Err(fail(
+                last_line,
+                MuellerTableProblem::Incomplete {
+                    theta_i_deg: b.0,
+                    at,
+                    found: b.2.len(),
+                    cells: n,
+                },
+            ));
+        }
+        if blocks.len() != self.thetas_deg().len() {
+            return Err(fail(
+                last_line,
+                MuellerTableProblem::Blocks {
+                    found: blocks.len(),
+                    at,
+                    table: self.file().to_owned(),
+                    expected: self.thetas_deg().len(),
+                },
+            ));
+        }
+        for i in 0..self.thetas_deg().len() {
+            let inc = self.incidence(i);
+            let block = blocks
+                .iter()
+                .find(|b| b.0 == inc.theta_deg && b.1 == inc.phi_i_deg)
+                .ok_or_else(|| {
+                    fail(
+                        last_line,
+                        MuellerTableProblem::NoBlock {
+                            theta_i_deg: inc.theta_deg,
+                            phi_i_deg: inc.phi_i_deg,
+                            at,
+                            table: self.file().to_owned(),
+                        },
+                    )
+                })?;
+            for (flat, m) in block.2.iter().enumerate() {
+                if let Some(why) = crate::optics::brdf_table::unrealisable(m) {
+                    return Err(fail(
+                        block.3[flat],
+                        MuellerTableProblem::Unrealisable {
+                            theta_i_deg: inc.theta_deg,
+                            at,
+                            cell: flat,
+                            why,
+                        },
+                    ));
+                }
+            }
+            let brdfs: Vec<f64> = (0..n).map(|flat| self.cell_brdf(i, flat)).collect();
+            match incident_state(&block.2, &brdfs) {
+                Err(flat) => {
+                    return Err(fail(
+                        block.3[flat],
+                        MuellerTableProblem::M00 {
+                            theta_i_deg: inc.theta_deg,
+                            at,
+                            cell: flat,
+                            m00: block.2[flat][0],
+                            brdf: brdfs[flat],
+                            table: self.file().to_owned(),
+                        },
+                    ));
+                }
+                // A polarised incident state: the wall meets every state, so
+                // it samples the unpolarised BRDF, m00.
+                Ok(Some(_)) => {
+                    let fractions = (0..n)
+                        .map(|flat| block.2[flat][0] * self.cell_proj(flat))
+                        .collect();
+                    self.set_fractions(i, fractions).map_err(|total| {
+                        fail(
+                            last_line,
+                            MuellerTableProblem::M00Above {
+                                theta_i_deg: inc.theta_deg,
+                                at,
+                                total,
+                            },
+                        )
+                    })?;
+                }
+                Ok(None) => {}
+            }
+            let mut normalised = Vec::with_capacity(n);
+            for m in &block.2 {
+                normalised.push(if m[0] > 0.0 {
+                    m.map(|v| v / m[0])
+                } else {
+                    [0.0; 16]
+                });
+            }
+            self.set_mueller(i, normalised);
+        }
+        Ok(self)
+    }
+}
+
+/// The incident state of the run that wrote `brdfs` (a `brdf.csv` block's
+/// BRDF per cell) beside `matrices` (its `mueller.csv` block): `None` when
+/// every `brdf` is `m00` (unpolarised light, within 1e-6 relative), else
+/// `(s1, s2, s3)`, `|s| <= 1`, with `brdf = m00 + m01 s1 + m02 s2 + m03 s3`
+/// in every cell (the BRDF of that state; least squares over the cells,
+/// then each cell within 1e-6 of the sum of the absolute terms).
+///
+/// # Errors
+/// The first cell that fits neither.
+fn incident_state(matrices: &[[f64; 16]], brdfs: &[f64]) -> Result<Option<glam::DVec3>, usize> {
+    let off =
+        |m: &[f64; 16], brdf: f64| (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300;
+    let Some(first) = matrices.iter().zip(brdfs).position(|(m, &b)| off(m, b)) else {
+        return Ok(None);
+    };
+    let row = |m: &[f64; 16]| glam::DVec3::new(m[1], m[2], m[3]);
+    let (mut a, mut b) = (glam::DMat3::ZERO, glam::DVec3::ZERO);
+    for (m, &brdf) in matrices.iter().zip(brdfs) {
+        let v = row(m);
+        a += glam::DMat3::from_cols(v * v.x, v * v.y, v * v.z);
+        b += v * (brdf - m[0]);
+    }
+    // A column of zeros (no circular part) leaves its component free: the
+    // small ridge sets it to 0.
+    let ridge = 1e-12 * (a.x_axis.x + a.y_axis.y + a.z_axis.z) + 1e-300;
+    let s = (a + glam::DMat3::from_diagonal(glam::DVec3::splat(ridge))).inverse() * b;
+    if !(s.length() <= 1.0 + 1e-6) {
+        return Err(first);
+    }
+    let fits = |m: &[f64; 16], brdf: f64| {
+        let v = row(m);
+        let scale = brdf.abs() + m[0].abs() + v.abs().dot(glam::DVec3::ONE);
+        (m[0] + v.dot(s) - brdf).abs() <= 1e-6 * scale + 1e-300
+    };
+    match matrices.iter().zip(brdfs).position(|(m, &b)| !fits(m, b)) {
+        Some(flat) => Err(flat),
+        None => Ok(Some(s)),
+    }
 }

@@ -16,9 +16,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::micro::Edges;
 use crate::micro::surface_stats::SurfaceStats;
+use crate::output::object_tallies::{TraceDescription, TraceShard};
 use crate::scene::Content;
-use crate::transport::brdf::{BrdfRun, IncidenceResult};
+use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult, RealisationResult};
 use crate::transport::object::PositionResult;
+
+mod reader;
+
+pub use reader::{EntryKey, SummaryProblem};
 
 /// A summary's text: pretty-printed JSON and a line end.
 ///
@@ -166,6 +171,10 @@ pub struct IncidenceSummary {
     pub phi_deg: f64,
     /// Photons launched.
     pub photons: u64,
+    /// With several surface realisations: each one's reflectance and the
+    /// spread between them beside the Monte Carlo error.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub realisations: Option<RealisationsSummary>,
     /// Reflected weight per photon.
     pub reflectance: f64,
     /// Reflectance by number of reflections.
@@ -199,6 +208,82 @@ pub struct IncidenceSummary {
     pub tests_per_segment: Option<f64>,
     /// Incidence polar angle.
     pub theta_deg: f64,
+}
+
+/// The reflectances of the surface realisations of one incidence
+/// (`[surface] realisations = R`, R > 1) and how far they spread.
+///
+/// With `r_k` realisation `k`'s reflectance and `s_k` its Monte Carlo
+/// standard error (its own photons): `spread` is the sample standard
+/// deviation `sqrt(sum (r_k - mean)² / (R - 1))`; `monte_carlo_spread` =
+/// `sqrt(sum s_k² / R)` the spread photon noise alone would give;
+/// `surface_spread` = `sqrt(max(0, spread² - monte_carlo_spread²))` the
+/// part that comes from the surfaces differing. When `surface_spread`
+/// dominates, more realisations (not more photons) narrow the ensemble's
+/// error; the incidence's `reflectance_stderr` is the Monte Carlo error of
+/// the ensemble mean over all photons, and `spread / sqrt(R)` the error of
+/// the mean over realisations, which includes the surfaces' variation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RealisationsSummary {
+    /// `sqrt(sum s_k² / R)`.
+    pub monte_carlo_spread: f64,
+    /// Photons of each realisation.
+    pub photons: Vec<u64>,
+    /// Reflectance of each realisation.
+    pub reflectance: Vec<f64>,
+    /// Its Monte Carlo standard error.
+    pub reflectance_stderr: Vec<f64>,
+    /// Sample standard deviation of the realisations' reflectances.
+    pub spread: f64,
+    /// `spread / sqrt(R)`: the standard error of the mean over realisations.
+    pub spread_stderr_of_mean: f64,
+    /// `sqrt(max(0, spread² - monte_carlo_spread²))`.
+    pub surface_spread: f64,
+}
+
+impl RealisationsSummary {
+    /// The summary of `realisations` (`None` for fewer than 2).
+    #[must_use]
+    pub fn new(realisations: &[RealisationResult]) -> Option<Self> {
+        let count = realisations.len();
+        if count < 2 {
+            return None;
+        }
+        let n = count as f64;
+        let reflectance: Vec<f64> = realisations.iter().map(|r| r.reflectance).collect();
+        let reflectance_stderr: Vec<f64> =
+            realisations.iter().map(|r| r.reflectance_stderr).collect();
+        let mean = reflectance.iter().sum::<f64>() / n;
+        let spread =
+            (reflectance.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let monte_carlo_spread = (reflectance_stderr.iter().map(|s| s * s).sum::<f64>() / n).sqrt();
+        Some(Self {
+            monte_carlo_spread,
+            photons: realisations.iter().map(|r| r.photons).collect(),
+            reflectance,
+            reflectance_stderr,
+            spread,
+            spread_stderr_of_mean: spread / n.sqrt(),
+            surface_spread: (spread * spread - monte_carlo_spread * monte_carlo_spread)
+                .max(0.0)
+                .sqrt(),
+        })
+    }
+
+    /// The mean, realisation by realisation, of the summaries of several
+    /// wavelengths (of a spectral run: reflectances and their errors
+    /// averaged, spreads recomputed from those).
+    fn mean(all: &[&Self]) -> Option<Self> {
+        let first = all.first()?;
+        let n = all.len() as f64;
+        let per = |k: usize| RealisationResult {
+            photons: first.photons[k],
+            reflectance: all.iter().map(|a| a.reflectance[k]).sum::<f64>() / n,
+            reflectance_stderr: all.iter().map(|a| a.reflectance_stderr[k]).sum::<f64>() / n,
+        };
+        Self::new(&(0..first.photons.len()).map(per).collect::<Vec<_>>())
+    }
 }
 
 /// The colour of a reflectance spectrum under the CIE D65 illuminant
@@ -319,6 +404,11 @@ impl IncidenceSummary {
         let reflectances: Vec<f64> = all.iter().map(|e| e.reflectance).collect();
         first.colour = ColourSummary::new(&wavelengths, &reflectances);
         first.spectrum = Some(lanes.iter().map(WavelengthSummary::new).collect());
+        first.realisations = RealisationsSummary::mean(
+            &all.iter()
+                .filter_map(|e| e.realisations.as_ref())
+                .collect::<Vec<_>>(),
+        );
         first
     }
 }
@@ -358,6 +448,7 @@ impl IncidenceSummary {
             numeric_guard_photons: t.numeric_histories,
             phi_deg: r.phi_i_deg,
             photons: t.photons,
+            realisations: RealisationsSummary::new(&r.realisations),
             reflectance,
             reflectance_by_bounces: t.by_bounces.iter().map(|w| w / n).collect(),
             reflectance_stderr,
@@ -402,23 +493,26 @@ pub struct BrdfSummary {
 }
 
 impl BrdfSummary {
-    /// The summary of the run `description`, per incidence `results`
-    /// (incidence-major, then wavelength), total time `seconds`.
+    /// The summary of the run `description`, its `results`, total time
+    /// `seconds`: one entry per incidence (and azimuth), its wavelengths
+    /// summed up ([`IncidenceSummary::spectral`]) for a spectral run.
     #[must_use]
-    pub fn new(description: &Description, results: &[IncidenceResult], seconds: f64) -> Self {
+    pub fn new(description: &Description, results: &BrdfResult, seconds: f64) -> Self {
         let d = description.clone();
-        let lanes = d.run.wavelengths_um.len();
+        let spectral = !d.run.wavelengths_um.is_empty();
         Self {
             content: d.content,
             edges: d.edges,
-            incidence: if lanes == 0 {
-                results.iter().map(IncidenceSummary::new).collect()
-            } else {
-                results
-                    .chunks(lanes)
-                    .map(IncidenceSummary::spectral)
-                    .collect()
-            },
+            incidence: results
+                .groups()
+                .map(|lanes| {
+                    if spectral {
+                        IncidenceSummary::spectral(lanes)
+                    } else {
+                        IncidenceSummary::new(&lanes[0])
+                    }
+                })
+                .collect(),
             name: d.name,
             run: d.run,
             scene: d.scene,
@@ -579,7 +673,8 @@ impl PositionSummary {
     #[must_use]
     pub fn new(r: &PositionResult, surface_names: &[String]) -> Self {
         let t = &r.tallies;
-        let n = t.photons as f64;
+        // A shard's position without photons of its own: zeros, not NaN.
+        let n = t.photons.max(1) as f64;
         let (reflectance, reflectance_stderr) = r.reflectance();
         let absorbed = |f: &dyn Fn(usize) -> f64| -> BTreeMap<String, f64> {
             surface_names
@@ -616,6 +711,10 @@ impl PositionSummary {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TraceSummary {
+    /// The scene's text and the files it reads, hashed (empty when read
+    /// from an older file without it).
+    #[serde(default)]
+    pub content: Content,
     /// The scene's `name`.
     pub name: String,
     /// The scene file as given.
@@ -624,6 +723,10 @@ pub struct TraceSummary {
     pub seconds: f64,
     /// Tracing seed.
     pub seed: u64,
+    /// The block of a shard (`roks trace --shard I/N`; its sums are that
+    /// block's only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<TraceShard>,
     /// Per beam position, in the order of the scene's sources.
     pub sources: Vec<PositionSummary>,
     /// The roks version that ran it.
@@ -634,25 +737,20 @@ pub struct TraceSummary {
 }
 
 impl TraceSummary {
-    /// The summary of a trace of scene file `scene` named `name` with
-    /// `seed`: per beam position `results` (per position and wavelength,
-    /// position-major, for a spectral run of `wavelengths_um`; empty:
-    /// monochrome), surfaces named by id `surface_names`, total time `seconds`.
+    /// The summary of the run `d` (a whole run, a merge or a shard): per
+    /// beam position `results` (per position and wavelength,
+    /// position-major, for a spectral run), total time `seconds`.
     #[must_use]
-    pub fn new(
-        scene: &str,
-        name: &str,
-        seed: u64,
-        results: &[PositionResult],
-        surface_names: &[String],
-        wavelengths_um: &[f64],
-        seconds: f64,
-    ) -> Self {
+    pub fn new(d: &TraceDescription, results: &[PositionResult], seconds: f64) -> Self {
+        let wavelengths_um = &d.run.wavelengths_um;
+        let surface_names = &d.surfaces;
         Self {
-            name: name.to_owned(),
-            scene: scene.to_owned(),
+            content: d.content.clone(),
+            name: d.name.clone(),
+            scene: d.scene.clone(),
             seconds,
-            seed,
+            seed: d.run.seed,
+            shard: d.shard,
             sources: if wavelengths_um.is_empty() {
                 results
                     .iter()
@@ -664,8 +762,8 @@ impl TraceSummary {
                     .map(|lanes| PositionSummary::spectral(lanes, surface_names))
                     .collect()
             },
-            version: env!("CARGO_PKG_VERSION").to_owned(),
-            wavelengths_um: wavelengths_um.to_vec(),
+            version: d.version.clone(),
+            wavelengths_um: wavelengths_um.clone(),
         }
     }
 }
@@ -831,7 +929,8 @@ mod tests {
             run,
             surface,
         );
-        let folder = BrdfFolder::trace(&scene.surface, description, &|_| {});
+        let results = description.run.run(&scene.surface, &|_| {});
+        let folder = BrdfFolder::traced(description, results, 0.0);
         let mut summary = folder.summary();
         assert_eq!(summary.run.photons, 5000);
         assert_eq!(summary.incidence[0].photons, 5000 - 4096);
@@ -873,10 +972,12 @@ mod tests {
             stokes_stderr: Some([0.01; 4]),
         };
         assert_sorted(&TraceSummary {
+            content: Content::default(),
             name: "n".into(),
             scene: "s.toml".into(),
             seconds: 1.0,
             seed: 1,
+            shard: None,
             sources: vec![position],
             version: "0".into(),
             wavelengths_um: vec![3.0],

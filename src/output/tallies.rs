@@ -40,7 +40,9 @@ use crate::tally::exact::{self, Exact};
 use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{Accumulator, Merge, PolarTally};
 use crate::transport::BATCH;
-use crate::transport::brdf::{BOUNCE_BINS, BrdfRun, BrdfTallies};
+use crate::transport::brdf::{
+    BOUNCE_BINS, BrdfResult, BrdfRun, BrdfTallies, ByAzimuth, ByIncidence, IncidenceResult,
+};
 
 /// `format` of `tallies.json`.
 pub const FORMAT: &str = "roks-tallies";
@@ -225,38 +227,33 @@ pub struct TalliesFile<T = BrdfTallies> {
 
 impl TalliesFile {
     /// The file of the run `description` (its photons
-    /// [`BrdfRun::photon_range`]), per incidence (and wavelength)
-    /// `(theta_deg, wavelength_um, seconds, nodes)`, with total time
+    /// [`BrdfRun::photon_range`]): the nodes of each leaf of `results` in
+    /// file order (incidence-major, then wavelength), with total time
     /// `seconds`.
     #[must_use]
-    pub fn new(
-        description: &Description,
-        incidence: Vec<(f64, Option<f64>, f64, Vec<Node<BrdfTallies>>)>,
-        seconds: f64,
-    ) -> Self {
+    pub fn new(description: &Description, results: &BrdfResult, seconds: f64) -> Self {
         Self {
             batch: BATCH,
             description: description.clone(),
             format: FORMAT.to_owned(),
             format_version: FORMAT_VERSION,
-            incidence: incidence
-                .into_iter()
-                .map(
-                    |(theta_deg, wavelength_um, seconds, nodes)| IncidenceNodes {
-                        photons: nodes.iter().map(|n| n.value.photons).sum(),
-                        nodes: nodes
-                            .into_iter()
-                            .map(|n| NodeFile {
-                                index: n.index,
-                                level: u64::from(n.level),
-                                tallies: n.value,
-                            })
-                            .collect(),
-                        seconds,
-                        theta_deg,
-                        wavelength_um: wavelength_um.map(Exact),
-                    },
-                )
+            incidence: results
+                .iter()
+                .map(|leaf| IncidenceNodes {
+                    photons: leaf.nodes.iter().map(|n| n.value.photons).sum(),
+                    nodes: leaf
+                        .nodes
+                        .iter()
+                        .map(|n| NodeFile {
+                            index: n.index,
+                            level: u64::from(n.level),
+                            tallies: n.value.clone(),
+                        })
+                        .collect(),
+                    seconds: leaf.seconds,
+                    theta_deg: leaf.theta_i_deg,
+                    wavelength_um: leaf.wavelength_um.map(Exact),
+                })
                 .collect(),
             seconds,
         }
@@ -559,7 +556,8 @@ impl ShardFile {
     /// Photon indices `[first, last)` it holds.
     #[must_use]
     pub fn photons(&self) -> (u64, u64) {
-        self.tallies.description.run.photon_range()
+        let r = self.tallies.description.run.photon_range();
+        (r.start, r.end)
     }
 }
 
@@ -621,52 +619,16 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
     })
 }
 
-/// One incidence of merged shards: angle (degrees), summed wall-clock
-/// time (s) and the root tallies.
-#[derive(Debug, Clone)]
-pub struct MergedIncidence {
-    /// Incidence polar angle (degrees).
-    pub theta_deg: f64,
-    /// Wavelength (µm) of a spectral run.
-    pub wavelength_um: Option<f64>,
-    /// Sum of the shards' times (s).
-    pub seconds: f64,
-    /// The sums over the whole run (the tree's root).
-    pub tallies: BrdfTallies,
-}
-
 /// Shards of one run, checked against each other and summed.
 #[derive(Debug, Clone)]
 pub struct Merged {
     /// The run (all photons: no shard), as the first shard describes it.
     pub description: Description,
-    /// Per incidence angle of the run.
-    pub incidence: Vec<MergedIncidence>,
+    /// The whole run's sums; each leaf's one node is its tree's root, its
+    /// time the sum of the shards' times (s).
+    pub results: BrdfResult,
     /// Sum of the shards' total times (s).
     pub seconds: f64,
-}
-
-impl Merged {
-    /// The merged run's own `tallies.json`: one shard of one, each
-    /// incidence's root node.
-    #[must_use]
-    pub fn tallies_file(&self) -> TalliesFile {
-        let batches = self.description.run.photons.div_ceil(BATCH);
-        let level = batches.next_power_of_two().trailing_zeros();
-        let incidence = self
-            .incidence
-            .iter()
-            .map(|i| {
-                let root = Node {
-                    level,
-                    index: 0,
-                    value: i.tallies.clone(),
-                };
-                (i.theta_deg, i.wavelength_um, i.seconds, vec![root])
-            })
-            .collect();
-        TalliesFile::new(&self.description, incidence, self.seconds)
-    }
 }
 
 /// Check that shards sorted by photon range tile the run's `total`
@@ -799,13 +761,14 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     check_tiling(&parts, total)?;
 
     let batches = total.div_ceil(BATCH);
-    let blocks = run.blocks();
+    let lanes = run.lane_count();
+    let leaves = run.theta_deg.len() * lanes;
     let mut seconds = 0.0;
     for p in &parts {
         let at = |e: FieldError| e.in_file(&p.file);
         seconds += check_seconds(p.tallies.seconds).map_err(at)?;
         let n = p.tallies.incidence.len();
-        if n != blocks.len() {
+        if n != leaves {
             return Err(at(FieldError::new(
                 "incidence",
                 format!(
@@ -820,94 +783,125 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
             )));
         }
     }
-    let mut sums: Vec<(DyadicSum<BrdfTallies>, f64, u64)> = blocks
+    // Per incidence angle and wavelength: the tree's sum, time, tests and
+    // (several realisations) the nodes.
+    #[allow(clippy::type_complexity)]
+    let mut sums: Vec<Vec<(DyadicSum<BrdfTallies>, f64, u64, Vec<Node<BrdfTallies>>)>> = run
+        .theta_deg
         .iter()
-        .map(|_| (DyadicSum::new(batches), 0.0, 0))
+        .map(|_| {
+            (0..lanes)
+                .map(|_| (DyadicSum::new(batches), 0.0, 0, Vec::new()))
+                .collect()
+        })
         .collect();
     for p in parts {
         let range = p.photons();
-        for (i, (inc, (sum, secs, tests))) in
-            p.tallies.incidence.into_iter().zip(&mut sums).enumerate()
-        {
-            let key = format!("incidence[{i}]");
-            let at = |e: FieldError| e.under(&key).in_file(&p.file);
-            let (theta, wavelength) = blocks[i];
-            if inc.theta_deg.to_bits() != theta.to_bits() {
-                let t = i / run.lane_count();
-                return Err(at(FieldError::new(
-                    "theta_deg",
-                    format!(
-                        "{} is not description.run.theta_deg[{t}] = {theta}",
-                        inc.theta_deg
-                    ),
-                )));
-            }
-            if inc.wavelength_um.map(|w| w.0.to_bits()) != wavelength.map(f64::to_bits) {
-                let l = i % run.lane_count();
-                return Err(at(FieldError::new(
-                    "wavelength_um",
-                    match (inc.wavelength_um, wavelength) {
-                        (_, Some(w)) => format!(
-                            "{} is not description.run.wavelengths_um[{l}] = {w}",
-                            inc.wavelength_um
-                                .map_or("absent".into(), |w| w.0.to_string())
+        // The file lists the leaves incidence-major, then wavelength.
+        let mut entries = p.tallies.incidence.into_iter().enumerate();
+        for (t, (&theta, lane_sums)) in run.theta_deg.iter().zip(&mut sums).enumerate() {
+            for (l, (sum, secs, tests, kept)) in lane_sums.iter_mut().enumerate() {
+                let (i, inc) = entries.next().expect("the number of leaves was checked");
+                let key = format!("incidence[{i}]");
+                let at = |e: FieldError| e.under(&key).in_file(&p.file);
+                let wavelength = run.wavelength(l);
+                if inc.theta_deg.to_bits() != theta.to_bits() {
+                    return Err(at(FieldError::new(
+                        "theta_deg",
+                        format!(
+                            "{} is not description.run.theta_deg[{t}] = {theta}",
+                            inc.theta_deg
                         ),
-                        _ => "not expected in a monochrome run".into(),
-                    },
-                )));
-            }
-            *secs += check_seconds(inc.seconds).map_err(at)?;
-            let nodes = checked_nodes(inc.nodes, &run).map_err(|e| at(e.under("nodes")))?;
-            check_node_tiling(&nodes, range, batches).map_err(at)?;
-            if inc.photons != range.1 - range.0 {
-                return Err(at(FieldError::new(
-                    "photons",
-                    format!(
-                        "{} is not last_photon - first_photon = {}",
-                        inc.photons,
-                        range.1 - range.0
-                    ),
-                )));
-            }
-            for (k, node) in nodes.into_iter().enumerate() {
-                crate::tally::realisable::check_sums(
-                    node.value.polar.as_ref(),
-                    &node.value.carlson,
-                    run.polarisation.incident.stokes(),
-                )
-                .map_err(|e| at(FieldError::new(format!("nodes[{k}].tallies.polar"), e)))?;
-                *tests = tests
-                    .checked_add(node.value.intersection_tests)
-                    .ok_or_else(|| {
-                        at(FieldError::new(
-                            format!("nodes[{k}].tallies.intersection_tests"),
-                            "the shards' counts add up past 2^64",
-                        ))
-                    })?;
-                sum.push(node, &BrdfTallies::merge)
-                    .map_err(|e| at(FieldError::new(format!("nodes[{k}]"), e)))?;
+                    )));
+                }
+                if inc.wavelength_um.map(|w| w.0.to_bits()) != wavelength.map(f64::to_bits) {
+                    return Err(at(FieldError::new(
+                        "wavelength_um",
+                        match (inc.wavelength_um, wavelength) {
+                            (_, Some(w)) => format!(
+                                "{} is not description.run.wavelengths_um[{l}] = {w}",
+                                inc.wavelength_um
+                                    .map_or("absent".into(), |w| w.0.to_string())
+                            ),
+                            _ => "not expected in a monochrome run".into(),
+                        },
+                    )));
+                }
+                *secs += check_seconds(inc.seconds).map_err(at)?;
+                let nodes = checked_nodes(inc.nodes, &run).map_err(|e| at(e.under("nodes")))?;
+                check_node_tiling(&nodes, range, batches).map_err(at)?;
+                if inc.photons != range.1 - range.0 {
+                    return Err(at(FieldError::new(
+                        "photons",
+                        format!(
+                            "{} is not last_photon - first_photon = {}",
+                            inc.photons,
+                            range.1 - range.0
+                        ),
+                    )));
+                }
+                for (k, node) in nodes.into_iter().enumerate() {
+                    crate::tally::realisable::check_sums(
+                        node.value.polar.as_ref(),
+                        &node.value.carlson,
+                        run.polarisation.incident.stokes(),
+                    )
+                    .map_err(|e| at(FieldError::new(format!("nodes[{k}].tallies.polar"), e)))?;
+                    *tests = tests
+                        .checked_add(node.value.intersection_tests)
+                        .ok_or_else(|| {
+                            at(FieldError::new(
+                                format!("nodes[{k}].tallies.intersection_tests"),
+                                "the shards' counts add up past 2^64",
+                            ))
+                        })?;
+                    // Several realisations: the shards' nodes (each within
+                    // one realisation's block) kept for the sums of each.
+                    if run.realisations > 1 {
+                        kept.push(node.clone());
+                    }
+                    sum.push(node, &BrdfTallies::merge)
+                        .map_err(|e| at(FieldError::new(format!("nodes[{k}]"), e)))?;
+                }
             }
         }
     }
-    let incidence = sums
-        .into_iter()
-        .zip(&blocks)
-        .enumerate()
-        .map(|(i, ((sum, seconds, _), &(theta, wavelength_um)))| {
+    // The roots, nested as a trace's result.
+    let level = batches.next_power_of_two().trailing_zeros();
+    let mut i = 0;
+    let mut incidence = Vec::with_capacity(sums.len());
+    for (&theta, lane_sums) in run.theta_deg.iter().zip(sums) {
+        let mut wavelength = Vec::with_capacity(lanes);
+        for (l, (sum, seconds, _, kept)) in lane_sums.into_iter().enumerate() {
             let tallies = sum
                 .finish()
                 .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0))?;
-            Ok(MergedIncidence {
-                theta_deg: theta,
-                wavelength_um,
-                seconds,
+            i += 1;
+            wavelength.push(IncidenceResult {
+                theta_i_deg: theta,
+                phi_i_deg: run.phi_deg,
+                wavelength_um: run.wavelength(l),
+                nodes: vec![Node {
+                    level,
+                    index: 0,
+                    value: tallies.clone(),
+                }],
                 tallies,
-            })
-        })
-        .collect::<Result<Vec<_>, SceneError>>()?;
+                seconds,
+                realisations: run.realisation_results(theta, &kept),
+            });
+        }
+        incidence.push(ByIncidence {
+            theta_i_deg: theta,
+            azimuth: vec![ByAzimuth {
+                phi_i_deg: run.phi_deg,
+                wavelength,
+            }],
+        });
+    }
     Ok(Merged {
         description,
-        incidence,
+        results: BrdfResult { incidence },
         seconds,
     })
 }
@@ -966,15 +960,17 @@ mod tests {
         run
     }
 
+    /// The folder of the run of `d` traced on `scene`.
+    fn traced(scene: &MicroScene, d: Description) -> BrdfFolder {
+        let results = d.run.run(&scene.surface, &|_| {});
+        BrdfFolder::traced(d, results, 0.0)
+    }
+
     /// The shard folders' `tallies.json` of `run` cut in `count` blocks.
     fn shards(scene: &MicroScene, run: &BrdfRun, count: u64) -> Vec<ShardFile> {
         (0..count)
             .map(|index| {
-                let f = BrdfFolder::trace(
-                    &scene.surface,
-                    description(&block(run, index, count)),
-                    &|_| {},
-                );
+                let f = traced(scene, description(&block(run, index, count)));
                 let text = f.tallies.unwrap().to_text();
                 ShardFile {
                     dir: PathBuf::from(format!("s{index}")),
@@ -1035,14 +1031,15 @@ mod tests {
     #[test]
     fn merged_shards_are_the_whole_run_bit_for_bit() {
         let (scene, run) = scene_and_run();
-        let whole = BrdfFolder::trace(&scene.surface, description(&run), &|_| {});
+        let whole = traced(&scene, description(&run));
         for count in [2, 3, 4] {
             let mut parts = shards(&scene, &run, count);
             parts.reverse(); // any order
             let merged = merge_shards(parts).unwrap();
             assert_eq!(merged.description, description(&run));
-            for (m, w) in merged.incidence.iter().zip(&whole.results) {
-                assert_eq!(m.theta_deg, w.theta_i_deg);
+            assert_eq!(merged.results.len(), whole.results.len());
+            for (m, w) in merged.results.iter().zip(&whole.results) {
+                assert_eq!(m.theta_i_deg, w.theta_i_deg);
                 // Equal bits (PartialEq on f64 would also accept -0 for 0).
                 assert_eq!(
                     serde_json::to_string(&m.tallies).unwrap(),
@@ -1051,8 +1048,8 @@ mod tests {
                 );
             }
             // The merge's own file holds the roots.
-            let file = merged.tallies_file();
-            assert_eq!(file.description.run.photon_range(), (0, run.photons));
+            let file = BrdfFolder::merged(merged).tallies.unwrap();
+            assert_eq!(file.description.run.photon_range(), 0..run.photons);
             assert_eq!(file.incidence[0].nodes.len(), 1);
             assert_eq!(file.incidence[0].nodes[0].level, 2);
         }

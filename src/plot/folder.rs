@@ -53,6 +53,122 @@ impl Picture {
     }
 }
 
+/// Why the pictures of a result folder cannot be made: the file (and line)
+/// that cannot be read, or the picture that cannot be drawn. One line.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// A file of the folder that is missing or does not fit.
+    #[error("{file}: {problem}")]
+    File {
+        /// The file's name in the folder, e.g. `brdf.csv`.
+        file: &'static str,
+        /// What is wrong.
+        problem: FileProblem,
+    },
+    /// A picture that cannot be drawn.
+    #[error("{name}: {error}")]
+    Draw {
+        /// The picture's file name.
+        name: String,
+        /// The drawing's error.
+        error: anyhow::Error,
+    },
+    /// A folder on disk ([`pictures_in`]).
+    #[error("{}: {error}", dir.display())]
+    Folder {
+        /// The folder.
+        dir: std::path::PathBuf,
+        /// The error of its files.
+        error: Box<PlotError>,
+    },
+}
+
+/// What is wrong with a file of a result folder ([`PlotError::File`]).
+#[derive(Debug, thiserror::Error)]
+pub enum FileProblem {
+    /// No `summary.json`.
+    #[error("missing (not a roks result folder)")]
+    NotAResult,
+    /// A file the pictures need is missing.
+    #[error("missing")]
+    Missing,
+    /// JSON that is not a summary.
+    #[error("{0}")]
+    Json(serde_json::Error),
+    /// A summary of neither kind of run.
+    #[error("neither of roks brdf (incidence) nor of roks trace (sources)")]
+    NeitherKind,
+    /// A summary's bands that make no Carlson grid.
+    #[error("bands: {0} is not a grid")]
+    Bands(usize),
+    /// A CSV without its header (the file's name).
+    #[error("line 1: not the header of roks's {0}")]
+    Header(&'static str),
+    /// A CSV field that is not a number (1-based line and column).
+    #[error("line {line}: column {column}: `{text}` is not a number")]
+    Number {
+        /// Line.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// The field.
+        text: String,
+    },
+    /// A CSV row without the header's columns.
+    #[error("line {line}: expected {expected} columns, found {found}")]
+    Columns {
+        /// Line.
+        line: usize,
+        /// The header's columns.
+        expected: usize,
+        /// The row's.
+        found: usize,
+    },
+    /// Rows that are not whole blocks of the grid's cells.
+    #[error("{rows} rows are not whole blocks of {cells} cells")]
+    Blocks {
+        /// Rows.
+        rows: usize,
+        /// Cells of the grid.
+        cells: usize,
+    },
+    /// A block of one incidence that is not the grid's cells long.
+    #[error("a block of theta_i_deg = {theta_i_deg} is not {cells} cells long")]
+    Block {
+        /// The block's incidence (degrees).
+        theta_i_deg: f64,
+        /// Cells of the grid.
+        cells: usize,
+    },
+    /// An incidence without one block per wavelength.
+    #[error(
+        "theta_i_deg = {theta_i_deg} has {blocks} blocks, expected {lanes} (one per wavelength)"
+    )]
+    Lanes {
+        /// The incidence (degrees).
+        theta_i_deg: f64,
+        /// Its blocks.
+        blocks: usize,
+        /// The run's wavelengths (1: monochrome).
+        lanes: usize,
+    },
+    /// A `mueller.csv` that cannot be read.
+    #[error("{0}")]
+    Mueller(crate::output::polar_csv::MuellerError),
+    /// A block of `mueller.csv` that is not the grid's cells long.
+    #[error("line {line}: a block is not {cells} cells long")]
+    MuellerBlock {
+        /// The block's first line.
+        line: usize,
+        /// Cells of the grid.
+        cells: usize,
+    },
+}
+
+fn bad(file: &'static str, problem: FileProblem) -> PlotError {
+    PlotError::File { file, problem }
+}
+
 /// A CSV table of numbers, read by its header's column names.
 struct Csv {
     columns: Vec<String>,
@@ -61,7 +177,7 @@ struct Csv {
 
 impl Csv {
     /// Parse `text` of file `name`, whose header must be one of `headers`.
-    fn parse(name: &str, text: &str, headers: &[String]) -> Result<Self, String> {
+    fn parse(name: &'static str, text: &str, headers: &[String]) -> Result<Self, PlotError> {
         let mut lines = text
             .lines()
             .enumerate()
@@ -69,7 +185,7 @@ impl Csv {
         let header = lines.next().map_or("", |(_, l)| l);
         let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
         if !headers.iter().any(|h| h == header) {
-            return Err(format!("{name}: line 1: not the header of roks's {name}"));
+            return Err(bad(name, FileProblem::Header(name)));
         }
         let columns: Vec<String> = header.split(',').map(str::to_owned).collect();
         let mut rows = Vec::new();
@@ -79,21 +195,25 @@ impl Csv {
                 .enumerate()
                 .map(|(c, f)| {
                     f.trim().parse::<f64>().map_err(|_| {
-                        format!(
-                            "{name}: line {}: column {}: `{}` is not a number",
-                            i + 1,
-                            c + 1,
-                            f.trim()
+                        bad(
+                            name,
+                            FileProblem::Number {
+                                line: i + 1,
+                                column: c + 1,
+                                text: f.trim().to_owned(),
+                            },
                         )
                     })
                 })
                 .collect::<Result<_, _>>()?;
             if row.len() != columns.len() {
-                return Err(format!(
-                    "{name}: line {}: expected {} columns, found {}",
-                    i + 1,
-                    columns.len(),
-                    row.len()
+                return Err(bad(
+                    name,
+                    FileProblem::Columns {
+                        line: i + 1,
+                        expected: columns.len(),
+                        found: row.len(),
+                    },
                 ));
             }
             rows.push(row);
@@ -125,32 +245,34 @@ fn headers(header: &str, after: &str) -> Vec<String> {
 /// # Errors
 /// A one-line message naming the file (and line) that cannot be read, or
 /// a picture that cannot be drawn.
-pub fn pictures(file: &dyn Fn(&str) -> Option<String>) -> Result<Vec<(String, Vec<u8>)>, String> {
-    let summary = file("summary.json").ok_or("summary.json: missing (not a roks result folder)")?;
-    let value: serde_json::Value =
-        serde_json::from_str(&summary).map_err(|e| format!("summary.json: {e}"))?;
+pub fn pictures(
+    file: &dyn Fn(&str) -> Option<String>,
+) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
+    const SUMMARY: &str = "summary.json";
+    let json = |e| bad(SUMMARY, FileProblem::Json(e));
+    let summary = file(SUMMARY).ok_or(bad(SUMMARY, FileProblem::NotAResult))?;
+    let value: serde_json::Value = serde_json::from_str(&summary).map_err(json)?;
     let pictures = if value.get("incidence").is_some() {
-        let s: BrdfSummary =
-            serde_json::from_value(value).map_err(|e| format!("summary.json: {e}"))?;
+        let s: BrdfSummary = serde_json::from_value(value).map_err(json)?;
         micro(&s, file)?
     } else if value.get("sources").is_some() {
-        let s: TraceSummary =
-            serde_json::from_value(value).map_err(|e| format!("summary.json: {e}"))?;
+        let s: TraceSummary = serde_json::from_value(value).map_err(json)?;
         vec![(
             "reflectance.png".to_owned(),
             Picture::Line(object_reflectance(&s)),
         )]
     } else {
-        return Err(
-            "summary.json: neither of roks brdf (incidence) nor of roks trace (sources)".into(),
-        );
+        return Err(bad(SUMMARY, FileProblem::NeitherKind));
     };
     pictures
         .par_iter()
         .map(|(name, p)| {
             p.png()
                 .map(|png| (name.clone(), png))
-                .map_err(|e| format!("{name}: {e}"))
+                .map_err(|error| PlotError::Draw {
+                    name: name.clone(),
+                    error,
+                })
         })
         .collect()
 }
@@ -160,7 +282,7 @@ pub fn pictures(file: &dyn Fn(&str) -> Option<String>) -> Result<Vec<(String, Ve
 ///
 /// # Errors
 /// As [`pictures`].
-pub fn pictures_of(files: &[(String, Vec<u8>)]) -> Result<Vec<(String, Vec<u8>)>, String> {
+pub fn pictures_of(files: &[(String, Vec<u8>)]) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
     pictures(&|name| {
         files
             .iter()
@@ -173,7 +295,7 @@ pub fn pictures_of(files: &[(String, Vec<u8>)]) -> Result<Vec<(String, Vec<u8>)>
 ///
 /// # Errors
 /// As [`pictures`].
-pub fn add_pictures(files: &mut Vec<(String, Vec<u8>)>) -> Result<(), String> {
+pub fn add_pictures(files: &mut Vec<(String, Vec<u8>)>) -> Result<(), PlotError> {
     let pictures = pictures_of(files)?;
     files.extend(pictures);
     Ok(())
@@ -183,9 +305,11 @@ pub fn add_pictures(files: &mut Vec<(String, Vec<u8>)>) -> Result<(), String> {
 ///
 /// # Errors
 /// As [`pictures`], the file names relative to `dir`.
-pub fn pictures_in(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, String> {
-    pictures(&|name| std::fs::read_to_string(dir.join(name)).ok())
-        .map_err(|e| format!("{}: {e}", dir.display()))
+pub fn pictures_in(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
+    pictures(&|name| std::fs::read_to_string(dir.join(name)).ok()).map_err(|e| PlotError::Folder {
+        dir: dir.to_path_buf(),
+        error: Box::new(e),
+    })
 }
 
 /// What a micro run's titles say of its photons: per incidence, and for a
@@ -203,11 +327,9 @@ fn photons_text(s: &BrdfSummary) -> String {
 fn micro(
     s: &BrdfSummary,
     file: &dyn Fn(&str) -> Option<String>,
-) -> Result<Vec<(String, Picture)>, String> {
-    let grid = CarlsonGrid::new(s.run.bands).ok_or(format!(
-        "summary.json: bands: {} is not a grid",
-        s.run.bands
-    ))?;
+) -> Result<Vec<(String, Picture)>, PlotError> {
+    let grid = CarlsonGrid::new(s.run.bands)
+        .ok_or_else(|| bad("summary.json", FileProblem::Bands(s.run.bands)))?;
     let n = grid.n_cells();
     let lanes = s.run.wavelengths_um.len().max(1);
     let spectral = !s.run.wavelengths_um.is_empty();
@@ -220,7 +342,7 @@ fn micro(
     let mut out = Vec::new();
 
     // brdf.csv: per incidence, the mean BRDF over the wavelengths per cell.
-    let text = file("brdf.csv").ok_or("brdf.csv: missing")?;
+    let text = file("brdf.csv").ok_or_else(|| bad("brdf.csv", FileProblem::Missing))?;
     let brdf = Csv::parse(
         "brdf.csv",
         &text,
@@ -247,7 +369,7 @@ fn micro(
     }
 
     // inplane.csv: one curve per incidence.
-    let text = file("inplane.csv").ok_or("inplane.csv: missing")?;
+    let text = file("inplane.csv").ok_or_else(|| bad("inplane.csv", FileProblem::Missing))?;
     let inplane = Csv::parse(
         "inplane.csv",
         &text,
@@ -367,26 +489,32 @@ fn micro(
 #[allow(clippy::type_complexity)]
 fn incidence_blocks(
     t: &Csv,
-    name: &str,
+    name: &'static str,
     n: usize,
     lanes: usize,
     columns: &[&str],
-) -> Result<Vec<((f64, f64), Vec<Vec<f64>>)>, String> {
+) -> Result<Vec<((f64, f64), Vec<Vec<f64>>)>, PlotError> {
     let (ct, cp) = (t.col("theta_i_deg"), t.col("phi_i_deg"));
     let cols: Vec<usize> = columns.iter().map(|c| t.col(c)).collect();
     if t.rows.len() % n != 0 {
-        return Err(format!(
-            "{name}: {} rows are not whole blocks of {n} cells",
-            t.rows.len()
+        return Err(bad(
+            name,
+            FileProblem::Blocks {
+                rows: t.rows.len(),
+                cells: n,
+            },
         ));
     }
     let mut out: Vec<((f64, f64), Vec<Vec<f64>>, usize)> = Vec::new();
     for block in t.rows.chunks(n) {
         let key = (block[0][ct], block[0][cp]);
         if block.iter().any(|r| (r[ct], r[cp]) != key) {
-            return Err(format!(
-                "{name}: a block of theta_i_deg = {} is not {n} cells long",
-                key.0
+            return Err(bad(
+                name,
+                FileProblem::Block {
+                    theta_i_deg: key.0,
+                    cells: n,
+                },
             ));
         }
         let at = match out.iter().position(|o| o.0 == key) {
@@ -404,9 +532,13 @@ fn incidence_blocks(
         }
     }
     if let Some(o) = out.iter().find(|o| o.2 != lanes) {
-        return Err(format!(
-            "{name}: theta_i_deg = {} has {} blocks, expected {lanes} (one per wavelength)",
-            o.0.0, o.2
+        return Err(bad(
+            name,
+            FileProblem::Lanes {
+                theta_i_deg: o.0.0,
+                blocks: o.2,
+                lanes,
+            },
         ));
     }
     Ok(out.into_iter().map(|o| (o.0, o.1)).collect())
@@ -597,14 +729,17 @@ fn mueller_pictures(
     grid: &CarlsonGrid,
     text: &str,
     photons: &str,
-) -> Result<Vec<(String, Picture)>, String> {
+) -> Result<Vec<(String, Picture)>, PlotError> {
+    const MUELLER: &str = "mueller.csv";
     let n = grid.n_cells();
-    let file = MuellerFile::parse(text)
-        .map_err(|e| format!("mueller.csv: line {}: {}", e.line, e.message))?;
+    let file = MuellerFile::parse(text).map_err(|e| bad(MUELLER, FileProblem::Mueller(e)))?;
     if file.rows.len() % n != 0 {
-        return Err(format!(
-            "mueller.csv: {} rows are not whole blocks of {n} cells",
-            file.rows.len()
+        return Err(bad(
+            MUELLER,
+            FileProblem::Blocks {
+                rows: file.rows.len(),
+                cells: n,
+            },
         ));
     }
     let mut out = Vec::new();
@@ -615,9 +750,12 @@ fn mueller_pictures(
             .iter()
             .any(|r| (r.theta_i_deg, r.phi_i_deg, r.wavelength_um) != (theta, r0.phi_i_deg, w))
         {
-            return Err(format!(
-                "mueller.csv: line {}: a block is not {n} cells long",
-                r0.line
+            return Err(bad(
+                MUELLER,
+                FileProblem::MuellerBlock {
+                    line: r0.line,
+                    cells: n,
+                },
             ));
         }
         let suffix = w.map_or(String::new(), |w| format!("_{}um", number_label(w)));

@@ -264,11 +264,10 @@ impl HemisphereMap {
 
     /// Rings, ticks, markers, labels, title, the colour bar's scale and the
     /// key of cells without a value.
-    fn overlay(&self, buf: &mut [u8], key: bool) -> Result<(), String> {
+    fn overlay(&self, buf: &mut [u8], key: bool) -> Result<(), super::DrawError> {
         use plotters::style::text_anchor::{HPos, Pos, VPos};
         let (lo, hi) = self.range();
         let root = BitMapBackend::with_buffer(buf, (MAP_W, MAP_H)).into_drawing_area();
-        let e = |e: DrawingAreaErrorKind<_>| e.to_string();
         let text = |size: u32, colour: RGBColor, h: HPos| {
             ("sans-serif", size)
                 .into_font()
@@ -279,14 +278,12 @@ impl HemisphereMap {
         // Rings of constant theta; labels along phi = 90 degrees.
         for (deg, colour) in [(30.0, WHITE), (60.0, WHITE), (90.0, BLACK)] {
             let r = (MAP_R * equal_area_radius(f64::to_radians(deg))).round() as i32;
-            root.draw(&Circle::new((cx, cy), r, colour.stroke_width(1)))
-                .map_err(e)?;
+            root.draw(&Circle::new((cx, cy), r, colour.stroke_width(1)))?;
             root.draw(&Text::new(
                 format!("θ = {deg}°"),
                 (cx, cy - r + 11),
                 text(13, WHITE, HPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         // Azimuth ticks and labels outside the rim.
         for k in 0..12 {
@@ -301,8 +298,7 @@ impl HemisphereMap {
             root.draw(&PathElement::new(
                 vec![at(MAP_R), at(MAP_R + 9.0)],
                 BLACK.stroke_width(2),
-            ))
-            .map_err(e)?;
+            ))?;
             let h = if c > 0.3 {
                 HPos::Left
             } else if c < -0.3 {
@@ -314,23 +310,18 @@ impl HemisphereMap {
                 format!("{phi}°"),
                 at(MAP_R + 14.0),
                 text(14, BLACK, h),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         // Specular direction and the direction toward the light.
         let spec = Self::pixel(self.theta_i_deg, self.phi_i_deg + 180.0);
-        root.draw(&Circle::new(spec, 15, BLACK.stroke_width(4)))
-            .map_err(e)?;
-        root.draw(&Circle::new(spec, 15, WHITE.stroke_width(2)))
-            .map_err(e)?;
+        root.draw(&Circle::new(spec, 15, BLACK.stroke_width(4)))?;
+        root.draw(&Circle::new(spec, 15, WHITE.stroke_width(2)))?;
         let light = Self::pixel(self.theta_i_deg, self.phi_i_deg);
         if self.theta_i_deg > 0.0 {
             for (a, b) in [((-7, -7), (7, 7)), ((-7, 7), (7, -7))] {
                 let p = |d: (i32, i32)| (light.0 + d.0, light.1 + d.1);
-                root.draw(&PathElement::new(vec![p(a), p(b)], BLACK.stroke_width(4)))
-                    .map_err(e)?;
-                root.draw(&PathElement::new(vec![p(a), p(b)], WHITE.stroke_width(2)))
-                    .map_err(e)?;
+                root.draw(&PathElement::new(vec![p(a), p(b)], BLACK.stroke_width(4)))?;
+                root.draw(&PathElement::new(vec![p(a), p(b)], WHITE.stroke_width(2)))?;
             }
         }
         // Title and legend.
@@ -340,8 +331,7 @@ impl HemisphereMap {
                 l.clone(),
                 (MAP_W as i32 / 2, 18 + 20 * k as i32),
                 text(if k == 0 { 17 } else { 14 }, BLACK, HPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         let below = 50 + 16 * (title.len() as i32 - 1);
         let lines = [
@@ -358,8 +348,7 @@ impl HemisphereMap {
                 l.clone(),
                 (MAP_W as i32 / 2, below + 17 * k as i32),
                 text(13, BLACK, HPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         // Colour bar frame, ticks and label.
         let (bx0, bx1) = (BAR_X.0 as i32, BAR_X.1 as i32);
@@ -367,8 +356,7 @@ impl HemisphereMap {
         root.draw(&Rectangle::new(
             [(bx0 - 1, by0 - 1), (bx1 + 1, by1 + 1)],
             BLACK.stroke_width(1),
-        ))
-        .map_err(e)?;
+        ))?;
         let (label, kind) = match &self.scale {
             MapScale::LogBrdf => ("BRDF (1/sr)".to_string(), "log scale"),
             MapScale::Linear { label, .. } => (label.clone(), "linear scale"),
@@ -378,40 +366,34 @@ impl HemisphereMap {
             label,
             ((bx0 + bx1) / 2, by0 - 28),
             text(14, BLACK, HPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         root.draw(&Text::new(
             kind.to_string(),
             ((bx0 + bx1) / 2, by0 - 12),
             text(12, BLACK, HPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         let y_of = |l: f64| by1 - ((l - lo) / (hi - lo) * f64::from(by1 - by0)).round() as i32;
         for (l, label) in self.bar_ticks() {
             let y = y_of(l);
             root.draw(&PathElement::new(
                 vec![(bx1 + 1, y), (bx1 + 6, y)],
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
-            root.draw(&Text::new(label, (bx1 + 9, y), text(13, BLACK, HPos::Left)))
-                .map_err(e)?;
+            ))?;
+            root.draw(&Text::new(label, (bx1 + 9, y), text(13, BLACK, HPos::Left)))?;
         }
         if key {
             let (kx, ky, ks) = KEY;
             root.draw(&Rectangle::new(
                 [(kx - 1, ky - 1), (kx + ks, ky + ks)],
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 self.empty_label.clone(),
                 (kx - 20, ky + ks + 14),
                 text(13, BLACK, HPos::Left),
-            ))
-            .map_err(e)?;
+            ))?;
         }
-        root.present().map_err(e)?;
+        root.present()?;
         Ok(())
     }
 

@@ -232,11 +232,10 @@ impl LinePlot {
         encode_png(width, height, buf)
     }
 
-    fn draw(&self, buf: &mut [u8], width: u32, height: u32) -> Result<(), String> {
+    fn draw(&self, buf: &mut [u8], width: u32, height: u32) -> Result<(), super::DrawError> {
         use plotters::style::text_anchor::{HPos, Pos, VPos};
-        let e = |e: DrawingAreaErrorKind<_>| e.to_string();
         let root = BitMapBackend::with_buffer(buf, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(e)?;
+        root.fill(&WHITE)?;
         let centred = |size: u32| {
             ("sans-serif", size)
                 .into_font()
@@ -250,8 +249,7 @@ impl LinePlot {
                 (_, 0) => (11, 16),
                 _ => (29, 14),
             };
-            root.draw(&Text::new(l.clone(), (width as i32 / 2, y), centred(size)))
-                .map_err(e)?;
+            root.draw(&Text::new(l.clone(), (width as i32 / 2, y), centred(size)))?;
         }
         let ((x0, x1), (y0, y1)) = self.ranges();
         let (tx, ty) = self.axis_ticks();
@@ -269,8 +267,7 @@ impl LinePlot {
                 .margin(10)
                 .x_label_area_size(45)
                 .y_label_area_size(80)
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(|e| e.to_string())?;
+                .build_cartesian_2d(x0..x1, y0..y1)?;
             // Axes and their labels; the ticks, grid lines and tick labels
             // are this plot's own (unique, at whole decades on a log axis).
             chart
@@ -281,18 +278,13 @@ impl LinePlot {
                 .x_desc(&self.x_label)
                 .y_desc(&self.y_label)
                 .axis_desc_style(("sans-serif", 14))
-                .draw()
-                .map_err(|e| e.to_string())?;
+                .draw()?;
             let grid = RGBColor(220, 220, 220);
             for (t, _) in &ty {
-                chart
-                    .draw_series(LineSeries::new([(x0, *t), (x1, *t)], grid.stroke_width(1)))
-                    .map_err(|e| e.to_string())?;
+                chart.draw_series(LineSeries::new([(x0, *t), (x1, *t)], grid.stroke_width(1)))?;
             }
             for (t, _) in &tx {
-                chart
-                    .draw_series(LineSeries::new([(*t, y0), (*t, y1)], grid.stroke_width(1)))
-                    .map_err(|e| e.to_string())?;
+                chart.draw_series(LineSeries::new([(*t, y0), (*t, y1)], grid.stroke_width(1)))?;
             }
             let tick = |h: HPos, v: VPos| {
                 ("sans-serif", 14)
@@ -305,49 +297,39 @@ impl LinePlot {
                 root.draw(&PathElement::new(
                     vec![(px - 5, py), (px, py)],
                     BLACK.stroke_width(1),
-                ))
-                .map_err(e)?;
+                ))?;
                 root.draw(&Text::new(
                     label.clone(),
                     (px - 8, py),
                     tick(HPos::Right, VPos::Center),
-                ))
-                .map_err(e)?;
+                ))?;
             }
             for (t, label) in &tx {
                 let (px, py) = chart.backend_coord(&(*t, y0));
                 root.draw(&PathElement::new(
                     vec![(px, py), (px, py + 5)],
                     BLACK.stroke_width(1),
-                ))
-                .map_err(e)?;
+                ))?;
                 root.draw(&Text::new(
                     label.clone(),
                     (px, py + 8),
                     tick(HPos::Center, VPos::Top),
-                ))
-                .map_err(e)?;
+                ))?;
             }
             for (k, s) in series.iter().enumerate() {
                 let colour = Self::colour(k);
                 for run in self.segments(s) {
-                    chart
-                        .draw_series(LineSeries::new(
-                            run.iter().map(|p| (p.0, p.1)),
-                            colour.stroke_width(2),
-                        ))
-                        .map_err(|e| e.to_string())?;
-                    chart
-                        .draw_series(
-                            run.iter()
-                                .map(|p| Circle::new((p.0, p.1), 3, colour.filled())),
-                        )
-                        .map_err(|e| e.to_string())?;
-                    chart
-                        .draw_series(run.iter().filter(|p| p.3 > p.2).map(|p| {
-                            ErrorBar::new_vertical(p.0, p.2, p.1, p.3, colour.stroke_width(1), 6)
-                        }))
-                        .map_err(|e| e.to_string())?;
+                    chart.draw_series(LineSeries::new(
+                        run.iter().map(|p| (p.0, p.1)),
+                        colour.stroke_width(2),
+                    ))?;
+                    chart.draw_series(
+                        run.iter()
+                            .map(|p| Circle::new((p.0, p.1), 3, colour.filled())),
+                    )?;
+                    chart.draw_series(run.iter().filter(|p| p.3 > p.2).map(|p| {
+                        ErrorBar::new_vertical(p.0, p.2, p.1, p.3, colour.stroke_width(1), 6)
+                    }))?;
                 }
             }
             // The legend, in its own column.
@@ -362,12 +344,9 @@ impl LinePlot {
                 root.draw(&PathElement::new(
                     vec![(x, y), (x + 24, y)],
                     colour.stroke_width(2),
-                ))
-                .map_err(e)?;
-                root.draw(&Circle::new((x + 12, y), 3, colour.filled()))
-                    .map_err(e)?;
-                root.draw(&Text::new(s.label.clone(), (x + 32, y), label.clone()))
-                    .map_err(e)?;
+                ))?;
+                root.draw(&Circle::new((x + 12, y), 3, colour.filled()))?;
+                root.draw(&Text::new(s.label.clone(), (x + 32, y), label.clone()))?;
             }
             first += series.len();
         }
@@ -382,10 +361,9 @@ impl LinePlot {
                 note,
                 (width as i32 / 2, height as i32 / 2),
                 centred(24),
-            ))
-            .map_err(e)?;
+            ))?;
         }
-        root.present().map_err(e)?;
+        root.present()?;
         Ok(())
     }
 }

@@ -29,6 +29,10 @@ pub use line::{LinePlot, Series};
 pub use mueller::MuellerMaps;
 pub use surface::SurfacePicture;
 
+/// Why a picture could not be drawn: the drawing library's error on the
+/// in-memory bitmap.
+pub type DrawError = DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
+
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 

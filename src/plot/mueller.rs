@@ -178,10 +178,9 @@ impl MuellerMaps {
         encode_png(W, H, buf)
     }
 
-    fn overlay(&self, buf: &mut [u8], empty: bool) -> Result<(), String> {
+    fn overlay(&self, buf: &mut [u8], empty: bool) -> Result<(), super::DrawError> {
         use plotters::style::text_anchor::{HPos, Pos, VPos};
         let root = BitMapBackend::with_buffer(buf, (W, H)).into_drawing_area();
-        let e = |e: DrawingAreaErrorKind<_>| e.to_string();
         let text = |size: u32, h: HPos| {
             ("sans-serif", size)
                 .into_font()
@@ -194,8 +193,7 @@ impl MuellerMaps {
                 l.clone(),
                 (W as i32 / 2, 16 + 18 * k as i32),
                 text(if k == 0 { 17 } else { 14 }, HPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         let below = 40 + 12 * (title.len() as i32 - 1);
         let note = match self.kind {
@@ -210,8 +208,7 @@ impl MuellerMaps {
             note,
             (W as i32 / 2, below),
             text(13, HPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         root.draw(&Text::new(
             format!(
                 "each disc: the hemisphere in equal-area projection, φ = 0 to the right; ring: specular direction (θi = {}°)",
@@ -219,8 +216,7 @@ impl MuellerMaps {
             ),
             (W as i32 / 2, below + 17),
             text(13, HPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         let spec_theta = self.theta_i_deg.to_radians();
         let rho = R * super::hemisphere::equal_area_radius(spec_theta);
         let (s, c) = (self.phi_i_deg + 180.0).to_radians().sin_cos();
@@ -231,8 +227,7 @@ impl MuellerMaps {
                 (cx.round() as i32, cy.round() as i32),
                 R as i32,
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
+            ))?;
             let name = if k == 0 && self.kind == MuellerKind::Normalised {
                 "m00 (1/sr)".to_owned()
             } else if k == 0 {
@@ -244,19 +239,15 @@ impl MuellerMaps {
                 name,
                 (cx.round() as i32, (cy - R - 12.0).round() as i32),
                 text(14, HPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
             let spec = ((cx + rho * c).round() as i32, (cy - rho * s).round() as i32);
-            root.draw(&Circle::new(spec, 7, BLACK.stroke_width(3)))
-                .map_err(e)?;
-            root.draw(&Circle::new(spec, 7, WHITE.stroke_width(1)))
-                .map_err(e)?;
+            root.draw(&Circle::new(spec, 7, BLACK.stroke_width(3)))?;
+            root.draw(&Circle::new(spec, 7, WHITE.stroke_width(1)))?;
         }
         root.draw(&Rectangle::new(
             [(BAR_X - 1, BAR.0 - 1), (BAR_X + 24, BAR.1 + 1)],
             BLACK.stroke_width(1),
-        ))
-        .map_err(e)?;
+        ))?;
         let label = match self.kind {
             MuellerKind::Normalised => "m_ij / m00",
             MuellerKind::Errors => "standard error",
@@ -266,27 +257,23 @@ impl MuellerMaps {
                 "top: 98th percentile",
                 (BAR_X + 12, BAR.0 - 60),
                 text(12, HPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 "and above",
                 (BAR_X + 12, BAR.0 - 46),
                 text(12, HPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         root.draw(&Text::new(
             label,
             (BAR_X + 12, BAR.0 - 28),
             text(14, HPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         root.draw(&Text::new(
             "linear scale",
             (BAR_X + 12, BAR.0 - 12),
             text(12, HPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         let (lo, hi) = self.range();
         let t: Vec<f64> = ticks(lo, hi, 8)
             .into_iter()
@@ -298,35 +285,30 @@ impl MuellerMaps {
             root.draw(&PathElement::new(
                 vec![(BAR_X + 24, y), (BAR_X + 30, y)],
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 f.label(v),
                 (BAR_X + 33, y),
                 text(13, HPos::Left),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         if empty {
             root.draw(&Rectangle::new(
                 [(BAR_X - 1, BAR.1 + 39), (BAR_X + 22, BAR.1 + 62)],
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 "no light:",
                 (BAR_X, BAR.1 + 76),
                 text(13, HPos::Left),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 "undefined",
                 (BAR_X, BAR.1 + 92),
                 text(13, HPos::Left),
-            ))
-            .map_err(e)?;
+            ))?;
         }
-        root.present().map_err(e)?;
+        root.present()?;
         Ok(())
     }
 }

@@ -127,10 +127,9 @@ impl SurfacePicture<'_> {
         buf: &mut [u8],
         (pw, ph): (u32, u32),
         (lo, hi): (f64, f64),
-    ) -> Result<(), String> {
+    ) -> Result<(), super::DrawError> {
         use plotters::style::text_anchor::{HPos, Pos, VPos};
         let root = BitMapBackend::with_buffer(buf, (W, H)).into_drawing_area();
-        let e = |e: DrawingAreaErrorKind<_>| e.to_string();
         let text = |size: u32, h: HPos, v: VPos| {
             ("sans-serif", size)
                 .into_font()
@@ -141,15 +140,13 @@ impl SurfacePicture<'_> {
             self.title.clone(),
             (W as i32 / 2, 22),
             text(18, HPos::Center, VPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         let (x0, y0) = (MAP_X as i32, MAP_Y as i32);
         let (x1, y1) = (x0 + pw as i32, y0 + ph as i32);
         root.draw(&Rectangle::new(
             [(x0 - 1, y0 - 1), (x1, y1)],
             BLACK.stroke_width(1),
-        ))
-        .map_err(e)?;
+        ))?;
         let (lx, ly) = (
             self.map.dx * self.map.nx as f64,
             self.map.dy * self.map.ny as f64,
@@ -161,14 +158,12 @@ impl SurfacePicture<'_> {
             root.draw(&PathElement::new(
                 vec![(x, y1), (x, y1 + 6)],
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 fx.label(*t),
                 (x, y1 + 9),
                 text(13, HPos::Center, VPos::Top),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         let ty = ticks(0.0, ly, 6);
         let fy = TickFormat::for_ticks(&ty, false);
@@ -177,21 +172,18 @@ impl SurfacePicture<'_> {
             root.draw(&PathElement::new(
                 vec![(x0 - 7, y), (x0 - 1, y)],
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 fy.label(*t),
                 (x0 - 10, y),
                 text(13, HPos::Right, VPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         root.draw(&Text::new(
             "x (scene units)",
             ((x0 + x1) / 2, y1 + 30),
             text(14, HPos::Center, VPos::Top),
-        ))
-        .map_err(e)?;
+        ))?;
         root.draw(&Text::new(
             "y (scene units)",
             (x0 - 60, (y0 + y1) / 2),
@@ -200,21 +192,18 @@ impl SurfacePicture<'_> {
                 .color(&BLACK)
                 .transform(FontTransform::Rotate270)
                 .pos(Pos::new(HPos::Center, VPos::Center)),
-        ))
-        .map_err(e)?;
+        ))?;
         // Colour bar of heights.
         let (bx, by0, by1) = (BAR_X as i32, y0, y0 + SIDE as i32 - 1);
         root.draw(&Rectangle::new(
             [(bx - 1, by0 - 1), (bx + 24, by1 + 1)],
             BLACK.stroke_width(1),
-        ))
-        .map_err(e)?;
+        ))?;
         root.draw(&Text::new(
             "height (scene units)",
             (bx + 12, by0 - 14),
             text(14, HPos::Center, VPos::Center),
-        ))
-        .map_err(e)?;
+        ))?;
         let th: Vec<f64> = ticks(lo, hi, 6)
             .into_iter()
             .filter(|t| (lo..=hi).contains(t))
@@ -225,24 +214,21 @@ impl SurfacePicture<'_> {
             root.draw(&PathElement::new(
                 vec![(bx + 24, y), (bx + 30, y)],
                 BLACK.stroke_width(1),
-            ))
-            .map_err(e)?;
+            ))?;
             root.draw(&Text::new(
                 fh.label(*t),
                 (bx + 33, y),
                 text(13, HPos::Left, VPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
         for (k, l) in self.stats_lines().iter().enumerate() {
             root.draw(&Text::new(
                 l.clone(),
                 (BAR_X as i32 + 110, y0 + 10 + 24 * k as i32),
                 text(14, HPos::Left, VPos::Center),
-            ))
-            .map_err(e)?;
+            ))?;
         }
-        root.present().map_err(e)?;
+        root.present()?;
         Ok(())
     }
 }

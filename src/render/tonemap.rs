@@ -57,20 +57,28 @@ pub const MAX_EV: f64 = 1000.0;
 
 impl ToneSettings {
     /// Check the settings; `Err` is one line starting with the option.
-    pub fn validate(&self) -> Result<(), String> {
+    ///
+    /// # Errors
+    /// `--exposure` or `--decades` out of range, as a [`super::RenderError`].
+    pub fn validate(&self) -> Result<(), super::RenderError> {
+        use super::{RenderError, RenderProblem};
         if let Some(ev) = self
             .exposure_ev
             .filter(|ev| ev.is_nan() || ev.abs() > MAX_EV)
         {
-            return Err(format!(
-                "--exposure: EV = {ev} must be finite and in [-{MAX_EV}, {MAX_EV}]"
-            ));
+            return Err(RenderError {
+                option: Some("--exposure"),
+                problem: RenderProblem::Exposure(ev),
+            });
         }
         if let Some(d) = self
             .decades
             .filter(|d| d.is_nan() || *d <= 0.0 || *d > 300.0)
         {
-            return Err(format!("--decades: D = {d} must be in (0, 300]"));
+            return Err(RenderError {
+                option: Some("--decades"),
+                problem: RenderProblem::Decades(d),
+            });
         }
         Ok(())
     }
@@ -317,10 +325,11 @@ mod tests {
         assert!(
             bad(Some(f64::NAN), None)
                 .unwrap_err()
+                .to_string()
                 .starts_with("--exposure:")
         );
         assert!(bad(Some(2000.0), None).is_err());
-        assert!(bad(None, Some(0.0)).unwrap_err().starts_with("--decades:"));
+        assert_eq!(bad(None, Some(0.0)).unwrap_err().option, Some("--decades"));
         assert!(bad(Some(-3.5), Some(5.0)).is_ok());
     }
 }

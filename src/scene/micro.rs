@@ -113,25 +113,42 @@ pub const MIN_LENGTH: f64 = 1e-30;
 /// ([`crate::micro::MAX_CROSSINGS`]) between events.
 pub const MAX_ASPECT: f64 = 1e9;
 
-/// `Err(message)` when `height` exceeds [`MAX_ASPECT`] times the shorter side of `size`.
-fn aspect_bound(height: f64, size: DVec2) -> Result<(), String> {
+/// A length of a micro scene that roks cannot trace (a height too large
+/// for its cell, or a length out of range); the caller names the key.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum LengthError {
+    /// A height more than [`MAX_ASPECT`] times the cell's shorter side.
+    #[error(
+        "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {}: positions that high do not resolve the cell",
+        Num(*side)
+    )]
+    Aspect {
+        /// The height (scene length units).
+        height: f64,
+        /// The cell's shorter side (scene length units).
+        side: f64,
+    },
+    /// A non-zero length outside [`MIN_LENGTH`, `MAX_LENGTH`].
+    #[error(
+        "{0:e} is outside the lengths roks traces, [{MIN_LENGTH:e}, {MAX_LENGTH:e}] (scene length units)"
+    )]
+    Range(f64),
+}
+
+/// [`LengthError::Aspect`] when `height` exceeds [`MAX_ASPECT`] times the shorter side of `size`.
+fn aspect_bound(height: f64, size: DVec2) -> Result<(), LengthError> {
     let side = size.min_element();
     if height > MAX_ASPECT * side {
-        return Err(format!(
-            "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {}: positions that high do not resolve the cell",
-            Num(side)
-        ));
+        return Err(LengthError::Aspect { height, side });
     }
     Ok(())
 }
 
-/// `Err(message)` when the non-zero length `v` lies outside
+/// [`LengthError::Range`] when the non-zero length `v` lies outside
 /// [`MIN_LENGTH`, `MAX_LENGTH`] (checked after the key's own sign rule).
-fn length_bounds(v: f64) -> Result<(), String> {
+fn length_bounds(v: f64) -> Result<(), LengthError> {
     if v != 0.0 && !(MIN_LENGTH..=MAX_LENGTH).contains(&v.abs()) {
-        return Err(format!(
-            "{v:e} is outside the lengths roks traces, [{MIN_LENGTH:e}, {MAX_LENGTH:e}] (scene length units)"
-        ));
+        return Err(LengthError::Range(v));
     }
     Ok(())
 }
@@ -180,6 +197,22 @@ pub struct SurfaceSpec {
     pub material: String,
     /// A height field replacing substrate, bumps and bodies.
     pub heightfield: Option<HeightFieldSpec>,
+    /// Surface realisations of a random surface (a Gaussian field, random
+    /// bumps): realisation `r` is drawn from the geometry seeds
+    /// [`realisation_seed`]`(seed, r)` and traces its block of every
+    /// incidence's batches ([`BrdfRun::realisation_batches`]); default 1.
+    pub realisations: Option<u64>,
+}
+
+/// The geometry seed of realisation `r` of a random surface whose scene
+/// gives geometry seed `seed` (a Gaussian field's `seed`, each bump table's
+/// `seed`): `seed + r * 0x9E3779B97F4A7C15` (mod 2^64, the odd constant
+/// of Fibonacci hashing), so realisation 0 is the scene's own surface and
+/// the seeds of different realisations and tables (1, 2, 3, ... by default)
+/// do not meet for any practical number of realisations.
+#[must_use]
+pub fn realisation_seed(seed: u64, r: u64) -> u64 {
+    seed.wrapping_add(r.wrapping_mul(0x9E37_79B9_7F4A_7C15))
 }
 
 /// `[surface] heightfield`: a Gaussian random surface or a measured map.
@@ -431,8 +464,11 @@ pub struct MicroScene {
     pub name: String,
     /// Where it came from.
     pub source: Source,
-    /// The geometry and materials.
+    /// The geometry and materials (of realisation 0).
     pub surface: MicroSurface,
+    /// The further surface realisations `1..R` (`[surface] realisations`),
+    /// each built once; empty for one.
+    pub more_realisations: Vec<MicroSurface>,
     /// Material names, in the order of `surface.materials`.
     pub material_names: Vec<String>,
     /// Illumination as written (with the overrides applied).
@@ -575,6 +611,16 @@ impl MicroScene {
         any_fresnel(&self.surface.materials)
     }
 
+    /// The surface of every realisation, realisation 0 first: the
+    /// relief the batches of each realisation's block are traced on
+    /// ([`BrdfRun::trace_realisations`]).
+    #[must_use]
+    pub fn surfaces(&self) -> Vec<&MicroSurface> {
+        std::iter::once(&self.surface)
+            .chain(&self.more_realisations)
+            .collect()
+    }
+
     /// The BRDF run this scene describes (a copy of [`MicroScene::run`]).
     #[must_use]
     pub fn brdf_run(&self) -> BrdfRun {
@@ -657,15 +703,9 @@ impl MicroScene {
                     .map_err(|e| source.error("light.wavelengths_um", e))?,
                 None => Vec::new(),
             };
-            brdf_run_of(
-                &spec.light,
-                &spec.tally,
-                &spec.transport,
-                Polarisation::default(),
-                wavelengths,
-            )
-            .check()
-            .map_err(|(field, e)| source.error(field.scene_key(), e))?;
+            brdf_run_of(&spec, Polarisation::default(), wavelengths)
+                .check()
+                .map_err(|(field, e)| source.error(field.scene_key(), e))?;
         }
         overrides.apply(&mut spec);
         let files = spec.files();
@@ -727,13 +767,7 @@ impl MicroSceneSpec {
         // The run's values, checked here once (a merge checks a run read
         // back the same way); the polarisation, which needs the materials,
         // is resolved below.
-        let mut run = brdf_run_of(
-            &self.light,
-            &self.tally,
-            &self.transport,
-            Polarisation::default(),
-            wavelengths_um,
-        );
+        let mut run = brdf_run_of(&self, Polarisation::default(), wavelengths_um);
         run.check()
             .map_err(|(field, e)| source.error(field.scene_key(), e))?;
         let (names, materials) = build_materials(&source, &self.materials, &run.wavelengths_um)?;
@@ -800,6 +834,15 @@ impl MicroSceneSpec {
             )?);
         }
 
+        let more_realisations = self.more_realisations(
+            &source,
+            (size, edges),
+            (&materials, &names, substrate),
+            field
+                .as_ref()
+                .map_or(bytes, |f| HeightField::memory_bytes(f.nx, f.ny)),
+            run.realisations,
+        )?;
         let (light, tally, transport) = (self.light, self.tally, self.transport);
         let incident = match &light.polarisation {
             Some(p) => p.build(&source, "light.polarisation")?,
@@ -822,6 +865,7 @@ impl MicroSceneSpec {
             name: super::scene_name(&source, self.name, fallback_name)?,
             source,
             surface,
+            more_realisations,
             material_names: names,
             light,
             run,
@@ -830,6 +874,89 @@ impl MicroSceneSpec {
         };
         scene.check_run_memory(&scene.run)?;
         Ok(scene)
+    }
+}
+
+impl MicroSceneSpec {
+    /// The surfaces of realisations `1..count` of a random surface
+    /// (`[surface] realisations`), from the geometry seeds
+    /// [`realisation_seed`]: a Gaussian field's, or every bump table's
+    /// (each table's own seed, default `1 + index`). Refused for a measured
+    /// map, explicit bodies and a surface with nothing random, and when the
+    /// `count` surfaces of about `bytes` each exceed the memory limit.
+    fn more_realisations(
+        &self,
+        source: &Source,
+        (size, edges): (DVec2, Edges),
+        (materials, names, substrate): (&[Reflectance], &[String], usize),
+        bytes: u64,
+        count: u64,
+    ) -> Result<Vec<MicroSurface>, SceneError> {
+        if count <= 1 {
+            return Ok(Vec::new());
+        }
+        let key = "surface.realisations";
+        let one_surface = |what: &str| {
+            Err(source.error(
+                key,
+                format!(
+                    "{what} is one surface: realisations apply to random surfaces (a gaussian height field, random bumps)"
+                ),
+            ))
+        };
+        let field = self.surface.heightfield.as_ref();
+        if field.is_some_and(|f| f.file.is_some()) {
+            return one_surface("a measured height map");
+        }
+        if !self.bodies.is_empty() {
+            return one_surface("a surface with explicit bodies");
+        }
+        if field.is_none() && self.bumps.is_empty() {
+            return one_surface("a flat substrate");
+        }
+        source.check_memory(
+            key,
+            &format!("{count} surface realisations"),
+            bytes.saturating_mul(count),
+        )?;
+        (1..count)
+            .map(|r| {
+                if let Some(f) = field {
+                    let f = HeightFieldSpec {
+                        seed: Some(realisation_seed(f.seed.unwrap_or(1), r)),
+                        ..f.clone()
+                    };
+                    let field = f.build(source, Some(size))?;
+                    return Ok(MicroSurface::from_height_field(
+                        field,
+                        materials.to_vec(),
+                        substrate,
+                    ));
+                }
+                let mut placed = Vec::new();
+                let mut bytes = 0;
+                for (t, spec) in self.bumps.iter().enumerate() {
+                    let material = match &spec.material {
+                        Some(m) => {
+                            material_index(source, names, m, &format!("bumps[{t}].material"))?
+                        }
+                        None => substrate,
+                    };
+                    let spec = BumpSpec {
+                        seed: Some(realisation_seed(spec.seed.unwrap_or(1 + t as u64), r)),
+                        ..spec.clone()
+                    };
+                    placed.extend(spec.populate(source, t, size, edges, material, &mut bytes)?);
+                }
+                Ok(MicroSurface::new(
+                    size,
+                    edges,
+                    placed,
+                    materials.to_vec(),
+                    substrate,
+                ))
+            })
+            .collect()
     }
 }
 
@@ -858,15 +985,16 @@ impl MicroScene {
     }
 }
 
-/// The BRDF run of a scene's `[light]`, `[tally]` and `[transport]`.
+/// The BRDF run of a scene's `[light]`, `[tally]`, `[transport]` and
+/// `[surface] realisations`.
 fn brdf_run_of(
-    light: &LightSpec,
-    tally: &TallySpec,
-    transport: &TransportSpec,
+    spec: &MicroSceneSpec,
     polarisation: Polarisation,
     wavelengths_um: Vec<f64>,
 ) -> BrdfRun {
+    let (light, tally, transport) = (&spec.light, &spec.tally, &spec.transport);
     BrdfRun {
+        realisations: spec.surface.realisations.unwrap_or(1),
         theta_deg: light.theta_deg.clone(),
         phi_deg: light.phi_deg,
         photons: light.photons,
@@ -890,16 +1018,6 @@ fn brdf_run_of(
 /// Whether any of `materials` is Fresnel (the only polarising model).
 fn any_fresnel(materials: &[Reflectance]) -> bool {
     materials.iter().any(Reflectance::polarises)
-}
-
-/// The first angle that repeats an earlier one: its index and value.
-#[must_use]
-pub fn first_repeat(angles: &[f64]) -> Option<(usize, f64)> {
-    angles
-        .iter()
-        .enumerate()
-        .find(|(i, t)| angles[..*i].contains(t))
-        .map(|(i, t)| (i, *t))
 }
 
 /// A checked cell size.
@@ -1013,8 +1131,9 @@ impl HeightFieldSpec {
                     }
                     None => 1.0,
                 };
-                let file_error =
-                    |e: String| source.error(key("file"), format!("{}: {e}", path.display()));
+                let file_error = |e: heightfield_io::HeightMapError| {
+                    source.error(key("file"), format!("{}: {e}", path.display()))
+                };
                 // The memory from the header (or the text's length) before decoding.
                 let check = |bytes: u64, (nx, ny): (usize, usize)| {
                     let what = format!(

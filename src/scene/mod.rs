@@ -89,11 +89,11 @@ impl Source {
 
     /// An error at `key`.
     #[must_use]
-    pub fn error(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
+    pub fn error(&self, key: impl Into<String>, message: impl fmt::Display) -> SceneError {
         SceneError {
             file: self.file.clone(),
             key: key.into(),
-            message: one_line(&message.into()),
+            message: one_line(&message.to_string()),
         }
     }
 
@@ -529,6 +529,30 @@ pub enum WavelengthsSpec {
     },
 }
 
+/// Why a grid of wavelengths (`{ from, to, step }`) cannot be expanded.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum WavelengthsError {
+    /// A step that is not finite and > 0.
+    #[error("step must be > 0, got {}", Num(*.0))]
+    Step(f64),
+    /// Bounds that are not finite with `from <= to`.
+    #[error("needs finite from <= to, got {} and {}", Num(*from), Num(*to))]
+    Bounds {
+        /// The first wavelength (µm).
+        from: f64,
+        /// The last wavelength (µm).
+        to: f64,
+    },
+    /// More wavelengths than one trace carries.
+    #[error("gives {count} wavelengths, more than the {max} one trace carries")]
+    TooMany {
+        /// The wavelengths the grid gives.
+        count: f64,
+        /// [`crate::transport::carrier::MAX_WAVELENGTHS`].
+        max: usize,
+    },
+}
+
 impl WavelengthsSpec {
     /// The wavelengths (µm): the list, or the grid's points rounded to
     /// 1e-9 µm (so that `0.38 + 3 * 0.01` is written `0.41`), not yet
@@ -536,27 +560,21 @@ impl WavelengthsSpec {
     /// [`crate::transport::brdf::BrdfRun::check`]).
     ///
     /// # Errors
-    /// The message for the key: a bad grid.
-    pub fn expand(&self) -> Result<Vec<f64>, String> {
+    /// [`WavelengthsError`], for the key: a bad grid.
+    pub fn expand(&self) -> Result<Vec<f64>, WavelengthsError> {
         Ok(match *self {
             Self::List(ref v) => v.clone(),
             Self::Grid { from, to, step } => {
                 if !(step.is_finite() && step > 0.0) {
-                    return Err(format!("step must be > 0, got {}", Num(step)));
+                    return Err(WavelengthsError::Step(step));
                 }
                 if !(from.is_finite() && to.is_finite() && to >= from) {
-                    return Err(format!(
-                        "needs finite from <= to, got {} and {}",
-                        Num(from),
-                        Num(to)
-                    ));
+                    return Err(WavelengthsError::Bounds { from, to });
                 }
                 let count = ((to - from) / step * (1.0 + 1e-12)).floor() + 1.0;
                 let max = crate::transport::carrier::MAX_WAVELENGTHS;
                 if count > max as f64 {
-                    return Err(format!(
-                        "gives {count} wavelengths, more than the {max} one trace carries"
-                    ));
+                    return Err(WavelengthsError::TooMany { count, max });
                 }
                 (0..count as usize)
                     .map(|i| ((from + i as f64 * step) * 1e9).round() / 1e9)
@@ -572,7 +590,7 @@ impl WavelengthsSpec {
     /// The index of the offending wavelength (`None`: the whole key) and
     /// the message for the key.
     pub fn resolve(&self) -> Result<Vec<f64>, (Option<usize>, String)> {
-        let values = self.expand().map_err(|e| (None, e))?;
+        let values = self.expand().map_err(|e| (None, e.to_string()))?;
         crate::optics::spectrum::check_wavelengths(&values)?;
         Ok(values)
     }

@@ -319,6 +319,9 @@ pub struct ObjectScene {
     /// beside it. No output may replace one
     /// ([`crate::cli::common::check_kept`]).
     pub reads: Vec<PathBuf>,
+    /// SHA-256 of the scene text and of every file it reads
+    /// ([`ObjectSceneSpec::files`]; empty for a scene built from a spec).
+    pub content: super::Content,
 }
 
 impl ObjectScene {
@@ -361,11 +364,69 @@ impl ObjectScene {
         if let Some(w) = wavelengths {
             spec.light.wavelengths_um = Some(w.clone());
         }
-        spec.build(source, fallback_name)
+        let files = spec.files(&source);
+        let mut scene = spec.build(source, fallback_name)?;
+        scene.content = super::Content::of(&scene.source, text, &files)?;
+        Ok(scene)
     }
 }
 
 impl ObjectSceneSpec {
+    /// The files the scene reads, `(key, path relative to the scene's
+    /// folder)`, for its content identity: per model its micro scene
+    /// (`models.NAME.micro`) and the files that one reads
+    /// (`models.NAME.micro.materials.gold.nk`, ...), a BRDF table
+    /// (`models.NAME.brdf`) with the `summary.json` and `mueller.csv`
+    /// beside it when present (`models.NAME.brdf.summary`,
+    /// `models.NAME.brdf.mueller`), an n, k table (`models.NAME.nk`) and
+    /// angle tables (`models.NAME.table`, `models.NAME.table[i]`). A micro
+    /// scene that cannot be read adds only its own key (loading it reports
+    /// the error).
+    #[must_use]
+    pub fn files(&self, source: &Source) -> Vec<(String, String)> {
+        let mut files = Vec::new();
+        for (name, m) in &self.models {
+            let key = format!("models.{name}");
+            if let Some(f) = &m.micro {
+                files.push((format!("{key}.micro"), f.clone()));
+                let path = source.dir.join(f);
+                let micro = Source::from_path(&path);
+                let spec = super::read_scene_text(&path).ok().and_then(|text| {
+                    super::parse_toml::<super::micro::MicroSceneSpec>(&micro, &text).ok()
+                });
+                let dir = Path::new(f).parent().unwrap_or(Path::new(""));
+                for (k, sub) in spec.map(|s| s.files()).unwrap_or_default() {
+                    let sub = dir.join(sub).to_string_lossy().into_owned();
+                    files.push((format!("{key}.micro.{k}"), sub));
+                }
+            }
+            if let Some(f) = &m.brdf {
+                files.push((format!("{key}.brdf"), f.clone()));
+                let table = Path::new(f);
+                for (beside, k) in [("summary.json", "summary"), ("mueller.csv", "mueller")] {
+                    let other = table.with_file_name(beside);
+                    if source.dir.join(&other).exists() {
+                        let other = other.to_string_lossy().into_owned();
+                        files.push((format!("{key}.brdf.{k}"), other));
+                    }
+                }
+            }
+            if let Some(f) = &m.nk {
+                files.push((format!("{key}.nk"), f.clone()));
+            }
+            match &m.table {
+                Some(Files::One(f)) => files.push((format!("{key}.table"), f.clone())),
+                Some(Files::Many(fs)) => files.extend(
+                    fs.iter()
+                        .enumerate()
+                        .map(|(i, f)| (format!("{key}.table[{i}]"), f.clone())),
+                ),
+                None => {}
+            }
+        }
+        files
+    }
+
     /// Check everything and build the scene.
     pub fn build(self, source: Source, fallback_name: String) -> Result<ObjectScene, SceneError> {
         let surface_names: Vec<String> = self.quadrics.keys().cloned().collect();
@@ -644,6 +705,7 @@ impl ObjectSceneSpec {
             photons,
             run,
             reads,
+            content: super::Content::default(),
         })
     }
 }

@@ -47,26 +47,6 @@ pub enum PolarTally {
 }
 
 impl PolarTally {
-    /// The name used in scene files, on the command line and in summaries.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::None => "none",
-            Self::Stokes => "stokes",
-            Self::Mueller => "mueller",
-        }
-    }
-
-    /// Parse [`PolarTally::name`] (also the option's value names, which
-    /// clap derives from the same variants).
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        <Self as clap::ValueEnum>::value_variants()
-            .iter()
-            .copied()
-            .find(|v| v.name() == name)
-    }
-
     /// Components per bin: 0, 4 or 16.
     #[must_use]
     pub fn components(self) -> usize {
@@ -226,15 +206,24 @@ impl PolarTallies {
 mod tests {
     use super::*;
 
+    /// The option's values (clap's derive) are the scene's names (serde's
+    /// derive): one name per variant, read back by both.
     #[test]
-    fn option_values_are_the_names() {
+    fn option_values_are_the_scene_names() {
         use clap::ValueEnum as _;
-        for v in PolarTally::value_variants() {
-            assert_eq!(v.to_possible_value().unwrap().get_name(), v.name());
-            assert_eq!(PolarTally::from_name(v.name()), Some(*v));
-        }
-        assert_eq!(PolarTally::value_variants().len(), 3);
-        assert_eq!(PolarTally::from_name("nonsense"), None);
+        let names: Vec<String> = PolarTally::value_variants()
+            .iter()
+            .map(|v| {
+                let option = v.to_possible_value().unwrap().get_name().to_owned();
+                assert_eq!(serde_json::to_string(v).unwrap(), format!("\"{option}\""));
+                assert_eq!(PolarTally::from_str(&option, false), Ok(*v));
+                let back: PolarTally = serde_json::from_str(&format!("\"{option}\"")).unwrap();
+                assert_eq!(back, *v);
+                option
+            })
+            .collect();
+        assert_eq!(names, ["none", "stokes", "mueller"]);
+        assert!(PolarTally::from_str("nonsense", false).is_err());
     }
 
     #[test]
@@ -254,9 +243,6 @@ mod tests {
         assert_eq!(t.bins(), 176);
         assert_eq!(t.cell_bin(0, 0), 16);
         assert_eq!(t.replicates.as_ref().map(Vec::len), Some(528));
-        for p in [PolarTally::None, PolarTally::Stokes, PolarTally::Mueller] {
-            assert_eq!(PolarTally::from_name(p.name()), Some(p));
-        }
     }
 
     /// A photon's Stokes components in cell 0: with probability 0.3 it

@@ -73,6 +73,11 @@ pub struct BrdfRun {
     pub photons: u64,
     /// Polarised transport, incident state and polarisation tallies.
     pub polarisation: Polarisation,
+    /// Surface realisations (`[surface] realisations`): realisation `r`
+    /// traces the whole batches [`BrdfRun::realisation_batches`] of every
+    /// incidence on its own surface. Absent from the files when 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub realisations: u64,
     /// Tracing seed.
     pub seed: u64,
     /// The block of the run's photons this run traces (`--shard I/N`);
@@ -85,6 +90,15 @@ pub struct BrdfRun {
     /// Vacuum wavelengths (µm, strictly increasing) of a spectral run, each
     /// carried by every photon ([`crate::transport::carrier::LaneCarrier::Spectrum`]); empty for a monochrome run.
     pub wavelengths_um: Vec<f64>,
+}
+
+fn one() -> u64 {
+    1
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_one(n: &u64) -> bool {
+    *n == 1
 }
 
 /// A checked field of a [`BrdfRun`] ([`BrdfRun::check`]), with its index
@@ -117,6 +131,8 @@ pub enum RunField {
     PolarTally,
     /// `symmetry`.
     Symmetry,
+    /// `realisations`.
+    Realisations,
 }
 
 impl RunField {
@@ -139,6 +155,7 @@ impl RunField {
             Self::Incident => ("light.polarisation", None),
             Self::PolarTally => ("tally.polarisation", None),
             Self::Symmetry => ("tally.symmetry", None),
+            Self::Realisations => ("surface.realisations", None),
         };
         with_index(key, index)
     }
@@ -161,6 +178,7 @@ impl RunField {
             Self::Incident => ("polarisation.incident", None),
             Self::PolarTally => ("polarisation.tally", None),
             Self::Symmetry => ("symmetry", None),
+            Self::Realisations => ("realisations", None),
         };
         with_index(key, index)
     }
@@ -227,7 +245,9 @@ impl Polarisation {
                 "tally.polarisation",
                 format!(
                     "`{}` needs polarised transport, but [transport] polarisation = false",
-                    tally.name()
+                    clap::ValueEnum::to_possible_value(&tally)
+                        .expect("no variant is skipped")
+                        .get_name()
                 ),
             ));
         }
@@ -416,20 +436,153 @@ struct Spare {
     lane_sums: std::sync::Mutex<Vec<LaneSums>>,
 }
 
-/// The result for one incidence direction (of a spectral run: for one
-/// incidence direction and wavelength).
+/// The result of tracing a run's photons ([`BrdfRun::trace`]), nested as
+/// incidence x light azimuth x wavelength: `incidence[i].azimuth[a]
+/// .wavelength[l]` is the leaf of `run.theta_deg[i]`, the light azimuth `a`
+/// (one, `run.phi_deg`, until a run has several) and
+/// `run.wavelengths_um[l]` (the one lane of a monochrome run).
+#[derive(Debug, Clone)]
+pub struct BrdfResult {
+    /// One entry per incidence angle, in the run's order.
+    pub incidence: Vec<ByIncidence>,
+}
+
+/// The results at one incidence angle.
+#[derive(Debug, Clone)]
+pub struct ByIncidence {
+    /// Incidence polar angle (degrees).
+    pub theta_i_deg: f64,
+    /// One entry per light azimuth.
+    pub azimuth: Vec<ByAzimuth>,
+}
+
+/// The results at one incidence angle and light azimuth.
+#[derive(Debug, Clone)]
+pub struct ByAzimuth {
+    /// Light azimuth (degrees).
+    pub phi_i_deg: f64,
+    /// One leaf per wavelength (one for a monochrome run).
+    pub wavelength: Vec<IncidenceResult>,
+}
+
+impl BrdfResult {
+    /// The leaf of incidence `i`, light azimuth `a` and wavelength `l`.
+    ///
+    /// # Panics
+    /// If an index is out of its axis.
+    #[must_use]
+    pub fn leaf(&self, i: usize, a: usize, l: usize) -> &IncidenceResult {
+        &self.incidence[i].azimuth[a].wavelength[l]
+    }
+
+    /// Every leaf in file order: incidence, then azimuth, then wavelength.
+    pub fn iter(&self) -> impl Iterator<Item = &IncidenceResult> {
+        self.groups().flatten()
+    }
+
+    /// The leaves of every incidence and azimuth, one slice of wavelengths
+    /// each, in file order.
+    pub fn groups(&self) -> impl Iterator<Item = &[IncidenceResult]> {
+        self.incidence
+            .iter()
+            .flat_map(|i| i.azimuth.iter().map(|a| a.wavelength.as_slice()))
+    }
+
+    /// The leaves of wavelength `l` (of the one lane of a monochrome run),
+    /// per incidence and azimuth in file order.
+    pub fn lane(&self, l: usize) -> impl Iterator<Item = &IncidenceResult> {
+        self.groups().map(move |g| &g[l])
+    }
+
+    /// The number of leaves.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.groups().map(<[IncidenceResult]>::len).sum()
+    }
+
+    /// True without leaves.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The leaves in file order, owned.
+    #[must_use]
+    pub fn into_leaves(self) -> Vec<IncidenceResult> {
+        self.incidence
+            .into_iter()
+            .flat_map(|i| i.azimuth.into_iter().flat_map(|a| a.wavelength))
+            .collect()
+    }
+}
+
+impl<'a> IntoIterator for &'a BrdfResult {
+    type Item = &'a IncidenceResult;
+    type IntoIter = Box<dyn Iterator<Item = &'a IncidenceResult> + 'a>;
+    fn into_iter(self) -> Self::IntoIter {
+        Box::new(self.iter())
+    }
+}
+
+/// The leaf of a [`BrdfResult`]: one incidence direction, light azimuth and
+/// wavelength.
 #[derive(Debug, Clone)]
 pub struct IncidenceResult {
     /// Incidence polar angle (degrees).
     pub theta_i_deg: f64,
-    /// Incidence azimuth (degrees).
+    /// Light azimuth (degrees).
     pub phi_i_deg: f64,
     /// Vacuum wavelength (µm) of a spectral run; `None` for a monochrome run.
     pub wavelength_um: Option<f64>,
-    /// Sums.
+    /// Sums: the nodes added left to right.
     pub tallies: BrdfTallies,
-    /// Wall-clock time (s).
+    /// The complete nodes of the whole run's batch tree that the traced
+    /// photons fill, in batch order ([`crate::tally::sum`]; the root alone
+    /// for a whole run, none for an empty range): what a shard's
+    /// `tallies.json` keeps.
+    pub nodes: Vec<Node<BrdfTallies>>,
+    /// Wall-clock time (s) of the incidence's trace (all its wavelengths).
     pub seconds: f64,
+    /// With several surface realisations, each one's reflectance (from the
+    /// tree nodes over its block of batches); empty for one.
+    pub realisations: Vec<RealisationResult>,
+}
+
+/// The reflectance of one surface realisation of a run (its block of
+/// batches, [`BrdfRun::realisation_batches`]) at one incidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RealisationResult {
+    /// Photons of the realisation traced.
+    pub photons: u64,
+    /// Reflected weight per photon (0 without photons).
+    pub reflectance: f64,
+    /// Its standard error (Monte Carlo only: the realisation's own photons).
+    pub reflectance_stderr: f64,
+}
+
+impl RealisationResult {
+    /// The reflectance of the realisation summed in `tallies`.
+    fn of(tallies: BrdfTallies, theta_deg: f64, run: &BrdfRun) -> Self {
+        let r = IncidenceResult {
+            theta_i_deg: theta_deg,
+            phi_i_deg: run.phi_deg,
+            wavelength_um: None,
+            tallies,
+            nodes: Vec::new(),
+            seconds: 0.0,
+            realisations: Vec::new(),
+        };
+        let (reflectance, reflectance_stderr) = if r.tallies.photons == 0 {
+            (0.0, 0.0)
+        } else {
+            r.reflectance()
+        };
+        Self {
+            photons: r.tallies.photons,
+            reflectance,
+            reflectance_stderr,
+        }
+    }
 }
 
 impl IncidenceResult {
@@ -522,6 +675,15 @@ pub fn add_up(nodes: &[Node<BrdfTallies>]) -> Option<BrdfTallies> {
     Some(t)
 }
 
+/// The first angle that repeats an earlier one: its index and value.
+fn first_repeat(angles: &[f64]) -> Option<(usize, f64)> {
+    angles
+        .iter()
+        .enumerate()
+        .find(|(i, t)| angles[..*i].contains(t))
+        .map(|(i, t)| (i, *t))
+}
+
 /// The unit vector toward the light, `(sin t cos p, sin t sin p, cos t)`.
 #[must_use]
 pub fn toward_light(theta_deg: f64, phi_deg: f64) -> DVec3 {
@@ -547,7 +709,7 @@ pub fn check_incidence(theta_deg: &[f64]) -> Result<(), (Option<usize>, String)>
     {
         return Err((Some(i), format!("must be in [0, 90), got {}", Num(*t))));
     }
-    if let Some((i, t)) = crate::scene::micro::first_repeat(theta_deg) {
+    if let Some((i, t)) = first_repeat(theta_deg) {
         return Err((
             Some(i),
             format!(
@@ -584,7 +746,17 @@ impl BrdfRun {
                 .map_err(|(i, e)| (RunField::WavelengthsUm(i), e))?;
         }
         super::launch::check_photons(self.launch, self.photons)
-            .map_err(|e| (RunField::Photons, e))?;
+            .map_err(|e| (RunField::Photons, e.to_string()))?;
+        let batches = self.photons.div_ceil(BATCH);
+        if self.realisations == 0 || self.realisations > batches {
+            return Err((
+                RunField::Realisations,
+                format!(
+                    "must be in 1..={batches} (each realisation traces whole batches of {BATCH} of the {} photons per incidence), got {}",
+                    self.photons, self.realisations
+                ),
+            ));
+        }
         if !(1..=1000).contains(&self.bands) {
             return Err((
                 RunField::Bands,
@@ -616,7 +788,9 @@ impl BrdfRun {
             return Err((RunField::RouletteWeight, "must be in [0, 1)".into()));
         }
         let p = &self.polarisation;
-        p.incident.validate().map_err(|e| (RunField::Incident, e))?;
+        p.incident
+            .validate()
+            .map_err(|e| (RunField::Incident, e.to_string()))?;
         if p.tally != PolarTally::None && !p.transport {
             return Err((
                 RunField::PolarTally,
@@ -694,16 +868,6 @@ impl BrdfRun {
         self.wavelengths_um.len().max(1)
     }
 
-    /// The result blocks of the run in order: `(theta_deg, wavelength_um)`
-    /// per incidence, or per incidence and wavelength (incidence-major).
-    #[must_use]
-    pub fn blocks(&self) -> Vec<(f64, Option<f64>)> {
-        self.theta_deg
-            .iter()
-            .flat_map(|&t| (0..self.lane_count()).map(move |l| (t, self.wavelength(l))))
-            .collect()
-    }
-
     /// The wavelength of lane `l` (`None` for a monochrome run).
     #[must_use]
     pub fn wavelength(&self, l: usize) -> Option<f64> {
@@ -732,107 +896,182 @@ impl BrdfRun {
         .expect("in-plane settings checked by the scene")
     }
 
-    /// Trace every incidence angle; `progress` is called with photons done.
-    /// One result per incidence, or for a spectral run per incidence and
-    /// wavelength (incidence-major, wavelengths in order).
-    pub fn run(
+    /// Trace the photons `photons` (a range of photon indices that starts
+    /// on a batch: [`BrdfRun::photon_range`] for the run's own) of every
+    /// incidence angle on `surface` (as every realisation's);
+    /// [`BrdfRun::trace_realisations`] with `surface` for each.
+    ///
+    /// # Panics
+    /// If the range does not start on a batch or exceeds the run's photons.
+    pub fn trace(
         &self,
         surface: &MicroSurface,
+        photons: std::ops::Range<u64>,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<IncidenceResult> {
-        self.theta_deg
-            .iter()
-            .flat_map(|&theta| self.run_lanes(surface, theta, progress))
-            .collect()
+    ) -> BrdfResult {
+        let surfaces = vec![surface; self.realisations as usize];
+        self.trace_realisations(&surfaces, photons, progress)
     }
 
-    /// Trace one incidence angle: this run's photons
-    /// ([`BrdfRun::photon_range`]), their tree nodes added left to right;
-    /// the result of the first wavelength (of the one, for a monochrome run).
-    pub fn run_one(
+    /// Trace the photons `photons` (a range of photon indices that starts
+    /// on a batch) of every incidence angle, the batches of realisation `r`
+    /// ([`BrdfRun::realisation_batches`]) on `surfaces[r]`; `progress` is
+    /// called with photons done. This is the micro level's one transport
+    /// entry point: each leaf of the result has the complete nodes of the
+    /// whole run's batch tree over each realisation's part of the range, in
+    /// batch order (the root alone for a whole run of one realisation), the
+    /// sums of those nodes pushed into the tree ([`BrdfRun::combine`]) and
+    /// added left to right, and per realisation its sums
+    /// ([`BrdfRun::realisation_results`]).
+    ///
+    /// # Panics
+    /// If the range does not start on a batch or exceeds the run's
+    /// photons, or `surfaces` is not one per realisation.
+    pub fn trace_realisations(
         &self,
-        surface: &MicroSurface,
-        theta_deg: f64,
+        surfaces: &[&MicroSurface],
+        photons: std::ops::Range<u64>,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> IncidenceResult {
-        self.run_lanes(surface, theta_deg, progress).swap_remove(0)
+    ) -> BrdfResult {
+        assert!(photons.start % BATCH == 0, "shards start on a batch");
+        assert!(photons.start <= photons.end && photons.end <= self.photons);
+        assert_eq!(
+            surfaces.len() as u64,
+            self.realisations,
+            "one surface per realisation"
+        );
+        let incidence = self
+            .theta_deg
+            .iter()
+            .map(|&theta| {
+                let clock = Instant::now();
+                let mut lanes = vec![Vec::new(); self.lane_count()];
+                for (r, surface) in (0..).zip(surfaces) {
+                    let (b0, b1) = self.realisation_batches(r);
+                    let part = (b0 * BATCH).max(photons.start)..(b1 * BATCH).min(photons.end);
+                    if part.is_empty() {
+                        continue;
+                    }
+                    let nodes = self.run_nodes(surface, theta, part, progress);
+                    for (all, some) in lanes.iter_mut().zip(nodes) {
+                        all.extend(some);
+                    }
+                }
+                let seconds = clock.elapsed().as_secs_f64();
+                let wavelength = lanes
+                    .into_iter()
+                    .enumerate()
+                    .map(|(l, nodes)| IncidenceResult {
+                        theta_i_deg: theta,
+                        phi_i_deg: self.phi_deg,
+                        wavelength_um: self.wavelength(l),
+                        tallies: add_up(&self.combine(nodes.iter()))
+                            .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
+                        realisations: self.realisation_results(theta, &nodes),
+                        nodes,
+                        seconds,
+                    })
+                    .collect();
+                ByIncidence {
+                    theta_i_deg: theta,
+                    azimuth: vec![ByAzimuth {
+                        phi_i_deg: self.phi_deg,
+                        wavelength,
+                    }],
+                }
+            })
+            .collect();
+        BrdfResult { incidence }
     }
 
-    /// [`BrdfRun::run_one`], one result per wavelength (one for a
-    /// monochrome run); the time is the whole trace's.
-    pub fn run_lanes(
+    /// With several realisations, each one's reflectance at incidence
+    /// `theta_deg` from the tree `nodes` of a trace or of merged shards, in
+    /// batch order, each within one realisation's block: realisation `r`'s
+    /// sums are its nodes pushed into the run's tree and added left to
+    /// right (so a shard split anywhere gives the same bits). Empty for one
+    /// realisation.
+    #[must_use]
+    pub fn realisation_results(
         &self,
-        surface: &MicroSurface,
         theta_deg: f64,
-        progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<IncidenceResult> {
-        let (lanes, seconds) = self.run_shard_one(surface, theta_deg, progress);
-        lanes
-            .iter()
-            .enumerate()
-            .map(|(l, nodes)| IncidenceResult {
-                theta_i_deg: theta_deg,
-                phi_i_deg: self.phi_deg,
-                wavelength_um: self.wavelength(l),
-                tallies: add_up(nodes)
-                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
-                seconds,
+        nodes: &[Node<BrdfTallies>],
+    ) -> Vec<RealisationResult> {
+        if self.realisations <= 1 {
+            return Vec::new();
+        }
+        (0..self.realisations)
+            .map(|r| {
+                let (b0, b1) = self.realisation_batches(r);
+                let inside = nodes
+                    .iter()
+                    .filter(|n| n.start() >= u128::from(b0) && n.start() < u128::from(b1));
+                let sums = add_up(&self.combine(inside))
+                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
+                RealisationResult::of(sums, theta_deg, self)
             })
             .collect()
     }
 
-    /// The photon indices `[first, last)` this run traces of every
-    /// incidence: its shard's, or all `[0, photons)`.
-    #[must_use]
-    pub fn photon_range(&self) -> (u64, u64) {
-        self.shard
-            .map_or((0, self.photons), |s| (s.first_photon, s.last_photon))
-    }
-
-    /// Trace one incidence angle of this run's photons
-    /// ([`BrdfRun::photon_range`]: a shard's block, or the whole run).
-    /// Returns the complete nodes of the whole run's batch tree (see
-    /// [`crate::tally::sum`]; the root alone for a whole run), one list per
-    /// wavelength ([`BrdfRun::lane_count`]), and the time (s).
+    /// `nodes` (in batch order, contiguous) pushed into the run's batch
+    /// tree: its complete nodes (the root alone when they cover the run).
+    /// The nodes of a piece of the run, split anywhere on node bounds,
+    /// combine to the nodes of the piece's leaves, bit for bit.
     ///
     /// # Panics
-    /// If the range does not start on a batch or exceeds the run's photons.
-    pub fn run_shard_one(
+    /// If the nodes are not contiguous or lie past the run.
+    #[must_use]
+    pub fn combine<'a>(
         &self,
-        surface: &MicroSurface,
-        theta_deg: f64,
-        progress: &(dyn Fn(u64) + Sync),
-    ) -> (Vec<Vec<Node<BrdfTallies>>>, f64) {
-        let (first, last) = self.photon_range();
-        assert!(first % BATCH == 0, "shards start on a batch");
-        assert!(first <= last && last <= self.photons);
-        let clock = Instant::now();
-        let nodes = self.run_nodes(
-            surface,
-            theta_deg,
-            first / BATCH,
-            self.photons.div_ceil(BATCH),
-            progress,
-        );
-        (nodes, clock.elapsed().as_secs_f64())
+        nodes: impl Iterator<Item = &'a Node<BrdfTallies>>,
+    ) -> Vec<Node<BrdfTallies>> {
+        let mut sum = DyadicSum::new(self.photons.div_ceil(BATCH));
+        for n in nodes {
+            sum.push(n.clone(), &BrdfTallies::merge)
+                .expect("contiguous nodes of the run");
+        }
+        sum.into_nodes()
     }
 
-    /// Trace this run's photons in batches (batch `k` of this run is batch
-    /// `base + k` of a run of `total_batches`), in parallel, and reduce them
-    /// in batch order over the fixed tree; returns its complete nodes, one
-    /// list per wavelength. Large
-    /// surfaces are traced in the Morton order of the entry points
-    /// ([`order::pays`]).
+    /// The batches `[b0, b1)` (of every incidence) that realisation `r`
+    /// traces: of the run's `B = ceil(photons / BATCH)` batches,
+    /// `[floor(r B / R), floor((r + 1) B / R))` for `R` realisations (the
+    /// rule of [`crate::shard::Shard::photon_range`]): whole batches,
+    /// their numbers differing by one at most, realisation 0 first.
+    #[must_use]
+    pub fn realisation_batches(&self, r: u64) -> (u64, u64) {
+        let b = u128::from(self.photons.div_ceil(BATCH));
+        let n = u128::from(self.realisations.max(1));
+        let at = |k: u64| (u128::from(k) * b / n) as u64;
+        (at(r), at(r + 1))
+    }
+
+    /// [`BrdfRun::trace`] of the run's own photons ([`BrdfRun::photon_range`]).
+    pub fn run(&self, surface: &MicroSurface, progress: &(dyn Fn(u64) + Sync)) -> BrdfResult {
+        self.trace(surface, self.photon_range(), progress)
+    }
+
+    /// The photon indices this run traces of every incidence: its shard's,
+    /// or all `0..photons`.
+    #[must_use]
+    pub fn photon_range(&self) -> std::ops::Range<u64> {
+        self.shard
+            .map_or(0..self.photons, |s| s.first_photon..s.last_photon)
+    }
+
+    /// Trace the photons `photons` of one incidence angle in batches (batch
+    /// `k` of the range is batch `photons.start / BATCH + k` of the run),
+    /// in parallel, and reduce them in batch order over the fixed tree;
+    /// returns its complete nodes, one list per wavelength. Large surfaces
+    /// are traced in the Morton order of the entry points ([`order::pays`]).
     fn run_nodes(
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
-        base: u64,
-        total_batches: u64,
+        photons: std::ops::Range<u64>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Vec<Node<BrdfTallies>>> {
         let ordered = order::pays(surface);
-        self.run_nodes_in(surface, theta_deg, base, total_batches, ordered, progress)
+        self.run_nodes_in(surface, theta_deg, photons, ordered, progress)
     }
 
     /// [`BrdfRun::run_nodes`], in Morton order if `ordered`.
@@ -840,11 +1079,12 @@ impl BrdfRun {
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
-        base: u64,
-        total_batches: u64,
+        photons: std::ops::Range<u64>,
         ordered: bool,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Vec<Node<BrdfTallies>>> {
+        let base = photons.start / BATCH;
+        let total_batches = self.photons.div_ceil(BATCH);
         let grid = Locator::new(self.grid());
         let inplane = self.inplane();
         let dir = -toward_light(theta_deg, self.phi_deg);
@@ -872,6 +1112,7 @@ impl BrdfRun {
             inplane: &inplane,
             dir,
             ordered,
+            photons,
             spare: &spare,
         };
         let spectral = !self.wavelengths_um.is_empty();
@@ -897,6 +1138,7 @@ impl BrdfRun {
     /// of its mirror image in the plane of incidence at azimuth `phi`
     /// (given as `(sin phi, cos phi)`; the whole weight once when both are
     /// the same cells). An unused set has weight 0.
+    #[inline]
     fn cell_weights(
         &self,
         grid: &Locator,
@@ -913,6 +1155,39 @@ impl BrdfRun {
             [(cells, share * w), (cells, 0.0)]
         } else {
             [(cells, 0.5 * share * w), (mirrored, 0.5 * mshare * w)]
+        }
+    }
+
+    /// The filters of an escaping photon (direction `out`, after `bounces`
+    /// reflections): which Carlson cells (with their shares of weight 1,
+    /// [`BrdfRun::cell_weights`]), which in-plane bin and which
+    /// reflection-count bin it is scored in.
+    #[inline]
+    fn filter(
+        &self,
+        locator: &Locator,
+        inplane: &InPlaneTally,
+        out: DVec3,
+        bounces: u32,
+        sin_cos_phi: (f64, f64),
+    ) -> Bins {
+        // The direction's cells once, for every wavelength.
+        let shares = self.cell_weights(locator, out, 1.0, sin_cos_phi);
+        // The (cell, share) pairs the weight is scored into.
+        let mut hits = [(0, 0.0); 8];
+        let mut n_hits = 0;
+        for (cs, share) in shares.iter().filter(|h| h.1 != 0.0) {
+            for &c in cs.as_slice() {
+                hits[n_hits] = (c, *share);
+                n_hits += 1;
+            }
+        }
+        Bins {
+            shares,
+            hits,
+            n_hits,
+            inplane: inplane.locate(out),
+            bounces: (bounces as usize).min(BOUNCE_BINS - 1),
         }
     }
 
@@ -949,6 +1224,7 @@ impl BrdfRun {
             inplane,
             dir,
             ordered,
+            ref photons,
             spare,
         } = *args;
         let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
@@ -957,7 +1233,7 @@ impl BrdfRun {
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi), self.lane_count());
         // Photon n's stream (after the entry draws) and entry point.
-        let (first, last) = self.photon_range();
+        let (first, last) = (photons.start, photons.end);
         let entry = |n: u64| {
             let g = first + n;
             let mut rng = photon_rng(self.seed, g);
@@ -1065,114 +1341,43 @@ impl BrdfRun {
         let by_lane =
             interleaved.is_none() || lanes[0].replicates.is_some() || lanes[0].polar.is_some();
         let mut weights = [0.0; MAX_WAVELENGTHS];
+        let mirror = self.symmetry == Symmetry::Mirror;
         let mut score = |replicate: usize, h: &History<C>, tests: u64| {
-            // Counts are the same at every wavelength: kept in the first
-            // wavelength's tallies and copied to the others below.
-            let t0 = &mut lanes[0];
-            t0.intersection_tests += tests;
-            t0.photons += 1;
-            t0.bounces += u64::from(h.bounces);
-            t0.segments += u64::from(h.segments);
+            score_counts(&mut lanes[0], h, tests);
             // By reference: a spectral carrier is large.
             match &h.fate {
                 Fate::Escaped {
                     dir: out,
                     weight: carried,
                 } => {
-                    let out = *out;
-                    // The direction's cells once, for every wavelength.
-                    let shares = self.cell_weights(locator, out, 1.0, sin_cos_phi);
-                    let bin = inplane.locate(out);
+                    let bins = self.filter(locator, inplane, *out, h.bounces, sin_cos_phi);
                     let reference = lanes[0]
                         .polar
                         .is_some()
-                        .then(|| hemisphere_reference(out, phi));
-                    // The (cell, share) pairs the weight is scored into.
-                    let mut hits = [(0, 0.0); 8];
-                    let mut n_hits = 0;
-                    for (cs, share) in shares.iter().filter(|h| h.1 != 0.0) {
-                        for &c in cs.as_slice() {
-                            hits[n_hits] = (c, *share);
-                            n_hits += 1;
-                        }
-                    }
-                    let bounce_bin = (h.bounces as usize).min(BOUNCE_BINS - 1);
+                        .then(|| hemisphere_reference(*out, phi));
                     if let Some(sums) = &mut interleaved {
-                        // All wavelengths at once, bin by bin.
                         let w = &mut weights[..n_lanes];
                         carried.weights_for(&incident, w);
-                        sums.reflected.score(0, w);
-                        for &(c, share) in &hits[..n_hits] {
-                            sums.carlson.score_scaled(c, share, w);
-                        }
-                        if let Some(c) = bin {
-                            sums.inplane.score(c, w);
-                        }
-                        sums.by_bounces.add(bounce_bin, w);
+                        score_all_lanes(sums, &bins, w);
                     }
                     for (l, t) in lanes.iter_mut().enumerate().filter(|_| by_lane) {
                         let carried = carried.lane(l);
                         let weight = carried.weight_for(&incident);
                         if interleaved.is_none() {
-                            t.reflected.score(0, weight);
-                            // The cells' shares for weight 1 (the polarisation tally's),
-                            // then times the weight: the same products as
-                            // `cell_weights(.., weight, ..)`, bit for bit (a zero
-                            // product adds nothing to the non-negative sums).
-                            if weight != 0.0 {
-                                for &(c, share) in &hits[..n_hits] {
-                                    t.carlson.score(c, share * weight);
-                                }
-                            }
-                            if let Some(c) = bin {
-                                t.inplane.score(c, weight);
-                            }
-                            t.by_bounces[bounce_bin] += weight;
+                            score_weight(t, &bins, weight);
                         }
                         if let Some(r) = &mut t.replicates {
-                            let halves = shares.map(|(cells, share)| (cells, share * weight));
-                            r.reflected[replicate] += weight;
-                            for (cs, w) in &halves {
-                                for &c in cs.as_slice() {
-                                    r.carlson[replicate * grid.n_cells() + c] += w;
-                                }
-                            }
-                            if let Some(c) = bin {
-                                r.inplane[replicate * inplane.n_bins() + c] += weight;
-                            }
+                            let n_bins = (grid.n_cells(), inplane.n_bins());
+                            score_replicate(r, replicate, &bins, weight, n_bins);
                         }
                         if let (Some(p), Some(reference)) = (&mut t.polar, reference) {
-                            let k = carried.components(out, reference, &mut components);
-                            let mirror = self.symmetry == Symmetry::Mirror;
-                            match k {
-                                16 => score_polar(p, &components, &shares, mirror, replicate),
-                                4 => {
-                                    let [c0, c1, c2, c3, ..] = components;
-                                    score_polar(p, &[c0, c1, c2, c3], &shares, mirror, replicate);
-                                }
-                                _ => unreachable!("4 or 16 polarisation components"),
-                            }
+                            let k = carried.components(*out, reference, &mut components);
+                            score_polarisation(p, &components[..k], &bins, mirror, replicate);
                         }
                     }
                 }
                 Fate::Absorbed => {}
-                Fate::Wall { weight } => {
-                    for (l, t) in lanes.iter_mut().enumerate() {
-                        t.lost_walls += weight.lane(l).weight_for(&incident);
-                    }
-                }
-                Fate::Capped { weight } => {
-                    for (l, t) in lanes.iter_mut().enumerate() {
-                        t.lost_cap += weight.lane(l).weight_for(&incident);
-                        t.capped_histories += 1;
-                    }
-                }
-                Fate::Numeric { weight } => {
-                    for (l, t) in lanes.iter_mut().enumerate() {
-                        t.lost_numeric += weight.lane(l).weight_for(&incident);
-                        t.numeric_histories += 1;
-                    }
-                }
+                fate => score_loss(&mut lanes, fate, &incident),
             }
         };
         photons(&mut score);
@@ -1200,7 +1405,7 @@ impl BrdfRun {
 }
 
 /// What every photon of one incidence's trace shares.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 struct TraceArgs<'a> {
     surface: &'a MicroSurface,
     locator: &'a Locator,
@@ -1209,6 +1414,8 @@ struct TraceArgs<'a> {
     dir: DVec3,
     /// Trace in the Morton order of the entry points.
     ordered: bool,
+    /// The photon indices traced.
+    photons: std::ops::Range<u64>,
     spare: &'a Spare,
 }
 
@@ -1222,6 +1429,134 @@ struct Entry {
     v: f64,
     /// Lattice replicate (0 for a random launch).
     replicate: usize,
+}
+
+/// Where an escaping photon is scored: the filters of
+/// [`BrdfRun::filter`].
+struct Bins {
+    /// Its Carlson cells and their shares of weight 1, as
+    /// [`BrdfRun::cell_weights`] gives them (the mirrored half second).
+    shares: [(crate::tally::carlson::Cells, f64); 2],
+    /// The cells of `shares` with a non-zero share, flattened: `(cell, share)`.
+    hits: [(usize, f64); 8],
+    /// Entries of `hits` used.
+    n_hits: usize,
+    /// Its in-plane bin, if any.
+    inplane: Option<usize>,
+    /// Its reflection-count bin.
+    bounces: usize,
+}
+
+impl Bins {
+    /// The `(cell, share)` pairs scored.
+    fn hits(&self) -> &[(usize, f64)] {
+        &self.hits[..self.n_hits]
+    }
+}
+
+/// Score the counts of a history (the same at every wavelength: kept in the
+/// first wavelength's tallies, copied to the others at the end of a batch):
+/// photons, reflections, straight flights and intersection tests.
+#[inline]
+fn score_counts<C: Carrier>(t: &mut BrdfTallies, h: &History<C>, tests: u64) {
+    t.intersection_tests += tests;
+    t.photons += 1;
+    t.bounces += u64::from(h.bounces);
+    t.segments += u64::from(h.segments);
+}
+
+/// Score the weights `w` (one per wavelength) of an escaping photon in the
+/// interleaved sums of all wavelengths at once, bin by bin.
+#[inline]
+fn score_all_lanes(sums: &mut LaneSums, bins: &Bins, w: &[f64]) {
+    sums.reflected.score(0, w);
+    for &(c, share) in bins.hits() {
+        sums.carlson.score_scaled(c, share, w);
+    }
+    if let Some(c) = bins.inplane {
+        sums.inplane.score(c, w);
+    }
+    sums.by_bounces.add(bins.bounces, w);
+}
+
+/// Score the weight of an escaping photon in one wavelength's tallies: the
+/// reflectance, its cells, its in-plane bin and its reflection count.
+#[inline]
+fn score_weight(t: &mut BrdfTallies, bins: &Bins, weight: f64) {
+    t.reflected.score(0, weight);
+    // The cells' shares for weight 1 (the polarisation tally's), then times
+    // the weight: the same products as `cell_weights(.., weight, ..)`, bit
+    // for bit (a zero product adds nothing to the non-negative sums).
+    if weight != 0.0 {
+        for &(c, share) in bins.hits() {
+            t.carlson.score(c, share * weight);
+        }
+    }
+    if let Some(c) = bins.inplane {
+        t.inplane.score(c, weight);
+    }
+    t.by_bounces[bins.bounces] += weight;
+}
+
+/// Score the weight of an escaping photon in the sums of its lattice
+/// replicate `replicate` (`n_bins`: Carlson cells and in-plane bins).
+#[inline]
+fn score_replicate(
+    r: &mut Replicates,
+    replicate: usize,
+    bins: &Bins,
+    weight: f64,
+    (n_cells, n_inplane): (usize, usize),
+) {
+    let halves = bins.shares.map(|(cells, share)| (cells, share * weight));
+    r.reflected[replicate] += weight;
+    for (cs, w) in &halves {
+        for &c in cs.as_slice() {
+            r.carlson[replicate * n_cells + c] += w;
+        }
+    }
+    if let Some(c) = bins.inplane {
+        r.inplane[replicate * n_inplane + c] += weight;
+    }
+}
+
+/// Score the polarisation components `c` (4 Stokes or 16 Mueller, in the
+/// photon's outgoing frame) of an escaping photon ([`score_polar`]).
+#[inline]
+fn score_polarisation(
+    p: &mut PolarTallies,
+    c: &[f64],
+    bins: &Bins,
+    mirror: bool,
+    replicate: usize,
+) {
+    match *c {
+        [c0, c1, c2, c3] => score_polar(p, &[c0, c1, c2, c3], &bins.shares, mirror, replicate),
+        _ => {
+            let c: &[f64; 16] = c.try_into().expect("4 or 16 polarisation components");
+            score_polar(p, c, &bins.shares, mirror, replicate);
+        }
+    }
+}
+
+/// Score the weight a history lost (absorbed by a wall, cut by a cap or by
+/// a numerical guard) in every wavelength's tallies.
+#[inline]
+fn score_loss<C: Carrier>(lanes: &mut [BrdfTallies], fate: &Fate<C>, incident: &Stokes) {
+    for (l, t) in lanes.iter_mut().enumerate() {
+        match fate {
+            Fate::Wall { weight } => t.lost_walls += weight.lane(l).weight_for(incident),
+            Fate::Capped { weight } => {
+                t.lost_cap += weight.lane(l).weight_for(incident);
+                t.capped_histories += 1;
+            }
+            Fate::Numeric { weight } => {
+                t.lost_numeric += weight.lane(l).weight_for(incident);
+                t.numeric_histories += 1;
+            }
+            Fate::Escaped { .. } | Fate::Absorbed => {}
+        }
+    }
 }
 
 /// Score an escaping photon's polarisation components `c` (in its outgoing
@@ -1343,9 +1678,8 @@ mod tests {
             run.symmetry = symmetry;
             run.polarisation.tally = tally;
             run.polarisation.transport = tally != PolarTally::None;
-            let batches = run.photons.div_ceil(BATCH);
             let nodes =
-                |ordered| run.run_nodes_in(&scene.surface, 60.0, 0, batches, ordered, &|_| {});
+                |ordered| run.run_nodes_in(&scene.surface, 60.0, 0..run.photons, ordered, &|_| {});
             let (by_index, by_morton) = (nodes(false), nodes(true));
             assert!(by_index[0][0].value.photons > 0);
             assert_eq!(by_index, by_morton, "{tally:?} {launch:?} {symmetry:?}");

@@ -103,20 +103,40 @@ impl Launch {
 /// formed; beyond it `n + 1 == n` in `f64` and photons stop being counted.
 pub const MAX_PHOTONS: u64 = 1 << 53;
 
+/// A photon count that a run cannot take ([`check_count`],
+/// [`check_photons`]); the key or option it concerns is named by the caller.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum PhotonsError {
+    /// No photons.
+    #[error("must be > 0")]
+    Zero,
+    /// More than [`MAX_PHOTONS`].
+    #[error(
+        "must be at most 2^53 = {MAX_PHOTONS} (the f64 tallies cannot count more exactly), got {0}"
+    )]
+    TooMany(u64),
+    /// A lattice run whose photons are not a multiple of its replicates.
+    #[error("must be a multiple of {replicates} with launch = \"lattice\", got {photons}")]
+    NotReplicates {
+        /// The replicates of the launch.
+        replicates: u64,
+        /// The photons given.
+        photons: u64,
+    },
+}
+
 /// A photon count per incidence angle (per beam position of an object
 /// scene), from a scene file or the command line: at least 1 and at most
 /// [`MAX_PHOTONS`].
 ///
 /// # Errors
-/// The message for the user.
-pub fn check_count(photons: u64) -> Result<(), String> {
+/// [`PhotonsError::Zero`] or [`PhotonsError::TooMany`].
+pub fn check_count(photons: u64) -> Result<(), PhotonsError> {
     if photons == 0 {
-        return Err("must be > 0".into());
+        return Err(PhotonsError::Zero);
     }
     if photons > MAX_PHOTONS {
-        return Err(format!(
-            "must be at most 2^53 = {MAX_PHOTONS} (the f64 tallies cannot count more exactly), got {photons}"
-        ));
+        return Err(PhotonsError::TooMany(photons));
     }
     Ok(())
 }
@@ -126,13 +146,14 @@ pub fn check_count(photons: u64) -> Result<(), String> {
 /// (equal replicates).
 ///
 /// # Errors
-/// The message for the user.
-pub fn check_photons(launch: Launch, photons: u64) -> Result<(), String> {
+/// As [`check_count`], or [`PhotonsError::NotReplicates`].
+pub fn check_photons(launch: Launch, photons: u64) -> Result<(), PhotonsError> {
     check_count(photons)?;
     match launch.replicates() {
-        Some(k) if photons % k != 0 => Err(format!(
-            "must be a multiple of {k} with launch = \"lattice\", got {photons}"
-        )),
+        Some(k) if photons % k != 0 => Err(PhotonsError::NotReplicates {
+            replicates: k,
+            photons,
+        }),
         _ => Ok(()),
     }
 }
@@ -206,25 +227,21 @@ mod tests {
 
     #[test]
     fn photon_counts() {
-        assert_eq!(check_count(0).unwrap_err(), "must be > 0");
+        assert_eq!(check_count(0).unwrap_err().to_string(), "must be > 0");
         assert_eq!(check_count(1), Ok(()));
         assert_eq!(check_count(MAX_PHOTONS), Ok(()));
         assert_eq!(
-            check_count(MAX_PHOTONS + 1).unwrap_err(),
+            check_count(MAX_PHOTONS + 1).unwrap_err().to_string(),
             "must be at most 2^53 = 9007199254740992 (the f64 tallies cannot count more exactly), got 9007199254740993"
         );
         assert_eq!(check_photons(Launch::Random, 100), Ok(()));
         assert_eq!(check_photons(Launch::Lattice, 160), Ok(()));
         assert_eq!(
-            check_photons(Launch::Lattice, 100).unwrap_err(),
+            check_photons(Launch::Lattice, 100).unwrap_err().to_string(),
             "must be a multiple of 16 with launch = \"lattice\", got 100"
         );
         // The count's limit comes first, also for a lattice.
-        assert!(
-            check_photons(Launch::Lattice, 0)
-                .unwrap_err()
-                .contains("> 0")
-        );
+        assert!(check_photons(Launch::Lattice, 0).unwrap_err() == PhotonsError::Zero);
     }
 
     #[test]

@@ -8,8 +8,12 @@
 //! counts as reflected (tallied on the full-sphere far-field grid); escaping
 //! without any is `missed`. Weight removed at a wall is tallied as absorbed
 //! by that surface. Photon `n` of position `k` draws from the stream
-//! `(seed, k 2^40 + n)`; batches are summed in order, so results are
-//! bit-identical for any thread count.
+//! `(seed, k 2^40 + n)`. Each position's batches of [`BATCH`] photons are
+//! summed over the fixed batch tree of [`crate::tally::sum`], so results
+//! are bit-identical for any thread count and any shard split: a shard
+//! (`roks trace --shard I/N`, [`shard_blocks`]) traces a block of whole
+//! batches and keeps the complete tree nodes ([`ObjectRun::run_nodes`]),
+//! which `roks merge` adds into the single run's root.
 //!
 //! **Polarisation.** With [`ObjectRun::polarisation`] the photon carries a
 //! Stokes vector ([`Polarised<1>`]) launched with its beam's state about
@@ -46,8 +50,10 @@ use crate::micro::Scratch;
 use crate::object::Object;
 use crate::object::source::Beam;
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
+use crate::shard::Shard;
 use crate::tally::Merge;
 use crate::tally::carlson::Cells;
+use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{Accumulator, CarlsonGrid};
 
 pub use super::BATCH;
@@ -127,7 +133,8 @@ pub fn stokes_reference(dir: DVec3) -> DVec3 {
 pub type Walls = Vec<Option<usize>>;
 
 /// What to run.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ObjectRun {
     /// Tracing seed.
     pub seed: u64,
@@ -149,14 +156,17 @@ pub struct ObjectRun {
     pub wavelengths_um: Vec<f64>,
 }
 
-/// Sums for one beam position.
-#[derive(Debug, Clone, PartialEq)]
+/// Sums for one beam position (stored exactly in a shard's `tallies.json`:
+/// the floating-point sums as [`crate::tally::exact`] numbers).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ObjectTallies {
     /// Photons launched.
     pub photons: u64,
     /// Weight escaping after at least one reflection.
     pub reflected: Accumulator,
     /// Weight escaping without a reflection.
+    #[serde(with = "crate::tally::exact")]
     pub missed: f64,
     /// Weight absorbed per surface id.
     pub absorbed: Accumulator,
@@ -174,6 +184,7 @@ pub struct ObjectTallies {
     /// Straight flights at the macro level.
     pub segments: u64,
     /// Weight cut by caps or guards (macro or inside micro descents).
+    #[serde(with = "crate::tally::exact")]
     pub lost: f64,
     /// Histories that hit a surface without a model: their count and the
     /// surface id of the first.
@@ -185,7 +196,13 @@ pub struct ObjectTallies {
 impl ObjectTallies {
     /// Zero sums with `n_surfaces` absorbed bins, `farfield_cells` far-field
     /// cells; Stokes bins if `stokes` (4) and `farfield_stokes` (4 per cell).
-    fn new(n_surfaces: usize, farfield_cells: usize, stokes: bool, farfield_stokes: bool) -> Self {
+    #[must_use]
+    pub fn new(
+        n_surfaces: usize,
+        farfield_cells: usize,
+        stokes: bool,
+        farfield_stokes: bool,
+    ) -> Self {
         Self {
             photons: 0,
             reflected: Accumulator::new(1),
@@ -246,7 +263,7 @@ crate::merge_fields!(ObjectTallies {
 /// with [`first`](Self::first)). Merging adds the counts and keeps the
 /// first surface of the first tally that has one, so merged batches name
 /// the surface a whole run in batch order would.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct FirstUnmodelled(pub u64, pub usize);
 
 impl FirstUnmodelled {
@@ -284,7 +301,55 @@ impl Merge for FirstUnmodelled {
     }
 }
 
-/// The result for one beam position (and, in a spectral run, one wavelength).
+/// The result of an object trace ([`ObjectRun::run`]), nested as beam
+/// position x wavelength: `position[k].wavelength[l]` is the leaf of beam
+/// position `k` (the scene's beams in order) and wavelength `l` (the one
+/// lane of a monochrome run).
+#[derive(Debug, Clone)]
+pub struct ObjectResult {
+    /// One entry per beam position.
+    pub position: Vec<ByPosition>,
+}
+
+/// The results at one beam position.
+#[derive(Debug, Clone)]
+pub struct ByPosition {
+    /// One leaf per wavelength (one for a monochrome run).
+    pub wavelength: Vec<PositionResult>,
+}
+
+impl ObjectResult {
+    /// The leaf of beam position `k` and wavelength `l`.
+    ///
+    /// # Panics
+    /// If an index is out of its axis.
+    #[must_use]
+    pub fn leaf(&self, k: usize, l: usize) -> &PositionResult {
+        &self.position[k].wavelength[l]
+    }
+
+    /// The leaves of each beam position, one slice of wavelengths each.
+    pub fn groups(&self) -> impl Iterator<Item = &[PositionResult]> {
+        self.position.iter().map(|p| p.wavelength.as_slice())
+    }
+
+    /// Every leaf in file order: position, then wavelength.
+    pub fn iter(&self) -> impl Iterator<Item = &PositionResult> {
+        self.groups().flatten()
+    }
+
+    /// The leaves in file order, owned.
+    #[must_use]
+    pub fn into_leaves(self) -> Vec<PositionResult> {
+        self.position
+            .into_iter()
+            .flat_map(|p| p.wavelength)
+            .collect()
+    }
+}
+
+/// The leaf of an [`ObjectResult`]: one beam position (and, in a spectral
+/// run, one wavelength).
 #[derive(Debug, Clone)]
 pub struct PositionResult {
     /// The beam.
@@ -322,6 +387,95 @@ impl PositionResult {
     }
 }
 
+/// The complete batch-tree nodes of one beam position (and, in a spectral
+/// run, one wavelength) over a block of its batches: what
+/// [`ObjectRun::run_nodes`] returns and a shard stores.
+#[derive(Debug, Clone)]
+pub struct PositionNodes {
+    /// The beam.
+    pub beam: Beam,
+    /// The wavelength (µm) of a spectral run; `None`: monochrome.
+    pub wavelength_um: Option<f64>,
+    /// Batches of the whole run at this position (the tree's leaves).
+    pub batches: u64,
+    /// Complete nodes, in batch order.
+    pub nodes: Vec<Node<ObjectTallies>>,
+    /// Wall-clock time (s).
+    pub seconds: f64,
+}
+
+impl PositionNodes {
+    /// The result of the whole run at this position: the root of its
+    /// tree (`zero`: the run's zero sums, for a position without photons).
+    ///
+    /// # Errors
+    /// When the nodes do not cover every batch (a shard's).
+    pub fn into_root(self, zero: &dyn Fn() -> ObjectTallies) -> Result<PositionResult, String> {
+        Ok(PositionResult {
+            beam: self.beam,
+            wavelength_um: self.wavelength_um,
+            tallies: root(self.nodes, self.batches, zero)?,
+            seconds: self.seconds,
+        })
+    }
+}
+
+/// The root of the batch tree over `batches` batches from its complete
+/// `nodes` in batch order (those of one run, or of all shards in shard
+/// order); zero sums from `zero` for a position without photons.
+///
+/// # Errors
+/// When the nodes do not follow each other or do not cover every batch.
+pub fn root(
+    nodes: Vec<Node<ObjectTallies>>,
+    batches: u64,
+    zero: &dyn Fn() -> ObjectTallies,
+) -> Result<ObjectTallies, String> {
+    if batches == 0 && nodes.is_empty() {
+        return Ok(zero());
+    }
+    let mut sum = DyadicSum::new(batches);
+    for node in nodes {
+        sum.push(node, &ObjectTallies::merge)?;
+    }
+    sum.finish()
+}
+
+/// The batches of each beam position that shard `shard` traces, for a run
+/// of `photons[k]` photons at position `k`: the positions' batches of
+/// [`BATCH`] photons are laid end to end (position-major, `B` in all) and
+/// the shard takes the whole batches `[floor(I B / N), floor((I + 1) B /
+/// N))` of them, so a beam sweep of many short positions splits as well as
+/// one long one. Returns one range of batch indices per position (empty
+/// where the shard has none).
+///
+/// # Errors
+/// When there are fewer batches than shards.
+pub fn shard_blocks(photons: &[u64], shard: Shard) -> Result<Vec<std::ops::Range<u64>>, String> {
+    let total: u64 = photons
+        .iter()
+        .fold(0, |a: u64, n| a.saturating_add(n.div_ceil(BATCH)));
+    if shard.count > total {
+        return Err(format!(
+            "{} shards but only {total} batches of {BATCH} photons over the beam positions: use at most {total} shards or more photons",
+            shard.count
+        ));
+    }
+    let at = |i: u64| (u128::from(i) * u128::from(total) / u128::from(shard.count)) as u64;
+    let (b0, b1) = (at(shard.index), at(shard.index + 1));
+    let mut offset = 0_u64;
+    Ok(photons
+        .iter()
+        .map(|n| {
+            let batches = n.div_ceil(BATCH);
+            let lo = b0.clamp(offset, offset + batches) - offset;
+            let hi = b1.clamp(offset, offset + batches) - offset;
+            offset += batches;
+            lo..hi
+        })
+        .collect())
+}
+
 impl ObjectRun {
     /// The far-field grid.
     #[must_use]
@@ -349,9 +503,15 @@ impl ObjectRun {
         self.farfield && self.farfield_stokes && self.polarisation
     }
 
-    /// Zero sums for this run.
-    fn tallies(&self, n_surfaces: usize, ff: &FarField) -> ObjectTallies {
-        let ff_cells = if self.farfield { ff.n_cells() } else { 0 };
+    /// Zero sums for this run with `n_surfaces` surfaces: the layout every
+    /// batch, tree node and total of the run has.
+    #[must_use]
+    pub fn tallies(&self, n_surfaces: usize) -> ObjectTallies {
+        let ff_cells = if self.farfield {
+            self.farfield_grid().n_cells()
+        } else {
+            0
+        };
         ObjectTallies::new(
             n_surfaces,
             ff_cells,
@@ -361,8 +521,8 @@ impl ObjectRun {
     }
 
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
-    /// receives photons done. One result per beam, or per beam and
-    /// wavelength (position-major, [`ObjectRun::lane_count`] per beam).
+    /// receives photons done. The object level's one transport entry
+    /// point: a result per beam position and wavelength.
     pub fn run(
         &self,
         object: &Object,
@@ -371,24 +531,63 @@ impl ObjectRun {
         beams: &[Beam],
         photons: &[u64],
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Vec<PositionResult> {
+    ) -> ObjectResult {
+        let blocks: Vec<_> = photons.iter().map(|n| 0..n.div_ceil(BATCH)).collect();
+        let n_surfaces = object.surface_names.len();
+        let zero = || self.tallies(n_surfaces);
+        let position = self
+            .run_nodes(object, walls, models, beams, photons, &blocks, progress)
+            .into_iter()
+            .map(|lanes| ByPosition {
+                wavelength: lanes
+                    .into_iter()
+                    .map(|p| p.into_root(&zero).expect("a whole run covers its batches"))
+                    .collect(),
+            })
+            .collect();
+        ObjectResult { position }
+    }
+
+    /// Trace the batches `blocks[k]` (batch indices, of [`BATCH`] photons)
+    /// of beam `k`'s `photons[k]` photons, for every beam, and reduce each
+    /// beam's (and wavelength's) batches over the fixed tree: its complete
+    /// nodes, per beam position one [`PositionNodes`] per wavelength (one
+    /// for a monochrome run). An empty block traces nothing (no nodes).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_nodes(
+        &self,
+        object: &Object,
+        walls: &Walls,
+        models: &[WallModel],
+        beams: &[Beam],
+        photons: &[u64],
+        blocks: &[std::ops::Range<u64>],
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<Vec<PositionNodes>> {
         let spectral = !self.wavelengths_um.is_empty();
+        let n_surfaces = object.surface_names.len();
         beams
             .iter()
             .zip(photons)
+            .zip(blocks)
             .enumerate()
-            .flat_map(|(k, (beam, &n_photons))| {
+            .map(|(k, ((beam, &n_photons), block))| {
                 let clock = Instant::now();
                 let ff = self.farfield_grid();
-                let mut totals: Vec<ObjectTallies> = (0..self.lane_count())
-                    .map(|_| self.tallies(object.surface_names.len(), &ff))
+                let batches = n_photons.div_ceil(BATCH);
+                let mut sums: Vec<DyadicSum<ObjectTallies>> = (0..self.lane_count())
+                    .map(|_| DyadicSum::new(batches))
                     .collect();
-                let bytes = totals.iter().map(ObjectTallies::bytes).sum();
+                let bytes = self.lane_count() as u64 * self.tallies(n_surfaces).bytes();
                 let position = k as u64;
+                // The block's photons, from its first batch's first photon.
+                let first = block.start * BATCH;
+                let last = (block.end * BATCH).min(n_photons);
                 super::run_batches(
-                    n_photons,
+                    last.saturating_sub(first),
                     bytes,
                     |range| {
+                        let range = first + range.start..first + range.end;
                         let args = (object, walls, models, beam, position, &ff, range);
                         match (spectral, self.polarisation) {
                             (false, false) => self.trace_batch::<f64>(args),
@@ -406,24 +605,32 @@ impl ObjectRun {
                             },
                         }
                     },
-                    |_, parts| {
-                        for (total, part) in totals.iter_mut().zip(&parts) {
-                            total.merge(part);
+                    |b, parts| {
+                        for (sum, value) in sums.iter_mut().zip(parts) {
+                            sum.push(
+                                Node {
+                                    level: 0,
+                                    index: block.start + b,
+                                    value,
+                                },
+                                &ObjectTallies::merge,
+                            )
+                            .expect("batches in order");
                         }
                     },
                     progress,
                 );
                 let seconds = clock.elapsed().as_secs_f64();
-                totals
-                    .into_iter()
+                sums.into_iter()
                     .enumerate()
-                    .map(|(l, tallies)| PositionResult {
+                    .map(|(l, sum)| PositionNodes {
                         beam: *beam,
                         wavelength_um: self.wavelength(l),
-                        tallies,
+                        batches,
+                        nodes: sum.into_nodes(),
                         seconds,
                     })
-                    .collect::<Vec<_>>()
+                    .collect()
             })
             .collect()
     }
@@ -437,7 +644,7 @@ impl ObjectRun {
         let n_surfaces = object.surface_names.len();
         let lanes = self.lane_count();
         let mut lane_tallies: Vec<ObjectTallies> =
-            (0..lanes).map(|_| self.tallies(n_surfaces, ff)).collect();
+            (0..lanes).map(|_| self.tallies(n_surfaces)).collect();
         let launch = C::launch(beam.polarisation.stokes(), beam.reference(), lanes);
         let mut scratch: Vec<Option<Scratch>> = vec![None; models.len()];
         // Absorbed in this history, per surface and lane (`sid * lanes + l`).
@@ -668,6 +875,41 @@ pub fn trace<C: Carrier>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shards' blocks tile every position's batches exactly once, in
+    /// shard order, and differ in size by at most one batch.
+    #[test]
+    fn shard_blocks_tile_every_position() {
+        let b = BATCH;
+        for photons in [vec![1], vec![3 * b, 1, 5 * b - 7, b], vec![b; 40]] {
+            let total: u64 = photons.iter().map(|n| n.div_ceil(b)).sum();
+            for count in 1..=total {
+                let mut next = vec![0_u64; photons.len()];
+                let mut sizes = Vec::new();
+                for index in 0..count {
+                    let blocks = shard_blocks(&photons, Shard { index, count }).unwrap();
+                    let mut size = 0;
+                    for (k, r) in blocks.iter().enumerate() {
+                        if !r.is_empty() {
+                            assert_eq!(r.start, next[k], "{photons:?} {index}/{count}");
+                            next[k] = r.end;
+                        }
+                        size += r.end - r.start;
+                    }
+                    sizes.push(size);
+                }
+                let full: Vec<u64> = photons.iter().map(|n| n.div_ceil(b)).collect();
+                assert_eq!(next, full, "{photons:?} in {count}");
+                let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+                assert!(hi - lo <= 1 && *lo >= 1, "{sizes:?}");
+            }
+            let over = Shard {
+                index: 0,
+                count: total + 1,
+            };
+            assert!(shard_blocks(&photons, over).is_err());
+        }
+    }
 
     /// Counts add; the first surface is the first tally's that has one.
     #[test]

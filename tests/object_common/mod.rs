@@ -32,14 +32,17 @@ pub fn scene(name: &str, toml: &str, dir: &Path) -> ObjectScene {
 /// Trace every beam position of the scene.
 #[must_use]
 pub fn run(scene: &ObjectScene) -> Vec<PositionResult> {
-    scene.run.run(
-        &scene.object,
-        &scene.walls,
-        &scene.models,
-        &scene.beams,
-        &scene.photons,
-        &|_| {},
-    )
+    scene
+        .run
+        .run(
+            &scene.object,
+            &scene.walls,
+            &scene.models,
+            &scene.beams,
+            &scene.photons,
+            &|_| {},
+        )
+        .into_leaves()
 }
 
 /// Index of a named surface.

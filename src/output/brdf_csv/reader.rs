@@ -1,7 +1,9 @@
 //! The checked reader of `brdf.csv` ([`BrdfTable::load`],
-//! [`BrdfTable::parse`]) and of the `summary.json` and `mueller.csv` that
-//! `roks brdf` writes beside it ([`BrdfTable::with_summary`],
-//! [`BrdfTable::with_mueller`]), and why one fails ([`BrdfTableError`]).
+//! [`BrdfTable::parse`]), and why one fails ([`BrdfTableError`]). The
+//! `summary.json` and `mueller.csv` that `roks brdf` writes beside it are
+//! read where those formats are written: [`BrdfTable::with_summary`] in
+//! `output::summary`, [`BrdfTable::with_mueller`] in
+//! [`crate::output::polar_csv`].
 //!
 //! # Checks
 //!
@@ -51,7 +53,6 @@ use super::{COLUMNS, HEADER, SPECTRAL_HEADER};
 use crate::optics::brdf_table::{
     BlockData, BrdfTable, BrdfTables, MAX_FRACTION, SpectralTables, TableError,
 };
-use crate::output::polar_csv::{MuellerFile, MuellerRow};
 use crate::tally::CarlsonGrid;
 
 /// Zero-based column indices of a monochrome table ([`HEADER`]); a
@@ -327,23 +328,25 @@ pub enum BrdfTableError {
         /// How it is derived, e.g. `fraction / projected_solid_angle_sr`.
         formula: &'static str,
     },
-    /// A `summary.json` that does not fit the table.
-    #[error("{file}: {message}")]
+    /// A `summary.json` that does not fit the table (read in
+    /// `output::summary`).
+    #[error("{file}: {problem}")]
     Summary {
         /// File name.
         file: String,
-        /// What is wrong (one line).
-        message: String,
+        /// What is wrong.
+        problem: crate::output::summary::SummaryProblem,
     },
-    /// A `mueller.csv` that does not fit the table.
-    #[error("{file}: line {line}: {message}")]
+    /// A `mueller.csv` that does not fit the table (read in
+    /// [`crate::output::polar_csv`]).
+    #[error("{file}: line {line}: {problem}")]
     Mueller {
         /// File name.
         file: String,
         /// Line number.
         line: usize,
-        /// What is wrong (one line).
-        message: String,
+        /// What is wrong.
+        problem: crate::output::polar_csv::MuellerTableProblem,
     },
     /// A header and no data rows.
     #[error("{file}: line {line}: no data rows after the header")]
@@ -406,7 +409,7 @@ pub(crate) fn shorten(s: &str, n: usize) -> String {
 ///
 /// # Errors
 /// [`BrdfTableError::Io`] naming the file.
-fn read_text(path: &Path) -> Result<(String, String), BrdfTableError> {
+pub(crate) fn read_text(path: &Path) -> Result<(String, String), BrdfTableError> {
     let name = path.display().to_string();
     match crate::limits::read_text_capped(path, crate::limits::max_data_bytes()) {
         Ok(text) => Ok((name, text)),
@@ -590,156 +593,6 @@ impl BrdfTables {
     }
 }
 
-impl BrdfTables {
-    /// The same tables with the exact reflectance standard errors of the
-    /// `summary.json` at `path` (see [`with_summary_text`](Self::with_summary_text)).
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
-    /// [`with_summary_text`](Self::with_summary_text).
-    pub fn with_summary(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let (name, text) = read_text(path)?;
-        self.with_summary_text(&text, &name)
-    }
-
-    /// As [`BrdfTable::with_summary_text`] for a monochrome table. For a
-    /// spectral one the summary must be that of a spectral run with the
-    /// same wavelengths (top-level `wavelengths_um`), and each wavelength's
-    /// table is checked against, and takes its standard errors from,
-    /// `incidence[k].spectrum[l]` (`wavelength_um`, `reflectance`,
-    /// `reflectance_stderr`) with the checks of the monochrome case.
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Summary`] naming the file, the key and what is
-    /// wrong.
-    pub fn with_summary_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |message: String| BrdfTableError::Summary {
-            file: name.to_owned(),
-            message,
-        };
-        let json: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| fail(format!("invalid JSON: {e}")))?;
-        // The wavelengths of a spectral run (an empty list: monochrome).
-        let wavelengths = run_value(&json, "wavelengths_um")
-            .filter(|w| w.as_array().is_none_or(|a| !a.is_empty()));
-        match self {
-            Self::Monochrome(t) => {
-                if wavelengths.is_some() {
-                    return Err(fail(format!(
-                        "wavelengths_um: the summary of a spectral run, but {} is a table of one wavelength",
-                        t.file()
-                    )));
-                }
-                Ok(Self::Monochrome(t.apply_summary(&json, name, None)?))
-            }
-            Self::Spectral(mut s) => {
-                let listed: Option<Vec<f64>> = wavelengths
-                    .and_then(serde_json::Value::as_array)
-                    .map(|a| a.iter().map(|w| w.as_f64().unwrap_or(f64::NAN)).collect());
-                if listed.as_deref() != Some(s.wavelengths_um()) {
-                    return Err(fail(format!(
-                        "wavelengths_um: {} is not the table's wavelengths {:?} um in {} (a summary of another run?)",
-                        wavelengths.unwrap_or(&serde_json::Value::Null),
-                        s.wavelengths_um(),
-                        s.tables()[0].file()
-                    )));
-                }
-                let wavelengths = s.wavelengths_um().to_vec();
-                for (l, (t, w)) in s.tables_mut().iter_mut().zip(wavelengths).enumerate() {
-                    *t = t.clone().apply_summary(&json, name, Some((l, w)))?;
-                }
-                Ok(Self::Spectral(s))
-            }
-        }
-    }
-}
-
-impl BrdfTables {
-    /// The same tables with the Mueller-matrix BRDF of the same run
-    /// (`mueller.csv` beside `brdf.csv`), see
-    /// [`with_mueller_text`](Self::with_mueller_text).
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
-    /// [`with_mueller_text`](Self::with_mueller_text).
-    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let (name, text) = read_text(path)?;
-        self.with_mueller_text(&text, &name)
-    }
-
-    /// As [`BrdfTable::with_mueller_text`] for a monochrome table. A
-    /// spectral table needs the `mueller.csv` of a spectral run
-    /// (`wavelength_um` after `phi_i_deg`, one block per incidence and
-    /// wavelength): each wavelength's table takes the rows of its
-    /// wavelength, with the checks of the monochrome case (every incidence
-    /// complete, `m00` the table's BRDF), and every row must name one of
-    /// the table's wavelengths.
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
-    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        match self {
-            Self::Monochrome(t) => Ok(Self::Monochrome(t.with_mueller_text(text, name)?)),
-            Self::Spectral(s) => Ok(Self::Spectral(s.with_mueller_text(text, name)?)),
-        }
-    }
-}
-
-impl SpectralTables {
-    /// [`BrdfTables::with_mueller`] of spectral tables.
-    ///
-    /// # Errors
-    /// As [`BrdfTables::with_mueller`].
-    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let (name, text) = read_text(path)?;
-        self.with_mueller_text(&text, &name)
-    }
-
-    /// [`BrdfTables::with_mueller_text`] of spectral tables.
-    ///
-    /// # Errors
-    /// As [`BrdfTables::with_mueller_text`].
-    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, message: String| BrdfTableError::Mueller {
-            file: name.to_owned(),
-            line,
-            message,
-        };
-        let file = MuellerFile::parse(text).map_err(|e| fail(e.line, e.message))?;
-        if !file.spectral {
-            return Err(fail(
-                1,
-                format!(
-                    "a mueller.csv of one wavelength, but {} is a spectral table (it needs the wavelength_um column of a spectral run's mueller.csv)",
-                    self.tables()[0].file()
-                ),
-            ));
-        }
-        // One pass: each row to the table of its wavelength.
-        let wavelengths = self.wavelengths_um().to_vec();
-        let mut lanes: Vec<Vec<&MuellerRow>> = vec![Vec::new(); wavelengths.len()];
-        for row in &file.rows {
-            let at = row.wavelength_um.unwrap_or(f64::NAN);
-            let lane = wavelengths.iter().position(|&w| w == at).ok_or_else(|| {
-                fail(
-                    row.line,
-                    format!(
-                        "column 3: wavelength_um = {at} is not one of the wavelengths of {}",
-                        self.tables()[0].file()
-                    ),
-                )
-            })?;
-            lanes[lane].push(row);
-        }
-        for ((t, &w), rows) in self.tables_mut().iter_mut().zip(&wavelengths).zip(&lanes) {
-            *t = t
-                .clone()
-                .attach_mueller(rows, file.last_line, name, Some(w))?;
-        }
-        Ok(self)
-    }
-}
-
 /// The table of checked blocks (of one wavelength): sorted by angle, no
 /// angle twice; `fraction_column` (1-based, 0: the monochrome 13) names the
 /// fraction column in an error.
@@ -915,412 +768,6 @@ fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, Brd
         grid,
         blocks,
     })
-}
-
-impl BrdfTable {
-    /// The same table with the exact reflectance standard errors of the
-    /// `summary.json` at `path` (written by `roks brdf` beside `brdf.csv`).
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
-    /// [`with_summary_text`](Self::with_summary_text).
-    pub fn with_summary(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let (name, text) = read_text(path)?;
-        self.with_summary_text(&text, &name)
-    }
-
-    /// As [`with_summary`](Self::with_summary), from the text of
-    /// `summary.json`; `name` names it in error messages. The summary and
-    /// the table must describe the same run:
-    /// * every tabulated incidence has an entry of `incidence` with the same
-    ///   `theta_deg` and `phi_deg`, and every entry is tabulated (a table cut
-    ///   at a block boundary has lost an incidence its summary lists);
-    /// * per entry `photons` is an integer > 0 (equal to
-    ///   `photons_per_incidence` where that is given), `reflectance` is
-    ///   within 1e-7 of the table's sum of fractions (the table rounds
-    ///   fractions to 10 digits), and `reflectance_stderr` is a finite
-    ///   number >= 0 no larger than any mean of `photons` scores in `[0, 1]`
-    ///   can have, `sqrt(R (1 - R) / (k - 1))` with `k = min(photons, 16)`
-    ///   (16: the replicates of a lattice launch);
-    /// * `bands`, where given, is the table's.
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Summary`] naming the file, the key and what is
-    /// wrong (and the table's file where they disagree).
-    pub fn with_summary_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let json: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| BrdfTableError::Summary {
-                file: name.to_owned(),
-                message: format!("invalid JSON: {e}"),
-            })?;
-        self.apply_summary(&json, name, None)
-    }
-
-    /// [`with_summary_text`](Self::with_summary_text) of the parsed
-    /// `json`; for the table of wavelength `l` of a spectral run (`lane =
-    /// Some((l, wavelength_um))`) the reflectance and its standard error are
-    /// those of `incidence[k].spectrum[l]`, whose `wavelength_um` must be
-    /// the table's.
-    fn apply_summary(
-        mut self,
-        json: &serde_json::Value,
-        name: &str,
-        lane: Option<(usize, f64)>,
-    ) -> Result<Self, BrdfTableError> {
-        let fail = |message: String| BrdfTableError::Summary {
-            file: name.to_owned(),
-            message,
-        };
-        let table = self.file().to_owned();
-        let entries = json
-            .get("incidence")
-            .and_then(serde_json::Value::as_array)
-            .ok_or_else(|| fail("no `incidence` list".into()))?;
-        let num = |e: &serde_json::Value, key: &str| e.get(key).and_then(serde_json::Value::as_f64);
-        if let Some(b) = run_value(json, "bands") {
-            if b.as_u64() != Some(self.grid().bands() as u64) {
-                return Err(fail(format!(
-                    "bands: {b} is not the {} bands of {table} (a summary of another run?)",
-                    self.grid().bands()
-                )));
-            }
-        }
-        // Photons per incidence of this summary's folder: the run's, or
-        // its shard's block.
-        let per_incidence = match run_value(json, "shard").filter(|s| !s.is_null()) {
-            Some(shard) => {
-                let at = |k: &str| shard.get(k).and_then(serde_json::Value::as_u64);
-                at("last_photon")
-                    .zip(at("first_photon"))
-                    .map(|(l, f)| l.saturating_sub(f))
-            }
-            None => run_value(json, "photons_per_incidence").and_then(serde_json::Value::as_u64),
-        };
-        for (k, e) in entries.iter().enumerate() {
-            let (t, p) = (num(e, "theta_deg"), num(e, "phi_deg"));
-            let listed = (0..self.thetas_deg().len())
-                .map(|i| self.incidence(i))
-                .any(|inc| t == Some(inc.theta_deg) && p == Some(inc.phi_i_deg));
-            if !listed {
-                return Err(fail(format!(
-                    "incidence[{k}]: theta_deg = {}, phi_deg = {} is not tabulated in {table} (a truncated table, or a summary of another run?)",
-                    e.get("theta_deg").unwrap_or(&serde_json::Value::Null),
-                    e.get("phi_deg").unwrap_or(&serde_json::Value::Null),
-                )));
-            }
-            let photons = e.get("photons").and_then(serde_json::Value::as_u64);
-            match (photons, per_incidence) {
-                (None | Some(0), _) => {
-                    return Err(fail(format!(
-                        "incidence[{k}].photons: must be an integer > 0"
-                    )));
-                }
-                (Some(n), Some(m)) if n != m => {
-                    return Err(fail(format!(
-                        "incidence[{k}].photons: {n} is not photons_per_incidence = {m}"
-                    )));
-                }
-                _ => {}
-            }
-        }
-        for i in 0..self.thetas_deg().len() {
-            let inc = self.incidence(i);
-            let theta = inc.theta_deg;
-            let (k, entry) = entries
-                .iter()
-                .enumerate()
-                .find(|(_, e)| {
-                    num(e, "theta_deg").is_some_and(|t| t == theta)
-                        && num(e, "phi_deg").is_some_and(|p| p == inc.phi_i_deg)
-                })
-                .ok_or_else(|| {
-                    fail(format!(
-                        "incidence: no entry with theta_deg = {theta}, phi_deg = {} (tabulated in {table})",
-                        inc.phi_i_deg
-                    ))
-                })?;
-            // The entry holding this table's reflectance, and its key.
-            let (values, key) = match lane {
-                None => (entry, format!("incidence[{k}]")),
-                Some((l, w)) => {
-                    let key = format!("incidence[{k}].spectrum[{l}]");
-                    let v = entry
-                        .get("spectrum")
-                        .and_then(serde_json::Value::as_array)
-                        .and_then(|s| s.get(l))
-                        .ok_or_else(|| {
-                            fail(format!(
-                                "{key}: missing (theta_deg = {theta}; {table} has a table at {w} um)"
-                            ))
-                        })?;
-                    if num(v, "wavelength_um") != Some(w) {
-                        return Err(fail(format!(
-                            "{key}.wavelength_um: {} is not the table's {w} um in {table} (a summary of another run?)",
-                            v.get("wavelength_um").unwrap_or(&serde_json::Value::Null)
-                        )));
-                    }
-                    (v, key)
-                }
-            };
-            let r = num(values, "reflectance").unwrap_or(f64::NAN);
-            let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
-            if !close {
-                return Err(fail(format!(
-                    "{key}.reflectance: {r} at theta_deg = {theta} is not the table's {} in {table} (a summary of another run?)",
-                    inc.reflectance
-                )));
-            }
-            let se = num(values, "reflectance_stderr")
-                .filter(|v| v.is_finite() && *v >= 0.0)
-                .ok_or_else(|| {
-                    fail(format!(
-                        "{key}.reflectance_stderr: not a finite number >= 0 (theta_deg = {theta})"
-                    ))
-                })?;
-            let photons = entry
-                .get("photons")
-                .and_then(serde_json::Value::as_u64)
-                .unwrap_or(1);
-            if photons >= 2 {
-                let dof = photons.min(16) as f64 - 1.0;
-                let rc = r.clamp(0.0, 1.0);
-                let bound = (rc * (1.0 - rc) / dof).sqrt();
-                if se > bound * (1.0 + 1e-6) + 1e-12 {
-                    return Err(fail(format!(
-                        "{key}.reflectance_stderr: {se} exceeds {bound}, the most a mean reflectance of {r} over {photons} photons can have (theta_deg = {theta})"
-                    )));
-                }
-            }
-            self.set_stated_stderr(i, se);
-        }
-        Ok(self)
-    }
-
-    /// Attach the Mueller-matrix BRDF of the same run (`mueller.csv`
-    /// beside `brdf.csv`, written by `roks brdf --polarisation mueller`):
-    /// [`sample_cell`](Self::sample_cell)'s cells then carry their Mueller
-    /// matrix divided by `m00` ([`mueller`](Self::mueller)). Frames: those
-    /// of [`crate::optics::polarisation`], rotated into the local frame of
-    /// the table (light azimuth 0).
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
-    /// [`with_mueller_text`](Self::with_mueller_text).
-    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
-        let (name, text) = read_text(path)?;
-        self.with_mueller_text(&text, &name)
-    }
-
-    /// As [`with_mueller`](Self::with_mueller), from the text of
-    /// `mueller.csv` ([`crate::output::polar_csv::MUELLER_HEADER`]); `name` names it in
-    /// errors. Every tabulated incidence needs a complete block of rows in
-    /// grid order with the table's `theta_i_deg` and `phi_i_deg`; numbers
-    /// finite; `m00` within 1e-6 (relative) of the table's BRDF.
-    ///
-    /// # Errors
-    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
-    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |message: String| BrdfTableError::Mueller {
-            file: name.to_owned(),
-            line: 1,
-            message,
-        };
-        let file = MuellerFile::parse(text).map_err(|e| BrdfTableError::Mueller {
-            file: name.to_owned(),
-            line: e.line,
-            message: e.message,
-        })?;
-        if file.spectral {
-            return Err(fail(format!(
-                "a spectral mueller.csv (wavelength_um column), but {} is a table of one wavelength",
-                self.file()
-            )));
-        }
-        let rows: Vec<&MuellerRow> = file.rows.iter().collect();
-        self.attach_mueller(&rows, file.last_line, name, None)
-    }
-
-    /// Attach the Mueller blocks of `rows` (the parsed data rows of one
-    /// table, [`MuellerFile::parse`]; `last_line` the file's last) as
-    /// [`with_mueller_text`](Self::with_mueller_text) describes; for the
-    /// table of one wavelength of a spectral run (`wavelength =
-    /// Some(wavelength_um)`, named in errors) the rows of that wavelength
-    /// only.
-    fn attach_mueller(
-        mut self,
-        rows: &[&MuellerRow],
-        last_line: usize,
-        name: &str,
-        wavelength: Option<f64>,
-    ) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, message: String| BrdfTableError::Mueller {
-            file: name.to_owned(),
-            line,
-            message,
-        };
-        let at_w = wavelength.map_or(String::new(), |w| format!(" at {w} um"));
-        let n = self.grid().n_cells();
-        // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
-        type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
-        let mut blocks: Vec<MuellerBlock> = Vec::new();
-        for row in rows {
-            let (line, theta, phi) = (row.line, row.theta_i_deg, row.phi_i_deg);
-            if blocks.last().is_none_or(|b| b.2.len() == n) {
-                blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
-            }
-            let block = blocks.last_mut().expect("pushed");
-            if (theta, phi) != (block.0, block.1) {
-                return Err(fail(
-                    line,
-                    format!(
-                        "incidence block theta_i_deg = {}{at_w} ends after {} of {n} cells",
-                        block.0,
-                        block.2.len()
-                    ),
-                ));
-            }
-            let (band, cell) = self.grid().band_cell(block.2.len());
-            if row.band != band.to_string() || row.cell != cell.to_string() {
-                return Err(fail(
-                    line,
-                    format!("expected band {band}, cell {cell} (grid order)"),
-                ));
-            }
-            block.2.push(row.m);
-            block.3.push(line);
-        }
-        if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {
-            return Err(fail(
-                last_line,
-                format!(
-                    "incidence block theta_i_deg = {}{at_w} has {} of {n} cells",
-                    b.0,
-                    b.2.len()
-                ),
-            ));
-        }
-        if blocks.len() != self.thetas_deg().len() {
-            return Err(fail(
-                last_line,
-                format!(
-                    "{} incidence blocks{at_w}, but {} has {} (a file of another run?)",
-                    blocks.len(),
-                    self.file(),
-                    self.thetas_deg().len()
-                ),
-            ));
-        }
-        for i in 0..self.thetas_deg().len() {
-            let inc = self.incidence(i);
-            let block = blocks
-                .iter()
-                .find(|b| b.0 == inc.theta_deg && b.1 == inc.phi_i_deg)
-                .ok_or_else(|| {
-                    fail(
-                        last_line,
-                        format!(
-                            "no block for theta_i_deg = {}, phi_i_deg = {}{at_w} (tabulated in {})",
-                            inc.theta_deg,
-                            inc.phi_i_deg,
-                            self.file()
-                        ),
-                    )
-                })?;
-            for (flat, m) in block.2.iter().enumerate() {
-                if let Some(why) = crate::optics::brdf_table::unrealisable(m) {
-                    return Err(fail(
-                        block.3[flat],
-                        format!(
-                            "theta_i_deg = {}{at_w}: cell {flat}: not a physical Mueller matrix: {why}",
-                            inc.theta_deg
-                        ),
-                    ));
-                }
-            }
-            let brdfs: Vec<f64> = (0..n).map(|flat| self.cell_brdf(i, flat)).collect();
-            match incident_state(&block.2, &brdfs) {
-                Err(flat) => {
-                    return Err(fail(
-                        block.3[flat],
-                        format!(
-                            "theta_i_deg = {}{at_w}: cell {flat}: m00 = {} is not the brdf {} of {}, nor is that brdf m00 + m01 s1 + m02 s2 + m03 s3 for one incident state s of every cell (a file of another run?)",
-                            inc.theta_deg,
-                            block.2[flat][0],
-                            brdfs[flat],
-                            self.file()
-                        ),
-                    ));
-                }
-                // A polarised incident state: the wall meets every state, so
-                // it samples the unpolarised BRDF, m00.
-                Ok(Some(_)) => {
-                    let fractions = (0..n)
-                        .map(|flat| block.2[flat][0] * self.cell_proj(flat))
-                        .collect();
-                    self.set_fractions(i, fractions).map_err(|total| {
-                        fail(
-                            last_line,
-                            format!(
-                                "theta_i_deg = {}{at_w}: the m00 column adds up to a reflectance of {total} > 1",
-                                inc.theta_deg
-                            ),
-                        )
-                    })?;
-                }
-                Ok(None) => {}
-            }
-            let mut normalised = Vec::with_capacity(n);
-            for m in &block.2 {
-                normalised.push(if m[0] > 0.0 {
-                    m.map(|v| v / m[0])
-                } else {
-                    [0.0; 16]
-                });
-            }
-            self.set_mueller(i, normalised);
-        }
-        Ok(self)
-    }
-}
-
-/// The incident state of the run that wrote `brdfs` (a `brdf.csv` block's
-/// BRDF per cell) beside `matrices` (its `mueller.csv` block): `None` when
-/// every `brdf` is `m00` (unpolarised light, within 1e-6 relative), else
-/// `(s1, s2, s3)`, `|s| <= 1`, with `brdf = m00 + m01 s1 + m02 s2 + m03 s3`
-/// in every cell (the BRDF of that state; least squares over the cells,
-/// then each cell within 1e-6 of the sum of the absolute terms).
-///
-/// # Errors
-/// The first cell that fits neither.
-fn incident_state(matrices: &[[f64; 16]], brdfs: &[f64]) -> Result<Option<glam::DVec3>, usize> {
-    let off =
-        |m: &[f64; 16], brdf: f64| (m[0] - brdf).abs() > 1e-6 * brdf.abs().max(m[0].abs()) + 1e-300;
-    let Some(first) = matrices.iter().zip(brdfs).position(|(m, &b)| off(m, b)) else {
-        return Ok(None);
-    };
-    let row = |m: &[f64; 16]| glam::DVec3::new(m[1], m[2], m[3]);
-    let (mut a, mut b) = (glam::DMat3::ZERO, glam::DVec3::ZERO);
-    for (m, &brdf) in matrices.iter().zip(brdfs) {
-        let v = row(m);
-        a += glam::DMat3::from_cols(v * v.x, v * v.y, v * v.z);
-        b += v * (brdf - m[0]);
-    }
-    // A column of zeros (no circular part) leaves its component free: the
-    // small ridge sets it to 0.
-    let ridge = 1e-12 * (a.x_axis.x + a.y_axis.y + a.z_axis.z) + 1e-300;
-    let s = (a + glam::DMat3::from_diagonal(glam::DVec3::splat(ridge))).inverse() * b;
-    if !(s.length() <= 1.0 + 1e-6) {
-        return Err(first);
-    }
-    let fits = |m: &[f64; 16], brdf: f64| {
-        let v = row(m);
-        let scale = brdf.abs() + m[0].abs() + v.abs().dot(glam::DVec3::ONE);
-        (m[0] + v.dot(s) - brdf).abs() <= 1e-6 * scale + 1e-300
-    };
-    match matrices.iter().zip(brdfs).position(|(m, &b)| !fits(m, b)) {
-        Some(flat) => Err(flat),
-        None => Ok(Some(s)),
-    }
 }
 
 /// Parse one data row.
@@ -1538,11 +985,6 @@ fn check_complete(
     }
 }
 
-/// The value at `key` of the run a `summary.json` describes (`run.key`).
-fn run_value<'a>(json: &'a serde_json::Value, key: &str) -> Option<&'a serde_json::Value> {
-    json.get("run")?.get(key)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1584,20 +1026,6 @@ mod tests {
 
     fn uniforms(rng: &mut Pcg64Mcg) -> [f64; 4] {
         [rng.random(), rng.random(), rng.random(), rng.random()]
-    }
-
-    /// Lambertian, albedo 0.7, 8 bands, at 0, 30 and 60 degrees.
-    fn lambert_table() -> BrdfTable {
-        let m = 8;
-        let blocks: Vec<TestBlock> = [0.0, 30.0, 60.0]
-            .iter()
-            .map(|&theta| TestBlock {
-                theta,
-                phi_i: 0.0,
-                fractions: lambertian(m, 0.7),
-            })
-            .collect();
-        BrdfTable::parse(&csv(m, &blocks), "lambert.csv").unwrap()
     }
 
     fn err(text: &str) -> String {
@@ -1788,64 +1216,10 @@ mod tests {
         assert!((t.reflectance(1.0) - 0.7).abs() < 1e-14);
     }
 
-    #[test]
-    fn summary_errors() {
-        let t = lambert_table();
-        let entry = |theta: f64, r: f64, se: f64| serde_json::json!({"theta_deg": theta, "phi_deg": 0.0, "photons": 1000, "reflectance": r, "reflectance_stderr": se});
-        let good = serde_json::json!({"incidence": [entry(60.0, 0.7, 3e-4), entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 2e-4)]});
-        let ts = t
-            .clone()
-            .with_summary_text(&good.to_string(), "s.json")
-            .unwrap();
-        assert!((ts.reflectance_stderr(0.0) - 1e-4).abs() < 1e-18);
-        assert!((ts.reflectance_stderr(45f64.to_radians()) - 2.5e-4).abs() < 1e-15);
-        let bad = |json: String, needle: &str| {
-            let e = t
-                .clone()
-                .with_summary_text(&json, "s.json")
-                .unwrap_err()
-                .to_string();
-            assert!(
-                e.starts_with("s.json: ") && e.contains(needle) && !e.contains('\n'),
-                "{e}"
-            );
-        };
-        bad("{".into(), "invalid JSON");
-        bad("{}".into(), "no `incidence`");
-        bad(
-            serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4)]})
-                .to_string(),
-            "theta_deg = 60",
-        );
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.71, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "not the table's");
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, -1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "reflectance_stderr");
-        // An incidence the table lacks (cut at a block boundary).
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4), entry(80.0, 0.7, 1e-4)]}).to_string(), "incidence[3]: theta_deg = 80.0, phi_deg = 0.0 is not tabulated in lambert.csv");
-        // Photon counts, bands, an impossible standard error.
-        let mut e = entry(30.0, 0.7, 1e-4);
-        e["photons"] = serde_json::json!(0);
-        bad(
-            serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), e, entry(60.0, 0.7, 1e-4)]})
-                .to_string(),
-            "incidence[1].photons: must be an integer > 0",
-        );
-        bad(serde_json::json!({"run": {"photons_per_incidence": 999}, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[0].photons: 1000 is not photons_per_incidence = 999");
-        bad(serde_json::json!({"run": {"bands": 7}, "incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 1e-4), entry(60.0, 0.7, 1e-4)]}).to_string(), "bands: 7 is not the 8 bands of lambert.csv");
-        bad(serde_json::json!({"incidence": [entry(0.0, 0.7, 1e-4), entry(30.0, 0.7, 0.2), entry(60.0, 0.7, 1e-4)]}).to_string(), "incidence[1].reflectance_stderr: 0.2 exceeds");
-        let e = t
-            .with_summary(Path::new("/nonexistent/summary.json"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.starts_with("/nonexistent/summary.json: cannot read"),
-            "{e}"
-        );
-    }
-
     /// Round trip through the real writer: a short run of the default scene,
     /// `output::brdf_csv::write`, parse. The table's reflectance is the run's to
-    /// 1e-9 at every tabulated angle, its exact standard error (with the
-    /// photon count) the run's to 1e-6 relative, and the bound above it.
+    /// 1e-9 at every tabulated angle (the exact standard errors of its
+    /// `summary.json`: `output::summary`'s reader tests).
     #[test]
     fn round_trip_with_the_writer() {
         let scene = crate::scene::micro::MicroScene::default_scene();
@@ -1871,29 +1245,16 @@ mod tests {
         let loaded = BrdfTable::load(&path);
         let _ = std::fs::remove_file(&path);
         assert_eq!(loaded.unwrap().thetas_deg(), t.thetas_deg());
-        let summary = serde_json::json!({
-            "incidence": results.iter().map(crate::output::summary::IncidenceSummary::new).collect::<Vec<_>>(),
-        })
-        .to_string();
-        assert!(!t.has_stated_stderr());
-        let te = t
-            .clone()
-            .with_summary_text(&summary, "summary.json")
-            .unwrap();
-        assert!(te.has_stated_stderr());
         assert_eq!(t.thetas_deg(), &[0.0, 40.0, 80.0]);
         assert_eq!(t.bands(), run.bands);
         for r in &results {
             let theta = r.theta_i_deg.to_radians();
-            let (refl, se) = r.reflectance();
+            let (refl, _) = r.reflectance();
             assert!(
                 (t.reflectance(theta) - refl).abs() < 1e-9,
                 "{} vs {refl}",
                 t.reflectance(theta)
             );
-            let exact = te.reflectance_stderr(theta);
-            assert!((exact - se).abs() <= 1e-12 * se, "stderr {exact} vs {se}");
-            assert!(t.reflectance_stderr(theta) >= exact);
             // Sampling returns the reflectance as weight and a direction in a
             // cell with weight.
             let mut rng = Pcg64Mcg::seed_from_u64(1);

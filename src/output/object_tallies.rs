@@ -1,0 +1,738 @@
+//! The shard of a `roks trace` run (`--shard I/N`): its `tallies.json`, read
+//! back and merged by `roks merge` into the folder of the single run.
+//!
+//! # The split
+//!
+//! Every beam position's photons are cut into batches of [`BATCH`]; the
+//! positions' batches are laid end to end and shard `I` of `N` takes a
+//! block of whole batches of them ([`shard_blocks`]), so a beam sweep of
+//! many short positions splits as well as one long beam. Photon `n` of
+//! position `k` draws only from its stream, and every position (and
+//! wavelength) sums its batches over the fixed tree of
+//! [`crate::tally::sum`]: a shard's complete tree nodes are bit-identical
+//! to the single run's, and the merge pushes the nodes of all shards, in
+//! shard order, into the same tree.
+//!
+//! # The file
+//!
+//! [`TraceTalliesFile`]: `format: "roks-trace-tallies"`, `format_version`,
+//! `batch`, the run's [`TraceDescription`] (the scene's content identity,
+//! name, path, the run ([`ObjectRun`]), the beams with their photons, the
+//! surface names, the roks version and the shard), the total `seconds`,
+//! and per beam position (and wavelength, position-major) its `photons` in
+//! this shard, `seconds`, `wavelength_um` and `nodes`: `{level, index,
+//! tallies}`, the complete tree nodes with their raw sums
+//! ([`ObjectTallies`], floating-point sums as [`crate::tally::exact`]
+//! strings).
+//!
+//! # The merge
+//!
+//! [`read_shard`] trusts nothing: the JSON must have exactly these fields,
+//! a valid run, the layout of the run in every node, finite sums, exactly
+//! the photons of the batches a node covers, and nodes that tile exactly
+//! the shard's own block. [`merge_shards`] refuses shards whose
+//! descriptions differ (but for the scene's path and the shard), naming the
+//! first field that differs, and needs shards `0..N-1` of one `N`, each
+//! once. The merged folder ([`TraceDescription::folder`], the same code as
+//! the single run) is byte for byte the single run's but for the times in
+//! `summary.json` (the sum of the shards').
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::summary::{self, TraceSummary};
+use super::tallies::{FieldError, NodeFile, TALLIES_FILE, first_difference};
+use crate::object::source::Beam;
+use crate::optics::polarisation::Incident;
+use crate::scene::{Content, SceneError};
+use crate::shard::Shard;
+use crate::tally::exact::{self, Exact};
+use crate::tally::sum::Node;
+use crate::transport::BATCH;
+use crate::transport::object::{
+    ObjectRun, ObjectTallies, PositionNodes, PositionResult, root, shard_blocks,
+};
+
+/// `format` of a `roks trace` shard's `tallies.json`.
+pub const FORMAT: &str = "roks-trace-tallies";
+/// `format_version` of it.
+pub const FORMAT_VERSION: u64 = 1;
+
+/// One beam position of the run as traced.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BeamEntry {
+    /// Beam diameter (scene units).
+    pub diameter: f64,
+    /// Unit direction of travel.
+    pub direction: [f64; 3],
+    /// Photons of the whole run at this position.
+    pub photons: u64,
+    /// The beam's polarisation state.
+    pub polarisation: Incident,
+    /// A point on the beam axis (scene units).
+    pub position: [f64; 3],
+}
+
+impl BeamEntry {
+    /// The beam as traced.
+    #[must_use]
+    pub fn beam(&self) -> Beam {
+        Beam {
+            position: DVec3::from_array(self.position),
+            direction: DVec3::from_array(self.direction),
+            diameter: self.diameter,
+            polarisation: self.polarisation,
+        }
+    }
+}
+
+/// `--shard I/N` of a `roks trace` run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TraceShard {
+    /// Number of shards.
+    pub count: u64,
+    /// This shard, 0-based.
+    pub index: u64,
+}
+
+impl From<Shard> for TraceShard {
+    fn from(s: Shard) -> Self {
+        Self {
+            count: s.count,
+            index: s.index,
+        }
+    }
+}
+
+/// What identifies a `roks trace` run besides its tallies. Shards of one
+/// run have equal descriptions but for `scene` (a path) and `shard`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TraceDescription {
+    /// The beam positions, source by source, with their photons.
+    pub beams: Vec<BeamEntry>,
+    /// The scene's text and the files it reads, hashed.
+    pub content: Content,
+    /// The scene's `name`.
+    pub name: String,
+    /// The run as traced (seed, far field, controls, polarisation, wavelengths).
+    pub run: ObjectRun,
+    /// The scene file as given.
+    pub scene: String,
+    /// The block of a shard (absent: the whole run).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<TraceShard>,
+    /// Surface names by surface id.
+    pub surfaces: Vec<String>,
+    /// The roks version that ran it.
+    pub version: String,
+}
+
+impl TraceDescription {
+    /// The description of `run` of the scene of `content` given as the file
+    /// `scene`, named `name`, with surfaces `surfaces`, beams `beams` of
+    /// `photons[k]` photons each, and the block `shard`.
+    #[must_use]
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        content: &Content,
+        scene: &str,
+        name: &str,
+        surfaces: &[String],
+        run: &ObjectRun,
+        beams: &[Beam],
+        photons: &[u64],
+        shard: Option<Shard>,
+    ) -> Self {
+        Self {
+            beams: beams
+                .iter()
+                .zip(photons)
+                .map(|(b, &photons)| BeamEntry {
+                    diameter: b.diameter,
+                    direction: b.direction.to_array(),
+                    photons,
+                    polarisation: b.polarisation,
+                    position: b.position.to_array(),
+                })
+                .collect(),
+            content: content.clone(),
+            name: name.to_owned(),
+            run: run.clone(),
+            scene: scene.to_owned(),
+            shard: shard.map(TraceShard::from),
+            surfaces: surfaces.to_vec(),
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+        }
+    }
+
+    /// Photons of the whole run per beam position.
+    #[must_use]
+    pub fn photons(&self) -> Vec<u64> {
+        self.beams.iter().map(|b| b.photons).collect()
+    }
+
+    /// The batches of each position this run (or shard) traces.
+    ///
+    /// # Errors
+    /// A shard count above the run's batches.
+    pub fn blocks(&self) -> Result<Vec<Range<u64>>, String> {
+        let photons = self.photons();
+        match self.shard {
+            Some(s) => shard_blocks(
+                &photons,
+                Shard {
+                    index: s.index,
+                    count: s.count,
+                },
+            ),
+            None => Ok(photons.iter().map(|n| 0..n.div_ceil(BATCH)).collect()),
+        }
+    }
+
+    /// Zero sums of the run's layout.
+    fn zero(&self) -> ObjectTallies {
+        self.run.tallies(self.surfaces.len())
+    }
+
+    /// The result folder's files for per position `results` (the roots, or
+    /// a shard's partial sums) and total time `seconds`: `reflectance.csv`,
+    /// `farfield.csv` and `farfield_stokes.csv` when tallied,
+    /// `summary.json` and the pictures; a shard (with its `tallies` file)
+    /// writes `summary.json` and `tallies.json` only.
+    ///
+    /// # Errors
+    /// A picture that cannot be drawn.
+    pub fn folder(
+        &self,
+        results: &[PositionResult],
+        seconds: f64,
+        tallies: Option<TraceTalliesFile>,
+    ) -> Result<Vec<(String, Vec<u8>)>, String> {
+        let summary = summary::to_text(&TraceSummary::new(self, results, seconds));
+        let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+        if let Some(t) = tallies {
+            files.push(("summary.json".into(), summary.into_bytes()));
+            files.push((TALLIES_FILE.into(), t.to_text().into_bytes()));
+            return Ok(files);
+        }
+        let run = &self.run;
+        files.push((
+            "reflectance.csv".into(),
+            super::object_csv::reflectance_csv(results).into_bytes(),
+        ));
+        if run.farfield {
+            let f = super::object_csv::farfield_csv(run, results);
+            files.push(("farfield.csv".into(), f.into_bytes()));
+        }
+        if run.tallies_farfield_stokes() {
+            let f = super::object_csv::farfield_stokes_csv(run, results);
+            files.push(("farfield_stokes.csv".into(), f.into_bytes()));
+        }
+        files.push(("summary.json".into(), summary.into_bytes()));
+        crate::plot::folder::add_pictures(&mut files).map_err(|e| e.to_string())?;
+        Ok(files)
+    }
+
+    /// Check a description read from a file: a run the tracer can lay out
+    /// (bands, wavelengths, the far-field flags), beams with photons, and
+    /// a shard within its count and the run's batches.
+    fn check(&self) -> Result<(), FieldError> {
+        let run = &self.run;
+        if !(1..=1000).contains(&run.bands) {
+            return Err(FieldError::new(
+                "run.bands",
+                format!("must be in 1..=1000, got {}", run.bands),
+            ));
+        }
+        if let Some(i) = run
+            .wavelengths_um
+            .iter()
+            .position(|w| !(w.is_finite() && *w > 0.0))
+        {
+            return Err(FieldError::new(
+                format!("run.wavelengths_um[{i}]"),
+                "must be a finite number > 0",
+            ));
+        }
+        if run.farfield_stokes && !(run.farfield && run.polarisation) {
+            return Err(FieldError::new(
+                "run.farfield_stokes",
+                "needs farfield and polarisation",
+            ));
+        }
+        if self.beams.is_empty() {
+            return Err(FieldError::new("beams", "needs at least one beam position"));
+        }
+        for (k, b) in self.beams.iter().enumerate() {
+            let at = |key: &str, m: &str| Err(FieldError::new(format!("beams[{k}].{key}"), m));
+            crate::transport::launch::check_count(b.photons)
+                .map_err(|e| FieldError::new(format!("beams[{k}].photons"), e.to_string()))?;
+            if !DVec3::from_array(b.position).is_finite() {
+                return at("position", "must be finite");
+            }
+            if !DVec3::from_array(b.direction).is_normalized() {
+                return at("direction", "must be a unit vector");
+            }
+            if !(b.diameter.is_finite() && b.diameter >= 0.0) {
+                return at("diameter", "must be a finite number >= 0");
+            }
+        }
+        if let Some(s) = self.shard {
+            if s.count == 0 || s.index >= s.count {
+                return Err(FieldError::new(
+                    "shard",
+                    format!("need 0 <= index < count, got {} of {}", s.index, s.count),
+                ));
+            }
+        }
+        self.blocks().map_err(|e| FieldError::new("shard", e))?;
+        Ok(())
+    }
+}
+
+/// One beam position (and wavelength) of a shard's `tallies.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PositionFile<T = ObjectTallies> {
+    /// Complete tree nodes, in batch order.
+    pub nodes: Vec<NodeFile<T>>,
+    /// Photons of this file at this position.
+    pub photons: u64,
+    /// Wall-clock time (s).
+    #[serde(with = "exact")]
+    pub seconds: f64,
+    /// Wavelength (µm) of a spectral run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wavelength_um: Option<Exact>,
+}
+
+/// The whole `tallies.json` of a `roks trace` shard (see the module docs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TraceTalliesFile<T = ObjectTallies> {
+    /// Photons per batch ([`BATCH`]).
+    pub batch: u64,
+    /// The run, with the shard's block.
+    pub description: TraceDescription,
+    /// [`FORMAT`].
+    pub format: String,
+    /// [`FORMAT_VERSION`].
+    pub format_version: u64,
+    /// Per beam position (and wavelength, position-major).
+    pub positions: Vec<PositionFile<T>>,
+    /// Total wall-clock time (s).
+    #[serde(with = "exact")]
+    pub seconds: f64,
+}
+
+impl TraceTalliesFile {
+    /// The file of the run `description` with per position `nodes` and
+    /// total time `seconds`.
+    #[must_use]
+    pub fn new(description: &TraceDescription, nodes: Vec<PositionNodes>, seconds: f64) -> Self {
+        Self {
+            batch: BATCH,
+            description: description.clone(),
+            format: FORMAT.to_owned(),
+            format_version: FORMAT_VERSION,
+            positions: nodes
+                .into_iter()
+                .map(|p| PositionFile {
+                    photons: p.nodes.iter().map(|n| n.value.photons).sum(),
+                    nodes: p
+                        .nodes
+                        .into_iter()
+                        .map(|n| NodeFile {
+                            index: n.index,
+                            level: u64::from(n.level),
+                            tallies: n.value,
+                        })
+                        .collect(),
+                    seconds: p.seconds,
+                    wavelength_um: p.wavelength_um.map(Exact),
+                })
+                .collect(),
+            seconds,
+        }
+    }
+
+    /// The file's text: compact JSON and a line end.
+    ///
+    /// # Panics
+    /// Never: every value serialises.
+    #[must_use]
+    pub fn to_text(&self) -> String {
+        serde_json::to_string(self).expect("tallies serialise") + "\n"
+    }
+}
+
+/// The partial sums of a shard's nodes at each position, added in batch
+/// order (not the tree's root: what the shard's own `summary.json`
+/// reports, and what the tracer's checks of unmodelled walls look at).
+#[must_use]
+pub fn partial_results(d: &TraceDescription, nodes: &[PositionNodes]) -> Vec<PositionResult> {
+    use crate::tally::Merge as _;
+    nodes
+        .iter()
+        .map(|p| {
+            let mut tallies = d.zero();
+            for n in &p.nodes {
+                tallies.merge(&n.value);
+            }
+            PositionResult {
+                beam: p.beam,
+                wavelength_um: p.wavelength_um,
+                tallies,
+                seconds: p.seconds,
+            }
+        })
+        .collect()
+}
+
+/// Whether `dir/tallies.json` is a `roks trace` shard's (its `format`);
+/// `false` for any other or unreadable file.
+#[must_use]
+pub fn is_trace_shard(dir: &Path) -> bool {
+    let Ok(text) =
+        crate::limits::read_text_capped(&dir.join(TALLIES_FILE), crate::limits::max_data_bytes())
+    else {
+        return false;
+    };
+    serde_json::from_str::<Value>(&text).is_ok_and(|v| v["format"] == FORMAT)
+}
+
+/// One shard folder's `tallies.json`, read and checked alone.
+#[derive(Debug, Clone)]
+pub struct ShardFile {
+    /// `dir/tallies.json` as shown in messages.
+    pub file: String,
+    /// Its description (checked).
+    pub description: TraceDescription,
+    /// Per position (and wavelength) the checked nodes and the time.
+    pub positions: Vec<(Vec<Node<ObjectTallies>>, f64)>,
+    /// Total time (s).
+    pub seconds: f64,
+}
+
+/// Read `v` as a `T`, naming the JSON path of the first bad value.
+fn typed<T: serde::de::DeserializeOwned>(v: Value) -> Result<T, FieldError> {
+    serde_path_to_error::deserialize(v).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { String::new() } else { path };
+        FieldError::new(path, e.into_inner().to_string())
+    })
+}
+
+/// Check a node's sums against the run: the bins of its layout, exactly
+/// `photons` photons, finite sums, non-negative weights.
+fn check_node(t: &ObjectTallies, zero: &ObjectTallies, photons: u64) -> Result<(), FieldError> {
+    if t.photons != photons {
+        return Err(FieldError::new(
+            "photons",
+            format!("{} is not the {photons} photons of its batches", t.photons),
+        ));
+    }
+    let accs = [
+        ("reflected", &t.reflected, &zero.reflected),
+        ("absorbed", &t.absorbed, &zero.absorbed),
+        ("farfield", &t.farfield, &zero.farfield),
+        ("stokes", &t.stokes, &zero.stokes),
+        ("farfield_stokes", &t.farfield_stokes, &zero.farfield_stokes),
+    ];
+    for (name, acc, layout) in accs {
+        for (part, v) in [("sum", &acc.sum), ("sum_sq", &acc.sum_sq)] {
+            if v.len() != layout.len() {
+                return Err(FieldError::new(
+                    format!("{name}.{part}"),
+                    format!("{} bins, but the run has {}", v.len(), layout.len()),
+                ));
+            }
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(FieldError::new(
+                    format!("{name}.{part}[{i}]"),
+                    format!("{} is not a finite number", v[i]),
+                ));
+            }
+        }
+        // Weights and squares are >= 0 (Stokes S1..S3 may be negative).
+        let signed = |i: usize| name.contains("stokes") && i % 4 != 0;
+        if let Some(i) =
+            (0..acc.len()).find(|&i| acc.sum_sq[i] < 0.0 || (acc.sum[i] < 0.0 && !signed(i)))
+        {
+            return Err(FieldError::new(
+                format!("{name}.sum[{i}]"),
+                "a negative sum of weights",
+            ));
+        }
+    }
+    for (name, v) in [("missed", t.missed), ("lost", t.lost)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(FieldError::new(
+                name,
+                format!("{v} must be a finite number >= 0"),
+            ));
+        }
+    }
+    if t.started_inside > photons || t.unmodelled.count() > photons {
+        return Err(FieldError::new("started_inside", "more than the photons"));
+    }
+    if t.unmodelled.count() > 0 && t.unmodelled.1 >= zero.absorbed.len() {
+        return Err(FieldError::new("unmodelled", "no such surface id"));
+    }
+    Ok(())
+}
+
+/// Read `dir/tallies.json` of a `roks trace` shard: JSON of [`FORMAT`]
+/// version [`FORMAT_VERSION`] with the fields of [`TraceTalliesFile`],
+/// `batch` = [`BATCH`], a valid description, one entry per position and
+/// wavelength of the run, and nodes that tile exactly the shard's block,
+/// each with the run's layout and exactly its batches' photons.
+///
+/// # Errors
+/// One [`SceneError`] naming the file and the key (JSON path).
+pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
+    let path: PathBuf = dir.join(TALLIES_FILE);
+    let file = path.display().to_string();
+    let err = |e: FieldError| e.in_file(&file);
+    let text = crate::limits::read_text_capped(&path, crate::limits::max_data_bytes())
+        .map_err(|e| err(FieldError::new("", format!("cannot read: {e}"))))?;
+    let v: Value = serde_json::from_str(&text)
+        .map_err(|e| err(FieldError::new("", format!("invalid JSON: {e}"))))?;
+    if v["format"] != FORMAT || v["format_version"] != FORMAT_VERSION {
+        return Err(err(FieldError::new(
+            "format",
+            format!(
+                "not a roks trace tallies file (format \"{FORMAT}\", format_version {FORMAT_VERSION})"
+            ),
+        )));
+    }
+    let t: TraceTalliesFile<Value> = typed(v).map_err(err)?;
+    if t.batch != BATCH {
+        return Err(err(FieldError::new(
+            "batch",
+            format!("{} is not this version's batch of {BATCH} photons", t.batch),
+        )));
+    }
+    let d = t.description;
+    d.check().map_err(|e| err(e.under("description")))?;
+    let lanes = d.run.lane_count();
+    if t.positions.len() != d.beams.len() * lanes {
+        return Err(err(FieldError::new(
+            "positions",
+            format!(
+                "must list the run's {} beam positions x {lanes} wavelengths, found {}",
+                d.beams.len(),
+                t.positions.len()
+            ),
+        )));
+    }
+    let blocks = d
+        .blocks()
+        .map_err(|e| err(FieldError::new("description.shard", e)))?;
+    let zero = d.zero();
+    let mut positions = Vec::with_capacity(t.positions.len());
+    for (i, p) in t.positions.into_iter().enumerate() {
+        let at = |e: FieldError| err(e.under(&format!("positions[{i}]")));
+        let (k, l) = (i / lanes, i % lanes);
+        if p.wavelength_um.map(|w| w.0.to_bits()) != d.run.wavelength(l).map(f64::to_bits) {
+            return Err(at(FieldError::new(
+                "wavelength_um",
+                "is not the run's wavelength of this entry",
+            )));
+        }
+        // Exact numbers are finite.
+        if p.seconds < 0.0 {
+            return Err(at(FieldError::new("seconds", "must be >= 0")));
+        }
+        let n_photons = d.beams[k].photons;
+        let batches = n_photons.div_ceil(BATCH);
+        let mut next = u128::from(blocks[k].start);
+        let mut nodes = Vec::with_capacity(p.nodes.len());
+        for (j, n) in p.nodes.into_iter().enumerate() {
+            let at = |e: FieldError| at(e.under(&format!("nodes[{j}]")));
+            let node = Node {
+                level: u32::try_from(n.level).unwrap_or(u32::MAX).min(64),
+                index: n.index,
+                value: (),
+            };
+            // The start first: a node that starts at `next` has an index
+            // within the run (no overflow in its end).
+            let follows = node.start() == next;
+            let end = if follows {
+                node.end().min(u128::from(batches))
+            } else {
+                0
+            };
+            if !follows || end > u128::from(blocks[k].end) {
+                return Err(at(FieldError::new(
+                    "",
+                    format!(
+                        "tree node ({}, {}) is not the next of this shard's batches [{}, {}) from {next}",
+                        n.level, n.index, blocks[k].start, blocks[k].end
+                    ),
+                )));
+            }
+            let value: ObjectTallies = typed(n.tallies).map_err(|e| at(e.under("tallies")))?;
+            let first = node.start() * u128::from(BATCH);
+            let last = (end * u128::from(BATCH)).min(u128::from(n_photons));
+            check_node(
+                &value,
+                &zero,
+                u64::try_from(last - first).unwrap_or(u64::MAX),
+            )
+            .map_err(|e| at(e.under("tallies")))?;
+            next = end;
+            nodes.push(Node {
+                level: node.level,
+                index: n.index,
+                value,
+            });
+        }
+        if next != u128::from(blocks[k].end) && blocks[k].start < blocks[k].end {
+            return Err(at(FieldError::new(
+                "nodes",
+                format!(
+                    "cover batches up to {next}, but this shard holds [{}, {})",
+                    blocks[k].start, blocks[k].end
+                ),
+            )));
+        }
+        positions.push((nodes, p.seconds));
+    }
+    if t.seconds < 0.0 {
+        return Err(err(FieldError::new("seconds", "must be >= 0")));
+    }
+    Ok(ShardFile {
+        file,
+        description: d,
+        positions,
+        seconds: t.seconds,
+    })
+}
+
+/// Shards of one `roks trace` run, checked against each other and summed.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    /// The run (no shard), as the first shard describes it.
+    pub description: TraceDescription,
+    /// Per position (and wavelength): the root of its tree.
+    pub results: Vec<PositionResult>,
+    /// Sum of the shards' total times (s).
+    pub seconds: f64,
+}
+
+/// What must agree between the shards of one run: the description
+/// without the scene's path and the shard.
+fn shared(d: &TraceDescription) -> Value {
+    let mut d = d.clone();
+    d.scene = String::new();
+    d.shard = None;
+    serde_json::to_value(d).unwrap_or_default()
+}
+
+/// Merge `roks trace` shard files (any order): equal descriptions (but for
+/// the scene's path and the shard, [`first_difference`]), shards `0..N-1`
+/// of one `N`, each once; the nodes of all shards pushed in shard order
+/// into each position's tree: its root is the single run's sum bit for bit.
+///
+/// # Errors
+/// One [`SceneError`] naming the shard file at fault and the key.
+pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
+    let Some(p0) = parts.first() else {
+        return Err(FieldError::new("", "no shard folders").in_file("merge"));
+    };
+    let first = shared(&p0.description);
+    let f0 = p0.file.clone();
+    let count = p0.description.shard.map_or(1, |s| s.count);
+    for p in &parts {
+        if let Some(key) = first_difference(&first, &shared(&p.description)) {
+            let key = format!("description.{key}");
+            return Err(FieldError::new(
+                key.clone(),
+                format!("differs from {f0} (`{key}` differs: not a shard of the same run)"),
+            )
+            .in_file(&p.file));
+        }
+        let c = p.description.shard.map_or(1, |s| s.count);
+        if c != count {
+            return Err(FieldError::new(
+                "description.shard.count",
+                format!("{c} shards, but {f0} is one of {count}"),
+            )
+            .in_file(&p.file));
+        }
+    }
+    let index = |p: &ShardFile| p.description.shard.map_or(0, |s| s.index);
+    parts.sort_by_key(index);
+    for (k, w) in parts.windows(2).enumerate() {
+        if index(&w[0]) == index(&w[1]) {
+            return Err(FieldError::new(
+                "description.shard.index",
+                format!(
+                    "shard {} of {count} given twice (also {})",
+                    index(&w[1]),
+                    w[0].file
+                ),
+            )
+            .in_file(&parts[k + 1].file));
+        }
+    }
+    let missing: Vec<String> = (0..count)
+        .filter(|i| parts.binary_search_by_key(i, index).is_err())
+        .take(10)
+        .map(|i| i.to_string())
+        .collect();
+    if !missing.is_empty() {
+        return Err(FieldError::new(
+            "description.shard",
+            format!(
+                "the run has {count} shards; missing: {}",
+                missing.join(", ")
+            ),
+        )
+        .in_file(&f0));
+    }
+    let mut description = parts[0].description.clone();
+    description.shard = None;
+    let lanes = description.run.lane_count();
+    let zero = description.zero();
+    let n = description.beams.len() * lanes;
+    let mut nodes: Vec<Vec<Node<ObjectTallies>>> = vec![Vec::new(); n];
+    let mut seconds_at = vec![0.0; n];
+    let mut seconds = 0.0;
+    for p in parts {
+        seconds += p.seconds;
+        for (i, (ns, s)) in p.positions.into_iter().enumerate() {
+            nodes[i].extend(ns);
+            seconds_at[i] += s;
+        }
+    }
+    let results = nodes
+        .into_iter()
+        .enumerate()
+        .map(|(i, ns)| {
+            let beam = &description.beams[i / lanes];
+            let batches = beam.photons.div_ceil(BATCH);
+            let tallies = root(ns, batches, &|| zero.clone())
+                .map_err(|e| FieldError::new(format!("positions[{i}].nodes"), e).in_file(&f0))?;
+            Ok(PositionResult {
+                beam: beam.beam(),
+                wavelength_um: description.run.wavelength(i % lanes),
+                tallies,
+                seconds: seconds_at[i],
+            })
+        })
+        .collect::<Result<Vec<_>, SceneError>>()?;
+    Ok(Merged {
+        description,
+        results,
+        seconds,
+    })
+}
