@@ -1001,6 +1001,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--threads",
             "--no-polarisation",
             "--wavelengths",
+            "--shard",
             "--quiet",
             "--help"
         ]

@@ -113,14 +113,22 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
             shown(&a.dir)
         )));
     }
-    let mut tables = BrdfTables::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
     // Several files (a spectral Zemax export) go into --out as a folder.
-    let folder = format == BrdfFormat::Zemax && tables.spectral().is_some();
+    // `--out` is checked before the table is read, so whether the table
+    // is spectral comes from its header line (the loader checks it again).
+    let folder = format == BrdfFormat::Zemax && header_is_spectral(&csv);
     if folder {
         check_out_dir(&a.out, "--out")?;
         check_kept("--out", &[Written::Folder(&a.out)], &inputs)?;
     } else {
         check_out_file(&a.out, &inputs)?;
+    }
+    let mut tables = BrdfTables::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
+    if folder != (format == BrdfFormat::Zemax && tables.spectral().is_some()) {
+        return Err(Failure::Input(format!(
+            "{}: changed while it was read (its header and its rows disagree on wavelength_um)",
+            shown(&csv)
+        )));
     }
     // The run's summary beside the table must describe the same run (a
     // table cut at a block boundary has lost an incidence it lists).
@@ -192,6 +200,21 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// Whether the `brdf.csv` at `csv` is a spectral run's: its first line is
+/// [`crate::output::brdf_csv::SPECTRAL_HEADER`] (false when it cannot be
+/// read: the loader then says why).
+fn header_is_spectral(csv: &Path) -> bool {
+    use std::io::{BufRead, Read};
+    let Ok(file) = std::fs::File::open(csv) else {
+        return false;
+    };
+    let mut line = String::new();
+    // The header is short: a longer first line is not it.
+    let mut reader = std::io::BufReader::new(file).take(4096);
+    reader.read_line(&mut line).is_ok()
+        && line.trim_end() == crate::output::brdf_csv::SPECTRAL_HEADER
 }
 
 /// The file that names a folder of per-wavelength exports (its format,

@@ -411,18 +411,7 @@ impl ObjectSceneSpec {
                     }
                 }
             }
-            if let Some(f) = &m.nk {
-                files.push((format!("{key}.nk"), f.clone()));
-            }
-            match &m.table {
-                Some(Files::One(f)) => files.push((format!("{key}.table"), f.clone())),
-                Some(Files::Many(fs)) => files.extend(
-                    fs.iter()
-                        .enumerate()
-                        .map(|(i, f)| (format!("{key}.table[{i}]"), f.clone())),
-                ),
-                None => {}
-            }
+            files.extend(m.material().files(&key));
         }
         files
     }
@@ -711,6 +700,18 @@ impl ObjectSceneSpec {
 }
 
 impl ModelSpec {
+    /// The material keys of a Fresnel, table or constant-reflectance wall
+    /// (all `None` for the other kinds).
+    fn material(&self) -> MaterialSpec {
+        MaterialSpec {
+            reflectance: self.reflectance.clone(),
+            n: self.n.clone(),
+            k: self.k.clone(),
+            nk: self.nk.clone(),
+            table: self.table.clone(),
+        }
+    }
+
     /// The wall model at `key`; the files it reads are added to `reads`.
     fn build(
         &self,
@@ -796,13 +797,7 @@ impl ModelSpec {
             });
         }
         // Fresnel, table and constant reflectance share the material builder.
-        let material = MaterialSpec {
-            reflectance: self.reflectance.clone(),
-            n: self.n.clone(),
-            k: self.k.clone(),
-            nk: self.nk.clone(),
-            table: self.table.clone(),
-        };
+        let material = self.material();
         let r: Reflectance = material.build(source, key, wavelengths_um)?;
         reads.extend(
             material
