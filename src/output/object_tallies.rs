@@ -51,6 +51,7 @@ use crate::optics::polarisation::Incident;
 use crate::scene::{Content, SceneError};
 use crate::shard::Shard;
 use crate::tally::exact::{self, Exact};
+use crate::tally::realisable::SUM_TOLERANCE;
 use crate::tally::sum::Node;
 use crate::transport::BATCH;
 use crate::transport::object::{
@@ -472,6 +473,7 @@ fn check_node(t: &ObjectTallies, zero: &ObjectTallies, photons: u64) -> Result<(
             ));
         }
     }
+    check_stokes_sums(t)?;
     for (name, v) in [("missed", t.missed), ("lost", t.lost)] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(FieldError::new(
@@ -485,6 +487,36 @@ fn check_node(t: &ObjectTallies, zero: &ObjectTallies, photons: u64) -> Result<(
     }
     if t.unmodelled.count() > 0 && t.unmodelled.1 >= zero.absorbed.len() {
         return Err(FieldError::new("unmodelled", "no such surface id"));
+    }
+    Ok(())
+}
+
+/// Check that the Stokes sums of `t` (the reflected light's, and each
+/// far-field cell's: bins `4 cell + j` hold `S_j`) are physical: every
+/// history scores a Stokes vector with `S0 >= |S1, S2, S3|`, such vectors
+/// form a convex cone, so every sum of them has the same property, within
+/// [`SUM_TOLERANCE`] of the sum of its absolute terms (rounding).
+///
+/// # Errors
+/// The first sum with a degree of polarisation above 1, by its key.
+fn check_stokes_sums(t: &ObjectTallies) -> Result<(), FieldError> {
+    for (name, acc) in [
+        ("stokes", &t.stokes),
+        ("farfield_stokes", &t.farfield_stokes),
+    ] {
+        for (cell, v) in acc.sum.chunks_exact(4).enumerate() {
+            let pol = (v[1] * v[1] + v[2] * v[2] + v[3] * v[3]).sqrt();
+            let scale: f64 = v.iter().map(|x| x.abs()).sum();
+            if !(v[0] + SUM_TOLERANCE * scale >= pol) {
+                return Err(FieldError::new(
+                    format!("{name}.sum[{}]", 4 * cell),
+                    format!(
+                        "S0 = {} < |S1, S2, S3| = {pol}: a degree of polarisation above 1, which no light has",
+                        v[0]
+                    ),
+                ));
+            }
+        }
     }
     Ok(())
 }
@@ -735,4 +767,31 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         results,
         seconds,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stokes_sums_above_full_polarisation_are_refused() {
+        // Two far-field cells; fully polarised light (DoP = 1) passes.
+        let mut t = ObjectTallies::new(1, 2, true, true);
+        for (bin, w) in [(0, 1.0), (1, 0.6), (2, 0.0), (3, 0.8)] {
+            t.stokes.score(bin, w);
+            t.farfield_stokes.score(4 + bin, w);
+        }
+        assert!(check_stokes_sums(&t).is_ok());
+        // S1 = 1.5 S0 in far-field cell 1: refused, naming its first bin.
+        t.farfield_stokes.score(5, 0.9);
+        let e = check_stokes_sums(&t).unwrap_err().to_string();
+        assert!(e.contains("farfield_stokes.sum[4]"), "{e}");
+        assert!(e.contains("degree of polarisation above 1"), "{e}");
+        // The reflected light's sum too.
+        let mut t = ObjectTallies::new(1, 2, true, false);
+        t.stokes.score(0, 1.0);
+        t.stokes.score(3, -1.5);
+        let e = check_stokes_sums(&t).unwrap_err().to_string();
+        assert!(e.contains("stokes.sum[0]"), "{e}");
+    }
 }
