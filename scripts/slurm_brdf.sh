@@ -110,7 +110,7 @@ partition_cpus() {
 load_run() {
     STATE=$OUT.shards/slurm_run.env
     [ -f "$STATE" ] || die "$OUT: no run of $PROG there (no $STATE)"
-    ROKS="" SCENE="" SHARDS="" CPUS="" TIME="" EXTRA="" JOBS="" CMD=brdf
+    ROKS="" SCENE="" SHARDS="" CPUS="" TIME="" EXTRA="" MERGE_EXTRA="" JOBS="" CMD=brdf
     # shellcheck disable=SC1090 # the file this script wrote at submission
     . "$STATE" 2>/dev/null || die "$STATE: cannot read it"
     if [ -z "$ROKS" ] || [ -z "$SCENE" ] || ! [[ $SHARDS =~ ^[1-9][0-9]*$ ]] || [ -z "$CPUS" ] || [ -z "$TIME" ] || ! [[ $CMD =~ ^(brdf|trace)$ ]]; then
@@ -154,7 +154,7 @@ submit() {
         --cpus-per-task=1 \
         --time=00:30:00 \
         --output="$OUT.logs/merge.out" \
-        --wrap="$(printf '%q' "$ROKS") merge$dirs --out $out_q" 2>&1) || {
+        --wrap="$(printf '%q' "$ROKS") merge$dirs --out $out_q$MERGE_EXTRA" 2>&1) || {
         [ -z "$array_id" ] || scancel "$array_id" || true
         die "sbatch refused the merge job: $(first_line "$merge_id")${array_id:+ (shards $array_id cancelled)}"
     }
@@ -361,16 +361,27 @@ if [ $# -gt 0 ] && [[ $1 =~ ^[0-9]+$ ]]; then
 fi
 ((SHARDS >= 1)) || die "SHARDS: must be at least 1, got 0"
 opts=()
-for a in "$@"; do
+exports=()
+while [ $# -gt 0 ]; do
+    a=$1
+    shift
     case $a in
         --out | --out=* | --shard | --shard=* | --threads | --threads=*)
             die "option ${a%%=*}: set by $PROG (OUT, SHARDS, CPUS); leave it out" ;;
         -q | --quiet) ;;
+        # The merge exports the whole table (the shards' own would be partial).
+        --export)
+            [ $# -gt 0 ] || die "option --export: needs its formats (e.g. --export zemax,merl)"
+            exports+=(--export "$1")
+            shift ;;
+        --export=*) exports+=("$a") ;;
         *) opts+=("$a") ;;
     esac
 done
 EXTRA=$(printf ' %q' "${opts[@]+"${opts[@]}"}")
 [ ${#opts[@]} -gt 0 ] || EXTRA=""
+MERGE_EXTRA=$(printf ' %q' "${exports[@]+"${exports[@]}"}")
+[ ${#exports[@]} -gt 0 ] || MERGE_EXTRA=""
 
 ROKS=${ROKS:-$(dirname "$SELF")/../target/release/roks}
 if ! [ -f "$ROKS" ] || ! [ -x "$ROKS" ]; then
@@ -432,7 +443,7 @@ mkdir -p -- "$OUT.shards" "$OUT.logs" || die "OUT: cannot create $OUT.shards and
 STATE=$OUT.shards/slurm_run.env
 {
     echo "# $PROG run: sourced by \`$PROG status|resubmit\`"
-    printf 'ROKS=%q\nSCENE=%q\nCMD=%q\nSHARDS=%q\nCPUS=%q\nTIME=%q\nEXTRA=%q\nJOBS=""\n' \
-        "$ROKS" "$SCENE" "$CMD" "$SHARDS" "$CPUS" "$TIME" "$EXTRA"
+    printf 'ROKS=%q\nSCENE=%q\nCMD=%q\nSHARDS=%q\nCPUS=%q\nTIME=%q\nEXTRA=%q\nMERGE_EXTRA=%q\nJOBS=""\n' \
+        "$ROKS" "$SCENE" "$CMD" "$SHARDS" "$CPUS" "$TIME" "$EXTRA" "$MERGE_EXTRA"
 } >"$STATE"
 submit "0-$((SHARDS - 1))"

@@ -135,3 +135,58 @@ fn incompatible_shards_are_refused() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--shard"));
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// `roks merge --export` writes every file the single run with `--export`
+/// writes (the exports and every picture, surface.png included), byte for
+/// byte; summary.json equal but for timings; only tallies.json added.
+#[test]
+fn merged_exports_and_pictures_equal_the_single_run() {
+    let base = scratch("exports");
+    let (whole, merged) = (base.join("whole"), base.join("merged"));
+    let common = ["-q", "--photons", "20000", "--theta", "0,40"];
+    let run = |extra: &[&str]| {
+        let o = roks(&[&["brdf"], &common[..], extra].concat());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&[
+        "--export",
+        "zemax,merl,rgl",
+        "--out",
+        whole.to_str().unwrap(),
+    ]);
+    let shards: Vec<PathBuf> = (0..3).map(|i| base.join(format!("s{i}"))).collect();
+    for (i, s) in shards.iter().enumerate() {
+        run(&["--shard", &format!("{i}/3"), "--out", s.to_str().unwrap()]);
+    }
+    let mut args = vec!["merge", "-q", "--export", "zemax,merl,rgl"];
+    args.extend(shards.iter().map(|s| s.to_str().unwrap()));
+    args.extend(["--out", merged.to_str().unwrap()]);
+    let o = roks(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let names = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let mut expected = names(&whole);
+    expected.push("tallies.json".into());
+    expected.sort();
+    assert_eq!(names(&merged), expected);
+    for f in names(&whole) {
+        if f == "summary.json" {
+            assert_eq!(
+                summary_without_timing(&whole),
+                summary_without_timing(&merged)
+            );
+        } else {
+            assert!(read(&whole, &f) == read(&merged, &f), "{f} differs");
+        }
+    }
+    for f in ["brdf.bsdf", "brdf.binary", "brdf_rgl.bsdf", "surface.png"] {
+        assert!(whole.join(f).is_file(), "{f} not written");
+    }
+    let _ = std::fs::remove_dir_all(&base);
+}

@@ -330,9 +330,11 @@ fn assert_refused(cluster: &Cluster, case: &str, o: &Output, out: &Path, expect:
     assert!(!shards.exists(), "{case}: {} was created", shards.display());
 }
 
-/// The merged folder `out` holds the single run's bytes.
+/// The merged folder `out` holds the single run's bytes: its tables, the
+/// Zemax export (the merge exports what `--export` asked of the run) and
+/// the surface's picture.
 fn assert_same_as_single(case: &str, out: &Path, single: &Path) {
-    for name in ["brdf.csv", "inplane.csv"] {
+    for name in ["brdf.csv", "inplane.csv", "brdf.bsdf", "surface.png"] {
         assert!(
             read(out, name) == read(single, name),
             "{case}: {name} differs from the single run's"
@@ -395,6 +397,8 @@ fn slurm_runs_merge_into_the_single_run_and_recover_from_a_killed_shard() {
             "-q",
             "--photons",
             PHOTONS,
+            "--export",
+            "zemax",
             "--out",
             &s(&single),
         ])
@@ -456,7 +460,10 @@ fn slurm_runs_merge_into_the_single_run_and_recover_from_a_killed_shard() {
     // (1) A clean run: the default 8 shards, 2 at a time.
     let t = Instant::now();
     let clean = path("clean");
-    let o = cluster.script(&[scene, &s(&clean), "--photons", PHOTONS], &[("CPUS", "1")]);
+    let o = cluster.script(
+        &[scene, &s(&clean), "--photons", PHOTONS, "--export", "zemax"],
+        &[("CPUS", "1")],
+    );
     assert!(o.status.success(), "clean run: {}", text(&o.stderr));
     cluster.drain(Duration::from_secs(120));
     let status = cluster.script(&["status", &s(&clean)], &[]);
@@ -494,7 +501,14 @@ fn slurm_runs_merge_into_the_single_run_and_recover_from_a_killed_shard() {
     let t = Instant::now();
     let broken = path("broken");
     let o = cluster.script(
-        &[scene, &s(&broken), "4", "--photons", PHOTONS],
+        &[
+            scene,
+            &s(&broken),
+            "4",
+            "--photons",
+            PHOTONS,
+            "--export=zemax",
+        ],
         &[("CPUS", "1")],
     );
     assert!(o.status.success(), "run to break: {}", text(&o.stderr));

@@ -8,7 +8,9 @@ use clap::Args;
 
 use super::Failure;
 use super::brdf::print_table;
-use super::common::{check_out_dir, write_folder};
+use super::common::{check_out_dir, load_scene, write_folder};
+use super::export_brdf::{export_tables, export_tables_of};
+use crate::export::brdf_formats::BrdfFormat;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::output::object_tallies;
 use crate::output::tallies::{self, TALLIES_FILE};
@@ -23,6 +25,17 @@ pub struct MergeArgs {
     /// result).
     #[arg(long)]
     pub out: PathBuf,
+    /// Also export the merged table, as `roks brdf --export` does for the
+    /// whole run (comma-separated: zemax, merl, rgl; the same files). An
+    /// rgl file takes the NDF of the micro scene the shards name, when that
+    /// file is there (else the uniform NDF, with a note).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        ignore_case = true,
+        hide_possible_values = true
+    )]
+    pub export: Vec<BrdfFormat>,
     /// No table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -37,6 +50,11 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
     check_out_dir(&a.out, "--out")?;
     super::common::check_kept("--out", &[super::common::Written::Folder(&a.out)], &a.dirs)?;
     if object_tallies::is_trace_shard(&a.dirs[0]) {
+        if !a.export.is_empty() {
+            return Err(Failure::Input(
+                "--export: only for shards of `roks brdf` (`roks trace` writes no table)".into(),
+            ));
+        }
         return merge_trace(&a);
     }
     let parts = a
@@ -53,15 +71,58 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
             a.dirs[0].display(),
         ))
     })?;
+    for f in &a.export {
+        f.check_wavelengths(&merged.description.run.wavelengths_um)
+            .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
+    }
+    let scene = merged.description.scene.clone();
+    let photons = merged.description.run.photons;
     let folder = BrdfFolder::merged(merged);
-    let mut files = folder.files(Vec::new());
+    let mut extra = Vec::new();
+    if !a.export.is_empty() {
+        let table = folder.table();
+        let name = &folder.description.name;
+        let comment = format!("scene {name}, {photons} photons per angle");
+        for (k, &f) in a.export.iter().enumerate() {
+            // Each format once, in the order given.
+            if a.export[..k].contains(&f) {
+                continue;
+            }
+            let files = match rgl_surface(f, &scene) {
+                Some(surface) => {
+                    export_tables_of(&table, f, &comment, a.quiet, "--export", &surface)?
+                }
+                None => export_tables(&table, f, &comment, a.quiet, "--export")?,
+            };
+            extra.extend(files.into_iter().map(|file| (file.file_name, file.bytes)));
+        }
+    }
+    let mut files = folder.files(extra);
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
+    // The surface's picture comes from the micro geometry, not the sums:
+    // every shard of one run drew the same one (their descriptions, with
+    // the scene's content and the statistics grid, are equal).
+    if let Ok(png) = std::fs::read(a.dirs[0].join("surface.png")) {
+        files.push(("surface.png".into(), png));
+    }
     write_folder(&a.out, &files)?;
     if !a.quiet {
         print_table(&folder.results);
         eprintln!("merged {n_parts} shards into {}", a.out.display());
     }
     Ok(())
+}
+
+/// The micro surface whose NDF an rgl export of merged shards writes: that
+/// of the scene file `scene` the shards name (the embedded default for
+/// `<default scene>`), when `format` is rgl and the file loads; `None`
+/// otherwise.
+fn rgl_surface(format: BrdfFormat, scene: &str) -> Option<crate::micro::MicroSurface> {
+    if format != BrdfFormat::Rgl {
+        return None;
+    }
+    let path = (scene != "<default scene>").then(|| std::path::Path::new(scene));
+    load_scene(path).ok().map(|s| s.surface)
 }
 
 /// `roks merge` of `roks trace` shards: the folder of the single run.
