@@ -276,14 +276,15 @@ fn trace_and_merge_replace_their_folders_whole() {
         Some(2),
         "merge into a shard"
     );
-    // Merge into a copy of a shard's folder: its surface.png (a merge has
-    // no surface to draw) must go; the pictures are the merge's own.
+    // Merge into a copy of a shard's folder holding an export the merge is
+    // not asked for (brdf.bsdf): it must go, the folder is the merge's own
+    // (surface.png is the shards', which the merge keeps).
     let copy = dir.join("copy");
     std::fs::create_dir(&copy).unwrap();
     for name in names(&shards[0]) {
         std::fs::copy(shards[0].join(&name), copy.join(&name)).unwrap();
     }
-    assert!(copy.join("surface.png").exists());
+    std::fs::write(copy.join("brdf.bsdf"), "a stale export\n").unwrap();
     let a = [
         "merge",
         s(&shards[0]),
@@ -302,6 +303,7 @@ fn trace_and_merge_replace_their_folders_whole() {
             "inplane.png",
             "reflectance.png",
             "summary.json",
+            "surface.png",
             "tallies.json"
         ]
     );
