@@ -928,7 +928,7 @@ impl Problem {
         }
         if let Some(w) = opts.inplane_width_deg {
             if let Some(e) = InPlaneTally::width_error(w) {
-                return Err(opt("--inplane-width", e));
+                return Err(opt("--inplane-width", e.to_string()));
             }
         }
         let max = measured.points.iter().map(|p| p.2).fold(0.0, f64::max);

@@ -69,6 +69,17 @@ pub enum ShardError {
         /// The batches of the run.
         batches: u64,
     },
+    /// More shards than batches over the beam positions of an object run
+    /// ([`crate::transport::object::shard_blocks`]).
+    #[error(
+        "{shards} shards but only {batches} batches of {BATCH} photons over the beam positions: use at most {batches} shards or more photons"
+    )]
+    TooManyOverPositions {
+        /// The shards asked for.
+        shards: u64,
+        /// The batches of all beam positions.
+        batches: u64,
+    },
 }
 
 impl std::str::FromStr for Shard {

@@ -96,11 +96,13 @@ pub(crate) const MAX_FRACTION: f64 = 1.0 + 1e-9;
 /// The largest `f64` below 1, `1 - 2^-53`.
 const BELOW_ONE: f64 = 1.0 - f64::EPSILON / 2.0;
 
-/// Why numbers are not a table: an incidence angle twice, or fractions
-/// that create light. Every message is one line naming the file and, for a
+/// Why numbers are not a [`BrdfTable`] (or [`SpectralTables`]): an
+/// incidence angle twice, fractions that create light, or tables per
+/// wavelength that do not fit together. (Reading a `brdf.csv` fails with
+/// [`crate::output::brdf_csv::BrdfTableError`], which wraps this one.) Every message is one line naming the file and, for a
 /// table read from a file, the line (0: not from a file).
 #[derive(Debug, Clone, PartialEq, Error)]
-pub enum TableError {
+pub enum BrdfValuesError {
     /// The same incidence angle in two blocks.
     #[error(
         "{file}: line {line}: incidence theta_i_deg = {theta_i_deg} already tabulated from line {first}"
@@ -335,7 +337,7 @@ impl BrdfTable {
         grid: CarlsonGrid,
         blocks: Vec<(f64, f64, Vec<f64>, Vec<f64>)>,
         file: &str,
-    ) -> Result<Self, TableError> {
+    ) -> Result<Self, BrdfValuesError> {
         let mut data: Vec<BlockData> = blocks
             .into_iter()
             .map(
@@ -348,7 +350,7 @@ impl BrdfTable {
                 },
             )
             .collect();
-        let bad = |theta_i_deg: f64, total: f64| TableError::Sum {
+        let bad = |theta_i_deg: f64, total: f64| BrdfValuesError::Sum {
             file: file.to_owned(),
             line: 0,
             column: 13,
@@ -365,7 +367,7 @@ impl BrdfTable {
         }
         data.sort_by(|a, b| a.theta_deg.total_cmp(&b.theta_deg));
         if let Some(w) = data.windows(2).find(|w| w[0].theta_deg == w[1].theta_deg) {
-            return Err(TableError::Duplicate {
+            return Err(BrdfValuesError::Duplicate {
                 file: file.to_owned(),
                 line: 0,
                 first: 0,
@@ -380,12 +382,12 @@ impl BrdfTable {
     /// the reader of `brdf.csv`); `file` names it in messages.
     ///
     /// # Errors
-    /// [`TableError::Sum`] if a block's fractions add up to more than 1.
+    /// [`BrdfValuesError::Sum`] if a block's fractions add up to more than 1.
     pub(crate) fn from_checked(
         grid: CarlsonGrid,
         blocks: Vec<BlockData>,
         file: String,
-    ) -> Result<Self, TableError> {
+    ) -> Result<Self, BrdfValuesError> {
         let cells = Self::cells(&grid);
         Self::build(grid, cells, blocks, file)
     }
@@ -415,7 +417,7 @@ impl BrdfTable {
         cells: Vec<Cell>,
         blocks: Vec<BlockData>,
         file: String,
-    ) -> Result<Self, TableError> {
+    ) -> Result<Self, BrdfValuesError> {
         let mut incidences = Vec::with_capacity(blocks.len());
         for b in blocks {
             let mut cdf = Vec::with_capacity(b.fractions.len());
@@ -425,7 +427,7 @@ impl BrdfTable {
                 cdf.push(total);
             }
             if total.is_nan() || total > MAX_FRACTION {
-                return Err(TableError::Sum {
+                return Err(BrdfValuesError::Sum {
                     file,
                     line: b.line,
                     column: 13,
@@ -731,7 +733,7 @@ impl SpectralTables {
     /// (µm); `file` names them in messages.
     ///
     /// # Errors
-    /// [`TableError::Spectral`] unless there is at least one table, one
+    /// [`BrdfValuesError::Spectral`] unless there is at least one table, one
     /// wavelength per table, the wavelengths are finite, `> 0` and strictly
     /// increasing, and every table has the first one's bands and incidences
     /// (`theta_i_deg` and `phi_i_deg`, in order).
@@ -739,8 +741,8 @@ impl SpectralTables {
         wavelengths_um: Vec<f64>,
         tables: Vec<BrdfTable>,
         file: &str,
-    ) -> Result<Self, TableError> {
-        let fail = |message: String| TableError::Spectral {
+    ) -> Result<Self, BrdfValuesError> {
+        let fail = |message: String| BrdfValuesError::Spectral {
             file: file.to_owned(),
             message,
         };

@@ -166,11 +166,12 @@ pub struct AngleTable {
     points: Vec<(f64, f64)>,
 }
 
-/// Why a reflectance table was rejected. Every message is one line; `line`
+/// Why an [`AngleTable`] (reflectance against incidence angle) was
+/// rejected. Every message is one line; `line`
 /// is the 1-based line number in the CSV text (or, for
 /// [`AngleTable::new`], the 1-based index of the point).
 #[derive(Debug, Clone, PartialEq, Error)]
-pub enum TableError {
+pub enum AngleTableError {
     /// The table holds no data rows.
     #[error("reflectance table has no data rows")]
     Empty,
@@ -234,15 +235,15 @@ impl AngleTable {
     /// dimensionless within `[0, 1]`.
     ///
     /// # Errors
-    /// [`TableError`] naming the 1-based index of the first bad point as its
-    /// `line`, or [`TableError::Empty`] for no points.
-    pub fn new(points: Vec<(f64, f64)>) -> Result<Self, TableError> {
+    /// [`AngleTableError`] naming the 1-based index of the first bad point as its
+    /// `line`, or [`AngleTableError::Empty`] for no points.
+    pub fn new(points: Vec<(f64, f64)>) -> Result<Self, AngleTableError> {
         for (i, &(angle, value)) in points.iter().enumerate() {
             let previous = if i == 0 { None } else { Some(points[i - 1].0) };
             check_point(i + 1, angle, value, previous)?;
         }
         if points.is_empty() {
-            return Err(TableError::Empty);
+            return Err(AngleTableError::Empty);
         }
         Ok(Self { points })
     }
@@ -257,11 +258,11 @@ impl AngleTable {
     ///   fields parses as a number (e.g. `angle_deg,reflectance`).
     ///
     /// # Errors
-    /// The first problem found, as a [`TableError`] naming its line number:
+    /// The first problem found, as a [`AngleTableError`] naming its line number:
     /// no data rows, a non-numeric or NaN field, a wrong number of fields,
     /// angles not strictly increasing or outside `[0, 90]`, a reflectance
     /// outside `[0, 1]`.
-    pub fn parse_csv(text: &str) -> Result<Self, TableError> {
+    pub fn parse_csv(text: &str) -> Result<Self, AngleTableError> {
         let mut points: Vec<(f64, f64)> = Vec::new();
         let mut seen_content = false;
         for (index, raw) in text.lines().enumerate() {
@@ -281,7 +282,7 @@ impl AngleTable {
                 continue; // header
             }
             if fields.len() != 2 {
-                return Err(TableError::FieldCount {
+                return Err(AngleTableError::FieldCount {
                     line,
                     found: fields.len(),
                 });
@@ -289,13 +290,13 @@ impl AngleTable {
             let mut values = [0.0; 2];
             for (slot, (field_index, text)) in values.iter_mut().zip(fields.iter().enumerate()) {
                 let field = field_index + 1;
-                let value: f64 = text.parse().map_err(|_| TableError::NotANumber {
+                let value: f64 = text.parse().map_err(|_| AngleTableError::NotANumber {
                     line,
                     field,
                     text: (*text).to_owned(),
                 })?;
                 if value.is_nan() {
-                    return Err(TableError::NaN { line, field });
+                    return Err(AngleTableError::NaN { line, field });
                 }
                 *slot = value;
             }
@@ -304,7 +305,7 @@ impl AngleTable {
             points.push((angle, value));
         }
         if points.is_empty() {
-            return Err(TableError::Empty);
+            return Err(AngleTableError::Empty);
         }
         Ok(Self { points })
     }
@@ -360,21 +361,21 @@ fn check_point(
     angle: f64,
     value: f64,
     previous: Option<f64>,
-) -> Result<(), TableError> {
+) -> Result<(), AngleTableError> {
     if angle.is_nan() {
-        return Err(TableError::NaN { line, field: 1 });
+        return Err(AngleTableError::NaN { line, field: 1 });
     }
     if value.is_nan() {
-        return Err(TableError::NaN { line, field: 2 });
+        return Err(AngleTableError::NaN { line, field: 2 });
     }
     if !(0.0..=90.0).contains(&angle) {
-        return Err(TableError::AngleOutOfRange { line, angle });
+        return Err(AngleTableError::AngleOutOfRange { line, angle });
     }
     if !(0.0..=1.0).contains(&value) {
-        return Err(TableError::ReflectanceOutOfRange { line, value });
+        return Err(AngleTableError::ReflectanceOutOfRange { line, value });
     }
     match previous {
-        Some(previous) if angle <= previous => Err(TableError::NotIncreasing {
+        Some(previous) if angle <= previous => Err(AngleTableError::NotIncreasing {
             line,
             angle,
             previous,
@@ -504,17 +505,17 @@ mod tests {
         );
     }
 
-    fn err(text: &str) -> TableError {
+    fn err(text: &str) -> AngleTableError {
         AngleTable::parse_csv(text).expect_err("table must be rejected")
     }
 
     #[test]
     fn error_empty() {
-        assert_eq!(err(""), TableError::Empty);
-        assert_eq!(err("# only comments\n\n"), TableError::Empty);
-        assert_eq!(err("angle_deg,reflectance\n"), TableError::Empty);
+        assert_eq!(err(""), AngleTableError::Empty);
+        assert_eq!(err("# only comments\n\n"), AngleTableError::Empty);
+        assert_eq!(err("angle_deg,reflectance\n"), AngleTableError::Empty);
         assert_eq!(err("").to_string(), "reflectance table has no data rows");
-        assert_eq!(AngleTable::new(vec![]), Err(TableError::Empty));
+        assert_eq!(AngleTable::new(vec![]), Err(AngleTableError::Empty));
     }
 
     #[test]
@@ -522,7 +523,7 @@ mod tests {
         let e = err("angle,r\n0,0.1\n10,abc\n");
         assert_eq!(
             e,
-            TableError::NotANumber {
+            AngleTableError::NotANumber {
                 line: 3,
                 field: 2,
                 text: "abc".into()
@@ -532,7 +533,7 @@ mod tests {
         // A first line with one numeric field is data, not a header.
         assert!(matches!(
             err("0, x\n"),
-            TableError::NotANumber {
+            AngleTableError::NotANumber {
                 line: 1,
                 field: 2,
                 ..
@@ -541,11 +542,11 @@ mod tests {
         // Empty field between commas.
         assert!(matches!(
             err("0,,0.5\n"),
-            TableError::FieldCount { line: 1, found: 3 }
+            AngleTableError::FieldCount { line: 1, found: 3 }
         ));
         assert!(matches!(
             err(",0.5\n"),
-            TableError::NotANumber {
+            AngleTableError::NotANumber {
                 line: 1,
                 field: 1,
                 ..
@@ -556,12 +557,15 @@ mod tests {
     #[test]
     fn error_field_count() {
         let e = err("0 0.1\n10 0.2 0.3\n");
-        assert_eq!(e, TableError::FieldCount { line: 2, found: 3 });
+        assert_eq!(e, AngleTableError::FieldCount { line: 2, found: 3 });
         assert_eq!(
             e.to_string(),
             "line 2: expected 2 fields (angle_deg, reflectance), found 3"
         );
-        assert_eq!(err("0\n"), TableError::FieldCount { line: 1, found: 1 });
+        assert_eq!(
+            err("0\n"),
+            AngleTableError::FieldCount { line: 1, found: 1 }
+        );
     }
 
     #[test]
@@ -569,7 +573,7 @@ mod tests {
         let e = err("0 0.1\n# c\n20 0.2\n20 0.3\n");
         assert_eq!(
             e,
-            TableError::NotIncreasing {
+            AngleTableError::NotIncreasing {
                 line: 4,
                 angle: 20.0,
                 previous: 20.0
@@ -581,7 +585,7 @@ mod tests {
         );
         assert!(matches!(
             err("30 0\n10 0\n"),
-            TableError::NotIncreasing { line: 2, .. }
+            AngleTableError::NotIncreasing { line: 2, .. }
         ));
     }
 
@@ -590,7 +594,7 @@ mod tests {
         let e = err("0 0\n90.5 0\n");
         assert_eq!(
             e,
-            TableError::AngleOutOfRange {
+            AngleTableError::AngleOutOfRange {
                 line: 2,
                 angle: 90.5
             }
@@ -598,11 +602,11 @@ mod tests {
         assert_eq!(e.to_string(), "line 2: angle 90.5 deg is outside [0, 90]");
         assert!(matches!(
             err("-1 0"),
-            TableError::AngleOutOfRange { line: 1, .. }
+            AngleTableError::AngleOutOfRange { line: 1, .. }
         ));
         assert!(matches!(
             err("inf 0"),
-            TableError::AngleOutOfRange { line: 1, .. }
+            AngleTableError::AngleOutOfRange { line: 1, .. }
         ));
     }
 
@@ -611,7 +615,7 @@ mod tests {
         let e = err("0 1.01\n");
         assert_eq!(
             e,
-            TableError::ReflectanceOutOfRange {
+            AngleTableError::ReflectanceOutOfRange {
                 line: 1,
                 value: 1.01
             }
@@ -619,16 +623,16 @@ mod tests {
         assert_eq!(e.to_string(), "line 1: reflectance 1.01 is outside [0, 1]");
         assert!(matches!(
             err("0 0\n5 -0.5"),
-            TableError::ReflectanceOutOfRange { line: 2, .. }
+            AngleTableError::ReflectanceOutOfRange { line: 2, .. }
         ));
     }
 
     #[test]
     fn error_nan() {
         let e = err("0 0\n10 NaN\n");
-        assert_eq!(e, TableError::NaN { line: 2, field: 2 });
+        assert_eq!(e, AngleTableError::NaN { line: 2, field: 2 });
         assert_eq!(e.to_string(), "line 2: field 2 is NaN");
-        assert_eq!(err("nan,0.5"), TableError::NaN { line: 1, field: 1 });
+        assert_eq!(err("nan,0.5"), AngleTableError::NaN { line: 1, field: 1 });
     }
 
     #[test]
@@ -636,7 +640,7 @@ mod tests {
         assert!(AngleTable::new(vec![(0.0, 0.1), (90.0, 0.9)]).is_ok());
         assert_eq!(
             AngleTable::new(vec![(0.0, 0.1), (0.0, 0.9)]),
-            Err(TableError::NotIncreasing {
+            Err(AngleTableError::NotIncreasing {
                 line: 2,
                 angle: 0.0,
                 previous: 0.0
@@ -644,11 +648,11 @@ mod tests {
         );
         assert_eq!(
             AngleTable::new(vec![(f64::NAN, 0.1)]),
-            Err(TableError::NaN { line: 1, field: 1 })
+            Err(AngleTableError::NaN { line: 1, field: 1 })
         );
         assert_eq!(
             AngleTable::new(vec![(1.0, 2.0)]),
-            Err(TableError::ReflectanceOutOfRange {
+            Err(AngleTableError::ReflectanceOutOfRange {
                 line: 1,
                 value: 2.0
             })

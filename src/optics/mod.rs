@@ -14,4 +14,4 @@ pub mod polarisation;
 pub mod spectrum;
 
 pub use fresnel::{fresnel_sp, fresnel_unpolarised};
-pub use material::{AngleTable, Reflectance, ReflectanceError, TableError};
+pub use material::{AngleTable, AngleTableError, Reflectance, ReflectanceError};

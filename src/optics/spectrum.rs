@@ -503,39 +503,82 @@ impl NkSpectrum {
     }
 }
 
+/// Why the wavelengths of a spectral run are refused
+/// ([`check_wavelengths`]); [`WavelengthListError::index`] names the
+/// wavelength at fault.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum WavelengthListError {
+    /// No wavelength.
+    #[error("needs at least one wavelength")]
+    Empty,
+    /// More wavelengths than one trace carries.
+    #[error("{count} wavelengths, more than the {max} one trace carries")]
+    TooMany {
+        /// The wavelengths given.
+        count: usize,
+        /// [`crate::transport::carrier::MAX_WAVELENGTHS`].
+        max: usize,
+    },
+    /// A wavelength that is not a finite number > 0.
+    #[error("{value} um is not a finite number > 0")]
+    NotPositive {
+        /// Its index in the list.
+        index: usize,
+        /// The wavelength (µm).
+        value: f64,
+    },
+    /// A wavelength not above the one before it.
+    #[error(
+        "{value} um is not greater than the previous {previous} um (wavelengths strictly increasing)"
+    )]
+    NotIncreasing {
+        /// Its index in the list.
+        index: usize,
+        /// The wavelength (µm).
+        value: f64,
+        /// The wavelength before it (µm).
+        previous: f64,
+    },
+}
+
+impl WavelengthListError {
+    /// The index of the wavelength at fault (`None`: the whole list).
+    #[must_use]
+    pub fn index(&self) -> Option<usize> {
+        match *self {
+            Self::Empty | Self::TooMany { .. } => None,
+            Self::NotPositive { index, .. } | Self::NotIncreasing { index, .. } => Some(index),
+        }
+    }
+}
+
 /// Check the wavelengths of a spectral run (µm): at least one, at most
 /// [`crate::transport::carrier::MAX_WAVELENGTHS`], each finite and `> 0`,
 /// strictly increasing.
 ///
 /// # Errors
-/// The index of the offending wavelength (`None` for the list) and the
-/// message.
-pub fn check_wavelengths(wavelengths_um: &[f64]) -> Result<(), (Option<usize>, String)> {
+/// The first problem, as a [`WavelengthListError`].
+pub fn check_wavelengths(wavelengths_um: &[f64]) -> Result<(), WavelengthListError> {
     let max = crate::transport::carrier::MAX_WAVELENGTHS;
     if wavelengths_um.is_empty() {
-        return Err((None, "needs at least one wavelength".into()));
+        return Err(WavelengthListError::Empty);
     }
     if wavelengths_um.len() > max {
-        return Err((
-            None,
-            format!(
-                "{} wavelengths, more than the {max} one trace carries",
-                wavelengths_um.len()
-            ),
-        ));
+        return Err(WavelengthListError::TooMany {
+            count: wavelengths_um.len(),
+            max,
+        });
     }
-    for (i, &w) in wavelengths_um.iter().enumerate() {
-        if !(w.is_finite() && w > 0.0) {
-            return Err((Some(i), format!("{w} um is not a finite number > 0")));
+    for (index, &value) in wavelengths_um.iter().enumerate() {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(WavelengthListError::NotPositive { index, value });
         }
-        if i > 0 && w <= wavelengths_um[i - 1] {
-            return Err((
-                Some(i),
-                format!(
-                    "{w} um is not greater than the previous {} um (wavelengths strictly increasing)",
-                    wavelengths_um[i - 1]
-                ),
-            ));
+        if index > 0 && value <= wavelengths_um[index - 1] {
+            return Err(WavelengthListError::NotIncreasing {
+                index,
+                value,
+                previous: wavelengths_um[index - 1],
+            });
         }
     }
     Ok(())

@@ -48,8 +48,9 @@ use super::summary::{self, TraceSummary};
 use super::tallies::{FieldError, NodeFile, TALLIES_FILE, first_difference};
 use crate::object::source::Beam;
 use crate::optics::polarisation::Incident;
+use crate::plot::folder::PlotError;
 use crate::scene::{Content, SceneError};
-use crate::shard::Shard;
+use crate::shard::{Shard, ShardError};
 use crate::tally::exact::{self, Exact};
 use crate::tally::realisable::SUM_TOLERANCE;
 use crate::tally::sum::Node;
@@ -183,7 +184,7 @@ impl TraceDescription {
     ///
     /// # Errors
     /// A shard count above the run's batches.
-    pub fn blocks(&self) -> Result<Vec<Range<u64>>, String> {
+    pub fn blocks(&self) -> Result<Vec<Range<u64>>, ShardError> {
         let photons = self.photons();
         match self.shard {
             Some(s) => shard_blocks(
@@ -215,7 +216,7 @@ impl TraceDescription {
         results: &[PositionResult],
         seconds: f64,
         tallies: Option<TraceTalliesFile>,
-    ) -> Result<Vec<(String, Vec<u8>)>, String> {
+    ) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
         let summary = summary::to_text(&TraceSummary::new(self, results, seconds));
         let mut files: Vec<(String, Vec<u8>)> = Vec::new();
         if let Some(t) = tallies {
@@ -237,7 +238,7 @@ impl TraceDescription {
             files.push(("farfield_stokes.csv".into(), f.into_bytes()));
         }
         files.push(("summary.json".into(), summary.into_bytes()));
-        crate::plot::folder::add_pictures(&mut files).map_err(|e| e.to_string())?;
+        crate::plot::folder::add_pictures(&mut files)?;
         Ok(files)
     }
 
@@ -274,7 +275,7 @@ impl TraceDescription {
         for (k, b) in self.beams.iter().enumerate() {
             let at = |key: &str, m: &str| Err(FieldError::new(format!("beams[{k}].{key}"), m));
             crate::transport::launch::check_count(b.photons)
-                .map_err(|e| FieldError::new(format!("beams[{k}].photons"), e.to_string()))?;
+                .map_err(|e| FieldError::new(format!("beams[{k}].photons"), e))?;
             if !DVec3::from_array(b.position).is_finite() {
                 return at("position", "must be finite");
             }

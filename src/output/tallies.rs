@@ -65,10 +65,10 @@ pub struct FieldError {
 impl FieldError {
     /// An error at `key`.
     #[must_use]
-    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+    pub fn new(key: impl Into<String>, message: impl std::fmt::Display) -> Self {
         Self {
             key: key.into(),
-            message: message.into(),
+            message: message.to_string(),
         }
     }
 
@@ -592,8 +592,12 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
         ));
     }
     let run = &tallies.description.run;
-    run.check()
-        .map_err(|(field, e)| err(&format!("description.run.{}", field.run_key()), e))?;
+    run.check().map_err(|e| {
+        err(
+            &format!("description.run.{}", e.field().run_key()),
+            e.to_string(),
+        )
+    })?;
     if let Some(s) = run.shard {
         let block = Shard {
             index: s.index,

@@ -705,7 +705,7 @@ impl MicroScene {
             };
             brdf_run_of(&spec, Polarisation::default(), wavelengths)
                 .check()
-                .map_err(|(field, e)| source.error(field.scene_key(), e))?;
+                .map_err(|e| source.error(e.field().scene_key(), e))?;
         }
         overrides.apply(&mut spec);
         let files = spec.files();
@@ -769,7 +769,7 @@ impl MicroSceneSpec {
         // is resolved below.
         let mut run = brdf_run_of(&self, Polarisation::default(), wavelengths_um);
         run.check()
-            .map_err(|(field, e)| source.error(field.scene_key(), e))?;
+            .map_err(|e| source.error(e.field().scene_key(), e))?;
         let (names, materials) = build_materials(&source, &self.materials, &run.wavelengths_um)?;
         let substrate =
             material_index(&source, &names, &self.surface.material, "surface.material")?;
@@ -855,7 +855,7 @@ impl MicroSceneSpec {
             tally.polarisation,
             tally.symmetry,
         )
-        .map_err(|(key, e)| source.error(key, e))?;
+        .map_err(|e| source.error(e.scene_key(), e))?;
 
         let surface = match field {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),

@@ -529,7 +529,8 @@ pub enum WavelengthsSpec {
     },
 }
 
-/// Why a grid of wavelengths (`{ from, to, step }`) cannot be expanded.
+/// Why a grid of wavelengths (`{ from, to, step }`) cannot be expanded, or
+/// the wavelengths of a list or grid are refused.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum WavelengthsError {
     /// A step that is not finite and > 0.
@@ -551,6 +552,21 @@ pub enum WavelengthsError {
         /// [`crate::transport::carrier::MAX_WAVELENGTHS`].
         max: usize,
     },
+    /// The wavelengths of the list or grid refused
+    /// ([`WavelengthsSpec::resolve`]).
+    #[error(transparent)]
+    List(#[from] crate::optics::spectrum::WavelengthListError),
+}
+
+impl WavelengthsError {
+    /// The index of the wavelength at fault (`None`: the whole key).
+    #[must_use]
+    pub fn index(&self) -> Option<usize> {
+        match self {
+            Self::List(e) => e.index(),
+            _ => None,
+        }
+    }
 }
 
 impl WavelengthsSpec {
@@ -587,10 +603,10 @@ impl WavelengthsSpec {
     /// [`crate::optics::spectrum::check_wavelengths`].
     ///
     /// # Errors
-    /// The index of the offending wavelength (`None`: the whole key) and
-    /// the message for the key.
-    pub fn resolve(&self) -> Result<Vec<f64>, (Option<usize>, String)> {
-        let values = self.expand().map_err(|e| (None, e.to_string()))?;
+    /// A bad grid, or [`WavelengthsError::List`] (its
+    /// [`WavelengthsError::index`] names the wavelength at fault).
+    pub fn resolve(&self) -> Result<Vec<f64>, WavelengthsError> {
+        let values = self.expand()?;
         crate::optics::spectrum::check_wavelengths(&values)?;
         Ok(values)
     }

@@ -463,7 +463,7 @@ impl ObjectSceneSpec {
         };
 
         let wavelengths_um = match &self.light.wavelengths_um {
-            Some(w) => w.resolve().map_err(|(i, e)| match i {
+            Some(w) => w.resolve().map_err(|e| match e.index() {
                 Some(i) => source.error(format!("light.wavelengths_um[{i}]"), e),
                 None => source.error("light.wavelengths_um", e),
             })?,

@@ -49,19 +49,29 @@ pub struct InPlaneTally {
 /// bound on the memory of every batch tally (16 bytes per bin).
 pub const MAX_BINS: usize = 18_000;
 
+/// Why an in-plane detector full width (degrees) is refused
+/// ([`InPlaneTally::width_error`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum WidthError {
+    /// Not in `(0, 180]`.
+    #[error("must be in (0, 180], got {}", Num(*.0))]
+    Range(f64),
+    /// So small that its half rounds to 0.
+    #[error("{0:e} is too small: its half rounds to 0 (at least 1e-323)")]
+    TooSmall(f64),
+}
+
 impl InPlaneTally {
-    /// The message for a detector full width (degrees) that
-    /// [`InPlaneTally::new`] would refuse as a half width, if it would: in
-    /// `(0, 180]`, and its half a positive number (not below 1e-323).
+    /// Why [`InPlaneTally::new`] would refuse half of the detector full
+    /// width `width_deg` (degrees), if it would: in `(0, 180]`, and its
+    /// half a positive number (not below 1e-323).
     #[must_use]
-    pub fn width_error(width_deg: f64) -> Option<String> {
+    pub fn width_error(width_deg: f64) -> Option<WidthError> {
         let half = 0.5 * width_deg;
         if !(width_deg > 0.0 && width_deg <= 180.0) {
-            Some(format!("must be in (0, 180], got {}", Num(width_deg)))
+            Some(WidthError::Range(width_deg))
         } else if !(half > 0.0 && half <= 90.0) {
-            Some(format!(
-                "{width_deg:e} is too small: its half rounds to 0 (at least 1e-323)"
-            ))
+            Some(WidthError::TooSmall(width_deg))
         } else {
             None
         }

@@ -11,6 +11,51 @@ use super::{Accumulator, PolarTallies};
 /// addition), far below 1e-9.
 pub const SUM_TOLERANCE: f64 = 1e-9;
 
+/// Why a Carlson cell's polarisation sums cannot be those of a run
+/// ([`check_sums`]), naming the cell.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SumsError {
+    /// The polarisation tallies have no sums for the cell.
+    #[error("has no sums for Carlson cell {cell}")]
+    Missing {
+        /// The Carlson cell.
+        cell: usize,
+    },
+    /// The Mueller sum is not a realisable Mueller matrix.
+    #[error("cell {cell}: the Mueller sum is not physical: {why}")]
+    Mueller {
+        /// The Carlson cell.
+        cell: usize,
+        /// What is not realisable
+        /// ([`crate::optics::brdf_table::unrealisable`]).
+        why: String,
+    },
+    /// The Stokes sum is polarised beyond its intensity.
+    #[error(
+        "cell {cell}: the Stokes sum has S0 = {s0} < |S1, S2, S3| = {polarised} (degree of polarisation above 1)"
+    )]
+    Stokes {
+        /// The Carlson cell.
+        cell: usize,
+        /// `S0`.
+        s0: f64,
+        /// `sqrt(S1² + S2² + S3²)`.
+        polarised: f64,
+    },
+    /// The intensity of the polarisation sums is not the Carlson sum.
+    #[error(
+        "cell {cell}: the polarisation sums give the intensity {intensity}, not the Carlson sum {carlson} of the same histories"
+    )]
+    Intensity {
+        /// The Carlson cell.
+        cell: usize,
+        /// The intensity of the polarisation sums.
+        intensity: f64,
+        /// The Carlson sum.
+        carlson: f64,
+    },
+}
+
 /// Why the polarisation sums `polar` (with the Carlson sums `carlson` of
 /// the same histories, and the run's incident Stokes vector `incident`,
 /// `S0 = 1`) cannot be those of a run, or `Ok`: per Carlson cell, a Stokes
@@ -22,25 +67,24 @@ pub const SUM_TOLERANCE: f64 = 1e-9;
 /// terms.
 ///
 /// # Errors
-/// The cell and the check, for a message after the file and key.
+/// The cell and the check ([`SumsError`]), for a message after the file
+/// and key.
 pub fn check_sums(
     polar: Option<&PolarTallies>,
     carlson: &Accumulator,
     incident: [f64; 4],
-) -> Result<(), String> {
+) -> Result<(), SumsError> {
     let Some(p) = polar else { return Ok(()) };
     let k = p.components;
     for (cell, &c) in carlson.sum.iter().enumerate() {
         let bin = p.cell_bin(cell, 0);
         let Some(v) = p.sums.sum.get(bin..bin + k) else {
-            return Err(format!("has no sums for Carlson cell {cell}"));
+            return Err(SumsError::Missing { cell });
         };
         let (intensity, scale) = if k == 16 {
             let m: [f64; 16] = v.try_into().expect("16 components");
             if let Some(why) = crate::optics::brdf_table::unrealisable(&m) {
-                return Err(format!(
-                    "cell {cell}: the Mueller sum is not physical: {why}"
-                ));
+                return Err(SumsError::Mueller { cell, why });
             }
             let i: f64 = (0..4).map(|j| m[j] * incident[j]).sum();
             let s: f64 = (0..4).map(|j| (m[j] * incident[j]).abs()).sum();
@@ -49,17 +93,20 @@ pub fn check_sums(
             let pol = (v[1] * v[1] + v[2] * v[2] + v[3] * v[3]).sqrt();
             let scale = v.iter().map(|x| x.abs()).sum::<f64>();
             if !(v[0] + SUM_TOLERANCE * scale >= pol) {
-                return Err(format!(
-                    "cell {cell}: the Stokes sum has S0 = {} < |S1, S2, S3| = {pol} (degree of polarisation above 1)",
-                    v[0]
-                ));
+                return Err(SumsError::Stokes {
+                    cell,
+                    s0: v[0],
+                    polarised: pol,
+                });
             }
             (v[0], scale)
         };
         if !((intensity - c).abs() <= SUM_TOLERANCE * (scale + c.abs()) + f64::MIN_POSITIVE) {
-            return Err(format!(
-                "cell {cell}: the polarisation sums give the intensity {intensity}, not the Carlson sum {c} of the same histories"
-            ));
+            return Err(SumsError::Intensity {
+                cell,
+                intensity,
+                carlson: c,
+            });
         }
     }
     Ok(())
@@ -90,9 +137,27 @@ mod tests {
         assert_eq!(check_sums(Some(&ok), &carlson(2.0), UNPOLARISED), Ok(()));
         let bad = tallies(4, &[2.0, 3.0, 0.0, 0.0]); // S1 = 1.5 S0
         let e = check_sums(Some(&bad), &carlson(2.0), UNPOLARISED).unwrap_err();
-        assert!(e.contains("degree of polarisation above 1"), "{e}");
+        assert_eq!(
+            e,
+            SumsError::Stokes {
+                cell: 0,
+                s0: 2.0,
+                polarised: 3.0
+            }
+        );
+        assert_eq!(
+            e.to_string(),
+            "cell 0: the Stokes sum has S0 = 2 < |S1, S2, S3| = 3 (degree of polarisation above 1)"
+        );
         let e = check_sums(Some(&ok), &carlson(2.1), UNPOLARISED).unwrap_err();
-        assert!(e.contains("not the Carlson sum"), "{e}");
+        assert_eq!(
+            e,
+            SumsError::Intensity {
+                cell: 0,
+                intensity: 2.0,
+                carlson: 2.1
+            }
+        );
         assert_eq!(check_sums(None, &carlson(2.1), UNPOLARISED), Ok(()));
     }
 
@@ -109,11 +174,14 @@ mod tests {
         // s light: intensity m00 + m01 = 0.5.
         let s = [1.0, 1.0, 0.0, 0.0];
         assert_eq!(check_sums(Some(&p), &carlson(0.5), s), Ok(()));
-        assert!(check_sums(Some(&p), &carlson(0.25), s).is_err());
+        assert!(matches!(
+            check_sums(Some(&p), &carlson(0.25), s),
+            Err(SumsError::Intensity { cell: 0, .. })
+        ));
         // m01 = 5 m00: unpolarised... and s-state outputs beyond DoP 1.
         m[1] = 1.25;
         m[4] = 1.25;
         let e = check_sums(Some(&tallies(16, &m)), &carlson(0.25), UNPOLARISED).unwrap_err();
-        assert!(e.contains("not physical"), "{e}");
+        assert!(matches!(e, SumsError::Mueller { cell: 0, .. }), "{e}");
     }
 }

@@ -26,6 +26,35 @@
 //! The tree is generic over the value summed: it knows nothing of what a
 //! tally holds (the caller passes the addition, e.g. [`super::Merge::merge`]).
 
+/// Why nodes cannot be pushed onto a [`DyadicSum`], or do not make its
+/// root: the node (level, index) and the batch concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum TreeError {
+    /// A node past the run's batches, or above its root.
+    #[error("tree node ({level}, {index}) outside the run's {batches} batches")]
+    Outside {
+        /// The node's level.
+        level: u32,
+        /// The node's index.
+        index: u64,
+        /// The run's batches.
+        batches: u64,
+    },
+    /// A node that does not start where the previous one ended.
+    #[error("tree node ({level}, {index}) does not follow batch {previous}")]
+    Gap {
+        /// The node's level.
+        level: u32,
+        /// The node's index.
+        index: u64,
+        /// The last batch of the previous node.
+        previous: u128,
+    },
+    /// The nodes pushed do not cover every batch.
+    #[error("the shards do not cover every batch of the run")]
+    Uncovered,
+}
+
 /// A complete node of the fixed dyadic tree over batch indices.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Node<T> {
@@ -75,8 +104,9 @@ impl<T> DyadicSum<T> {
     /// into left.
     ///
     /// # Errors
-    /// If the node is not contiguous with the previous one or lies past the run.
-    pub fn push(&mut self, node: Node<T>, merge: &impl Fn(&mut T, &T)) -> Result<(), String> {
+    /// [`TreeError::Gap`] if the node is not contiguous with the previous
+    /// one, [`TreeError::Outside`] if it lies past the run.
+    pub fn push(&mut self, node: Node<T>, merge: &impl Fn(&mut T, &T)) -> Result<(), TreeError> {
         self.push_with(node, &|left, right| merge(left, right), &mut drop)
     }
 
@@ -91,22 +121,22 @@ impl<T> DyadicSum<T> {
         node: Node<T>,
         merge: &impl Fn(&mut T, &mut T),
         spent: &mut impl FnMut(T),
-    ) -> Result<(), String> {
+    ) -> Result<(), TreeError> {
         if node.start() >= u128::from(self.batches) || node.level > self.root_level {
-            return Err(format!(
-                "tree node ({}, {}) outside the run's {} batches",
-                node.level, node.index, self.batches
-            ));
+            return Err(TreeError::Outside {
+                level: node.level,
+                index: node.index,
+                batches: self.batches,
+            });
         }
         if let Some(top) = self.stack.last() {
             let end = top.end().min(u128::from(self.batches));
             if node.start() != end {
-                return Err(format!(
-                    "tree node ({}, {}) does not follow batch {}",
-                    node.level,
-                    node.index,
-                    end.saturating_sub(1)
-                ));
+                return Err(TreeError::Gap {
+                    level: node.level,
+                    index: node.index,
+                    previous: end.saturating_sub(1),
+                });
             }
         }
         self.stack.push(node);
@@ -154,13 +184,13 @@ impl<T> DyadicSum<T> {
     /// The root: the sum over all batches.
     ///
     /// # Errors
-    /// If the pushed nodes do not cover every batch.
-    pub fn finish(mut self) -> Result<T, String> {
+    /// [`TreeError::Uncovered`] if the pushed nodes do not cover every batch.
+    pub fn finish(mut self) -> Result<T, TreeError> {
         match (self.stack.pop(), self.stack.is_empty()) {
             (Some(root), true) if root.level == self.root_level && root.index == 0 => {
                 Ok(root.value)
             }
-            _ => Err("the shards do not cover every batch of the run".into()),
+            _ => Err(TreeError::Uncovered),
         }
     }
 }
@@ -251,18 +281,27 @@ mod tests {
             &add,
         )
         .unwrap();
-        assert!(
-            s.push(
-                Node {
-                    level: 0,
-                    index: 2,
-                    value: 1.0
-                },
-                &add
-            )
-            .is_err()
+        let gap = s.push(
+            Node {
+                level: 0,
+                index: 2,
+                value: 1.0,
+            },
+            &add,
         );
-        assert!(s.clone().finish().is_err());
+        assert_eq!(
+            gap,
+            Err(TreeError::Gap {
+                level: 0,
+                index: 2,
+                previous: 0
+            })
+        );
+        assert_eq!(
+            gap.unwrap_err().to_string(),
+            "tree node (0, 2) does not follow batch 0"
+        );
+        assert_eq!(s.clone().finish(), Err(TreeError::Uncovered));
         s.push(
             Node {
                 level: 0,
@@ -272,16 +311,26 @@ mod tests {
             &add,
         )
         .unwrap();
-        assert!(
-            s.push(
-                Node {
-                    level: 0,
-                    index: 1,
-                    value: 1.0
-                },
-                &add
-            )
-            .is_err()
+        let again = s.push(
+            Node {
+                level: 0,
+                index: 1,
+                value: 1.0,
+            },
+            &add,
+        );
+        assert!(matches!(again, Err(TreeError::Gap { previous: 1, .. })));
+        let past = s.push(
+            Node {
+                level: 0,
+                index: 4,
+                value: 1.0,
+            },
+            &add,
+        );
+        assert_eq!(
+            past.unwrap_err().to_string(),
+            "tree node (0, 4) outside the run's 4 batches"
         );
     }
 }

@@ -26,13 +26,15 @@ use glam::DVec3;
 use rand::RngExt;
 
 use super::carrier::{Carrier, LaneCarrier, MAX_WAVELENGTHS, Polarised};
-use super::launch::{Lattices, Launch, replicate_stderr};
+use super::launch::{Lattices, Launch, PhotonsError, replicate_stderr};
 use super::micro::{Controls, Fate, History, trace};
 use super::order;
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
-use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
+use crate::optics::polarisation::{Incident, IncidentError, Stokes, hemisphere_reference};
+use crate::optics::spectrum::WavelengthListError;
 use crate::tally::exact;
+use crate::tally::inplane::WidthError;
 use crate::tally::lanes::{LaneSums, LaneTally};
 use crate::tally::polar::mirror_sign;
 use crate::tally::sum::{DyadicSum, Node};
@@ -208,6 +210,43 @@ pub struct ShardRange {
     pub last_photon: u64,
 }
 
+/// Why a scene's polarisation keys do not make a run
+/// ([`Polarisation::resolve`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum PolarisationError {
+    /// A polarisation tally with polarised transport turned off.
+    #[error(
+        "`{}` needs polarised transport, but [transport] polarisation = false",
+        polar_tally_name(*.0)
+    )]
+    TallyWithoutTransport(PolarTally),
+    /// Mirror symmetry with an incident state the mirror changes.
+    #[error(
+        "mirror symmetry maps the incident state `{}` to another (S2 or S3 non-zero): use an unpolarised, s, p or 0/90 deg linear state, or symmetry = \"none\"",
+        .0.name()
+    )]
+    MirrorChangesIncident(Incident),
+}
+
+impl PolarisationError {
+    /// The micro scene key at fault.
+    #[must_use]
+    pub fn scene_key(&self) -> &'static str {
+        match self {
+            Self::TallyWithoutTransport(_) => "tally.polarisation",
+            Self::MirrorChangesIncident(_) => "tally.symmetry",
+        }
+    }
+}
+
+/// The name of `tally` in a scene and on the command line (`stokes`).
+fn polar_tally_name(tally: PolarTally) -> String {
+    clap::ValueEnum::to_possible_value(&tally)
+        .expect("no variant is skipped")
+        .get_name()
+        .to_owned()
+}
+
 /// Polarisation settings of a run (`[light] polarisation`, `[tally]
 /// polarisation`, `[transport] polarisation`).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -230,36 +269,23 @@ impl Polarisation {
     /// polarisation tally is asked for.
     ///
     /// # Errors
-    /// `(key, message)` for a polarisation tally without polarised transport,
-    /// or mirror symmetry with an incident state that the mirror changes
-    /// (`S2` or `S3` non-zero).
+    /// [`PolarisationError`] (its [`PolarisationError::scene_key`] names the
+    /// key): a polarisation tally without polarised transport, or mirror
+    /// symmetry with an incident state that the mirror changes (`S2` or
+    /// `S3` non-zero).
     pub fn resolve(
         has_fresnel: bool,
         transport: Option<bool>,
         incident: Incident,
         tally: PolarTally,
         symmetry: Symmetry,
-    ) -> Result<Self, (&'static str, String)> {
+    ) -> Result<Self, PolarisationError> {
         if tally != PolarTally::None && transport == Some(false) {
-            return Err((
-                "tally.polarisation",
-                format!(
-                    "`{}` needs polarised transport, but [transport] polarisation = false",
-                    clap::ValueEnum::to_possible_value(&tally)
-                        .expect("no variant is skipped")
-                        .get_name()
-                ),
-            ));
+            return Err(PolarisationError::TallyWithoutTransport(tally));
         }
         let on = transport.unwrap_or(has_fresnel || tally != PolarTally::None);
         if on && symmetry == Symmetry::Mirror && !incident.is_mirror_symmetric() {
-            return Err((
-                "tally.symmetry",
-                format!(
-                    "mirror symmetry maps the incident state `{}` to another (S2 or S3 non-zero): use an unpolarised, s, p or 0/90 deg linear state, or symmetry = \"none\"",
-                    incident.name()
-                ),
-            ));
+            return Err(PolarisationError::MirrorChangesIncident(incident));
         }
         Ok(Self {
             transport: on,
@@ -696,28 +722,145 @@ pub fn toward_light(theta_deg: f64, phi_deg: f64) -> DVec3 {
 /// BRDF table holds one block per angle).
 ///
 /// # Errors
-/// The index of the offending angle (`None` for an empty list) and the
-/// message for the user.
-pub fn check_incidence(theta_deg: &[f64]) -> Result<(), (Option<usize>, String)> {
+/// The first problem, as an [`IncidenceError`].
+pub fn check_incidence(theta_deg: &[f64]) -> Result<(), IncidenceError> {
     if theta_deg.is_empty() {
-        return Err((None, "needs at least one angle".into()));
+        return Err(IncidenceError::Empty);
     }
-    if let Some((i, t)) = theta_deg
+    if let Some((index, &theta_deg)) = theta_deg
         .iter()
         .enumerate()
         .find(|(_, t)| !(t.is_finite() && (0.0..90.0).contains(*t)))
     {
-        return Err((Some(i), format!("must be in [0, 90), got {}", Num(*t))));
+        return Err(IncidenceError::Range { index, theta_deg });
     }
-    if let Some((i, t)) = first_repeat(theta_deg) {
-        return Err((
-            Some(i),
-            format!(
-                "{t} is given twice (each incidence angle once: a BRDF table holds one block per angle)"
-            ),
-        ));
+    if let Some((index, theta_deg)) = first_repeat(theta_deg) {
+        return Err(IncidenceError::Twice { index, theta_deg });
     }
     Ok(())
+}
+
+/// Why incidence angles are refused ([`check_incidence`]);
+/// [`IncidenceError::index`] names the angle at fault.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum IncidenceError {
+    /// No angle.
+    #[error("needs at least one angle")]
+    Empty,
+    /// An angle outside `[0, 90)` degrees.
+    #[error("must be in [0, 90), got {}", Num(*theta_deg))]
+    Range {
+        /// Its index in the list.
+        index: usize,
+        /// The angle (degrees).
+        theta_deg: f64,
+    },
+    /// An angle given twice.
+    #[error(
+        "{theta_deg} is given twice (each incidence angle once: a BRDF table holds one block per angle)"
+    )]
+    Twice {
+        /// The index of its second occurrence.
+        index: usize,
+        /// The angle (degrees).
+        theta_deg: f64,
+    },
+}
+
+impl IncidenceError {
+    /// The index of the angle at fault (`None`: the whole list).
+    #[must_use]
+    pub fn index(&self) -> Option<usize> {
+        match *self {
+            Self::Empty => None,
+            Self::Range { index, .. } | Self::Twice { index, .. } => Some(index),
+        }
+    }
+}
+
+/// Why a [`BrdfRun`] is refused ([`BrdfRun::check`]): the check that
+/// failed, with the values it concerns; [`RunError::field`] names the
+/// field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RunError {
+    /// `theta_deg`.
+    #[error(transparent)]
+    Incidence(#[from] IncidenceError),
+    /// `phi_deg` not finite.
+    #[error("must be finite")]
+    PhiDeg,
+    /// `wavelengths_um`.
+    #[error(transparent)]
+    Wavelengths(#[from] WavelengthListError),
+    /// `photons_per_incidence`.
+    #[error(transparent)]
+    Photons(#[from] PhotonsError),
+    /// `realisations` not in `1..=batches`.
+    #[error(
+        "must be in 1..={batches} (each realisation traces whole batches of {BATCH} of the {photons} photons per incidence), got {realisations}"
+    )]
+    Realisations {
+        /// The run's batches per incidence.
+        batches: u64,
+        /// Photons per incidence.
+        photons: u64,
+        /// The realisations asked for.
+        realisations: u64,
+    },
+    /// `bands` not in `1..=1000`.
+    #[error("must be in 1..=1000, got {0}")]
+    Bands(usize),
+    /// An in-plane step the tally refuses.
+    #[error(
+        "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {}",
+        crate::tally::inplane::MAX_BINS,
+        Num(*.0)
+    )]
+    InplaneStep(f64),
+    /// `inplane_width_deg`.
+    #[error(transparent)]
+    InplaneWidth(#[from] WidthError),
+    /// `controls.max_bounces` of 0.
+    #[error("must be > 0")]
+    MaxBounces,
+    /// `controls.max_segments` of 0.
+    #[error("must be > 0")]
+    MaxSegments,
+    /// `controls.roulette_weight` not in `[0, 1)`.
+    #[error("must be in [0, 1)")]
+    RouletteWeight,
+    /// `polarisation.incident` not a state.
+    #[error(transparent)]
+    Incident(#[from] IncidentError),
+    /// A polarisation tally without polarised transport.
+    #[error("a polarisation tally needs polarised transport")]
+    PolarTally,
+    /// Mirror symmetry with an incident state the mirror changes.
+    #[error("mirror symmetry needs an incident state the mirror keeps (S2 = S3 = 0)")]
+    Symmetry,
+}
+
+impl RunError {
+    /// The field at fault, with the index of the angle or wavelength.
+    #[must_use]
+    pub fn field(&self) -> RunField {
+        match self {
+            Self::Incidence(e) => RunField::ThetaDeg(e.index()),
+            Self::PhiDeg => RunField::PhiDeg,
+            Self::Wavelengths(e) => RunField::WavelengthsUm(e.index()),
+            Self::Photons(_) => RunField::Photons,
+            Self::Realisations { .. } => RunField::Realisations,
+            Self::Bands(_) => RunField::Bands,
+            Self::InplaneStep(_) => RunField::InplaneStepDeg,
+            Self::InplaneWidth(_) => RunField::InplaneWidthDeg,
+            Self::MaxBounces => RunField::MaxBounces,
+            Self::MaxSegments => RunField::MaxSegments,
+            Self::RouletteWeight => RunField::RouletteWeight,
+            Self::Incident(_) => RunField::Incident,
+            Self::PolarTally => RunField::PolarTally,
+            Self::Symmetry => RunField::Symmetry,
+        }
+    }
 }
 
 impl BrdfRun {
@@ -732,76 +875,52 @@ impl BrdfRun {
     /// state that is a state.
     ///
     /// # Errors
-    /// The field at fault ([`RunField`]: named as the scene key or the
-    /// file's key) and the message for the user.
-    pub fn check(&self) -> Result<(), (RunField, String)> {
-        if let Err((i, e)) = check_incidence(&self.theta_deg) {
-            return Err((RunField::ThetaDeg(i), e));
-        }
+    /// The check that failed ([`RunError`]; [`RunError::field`] names the
+    /// field, as the scene key or the file's key).
+    pub fn check(&self) -> Result<(), RunError> {
+        check_incidence(&self.theta_deg)?;
         if !self.phi_deg.is_finite() {
-            return Err((RunField::PhiDeg, "must be finite".into()));
+            return Err(RunError::PhiDeg);
         }
         if !self.wavelengths_um.is_empty() {
-            crate::optics::spectrum::check_wavelengths(&self.wavelengths_um)
-                .map_err(|(i, e)| (RunField::WavelengthsUm(i), e))?;
+            crate::optics::spectrum::check_wavelengths(&self.wavelengths_um)?;
         }
-        super::launch::check_photons(self.launch, self.photons)
-            .map_err(|e| (RunField::Photons, e.to_string()))?;
+        super::launch::check_photons(self.launch, self.photons)?;
         let batches = self.photons.div_ceil(BATCH);
         if self.realisations == 0 || self.realisations > batches {
-            return Err((
-                RunField::Realisations,
-                format!(
-                    "must be in 1..={batches} (each realisation traces whole batches of {BATCH} of the {} photons per incidence), got {}",
-                    self.photons, self.realisations
-                ),
-            ));
+            return Err(RunError::Realisations {
+                batches,
+                photons: self.photons,
+                realisations: self.realisations,
+            });
         }
         if !(1..=1000).contains(&self.bands) {
-            return Err((
-                RunField::Bands,
-                format!("must be in 1..=1000, got {}", self.bands),
-            ));
+            return Err(RunError::Bands(self.bands));
         }
         let step = self.inplane_step_deg;
         if InPlaneTally::new(step, 0.5, 0.0).is_none() {
-            return Err((
-                RunField::InplaneStepDeg,
-                format!(
-                    "must divide 180 into at most {} bins (a step of at least 0.01 deg), got {}",
-                    crate::tally::inplane::MAX_BINS,
-                    Num(step)
-                ),
-            ));
+            return Err(RunError::InplaneStep(step));
         }
         if let Some(e) = InPlaneTally::width_error(self.inplane_width_deg) {
-            return Err((RunField::InplaneWidthDeg, e));
+            return Err(e.into());
         }
         if self.controls.max_bounces == 0 {
-            return Err((RunField::MaxBounces, "must be > 0".into()));
+            return Err(RunError::MaxBounces);
         }
         if self.controls.max_segments == 0 {
-            return Err((RunField::MaxSegments, "must be > 0".into()));
+            return Err(RunError::MaxSegments);
         }
         let rr = self.controls.roulette_weight;
         if !(0.0..1.0).contains(&rr) {
-            return Err((RunField::RouletteWeight, "must be in [0, 1)".into()));
+            return Err(RunError::RouletteWeight);
         }
         let p = &self.polarisation;
-        p.incident
-            .validate()
-            .map_err(|e| (RunField::Incident, e.to_string()))?;
+        p.incident.validate()?;
         if p.tally != PolarTally::None && !p.transport {
-            return Err((
-                RunField::PolarTally,
-                "a polarisation tally needs polarised transport".into(),
-            ));
+            return Err(RunError::PolarTally);
         }
         if p.transport && self.symmetry == Symmetry::Mirror && !p.incident.is_mirror_symmetric() {
-            return Err((
-                RunField::Symmetry,
-                "mirror symmetry needs an incident state the mirror keeps (S2 = S3 = 0)".into(),
-            ));
+            return Err(RunError::Symmetry);
         }
         Ok(())
     }
@@ -1616,20 +1735,24 @@ mod tests {
     #[test]
     fn incidence_angles() {
         assert_eq!(check_incidence(&[0.0, 45.0, 89.9]), Ok(()));
+        let message = |t: &[f64]| {
+            let e = check_incidence(t).unwrap_err();
+            (e.index(), e.to_string())
+        };
+        assert_eq!(message(&[]), (None, "needs at least one angle".into()));
         assert_eq!(
-            check_incidence(&[]),
-            Err((None, "needs at least one angle".into()))
+            message(&[10.0, 90.0]),
+            (Some(1), "must be in [0, 90), got 90".into())
         );
         assert_eq!(
-            check_incidence(&[10.0, 90.0]),
-            Err((Some(1), "must be in [0, 90), got 90".into()))
+            message(&[-1e-300]),
+            (Some(0), "must be in [0, 90), got -1e-300".into())
         );
-        assert_eq!(
-            check_incidence(&[-1e-300]),
-            Err((Some(0), "must be in [0, 90), got -1e-300".into()))
-        );
-        assert!(check_incidence(&[f64::NAN]).is_err());
-        let (i, e) = check_incidence(&[10.0, 20.0, 10.0]).unwrap_err();
+        assert!(matches!(
+            check_incidence(&[f64::NAN]),
+            Err(IncidenceError::Range { index: 0, .. })
+        ));
+        let (i, e) = message(&[10.0, 20.0, 10.0]);
         assert_eq!(i, Some(2));
         assert!(e.starts_with("10 is given twice"), "{e}");
     }

@@ -50,10 +50,10 @@ use crate::micro::Scratch;
 use crate::object::Object;
 use crate::object::source::Beam;
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
-use crate::shard::Shard;
+use crate::shard::{Shard, ShardError};
 use crate::tally::Merge;
 use crate::tally::carlson::Cells;
-use crate::tally::sum::{DyadicSum, Node};
+use crate::tally::sum::{DyadicSum, Node, TreeError};
 use crate::tally::{Accumulator, CarlsonGrid};
 
 pub use super::BATCH;
@@ -410,7 +410,7 @@ impl PositionNodes {
     ///
     /// # Errors
     /// When the nodes do not cover every batch (a shard's).
-    pub fn into_root(self, zero: &dyn Fn() -> ObjectTallies) -> Result<PositionResult, String> {
+    pub fn into_root(self, zero: &dyn Fn() -> ObjectTallies) -> Result<PositionResult, TreeError> {
         Ok(PositionResult {
             beam: self.beam,
             wavelength_um: self.wavelength_um,
@@ -430,7 +430,7 @@ pub fn root(
     nodes: Vec<Node<ObjectTallies>>,
     batches: u64,
     zero: &dyn Fn() -> ObjectTallies,
-) -> Result<ObjectTallies, String> {
+) -> Result<ObjectTallies, TreeError> {
     if batches == 0 && nodes.is_empty() {
         return Ok(zero());
     }
@@ -450,16 +450,19 @@ pub fn root(
 /// where the shard has none).
 ///
 /// # Errors
-/// When there are fewer batches than shards.
-pub fn shard_blocks(photons: &[u64], shard: Shard) -> Result<Vec<std::ops::Range<u64>>, String> {
+/// [`ShardError::TooManyOverPositions`]: fewer batches than shards.
+pub fn shard_blocks(
+    photons: &[u64],
+    shard: Shard,
+) -> Result<Vec<std::ops::Range<u64>>, ShardError> {
     let total: u64 = photons
         .iter()
         .fold(0, |a: u64, n| a.saturating_add(n.div_ceil(BATCH)));
     if shard.count > total {
-        return Err(format!(
-            "{} shards but only {total} batches of {BATCH} photons over the beam positions: use at most {total} shards or more photons",
-            shard.count
-        ));
+        return Err(ShardError::TooManyOverPositions {
+            shards: shard.count,
+            batches: total,
+        });
     }
     let at = |i: u64| (u128::from(i) * u128::from(total) / u128::from(shard.count)) as u64;
     let (b0, b1) = (at(shard.index), at(shard.index + 1));
@@ -907,7 +910,13 @@ mod tests {
                 index: 0,
                 count: total + 1,
             };
-            assert!(shard_blocks(&photons, over).is_err());
+            assert_eq!(
+                shard_blocks(&photons, over),
+                Err(ShardError::TooManyOverPositions {
+                    shards: total + 1,
+                    batches: total
+                })
+            );
         }
     }
 

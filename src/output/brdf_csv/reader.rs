@@ -51,7 +51,7 @@ use thiserror::Error;
 
 use super::{COLUMNS, HEADER, SPECTRAL_HEADER};
 use crate::optics::brdf_table::{
-    BlockData, BrdfTable, BrdfTables, MAX_FRACTION, SpectralTables, TableError,
+    BlockData, BrdfTable, BrdfTables, BrdfValuesError, MAX_FRACTION, SpectralTables,
 };
 use crate::tally::CarlsonGrid;
 
@@ -305,7 +305,7 @@ pub enum BrdfTableError {
     },
     /// An incidence angle twice, or fractions that create light.
     #[error(transparent)]
-    Table(#[from] TableError),
+    Table(#[from] BrdfValuesError),
     /// A column derived from others (`brdf = fraction / projected solid
     /// angle`, `brdf_stderr` alike) that does not match them: a row edited
     /// or cut short.
@@ -612,7 +612,7 @@ fn monochrome(
             } else {
                 (&pair[1], &pair[0])
             };
-            return Err(TableError::Duplicate {
+            return Err(BrdfValuesError::Duplicate {
                 file: name.to_owned(),
                 line: b.start,
                 first: a.start,
@@ -632,7 +632,7 @@ fn monochrome(
         })
         .collect();
     BrdfTable::from_checked(grid, data, name.to_owned()).map_err(|mut e| {
-        if let TableError::Sum { column, .. } = &mut e {
+        if let BrdfValuesError::Sum { column, .. } = &mut e {
             if fraction_column > 0 {
                 *column = fraction_column;
             }
