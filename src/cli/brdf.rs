@@ -7,7 +7,7 @@ use clap::Args;
 
 use super::Failure;
 use super::common::{TracingArgs, progress_bar, result_dir, set_threads, stats_grid, write_folder};
-use super::export_brdf::export_tables_of;
+use super::export_brdf::{check_export_formats, export_formats};
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::micro::surface_stats::surface_stats;
@@ -121,10 +121,7 @@ impl BrdfArgs {
 pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let scene = a.scene()?;
     let mut run = scene.brdf_run();
-    for f in &a.export {
-        f.check_wavelengths(&run.wavelengths_um)
-            .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
-    }
+    check_export_formats(&a.export, &run.wavelengths_um)?;
     let (rx, ry) = stats_grid(
         &scene,
         a.stats_resolution,
@@ -176,21 +173,8 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let folder = BrdfFolder::traced(description, results, clock.elapsed().as_secs_f64());
     bar.finish_and_clear();
 
-    let mut extra = Vec::new();
-    if !a.export.is_empty() {
-        let table = folder.table();
-        let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
-        for (k, &f) in a.export.iter().enumerate() {
-            // Each format once, in the order given.
-            if !a.export[..k].contains(&f) {
-                for file in
-                    export_tables_of(&table, f, &comment, a.quiet, "--export", &scene.surface)?
-                {
-                    extra.push((file.file_name, file.bytes));
-                }
-            }
-        }
-    }
+    let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
+    let extra = export_formats(&folder, &a.export, &comment, a.quiet, Some(&scene.surface))?;
     let mut files = folder.files(extra);
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     files.push(("surface.png".into(), surface));

@@ -26,6 +26,7 @@ use crate::export::brdf_formats::{
     reflectance_check,
 };
 use crate::optics::brdf_table::BrdfTables;
+use crate::output::brdf_folder::BrdfFolder;
 
 /// The options of `roks export-brdf`.
 #[derive(Args, Debug)]
@@ -297,24 +298,51 @@ pub fn export_rgl(
     }])
 }
 
-/// [`export_tables`] for `roks brdf --export`, which has the micro
-/// `surface`: an rgl file gets the NDF of its facets ([`export_rgl`]).
+/// Refuse `--export` formats (of `roks brdf`, `roks merge`) that cannot
+/// hold a run of wavelengths `wavelengths_um` (empty: monochrome), before
+/// any work ([`BrdfFormat::check_wavelengths`]).
+///
+/// # Errors
+/// Bad input naming `--export` and the format.
+pub fn check_export_formats(formats: &[BrdfFormat], wavelengths_um: &[f64]) -> Result<(), Failure> {
+    for f in formats {
+        f.check_wavelengths(wavelengths_um)
+            .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
+    }
+    Ok(())
+}
+
+/// The files of the `--export` formats `formats` (of `roks brdf`, `roks
+/// merge`) of the result `folder`'s table, `(file name, bytes)`: each
+/// format once, in the order given, with `comment` in their headers and
+/// judged as [`export_tables`] judges them; an rgl file gets the NDF of
+/// the micro `surface` when there is one ([`export_rgl`]).
 ///
 /// # Errors
 /// As [`export_tables`].
-pub fn export_tables_of(
-    tables: &BrdfTables,
-    format: BrdfFormat,
+pub fn export_formats(
+    folder: &BrdfFolder,
+    formats: &[BrdfFormat],
     comment: &str,
     quiet: bool,
-    option: &str,
-    surface: &crate::micro::MicroSurface,
-) -> Result<Vec<ExportFile>, Failure> {
-    if format == BrdfFormat::Rgl {
-        export_rgl(tables, comment, quiet, Some(surface))
-    } else {
-        export_tables(tables, format, comment, quiet, option)
+    surface: Option<&crate::micro::MicroSurface>,
+) -> Result<Vec<(String, Vec<u8>)>, Failure> {
+    if formats.is_empty() {
+        return Ok(Vec::new());
     }
+    let tables = folder.table();
+    let mut files = Vec::new();
+    for (k, &format) in formats.iter().enumerate() {
+        if formats[..k].contains(&format) {
+            continue;
+        }
+        let exported = match (format, surface) {
+            (BrdfFormat::Rgl, Some(surface)) => export_rgl(&tables, comment, quiet, Some(surface))?,
+            _ => export_tables(&tables, format, comment, quiet, "--export")?,
+        };
+        files.extend(exported.into_iter().map(|f| (f.file_name, f.bytes)));
+    }
+    Ok(files)
 }
 
 /// The export of `tables` in `format` ([`BrdfFormat::export_tables`]), with

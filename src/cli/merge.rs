@@ -9,7 +9,7 @@ use clap::Args;
 use super::Failure;
 use super::brdf::print_table;
 use super::common::{check_out_dir, load_scene, write_folder};
-use super::export_brdf::{export_tables, export_tables_of};
+use super::export_brdf::{check_export_formats, export_formats};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::output::object_tallies;
@@ -71,32 +71,16 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
             a.dirs[0].display(),
         ))
     })?;
-    for f in &a.export {
-        f.check_wavelengths(&merged.description.run.wavelengths_um)
-            .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
-    }
+    check_export_formats(&a.export, &merged.description.run.wavelengths_um)?;
     let scene = merged.description.scene.clone();
     let photons = merged.description.run.photons;
     let folder = BrdfFolder::merged(merged);
-    let mut extra = Vec::new();
-    if !a.export.is_empty() {
-        let table = folder.table();
-        let name = &folder.description.name;
-        let comment = format!("scene {name}, {photons} photons per angle");
-        for (k, &f) in a.export.iter().enumerate() {
-            // Each format once, in the order given.
-            if a.export[..k].contains(&f) {
-                continue;
-            }
-            let files = match rgl_surface(f, &scene) {
-                Some(surface) => {
-                    export_tables_of(&table, f, &comment, a.quiet, "--export", &surface)?
-                }
-                None => export_tables(&table, f, &comment, a.quiet, "--export")?,
-            };
-            extra.extend(files.into_iter().map(|file| (file.file_name, file.bytes)));
-        }
-    }
+    let comment = format!(
+        "scene {}, {photons} photons per angle",
+        folder.description.name
+    );
+    let surface = rgl_surface(&a.export, &scene);
+    let extra = export_formats(&folder, &a.export, &comment, a.quiet, surface.as_ref())?;
     let mut files = folder.files(extra);
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     // The surface's picture comes from the micro geometry, not the sums:
@@ -115,10 +99,10 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
 
 /// The micro surface whose NDF an rgl export of merged shards writes: that
 /// of the scene file `scene` the shards name (the embedded default for
-/// `<default scene>`), when `format` is rgl and the file loads; `None`
+/// `<default scene>`), when `formats` hold rgl and the file loads; `None`
 /// otherwise.
-fn rgl_surface(format: BrdfFormat, scene: &str) -> Option<crate::micro::MicroSurface> {
-    if format != BrdfFormat::Rgl {
+fn rgl_surface(formats: &[BrdfFormat], scene: &str) -> Option<crate::micro::MicroSurface> {
+    if !formats.contains(&BrdfFormat::Rgl) {
         return None;
     }
     let path = (scene != "<default scene>").then(|| std::path::Path::new(scene));

@@ -479,8 +479,9 @@ pub struct MicroScene {
     /// What the scene is made of: its text and the files it reads, hashed.
     pub content: Content,
     /// The files the scene reads, as reached from the working folder: the
-    /// scene file itself (loaded from a file) and every file it names (n, k
-    /// tables, angle tables, height maps). No output may replace one
+    /// scene file itself (loaded from a file) and the files its content
+    /// identity hashes ([`MicroSceneSpec::files`]: n, k tables, angle
+    /// tables, height maps). No output may replace one
     /// ([`crate::cli::common::check_kept`]).
     pub reads: Vec<PathBuf>,
 }
@@ -646,7 +647,7 @@ impl MicroScene {
             .ok()
             .and_then(|text| parse_toml::<MicroSceneSpec>(&source, &text).ok());
         if let Some(spec) = spec {
-            reads.extend(spec.files().into_iter().map(|(_, f)| source.dir.join(f)));
+            reads.extend(source.paths(&spec.files()));
         }
         reads
     }
@@ -713,10 +714,7 @@ impl MicroScene {
             .build(source, fallback_name)
             .map_err(|e| overrides.blame(e))?;
         scene.content = Content::of(&scene.source, text, &files)?;
-        scene.reads = files
-            .iter()
-            .map(|(_, f)| scene.source.dir.join(f))
-            .collect();
+        scene.reads = scene.source.paths(&files);
         Ok(scene)
     }
 

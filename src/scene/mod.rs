@@ -97,6 +97,15 @@ impl Source {
         }
     }
 
+    /// The files `files` (`(key, path relative to the scene's folder)`:
+    /// the list a scene's [`Content`] hashes) as reached from the working
+    /// folder: what the scene reads, which no output may replace
+    /// ([`crate::cli::common::check_kept`]).
+    #[must_use]
+    pub fn paths(&self, files: &[(String, String)]) -> Vec<PathBuf> {
+        files.iter().map(|(_, f)| self.dir.join(f)).collect()
+    }
+
     /// Refuse at `key` when `bytes`, the estimate for `what` (e.g. "periodic
     /// ghost copies"), exceed the memory limit ([`crate::limits`]).
     pub fn check_memory(&self, key: &str, what: &str, bytes: u64) -> Result<(), SceneError> {
@@ -128,8 +137,8 @@ impl Content {
     pub fn of(source: &Source, text: &str, files: &[(String, String)]) -> Result<Self, SceneError> {
         let files = files
             .iter()
-            .map(|(key, file)| {
-                let path = source.dir.join(file);
+            .zip(source.paths(files))
+            .map(|((key, _), path)| {
                 sha256_file(&path)
                     .map(|h| (key.clone(), h))
                     .map_err(|e| source.error(key, format!("{}: cannot read: {e}", path.display())))

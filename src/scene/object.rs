@@ -313,10 +313,11 @@ pub struct ObjectScene {
     /// What to run (photons per position is per source; see `photons`).
     pub run: ObjectRun,
     /// The files the scene reads, as reached from the working folder: the
-    /// scene file (loaded from a file), every file its models name (n, k
-    /// and angle tables), each `micro` wall's scene and its files, and each
-    /// `brdf` wall's `brdf.csv` with the `summary.json` and `mueller.csv`
-    /// beside it. No output may replace one
+    /// scene file (loaded from a file) and the files its content identity
+    /// hashes ([`ObjectSceneSpec::files`]: every file its models name, n, k
+    /// and angle tables, each `micro` wall's scene and its files, each
+    /// `brdf` wall's table with the `summary.json` and `mueller.csv` beside
+    /// it). No output may replace one
     /// ([`crate::cli::common::check_kept`]).
     pub reads: Vec<PathBuf>,
     /// SHA-256 of the scene text and of every file it reads
@@ -367,6 +368,7 @@ impl ObjectScene {
         let files = spec.files(&source);
         let mut scene = spec.build(source, fallback_name)?;
         scene.content = super::Content::of(&scene.source, text, &files)?;
+        scene.reads = scene.source.paths(&files);
         Ok(scene)
     }
 }
@@ -472,14 +474,12 @@ impl ObjectSceneSpec {
         let lanes = wavelengths_um.len().max(1) as u64;
         let model_names: Vec<String> = self.models.keys().cloned().collect();
         let mut models = Vec::new();
-        let mut reads = Vec::new();
         for (name, m) in &self.models {
             models.push(m.build(
                 &source,
                 &format!("models.{name}"),
                 controls,
                 &wavelengths_um,
-                &mut reads,
             )?);
         }
         let mut walls: Walls = vec![None; surface_names.len()];
@@ -693,7 +693,7 @@ impl ObjectSceneSpec {
             beam_source,
             photons,
             run,
-            reads,
+            reads: Vec::new(),
             content: super::Content::default(),
         })
     }
@@ -712,14 +712,14 @@ impl ModelSpec {
         }
     }
 
-    /// The wall model at `key`; the files it reads are added to `reads`.
+    /// The wall model at `key` (the files it reads are listed by
+    /// [`ObjectSceneSpec::files`]).
     fn build(
         &self,
         source: &Source,
         key: &str,
         controls: Controls,
         wavelengths_um: &[f64],
-        reads: &mut Vec<PathBuf>,
     ) -> Result<WallModel, SceneError> {
         let ideal = self.specular.is_some() || self.diffuse.is_some();
         let kinds = [
@@ -746,7 +746,6 @@ impl ModelSpec {
             };
             let scene = MicroScene::load_with(&path, &overrides)
                 .map_err(|e| source.error(format!("{key}.micro"), e.to_string()))?;
-            reads.extend(scene.reads.iter().cloned());
             if at.is_none() && !scene.run.wavelengths_um.is_empty() {
                 return Err(source.error(
                     format!("{key}.micro"),
@@ -766,13 +765,6 @@ impl ModelSpec {
         }
         if let Some(file) = &self.brdf {
             let path = source.dir.join(file);
-            reads.extend(
-                ["brdf.csv", "summary.json", "mueller.csv"]
-                    .map(|f| path.with_file_name(f))
-                    .into_iter()
-                    .filter(|p| *p != path),
-            );
-            reads.push(path.clone());
             return brdf_wall(source, &format!("{key}.brdf"), &path, wavelengths_um);
         }
         if ideal {
@@ -799,12 +791,6 @@ impl ModelSpec {
         // Fresnel, table and constant reflectance share the material builder.
         let material = self.material();
         let r: Reflectance = material.build(source, key, wavelengths_um)?;
-        reads.extend(
-            material
-                .files(key)
-                .into_iter()
-                .map(|(_, f)| source.dir.join(f)),
-        );
         Ok(WallModel::Specular(r))
     }
 }
