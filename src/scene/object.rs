@@ -938,3 +938,85 @@ fn position_memory_bytes(
     let tallies = 16 * sums + 256;
     (tallies + 200 + 100 * cells, 64 * tallies)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The files an object scene keeps from being overwritten (`reads`)
+    /// are the scene and exactly the files its content identity hashes:
+    /// a `micro` wall's scene and the angle table that scene names (in its
+    /// own folder), and an angle-table wall's table.
+    #[test]
+    fn reads_are_the_files_the_content_hashes() {
+        let dir = std::env::temp_dir().join(format!("roks-object-reads-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("m")).unwrap();
+        let table = "angle_deg,reflectance\n0,0.5\n90,1\n";
+        std::fs::write(dir.join("m/r.csv"), table).unwrap();
+        std::fs::write(dir.join("r2.csv"), table).unwrap();
+        std::fs::write(
+            dir.join("m/micro.toml"),
+            r#"[surface]
+size = [30.0, 30.0]
+material = "m"
+[materials.m]
+table = "r.csv"
+[[bumps]]
+shape = "ellipsoid"
+count = 4
+radius = 2.5
+height = 1.0
+seed = 1
+"#,
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("obj.toml"),
+            r#"[quadrics]
+top = { plane = [0.0, 0.0, 1.0, 0.0] }
+ball = { sphere = { center = [0.0, 0.0, -10.0], r = 100.0 } }
+[[cells]]
+name = "body"
+region = "-top -ball"
+fill = "solid"
+[[cells]]
+name = "air"
+region = "+top"
+fill = "void"
+[walls]
+top = "t"
+ball = "u"
+[models.t]
+micro = "m/micro.toml"
+[models.u]
+table = "r2.csv"
+[[sources]]
+beam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }
+position = [0.0, 0.0, 10.0]
+photons = 1000
+"#,
+        )
+        .unwrap();
+        let scene = ObjectScene::load(&dir.join("obj.toml")).unwrap();
+        let keys: Vec<&str> = scene.content.files.keys().map(String::as_str).collect();
+        assert_eq!(
+            keys,
+            [
+                "models.t.micro",
+                "models.t.micro.materials.m.table",
+                "models.u.table"
+            ]
+        );
+        let canonical = |p: &Path| std::fs::canonicalize(p).unwrap();
+        let mut reads: Vec<PathBuf> = scene.reads.iter().map(|p| canonical(p)).collect();
+        reads.sort();
+        let mut expected: Vec<PathBuf> = ["obj.toml", "m/micro.toml", "m/r.csv", "r2.csv"]
+            .iter()
+            .map(|f| canonical(&dir.join(f)))
+            .collect();
+        expected.sort();
+        assert_eq!(reads, expected);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
