@@ -135,19 +135,19 @@ mod tests {
     fn stokes_sums_beyond_full_polarisation_are_refused() {
         let ok = tallies(4, &[2.0, 1.2, 1.6, 0.0]); // fully polarised
         assert_eq!(check_sums(Some(&ok), &carlson(2.0), UNPOLARISED), Ok(()));
-        let bad = tallies(4, &[2.0, 3.0, 0.0, 0.0]); // S1 = 1.5 S0
+        let bad = tallies(4, &[2.0, 3.0, 4.0, 0.0]); // |S1, S2| = 2.5 S0
         let e = check_sums(Some(&bad), &carlson(2.0), UNPOLARISED).unwrap_err();
         assert_eq!(
             e,
             SumsError::Stokes {
                 cell: 0,
                 s0: 2.0,
-                polarised: 3.0
+                polarised: 5.0
             }
         );
         assert_eq!(
             e.to_string(),
-            "cell 0: the Stokes sum has S0 = 2 < |S1, S2, S3| = 3 (degree of polarisation above 1)"
+            "cell 0: the Stokes sum has S0 = 2 < |S1, S2, S3| = 5 (degree of polarisation above 1)"
         );
         let e = check_sums(Some(&ok), &carlson(2.1), UNPOLARISED).unwrap_err();
         assert_eq!(
