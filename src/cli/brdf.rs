@@ -35,6 +35,11 @@ pub struct BrdfArgs {
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
     pub theta: Option<Vec<f64>>,
+    /// Light azimuths in degrees, comma-separated, each in [0, 360) (overrides
+    /// [light] phi_deg): every incidence angle is traced at each, and every
+    /// result file gains the azimuth.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
+    pub phi: Option<Vec<f64>>,
     /// Wavelengths in um, carried by every photon (overrides [light]
     /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
     /// (0.38:0.78:0.01). Results get a wavelength_um column.
@@ -95,6 +100,7 @@ impl BrdfArgs {
             photons: self.tracing.photons,
             seed: self.tracing.seed,
             theta_deg: self.theta.clone(),
+            phi_deg: self.phi.clone(),
             wavelengths_um: self.wavelengths.clone(),
             launch: self.launch,
             symmetry: self.symmetry,
@@ -165,7 +171,9 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     );
     let per_angle = photons.end - photons.start;
     let bar = progress_bar(
-        per_angle.saturating_mul(description.run.theta_deg.len() as u64),
+        per_angle.saturating_mul(
+            (description.run.theta_deg.len() * description.run.phi_deg.len()) as u64,
+        ),
         a.quiet,
         &scene.name,
     );
@@ -340,6 +348,13 @@ mod tests {
                 "theta_deg",
                 list(&[0.0, 45.0]),
             ),
+            (vec!["--phi", "30"], "light", "phi_deg", V::Float(30.0)),
+            (
+                vec!["--phi", "0,90,45"],
+                "light",
+                "phi_deg",
+                list(&[0.0, 90.0, 45.0]),
+            ),
             (
                 vec!["--wavelengths", "0.45,0.55"],
                 "light",
@@ -444,6 +459,14 @@ mod tests {
         assert_eq!(
             refusal(&["--theta", "10,20,10"]),
             "--theta: angle 3: 10 is given twice (each incidence angle once: a BRDF table holds one block per angle)"
+        );
+        assert_eq!(
+            refusal(&["--phi", "0,360"]),
+            "--phi: azimuth 2: must be in [0, 360), got 360"
+        );
+        assert_eq!(
+            refusal(&["--phi", "90,0,90"]),
+            "--phi: azimuth 3: 90 is given twice (each light azimuth once: a BRDF table holds one block per incidence and azimuth)"
         );
         assert_eq!(
             refusal(&["--photons", "9007199254740993"]),

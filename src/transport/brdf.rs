@@ -66,9 +66,11 @@ pub struct BrdfRun {
     pub inplane_width_deg: f64,
     /// Entry points: random, or lattice replicates.
     pub launch: Launch,
-    /// Incidence azimuth (degrees).
-    pub phi_deg: f64,
-    /// Photons per incidence angle of the whole run (of all its shards).
+    /// Light azimuths (degrees, [`Azimuths`]): every incidence angle is
+    /// traced at each, `photons` photons per incidence and azimuth.
+    pub phi_deg: Azimuths,
+    /// Photons per incidence angle and light azimuth of the whole run (of
+    /// all its shards).
     #[serde(rename = "photons_per_incidence")]
     pub photons: u64,
     /// Polarised transport, incident state and polarisation tallies.
@@ -101,14 +103,114 @@ fn is_one(n: &u64) -> bool {
     *n == 1
 }
 
+/// The light azimuths of a run (degrees, from the `+x` axis toward `+y`;
+/// `[light] phi_deg`, `--phi`): one or several, each finite, in
+/// `[0, 360)` and given once ([`Azimuths::check`]). A scene gives a number
+/// or a list; the run's files (`summary.json`, `tallies.json`) hold a
+/// number for one azimuth (the files of a one-azimuth run are those of
+/// the runs before several azimuths) and a list for several.
+///
+/// Azimuth `a` (0-based, in the order given) is traced with the seed
+/// [`BrdfRun::azimuth_seed`]: photon `n` of azimuth `a` draws from the
+/// stream `(seed + a * 0xD1B54A32D192ED03, n)`, so the first azimuth's
+/// photons are those of a run at that azimuth alone (bit for bit), and the
+/// azimuths' tables are statistically independent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Azimuths(pub Vec<f64>);
+
+impl Azimuths {
+    /// One azimuth.
+    #[must_use]
+    pub fn one(phi_deg: f64) -> Self {
+        Self(vec![phi_deg])
+    }
+
+    /// Check the list: at least one azimuth, each finite and in
+    /// `[0, 360)`, none given twice.
+    ///
+    /// # Errors
+    /// The index of the offending azimuth (`None` for an empty list) and
+    /// the message for the user.
+    pub fn check(&self) -> Result<(), (Option<usize>, String)> {
+        if self.0.is_empty() {
+            return Err((None, "needs at least one azimuth".into()));
+        }
+        if let Some((i, p)) = self
+            .0
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !(p.is_finite() && (0.0..360.0).contains(*p)))
+        {
+            return Err((Some(i), format!("must be in [0, 360), got {}", Num(*p))));
+        }
+        if let Some((i, p)) = first_repeat(&self.0) {
+            return Err((
+                Some(i),
+                format!(
+                    "{p} is given twice (each light azimuth once: a BRDF table holds one block per incidence and azimuth)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl std::ops::Deref for Azimuths {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.0
+    }
+}
+
+impl serde::Serialize for Azimuths {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self.0.as_slice() {
+            [one] => s.serialize_f64(*one),
+            many => many.serialize(s),
+        }
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Azimuths {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = Azimuths;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or a list of numbers (degrees)")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Azimuths, E> {
+                Ok(Azimuths::one(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Azimuths, E> {
+                Ok(Azimuths::one(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Azimuths, E> {
+                Ok(Azimuths::one(v as f64))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<Azimuths, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = seq.next_element::<f64>()? {
+                    v.push(x);
+                }
+                Ok(Azimuths(v))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
 /// A checked field of a [`BrdfRun`] ([`BrdfRun::check`]), with its index
 /// in a list where it has one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RunField {
     /// `theta_deg` (an angle of it).
     ThetaDeg(Option<usize>),
-    /// `phi_deg`.
-    PhiDeg,
+    /// `phi_deg` (an azimuth of it).
+    PhiDeg(Option<usize>),
     /// `wavelengths_um` (a wavelength of it).
     WavelengthsUm(Option<usize>),
     /// `photons_per_incidence`.
@@ -143,7 +245,7 @@ impl RunField {
     pub fn scene_key(self) -> String {
         let (key, index) = match self {
             Self::ThetaDeg(i) => ("light.theta_deg", i),
-            Self::PhiDeg => ("light.phi_deg", None),
+            Self::PhiDeg(i) => ("light.phi_deg", i),
             Self::WavelengthsUm(i) => ("light.wavelengths_um", i),
             Self::Photons => ("light.photons", None),
             Self::Bands => ("tally.bands", None),
@@ -166,7 +268,7 @@ impl RunField {
     pub fn run_key(self) -> String {
         let (key, index) = match self {
             Self::ThetaDeg(i) => ("theta_deg", i),
-            Self::PhiDeg => ("phi_deg", None),
+            Self::PhiDeg(i) => ("phi_deg", i),
             Self::WavelengthsUm(i) => ("wavelengths_um", i),
             Self::Photons => ("photons_per_incidence", None),
             Self::Bands => ("bands", None),
@@ -438,8 +540,8 @@ struct Spare {
 
 /// The result of tracing a run's photons ([`BrdfRun::trace`]), nested as
 /// incidence x light azimuth x wavelength: `incidence[i].azimuth[a]
-/// .wavelength[l]` is the leaf of `run.theta_deg[i]`, the light azimuth `a`
-/// (one, `run.phi_deg`, until a run has several) and
+/// .wavelength[l]` is the leaf of `run.theta_deg[i]`, the light azimuth
+/// `run.phi_deg[a]` and
 /// `run.wavelengths_um[l]` (the one lane of a monochrome run).
 #[derive(Debug, Clone)]
 pub struct BrdfResult {
@@ -562,10 +664,10 @@ pub struct RealisationResult {
 
 impl RealisationResult {
     /// The reflectance of the realisation summed in `tallies`.
-    fn of(tallies: BrdfTallies, theta_deg: f64, run: &BrdfRun) -> Self {
+    fn of(tallies: BrdfTallies, theta_deg: f64, phi_deg: f64) -> Self {
         let r = IncidenceResult {
             theta_i_deg: theta_deg,
-            phi_i_deg: run.phi_deg,
+            phi_i_deg: phi_deg,
             wavelength_um: None,
             tallies,
             nodes: Vec::new(),
@@ -738,9 +840,9 @@ impl BrdfRun {
         if let Err((i, e)) = check_incidence(&self.theta_deg) {
             return Err((RunField::ThetaDeg(i), e));
         }
-        if !self.phi_deg.is_finite() {
-            return Err((RunField::PhiDeg, "must be finite".into()));
-        }
+        self.phi_deg
+            .check()
+            .map_err(|(i, e)| (RunField::PhiDeg(i), e))?;
         if !self.wavelengths_um.is_empty() {
             crate::optics::spectrum::check_wavelengths(&self.wavelengths_um)
                 .map_err(|(i, e)| (RunField::WavelengthsUm(i), e))?;
@@ -828,7 +930,11 @@ impl BrdfRun {
         let k = self.polarisation.tally.components() as u64;
         let tallies = self.tally_bytes();
         let batches = self.photons.div_ceil(BATCH).max(1);
-        let incidences = product(&[self.theta_deg.len() as u64, self.lane_count() as u64]);
+        let incidences = product(&[
+            self.theta_deg.len() as u64,
+            self.phi_deg.len() as u64,
+            self.lane_count() as u64,
+        ]);
         let live = batches.min(super::pending_batches(tallies, 1))
             + u64::from(64 - batches.leading_zeros())
             + 1
@@ -846,12 +952,8 @@ impl BrdfRun {
     pub fn tally_bytes(&self) -> u64 {
         use crate::limits::product;
         let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
-        let bins = InPlaneTally::new(
-            self.inplane_step_deg,
-            0.5 * self.inplane_width_deg,
-            self.phi_deg.to_radians(),
-        )
-        .map_or(0, |t| t.n_bins()) as u64;
+        let bins = InPlaneTally::new(self.inplane_step_deg, 0.5 * self.inplane_width_deg, 0.0)
+            .map_or(0, |t| t.n_bins()) as u64;
         let replicates = self.launch.replicates().unwrap_or(0);
         let per_bin = 16 + 8 * replicates;
         let k = self.polarisation.tally.components() as u64;
@@ -885,15 +987,32 @@ impl BrdfRun {
         )
     }
 
-    /// The in-plane tally of this run.
+    /// The in-plane tally of this run at its first light azimuth (its
+    /// bins, their centres and solid angles are those of every azimuth).
     #[must_use]
     pub fn inplane(&self) -> InPlaneTally {
+        self.inplane_at(self.phi_deg[0])
+    }
+
+    /// The in-plane tally of this run in the plane of incidence at light
+    /// azimuth `phi_deg` (degrees).
+    #[must_use]
+    pub fn inplane_at(&self, phi_deg: f64) -> InPlaneTally {
         InPlaneTally::new(
             self.inplane_step_deg,
             0.5 * self.inplane_width_deg,
-            self.phi_deg.to_radians(),
+            phi_deg.to_radians(),
         )
         .expect("in-plane settings checked by the scene")
+    }
+
+    /// The seed azimuth `a` (an index of `phi_deg`) is traced with:
+    /// `seed + a * 0xD1B54A32D192ED03` (wrapping; the run's seed for the
+    /// first azimuth). See [`Azimuths`].
+    #[must_use]
+    pub fn azimuth_seed(&self, a: usize) -> u64 {
+        self.seed
+            .wrapping_add((a as u64).wrapping_mul(0xD1B5_4A32_D192_ED03))
     }
 
     /// Trace the photons `photons` (a range of photon indices that starts
@@ -943,49 +1062,64 @@ impl BrdfRun {
         let incidence = self
             .theta_deg
             .iter()
-            .map(|&theta| {
-                let clock = Instant::now();
-                let mut lanes = vec![Vec::new(); self.lane_count()];
-                for (r, surface) in (0..).zip(surfaces) {
-                    let (b0, b1) = self.realisation_batches(r);
-                    let part = (b0 * BATCH).max(photons.start)..(b1 * BATCH).min(photons.end);
-                    if part.is_empty() {
-                        continue;
-                    }
-                    let nodes = self.run_nodes(surface, theta, part, progress);
-                    for (all, some) in lanes.iter_mut().zip(nodes) {
-                        all.extend(some);
-                    }
-                }
-                let seconds = clock.elapsed().as_secs_f64();
-                let wavelength = lanes
-                    .into_iter()
-                    .enumerate()
-                    .map(|(l, nodes)| IncidenceResult {
-                        theta_i_deg: theta,
-                        phi_i_deg: self.phi_deg,
-                        wavelength_um: self.wavelength(l),
-                        tallies: add_up(&self.combine(nodes.iter()))
-                            .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
-                        realisations: self.realisation_results(theta, &nodes),
-                        nodes,
-                        seconds,
-                    })
-                    .collect();
-                ByIncidence {
-                    theta_i_deg: theta,
-                    azimuth: vec![ByAzimuth {
-                        phi_i_deg: self.phi_deg,
-                        wavelength,
-                    }],
-                }
+            .map(|&theta| ByIncidence {
+                theta_i_deg: theta,
+                azimuth: (0..self.phi_deg.len())
+                    .map(|a| self.trace_azimuth(surfaces, theta, a, &photons, progress))
+                    .collect(),
             })
             .collect();
         BrdfResult { incidence }
     }
 
+    /// Trace the photons `photons` of incidence `theta` at light azimuth
+    /// `a` (an index of `phi_deg`), realisation by realisation
+    /// ([`BrdfRun::trace_realisations`]).
+    fn trace_azimuth(
+        &self,
+        surfaces: &[&MicroSurface],
+        theta: f64,
+        a: usize,
+        photons: &std::ops::Range<u64>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> ByAzimuth {
+        let phi = self.phi_deg[a];
+        let clock = Instant::now();
+        let mut lanes = vec![Vec::new(); self.lane_count()];
+        for (r, surface) in (0..).zip(surfaces) {
+            let (b0, b1) = self.realisation_batches(r);
+            let part = (b0 * BATCH).max(photons.start)..(b1 * BATCH).min(photons.end);
+            if part.is_empty() {
+                continue;
+            }
+            let nodes = self.run_nodes(surface, theta, a, part, progress);
+            for (all, some) in lanes.iter_mut().zip(nodes) {
+                all.extend(some);
+            }
+        }
+        let seconds = clock.elapsed().as_secs_f64();
+        let wavelength = lanes
+            .into_iter()
+            .enumerate()
+            .map(|(l, nodes)| IncidenceResult {
+                theta_i_deg: theta,
+                phi_i_deg: phi,
+                wavelength_um: self.wavelength(l),
+                tallies: add_up(&self.combine(nodes.iter()))
+                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
+                realisations: self.realisation_results(theta, phi, &nodes),
+                nodes,
+                seconds,
+            })
+            .collect();
+        ByAzimuth {
+            phi_i_deg: phi,
+            wavelength,
+        }
+    }
+
     /// With several realisations, each one's reflectance at incidence
-    /// `theta_deg` from the tree `nodes` of a trace or of merged shards, in
+    /// `theta_deg` (and light azimuth `phi_deg`) from the tree `nodes` of a trace or of merged shards, in
     /// batch order, each within one realisation's block: realisation `r`'s
     /// sums are its nodes pushed into the run's tree and added left to
     /// right (so a shard split anywhere gives the same bits). Empty for one
@@ -994,6 +1128,7 @@ impl BrdfRun {
     pub fn realisation_results(
         &self,
         theta_deg: f64,
+        phi_deg: f64,
         nodes: &[Node<BrdfTallies>],
     ) -> Vec<RealisationResult> {
         if self.realisations <= 1 {
@@ -1007,7 +1142,7 @@ impl BrdfRun {
                     .filter(|n| n.start() >= u128::from(b0) && n.start() < u128::from(b1));
                 let sums = add_up(&self.combine(inside))
                     .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
-                RealisationResult::of(sums, theta_deg, self)
+                RealisationResult::of(sums, theta_deg, phi_deg)
             })
             .collect()
     }
@@ -1058,7 +1193,8 @@ impl BrdfRun {
             .map_or(0..self.photons, |s| s.first_photon..s.last_photon)
     }
 
-    /// Trace the photons `photons` of one incidence angle in batches (batch
+    /// Trace the photons `photons` of one incidence angle and light azimuth
+    /// `a` (an index of `phi_deg`) in batches (batch
     /// `k` of the range is batch `photons.start / BATCH + k` of the run),
     /// in parallel, and reduce them in batch order over the fixed tree;
     /// returns its complete nodes, one list per wavelength. Large surfaces
@@ -1067,11 +1203,12 @@ impl BrdfRun {
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
+        a: usize,
         photons: std::ops::Range<u64>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Vec<Node<BrdfTallies>>> {
         let ordered = order::pays(surface);
-        self.run_nodes_in(surface, theta_deg, photons, ordered, progress)
+        self.run_nodes_in(surface, theta_deg, a, photons, ordered, progress)
     }
 
     /// [`BrdfRun::run_nodes`], in Morton order if `ordered`.
@@ -1079,6 +1216,7 @@ impl BrdfRun {
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
+        a: usize,
         photons: std::ops::Range<u64>,
         ordered: bool,
         progress: &(dyn Fn(u64) + Sync),
@@ -1086,8 +1224,9 @@ impl BrdfRun {
         let base = photons.start / BATCH;
         let total_batches = self.photons.div_ceil(BATCH);
         let grid = Locator::new(self.grid());
-        let inplane = self.inplane();
-        let dir = -toward_light(theta_deg, self.phi_deg);
+        let phi_deg = self.phi_deg[a];
+        let inplane = self.inplane_at(phi_deg);
+        let dir = -toward_light(theta_deg, phi_deg);
         let mut sums: Vec<_> = (0..self.lane_count())
             .map(|_| DyadicSum::new(total_batches))
             .collect();
@@ -1111,6 +1250,8 @@ impl BrdfRun {
             locator: &grid,
             inplane: &inplane,
             dir,
+            phi: phi_deg.to_radians(),
+            seed: self.azimuth_seed(a),
             ordered,
             photons,
             spare: &spare,
@@ -1223,20 +1364,21 @@ impl BrdfRun {
             locator,
             inplane,
             dir,
+            phi,
+            seed,
             ordered,
             ref photons,
             spare,
         } = *args;
-        let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
+        let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(seed));
         let tally_bytes = self.tally_bytes();
-        let phi = self.phi_deg.to_radians();
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi), self.lane_count());
         // Photon n's stream (after the entry draws) and entry point.
         let (first, last) = (photons.start, photons.end);
         let entry = |n: u64| {
             let g = first + n;
-            let mut rng = photon_rng(self.seed, g);
+            let mut rng = photon_rng(seed, g);
             let (mut u, mut v): (f64, f64) = (rng.random(), rng.random());
             let mut replicate = 0;
             if let Some(lattices) = &lattices {
@@ -1271,7 +1413,7 @@ impl BrdfRun {
             // score each photon in turn, batch by batch.
             let batch = |range: std::ops::Range<u64>| {
                 let mut scratch = Scratch::new(surface);
-                self.score_batch(locator, inplane, spare, |score| {
+                self.score_batch(locator, inplane, phi, spare, |score| {
                     for n in range {
                         let e = entry(n);
                         let (h, tests) = history(&e, &mut scratch);
@@ -1291,7 +1433,7 @@ impl BrdfRun {
             || Scratch::new(surface),
             history,
             |_, visit| {
-                self.score_batch(locator, inplane, spare, |score| {
+                self.score_batch(locator, inplane, phi, spare, |score| {
                     visit(&mut |e, (h, tests)| score(e.replicate, h, *tests));
                 })
             },
@@ -1301,13 +1443,16 @@ impl BrdfRun {
     }
 
     /// The tally of a batch from its photons' lattice replicates, histories
-    /// and the intersection tests each took, in photon index order:
+    /// and the intersection tests each took, in photon index order, at the
+    /// light azimuth `phi` (radians: the plane of incidence of the mirror
+    /// and the polarisation frames):
     /// `photons(score)` calls `score(replicate, history, tests)` for each
     /// (by reference: a spectral carrier is large).
     fn score_batch<C: Carrier>(
         &self,
         locator: &Locator,
         inplane: &InPlaneTally,
+        phi: f64,
         spare: &Spare,
         photons: impl FnOnce(&mut dyn FnMut(usize, &History<C>, u64)),
     ) -> Vec<BrdfTallies> {
@@ -1322,7 +1467,6 @@ impl BrdfRun {
                 })
                 .collect()
         };
-        let phi = self.phi_deg.to_radians();
         let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
         let mut components = [0.0; 16];
@@ -1412,6 +1556,10 @@ struct TraceArgs<'a> {
     inplane: &'a InPlaneTally,
     /// The incident flight (unit, z < 0).
     dir: DVec3,
+    /// The light azimuth (radians).
+    phi: f64,
+    /// The azimuth's tracing seed ([`BrdfRun::azimuth_seed`]).
+    seed: u64,
     /// Trace in the Morton order of the entry points.
     ordered: bool,
     /// The photon indices traced.
