@@ -17,7 +17,7 @@ use crate::scene::WavelengthsSpec;
 use crate::scene::micro::{MicroScene, Overrides};
 use crate::shard::Shard;
 use crate::tally::{PolarTally, Symmetry};
-use crate::transport::brdf::{BrdfResult, IncidenceResult, ShardRange};
+use crate::transport::brdf::{IncidenceResult, ShardRange};
 use crate::transport::launch::Launch;
 
 /// The options of `roks brdf`.
@@ -205,28 +205,37 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     write_folder(&out, &files)?;
 
     if !a.quiet {
-        print_table(&folder.results);
+        print_table(&folder);
         eprintln!("wrote {} ({:.1} s)", out.display(), folder.seconds);
     }
     Ok(())
 }
 
-/// The table of results per incidence angle, on stderr (also `roks merge`).
-pub fn print_table(results: &BrdfResult) {
+/// The table of results per incidence angle (and light azimuth, with
+/// several), on stderr (also `roks merge`); with several azimuths, the
+/// anisotropy figure ([`crate::tally::anisotropy`]) after it.
+pub fn print_table(folder: &BrdfFolder) {
+    let results = &folder.results;
+    let azimuths = folder.run().phi_deg.len() > 1;
     let spectral = results.iter().any(|r| r.wavelength_um.is_some());
-    let lambda = |r: &IncidenceResult| match r.wavelength_um {
-        Some(w) => format!(" {w:>8}"),
-        None => String::new(),
+    let lambda = |r: &IncidenceResult| {
+        let mut s = String::new();
+        if azimuths {
+            s += &format!(" {:>7}", r.phi_i_deg);
+        }
+        if let Some(w) = r.wavelength_um {
+            s += &format!(" {w:>8}");
+        }
+        s
     };
+    let columns = format!(
+        "{}{}",
+        if azimuths { "   phi_i" } else { "" },
+        if spectral { "  lambda_um" } else { "" }
+    );
     eprintln!(
         "{:>9}{} {:>12} {:>10} {:>8} {:>9} {:>12}",
-        "theta_i",
-        if spectral { "  lambda_um" } else { "" },
-        "reflectance",
-        "stderr",
-        "bounces",
-        "lost",
-        "Msegments/s"
+        "theta_i", columns, "reflectance", "stderr", "bounces", "lost", "Msegments/s"
     );
     for r in results {
         let (refl, se) = r.reflectance();
@@ -246,7 +255,7 @@ pub fn print_table(results: &BrdfResult) {
         eprintln!(
             "{:>9}{} {:>12} {:>14} {:>14}  ({} realisations)",
             "theta_i",
-            if spectral { "  lambda_um" } else { "" },
+            columns,
             "spread",
             "surface_spread",
             "monte_carlo",
@@ -268,6 +277,13 @@ pub fn print_table(results: &BrdfResult) {
                 );
             }
         }
+    }
+    if let Some(a) = results.anisotropy(&folder.run().grid()) {
+        let f = &a.figure;
+        eprintln!(
+            "anisotropy: chi2/dof {:.3} over {} cells of {} pairs of azimuths (isotropic within 4 sigma below {:.3}; p = {:.2e})",
+            f.chi2_dof, f.dof, a.pair_count, f.bound, f.p_value
+        );
     }
 }
 

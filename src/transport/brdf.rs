@@ -32,6 +32,7 @@ use super::order;
 use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Incident, Stokes, hemisphere_reference};
+use crate::tally::anisotropy::{Anisotropy, Group, Table};
 use crate::tally::exact;
 use crate::tally::lanes::{LaneSums, LaneTally};
 use crate::tally::polar::mirror_sign;
@@ -606,6 +607,53 @@ impl BrdfResult {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// How far the tables depart from isotropy
+    /// ([`crate::tally::anisotropy`]): every pair of light azimuths at each
+    /// incidence and wavelength, tables on `grid` (the run's); `None` for
+    /// one azimuth.
+    #[must_use]
+    pub fn anisotropy(&self, grid: &CarlsonGrid) -> Option<Anisotropy> {
+        // Per leaf: its fractions and standard errors per cell.
+        type Columns = (Vec<f64>, Vec<f64>);
+        let columns = |r: &IncidenceResult| -> Columns {
+            let n = r.tallies.photons;
+            (0..grid.n_cells())
+                .map(|c| (r.tallies.carlson.mean(c, n), r.carlson_stderr(c)))
+                .unzip()
+        };
+        let mut groups = Vec::new();
+        let mut held: Vec<Vec<(f64, Columns)>> = Vec::new();
+        for inc in &self.incidence {
+            let lanes = inc.azimuth.first().map_or(0, |a| a.wavelength.len());
+            for l in 0..lanes {
+                held.push(
+                    inc.azimuth
+                        .iter()
+                        .map(|a| (a.phi_i_deg, columns(&a.wavelength[l])))
+                        .collect(),
+                );
+                groups.push((inc.theta_i_deg, inc.azimuth[0].wavelength[l].wavelength_um));
+            }
+        }
+        let groups: Vec<Group> = groups
+            .into_iter()
+            .zip(&held)
+            .map(|((theta_i_deg, wavelength_um), tables)| Group {
+                theta_i_deg,
+                wavelength_um,
+                tables: tables
+                    .iter()
+                    .map(|(phi_deg, (f, s))| Table {
+                        phi_deg: *phi_deg,
+                        fraction: f,
+                        stderr: s,
+                    })
+                    .collect(),
+            })
+            .collect();
+        Anisotropy::of(grid, &groups)
     }
 
     /// The leaves in file order, owned.
