@@ -263,18 +263,20 @@ mod tests {
         let shape = |d: f64| 2.0 + d.to_radians().cos();
         let e = vec![0.1; grid.n_cells()];
         let (fa, fb) = (table(&grid, 10.0, shape), table(&grid, 40.0, shape));
-        let t = |phi_deg, f: &'_ [f64]| Table {
-            phi_deg,
-            fraction: f,
-            stderr: &e,
-        };
-        let same = compare(&grid, &t(10.0, &fa), &t(40.0, &fb));
+        fn t<'a>(phi_deg: f64, f: &'a [f64], e: &'a [f64]) -> Table<'a> {
+            Table {
+                phi_deg,
+                fraction: f,
+                stderr: e,
+            }
+        }
+        let same = compare(&grid, &t(10.0, &fa, &e), &t(40.0, &fb, &e));
         assert_eq!(same.dof, (4 * 3 + 4 * 6) as u64);
         assert!(same.chi2 < 1e-20, "{same:?}");
         assert!(same.isotropic());
         // The table lit from 40 degrees that stays the one of 10 degrees:
         // cell k against cell k + s, each term (f(k) − f(k + s))² / 0.02.
-        let fixed = compare(&grid, &t(10.0, &fa), &t(40.0, &fa));
+        let fixed = compare(&grid, &t(10.0, &fa, &e), &t(40.0, &fa, &e));
         let mut want = 0.0;
         for j in [3, 6] {
             let s = j / 3;

@@ -1874,8 +1874,9 @@ mod tests {
             run.symmetry = symmetry;
             run.polarisation.tally = tally;
             run.polarisation.transport = tally != PolarTally::None;
-            let nodes =
-                |ordered| run.run_nodes_in(&scene.surface, 60.0, 0..run.photons, ordered, &|_| {});
+            let nodes = |ordered| {
+                run.run_nodes_in(&scene.surface, 60.0, 0, 0..run.photons, ordered, &|_| {})
+            };
             let (by_index, by_morton) = (nodes(false), nodes(true));
             assert!(by_index[0][0].value.photons > 0);
             assert_eq!(by_index, by_morton, "{tally:?} {launch:?} {symmetry:?}");
