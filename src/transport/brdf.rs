@@ -617,32 +617,38 @@ impl BrdfResult {
     pub fn anisotropy(&self, grid: &CarlsonGrid) -> Option<Anisotropy> {
         // Per leaf: its fractions and standard errors per cell.
         type Columns = (Vec<f64>, Vec<f64>);
+        // An incidence, its wavelength and each azimuth's columns.
+        type Held = (f64, Option<f64>, Vec<(f64, Columns)>);
         let columns = |r: &IncidenceResult| -> Columns {
             let n = r.tallies.photons;
             (0..grid.n_cells())
                 .map(|c| (r.tallies.carlson.mean(c, n), r.carlson_stderr(c)))
                 .unzip()
         };
-        let mut groups = Vec::new();
-        let mut held: Vec<Vec<(f64, Columns)>> = Vec::new();
-        for inc in &self.incidence {
-            let lanes = inc.azimuth.first().map_or(0, |a| a.wavelength.len());
-            for l in 0..lanes {
-                held.push(
-                    inc.azimuth
-                        .iter()
-                        .map(|a| (a.phi_i_deg, columns(&a.wavelength[l])))
-                        .collect(),
-                );
-                groups.push((inc.theta_i_deg, inc.azimuth[0].wavelength[l].wavelength_um));
-            }
-        }
-        let groups: Vec<Group> = groups
-            .into_iter()
-            .zip(&held)
-            .map(|((theta_i_deg, wavelength_um), tables)| Group {
-                theta_i_deg,
-                wavelength_um,
+        // Per incidence and wavelength: each azimuth's columns.
+        let columns = &columns;
+        let held: Vec<Held> = self
+            .incidence
+            .iter()
+            .flat_map(|inc| {
+                let lanes = inc.azimuth.first().map_or(0, |a| a.wavelength.len());
+                (0..lanes).map(move |l| {
+                    let tables = inc.azimuth.iter();
+                    (
+                        inc.theta_i_deg,
+                        inc.azimuth[0].wavelength[l].wavelength_um,
+                        tables
+                            .map(|a| (a.phi_i_deg, columns(&a.wavelength[l])))
+                            .collect(),
+                    )
+                })
+            })
+            .collect();
+        let groups: Vec<Group> = held
+            .iter()
+            .map(|(theta_i_deg, wavelength_um, tables)| Group {
+                theta_i_deg: *theta_i_deg,
+                wavelength_um: *wavelength_um,
                 tables: tables
                     .iter()
                     .map(|(phi_deg, (f, s))| Table {
