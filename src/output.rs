@@ -121,6 +121,23 @@ pub fn dop_file(theta_i_deg: f64) -> String {
     format!("dop_{}deg.png", number_label(theta_i_deg))
 }
 
+/// The file name `name` of a picture of one incidence (`<what>_<θ>deg...`)
+/// for light azimuth `phi_i_deg` of a run with several:
+/// `_phi<φ>` after the incidence's `deg` (`hemisphere_30deg.png` at 45
+/// degrees: `hemisphere_30deg_phi45.png`); `name` itself for `None` (a run of one azimuth).
+#[must_use]
+pub fn at_azimuth(name: &str, phi_i_deg: Option<f64>) -> String {
+    match (phi_i_deg, name.find("deg")) {
+        (Some(phi), Some(k)) => format!(
+            "{}_phi{}{}",
+            &name[..k + 3],
+            number_label(phi),
+            &name[k + 3..]
+        ),
+        _ => name.to_owned(),
+    }
+}
+
 /// File name of the hemisphere map of incidence `theta_i_deg`.
 #[must_use]
 pub fn hemisphere_file(theta_i_deg: f64) -> String {
@@ -137,6 +154,15 @@ mod tests {
     #[test]
     fn number_labels() {
         assert_eq!(hemisphere_file(30.0), "hemisphere_30deg.png");
+        assert_eq!(
+            at_azimuth(&hemisphere_file(30.0), Some(22.5)),
+            "hemisphere_30deg_phi22.5.png"
+        );
+        assert_eq!(
+            at_azimuth("mueller_stderr_10deg_0.55um.png", Some(0.0)),
+            "mueller_stderr_10deg_phi0_0.55um.png"
+        );
+        assert_eq!(at_azimuth("dop_10deg.png", None), "dop_10deg.png");
         assert_eq!(dop_file(89.9999999), "dop_89.9999999deg.png");
         assert_eq!(number_label(0.1 + 0.2), "0.30000000000000004");
         assert_eq!(hemisphere_file(1e-300), "hemisphere_1e-300deg.png");

@@ -980,6 +980,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--seed",
             "--threads",
             "--theta",
+            "--phi",
             "--wavelengths",
             "--launch",
             "--symmetry",

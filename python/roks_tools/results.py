@@ -114,6 +114,13 @@ SPECTRAL_HEADERS = {
 }
 """The columns of the files of a spectral run (`wavelength_um` added), by file name."""
 
+AZIMUTH_INPLANE_COLUMNS = ("theta_i_deg", "phi_i_deg", "theta_o_deg", "brdf", "brdf_stderr")
+AZIMUTH_HEADERS = {
+    "inplane.csv": (AZIMUTH_INPLANE_COLUMNS, _spectral(AZIMUTH_INPLANE_COLUMNS, "phi_i_deg")),
+}
+"""The columns of a file that has `phi_i_deg` only for a run of several light
+azimuths (mono and spectral), by file name."""
+
 EXTRA_POLAR_COLUMN = re.compile(r"^[ms][0-3]{1,2}[a-z0-9_]*$")
 """Columns that may follow the known ones of stokes.csv / mueller.csv (e.g.
 standard errors of the normalised elements, `m01_norm_stderr`): read into
@@ -223,7 +230,8 @@ def read_columns(path: str | Path, columns: tuple[str, ...] | None = None) -> di
     if columns is not None:
         accept = (tuple(columns),)
     elif path.name in HEADERS:
-        accept = tuple(h for h in (HEADERS[path.name], SPECTRAL_HEADERS.get(path.name)) if h)
+        accept = tuple(h for h in (HEADERS[path.name], SPECTRAL_HEADERS.get(path.name),
+                                   *AZIMUTH_HEADERS.get(path.name, ())) if h)
     else:
         accept = None
     header, data = _table_text(path, accept)
@@ -231,9 +239,10 @@ def read_columns(path: str | Path, columns: tuple[str, ...] | None = None) -> di
 
 
 def _table(cls, path: Path, **extra):
-    """The dataclass `cls` from its file (mono or spectral header), shape-checked."""
-    accept = tuple(h for h in (HEADERS[cls.FILE],
-                               SPECTRAL_HEADERS.get(cls.FILE)) if h)
+    """The dataclass `cls` from its file (mono or spectral header, or a
+    run of several light azimuths'), shape-checked."""
+    accept = tuple(h for h in (HEADERS[cls.FILE], SPECTRAL_HEADERS.get(cls.FILE),
+                               *AZIMUTH_HEADERS.get(cls.FILE, ())) if h)
     header, data = _table_text(path, accept)
     names = {f.name for f in fields(cls)}
     obj = cls(path=path, **{c: data[:, i] for i, c in enumerate(header) if c in names}, **extra)
@@ -411,13 +420,16 @@ class InPlane(_Spectral):
     brdf: np.ndarray
     brdf_stderr: np.ndarray
     wavelength_um: np.ndarray | None = None
+    phi_i_deg: np.ndarray | None = None
+    """The light azimuth of a run of several (`None`: one azimuth, in summary.json)."""
 
     @classmethod
     def read(cls, path: str | Path) -> "InPlane":
         return _table(cls, Path(path))
 
     def _check(self):
-        keys = [self.theta_i_deg] + ([self.wavelength_um] if self.wavelength_um is not None else [])
+        keys = ([self.theta_i_deg] + ([self.phi_i_deg] if self.phi_i_deg is not None else [])
+                + ([self.wavelength_um] if self.wavelength_um is not None else []))
         size = _blocks(self.path, keys, "incidence")
         bins = self.theta_o_deg.reshape(-1, size)
         if not np.all(bins == bins[0]) or not np.all(np.diff(bins[0]) > 0):

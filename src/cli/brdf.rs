@@ -17,7 +17,7 @@ use crate::scene::WavelengthsSpec;
 use crate::scene::micro::{MicroScene, Overrides};
 use crate::shard::Shard;
 use crate::tally::{PolarTally, Symmetry};
-use crate::transport::brdf::{BrdfResult, IncidenceResult, ShardRange};
+use crate::transport::brdf::{IncidenceResult, ShardRange};
 use crate::transport::launch::Launch;
 
 /// The options of `roks brdf`.
@@ -35,6 +35,11 @@ pub struct BrdfArgs {
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
     pub theta: Option<Vec<f64>>,
+    /// Light azimuths in degrees, comma-separated, each in [0, 360) (overrides
+    /// [light] phi_deg): every incidence angle is traced at each, and every
+    /// result file gains the azimuth.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
+    pub phi: Option<Vec<f64>>,
     /// Wavelengths in um, carried by every photon (overrides [light]
     /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
     /// (0.38:0.78:0.01). Results get a wavelength_um column.
@@ -95,6 +100,7 @@ impl BrdfArgs {
             photons: self.tracing.photons,
             seed: self.tracing.seed,
             theta_deg: self.theta.clone(),
+            phi_deg: self.phi.clone(),
             wavelengths_um: self.wavelengths.clone(),
             launch: self.launch,
             symmetry: self.symmetry,
@@ -162,7 +168,9 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     );
     let per_angle = photons.end - photons.start;
     let bar = progress_bar(
-        per_angle.saturating_mul(description.run.theta_deg.len() as u64),
+        per_angle.saturating_mul(
+            (description.run.theta_deg.len() * description.run.phi_deg.len()) as u64,
+        ),
         a.quiet,
         &scene.name,
     );
@@ -181,28 +189,37 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     write_folder(&out, &files)?;
 
     if !a.quiet {
-        print_table(&folder.results);
+        print_table(&folder);
         eprintln!("wrote {} ({:.1} s)", out.display(), folder.seconds);
     }
     Ok(())
 }
 
-/// The table of results per incidence angle, on stderr (also `roks merge`).
-pub fn print_table(results: &BrdfResult) {
+/// The table of results per incidence angle (and light azimuth, with
+/// several), on stderr (also `roks merge`); with several azimuths, the
+/// anisotropy figure ([`crate::tally::anisotropy`]) after it.
+pub fn print_table(folder: &BrdfFolder) {
+    let results = &folder.results;
+    let azimuths = folder.run().phi_deg.len() > 1;
     let spectral = results.iter().any(|r| r.wavelength_um.is_some());
-    let lambda = |r: &IncidenceResult| match r.wavelength_um {
-        Some(w) => format!(" {w:>8}"),
-        None => String::new(),
+    let lambda = |r: &IncidenceResult| {
+        let mut s = String::new();
+        if azimuths {
+            s += &format!(" {:>7}", r.phi_i_deg);
+        }
+        if let Some(w) = r.wavelength_um {
+            s += &format!(" {w:>8}");
+        }
+        s
     };
+    let columns = format!(
+        "{}{}",
+        if azimuths { "   phi_i" } else { "" },
+        if spectral { "  lambda_um" } else { "" }
+    );
     eprintln!(
         "{:>9}{} {:>12} {:>10} {:>8} {:>9} {:>12}",
-        "theta_i",
-        if spectral { "  lambda_um" } else { "" },
-        "reflectance",
-        "stderr",
-        "bounces",
-        "lost",
-        "Msegments/s"
+        "theta_i", columns, "reflectance", "stderr", "bounces", "lost", "Msegments/s"
     );
     for r in results {
         let (refl, se) = r.reflectance();
@@ -222,7 +239,7 @@ pub fn print_table(results: &BrdfResult) {
         eprintln!(
             "{:>9}{} {:>12} {:>14} {:>14}  ({} realisations)",
             "theta_i",
-            if spectral { "  lambda_um" } else { "" },
+            columns,
             "spread",
             "surface_spread",
             "monte_carlo",
@@ -244,6 +261,13 @@ pub fn print_table(results: &BrdfResult) {
                 );
             }
         }
+    }
+    if let Some(a) = results.anisotropy(&folder.run().grid()) {
+        let f = &a.figure;
+        eprintln!(
+            "anisotropy: chi2/dof {:.3} over {} cells of {} pairs of azimuths (isotropic within 4 sigma below {:.3}; p = {:.2e})",
+            f.chi2_dof, f.dof, a.pair_count, f.bound, f.p_value
+        );
     }
 }
 
@@ -323,6 +347,13 @@ mod tests {
                 "light",
                 "theta_deg",
                 list(&[0.0, 45.0]),
+            ),
+            (vec!["--phi", "30"], "light", "phi_deg", V::Float(30.0)),
+            (
+                vec!["--phi", "0,90,45"],
+                "light",
+                "phi_deg",
+                list(&[0.0, 90.0, 45.0]),
             ),
             (
                 vec!["--wavelengths", "0.45,0.55"],
@@ -428,6 +459,14 @@ mod tests {
         assert_eq!(
             refusal(&["--theta", "10,20,10"]),
             "--theta: angle 3: 10 is given twice (each incidence angle once: a BRDF table holds one block per angle)"
+        );
+        assert_eq!(
+            refusal(&["--phi", "0,360"]),
+            "--phi: azimuth 2: must be in [0, 360), got 360"
+        );
+        assert_eq!(
+            refusal(&["--phi", "90,0,90"]),
+            "--phi: azimuth 3: 90 is given twice (each light azimuth once: a BRDF table holds one block per incidence and azimuth)"
         );
         assert_eq!(
             refusal(&["--photons", "9007199254740993"]),

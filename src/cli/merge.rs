@@ -91,7 +91,7 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
     }
     write_folder(&a.out, &files)?;
     if !a.quiet {
-        print_table(&folder.results);
+        print_table(&folder);
         eprintln!("merged {n_parts} shards into {}", a.out.display());
     }
     Ok(())

@@ -185,7 +185,7 @@ pub fn run(a: RenderArgs) -> Result<(), Failure> {
     check_kept(&a.out, &scene.reads)?;
     let (light_theta, light_phi) = match &a.light {
         Some(l) => (l[0], l[1]),
-        None => (scene.light.theta_deg[0], scene.light.phi_deg),
+        None => (scene.light.theta_deg[0], scene.light.phi_deg[0]),
     };
     let settings = RenderSettings {
         width: a.size[0],

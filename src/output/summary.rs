@@ -472,6 +472,10 @@ impl IncidenceSummary {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BrdfSummary {
+    /// With several light azimuths: how far the tables depart from
+    /// isotropy ([`crate::tally::anisotropy`]); absent for one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anisotropy: Option<crate::tally::anisotropy::Anisotropy>,
     /// The scene's text and the files it reads, hashed.
     pub content: Content,
     /// How the surface's edges are treated.
@@ -501,6 +505,7 @@ impl BrdfSummary {
         let d = description.clone();
         let spectral = !d.run.wavelengths_um.is_empty();
         Self {
+            anisotropy: results.anisotropy(&d.run.grid()),
             content: d.content,
             edges: d.edges,
             incidence: results

@@ -6,7 +6,10 @@
 //! [`TalliesFile`]: `format: "roks-tallies"`, `format_version`, `batch`,
 //! the run's [`Description`] (equal in all its shards but for the scene's
 //! path and `run.shard`, the block of photons the file holds), the total
-//! `seconds`, and per incidence angle `theta_deg`, `photons`, `seconds` and `nodes`:
+//! `seconds`, and per incidence angle (and light azimuth, and wavelength:
+//! incidence-major, then azimuth, then wavelength) `theta_deg`, `phi_deg`
+//! (only in a run with several light azimuths), `wavelength_um` (only in a
+//! spectral run), `photons`, `seconds` and `nodes`:
 //! `{level, index, tallies}`, the complete nodes of the batch tree
 //! ([`crate::tally::sum`]) with their raw sums ([`BrdfTallies`], serialised
 //! field by field). Keys are written in alphabetical order. The sums'
@@ -195,6 +198,9 @@ pub struct IncidenceNodes<T = BrdfTallies> {
     pub nodes: Vec<NodeFile<T>>,
     /// Photons of this file at this angle.
     pub photons: u64,
+    /// Light azimuth (degrees) of a run with several (absent with one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phi_deg: Option<Exact>,
     /// Wall-clock time (s).
     #[serde(with = "exact")]
     pub seconds: f64,
@@ -228,7 +234,7 @@ pub struct TalliesFile<T = BrdfTallies> {
 impl TalliesFile {
     /// The file of the run `description` (its photons
     /// [`BrdfRun::photon_range`]): the nodes of each leaf of `results` in
-    /// file order (incidence-major, then wavelength), with total time
+    /// file order (incidence-major, then azimuth, then wavelength), with total time
     /// `seconds`.
     #[must_use]
     pub fn new(description: &Description, results: &BrdfResult, seconds: f64) -> Self {
@@ -250,6 +256,7 @@ impl TalliesFile {
                             tallies: n.value.clone(),
                         })
                         .collect(),
+                    phi_deg: (description.run.phi_deg.len() > 1).then_some(Exact(leaf.phi_i_deg)),
                     seconds: leaf.seconds,
                     theta_deg: leaf.theta_i_deg,
                     wavelength_um: leaf.wavelength_um.map(Exact),
@@ -766,7 +773,8 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
 
     let batches = total.div_ceil(BATCH);
     let lanes = run.lane_count();
-    let leaves = run.theta_deg.len() * lanes;
+    let azimuths = run.phi_deg.len();
+    let leaves = run.theta_deg.len() * azimuths * lanes;
     let mut seconds = 0.0;
     for p in &parts {
         let at = |e: FieldError| e.in_file(&p.file);
@@ -776,8 +784,13 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
             return Err(at(FieldError::new(
                 "incidence",
                 format!(
-                    "must list the run's {} incidence angles{}, found {n}",
+                    "must list the run's {} incidence angles{}{}, found {n}",
                     run.theta_deg.len(),
+                    if azimuths > 1 {
+                        format!(" at {azimuths} light azimuths")
+                    } else {
+                        String::new()
+                    },
                     if run.wavelengths_um.is_empty() {
                         String::new()
                     } else {
@@ -787,23 +800,25 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
             )));
         }
     }
-    // Per incidence angle and wavelength: the tree's sum, time, tests and
-    // (several realisations) the nodes.
+    // Per incidence angle, light azimuth and wavelength: the tree's sum,
+    // time, tests and (several realisations) the nodes.
     #[allow(clippy::type_complexity)]
-    let mut sums: Vec<Vec<(DyadicSum<BrdfTallies>, f64, u64, Vec<Node<BrdfTallies>>)>> = run
-        .theta_deg
-        .iter()
-        .map(|_| {
-            (0..lanes)
-                .map(|_| (DyadicSum::new(batches), 0.0, 0, Vec::new()))
-                .collect()
-        })
-        .collect();
+    let mut sums: Vec<Vec<(DyadicSum<BrdfTallies>, f64, u64, Vec<Node<BrdfTallies>>)>> =
+        (0..run.theta_deg.len() * azimuths)
+            .map(|_| {
+                (0..lanes)
+                    .map(|_| (DyadicSum::new(batches), 0.0, 0, Vec::new()))
+                    .collect()
+            })
+            .collect();
     for p in parts {
         let range = p.photons();
-        // The file lists the leaves incidence-major, then wavelength.
+        // The file lists the leaves incidence-major, then azimuth, then
+        // wavelength.
         let mut entries = p.tallies.incidence.into_iter().enumerate();
-        for (t, (&theta, lane_sums)) in run.theta_deg.iter().zip(&mut sums).enumerate() {
+        for (ta, lane_sums) in sums.iter_mut().enumerate() {
+            let (t, a) = (ta / azimuths, ta % azimuths);
+            let (theta, phi) = (run.theta_deg[t], run.phi_deg[a]);
             for (l, (sum, secs, tests, kept)) in lane_sums.iter_mut().enumerate() {
                 let (i, inc) = entries.next().expect("the number of leaves was checked");
                 let key = format!("incidence[{i}]");
@@ -816,6 +831,19 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                             "{} is not description.run.theta_deg[{t}] = {theta}",
                             inc.theta_deg
                         ),
+                    )));
+                }
+                let several = (azimuths > 1).then_some(phi);
+                if inc.phi_deg.map(|p| p.0.to_bits()) != several.map(f64::to_bits) {
+                    return Err(at(FieldError::new(
+                        "phi_deg",
+                        match (inc.phi_deg, several) {
+                            (_, Some(p)) => format!(
+                                "{} is not description.run.phi_deg[{a}] = {p}",
+                                inc.phi_deg.map_or("absent".into(), |p| p.0.to_string())
+                            ),
+                            _ => "not expected in a run of one light azimuth".into(),
+                        },
                     )));
                 }
                 if inc.wavelength_um.map(|w| w.0.to_bits()) != wavelength.map(f64::to_bits) {
@@ -873,8 +901,9 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     // The roots, nested as a trace's result.
     let level = batches.next_power_of_two().trailing_zeros();
     let mut i = 0;
-    let mut incidence = Vec::with_capacity(sums.len());
-    for (&theta, lane_sums) in run.theta_deg.iter().zip(sums) {
+    let mut incidence: Vec<ByIncidence> = Vec::with_capacity(run.theta_deg.len());
+    for (ta, lane_sums) in sums.into_iter().enumerate() {
+        let (theta, phi) = (run.theta_deg[ta / azimuths], run.phi_deg[ta % azimuths]);
         let mut wavelength = Vec::with_capacity(lanes);
         for (l, (sum, seconds, _, kept)) in lane_sums.into_iter().enumerate() {
             let tallies = sum
@@ -883,7 +912,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
             i += 1;
             wavelength.push(IncidenceResult {
                 theta_i_deg: theta,
-                phi_i_deg: run.phi_deg,
+                phi_i_deg: phi,
                 wavelength_um: run.wavelength(l),
                 nodes: vec![Node {
                     level,
@@ -892,16 +921,25 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 }],
                 tallies,
                 seconds,
-                realisations: run.realisation_results(theta, &kept),
+                realisations: run.realisation_results(theta, phi, &kept),
             });
         }
-        incidence.push(ByIncidence {
-            theta_i_deg: theta,
-            azimuth: vec![ByAzimuth {
-                phi_i_deg: run.phi_deg,
-                wavelength,
-            }],
-        });
+        let by_azimuth = ByAzimuth {
+            phi_i_deg: phi,
+            wavelength,
+        };
+        if ta % azimuths == 0 {
+            incidence.push(ByIncidence {
+                theta_i_deg: theta,
+                azimuth: vec![by_azimuth],
+            });
+        } else {
+            incidence
+                .last_mut()
+                .expect("azimuth 0 came first")
+                .azimuth
+                .push(by_azimuth);
+        }
     }
     Ok(Merged {
         description,

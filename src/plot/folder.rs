@@ -13,6 +13,12 @@
 //!   (a spectral run: per wavelength, `mueller_<θ>deg_<λ>um.png`, ...);
 //! * with `colour.csv`: `colour_<θ>deg.png`.
 //!
+//! A run with several light azimuths has these pictures per incidence and
+//! azimuth, `_phi<φ>` after the incidence's `deg`
+//! ([`crate::output::at_azimuth`]: `hemisphere_30deg_phi45.png`), one curve
+//! per incidence and azimuth in `inplane.png`, and one reflectance curve
+//! per azimuth.
+//!
 //! An object folder (`summary.json` of `roks trace`): `reflectance.png`,
 //! reflectance against beam position.
 //!
@@ -326,7 +332,7 @@ fn photons_text(s: &BrdfSummary) -> String {
 /// The pictures of a micro folder.
 fn micro(
     s: &BrdfSummary,
-    file: &dyn Fn(&str) -> Option<String>,
+    read: &dyn Fn(&str) -> Option<String>,
 ) -> Result<Vec<(String, Picture)>, PlotError> {
     let grid = CarlsonGrid::new(s.run.bands)
         .ok_or_else(|| bad("summary.json", FileProblem::Bands(s.run.bands)))?;
@@ -334,6 +340,16 @@ fn micro(
     let lanes = s.run.wavelengths_um.len().max(1);
     let spectral = !s.run.wavelengths_um.is_empty();
     let photons = photons_text(s);
+    // Several light azimuths: the azimuth in every picture's name and title.
+    let several = s.run.phi_deg.len() > 1;
+    let file = |name: String, phi: f64| crate::output::at_azimuth(&name, several.then_some(phi));
+    let at = |theta: f64, phi: f64| {
+        if several {
+            format!("θi = {theta}°, φi = {phi}°")
+        } else {
+            format!("θi = {theta}°")
+        }
+    };
     let mean = if spectral {
         ", mean over the wavelengths".to_owned()
     } else {
@@ -342,7 +358,7 @@ fn micro(
     let mut out = Vec::new();
 
     // brdf.csv: per incidence, the mean BRDF over the wavelengths per cell.
-    let text = file("brdf.csv").ok_or_else(|| bad("brdf.csv", FileProblem::Missing))?;
+    let text = read("brdf.csv").ok_or_else(|| bad("brdf.csv", FileProblem::Missing))?;
     let brdf = Csv::parse(
         "brdf.csv",
         &text,
@@ -355,9 +371,9 @@ fn micro(
             .map(|&v| if v > 0.0 { v / lanes as f64 } else { f64::NAN })
             .collect();
         out.push((
-            crate::output::hemisphere_file(*theta),
+            file(crate::output::hemisphere_file(*theta), *phi),
             Picture::Map(HemisphereMap {
-                title: format!("{}: BRDF at θi = {theta}° ({photons}{mean})", s.name),
+                title: format!("{}: BRDF at {} ({photons}{mean})", s.name, at(*theta, *phi)),
                 grid,
                 values,
                 scale: MapScale::LogBrdf,
@@ -369,11 +385,15 @@ fn micro(
     }
 
     // inplane.csv: one curve per incidence.
-    let text = file("inplane.csv").ok_or_else(|| bad("inplane.csv", FileProblem::Missing))?;
+    let text = read("inplane.csv").ok_or_else(|| bad("inplane.csv", FileProblem::Missing))?;
     let inplane = Csv::parse(
         "inplane.csv",
         &text,
-        &headers(crate::output::inplane_csv::HEADER, "theta_i_deg"),
+        &if several {
+            headers(crate::output::inplane_csv::AZIMUTH_HEADER, "phi_i_deg")
+        } else {
+            headers(crate::output::inplane_csv::HEADER, "theta_i_deg")
+        },
     )?;
     out.push((
         "inplane.png".to_owned(),
@@ -386,7 +406,7 @@ fn micro(
 
     // stokes.csv: the degree of polarisation of the Stokes vector summed
     // over the wavelengths.
-    if let Some(text) = file("stokes.csv") {
+    if let Some(text) = read("stokes.csv") {
         let stokes = Csv::parse(
             "stokes.csv",
             &text,
@@ -414,11 +434,12 @@ fn micro(
                 });
             let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
             out.push((
-                crate::output::dop_file(theta),
+                file(crate::output::dop_file(theta), phi),
                 Picture::Map(HemisphereMap {
                     title: format!(
-                        "{}: degree of polarisation at θi = {theta}° ({incident} light, {photons}{mean})",
-                        s.name
+                        "{}: degree of polarisation at {} ({incident} light, {photons}{mean})",
+                        s.name,
+                        at(theta, phi)
                     ),
                     grid,
                     values: dop,
@@ -435,11 +456,11 @@ fn micro(
         }
     }
 
-    if let Some(text) = file("mueller.csv") {
+    if let Some(text) = read("mueller.csv") {
         out.extend(mueller_pictures(s, &grid, &text, &photons)?);
     }
 
-    if let Some(text) = file("colour.csv") {
+    if let Some(text) = read("colour.csv") {
         let colour = Csv::parse(
             "colour.csv",
             &text,
@@ -458,11 +479,12 @@ fn micro(
                     .is_none_or(|b| b.1[0][c] > 0.0)
             };
             out.push((
-                crate::output::colour_csv::colour_file(theta),
+                file(crate::output::colour_csv::colour_file(theta), phi),
                 Picture::Map(HemisphereMap {
                     title: format!(
-                        "{}: colour of the BRDF (D65, sRGB) at θi = {theta}° ({photons})",
-                        s.name
+                        "{}: colour of the BRDF (D65, sRGB) at {} ({photons})",
+                        s.name,
+                        at(theta, phi)
                     ),
                     grid,
                     values: (0..n)
@@ -555,15 +577,18 @@ fn inplane_plot(s: &BrdfSummary, t: &Csv, lanes: usize, photons: &str) -> LinePl
         t.col("brdf"),
         t.col("brdf_stderr"),
     );
-    // Per incidence, per theta_o: sums of brdf and stderr.
-    // Per incidence: theta_i and, by theta_o's order key, (theta_o, brdf, stderr).
-    type Curve = (f64, BTreeMap<u64, (f64, f64, f64)>);
+    // Several light azimuths: the column of the azimuth.
+    let cp = t.columns.iter().position(|c| c == "phi_i_deg");
+    // Per incidence (and azimuth): (theta_i, phi_i) and, by theta_o's
+    // order key, (theta_o, sums of brdf and stderr).
+    type Curve = ((f64, Option<f64>), BTreeMap<u64, (f64, f64, f64)>);
     let mut curves: Vec<Curve> = Vec::new();
     for r in &t.rows {
-        let at = match curves.iter().position(|c| c.0 == r[ci]) {
+        let key = (r[ci], cp.map(|c| r[c]));
+        let at = match curves.iter().position(|c| c.0 == key) {
             Some(k) => k,
             None => {
-                curves.push((r[ci], BTreeMap::new()));
+                curves.push((key, BTreeMap::new()));
                 curves.len() - 1
             }
         };
@@ -579,8 +604,11 @@ fn inplane_plot(s: &BrdfSummary, t: &Csv, lanes: usize, photons: &str) -> LinePl
     let l = lanes as f64;
     let series = curves
         .into_iter()
-        .map(|(theta, bins)| Series {
-            label: format!("θi = {theta}°"),
+        .map(|((theta, phi), bins)| Series {
+            label: match phi {
+                Some(phi) => format!("θi = {theta}°, φi = {phi}°"),
+                None => format!("θi = {theta}°"),
+            },
             points: bins
                 .values()
                 .map(|&(x, b, e)| {
@@ -624,14 +652,25 @@ fn micro_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
         x_label: "incidence angle θi (deg)".into(),
         y_label: "reflectance (fraction of the incident power)".into(),
         log_y: false,
-        series: vec![Series {
-            label,
-            points: s
-                .incidence
-                .iter()
-                .map(|i| (i.theta_deg, i.reflectance, 2.0 * i.reflectance_stderr))
-                .collect(),
-        }],
+        // One curve per light azimuth.
+        series: s
+            .run
+            .phi_deg
+            .iter()
+            .map(|&phi| Series {
+                label: if s.run.phi_deg.len() > 1 {
+                    format!("{label}, φi = {phi}°")
+                } else {
+                    label.clone()
+                },
+                points: s
+                    .incidence
+                    .iter()
+                    .filter(|i| i.phi_deg == phi)
+                    .map(|i| (i.theta_deg, i.reflectance, 2.0 * i.reflectance_stderr))
+                    .collect(),
+            })
+            .collect(),
     }
 }
 
@@ -759,7 +798,12 @@ fn mueller_pictures(
             ));
         }
         let suffix = w.map_or(String::new(), |w| format!("_{}um", number_label(w)));
-        let at_w = w.map_or(String::new(), |w| format!(" at {w} µm"));
+        let mut at_w = w.map_or(String::new(), |w| format!(" at {w} µm"));
+        // Several light azimuths: the azimuth in the names and titles.
+        let phi = (s.run.phi_deg.len() > 1).then_some(r0.phi_i_deg);
+        if let Some(phi) = phi {
+            at_w = format!(", φi = {phi}°{at_w}");
+        }
         let mut values = vec![vec![f64::NAN; n]; 16];
         let mut errors = vec![vec![f64::NAN; n]; 16];
         for (c, r) in block.iter().enumerate() {
@@ -774,7 +818,10 @@ fn mueller_pictures(
         }
         let title = |what: &str| format!("{}: {what} at θi = {theta}°{at_w} ({photons})", s.name);
         out.push((
-            format!("mueller_{}deg{suffix}.png", number_label(theta)),
+            crate::output::at_azimuth(
+                &format!("mueller_{}deg{suffix}.png", number_label(theta)),
+                phi,
+            ),
             Picture::Mueller(MuellerMaps {
                 title: title("Mueller matrix BRDF, normalised by m00"),
                 grid: *grid,
@@ -786,7 +833,10 @@ fn mueller_pictures(
         ));
         if r0.normalised_stderr.is_some() {
             out.push((
-                format!("mueller_stderr_{}deg{suffix}.png", number_label(theta)),
+                crate::output::at_azimuth(
+                    &format!("mueller_stderr_{}deg{suffix}.png", number_label(theta)),
+                    phi,
+                ),
                 Picture::Mueller(MuellerMaps {
                     title: title("standard errors of the normalised Mueller matrix"),
                     grid: *grid,

@@ -35,8 +35,9 @@
 //!
 //! [light]
 //! theta_deg = [0, 10, 20, 30, 40, 50, 60, 70, 80, 85]
-//! phi_deg = 0.0             # omega_i = (sin t cos p, sin t sin p, cos t) points to the light
-//! photons = 1000000         # per incidence angle
+//! phi_deg = 0.0             # omega_i = (sin t cos p, sin t sin p, cos t) points to the light;
+//!                           # or a list of light azimuths in [0, 360): [0, 45, 90]
+//! photons = 1000000         # per incidence angle (and light azimuth)
 //! seed = 1                  # tracing seed
 //! launch = "random"         # entry points: "random" or "lattice" (replicated R2 lattice)
 //! polarisation = "unpolarised"  # incident state: "s", "p", "right", "left", { linear = 30 },
@@ -87,7 +88,7 @@ use crate::micro::{Edges, MicroSurface, Placed};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
 use crate::tally::{PolarTally, Symmetry};
-use crate::transport::brdf::{BrdfRun, Polarisation};
+use crate::transport::brdf::{Azimuths, BrdfRun, Polarisation};
 use crate::transport::launch::Launch;
 use crate::transport::micro::Controls;
 
@@ -338,9 +339,10 @@ pub struct LightSpec {
     /// Incidence angles from the normal (degrees, in [0, 90)).
     #[serde(default = "default_thetas")]
     pub theta_deg: Vec<f64>,
-    /// Incidence azimuth (degrees).
-    #[serde(default)]
-    pub phi_deg: f64,
+    /// Light azimuths (degrees): a number or a list, each in `[0, 360)`
+    /// and given once; every incidence angle is traced at each.
+    #[serde(default = "default_azimuths")]
+    pub phi_deg: Azimuths,
     /// Photons per incidence angle.
     #[serde(default = "default_photons")]
     pub photons: u64,
@@ -363,7 +365,7 @@ impl Default for LightSpec {
     fn default() -> Self {
         Self {
             theta_deg: default_thetas(),
-            phi_deg: 0.0,
+            phi_deg: default_azimuths(),
             photons: default_photons(),
             seed: default_seed(),
             launch: Launch::Random,
@@ -373,6 +375,9 @@ impl Default for LightSpec {
     }
 }
 
+fn default_azimuths() -> Azimuths {
+    Azimuths::one(0.0)
+}
 fn default_thetas() -> Vec<f64> {
     vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0]
 }
@@ -498,6 +503,8 @@ pub struct Overrides {
     pub seed: Option<u64>,
     /// `--theta`: `[light] theta_deg`.
     pub theta_deg: Option<Vec<f64>>,
+    /// `--phi`: `[light] phi_deg`.
+    pub phi_deg: Option<Vec<f64>>,
     /// `--wavelengths`: `[light] wavelengths_um`.
     pub wavelengths_um: Option<WavelengthsSpec>,
     /// `--launch`: `[light] launch`.
@@ -524,6 +531,7 @@ impl Overrides {
             (self.photons.is_some(), "light.photons", "--photons"),
             (self.seed.is_some(), "light.seed", "--seed"),
             (self.theta_deg.is_some(), "light.theta_deg", "--theta"),
+            (self.phi_deg.is_some(), "light.phi_deg", "--phi"),
             (
                 self.wavelengths_um.is_some(),
                 "light.wavelengths_um",
@@ -558,6 +566,9 @@ impl Overrides {
         }
         if let Some(t) = &self.theta_deg {
             light.theta_deg.clone_from(t);
+        }
+        if let Some(p) = &self.phi_deg {
+            light.phi_deg = Azimuths(p.clone());
         }
         if let Some(w) = &self.wavelengths_um {
             light.wavelengths_um = Some(w.clone());
@@ -994,7 +1005,7 @@ fn brdf_run_of(
     BrdfRun {
         realisations: spec.surface.realisations.unwrap_or(1),
         theta_deg: light.theta_deg.clone(),
-        phi_deg: light.phi_deg,
+        phi_deg: light.phi_deg.clone(),
         photons: light.photons,
         shard: None,
         seed: light.seed,

@@ -257,10 +257,10 @@ pub fn option_error(
             return Some((option, e.message.clone()));
         }
         let i: usize = rest.strip_prefix('[')?.strip_suffix(']')?.parse().ok()?;
-        let what = if key == "light.theta_deg" {
-            "angle"
-        } else {
-            "wavelength"
+        let what = match key {
+            "light.theta_deg" => "angle",
+            "light.phi_deg" => "azimuth",
+            _ => "wavelength",
         };
         Some((option, format!("{what} {}: {}", i + 1, e.message)))
     })

@@ -17,8 +17,11 @@
 //!   derives it from one list of fields).
 //! - [`sum`]: the fixed batch tree every run sums its batch tallies over.
 //! - [`exact`]: floats stored exactly in result files.
+//! - [`anisotropy`]: chi² of the tables of several light azimuths, turned
+//!   onto each other.
 
 pub mod accumulator;
+pub mod anisotropy;
 pub mod carlson;
 pub mod exact;
 pub mod inplane;

@@ -33,6 +33,7 @@ use super::rng::photon_rng;
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Incident, IncidentError, Stokes, hemisphere_reference};
 use crate::optics::spectrum::WavelengthListError;
+use crate::tally::anisotropy::{Anisotropy, Group, Table};
 use crate::tally::exact;
 use crate::tally::inplane::WidthError;
 use crate::tally::lanes::{LaneSums, LaneTally};
@@ -68,9 +69,11 @@ pub struct BrdfRun {
     pub inplane_width_deg: f64,
     /// Entry points: random, or lattice replicates.
     pub launch: Launch,
-    /// Incidence azimuth (degrees).
-    pub phi_deg: f64,
-    /// Photons per incidence angle of the whole run (of all its shards).
+    /// Light azimuths (degrees, [`Azimuths`]): every incidence angle is
+    /// traced at each, `photons` photons per incidence and azimuth.
+    pub phi_deg: Azimuths,
+    /// Photons per incidence angle and light azimuth of the whole run (of
+    /// all its shards).
     #[serde(rename = "photons_per_incidence")]
     pub photons: u64,
     /// Polarised transport, incident state and polarisation tallies.
@@ -103,14 +106,145 @@ fn is_one(n: &u64) -> bool {
     *n == 1
 }
 
+/// The light azimuths of a run (degrees, from the `+x` axis toward `+y`;
+/// `[light] phi_deg`, `--phi`): one or several, each finite, in
+/// `[0, 360)` and given once ([`Azimuths::check`]). A scene gives a number
+/// or a list; the run's files (`summary.json`, `tallies.json`) hold a
+/// number for one azimuth (the files of a one-azimuth run are those of
+/// the runs before several azimuths) and a list for several.
+///
+/// Azimuth `a` (0-based, in the order given) is traced with the seed
+/// [`BrdfRun::azimuth_seed`]: photon `n` of azimuth `a` draws from the
+/// stream `(seed + a * 0xD1B54A32D192ED03, n)`, so the first azimuth's
+/// photons are those of a run at that azimuth alone (bit for bit), and the
+/// azimuths' tables are statistically independent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Azimuths(pub Vec<f64>);
+
+impl Azimuths {
+    /// One azimuth.
+    #[must_use]
+    pub fn one(phi_deg: f64) -> Self {
+        Self(vec![phi_deg])
+    }
+
+    /// Check the list: at least one azimuth, each finite and in
+    /// `[0, 360)`, none given twice.
+    ///
+    /// # Errors
+    /// The offending azimuth ([`AzimuthError::index`]).
+    pub fn check(&self) -> Result<(), AzimuthError> {
+        if self.0.is_empty() {
+            return Err(AzimuthError::Empty);
+        }
+        if let Some((index, &value)) = self
+            .0
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !(p.is_finite() && (0.0..360.0).contains(*p)))
+        {
+            return Err(AzimuthError::Range { index, value });
+        }
+        if let Some((index, value)) = first_repeat(&self.0) {
+            return Err(AzimuthError::Twice { index, value });
+        }
+        Ok(())
+    }
+}
+
+/// A list of light azimuths [`Azimuths::check`] refuses.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AzimuthError {
+    /// No azimuth at all.
+    #[error("needs at least one azimuth")]
+    Empty,
+    /// An azimuth outside `[0, 360)` or not finite.
+    #[error("must be in [0, 360), got {}", Num(*.value))]
+    Range {
+        /// Its index in the list.
+        index: usize,
+        /// The azimuth (degrees).
+        value: f64,
+    },
+    /// An azimuth given twice.
+    #[error(
+        "{value} is given twice (each light azimuth once: a BRDF table holds one block per incidence and azimuth)"
+    )]
+    Twice {
+        /// The index of its second appearance.
+        index: usize,
+        /// The azimuth (degrees).
+        value: f64,
+    },
+}
+
+impl AzimuthError {
+    /// The index of the offending azimuth (`None` for an empty list).
+    #[must_use]
+    pub fn index(&self) -> Option<usize> {
+        match self {
+            Self::Empty => None,
+            Self::Range { index, .. } | Self::Twice { index, .. } => Some(*index),
+        }
+    }
+}
+
+impl std::ops::Deref for Azimuths {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.0
+    }
+}
+
+impl serde::Serialize for Azimuths {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self.0.as_slice() {
+            [one] => s.serialize_f64(*one),
+            many => many.serialize(s),
+        }
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Azimuths {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = Azimuths;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or a list of numbers (degrees)")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Azimuths, E> {
+                Ok(Azimuths::one(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Azimuths, E> {
+                Ok(Azimuths::one(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Azimuths, E> {
+                Ok(Azimuths::one(v as f64))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<Azimuths, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = seq.next_element::<f64>()? {
+                    v.push(x);
+                }
+                Ok(Azimuths(v))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
 /// A checked field of a [`BrdfRun`] ([`BrdfRun::check`]), with its index
 /// in a list where it has one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RunField {
     /// `theta_deg` (an angle of it).
     ThetaDeg(Option<usize>),
-    /// `phi_deg`.
-    PhiDeg,
+    /// `phi_deg` (an azimuth of it).
+    PhiDeg(Option<usize>),
     /// `wavelengths_um` (a wavelength of it).
     WavelengthsUm(Option<usize>),
     /// `photons_per_incidence`.
@@ -145,7 +279,7 @@ impl RunField {
     pub fn scene_key(self) -> String {
         let (key, index) = match self {
             Self::ThetaDeg(i) => ("light.theta_deg", i),
-            Self::PhiDeg => ("light.phi_deg", None),
+            Self::PhiDeg(i) => ("light.phi_deg", i),
             Self::WavelengthsUm(i) => ("light.wavelengths_um", i),
             Self::Photons => ("light.photons", None),
             Self::Bands => ("tally.bands", None),
@@ -168,7 +302,7 @@ impl RunField {
     pub fn run_key(self) -> String {
         let (key, index) = match self {
             Self::ThetaDeg(i) => ("theta_deg", i),
-            Self::PhiDeg => ("phi_deg", None),
+            Self::PhiDeg(i) => ("phi_deg", i),
             Self::WavelengthsUm(i) => ("wavelengths_um", i),
             Self::Photons => ("photons_per_incidence", None),
             Self::Bands => ("bands", None),
@@ -464,8 +598,8 @@ struct Spare {
 
 /// The result of tracing a run's photons ([`BrdfRun::trace`]), nested as
 /// incidence x light azimuth x wavelength: `incidence[i].azimuth[a]
-/// .wavelength[l]` is the leaf of `run.theta_deg[i]`, the light azimuth `a`
-/// (one, `run.phi_deg`, until a run has several) and
+/// .wavelength[l]` is the leaf of `run.theta_deg[i]`, the light azimuth
+/// `run.phi_deg[a]` and
 /// `run.wavelengths_um[l]` (the one lane of a monochrome run).
 #[derive(Debug, Clone)]
 pub struct BrdfResult {
@@ -532,6 +666,59 @@ impl BrdfResult {
         self.len() == 0
     }
 
+    /// How far the tables depart from isotropy
+    /// ([`crate::tally::anisotropy`]): every pair of light azimuths at each
+    /// incidence and wavelength, tables on `grid` (the run's); `None` for
+    /// one azimuth.
+    #[must_use]
+    pub fn anisotropy(&self, grid: &CarlsonGrid) -> Option<Anisotropy> {
+        // Per leaf: its fractions and standard errors per cell.
+        type Columns = (Vec<f64>, Vec<f64>);
+        // An incidence, its wavelength and each azimuth's columns.
+        type Held = (f64, Option<f64>, Vec<(f64, Columns)>);
+        let columns = |r: &IncidenceResult| -> Columns {
+            let n = r.tallies.photons;
+            (0..grid.n_cells())
+                .map(|c| (r.tallies.carlson.mean(c, n), r.carlson_stderr(c)))
+                .unzip()
+        };
+        // Per incidence and wavelength: each azimuth's columns.
+        let columns = &columns;
+        let held: Vec<Held> = self
+            .incidence
+            .iter()
+            .flat_map(|inc| {
+                let lanes = inc.azimuth.first().map_or(0, |a| a.wavelength.len());
+                (0..lanes).map(move |l| {
+                    let tables = inc.azimuth.iter();
+                    (
+                        inc.theta_i_deg,
+                        inc.azimuth[0].wavelength[l].wavelength_um,
+                        tables
+                            .map(|a| (a.phi_i_deg, columns(&a.wavelength[l])))
+                            .collect(),
+                    )
+                })
+            })
+            .collect();
+        let groups: Vec<Group> = held
+            .iter()
+            .map(|(theta_i_deg, wavelength_um, tables)| Group {
+                theta_i_deg: *theta_i_deg,
+                wavelength_um: *wavelength_um,
+                tables: tables
+                    .iter()
+                    .map(|(phi_deg, (f, s))| Table {
+                        phi_deg: *phi_deg,
+                        fraction: f,
+                        stderr: s,
+                    })
+                    .collect(),
+            })
+            .collect();
+        Anisotropy::of(grid, &groups)
+    }
+
     /// The leaves in file order, owned.
     #[must_use]
     pub fn into_leaves(self) -> Vec<IncidenceResult> {
@@ -588,10 +775,10 @@ pub struct RealisationResult {
 
 impl RealisationResult {
     /// The reflectance of the realisation summed in `tallies`.
-    fn of(tallies: BrdfTallies, theta_deg: f64, run: &BrdfRun) -> Self {
+    fn of(tallies: BrdfTallies, theta_deg: f64, phi_deg: f64) -> Self {
         let r = IncidenceResult {
             theta_i_deg: theta_deg,
-            phi_i_deg: run.phi_deg,
+            phi_i_deg: phi_deg,
             wavelength_um: None,
             tallies,
             nodes: Vec::new(),
@@ -786,9 +973,9 @@ pub enum RunError {
     /// `theta_deg`.
     #[error(transparent)]
     Incidence(#[from] IncidenceError),
-    /// `phi_deg` not finite.
-    #[error("must be finite")]
-    PhiDeg,
+    /// `phi_deg`.
+    #[error(transparent)]
+    PhiDeg(#[from] AzimuthError),
     /// `wavelengths_um`.
     #[error(transparent)]
     Wavelengths(#[from] WavelengthListError),
@@ -846,7 +1033,7 @@ impl RunError {
     pub fn field(&self) -> RunField {
         match self {
             Self::Incidence(e) => RunField::ThetaDeg(e.index()),
-            Self::PhiDeg => RunField::PhiDeg,
+            Self::PhiDeg(e) => RunField::PhiDeg(e.index()),
             Self::Wavelengths(e) => RunField::WavelengthsUm(e.index()),
             Self::Photons(_) => RunField::Photons,
             Self::Realisations { .. } => RunField::Realisations,
@@ -879,9 +1066,7 @@ impl BrdfRun {
     /// field, as the scene key or the file's key).
     pub fn check(&self) -> Result<(), RunError> {
         check_incidence(&self.theta_deg)?;
-        if !self.phi_deg.is_finite() {
-            return Err(RunError::PhiDeg);
-        }
+        self.phi_deg.check()?;
         if !self.wavelengths_um.is_empty() {
             crate::optics::spectrum::check_wavelengths(&self.wavelengths_um)?;
         }
@@ -947,7 +1132,11 @@ impl BrdfRun {
         let k = self.polarisation.tally.components() as u64;
         let tallies = self.tally_bytes();
         let batches = self.photons.div_ceil(BATCH).max(1);
-        let incidences = product(&[self.theta_deg.len() as u64, self.lane_count() as u64]);
+        let incidences = product(&[
+            self.theta_deg.len() as u64,
+            self.phi_deg.len() as u64,
+            self.lane_count() as u64,
+        ]);
         let live = batches.min(super::pending_batches(tallies, 1))
             + u64::from(64 - batches.leading_zeros())
             + 1
@@ -965,12 +1154,8 @@ impl BrdfRun {
     pub fn tally_bytes(&self) -> u64 {
         use crate::limits::product;
         let cells = CarlsonGrid::new(self.bands).map_or(0, |g| g.n_cells()) as u64;
-        let bins = InPlaneTally::new(
-            self.inplane_step_deg,
-            0.5 * self.inplane_width_deg,
-            self.phi_deg.to_radians(),
-        )
-        .map_or(0, |t| t.n_bins()) as u64;
+        let bins = InPlaneTally::new(self.inplane_step_deg, 0.5 * self.inplane_width_deg, 0.0)
+            .map_or(0, |t| t.n_bins()) as u64;
         let replicates = self.launch.replicates().unwrap_or(0);
         let per_bin = 16 + 8 * replicates;
         let k = self.polarisation.tally.components() as u64;
@@ -1004,15 +1189,32 @@ impl BrdfRun {
         )
     }
 
-    /// The in-plane tally of this run.
+    /// The in-plane tally of this run at its first light azimuth (its
+    /// bins, their centres and solid angles are those of every azimuth).
     #[must_use]
     pub fn inplane(&self) -> InPlaneTally {
+        self.inplane_at(self.phi_deg[0])
+    }
+
+    /// The in-plane tally of this run in the plane of incidence at light
+    /// azimuth `phi_deg` (degrees).
+    #[must_use]
+    pub fn inplane_at(&self, phi_deg: f64) -> InPlaneTally {
         InPlaneTally::new(
             self.inplane_step_deg,
             0.5 * self.inplane_width_deg,
-            self.phi_deg.to_radians(),
+            phi_deg.to_radians(),
         )
         .expect("in-plane settings checked by the scene")
+    }
+
+    /// The seed azimuth `a` (an index of `phi_deg`) is traced with:
+    /// `seed + a * 0xD1B54A32D192ED03` (wrapping; the run's seed for the
+    /// first azimuth). See [`Azimuths`].
+    #[must_use]
+    pub fn azimuth_seed(&self, a: usize) -> u64 {
+        self.seed
+            .wrapping_add((a as u64).wrapping_mul(0xD1B5_4A32_D192_ED03))
     }
 
     /// Trace the photons `photons` (a range of photon indices that starts
@@ -1062,49 +1264,64 @@ impl BrdfRun {
         let incidence = self
             .theta_deg
             .iter()
-            .map(|&theta| {
-                let clock = Instant::now();
-                let mut lanes = vec![Vec::new(); self.lane_count()];
-                for (r, surface) in (0..).zip(surfaces) {
-                    let (b0, b1) = self.realisation_batches(r);
-                    let part = (b0 * BATCH).max(photons.start)..(b1 * BATCH).min(photons.end);
-                    if part.is_empty() {
-                        continue;
-                    }
-                    let nodes = self.run_nodes(surface, theta, part, progress);
-                    for (all, some) in lanes.iter_mut().zip(nodes) {
-                        all.extend(some);
-                    }
-                }
-                let seconds = clock.elapsed().as_secs_f64();
-                let wavelength = lanes
-                    .into_iter()
-                    .enumerate()
-                    .map(|(l, nodes)| IncidenceResult {
-                        theta_i_deg: theta,
-                        phi_i_deg: self.phi_deg,
-                        wavelength_um: self.wavelength(l),
-                        tallies: add_up(&self.combine(nodes.iter()))
-                            .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
-                        realisations: self.realisation_results(theta, &nodes),
-                        nodes,
-                        seconds,
-                    })
-                    .collect();
-                ByIncidence {
-                    theta_i_deg: theta,
-                    azimuth: vec![ByAzimuth {
-                        phi_i_deg: self.phi_deg,
-                        wavelength,
-                    }],
-                }
+            .map(|&theta| ByIncidence {
+                theta_i_deg: theta,
+                azimuth: (0..self.phi_deg.len())
+                    .map(|a| self.trace_azimuth(surfaces, theta, a, &photons, progress))
+                    .collect(),
             })
             .collect();
         BrdfResult { incidence }
     }
 
+    /// Trace the photons `photons` of incidence `theta` at light azimuth
+    /// `a` (an index of `phi_deg`), realisation by realisation
+    /// ([`BrdfRun::trace_realisations`]).
+    fn trace_azimuth(
+        &self,
+        surfaces: &[&MicroSurface],
+        theta: f64,
+        a: usize,
+        photons: &std::ops::Range<u64>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> ByAzimuth {
+        let phi = self.phi_deg[a];
+        let clock = Instant::now();
+        let mut lanes = vec![Vec::new(); self.lane_count()];
+        for (r, surface) in (0..).zip(surfaces) {
+            let (b0, b1) = self.realisation_batches(r);
+            let part = (b0 * BATCH).max(photons.start)..(b1 * BATCH).min(photons.end);
+            if part.is_empty() {
+                continue;
+            }
+            let nodes = self.run_nodes(surface, theta, a, part, progress);
+            for (all, some) in lanes.iter_mut().zip(nodes) {
+                all.extend(some);
+            }
+        }
+        let seconds = clock.elapsed().as_secs_f64();
+        let wavelength = lanes
+            .into_iter()
+            .enumerate()
+            .map(|(l, nodes)| IncidenceResult {
+                theta_i_deg: theta,
+                phi_i_deg: phi,
+                wavelength_um: self.wavelength(l),
+                tallies: add_up(&self.combine(nodes.iter()))
+                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
+                realisations: self.realisation_results(theta, phi, &nodes),
+                nodes,
+                seconds,
+            })
+            .collect();
+        ByAzimuth {
+            phi_i_deg: phi,
+            wavelength,
+        }
+    }
+
     /// With several realisations, each one's reflectance at incidence
-    /// `theta_deg` from the tree `nodes` of a trace or of merged shards, in
+    /// `theta_deg` (and light azimuth `phi_deg`) from the tree `nodes` of a trace or of merged shards, in
     /// batch order, each within one realisation's block: realisation `r`'s
     /// sums are its nodes pushed into the run's tree and added left to
     /// right (so a shard split anywhere gives the same bits). Empty for one
@@ -1113,6 +1330,7 @@ impl BrdfRun {
     pub fn realisation_results(
         &self,
         theta_deg: f64,
+        phi_deg: f64,
         nodes: &[Node<BrdfTallies>],
     ) -> Vec<RealisationResult> {
         if self.realisations <= 1 {
@@ -1126,7 +1344,7 @@ impl BrdfRun {
                     .filter(|n| n.start() >= u128::from(b0) && n.start() < u128::from(b1));
                 let sums = add_up(&self.combine(inside))
                     .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
-                RealisationResult::of(sums, theta_deg, self)
+                RealisationResult::of(sums, theta_deg, phi_deg)
             })
             .collect()
     }
@@ -1177,7 +1395,8 @@ impl BrdfRun {
             .map_or(0..self.photons, |s| s.first_photon..s.last_photon)
     }
 
-    /// Trace the photons `photons` of one incidence angle in batches (batch
+    /// Trace the photons `photons` of one incidence angle and light azimuth
+    /// `a` (an index of `phi_deg`) in batches (batch
     /// `k` of the range is batch `photons.start / BATCH + k` of the run),
     /// in parallel, and reduce them in batch order over the fixed tree;
     /// returns its complete nodes, one list per wavelength. Large surfaces
@@ -1186,11 +1405,12 @@ impl BrdfRun {
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
+        a: usize,
         photons: std::ops::Range<u64>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Vec<Vec<Node<BrdfTallies>>> {
         let ordered = order::pays(surface);
-        self.run_nodes_in(surface, theta_deg, photons, ordered, progress)
+        self.run_nodes_in(surface, theta_deg, a, photons, ordered, progress)
     }
 
     /// [`BrdfRun::run_nodes`], in Morton order if `ordered`.
@@ -1198,6 +1418,7 @@ impl BrdfRun {
         &self,
         surface: &MicroSurface,
         theta_deg: f64,
+        a: usize,
         photons: std::ops::Range<u64>,
         ordered: bool,
         progress: &(dyn Fn(u64) + Sync),
@@ -1205,8 +1426,9 @@ impl BrdfRun {
         let base = photons.start / BATCH;
         let total_batches = self.photons.div_ceil(BATCH);
         let grid = Locator::new(self.grid());
-        let inplane = self.inplane();
-        let dir = -toward_light(theta_deg, self.phi_deg);
+        let phi_deg = self.phi_deg[a];
+        let inplane = self.inplane_at(phi_deg);
+        let dir = -toward_light(theta_deg, phi_deg);
         let mut sums: Vec<_> = (0..self.lane_count())
             .map(|_| DyadicSum::new(total_batches))
             .collect();
@@ -1230,6 +1452,8 @@ impl BrdfRun {
             locator: &grid,
             inplane: &inplane,
             dir,
+            phi: phi_deg.to_radians(),
+            seed: self.azimuth_seed(a),
             ordered,
             photons,
             spare: &spare,
@@ -1342,20 +1566,21 @@ impl BrdfRun {
             locator,
             inplane,
             dir,
+            phi,
+            seed,
             ordered,
             ref photons,
             spare,
         } = *args;
-        let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(self.seed));
+        let lattices = (self.launch == Launch::Lattice).then(|| Lattices::new(seed));
         let tally_bytes = self.tally_bytes();
-        let phi = self.phi_deg.to_radians();
         let incident: Stokes = self.polarisation.incident.stokes();
         let launch = C::launch(incident, hemisphere_reference(dir, phi), self.lane_count());
         // Photon n's stream (after the entry draws) and entry point.
         let (first, last) = (photons.start, photons.end);
         let entry = |n: u64| {
             let g = first + n;
-            let mut rng = photon_rng(self.seed, g);
+            let mut rng = photon_rng(seed, g);
             let (mut u, mut v): (f64, f64) = (rng.random(), rng.random());
             let mut replicate = 0;
             if let Some(lattices) = &lattices {
@@ -1390,7 +1615,7 @@ impl BrdfRun {
             // score each photon in turn, batch by batch.
             let batch = |range: std::ops::Range<u64>| {
                 let mut scratch = Scratch::new(surface);
-                self.score_batch(locator, inplane, spare, |score| {
+                self.score_batch(locator, inplane, phi, spare, |score| {
                     for n in range {
                         let e = entry(n);
                         let (h, tests) = history(&e, &mut scratch);
@@ -1410,7 +1635,7 @@ impl BrdfRun {
             || Scratch::new(surface),
             history,
             |_, visit| {
-                self.score_batch(locator, inplane, spare, |score| {
+                self.score_batch(locator, inplane, phi, spare, |score| {
                     visit(&mut |e, (h, tests)| score(e.replicate, h, *tests));
                 })
             },
@@ -1420,13 +1645,16 @@ impl BrdfRun {
     }
 
     /// The tally of a batch from its photons' lattice replicates, histories
-    /// and the intersection tests each took, in photon index order:
+    /// and the intersection tests each took, in photon index order, at the
+    /// light azimuth `phi` (radians: the plane of incidence of the mirror
+    /// and the polarisation frames):
     /// `photons(score)` calls `score(replicate, history, tests)` for each
     /// (by reference: a spectral carrier is large).
     fn score_batch<C: Carrier>(
         &self,
         locator: &Locator,
         inplane: &InPlaneTally,
+        phi: f64,
         spare: &Spare,
         photons: impl FnOnce(&mut dyn FnMut(usize, &History<C>, u64)),
     ) -> Vec<BrdfTallies> {
@@ -1441,7 +1669,6 @@ impl BrdfRun {
                 })
                 .collect()
         };
-        let phi = self.phi_deg.to_radians();
         let sin_cos_phi = phi.sin_cos();
         let incident: Stokes = self.polarisation.incident.stokes();
         let mut components = [0.0; 16];
@@ -1531,6 +1758,10 @@ struct TraceArgs<'a> {
     inplane: &'a InPlaneTally,
     /// The incident flight (unit, z < 0).
     dir: DVec3,
+    /// The light azimuth (radians).
+    phi: f64,
+    /// The azimuth's tracing seed ([`BrdfRun::azimuth_seed`]).
+    seed: u64,
     /// Trace in the Morton order of the entry points.
     ordered: bool,
     /// The photon indices traced.
@@ -1801,8 +2032,9 @@ mod tests {
             run.symmetry = symmetry;
             run.polarisation.tally = tally;
             run.polarisation.transport = tally != PolarTally::None;
-            let nodes =
-                |ordered| run.run_nodes_in(&scene.surface, 60.0, 0..run.photons, ordered, &|_| {});
+            let nodes = |ordered| {
+                run.run_nodes_in(&scene.surface, 60.0, 0, 0..run.photons, ordered, &|_| {})
+            };
             let (by_index, by_morton) = (nodes(false), nodes(true));
             assert!(by_index[0][0].value.photons > 0);
             assert_eq!(by_index, by_morton, "{tally:?} {launch:?} {symmetry:?}");
