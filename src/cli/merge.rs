@@ -136,11 +136,11 @@ fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
     let merged = object_tallies::merge_shards(parts)?;
     let files = merged
         .description
-        .folder(&merged.results, merged.seconds, None)
+        .folder(&merged.result, merged.seconds, None)
         .map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files)?;
     if !a.quiet {
-        super::trace::print_table(&merged.description.run, &merged.results);
+        super::trace::print_table(&merged.description.run, &merged.result);
         eprintln!("merged {n_parts} shards into {}", a.out.display());
     }
     Ok(())

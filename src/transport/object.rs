@@ -338,6 +338,26 @@ impl ObjectResult {
         self.groups().flatten()
     }
 
+    /// The roots of a whole run's nodes (as [`ObjectRun::run_nodes`] gives
+    /// them: per beam position, per wavelength); `zero` gives the run's
+    /// zero sums.
+    ///
+    /// # Panics
+    /// If a leaf's nodes do not cover all its batches (not a whole run).
+    #[must_use]
+    pub fn roots(nodes: Vec<Vec<PositionNodes>>, zero: &dyn Fn() -> ObjectTallies) -> Self {
+        let position = nodes
+            .into_iter()
+            .map(|lanes| ByPosition {
+                wavelength: lanes
+                    .into_iter()
+                    .map(|p| p.into_root(zero).expect("a whole run covers its batches"))
+                    .collect(),
+            })
+            .collect();
+        Self { position }
+    }
+
     /// The leaves in file order, owned.
     #[must_use]
     pub fn into_leaves(self) -> Vec<PositionResult> {
@@ -534,18 +554,8 @@ impl ObjectRun {
     ) -> ObjectResult {
         let blocks: Vec<_> = photons.iter().map(|n| 0..n.div_ceil(BATCH)).collect();
         let n_surfaces = object.surface_names.len();
-        let zero = || self.tallies(n_surfaces);
-        let position = self
-            .run_nodes(object, walls, models, beams, photons, &blocks, progress)
-            .into_iter()
-            .map(|lanes| ByPosition {
-                wavelength: lanes
-                    .into_iter()
-                    .map(|p| p.into_root(&zero).expect("a whole run covers its batches"))
-                    .collect(),
-            })
-            .collect();
-        ObjectResult { position }
+        let nodes = self.run_nodes(object, walls, models, beams, photons, &blocks, progress);
+        ObjectResult::roots(nodes, &|| self.tallies(n_surfaces))
     }
 
     /// Trace the batches `blocks[k]` (batch indices, of [`BATCH`] photons)
