@@ -99,11 +99,9 @@ fn lines() -> String {
                 assert_eq!(by_azimuth.wavelength.len(), run.lane_count());
                 for (l, leaf) in by_azimuth.wavelength.iter().enumerate() {
                     assert!(std::ptr::eq(leaf, result.leaf(i, a, l)));
-                    let nodes: Vec<_> = leaf
-                        .nodes
-                        .iter()
-                        .map(|n| (n.level, n.index, &n.value))
-                        .collect();
+                    // The root of a whole run is its sums, kept once.
+                    let tree = leaf.tree_nodes(&run);
+                    let nodes: Vec<_> = tree.iter().map(|n| (n.level, n.index, &n.value)).collect();
                     let _ = writeln!(
                         out,
                         "{name} {i} {a} {l} {} {} {:?} {}",

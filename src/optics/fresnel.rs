@@ -856,4 +856,21 @@ mod mueller_tests {
         // Index matched: nothing reflected.
         assert_eq!(FresnelMueller::new(0.5, 1.0, 0.0).matrix(), [[0.0; 4]; 4]);
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+        /// The Fresnel matrix is a pure (non-depolarising) Mueller matrix:
+        /// c² + d² = Rs Rp, so it maps fully polarised light to fully polarised light.
+        #[test]
+        fn fresnel_keeps_pure_states_pure(
+            c in 0.0f64..=1.0, n in 0.05f64..50.0, k in 0.0f64..100.0,
+            t in 0.0f64..std::f64::consts::PI, p in 0.0f64..std::f64::consts::TAU,
+        ) {
+            let f = FresnelMueller::new(c, n, k);
+            let s = [1.0, t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
+            let o = f.apply(s);
+            let pol = (o[1] * o[1] + o[2] * o[2] + o[3] * o[3]).sqrt();
+            proptest::prop_assert!((pol - o[0]).abs() <= 1e-12 * o[0].max(1e-300) + 1e-300);
+        }
+    }
 }

@@ -239,10 +239,10 @@ impl TalliesFile {
             format_version: FORMAT_VERSION,
             incidence: results
                 .iter()
-                .map(|leaf| IncidenceNodes {
-                    photons: leaf.nodes.iter().map(|n| n.value.photons).sum(),
-                    nodes: leaf
-                        .nodes
+                .map(|leaf| (leaf, leaf.tree_nodes(&description.run)))
+                .map(|(leaf, nodes)| IncidenceNodes {
+                    photons: nodes.iter().map(|n| n.value.photons).sum(),
+                    nodes: nodes
                         .iter()
                         .map(|n| NodeFile {
                             index: n.index,
@@ -867,7 +867,6 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         }
     }
     // The roots, nested as a trace's result.
-    let level = batches.next_power_of_two().trailing_zeros();
     let mut i = 0;
     let mut incidence = Vec::with_capacity(sums.len());
     for (&theta, lane_sums) in run.theta_deg.iter().zip(sums) {
@@ -881,11 +880,8 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 theta_i_deg: theta,
                 phi_i_deg: run.phi_deg,
                 wavelength_um: run.wavelength(l),
-                nodes: vec![Node {
-                    level,
-                    index: 0,
-                    value: tallies.clone(),
-                }],
+                // The root is kept once, as the sums.
+                nodes: Vec::new(),
                 tallies,
                 seconds,
                 realisations: run.realisation_results(theta, &kept),

@@ -534,12 +534,15 @@ pub struct IncidenceResult {
     pub phi_i_deg: f64,
     /// Vacuum wavelength (µm) of a spectral run; `None` for a monochrome run.
     pub wavelength_um: Option<f64>,
-    /// Sums: the nodes added left to right.
+    /// Sums: the nodes added left to right (for a whole run of one
+    /// realisation, the tree's root).
     pub tallies: BrdfTallies,
     /// The complete nodes of the whole run's batch tree that the traced
-    /// photons fill, in batch order ([`crate::tally::sum`]; the root alone
-    /// for a whole run, none for an empty range): what a shard's
-    /// `tallies.json` keeps.
+    /// photons fill, in batch order ([`crate::tally::sum`]), except the
+    /// root: a whole run of one realisation keeps its root once, as
+    /// `tallies`, and no nodes (so does an empty range, with no photons).
+    /// [`IncidenceResult::tree_nodes`] gives the nodes `tallies.json`
+    /// writes.
     pub nodes: Vec<Node<BrdfTallies>>,
     /// Wall-clock time (s) of the incidence's trace (all its wavelengths).
     pub seconds: f64,
@@ -586,6 +589,23 @@ impl RealisationResult {
 }
 
 impl IncidenceResult {
+    /// The complete tree nodes of this leaf of `run`, in batch order, as a
+    /// shard's or a merge's `tallies.json` lists them: `nodes`, or the root
+    /// `(level, 0)` holding `tallies` when the leaf is the whole run's root
+    /// (no nodes, some photons).
+    #[must_use]
+    pub fn tree_nodes(&self, run: &BrdfRun) -> std::borrow::Cow<'_, [Node<BrdfTallies>]> {
+        if self.nodes.is_empty() && self.tallies.photons > 0 {
+            std::borrow::Cow::Owned(vec![Node {
+                level: run.root_level(),
+                index: 0,
+                value: self.tallies.clone(),
+            }])
+        } else {
+            std::borrow::Cow::Borrowed(&self.nodes)
+        }
+    }
+
     /// Directional-hemispherical reflectance and its standard error.
     #[must_use]
     pub fn reflectance(&self) -> (f64, f64) {
@@ -961,15 +981,25 @@ impl BrdfRun {
                 let wavelength = lanes
                     .into_iter()
                     .enumerate()
-                    .map(|(l, nodes)| IncidenceResult {
-                        theta_i_deg: theta,
-                        phi_i_deg: self.phi_deg,
-                        wavelength_um: self.wavelength(l),
-                        tallies: add_up(&self.combine(nodes.iter()))
-                            .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
-                        realisations: self.realisation_results(theta, &nodes),
-                        nodes,
-                        seconds,
+                    .map(|(l, mut nodes)| {
+                        let tallies = add_up(&self.combine(nodes.iter()))
+                            .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
+                        let realisations = self.realisation_results(theta, &nodes);
+                        // The root is kept once, as the sums.
+                        if let [n] = nodes.as_slice()
+                            && (n.level, n.index) == (self.root_level(), 0)
+                        {
+                            nodes.clear();
+                        }
+                        IncidenceResult {
+                            theta_i_deg: theta,
+                            phi_i_deg: self.phi_deg,
+                            wavelength_um: self.wavelength(l),
+                            tallies,
+                            realisations,
+                            nodes,
+                            seconds,
+                        }
                     })
                     .collect();
                 ByIncidence {
@@ -1010,6 +1040,17 @@ impl BrdfRun {
                 RealisationResult::of(sums, theta_deg, self)
             })
             .collect()
+    }
+
+    /// The level of the root of the run's batch tree: the smallest `K`
+    /// with `2^K` at least the run's batches ([`crate::tally::sum`]).
+    #[must_use]
+    pub fn root_level(&self) -> u32 {
+        self.photons
+            .div_ceil(BATCH)
+            .max(1)
+            .next_power_of_two()
+            .trailing_zeros()
     }
 
     /// `nodes` (in batch order, contiguous) pushed into the run's batch
