@@ -12,7 +12,7 @@
 
 use std::fmt::Write as _;
 
-use roks::scene::Source;
+use roks::scene::SceneFile;
 use roks::scene::micro::{DEFAULT_SCENE, MicroScene};
 use roks::tally::PolarTally;
 use roks::transport::BATCH;
@@ -23,11 +23,11 @@ use sha2::{Digest, Sha256};
 const FIXTURE: &str = "tests/golden/nested_leaves.txt";
 
 fn scene(text: &str) -> MicroScene {
-    let source = Source {
+    let scene_file = SceneFile {
         file: "t.toml".into(),
         dir: ".".into(),
     };
-    MicroScene::from_str(text, source, "t".into()).unwrap()
+    MicroScene::from_str(text, scene_file, "t".into()).unwrap()
 }
 
 /// The cases: name, scene, run.

@@ -145,7 +145,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     set_threads(a.tracing.threads)?;
     let out = result_dir(
         a.tracing.out.as_deref(),
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         &scene.reads,
     )?;
@@ -157,7 +157,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let photons = run.photon_range();
     let description = Description::new(
         scene.content.clone(),
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         scene.surface.edges,
         run,
@@ -303,11 +303,11 @@ mod tests {
             .as_table_mut()
             .unwrap()
             .insert(key.into(), value);
-        let source = crate::scene::Source {
+        let scene_file = crate::scene::SceneFile {
             file: "<default scene>".into(),
             dir: ".".into(),
         };
-        MicroScene::from_str(&toml::to_string(&t).unwrap(), source, "default".into()).unwrap()
+        MicroScene::from_str(&toml::to_string(&t).unwrap(), scene_file, "default".into()).unwrap()
     }
 
     /// Bits of a value through its JSON form (shortest round-trip floats:

@@ -64,7 +64,7 @@ pub fn run(a: StatsArgs) -> Result<(), Failure> {
         return print_stdout(&out);
     }
     let size = scene.surface.size;
-    let _ = writeln!(out, "scene            {}", scene.source.file);
+    let _ = writeln!(out, "scene            {}", scene.scene_file.file);
     let _ = writeln!(
         out,
         "cell             {} x {} ({:?} edges)",

@@ -78,14 +78,14 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         if run.farfield_stokes {
             return Err(Failure::Input(format!(
                 "{}: tally.polarisation: \"stokes\" needs polarised transport, which --no-polarisation turns off",
-                scene.source.file
+                scene.scene_file.file
             )));
         }
         run.polarisation = false;
     }
     let description = TraceDescription::new(
         &scene.content,
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         &scene.object.surface_names,
         &run,
@@ -99,7 +99,7 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     set_threads(a.tracing.threads)?;
     let out = result_dir(
         a.tracing.out.as_deref(),
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         &scene.reads,
     )?;
@@ -136,7 +136,7 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         let name = &scene.object.surface_names[r.tallies.unmodelled.1];
         return Err(Failure::Input(format!(
             "{}: walls.{name}: photons hit surface `{name}` ({} of them from beam position {}), which has no model in [walls]",
-            scene.source.file, r.tallies.unmodelled.0, r.beam.position
+            scene.scene_file.file, r.tallies.unmodelled.0, r.beam.position
         )));
     }
     if let Some((k, r)) = result
@@ -146,7 +146,7 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     {
         return Err(Failure::Input(format!(
             "{}: sources[{}].beam.diameter: {} photons of beam position {} started inside a solid cell",
-            scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
+            scene.scene_file.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
         )));
     }
     let files = description

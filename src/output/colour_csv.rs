@@ -129,18 +129,18 @@ pub fn colour_file(theta_i_deg: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Source;
+    use crate::scene::SceneFile;
     use crate::scene::micro::MicroScene;
 
     fn scene(material: &str, wavelengths: &str) -> MicroScene {
         let text = format!(
             "[surface]\nsize = [10.0, 10.0]\nmaterial = \"m\"\n[materials.m]\n{material}\n[light]\ntheta_deg = [0, 30]\nphotons = 4096\nwavelengths_um = {wavelengths}\n[tally]\nbands = 4\n"
         );
-        let source = Source {
+        let scene_file = SceneFile {
             file: "t.toml".into(),
             dir: ".".into(),
         };
-        MicroScene::from_str(&text, source, "t".into()).unwrap()
+        MicroScene::from_str(&text, scene_file, "t".into()).unwrap()
     }
 
     /// A flat mirror of constant reflectance 0.5: every wavelength puts

@@ -1681,7 +1681,7 @@ mod tests {
     /// partial last batch.
     #[test]
     fn morton_order_gives_the_index_order_tallies() {
-        let source = crate::scene::Source {
+        let scene_file = crate::scene::SceneFile {
             file: "default.toml".into(),
             dir: ".".into(),
         };
@@ -1712,7 +1712,7 @@ mod tests {
                 Symmetry::None,
             ),
         ] {
-            let scene = MicroScene::from_str(text, source.clone(), "t".into()).unwrap();
+            let scene = MicroScene::from_str(text, scene_file.clone(), "t".into()).unwrap();
             let mut run = scene.brdf_run();
             run.photons = 3 * BATCH + 16 * 37;
             run.launch = launch;
