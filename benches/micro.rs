@@ -47,7 +47,7 @@ fn at_60_all(
 ) -> roks::transport::brdf::BrdfResult {
     let mut run = run.clone();
     run.theta_deg = vec![60.0];
-    run.run(surface, &|_| {})
+    run.trace_whole(surface, &|_| {})
 }
 
 /// The run traced at 60 degrees incidence only: the first wavelength's leaf.

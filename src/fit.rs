@@ -1089,7 +1089,7 @@ impl Problem {
         if let Some(w) = self.opts.inplane_width_deg {
             run.inplane_width_deg = w;
         }
-        let results = run.run(&scene.surface, &|_| {});
+        let results = run.trace_whole(&scene.surface, &|_| {});
         let tally = run.inplane();
         let centres: Vec<f64> = (0..tally.n_bins()).map(|b| tally.centre_deg(b)).collect();
         let curves: Vec<Vec<f64>> = results
@@ -1699,7 +1699,7 @@ mod tests {
         run.theta_deg = vec![30.0, 60.0];
         run.photons = PHOTONS;
         run.seed = 7;
-        let results = run.run(&scene.surface, &|_| {});
+        let results = run.trace_whole(&scene.surface, &|_| {});
         let csv = inplane_csv(&run, &results);
         let rows: Vec<[f64; 4]> = csv
             .lines()

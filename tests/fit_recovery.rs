@@ -41,7 +41,7 @@ fn recovers_height_from_independent_synthetic_data() {
     let mut run = truth.brdf_run();
     run.photons = 400_000;
     run.seed = 1007;
-    let results = run.run(&truth.surface, &|_| {});
+    let results = run.trace_whole(&truth.surface, &|_| {});
     let measured = Measured::parse(&inplane_csv(&run, &results), "truth/inplane.csv").unwrap();
 
     let params = vec!["bumps[0].height=0.5:3".parse::<FitParam>().unwrap()];

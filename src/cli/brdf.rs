@@ -118,7 +118,7 @@ impl BrdfArgs {
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: BrdfArgs) -> Result<(), Failure> {
+pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let scene = a.scene()?;
     let mut run = scene.brdf_run();
     for f in &a.export {
@@ -399,7 +399,7 @@ mod tests {
                 run.photons = 64;
                 run.theta_deg.truncate(1);
                 run.bands = 4;
-                run.run(&scene.surface, &|_| {})
+                run.trace_whole(&scene.surface, &|_| {})
             };
             let (a, b) = (trace(&by_option), trace(&by_key));
             assert_eq!(a.len(), b.len());

@@ -28,7 +28,7 @@ pub struct ExportHeightfieldArgs {
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: ExportHeightfieldArgs) -> Result<(), Failure> {
+pub fn execute(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     let format = Format::of(&a.out);
     if format == Format::Png {
         return Err(Failure::Input(

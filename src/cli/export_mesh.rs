@@ -37,7 +37,7 @@ pub struct ExportMeshArgs {
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: ExportMeshArgs) -> Result<(), Failure> {
+pub fn execute(a: ExportMeshArgs) -> Result<(), Failure> {
     // A file that cannot be read is left to the micro loader's message.
     if let Some(path) = a
         .scene

@@ -64,7 +64,7 @@ pub struct FitArgs {
 ///
 /// # Errors
 /// Bad input (scene, measurements, parameters, options), or a failed write.
-pub fn run(a: FitArgs) -> Result<(), Failure> {
+pub fn execute(a: FitArgs) -> Result<(), Failure> {
     let input = |e: FitError| Failure::Input(e.to_string());
     let text = crate::scene::read_scene_text(&a.scene)?;
     let scene_file = crate::scene::SceneFile::from_path(&a.scene);

@@ -46,7 +46,7 @@ pub struct MergeArgs {
 /// # Errors
 /// Bad input (a shard's tallies.json, shards of different runs, gaps or
 /// overlaps, `--out`, memory), or a failed write.
-pub fn run(a: MergeArgs) -> Result<(), Failure> {
+pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     check_out_dir(&a.out, "--out")?;
     super::common::check_kept("--out", &[super::common::Written::Folder(&a.out)], &a.dirs)?;
     if object_tallies::is_trace_shard(&a.dirs[0]) {

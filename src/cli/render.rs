@@ -141,7 +141,7 @@ pub fn check_cost(w: u64, h: u64, spp: u32, threads: usize, force: bool) -> Resu
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: RenderArgs) -> Result<(), Failure> {
+pub fn execute(a: RenderArgs) -> Result<(), Failure> {
     for (name, n) in [
         ("--view", a.view.len()),
         ("--size", a.size.len()),

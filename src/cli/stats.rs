@@ -34,7 +34,7 @@ pub struct StatsArgs {
 ///
 /// # Errors
 /// Bad input (scene, `--resolution`), or a failed write to stdout.
-pub fn run(a: StatsArgs) -> Result<(), Failure> {
+pub fn execute(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
     if let Some(path) = &a.png {
         super::common::check_out_file_as("--png", path, &scene.reads)?;

@@ -55,7 +55,7 @@ pub struct TraceArgs {
 /// # Errors
 /// Bad input (scene, options, photons meeting a wall without a model or
 /// starting inside a solid), or a failed write.
-pub fn run(a: TraceArgs) -> Result<(), Failure> {
+pub fn execute(a: TraceArgs) -> Result<(), Failure> {
     let scene = ObjectScene::load_at(&a.scene, a.wavelengths.as_ref()).map_err(|e| {
         let keys = [("light.wavelengths_um", "--wavelengths")];
         match crate::scene::option_error(&keys[..usize::from(a.wavelengths.is_some())], &e) {

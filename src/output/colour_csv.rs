@@ -155,7 +155,7 @@ mod tests {
             "{ from = 0.38, to = 0.78, step = 0.02 }",
         );
         let run = s.brdf_run();
-        let results = run.run(&s.surface, &|_| {});
+        let results = run.trace_whole(&s.surface, &|_| {});
         assert_eq!(results.len(), 2 * 21);
         let grid = run.grid();
         let white = crate::optics::colour::d65_white_xyz();
@@ -193,7 +193,7 @@ mod tests {
     fn no_colour_without_the_visible() {
         let s = scene("reflectance = 0.5", "[0.45, 0.55, 0.65]");
         let run = s.brdf_run();
-        let results = run.run(&s.surface, &|_| {});
+        let results = run.trace_whole(&s.surface, &|_| {});
         assert!(write(&run, &results).is_none());
     }
 }

@@ -916,7 +916,7 @@ mod tests {
             run,
             surface,
         );
-        let results = description.run.run(&scene.surface, &|_| {});
+        let results = description.run.trace_whole(&scene.surface, &|_| {});
         let folder = BrdfFolder::traced(description, results, 0.0);
         let mut summary = folder.summary();
         assert_eq!(summary.run.photons, 5000);

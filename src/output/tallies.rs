@@ -958,7 +958,7 @@ mod tests {
 
     /// The folder of the run of `d` traced on `scene`.
     fn traced(scene: &MicroScene, d: Description) -> BrdfFolder {
-        let results = d.run.run(&scene.surface, &|_| {});
+        let results = d.run.trace_whole(&scene.surface, &|_| {});
         BrdfFolder::traced(d, results, 0.0)
     }
 

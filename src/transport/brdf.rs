@@ -1087,7 +1087,11 @@ impl BrdfRun {
     }
 
     /// [`BrdfRun::trace`] of the run's own photons ([`BrdfRun::photon_range`]).
-    pub fn run(&self, surface: &MicroSurface, progress: &(dyn Fn(u64) + Sync)) -> BrdfResult {
+    pub fn trace_whole(
+        &self,
+        surface: &MicroSurface,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> BrdfResult {
         self.trace(surface, self.photon_range(), progress)
     }
 
@@ -1249,7 +1253,7 @@ impl BrdfRun {
 
     /// Trace this run's photons carrying `C` (see [`super::carrier`]),
     /// with `ordered` in the Morton order of their entry points
-    /// ([`super::run_ordered`]), else in index order, and hand each batch's
+    /// ([`super::parallel_batches_ordered`]), else in index order, and hand each batch's
     /// tallies (one per wavelength), scored in index order (the same tallies either way), to
     /// `consume(batch index, tally)` in batch order. Batches tally into the
     /// cleared tallies of `spare` while there are any.
@@ -1320,9 +1324,9 @@ impl BrdfRun {
                     }
                 })
             };
-            return super::run_batches(last - first, tally_bytes, batch, consume, progress);
+            return super::parallel_batches(last - first, tally_bytes, batch, consume, progress);
         }
-        super::run_ordered(
+        super::parallel_batches_ordered(
             last - first,
             tally_bytes,
             |n| {

@@ -33,7 +33,7 @@
 //! far field and Stokes sums; the counts (photons, bounces, segments) are
 //! the path's, the same in every lane. Russian roulette plays on the
 //! largest lane and scales every lane alike, so it is unbiased at each
-//! wavelength. [`ObjectRun::run`] then returns one [`PositionResult`] per
+//! wavelength. [`ObjectRun::trace`] then returns one [`PositionResult`] per
 //! beam position and wavelength, position-major. With a model that is the
 //! same at every wavelength each lane is the monochrome run bit for bit.
 
@@ -301,7 +301,7 @@ impl Merge for FirstUnmodelled {
     }
 }
 
-/// The result of an object trace ([`ObjectRun::run`]), nested as beam
+/// The result of an object trace ([`ObjectRun::trace`]), nested as beam
 /// position x wavelength: `position[k].wavelength[l]` is the leaf of beam
 /// position `k` (the scene's beams in order) and wavelength `l` (the one
 /// lane of a monochrome run).
@@ -543,7 +543,7 @@ impl ObjectRun {
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
     /// receives photons done. The object level's one transport entry
     /// point: a result per beam position and wavelength.
-    pub fn run(
+    pub fn trace(
         &self,
         object: &Object,
         walls: &Walls,
@@ -593,7 +593,7 @@ impl ObjectRun {
                 // The block's photons, from its first batch's first photon.
                 let first = block.start * BATCH;
                 let last = (block.end * BATCH).min(n_photons);
-                super::run_batches(
+                super::parallel_batches(
                     last.saturating_sub(first),
                     bytes,
                     |range| {

@@ -42,7 +42,9 @@ fn scene_run(scene: &MicroScene) -> BrdfRun {
 /// Trace every incidence angle of the scene.
 #[must_use]
 pub fn run(scene: &MicroScene) -> Vec<IncidenceResult> {
-    brdf_run(scene).run(&scene.surface, &|_| {}).into_leaves()
+    brdf_run(scene)
+        .trace_whole(&scene.surface, &|_| {})
+        .into_leaves()
 }
 
 /// Lost weight broken down, for messages.

@@ -35,7 +35,7 @@ pub fn scene(name: &str, toml: &str, dir: &Path) -> ObjectScene {
 pub fn run(scene: &ObjectScene) -> Vec<PositionResult> {
     scene
         .run
-        .run(
+        .trace(
             &scene.object,
             &scene.walls,
             &scene.models,
