@@ -16,7 +16,7 @@ use std::path::Path;
 
 /// Photons of beam 0 of `scene`, traced on one thread.
 fn trace(scene: &ObjectScene, photons: u64) -> (u64, u64) {
-    let results = scene.run.run(
+    let results = scene.run.trace(
         &scene.object,
         &scene.walls,
         &scene.models,

@@ -47,7 +47,7 @@ fn at_60_all(
 ) -> roks::transport::brdf::BrdfResult {
     let mut run = run.clone();
     run.theta_deg = vec![60.0];
-    run.run(surface, &|_| {})
+    run.trace_whole(surface, &|_| {})
 }
 
 /// The run traced at 60 degrees incidence only: the first wavelength's leaf.
@@ -124,12 +124,12 @@ fn heightfield(c: &mut Criterion) {
     let mut g = c.benchmark_group("heightfield");
     g.sample_size(10);
     for n in [256, 1024] {
-        let source = roks::scene::Source {
+        let scene_file = roks::scene::SceneFile {
             file: "gaussian.toml".into(),
             dir: ".".into(),
         };
         let scene_text = text.replace("resolution = 1024", &format!("resolution = {n}"));
-        let scene = MicroScene::from_str(&scene_text, source, "gaussian".into()).unwrap();
+        let scene = MicroScene::from_str(&scene_text, scene_file, "gaussian".into()).unwrap();
         let run = probe_run(&scene, &format!("gaussian {n}²"));
         g.throughput(Throughput::Elements(run.photons));
         g.bench_function(format!("gaussian_{n}_60deg"), |b| {
@@ -144,11 +144,11 @@ fn polarisation(c: &mut Criterion) {
     use roks::transport::brdf::Polarisation;
     let text =
         roks::scene::micro::DEFAULT_SCENE.replace("reflectance = 0.8", "n = 1.015\nk = 6.627");
-    let source = roks::scene::Source {
+    let scene_file = roks::scene::SceneFile {
         file: "default.toml".into(),
         dir: ".".into(),
     };
-    let scene = MicroScene::from_str(&text, source, "default-al".into()).unwrap();
+    let scene = MicroScene::from_str(&text, scene_file, "default-al".into()).unwrap();
     let mut g = c.benchmark_group("polarisation");
     g.sample_size(20);
     for (name, transport, tally) in [
@@ -209,11 +209,11 @@ fn spectral(c: &mut Criterion) {
                 "[light]",
                 &format!("[light]\nwavelengths_um = {wavelengths}"),
             );
-        let source = roks::scene::Source {
+        let scene_file = roks::scene::SceneFile {
             file: "default.toml".into(),
             dir: ".".into(),
         };
-        let mut scene = MicroScene::from_str(&text, source, "default-al".into()).unwrap();
+        let mut scene = MicroScene::from_str(&text, scene_file, "default-al".into()).unwrap();
         if name.starts_with("mono") {
             // A true monochrome run: the index at 0.55 um, no wavelength lane.
             scene = MicroScene::from_str(
@@ -221,7 +221,7 @@ fn spectral(c: &mut Criterion) {
                     "reflectance = 0.8",
                     &format!("n = {}\nk = {}", nk_at(&al, 0.55).0, nk_at(&al, 0.55).1),
                 ),
-                roks::scene::Source {
+                roks::scene::SceneFile {
                     file: "default.toml".into(),
                     dir: ".".into(),
                 },
@@ -284,11 +284,11 @@ fn scaling(c: &mut Criterion) {
         ("field_256", field_scene(256)),
         ("field_4096", field_scene(4096)),
     ] {
-        let source = roks::scene::Source {
+        let scene_file = roks::scene::SceneFile {
             file: format!("{name}.toml"),
             dir: ".".into(),
         };
-        let scene = MicroScene::from_str(&text, source, name.into()).unwrap();
+        let scene = MicroScene::from_str(&text, scene_file, name.into()).unwrap();
         let mut run = pool.install(|| probe_run(&scene, name));
         // Enough photons per run for the Morton order of large surfaces to
         // find neighbours (the command line's regime, not a probe's).

@@ -7,7 +7,7 @@
 //! BRDF matches a measured one.
 //!
 //! # Inputs
-//! * The micro scene as TOML text, with its [`Source`] (file name for
+//! * The micro scene as TOML text, with its [`SceneFile`] (file name for
 //!   messages, folder for relative paths such as reflectance tables).
 //! * The measured in-plane BRDF ([`Measured`]): a CSV with the header
 //!   `theta_i_deg,theta_o_deg,brdf` and optionally a fourth column
@@ -101,7 +101,7 @@ use thiserror::Error;
 use toml::{Table, Value};
 
 use crate::scene::micro::MicroScene;
-use crate::scene::{SceneError, Source};
+use crate::scene::{SceneError, SceneFile};
 use crate::tally::InPlaneTally;
 
 /// Why a fit cannot run. Every message is one line naming the file, the
@@ -802,7 +802,7 @@ pub struct FitResult {
 #[derive(Debug, Clone)]
 pub struct Problem {
     table: Table,
-    source: Source,
+    scene_file: SceneFile,
     name: String,
     params: Vec<FitParam>,
     paths: Vec<KeyPath>,
@@ -849,21 +849,21 @@ impl Problem {
     /// bounds and the options are valid.
     pub fn new(
         scene_text: &str,
-        source: &Source,
+        scene_file: &SceneFile,
         params: &[FitParam],
         measured: &Measured,
         opts: &FitOptions,
     ) -> Result<Self, FitError> {
-        let name = std::path::Path::new(&source.file)
+        let name = std::path::Path::new(&scene_file.file)
             .file_stem()
             .map_or_else(|| "fit".to_string(), |s| s.to_string_lossy().into_owned());
         // The scene as given must be valid (this also reports TOML syntax errors).
-        let scene = MicroScene::from_str(scene_text, source.clone(), name.clone())?;
+        let scene = MicroScene::from_str(scene_text, scene_file.clone(), name.clone())?;
         // A measured in-plane BRDF is one curve per incidence angle: the
         // model must be one too, so one wavelength at most.
         let wavelengths = scene.brdf_run().wavelengths_um.len();
         if wavelengths > 1 {
-            return Err(FitError::Scene(source.error(
+            return Err(FitError::Scene(scene_file.error(
                 "light.wavelengths_um",
                 format!(
                     "roks fit compares one in-plane curve per incidence angle with the measurement, but the scene traces {wavelengths} wavelengths: fit one wavelength at a time ([light] wavelengths_um = [W])"
@@ -871,7 +871,7 @@ impl Problem {
             )));
         }
         let table: Table = toml::from_str(scene_text)
-            .map_err(|e| source.error("", format!("invalid TOML: {}", e.message())))?;
+            .map_err(|e| scene_file.error("", format!("invalid TOML: {}", e.message())))?;
         let opt = |option: &str, message: String| FitError::Options {
             option: option.into(),
             message,
@@ -882,7 +882,7 @@ impl Problem {
         let mut paths = Vec::new();
         for p in params {
             let key_err = |message: &dyn std::fmt::Display| FitError::Key {
-                file: source.file.clone(),
+                file: scene_file.file.clone(),
                 key: p.key.clone(),
                 message: message.to_string(),
             };
@@ -941,7 +941,7 @@ impl Problem {
         }
         let problem = Self {
             table,
-            source: source.clone(),
+            scene_file: scene_file.clone(),
             name,
             params: params.to_vec(),
             paths,
@@ -963,7 +963,7 @@ impl Problem {
     fn check_bounds(&self) -> Result<(), FitError> {
         let start = self.start();
         let infeasible = |spec: String, at: String, e: Infeasible| FitError::Infeasible {
-            file: self.source.file.clone(),
+            file: self.scene_file.file.clone(),
             spec,
             at,
             reason: reason(&e.0),
@@ -1016,7 +1016,7 @@ impl Problem {
     /// The scene with `values` written in (built and checked, not traced).
     fn build(&self, values: &[f64]) -> Result<MicroScene, Infeasible> {
         let text = self.table_with(values)?.to_string();
-        MicroScene::from_str(&text, self.source.clone(), self.name.clone())
+        MicroScene::from_str(&text, self.scene_file.clone(), self.name.clone())
             .map_err(|e| Infeasible(e.into()))
     }
 
@@ -1056,7 +1056,7 @@ impl Problem {
                     if let (Some(lo), Some(hi)) = (a.first().and_then(num), a.get(1).and_then(num))
                     {
                         if lo > hi {
-                            return Err(Infeasible(FitError::Scene(self.source.error(
+                            return Err(Infeasible(FitError::Scene(self.scene_file.error(
                                 range.to_string(),
                                 format!("range [{lo}, {hi}] is reversed"),
                             ))));
@@ -1089,7 +1089,7 @@ impl Problem {
         if let Some(w) = self.opts.inplane_width_deg {
             run.inplane_width_deg = w;
         }
-        let results = run.run(&scene.surface, &|_| {});
+        let results = run.trace_whole(&scene.surface, &|_| {});
         let tally = run.inplane();
         let centres: Vec<f64> = (0..tally.n_bins()).map(|b| tally.centre_deg(b)).collect();
         let curves: Vec<Vec<f64>> = results
@@ -1394,24 +1394,24 @@ fn interpolate(centres: &[f64], bins: &[f64], theta_o: f64) -> f64 {
 /// Fit `params` of the micro scene `scene_text` to `measured` (see the module doc).
 pub fn fit(
     scene_text: &str,
-    source: &Source,
+    scene_file: &SceneFile,
     params: &[FitParam],
     measured: &Measured,
     opts: &FitOptions,
 ) -> Result<FitResult, FitError> {
-    Problem::new(scene_text, source, params, measured, opts)?.fit()
+    Problem::new(scene_text, scene_file, params, measured, opts)?.fit()
 }
 
 /// The misfit at `values` of `params` (infinite where the scene rejects them).
 pub fn misfit(
     scene_text: &str,
-    source: &Source,
+    scene_file: &SceneFile,
     params: &[FitParam],
     values: &[f64],
     measured: &Measured,
     opts: &FitOptions,
 ) -> Result<f64, FitError> {
-    let p = Problem::new(scene_text, source, params, measured, opts)?;
+    let p = Problem::new(scene_text, scene_file, params, measured, opts)?;
     if values.len() != params.len() {
         return Err(FitError::Options {
             option: "values".into(),
@@ -1426,8 +1426,8 @@ mod tests {
     use super::*;
     use crate::output::inplane_csv::write as inplane_csv;
 
-    fn source() -> Source {
-        Source {
+    fn scene_file() -> SceneFile {
+        SceneFile {
             file: "test.toml".into(),
             dir: ".".into(),
         }
@@ -1694,12 +1694,12 @@ mod tests {
     /// sampled every 5 degrees from -80 to 80 by linear interpolation between
     /// its rows (independent of the fit's model code).
     fn measured_from(truth: &str) -> Measured {
-        let scene = MicroScene::from_str(truth, source(), "truth".into()).unwrap();
+        let scene = MicroScene::from_str(truth, scene_file(), "truth".into()).unwrap();
         let mut run = scene.brdf_run();
         run.theta_deg = vec![30.0, 60.0];
         run.photons = PHOTONS;
         run.seed = 7;
-        let results = run.run(&scene.surface, &|_| {});
+        let results = run.trace_whole(&scene.surface, &|_| {});
         let csv = inplane_csv(&run, &results);
         let rows: Vec<[f64; 4]> = csv
             .lines()
@@ -1754,7 +1754,7 @@ mod tests {
             ],
         };
         // Model points from the fit's own model; then the misfit there is exactly 0.
-        let p = Problem::new(&truth, &source(), &params, &probe, &opts()).unwrap();
+        let p = Problem::new(&truth, &scene_file(), &params, &probe, &opts()).unwrap();
         assert_eq!(p.current(), vec![1.8, 2.5]);
         let model = p.model(&[1.8, 2.5]).unwrap();
         assert!(model.iter().all(|&b| b > 0.0), "{model:?}");
@@ -1766,13 +1766,13 @@ mod tests {
                 .map(|(q, &b)| (q.0, q.1, b, None))
                 .collect(),
         };
-        let zero = misfit(&truth, &source(), &params, &[1.8, 2.5], &m, &opts()).unwrap();
+        let zero = misfit(&truth, &scene_file(), &params, &[1.8, 2.5], &m, &opts()).unwrap();
         assert_eq!(zero, 0.0);
-        let off = misfit(&truth, &source(), &params, &[1.7, 2.5], &m, &opts()).unwrap();
+        let off = misfit(&truth, &scene_file(), &params, &[1.7, 2.5], &m, &opts()).unwrap();
         assert!(off > 1e-4, "{off}");
         // Against roks's own inplane.csv route (9-digit CSV values): 0 to rounding.
         let m = measured_from(&truth);
-        let p = Problem::new(&truth, &source(), &params, &m, &opts()).unwrap();
+        let p = Problem::new(&truth, &scene_file(), &params, &m, &opts()).unwrap();
         let near_zero = p.misfit(&[1.8, 2.5]);
         assert!(near_zero < 1e-15, "{near_zero}");
         // The model at every measured point, to the CSV's 9 digits.
@@ -1794,7 +1794,7 @@ mod tests {
             "bumps[0].height[0]=0.5:1.6".parse().unwrap(),
             "bumps[0].height[1]=1.3:3".parse().unwrap(),
         ];
-        let p = Problem::new(&truth, &source(), &params, &m, &opts()).unwrap();
+        let p = Problem::new(&truth, &scene_file(), &params, &m, &opts()).unwrap();
         // hi < lo: a reversed range.
         assert_eq!(p.misfit(&[1.5, 1.4]), f64::INFINITY);
         let e = p.apply(&[1.5, 1.4]).unwrap_err();
@@ -1806,7 +1806,7 @@ mod tests {
         assert!(p.misfit(&[1.4, 1.4]).is_finite());
         // Values the scene itself rejects.
         let r: FitParam = "materials.m.reflectance=0:1".parse().unwrap();
-        let p = Problem::new(&truth, &source(), &[r], &m, &opts()).unwrap();
+        let p = Problem::new(&truth, &scene_file(), &[r], &m, &opts()).unwrap();
         assert_eq!(p.misfit(&[1.5]), f64::INFINITY);
         assert!(matches!(
             p.model(&[1.5]),
@@ -1814,7 +1814,7 @@ mod tests {
         ));
         // The fitted scene text carries the value.
         let text = p.apply(&[0.25]).unwrap();
-        let back = MicroScene::from_str(&text, source(), "x".into()).unwrap();
+        let back = MicroScene::from_str(&text, scene_file(), "x".into()).unwrap();
         assert_eq!(back.surface.materials.len(), 1);
         assert_eq!(
             path("materials.m.reflectance").get_number(&table(&text)),
@@ -1830,7 +1830,7 @@ mod tests {
         };
         let new = |spec: &str| {
             let p: FitParam = spec.parse().unwrap();
-            Problem::new(&truth, &source(), &[p], &m, &opts())
+            Problem::new(&truth, &scene_file(), &[p], &m, &opts())
                 .unwrap_err()
                 .to_string()
         };
@@ -1868,7 +1868,7 @@ mod tests {
         let spectral = |w: &str| {
             let text = truth.replace("[light]\n", &format!("[light]\nwavelengths_um = {w}\n"));
             let p: FitParam = "bumps[0].radius=1:3".parse().unwrap();
-            Problem::new(&text, &source(), &[p], &m, &opts()).map(|_| ())
+            Problem::new(&text, &scene_file(), &[p], &m, &opts()).map(|_| ())
         };
         assert_eq!(
             spectral("[0.45, 0.65]").unwrap_err().to_string(),
@@ -1877,26 +1877,33 @@ mod tests {
         assert!(spectral("[0.55]").is_ok());
         let bad_scene = truth.replace("\"ellipsoid\"", "\"blob\"");
         let p: FitParam = "bumps[0].radius=1:2".parse().unwrap();
-        let e =
-            Problem::new(&bad_scene, &source(), std::slice::from_ref(&p), &m, &opts()).unwrap_err();
+        let e = Problem::new(
+            &bad_scene,
+            &scene_file(),
+            std::slice::from_ref(&p),
+            &m,
+            &opts(),
+        )
+        .unwrap_err();
         assert!(matches!(e, FitError::Scene(_)));
         assert!(
             e.to_string()
                 .starts_with("test.toml: bumps[0].shape: unknown variant `blob`"),
             "{e}"
         );
-        let e = Problem::new(&truth, &source(), &[p.clone(), p.clone()], &m, &opts()).unwrap_err();
+        let e =
+            Problem::new(&truth, &scene_file(), &[p.clone(), p.clone()], &m, &opts()).unwrap_err();
         assert_eq!(
             e.to_string(),
             "test.toml: --param bumps[0].radius: given twice"
         );
-        let e = Problem::new(&truth, &source(), &[], &m, &opts()).unwrap_err();
+        let e = Problem::new(&truth, &scene_file(), &[], &m, &opts()).unwrap_err();
         assert_eq!(e.to_string(), "--param: give at least one parameter");
         let o = FitOptions {
             inplane_step_deg: Some(7.0),
             ..opts()
         };
-        let e = Problem::new(&truth, &source(), &[p], &m, &o).unwrap_err();
+        let e = Problem::new(&truth, &scene_file(), &[p], &m, &o).unwrap_err();
         assert_eq!(
             e.to_string(),
             "--inplane-step: must divide 180 into at most 18000 bins (a step of at least 0.01 deg), got 7"
@@ -1920,7 +1927,7 @@ mod tests {
         let start = scene(PAINT, "1.0", 2.5);
         let params = vec!["bumps[0].height=0.5:3".parse::<FitParam>().unwrap()];
         let clock = std::time::Instant::now();
-        let r = fit(&start, &source(), &params, &m, &opts()).unwrap();
+        let r = fit(&start, &scene_file(), &params, &m, &opts()).unwrap();
         eprintln!(
             "one height: {:?} misfit {:.2e} (start {:.2e}) in {} runs, {:.2} s",
             r.values,
@@ -1951,7 +1958,7 @@ mod tests {
         let m = measured_from(&truth);
         let start = scene(PAINT, "[1.2, 1.5]", 2.5);
         let params = vec!["bumps[0].height[1]=1.2:3".parse::<FitParam>().unwrap()];
-        let r = fit(&start, &source(), &params, &m, &opts()).unwrap();
+        let r = fit(&start, &scene_file(), &params, &m, &opts()).unwrap();
         eprintln!(
             "range end: {:?} misfit {:.2e} in {} runs",
             r.values, r.misfit, r.evaluations
@@ -1979,7 +1986,7 @@ mod tests {
             ..opts()
         };
         let mut seen = Vec::new();
-        let r = Problem::new(&truth, &source(), &params, &m, &o)
+        let r = Problem::new(&truth, &scene_file(), &params, &m, &o)
             .unwrap()
             .fit_observed(&mut |k, _, g, why| seen.push((k, g, why.map(str::to_string))))
             .unwrap();
@@ -2013,7 +2020,7 @@ mod tests {
             "materials.m.n=1.05:3".parse().unwrap(),
         ];
         let clock = std::time::Instant::now();
-        let r = fit(&start, &source(), &params, &m, &opts()).unwrap();
+        let r = fit(&start, &scene_file(), &params, &m, &opts()).unwrap();
         eprintln!(
             "height and n: {:?} misfit {:.2e} (start {:.2e}) in {} runs, {:.2} s",
             r.values,
@@ -2041,7 +2048,7 @@ mod tests {
             restarts: 0,
             ..opts()
         };
-        let r = fit(&start, &source(), &params, &m, &o).unwrap();
+        let r = fit(&start, &scene_file(), &params, &m, &o).unwrap();
         assert_eq!(r.at_bounds, vec![Bound::Upper], "{:?}", r.values);
         assert!(
             r.values[0] >= 1.5 - 1e-3 * 1.0 && r.values[0] <= 1.5,

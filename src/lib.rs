@@ -6,9 +6,12 @@
 //! no other module, [`micro`] and [`object`] use it and [`optics`], and
 //! [`transport`] traces histories through them; [`scene`] builds all of
 //! them from files, and the commands put the pieces together.
-//! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, bodies).
+//! * [`geometry`]: the one geometry kernel (quadrics, CSG regions, rays and
+//!   boxes, bodies).
 //! * [`optics`]: reflectance models (constant, Fresnel for n + ik, tables),
-//!   BRDF tables, and polarisation (Stokes vectors, Fresnel Mueller matrices, frames).
+//!   BRDF tables, the Fresnel reflection and its Mueller matrix
+//!   ([`optics::fresnel`]), and polarisation (Stokes vectors, Mueller
+//!   matrices, frames).
 //! * [`micro`]: the micro level's geometry: one period of an explicit rough
 //!   surface (substrate and bumps or bodies, or a height field), its
 //!   acceleration grid and its statistics.
@@ -97,7 +100,10 @@
 //!   by the one entry point [`transport::brdf::BrdfRun::trace`] and nested
 //!   as incidence x light azimuth x wavelength; a **leaf**
 //!   ([`transport::brdf::IncidenceResult`]) holds one incidence's,
-//!   azimuth's and wavelength's batch-tree nodes and their sums.
+//!   azimuth's and wavelength's sums and the batch-tree nodes a shard
+//!   keeps (a whole run's root once, as the sums). An object trace's result,
+//!   [`transport::object::ObjectResult`], is nested as beam position x
+//!   wavelength.
 //! * **Filter** and **score** (after OpenMC): a filter decides which bins
 //!   an escaping photon lands in (Carlson cells, in-plane bin, bounce bin,
 //!   replicate), a score what is added there (weight, Stokes, Mueller, per
@@ -107,7 +113,9 @@
 //!   lattices of a `launch = "lattice"` run ([`transport::launch`]).
 //! * **Source**: an object scene's light (`[[sources]]`: a beam over one or
 //!   more positions, [`object::source`]); at the micro level the light is
-//!   the incidence angles of `[light]`.
+//!   the incidence angles of `[light]`. The file a scene was read from is
+//!   its **scene file** ([`scene::SceneFile`]: the name for messages and the
+//!   folder its relative paths are read from), never a source.
 #![forbid(unsafe_code)]
 
 pub mod cli;

@@ -22,17 +22,17 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     let result = match cli.command {
-        Command::Brdf(a) => brdf::run(a),
-        Command::Stats(a) => stats::run(a),
-        Command::Trace(a) => trace::run(a),
-        Command::Fit(a) => fit::run(a),
-        Command::ExportMesh(a) => export_mesh::run(a),
-        Command::ExportHeightfield(a) => export_heightfield::run(a),
-        Command::Render(a) => render::run(a),
-        Command::Merge(a) => merge::run(a),
-        Command::ExportBrdf(a) => export_brdf::run(a),
-        Command::FitModel(a) => fit_model::run(a),
-        Command::Plot(a) => plot::run(a),
+        Command::Brdf(a) => brdf::execute(a),
+        Command::Stats(a) => stats::execute(a),
+        Command::Trace(a) => trace::execute(a),
+        Command::Fit(a) => fit::execute(a),
+        Command::ExportMesh(a) => export_mesh::execute(a),
+        Command::ExportHeightfield(a) => export_heightfield::execute(a),
+        Command::Render(a) => render::execute(a),
+        Command::Merge(a) => merge::execute(a),
+        Command::ExportBrdf(a) => export_brdf::execute(a),
+        Command::FitModel(a) => fit_model::execute(a),
+        Command::Plot(a) => plot::execute(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

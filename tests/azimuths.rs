@@ -53,7 +53,7 @@ fn grooves_across_and_along_give_both_closed_forms() {
     );
     let run = both.brdf_run();
     assert_eq!(run.phi_deg, Azimuths(vec![0.0, 90.0]));
-    let result = run.run(&both.surface, &|_| {});
+    let result = run.trace_whole(&both.surface, &|_| {});
     assert_eq!(result.incidence[0].azimuth.len(), 2);
     let (across, along) = (result.leaf(0, 0, 0), result.leaf(0, 1, 0));
     assert_eq!((across.phi_i_deg, along.phi_i_deg), (0.0, 90.0));
@@ -87,7 +87,7 @@ fn grooves_across_and_along_give_both_closed_forms() {
     );
 
     // The first azimuth's photons are those of the run at phi = 0 alone.
-    let alone = one.brdf_run().run(&one.surface, &|_| {});
+    let alone = one.brdf_run().trace_whole(&one.surface, &|_| {});
     assert_eq!(
         serde_json::to_string(&alone.leaf(0, 0, 0).tallies).unwrap(),
         serde_json::to_string(&across.tallies).unwrap()
@@ -156,7 +156,7 @@ fn identical_tables_at_the_same_azimuth_have_no_anisotropy() {
     let text = common::grooves_toml(45.0, 30.0, 0.8, 8192, 7);
     let scene = common::scene("grooves", &text);
     let run = scene.brdf_run();
-    let mut result: BrdfResult = run.run(&scene.surface, &|_| {});
+    let mut result: BrdfResult = run.trace_whole(&scene.surface, &|_| {});
     let mut copy = result.incidence[0].azimuth[0].clone();
     copy.phi_i_deg = 360.0 - 1e-13; // a full turn, to rounding
     for l in &mut copy.wavelength {

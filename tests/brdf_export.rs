@@ -44,7 +44,7 @@ fn default_table(photons: u64) -> BrdfTable {
     let scene = MicroScene::default_scene();
     let mut run = scene.brdf_run();
     run.photons = photons;
-    let results = run.run(&scene.surface, &|_| {});
+    let results = run.trace_whole(&scene.surface, &|_| {});
     BrdfTable::parse(&roks::output::brdf_csv::write(&run, &results), "brdf.csv").unwrap()
 }
 

@@ -13,7 +13,7 @@
 
 use roks::fit::{FitOptions, FitParam, Measured, fit};
 use roks::output::inplane_csv::write as inplane_csv;
-use roks::scene::Source;
+use roks::scene::SceneFile;
 use roks::scene::micro::MicroScene;
 
 fn scene(height: f64) -> String {
@@ -26,8 +26,8 @@ fn scene(height: f64) -> String {
     )
 }
 
-fn source() -> Source {
-    Source {
+fn scene_file() -> SceneFile {
+    SceneFile {
         file: "fit-recovery.toml".into(),
         dir: ".".into(),
     }
@@ -37,11 +37,11 @@ fn source() -> Source {
 fn recovers_height_from_independent_synthetic_data() {
     // The "measurement": roks's in-plane BRDF of the true scene (h = 1.8),
     // 400 000 photons per angle, seed 1007.
-    let truth = MicroScene::from_str(&scene(1.8), source(), "truth".into()).unwrap();
+    let truth = MicroScene::from_str(&scene(1.8), scene_file(), "truth".into()).unwrap();
     let mut run = truth.brdf_run();
     run.photons = 400_000;
     run.seed = 1007;
-    let results = run.run(&truth.surface, &|_| {});
+    let results = run.trace_whole(&truth.surface, &|_| {});
     let measured = Measured::parse(&inplane_csv(&run, &results), "truth/inplane.csv").unwrap();
 
     let params = vec!["bumps[0].height=0.5:3".parse::<FitParam>().unwrap()];
@@ -50,7 +50,7 @@ fn recovers_height_from_independent_synthetic_data() {
         seed: 7,
         ..FitOptions::default()
     };
-    let r = fit(&scene(1.0), &source(), &params, &measured, &opts).unwrap();
+    let r = fit(&scene(1.0), &scene_file(), &params, &measured, &opts).unwrap();
     eprintln!(
         "fitted h = {:.4} (misfit {:.2e}, start {:.2e}, {} evaluations)",
         r.values[0], r.misfit, r.start_misfit, r.evaluations

@@ -29,7 +29,7 @@ fn run(toml: &str, launch: Launch) -> Vec<IncidenceResult> {
     let scene = common::scene("lattice", toml);
     let mut run = common::brdf_run(&scene);
     run.launch = launch;
-    run.run(&scene.surface, &|_| {}).into_leaves()
+    run.trace_whole(&scene.surface, &|_| {}).into_leaves()
 }
 
 #[test]

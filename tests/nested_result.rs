@@ -12,7 +12,7 @@
 
 use std::fmt::Write as _;
 
-use roks::scene::Source;
+use roks::scene::SceneFile;
 use roks::scene::micro::{DEFAULT_SCENE, MicroScene};
 use roks::tally::PolarTally;
 use roks::transport::BATCH;
@@ -23,11 +23,11 @@ use sha2::{Digest, Sha256};
 const FIXTURE: &str = "tests/golden/nested_leaves.txt";
 
 fn scene(text: &str) -> MicroScene {
-    let source = Source {
+    let scene_file = SceneFile {
         file: "t.toml".into(),
         dir: ".".into(),
     };
-    MicroScene::from_str(text, source, "t".into()).unwrap()
+    MicroScene::from_str(text, scene_file, "t".into()).unwrap()
 }
 
 /// The cases: name, scene, run.
@@ -99,11 +99,9 @@ fn lines() -> String {
                 assert_eq!(by_azimuth.wavelength.len(), run.lane_count());
                 for (l, leaf) in by_azimuth.wavelength.iter().enumerate() {
                     assert!(std::ptr::eq(leaf, result.leaf(i, a, l)));
-                    let nodes: Vec<_> = leaf
-                        .nodes
-                        .iter()
-                        .map(|n| (n.level, n.index, &n.value))
-                        .collect();
+                    // The root of a whole run is its sums, kept once.
+                    let tree = leaf.tree_nodes(&run);
+                    let nodes: Vec<_> = tree.iter().map(|n| (n.level, n.index, &n.value)).collect();
                     let _ = writeln!(
                         out,
                         "{name} {i} {a} {l} {} {} {:?} {}",

@@ -228,7 +228,7 @@ fn plate_with_micro_descent_matches_azimuth_averaged_micro_brdf() {
     for j in 0..k {
         run.phi_deg = roks::transport::brdf::Azimuths::one(360.0 * j as f64 / k as f64);
         run.seed = 100 + j as u64;
-        let res = run.run(&micro.surface, &|_| {}).into_leaves();
+        let res = run.trace_whole(&micro.surface, &|_| {}).into_leaves();
         let (rr, rs) = res[0].reflectance();
         sum_r += rr;
         var_r += rs * rs;

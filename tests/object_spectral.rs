@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 use cli_common::{assert_input_error, read, roks, summary_without_timing};
 use num_complex::Complex64;
 use object_common::{run, scene, scratch};
-use roks::scene::Source;
+use roks::scene::SceneFile;
 use roks::scene::object::ObjectScene;
 use roks::transport::object::PositionResult;
 
@@ -42,12 +42,12 @@ fn scenes() -> PathBuf {
 /// An object scene from `text` with relative paths from `dir`, at
 /// `wavelengths` (`None`: the text's own).
 fn scene_at(name: &str, text: &str, dir: &Path, wavelengths: Option<&[f64]>) -> ObjectScene {
-    let source = Source {
+    let scene_file = SceneFile {
         file: format!("{name}.toml"),
         dir: dir.to_path_buf(),
     };
     let wavelengths = wavelengths.map(|w| roks::scene::WavelengthsSpec::List(w.to_vec()));
-    ObjectScene::from_str_at(text, source, name.into(), wavelengths.as_ref())
+    ObjectScene::from_str_at(text, scene_file, name.into(), wavelengths.as_ref())
         .unwrap_or_else(|e| panic!("scene {name}: {e}"))
 }
 

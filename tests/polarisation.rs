@@ -1125,7 +1125,7 @@ fn polar_sums_do_not_depend_on_the_thread_count() {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| run.run(&scene.surface, &|_| {}))
+                .install(|| run.trace_whole(&scene.surface, &|_| {}))
         };
         let (one, two) = (traced(1), traced(2));
         for (a, b) in one.iter().zip(&two) {
@@ -1337,9 +1337,9 @@ fn mirror_symmetry_folds_stokes_and_mueller_with_signs() {
                     .replace("seed = 4\n", &format!("seed = 4\nlaunch = \"{launch}\"\n"));
             let scene = common::scene("mirror", &text);
             let mut run = scene.brdf_run();
-            let plain = run.run(&scene.surface, &|_| {});
+            let plain = run.trace_whole(&scene.surface, &|_| {});
             run.symmetry = Symmetry::Mirror;
-            let folded = run.run(&scene.surface, &|_| {});
+            let folded = run.trace_whole(&scene.surface, &|_| {});
             let k = if tally == "stokes" { 4 } else { 16 };
             let sign = |c: usize| -> f64 {
                 let s = [1.0, 1.0, -1.0, -1.0];
@@ -1390,7 +1390,7 @@ fn lattice_launch_with_a_stokes_tally() {
             .replace("seed = 8\n", "seed = 8\nlaunch = \"lattice\"\n");
     let scene = common::scene("lattice", &text);
     let run = scene.brdf_run();
-    let result = run.run(&scene.surface, &|_| {});
+    let result = run.trace_whole(&scene.surface, &|_| {});
     let r = result.leaf(0, 0, 0);
     let p = r.tallies.polar.as_ref().unwrap();
     assert!(p.replicates.is_some());

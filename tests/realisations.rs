@@ -103,13 +103,14 @@ fn leaf(run: &BrdfRun, surfaces: &[&roks::micro::MicroSurface], theta: f64) -> I
         .swap_remove(0)
 }
 
-/// The nodes of [`leaf`].
+/// The tree nodes of [`leaf`] (a whole run of one realisation: its root,
+/// which the leaf keeps as its sums).
 fn nodes(
     run: &BrdfRun,
     surfaces: &[&roks::micro::MicroSurface],
     theta: f64,
 ) -> Vec<Node<BrdfTallies>> {
-    leaf(run, surfaces, theta).nodes
+    leaf(run, surfaces, theta).tree_nodes(run).into_owned()
 }
 
 /// The ensemble against single-realisation runs of the seeds of each

@@ -91,8 +91,8 @@ fn inplane_brdf_is_reciprocal() {
     let s180 = scene(180.0, &fwd_thetas);
     let (run0, run180) = (common::brdf_run(&s0), common::brdf_run(&s180));
     let (t0, t180) = (run0.inplane(), run180.inplane());
-    let r0 = run0.run(&s0.surface, &|_| {}).into_leaves();
-    let r180 = run180.run(&s180.surface, &|_| {}).into_leaves();
+    let r0 = run0.trace_whole(&s0.surface, &|_| {}).into_leaves();
+    let r180 = run180.trace_whole(&s180.surface, &|_| {}).into_leaves();
     let at = |rs: &[IncidenceResult], theta: f64| -> usize {
         rs.iter().position(|r| r.theta_i_deg == theta).unwrap()
     };

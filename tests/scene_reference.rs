@@ -22,7 +22,7 @@ use std::path::Path;
 
 use roks::scene::micro::MicroSceneSpec;
 use roks::scene::object::ObjectSceneSpec;
-use roks::scene::{Source, parse_toml};
+use roks::scene::{SceneFile, parse_toml};
 use toml::{Table, Value};
 
 const PAGE: &str = "docs/src/scene-reference.md";
@@ -56,10 +56,10 @@ impl Kind {
     /// The loader's message for `doc`, or `None` when it loads.
     fn load(self, doc: &Table) -> Option<String> {
         let text = toml::to_string(doc).expect("probe documents serialise");
-        let source = Source::from_path(Path::new("probe.toml"));
+        let scene_file = SceneFile::from_path(Path::new("probe.toml"));
         let r = match self {
-            Self::Micro => parse_toml::<MicroSceneSpec>(&source, &text).map(|_| ()),
-            Self::Object => parse_toml::<ObjectSceneSpec>(&source, &text).map(|_| ()),
+            Self::Micro => parse_toml::<MicroSceneSpec>(&scene_file, &text).map(|_| ()),
+            Self::Object => parse_toml::<ObjectSceneSpec>(&scene_file, &text).map(|_| ()),
         };
         r.err().map(|e| e.to_string())
     }

@@ -166,7 +166,7 @@ fn rough_surface_wavelengths_agree_with_monochrome_runs() {
     );
     let mut run = common::brdf_run(&scene);
     run.seed = 11;
-    let spec = run.run(&scene.surface, &|_| {});
+    let spec = run.trace_whole(&scene.surface, &|_| {});
     for l in 0..3 {
         let mono = common::run(&common::scene(
             "mono",

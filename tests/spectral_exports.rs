@@ -41,7 +41,7 @@ fn default_with(extra: &str, thetas: &str) -> String {
 fn tables(name: &str, toml: &str) -> BrdfTables {
     let scene = common::scene(name, toml);
     let run = common::brdf_run(&scene);
-    let results = run.run(&scene.surface, &|_| {});
+    let results = run.trace_whole(&scene.surface, &|_| {});
     brdf_csv::table(&run, &results)
 }
 

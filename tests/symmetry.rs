@@ -23,7 +23,7 @@ fn run(toml: &str, fold: Symmetry, launch: Launch, seed: u64) -> Vec<IncidenceRe
     run.symmetry = fold;
     run.launch = launch;
     run.seed = seed;
-    run.run(&scene.surface, &|_| {}).into_leaves()
+    run.trace_whole(&scene.surface, &|_| {}).into_leaves()
 }
 
 /// The mirror cell of every cell at azimuth 0 (from the cell centres).

@@ -124,7 +124,7 @@ impl BrdfArgs {
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: BrdfArgs) -> Result<(), Failure> {
+pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let scene = a.scene()?;
     let mut run = scene.brdf_run();
     check_export_formats(&a.export, &run.wavelengths_um)?;
@@ -148,7 +148,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     set_threads(a.tracing.threads)?;
     let out = result_dir(
         a.tracing.out.as_deref(),
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         &scene.reads,
     )?;
@@ -160,7 +160,7 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let photons = run.photon_range();
     let description = Description::new(
         scene.content.clone(),
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         scene.surface.edges,
         run,
@@ -311,11 +311,11 @@ mod tests {
             .as_table_mut()
             .unwrap()
             .insert(key.into(), value);
-        let source = crate::scene::Source {
+        let scene_file = crate::scene::SceneFile {
             file: "<default scene>".into(),
             dir: ".".into(),
         };
-        MicroScene::from_str(&toml::to_string(&t).unwrap(), source, "default".into()).unwrap()
+        MicroScene::from_str(&toml::to_string(&t).unwrap(), scene_file, "default".into()).unwrap()
     }
 
     /// Bits of a value through its JSON form (shortest round-trip floats:
@@ -414,7 +414,7 @@ mod tests {
                 run.photons = 64;
                 run.theta_deg.truncate(1);
                 run.bands = 4;
-                run.run(&scene.surface, &|_| {})
+                run.trace_whole(&scene.surface, &|_| {})
             };
             let (a, b) = (trace(&by_option), trace(&by_key));
             assert_eq!(a.len(), b.len());

@@ -99,7 +99,7 @@ pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Fai
     match (scene.surface.heightfield(), resolution) {
         (Some(f), Some(r)) if (r, r) != (f.nx, f.ny) => Err(Failure::Input(format!(
             "--resolution: {}: a height field is written on its own {} x {} grid, got {r}",
-            scene.source.file, f.nx, f.ny
+            scene.scene_file.file, f.nx, f.ny
         ))),
         _ => Ok(()),
     }

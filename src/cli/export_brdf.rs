@@ -98,7 +98,7 @@ fn grid(s: &str) -> Result<ZemaxGrid, GridError> {
 /// # Errors
 /// Bad input (the result folder, its table or summary, `--out`, MERL of
 /// wavelengths that do not cover the visible), or a failed write.
-pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
+pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     let format = a.format;
     let csv = a.dir.join("brdf.csv");
     // The files of the result this export reads.

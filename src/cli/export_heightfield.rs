@@ -28,7 +28,7 @@ pub struct ExportHeightfieldArgs {
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: ExportHeightfieldArgs) -> Result<(), Failure> {
+pub fn execute(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     let format = Format::of(&a.out);
     if format == Format::Png {
         return Err(Failure::Input(
@@ -83,7 +83,7 @@ pub fn run(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     let (px, py) = (size.x / grid.nx as f64, size.y / grid.ny as f64);
     let comment = format!(
         "roks height map of {}: {} x {} vertices, pitch {px:?} x {py:?} (length units); row j is y = j * pitch",
-        scene.source.file, grid.nx, grid.ny
+        scene.scene_file.file, grid.nx, grid.ny
     );
     let bytes = heightfield_io::write(&grid, format, &comment).map_err(|e| anyhow::anyhow!(e))?;
     write_file(&a.out, &bytes)?;

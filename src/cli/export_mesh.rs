@@ -37,7 +37,7 @@ pub struct ExportMeshArgs {
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: ExportMeshArgs) -> Result<(), Failure> {
+pub fn execute(a: ExportMeshArgs) -> Result<(), Failure> {
     // A file that cannot be read is left to the micro loader's message.
     if let Some(path) = a
         .scene
@@ -87,7 +87,7 @@ fn object(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
     let Some(b) = a.bounds.as_ref().filter(|b| b.len() == 6) else {
         return Err(Failure::Input(format!(
             "{}: --bounds: an object scene needs the box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX to mesh",
-            scene.source.file
+            scene.scene_file.file
         )));
     };
     let resolution = a.resolution.unwrap_or(512);
@@ -105,11 +105,11 @@ fn object(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
     }
     check_out_file(&a.out, &scene.reads)?;
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
-        .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.source.file)))?;
+        .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.scene_file.file)))?;
     if mesh.faces.is_empty() {
         return Err(Failure::Input(format!(
             "{}: --bounds: no solid wall inside the box {lo} .. {hi}",
-            scene.source.file
+            scene.scene_file.file
         )));
     }
     write_file(&a.out, &crate::export::write_ply(&mesh))?;

@@ -64,10 +64,10 @@ pub struct FitArgs {
 ///
 /// # Errors
 /// Bad input (scene, measurements, parameters, options), or a failed write.
-pub fn run(a: FitArgs) -> Result<(), Failure> {
+pub fn execute(a: FitArgs) -> Result<(), Failure> {
     let input = |e: FitError| Failure::Input(e.to_string());
     let text = crate::scene::read_scene_text(&a.scene)?;
-    let source = crate::scene::Source::from_path(&a.scene);
+    let scene_file = crate::scene::SceneFile::from_path(&a.scene);
     let measured_text =
         crate::limits::read_text_capped(&a.measured, crate::limits::max_data_bytes())
             .map_err(|e| Failure::Input(format!("{}: cannot read: {e}", a.measured.display())))?;
@@ -91,7 +91,7 @@ pub fn run(a: FitArgs) -> Result<(), Failure> {
         scan: a.scan,
     };
     set_threads(a.threads)?;
-    let problem = Problem::new(&text, &source, &params, &measured, &opts).map_err(input)?;
+    let problem = Problem::new(&text, &scene_file, &params, &measured, &opts).map_err(input)?;
     let name = a
         .scene
         .file_stem()
@@ -119,7 +119,7 @@ pub fn run(a: FitArgs) -> Result<(), Failure> {
         .map_err(input)?;
     let fitted = problem.apply(&result.values).map_err(input)?;
     let summary = FitSummary::new(
-        &source.file,
+        &scene_file.file,
         &a.measured.display().to_string(),
         a.seed,
         a.photons,

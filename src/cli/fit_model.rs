@@ -151,7 +151,7 @@ fn material(
 /// # Errors
 /// Bad input (the result folder, its table or summary, options), a fit
 /// that cannot be made, or a failed write.
-pub fn run(a: FitModelArgs) -> Result<(), Failure> {
+pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     let input = |e: String| Failure::Input(e);
     if !a.dir.is_dir() {
         return Err(input(format!(

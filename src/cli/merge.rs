@@ -46,7 +46,7 @@ pub struct MergeArgs {
 /// # Errors
 /// Bad input (a shard's tallies.json, shards of different runs, gaps or
 /// overlaps, `--out`, memory), or a failed write.
-pub fn run(a: MergeArgs) -> Result<(), Failure> {
+pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     check_out_dir(&a.out, "--out")?;
     super::common::check_kept("--out", &[super::common::Written::Folder(&a.out)], &a.dirs)?;
     if object_tallies::is_trace_shard(&a.dirs[0]) {
@@ -120,11 +120,11 @@ fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
     let merged = object_tallies::merge_shards(parts)?;
     let files = merged
         .description
-        .folder(&merged.results, merged.seconds, None)
+        .folder(&merged.result, merged.seconds, None)
         .map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files)?;
     if !a.quiet {
-        super::trace::print_table(&merged.description.run, &merged.results);
+        super::trace::print_table(&merged.description.run, &merged.result);
         eprintln!("merged {n_parts} shards into {}", a.out.display());
     }
     Ok(())

@@ -31,7 +31,7 @@ pub struct PlotArgs {
 /// # Errors
 /// Bad input: not a result folder, or a file of it that cannot be read
 /// (one line naming it); a failed write.
-pub fn run(a: PlotArgs) -> Result<(), Failure> {
+pub fn execute(a: PlotArgs) -> Result<(), Failure> {
     let dir = &a.dir;
     if !dir.join("summary.json").is_file() {
         return Err(Failure::Input(format!(

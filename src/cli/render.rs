@@ -141,7 +141,7 @@ pub fn check_cost(w: u64, h: u64, spp: u32, threads: usize, force: bool) -> Resu
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
-pub fn run(a: RenderArgs) -> Result<(), Failure> {
+pub fn execute(a: RenderArgs) -> Result<(), Failure> {
     for (name, n) in [
         ("--view", a.view.len()),
         ("--size", a.size.len()),
@@ -275,7 +275,7 @@ fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failur
     settings
         .validate()
         .and_then(|()| camera.validate())
-        .map_err(|e| Failure::Input(format!("{}: {e}", scene.source.file)))?;
+        .map_err(|e| Failure::Input(format!("{}: {e}", scene.scene_file.file)))?;
     if scene
         .object
         .solids
@@ -284,7 +284,7 @@ fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failur
     {
         return Err(Failure::Input(format!(
             "{}: --camera: the camera position {} lies inside a solid cell",
-            scene.source.file, camera.position
+            scene.scene_file.file, camera.position
         )));
     }
     set_threads(a.threads)?;
@@ -292,7 +292,7 @@ fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failur
     if losses.unmodelled > 0 {
         return Err(Failure::Input(format!(
             "{}: walls: {} camera paths hit a surface without a model in [walls]",
-            scene.source.file, losses.unmodelled
+            scene.scene_file.file, losses.unmodelled
         )));
     }
     let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);

@@ -34,7 +34,7 @@ pub struct StatsArgs {
 ///
 /// # Errors
 /// Bad input (scene, `--resolution`), or a failed write to stdout.
-pub fn run(a: StatsArgs) -> Result<(), Failure> {
+pub fn execute(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
     if let Some(path) = &a.png {
         super::common::check_out_file_as("--png", path, &scene.reads)?;
@@ -64,7 +64,7 @@ pub fn run(a: StatsArgs) -> Result<(), Failure> {
         return print_stdout(&out);
     }
     let size = scene.surface.size;
-    let _ = writeln!(out, "scene            {}", scene.source.file);
+    let _ = writeln!(out, "scene            {}", scene.scene_file.file);
     let _ = writeln!(
         out,
         "cell             {} x {} ({:?} edges)",

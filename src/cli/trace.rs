@@ -15,7 +15,7 @@ use crate::output::object_tallies::{self, TraceDescription, TraceTalliesFile};
 use crate::scene::object::ObjectScene;
 use crate::shard::Shard;
 use crate::transport::BATCH;
-use crate::transport::object::{ObjectRun, PositionResult};
+use crate::transport::object::{ObjectResult, ObjectRun};
 
 /// The options of `roks trace`.
 #[derive(Args, Debug)]
@@ -55,7 +55,7 @@ pub struct TraceArgs {
 /// # Errors
 /// Bad input (scene, options, photons meeting a wall without a model or
 /// starting inside a solid), or a failed write.
-pub fn run(a: TraceArgs) -> Result<(), Failure> {
+pub fn execute(a: TraceArgs) -> Result<(), Failure> {
     let scene = ObjectScene::load_at(&a.scene, a.wavelengths.as_ref()).map_err(|e| {
         let keys = [("light.wavelengths_um", "--wavelengths")];
         match crate::scene::option_error(&keys[..usize::from(a.wavelengths.is_some())], &e) {
@@ -78,14 +78,14 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         if run.farfield_stokes {
             return Err(Failure::Input(format!(
                 "{}: tally.polarisation: \"stokes\" needs polarised transport, which --no-polarisation turns off",
-                scene.source.file
+                scene.scene_file.file
             )));
         }
         run.polarisation = false;
     }
     let description = TraceDescription::new(
         &scene.content,
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         &scene.object.surface_names,
         &run,
@@ -99,7 +99,7 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
     set_threads(a.tracing.threads)?;
     let out = result_dir(
         a.tracing.out.as_deref(),
-        &scene.source.file,
+        &scene.scene_file.file,
         &scene.name,
         &scene.reads,
     )?;
@@ -117,49 +117,45 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
         &blocks,
         &|n| bar.inc(n),
     );
-    // The files list the leaves in order: position, then wavelength.
-    let nodes: Vec<_> = nodes.into_iter().flatten().collect();
     bar.finish_and_clear();
     let seconds = clock.elapsed().as_secs_f64();
     let n_surfaces = scene.object.surface_names.len();
-    let (results, tallies) = if a.shard.is_some() {
-        let results = object_tallies::partial_results(&description, &nodes);
+    let (result, tallies) = if a.shard.is_some() {
+        let result = object_tallies::partial_results(&description, &nodes);
+        // The file lists the leaves in order: position, then wavelength.
+        let nodes = nodes.into_iter().flatten().collect();
         let file = TraceTalliesFile::new(&description, nodes, seconds);
-        (results, Some(file))
+        (result, Some(file))
     } else {
-        let zero = || run.tallies(n_surfaces);
-        let results = nodes
-            .into_iter()
-            .map(|p| p.into_root(&zero).expect("a whole run covers its batches"))
-            .collect::<Vec<_>>();
-        (results, None)
+        let result = ObjectResult::roots(nodes, &|| run.tallies(n_surfaces));
+        (result, None)
     };
 
     // A photon met a wall without a model: a scene error, before any output.
-    if let Some(r) = results.iter().find(|r| r.tallies.unmodelled.0 > 0) {
+    if let Some(r) = result.iter().find(|r| r.tallies.unmodelled.0 > 0) {
         let name = &scene.object.surface_names[r.tallies.unmodelled.1];
         return Err(Failure::Input(format!(
             "{}: walls.{name}: photons hit surface `{name}` ({} of them from beam position {}), which has no model in [walls]",
-            scene.source.file, r.tallies.unmodelled.0, r.beam.position
+            scene.scene_file.file, r.tallies.unmodelled.0, r.beam.position
         )));
     }
-    if let Some((k, r)) = results
-        .chunks(run.lane_count())
+    if let Some((k, r)) = result
+        .groups()
         .enumerate()
         .find_map(|(k, lanes)| Some((k, lanes.iter().find(|r| r.tallies.started_inside > 0)?)))
     {
         return Err(Failure::Input(format!(
             "{}: sources[{}].beam.diameter: {} photons of beam position {} started inside a solid cell",
-            scene.source.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
+            scene.scene_file.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
         )));
     }
     let files = description
-        .folder(&results, seconds, tallies)
+        .folder(&result, seconds, tallies)
         .map_err(anyhow::Error::msg)?;
     write_folder(&out, &files)?;
 
     if !a.quiet {
-        print_table(&run, &results);
+        print_table(&run, &result);
         eprintln!("wrote {} ({seconds:.1} s)", out.display());
     }
     Ok(())
@@ -167,7 +163,7 @@ pub fn run(a: TraceArgs) -> Result<(), Failure> {
 
 /// The table of results per beam position, on stderr (a spectral run:
 /// per position and wavelength; a shard: the positions it traced).
-pub(super) fn print_table(run: &ObjectRun, results: &[PositionResult]) {
+pub(super) fn print_table(run: &ObjectRun, result: &ObjectResult) {
     let spectral = !run.wavelengths_um.is_empty();
     eprintln!(
         "{:>28}{} {:>12} {:>10} {:>9} {:>8} {:>9}",
@@ -179,7 +175,7 @@ pub(super) fn print_table(run: &ObjectRun, results: &[PositionResult]) {
         "bounces",
         "lost"
     );
-    for r in results.iter().filter(|r| r.tallies.photons > 0) {
+    for r in result.iter().filter(|r| r.tallies.photons > 0) {
         let (refl, se) = r.reflectance();
         let n = r.tallies.photons as f64;
         let p = r.beam.position;

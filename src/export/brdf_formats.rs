@@ -65,7 +65,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use thiserror::Error;
 
-pub use super::resample::{FormatError, symmetric_eval};
+pub use super::resample::{FormatError, ReflectanceCheck, symmetric_eval};
 use super::{merl, rgl, zemax};
 
 /// An export format of `roks export-brdf --format` and `roks brdf
@@ -365,39 +365,6 @@ pub fn integrate_projected(n: usize, f: impl Fn(DVec3) -> f64 + Sync) -> f64 {
 /// sectors, cells of 0.2 x 0.2 degrees, far finer than the Carlson cells
 /// (about 3 degrees for 32 bands) and the exports' grids (1-2 degrees).
 pub const CHECK_RINGS: usize = 450;
-
-/// One incidence of [`reflectance_check`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ReflectanceCheck {
-    /// Tabulated incidence angle (degrees).
-    pub theta_i_deg: f64,
-    /// The table's reflectance (exact sum of its fractions).
-    pub table: f64,
-    /// The file read back by its reader and integrated over the hemisphere
-    /// (first channel for MERL; the channels are equal).
-    pub file: f64,
-    /// The standard error of `table` (the run's stated one when
-    /// `summary.json` was read, else the cells' errors added in quadrature;
-    /// for a colour channel the wavelengths' errors added with the
-    /// channel's absolute weights, an upper bound).
-    pub table_stderr: f64,
-}
-
-impl ReflectanceCheck {
-    /// The largest difference between file and table that the export is
-    /// allowed: `max(1 % of the table's reflectance, 4 standard errors)`.
-    #[must_use]
-    pub fn tolerance(&self) -> f64 {
-        (0.01 * self.table.abs()).max(4.0 * self.table_stderr)
-    }
-
-    /// Whether the file's reflectance is the table's within
-    /// [`tolerance`](Self::tolerance).
-    #[must_use]
-    pub fn passes(&self) -> bool {
-        (self.file - self.table).abs() <= self.tolerance()
-    }
-}
 
 /// A Zemax grid: the steps of the azimuth and radial angles (degrees).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -353,7 +353,7 @@ fn symmetric_eigen(m: DMat3) -> (DVec3, DMat3) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Source;
+    use crate::scene::SceneFile;
     use crate::scene::object::ObjectScene;
 
     fn sphere_object(r: f64) -> Object {
@@ -436,11 +436,11 @@ position = [0.0, 0.0, 10.0]
 photons = 1
 "#
         );
-        let source = Source {
+        let scene_file = SceneFile {
             file: "solid.toml".into(),
             dir: std::env::temp_dir(),
         };
-        ObjectScene::from_str(&text, source, "solid".into())
+        ObjectScene::from_str(&text, scene_file, "solid".into())
             .unwrap()
             .object
     }

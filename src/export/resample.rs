@@ -1,5 +1,6 @@
 //! What the BRDF export formats share: the table resampled symmetrically
-//! about the plane of incidence, and the error of a reader. The formats
+//! about the plane of incidence, the error of a reader and the check of
+//! a written file's reflectance against the table. The formats
 //! ([`super::zemax`], [`super::merl`]) use this module; the dispatcher
 //! [`super::brdf_formats`] uses them.
 
@@ -27,4 +28,38 @@ pub struct FormatError {
 pub fn symmetric_eval(table: &BrdfTable, theta_i_rad: f64, dir: DVec3) -> f64 {
     let mirror = DVec3::new(dir.x, -dir.y, dir.z);
     0.5 * (table.eval(theta_i_rad, dir) + table.eval(theta_i_rad, mirror))
+}
+
+/// One incidence of a format's reflectance check
+/// ([`super::brdf_formats::reflectance_check`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReflectanceCheck {
+    /// Tabulated incidence angle (degrees).
+    pub theta_i_deg: f64,
+    /// The table's reflectance (exact sum of its fractions).
+    pub table: f64,
+    /// The file read back by its reader and integrated over the hemisphere
+    /// (first channel for MERL; the channels are equal).
+    pub file: f64,
+    /// The standard error of `table` (the run's stated one when
+    /// `summary.json` was read, else the cells' errors added in quadrature;
+    /// for a colour channel the wavelengths' errors added with the
+    /// channel's absolute weights, an upper bound).
+    pub table_stderr: f64,
+}
+
+impl ReflectanceCheck {
+    /// The largest difference between file and table that the export is
+    /// allowed: `max(1 % of the table's reflectance, 4 standard errors)`.
+    #[must_use]
+    pub fn tolerance(&self) -> f64 {
+        (0.01 * self.table.abs()).max(4.0 * self.table_stderr)
+    }
+
+    /// Whether the file's reflectance is the table's within
+    /// [`tolerance`](Self::tolerance).
+    #[must_use]
+    pub fn passes(&self) -> bool {
+        (self.file - self.table).abs() <= self.tolerance()
+    }
 }

@@ -628,7 +628,7 @@ pub fn check(
     tables: &BrdfTables,
     bytes: &[u8],
     file: &str,
-) -> Result<Vec<Vec<super::brdf_formats::ReflectanceCheck>>, FormatError> {
+) -> Result<Vec<Vec<super::resample::ReflectanceCheck>>, FormatError> {
     let rgl = Rgl::parse(bytes, file)?;
     let r = reflectance(&rgl, CHECK_RINGS);
     Ok(tables
@@ -642,7 +642,7 @@ pub fn check(
                 .enumerate()
                 .map(|(k, &deg)| {
                     let theta = deg.to_radians();
-                    super::brdf_formats::ReflectanceCheck {
+                    super::resample::ReflectanceCheck {
                         theta_i_deg: deg,
                         table: table.reflectance(theta),
                         file: r[k][w],

@@ -25,7 +25,7 @@
 use std::fmt;
 use thiserror::Error;
 
-use super::body::Aabb;
+use super::ray::Aabb;
 
 /// Maximum nesting depth of parentheses and complements accepted by
 /// [`parse`], which bounds the recursion of parsing and evaluation.

@@ -22,7 +22,7 @@
 //!   photon): the s axis is `s = normalize(n × d_in)` (Mitsuba's
 //!   `cross(n, -wo)`), perpendicular to the plane of incidence and shared by
 //!   the incoming and outgoing flights. In the s frames the Fresnel Mueller
-//!   matrix is ([`FresnelMueller`])
+//!   matrix is ([`FresnelMueller`](super::fresnel::FresnelMueller))
 //!
 //!   ```text
 //!   M = [[a, b, 0, 0], [b, a, 0, 0], [0, 0, c, -d], [0, 0, d, c]]
@@ -53,8 +53,6 @@
 
 use glam::DVec3;
 
-use super::fresnel::fresnel_sp;
-
 /// A Stokes vector `(S0, S1, S2, S3)` (intensity units of the carrier).
 pub type Stokes = [f64; 4];
 
@@ -67,129 +65,6 @@ pub const UNPOLARISED: Stokes = [1.0, 0.0, 0.0, 0.0];
 /// Signs of the Stokes components under a mirror reflection of the whole
 /// configuration (the handedness of every frame flips): `S2`, `S3` change sign.
 pub const MIRROR_SIGNS: [f64; 4] = [1.0, 1.0, -1.0, -1.0];
-
-/// The Fresnel reflection of a smooth interface as a Mueller matrix in the
-/// s frames of the plane of incidence (see the module docs):
-/// `[[a, b, 0, 0], [b, a, 0, 0], [0, 0, c, -d], [0, 0, d, c]]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FresnelMueller {
-    /// `(Rs + Rp) / 2`, the unpolarised reflectance.
-    pub a: f64,
-    /// `(Rs - Rp) / 2`, the diattenuation term.
-    pub b: f64,
-    /// `Re(rs rp*) = sqrt(Rs Rp) cos δ`.
-    pub c: f64,
-    /// `Im(rs rp*) = sqrt(Rs Rp) sin δ`, the retardance term.
-    pub d: f64,
-}
-
-impl FresnelMueller {
-    /// The matrix at incidence cosine `cos_i` (clamped to `[0, 1]`) from
-    /// index 1 into `n + i k` (`n > 0`, `k >= 0`). `a` and `b` come from
-    /// [`fresnel_sp`] (so `a` is bit for bit the unpolarised reflectance);
-    /// `c`, `d` are `sqrt(Rs Rp)` times the phase of `rs rp*`, computed from
-    /// unit phasors so that nothing overflows for huge indices and
-    /// `c² + d² = Rs Rp` holds to rounding. Never panics; NaN in gives NaN out.
-    #[must_use]
-    pub fn new(cos_i: f64, n: f64, k: f64) -> Self {
-        let cos = cos_i.clamp(0.0, 1.0);
-        let (rs, rp) = fresnel_sp(cos, n, k);
-        let a = 0.5 * (rs + rp);
-        let b = 0.5 * (rs - rp);
-        let amplitude = (rs * rp).sqrt();
-        if amplitude == 0.0 {
-            return Self {
-                a,
-                b,
-                c: 0.0,
-                d: 0.0,
-            };
-        }
-        let (cos_d, sin_d) = phase_rs_rp(cos, n, k);
-        Self {
-            a,
-            b,
-            c: amplitude * cos_d,
-            d: amplitude * sin_d,
-        }
-    }
-
-    /// The full matrix.
-    #[must_use]
-    pub fn matrix(&self) -> Mueller {
-        let Self { a, b, c, d } = *self;
-        [
-            [a, b, 0.0, 0.0],
-            [b, a, 0.0, 0.0],
-            [0.0, 0.0, c, -d],
-            [0.0, 0.0, d, c],
-        ]
-    }
-
-    /// Apply to a Stokes vector in the incoming s frame; the result is in
-    /// the outgoing s frame.
-    #[must_use]
-    #[inline]
-    pub fn apply(&self, s: Stokes) -> Stokes {
-        let Self { a, b, c, d } = *self;
-        [
-            a * s[0] + b * s[1],
-            b * s[0] + a * s[1],
-            c * s[2] - d * s[3],
-            d * s[2] + c * s[3],
-        ]
-    }
-}
-
-/// `(cos, sin)` of `arg(rs rp*)` for incidence cosine `cos` in `[0, 1]`.
-///
-/// Everything is computed in units of `scale = max(n, k, 1)`, so every
-/// quantity is of order 1 and plain products cannot overflow; only the
-/// phase of the product `(c - u)(c + u)* [(m c - cos θt)(m c + cos θt)*]*`
-/// is needed, normalised once at the end.
-fn phase_rs_rp(cos: f64, n: f64, k: f64) -> (f64, f64) {
-    let scale = n.abs().max(k.abs()).max(1.0);
-    let (n1, k1, c1, one) = (n / scale, k / scale, cos / scale, 1.0 / scale);
-    // u = m cos θt = sqrt(m² - sin² θ), principal root (Re, Im >= 0), from
-    // the same real closed form as `fresnel_sp` (here divided by `scale`).
-    let t0 = (n1 - one) * (n1 + one) - k1 * k1 + c1 * c1;
-    let a2b2 = (t0 * t0 + 4.0 * n1 * n1 * k1 * k1).sqrt();
-    let ua = (0.5 * (a2b2 + t0)).max(0.0).sqrt();
-    let ub = (0.5 * (a2b2 - t0)).max(0.0).sqrt();
-    // rs = (c - u)/(c + u).
-    let ps = mul_conj((c1 - ua, -ub), (c1 + ua, ub));
-    // cos θt = u / m (scale-free); rp = (m c - cos θt)/(m c + cos θt), both
-    // terms divided by `scale`.
-    let mm = n1 * n1 + k1 * k1;
-    let ct = if mm > 0.0 {
-        (
-            (ua * n1 + ub * k1) / mm * one,
-            (ub * n1 - ua * k1) / mm * one,
-        )
-    } else {
-        (0.0, 0.0)
-    };
-    let mc = (n1 * cos, k1 * cos);
-    // Both terms can be tiny (huge m at grazing incidence): bring them to order 1.
-    let big = mc.0.abs().max(mc.1.abs()).max(ct.0.abs()).max(ct.1.abs());
-    let t = if big > 0.0 { 1.0 / big } else { 1.0 };
-    let (mc, ct) = ((mc.0 * t, mc.1 * t), (ct.0 * t, ct.1 * t));
-    let pp = mul_conj((mc.0 - ct.0, mc.1 - ct.1), (mc.0 + ct.0, mc.1 + ct.1));
-    // rs rp*: phase ps - pp.
-    let z = mul_conj(ps, pp);
-    let norm2 = z.0 * z.0 + z.1 * z.1;
-    if norm2 > 0.0 && norm2.is_finite() {
-        let inv = 1.0 / norm2.sqrt();
-        (z.0 * inv, z.1 * inv)
-    } else {
-        (0.0, 0.0)
-    }
-}
-
-/// `p q*` of two complex numbers.
-fn mul_conj(p: (f64, f64), q: (f64, f64)) -> (f64, f64) {
-    (p.0 * q.0 + p.1 * q.1, p.1 * q.0 - p.0 * q.1)
-}
 
 /// `(cos 2a, sin 2a)` of the angle `a` that turns reference vector `from`
 /// into `to` about the direction of flight `forward` (all unit, `from` and
@@ -369,103 +244,9 @@ pub fn degree_of_polarisation(s: Stokes) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use num_complex::Complex64;
-
-    /// Textbook amplitudes in complex arithmetic (independent of the phasor code).
-    fn amplitudes(cos: f64, n: f64, k: f64) -> (Complex64, Complex64) {
-        let m = Complex64::new(n, k);
-        let u = (m * m - 1.0 + cos * cos).sqrt();
-        let ct = u / m;
-        let c = Complex64::new(cos, 0.0);
-        ((c - u) / (c + u), (m * c - ct) / (m * c + ct))
-    }
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol
-    }
-
-    #[test]
-    fn matches_complex_amplitudes() {
-        for &(n, k) in &[
-            (1.015, 6.627),
-            (0.43, 2.455),
-            (1.6, 0.2),
-            (1.5, 0.0),
-            (0.7, 0.0),
-            (27.16, 89.89),
-            (0.06, 3.586),
-        ] {
-            for deg in 0..=90 {
-                let c = f64::from(deg).to_radians().cos().max(0.0);
-                let (rs, rp) = amplitudes(c, n, k);
-                let z = rs * rp.conj();
-                let f = FresnelMueller::new(c, n, k);
-                assert!(close(f.a, 0.5 * (rs.norm_sqr() + rp.norm_sqr()), 1e-13));
-                assert!(close(f.b, 0.5 * (rs.norm_sqr() - rp.norm_sqr()), 1e-13));
-                assert!(
-                    close(f.c, z.re, 1e-12),
-                    "{n} {k} {deg}: {} vs {}",
-                    f.c,
-                    z.re
-                );
-                assert!(
-                    close(f.d, z.im, 1e-12),
-                    "{n} {k} {deg}: {} vs {}",
-                    f.d,
-                    z.im
-                );
-            }
-        }
-    }
-
-    /// REFERENCE.md (Azzam & Bashara with Python's cmath): c/a and d/a.
-    #[test]
-    fn published_retardance_values() {
-        let rows = [
-            (1.015, 6.627, 45.0, 0.939707, 0.883049, -0.978225, 0.205205),
-            (1.015, 6.627, 60.0, 0.957092, 0.843598, -0.906081, 0.418384),
-            (1.015, 6.627, 80.0, 0.984919, 0.734633, -0.190484, 0.970840),
-            (0.43, 2.455, 45.0, 0.849414, 0.721504, -0.860808, 0.502374),
-            (0.43, 2.455, 60.0, 0.892820, 0.683443, -0.509375, 0.850231),
-        ];
-        for (n, k, deg, rs, rp, re, im) in rows {
-            let f = FresnelMueller::new(f64::to_radians(deg).cos(), n, k);
-            assert!(close(f.a + f.b, rs, 1e-6) && close(f.a - f.b, rp, 1e-6));
-            assert!(close(f.c / f.a, re, 1e-6), "{}", f.c / f.a);
-            assert!(close(f.d / f.a, im, 1e-6), "{}", f.d / f.a);
-        }
-    }
-
-    #[test]
-    fn normal_and_grazing_incidence_are_exact() {
-        for &(n, k) in &[(1.015, 6.627), (1.5, 0.0), (1.6, 0.2), (1e200, 1e200)] {
-            let f = FresnelMueller::new(1.0, n, k);
-            assert_eq!(f.b, 0.0);
-            assert!(
-                close(f.c, -f.a, 1e-15 * f.a.max(1.0)) && f.d.abs() < 1e-15,
-                "{n} {k}: {f:?}"
-            );
-            let g = FresnelMueller::new(0.0, n, k);
-            assert_eq!((g.a, g.b), (1.0, 0.0));
-            assert!(close(g.c, 1.0, 1e-15) && g.d.abs() < 1e-15, "{g:?}");
-            assert!(f.matrix().iter().flatten().all(|x| x.is_finite()));
-        }
-        // Huge indices (everything in units of max(n, k, 1)): a perfect conductor at every
-        // angle, rs rp* = -Rs Rp, except exactly at grazing (identity).
-        for &(n, k) in &[(1e200, 1e200), (1e150, 0.0), (3e120, 7e121)] {
-            for c in [1.0, 0.7, 0.1, 1e-3] {
-                let f = FresnelMueller::new(c, n, k);
-                assert!(
-                    close(f.c, -f.a, 1e-12) && f.d.abs() < 1e-12,
-                    "{n} {k} {c}: {f:?}"
-                );
-            }
-        }
-        // Brewster angle of glass: Rp = 0, so no c, d term and no NaN.
-        let f = FresnelMueller::new(1.5f64.atan().cos(), 1.5, 0.0);
-        assert!(f.c.abs() < 1e-9 && f.d.abs() < 1e-9);
-        // Index matched: nothing reflected.
-        assert_eq!(FresnelMueller::new(0.5, 1.0, 0.0).matrix(), [[0.0; 4]; 4]);
     }
 
     #[test]
@@ -522,22 +303,5 @@ mod tests {
             Incident::Linear(180.0 * 2f64.powi(60)).stokes(),
             Incident::S.stokes()
         );
-    }
-
-    proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
-        /// The Fresnel matrix is a pure (non-depolarising) Mueller matrix:
-        /// c² + d² = Rs Rp, so it maps fully polarised light to fully polarised light.
-        #[test]
-        fn fresnel_keeps_pure_states_pure(
-            c in 0.0f64..=1.0, n in 0.05f64..50.0, k in 0.0f64..100.0,
-            t in 0.0f64..std::f64::consts::PI, p in 0.0f64..std::f64::consts::TAU,
-        ) {
-            let f = FresnelMueller::new(c, n, k);
-            let s = [1.0, t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
-            let o = f.apply(s);
-            let pol = (o[1] * o[1] + o[2] * o[2] + o[3] * o[3]).sqrt();
-            proptest::prop_assert!((pol - o[0]).abs() <= 1e-12 * o[0].max(1e-300) + 1e-300);
-        }
     }
 }

@@ -129,18 +129,18 @@ pub fn colour_file(theta_i_deg: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Source;
+    use crate::scene::SceneFile;
     use crate::scene::micro::MicroScene;
 
     fn scene(material: &str, wavelengths: &str) -> MicroScene {
         let text = format!(
             "[surface]\nsize = [10.0, 10.0]\nmaterial = \"m\"\n[materials.m]\n{material}\n[light]\ntheta_deg = [0, 30]\nphotons = 4096\nwavelengths_um = {wavelengths}\n[tally]\nbands = 4\n"
         );
-        let source = Source {
+        let scene_file = SceneFile {
             file: "t.toml".into(),
             dir: ".".into(),
         };
-        MicroScene::from_str(&text, source, "t".into()).unwrap()
+        MicroScene::from_str(&text, scene_file, "t".into()).unwrap()
     }
 
     /// A flat mirror of constant reflectance 0.5: every wavelength puts
@@ -155,7 +155,7 @@ mod tests {
             "{ from = 0.38, to = 0.78, step = 0.02 }",
         );
         let run = s.brdf_run();
-        let results = run.run(&s.surface, &|_| {});
+        let results = run.trace_whole(&s.surface, &|_| {});
         assert_eq!(results.len(), 2 * 21);
         let grid = run.grid();
         let white = crate::optics::colour::d65_white_xyz();
@@ -193,7 +193,7 @@ mod tests {
     fn no_colour_without_the_visible() {
         let s = scene("reflectance = 0.5", "[0.45, 0.55, 0.65]");
         let run = s.brdf_run();
-        let results = run.run(&s.surface, &|_| {});
+        let results = run.trace_whole(&s.surface, &|_| {});
         assert!(write(&run, &results).is_none());
     }
 }

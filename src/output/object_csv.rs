@@ -14,6 +14,8 @@
 
 use std::fmt::Write as _;
 
+use crate::transport::object::{ObjectResult, ObjectRun, PositionResult};
+
 /// Columns of `reflectance.csv` (`roks trace`).
 pub const REFLECTANCE_HEADER: &str = "x,y,z,reflectance,reflectance_stderr";
 
@@ -34,21 +36,21 @@ pub const SPECTRAL_FARFIELD_HEADER: &str = "source,wavelength_um,band,cell,theta
 pub const SPECTRAL_FARFIELD_STOKES_HEADER: &str = "source,wavelength_um,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,s0,s0_stderr,s1,s1_stderr,s2,s2_stderr,s3,s3_stderr,dop";
 
 /// Whether results come from a spectral run.
-fn spectral(results: &[crate::transport::object::PositionResult]) -> bool {
-    results.iter().any(|r| r.wavelength_um.is_some())
+fn spectral(result: &ObjectResult) -> bool {
+    result.iter().any(|r| r.wavelength_um.is_some())
 }
 
 /// `reflectance.csv`: one row per beam position (and wavelength).
 #[must_use]
-pub fn reflectance_csv(results: &[crate::transport::object::PositionResult]) -> String {
-    let spectral = spectral(results);
+pub fn reflectance_csv(result: &ObjectResult) -> String {
+    let spectral = spectral(result);
     let mut s = String::from(if spectral {
         SPECTRAL_REFLECTANCE_HEADER
     } else {
         REFLECTANCE_HEADER
     });
     s.push('\n');
-    for r in results {
+    for r in result.iter() {
         let p = r.beam.position;
         let (refl, se) = r.reflectance();
         let _ = write!(s, "{},{},{},", p.x, p.y, p.z);
@@ -78,58 +80,70 @@ pub const FARFIELD_STOKES_HEADER: &str = "source,band,cell,theta_lo_deg,theta_hi
 fn farfield_rows(
     header: &str,
     spectral_header: &str,
-    run: &crate::transport::object::ObjectRun,
-    results: &[crate::transport::object::PositionResult],
-    row: impl Fn(&mut String, &crate::transport::object::PositionResult, usize, f64),
+    run: &ObjectRun,
+    result: &ObjectResult,
+    row: impl Fn(&mut String, &PositionResult, usize, f64),
 ) -> String {
     let grid = run.farfield_grid().grid;
-    let half = grid.n_cells();
-    let omega = grid.solid_angle();
-    let lanes = run.lane_count();
-    let mut s = String::from(if spectral(results) {
+    let mut s = String::from(if spectral(result) {
         spectral_header
     } else {
         header
     });
     s.push('\n');
-    for (i, r) in results.iter().enumerate() {
-        let k = i / lanes;
-        let lambda = r
-            .wavelength_um
-            .map_or_else(String::new, |w| format!("{w},"));
-        for flat in 0..2 * half {
-            let lower = flat >= half;
-            let (band, cell) = grid.band_cell(flat % half);
-            let (mu_bot, mu_top) = grid.mu_edges(band);
-            let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
-            let (theta, phi) = grid.centre(band, cell);
-            let (t_lo, t_hi, t_c) = if lower {
-                (
-                    180.0 - mu_bot.acos().to_degrees(),
-                    180.0 - mu_top.acos().to_degrees(),
-                    180.0 - theta.to_degrees(),
-                )
-            } else {
-                (
-                    mu_top.acos().to_degrees(),
-                    mu_bot.acos().to_degrees(),
-                    theta.to_degrees(),
-                )
-            };
-            let band_label = if lower { -(band as i64) } else { band as i64 };
-            let proj = grid.projected_solid_angle(band, cell);
-            let _ = write!(
-                s,
-                "{k},{lambda}{band_label},{cell},{t_lo},{t_hi},{},{},{t_c},{},{omega:.12e},{proj:.12e},",
-                phi_lo.to_degrees(),
-                phi_hi.to_degrees(),
-                phi.to_degrees(),
-            );
-            row(&mut s, r, flat, proj);
-            s.push('\n');
+    for (k, lanes) in result.groups().enumerate() {
+        for r in lanes {
+            farfield_leaf(&mut s, &grid, k, r, &row);
         }
     }
     s
+}
+
+/// The rows of beam position `k`'s leaf `r` (one wavelength) in a far-field
+/// table (see [`farfield_rows`]).
+fn farfield_leaf(
+    s: &mut String,
+    grid: &crate::tally::CarlsonGrid,
+    k: usize,
+    r: &PositionResult,
+    row: &impl Fn(&mut String, &PositionResult, usize, f64),
+) {
+    let half = grid.n_cells();
+    let omega = grid.solid_angle();
+    let lambda = r
+        .wavelength_um
+        .map_or_else(String::new, |w| format!("{w},"));
+    for flat in 0..2 * half {
+        let lower = flat >= half;
+        let (band, cell) = grid.band_cell(flat % half);
+        let (mu_bot, mu_top) = grid.mu_edges(band);
+        let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
+        let (theta, phi) = grid.centre(band, cell);
+        let (t_lo, t_hi, t_c) = if lower {
+            (
+                180.0 - mu_bot.acos().to_degrees(),
+                180.0 - mu_top.acos().to_degrees(),
+                180.0 - theta.to_degrees(),
+            )
+        } else {
+            (
+                mu_top.acos().to_degrees(),
+                mu_bot.acos().to_degrees(),
+                theta.to_degrees(),
+            )
+        };
+        let band_label = if lower { -(band as i64) } else { band as i64 };
+        let proj = grid.projected_solid_angle(band, cell);
+        let _ = write!(
+            s,
+            "{k},{lambda}{band_label},{cell},{t_lo},{t_hi},{},{},{t_c},{},{omega:.12e},{proj:.12e},",
+            phi_lo.to_degrees(),
+            phi_hi.to_degrees(),
+            phi.to_degrees(),
+        );
+        row(s, r, flat, proj);
+        s.push('\n');
+    }
 }
 
 /// `farfield.csv`: per beam position and cell of the full-sphere grid, the
@@ -137,15 +151,12 @@ fn farfield_rows(
 /// per projected solid angle about the z axis (for a flat plate lit along
 /// -omega_i this is the plate's BRDF, comparable with `brdf.csv`).
 #[must_use]
-pub fn farfield_csv(
-    run: &crate::transport::object::ObjectRun,
-    results: &[crate::transport::object::PositionResult],
-) -> String {
+pub fn farfield_csv(run: &ObjectRun, result: &ObjectResult) -> String {
     farfield_rows(
         FARFIELD_HEADER,
         SPECTRAL_FARFIELD_HEADER,
         run,
-        results,
+        result,
         |s, r, flat, proj| {
             let n = r.tallies.photons;
             let f = r.tallies.farfield.mean(flat, n);
@@ -158,15 +169,12 @@ pub fn farfield_csv(
 /// `farfield_stokes.csv` (see [`FARFIELD_STOKES_HEADER`]); the run must
 /// have tallied it ([`crate::transport::object::ObjectRun::tallies_farfield_stokes`]).
 #[must_use]
-pub fn farfield_stokes_csv(
-    run: &crate::transport::object::ObjectRun,
-    results: &[crate::transport::object::PositionResult],
-) -> String {
+pub fn farfield_stokes_csv(run: &ObjectRun, result: &ObjectResult) -> String {
     farfield_rows(
         FARFIELD_STOKES_HEADER,
         SPECTRAL_FARFIELD_STOKES_HEADER,
         run,
-        results,
+        result,
         |s, r, flat, proj| {
             let (acc, n) = (&r.tallies.farfield_stokes, r.tallies.photons);
             let stokes: [f64; 4] = std::array::from_fn(|j| acc.mean(4 * flat + j, n) / proj);

@@ -44,7 +44,7 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::summary::{self, TraceSummary};
+use super::summary::{self, PositionSummary, TraceShard, TraceSummary};
 use super::tallies::{FieldError, NodeFile, TALLIES_FILE, first_difference};
 use crate::object::source::Beam;
 use crate::optics::polarisation::Incident;
@@ -56,7 +56,8 @@ use crate::tally::realisable::SUM_TOLERANCE;
 use crate::tally::sum::Node;
 use crate::transport::BATCH;
 use crate::transport::object::{
-    ObjectRun, ObjectTallies, PositionNodes, PositionResult, root, shard_blocks,
+    ByPosition, ObjectResult, ObjectRun, ObjectTallies, PositionNodes, PositionResult, root,
+    shard_blocks,
 };
 
 /// `format` of a `roks trace` shard's `tallies.json`.
@@ -89,25 +90,6 @@ impl BeamEntry {
             direction: DVec3::from_array(self.direction),
             diameter: self.diameter,
             polarisation: self.polarisation,
-        }
-    }
-}
-
-/// `--shard I/N` of a `roks trace` run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TraceShard {
-    /// Number of shards.
-    pub count: u64,
-    /// This shard, 0-based.
-    pub index: u64,
-}
-
-impl From<Shard> for TraceShard {
-    fn from(s: Shard) -> Self {
-        Self {
-            count: s.count,
-            index: s.index,
         }
     }
 }
@@ -203,8 +185,34 @@ impl TraceDescription {
         self.run.tallies(self.surfaces.len())
     }
 
-    /// The result folder's files for per position `results` (the roots, or
-    /// a shard's partial sums) and total time `seconds`: `reflectance.csv`,
+    /// The `summary.json` of this run (a whole run, a merge or a shard):
+    /// one entry per beam position of `result` (a spectral run's averages
+    /// its wavelengths), total time `seconds`.
+    #[must_use]
+    pub fn summary(&self, result: &ObjectResult, seconds: f64) -> TraceSummary {
+        let spectral = !self.run.wavelengths_um.is_empty();
+        let surface_names = &self.surfaces;
+        TraceSummary {
+            content: self.content.clone(),
+            name: self.name.clone(),
+            scene: self.scene.clone(),
+            seconds,
+            seed: self.run.seed,
+            shard: self.shard,
+            sources: result
+                .groups()
+                .map(|lanes| match lanes {
+                    [one] if !spectral => PositionSummary::new(one, surface_names),
+                    _ => PositionSummary::spectral(lanes, surface_names),
+                })
+                .collect(),
+            version: self.version.clone(),
+            wavelengths_um: self.run.wavelengths_um.clone(),
+        }
+    }
+
+    /// The result folder's files for `result` (the roots, or a shard's
+    /// partial sums) and total time `seconds`: `reflectance.csv`,
     /// `farfield.csv` and `farfield_stokes.csv` when tallied,
     /// `summary.json` and the pictures; a shard (with its `tallies` file)
     /// writes `summary.json` and `tallies.json` only.
@@ -213,11 +221,11 @@ impl TraceDescription {
     /// A picture that cannot be drawn.
     pub fn folder(
         &self,
-        results: &[PositionResult],
+        result: &ObjectResult,
         seconds: f64,
         tallies: Option<TraceTalliesFile>,
     ) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
-        let summary = summary::to_text(&TraceSummary::new(self, results, seconds));
+        let summary = summary::to_text(&self.summary(result, seconds));
         let mut files: Vec<(String, Vec<u8>)> = Vec::new();
         if let Some(t) = tallies {
             files.push(("summary.json".into(), summary.into_bytes()));
@@ -227,14 +235,14 @@ impl TraceDescription {
         let run = &self.run;
         files.push((
             "reflectance.csv".into(),
-            super::object_csv::reflectance_csv(results).into_bytes(),
+            super::object_csv::reflectance_csv(result).into_bytes(),
         ));
         if run.farfield {
-            let f = super::object_csv::farfield_csv(run, results);
+            let f = super::object_csv::farfield_csv(run, result);
             files.push(("farfield.csv".into(), f.into_bytes()));
         }
         if run.tallies_farfield_stokes() {
-            let f = super::object_csv::farfield_stokes_csv(run, results);
+            let f = super::object_csv::farfield_stokes_csv(run, result);
             files.push(("farfield_stokes.csv".into(), f.into_bytes()));
         }
         files.push(("summary.json".into(), summary.into_bytes()));
@@ -379,23 +387,28 @@ impl TraceTalliesFile {
 /// order (not the tree's root: what the shard's own `summary.json`
 /// reports, and what the tracer's checks of unmodelled walls look at).
 #[must_use]
-pub fn partial_results(d: &TraceDescription, nodes: &[PositionNodes]) -> Vec<PositionResult> {
+pub fn partial_results(d: &TraceDescription, nodes: &[Vec<PositionNodes>]) -> ObjectResult {
     use crate::tally::Merge as _;
-    nodes
-        .iter()
-        .map(|p| {
-            let mut tallies = d.zero();
-            for n in &p.nodes {
-                tallies.merge(&n.value);
-            }
-            PositionResult {
-                beam: p.beam,
-                wavelength_um: p.wavelength_um,
-                tallies,
-                seconds: p.seconds,
-            }
-        })
-        .collect()
+    let leaf = |p: &PositionNodes| {
+        let mut tallies = d.zero();
+        for n in &p.nodes {
+            tallies.merge(&n.value);
+        }
+        PositionResult {
+            beam: p.beam,
+            wavelength_um: p.wavelength_um,
+            tallies,
+            seconds: p.seconds,
+        }
+    };
+    ObjectResult {
+        position: nodes
+            .iter()
+            .map(|lanes| ByPosition {
+                wavelength: lanes.iter().map(leaf).collect(),
+            })
+            .collect(),
+    }
 }
 
 /// Whether `dir/tallies.json` is a `roks trace` shard's (its `format`);
@@ -417,8 +430,9 @@ pub struct ShardFile {
     pub file: String,
     /// Its description (checked).
     pub description: TraceDescription,
-    /// Per position (and wavelength) the checked nodes and the time.
-    pub positions: Vec<(Vec<Node<ObjectTallies>>, f64)>,
+    /// Per position, per wavelength (one for a monochrome run): the
+    /// checked nodes and the time.
+    pub positions: Vec<Vec<(Vec<Node<ObjectTallies>>, f64)>>,
     /// Total time (s).
     pub seconds: f64,
 }
@@ -570,10 +584,15 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
         .blocks()
         .map_err(|e| err(FieldError::new("description.shard", e)))?;
     let zero = d.zero();
-    let mut positions = Vec::with_capacity(t.positions.len());
-    for (i, p) in t.positions.into_iter().enumerate() {
+    // The file lists position, then wavelength.
+    let mut entries = t.positions.into_iter().enumerate();
+    let mut positions = Vec::with_capacity(d.beams.len());
+    for (k, l) in (0..d.beams.len()).flat_map(|k| (0..lanes).map(move |l| (k, l))) {
+        let (i, p) = entries.next().expect("the count is checked above");
         let at = |e: FieldError| err(e.under(&format!("positions[{i}]")));
-        let (k, l) = (i / lanes, i % lanes);
+        if l == 0 {
+            positions.push(Vec::with_capacity(lanes));
+        }
         if p.wavelength_um.map(|w| w.0.to_bits()) != d.run.wavelength(l).map(f64::to_bits) {
             return Err(at(FieldError::new(
                 "wavelength_um",
@@ -637,7 +656,7 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
                 ),
             )));
         }
-        positions.push((nodes, p.seconds));
+        positions[k].push((nodes, p.seconds));
     }
     if t.seconds < 0.0 {
         return Err(err(FieldError::new("seconds", "must be >= 0")));
@@ -655,8 +674,8 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
 pub struct Merged {
     /// The run (no shard), as the first shard describes it.
     pub description: TraceDescription,
-    /// Per position (and wavelength): the root of its tree.
-    pub results: Vec<PositionResult>,
+    /// Per position and wavelength: the root of its tree.
+    pub result: ObjectResult,
     /// Sum of the shards' total times (s).
     pub seconds: f64,
 }
@@ -734,38 +753,46 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
     }
     let mut description = parts[0].description.clone();
     description.shard = None;
-    let lanes = description.run.lane_count();
     let zero = description.zero();
-    let n = description.beams.len() * lanes;
-    let mut nodes: Vec<Vec<Node<ObjectTallies>>> = vec![Vec::new(); n];
-    let mut seconds_at = vec![0.0; n];
+    // Per position and wavelength: the shards' nodes in shard order, and
+    // the sum of their times.
+    let mut leaves: Vec<Vec<(Vec<Node<ObjectTallies>>, f64)>> = description
+        .beams
+        .iter()
+        .map(|_| vec![(Vec::new(), 0.0); description.run.lane_count()])
+        .collect();
     let mut seconds = 0.0;
     for p in parts {
         seconds += p.seconds;
-        for (i, (ns, s)) in p.positions.into_iter().enumerate() {
-            nodes[i].extend(ns);
-            seconds_at[i] += s;
+        for (into, lanes) in leaves.iter_mut().zip(p.positions) {
+            for ((nodes, at), (ns, s)) in into.iter_mut().zip(lanes) {
+                nodes.extend(ns);
+                *at += s;
+            }
         }
     }
-    let results = nodes
-        .into_iter()
-        .enumerate()
-        .map(|(i, ns)| {
-            let beam = &description.beams[i / lanes];
-            let batches = beam.photons.div_ceil(BATCH);
-            let tallies = root(ns, batches, &|| zero.clone())
-                .map_err(|e| FieldError::new(format!("positions[{i}].nodes"), e).in_file(&f0))?;
-            Ok(PositionResult {
+    let mut entry = 0; // the index in the file's `positions`
+    let mut position = Vec::with_capacity(leaves.len());
+    for (beam, lanes) in description.beams.iter().zip(leaves) {
+        let batches = beam.photons.div_ceil(BATCH);
+        let mut wavelength = Vec::with_capacity(lanes.len());
+        for (l, (ns, seconds_at)) in lanes.into_iter().enumerate() {
+            let tallies = root(ns, batches, &|| zero.clone()).map_err(|e| {
+                FieldError::new(format!("positions[{entry}].nodes"), e).in_file(&f0)
+            })?;
+            entry += 1;
+            wavelength.push(PositionResult {
                 beam: beam.beam(),
-                wavelength_um: description.run.wavelength(i % lanes),
+                wavelength_um: description.run.wavelength(l),
                 tallies,
-                seconds: seconds_at[i],
-            })
-        })
-        .collect::<Result<Vec<_>, SceneError>>()?;
+                seconds: seconds_at,
+            });
+        }
+        position.push(ByPosition { wavelength });
+    }
     Ok(Merged {
         description,
-        results,
+        result: ObjectResult { position },
         seconds,
     })
 }

@@ -16,8 +16,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::micro::Edges;
 use crate::micro::surface_stats::SurfaceStats;
-use crate::output::object_tallies::{TraceDescription, TraceShard};
 use crate::scene::Content;
+use crate::shard::Shard;
 use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult, RealisationResult};
 use crate::transport::object::PositionResult;
 
@@ -741,34 +741,21 @@ pub struct TraceSummary {
     pub wavelengths_um: Vec<f64>,
 }
 
-impl TraceSummary {
-    /// The summary of the run `d` (a whole run, a merge or a shard): per
-    /// beam position `results` (per position and wavelength,
-    /// position-major, for a spectral run), total time `seconds`.
-    #[must_use]
-    pub fn new(d: &TraceDescription, results: &[PositionResult], seconds: f64) -> Self {
-        let wavelengths_um = &d.run.wavelengths_um;
-        let surface_names = &d.surfaces;
+/// `--shard I/N` of a `roks trace` run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TraceShard {
+    /// Number of shards.
+    pub count: u64,
+    /// This shard, 0-based.
+    pub index: u64,
+}
+
+impl From<Shard> for TraceShard {
+    fn from(s: Shard) -> Self {
         Self {
-            content: d.content.clone(),
-            name: d.name.clone(),
-            scene: d.scene.clone(),
-            seconds,
-            seed: d.run.seed,
-            shard: d.shard,
-            sources: if wavelengths_um.is_empty() {
-                results
-                    .iter()
-                    .map(|r| PositionSummary::new(r, surface_names))
-                    .collect()
-            } else {
-                results
-                    .chunks(wavelengths_um.len())
-                    .map(|lanes| PositionSummary::spectral(lanes, surface_names))
-                    .collect()
-            },
-            version: d.version.clone(),
-            wavelengths_um: wavelengths_um.clone(),
+            count: s.count,
+            index: s.index,
         }
     }
 }
@@ -934,7 +921,7 @@ mod tests {
             run,
             surface,
         );
-        let results = description.run.run(&scene.surface, &|_| {});
+        let results = description.run.trace_whole(&scene.surface, &|_| {});
         let folder = BrdfFolder::traced(description, results, 0.0);
         let mut summary = folder.summary();
         assert_eq!(summary.run.photons, 5000);

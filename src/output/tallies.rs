@@ -245,10 +245,10 @@ impl TalliesFile {
             format_version: FORMAT_VERSION,
             incidence: results
                 .iter()
-                .map(|leaf| IncidenceNodes {
-                    photons: leaf.nodes.iter().map(|n| n.value.photons).sum(),
-                    nodes: leaf
-                        .nodes
+                .map(|leaf| (leaf, leaf.tree_nodes(&description.run)))
+                .map(|(leaf, nodes)| IncidenceNodes {
+                    photons: nodes.iter().map(|n| n.value.photons).sum(),
+                    nodes: nodes
                         .iter()
                         .map(|n| NodeFile {
                             index: n.index,
@@ -899,7 +899,6 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
         }
     }
     // The roots, nested as a trace's result.
-    let level = batches.next_power_of_two().trailing_zeros();
     let mut i = 0;
     let mut incidence: Vec<ByIncidence> = Vec::with_capacity(run.theta_deg.len());
     for (ta, lane_sums) in sums.into_iter().enumerate() {
@@ -914,11 +913,8 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 theta_i_deg: theta,
                 phi_i_deg: phi,
                 wavelength_um: run.wavelength(l),
-                nodes: vec![Node {
-                    level,
-                    index: 0,
-                    value: tallies.clone(),
-                }],
+                // The root is kept once, as the sums.
+                nodes: Vec::new(),
                 tallies,
                 seconds,
                 realisations: run.realisation_results(theta, phi, &kept),
@@ -1004,7 +1000,7 @@ mod tests {
 
     /// The folder of the run of `d` traced on `scene`.
     fn traced(scene: &MicroScene, d: Description) -> BrdfFolder {
-        let results = d.run.run(&scene.surface, &|_| {});
+        let results = d.run.trace_whole(&scene.surface, &|_| {});
         BrdfFolder::traced(d, results, 0.0)
     }
 

@@ -76,7 +76,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::Deserialize;
 
 use super::{
-    Content, MaterialSpec, PolarisationSpec, QuadricSpec, Range, SceneError, Source,
+    Content, MaterialSpec, PolarisationSpec, QuadricSpec, Range, SceneError, SceneFile,
     WavelengthsSpec, build_materials, material_index, parse_toml,
 };
 use crate::geometry::body::{Body, Ray};
@@ -468,7 +468,7 @@ pub struct MicroScene {
     /// Scene name.
     pub name: String,
     /// Where it came from.
-    pub source: Source,
+    pub scene_file: SceneFile,
     /// The geometry and materials (of realisation 0).
     pub surface: MicroSurface,
     /// The further surface realisations `1..R` (`[surface] realisations`),
@@ -643,7 +643,8 @@ impl MicroScene {
     pub fn load(path: &Path) -> Result<Self, SceneError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        let mut scene = Self::from_str(&text, Source::from_path(path), name.unwrap_or_default())?;
+        let mut scene =
+            Self::from_str(&text, SceneFile::from_path(path), name.unwrap_or_default())?;
         scene.reads.insert(0, path.to_path_buf());
         Ok(scene)
     }
@@ -653,12 +654,12 @@ impl MicroScene {
     #[must_use]
     pub fn reads_of(path: &Path) -> Vec<PathBuf> {
         let mut reads = vec![path.to_path_buf()];
-        let source = Source::from_path(path);
+        let scene_file = SceneFile::from_path(path);
         let spec = super::read_scene_text(path)
             .ok()
-            .and_then(|text| parse_toml::<MicroSceneSpec>(&source, &text).ok());
+            .and_then(|text| parse_toml::<MicroSceneSpec>(&scene_file, &text).ok());
         if let Some(spec) = spec {
-            reads.extend(source.paths(&spec.files()));
+            reads.extend(scene_file.paths(&spec.files()));
         }
         reads
     }
@@ -670,7 +671,7 @@ impl MicroScene {
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         let mut scene = Self::from_str_with(
             &text,
-            Source::from_path(path),
+            SceneFile::from_path(path),
             name.unwrap_or_default(),
             overrides,
         )?;
@@ -681,30 +682,36 @@ impl MicroScene {
     /// The embedded default scene.
     #[must_use]
     pub fn default_scene() -> Self {
-        let source = Source {
+        let scene_file = SceneFile {
             file: "<default scene>".into(),
             dir: ".".into(),
         };
-        Self::from_str(DEFAULT_SCENE, source, "default".into()).expect("the default scene is valid")
+        Self::from_str(DEFAULT_SCENE, scene_file, "default".into())
+            .expect("the default scene is valid")
     }
 
     /// Parse and build from TOML text.
-    pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        Self::from_str_with(text, source, fallback_name, &Overrides::default()).map_err(|e| match e
-        {
-            BuildError::Scene(e) => e,
-            BuildError::Option { .. } => unreachable!("no overrides"),
+    pub fn from_str(
+        text: &str,
+        scene_file: SceneFile,
+        fallback_name: String,
+    ) -> Result<Self, SceneError> {
+        Self::from_str_with(text, scene_file, fallback_name, &Overrides::default()).map_err(|e| {
+            match e {
+                BuildError::Scene(e) => e,
+                BuildError::Option { .. } => unreachable!("no overrides"),
+            }
         })
     }
 
     /// [`MicroScene::from_str`] with `overrides` (see [`MicroScene::load_with`]).
     pub fn from_str_with(
         text: &str,
-        source: Source,
+        scene_file: SceneFile,
         fallback_name: String,
         overrides: &Overrides,
     ) -> Result<Self, BuildError> {
-        let mut spec: MicroSceneSpec = parse_toml(&source, text)
+        let mut spec: MicroSceneSpec = parse_toml(&scene_file, text)
             .map_err(|e| super::other_kind(text, "cells", e, "an object scene ([[cells]]): roks trace traces it; this command takes micro scenes ([surface])"))?;
         if *overrides != Overrides::default() {
             // The file's own run values, which the options replace, are
@@ -712,30 +719,30 @@ impl MicroScene {
             let wavelengths = match &spec.light.wavelengths_um {
                 Some(w) => w
                     .expand()
-                    .map_err(|e| source.error("light.wavelengths_um", e))?,
+                    .map_err(|e| scene_file.error("light.wavelengths_um", e))?,
                 None => Vec::new(),
             };
             brdf_run_of(&spec, Polarisation::default(), wavelengths)
                 .check()
-                .map_err(|e| source.error(e.field().scene_key(), e))?;
+                .map_err(|e| scene_file.error(e.field().scene_key(), e))?;
         }
         overrides.apply(&mut spec);
         let files = spec.files();
         let mut scene = spec
-            .build(source, fallback_name)
+            .build(scene_file, fallback_name)
             .map_err(|e| overrides.blame(e))?;
-        scene.content = Content::of(&scene.source, text, &files)?;
-        scene.reads = scene.source.paths(&files);
+        scene.content = Content::of(&scene.scene_file, text, &files)?;
+        scene.reads = scene.scene_file.paths(&files);
         Ok(scene)
     }
 
     /// The embedded default scene with `overrides`.
     pub fn default_with(overrides: &Overrides) -> Result<Self, BuildError> {
-        let source = Source {
+        let scene_file = SceneFile {
             file: "<default scene>".into(),
             dir: ".".into(),
         };
-        Self::from_str_with(DEFAULT_SCENE, source, "default".into(), overrides)
+        Self::from_str_with(DEFAULT_SCENE, scene_file, "default".into(), overrides)
     }
 }
 
@@ -761,16 +768,20 @@ impl MicroSceneSpec {
 
     /// Check everything and build the scene (its [`MicroScene::content`]
     /// empty: [`MicroScene::from_str_with`] hashes it).
-    pub fn build(self, source: Source, fallback_name: String) -> Result<MicroScene, SceneError> {
+    pub fn build(
+        self,
+        scene_file: SceneFile,
+        fallback_name: String,
+    ) -> Result<MicroScene, SceneError> {
         let given_size = self
             .surface
             .size
-            .map(|size| check_size(&source, size))
+            .map(|size| check_size(&scene_file, size))
             .transpose()?;
         let wavelengths_um = match &self.light.wavelengths_um {
             Some(w) => w
                 .expand()
-                .map_err(|e| source.error("light.wavelengths_um", e))?,
+                .map_err(|e| scene_file.error("light.wavelengths_um", e))?,
             None => Vec::new(),
         };
         // The run's values, checked here once (a merge checks a run read
@@ -778,10 +789,15 @@ impl MicroSceneSpec {
         // is resolved below.
         let mut run = brdf_run_of(&self, Polarisation::default(), wavelengths_um);
         run.check()
-            .map_err(|e| source.error(e.field().scene_key(), e))?;
-        let (names, materials) = build_materials(&source, &self.materials, &run.wavelengths_um)?;
-        let substrate =
-            material_index(&source, &names, &self.surface.material, "surface.material")?;
+            .map_err(|e| scene_file.error(e.field().scene_key(), e))?;
+        let (names, materials) =
+            build_materials(&scene_file, &self.materials, &run.wavelengths_um)?;
+        let substrate = material_index(
+            &scene_file,
+            &names,
+            &self.surface.material,
+            "surface.material",
+        )?;
         let edges = match self.surface.edges {
             EdgesSpec::Periodic => Edges::Periodic,
             EdgesSpec::Absorbing => Edges::Absorbing,
@@ -795,26 +811,26 @@ impl MicroSceneSpec {
                     ("quadrics", !self.quadrics.is_empty()),
                 ] {
                     if given {
-                        return Err(source.error(
+                        return Err(scene_file.error(
                             key,
                             "cannot be combined with surface.heightfield (the height field is the whole surface)",
                         ));
                     }
                 }
                 if edges != Edges::Periodic {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         "surface.edges",
                         "a height field is periodic: edges must be \"periodic\"",
                     ));
                 }
-                Some(hf.build(&source, given_size)?)
+                Some(hf.build(&scene_file, given_size)?)
             }
             None => None,
         };
         let size = match (given_size, &field) {
             (_, Some(f)) => f.size,
             (Some(size), None) => size,
-            (None, None) => return Err(source.error("surface.size", "missing")),
+            (None, None) => return Err(scene_file.error("surface.size", "missing")),
         };
 
         let mut placed = Vec::new();
@@ -822,29 +838,37 @@ impl MicroSceneSpec {
         let mut bytes = 0;
         for (t, spec) in self.bumps.iter().enumerate() {
             let material = match &spec.material {
-                Some(m) => material_index(&source, &names, m, &format!("bumps[{t}].material"))?,
+                Some(m) => material_index(&scene_file, &names, m, &format!("bumps[{t}].material"))?,
                 None => substrate,
             };
-            placed.extend(spec.populate(&source, t, size, edges, material, &mut bytes)?);
+            placed.extend(spec.populate(&scene_file, t, size, edges, material, &mut bytes)?);
         }
 
         let mut quadrics = BTreeMap::new();
         for (name, q) in &self.quadrics {
-            quadrics.insert(name.clone(), q.build(&source, &format!("quadrics.{name}"))?);
+            quadrics.insert(
+                name.clone(),
+                q.build(&scene_file, &format!("quadrics.{name}"))?,
+            );
         }
         for (b, spec) in self.bodies.iter().enumerate() {
             let key = format!("bodies[{b}]");
             let material = match &spec.material {
-                Some(m) => material_index(&source, &names, m, &format!("{key}.material"))?,
+                Some(m) => material_index(&scene_file, &names, m, &format!("{key}.material"))?,
                 None => substrate,
             };
             placed.push(explicit_body(
-                &source, &key, spec, &quadrics, size, material,
+                &scene_file,
+                &key,
+                spec,
+                &quadrics,
+                size,
+                material,
             )?);
         }
 
         let more_realisations = self.more_realisations(
-            &source,
+            &scene_file,
             (size, edges),
             (&materials, &names, substrate),
             field
@@ -854,7 +878,7 @@ impl MicroSceneSpec {
         )?;
         let (light, tally, transport) = (self.light, self.tally, self.transport);
         let incident = match &light.polarisation {
-            Some(p) => p.build(&source, "light.polarisation")?,
+            Some(p) => p.build(&scene_file, "light.polarisation")?,
             None => Incident::Unpolarised,
         };
         run.polarisation = Polarisation::resolve(
@@ -864,15 +888,15 @@ impl MicroSceneSpec {
             tally.polarisation,
             tally.symmetry,
         )
-        .map_err(|e| source.error(e.scene_key(), e))?;
+        .map_err(|e| scene_file.error(e.scene_key(), e))?;
 
         let surface = match field {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),
             None => MicroSurface::new(size, edges, placed, materials, substrate),
         };
         let scene = MicroScene {
-            name: super::scene_name(&source, self.name, fallback_name)?,
-            source,
+            name: super::scene_name(&scene_file, self.name, fallback_name)?,
+            scene_file,
             surface,
             more_realisations,
             material_names: names,
@@ -895,7 +919,7 @@ impl MicroSceneSpec {
     /// `count` surfaces of about `bytes` each exceed the memory limit.
     fn more_realisations(
         &self,
-        source: &Source,
+        scene_file: &SceneFile,
         (size, edges): (DVec2, Edges),
         (materials, names, substrate): (&[Reflectance], &[String], usize),
         bytes: u64,
@@ -906,7 +930,7 @@ impl MicroSceneSpec {
         }
         let key = "surface.realisations";
         let one_surface = |what: &str| {
-            Err(source.error(
+            Err(scene_file.error(
                 key,
                 format!(
                     "{what} is one surface: realisations apply to random surfaces (a gaussian height field, random bumps)"
@@ -923,7 +947,7 @@ impl MicroSceneSpec {
         if field.is_none() && self.bumps.is_empty() {
             return one_surface("a flat substrate");
         }
-        source.check_memory(
+        scene_file.check_memory(
             key,
             &format!("{count} surface realisations"),
             bytes.saturating_mul(count),
@@ -935,7 +959,7 @@ impl MicroSceneSpec {
                         seed: Some(realisation_seed(f.seed.unwrap_or(1), r)),
                         ..f.clone()
                     };
-                    let field = f.build(source, Some(size))?;
+                    let field = f.build(scene_file, Some(size))?;
                     return Ok(MicroSurface::from_height_field(
                         field,
                         materials.to_vec(),
@@ -947,7 +971,7 @@ impl MicroSceneSpec {
                 for (t, spec) in self.bumps.iter().enumerate() {
                     let material = match &spec.material {
                         Some(m) => {
-                            material_index(source, names, m, &format!("bumps[{t}].material"))?
+                            material_index(scene_file, names, m, &format!("bumps[{t}].material"))?
                         }
                         None => substrate,
                     };
@@ -955,7 +979,7 @@ impl MicroSceneSpec {
                         seed: Some(realisation_seed(spec.seed.unwrap_or(1 + t as u64), r)),
                         ..spec.clone()
                     };
-                    placed.extend(spec.populate(source, t, size, edges, material, &mut bytes)?);
+                    placed.extend(spec.populate(scene_file, t, size, edges, material, &mut bytes)?);
                 }
                 Ok(MicroSurface::new(
                     size,
@@ -989,7 +1013,7 @@ impl MicroScene {
                 ""
             },
         );
-        self.source
+        self.scene_file
             .check_memory("tally.bands", &what, run.memory_bytes())
     }
 }
@@ -1030,26 +1054,30 @@ fn any_fresnel(materials: &[Reflectance]) -> bool {
 }
 
 /// A checked cell size.
-fn check_size(source: &Source, [lx, ly]: [f64; 2]) -> Result<DVec2, SceneError> {
+fn check_size(scene_file: &SceneFile, [lx, ly]: [f64; 2]) -> Result<DVec2, SceneError> {
     for (i, l) in [lx, ly].into_iter().enumerate() {
         if !(l.is_finite() && l > 0.0) {
-            return Err(source.error(
+            return Err(scene_file.error(
                 format!("surface.size[{i}]"),
                 format!("must be > 0, got {}", Num(l)),
             ));
         }
-        length_bounds(l).map_err(|e| source.error(format!("surface.size[{i}]"), e))?;
+        length_bounds(l).map_err(|e| scene_file.error(format!("surface.size[{i}]"), e))?;
     }
     Ok(DVec2::new(lx, ly))
 }
 
 impl HeightFieldSpec {
     /// Synthesise or load the field; `size`: the checked `[surface] size`, if given.
-    fn build(&self, source: &Source, size: Option<DVec2>) -> Result<HeightField, SceneError> {
+    fn build(
+        &self,
+        scene_file: &SceneFile,
+        size: Option<DVec2>,
+    ) -> Result<HeightField, SceneError> {
         let key = |k: &str| format!("surface.heightfield.{k}");
         let refuse = |k: &str, given: bool, what: &str| {
             if given {
-                Err(source.error(key(k), format!("applies to {what} only")))
+                Err(scene_file.error(key(k), format!("applies to {what} only")))
             } else {
                 Ok(())
             }
@@ -1058,20 +1086,20 @@ impl HeightFieldSpec {
             if v.is_finite() && v > 0.0 {
                 Ok(v)
             } else {
-                Err(source.error(key(k), format!("must be > 0, got {}", Num(v))))
+                Err(scene_file.error(key(k), format!("must be > 0, got {}", Num(v))))
             }
         };
         let length = |k: &str, v: f64| {
             let v = positive(k, v)?;
-            length_bounds(v).map_err(|e| source.error(key(k), e))?;
+            length_bounds(v).map_err(|e| scene_file.error(key(k), e))?;
             Ok(v)
         };
         match (&self.gaussian, &self.file) {
-            (Some(_), Some(_)) => Err(source.error(
+            (Some(_), Some(_)) => Err(scene_file.error(
                 "surface.heightfield",
                 "give either gaussian or file, not both",
             )),
-            (None, None) => Err(source.error(
+            (None, None) => Err(scene_file.error(
                 "surface.heightfield",
                 "needs gaussian = { sigma, tau } or file = \"...\"",
             )),
@@ -1079,7 +1107,7 @@ impl HeightFieldSpec {
                 refuse("pixel", self.pixel.is_some(), "file maps")?;
                 refuse("height_scale", self.height_scale.is_some(), "file maps")?;
                 let size = size.ok_or_else(|| {
-                    source.error(
+                    scene_file.error(
                         "surface.size",
                         "missing (a gaussian height field needs the cell)",
                     )
@@ -1087,15 +1115,15 @@ impl HeightFieldSpec {
                 let (nx, ny) = match self.resolution {
                     Some(Resolution::One(n)) => (n, n),
                     Some(Resolution::Two([nx, ny])) => (nx, ny),
-                    None => return Err(source.error(key("resolution"), "missing")),
+                    None => return Err(scene_file.error(key("resolution"), "missing")),
                 };
                 if ![nx, ny].iter().all(|n| (2..=16384).contains(n)) {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         key("resolution"),
                         format!("must be in 2..=16384, got {nx} x {ny}"),
                     ));
                 }
-                source.check_memory(
+                scene_file.check_memory(
                     &key("resolution"),
                     &format!("a {nx} x {ny} height field (heights, hierarchy, statistics)"),
                     HeightField::memory_bytes(nx, ny),
@@ -1104,7 +1132,7 @@ impl HeightFieldSpec {
                 let tau = length("gaussian.tau", g.tau)?;
                 let pitch = (size.x / nx as f64).max(size.y / ny as f64);
                 if tau < pitch {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         key("gaussian.tau"),
                         format!("{tau} is below the grid pitch {pitch}: raise the resolution"),
                     ));
@@ -1114,7 +1142,7 @@ impl HeightFieldSpec {
                 // sinusoid, or nothing once exp(-k² tau² / 8) underflows).
                 let longest = size.max_element();
                 if tau > longest {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         key("gaussian.tau"),
                         format!(
                             "{tau} exceeds the cell's longer side {longest}: a Gaussian field needs at least one correlation length in the cell"
@@ -1122,18 +1150,18 @@ impl HeightFieldSpec {
                     ));
                 }
                 let field = HeightField::gaussian(nx, ny, size, sigma, tau, self.seed.unwrap_or(1));
-                check_field(source, &field, &key("gaussian.sigma"))?;
+                check_field(scene_file, &field, &key("gaussian.sigma"))?;
                 Ok(field)
             }
             (None, Some(file)) => {
                 refuse("resolution", self.resolution.is_some(), "gaussian fields")?;
                 refuse("seed", self.seed.is_some(), "gaussian fields")?;
-                let path = source.dir.join(file);
+                let path = scene_file.dir.join(file);
                 let format = Format::of(&path);
                 let scale = match self.height_scale {
                     Some(s) => length("height_scale", s)?,
                     None if format == Format::Png => {
-                        return Err(source.error(
+                        return Err(scene_file.error(
                             key("height_scale"),
                             "missing: a PNG map holds counts 0..=65535; give the height of one count (length units)",
                         ));
@@ -1141,7 +1169,7 @@ impl HeightFieldSpec {
                     None => 1.0,
                 };
                 let file_error = |e: heightfield_io::HeightMapError| {
-                    source.error(key("file"), format!("{}: {e}", path.display()))
+                    scene_file.error(key("file"), format!("{}: {e}", path.display()))
                 };
                 // The memory from the header (or the text's length) before decoding.
                 let check = |bytes: u64, (nx, ny): (usize, usize)| {
@@ -1149,7 +1177,7 @@ impl HeightFieldSpec {
                         "{}: a {nx} x {ny} height map (heights, hierarchy, statistics)",
                         path.display()
                     );
-                    source.check_memory(&key("file"), &what, bytes)
+                    scene_file.check_memory(&key("file"), &what, bytes)
                 };
                 let (read_bytes, declared) =
                     heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
@@ -1157,14 +1185,14 @@ impl HeightFieldSpec {
                     check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
                 } else {
                     let what = format!("{}: reading the text height map", path.display());
-                    source.check_memory(&key("file"), &what, read_bytes)?;
+                    scene_file.check_memory(&key("file"), &what, read_bytes)?;
                 }
                 let grid = heightfield_io::read(&path).map_err(file_error)?;
                 let (nx, ny) = (grid.nx, grid.ny);
                 check(HeightField::memory_bytes(nx, ny), (nx, ny))?;
                 let size = match (self.pixel, size) {
                     (None, None) => {
-                        return Err(source.error(
+                        return Err(scene_file.error(
                             "surface.size",
                             "missing: give surface.size or surface.heightfield.pixel",
                         ));
@@ -1174,7 +1202,7 @@ impl HeightFieldSpec {
                         let p = length("pixel", p)?;
                         let derived = DVec2::new(nx as f64 * p, ny as f64 * p);
                         if derived.max_element() > MAX_LENGTH {
-                            return Err(source.error(
+                            return Err(scene_file.error(
                                 key("pixel"),
                                 format!(
                                     "{nx} x {ny} pixels of {p} make a cell of [{:e}, {:e}], beyond the largest length {MAX_LENGTH:e}",
@@ -1184,7 +1212,7 @@ impl HeightFieldSpec {
                         }
                         match given {
                             Some(s) if ((s - derived).abs().cmpgt(1e-9 * derived)).any() => {
-                                return Err(source.error(
+                                return Err(scene_file.error(
                                     "surface.size",
                                     format!(
                                         "[{}, {}] contradicts the height map: {nx} x {ny} pixels of {p} make [{}, {}]",
@@ -1206,7 +1234,7 @@ impl HeightFieldSpec {
                 };
                 let h: Vec<f64> = grid.h.into_iter().map(|z| z * scale).collect();
                 if let Some(z) = h.iter().find(|z| z.is_nan() || z.abs() > MAX_LENGTH) {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         scale_key,
                         format!(
                             "{}: a height of {z:e} after scaling by {scale} is beyond the largest length {MAX_LENGTH:e}",
@@ -1215,7 +1243,7 @@ impl HeightFieldSpec {
                     ));
                 }
                 let field = HeightField::new(nx, ny, size, h);
-                check_field(source, &field, &scale_key)?;
+                check_field(scene_file, &field, &scale_key)?;
                 Ok(field)
             }
         }
@@ -1226,18 +1254,18 @@ impl HeightFieldSpec {
 /// place: finite heights whose range is within [`MAX_LENGTH`] and
 /// [`MAX_ASPECT`] cell sides (so slopes, range over the pitch, and their
 /// squares in the normals stay finite); `key` is blamed.
-fn check_field(source: &Source, field: &HeightField, key: &str) -> Result<(), SceneError> {
+fn check_field(scene_file: &SceneFile, field: &HeightField, key: &str) -> Result<(), SceneError> {
     let range = field.max - field.min;
     if !(field.max.is_finite() && field.min.is_finite() && range.is_finite()) {
-        return Err(source.error(key, "the field's heights are not finite numbers"));
+        return Err(scene_file.error(key, "the field's heights are not finite numbers"));
     }
     if range > MAX_LENGTH {
-        return Err(source.error(
+        return Err(scene_file.error(
             key,
             format!("the heights span {range:e}, beyond the largest length {MAX_LENGTH:e}"),
         ));
     }
-    aspect_bound(range, field.size).map_err(|e| source.error(key, e))?;
+    aspect_bound(range, field.size).map_err(|e| scene_file.error(key, e))?;
     Ok(())
 }
 
@@ -1247,7 +1275,7 @@ impl BumpSpec {
     /// refusing the table if the sum exceeds the limit ([`crate::limits`]).
     fn populate(
         &self,
-        source: &Source,
+        scene_file: &SceneFile,
         t: usize,
         size: DVec2,
         edges: Edges,
@@ -1255,20 +1283,20 @@ impl BumpSpec {
         bytes: &mut u64,
     ) -> Result<Vec<Placed>, SceneError> {
         let key = |k: &str| format!("bumps[{t}].{k}");
-        self.radius.check(source, &key("radius"), 0.0, false)?;
-        self.height.check(source, &key("height"), 0.0, false)?;
+        self.radius.check(scene_file, &key("radius"), 0.0, false)?;
+        self.height.check(scene_file, &key("height"), 0.0, false)?;
         if let Some(r) = &self.radius_y {
-            r.check(source, &key("radius_y"), 0.0, false)?;
+            r.check(scene_file, &key("radius_y"), 0.0, false)?;
         }
         let depth = self.depth.unwrap_or(Range::One(0.0));
-        depth.check(source, &key("depth"), 0.0, true)?;
+        depth.check(scene_file, &key("depth"), 0.0, true)?;
         let cap = self.cap.unwrap_or(Range::One(0.5));
-        cap.check(source, &key("cap"), 0.0, false)?;
+        cap.check(scene_file, &key("cap"), 0.0, false)?;
         if cap.bounds().1 > 1.0 {
-            return Err(source.error(key("cap"), "must be <= 1"));
+            return Err(scene_file.error(key("cap"), "must be <= 1"));
         }
         let base = self.base.unwrap_or(Range::One(1.5));
-        base.check(source, &key("base"), 1.0, false)?;
+        base.check(scene_file, &key("base"), 1.0, false)?;
         // Lengths (and the footprint radius * base) within the traced lengths.
         let radius_y = self.radius_y.unwrap_or(self.radius);
         for (name, r) in [
@@ -1280,15 +1308,16 @@ impl BumpSpec {
             let (lo, hi) = r.bounds();
             length_bounds(lo)
                 .and_then(|()| length_bounds(hi))
-                .map_err(|e| source.error(key(name), e))?;
+                .map_err(|e| scene_file.error(key(name), e))?;
         }
-        aspect_bound(self.height.bounds().1, size).map_err(|e| source.error(key("height"), e))?;
+        aspect_bound(self.height.bounds().1, size)
+            .map_err(|e| scene_file.error(key("height"), e))?;
         let foot = self.radius.bounds().1.max(radius_y.bounds().1) * base.bounds().1;
         length_bounds(foot)
-            .map_err(|e| source.error(key("base"), format!("radius * base: {e}")))?;
+            .map_err(|e| scene_file.error(key("base"), format!("radius * base: {e}")))?;
         let used = |name: &str, given: bool, shape_ok: bool| {
             if given && !shape_ok {
-                Err(source.error(
+                Err(scene_file.error(
                     key(name),
                     format!("does not apply to shape {:?}", self.shape),
                 ))
@@ -1305,7 +1334,7 @@ impl BumpSpec {
         used("cap", self.cap.is_some(), eoh)?;
         used("base", self.base.is_some(), eoh)?;
         if self.count > 10_000_000 {
-            return Err(source.error(key("count"), "more than 10 million bumps"));
+            return Err(scene_file.error(key("count"), "more than 10 million bumps"));
         }
         // Memory, from the largest bump of the table (every range at its top).
         let top = |r: &Range| r.bounds().1;
@@ -1324,10 +1353,10 @@ impl BumpSpec {
         let solids = copies as f64 * self.count as f64;
         if copies > 2 {
             let what = format!("periodic ghost copies (about {solids:.1e} solids)");
-            source.check_memory(&format!("bumps[{t}]"), &what, *bytes)?;
+            scene_file.check_memory(&format!("bumps[{t}]"), &what, *bytes)?;
         } else {
             let what = format!("{} bumps (solids and acceleration grid)", self.count);
-            source.check_memory(&key("count"), &what, *bytes)?;
+            scene_file.check_memory(&key("count"), &what, *bytes)?;
         }
 
         let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));
@@ -1354,7 +1383,7 @@ impl BumpSpec {
 /// An explicit `[[bodies]]` entry: tested for every flight, its top found by
 /// sampling vertical rays and refining the highest.
 fn explicit_body(
-    source: &Source,
+    scene_file: &SceneFile,
     key: &str,
     spec: &BodySpec,
     quadrics: &BTreeMap<String, Quadric>,
@@ -1364,7 +1393,7 @@ fn explicit_body(
     let names: Vec<String> = quadrics.keys().cloned().collect();
     let list: Vec<Quadric> = quadrics.values().copied().collect();
     let (body, _) = super::region_body(
-        source,
+        scene_file,
         &format!("{key}.region"),
         &spec.region,
         &names,
@@ -1384,7 +1413,7 @@ fn explicit_body(
         (0.25, 0.75),
     ] {
         if body.contains(DVec3::new(fx * size.x, fy * size.y, z_far)) {
-            return Err(source.error(
+            return Err(scene_file.error(
                 format!("{key}.region"),
                 "the body is unbounded above (photons must start above the surface)",
             ));
@@ -1392,12 +1421,12 @@ fn explicit_body(
     }
     let max_height = explicit_max_height(&body, size, z_far);
     if !max_height.is_finite() {
-        return Err(source.error(
+        return Err(scene_file.error(
             format!("{key}.region"),
             "the body never rises into the cell (empty or below everything)",
         ));
     }
-    aspect_bound(max_height, size).map_err(|e| source.error(format!("{key}.region"), e))?;
+    aspect_bound(max_height, size).map_err(|e| scene_file.error(format!("{key}.region"), e))?;
     Ok(Placed {
         body,
         max_height: max_height.max(0.0),

@@ -68,14 +68,14 @@ impl fmt::Display for Num {
 
 /// Where a scene came from: the file name for messages and the folder for relative paths.
 #[derive(Debug, Clone)]
-pub struct Source {
+pub struct SceneFile {
     /// Name used in messages.
     pub file: String,
     /// Folder that relative paths in the scene (tables, micro scenes) are read from.
     pub dir: PathBuf,
 }
 
-impl Source {
+impl SceneFile {
     /// A scene read from `path`.
     #[must_use]
     pub fn from_path(path: &Path) -> Self {
@@ -129,19 +129,23 @@ pub struct Content {
 }
 
 impl Content {
-    /// The content of the scene `text` of `source` that reads `files`
+    /// The content of the scene `text` of `scene_file` that reads `files`
     /// (`(key, path relative to the scene's folder)`).
     ///
     /// # Errors
     /// A file that cannot be read, at its key.
-    pub fn of(source: &Source, text: &str, files: &[(String, String)]) -> Result<Self, SceneError> {
+    pub fn of(
+        scene_file: &SceneFile,
+        text: &str,
+        files: &[(String, String)],
+    ) -> Result<Self, SceneError> {
         let files = files
             .iter()
-            .zip(source.paths(files))
+            .zip(scene_file.paths(files))
             .map(|((key, _), path)| {
-                sha256_file(&path)
-                    .map(|h| (key.clone(), h))
-                    .map_err(|e| source.error(key, format!("{}: cannot read: {e}", path.display())))
+                sha256_file(&path).map(|h| (key.clone(), h)).map_err(|e| {
+                    scene_file.error(key, format!("{}: cannot read: {e}", path.display()))
+                })
             })
             .collect::<Result<_, _>>()?;
         Ok(Self {
@@ -194,7 +198,7 @@ pub(crate) fn other_kind(text: &str, marker: &str, error: SceneError, what: &str
 
 /// Deserialize `text` as `T`, reporting the key path of the first problem.
 pub fn parse_toml<T: serde::de::DeserializeOwned>(
-    source: &Source,
+    scene_file: &SceneFile,
     text: &str,
 ) -> Result<T, SceneError> {
     let line_of = |span: Option<std::ops::Range<usize>>| {
@@ -208,14 +212,14 @@ pub fn parse_toml<T: serde::de::DeserializeOwned>(
     };
     let de = toml::Deserializer::parse(text).map_err(|e| {
         let at = line_of(e.span()).map_or(String::new(), |l| format!("line {l}: "));
-        source.error("", format!("{at}invalid TOML: {}", e.message()))
+        scene_file.error("", format!("{at}invalid TOML: {}", e.message()))
     })?;
     serde_path_to_error::deserialize(de).map_err(|e| {
         let key = e.path().to_string();
         let key = if key == "." { String::new() } else { key };
         let inner = e.inner();
         let at = line_of(inner.span()).map_or(String::new(), |l| format!(" (line {l})"));
-        source.error(key, format!("{}{at}", inner.message()))
+        scene_file.error(key, format!("{}{at}", inner.message()))
     })
 }
 
@@ -225,7 +229,7 @@ pub fn parse_toml<T: serde::de::DeserializeOwned>(
 /// rather than mapped to a safe name: a mapped name would write where the
 /// user did not say, and two names could map to one folder.
 pub fn scene_name(
-    source: &Source,
+    scene_file: &SceneFile,
     given: Option<String>,
     fallback: String,
 ) -> Result<String, SceneError> {
@@ -233,11 +237,11 @@ pub fn scene_name(
     let name = given.unwrap_or(fallback);
     match crate::outdir::check_name(&name) {
         None => Ok(name),
-        Some(why) if from_file => Err(source.error(
+        Some(why) if from_file => Err(scene_file.error(
             "name",
             format!("not given, and the file name does not make one: {why}; set name = \"...\""),
         )),
-        Some(why) => Err(source.error("name", why)),
+        Some(why) => Err(scene_file.error("name", why)),
     }
 }
 
@@ -329,22 +333,26 @@ impl Range {
     /// Check finite, `lo <= hi`, and `lo > min` (or `>=` when `inclusive`).
     pub fn check(
         &self,
-        source: &Source,
+        scene_file: &SceneFile,
         key: &str,
         min: f64,
         inclusive: bool,
     ) -> Result<(), SceneError> {
         let (lo, hi) = self.bounds();
         if !(lo.is_finite() && hi.is_finite()) {
-            return Err(source.error(key, "must be finite"));
+            return Err(scene_file.error(key, "must be finite"));
         }
         if lo > hi {
-            return Err(source.error(key, format!("range [{}, {}] is reversed", Num(lo), Num(hi))));
+            return Err(
+                scene_file.error(key, format!("range [{}, {}] is reversed", Num(lo), Num(hi)))
+            );
         }
         let ok = if inclusive { lo >= min } else { lo > min };
         if !ok {
             let rel = if inclusive { ">=" } else { ">" };
-            return Err(source.error(key, format!("must be {rel} {}, got {}", Num(min), Num(lo))));
+            return Err(
+                scene_file.error(key, format!("must be {rel} {}, got {}", Num(min), Num(lo)))
+            );
         }
         Ok(())
     }
@@ -423,13 +431,13 @@ pub struct ConeSpec {
 
 impl QuadricSpec {
     /// The surface, or an error at `key`.
-    pub fn build(&self, source: &Source, key: &str) -> Result<Quadric, SceneError> {
+    pub fn build(&self, scene_file: &SceneFile, key: &str) -> Result<Quadric, SceneError> {
         let v = |a: [f64; 3]| DVec3::from_array(a);
         let positive = |x: f64, what: &str| {
             if x.is_finite() && x > 0.0 {
                 Ok(x)
             } else {
-                Err(source.error(
+                Err(scene_file.error(
                     format!("{key}.{what}"),
                     format!("must be > 0, got {}", Num(x)),
                 ))
@@ -438,13 +446,15 @@ impl QuadricSpec {
         let q = match self {
             Self::Plane([a, b, c, d]) => {
                 if *a == 0.0 && *b == 0.0 && *c == 0.0 {
-                    return Err(source.error(format!("{key}.plane"), "normal (a, b, c) is zero"));
+                    return Err(
+                        scene_file.error(format!("{key}.plane"), "normal (a, b, c) is zero")
+                    );
                 }
                 Quadric::plane(*a, *b, *c, *d)
             }
             Self::Quadric(c) => {
                 if c[..9].iter().all(|&x| x == 0.0) {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         format!("{key}.quadric"),
                         "all non-constant coefficients are zero",
                     ));
@@ -466,7 +476,7 @@ impl QuadricSpec {
             Self::ConeZ(c) => Quadric::cone(2, v(c.apex), positive(c.t2, "t2")?),
             Self::ParaboloidZ { vertex, k } => {
                 if !(k.is_finite() && *k != 0.0) {
-                    return Err(source.error(format!("{key}.k"), "must be finite and non-zero"));
+                    return Err(scene_file.error(format!("{key}.k"), "must be finite and non-zero"));
                 }
                 Quadric {
                     origin: v(*vertex),
@@ -479,7 +489,7 @@ impl QuadricSpec {
             .chain(q.origin.to_array().iter())
             .any(|x| !x.is_finite())
         {
-            return Err(source.error(key, "coefficients must be finite"));
+            return Err(scene_file.error(key, "coefficients must be finite"));
         }
         Ok(q)
     }
@@ -668,7 +678,7 @@ impl MaterialSpec {
     /// with wavelength [`Reflectance::Spectral`].
     pub fn build(
         &self,
-        source: &Source,
+        scene_file: &SceneFile,
         key: &str,
         wavelengths_um: &[f64],
     ) -> Result<Reflectance, SceneError> {
@@ -679,24 +689,24 @@ impl MaterialSpec {
             self.table.is_some(),
         ];
         if given.iter().filter(|&&g| g).count() != 1 {
-            return Err(source.error(
+            return Err(scene_file.error(
                 key,
                 "give exactly one of `reflectance`, `n` (with `k`), `nk`, `table`",
             ));
         }
         if self.k.is_some() && self.n.is_none() {
-            return Err(source.error(format!("{key}.k"), "`k` needs `n`"));
+            return Err(scene_file.error(format!("{key}.k"), "`k` needs `n`"));
         }
         let lanes = wavelengths_um.len();
         // One value per wavelength (or the one value, for a monochrome scene).
         let per_lane = |name: &str, v: &Values| -> Result<Vec<f64>, SceneError> {
             match v {
                 Values::One(x) => Ok(vec![*x; lanes.max(1)]),
-                Values::Many(_) if lanes == 0 => Err(source.error(
+                Values::Many(_) if lanes == 0 => Err(scene_file.error(
                     format!("{key}.{name}"),
                     "an array (one value per wavelength) needs [light] wavelengths_um",
                 )),
-                Values::Many(xs) if xs.len() != lanes => Err(source.error(
+                Values::Many(xs) if xs.len() != lanes => Err(scene_file.error(
                     format!("{key}.{name}"),
                     format!("has {} values for {lanes} wavelengths", xs.len()),
                 )),
@@ -710,7 +720,7 @@ impl MaterialSpec {
                 .enumerate()
                 .find(|(_, r)| !(0.0..=1.0).contains(*r))
             {
-                return Err(source.error(
+                return Err(scene_file.error(
                     lane_key(key, "reflectance", r_is_many(self.reflectance.as_ref()), l),
                     format!("must be in [0, 1], got {}", Num(*r)),
                 ));
@@ -723,13 +733,13 @@ impl MaterialSpec {
             let many_k = r_is_many(self.k.as_ref());
             for (l, (&n, &k)) in ns.iter().zip(&ks).enumerate() {
                 if !(n.is_finite() && n > 0.0) {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         lane_key(key, "n", many_n, l),
                         format!("must be > 0, got {}", Num(n)),
                     ));
                 }
                 if !(k.is_finite() && k >= 0.0) {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         lane_key(key, "k", many_k, l),
                         format!("must be >= 0, got {}", Num(k)),
                     ));
@@ -742,21 +752,21 @@ impl MaterialSpec {
         } else if let Some(file) = &self.nk {
             let at = format!("{key}.nk");
             if lanes == 0 {
-                return Err(source.error(
+                return Err(scene_file.error(
                     at,
                     "a measured n, k table needs [light] wavelengths_um to sample it at",
                 ));
             }
-            let path = source.dir.join(file);
+            let path = scene_file.dir.join(file);
             let table = crate::optics::spectrum::NkSpectrum::read(&path)
-                .map_err(|e| source.error(&at, e.to_string()))?;
+                .map_err(|e| scene_file.error(&at, e.to_string()))?;
             let nks = table
                 .sample(wavelengths_um)
-                .map_err(|e| source.error(&at, e.to_string()))?;
+                .map_err(|e| scene_file.error(&at, e.to_string()))?;
             let mut models = Vec::with_capacity(lanes);
             for (nk, w) in nks.into_iter().zip(wavelengths_um) {
                 if nk.n <= 0.0 {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         &at,
                         format!(
                             "{}: n = {} at {} um: the Fresnel model needs n > 0",
@@ -773,13 +783,13 @@ impl MaterialSpec {
             let files = match self.table.as_ref() {
                 Some(Files::One(f)) => vec![f.clone(); lanes.max(1)],
                 Some(Files::Many(_)) if lanes == 0 => {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         format!("{key}.table"),
                         "an array (one file per wavelength) needs [light] wavelengths_um",
                     ));
                 }
                 Some(Files::Many(fs)) if fs.len() != lanes => {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         format!("{key}.table"),
                         format!("has {} files for {lanes} wavelengths", fs.len()),
                     ));
@@ -796,13 +806,13 @@ impl MaterialSpec {
                     continue;
                 }
                 let at = lane_key(key, "table", many, l);
-                let path = source.dir.join(file);
+                let path = scene_file.dir.join(file);
                 let text = crate::limits::read_text_capped(&path, crate::limits::max_data_bytes())
                     .map_err(|e| {
-                        source.error(&at, format!("cannot read {}: {e}", path.display()))
+                        scene_file.error(&at, format!("cannot read {}: {e}", path.display()))
                     })?;
                 let table = AngleTable::parse_csv(&text)
-                    .map_err(|e| source.error(&at, format!("{}: {e}", path.display())))?;
+                    .map_err(|e| scene_file.error(&at, format!("{}: {e}", path.display())))?;
                 models.push(Reflectance::Table(table));
             }
             models
@@ -840,14 +850,14 @@ pub fn spectral_model(mut models: Vec<Reflectance>) -> Reflectance {
 
 /// Build every material of a `[materials]` table; returns names and models in order.
 pub fn build_materials(
-    source: &Source,
+    scene_file: &SceneFile,
     specs: &BTreeMap<String, MaterialSpec>,
     wavelengths_um: &[f64],
 ) -> Result<(Vec<String>, Vec<Reflectance>), SceneError> {
     let mut names = Vec::new();
     let mut models = Vec::new();
     for (name, spec) in specs {
-        models.push(spec.build(source, &format!("materials.{name}"), wavelengths_um)?);
+        models.push(spec.build(scene_file, &format!("materials.{name}"), wavelengths_um)?);
         names.push(name.clone());
     }
     Ok((names, models))
@@ -855,7 +865,7 @@ pub fn build_materials(
 
 /// Index of material `name`, or an error at `key`.
 pub fn material_index(
-    source: &Source,
+    scene_file: &SceneFile,
     names: &[String],
     name: &str,
     key: &str,
@@ -866,7 +876,7 @@ pub fn material_index(
         } else {
             names.join(", ")
         };
-        source.error(key, format!("unknown material `{name}` (known: {known})"))
+        scene_file.error(key, format!("unknown material `{name}` (known: {known})"))
     })
 }
 
@@ -878,7 +888,7 @@ pub fn material_index(
 /// beyond [`MAX_SURFACES`], so loading is linear in the expression (at most
 /// [`region::MAX_TERMS`] terms).
 pub fn region_body(
-    source: &Source,
+    scene_file: &SceneFile,
     key: &str,
     expr: &str,
     names: &[String],
@@ -912,7 +922,7 @@ pub fn region_body(
             }
             None => e.to_string(),
         };
-        source.error(key, msg)
+        scene_file.error(key, msg)
     })?;
     let surfaces = used.iter().map(|&g| quadrics[g]).collect();
     Ok((
@@ -951,7 +961,7 @@ pub enum PolarisationSpec {
 
 impl PolarisationSpec {
     /// The incident state, or an error at `key`.
-    pub fn build(&self, source: &Source, key: &str) -> Result<Incident, SceneError> {
+    pub fn build(&self, scene_file: &SceneFile, key: &str) -> Result<Incident, SceneError> {
         let state = match self {
             Self::Name(n) => match n.as_str() {
                 "unpolarised" | "unpolarized" | "natural" => Incident::Unpolarised,
@@ -960,7 +970,7 @@ impl PolarisationSpec {
                 "right" => Incident::Right,
                 "left" => Incident::Left,
                 other => {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         key,
                         format!(
                             "unknown state `{other}` (known: unpolarised, s, p, right, left, {{ linear = deg }}, [S0, S1, S2, S3])"
@@ -971,7 +981,7 @@ impl PolarisationSpec {
             Self::Linear { linear } => Incident::Linear(*linear),
             Self::Stokes(s) => Incident::Stokes(*s),
         };
-        state.validate().map_err(|e| source.error(key, e))?;
+        state.validate().map_err(|e| scene_file.error(key, e))?;
         Ok(state)
     }
 }

@@ -113,7 +113,7 @@ use serde::Deserialize;
 
 use super::micro::{MicroScene, TransportSpec};
 use super::{
-    Files, MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, Source, Values,
+    Files, MaterialSpec, PolarisationSpec, QuadricSpec, SceneError, SceneFile, Values,
     WavelengthsSpec, parse_toml,
 };
 use crate::object::source::Beam;
@@ -295,7 +295,7 @@ pub struct ObjectScene {
     /// Scene name.
     pub name: String,
     /// Where it came from.
-    pub source: Source,
+    pub scene_file: SceneFile,
     /// The geometry.
     pub object: Object,
     /// Model of each surface id.
@@ -339,7 +339,7 @@ impl ObjectScene {
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         let mut scene = Self::from_str_at(
             &text,
-            Source::from_path(path),
+            SceneFile::from_path(path),
             name.unwrap_or_default(),
             wavelengths,
         )?;
@@ -348,27 +348,31 @@ impl ObjectScene {
     }
 
     /// Parse and build from TOML text.
-    pub fn from_str(text: &str, source: Source, fallback_name: String) -> Result<Self, SceneError> {
-        Self::from_str_at(text, source, fallback_name, None)
+    pub fn from_str(
+        text: &str,
+        scene_file: SceneFile,
+        fallback_name: String,
+    ) -> Result<Self, SceneError> {
+        Self::from_str_at(text, scene_file, fallback_name, None)
     }
 
     /// [`ObjectScene::from_str`] with the wavelengths replaced (see
     /// [`ObjectScene::load_at`]).
     pub fn from_str_at(
         text: &str,
-        source: Source,
+        scene_file: SceneFile,
         fallback_name: String,
         wavelengths: Option<&WavelengthsSpec>,
     ) -> Result<Self, SceneError> {
-        let mut spec: ObjectSceneSpec = parse_toml(&source, text)
+        let mut spec: ObjectSceneSpec = parse_toml(&scene_file, text)
             .map_err(|e| super::other_kind(text, "surface", e, "a micro scene ([surface]): roks brdf traces it; roks trace takes object scenes ([[cells]])"))?;
         if let Some(w) = wavelengths {
             spec.light.wavelengths_um = Some(w.clone());
         }
-        let files = spec.files(&source);
-        let mut scene = spec.build(source, fallback_name)?;
-        scene.content = super::Content::of(&scene.source, text, &files)?;
-        scene.reads = scene.source.paths(&files);
+        let files = spec.files(&scene_file);
+        let mut scene = spec.build(scene_file, fallback_name)?;
+        scene.content = super::Content::of(&scene.scene_file, text, &files)?;
+        scene.reads = scene.scene_file.paths(&files);
         Ok(scene)
     }
 }
@@ -385,14 +389,14 @@ impl ObjectSceneSpec {
     /// scene that cannot be read adds only its own key (loading it reports
     /// the error).
     #[must_use]
-    pub fn files(&self, source: &Source) -> Vec<(String, String)> {
+    pub fn files(&self, scene_file: &SceneFile) -> Vec<(String, String)> {
         let mut files = Vec::new();
         for (name, m) in &self.models {
             let key = format!("models.{name}");
             if let Some(f) = &m.micro {
                 files.push((format!("{key}.micro"), f.clone()));
-                let path = source.dir.join(f);
-                let micro = Source::from_path(&path);
+                let path = scene_file.dir.join(f);
+                let micro = SceneFile::from_path(&path);
                 let spec = super::read_scene_text(&path).ok().and_then(|text| {
                     super::parse_toml::<super::micro::MicroSceneSpec>(&micro, &text).ok()
                 });
@@ -407,7 +411,7 @@ impl ObjectSceneSpec {
                 let table = Path::new(f);
                 for (beside, k) in [("summary.json", "summary"), ("mueller.csv", "mueller")] {
                     let other = table.with_file_name(beside);
-                    if source.dir.join(&other).exists() {
+                    if scene_file.dir.join(&other).exists() {
                         let other = other.to_string_lossy().into_owned();
                         files.push((format!("{key}.brdf.{k}"), other));
                     }
@@ -419,21 +423,31 @@ impl ObjectSceneSpec {
     }
 
     /// Check everything and build the scene.
-    pub fn build(self, source: Source, fallback_name: String) -> Result<ObjectScene, SceneError> {
+    pub fn build(
+        self,
+        scene_file: SceneFile,
+        fallback_name: String,
+    ) -> Result<ObjectScene, SceneError> {
         let surface_names: Vec<String> = self.quadrics.keys().cloned().collect();
         let mut quadrics = Vec::new();
         for (name, q) in &self.quadrics {
-            quadrics.push(q.build(&source, &format!("quadrics.{name}"))?);
+            quadrics.push(q.build(&scene_file, &format!("quadrics.{name}"))?);
         }
         if self.cells.is_empty() {
-            return Err(source.error("cells", "the object needs at least one cell"));
+            return Err(scene_file.error("cells", "the object needs at least one cell"));
         }
         let mut solids = Vec::new();
         let mut voids = Vec::new();
         for (c, zone) in self.cells.iter().enumerate() {
             let key = format!("cells[{c}].region");
-            let (body, ids) =
-                super::region_body(&source, &key, &zone.region, &surface_names, &quadrics, 0)?;
+            let (body, ids) = super::region_body(
+                &scene_file,
+                &key,
+                &zone.region,
+                &surface_names,
+                &quadrics,
+                0,
+            )?;
             match zone.fill {
                 Fill::Solid => solids.push(SolidZone {
                     name: zone.name.clone(),
@@ -447,16 +461,16 @@ impl ObjectSceneSpec {
             }
         }
         if solids.is_empty() {
-            return Err(source.error("cells", "no solid cell: nothing to reflect from"));
+            return Err(scene_file.error("cells", "no solid cell: nothing to reflect from"));
         }
         let object = Object::new(surface_names.clone(), solids, voids);
 
         let transport = self.transport;
         if transport.max_bounces == 0 {
-            return Err(source.error("transport.max_bounces", "must be > 0"));
+            return Err(scene_file.error("transport.max_bounces", "must be > 0"));
         }
         if !(transport.roulette_weight >= 0.0 && transport.roulette_weight < 1.0) {
-            return Err(source.error("transport.roulette_weight", "must be in [0, 1)"));
+            return Err(scene_file.error("transport.roulette_weight", "must be in [0, 1)"));
         }
         let controls = Controls {
             max_bounces: transport.max_bounces,
@@ -466,8 +480,8 @@ impl ObjectSceneSpec {
 
         let wavelengths_um = match &self.light.wavelengths_um {
             Some(w) => w.resolve().map_err(|e| match e.index() {
-                Some(i) => source.error(format!("light.wavelengths_um[{i}]"), e),
-                None => source.error("light.wavelengths_um", e),
+                Some(i) => scene_file.error(format!("light.wavelengths_um[{i}]"), e),
+                None => scene_file.error("light.wavelengths_um", e),
             })?,
             None => Vec::new(),
         };
@@ -476,7 +490,7 @@ impl ObjectSceneSpec {
         let mut models = Vec::new();
         for (name, m) in &self.models {
             models.push(m.build(
-                &source,
+                &scene_file,
                 &format!("models.{name}"),
                 controls,
                 &wavelengths_um,
@@ -487,13 +501,13 @@ impl ObjectSceneSpec {
             let key = format!("walls.{surface}");
             // Sorted (the keys of a BTreeMap): binary search keeps loading linear.
             let sid = surface_names.binary_search(surface).map_err(|_| {
-                source.error(
+                scene_file.error(
                     &key,
                     format!("unknown surface `{surface}` (not in [quadrics])"),
                 )
             })?;
             let mid = model_names.binary_search(model).map_err(|_| {
-                source.error(
+                scene_file.error(
                     &key,
                     format!(
                         "unknown model `{model}` (known: {})",
@@ -506,27 +520,27 @@ impl ObjectSceneSpec {
 
         let tally = self.tally;
         if !(1..=1000).contains(&tally.bands) {
-            return Err(source.error(
+            return Err(scene_file.error(
                 "tally.bands",
                 format!("must be in 1..=1000, got {}", tally.bands),
             ));
         }
         if tally.polarisation == PolarTally::Mueller {
-            return Err(source.error(
+            return Err(scene_file.error(
                 "tally.polarisation",
                 "\"mueller\" is for micro scenes (roks brdf); object scenes tally \"stokes\" or \"none\"",
             ));
         }
         let farfield_stokes = tally.polarisation == PolarTally::Stokes;
         if farfield_stokes && !tally.farfield {
-            return Err(source.error(
+            return Err(scene_file.error(
                 "tally.polarisation",
                 "\"stokes\" tallies the far field: set [tally] farfield = true",
             ));
         }
         let polarisation = match transport.polarisation {
             Some(false) if farfield_stokes => {
-                return Err(source.error(
+                return Err(scene_file.error(
                     "transport.polarisation",
                     "false conflicts with [tally] polarisation = \"stokes\" (Stokes tallies need polarised transport)",
                 ));
@@ -535,7 +549,7 @@ impl ObjectSceneSpec {
             None => farfield_stokes || models.iter().any(WallModel::polarises),
         };
         if self.sources.is_empty() {
-            return Err(source.error("sources", "needs at least one [[sources]] entry"));
+            return Err(scene_file.error("sources", "needs at least one [[sources]] entry"));
         }
         let mut beams = Vec::new();
         let mut beam_source = Vec::new();
@@ -544,20 +558,22 @@ impl ObjectSceneSpec {
             let key = |k: &str| format!("sources[{i}].{k}");
             let dir = DVec3::from_array(s.beam.direction);
             let Some(direction) = dir.try_normalize().filter(|d| d.is_finite()) else {
-                return Err(source.error(key("beam.direction"), "must be a non-zero finite vector"));
+                return Err(
+                    scene_file.error(key("beam.direction"), "must be a non-zero finite vector")
+                );
             };
             if !(s.beam.diameter.is_finite() && s.beam.diameter >= 0.0) {
-                return Err(source.error(key("beam.diameter"), "must be >= 0"));
+                return Err(scene_file.error(key("beam.diameter"), "must be >= 0"));
             }
             crate::transport::launch::check_count(s.photons)
-                .map_err(|e| source.error(key("photons"), e))?;
+                .map_err(|e| scene_file.error(key("photons"), e))?;
             let state = match &s.polarisation {
-                Some(spec) => spec.build(&source, &key("polarisation"))?,
+                Some(spec) => spec.build(&scene_file, &key("polarisation"))?,
                 None => Incident::Unpolarised,
             };
             let positions: Vec<DVec3> = match (&s.sweep, &s.position) {
                 (Some(_), Some(_)) | (None, None) => {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         format!("sources[{i}]"),
                         "give exactly one of `sweep`, `position`",
                     ));
@@ -565,7 +581,7 @@ impl ObjectSceneSpec {
                 (None, Some(p)) => vec![DVec3::from_array(*p)],
                 (Some(sw), None) => {
                     if sw.steps == 0 {
-                        return Err(source.error(key("sweep.steps"), "must be >= 1"));
+                        return Err(scene_file.error(key("sweep.steps"), "must be >= 1"));
                     }
                     let (per_position, fixed) = position_memory_bytes(
                         surface_names.len(),
@@ -577,7 +593,7 @@ impl ObjectSceneSpec {
                     let bytes = fixed.saturating_mul(lanes).saturating_add(
                         positions.saturating_mul(per_position.saturating_mul(lanes)),
                     );
-                    source.check_memory(
+                    scene_file.check_memory(
                         &key("sweep.steps"),
                         &format!("{positions} beam positions (tallies and result tables)"),
                         bytes,
@@ -597,12 +613,12 @@ impl ObjectSceneSpec {
             };
             for p in positions {
                 if !p.is_finite() {
-                    return Err(source.error(key("position"), "must be finite"));
+                    return Err(scene_file.error(key("position"), "must be finite"));
                 }
                 // Photons must start in open space or in exactly one void cell.
                 let (in_solids, in_voids) = object.zones_at(p);
                 if let Some(&c) = in_solids.first() {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         key("position"),
                         format!(
                             "beam position {p} is inside solid cell `{}`",
@@ -615,7 +631,7 @@ impl ObjectSceneSpec {
                         .iter()
                         .map(|&v| object.voids[v].name.as_str())
                         .collect();
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         "cells",
                         format!(
                             "void cells {} overlap at beam position {p}",
@@ -636,7 +652,7 @@ impl ObjectSceneSpec {
                     for k in 0..32 {
                         let q = beam.start(f64::from(ring) * 0.25, f64::from(k) / 32.0);
                         if let Some(&c) = object.zones_at(q).0.first() {
-                            return Err(source.error(
+                            return Err(scene_file.error(
                                 key("beam.diameter"),
                                 format!(
                                     "the beam's disc at {p} reaches into solid cell `{}` (at {q})",
@@ -657,7 +673,7 @@ impl ObjectSceneSpec {
             tally.farfield,
             farfield_stokes,
         );
-        source.check_memory(
+        scene_file.check_memory(
             "tally.bands",
             &format!(
                 "the tallies and tables of {} Carlson bands for {} beam positions{}",
@@ -683,8 +699,8 @@ impl ObjectSceneSpec {
             wavelengths_um,
         };
         Ok(ObjectScene {
-            name: super::scene_name(&source, self.name, fallback_name)?,
-            source,
+            name: super::scene_name(&scene_file, self.name, fallback_name)?,
+            scene_file,
             object,
             walls,
             models,
@@ -716,7 +732,7 @@ impl ModelSpec {
     /// [`ObjectSceneSpec::files`]).
     fn build(
         &self,
-        source: &Source,
+        scene_file: &SceneFile,
         key: &str,
         controls: Controls,
         wavelengths_um: &[f64],
@@ -731,13 +747,13 @@ impl ModelSpec {
             self.reflectance.is_some(),
         ];
         if kinds.iter().filter(|&&k| k).count() != 1 {
-            return Err(source.error(
+            return Err(scene_file.error(
                 key,
                 "give exactly one kind: `micro`, `brdf`, `specular`/`diffuse`, `n`/`k`, `table` or `reflectance`",
             ));
         }
         if let Some(file) = &self.micro {
-            let path = source.dir.join(file);
+            let path = scene_file.dir.join(file);
             // A spectral object samples the micro scene's materials at its wavelengths.
             let at = (!wavelengths_um.is_empty()).then_some(wavelengths_um);
             let overrides = super::micro::Overrides {
@@ -745,9 +761,9 @@ impl ModelSpec {
                 ..Default::default()
             };
             let scene = MicroScene::load_with(&path, &overrides)
-                .map_err(|e| source.error(format!("{key}.micro"), e.to_string()))?;
+                .map_err(|e| scene_file.error(format!("{key}.micro"), e.to_string()))?;
             if at.is_none() && !scene.run.wavelengths_um.is_empty() {
-                return Err(source.error(
+                return Err(scene_file.error(
                     format!("{key}.micro"),
                     format!(
                         "the micro scene {} is spectral ([light] wavelengths_um) but this object scene is not: give the object scene [light] wavelengths_um (they replace the micro scene's)",
@@ -756,7 +772,7 @@ impl ModelSpec {
                 ));
             }
             let Some(micro) = MicroWall::new(scene.surface, controls) else {
-                return Err(source.error(
+                return Err(scene_file.error(
                     format!("{key}.micro"),
                     "the micro scene must have periodic edges",
                 ));
@@ -764,21 +780,21 @@ impl ModelSpec {
             return Ok(WallModel::Micro(Box::new(micro)));
         }
         if let Some(file) = &self.brdf {
-            let path = source.dir.join(file);
-            return brdf_wall(source, &format!("{key}.brdf"), &path, wavelengths_um);
+            let path = scene_file.dir.join(file);
+            return brdf_wall(scene_file, &format!("{key}.brdf"), &path, wavelengths_um);
         }
         if ideal {
             let (s, d) = (self.specular.unwrap_or(0.0), self.diffuse.unwrap_or(0.0));
             for (v, name) in [(s, "specular"), (d, "diffuse")] {
                 if !(0.0..=1.0).contains(&v) {
-                    return Err(source.error(
+                    return Err(scene_file.error(
                         format!("{key}.{name}"),
                         format!("must be in [0, 1], got {}", Num(v)),
                     ));
                 }
             }
             if s + d > 1.0 {
-                return Err(source.error(
+                return Err(scene_file.error(
                     key,
                     format!("specular + diffuse = {} exceeds 1", Num(s + d)),
                 ));
@@ -790,7 +806,7 @@ impl ModelSpec {
         }
         // Fresnel, table and constant reflectance share the material builder.
         let material = self.material();
-        let r: Reflectance = material.build(source, key, wavelengths_um)?;
+        let r: Reflectance = material.build(scene_file, key, wavelengths_um)?;
         Ok(WallModel::Specular(r))
     }
 }
@@ -804,17 +820,17 @@ impl ModelSpec {
 /// lane takes the table of its wavelength, [`SpectralTableWall`]), and a
 /// spectral `mueller.csv` beside it gives each lane its own Mueller table.
 fn brdf_wall(
-    source: &Source,
+    scene_file: &SceneFile,
     key: &str,
     path: &Path,
     wavelengths_um: &[f64],
 ) -> Result<WallModel, SceneError> {
-    let fail = |e: &dyn std::fmt::Display| source.error(key, e.to_string());
+    let fail = |e: &dyn std::fmt::Display| scene_file.error(key, e.to_string());
     if !path.exists() {
         return Err(fail(&format_args!(
             "{}: no such file: {}",
             path.display(),
-            table_recipe(source, path)
+            table_recipe(scene_file, path)
         )));
     }
     let mut tables = BrdfTables::load(path).map_err(|e| fail(&e))?;
@@ -871,12 +887,12 @@ fn brdf_wall(
 /// brdf` command of the micro scene beside the object scene (in
 /// `source.dir`) whose `name` is the table's folder name (the folder `roks
 /// brdf` writes by default), else the command's general form.
-fn table_recipe(source: &Source, path: &Path) -> String {
+fn table_recipe(scene_file: &SceneFile, path: &Path) -> String {
     let dir = path.parent().unwrap_or_else(|| Path::new("."));
     let maker = dir
         .file_name()
         .and_then(|n| n.to_str())
-        .and_then(|name| micro_scene_named(&source.dir, name));
+        .and_then(|name| micro_scene_named(&scene_file.dir, name));
     match maker {
         Some(scene) => format!(
             "it is the table of `roks brdf {} --out {}`: run that first",

@@ -747,12 +747,15 @@ pub struct IncidenceResult {
     pub phi_i_deg: f64,
     /// Vacuum wavelength (µm) of a spectral run; `None` for a monochrome run.
     pub wavelength_um: Option<f64>,
-    /// Sums: the nodes added left to right.
+    /// Sums: the nodes added left to right (for a whole run of one
+    /// realisation, the tree's root).
     pub tallies: BrdfTallies,
     /// The complete nodes of the whole run's batch tree that the traced
-    /// photons fill, in batch order ([`crate::tally::sum`]; the root alone
-    /// for a whole run, none for an empty range): what a shard's
-    /// `tallies.json` keeps.
+    /// photons fill, in batch order ([`crate::tally::sum`]), except the
+    /// root: a whole run of one realisation keeps its root once, as
+    /// `tallies`, and no nodes (so does an empty range, with no photons).
+    /// [`IncidenceResult::tree_nodes`] gives the nodes `tallies.json`
+    /// writes.
     pub nodes: Vec<Node<BrdfTallies>>,
     /// Wall-clock time (s) of the incidence's trace (all its wavelengths).
     pub seconds: f64,
@@ -799,6 +802,23 @@ impl RealisationResult {
 }
 
 impl IncidenceResult {
+    /// The complete tree nodes of this leaf of `run`, in batch order, as a
+    /// shard's or a merge's `tallies.json` lists them: `nodes`, or the root
+    /// `(level, 0)` holding `tallies` when the leaf is the whole run's root
+    /// (no nodes, some photons).
+    #[must_use]
+    pub fn tree_nodes(&self, run: &BrdfRun) -> std::borrow::Cow<'_, [Node<BrdfTallies>]> {
+        if self.nodes.is_empty() && self.tallies.photons > 0 {
+            std::borrow::Cow::Owned(vec![Node {
+                level: run.root_level(),
+                index: 0,
+                value: self.tallies.clone(),
+            }])
+        } else {
+            std::borrow::Cow::Borrowed(&self.nodes)
+        }
+    }
+
     /// Directional-hemispherical reflectance and its standard error.
     #[must_use]
     pub fn reflectance(&self) -> (f64, f64) {
@@ -1303,15 +1323,25 @@ impl BrdfRun {
         let wavelength = lanes
             .into_iter()
             .enumerate()
-            .map(|(l, nodes)| IncidenceResult {
-                theta_i_deg: theta,
-                phi_i_deg: phi,
-                wavelength_um: self.wavelength(l),
-                tallies: add_up(&self.combine(nodes.iter()))
-                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane())),
-                realisations: self.realisation_results(theta, phi, &nodes),
-                nodes,
-                seconds,
+            .map(|(l, mut nodes)| {
+                let tallies = add_up(&self.combine(nodes.iter()))
+                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
+                let realisations = self.realisation_results(theta, phi, &nodes);
+                // The root is kept once, as the sums.
+                if let [n] = nodes.as_slice()
+                    && (n.level, n.index) == (self.root_level(), 0)
+                {
+                    nodes.clear();
+                }
+                IncidenceResult {
+                    theta_i_deg: theta,
+                    phi_i_deg: phi,
+                    wavelength_um: self.wavelength(l),
+                    tallies,
+                    realisations,
+                    nodes,
+                    seconds,
+                }
             })
             .collect();
         ByAzimuth {
@@ -1349,6 +1379,17 @@ impl BrdfRun {
             .collect()
     }
 
+    /// The level of the root of the run's batch tree: the smallest `K`
+    /// with `2^K` at least the run's batches ([`crate::tally::sum`]).
+    #[must_use]
+    pub fn root_level(&self) -> u32 {
+        self.photons
+            .div_ceil(BATCH)
+            .max(1)
+            .next_power_of_two()
+            .trailing_zeros()
+    }
+
     /// `nodes` (in batch order, contiguous) pushed into the run's batch
     /// tree: its complete nodes (the root alone when they cover the run).
     /// The nodes of a piece of the run, split anywhere on node bounds,
@@ -1383,7 +1424,11 @@ impl BrdfRun {
     }
 
     /// [`BrdfRun::trace`] of the run's own photons ([`BrdfRun::photon_range`]).
-    pub fn run(&self, surface: &MicroSurface, progress: &(dyn Fn(u64) + Sync)) -> BrdfResult {
+    pub fn trace_whole(
+        &self,
+        surface: &MicroSurface,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> BrdfResult {
         self.trace(surface, self.photon_range(), progress)
     }
 
@@ -1551,7 +1596,7 @@ impl BrdfRun {
 
     /// Trace this run's photons carrying `C` (see [`super::carrier`]),
     /// with `ordered` in the Morton order of their entry points
-    /// ([`super::run_ordered`]), else in index order, and hand each batch's
+    /// ([`super::parallel_batches_ordered`]), else in index order, and hand each batch's
     /// tallies (one per wavelength), scored in index order (the same tallies either way), to
     /// `consume(batch index, tally)` in batch order. Batches tally into the
     /// cleared tallies of `spare` while there are any.
@@ -1623,9 +1668,9 @@ impl BrdfRun {
                     }
                 })
             };
-            return super::run_batches(last - first, tally_bytes, batch, consume, progress);
+            return super::parallel_batches(last - first, tally_bytes, batch, consume, progress);
         }
-        super::run_ordered(
+        super::parallel_batches_ordered(
             last - first,
             tally_bytes,
             |n| {
@@ -1994,7 +2039,7 @@ mod tests {
     /// partial last batch.
     #[test]
     fn morton_order_gives_the_index_order_tallies() {
-        let source = crate::scene::Source {
+        let scene_file = crate::scene::SceneFile {
             file: "default.toml".into(),
             dir: ".".into(),
         };
@@ -2025,7 +2070,7 @@ mod tests {
                 Symmetry::None,
             ),
         ] {
-            let scene = MicroScene::from_str(text, source.clone(), "t".into()).unwrap();
+            let scene = MicroScene::from_str(text, scene_file.clone(), "t".into()).unwrap();
             let mut run = scene.brdf_run();
             run.photons = 3 * BATCH + 16 * 37;
             run.launch = launch;

@@ -28,7 +28,7 @@ use rayon::prelude::*;
 /// Photons per batch: the unit of parallel work and of summation order.
 pub const BATCH: u64 = 4096;
 
-/// Most bytes of batch tallies [`run_batches`] and [`run_ordered`] hold at a
+/// Most bytes of batch tallies [`parallel_batches`] and [`parallel_batches_ordered`] hold at a
 /// time, as whole chunks of batches (see [`pending_batches`]).
 const PENDING_BYTES: usize = 8 << 20;
 
@@ -54,7 +54,7 @@ fn pending_here(tally_bytes: u64) -> u64 {
 /// the photons of one index range into a fresh tally of about `tally_bytes`;
 /// `progress` receives the photons done. Pending batch tallies are bounded
 /// by working in chunks of [`pending_batches`] for the threads of the pool.
-pub fn run_batches<T: Send>(
+pub fn parallel_batches<T: Send>(
     photons: u64,
     tally_bytes: u64,
     trace: impl Fn(std::ops::Range<u64>) -> T + Sync,
@@ -83,34 +83,34 @@ pub fn run_batches<T: Send>(
     }
 }
 
-/// Most bytes of entries and histories [`run_ordered`] holds at a time
+/// Most bytes of entries and histories [`parallel_batches_ordered`] holds at a time
 /// (whole batches, at least one).
 const ORDERED_BYTES: usize = 32 << 20;
 
-/// Bytes of histories [`run_ordered`] copies into index order at a time for
+/// Bytes of histories [`parallel_batches_ordered`] copies into index order at a time for
 /// scoring (a block that stays in the first-level cache).
 const GATHER_BYTES: usize = 16 << 10;
 
-/// Photons a thread traces in one piece of the Morton order of [`run_ordered`].
+/// Photons a thread traces in one piece of the Morton order of [`parallel_batches_ordered`].
 const PIECE: usize = 1024;
 
-/// Like [`run_batches`], but each chunk of batches is traced in the Morton
+/// Like [`parallel_batches`], but each chunk of batches is traced in the Morton
 /// order of its photons' entry points ([`order`]), so that photons entering
 /// near each other are traced one after the other (by pieces of `PIECE` (1024)
 /// photons spread over the threads), and each batch is then scored from its
 /// histories in photon index order: the tallies are bit-identical to
-/// [`run_batches`]'s for any thread count.
+/// [`parallel_batches`]'s for any thread count.
 ///
 /// `entry(n)` gives photon `n`'s Morton code and what its history starts
 /// from (`E`: its stream and entry point); `trace(entry, scratch)` its
 /// history, with a scratch from `scratch()` per rayon job (reused over its
 /// pieces); `score(range, visit)` a batch's tally, where `visit(f)` calls
 /// `f(entry, history)` for the batch's photons in index order; `consume` and
-/// `progress` as for [`run_batches`]. Chunks hold
+/// `progress` as for [`parallel_batches`]. Chunks hold
 /// at most about `ORDERED_BYTES` (32 MiB) of entries and histories, and at most
 /// [`pending_batches`] of batch tallies of `tally_bytes`.
 #[allow(clippy::too_many_arguments)]
-pub fn run_ordered<E: Clone + Send + Sync, H: Clone + Send + Sync, S, T: Send>(
+pub fn parallel_batches_ordered<E: Clone + Send + Sync, H: Clone + Send + Sync, S, T: Send>(
     photons: u64,
     tally_bytes: u64,
     entry: impl Fn(u64) -> (u16, E) + Sync,
@@ -217,14 +217,14 @@ mod tests {
     #[derive(Clone)]
     struct Words<const N: usize>([u64; N]);
 
-    /// `run_ordered` hands every batch its photons in index order, each with
+    /// `parallel_batches_ordered` hands every batch its photons in index order, each with
     /// its own entry and history, whether the histories are copied for
     /// scoring many at a time (small), a few (medium) or one (large, above
     /// `GATHER_BYTES`).
     fn visits_in_index_order<const N: usize>() {
         let photons = 3 * BATCH + 1000;
         let mut seen = Vec::new();
-        run_ordered(
+        parallel_batches_ordered(
             photons,
             1,
             // Codes that scatter the photons over the Morton order.

@@ -33,7 +33,7 @@
 //! far field and Stokes sums; the counts (photons, bounces, segments) are
 //! the path's, the same in every lane. Russian roulette plays on the
 //! largest lane and scales every lane alike, so it is unbiased at each
-//! wavelength. [`ObjectRun::run`] then returns one [`PositionResult`] per
+//! wavelength. [`ObjectRun::trace`] then returns one [`PositionResult`] per
 //! beam position and wavelength, position-major. With a model that is the
 //! same at every wavelength each lane is the monochrome run bit for bit.
 
@@ -301,7 +301,7 @@ impl Merge for FirstUnmodelled {
     }
 }
 
-/// The result of an object trace ([`ObjectRun::run`]), nested as beam
+/// The result of an object trace ([`ObjectRun::trace`]), nested as beam
 /// position x wavelength: `position[k].wavelength[l]` is the leaf of beam
 /// position `k` (the scene's beams in order) and wavelength `l` (the one
 /// lane of a monochrome run).
@@ -336,6 +336,26 @@ impl ObjectResult {
     /// Every leaf in file order: position, then wavelength.
     pub fn iter(&self) -> impl Iterator<Item = &PositionResult> {
         self.groups().flatten()
+    }
+
+    /// The roots of a whole run's nodes (as [`ObjectRun::run_nodes`] gives
+    /// them: per beam position, per wavelength); `zero` gives the run's
+    /// zero sums.
+    ///
+    /// # Panics
+    /// If a leaf's nodes do not cover all its batches (not a whole run).
+    #[must_use]
+    pub fn roots(nodes: Vec<Vec<PositionNodes>>, zero: &dyn Fn() -> ObjectTallies) -> Self {
+        let position = nodes
+            .into_iter()
+            .map(|lanes| ByPosition {
+                wavelength: lanes
+                    .into_iter()
+                    .map(|p| p.into_root(zero).expect("a whole run covers its batches"))
+                    .collect(),
+            })
+            .collect();
+        Self { position }
     }
 
     /// The leaves in file order, owned.
@@ -526,7 +546,7 @@ impl ObjectRun {
     /// Trace every beam, `photons[k]` photons for beam `k`; `progress`
     /// receives photons done. The object level's one transport entry
     /// point: a result per beam position and wavelength.
-    pub fn run(
+    pub fn trace(
         &self,
         object: &Object,
         walls: &Walls,
@@ -537,18 +557,8 @@ impl ObjectRun {
     ) -> ObjectResult {
         let blocks: Vec<_> = photons.iter().map(|n| 0..n.div_ceil(BATCH)).collect();
         let n_surfaces = object.surface_names.len();
-        let zero = || self.tallies(n_surfaces);
-        let position = self
-            .run_nodes(object, walls, models, beams, photons, &blocks, progress)
-            .into_iter()
-            .map(|lanes| ByPosition {
-                wavelength: lanes
-                    .into_iter()
-                    .map(|p| p.into_root(&zero).expect("a whole run covers its batches"))
-                    .collect(),
-            })
-            .collect();
-        ObjectResult { position }
+        let nodes = self.run_nodes(object, walls, models, beams, photons, &blocks, progress);
+        ObjectResult::roots(nodes, &|| self.tallies(n_surfaces))
     }
 
     /// Trace the batches `blocks[k]` (batch indices, of [`BATCH`] photons)
@@ -586,7 +596,7 @@ impl ObjectRun {
                 // The block's photons, from its first batch's first photon.
                 let first = block.start * BATCH;
                 let last = (block.end * BATCH).min(n_photons);
-                super::run_batches(
+                super::parallel_batches(
                     last.saturating_sub(first),
                     bytes,
                     |range| {

@@ -3,18 +3,19 @@
 #![allow(dead_code)]
 
 use num_complex::Complex64;
-use roks::scene::Source;
+use roks::scene::SceneFile;
 use roks::scene::micro::MicroScene;
 use roks::transport::brdf::{BrdfRun, IncidenceResult};
 
 /// Parse and build a micro scene from TOML text (panics with the scene error).
 #[must_use]
 pub fn scene(name: &str, toml: &str) -> MicroScene {
-    let source = Source {
+    let scene_file = SceneFile {
         file: format!("{name}.toml"),
         dir: ".".into(),
     };
-    MicroScene::from_str(toml, source, name.into()).unwrap_or_else(|e| panic!("scene {name}: {e}"))
+    MicroScene::from_str(toml, scene_file, name.into())
+        .unwrap_or_else(|e| panic!("scene {name}: {e}"))
 }
 
 /// The run described by the scene's `[light]`, `[tally]` and `[transport]`.
@@ -41,7 +42,9 @@ fn scene_run(scene: &MicroScene) -> BrdfRun {
 /// Trace every incidence angle of the scene.
 #[must_use]
 pub fn run(scene: &MicroScene) -> Vec<IncidenceResult> {
-    brdf_run(scene).run(&scene.surface, &|_| {}).into_leaves()
+    brdf_run(scene)
+        .trace_whole(&scene.surface, &|_| {})
+        .into_leaves()
 }
 
 /// Lost weight broken down, for messages.

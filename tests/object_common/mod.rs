@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use roks::scene::Source;
+use roks::scene::SceneFile;
 use roks::scene::object::ObjectScene;
 use roks::tally::{Accumulator, CarlsonGrid};
 use roks::transport::object::PositionResult;
@@ -22,11 +22,12 @@ pub fn scratch(name: &str) -> PathBuf {
 /// Parse and build an object scene (relative paths from `dir`); panics with the scene error.
 #[must_use]
 pub fn scene(name: &str, toml: &str, dir: &Path) -> ObjectScene {
-    let source = Source {
+    let scene_file = SceneFile {
         file: format!("{name}.toml"),
         dir: dir.to_path_buf(),
     };
-    ObjectScene::from_str(toml, source, name.into()).unwrap_or_else(|e| panic!("scene {name}: {e}"))
+    ObjectScene::from_str(toml, scene_file, name.into())
+        .unwrap_or_else(|e| panic!("scene {name}: {e}"))
 }
 
 /// Trace every beam position of the scene.
@@ -34,7 +35,7 @@ pub fn scene(name: &str, toml: &str, dir: &Path) -> ObjectScene {
 pub fn run(scene: &ObjectScene) -> Vec<PositionResult> {
     scene
         .run
-        .run(
+        .trace(
             &scene.object,
             &scene.walls,
             &scene.models,

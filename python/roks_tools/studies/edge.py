@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import shutil
 import sys
 import tempfile
@@ -41,6 +40,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from roks_tools.errors import RunError, UsageError, command
 from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run  # noqa: E402
+from roks_tools.summary import BrdfSummary, read_summary  # noqa: E402
 
 REPO = repo_root()
 SCENES_DIR = REPO / "scenes"
@@ -98,32 +98,30 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return a
 
 
-def run_roks(roks: str, scene: Path, out: Path, photons: int) -> dict:
+def run_roks(roks: str, scene: Path, out: Path, photons: int) -> BrdfSummary:
     done = run([roks, "brdf", scene, "--out", out, "--photons", photons, "-q"], f"edge_study: {scene}")
-    summary_path = out / "summary.json"
-    try:
-        summary = json.loads(summary_path.read_text())
-    except (OSError, ValueError) as e:
-        raise RunError(f"cannot read {summary_path}: {e}")
+    summary = read_summary(out / "summary.json")
+    if not isinstance(summary, BrdfSummary):
+        raise RunError(f"{out / 'summary.json'}: not a `roks brdf` summary")
     print(f"  {done.wall_s:.1f} s", file=sys.stderr, flush=True)
     return summary
 
 
-def rows_from_summary(scene: str, cell: str, edges: str, summary: dict) -> list[dict]:
-    if summary.get("edges") not in (None, edges):
-        raise RunError(f"{scene}: summary says edges={summary['edges']}, expected {edges}")
+def rows_from_summary(scene: str, cell: str, edges: str, summary: BrdfSummary) -> list[dict]:
+    if summary.edges not in (None, edges):
+        raise RunError(f"{scene}: summary says edges={summary.edges}, expected {edges}")
     rows = []
-    for inc in summary["incidence"]:
+    for inc in summary.incidence:
         rows.append(
             {
                 "scene": scene,
                 "cell": cell,
                 "edges": edges,
-                "theta_deg": float(inc["theta_deg"]),
-                "reflectance": float(inc["reflectance"]),
-                "reflectance_stderr": float(inc["reflectance_stderr"]),
-                "lost": float(inc["lost"]),
-                "mean_bounces": float(inc["mean_bounces"]),
+                "theta_deg": float(inc.theta_deg),
+                "reflectance": float(inc.reflectance),
+                "reflectance_stderr": float(inc.reflectance_stderr),
+                "lost": float(inc.lost),
+                "mean_bounces": float(inc.mean_bounces),
             }
         )
     if not rows:

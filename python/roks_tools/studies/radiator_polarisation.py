@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import re
 import tempfile
 from pathlib import Path
@@ -43,6 +42,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from roks_tools.errors import command
 from roks_tools.runner import add_out_argument, check_output, default_roks, repo_root, run
+from roks_tools.summary import read_summary
 
 REPO = repo_root()
 
@@ -108,13 +108,13 @@ def main() -> int:
                 out = Path(tmp) / f"out-{seed}"
                 secs = run([a.roks, "trace", path, "--photons", a.photons, "--seed", seed,
                             "--out", out, "-q", *extra], "radiator_polarisation").wall_s
-                for s in json.loads((out / "summary.json").read_text())["sources"]:
-                    st = s.get("stokes", [s["reflectance"], 0, 0, 0])
+                for s in read_summary(out / "summary.json").sources:
+                    st = s.stokes or [s.reflectance, 0, 0, 0]
                     rows.append({
                         "scene": scene, "walls": walls, "defect": defect, "case": label,
-                        "offset_mm": float(s["position"][0]),
-                        "reflectance": float(s["reflectance"]),
-                        "stderr": float(s["reflectance_stderr"]),
+                        "offset_mm": float(s.position[0]),
+                        "reflectance": float(s.reflectance),
+                        "stderr": float(s.reflectance_stderr),
                         "s1_over_s0": float(st[1]) / float(st[0]) if float(st[0]) > 0 else 0.0,
                         "seconds": secs,
                     })

@@ -61,6 +61,7 @@ from pathlib import Path
 from roks_tools.errors import RunError, command
 from roks_tools.runner import add_out_argument, check_output, repo_root, run as run_cmd
 from roks_tools.studies.scaling import bump_scene, field_scene
+from roks_tools.summary import BrdfSummary, TraceSummary, read_summary
 
 ROOT = repo_root()
 
@@ -88,24 +89,24 @@ def build_new() -> Path:
     return ROOT / "target" / "release" / "roks"
 
 
-def measure(cmd: list) -> tuple[dict, float]:
+def measure(cmd: list) -> tuple[BrdfSummary | TraceSummary, float]:
     """Run `cmd` (whose --out folder follows `--out`); its summary and peak RSS (MB)."""
     done = run_cmd(cmd, "speed_targets", echo=False)
     out = Path(done.cmd[done.cmd.index("--out") + 1])
-    return json.loads((out / "summary.json").read_text()), done.max_rss_mb
+    return read_summary(out / "summary.json"), done.max_rss_mb
 
 
-def brdf_rate(summary: dict) -> dict:
-    inc = summary["incidence"][0]
-    return {"per_segment_s": inc["seconds"] / inc["segments"], "seconds": inc["seconds"],
-            "segments": inc["segments"], "photons": inc["photons"]}
+def brdf_rate(summary: BrdfSummary) -> dict:
+    inc = summary.incidence[0]
+    return {"per_segment_s": inc.seconds / inc.segments, "seconds": inc.seconds,
+            "segments": inc.segments, "photons": inc.photons}
 
 
-def trace_rate(summary: dict) -> dict:
-    src = summary["sources"]
-    sec = sum(s["seconds"] for s in src)
-    seg = sum(s["segments"] for s in src)
-    ph = sum(s["photons"] for s in src)
+def trace_rate(summary: TraceSummary) -> dict:
+    src = summary.sources
+    sec = sum(s.seconds for s in src)
+    seg = sum(s.segments for s in src)
+    ph = sum(s.photons for s in src)
     return {"per_segment_s": sec / seg, "per_photon_s": sec / ph, "seconds": sec, "segments": seg, "photons": ph}
 
 
@@ -130,12 +131,12 @@ def alternate(cases: dict, rounds: int) -> dict:
     return med
 
 
-def brdf_segments(summary: dict) -> int:
-    return summary["incidence"][0]["segments"]
+def brdf_segments(summary: BrdfSummary) -> int:
+    return summary.incidence[0].segments
 
 
-def trace_photons(summary: dict) -> int:
-    return sum(s["photons"] for s in summary["sources"])
+def trace_photons(summary: TraceSummary) -> int:
+    return sum(s.photons for s in summary.sources)
 
 
 def callgrind_per_segment(cmd_for, photons: tuple[int, int], unit=brdf_segments) -> float:
@@ -152,7 +153,7 @@ def callgrind_per_segment(cmd_for, photons: tuple[int, int], unit=brdf_segments)
                 sys.stderr.write(p.stderr)
                 raise RunError("callgrind failed")
             counts.append(int(re.search(r"Collected : (\d+)", p.stderr).group(1)))
-            summary = json.loads((out / "summary.json").read_text())
+            summary = read_summary(out / "summary.json")
             segs.append(unit(summary))
     return (counts[1] - counts[0]) / (segs[1] - segs[0])
 

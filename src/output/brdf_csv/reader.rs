@@ -1226,7 +1226,7 @@ mod tests {
         let mut run = scene.brdf_run();
         run.photons = 20_000;
         run.theta_deg = vec![0.0, 40.0, 80.0];
-        let results = run.run(&scene.surface, &|_| {});
+        let results = run.trace_whole(&scene.surface, &|_| {});
         let text = crate::output::brdf_csv::write(&run, &results);
         let t = BrdfTable::parse(&text, "roundtrip.csv").unwrap();
         // The table a run holds for exports is the file's, number for number.
@@ -1358,11 +1358,11 @@ mod tests {
         let mut run = scene.brdf_run();
         run.photons = 4096;
         run.theta_deg = vec![0.0, 50.0];
-        let mono_results = run.run(&scene.surface, &|_| {});
+        let mono_results = run.trace_whole(&scene.surface, &|_| {});
         let mono_tables = crate::output::brdf_csv::table(&run, &mono_results);
         let mono_run = run.clone();
         run.wavelengths_um = vec![0.4, 0.5, 0.6];
-        let results = run.run(&scene.surface, &|_| {});
+        let results = run.trace_whole(&scene.surface, &|_| {});
         let text = crate::output::brdf_csv::write(&run, &results);
         let read = BrdfTables::parse(&text, "s.csv").unwrap();
         let held = crate::output::brdf_csv::table(&run, &results);

@@ -477,7 +477,7 @@ mod tests {
         run.photons = 1024;
         run.bands = 8;
         run.theta_deg = vec![0.0, 30.0, 60.0];
-        let results = run.run(&scene.surface, &|_| {});
+        let results = run.trace_whole(&scene.surface, &|_| {});
         let csv = crate::output::brdf_csv::write(&run, &results);
         let table = BrdfTable::parse(&csv, "t.csv").unwrap();
         let stats = crate::micro::surface_stats::surface_stats(&scene.surface.height_map(8, 8));

@@ -27,8 +27,9 @@
 
 use glam::DVec3;
 
+use crate::optics::fresnel::FresnelMueller;
 use crate::optics::material::Reflectance;
-use crate::optics::polarisation::{FresnelMueller, Stokes, rotation};
+use crate::optics::polarisation::{Stokes, rotation};
 
 mod spectral;
 

@@ -11,9 +11,10 @@
 use glam::DVec3;
 
 use super::{Carrier, Polarised, STurn, reflect_polarised, s_turn_from};
+use crate::optics::fresnel::FresnelMueller;
 use crate::optics::fresnel::{CHUNK, FresnelChunk, FresnelLanes};
 use crate::optics::material::Reflectance;
-use crate::optics::polarisation::{FresnelMueller, Stokes, rotation};
+use crate::optics::polarisation::{Stokes, rotation};
 
 /// Most wavelengths one trace carries ([`Spectral`]): enough for the
 /// visible at 5 nm (81) or the thermal infrared from 3 to 14 µm at 0.1 µm (111).
