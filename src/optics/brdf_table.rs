@@ -42,10 +42,14 @@
 //! **Several light azimuths.** A run with `[light] phi_deg = [0, 90]`
 //! tabulates every incidence angle at every light azimuth: the incidences
 //! are `(theta_i_deg, phi_i_deg)` pairs, sorted by `theta_i_deg`, then by
-//! `phi_i_deg` (ascending, absolute degrees as written), and every angle
-//! must have exactly the azimuths of the others ([`TableError::Azimuths`]
-//! otherwise): incidence `i` of [`BrdfTable::thetas_deg`] is angle
-//! `i / n` at azimuth `i % n` of [`BrdfTable::azimuths_deg`] (`n` of them).
+//! `phi_i_deg` (ascending, absolute degrees as written), and an angle with
+//! more than one block must have exactly the azimuths of every other
+//! ([`TableError::Azimuths`] otherwise): incidence `i` of
+//! [`BrdfTable::thetas_deg`] is angle `i / n` at azimuth `i % n` of
+//! [`BrdfTable::azimuths_deg`] (`n` of them). A table with one block per
+//! angle is a table of one azimuth, as it always was, even when its
+//! angles were traced at different azimuths (the isotropy above; its
+//! [`BrdfTable::azimuths_deg`] is the first block's).
 //! Such a table describes an anisotropic surface in its own frame; a
 //! consumer that has no surface orientation (a wall of `roks trace`, whose
 //! tangent frame follows the light) cannot pick an azimuth and refuses it
@@ -390,7 +394,9 @@ fn list_deg(v: &[f64]) -> String {
 
 /// The light azimuths (ascending) of blocks sorted by
 /// [`sort_incidences`], no incidence twice, when every angle has the same
-/// ones.
+/// ones; or, when every angle has one block, the first block's azimuth
+/// (the others may differ: a table of one azimuth per angle, read as
+/// always).
 ///
 /// # Errors
 /// [`TableError::Azimuths`] naming the first block of an angle that lacks
@@ -419,6 +425,12 @@ fn azimuth_layout(blocks: &[BlockData], file: &str) -> Result<Vec<f64>, TableErr
             .iter()
             .take_while(|b| b.theta_deg == theta)
             .collect();
+        start += group.len();
+        // One block per angle: one light azimuth each, which may differ
+        // between angles (a table of an isotropic surface, as always read).
+        if azimuths.len() == 1 && group.len() == 1 {
+            continue;
+        }
         let phis: Vec<f64> = group.iter().map(|b| b.phi_i_deg).collect();
         if let Some(b) = group.iter().find(|b| !azimuths.contains(&b.phi_i_deg)) {
             return Err(fail(
@@ -442,7 +454,6 @@ fn azimuth_layout(blocks: &[BlockData], file: &str) -> Result<Vec<f64>, TableErr
                 ),
             ));
         }
-        start += group.len();
     }
     Ok(azimuths)
 }
@@ -767,7 +778,9 @@ impl BrdfTable {
     /// interpolated linearly in `theta_i`: per tabulated incidence the value
     /// of `summary.json` after [`with_summary`](Self::with_summary), else
     /// `sqrt(sum fraction_stderr²)`, usually an overestimate (see the module
-    /// documentation). NaN for a NaN angle.
+    /// documentation); with several light azimuths the mean of theirs (a
+    /// bound on the error of their average, whatever their correlation).
+    /// NaN for a NaN angle.
     #[must_use]
     pub fn reflectance_stderr(&self, theta_i_rad: f64) -> f64 {
         self.interpolate(theta_i_rad, |inc| {

@@ -30,7 +30,8 @@
 //! pairs, and every angle must have exactly the azimuths of the others
 //! ([`TableError::Azimuths`]: the line of the first block of the angle
 //! lacking an azimuth, or of the block of the azimuth too many, column 2).
-//! A table of one azimuth reads exactly as before. The order and what a
+//! A table of one block per angle (one azimuth, possibly a different one
+//! per angle) reads exactly as before. The order and what a
 //! table of several azimuths means: [`crate::optics::brdf_table`].
 //!
 //! Errors are one line naming the file, the line
