@@ -148,7 +148,8 @@ fn zemax_asymmetrical4d_holds_each_azimuth() {
             }
         }
     }
-    assert!(checked > 6 * 100_000, "{checked}");
+    // 181 x 181 nodes per block, about half above the horizon.
+    assert!(checked > 6 * 15_000, "{checked}");
     let checks = reflectance_check(&table, BrdfFormat::Zemax, &bytes).unwrap();
     let keys: Vec<(f64, Option<f64>)> = checks
         .iter()
@@ -261,10 +262,18 @@ fn export_brdf_cli_of_several_azimuths() {
             .map(str::to_owned)
             .collect::<Vec<_>>()
     };
+    // The warnings about the azimuths (MERL's own resampling error at normal
+    // incidence, about 1 %, may add one of its own).
+    let azimuth_warnings = |e: &str| {
+        warnings(e)
+            .into_iter()
+            .filter(|l| l.contains("light azimuths"))
+            .collect::<Vec<_>>()
+    };
 
     let o = run(&aniso, "merl", &dir.join("a.binary"));
     assert!(o.status.success(), "{}", stderr(&o));
-    let w = warnings(&stderr(&o));
+    let w = azimuth_warnings(&stderr(&o));
     assert_eq!(w.len(), 1, "{w:?}");
     assert!(
         w[0].contains("anisotropic") && w[0].contains("2 light azimuths (0, 90 deg)"),
@@ -274,7 +283,7 @@ fn export_brdf_cli_of_several_azimuths() {
 
     let o = run(&iso, "merl", &dir.join("i.binary"));
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(warnings(&stderr(&o)).is_empty(), "{}", stderr(&o));
+    assert!(azimuth_warnings(&stderr(&o)).is_empty(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("note: merl: the table has 2 light azimuths"),
         "{}",
