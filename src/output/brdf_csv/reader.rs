@@ -1658,9 +1658,9 @@ mod tests {
         // Shuffled blocks read as the same table.
         let (shuffled, _) = azimuth_rows(m, &[order[3], order[0], order[2], order[1]]);
         let u = BrdfTable::parse(&format!("{HEADER}\n{shuffled}"), "az.csv").unwrap();
-        for i in 0..4 {
+        for (i, o) in order.iter().enumerate() {
             assert_eq!(u.fractions(i), t.fractions(i));
-            assert_eq!(u.incidence(i).phi_i_deg, order[i].1);
+            assert_eq!(u.incidence(i).phi_i_deg, o.1);
         }
         // Each azimuth alone.
         for (k, phi) in [0.0, 90.0].into_iter().enumerate() {
