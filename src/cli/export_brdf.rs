@@ -265,6 +265,11 @@ pub fn export_rgl(
 ) -> Result<Vec<ExportFile>, Failure> {
     use crate::export::rgl;
     let format = BrdfFormat::Rgl;
+    tables
+        .require_one_azimuth(
+            "--format rgl (its file holds the light azimuth phi_i = 0 only; export zemax for an Asymmetrical4D file, or merl for their average)",
+        )
+        .map_err(|e| Failure::Input(e.to_string()))?;
     let ndf = match surface {
         Some(s) => rgl::surface_ndf(s, rgl::smoothing_for(tables.tables()[0].bands())),
         None => {
@@ -412,6 +417,22 @@ pub fn export_tables_on(
             }
         }
         _ => {
+            if format == BrdfFormat::Merl {
+                // Several light azimuths: the file is their average.
+                let mean;
+                let table = match tables.spectral() {
+                    Some(s) => {
+                        mean = s.mean();
+                        &mean
+                    }
+                    None => &tables.tables()[0],
+                };
+                match crate::export::merl::azimuth_note(table) {
+                    Some((true, line)) => eprintln!("warning: {line}"),
+                    Some((false, line)) if !quiet => eprintln!("note: {line}"),
+                    _ => {}
+                }
+            }
             for (file, table) in files.iter().zip(tables.tables()) {
                 let bytes = &file.bytes;
                 let check = reflectance_check(table, format, bytes).map_err(unreadable)?;
@@ -476,8 +497,11 @@ fn warn_off(
         } else {
             "no standard error".to_string()
         };
+        let phi = c
+            .phi_i_deg
+            .map_or(String::new(), |p| format!(", phi_i {p} deg"));
         eprintln!(
-            "warning: {what}: theta_i {} deg: the file's reflectance {:.6} is {:+.2} % off the table's {:.6} ({sigmas}; allowed: max(1 %, 4 standard errors)); {remedy}",
+            "warning: {what}: theta_i {} deg{phi}: the file's reflectance {:.6} is {:+.2} % off the table's {:.6} ({sigmas}; allowed: max(1 %, 4 standard errors)); {remedy}",
             c.theta_i_deg,
             c.file,
             100.0 * (c.file / c.table - 1.0),
@@ -486,13 +510,25 @@ fn warn_off(
     }
 }
 
-/// The table of a reflectance check on stderr.
+/// The table of a reflectance check on stderr (with a `phi_i` column when
+/// the checks are per light azimuth).
 fn print_check(check: &[ReflectanceCheck]) {
+    let azimuths = check.iter().any(|c| c.phi_i_deg.is_some());
+    let phi_head = if azimuths {
+        format!(" {:>8}", "phi_i")
+    } else {
+        String::new()
+    };
     eprintln!(
-        "{:>9} {:>10} {:>10} {:>10}",
+        "{:>9}{phi_head} {:>10} {:>10} {:>10}",
         "theta_i", "table", "file", "relative"
     );
     for c in check {
+        let phi = match (azimuths, c.phi_i_deg) {
+            (true, Some(p)) => format!(" {p:>8.2}"),
+            (true, None) => format!(" {:>8}", "-"),
+            _ => String::new(),
+        };
         // A table reflectance of 0 (an absorbing surface) has no relative error.
         let relative = if c.table != 0.0 {
             format!("{:+.2e}", c.file / c.table - 1.0)
@@ -502,7 +538,7 @@ fn print_check(check: &[ReflectanceCheck]) {
             "undefined (table 0)".to_string()
         };
         eprintln!(
-            "{:>9.2} {:>10.6} {:>10.6} {relative:>10}",
+            "{:>9.2}{phi} {:>10.6} {:>10.6} {relative:>10}",
             c.theta_i_deg, c.table, c.file
         );
     }

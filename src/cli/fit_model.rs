@@ -172,6 +172,9 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
         check_out_file(p, &inputs)?;
     }
     let mut tables = BrdfTables::load(&csv).map_err(|e| input(e.to_string()))?;
+    tables
+        .require_one_azimuth("roks fit-model (its models are isotropic)")
+        .map_err(|e| input(e.to_string()))?;
     let mut scene = None;
     let mut photons: Option<Vec<u64>> = None;
     if summary_path.exists() {

@@ -146,6 +146,14 @@ pub struct ExportFile {
 /// Why a table cannot be exported in a format.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ExportRefusal {
+    /// RGL of a table of several light azimuths.
+    #[error(
+        "the table has {count} light azimuths (phi_i_deg); an rgl file holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
+    )]
+    Azimuths {
+        /// Number of light azimuths.
+        count: usize,
+    },
     /// MERL of a spectral table whose wavelengths do not cover the visible.
     #[error(
         "the wavelengths {first}-{last} um do not cover the visible range {VISIBLE_MIN_UM}-{VISIBLE_MAX_UM} um, which the red, green and blue channels of a MERL file (linear sRGB under D65) need; export zemax (one file per wavelength) or trace wavelengths from {VISIBLE_MIN_UM} to {VISIBLE_MAX_UM} um"
@@ -257,6 +265,10 @@ impl BrdfFormat {
         comment: &str,
         grid: ZemaxGrid,
     ) -> Result<Vec<ExportFile>, ExportRefusal> {
+        let count = tables.azimuths_deg().len();
+        if self == Self::Rgl && count > 1 {
+            return Err(ExportRefusal::Azimuths { count });
+        }
         let spectral = match tables {
             BrdfTables::Monochrome(t) => {
                 return Ok(vec![ExportFile {
@@ -369,7 +381,8 @@ pub const CHECK_RINGS: usize = 450;
 /// A Zemax grid: the steps of the azimuth and radial angles (degrees).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ZemaxGrid {
-    /// Azimuth step, degrees (the grid runs 0-180).
+    /// Azimuth step, degrees (the grid runs 0-180, or 0-360 for a table of
+    /// several light azimuths).
     pub azimuth_step_deg: f64,
     /// Radial step, degrees (the grid runs 0-180).
     pub radial_step_deg: f64,
@@ -388,9 +401,10 @@ impl ZemaxGrid {
     /// The Zemax file of `table` on this grid, with `comment`.
     #[must_use]
     pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
+        let max_azimuth = zemax::ZemaxBsdf::symmetry_of(table).max_azimuth_deg();
         zemax::ZemaxBsdf::from_table_on(
             table,
-            zemax::steps(self.azimuth_step_deg, 180.0),
+            zemax::steps(self.azimuth_step_deg, max_azimuth),
             zemax::steps(self.radial_step_deg, 180.0),
         )
         .to_text(comment)
@@ -424,9 +438,13 @@ impl ZemaxGrid {
 /// beside the table's.
 ///
 /// Zemax: the file's `AngleOfIncidence` blocks, interpolated bilinearly in
-/// (azimuth, radial) by [`zemax::ZemaxBsdf::eval`]. MERL: the reference
-/// lookup [`merl::Merl::lookup`] (nearest bin, as the MERL reader does) with
-/// the light at `theta_i`.
+/// (azimuth, radial) by [`zemax::ZemaxBsdf::eval`]; for a table of several
+/// light azimuths (`Asymmetrical4D`) one check per incidence angle and
+/// azimuth, in the table's order (angle, then azimuth), the block of sample
+/// rotation `phi_i_deg` beside [`BrdfTable::azimuth`]'s reflectance. MERL:
+/// the reference lookup [`merl::Merl::lookup`] (nearest bin, as the MERL
+/// reader does) with the light at `theta_i`, one check per incidence angle
+/// beside the table's (for several azimuths, their average's) reflectance.
 ///
 /// # Errors
 /// If the reader rejects `bytes`.
@@ -443,6 +461,10 @@ pub fn reflectance_check(
                 message: format!("not UTF-8 text: {e}"),
             })?;
             let z = zemax::ZemaxBsdf::parse(text, name)?;
+            let n = table.azimuths_deg().len();
+            if n > 1 {
+                return Ok(azimuth_checks(table, &z));
+            }
             Box::new(move |k, _| integrate_projected(CHECK_RINGS, |d| z.eval(k, d)))
         }
         BrdfFormat::Merl => {
@@ -458,19 +480,48 @@ pub fn reflectance_check(
         }
     };
     Ok(table
-        .thetas_deg()
+        .angles_deg()
         .iter()
         .enumerate()
         .map(|(k, &deg)| {
             let theta = deg.to_radians();
             ReflectanceCheck {
                 theta_i_deg: deg,
+                phi_i_deg: None,
                 table: table.reflectance(theta),
                 file: file_r(k, theta),
                 table_stderr: table.reflectance_stderr(theta),
             }
         })
         .collect())
+}
+
+/// The checks of an `Asymmetrical4D` file `z` of `table` (several light
+/// azimuths): per incidence angle, then azimuth, block `j m + t` (sample
+/// rotation `j`, angle `t` of `m`) integrated beside the reflectance of
+/// azimuth `j`'s table.
+fn azimuth_checks(table: &BrdfTable, z: &zemax::ZemaxBsdf) -> Vec<ReflectanceCheck> {
+    let angles = table.angles_deg();
+    let m = angles.len();
+    let azimuths: Vec<BrdfTable> = (0..table.azimuths_deg().len())
+        .map(|j| table.azimuth(j))
+        .collect();
+    angles
+        .iter()
+        .enumerate()
+        .flat_map(|(t, &deg)| {
+            azimuths.iter().enumerate().map(move |(j, a)| {
+                let theta = deg.to_radians();
+                ReflectanceCheck {
+                    theta_i_deg: deg,
+                    phi_i_deg: Some(a.azimuths_deg()[0]),
+                    table: a.reflectance(theta),
+                    file: integrate_projected(CHECK_RINGS, |d| z.eval(j * m + t, d)),
+                    table_stderr: a.reflectance_stderr(theta),
+                }
+            })
+        })
+        .collect()
 }
 
 /// [`reflectance_check`] of a colour MERL file (`bytes` written by
@@ -496,14 +547,15 @@ pub fn colour_reflectance_check(
         .map(|w| w.srgb_weights())
         .unwrap_or_default();
     let m = merl::Merl::parse(bytes, name)?;
-    Ok(tables
-        .thetas_deg()
+    Ok(tables.tables()[0]
+        .angles_deg()
         .iter()
         .map(|&deg| {
             let theta = deg.to_radians();
             let light = DVec3::new(theta.sin(), 0.0, theta.cos());
             [0, 1, 2].map(|c| ReflectanceCheck {
                 theta_i_deg: deg,
+                phi_i_deg: None,
                 table: channels[c].reflectance(theta),
                 file: integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[c]),
                 table_stderr: weights
@@ -525,6 +577,7 @@ mod tests {
     fn reflectance_checks_pass_within_the_larger_of_1_percent_and_4_sigma() {
         let check = |file, table_stderr| ReflectanceCheck {
             theta_i_deg: 0.0,
+            phi_i_deg: None,
             table: 0.5,
             file,
             table_stderr,

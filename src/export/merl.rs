@@ -77,12 +77,80 @@
 //! falls into such a bin gets the table's value there. Incidences beyond the
 //! table's largest angle take that angle's BRDF (the table clamps).
 
+//!
+//! # Several light azimuths
+//!
+//! The format holds an isotropic BRDF. A table of several light azimuths
+//! (an anisotropic surface traced at `[light] phi_deg = [...]`) is written
+//! as their average: [`BrdfTable::eval`] of such a table is the mean of the
+//! azimuths' tables, each in its plane-of-incidence frame (the surface
+//! turned to each tabulated azimuth in turn). [`azimuth_note`] says so, as
+//! a warning when the azimuths disagree beyond their errors
+//! ([`crate::optics::anisotropy_check`]). A table of one azimuth is written
+//! exactly as before.
+
 use glam::DVec3;
 use rayon::prelude::*;
 
 use super::resample::{FormatError, symmetric_eval};
+use crate::optics::anisotropy_check::anisotropy;
 use crate::optics::brdf_table::{BrdfTable, SpectralTables};
 use crate::optics::colour::XyzWeights;
+
+/// What a MERL export of `table` (several light azimuths: their average)
+/// must tell: `None` for a table of one azimuth; else `(warning, line)`,
+/// `warning` true when the azimuths disagree beyond their errors
+/// ([`anisotropy`]: `chi²/dof` above its bound, with the worst cell pair)
+/// or when that cannot be judged (no cell pair maps exactly under the
+/// azimuth differences), false (a note) when they agree. `line` is one
+/// line, without a `warning:` or `note:` prefix.
+#[must_use]
+pub fn azimuth_note(table: &BrdfTable) -> Option<(bool, String)> {
+    let az = table.azimuths_deg();
+    if az.len() < 2 {
+        return None;
+    }
+    let list = az
+        .iter()
+        .map(|a| format!("{a}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let head = format!(
+        "merl: the table has {} light azimuths ({list} deg) and MERL holds an isotropic BRDF: the file is their average",
+        az.len()
+    );
+    Some(match anisotropy(table) {
+        None => (
+            true,
+            format!(
+                "{head}; its anisotropy cannot be judged (no Carlson cells map onto each other under the azimuth differences); export zemax for an Asymmetrical4D file"
+            ),
+        ),
+        Some(a) if a.anisotropic() => (
+            true,
+            format!(
+                "{head}, but the surface is anisotropic: chi^2/dof = {:.3} over {} cell pairs (isotropic up to {:.3}), worst at theta_i {} deg, phi_i {} deg, band {} cell {} ({:+.1} standard errors); export zemax for an Asymmetrical4D file",
+                a.chi2_per_dof(),
+                a.dof,
+                a.bound(),
+                a.worst.theta_i_deg,
+                a.worst.phi_i_deg,
+                a.worst.band,
+                a.worst.cell,
+                a.worst.z
+            ),
+        ),
+        Some(a) => (
+            false,
+            format!(
+                "{head}; they agree within their errors (chi^2/dof = {:.3} over {} cell pairs, isotropic up to {:.3})",
+                a.chi2_per_dof(),
+                a.dof,
+                a.bound()
+            ),
+        ),
+    })
+}
 
 /// Bins in theta_half.
 pub const THETA_H: usize = 90;

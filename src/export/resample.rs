@@ -36,6 +36,10 @@ pub fn symmetric_eval(table: &BrdfTable, theta_i_rad: f64, dir: DVec3) -> f64 {
 pub struct ReflectanceCheck {
     /// Tabulated incidence angle (degrees).
     pub theta_i_deg: f64,
+    /// The light azimuth (degrees) of a check of one azimuth of a table of
+    /// several (a Zemax `Asymmetrical4D` block); `None` for a table of one
+    /// azimuth, and for the azimuth average that MERL writes.
+    pub phi_i_deg: Option<f64>,
     /// The table's reflectance (exact sum of its fractions).
     pub table: f64,
     /// The file read back by its reader and integrated over the hemisphere

@@ -644,6 +644,7 @@ pub fn check(
                     let theta = deg.to_radians();
                     super::resample::ReflectanceCheck {
                         theta_i_deg: deg,
+                        phi_i_deg: None,
                         table: table.reflectance(theta),
                         file: r[k][w],
                         table_stderr: table.reflectance_stderr(theta),

@@ -27,6 +27,46 @@
 //! DataEnd
 //! ```
 //!
+//! A table of several light azimuths (`phi_i_deg`) is written
+//! `Asymmetrical4D`:
+//!
+//! ```text
+//! Symmetry  Asymmetrical4D
+//! ...
+//! SampleRotation  <n>
+//! <n angles, degrees: the table's light azimuths phi_i_deg>
+//! AngleOfIncidence  <m>
+//! <m angles, degrees>
+//! ScatterAzimuth  <n>
+//! <n angles, degrees, 0..360>
+//! ScatterRadial  <n>
+//! <n angles, degrees, from 0>
+//!
+//! Monochrome
+//! DataBegin
+//! TIS <reflectance>     (per sample rotation, then angle of incidence:)
+//! <one line per azimuth: the BRDF (1/sr) at every radial angle>
+//! DataEnd
+//! ```
+//!
+//! The order of the four angles is the format's: "for every Sample
+//! Rotation, you can have data for multiple Angles of Incidence; for every
+//! Angle of Incidence, you can have data for multiple Azimuth angles; and
+//! so on"; `Asymmetrical4D` is its `Symmetry` value for data over the whole
+//! azimuth circle at several sample rotations (R. Rykowski, "BSDF Data
+//! Interchange File Format Specification", Radiant Imaging / Zemax
+//! knowledge base article 229, 2008, Table 1 lines 2 and 5-12; "Zemax
+//! Tabular BSDF data file format", Zemax support article 1500005486801,
+//! section "Definition of angles and coordinate systems"). A block of
+//! sample rotation `rho` is the table of light azimuth `phi_i_deg = rho`
+//! ([`BrdfTable::azimuth`]) in its plane-of-incidence frame below: `rho` is
+//! the azimuth of the light (its side of the plane of incidence) from the
+//! sample's `+x` axis, counter-clockwise seen from above, as in `brdf.csv`.
+//! No plane symmetry is assumed: the table is not averaged with its mirror
+//! image. OpticStudio's own tabular BSDF model reads one sample rotation
+//! only (Zemax knowledge base article 231, page 3, note 3); other readers of
+//! the format take the rotations.
+//!
 //! `Source` can only be `Measured` in this format; a comment line says the
 //! data are a roks Monte Carlo table. Numbers are printed with 7 significant
 //! digits (`1.234567E-01`).
@@ -45,13 +85,15 @@
 //! `e1 = (0, 1, 0)`:
 //! `omega = cos r s + sin r (cos psi e0 + sin psi e1)`.
 //! `PlaneSymmetrical` holds `psi` in `[0, 180]` degrees; `psi` and `-psi` are
-//! mirror images in the plane of incidence.
+//! mirror images in the plane of incidence. `Asymmetrical4D` holds `psi` in
+//! `[0, 360]` degrees (360 is 0 again).
 //!
 //! # Values
 //!
 //! The BRDF in sr⁻¹ (radiance per irradiance), sampled at the grid's
 //! directions from the table by
-//! [`super::resample::symmetric_eval`] (no averaging over
+//! [`super::resample::symmetric_eval`] (`Asymmetrical4D`: by
+//! [`BrdfTable::eval`] of the azimuth's table) (no averaging over
 //! the grid cell: the table is piecewise constant on cells about 3 degrees
 //! wide, the default grid steps are 2 degrees in azimuth and 1 degree in
 //! radial angle); 0 at grid directions on or below the horizon (the default
@@ -77,18 +119,57 @@ pub const RADIAL_STEP_DEG: f64 = 1.0;
 /// Grid directions with `z` at most this are on or below the horizon.
 const HORIZON_Z: f64 = 1e-12;
 
-/// A plane-symmetric, monochrome tabular BRDF in the Zemax layout.
+/// The `Symmetry` of a Zemax file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Symmetry {
+    /// `PlaneSymmetrical`: one sample rotation, azimuths in `[0, 180]`.
+    PlaneSymmetrical,
+    /// `Asymmetrical4D`: any number of sample rotations, azimuths in
+    /// `[0, 360]`.
+    Asymmetrical4D,
+}
+
+impl Symmetry {
+    /// The keyword in the file.
+    #[must_use]
+    pub fn keyword(self) -> &'static str {
+        match self {
+            Self::PlaneSymmetrical => "PlaneSymmetrical",
+            Self::Asymmetrical4D => "Asymmetrical4D",
+        }
+    }
+
+    /// The largest `ScatterAzimuth` (degrees).
+    #[must_use]
+    pub fn max_azimuth_deg(self) -> f64 {
+        match self {
+            Self::PlaneSymmetrical => 180.0,
+            Self::Asymmetrical4D => 360.0,
+        }
+    }
+}
+
+/// A monochrome tabular BRDF in the Zemax layout: plane-symmetric, or
+/// `Asymmetrical4D` with a block per sample rotation and angle of
+/// incidence.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ZemaxBsdf {
+    /// `Symmetry`.
+    pub symmetry: Symmetry,
+    /// `SampleRotation` values (degrees): `[0]` for `PlaneSymmetrical`;
+    /// for `Asymmetrical4D` the table's light azimuths `phi_i_deg`.
+    pub rotation_deg: Vec<f64>,
     /// `AngleOfIncidence` values (degrees), ascending.
     pub aoi_deg: Vec<f64>,
-    /// `ScatterAzimuth` values (degrees, in `[0, 180]`), ascending.
+    /// `ScatterAzimuth` values (degrees, in `[0, 180]`, `[0, 360]` for
+    /// `Asymmetrical4D`), ascending.
     pub azimuth_deg: Vec<f64>,
     /// `ScatterRadial` values (degrees, `>= 0`), ascending.
     pub radial_deg: Vec<f64>,
-    /// `TIS` per angle of incidence (dimensionless).
+    /// `TIS` per block: sample rotation `j`, angle of incidence `t` is
+    /// block `j * aoi_deg.len() + t` (dimensionless).
     pub tis: Vec<f64>,
-    /// BRDF (sr⁻¹) per angle of incidence, azimuth-major:
+    /// BRDF (sr⁻¹) per block (as `tis`), azimuth-major:
     /// `brdf[k][a * radial_deg.len() + r]`.
     pub brdf: Vec<Vec<f64>>,
 }
@@ -133,11 +214,23 @@ pub fn direction(aoi_deg: f64, psi_deg: f64, r_deg: f64) -> DVec3 {
 /// folded into `[0, 180]` (plane symmetry).
 #[must_use]
 pub fn angles(aoi_deg: f64, dir: DVec3) -> (f64, f64) {
+    let (psi, r) = signed_angles(aoi_deg, dir);
+    (psi.abs(), r)
+}
+
+/// As [`angles`], `psi` in `[0, 360)` (no symmetry: `Asymmetrical4D`).
+#[must_use]
+pub fn angles_full(aoi_deg: f64, dir: DVec3) -> (f64, f64) {
+    let (psi, r) = signed_angles(aoi_deg, dir);
+    (if psi < 0.0 { psi + 360.0 } else { psi }, r)
+}
+
+/// `(psi, r)` of [`angles`], `psi` in `[-180, 180]`.
+fn signed_angles(aoi_deg: f64, dir: DVec3) -> (f64, f64) {
     let d = dir.normalize_or_zero();
     let (s, e0, e1) = axes(aoi_deg.to_radians());
     let r = d.dot(s).clamp(-1.0, 1.0).acos().to_degrees();
-    let psi = d.dot(e1).atan2(d.dot(e0)).to_degrees().abs();
-    (psi, r)
+    (d.dot(e1).atan2(d.dot(e0)).to_degrees(), r)
 }
 
 /// Index `i` and weight `w` of `x` in the ascending `grid`: the value is
@@ -155,51 +248,95 @@ fn locate(grid: &[f64], x: f64) -> (usize, f64) {
 }
 
 impl ZemaxBsdf {
-    /// Resample `table` on the default grid: azimuth 0-180 degrees in steps
-    /// of [`AZIMUTH_STEP_DEG`], radial 0-180 degrees in steps of
-    /// [`RADIAL_STEP_DEG`], one block per tabulated incidence angle.
+    /// The symmetry `table` is written with: `Asymmetrical4D` when it has
+    /// several light azimuths, else `PlaneSymmetrical`.
+    #[must_use]
+    pub fn symmetry_of(table: &BrdfTable) -> Symmetry {
+        if table.azimuths_deg().len() > 1 {
+            Symmetry::Asymmetrical4D
+        } else {
+            Symmetry::PlaneSymmetrical
+        }
+    }
+
+    /// Resample `table` on the default grid: azimuth 0-180 degrees
+    /// (0-360 for a table of several light azimuths, `Asymmetrical4D`) in
+    /// steps of [`AZIMUTH_STEP_DEG`], radial 0-180 degrees in steps of
+    /// [`RADIAL_STEP_DEG`], one block per tabulated incidence angle (and
+    /// light azimuth).
     #[must_use]
     pub fn from_table(table: &BrdfTable) -> Self {
         Self::from_table_on(
             table,
-            steps(AZIMUTH_STEP_DEG, 180.0),
+            steps(AZIMUTH_STEP_DEG, Self::symmetry_of(table).max_azimuth_deg()),
             steps(RADIAL_STEP_DEG, 180.0),
         )
     }
 
     /// Resample `table` on the given azimuth and radial angles (degrees,
-    /// ascending; azimuths in `[0, 180]`).
+    /// ascending; azimuths in `[0, 180]`, or `[0, 360]` for a table of
+    /// several light azimuths: [`symmetry_of`](Self::symmetry_of)).
     #[must_use]
     pub fn from_table_on(table: &BrdfTable, azimuth_deg: Vec<f64>, radial_deg: Vec<f64>) -> Self {
-        let aoi_deg = table.thetas_deg().to_vec();
-        let brdf = aoi_deg
-            .iter()
-            .map(|&aoi| {
-                let theta = aoi.to_radians();
-                azimuth_deg
-                    .iter()
-                    .flat_map(|&psi| radial_deg.iter().map(move |&r| (psi, r)))
-                    .map(|(psi, r)| {
-                        let d = direction(aoi, psi, r);
-                        if d.z <= HORIZON_Z {
-                            0.0
-                        } else {
-                            symmetric_eval(table, theta, d)
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        Self {
-            tis: aoi_deg
+        let symmetry = Self::symmetry_of(table);
+        let aoi_deg = table.angles_deg();
+        let block = |aoi: f64, value: &dyn Fn(f64, DVec3) -> f64| -> Vec<f64> {
+            azimuth_deg
                 .iter()
-                .map(|a| table.reflectance(a.to_radians()))
-                .collect(),
+                .flat_map(|&psi| radial_deg.iter().map(move |&r| (psi, r)))
+                .map(|(psi, r)| {
+                    let d = direction(aoi, psi, r);
+                    if d.z <= HORIZON_Z {
+                        0.0
+                    } else {
+                        value(aoi.to_radians(), d)
+                    }
+                })
+                .collect()
+        };
+        let (rotation_deg, tables): (Vec<f64>, Vec<BrdfTable>) = match symmetry {
+            Symmetry::PlaneSymmetrical => (vec![0.0], vec![table.clone()]),
+            Symmetry::Asymmetrical4D => table
+                .azimuths_deg()
+                .iter()
+                .enumerate()
+                .map(|(k, &phi)| (phi, table.azimuth(k)))
+                .unzip(),
+        };
+        let mut brdf = Vec::new();
+        let mut tis = Vec::new();
+        for t in &tables {
+            for &aoi in &aoi_deg {
+                brdf.push(match symmetry {
+                    Symmetry::PlaneSymmetrical => {
+                        block(aoi, &|theta, d| symmetric_eval(t, theta, d))
+                    }
+                    Symmetry::Asymmetrical4D => block(aoi, &|theta, d| t.eval(theta, d)),
+                });
+                tis.push(t.reflectance(aoi.to_radians()));
+            }
+        }
+        Self {
+            symmetry,
+            rotation_deg,
+            tis,
             aoi_deg,
             azimuth_deg,
             radial_deg,
             brdf,
         }
+    }
+
+    /// The angle of incidence (degrees) of block `k`.
+    #[must_use]
+    pub fn block_aoi_deg(&self, k: usize) -> f64 {
+        self.aoi_deg[k % self.aoi_deg.len()]
+    }
+
+    /// The sample rotation (degrees) of block `k`.
+    #[must_use]
+    pub fn block_rotation_deg(&self, k: usize) -> f64 {
+        self.rotation_deg[k / self.aoi_deg.len()]
     }
 
     /// The file's text; `comment` (one line, may be empty) is written as a
@@ -222,7 +359,13 @@ impl ZemaxBsdf {
             let _ = writeln!(s, "# {}", comment.replace(['\n', '\r'], " "));
         }
         s.push_str("# ScatterAzimuth and ScatterRadial are measured from the specular direction; BRDF in 1/sr\n");
-        s.push_str("Source  Measured\nSymmetry  PlaneSymmetrical\nSpectralContent  Monochrome\nScatterType  BRDF\nSampleRotation  1\n0\n");
+        let _ = writeln!(
+            s,
+            "Source  Measured\nSymmetry  {}\nSpectralContent  Monochrome\nScatterType  BRDF\nSampleRotation  {}\n{}",
+            self.symmetry.keyword(),
+            self.rotation_deg.len(),
+            list(&self.rotation_deg)
+        );
         let _ = writeln!(
             s,
             "AngleOfIncidence  {}\n{}",
@@ -258,21 +401,32 @@ impl ZemaxBsdf {
     /// Read the text of a `.bsdf` file; `name` names it in errors. Accepts
     /// what [`to_text`](Self::to_text) writes and the layout of the format
     /// description in general (comment lines, numbers spread over lines,
-    /// keywords in any letter case), restricted to one sample rotation,
-    /// `PlaneSymmetrical`, `Monochrome` and `BRDF`.
+    /// keywords in any letter case), restricted to `Monochrome` and `BRDF`,
+    /// and to `PlaneSymmetrical` with one sample rotation or
+    /// `Asymmetrical4D` with distinct ascending rotations.
     ///
     /// # Errors
     /// A [`FormatError`] naming `name`, the line and the keyword.
     pub fn parse(text: &str, name: &str) -> Result<Self, FormatError> {
         let mut tokens = Tokens::new(text, name);
+        let mut symmetry = Symmetry::PlaneSymmetrical;
         for (key, value) in [
             ("Source", None),
-            ("Symmetry", Some("PlaneSymmetrical")),
+            ("Symmetry", Some("PlaneSymmetrical or Asymmetrical4D")),
             ("SpectralContent", Some("Monochrome")),
             ("ScatterType", Some("BRDF")),
         ] {
             tokens.keyword(key)?;
             let (line, v) = tokens.word(key)?;
+            if key == "Symmetry" {
+                if let Some(sym) = [Symmetry::PlaneSymmetrical, Symmetry::Asymmetrical4D]
+                    .into_iter()
+                    .find(|s| v.eq_ignore_ascii_case(s.keyword()))
+                {
+                    symmetry = sym;
+                    continue;
+                }
+            }
             if let Some(want) = value.filter(|w| !v.eq_ignore_ascii_case(w)) {
                 return Err(tokens.error(
                     line,
@@ -282,17 +436,25 @@ impl ZemaxBsdf {
         }
         tokens.keyword("SampleRotation")?;
         let (line, n) = tokens.count("SampleRotation")?;
-        if n != 1 {
+        if n != 1 && symmetry == Symmetry::PlaneSymmetrical {
             return Err(tokens.error(
                 line,
-                &format!("SampleRotation: {n} rotations, only 1 is supported (isotropic)"),
+                &format!(
+                    "SampleRotation: {n} rotations, PlaneSymmetrical has 1 (several: Asymmetrical4D)"
+                ),
             ));
         }
-        tokens.numbers("SampleRotation", 1)?;
+        let rotation_deg = tokens.numbers("SampleRotation", n)?;
+        if n == 0 || !rotation_deg.windows(2).all(|w| w[0] < w[1]) {
+            return Err(tokens.error(
+                line,
+                &format!("SampleRotation: the {n} rotations must be ascending, at least one"),
+            ));
+        }
         let mut lists = Vec::new();
         for (key, lo, hi) in [
             ("AngleOfIncidence", 0.0, 90.0),
-            ("ScatterAzimuth", 0.0, 180.0),
+            ("ScatterAzimuth", 0.0, symmetry.max_azimuth_deg()),
             ("ScatterRadial", 0.0, 180.0),
         ] {
             tokens.keyword(key)?;
@@ -314,7 +476,15 @@ impl ZemaxBsdf {
         tokens.keyword("DataBegin")?;
         let per_block = azimuth_deg.len() * radial_deg.len();
         let (mut tis, mut brdf) = (Vec::new(), Vec::new());
-        for aoi in &aoi_deg {
+        let blocks = rotation_deg
+            .iter()
+            .flat_map(|&rho| aoi_deg.iter().map(move |&aoi| (rho, aoi)));
+        for (rho, aoi) in blocks {
+            let aoi = if symmetry == Symmetry::Asymmetrical4D {
+                format!("{aoi}, SampleRotation {rho}")
+            } else {
+                format!("{aoi}")
+            };
             let key = format!("TIS (AngleOfIncidence {aoi})");
             tokens.keyword("TIS")?;
             let t = tokens.numbers(&key, 1)?[0];
@@ -327,6 +497,8 @@ impl ZemaxBsdf {
         }
         tokens.keyword("DataEnd")?;
         Ok(Self {
+            symmetry,
+            rotation_deg,
             aoi_deg,
             azimuth_deg,
             radial_deg,
@@ -335,9 +507,11 @@ impl ZemaxBsdf {
         })
     }
 
-    /// The BRDF (sr⁻¹) of block `k` (the `k`-th angle of incidence) toward
-    /// `dir` (local frame, need not be normalised): bilinear in `(psi, r)`,
-    /// clamped at the grid's ends; 0 for `dir.z <= 0`.
+    /// The BRDF (sr⁻¹) of block `k` (sample rotation `k / m`, angle of
+    /// incidence `k % m`, `m` angles; with one rotation the `k`-th angle)
+    /// toward `dir` (local frame of the block's plane of incidence, need
+    /// not be normalised): bilinear in `(psi, r)`, clamped at the grid's
+    /// ends; 0 for `dir.z <= 0`.
     ///
     /// # Panics
     /// If `k` is not a block index.
@@ -346,7 +520,11 @@ impl ZemaxBsdf {
         if dir.z <= 0.0 {
             return 0.0;
         }
-        let (psi, r) = angles(self.aoi_deg[k], dir);
+        let aoi = self.block_aoi_deg(k);
+        let (psi, r) = match self.symmetry {
+            Symmetry::PlaneSymmetrical => angles(aoi, dir),
+            Symmetry::Asymmetrical4D => angles_full(aoi, dir),
+        };
         let (ia, wa) = locate(&self.azimuth_deg, psi);
         let (ir, wr) = locate(&self.radial_deg, r);
         let nr = self.radial_deg.len();
@@ -496,6 +674,8 @@ mod tests {
     #[test]
     fn bilinear_between_nodes() {
         let z = ZemaxBsdf {
+            symmetry: Symmetry::PlaneSymmetrical,
+            rotation_deg: vec![0.0],
             aoi_deg: vec![0.0],
             azimuth_deg: vec![0.0, 180.0],
             radial_deg: vec![0.0, 10.0, 90.0],

@@ -39,6 +39,30 @@
 //! difference only), which is also what lets one table serve every azimuth
 //! of incidence.
 //!
+//! **Several light azimuths.** A run with `[light] phi_deg = [0, 90]`
+//! tabulates every incidence angle at every light azimuth: the incidences
+//! are `(theta_i_deg, phi_i_deg)` pairs, sorted by `theta_i_deg`, then by
+//! `phi_i_deg` (ascending, absolute degrees as written), and an angle with
+//! more than one block must have exactly the azimuths of every other
+//! ([`BrdfValuesError::Azimuths`] otherwise): incidence `i` of
+//! [`BrdfTable::thetas_deg`] is angle `i / n` at azimuth `i % n` of
+//! [`BrdfTable::azimuths_deg`] (`n` of them). A table with one block per
+//! angle is a table of one azimuth, as it always was, even when its
+//! angles were traced at different azimuths (the isotropy above; its
+//! [`BrdfTable::azimuths_deg`] is the first block's).
+//! Such a table describes an anisotropic surface in its own frame; a
+//! consumer that has no surface orientation (a wall of `roks trace`, whose
+//! tangent frame follows the light) cannot pick an azimuth and refuses it
+//! ([`BrdfTable::require_one_azimuth`]). [`BrdfTable::azimuth`] gives the
+//! one-azimuth table of one light azimuth (what the Zemax `Asymmetrical4D`
+//! export writes per sample rotation). [`BrdfTable::eval`],
+//! [`BrdfTable::reflectance`], [`BrdfTable::reflectance_stderr`] and
+//! [`BrdfTable::sample`] of a table with `n > 1` azimuths are those of the
+//! **azimuth average**: the mean over the `n` azimuths of each azimuth's
+//! table (each rotated into the local frame), i.e. the isotropic BRDF of
+//! the surface turned to a uniformly chosen tabulated azimuth (what the
+//! MERL export writes); for one azimuth they are exactly as before.
+//!
 //! # Sampling
 //!
 //! [`BrdfTable::sample`] takes four uniform numbers `u` in `[0, 1)`:
@@ -103,9 +127,9 @@ const BELOW_ONE: f64 = 1.0 - f64::EPSILON / 2.0;
 /// table read from a file, the line (0: not from a file).
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum BrdfValuesError {
-    /// The same incidence angle in two blocks.
+    /// The same incidence (angle and light azimuth) in two blocks.
     #[error(
-        "{file}: line {line}: incidence theta_i_deg = {theta_i_deg} already tabulated from line {first}"
+        "{file}: line {line}: incidence theta_i_deg = {theta_i_deg}{azimuth} already tabulated from line {first}"
     )]
     Duplicate {
         /// File name.
@@ -116,6 +140,37 @@ pub enum BrdfValuesError {
         first: usize,
         /// The angle (degrees).
         theta_i_deg: f64,
+        /// `, phi_i_deg = <azimuth>` in a table of several light azimuths,
+        /// else empty (the message of a one-azimuth table is unchanged).
+        azimuth: String,
+    },
+    /// Light azimuths that do not make a complete table: an incidence
+    /// angle lacking an azimuth that another angle has.
+    #[error("{file}: line {line}, column {column} (phi_i_deg): {message}")]
+    Azimuths {
+        /// File name.
+        file: String,
+        /// First line of the block concerned (0: not from a file).
+        line: usize,
+        /// The file's `phi_i_deg` column (1-based): 2.
+        column: usize,
+        /// What is wrong (one line).
+        message: String,
+    },
+    /// A table of several light azimuths given to a consumer that takes
+    /// one ([`BrdfTable::require_one_azimuth`]).
+    #[error(
+        "{file}: column 2 (phi_i_deg): a table of {count} light azimuths ({list} deg) describes an anisotropic surface in its own frame; {what} takes a table of one light azimuth (trace one, `[light] phi_deg = <azimuth>`, or keep the rows of one phi_i_deg)"
+    )]
+    SeveralAzimuths {
+        /// File name.
+        file: String,
+        /// Number of light azimuths.
+        count: usize,
+        /// The azimuths, comma-separated (degrees).
+        list: String,
+        /// The consumer that refuses, e.g. "a BRDF wall of roks trace".
+        what: String,
     },
     /// The fractions of a block sum to more than 1: a surface that would
     /// reflect more light than it receives.
@@ -197,10 +252,17 @@ struct Incidence {
 pub struct BrdfTable {
     grid: CarlsonGrid,
     cells: Vec<Cell>,
-    /// Incidences sorted by angle.
+    /// Incidences sorted by angle, then light azimuth: incidence
+    /// `t * azimuths_deg.len() + k` is angle `t` at azimuth `k`.
     incidences: Vec<Incidence>,
-    /// Their angles in degrees, as in the file.
+    /// Their angles in degrees, as in the file (one per incidence: an
+    /// angle repeats once per azimuth).
     thetas_deg: Vec<f64>,
+    /// The distinct incidence angles (radians), ascending.
+    angles: Vec<f64>,
+    /// The light azimuths (degrees, as in the file), ascending; one for a
+    /// table of one azimuth.
+    azimuths_deg: Vec<f64>,
     /// The file's name as given to [`BrdfTable::parse`] (for messages that
     /// name it beside `summary.json` or `mueller.csv`).
     file: String,
@@ -304,6 +366,100 @@ pub fn unrealisable(m: &[f64; 16]) -> Option<String> {
     })
 }
 
+/// Sort incidence blocks by angle, then light azimuth (the order of a
+/// table's incidences; see the module documentation).
+pub(crate) fn sort_incidences(blocks: &mut [BlockData]) {
+    blocks.sort_by(|a, b| {
+        a.theta_deg
+            .total_cmp(&b.theta_deg)
+            .then(a.phi_i_deg.total_cmp(&b.phi_i_deg))
+    });
+}
+
+/// `, phi_i_deg = <phi>` when the table has `several` light azimuths, else
+/// empty: the azimuth part of a message about an incidence.
+pub(crate) fn azimuth_note(several: bool, phi_i_deg: f64) -> String {
+    if several {
+        format!(", phi_i_deg = {phi_i_deg}")
+    } else {
+        String::new()
+    }
+}
+
+/// `a, b, c` of angles in degrees.
+fn list_deg(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The light azimuths (ascending) of blocks sorted by
+/// [`sort_incidences`], no incidence twice, when every angle has the same
+/// ones; or, when every angle has one block, the first block's azimuth
+/// (the others may differ: a table of one azimuth per angle, read as
+/// always).
+///
+/// # Errors
+/// [`BrdfValuesError::Azimuths`] naming the first block of an angle that lacks
+/// an azimuth of the first angle, or the first block of an azimuth that
+/// the first angle lacks.
+fn azimuth_layout(blocks: &[BlockData], file: &str) -> Result<Vec<f64>, BrdfValuesError> {
+    let Some(first) = blocks.first() else {
+        return Ok(vec![0.0]);
+    };
+    let first_theta = first.theta_deg;
+    let azimuths: Vec<f64> = blocks
+        .iter()
+        .take_while(|b| b.theta_deg == first_theta)
+        .map(|b| b.phi_i_deg)
+        .collect();
+    let fail = |line: usize, message: String| BrdfValuesError::Azimuths {
+        file: file.to_owned(),
+        line,
+        column: 2,
+        message,
+    };
+    let mut start = 0;
+    while start < blocks.len() {
+        let theta = blocks[start].theta_deg;
+        let group: Vec<&BlockData> = blocks[start..]
+            .iter()
+            .take_while(|b| b.theta_deg == theta)
+            .collect();
+        start += group.len();
+        // One block per angle: one light azimuth each, which may differ
+        // between angles (a table of an isotropic surface, as always read).
+        if azimuths.len() == 1 && group.len() == 1 {
+            continue;
+        }
+        let phis: Vec<f64> = group.iter().map(|b| b.phi_i_deg).collect();
+        if let Some(b) = group.iter().find(|b| !azimuths.contains(&b.phi_i_deg)) {
+            return Err(fail(
+                b.line,
+                format!(
+                    "incidence theta_i_deg = {theta} at light azimuth {} deg, which incidence theta_i_deg = {first_theta} (from line {}) lacks: every incidence angle needs the same light azimuths ({} deg there)",
+                    b.phi_i_deg,
+                    first.line,
+                    list_deg(&azimuths)
+                ),
+            ));
+        }
+        if let Some(missing) = azimuths.iter().find(|a| !phis.contains(a)) {
+            return Err(fail(
+                group[0].line,
+                format!(
+                    "incidence theta_i_deg = {theta} (from this line) lacks light azimuth {missing} deg: every incidence angle needs the light azimuths of theta_i_deg = {first_theta} (from line {}: {} deg), it has {} deg",
+                    first.line,
+                    list_deg(&azimuths),
+                    list_deg(&phis)
+                ),
+            ));
+        }
+    }
+    Ok(azimuths)
+}
+
 /// Clamp a uniform number into `[0, 1)` (NaN to 0).
 fn unit(u: f64) -> f64 {
     if u.is_nan() {
@@ -365,24 +521,32 @@ impl BrdfTable {
                 return Err(bad(b.theta_deg, f64::NAN));
             }
         }
-        data.sort_by(|a, b| a.theta_deg.total_cmp(&b.theta_deg));
-        if let Some(w) = data.windows(2).find(|w| w[0].theta_deg == w[1].theta_deg) {
+        sort_incidences(&mut data);
+        if let Some(w) = data
+            .windows(2)
+            .find(|w| (w[0].theta_deg, w[0].phi_i_deg) == (w[1].theta_deg, w[1].phi_i_deg))
+        {
+            let several = data.iter().any(|b| b.phi_i_deg != data[0].phi_i_deg);
             return Err(BrdfValuesError::Duplicate {
                 file: file.to_owned(),
                 line: 0,
                 first: 0,
                 theta_i_deg: w[1].theta_deg,
+                azimuth: azimuth_note(several, w[1].phi_i_deg),
             });
         }
         Self::from_checked(grid, data, file.to_owned())
     }
 
-    /// The table of `blocks` on `grid`, sorted by angle, no angle twice,
-    /// one value per cell (as checked by [`BrdfTable::from_blocks`] and by
-    /// the reader of `brdf.csv`); `file` names it in messages.
+    /// The table of `blocks` on `grid`, sorted by angle and then light
+    /// azimuth ([`sort_incidences`]), no incidence twice, one value per
+    /// cell (as checked by [`BrdfTable::from_blocks`] and by the reader of
+    /// `brdf.csv`); `file` names it in messages.
     ///
     /// # Errors
-    /// [`BrdfValuesError::Sum`] if a block's fractions add up to more than 1.
+    /// [`BrdfValuesError::Azimuths`] unless every angle has the same light
+    /// azimuths; [`BrdfValuesError::Sum`] if a block's fractions add up to more
+    /// than 1.
     pub(crate) fn from_checked(
         grid: CarlsonGrid,
         blocks: Vec<BlockData>,
@@ -418,6 +582,7 @@ impl BrdfTable {
         blocks: Vec<BlockData>,
         file: String,
     ) -> Result<Self, BrdfValuesError> {
+        let azimuths_deg = azimuth_layout(&blocks, &file)?;
         let mut incidences = Vec::with_capacity(blocks.len());
         for b in blocks {
             let mut cdf = Vec::with_capacity(b.fractions.len());
@@ -454,8 +619,73 @@ impl BrdfTable {
             grid,
             cells,
             thetas_deg: incidences.iter().map(|i| i.theta_deg).collect(),
+            angles: incidences
+                .iter()
+                .step_by(azimuths_deg.len())
+                .map(|i| i.theta)
+                .collect(),
+            azimuths_deg,
             incidences,
             file,
+        })
+    }
+
+    /// The light azimuths of the table (degrees, as in the file's
+    /// `phi_i_deg`), ascending: one for a table of one azimuth.
+    #[must_use]
+    pub fn azimuths_deg(&self) -> &[f64] {
+        &self.azimuths_deg
+    }
+
+    /// The distinct tabulated incidence angles (degrees), ascending (for a
+    /// table of one azimuth, [`thetas_deg`](Self::thetas_deg)).
+    #[must_use]
+    pub fn angles_deg(&self) -> Vec<f64> {
+        self.thetas_deg
+            .iter()
+            .step_by(self.azimuths_deg.len())
+            .copied()
+            .collect()
+    }
+
+    /// The table of light azimuth `k` of [`azimuths_deg`](Self::azimuths_deg)
+    /// alone: its incidences, with what `summary.json` and `mueller.csv`
+    /// attached to them. Azimuth 0 of a one-azimuth table is the table.
+    ///
+    /// # Panics
+    /// If there is no azimuth `k`.
+    #[must_use]
+    pub fn azimuth(&self, k: usize) -> BrdfTable {
+        let n = self.azimuths_deg.len();
+        assert!(k < n, "azimuth {k} of {n}");
+        let incidences: Vec<Incidence> =
+            self.incidences.iter().skip(k).step_by(n).cloned().collect();
+        Self {
+            grid: self.grid,
+            cells: self.cells.clone(),
+            thetas_deg: incidences.iter().map(|i| i.theta_deg).collect(),
+            angles: self.angles.clone(),
+            azimuths_deg: vec![self.azimuths_deg[k]],
+            incidences,
+            file: self.file.clone(),
+        }
+    }
+
+    /// `Ok` for a table of one light azimuth; for several, the refusal of
+    /// `what` (the consumer, e.g. "a BRDF wall of roks trace"): one line
+    /// naming the file and `phi_i_deg`.
+    ///
+    /// # Errors
+    /// [`BrdfValuesError::SeveralAzimuths`].
+    pub fn require_one_azimuth(&self, what: &str) -> Result<(), BrdfValuesError> {
+        if self.azimuths_deg.len() == 1 {
+            return Ok(());
+        }
+        Err(BrdfValuesError::SeveralAzimuths {
+            file: self.file.clone(),
+            count: self.azimuths_deg.len(),
+            list: list_deg(&self.azimuths_deg),
+            what: what.to_owned(),
         })
     }
 
@@ -472,7 +702,11 @@ impl BrdfTable {
         self.incidences.iter().all(|i| i.mueller.is_some()) && !self.incidences.is_empty()
     }
 
-    /// Tabulated incidence polar angles (degrees), ascending.
+    /// Tabulated incidence polar angles (degrees), ascending, one per
+    /// incidence: with several light azimuths an angle repeats once per
+    /// azimuth (incidence `i` is at azimuth `i % n` of
+    /// [`azimuths_deg`](Self::azimuths_deg); distinct angles:
+    /// [`angles_deg`](Self::angles_deg)).
     #[must_use]
     pub fn thetas_deg(&self) -> &[f64] {
         &self.thetas_deg
@@ -487,33 +721,47 @@ impl BrdfTable {
     /// Incidence blocks bracketing `theta` (radians) and the weight of the
     /// upper one: the value at `theta` is `(1 - w) v[i0] + w v[i1]`.
     /// Clamped at the ends; `None` for NaN.
+    /// Angles (indices into `angles`; the incidence of angle `t` and
+    /// azimuth `k` is `t * n + k`) bracketing `theta` (radians) and the
+    /// weight of the upper one: the value at `theta` is
+    /// `(1 - w) v[i0] + w v[i1]`. Clamped at the ends; `None` for NaN.
     fn bracket(&self, theta: f64) -> Option<(usize, usize, f64)> {
         if theta.is_nan() {
             return None;
         }
-        let n = self.incidences.len();
-        let i1 = self.incidences.partition_point(|inc| inc.theta <= theta);
+        let n = self.angles.len();
+        let i1 = self.angles.partition_point(|&a| a <= theta);
         if i1 == 0 {
             return Some((0, 0, 0.0));
         }
         if i1 >= n {
             return Some((n - 1, n - 1, 0.0));
         }
-        let (a, b) = (self.incidences[i1 - 1].theta, self.incidences[i1].theta);
+        let (a, b) = (self.angles[i1 - 1], self.angles[i1]);
         let w = ((theta - a) / (b - a)).clamp(0.0, 1.0);
         Some((i1 - 1, i1, w))
     }
 
-    /// Interpolate a per-incidence value linearly in `theta` (radians).
+    /// Interpolate a per-incidence value linearly in `theta` (radians); with
+    /// several light azimuths, the mean over the azimuths of each one's
+    /// interpolation.
     fn interpolate(&self, theta: f64, value: impl Fn(&Incidence) -> f64) -> f64 {
+        let n = self.azimuths_deg.len();
         match self.bracket(theta) {
             None => f64::NAN,
-            Some((i0, i1, w)) => {
-                let v0 = value(&self.incidences[i0]);
-                if w == 0.0 {
-                    v0
+            Some((t0, t1, w)) => {
+                let at = |k: usize| {
+                    let v0 = value(&self.incidences[t0 * n + k]);
+                    if w == 0.0 {
+                        v0
+                    } else {
+                        (1.0 - w) * v0 + w * value(&self.incidences[t1 * n + k])
+                    }
+                };
+                if n == 1 {
+                    at(0)
                 } else {
-                    (1.0 - w) * v0 + w * value(&self.incidences[i1])
+                    (0..n).map(at).sum::<f64>() / n as f64
                 }
             }
         }
@@ -532,7 +780,9 @@ impl BrdfTable {
     /// interpolated linearly in `theta_i`: per tabulated incidence the value
     /// of `summary.json` after [`with_summary`](Self::with_summary), else
     /// `sqrt(sum fraction_stderr²)`, usually an overestimate (see the module
-    /// documentation). NaN for a NaN angle.
+    /// documentation); with several light azimuths the mean of theirs (a
+    /// bound on the error of their average, whatever their correlation).
+    /// NaN for a NaN angle.
     #[must_use]
     pub fn reflectance_stderr(&self, theta_i_rad: f64) -> f64 {
         self.interpolate(theta_i_rad, |inc| {
@@ -552,6 +802,9 @@ impl BrdfTable {
     /// the method of the module documentation, from four uniform numbers `u`
     /// in `[0, 1)` (out-of-range values are clamped, NaN taken as 0).
     ///
+    /// With several light azimuths `u[0]` first picks one uniformly (the
+    /// azimuth average of the module documentation).
+    ///
     /// Returns the unit direction (local frame, `z > 0`) and the weight
     /// factor, the reflectance of the tabulated incidence chosen; `None` if
     /// that incidence reflects nothing (all fractions 0) or `theta_i_rad` is
@@ -565,8 +818,14 @@ impl BrdfTable {
     /// the flat cell chosen (for [`mueller`](Self::mueller)).
     #[must_use]
     pub fn sample_cell(&self, theta_i_rad: f64, u: [f64; 4]) -> Option<(DVec3, f64, usize, usize)> {
-        let (i0, i1, w) = self.bracket(theta_i_rad)?;
-        let chosen = if unit(u[0]) < w { i1 } else { i0 };
+        let (t0, t1, w) = self.bracket(theta_i_rad)?;
+        let n = self.azimuths_deg.len();
+        // Several azimuths: u[0] picks one uniformly, and its remainder the
+        // angle (for one azimuth, k = 0 and u0 = u[0] exactly).
+        let scaled = unit(u[0]) * n as f64;
+        let k = (scaled as usize).min(n - 1);
+        let u0 = scaled - k as f64;
+        let chosen = n * if u0 < w { t1 } else { t0 } + k;
         let inc = &self.incidences[chosen];
         let last = inc.last_positive?;
         let x = unit(u[1]) * inc.reflectance;
@@ -805,8 +1064,8 @@ impl SpectralTables {
         &mut self.tables
     }
 
-    /// Tabulated incidence polar angles (degrees), ascending (those of
-    /// every wavelength).
+    /// Tabulated incidence polar angles (degrees), ascending, one per
+    /// incidence (those of every wavelength; [`BrdfTable::thetas_deg`]).
     #[must_use]
     pub fn thetas_deg(&self) -> &[f64] {
         self.tables[0].thetas_deg()
@@ -923,10 +1182,26 @@ impl BrdfTables {
         }
     }
 
-    /// Tabulated incidence polar angles (degrees), ascending.
+    /// Tabulated incidence polar angles (degrees), ascending, one per
+    /// incidence ([`BrdfTable::thetas_deg`]).
     #[must_use]
     pub fn thetas_deg(&self) -> &[f64] {
         self.tables()[0].thetas_deg()
+    }
+
+    /// The light azimuths (degrees), ascending ([`BrdfTable::azimuths_deg`];
+    /// every wavelength's table has the same).
+    #[must_use]
+    pub fn azimuths_deg(&self) -> &[f64] {
+        self.tables()[0].azimuths_deg()
+    }
+
+    /// As [`BrdfTable::require_one_azimuth`].
+    ///
+    /// # Errors
+    /// [`BrdfValuesError::SeveralAzimuths`].
+    pub fn require_one_azimuth(&self, what: &str) -> Result<(), BrdfValuesError> {
+        self.tables()[0].require_one_azimuth(what)
     }
 
     /// The monochrome table, if it is one.

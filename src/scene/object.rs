@@ -834,6 +834,11 @@ fn brdf_wall(
         )));
     }
     let mut tables = BrdfTables::load(path).map_err(|e| fail(&e))?;
+    // A wall's tangent frame follows the light: it has no surface azimuth
+    // to pick a light azimuth of the table by.
+    tables
+        .require_one_azimuth("a BRDF wall (its tangent frame follows the light, so the wall has no surface azimuth to choose one by)")
+        .map_err(|e| fail(&e))?;
     // The run's summary beside the table carries the exact reflectance errors.
     let summary = path.with_file_name("summary.json");
     if summary.exists() {

@@ -21,8 +21,20 @@
 //! relative: an edited row, or a file cut inside its last number, fails),
 //! every fraction and each incidence's sum of fractions (its reflectance) at
 //! most 1 (+1e-9 for rounding: a table may not create light), and no
-//! incidence angle twice. Blocks may come in any order; they
-//! are sorted by `theta_i_deg`. Errors are one line naming the file, the line
+//! incidence (`theta_i_deg`, `phi_i_deg`) twice. Blocks may come in any
+//! order; they are sorted by `theta_i_deg`, then `phi_i_deg`.
+//!
+//! **Several light azimuths.** A run of several light azimuths (`[light]
+//! phi_deg = [0, 90]`) writes one block per incidence angle, then azimuth
+//! (then wavelength); the incidences are the `(theta_i_deg, phi_i_deg)`
+//! pairs, and every angle must have exactly the azimuths of the others
+//! ([`BrdfValuesError::Azimuths`]: the line of the first block of the angle
+//! lacking an azimuth, or of the block of the azimuth too many, column 2).
+//! A table of one block per angle (one azimuth, possibly a different one
+//! per angle) reads exactly as before. The order and what a
+//! table of several azimuths means: [`crate::optics::brdf_table`].
+//!
+//! Errors are one line naming the file, the line
 //! and (where there is one) the column. The table itself, its frame and its
 //! sampling: [`crate::optics::brdf_table`].
 //!
@@ -51,7 +63,8 @@ use thiserror::Error;
 
 use super::{COLUMNS, HEADER, SPECTRAL_HEADER};
 use crate::optics::brdf_table::{
-    BlockData, BrdfTable, BrdfTables, BrdfValuesError, MAX_FRACTION, SpectralTables,
+    BlockData, BrdfTable, BrdfTables, BrdfValuesError, MAX_FRACTION, SpectralTables, azimuth_note,
+    sort_incidences,
 };
 use crate::tally::CarlsonGrid;
 
@@ -593,35 +606,18 @@ impl BrdfTables {
     }
 }
 
-/// The table of checked blocks (of one wavelength): sorted by angle, no
-/// angle twice; `fraction_column` (1-based, 0: the monochrome 13) names the
+/// The table of checked blocks (of one wavelength): sorted by angle, then
+/// light azimuth, no incidence twice, every angle with the same azimuths;
+/// `fraction_column` (1-based, 0: the monochrome 13) names the
 /// fraction column in an error.
 fn monochrome(
     parsed: Parsed,
     name: &str,
     fraction_column: usize,
 ) -> Result<BrdfTable, BrdfTableError> {
-    let Parsed {
-        grid, mut blocks, ..
-    } = parsed;
-    blocks.sort_by(|a, b| a.theta_i.total_cmp(&b.theta_i));
-    for pair in blocks.windows(2) {
-        if pair[0].theta_i == pair[1].theta_i {
-            let (a, b) = if pair[0].start < pair[1].start {
-                (&pair[0], &pair[1])
-            } else {
-                (&pair[1], &pair[0])
-            };
-            return Err(BrdfValuesError::Duplicate {
-                file: name.to_owned(),
-                line: b.start,
-                first: a.start,
-                theta_i_deg: b.theta_i,
-            }
-            .into());
-        }
-    }
-    let data = blocks
+    let Parsed { grid, blocks, .. } = parsed;
+    let several = blocks.iter().any(|b| b.phi_i != blocks[0].phi_i);
+    let mut data: Vec<BlockData> = blocks
         .iter()
         .map(|b| BlockData {
             line: b.start,
@@ -631,6 +627,24 @@ fn monochrome(
             fraction_stderr: b.rows.iter().map(|r| r.fraction_se).collect(),
         })
         .collect();
+    sort_incidences(&mut data);
+    for pair in data.windows(2) {
+        if (pair[0].theta_deg, pair[0].phi_i_deg) == (pair[1].theta_deg, pair[1].phi_i_deg) {
+            let (a, b) = if pair[0].line < pair[1].line {
+                (&pair[0], &pair[1])
+            } else {
+                (&pair[1], &pair[0])
+            };
+            return Err(BrdfValuesError::Duplicate {
+                file: name.to_owned(),
+                line: b.line,
+                first: a.line,
+                theta_i_deg: b.theta_deg,
+                azimuth: azimuth_note(several, b.phi_i_deg),
+            }
+            .into());
+        }
+    }
     BrdfTable::from_checked(grid, data, name.to_owned()).map_err(|mut e| {
         if let BrdfValuesError::Sum { column, .. } = &mut e {
             if fraction_column > 0 {
@@ -1185,13 +1199,30 @@ mod tests {
                 "more than 1",
             ],
         );
-        // Same angle twice (different azimuth).
+        // Same angle at a second azimuth that the other angle lacks: an
+        // incomplete table of two light azimuths, named at the first line
+        // of the angle lacking it.
         let again = TestBlock {
             theta: 0.0,
             phi_i: 45.0,
             fractions: lambertian(m, 0.7),
         };
-        let twice = format!("{good}{}", rows(m, &[again]));
+        let incomplete = format!("{good}{}", rows(m, &[again]));
+        check(
+            err(&incomplete),
+            &[
+                "bad.csv: line 14, column 2 (phi_i_deg)",
+                "theta_i_deg = 40",
+                "lacks light azimuth 45",
+            ],
+        );
+        // The same incidence twice.
+        let same = TestBlock {
+            theta: 0.0,
+            phi_i: 0.0,
+            fractions: lambertian(m, 0.7),
+        };
+        let twice = format!("{good}{}", rows(m, &[same]));
         check(err(&twice), &["line 26", "already tabulated from line 2"]);
         // File not found.
         let e = BrdfTable::load(Path::new("/nonexistent/brdf.csv"))
@@ -1556,6 +1587,162 @@ mod tests {
         check(
             errs(&renamed),
             &["line 1", "header must be exactly", "with wavelengths"],
+        );
+    }
+
+    /// Rows of incidences `(theta, phi, albedo)` in the given order,
+    /// written by the file's writer: a Lambertian block of that albedo
+    /// times `1 + 0.5 cos(phi_cell - 2 phi_i)` (an anisotropic synthetic:
+    /// each azimuth's block differs), errors 1 % of the fractions.
+    fn azimuth_rows(m: usize, incidences: &[(f64, f64, f64)]) -> (String, Vec<Vec<f64>>) {
+        let grid = CarlsonGrid::new(m).unwrap();
+        let blocks: Vec<(f64, f64, Vec<f64>, Vec<f64>)> = incidences
+            .iter()
+            .map(|&(theta, phi, albedo)| {
+                let f: Vec<f64> = lambertian(m, albedo)
+                    .iter()
+                    .enumerate()
+                    .map(|(flat, v)| {
+                        let (band, cell) = grid.band_cell(flat);
+                        let (_, phi_c) = grid.centre(band, cell);
+                        v * (1.0 + 0.5 * (phi_c - 2.0 * phi.to_radians()).cos())
+                    })
+                    .collect();
+                let se = f.iter().map(|x| 0.01 * x).collect();
+                (theta, phi, f, se)
+            })
+            .collect();
+        let text = super::super::write_rows(
+            &grid,
+            blocks
+                .iter()
+                .map(|(theta, phi, f, se)| super::super::Block {
+                    theta_i_deg: *theta,
+                    phi_i_deg: *phi,
+                    wavelength_um: None,
+                    fractions: f,
+                    stderr: se,
+                }),
+        );
+        (text, blocks.into_iter().map(|b| b.2).collect())
+    }
+
+    /// A table of two light azimuths (0 and 90 degrees) at two angles,
+    /// written in the order of `roks brdf` (angle, then azimuth) and
+    /// shuffled, reads back with its incidences in that order, every
+    /// fraction as written, the azimuths listed, and each azimuth's table
+    /// equal to the table of that azimuth's rows alone.
+    #[test]
+    fn several_azimuths_round_trip() {
+        let m = 4;
+        let order = [
+            (20.0, 0.0, 0.3),
+            (20.0, 90.0, 0.4),
+            (50.0, 0.0, 0.5),
+            (50.0, 90.0, 0.6),
+        ];
+        let (rows_text, fractions) = azimuth_rows(m, &order);
+        let text = format!("{HEADER}\n{rows_text}");
+        let t = BrdfTable::parse(&text, "az.csv").unwrap();
+        assert_eq!(t.azimuths_deg(), &[0.0, 90.0]);
+        assert_eq!(t.thetas_deg(), &[20.0, 20.0, 50.0, 50.0]);
+        assert_eq!(t.angles_deg(), vec![20.0, 50.0]);
+        let written = |v: f64| format!("{v:.9e}").parse::<f64>().unwrap();
+        for (i, &(theta, phi, _)) in order.iter().enumerate() {
+            let inc = t.incidence(i);
+            assert_eq!((inc.theta_deg, inc.phi_i_deg), (theta, phi));
+            for (flat, &f) in fractions[i].iter().enumerate() {
+                assert_eq!(t.fraction(i, flat), written(f));
+            }
+        }
+        // Shuffled blocks read as the same table.
+        let (shuffled, _) = azimuth_rows(m, &[order[3], order[0], order[2], order[1]]);
+        let u = BrdfTable::parse(&format!("{HEADER}\n{shuffled}"), "az.csv").unwrap();
+        for (i, o) in order.iter().enumerate() {
+            assert_eq!(u.fractions(i), t.fractions(i));
+            assert_eq!(u.incidence(i).phi_i_deg, o.1);
+        }
+        // Each azimuth alone.
+        for (k, phi) in [0.0, 90.0].into_iter().enumerate() {
+            let alone: Vec<_> = order.iter().copied().filter(|o| o.1 == phi).collect();
+            let (rows_k, _) = azimuth_rows(m, &alone);
+            let one = BrdfTable::parse(&format!("{HEADER}\n{rows_k}"), "one.csv").unwrap();
+            assert_eq!(one.azimuths_deg(), &[phi]);
+            let a = t.azimuth(k);
+            assert_eq!(a.thetas_deg(), one.thetas_deg());
+            for i in 0..2 {
+                assert_eq!(a.fractions(i), one.fractions(i));
+                assert_eq!(a.incidence(i).phi_i_deg, phi);
+            }
+            assert_eq!(a.reflectance(0.6), one.reflectance(0.6));
+        }
+        // The reflectance of the whole table is the azimuths' mean.
+        for theta in [0.2f64, 0.6, 1.0] {
+            let mean = 0.5 * (t.azimuth(0).reflectance(theta) + t.azimuth(1).reflectance(theta));
+            assert!((t.reflectance(theta) - mean).abs() < 1e-15);
+        }
+        assert!(
+            t.require_one_azimuth("x").is_err() && t.azimuth(0).require_one_azimuth("x").is_ok()
+        );
+        // Spectral: blocks of an incidence (angle and azimuth) at every
+        // wavelength; each wavelength's table has both azimuths.
+        let grid = CarlsonGrid::new(m).unwrap();
+        let mut spectral = String::from(crate::output::brdf_csv::SPECTRAL_HEADER);
+        spectral.push('\n');
+        for (i, &(theta, phi, _)) in order.iter().enumerate() {
+            for w in [0.5, 0.6] {
+                let se: Vec<f64> = fractions[i].iter().map(|x| 0.01 * x).collect();
+                spectral.push_str(&super::super::write_rows(
+                    &grid,
+                    [super::super::Block {
+                        theta_i_deg: theta,
+                        phi_i_deg: phi,
+                        wavelength_um: Some(w),
+                        fractions: &fractions[i],
+                        stderr: &se,
+                    }],
+                ));
+            }
+        }
+        let s = BrdfTables::parse(&spectral, "s.csv").unwrap();
+        assert_eq!(s.azimuths_deg(), &[0.0, 90.0]);
+        for table in s.tables() {
+            assert_eq!(table.thetas_deg(), t.thetas_deg());
+            for i in 0..4 {
+                assert_eq!(table.fractions(i), t.fractions(i));
+            }
+        }
+    }
+
+    /// An angle lacking an azimuth that another has is refused, one line
+    /// naming the file, the line and column 2 (phi_i_deg), whichever angle
+    /// comes first.
+    #[test]
+    fn incomplete_azimuths_refused() {
+        let m = 2; // 12 rows per block
+        let (a, _) = azimuth_rows(m, &[(20.0, 0.0, 0.3), (20.0, 90.0, 0.3), (50.0, 0.0, 0.3)]);
+        let e = err(&format!("{HEADER}\n{a}"));
+        assert!(
+            e.starts_with("bad.csv: line 26, column 2 (phi_i_deg): incidence theta_i_deg = 50")
+                && e.contains("lacks light azimuth 90 deg")
+                && !e.contains('\n'),
+            "{e}"
+        );
+        let (b, _) = azimuth_rows(m, &[(20.0, 0.0, 0.3), (50.0, 0.0, 0.3), (50.0, 90.0, 0.3)]);
+        let e = err(&format!("{HEADER}\n{b}"));
+        assert!(
+            e.starts_with("bad.csv: line 26, column 2 (phi_i_deg): incidence theta_i_deg = 50 at light azimuth 90 deg")
+                && e.contains("theta_i_deg = 20 (from line 2) lacks"),
+            "{e}"
+        );
+        // An incidence twice in a table of several azimuths names the azimuth.
+        let (c, _) = azimuth_rows(m, &[(20.0, 90.0, 0.3), (20.0, 0.0, 0.3), (20.0, 90.0, 0.3)]);
+        let e = err(&format!("{HEADER}\n{c}"));
+        assert!(
+            e.contains(
+                "line 26: incidence theta_i_deg = 20, phi_i_deg = 90 already tabulated from line 2"
+            ),
+            "{e}"
         );
     }
 }

@@ -150,6 +150,9 @@ table_case("header", "a renamed column", ["models.rough.brdf", "line 1", "header
            brdf=lambda t: t.replace("fraction_stderr", "fraction_err", 1))
 table_case("duplicate-incidence", "the 0 deg block twice", ["models.rough.brdf", "line 10", "already tabulated from line 2"],
            brdf=lambda t: t + "\n".join(rows(t)[1:5]) + "\n")
+table_case("two-azimuths-wall", "a table of two light azimuths (0 and 90 deg) for a wall, which has no surface azimuth",
+           ["models.rough.brdf", "column 2 (phi_i_deg)", "a table of 2 light azimuths", "a BRDF wall"],
+           brdf=lambda t: t + "\n".join(",".join([r.split(",")[0], "90"] + r.split(",")[2:]) for r in rows(t)[1:9]) + "\n")
 table_case("incomplete-block", "a block with its last cell missing", ["models.rough.brdf", "line 8", "incomplete incidence block theta_i_deg = 40"],
            brdf=lambda t: "\n".join(rows(t)[:8]) + "\n")
 table_case("summary-reflectance", "summary.json of another run: reflectance differs",
