@@ -73,8 +73,9 @@ pub struct BrdfArgs {
     /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf;
     /// spectral: DIR/brdf_<wavelength>um.bsdf per wavelength), merl
     /// (DIR/brdf.binary; spectral: linear sRGB, wavelengths covering
-    /// 0.38-0.78 um), rgl (DIR/brdf_rgl.bsdf, Mitsuba 3 / pbrt-v4 `measured`);
-    /// see `roks export-brdf`.
+    /// 0.38-0.78 um), rgl (DIR/brdf_rgl.bsdf, Mitsuba 3 / pbrt-v4 `measured`),
+    /// pbsdf (DIR/brdf.pbsdf, Mitsuba 3 `measured_polarized`; needs
+    /// --polarisation mueller); see `roks export-brdf`.
     #[arg(
         long,
         value_delimiter = ',',
@@ -124,6 +125,11 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     for f in &a.export {
         f.check_wavelengths(&run.wavelengths_um)
             .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
+        if *f == BrdfFormat::Pbsdf && run.polarisation.tally != crate::tally::PolarTally::Mueller {
+            return Err(Failure::Input(
+                "--export pbsdf: needs the Mueller-matrix BRDF: --polarisation mueller ([tally] polarisation = \"mueller\")".into(),
+            ));
+        }
     }
     let (rx, ry) = stats_grid(
         &scene,
@@ -179,13 +185,22 @@ pub fn run(a: BrdfArgs) -> Result<(), Failure> {
     let mut extra = Vec::new();
     if !a.export.is_empty() {
         let table = folder.table();
+        let mueller = crate::output::polar_csv::write(folder.run(), &folder.results)
+            .filter(|(name, _)| *name == "mueller.csv")
+            .map(|(_, text)| text);
         let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
         for (k, &f) in a.export.iter().enumerate() {
             // Each format once, in the order given.
             if !a.export[..k].contains(&f) {
-                for file in
-                    export_tables_of(&table, f, &comment, a.quiet, "--export", &scene.surface)?
-                {
+                for file in export_tables_of(
+                    &table,
+                    f,
+                    &comment,
+                    a.quiet,
+                    "--export",
+                    &scene.surface,
+                    mueller.as_deref(),
+                )? {
                     extra.push((file.file_name, file.bytes));
                 }
             }

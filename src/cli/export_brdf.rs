@@ -360,10 +360,12 @@ pub fn export_pbsdf(tables: &BrdfTables, quiet: bool) -> Result<Vec<ExportFile>,
 }
 
 /// [`export_tables`] for `roks brdf --export`, which has the micro
-/// `surface`: an rgl file gets the NDF of its facets ([`export_rgl`]).
+/// `surface`: an rgl file gets the NDF of its facets ([`export_rgl`]); a
+/// pbsdf file the run's `mueller` table (the text of its `mueller.csv`,
+/// `None` for a run without one: refused, exit status 2).
 ///
 /// # Errors
-/// As [`export_tables`].
+/// As [`export_tables`] and [`export_pbsdf`].
 pub fn export_tables_of(
     tables: &BrdfTables,
     format: BrdfFormat,
@@ -371,7 +373,20 @@ pub fn export_tables_of(
     quiet: bool,
     option: &str,
     surface: &crate::micro::MicroSurface,
+    mueller: Option<&str>,
 ) -> Result<Vec<ExportFile>, Failure> {
+    if format == BrdfFormat::Pbsdf {
+        let text = mueller.ok_or_else(|| {
+            Failure::Input(format!(
+                "{option} pbsdf: needs the Mueller-matrix BRDF: --polarisation mueller ([tally] polarisation = \"mueller\")"
+            ))
+        })?;
+        let tables = tables
+            .clone()
+            .with_mueller_text(text, "mueller.csv")
+            .map_err(|e| Failure::Other(anyhow::anyhow!("{e}")))?;
+        return export_pbsdf(&tables, quiet);
+    }
     if format == BrdfFormat::Rgl {
         export_rgl(tables, comment, quiet, Some(surface))
     } else {

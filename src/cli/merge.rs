@@ -90,7 +90,7 @@ pub fn run(a: MergeArgs) -> Result<(), Failure> {
             }
             let files = match rgl_surface(f, &scene) {
                 Some(surface) => {
-                    export_tables_of(&table, f, &comment, a.quiet, "--export", &surface)?
+                    export_tables_of(&table, f, &comment, a.quiet, "--export", &surface, None)?
                 }
                 None => export_tables(&table, f, &comment, a.quiet, "--export")?,
             };
