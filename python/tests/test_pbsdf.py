@@ -34,7 +34,8 @@ Checks:
   element and that of any cell within two band widths of it or of its
   mirror image (mirror elements with the signs of S2, S3 flipped), at the
   same incidence and at the neighbouring tabulated ones;
-* refusals: 6 wavelengths, no mueller.csv (one line, exit status 2).
+* refusals: 6 wavelengths, no mueller.csv (one line, exit status 2); a
+  run of 5 wavelengths gives them as the file's `wvls`.
 """
 
 from __future__ import annotations
@@ -234,12 +235,23 @@ def test_refusals(roks, folders, tmp_path):
     p = run(roks, "export-brdf", plain, "--format", "pbsdf", "--out", tmp_path / "a.pbsdf", ok=False)
     assert p.returncode == 2 and "mueller.csv" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert not (tmp_path / "a.pbsdf").exists()
-    # Six wavelengths.
-    six = tmp_path / "six"
-    run(roks, "brdf", ROOT / "scenes" / "gold-spectral.toml", "--photons", 2000, "--theta", "30",
-        "--wavelengths", "0.45,0.5,0.55,0.6,0.65,0.7", "--polarisation", "mueller", "--out", six, "-q")
-    p = run(roks, "export-brdf", six, "--format", "pbsdf", "--out", tmp_path / "b.pbsdf", ok=False)
-    lines = p.stderr.strip().splitlines()
-    assert p.returncode == 2 and len(lines) == 1, p.stderr
-    assert "brdf.csv" in lines[0] and "wavelength_um" in lines[0] and "6 wavelengths" in lines[0], lines
-    assert not (tmp_path / "b.pbsdf").exists()
+    # Six wavelengths are refused; five are the file's.
+    for lams in ("0.45,0.5,0.55,0.6,0.65,0.7", "0.45,0.5,0.55,0.6,0.65"):
+        folder = tmp_path / f"gold{lams.count(',') + 1}"
+        run(roks, "brdf", ROOT / "scenes" / "gold-spectral.toml", "--photons", 2000, "--theta", "30",
+            "--wavelengths", lams, "--polarisation", "mueller", "--out", folder, "-q")
+        out = folder / "brdf.pbsdf"
+        p = run(roks, "export-brdf", folder, "--format", "pbsdf", "--out", out, "-q", ok=False)
+        if lams.count(",") == 5:
+            lines = p.stderr.strip().splitlines()
+            assert p.returncode == 2 and len(lines) == 1, p.stderr
+            assert "brdf.csv" in lines[0] and "wavelength_um" in lines[0] and "6 wavelengths" in lines[0], lines
+            assert not out.exists()
+        else:
+            assert p.returncode == 0, p.stderr
+            from mitsuba import tensor_io
+            t = tensor_io.read(str(out))
+            assert t["wvls"].dtype == np.uint16 and list(t["wvls"]) == [450, 500, 550, 600, 650]
+            assert t["M"].shape == (73, 46, 46, 5, 4, 4) and t["theta_h"].shape == (1, 46)
+            # The wavelengths hold their own tables: gold is redder at 650 nm.
+            assert t["M"][..., 4, 0, 0].sum() > 1.2 * t["M"][..., 0, 0, 0].sum()
