@@ -81,20 +81,26 @@
 //!
 //! # Resampling
 //!
-//! At each node the light and view directions are built with `phi_h = 0`
-//! ([`node_directions`]; the BRDF is isotropic), turned about the normal
-//! so that the light is at azimuth 0 (the table's frame), and the table's
-//! Mueller BRDF is taken there ([`mueller_eval`]): the cell's `m00` times
-//! its normalised matrix, constant over each Carlson cell, linear in the
-//! incidence angle between the tabulated ones and clamped outside them,
-//! averaged with its mirror image in the plane of incidence (`S2, S3 ->
-//! -S2, -S3`: row and column signs `(1, 1, -1, -1)`), as the other exports
-//! average the BRDF. A node whose light or view lies below the horizon
-//! (`theta_h + theta_d > 90°` and some `phi_d`) takes the value of those
-//! directions raised to just above it, at the same azimuth, in the frames
-//! of the raised pair, so that the interpolation towards the horizon sees
-//! the table's values. `theta_d = 0` (light = view) and `theta_h = 0` have
-//! their limits: `D` and `b = ŷ` are defined at every node.
+//! At each node ([`node_value`]) the light and view directions are built
+//! with `phi_h = 0` ([`node_directions`]; the BRDF is isotropic), raised to
+//! just above the horizon where they are below it (at the same azimuth,
+//! so that the interpolation towards the horizon sees the table's values),
+//! and turned about the normal so that the light is at azimuth 0 (the
+//! table's frame), at incidence `theta_i`. The two tabulated incidences
+//! bracketing `theta_i` (the nearest alone outside them) are mixed
+//! linearly in `theta_i`, each taken with the light turned about `ŷ` to
+//! its own incidence and the view turned the other way by as much (so the
+//! pair keeps its place relative to the mirror direction and a specular
+//! peak stays a peak, where mixing the tables at a fixed view would split
+//! it in two). Each takes the table's Mueller BRDF of the cell holding the
+//! turned view ([`incidence_mueller`]: the cell's `m00` times its
+//! normalised matrix, averaged with its mirror image in the plane of
+//! incidence, `S2, S3 -> -S2, -S3`: row and column signs `(1, 1, -1,
+//! -1)`, as the other exports average the BRDF), turned into the plugin's
+//! frame of the turned pair ([`to_plugin_frames`]); the frame `D × h` is
+//! tied to the pair's geometry, so the mix is made in it. `theta_d = 0`
+//! (light = view) and `theta_h = 0` have their limits: `D` and `b = ŷ` are
+//! defined at every node.
 //!
 //! # Wavelengths
 //!
