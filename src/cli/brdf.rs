@@ -78,8 +78,9 @@ pub struct BrdfArgs {
     /// Also export the table, comma-separated formats: zemax (DIR/brdf.bsdf;
     /// spectral: DIR/brdf_<wavelength>um.bsdf per wavelength), merl
     /// (DIR/brdf.binary; spectral: linear sRGB, wavelengths covering
-    /// 0.38-0.78 um), rgl (DIR/brdf_rgl.bsdf, Mitsuba 3 / pbrt-v4 `measured`);
-    /// see `roks export-brdf`.
+    /// 0.38-0.78 um), rgl (DIR/brdf_rgl.bsdf, Mitsuba 3 / pbrt-v4 `measured`),
+    /// pbsdf (DIR/brdf.pbsdf, Mitsuba 3 `measured_polarized`; needs
+    /// --polarisation mueller); see `roks export-brdf`.
     #[arg(
         long,
         value_delimiter = ',',
@@ -128,6 +129,13 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let scene = a.scene()?;
     let mut run = scene.brdf_run();
     check_export_formats(&a.export, &run.wavelengths_um)?;
+    if a.export.contains(&BrdfFormat::Pbsdf)
+        && run.polarisation.tally != crate::tally::PolarTally::Mueller
+    {
+        return Err(Failure::Input(
+            "--export pbsdf: needs the Mueller-matrix BRDF: --polarisation mueller ([tally] polarisation = \"mueller\")".into(),
+        ));
+    }
     let (rx, ry) = stats_grid(
         &scene,
         a.stats_resolution,

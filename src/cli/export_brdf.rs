@@ -33,7 +33,9 @@ use crate::output::brdf_folder::BrdfFolder;
 pub struct ExportBrdfArgs {
     /// Result folder of `roks brdf` (with brdf.csv).
     pub dir: PathBuf,
-    /// Output format: zemax, merl or rgl (Mitsuba 3 `measured`, pbrt-v4).
+    /// Output format: zemax, merl, rgl (Mitsuba 3 `measured`, pbrt-v4) or
+    /// pbsdf (Mitsuba 3 `measured_polarized`; needs the folder's
+    /// mueller.csv).
     #[arg(long, ignore_case = true, hide_possible_values = true)]
     pub format: BrdfFormat,
     /// Output file (spectral zemax: a folder, replaced whole, holding one
@@ -152,8 +154,22 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
             "--scene: only for --format rgl (the NDF of its micro surface)".into(),
         ));
     }
+    if format == BrdfFormat::Pbsdf {
+        let mueller = a.dir.join("mueller.csv");
+        if !mueller.is_file() {
+            return Err(Failure::Input(format!(
+                "{}: not found: --format pbsdf needs the Mueller-matrix BRDF of a run with [tally] polarisation = \"mueller\" (roks brdf --polarisation mueller)",
+                shown(&mueller)
+            )));
+        }
+        tables = tables
+            .with_mueller(&mueller)
+            .map_err(|e| Failure::Input(e.to_string()))?;
+    }
     let comment = format!("from {}", csv.display());
-    let files = if format == BrdfFormat::Rgl {
+    let files = if format == BrdfFormat::Pbsdf {
+        export_pbsdf(&tables, a.quiet)?
+    } else if format == BrdfFormat::Rgl {
         let scene = rgl_scene(a.scene.as_deref(), &summary)?;
         export_rgl(
             &tables,
@@ -282,6 +298,24 @@ pub fn export_rgl(
     let bytes = rgl::Rgl::from_tables(tables, &ndf, comment).to_bytes();
     let checks = rgl::check(tables, &bytes, format.file_name())
         .map_err(|e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}")))?;
+    report_checks(format, tables, &checks, quiet);
+    Ok(vec![ExportFile {
+        file_name: format.file_name().to_owned(),
+        wavelength_um: None,
+        bytes,
+        clipped: None,
+    }])
+}
+
+/// Per wavelength (one line for a monochrome table) and incidence, the
+/// file's reflectance beside the table's on stderr (unless `quiet`), and a
+/// warning line where it is off ([`warn_off`]).
+fn report_checks(
+    format: BrdfFormat,
+    tables: &BrdfTables,
+    checks: &[Vec<ReflectanceCheck>],
+    quiet: bool,
+) {
     for (k, check) in checks.iter().enumerate() {
         let what = match tables.wavelengths_um().get(k) {
             Some(w) => format!("{format} ({w} um)"),
@@ -295,6 +329,34 @@ pub fn export_rgl(
         }
         warn_off(&what, check, None);
     }
+}
+
+/// The pbsdf file of `tables` ([`crate::export::pbsdf`]; each table with
+/// its Mueller table attached), read back and judged like the other
+/// exports: the reflectance of its `m00` per wavelength and incidence. A
+/// table of one wavelength is written at the five [`pbsdf::GREY_NM`]
+/// wavelengths, with a note.
+///
+/// # Errors
+/// A refusal (not 1 or 5 wavelengths, no Mueller table: exit status 2),
+/// or a file that does not read back (a defect of the writer, exit status 1).
+///
+/// [`pbsdf::GREY_NM`]: crate::export::pbsdf::GREY_NM
+pub fn export_pbsdf(tables: &BrdfTables, quiet: bool) -> Result<Vec<ExportFile>, Failure> {
+    use crate::export::pbsdf;
+    let format = BrdfFormat::Pbsdf;
+    let file =
+        pbsdf::Pbsdf::from_tables(tables).map_err(|e| Failure::Input(format!("{format}: {e}")))?;
+    if tables.wavelengths_um().len() <= 1 {
+        eprintln!(
+            "note: pbsdf: a table of one wavelength, written at the five wavelengths {:?} nm that Mitsuba's measured_polarized holds: the same Mueller BRDF at each",
+            pbsdf::GREY_NM
+        );
+    }
+    let bytes = file.to_bytes();
+    let checks = pbsdf::check(tables, &bytes, format.file_name())
+        .map_err(|e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}")))?;
+    report_checks(format, tables, &checks, quiet);
     Ok(vec![ExportFile {
         file_name: format.file_name().to_owned(),
         wavelength_um: None,
@@ -343,6 +405,22 @@ pub fn export_formats(
         }
         let exported = match (format, surface) {
             (BrdfFormat::Rgl, Some(surface)) => export_rgl(&tables, comment, quiet, Some(surface))?,
+            (BrdfFormat::Pbsdf, _) => {
+                // The run's Mueller table, as its mueller.csv holds it.
+                let text = crate::output::polar_csv::write(folder.run(), &folder.results)
+                    .filter(|(name, _)| *name == "mueller.csv")
+                    .map(|(_, text)| text)
+                    .ok_or_else(|| {
+                        Failure::Input(
+                            "--export pbsdf: needs the Mueller-matrix BRDF: --polarisation mueller ([tally] polarisation = \"mueller\")".into(),
+                        )
+                    })?;
+                let tables = tables
+                    .clone()
+                    .with_mueller_text(&text, "mueller.csv")
+                    .map_err(|e| Failure::Other(anyhow::anyhow!("{e}")))?;
+                export_pbsdf(&tables, quiet)?
+            }
             _ => export_tables(&tables, format, comment, quiet, "--export")?,
         };
         files.extend(exported.into_iter().map(|f| (f.file_name, f.bytes)));
@@ -482,6 +560,12 @@ fn warn_off(
                 grid.azimuth_step_deg, grid.radial_step_deg
             ),
         },
+        None if what.starts_with("pbsdf") => format!(
+            "the pbsdf grid is fixed ({} x {} x {} nodes of theta_h, theta_d, phi_d)",
+            crate::export::pbsdf::THETA_H,
+            crate::export::pbsdf::THETA_D,
+            crate::export::pbsdf::PHI_D
+        ),
         None if what.starts_with("rgl") => format!(
             "the rgl grids are fixed ({0} x {0} samples per incidence); export zemax for a finer one",
             crate::export::rgl::SAMPLE_RES

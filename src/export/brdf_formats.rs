@@ -9,7 +9,10 @@
 //!   [`super::merl`]), read by graphics BRDF tools;
 //! * [`BrdfFormat::Rgl`]: the RGL measured-BRDF tensor file
 //!   (`brdf_rgl.bsdf`; [`super::rgl`], its own resampling onto the
-//!   renderer's warped grid), read by Mitsuba 3 and pbrt-v4.
+//!   renderer's warped grid), read by Mitsuba 3 and pbrt-v4;
+//! * [`BrdfFormat::Pbsdf`]: the polarised measured BRDF of Baek et al.
+//!   2020 (`brdf.pbsdf`; [`super::pbsdf`]: the Mueller table resampled onto
+//!   the Rusinkiewicz grid), read by Mitsuba 3's `measured_polarized`.
 //!
 //! Zemax and MERL resample the table with [`symmetric_eval`] (in
 //! [`super::resample`], which the formats share; this module only
@@ -66,7 +69,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 pub use super::resample::{FormatError, ReflectanceCheck, symmetric_eval};
-use super::{merl, rgl, zemax};
+use super::{merl, pbsdf, rgl, zemax};
 
 /// An export format of `roks export-brdf --format` and `roks brdf
 /// --export` (the names in lower case).
@@ -82,6 +85,11 @@ pub enum BrdfFormat {
     /// read by Mitsuba 3's `measured` and pbrt-v4's `measured` materials.
     #[value(help = None::<&str>)]
     Rgl,
+    /// Polarised measured BRDF tensor file (`brdf.pbsdf`; [`super::pbsdf`]),
+    /// read by Mitsuba 3's `measured_polarized`; needs the run's
+    /// `mueller.csv`.
+    #[value(help = None::<&str>)]
+    Pbsdf,
 }
 
 impl BrdfFormat {
@@ -92,6 +100,7 @@ impl BrdfFormat {
             Self::Zemax => "zemax",
             Self::Merl => "merl",
             Self::Rgl => "rgl",
+            Self::Pbsdf => "pbsdf",
         }
     }
 
@@ -102,11 +111,14 @@ impl BrdfFormat {
             Self::Zemax => "brdf.bsdf",
             Self::Merl => "brdf.binary",
             Self::Rgl => "brdf_rgl.bsdf",
+            Self::Pbsdf => "brdf.pbsdf",
         }
     }
 
     /// The file's bytes for `table`; `comment` (one line) goes into the
-    /// Zemax header and is ignored by MERL, which has none.
+    /// Zemax header and is ignored by MERL, which has none. A pbsdf file
+    /// needs the table's Mueller table: without one the bytes are empty
+    /// ([`export_tables`](Self::export_tables) refuses instead).
     #[must_use]
     pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
         self.export_on(table, comment, ZemaxGrid::default())
@@ -125,6 +137,9 @@ impl BrdfFormat {
                 comment,
             )
             .to_bytes(),
+            Self::Pbsdf => pbsdf::Pbsdf::from_tables(&BrdfTables::Monochrome(table.clone()))
+                .map(|p| p.to_bytes())
+                .unwrap_or_default(),
         }
     }
 }
@@ -146,11 +161,14 @@ pub struct ExportFile {
 /// Why a table cannot be exported in a format.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ExportRefusal {
-    /// RGL of a table of several light azimuths.
+    /// RGL or pbsdf (isotropic formats) of a table of several light
+    /// azimuths.
     #[error(
-        "the table has {count} light azimuths (phi_i_deg); an rgl file holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
+        "the table has {count} light azimuths (phi_i_deg); an {format} file holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
     )]
     Azimuths {
+        /// The format refused.
+        format: BrdfFormat,
         /// Number of light azimuths.
         count: usize,
     },
@@ -164,6 +182,10 @@ pub enum ExportRefusal {
         /// Last wavelength (µm).
         last: f64,
     },
+    /// A pbsdf file of another number of wavelengths than 1 or 5, or of a
+    /// table without its Mueller table.
+    #[error(transparent)]
+    Pbsdf(#[from] pbsdf::PbsdfRefusal),
 }
 
 /// Labels of the wavelengths `wavelengths_um` (µm, positive and finite)
@@ -218,7 +240,9 @@ impl BrdfFormat {
                 .iter()
                 .map(|w| format!("brdf_{w}um.bsdf"))
                 .collect(),
-            Self::Merl | Self::Rgl => vec![self.file_name().to_owned(); wavelengths_um.len()],
+            Self::Merl | Self::Rgl | Self::Pbsdf => {
+                vec![self.file_name().to_owned(); wavelengths_um.len()]
+            }
         }
     }
 
@@ -227,8 +251,14 @@ impl BrdfFormat {
     ///
     /// # Errors
     /// [`ExportRefusal::NotVisible`] for MERL of several wavelengths that do
-    /// not cover the visible (one wavelength exports as a grey table).
+    /// not cover the visible (one wavelength exports as a grey table);
+    /// [`ExportRefusal::Pbsdf`] for pbsdf of other than 0, 1 or 5.
     pub fn check_wavelengths(self, wavelengths_um: &[f64]) -> Result<(), ExportRefusal> {
+        if self == Self::Pbsdf {
+            return pbsdf::file_wavelengths(wavelengths_um)
+                .map(|_| ())
+                .map_err(ExportRefusal::from);
+        }
         match (self, wavelengths_um.first(), wavelengths_um.last()) {
             // One wavelength is a monochrome table: a grey MERL file.
             (Self::Merl, Some(&first), Some(&last))
@@ -266,8 +296,20 @@ impl BrdfFormat {
         grid: ZemaxGrid,
     ) -> Result<Vec<ExportFile>, ExportRefusal> {
         let count = tables.azimuths_deg().len();
-        if self == Self::Rgl && count > 1 {
-            return Err(ExportRefusal::Azimuths { count });
+        if matches!(self, Self::Rgl | Self::Pbsdf) && count > 1 {
+            return Err(ExportRefusal::Azimuths {
+                format: self,
+                count,
+            });
+        }
+        if self == Self::Pbsdf {
+            // One file holds the five wavelengths (or the grey table).
+            return Ok(vec![ExportFile {
+                file_name: self.file_name().to_owned(),
+                wavelength_um: None,
+                bytes: pbsdf::Pbsdf::from_tables(tables)?.to_bytes(),
+                clipped: None,
+            }]);
         }
         let spectral = match tables {
             BrdfTables::Monochrome(t) => {
@@ -289,6 +331,7 @@ impl BrdfFormat {
                 bytes: rgl::Rgl::from_tables(tables, &rgl::Ndf::uniform(), comment).to_bytes(),
                 clipped: None,
             }],
+            Self::Pbsdf => unreachable!("returned above"),
             Self::Zemax => spectral
                 .wavelengths_um()
                 .par_iter()
@@ -476,6 +519,10 @@ pub fn reflectance_check(
         }
         BrdfFormat::Rgl => {
             let checks = rgl::check(&BrdfTables::Monochrome(table.clone()), bytes, name)?;
+            return Ok(checks.into_iter().next().unwrap_or_default());
+        }
+        BrdfFormat::Pbsdf => {
+            let checks = pbsdf::check(&BrdfTables::Monochrome(table.clone()), bytes, name)?;
             return Ok(checks.into_iter().next().unwrap_or_default());
         }
     };

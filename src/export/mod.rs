@@ -46,6 +46,7 @@
 pub mod brdf_formats;
 pub mod merl;
 pub mod object_mesh;
+pub mod pbsdf;
 pub mod resample;
 pub mod rgl;
 pub mod zemax;

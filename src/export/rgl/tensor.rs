@@ -16,8 +16,9 @@
 //!   aligns every field to 8 bytes, as Mitsuba's `tensor_io.write` does, so
 //!   that the reader can use the memory-mapped `f32` data in place.
 //!
-//! Only the two types the BRDF formats use are written and read here:
-//! [`Data::U8`] and [`Data::F32`].
+//! Only the types the BRDF formats use are written and read here:
+//! [`Data::U8`], [`Data::U16`] (the `wvls` of a pbsdf file) and
+//! [`Data::F32`].
 
 use std::collections::BTreeMap;
 
@@ -27,6 +28,8 @@ use super::super::resample::FormatError;
 pub const MAGIC: &[u8; 12] = b"tensor_file\0";
 /// Type code of `u8` data.
 pub const U8: u8 = 1;
+/// Type code of `u16` data.
+pub const U16: u8 = 3;
 /// Type code of `f32` data.
 pub const F32: u8 = 10;
 
@@ -35,6 +38,8 @@ pub const F32: u8 = 10;
 pub enum Data {
     /// Bytes (type code 1): text, flags.
     U8(Vec<u8>),
+    /// Unsigned 16-bit integers (type code 3): wavelengths in nm.
+    U16(Vec<u16>),
     /// Single-precision floats (type code 10).
     F32(Vec<f32>),
 }
@@ -43,6 +48,7 @@ impl Data {
     fn len(&self) -> usize {
         match self {
             Self::U8(v) => v.len(),
+            Self::U16(v) => v.len(),
             Self::F32(v) => v.len(),
         }
     }
@@ -109,6 +115,7 @@ pub fn write(fields: &[Field]) -> Vec<u8> {
         offsets.push(at);
         let bytes = match &f.data {
             Data::U8(v) => v.len(),
+            Data::U16(v) => 2 * v.len(),
             Data::F32(v) => 4 * v.len(),
         };
         at = align(at + bytes);
@@ -119,6 +126,7 @@ pub fn write(fields: &[Field]) -> Vec<u8> {
         out.extend_from_slice(&(f.shape.len() as u16).to_le_bytes());
         out.push(match f.data {
             Data::U8(_) => U8,
+            Data::U16(_) => U16,
             Data::F32(_) => F32,
         });
         out.extend_from_slice(&(offset as u64).to_le_bytes());
@@ -131,6 +139,9 @@ pub fn write(fields: &[Field]) -> Vec<u8> {
         out.resize(offset, 0);
         match &f.data {
             Data::U8(v) => out.extend_from_slice(v),
+            Data::U16(v) => v
+                .iter()
+                .for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
             Data::F32(v) => v
                 .iter()
                 .for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
@@ -196,10 +207,11 @@ impl TensorFile {
                 .ok_or_else(|| err(format!("field {name}: shape {shape:?} overflows")))?;
             let size = match dtype {
                 U8 => 1,
+                U16 => 2,
                 F32 => 4,
                 t => {
                     return Err(err(format!(
-                        "field {name}: data type {t} (only u8 and f32 are read)"
+                        "field {name}: data type {t} (only u8, u16 and f32 are read)"
                     )));
                 }
             };
@@ -210,6 +222,12 @@ impl TensorFile {
                 .ok_or_else(|| err(format!("field {name}: data past the end of the file")))?;
             let data = if dtype == U8 {
                 Data::U8(data.to_vec())
+            } else if dtype == U16 {
+                Data::U16(
+                    data.chunks_exact(2)
+                        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+                        .collect(),
+                )
             } else {
                 Data::F32(
                     data.chunks_exact(4)
@@ -241,10 +259,10 @@ impl TensorFile {
             Some(f) => Err(self.error(format!(
                 "field {name}: expected {ndim}-dimensional f32, found shape {:?} of {}",
                 f.shape,
-                if matches!(f.data, Data::U8(_)) {
-                    "u8"
-                } else {
-                    "f32"
+                match f.data {
+                    Data::U8(_) => "u8",
+                    Data::U16(_) => "u16",
+                    Data::F32(_) => "f32",
                 }
             ))),
             None => Err(self.error(format!("no field {name}"))),
