@@ -71,7 +71,10 @@ def bound(c, sel, bands):
 def mitsuba_eval(mi, bsdf, theta_deg, dirs, wavelength_nm):
     ctx = mi.BSDFContext()
     si = mi.SurfaceInteraction3f()
-    t = np.radians(theta_deg)
+    # At exactly normal incidence Mitsuba's light azimuth atan2(0, 0) comes
+    # out as pi (the 0-degree slice is read turned by 180 degrees); the light
+    # of a roks table is at azimuth 0, the limit from the +x side.
+    t = max(np.radians(theta_deg), 1e-7)
     si.wi = mi.Vector3f(np.sin(t), 0.0, np.cos(t))
     si.wavelengths = [wavelength_nm] * 4
     return np.array([bsdf.eval(ctx, si, mi.Vector3f(*d))[0] for d in dirs])
