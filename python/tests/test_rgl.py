@@ -105,14 +105,14 @@ def test_chi2_sample_against_pdf(mi, folders):
         wi = m.ScalarVector3f(np.sin(t), 0.0, np.cos(t))
         sample_func, pdf_func = chi2.BSDFAdapter("measured", f'<string name="filename" value="{path}"/>', wi=wi)
         test = chi2.ChiSquareTest(domain=chi2.SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func,
-                                  sample_dim=3, res=61, ires=8, sample_count=200_000)
+                                  sample_dim=3, res=61, ires=16, sample_count=200_000)
         assert test.run(), test.messages
 
 
 def compare(folder, wavelengths):
     """Per wavelength and incidence: (table BRDF, its standard error,
     Mitsuba's eval / cos(theta_o), the resampling bound, projected solid
-    angles) at the cell centres."""
+    angles, fractions) at the cell centres."""
     import mitsuba as m
     m.set_variant("scalar_spectral")
     c = read_columns(folder / "brdf.csv")
@@ -126,40 +126,44 @@ def compare(folder, wavelengths):
             dirs = centres(c, sel)
             got = mitsuba_eval(m, bsdf, theta, dirs, lam) / dirs[:, 2]
             yield (lam, theta, c["brdf"][sel], c["brdf_stderr"][sel], got, bound(c, sel, bands),
-                   c["projected_solid_angle_sr"][sel])
+                   c["projected_solid_angle_sr"][sel], c["fraction"][sel])
 
 
-# Known defect (see the report of the branch): a few cells next to a narrow
-# peak (the default scene's specular spike at 40 degrees, two cells; the
-# Gaussian aluminium field at normal incidence, 60 cells by up to 0.044 1/sr;
-# gold at 650 nm, one cell by 0.002 1/sr) fall outside the bound. strict:
-# the mark fails the suite as soon as the export is mended.
-PER_CELL = [pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason="cells beside a narrow peak"))
-            for c in CASES]
+def zero_count_stderr(f, se, proj, fraction):
+    """The standard error of each cell, a cell without photons given that of
+    one photon's weight (the smallest nonzero fraction of the block over
+    the cell's projected solid angle): a Poisson count of 0 is not known to
+    better than about one count, and brdf.csv states 0 for it."""
+    one = fraction[fraction > 0].min()
+    return np.where(f > 0, se, one / proj)
+
+
+# Measured defect: the Gaussian aluminium field at 40 degrees has two cells at
+# theta_o 81.5 deg (azimuths 156 and 204) without a photon where Mitsuba reads
+# 0.11 1/sr (allowed 0.041): the vndf warp puts few nodes where the NDF is its
+# 5 % uniform floor, so the interpolation there reaches cells more than two
+# bands away. strict: the mark fails the suite as soon as the export is mended.
+PER_CELL = [pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason="grazing cells, sparse nodes"))
+            if c[0] == "gaussian_al" else c for c in CASES]
 
 
 @pytest.mark.parametrize("name,scene,opts,wavelengths", PER_CELL, ids=[c[0] for c in CASES])
 def test_measured_eval_matches_the_table_per_cell(mi, folders, name, scene, opts, wavelengths):
-    for lam, theta, f, se, got, b, _ in compare(folders[name], wavelengths):
+    for lam, theta, f, se, got, b, proj, fraction in compare(folders[name], wavelengths):
+        se = zero_count_stderr(f, se, proj, fraction)
         allowed = 4 * se + b + 1e-5 * f.max()
         bad = np.abs(got - f) > allowed
         assert not bad.any(), (
             f"{name} {lam} nm theta_i {theta}: {bad.sum()} of {bad.size} cells off, worst "
-            f"{np.max((np.abs(got - f) - allowed)[bad]):.3g} 1/sr beyond the allowed")
+            f"{np.max((np.abs(got - f) - allowed)[bad]):.3g} 1/sr beyond the allowed: table "
+            f"{f[bad]}, Mitsuba {got[bad]}, allowed {allowed[bad]}")
 
 
-# Known defect: the default scene at normal incidence (its mirror spike of
-# the flat substrate between the bumps) reads 1.2 % low at the cell centres
-# (1.6 % in roks's own check); strict, as above.
-REFLECTANCE = [pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason="mirror spike at 0 deg"))
-               if c[0] == "default" else c for c in CASES]
-
-
-@pytest.mark.parametrize("name,scene,opts,wavelengths", REFLECTANCE, ids=[c[0] for c in CASES])
+@pytest.mark.parametrize("name,scene,opts,wavelengths", CASES, ids=[c[0] for c in CASES])
 def test_measured_reflectance_matches_the_table(mi, folders, name, scene, opts, wavelengths):
     """Mitsuba's eval summed over the cells (times their projected solid
     angles) is the table's reflectance within max(1 %, 4 sigma)."""
-    for lam, theta, f, se, got, _, proj in compare(folders[name], wavelengths):
+    for lam, theta, f, se, got, _, proj, _ in compare(folders[name], wavelengths):
         r_table, r_file = (f * proj).sum(), (got * proj).sum()
         allowed = max(0.01 * r_table, 4 * np.sqrt(((se * proj) ** 2).sum()))
         assert abs(r_file - r_table) <= allowed, (name, lam, theta, r_file, r_table, allowed)

@@ -50,6 +50,11 @@ pub struct ExportBrdfArgs {
     /// embedded default scene).
     #[arg(long, value_name = "SCENE")]
     pub scene: Option<PathBuf>,
+    /// With --format rgl, a spectral run covering 0.38-0.78 um: an RGB
+    /// file (field `rgb`: the linear sRGB BRDF of colour.csv, for Mitsuba's
+    /// RGB variants) instead of a spectral one.
+    #[arg(long)]
+    pub rgb: bool,
     /// No reflectance table on stderr (a warning still says when the
     /// file's reflectance is off the table's).
     #[arg(long, short)]
@@ -151,6 +156,21 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
             "--scene: only for --format rgl (the NDF of its micro surface)".into(),
         ));
     }
+    if a.rgb && format != BrdfFormat::Rgl {
+        return Err(Failure::Input(
+            "--rgb: only for --format rgl (an RGB measured file)".into(),
+        ));
+    }
+    if a.rgb
+        && tables
+            .spectral()
+            .is_none_or(|s| crate::export::merl::srgb_tables(s).is_none())
+    {
+        return Err(Failure::Input(format!(
+            "--rgb: {}: needs a spectral run whose wavelengths cover 0.38-0.78 um (the colour of colour.csv)",
+            shown(&csv)
+        )));
+    }
     let comment = format!("from {}", csv.display());
     let files = if format == BrdfFormat::Rgl {
         let scene = rgl_scene(a.scene.as_deref(), &summary)?;
@@ -159,6 +179,7 @@ pub fn run(a: ExportBrdfArgs) -> Result<(), Failure> {
             &comment,
             a.quiet,
             scene.as_ref().map(|s| &s.surface),
+            a.rgb,
         )?
     } else {
         export_tables_on(
@@ -251,8 +272,9 @@ fn rgl_scene(
 /// The RGL file of `tables` ([`crate::export::rgl`]) with the NDF of
 /// `surface` (none: the uniform NDF, with a note), read back and judged
 /// like the other exports: per wavelength (one line for a monochrome
-/// table, written grey) and incidence, the file's reflectance beside the
-/// table's, and a warning line where it is off.
+/// table, written grey; per channel for an RGB file, `rgb`, which needs
+/// spectral tables covering the visible) and incidence, the file's
+/// reflectance beside the table's, and a warning line where it is off.
 ///
 /// # Errors
 /// A file that does not read back (a defect of the writer, exit status 1).
@@ -261,6 +283,7 @@ pub fn export_rgl(
     comment: &str,
     quiet: bool,
     surface: Option<&crate::micro::MicroSurface>,
+    rgb: bool,
 ) -> Result<Vec<ExportFile>, Failure> {
     use crate::export::rgl;
     let format = BrdfFormat::Rgl;
@@ -273,13 +296,33 @@ pub fn export_rgl(
             rgl::Ndf::uniform()
         }
     };
-    let bytes = rgl::Rgl::from_tables(tables, &ndf, comment).to_bytes();
-    let checks = rgl::check(tables, &bytes, format.file_name())
+    let rgb_file = tables
+        .spectral()
+        .filter(|_| rgb)
+        .and_then(|s| rgl::Rgl::rgb_from_spectral(s, &ndf, comment));
+    let (bytes, checks) = match &rgb_file {
+        Some((file, channels)) => {
+            let bytes = file.to_bytes();
+            let checks = rgl::check_channels(
+                &channels.iter().collect::<Vec<_>>(),
+                &bytes,
+                format.file_name(),
+            );
+            (bytes, checks)
+        }
+        None => {
+            let bytes = rgl::Rgl::from_tables(tables, &ndf, comment).to_bytes();
+            let checks = rgl::check(tables, &bytes, format.file_name());
+            (bytes, checks)
+        }
+    };
+    let checks = checks
         .map_err(|e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}")))?;
     for (k, check) in checks.iter().enumerate() {
-        let what = match tables.wavelengths_um().get(k) {
-            Some(w) => format!("{format} ({w} um)"),
-            None => format.to_string(),
+        let what = match (&rgb_file, tables.wavelengths_um().get(k)) {
+            (Some(_), _) => format!("{format} ({} channel)", ["red", "green", "blue"][k]),
+            (None, Some(w)) => format!("{format} ({w} um)"),
+            (None, None) => format.to_string(),
         };
         if !quiet {
             eprintln!(
@@ -311,7 +354,7 @@ pub fn export_tables_of(
     surface: &crate::micro::MicroSurface,
 ) -> Result<Vec<ExportFile>, Failure> {
     if format == BrdfFormat::Rgl {
-        export_rgl(tables, comment, quiet, Some(surface))
+        export_rgl(tables, comment, quiet, Some(surface), false)
     } else {
         export_tables(tables, format, comment, quiet, option)
     }

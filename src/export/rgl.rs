@@ -382,9 +382,10 @@ impl Grids {
 pub struct Rgl {
     /// Incidence angles (radians), ascending.
     pub theta_i: Vec<f64>,
-    /// Wavelengths (nm), ascending.
+    /// Wavelengths (nm), ascending; empty for an RGB file.
     pub wavelengths_nm: Vec<f64>,
-    /// `spectra[incidence][wavelength]`: `SAMPLE_RES²` node values.
+    /// `spectra[incidence][wavelength]` (an RGB file: `[incidence][channel]`,
+    /// the `rgb` field): `SAMPLE_RES²` node values.
     pub spectra: Vec<Vec<Vec<f64>>>,
     /// The description.
     pub description: String,
@@ -414,8 +415,6 @@ impl Rgl {
     /// the NDF `ndf`; see the module documentation.
     #[must_use]
     pub fn from_tables(tables: &BrdfTables, ndf: &Ndf, description: &str) -> Self {
-        let thetas: Vec<f64> = tables.thetas_deg().iter().map(|d| d.to_radians()).collect();
-        let grids = Grids::new(ndf, &thetas);
         let (wavelengths_nm, per_wavelength): (Vec<f64>, Vec<&BrdfTable>) =
             match tables.wavelengths_um() {
                 [] => (GREY_NM.to_vec(), vec![&tables.tables()[0]; 2]),
@@ -424,6 +423,48 @@ impl Rgl {
                     tables.tables().iter().collect(),
                 ),
             };
+        Self::build(&per_wavelength, wavelengths_nm, ndf, description)
+    }
+
+    /// The RGB file (field `rgb` instead of `spectra` and `wavelengths`, as
+    /// Mitsuba 3's `measured` plugin reads in its RGB variants) of a
+    /// spectral run: its channels are the linear sRGB (Rec. 709 primaries,
+    /// D65 white) BRDF of `colour.csv` ([`super::merl::srgb_tables`]: CIE
+    /// 1931 XYZ under D65 of the BRDF spectrum of each cell, then the sRGB
+    /// matrix), negative (out of gamut) values written as 0. `None` unless
+    /// the wavelengths cover the visible.
+    #[must_use]
+    pub fn rgb_from_spectral(
+        tables: &crate::optics::brdf_table::SpectralTables,
+        ndf: &Ndf,
+        description: &str,
+    ) -> Option<(Self, [BrdfTable; 3])> {
+        let channels = super::merl::srgb_tables(tables)?;
+        let file = Self::build(
+            &channels.iter().collect::<Vec<_>>(),
+            Vec::new(),
+            ndf,
+            description,
+        );
+        Some((file, channels))
+    }
+
+    /// The file of one table per channel (`wavelengths_nm` the channels'
+    /// wavelengths; empty: RGB), each normalised to the reflectance of its
+    /// table (see the module documentation).
+    fn build(
+        per_channel: &[&BrdfTable],
+        wavelengths_nm: Vec<f64>,
+        ndf: &Ndf,
+        description: &str,
+    ) -> Self {
+        let thetas: Vec<f64> = per_channel[0]
+            .thetas_deg()
+            .iter()
+            .map(|d| d.to_radians())
+            .collect();
+        let grids = Grids::new(ndf, &thetas);
+        let per_wavelength = per_channel;
         let r = SAMPLE_RES;
         let spectra = thetas
             .par_iter()
@@ -452,7 +493,7 @@ impl Rgl {
                                 if wo.z <= 0.0 {
                                     0.0
                                 } else {
-                                    symmetric_eval(table, theta, wo) * wo.z * scale
+                                    (symmetric_eval(table, theta, wo) * wo.z * scale).max(0.0)
                                 }
                             })
                             .collect()
@@ -460,13 +501,27 @@ impl Rgl {
                     .collect()
             })
             .collect();
-        Self {
+        let mut file = Self {
             theta_i: thetas,
             wavelengths_nm,
             spectra,
             description: description.into(),
             grids,
+        };
+        // Normalise each incidence and channel to the table's reflectance:
+        // the interpolation between the nodes does not keep the integral
+        // near a narrow peak (a few % at a mirror spike).
+        let r = reflectance(&file, CHECK_RINGS);
+        for (k, per_k) in file.spectra.iter_mut().enumerate() {
+            for (w, values) in per_k.iter_mut().enumerate() {
+                let want = per_channel[w].reflectance(file.theta_i[k]);
+                if r[k][w] > 0.0 && want > 0.0 {
+                    let scale = want / r[k][w];
+                    values.iter_mut().for_each(|v| *v *= scale);
+                }
+            }
         }
+        file
     }
 
     /// The `luminance` node values of incidence `k`.
@@ -487,11 +542,11 @@ impl Rgl {
     /// The tensor file.
     #[must_use]
     pub fn to_bytes(&self) -> Vec<u8> {
-        let (ni, nw, r) = (self.theta_i.len(), self.wavelengths_nm.len(), SAMPLE_RES);
+        let (ni, nw, r) = (self.theta_i.len(), self.spectra[0].len(), SAMPLE_RES);
         let flat = |v: Vec<Vec<f64>>| v.concat();
         let luminance = flat((0..ni).map(|k| self.luminance(k)).collect());
         let spectra = flat(self.spectra.iter().map(|s| s.concat()).collect());
-        tensor::write(&[
+        let mut fields = vec![
             Field::f32("theta_i", &[ni], &self.theta_i),
             Field::f32("phi_i", &[1], &[0.0]),
             Field::f32("ndf", &[2, NDF_RES], &self.grids.ndf),
@@ -502,11 +557,16 @@ impl Rgl {
                 &self.grids.vndf.concat(),
             ),
             Field::f32("luminance", &[1, ni, r, r], &luminance),
-            Field::f32("spectra", &[1, ni, nw, r, r], &spectra),
-            Field::f32("wavelengths", &[nw], &self.wavelengths_nm),
-            Field::bytes("description", self.description.as_bytes()),
-            Field::bytes("jacobian", &[1]),
-        ])
+        ];
+        if self.wavelengths_nm.is_empty() {
+            fields.push(Field::f32("rgb", &[1, ni, 3, r, r], &spectra));
+        } else {
+            fields.push(Field::f32("spectra", &[1, ni, nw, r, r], &spectra));
+            fields.push(Field::f32("wavelengths", &[nw], &self.wavelengths_nm));
+        }
+        fields.push(Field::bytes("description", self.description.as_bytes()));
+        fields.push(Field::bytes("jacobian", &[1]));
+        tensor::write(&fields)
     }
 
     /// Read a file written by [`to_bytes`](Self::to_bytes) (isotropic,
@@ -524,8 +584,9 @@ impl Rgl {
         };
         let widen = |v: &[f32]| v.iter().map(|&x| f64::from(x)).collect::<Vec<f64>>();
         let (_, theta) = t.f32("theta_i", 1)?;
-        let (_, wl) = t.f32("wavelengths", 1)?;
-        let (ni, nw) = (theta.len(), wl.len());
+        let rgb = t.f32("rgb", 5).is_ok();
+        let wl: &[f32] = if rgb { &[] } else { t.f32("wavelengths", 1)?.1 };
+        let (ni, nw) = (theta.len(), if rgb { 3 } else { wl.len() });
         let r = SAMPLE_RES;
         let field = |name: &str, shape: &[usize]| -> Result<Vec<f64>, FormatError> {
             let (s, v) = t.f32(name, shape.len())?;
@@ -541,7 +602,7 @@ impl Rgl {
         let vndf = field("vndf", &[1, ni, VNDF_RES, VNDF_RES])?;
         field("phi_i", &[1])?;
         field("luminance", &[1, ni, r, r])?;
-        let spectra = field("spectra", &[1, ni, nw, r, r])?;
+        let spectra = field(if rgb { "rgb" } else { "spectra" }, &[1, ni, nw, r, r])?;
         if t.bytes("jacobian")? != [1] {
             return Err(wrong("jacobian is not [1]"));
         }
@@ -577,7 +638,7 @@ impl Rgl {
     /// node of `theta_i`.
     #[must_use]
     pub fn eval_cos(&self, k: usize, wo: DVec3) -> Vec<f64> {
-        let nw = self.wavelengths_nm.len();
+        let nw = self.spectra[k].len();
         if wo.z <= 0.0 {
             return vec![0.0; nw];
         }
@@ -615,7 +676,7 @@ pub fn reflectance(file: &Rgl, rings: usize) -> Vec<Vec<f64>> {
     let sectors = 4 * rings;
     let dtheta = FRAC_PI_2 / rings as f64;
     let dphi = TAU / sectors as f64;
-    let nw = file.wavelengths_nm.len();
+    let nw = file.spectra[0].len();
     (0..file.theta_i.len())
         .map(|k| {
             let per_ring: Vec<Vec<f64>> = (0..rings)
@@ -657,10 +718,22 @@ pub fn check(
     bytes: &[u8],
     file: &str,
 ) -> Result<Vec<Vec<super::brdf_formats::ReflectanceCheck>>, FormatError> {
+    check_channels(&tables.tables().iter().collect::<Vec<_>>(), bytes, file)
+}
+
+/// [`check`] of a file with one channel per table of `channels` (an RGB
+/// file: the tables of [`Rgl::rgb_from_spectral`]).
+///
+/// # Errors
+/// If the file does not read back.
+pub fn check_channels(
+    channels: &[&BrdfTable],
+    bytes: &[u8],
+    file: &str,
+) -> Result<Vec<Vec<super::brdf_formats::ReflectanceCheck>>, FormatError> {
     let rgl = Rgl::parse(bytes, file)?;
     let r = reflectance(&rgl, CHECK_RINGS);
-    Ok(tables
-        .tables()
+    Ok(channels
         .iter()
         .enumerate()
         .map(|(w, table)| {
