@@ -50,7 +50,14 @@
 //!   and there the table's BRDF (constant over each Carlson cell, averaged
 //!   with its mirror image in the plane of incidence, as for the Zemax and
 //!   MERL exports: [`symmetric_eval`]) times `cos(theta_o)` times
-//!   `4 sigma / ndf`; 0 below the horizon.
+//!   `4 sigma / ndf`; 0 below the horizon. Each incidence and wavelength
+//!   is then scaled so that the file's reflectance ([`reflectance`]) is the
+//!   table's: the interpolation between the nodes does not keep the
+//!   integral near a narrow peak (up to 2 % at a mirror spike).
+//! * `rgb` instead of `spectra` and `wavelengths` ([`Rgl::rgb_from_spectral`],
+//!   `export-brdf --rgb`): the same, per channel, for the linear sRGB BRDF
+//!   of `colour.csv`, negative (out of gamut) values written as 0; read by
+//!   Mitsuba's RGB variants.
 //! * `luminance` (same grid): the mean over the wavelengths of `spectra`,
 //!   plus 10⁻³ of its largest value so that no sample cell is impossible:
 //!   the renderers sample the sample square in proportion to it, then the
@@ -94,7 +101,7 @@ pub const SIGMA_RES: usize = 64;
 /// Nodes of the vndf warp per side.
 pub const VNDF_RES: usize = 64;
 /// Nodes of `spectra` and `luminance` per side.
-pub const SAMPLE_RES: usize = 128;
+pub const SAMPLE_RES: usize = 64;
 /// Share of the uniform NDF `1/pi` mixed into the facets' one.
 pub const DIFFUSE_SHARE: f64 = 0.05;
 /// Points per period side of the height map triangulated for surfaces that
