@@ -71,7 +71,10 @@ def bound(c, sel, bands):
 def mitsuba_eval(mi, bsdf, theta_deg, dirs, wavelength_nm):
     ctx = mi.BSDFContext()
     si = mi.SurfaceInteraction3f()
-    t = np.radians(theta_deg)
+    # At exactly normal incidence Mitsuba's light azimuth atan2(0, 0) comes
+    # out as pi (the 0-degree slice is read turned by 180 degrees); the light
+    # of a roks table is at azimuth 0, the limit from the +x side.
+    t = max(np.radians(theta_deg), 1e-7)
     si.wi = mi.Vector3f(np.sin(t), 0.0, np.cos(t))
     si.wavelengths = [wavelength_nm] * 4
     return np.array([bsdf.eval(ctx, si, mi.Vector3f(*d))[0] for d in dirs])
@@ -100,16 +103,19 @@ def test_chi2_sample_against_pdf(mi, folders):
     for theta in (0.0, 40.0):
         t = np.radians(theta)
         wi = m.ScalarVector3f(np.sin(t), 0.0, np.cos(t))
+        # ires 16: the pdf follows the 64 x 64 luminance grid; at 8 points a
+        # bin side its quadrature overshoots the histogram's sum (1.0038 vs
+        # 0.9991 measured at 96 x 96).
         sample_func, pdf_func = chi2.BSDFAdapter("measured", f'<string name="filename" value="{path}"/>', wi=wi)
         test = chi2.ChiSquareTest(domain=chi2.SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func,
-                                  sample_dim=3, res=61, ires=8, sample_count=200_000)
+                                  sample_dim=3, res=61, ires=16, sample_count=200_000)
         assert test.run(), test.messages
 
 
 def compare(folder, wavelengths):
     """Per wavelength and incidence: (table BRDF, its standard error,
     Mitsuba's eval / cos(theta_o), the resampling bound, projected solid
-    angles) at the cell centres."""
+    angles, fractions) at the cell centres."""
     import mitsuba as m
     m.set_variant("scalar_spectral")
     c = read_columns(folder / "brdf.csv")
@@ -123,40 +129,47 @@ def compare(folder, wavelengths):
             dirs = centres(c, sel)
             got = mitsuba_eval(m, bsdf, theta, dirs, lam) / dirs[:, 2]
             yield (lam, theta, c["brdf"][sel], c["brdf_stderr"][sel], got, bound(c, sel, bands),
-                   c["projected_solid_angle_sr"][sel])
+                   c["projected_solid_angle_sr"][sel], c["fraction"][sel])
 
 
-# Known defect (see the report of the branch): a few cells next to a narrow
-# peak (the default scene's specular spike at 40 degrees, two cells; the
-# Gaussian aluminium field at normal incidence, 60 cells by up to 0.044 1/sr;
-# gold at 650 nm, one cell by 0.002 1/sr) fall outside the bound. strict:
-# the mark fails the suite as soon as the export is mended.
-PER_CELL = [pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason="cells beside a narrow peak"))
+def zero_count_stderr(f, se, proj, fraction):
+    """The standard error of each cell, a cell without photons given that of
+    one photon's weight (the smallest nonzero fraction of the block over
+    the cell's projected solid angle): a Poisson count of 0 is not known to
+    better than about one count, and brdf.csv states 0 for it."""
+    one = fraction[fraction > 0].min()
+    return np.where(f > 0, se, one / proj)
+
+
+# Measured defects (64 x 64 spectra nodes): the default scene at 40 degrees,
+# 3 cells beside the specular peak read 0.76 1/sr against 0.26-0.29 (allowed
+# 0.11-0.12); gold at 450 nm, 3 cells beside its spike read 0.32-0.40
+# against 0.08-0.10; the Gaussian aluminium field at 40 degrees, cells at
+# theta_o 81.5 deg without a photon read 0.11 (allowed 0.041). All three
+# pass with 96 x 96 nodes, where mitsuba.chi2 then rejects the Gaussian
+# field (p = 0.006 at 0 deg, 6e-5 at 40 deg): the finer luminance grid
+# sharpens the pdf. strict: the mark fails the suite once the export is mended.
+PER_CELL = [pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason="cells beside a peak at 64 x 64 nodes"))
             for c in CASES]
 
 
 @pytest.mark.parametrize("name,scene,opts,wavelengths", PER_CELL, ids=[c[0] for c in CASES])
 def test_measured_eval_matches_the_table_per_cell(mi, folders, name, scene, opts, wavelengths):
-    for lam, theta, f, se, got, b, _ in compare(folders[name], wavelengths):
+    for lam, theta, f, se, got, b, proj, fraction in compare(folders[name], wavelengths):
+        se = zero_count_stderr(f, se, proj, fraction)
         allowed = 4 * se + b + 1e-5 * f.max()
         bad = np.abs(got - f) > allowed
         assert not bad.any(), (
             f"{name} {lam} nm theta_i {theta}: {bad.sum()} of {bad.size} cells off, worst "
-            f"{np.max((np.abs(got - f) - allowed)[bad]):.3g} 1/sr beyond the allowed")
+            f"{np.max((np.abs(got - f) - allowed)[bad]):.3g} 1/sr beyond the allowed: table "
+            f"{f[bad]}, Mitsuba {got[bad]}, allowed {allowed[bad]}")
 
 
-# Known defect: the default scene at normal incidence (its mirror spike of
-# the flat substrate between the bumps) reads 1.2 % low at the cell centres
-# (1.6 % in roks's own check); strict, as above.
-REFLECTANCE = [pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason="mirror spike at 0 deg"))
-               if c[0] == "default" else c for c in CASES]
-
-
-@pytest.mark.parametrize("name,scene,opts,wavelengths", REFLECTANCE, ids=[c[0] for c in CASES])
+@pytest.mark.parametrize("name,scene,opts,wavelengths", CASES, ids=[c[0] for c in CASES])
 def test_measured_reflectance_matches_the_table(mi, folders, name, scene, opts, wavelengths):
     """Mitsuba's eval summed over the cells (times their projected solid
     angles) is the table's reflectance within max(1 %, 4 sigma)."""
-    for lam, theta, f, se, got, _, proj in compare(folders[name], wavelengths):
+    for lam, theta, f, se, got, _, proj, _ in compare(folders[name], wavelengths):
         r_table, r_file = (f * proj).sum(), (got * proj).sum()
         allowed = max(0.01 * r_table, 4 * np.sqrt(((se * proj) ** 2).sum()))
         assert abs(r_file - r_table) <= allowed, (name, lam, theta, r_file, r_table, allowed)
@@ -177,3 +190,147 @@ def test_pbrt_fields_and_jacobian(folders):
     assert t["vndf"].shape[:2] == (n_phi, n_theta) and t["luminance"].shape[:2] == (n_phi, n_theta)
     assert t["spectra"].shape[3:] == t["luminance"].shape[2:]
     assert np.all(np.isfinite(t["spectra"])) and np.all(t["spectra"] >= 0)
+
+
+def sphere_means(mi, bsdf: dict, renders: int, size: int, spp: int):
+    """Mean RGB over the pixels wholly on a unit sphere under a constant
+    emitter of radiance 1 (so each pixel is the albedo of the BSDF at its
+    incidence), per render of `renders` with seeds 0.., and the seconds
+    they took. Pixels whose centre ray passes within 0.95 of the centre
+    count; a box filter keeps each pixel to its own footprint."""
+    import time
+    fov = 45.0
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": 3},
+        "sensor": {"type": "perspective", "fov": fov, "fov_axis": "x",
+                   "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 4], target=[0, 0, 0], up=[0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": size, "height": size, "rfilter": {"type": "box"}},
+                   "sampler": {"type": "independent", "sample_count": spp}},
+        "emitter": {"type": "constant", "radiance": {"type": "uniform", "value": 1.0}},
+        "sphere": {"type": "sphere", "bsdf": bsdf},
+    })
+    # Pixel centres: ray (x, y, -1) from (0, 0, 4); distance of the line
+    # from the origin is 4 |(x, y)| / sqrt(1 + x² + y²).
+    half = np.tan(np.radians(fov / 2))
+    c = ((np.arange(size) + 0.5) / size * 2 - 1) * half
+    x, y = np.meshgrid(c, c)
+    mask = 4 * np.hypot(x, y) / np.sqrt(1 + x * x + y * y) < 0.95
+    means = []
+    start = time.perf_counter()
+    for seed in range(renders):
+        img = np.array(mi.render(scene, seed=seed, spp=spp))[..., :3]
+        means.append(img[mask].mean(axis=0))
+    return np.array(means), time.perf_counter() - start
+
+
+def test_sphere_render_measured_agrees_with_roks_table(roks, mi, tmp_path):
+    """A unit sphere under a constant emitter, rendered in llvm_ad_spectral
+    with Mitsuba's own `measured` plugin on the exported file and with our
+    `roks_table` plugin on brdf.csv: the mean pixel value over the sphere,
+    per channel, agrees within 4 standard errors of the difference (each
+    from 4 renders of independent seeds). The two render times are
+    printed (pytest -s) and quoted in docs/src/exports.md."""
+    import mitsuba as m
+    out = tmp_path / "default"
+    run(roks, "brdf", "--out", out, "-q", "--photons", 100_000, "--export", "rgl")
+    import drjit as dr
+    m.set_variant("llvm_ad_spectral")
+    from roks_tools.mitsuba import roks_table
+    roks_table.register()
+    renders, size, spp = 4, 64, 16
+    a, t_measured = sphere_means(m, {"type": "measured", "filename": str(out / "brdf_rgl.bsdf")}, renders, size, spp)
+    # roks_table is Python code called from the integrator: wavefront mode
+    # (its documentation), restored afterwards.
+    flags = dr.flag(dr.JitFlag.SymbolicLoops), dr.flag(dr.JitFlag.SymbolicCalls)
+    dr.set_flag(dr.JitFlag.SymbolicLoops, False)
+    dr.set_flag(dr.JitFlag.SymbolicCalls, False)
+    try:
+        b, t_table = sphere_means(m, {"type": "roks_table", "filename": str(out / "brdf.csv")}, renders, size, spp)
+    finally:
+        dr.set_flag(dr.JitFlag.SymbolicLoops, flags[0])
+        dr.set_flag(dr.JitFlag.SymbolicCalls, flags[1])
+    diff = a.mean(axis=0) - b.mean(axis=0)
+    se = np.sqrt(a.var(axis=0, ddof=1) / renders + b.var(axis=0, ddof=1) / renders)
+    print(f"\nsphere {size}x{size}, {spp} spp, {renders} renders: measured {t_measured:.2f} s, "
+          f"roks_table {t_table:.2f} s; means {a.mean(axis=0)} vs {b.mean(axis=0)}, se {se}")
+    assert np.all(np.abs(diff) <= 4 * se), (a.mean(axis=0), b.mean(axis=0), se)
+
+
+def test_rgb_file_loads_in_scalar_rgb_and_matches_the_colour_table(roks, mi, tmp_path):
+    """`--rgb`: the gold bump field traced over 0.38-0.78 um; Mitsuba's
+    `measured` in scalar_rgb loads the file, and its eval summed over the
+    cells (times their projected solid angles) is, per channel, the
+    reflectance of colour.csv's linear sRGB (clipped at 0 like the file)
+    within 1 % (the criterion of roks's own check). Per cell (within the
+    local spread of colour.csv, `bound`) it fails like the spectral file, 3
+    cells beside the spike: test_rgb_file_per_cell."""
+    out, got, c, sel, proj = rgb_eval(roks, tmp_path)
+    for k, ch in enumerate("rgb"):
+        want = np.maximum(c[ch][sel], 0.0)
+        r_table, r_file = (want * proj).sum(), (got[:, k] * proj).sum()
+        assert abs(r_file - r_table) <= 0.01 * r_table, (ch, r_file, r_table)
+
+
+@pytest.mark.xfail(strict=True, reason="3 cells beside the spike, as test_measured_eval_matches_the_table_per_cell")
+def test_rgb_file_per_cell(roks, mi, tmp_path):
+    out, got, c, sel, proj = rgb_eval(roks, tmp_path)
+    for k, ch in enumerate("rgb"):
+        want = np.maximum(c[ch][sel], 0.0)
+        spread = bound({"theta_deg": c["theta_deg"], "phi_deg": c["phi_deg"], "brdf": np.maximum(c[ch], 0.0)},
+                       sel, int(c["band"].max()))
+        bad = np.abs(got[:, k] - want) > spread + 1e-5 * want.max()
+        assert not bad.any(), (ch, bad.sum(), want[bad], got[bad, k])
+
+
+def rgb_eval(roks, tmp_path):
+    """The gold RGB export and Mitsuba's scalar_rgb eval / cos at the cell
+    centres of 30 degrees."""
+    import mitsuba as m
+    out = tmp_path / "gold"
+    scene = ROOT / "scenes" / "gold-spectral.toml"
+    run(roks, "brdf", scene, "--out", out, "-q", "--photons", 20_000, "--theta", "30")
+    run(roks, "export-brdf", out, "--format", "rgl", "--rgb", "--out", out / "rgb.bsdf", "-q", "--scene", scene)
+    from mitsuba import tensor_io
+    t = tensor_io.read(str(out / "rgb.bsdf"))
+    assert "rgb" in t and "spectra" not in t and "wavelengths" not in t
+    m.set_variant("scalar_rgb")
+    bsdf = m.load_dict({"type": "measured", "filename": str(out / "rgb.bsdf")})
+    c = read_columns(out / "colour.csv")
+    b = read_columns(out / "brdf.csv")
+    sel = c["theta_i_deg"] == 30.0
+    proj = b["projected_solid_angle_sr"][np.isclose(b["wavelength_um"], b["wavelength_um"][0]) & (b["theta_i_deg"] == 30.0)]
+    dirs = centres(c, sel)
+    ctx = m.BSDFContext()
+    si = m.SurfaceInteraction3f()
+    si.wi = m.Vector3f(np.sin(np.radians(30.0)), 0.0, np.cos(np.radians(30.0)))
+    got = np.array([np.array(bsdf.eval(ctx, si, m.Vector3f(*d))) for d in dirs]) / dirs[:, 2:3]
+    return out, got, c, sel, proj
+
+
+def test_broken_files_are_caught(mi, folders, tmp_path):
+    """The comparisons above catch a writer's defects: the default scene's
+    file broken as a writer could break it (the jacobian flag off, the two
+    axes of `spectra` or of `vndf` swapped, `sigma` doubled, as a wrong vndf
+    normalisation would) puts at least 100 cells outside the per-cell bound
+    (the intact file: 3 of 6336, the known defect above)."""
+    import shutil
+    from mitsuba import tensor_io
+    src = folders["default"]
+    orig = {k: np.asarray(v) for k, v in tensor_io.read(str(src / "rgl.bsdf")).items()}
+    breaks = {
+        "jacobian off": {"jacobian": np.array([0], np.uint8)},
+        "spectra axes swapped": {"spectra": np.ascontiguousarray(np.swapaxes(orig["spectra"], 3, 4))},
+        "vndf axes swapped": {"vndf": np.ascontiguousarray(np.swapaxes(orig["vndf"], 2, 3))},
+        "sigma doubled": {"sigma": orig["sigma"] * 2},
+    }
+    for what, change in breaks.items():
+        d = tmp_path / what.replace(" ", "_")
+        d.mkdir()
+        shutil.copy(src / "brdf.csv", d / "brdf.csv")
+        tensor_io.write(str(d / "rgl.bsdf"), **{**orig, **change})
+        off = 0
+        for lam, theta, f, se, got, b, proj, fraction in compare(d, None):
+            se = zero_count_stderr(f, se, proj, fraction)
+            off += int((np.abs(got - f) > 4 * se + b + 1e-5 * f.max()).sum())
+        assert off >= 100, (what, off)

@@ -53,6 +53,11 @@ pub struct ExportBrdfArgs {
     /// embedded default scene).
     #[arg(long, value_name = "SCENE")]
     pub scene: Option<PathBuf>,
+    /// With --format rgl, a spectral run covering 0.38-0.78 um: an RGB
+    /// file (field `rgb`: the linear sRGB BRDF of colour.csv, for Mitsuba's
+    /// RGB variants) instead of a spectral one.
+    #[arg(long)]
+    pub rgb: bool,
     /// No reflectance table on stderr (a warning still says when the
     /// file's reflectance is off the table's).
     #[arg(long, short)]
@@ -166,6 +171,21 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
             .with_mueller(&mueller)
             .map_err(|e| Failure::Input(e.to_string()))?;
     }
+    if a.rgb && format != BrdfFormat::Rgl {
+        return Err(Failure::Input(
+            "--rgb: only for --format rgl (an RGB measured file)".into(),
+        ));
+    }
+    if a.rgb
+        && tables
+            .spectral()
+            .is_none_or(|s| crate::export::merl::srgb_tables(s).is_none())
+    {
+        return Err(Failure::Input(format!(
+            "--rgb: {}: needs a spectral run whose wavelengths cover 0.38-0.78 um (the colour of colour.csv)",
+            shown(&csv)
+        )));
+    }
     let comment = format!("from {}", csv.display());
     let files = if format == BrdfFormat::Pbsdf {
         export_pbsdf(&tables, a.quiet)?
@@ -176,6 +196,7 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
             &comment,
             a.quiet,
             scene.as_ref().map(|s| &s.surface),
+            a.rgb,
         )?
     } else {
         export_tables_on(
@@ -268,8 +289,9 @@ fn rgl_scene(
 /// The RGL file of `tables` ([`crate::export::rgl`]) with the NDF of
 /// `surface` (none: the uniform NDF, with a note), read back and judged
 /// like the other exports: per wavelength (one line for a monochrome
-/// table, written grey) and incidence, the file's reflectance beside the
-/// table's, and a warning line where it is off.
+/// table, written grey; per channel for an RGB file, `rgb`, which needs
+/// spectral tables covering the visible) and incidence, the file's
+/// reflectance beside the table's, and a warning line where it is off.
 ///
 /// # Errors
 /// A file that does not read back (a defect of the writer, exit status 1).
@@ -278,6 +300,7 @@ pub fn export_rgl(
     comment: &str,
     quiet: bool,
     surface: Option<&crate::micro::MicroSurface>,
+    rgb: bool,
 ) -> Result<Vec<ExportFile>, Failure> {
     use crate::export::rgl;
     let format = BrdfFormat::Rgl;
@@ -295,10 +318,29 @@ pub fn export_rgl(
             rgl::Ndf::uniform()
         }
     };
-    let bytes = rgl::Rgl::from_tables(tables, &ndf, comment).to_bytes();
-    let checks = rgl::check(tables, &bytes, format.file_name())
+    let rgb_file = tables
+        .spectral()
+        .filter(|_| rgb)
+        .and_then(|s| rgl::Rgl::rgb_from_spectral(s, &ndf, comment));
+    let (bytes, checks) = match &rgb_file {
+        Some((file, channels)) => {
+            let bytes = file.to_bytes();
+            let checks = rgl::check_channels(
+                &channels.iter().collect::<Vec<_>>(),
+                &bytes,
+                format.file_name(),
+            );
+            (bytes, checks)
+        }
+        None => {
+            let bytes = rgl::Rgl::from_tables(tables, &ndf, comment).to_bytes();
+            let checks = rgl::check(tables, &bytes, format.file_name());
+            (bytes, checks)
+        }
+    };
+    let checks = checks
         .map_err(|e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}")))?;
-    report_checks(format, tables, &checks, quiet);
+    report_checks(format, tables, &checks, quiet, rgb_file.is_some());
     Ok(vec![ExportFile {
         file_name: format.file_name().to_owned(),
         wavelength_um: None,
@@ -315,11 +357,13 @@ fn report_checks(
     tables: &BrdfTables,
     checks: &[Vec<ReflectanceCheck>],
     quiet: bool,
+    rgb: bool,
 ) {
     for (k, check) in checks.iter().enumerate() {
-        let what = match tables.wavelengths_um().get(k) {
-            Some(w) => format!("{format} ({w} um)"),
-            None => format.to_string(),
+        let what = match (rgb, tables.wavelengths_um().get(k)) {
+            (true, _) => format!("{format} ({} channel)", ["red", "green", "blue"][k]),
+            (false, Some(w)) => format!("{format} ({w} um)"),
+            (false, None) => format.to_string(),
         };
         if !quiet {
             eprintln!(
@@ -356,7 +400,7 @@ pub fn export_pbsdf(tables: &BrdfTables, quiet: bool) -> Result<Vec<ExportFile>,
     let bytes = file.to_bytes();
     let checks = pbsdf::check(tables, &bytes, format.file_name())
         .map_err(|e| Failure::Other(anyhow::anyhow!("export {format} does not read back: {e}")))?;
-    report_checks(format, tables, &checks, quiet);
+    report_checks(format, tables, &checks, quiet, false);
     Ok(vec![ExportFile {
         file_name: format.file_name().to_owned(),
         wavelength_um: None,
@@ -404,7 +448,9 @@ pub fn export_formats(
             continue;
         }
         let exported = match (format, surface) {
-            (BrdfFormat::Rgl, Some(surface)) => export_rgl(&tables, comment, quiet, Some(surface))?,
+            (BrdfFormat::Rgl, Some(surface)) => {
+                export_rgl(&tables, comment, quiet, Some(surface), false)?
+            }
             (BrdfFormat::Pbsdf, _) => {
                 // The run's Mueller table, as its mueller.csv holds it.
                 let text = crate::output::polar_csv::write(folder.run(), &folder.results)
