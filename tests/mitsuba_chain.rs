@@ -42,11 +42,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The files under `python/tests` holding tests marked `mitsuba`.
-const MITSUBA_FILES: [&str; 8] = [
+const MITSUBA_FILES: [&str; 9] = [
     "test_crosscheck.py",
     "test_mitsuba_brdf.py",
     "test_mitsuba_polarised.py",
     "test_mitsuba_setup.py",
+    "test_pbsdf.py",
     "test_rgl.py",
     "test_roks_bsdf.py",
     "test_roks_table_colour.py",
@@ -153,6 +154,16 @@ fn mitsuba_roks_table_plugin_in_colour() {
 #[test]
 fn mitsuba_spectral_cross_check() {
     mitsuba_file("test_spectral_mitsuba.py");
+}
+
+#[test]
+fn mitsuba_measured_plugin_loads_rgl_files() {
+    mitsuba_file("test_rgl.py");
+}
+
+#[test]
+fn mitsuba_measured_polarized_plugin_loads_pbsdf_files() {
+    mitsuba_file("test_pbsdf.py");
 }
 
 #[test]
