@@ -128,7 +128,7 @@ def test_no_sample_of_zero_weight_above_the_horizon(mi, folders):
     for theta in (0.0, 40.0, 70.0):
         t = np.radians(theta)
         si = dr.zeros(m.SurfaceInteraction3f, n)
-        si.wi = m.Vector3f(np.sin(t), 0.0, np.cos(t))
+        si.wi = m.ScalarVector3f(np.sin(t), 0.0, np.cos(t))
         bs, weight = bsdf.sample(m.BSDFContext(), si, m.Float(u[0]), m.Point2f(u[1], u[2]))
         up = np.array(bs.wo)[2] > 0
         zero = np.all(np.array(weight) == 0, axis=0)
