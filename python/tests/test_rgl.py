@@ -103,13 +103,36 @@ def test_chi2_sample_against_pdf(mi, folders):
     for theta in (0.0, 40.0):
         t = np.radians(theta)
         wi = m.ScalarVector3f(np.sin(t), 0.0, np.cos(t))
-        # ires 16: the pdf follows the 64 x 64 luminance grid; at 8 points a
+        # ires 16: the pdf follows the 96 x 96 luminance grid; at 8 points a
         # bin side its quadrature overshoots the histogram's sum (1.0038 vs
         # 0.9991 measured at 96 x 96).
         sample_func, pdf_func = chi2.BSDFAdapter("measured", f'<string name="filename" value="{path}"/>', wi=wi)
         test = chi2.ChiSquareTest(domain=chi2.SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func,
                                   sample_dim=3, res=61, ires=16, sample_count=200_000)
         assert test.run(), test.messages
+
+
+def test_no_sample_of_zero_weight_above_the_horizon(mi, folders):
+    """`sample` never returns an outgoing direction above the horizon with
+    weight 0: `luminance` is 0 wherever `spectra` is 0 at every wavelength,
+    so no sample lands where f = 0. Such samples are dropped by a renderer
+    and by `mitsuba.chi2` while `pdf` counts them (before the fix 3e-4 of
+    the samples of the Gaussian field at 40 degrees, and chi2 rejected it at
+    96 x 96 nodes, p = 4e-4)."""
+    import drjit as dr
+    import mitsuba as m
+    m.set_variant("llvm_ad_spectral")
+    bsdf = m.load_dict({"type": "measured", "filename": str(folders["gaussian_al"] / "rgl.bsdf")})
+    n = 200_000
+    u = np.random.default_rng(1).random((3, n))
+    for theta in (0.0, 40.0, 70.0):
+        t = np.radians(theta)
+        si = dr.zeros(m.SurfaceInteraction3f, n)
+        si.wi = m.ScalarVector3f(np.sin(t), 0.0, np.cos(t))
+        bs, weight = bsdf.sample(m.BSDFContext(), si, m.Float(u[0]), m.Point2f(u[1], u[2]))
+        up = np.array(bs.wo)[2] > 0
+        zero = np.all(np.array(weight) == 0, axis=0)
+        assert not (up & zero).any(), (theta, int((up & zero).sum()))
 
 
 def compare(folder, wavelengths):
@@ -141,19 +164,7 @@ def zero_count_stderr(f, se, proj, fraction):
     return np.where(f > 0, se, one / proj)
 
 
-# Measured defects (64 x 64 spectra nodes): the default scene at 40 degrees,
-# 3 cells beside the specular peak read 0.76 1/sr against 0.26-0.29 (allowed
-# 0.11-0.12); gold at 450 nm, 3 cells beside its spike read 0.32-0.40
-# against 0.08-0.10; the Gaussian aluminium field at 40 degrees, cells at
-# theta_o 81.5 deg without a photon read 0.11 (allowed 0.041). All three
-# pass with 96 x 96 nodes, where mitsuba.chi2 then rejects the Gaussian
-# field (p = 0.006 at 0 deg, 6e-5 at 40 deg): the finer luminance grid
-# sharpens the pdf. strict: the mark fails the suite once the export is mended.
-PER_CELL = [pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason="cells beside a peak at 64 x 64 nodes"))
-            for c in CASES]
-
-
-@pytest.mark.parametrize("name,scene,opts,wavelengths", PER_CELL, ids=[c[0] for c in CASES])
+@pytest.mark.parametrize("name,scene,opts,wavelengths", CASES, ids=[c[0] for c in CASES])
 def test_measured_eval_matches_the_table_per_cell(mi, folders, name, scene, opts, wavelengths):
     for lam, theta, f, se, got, b, proj, fraction in compare(folders[name], wavelengths):
         se = zero_count_stderr(f, se, proj, fraction)
@@ -262,9 +273,8 @@ def test_rgb_file_loads_in_scalar_rgb_and_matches_the_colour_table(roks, mi, tmp
     `measured` in scalar_rgb loads the file, and its eval summed over the
     cells (times their projected solid angles) is, per channel, the
     reflectance of colour.csv's linear sRGB (clipped at 0 like the file)
-    within 1 % (the criterion of roks's own check). Per cell (within the
-    local spread of colour.csv, `bound`) it fails like the spectral file, 3
-    cells beside the spike: test_rgb_file_per_cell."""
+    within 1 % (the criterion of roks's own check); per cell:
+    test_rgb_file_per_cell."""
     out, got, c, sel, proj = rgb_eval(roks, tmp_path)
     for k, ch in enumerate("rgb"):
         want = np.maximum(c[ch][sel], 0.0)
@@ -272,7 +282,6 @@ def test_rgb_file_loads_in_scalar_rgb_and_matches_the_colour_table(roks, mi, tmp
         assert abs(r_file - r_table) <= 0.01 * r_table, (ch, r_file, r_table)
 
 
-@pytest.mark.xfail(strict=True, reason="3 cells beside the spike, as test_measured_eval_matches_the_table_per_cell")
 def test_rgb_file_per_cell(roks, mi, tmp_path):
     out, got, c, sel, proj = rgb_eval(roks, tmp_path)
     for k, ch in enumerate("rgb"):
@@ -313,7 +322,7 @@ def test_broken_files_are_caught(mi, folders, tmp_path):
     file broken as a writer could break it (the jacobian flag off, the two
     axes of `spectra` or of `vndf` swapped, `sigma` doubled, as a wrong vndf
     normalisation would) puts at least 100 cells outside the per-cell bound
-    (the intact file: 3 of 6336, the known defect above)."""
+    (the intact file: none of 6336)."""
     import shutil
     from mitsuba import tensor_io
     src = folders["default"]

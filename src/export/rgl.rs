@@ -59,9 +59,12 @@
 //!   of `colour.csv`, negative (out of gamut) values written as 0; read by
 //!   Mitsuba's RGB variants.
 //! * `luminance` (same grid): the mean over the wavelengths of `spectra`,
-//!   plus 10⁻³ of its largest value so that no sample cell is impossible:
-//!   the renderers sample the sample square in proportion to it, then the
-//!   vndf warp, so that their samples follow `f cos(theta_o)`.
+//!   plus 10⁻³ of its largest value so that no sample cell where `f > 0`
+//!   is nearly impossible; 0 at the nodes where `spectra` is 0 at every
+//!   wavelength, so that no sample lands where `f = 0` (the renderers and
+//!   `mitsuba.chi2` drop a sample of weight 0 while `pdf` counts it). The
+//!   renderers sample the sample square in proportion to it, then the vndf
+//!   warp, so that their samples follow `f cos(theta_o)`.
 //! * `theta_i` (radians): the table's incidences; `phi_i = [0]` (one light
 //!   azimuth: isotropic; the axis stays for tables at several azimuths);
 //!   `wavelengths` (nm): the run's; a monochrome run (no wavelengths) is
@@ -100,8 +103,11 @@ pub const NDF_RES: usize = 128;
 pub const SIGMA_RES: usize = 64;
 /// Nodes of the vndf warp per side.
 pub const VNDF_RES: usize = 64;
-/// Nodes of `spectra` and `luminance` per side.
-pub const SAMPLE_RES: usize = 64;
+/// Nodes of `spectra` and `luminance` per side: at 64 cells beside a
+/// narrow peak read up to 3 times the table's value (Mitsuba's `eval` at
+/// their centres); at 96 every cell of the tests in `python/tests/test_rgl.py`
+/// is within its bound.
+pub const SAMPLE_RES: usize = 96;
 /// Share of the uniform NDF `1/pi` mixed into the facets' one.
 pub const DIFFUSE_SHARE: f64 = 0.05;
 /// Points per period side of the height map triangulated for surfaces that
@@ -540,7 +546,13 @@ impl Rgl {
             .collect();
         let max = mean.iter().copied().fold(0.0, f64::max);
         if max > 0.0 {
-            mean.iter().map(|v| v + 1e-3 * max).collect()
+            // Nodes where every wavelength is 0 stay 0: a sample cell whose
+            // four nodes are all 0 has f = 0, and a positive pdf there
+            // would send samples of zero weight, which a renderer (and
+            // `mitsuba.chi2`) drops while `pdf` still counts them.
+            mean.iter()
+                .map(|&v| if v > 0.0 { v + 1e-3 * max } else { 0.0 })
+                .collect()
         } else {
             vec![1.0; mean.len()]
         }
@@ -848,6 +860,41 @@ mod tests {
             .unwrap();
         let want = smoothing * (2.0 * 2f64.ln()).sqrt();
         assert!((half / want - 1.0).abs() < 0.15, "{half} vs {want}");
+    }
+
+    /// `luminance` is 0 exactly at the nodes where `spectra` is 0 at every
+    /// wavelength (below the horizon of a Lambertian table: some at every
+    /// incidence) and at least 10⁻³ of its largest value elsewhere, so that
+    /// no sample lands where f = 0 and none is nearly impossible where f > 0.
+    #[test]
+    fn luminance_is_zero_exactly_where_spectra_are() {
+        let grid = crate::tally::carlson::CarlsonGrid::new(8).unwrap();
+        let fr: Vec<f64> = (0..grid.n_cells())
+            .map(|flat| {
+                let (band, cell) = grid.band_cell(flat);
+                0.5 * grid.projected_solid_angle(band, cell) / PI
+            })
+            .collect();
+        let blocks = [0.0, 70.0]
+            .iter()
+            .map(|&t| (t, 0.0, fr.clone(), vec![1e-4; fr.len()]))
+            .collect();
+        let table = BrdfTable::from_blocks(grid, blocks, "lambert").unwrap();
+        let file = Rgl::from_tables(&BrdfTables::Monochrome(table), &Ndf::uniform(), "lambert");
+        for k in 0..2 {
+            let lum = file.luminance(k);
+            let max = lum.iter().copied().fold(0.0, f64::max);
+            let mut zeros = 0;
+            for (i, &l) in lum.iter().enumerate() {
+                if file.spectra[k].iter().all(|s| s[i] == 0.0) {
+                    assert_eq!(l, 0.0, "{k} {i}");
+                    zeros += 1;
+                } else {
+                    assert!(l >= 1e-3 * max / (1.0 + 1e-3), "{k} {i}: {l}");
+                }
+            }
+            assert!(zeros > 0, "{k}");
+        }
     }
 
     /// A Lambertian table (f = rho / pi) written and read back evaluates
