@@ -169,6 +169,23 @@ fn bad_input_exits_2_naming_the_file() {
     let out = dir.join("run");
     let o = brdf(&out, &["--export", "zemax,obj"]);
     cli_common::assert_input_error("brdf --export", &o, Path::new("--export"), &out, &["`obj`"]);
+    // rgl and pbsdf hold one light azimuth: a run of two is refused before
+    // tracing (10^12 photons would not finish), one line, nothing written.
+    for (format, extra) in [("rgl", None), ("pbsdf", Some("mueller"))] {
+        let mut args = vec!["--phi", "0,90", "--photons", "1000000000000"];
+        args.extend(["--export", format]);
+        if let Some(p) = extra {
+            args.extend(["--polarisation", p]);
+        }
+        let o = brdf(&out, &args);
+        cli_common::assert_input_error(
+            format,
+            &o,
+            Path::new("--export"),
+            &out,
+            &[format, "2 light azimuths", "zemax (Asymmetrical4D)"],
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
