@@ -447,7 +447,7 @@ fn commands_of_one_surface_say_so_or_refuse_realisations() {
     let object = root.join("object.toml");
     std::fs::write(
         &object,
-        "[quadrics]\nwall = { cylinder_z = { r = 25.0 } }\nfront = { plane = [0.0, 0.0, 1.0, 0.0] }\ntip = { plane = [0.0, 0.0, 1.0, -150.0] }\nouter = { cylinder_z = { r = 30.0 } }\n[[cells]]\nname = \"cavity\"\nregion = \"-wall -front +tip\"\nfill = \"void\"\n[[cells]]\nname = \"body\"\nregion = \"-outer -front +tip ~(-wall)\"\nfill = \"solid\"\n[walls]\nwall = \"rough\"\nfront = \"rough\"\ntip = \"rough\"\n[models.rough]\nmicro = \"micro.toml\"\n[[sources]]\nbeam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }\nphotons = 1000\n",
+        "[quadrics]\nwall = { cylinder_z = { r = 25.0 } }\nfront = { plane = [0.0, 0.0, 1.0, 0.0] }\ntip = { plane = [0.0, 0.0, 1.0, -150.0] }\nouter = { cylinder_z = { r = 30.0 } }\n[[cells]]\nname = \"cavity\"\nregion = \"-wall -front +tip\"\nfill = \"void\"\n[[cells]]\nname = \"body\"\nregion = \"-outer -front +tip ~(-wall)\"\nfill = \"solid\"\n[walls]\nwall = \"rough\"\nfront = \"rough\"\ntip = \"rough\"\n[models.rough]\nmicro = \"micro.toml\"\n[[sources]]\nbeam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }\nposition = [0.0, 0.0, 10.0]\nphotons = 1000\n",
     )
     .unwrap();
     let out = root.join("trace-out");
