@@ -870,6 +870,16 @@ impl Problem {
                 ),
             )));
         }
+        // The model traces the scene's own surface (realisation 0) only.
+        let realisations = scene.brdf_run().realisations;
+        if realisations > 1 {
+            return Err(FitError::Scene(scene_file.error(
+                "surface.realisations",
+                format!(
+                    "roks fit traces one surface, but the scene has {realisations} realisations: fit with realisations = 1"
+                ),
+            )));
+        }
         let table: Table = toml::from_str(scene_text)
             .map_err(|e| scene_file.error("", format!("invalid TOML: {}", e.message())))?;
         let opt = |option: &str, message: String| FitError::Options {

@@ -64,6 +64,45 @@ fn redraw_is_identical(dir: &Path, expect: &[&str]) {
     }
 }
 
+/// A run of two light azimuths (Stokes): `roks plot` writes the pictures
+/// per incidence and azimuth under the names `roks brdf` gave them, byte
+/// for byte, none overwriting another.
+#[test]
+fn plot_redraws_every_azimuth() {
+    let dir = scratch("azimuths");
+    ok(&[
+        "brdf",
+        "scenes/gaussian-rough.toml",
+        "--polarisation",
+        "stokes",
+        "--theta",
+        "0,45",
+        "--phi",
+        "0,90",
+        "--photons",
+        "1000",
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+    ]);
+    let expect = [
+        "hemisphere_0deg_phi0.png",
+        "hemisphere_0deg_phi90.png",
+        "hemisphere_45deg_phi0.png",
+        "hemisphere_45deg_phi90.png",
+        "dop_45deg_phi0.png",
+        "dop_45deg_phi90.png",
+        "inplane.png",
+        "reflectance.png",
+    ];
+    redraw_is_identical(&dir, &expect);
+    // The azimuths' maps differ (the light turned), so none is a copy.
+    let p = pictures(&dir);
+    assert!(p["hemisphere_45deg_phi0.png"] != p["hemisphere_45deg_phi90.png"]);
+    assert!(!p.contains_key("hemisphere_45deg.png"), "{:?}", p.keys());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A polarised micro run (Mueller and Stokes), a spectral run, and an
 /// object run: `roks plot` redraws every picture exactly (surface.png from
 /// the scene file named in summary.json).

@@ -379,6 +379,95 @@ fn realisations_of_one_surface_are_refused() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// The commands that see one surface of an ensemble: `roks stats` reports
+/// realisation 0 and says so in one line; `roks fit` and `roks trace` of an
+/// object whose wall descends into the ensemble refuse it in one line
+/// naming the key, exit 2, nothing written.
+#[test]
+fn commands_of_one_surface_say_so_or_refuse_realisations() {
+    use cli_common::{assert_input_error, roks};
+    let root = scratch("one-surface");
+    let micro = root.join("micro.toml");
+    std::fs::write(
+        &micro,
+        GAUSSIAN_4.replace("[surface]\n", "[surface]\nedges = \"periodic\"\n"),
+    )
+    .unwrap();
+    let single = root.join("single.toml");
+    std::fs::write(
+        &single,
+        GAUSSIAN_4.replace("realisations = 4", "realisations = 1"),
+    )
+    .unwrap();
+    // stats: the statistics of realisation 0, which are those of the scene
+    // with realisations = 1, and one line saying so (absent for one).
+    let stats = |scene: &std::path::Path| {
+        let o = roks(&["stats", scene.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let (four, one) = (stats(&micro), stats(&single));
+    let note: Vec<&str> = four
+        .lines()
+        .filter(|l| l.starts_with("realisations"))
+        .collect();
+    assert_eq!(
+        note,
+        ["realisations     4: statistics of realisation 0 (the scene's own seed) only"]
+    );
+    let numbers = |t: &str| {
+        t.lines()
+            .filter(|l| !l.starts_with("realisations") && !l.starts_with("scene"))
+            .map(str::to_owned)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(numbers(&four), numbers(&one));
+    assert!(!one.contains("realisations"), "{one}");
+    // fit: refused before any tracing.
+    let measured = root.join("measured.csv");
+    std::fs::write(&measured, "theta_i_deg,theta_o_deg,brdf\n0,10,0.2\n").unwrap();
+    let out = root.join("fit-out");
+    let o = roks(&[
+        "fit",
+        micro.to_str().unwrap(),
+        measured.to_str().unwrap(),
+        "--param",
+        "materials.m.reflectance=0.1:0.9",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_input_error(
+        "fit",
+        &o,
+        &micro,
+        &out,
+        &["surface.realisations", "4 realisations"],
+    );
+    // trace: an object scene whose wall is the ensemble.
+    let object = root.join("object.toml");
+    std::fs::write(
+        &object,
+        "[quadrics]\nwall = { cylinder_z = { r = 25.0 } }\nfront = { plane = [0.0, 0.0, 1.0, 0.0] }\ntip = { plane = [0.0, 0.0, 1.0, -150.0] }\nouter = { cylinder_z = { r = 30.0 } }\n[[cells]]\nname = \"cavity\"\nregion = \"-wall -front +tip\"\nfill = \"void\"\n[[cells]]\nname = \"body\"\nregion = \"-outer -front +tip ~(-wall)\"\nfill = \"solid\"\n[walls]\nwall = \"rough\"\nfront = \"rough\"\ntip = \"rough\"\n[models.rough]\nmicro = \"micro.toml\"\n[[sources]]\nbeam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }\nposition = [0.0, 0.0, 10.0]\nphotons = 1000\n",
+    )
+    .unwrap();
+    let out = root.join("trace-out");
+    let o = roks(&[
+        "trace",
+        object.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_input_error(
+        "trace",
+        &o,
+        &object,
+        &out,
+        &["models.rough.micro", "surface.realisations = 4"],
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
 /// chi^2 / dof of the mirror pairs of a table lit from azimuth 45 degrees:
 /// the Carlson cells `(band j, cell k)` and `(j, j - k mod 4j)` (azimuth
 /// `phi` and `90 - phi`), for the `k` with `2k != j mod 4j` (the cells on

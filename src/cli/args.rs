@@ -41,7 +41,7 @@ pub enum Command {
     /// Print the surface statistics of a micro scene: RMS height sigma,
     /// autocorrelation length tau, sigma/tau, RMS slope, heights (and with
     /// --png FILE, draw the height map with them, as surface.png of `roks
-    /// brdf`).
+    /// brdf`). With [surface] realisations = R > 1: of realisation 0 only.
     Stats(stats::StatsArgs),
     /// Trace a 3-D object of quadric cells with rough walls (the macro level).
     ///

@@ -22,7 +22,7 @@ use super::common::{
     Written, check_kept, check_out_dir, check_out_file, shown, write_file, write_folder,
 };
 use crate::export::brdf_formats::{
-    BrdfFormat, ExportFile, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
+    BrdfFormat, ExportFile, ExportRefusal, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
     reflectance_check,
 };
 use crate::optics::brdf_table::BrdfTables;
@@ -410,15 +410,27 @@ pub fn export_pbsdf(tables: &BrdfTables, quiet: bool) -> Result<Vec<ExportFile>,
 }
 
 /// Refuse `--export` formats (of `roks brdf`, `roks merge`) that cannot
-/// hold a run of wavelengths `wavelengths_um` (empty: monochrome), before
-/// any work ([`BrdfFormat::check_wavelengths`]).
+/// hold a run of wavelengths `wavelengths_um` (empty: monochrome,
+/// [`BrdfFormat::check_wavelengths`]) and `azimuths` light azimuths (rgl
+/// and pbsdf hold one, [`ExportRefusal::Azimuths`]), before any work.
 ///
 /// # Errors
 /// Bad input naming `--export` and the format.
-pub fn check_export_formats(formats: &[BrdfFormat], wavelengths_um: &[f64]) -> Result<(), Failure> {
-    for f in formats {
-        f.check_wavelengths(wavelengths_um)
-            .map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
+pub fn check_export_formats(
+    formats: &[BrdfFormat],
+    wavelengths_um: &[f64],
+    azimuths: usize,
+) -> Result<(), Failure> {
+    for &f in formats {
+        let refusal = if matches!(f, BrdfFormat::Rgl | BrdfFormat::Pbsdf) && azimuths > 1 {
+            Err(ExportRefusal::Azimuths {
+                format: f,
+                count: azimuths,
+            })
+        } else {
+            f.check_wavelengths(wavelengths_um)
+        };
+        refusal.map_err(|e| Failure::Input(format!("--export {f}: {e}")))?;
     }
     Ok(())
 }

@@ -71,7 +71,11 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
             a.dirs[0].display(),
         ))
     })?;
-    check_export_formats(&a.export, &merged.description.run.wavelengths_um)?;
+    check_export_formats(
+        &a.export,
+        &merged.description.run.wavelengths_um,
+        merged.description.run.phi_deg.len(),
+    )?;
     let scene = merged.description.scene.clone();
     let photons = merged.description.run.photons;
     let folder = BrdfFolder::merged(merged);

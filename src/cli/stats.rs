@@ -30,7 +30,9 @@ pub struct StatsArgs {
     pub png: Option<PathBuf>,
 }
 
-/// Run `roks stats`.
+/// Run `roks stats`. With `[surface] realisations = R > 1` the statistics
+/// are those of realisation 0 (the scene's own surface) only: the text
+/// says so in one line, the JSON does not.
 ///
 /// # Errors
 /// Bad input (scene, `--resolution`), or a failed write to stdout.
@@ -71,6 +73,13 @@ pub fn execute(a: StatsArgs) -> Result<(), Failure> {
         size.x, size.y, scene.surface.edges
     );
     let _ = writeln!(out, "height map       {r} x {ry}");
+    let realisations = scene.run.realisations;
+    if realisations > 1 {
+        let _ = writeln!(
+            out,
+            "realisations     {realisations}: statistics of realisation 0 (the scene's own seed) only"
+        );
+    }
     let _ = writeln!(
         out,
         "sigma            {:.6}   RMS height about the mean",

@@ -166,7 +166,7 @@ pub enum ExportRefusal {
     /// RGL or pbsdf (isotropic formats) of a table of several light
     /// azimuths.
     #[error(
-        "the table has {count} light azimuths (phi_i_deg); an {format} file holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
+        "the table has {count} light azimuths (phi_i_deg); the {format} format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
     )]
     Azimuths {
         /// The format refused.

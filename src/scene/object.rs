@@ -771,6 +771,16 @@ impl ModelSpec {
                     ),
                 ));
             }
+            if scene.run.realisations > 1 {
+                return Err(scene_file.error(
+                    format!("{key}.micro"),
+                    format!(
+                        "the micro scene {} has surface.realisations = {}; a micro wall traces one surface: give it realisations = 1",
+                        path.display(),
+                        scene.run.realisations
+                    ),
+                ));
+            }
             let Some(micro) = MicroWall::new(scene.surface, controls) else {
                 return Err(scene_file.error(
                     format!("{key}.micro"),
