@@ -129,8 +129,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use super::brdf_formats::{CHECK_RINGS, ReflectanceCheck, integrate_projected};
-use super::resample::FormatError;
+use super::resample::{CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected};
 use super::rgl::tensor::{Data, Field, TensorFile};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
 use crate::optics::polarisation::{hemisphere_reference, rotation};
