@@ -49,8 +49,8 @@
 //! * **Micro level, macro level**: the rough surface traced explicitly
 //!   ([`micro`]), and a 3-D object whose walls may descend into one ([`object`]).
 //! * **Period**: the rectangle `[0, Lx] x [0, Ly]` of a micro surface
-//!   (`surface.size` in a scene file, which calls it the cell), tiled
-//!   periodically or closed by walls ([`micro::Edges`]).
+//!   (`surface.size` in a scene file; some messages still call it the
+//!   cell), tiled periodically or closed by walls ([`micro::Edges`]).
 //! * **Solid**: at the micro level a body placed in the period: the
 //!   substrate (solid 0), a bump, a CSG body, or a **ghost** (a copy of a
 //!   body shifted by whole periods, so bumps wrap). At the macro level a
@@ -61,12 +61,15 @@
 //!   surface of a solid, or a triangle of the height field ([`micro::Facet`]).
 //! * **Grid cell**: a cell of the acceleration grid over a period, which
 //!   lists the solids whose bounds cross it and their highest point.
+//! * **Square**: a rectangle `px x py` of a height field's grid of
+//!   vertices, split into two triangles ([`micro::heightfield`]).
 //! * **Carlson cell**: a cell of the equal-solid-angle grid of the
 //!   hemisphere ([`tally::carlson`]), in bands; one row of `brdf.csv`. A
 //!   **far-field cell** is a Carlson cell of either hemisphere of an
 //!   object's far field.
 //! * **Zone**: a region of an object over its quadrics, `solid` or `void`
-//!   (declared by `[[cells]]` in a scene file, after OpenMC).
+//!   (declared by `[[cells]]` in a scene file, after OpenMC; in the code
+//!   always a zone).
 //! * **Wall**: a surface of an object seen where a photon enters a solid
 //!   zone; its **wall model** ([`transport::wall::WallModel`]) reflects the
 //!   photon: a **micro descent** into a periodic micro surface, a BRDF

@@ -1,7 +1,8 @@
 //! What the BRDF export formats share: the table resampled symmetrically
 //! about the plane of incidence, the error of a reader and the check of
-//! a written file's reflectance against the table. The formats
-//! ([`super::zemax`], [`super::merl`]) use this module; the dispatcher
+//! a written file's reflectance against the table (with its quadrature,
+//! [`integrate_projected`]). The formats
+//! ([`super::zemax`], [`super::merl`], [`super::pbsdf`]) use this module; the dispatcher
 //! [`super::brdf_formats`] uses them.
 
 use glam::DVec3;

@@ -4,7 +4,7 @@
 //! # Geometry
 //!
 //! A [`HeightField`] holds `nx x ny` heights `h[j nx + i]` (length units) at
-//! the vertices `(x_i, y_j) = (i px, j py)` of a periodic grid over the cell
+//! the vertices `(x_i, y_j) = (i px, j py)` of a periodic grid over the period
 //! `[0, Lx] x [0, Ly]`, with pitch `(px, py) = (Lx / nx, Ly / ny)`. The field
 //! tiles the plane: vertex `(i + nx, j)` is vertex `(i, j)`, and so on.
 //!
@@ -27,8 +27,8 @@
 //! A flight `o + t d` walks the grid squares under it in order (a 2-D DDA in
 //! grid units `u = x / px`, `v = y / py`). It keeps the square's index
 //! within the period and the period's offset apart, so the walk crosses the
-//! cell's sides as if they were not there (no seam); the hit point, which
-//! may lie in a neighbouring period, is moved back into the cell by
+//! period's sides as if they were not there (no seam); the hit point, which
+//! may lie in a neighbouring period, is moved back into the period by
 //! [`HeightField::fold`]. A max-height mip hierarchy (level `L >= 1`: the
 //! highest vertex of the `2^L x 2^L` squares of a node, corners included,
 //! partial nodes at the ends for any `n`; level 0 is the square itself and
@@ -135,14 +135,14 @@ pub enum FieldEvent {
     Trapped,
 }
 
-/// A periodic height field over the cell (see the module docs).
+/// A periodic height field over the period (see the module docs).
 #[derive(Clone, Debug)]
 pub struct HeightField {
     /// Grid squares (and vertices) per period along x.
     pub nx: usize,
     /// Grid squares (and vertices) per period along y.
     pub ny: usize,
-    /// Cell size `(Lx, Ly)` (length units).
+    /// Period size `(Lx, Ly)` (length units).
     pub size: DVec2,
     /// Grid pitch `(Lx / nx, Ly / ny)` (length units).
     pub pitch: DVec2,
@@ -314,7 +314,7 @@ impl HeightField {
         crate::limits::product(&[nx as u64, ny as u64, 60])
     }
 
-    /// A height field of `nx x ny` vertex heights `h[j nx + i]` over a cell of
+    /// A height field of `nx x ny` vertex heights `h[j nx + i]` over a period of
     /// `size` (length units).
     ///
     /// # Panics
@@ -518,7 +518,7 @@ impl HeightField {
         DVec3::new(-g.x, -g.y, 1.0).normalize()
     }
 
-    /// The three vertices of triangle `triangle` in cell coordinates, in the
+    /// The three vertices of triangle `triangle` in period coordinates, in the
     /// order of the module docs (counter-clockwise seen from above); vertices
     /// on the far sides have `x = Lx` or `y = Ly`.
     #[must_use]
@@ -550,7 +550,7 @@ impl HeightField {
         surface_height(self.corners(ii, jj), u - i, v - j)
     }
 
-    /// `p` shifted by whole periods into the cell `[0, Lx] x [0, Ly]`.
+    /// `p` shifted by whole periods into the period `[0, Lx] x [0, Ly]`.
     #[must_use]
     #[inline]
     pub fn fold(&self, p: DVec3) -> DVec3 {
@@ -873,7 +873,7 @@ impl HeightField {
 
     /// Periodic spectral synthesis of a Gaussian random surface with
     /// autocorrelation `sigma² exp(-r² / tau²)` on an `nx x ny` grid over a
-    /// cell of `size` (length units), deterministic from `seed`.
+    /// period of `size` (length units), deterministic from `seed`.
     ///
     /// White noise (`nx ny` standard normals from `Pcg64Mcg(seed)`, row-major,
     /// Box-Muller) is Fourier transformed, filtered by the square root of the
@@ -1029,7 +1029,7 @@ fn floor_i64(x: f64) -> i64 {
 /// the period's square 0)` on an axis of `n` squares.
 #[inline]
 fn wrap(k: i64, n: usize) -> (usize, i64) {
-    // Flights start in the cell: most squares are of the period already.
+    // Flights start in the period: most squares are of the period already.
     if (0..n as i64).contains(&k) {
         return (k as usize, 0);
     }

@@ -1146,7 +1146,7 @@ mod tests {
         assert!(out_of_index_order > 10, "{out_of_index_order}");
     }
 
-    /// Small sparse bumps (100 of radius 0.025-0.035 on a 30 x 30 cell):
+    /// Small sparse bumps (100 of radius 0.025-0.035 on a 30 x 30 period):
     /// their footprints would ask for 2048² grid cells, nearly all empty;
     /// the grid stops at 64 cells a solid, and flights meet what a scan
     /// over every solid meets.
@@ -1197,7 +1197,7 @@ mod tests {
         assert_eq!(on_bumps, centres.len());
     }
 
-    /// `flights` flights from the launch plane of a 30 x 30 cell in random
+    /// `flights` flights from the launch plane of a 30 x 30 period in random
     /// directions, followed over up to three events: each event is what a
     /// scan over every solid gives. A flight starts at a random point, or
     /// with `aim`, on its way to a point within `aim.1` of a random one of

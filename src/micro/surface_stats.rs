@@ -1,7 +1,7 @@
 //! Roughness statistics of a sampled height map.
 //!
 //! A [`HeightMap`] holds `nx * ny` height samples `h[iy * nx + ix]` on a
-//! rectangular grid with pixel pitch `dx`, `dy`. Samples are cell-centred:
+//! rectangular grid with pixel pitch `dx`, `dy`. Samples are pixel-centred:
 //! sample `(ix, iy)` sits at `x = (ix + 0.5) dx`, `y = (iy + 0.5) dy`. Heights
 //! and pitches share one length unit (for example micrometres), so slopes are
 //! dimensionless. The flag [`HeightMap::periodic`] says whether the map is one
@@ -69,7 +69,7 @@
 use rustfft::FftPlanner;
 use rustfft::num_complex::Complex;
 
-/// A sampled height map `h(x, y)` on a rectangular, cell-centred grid.
+/// A sampled height map `h(x, y)` on a rectangular, pixel-centred grid.
 ///
 /// Sample `(ix, iy)` is `h[iy * nx + ix]` and sits at
 /// `x = (ix + 0.5) dx`, `y = (iy + 0.5) dy`.
@@ -133,8 +133,8 @@ pub enum TauUndefined {
     Flat,
     /// The radial autocorrelation stays above `1/e` out to `r_max = min(nx
     /// dx, ny dy) / 2` (length units): the heights are correlated over more
-    /// than half the cell, `tau > r_max` if it exists at all.
-    BeyondHalfCell {
+    /// than half the period, `tau > r_max` if it exists at all.
+    BeyondHalfPeriod {
         /// The largest lag of the profile (length units).
         r_max: f64,
     },
@@ -145,7 +145,7 @@ impl std::fmt::Display for TauUndefined {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::Flat => write!(f, "undefined for a flat surface (sigma = 0)"),
-            Self::BeyondHalfCell { r_max } => write!(
+            Self::BeyondHalfPeriod { r_max } => write!(
                 f,
                 "undefined: the radial autocorrelation stays above 1/e out to the largest lag, {r_max} (half the cell's shorter side)"
             ),
@@ -199,7 +199,7 @@ pub fn surface_stats(map: &HeightMap) -> SurfaceStats {
         Some(TauUndefined::Flat)
     } else {
         let r_max = (map.nx as f64 * map.dx).min(map.ny as f64 * map.dy) / 2.0;
-        Some(TauUndefined::BeyondHalfCell { r_max })
+        Some(TauUndefined::BeyondHalfPeriod { r_max })
     };
 
     SurfaceStats {

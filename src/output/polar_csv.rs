@@ -316,8 +316,28 @@ impl std::fmt::Display for AtWavelength {
     }
 }
 
+/// Why a `mueller.csv` could not be attached to the BRDF table it is read
+/// with. Every message is one line naming the file (and the line where
+/// there is one; lines are 1-based, line 1 is the header).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MuellerTableError {
+    /// The file could not be read ([`BrdfTableError::Io`]).
+    #[error(transparent)]
+    Read(#[from] BrdfTableError),
+    /// The file does not fit the table.
+    #[error("{file}: line {line}: {problem}")]
+    Mueller {
+        /// File name.
+        file: String,
+        /// Line number.
+        line: usize,
+        /// What is wrong.
+        problem: MuellerTableProblem,
+    },
+}
+
 /// Why a `mueller.csv` does not fit the BRDF table it is read with
-/// ([`BrdfTableError::Mueller`] names the file and line). Angles in
+/// ([`MuellerTableError::Mueller`] names the file and line). Angles in
 /// degrees; `table` is the table's file; `at` the wavelength of a
 /// spectral run's table.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -458,9 +478,9 @@ impl BrdfTables {
     /// [`with_mueller_text`](Self::with_mueller_text).
     ///
     /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`MuellerTableError::Read`] if it cannot be read, otherwise as
     /// [`with_mueller_text`](Self::with_mueller_text).
-    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+    pub fn with_mueller(self, path: &Path) -> Result<Self, MuellerTableError> {
         let (name, text) = read_text(path)?;
         self.with_mueller_text(&text, &name)
     }
@@ -474,8 +494,8 @@ impl BrdfTables {
     /// the table's wavelengths.
     ///
     /// # Errors
-    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
-    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
+    /// [`MuellerTableError::Mueller`] naming the file, the line and the problem.
+    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, MuellerTableError> {
         match self {
             Self::Monochrome(t) => Ok(Self::Monochrome(t.with_mueller_text(text, name)?)),
             Self::Spectral(s) => Ok(Self::Spectral(s.with_mueller_text(text, name)?)),
@@ -488,7 +508,7 @@ impl SpectralTables {
     ///
     /// # Errors
     /// As [`BrdfTables::with_mueller`].
-    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+    pub fn with_mueller(self, path: &Path) -> Result<Self, MuellerTableError> {
         let (name, text) = read_text(path)?;
         self.with_mueller_text(&text, &name)
     }
@@ -497,8 +517,8 @@ impl SpectralTables {
     ///
     /// # Errors
     /// As [`BrdfTables::with_mueller_text`].
-    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, problem| BrdfTableError::Mueller {
+    pub fn with_mueller_text(mut self, text: &str, name: &str) -> Result<Self, MuellerTableError> {
+        let fail = |line: usize, problem| MuellerTableError::Mueller {
             file: name.to_owned(),
             line,
             problem,
@@ -547,9 +567,9 @@ impl BrdfTable {
     /// the table (light azimuth 0).
     ///
     /// # Errors
-    /// [`BrdfTableError::Io`] if it cannot be read, otherwise as
+    /// [`MuellerTableError::Read`] if it cannot be read, otherwise as
     /// [`with_mueller_text`](Self::with_mueller_text).
-    pub fn with_mueller(self, path: &Path) -> Result<Self, BrdfTableError> {
+    pub fn with_mueller(self, path: &Path) -> Result<Self, MuellerTableError> {
         let (name, text) = read_text(path)?;
         self.with_mueller_text(&text, &name)
     }
@@ -561,9 +581,9 @@ impl BrdfTable {
     /// finite; `m00` within 1e-6 (relative) of the table's BRDF.
     ///
     /// # Errors
-    /// [`BrdfTableError::Mueller`] naming the file, the line and the problem.
-    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, problem| BrdfTableError::Mueller {
+    /// [`MuellerTableError::Mueller`] naming the file, the line and the problem.
+    pub fn with_mueller_text(self, text: &str, name: &str) -> Result<Self, MuellerTableError> {
+        let fail = |line: usize, problem| MuellerTableError::Mueller {
             file: name.to_owned(),
             line,
             problem,
@@ -594,8 +614,8 @@ impl BrdfTable {
         last_line: usize,
         name: &str,
         wavelength: Option<f64>,
-    ) -> Result<Self, BrdfTableError> {
-        let fail = |line: usize, problem| BrdfTableError::Mueller {
+    ) -> Result<Self, MuellerTableError> {
+        let fail = |line: usize, problem| MuellerTableError::Mueller {
             file: name.to_owned(),
             line,
             problem,

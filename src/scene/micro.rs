@@ -4,7 +4,7 @@
 //! name = "default"          # optional; output goes to out/<name>/ (default: file stem)
 //!
 //! [surface]
-//! size = [30.0, 30.0]       # cell Lx, Ly (relative units)
+//! size = [30.0, 30.0]       # period Lx, Ly (relative units)
 //! edges = "periodic"        # "periodic" | "absorbing" | "reflecting"
 //! material = "paint"        # substrate (and reflecting walls)
 //! # heightfield = { gaussian = { sigma = 1.0, tau = 11.9 }, resolution = 1024, seed = 3 }
@@ -58,12 +58,12 @@
 //! ```
 //!
 //! Limits checked where the scene is built ([`MicroSceneSpec::build`]): every
-//! non-zero length (cell sides, bump radii, heights and depths, `radius *
-//! base`, a map's pixel, the cell it makes and its scaled heights, a Gaussian
+//! non-zero length (period sides, bump radii, heights and depths, `radius *
+//! base`, a map's pixel, the period it makes and its scaled heights, a Gaussian
 //! field's `sigma` and `tau`) lies in [`MIN_LENGTH`, `MAX_LENGTH`] =
 //! `[1e-30, 1e30]`; no height (a bump's, an explicit body's top, a height
-//! field's range) exceeds [`MAX_ASPECT`] = `1e9` times the cell's shorter
-//! side; a Gaussian field's `tau` is at most the cell's longer side; at
+//! field's range) exceeds [`MAX_ASPECT`] = `1e9` times the period's shorter
+//! side; a Gaussian field's `tau` is at most the period's longer side; at
 //! most [`crate::transport::launch::MAX_PHOTONS`] = 2^53 photons per angle.
 
 use super::Num;
@@ -95,7 +95,7 @@ use crate::transport::micro::Controls;
 /// The embedded default scene (also `scenes/default.toml`).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
 
-/// Largest length a micro scene may hold (scene length units): cell sides,
+/// Largest length a micro scene may hold (scene length units): period sides,
 /// bump radii, heights and depths, a map's pixel and its scaled heights, a
 /// Gaussian field's `sigma` and `tau`, and the sizes and heights derived
 /// from them. With every non-zero length in [`MIN_LENGTH`, `MAX_LENGTH`],
@@ -108,17 +108,17 @@ pub const MAX_LENGTH: f64 = 1e30;
 pub const MIN_LENGTH: f64 = 1e-30;
 
 /// Largest height of a micro surface (bump heights, an explicit body's top,
-/// a height field's range) in units of the cell's shorter side. Higher, a
-/// position near the top no longer resolves the cell (`f64` spacing of
+/// a height field's range) in units of the period's shorter side. Higher, a
+/// position near the top no longer resolves the period (`f64` spacing of
 /// `1e9 L` is `2e-7 L`), and flights cross ever more periods
 /// ([`crate::micro::MAX_CROSSINGS`]) between events.
 pub const MAX_ASPECT: f64 = 1e9;
 
 /// A length of a micro scene that roks cannot trace (a height too large
-/// for its cell, or a length out of range); the caller names the key.
+/// for its period, or a length out of range); the caller names the key.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum LengthError {
-    /// A height more than [`MAX_ASPECT`] times the cell's shorter side.
+    /// A height more than [`MAX_ASPECT`] times the period's shorter side.
     #[error(
         "a height of {height:e} is more than {MAX_ASPECT:e} times the cell's shorter side {}: positions that high do not resolve the cell",
         Num(*side)
@@ -126,7 +126,7 @@ pub enum LengthError {
     Aspect {
         /// The height (scene length units).
         height: f64,
-        /// The cell's shorter side (scene length units).
+        /// The period's shorter side (scene length units).
         side: f64,
     },
     /// A non-zero length outside [`MIN_LENGTH`, `MAX_LENGTH`].
@@ -160,7 +160,7 @@ fn length_bounds(v: f64) -> Result<(), LengthError> {
 pub struct MicroSceneSpec {
     /// Scene name (output folder); default: file stem.
     pub name: Option<String>,
-    /// The substrate cell.
+    /// The substrate period.
     pub surface: SurfaceSpec,
     /// Named materials.
     #[serde(default)]
@@ -189,7 +189,7 @@ pub struct MicroSceneSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SurfaceSpec {
-    /// Cell size `[Lx, Ly]` (may be omitted for a height-field file with `pixel`).
+    /// Period size `[Lx, Ly]` (may be omitted for a height-field file with `pixel`).
     pub size: Option<[f64; 2]>,
     /// Side behaviour (default periodic).
     #[serde(default = "default_edges")]
@@ -233,8 +233,8 @@ pub fn realisation_seed(seed: u64, r: u64) -> u64 {
 ///   `seed` (default 1). See [`HeightField::gaussian`].
 /// * `file`: path relative to the scene file; the format by extension (see
 ///   [`crate::micro::heightfield_io`]); row `j` is `y = j pixel`. `pixel`:
-///   grid pitch (length units); the cell is `nx pixel x ny pixel`. With
-///   `pixel` omitted, `[surface] size` gives the cell; with both, they must
+///   grid pitch (length units); the period is `nx pixel x ny pixel`. With
+///   `pixel` omitted, `[surface] size` gives the period; with both, they must
 ///   agree (to 1e-9). `height_scale`: length units per file unit (required
 ///   for PNG, whose heights are counts 0..=65535; default 1 otherwise).
 ///
@@ -281,7 +281,7 @@ pub enum Resolution {
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum EdgesSpec {
-    /// Tiled cell.
+    /// Tiled period.
     Periodic,
     /// Absorbing walls.
     Absorbing,
@@ -301,7 +301,7 @@ pub struct BumpSpec {
     pub shape: Shape,
     /// Number of bumps (at most 10 million, and within the memory limit of
     /// [`crate::limits`]: about 3 KB a bump with its acceleration grid, more
-    /// with periodic ghost copies of bumps wider than the cell; so 10
+    /// with periodic ghost copies of bumps wider than the period; so 10
     /// million take about 30 GiB).
     pub count: usize,
     /// x semi-axis (waist radius for `ellipsoid_on_hyperboloid`).
@@ -1053,7 +1053,7 @@ fn any_fresnel(materials: &[Reflectance]) -> bool {
     materials.iter().any(Reflectance::polarises)
 }
 
-/// A checked cell size.
+/// A checked period size.
 fn check_size(scene_file: &SceneFile, [lx, ly]: [f64; 2]) -> Result<DVec2, SceneError> {
     for (i, l) in [lx, ly].into_iter().enumerate() {
         if !(l.is_finite() && l > 0.0) {
@@ -1138,7 +1138,7 @@ impl HeightFieldSpec {
                     ));
                 }
                 // The synthesis keeps the spectrum's modes of the period; for
-                // tau beyond the cell they vanish (the field would be one
+                // tau beyond the period they vanish (the field would be one
                 // sinusoid, or nothing once exp(-k² tau² / 8) underflows).
                 let longest = size.max_element();
                 if tau > longest {
@@ -1252,7 +1252,7 @@ impl HeightFieldSpec {
 
 /// What the height-field walk assumes of a built field, checked in one
 /// place: finite heights whose range is within [`MAX_LENGTH`] and
-/// [`MAX_ASPECT`] cell sides (so slopes, range over the pitch, and their
+/// [`MAX_ASPECT`] period sides (so slopes, range over the pitch, and their
 /// squares in the normals stay finite); `key` is blamed.
 fn check_field(scene_file: &SceneFile, field: &HeightField, key: &str) -> Result<(), SceneError> {
     let range = field.max - field.min;
@@ -1401,7 +1401,7 @@ fn explicit_body(
         material,
     )?;
 
-    // Unbounded above? Probe far above the cell (relative to its size).
+    // Unbounded above? Probe far above the period (relative to its size).
     let scale = size.max_element();
     let z_far = 1e6 * scale;
     for (fx, fy) in [
@@ -1435,8 +1435,8 @@ fn explicit_body(
     })
 }
 
-/// Highest point of `body` over the cell: vertical rays on a grid, then a
-/// compass search from the best sample down to 1e-13 of the cell size.
+/// Highest point of `body` over the period: vertical rays on a grid, then a
+/// compass search from the best sample down to 1e-13 of the period size.
 fn explicit_max_height(body: &Body, size: DVec2, z_far: f64) -> f64 {
     let height = |x: f64, y: f64| {
         let x = x.clamp(0.0, size.x);

@@ -138,8 +138,8 @@ pub struct ObjectSceneSpec {
     #[serde(default)]
     pub quadrics: BTreeMap<String, QuadricSpec>,
     /// The zones (`[[cells]]`: the key keeps the OpenMC word).
-    #[serde(default)]
-    pub cells: Vec<ZoneSpec>,
+    #[serde(default, rename = "cells")]
+    pub zones: Vec<ZoneSpec>,
     /// Surface name -> model name.
     #[serde(default)]
     pub walls: BTreeMap<String, String>,
@@ -182,7 +182,7 @@ pub struct ZoneSpec {
     pub fill: Fill,
 }
 
-/// Cell fill.
+/// Zone fill.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Fill {
@@ -433,12 +433,12 @@ impl ObjectSceneSpec {
         for (name, q) in &self.quadrics {
             quadrics.push(q.build(&scene_file, &format!("quadrics.{name}"))?);
         }
-        if self.cells.is_empty() {
+        if self.zones.is_empty() {
             return Err(scene_file.error("cells", "the object needs at least one cell"));
         }
         let mut solids = Vec::new();
         let mut voids = Vec::new();
-        for (c, zone) in self.cells.iter().enumerate() {
+        for (c, zone) in self.zones.iter().enumerate() {
             let key = format!("cells[{c}].region");
             let (body, ids) = super::region_body(
                 &scene_file,

@@ -350,17 +350,6 @@ pub enum BrdfTableError {
         /// What is wrong.
         problem: crate::output::summary::SummaryProblem,
     },
-    /// A `mueller.csv` that does not fit the table (read in
-    /// [`crate::output::polar_csv`]).
-    #[error("{file}: line {line}: {problem}")]
-    Mueller {
-        /// File name.
-        file: String,
-        /// Line number.
-        line: usize,
-        /// What is wrong.
-        problem: crate::output::polar_csv::MuellerTableProblem,
-    },
     /// A header and no data rows.
     #[error("{file}: line {line}: no data rows after the header")]
     Empty {
