@@ -86,21 +86,22 @@
 //! azimuths' tables, each in its plane-of-incidence frame (the surface
 //! turned to each tabulated azimuth in turn). [`azimuth_note`] says so, as
 //! a warning when the azimuths disagree beyond their errors
-//! ([`crate::optics::anisotropy_check`]). A table of one azimuth is written
+//! ([`BrdfTable::anisotropy`], the figure of `summary.json`). A table of
+//! one azimuth is written
 //! exactly as before.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use super::resample::{FormatError, symmetric_eval};
-use crate::optics::anisotropy_check::anisotropy;
 use crate::optics::brdf_table::{BrdfTable, SpectralTables};
 use crate::optics::colour::XyzWeights;
 
 /// What a MERL export of `table` (several light azimuths: their average)
 /// must tell: `None` for a table of one azimuth; else `(warning, line)`,
 /// `warning` true when the azimuths disagree beyond their errors
-/// ([`anisotropy`]: `chi²/dof` above its bound, with the worst cell pair)
+/// ([`BrdfTable::anisotropy`]: `chi²/dof` above its bound, with the worst
+/// pair of azimuths)
 /// or when that cannot be judged (no cell pair maps exactly under the
 /// azimuth differences), false (a note) when they agree. `line` is one
 /// line, without a `warning:` or `note:` prefix.
@@ -119,34 +120,38 @@ pub fn azimuth_note(table: &BrdfTable) -> Option<(bool, String)> {
         "merl: the table has {} light azimuths ({list} deg) and MERL holds an isotropic BRDF: the file is their average",
         az.len()
     );
-    Some(match anisotropy(table) {
-        None => (
-            true,
-            format!(
-                "{head}; its anisotropy cannot be judged (no Carlson cells map onto each other under the azimuth differences); export zemax for an Asymmetrical4D file"
-            ),
-        ),
-        Some(a) if a.anisotropic() => (
-            true,
-            format!(
-                "{head}, but the surface is anisotropic: chi^2/dof = {:.3} over {} cell pairs (isotropic up to {:.3}), worst at theta_i {} deg, phi_i {} deg, band {} cell {} ({:+.1} standard errors); export zemax for an Asymmetrical4D file",
-                a.chi2_per_dof(),
-                a.dof,
-                a.bound(),
-                a.worst.theta_i_deg,
-                a.worst.phi_i_deg,
-                a.worst.band,
-                a.worst.cell,
-                a.worst.z
-            ),
-        ),
-        Some(a) => (
+    Some(match table.anisotropy() {
+        Some(a) if a.figure.dof > 0 && !a.figure.isotropic() => {
+            let worst = a
+                .pairs
+                .iter()
+                .max_by(|p, q| p.figure.chi2_dof.total_cmp(&q.figure.chi2_dof))
+                .expect("a figure with dof > 0 has a pair");
+            (
+                true,
+                format!(
+                    "{head}, but the surface is anisotropic: chi^2/dof = {:.3} over {} cell pairs (isotropic up to {:.3}), worst at theta_i {} deg between phi_i {} and {} deg (chi^2/dof = {:.3}); export zemax for an Asymmetrical4D file",
+                    a.figure.chi2_dof,
+                    a.figure.dof,
+                    a.figure.bound,
+                    worst.theta_i_deg,
+                    worst.phi_a_deg,
+                    worst.phi_b_deg,
+                    worst.figure.chi2_dof
+                ),
+            )
+        }
+        Some(a) if a.figure.dof > 0 => (
             false,
             format!(
                 "{head}; they agree within their errors (chi^2/dof = {:.3} over {} cell pairs, isotropic up to {:.3})",
-                a.chi2_per_dof(),
-                a.dof,
-                a.bound()
+                a.figure.chi2_dof, a.figure.dof, a.figure.bound
+            ),
+        ),
+        _ => (
+            true,
+            format!(
+                "{head}; its anisotropy cannot be judged (no Carlson cells map onto each other under the azimuth differences); export zemax for an Asymmetrical4D file"
             ),
         ),
     })

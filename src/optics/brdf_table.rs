@@ -108,6 +108,7 @@
 //! interpolated reflectance whatever the correlation of the two runs (they
 //! share random streams).
 
+use crate::tally::anisotropy::{Anisotropy, Group, Table as AzimuthTable};
 use glam::DVec3;
 use thiserror::Error;
 
@@ -635,6 +636,35 @@ impl BrdfTable {
     #[must_use]
     pub fn azimuths_deg(&self) -> &[f64] {
         &self.azimuths_deg
+    }
+
+    /// How far the table's light azimuths depart from isotropy: the figure
+    /// `summary.json` states for the run ([`crate::tally::anisotropy`]:
+    /// every pair of azimuths at every angle, on the cells the azimuth
+    /// difference maps exactly onto cells); `None` for a table of one
+    /// azimuth. Incidence `t n + k` is angle `t`, azimuth `k` of `n`.
+    #[must_use]
+    pub fn anisotropy(&self) -> Option<Anisotropy> {
+        let azimuths = self.azimuths_deg();
+        let n = azimuths.len();
+        if n < 2 {
+            return None;
+        }
+        let thetas = self.thetas_deg();
+        let groups: Vec<Group> = (0..thetas.len() / n)
+            .map(|t| Group {
+                theta_i_deg: thetas[t * n],
+                wavelength_um: None,
+                tables: (0..n)
+                    .map(|k| AzimuthTable {
+                        phi_deg: azimuths[k],
+                        fraction: self.fractions(t * n + k),
+                        stderr: self.fraction_stderrs(t * n + k),
+                    })
+                    .collect(),
+            })
+            .collect();
+        Anisotropy::of(self.grid(), &groups)
     }
 
     /// The distinct tabulated incidence angles (degrees), ascending (for a

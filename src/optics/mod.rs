@@ -6,7 +6,6 @@
 //! are given either as cosines (dimensionless) or in degrees where the name
 //! says so.
 
-pub mod anisotropy_check;
 pub mod brdf_table;
 pub mod colour;
 pub mod fresnel;
