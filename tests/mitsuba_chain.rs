@@ -22,11 +22,14 @@
 //!   conductor spectra, reflectance per wavelength and XYZ per cell); the
 //!   variant choice (`test_mitsuba_setup.py`: an LLVM that aborts the
 //!   process is caught in a child process and the tools fall back to
-//!   scalar);
+//!   scalar); pbrt-v4's `MeasuredBxDF` (our numpy port,
+//!   `roks_tools.pbrt_measured`) against Mitsuba's `measured` on the
+//!   exported RGL files (`test_pbrt_measured.py`);
 //! * every other Python test in one run (`-m "not mitsuba"`: every scene
 //!   in scenes/ run small and every file of its folder read, the readers'
 //!   refusal of bad bytes, the Carlson grid, microfacet theory, the colour
-//!   of a flat gold mirror against colour-science).
+//!   of a flat gold mirror against colour-science, pbrt-v4's evaluation
+//!   of the RGL export per cell and its refusals).
 //!
 //! Each test runs once: a file with `mitsuba` tests is listed in
 //! [`MITSUBA_FILES`] (checked), its other tests go to the second run.
@@ -42,11 +45,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The files under `python/tests` holding tests marked `mitsuba`.
-const MITSUBA_FILES: [&str; 9] = [
+const MITSUBA_FILES: [&str; 10] = [
     "test_crosscheck.py",
     "test_mitsuba_brdf.py",
     "test_mitsuba_polarised.py",
     "test_mitsuba_setup.py",
+    "test_pbrt_measured.py",
     "test_pbsdf.py",
     "test_rgl.py",
     "test_roks_bsdf.py",
@@ -159,6 +163,11 @@ fn mitsuba_spectral_cross_check() {
 #[test]
 fn mitsuba_measured_plugin_loads_rgl_files() {
     mitsuba_file("test_rgl.py");
+}
+
+#[test]
+fn pbrt_measured_port_agrees_with_mitsuba_measured() {
+    mitsuba_file("test_pbrt_measured.py");
 }
 
 #[test]
