@@ -195,6 +195,7 @@ class PiecewiseLinear2D:
         self.ny, self.nx = data.shape[-2:]
         self.inv_patch = np.array([self.nx - 1, self.ny - 1], np.float64)
         slices = data.reshape(-1, self.ny, self.nx)
+        self.cond = self.marg = None
         if build_cdf:
             # Conditional CDF along x per row (trapezoids), marginal along y
             # from the rows' totals; all divided by the slice's total.
@@ -206,8 +207,8 @@ class PiecewiseLinear2D:
                                    np.cumsum(0.5 * (rows[:, :-1] + rows[:, 1:]), axis=-1)],
                                   axis=-1).astype(np.float32).astype(np.float64)
             norm = (1.0 / marg[:, -1].astype(np.float32)).astype(np.float64)
-            self.cond = (cond * norm[:, None, None]).astype(np.float32)
-            self.marg = (marg * norm[:, None]).astype(np.float32)
+            self.cond = (cond * norm[:, None, None]).astype(np.float32).reshape(data.shape)
+            self.marg = (marg * norm[:, None]).astype(np.float32).reshape(data.shape[:-1])
             out = slices * norm[:, None, None]
         elif normalize:
             avg = 0.25 * (slices[:, :-1, :-1] + slices[:, :-1, 1:] + slices[:, 1:, :-1] + slices[:, 1:, 1:])
@@ -215,8 +216,6 @@ class PiecewiseLinear2D:
         else:
             out = slices / np.prod(self.inv_patch)
         self.data = out.astype(np.float32).reshape(data.shape)
-        self.cond = self.cond.reshape(data.shape) if build_cdf else None
-        self.marg = self.marg.reshape(data.shape[:-1]) if build_cdf else None
 
     def _corners(self, params):
         """The parameter interpolation: [(index tuple of the slice, weight)]

@@ -181,8 +181,10 @@ BREAKS = {
 
 def test_pbrt_broken_files_are_caught(folders, tmp_path):
     """The broken files load in pbrt; the per-cell comparison puts at least
-    100 cells outside the bound (the intact file: none of 6336). With the
-    jacobian flag off pbrt's f is the intact file's, bit for bit."""
+    100 cell values outside the bound (the intact file: none of 25 344,
+    6336 cells at 4 wavelengths; measured 11 572, 14 696 and 10 632 for
+    the three breaks). With the jacobian flag off pbrt's f is the intact
+    file's, bit for bit."""
     src = folders["default"]
     orig = read_tensor(src / "rgl.bsdf")
     for what, change in BREAKS.items():
