@@ -54,7 +54,7 @@ CASES = [c for c in RGL_CASES if c[0] in ("default", "gaussian_al", "gold")]
 IDS = [c[0] for c in CASES]
 
 PBRT_WAVELENGTHS = sample_visible_wavelengths(np.array([0.3]))[0][0]
-"""4 wavelengths (nm) of one pbrt camera ray: 422, 499, 568 and 660 nm."""
+"""4 wavelengths (nm) of one pbrt camera ray: 494, 559, 635 and 398 nm."""
 
 
 def pbrt_compare(folder: Path, wavelengths, path: Path | None = None):
