@@ -89,6 +89,48 @@ fn brdf_export_option_and_export_command_agree() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `roks brdf --export pbsdf` (the Mueller table handed to the export by
+/// the run's folder) and `roks export-brdf --format pbsdf` of the folder it
+/// wrote (mueller.csv read from disk): the same bytes.
+#[test]
+fn pbsdf_export_option_and_export_command_agree() {
+    let dir = scratch("agree-pbsdf");
+    let out = dir.join("run");
+    let o = brdf(
+        &out,
+        &[
+            "--theta",
+            "0,30",
+            "--polarisation",
+            "mueller",
+            "--export",
+            "pbsdf",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let name = BrdfFormat::Pbsdf.file_name();
+    let written = std::fs::read(out.join(name)).unwrap();
+    let again = dir.join(name);
+    let o = roks(&[
+        "export-brdf",
+        s(&out),
+        "--format",
+        "pbsdf",
+        "--out",
+        s(&again),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let exported = std::fs::read(&again).unwrap();
+    assert_eq!(written.len(), exported.len());
+    assert!(
+        written == exported,
+        "pbsdf: brdf --export differs from export-brdf"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_input_exits_2_naming_the_file() {
     let dir = scratch("bad");
