@@ -26,7 +26,7 @@ Checks:
   interpolation between its incidences: measured 1e-4) and m00 is the
   table's specular cell's BRDF within 0.5 %;
 * a rough aluminium field (scenes/gaussian-rough.toml): at the centre of
-  every cell with light at 30 and 60 degrees, each of the 16 elements,
+  every cell with light at 0, 30 and 60 degrees, each of the 16 elements,
   turned into roks's frames and divided by cos(theta_i), is mueller.csv's
   within the resampling bound (`resampling_bound`, plus 1e-5 of the
   largest m00 for the file's f32 values): the plugin's value at a point is
@@ -36,12 +36,15 @@ Checks:
   into the plugin's frame at the node; the bound is the largest difference
   between the table's cell and any of those cell values, turned through
   the node's frame and the point's, recomputed here from the grid and
-  mueller.csv (no roks code). It is tight (the worst element uses 99.97 %
-  of it) and catches a file without the frame rotation (11119 of 33792
-  elements off at 30 degrees) and a single element's sign flipped in the
-  writer (m02: 327, m12: 24, m23: 2065, m32: 1958); the former bound (any
-  cell within two band widths, at the neighbouring incidences too) let
-  m02 and m12 flipped pass;
+  mueller.csv (no roks code; at normal incidence the writer's ring means,
+  `pole_rings`). It is tight (the worst element uses 99.97 % of it) and
+  catches a file without the frame rotation (11119 of 33792 elements off
+  at 30 degrees), a single element's sign flipped in the writer (m02: 327,
+  m12: 24, m23: 2065, m32: 1958; the former bound, any cell within two
+  band widths at the neighbouring incidences too, let m02 and m12 pass),
+  ring means turned the wrong way (9157 at 0 degrees) and a light that
+  misses the pole by rounding (250 at 0 degrees: its Stokes reference
+  was that of a random azimuth);
 * refusals: 6 wavelengths, no mueller.csv (one line, exit status 2); a
   run of 5 wavelengths gives them as the file's `wvls`.
 """
@@ -78,7 +81,7 @@ polarisation = "mueller"
 """
 FLAT = {"glass": (1.5, 0.0), "aluminium": (1.015, 6.627)}
 ROUGH_THETAS = [0, 10, 20, 30, 40, 50, 60, 70, 80]
-ROUGH_CHECKED = [30.0, 60.0]
+ROUGH_CHECKED = [0.0, 30.0, 60.0]
 MIRROR_SIGNS = np.array([1.0, 1.0, -1.0, -1.0])
 
 
@@ -263,8 +266,7 @@ def node_sources(phi_d, theta_h, theta_d, thetas_deg):
     """Where the writer takes a node's value from (src/export/pbsdf.rs,
     "Resampling", written again here): per tabulated incidence k with a
     weight > 0, the turned pair (l, v) in the table's frame, the reference
-    vector of the plugin's frame at the node, and k. Incidence 0 (ring
-    means) is not handled: the checked incidences do not reach it."""
+    vector of the plugin's frame at the node, and k."""
     h = np.stack([np.sin(theta_h), 0 * theta_h, np.cos(theta_h)], axis=1)
     t = np.cross([0, 1.0, 0], h)
     d = np.cos(phi_d)[:, None] * t + np.sin(phi_d)[:, None] * np.array([0, 1.0, 0])
@@ -285,12 +287,46 @@ def node_sources(phi_d, theta_h, theta_d, thetas_deg):
     for k, wk in ((lo, 1 - w), (hi, w)):
         use = wk > 0
         shift = np.radians(theta_i - thetas[k])
-        l, v = turn_y(light, shift), above_horizon(turn_y(view, -shift))
+        # At the tabulated incidence exactly (at 0 the pole, reference y).
+        l = direction(thetas[k], 0.0)
+        v = above_horizon(turn_y(view, -shift))
         diff = l - v
         nd = np.linalg.norm(diff, axis=1, keepdims=True)
         diff = np.where(nd > 0, diff / np.where(nd > 0, nd, 1), d)
         ref = unit(np.cross(diff, unit(l + v)))
         out.append((use, k, l, v, ref))
+    return out
+
+
+def pole_rings(grid, cells):
+    """The writer's ring means of a normal incidence (`cells`: its (cells,
+    16) array): per band, each cell's matrix with its incident reference
+    vector turned with the cell to azimuth 0 (from (sin a, cos a, 0) to y
+    about -z, a the cell's azimuth), averaged over the band's cells."""
+    out = []
+    for band in range(1, grid.bands + 1):
+        flat = grid.start(band) + np.arange(4 * band)
+        a = grid.phi_centre[flat]
+        r = rotators(np.tile(-Z, (len(a), 1)), np.stack([np.sin(a), np.cos(a), 0 * a], axis=1),
+                     np.tile([0, 1.0, 0], (len(a), 1)))
+        out.append((cells[flat].reshape(-1, 4, 4) @ np.transpose(r, (0, 2, 1))).mean(axis=0))
+    return np.array(out)
+
+
+def writer_cells(grid, table, rings, thetas, k, v):
+    """The matrix the writer takes for the turned view v (N, 3) at tabulated
+    incidence thetas[k]: the cell holding v, or at normal incidence the
+    ring mean of v's band turned to v's azimuth (its incident reference
+    vector from (-sin phi, cos phi, 0) back to y)."""
+    flat = grid.locate(v)
+    out = np.array([table[thetas[kk]][cell] for kk, cell in zip(k, flat)])
+    pole = thetas[k] == 0
+    if pole.any():
+        p = np.arctan2(v[pole, 1], v[pole, 0])
+        r = rotators(np.tile(-Z, (len(p), 1)), np.stack([-np.sin(p), np.cos(p), 0 * p], axis=1),
+                     np.tile([0, 1.0, 0], (len(p), 1)))
+        m = rings[grid.band[flat[pole]] - 1] @ np.transpose(r, (0, 2, 1))
+        out[pole] = m.reshape(-1, 16)
     return out
 
 
@@ -313,6 +349,7 @@ def resampling_bound(grid, table, thetas, light, views, f):
     back_in = rotators(-lights, ref_x, roks_reference(-lights))
     back_out = rotators(views, ref_x, roks_reference(views))
     signs = np.outer(MIRROR_SIGNS, MIRROR_SIGNS)
+    rings = pole_rings(grid, table[0.0]) if 0.0 in table else None
     bound = np.zeros((n, 16))
     for ip, wp in bracketing(NODES_PHI_D, pd):
         for iq, wq in bracketing(NODES_THETA_D, td):
@@ -322,8 +359,8 @@ def resampling_bound(grid, table, thetas, light, views, f):
                                                       NODES_THETA_D[iq], thetas):
                     use = use & node
                     mirror = v * np.array([1, -1, 1.0])
-                    a = np.array([table[thetas[kk]][cell] for kk, cell in zip(k, grid.locate(v))])
-                    b = np.array([table[thetas[kk]][cell] for kk, cell in zip(k, grid.locate(mirror))])
+                    a = writer_cells(grid, table, rings, thetas, k, v)
+                    b = writer_cells(grid, table, rings, thetas, k, mirror)
                     m = 0.5 * (a + b * signs.ravel()).reshape(n, 4, 4)
                     to_in = rotators(-l, roks_reference(-l), ref)
                     to_out = rotators(v, roks_reference(v), ref)
@@ -353,7 +390,7 @@ def rough_check(m, folder):
         dirs = direction(c["theta_deg"][sel], c["phi_deg"][sel])
         light = direction(theta, 0.0)
         got = mitsuba_eval(m, bsdf, light, dirs)
-        ref_in = np.cross(Z, -light)
+        ref_in = roks_reference(-light[None])[0]
         roks = np.array([into_frames(m, g, light, d, ref_in, np.cross(Z, d)).ravel() / light[2]
                          for g, d in zip(got, dirs)])
         f = table[theta]

@@ -399,8 +399,13 @@ impl<'a> Resampler<'a> {
             }
             // Light to the tabulated incidence, view turned the other way: the
             // pair keeps its place relative to the mirror direction.
-            let shift = theta_i - thetas[k].to_radians();
-            let (l, v) = (turn_y(light, shift), above_horizon(turn_y(view, -shift)));
+            // The light is set at the tabulated incidence exactly: turned,
+            // it would miss the pole of a normal incidence by rounding
+            // (1e-18), and its Stokes reference would be the azimuthal
+            // vector of a random azimuth instead of the table's `ŷ`.
+            let (theta_k, shift) = (thetas[k].to_radians(), theta_i - thetas[k].to_radians());
+            let l = DVec3::new(theta_k.sin(), 0.0, theta_k.cos());
+            let v = above_horizon(turn_y(view, -shift));
             let reference =
                 plugin_reference((l + v).normalize(), (l - v).try_normalize().unwrap_or(d));
             let m = self.incidence_mueller(k, v).unwrap_or([0.0; 16]);
