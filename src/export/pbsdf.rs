@@ -398,11 +398,11 @@ impl<'a> Resampler<'a> {
                 continue;
             }
             // Light to the tabulated incidence, view turned the other way: the
-            // pair keeps its place relative to the mirror direction.
-            // The light is set at the tabulated incidence exactly: turned,
-            // it would miss the pole of a normal incidence by rounding
-            // (1e-18), and its Stokes reference would be the azimuthal
-            // vector of a random azimuth instead of the table's `ŷ`.
+            // pair keeps its place relative to the mirror direction. The
+            // light is set there exactly: turned, it would miss the pole of
+            // a normal incidence by rounding (1e-18), and its Stokes
+            // reference would be the azimuthal vector of a random azimuth
+            // instead of the table's `ŷ`.
             let (theta_k, shift) = (thetas[k].to_radians(), theta_i - thetas[k].to_radians());
             let l = DVec3::new(theta_k.sin(), 0.0, theta_k.cos());
             let v = above_horizon(turn_y(view, -shift));
