@@ -464,10 +464,10 @@ pub fn export_formats(
                 export_rgl(&tables, comment, quiet, Some(surface), false)?
             }
             (BrdfFormat::Pbsdf, _) => {
-                // The run's Mueller table, as its mueller.csv holds it.
-                let text = crate::output::polar_csv::write(folder.run(), &folder.results)
+                // The run's Mueller table: the text of the folder's mueller.csv.
+                let (name, text) = folder
+                    .polar_table()
                     .filter(|(name, _)| *name == "mueller.csv")
-                    .map(|(_, text)| text)
                     .ok_or_else(|| {
                         Failure::Input(
                             "--export pbsdf: needs the Mueller-matrix BRDF: --polarisation mueller ([tally] polarisation = \"mueller\")".into(),
@@ -475,7 +475,7 @@ pub fn export_formats(
                     })?;
                 let tables = tables
                     .clone()
-                    .with_mueller_text(&text, "mueller.csv")
+                    .with_mueller_text(text, name)
                     .map_err(|e| Failure::Other(anyhow::anyhow!("{e}")))?;
                 export_pbsdf(&tables, quiet)?
             }

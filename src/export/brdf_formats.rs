@@ -498,16 +498,7 @@ pub fn reflectance_check(
         .angles_deg()
         .iter()
         .enumerate()
-        .map(|(k, &deg)| {
-            let theta = deg.to_radians();
-            ReflectanceCheck {
-                theta_i_deg: deg,
-                phi_i_deg: None,
-                table: table.reflectance(theta),
-                file: file_r(k, theta),
-                table_stderr: table.reflectance_stderr(theta),
-            }
-        })
+        .map(|(k, &deg)| ReflectanceCheck::of_table(table, deg, file_r(k, deg.to_radians())))
         .collect())
 }
 
@@ -525,16 +516,17 @@ fn azimuth_checks(table: &BrdfTable, z: &zemax::ZemaxBsdf) -> Vec<ReflectanceChe
         .iter()
         .enumerate()
         .flat_map(|(t, &deg)| {
-            azimuths.iter().enumerate().map(move |(j, a)| {
-                let theta = deg.to_radians();
-                ReflectanceCheck {
-                    theta_i_deg: deg,
+            azimuths
+                .iter()
+                .enumerate()
+                .map(move |(j, a)| ReflectanceCheck {
                     phi_i_deg: Some(a.azimuths_deg()[0]),
-                    table: a.reflectance(theta),
-                    file: integrate_projected(CHECK_RINGS, |d| z.eval(j * m + t, d)),
-                    table_stderr: a.reflectance_stderr(theta),
-                }
-            })
+                    ..ReflectanceCheck::of_table(
+                        a,
+                        deg,
+                        integrate_projected(CHECK_RINGS, |d| z.eval(j * m + t, d)),
+                    )
+                })
         })
         .collect()
 }

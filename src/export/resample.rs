@@ -55,6 +55,21 @@ pub struct ReflectanceCheck {
 }
 
 impl ReflectanceCheck {
+    /// The check of `file`, a file's reflectance read back at incidence
+    /// `theta_i_deg` (degrees), against `table`'s reflectance and its
+    /// standard error there (`phi_i_deg: None`).
+    #[must_use]
+    pub fn of_table(table: &BrdfTable, theta_i_deg: f64, file: f64) -> Self {
+        let theta = theta_i_deg.to_radians();
+        Self {
+            theta_i_deg,
+            phi_i_deg: None,
+            table: table.reflectance(theta),
+            file,
+            table_stderr: table.reflectance_stderr(theta),
+        }
+    }
+
     /// The largest difference between file and table that the export is
     /// allowed: `max(1 % of the table's reflectance, 4 standard errors)`.
     #[must_use]

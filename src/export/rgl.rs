@@ -760,16 +760,7 @@ pub fn check_channels(
                 .thetas_deg()
                 .iter()
                 .enumerate()
-                .map(|(k, &deg)| {
-                    let theta = deg.to_radians();
-                    super::resample::ReflectanceCheck {
-                        theta_i_deg: deg,
-                        phi_i_deg: None,
-                        table: table.reflectance(theta),
-                        file: r[k][w],
-                        table_stderr: table.reflectance_stderr(theta),
-                    }
-                })
+                .map(|(k, &deg)| super::resample::ReflectanceCheck::of_table(table, deg, r[k][w]))
                 .collect()
         })
         .collect())

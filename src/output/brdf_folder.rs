@@ -27,6 +27,9 @@ pub struct BrdfFolder {
     pub tallies: Option<TalliesFile>,
     /// Wall-clock time (s; for a merge the shards' sum).
     pub seconds: f64,
+    /// The polarisation table's file name and text, made once
+    /// ([`polar_table`](Self::polar_table)) for the folder and its exports.
+    polar: std::sync::OnceLock<Option<(&'static str, String)>>,
 }
 
 impl BrdfFolder {
@@ -45,6 +48,7 @@ impl BrdfFolder {
             results,
             tallies,
             seconds,
+            polar: std::sync::OnceLock::new(),
         }
     }
 
@@ -63,6 +67,7 @@ impl BrdfFolder {
             results,
             tallies,
             seconds,
+            polar: std::sync::OnceLock::new(),
         }
     }
 
@@ -85,6 +90,18 @@ impl BrdfFolder {
         brdf_csv::table(self.run(), &self.results)
     }
 
+    /// The polarisation table (`stokes.csv` or `mueller.csv`, see
+    /// [`polar_csv::write`]): its file name and text, `None` for a run
+    /// without one. Made on the first call and kept, so the folder's file
+    /// and an export that reads it (`--export pbsdf`) share one text.
+    #[must_use]
+    pub fn polar_table(&self) -> Option<(&'static str, &str)> {
+        self.polar
+            .get_or_init(|| polar_csv::write(self.run(), &self.results))
+            .as_ref()
+            .map(|(name, text)| (*name, text.as_str()))
+    }
+
     /// Every file of the folder, with `extra` files (images, exports)
     /// after the tables: `brdf.csv`, `inplane.csv`, the polarisation table,
     /// `extra`, `tallies.json` (if any), `summary.json`.
@@ -100,8 +117,8 @@ impl BrdfFolder {
                 inplane_csv::write(self.run(), &self.results).into_bytes(),
             ),
         ];
-        if let Some((name, text)) = polar_csv::write(self.run(), &self.results) {
-            files.push((name.to_owned(), text.into_bytes()));
+        if let Some((name, text)) = self.polar_table() {
+            files.push((name.to_owned(), text.as_bytes().to_vec()));
         }
         if let Some(text) = super::colour_csv::write(self.run(), &self.results) {
             files.push(("colour.csv".to_owned(), text.into_bytes()));
