@@ -121,6 +121,9 @@ pub const VNDF_RES: usize = 64;
 pub const SAMPLE_RES: usize = 96;
 /// Share of the uniform NDF `1/pi` mixed into the facets' one.
 pub const DIFFUSE_SHARE: f64 = 0.05;
+/// Share of an anisotropic file's NDF given to the half vectors of the
+/// table's own light ([`Ndf::with_half_vectors`]).
+pub const TABLE_SHARE: f64 = 0.25;
 /// Points per period side of the height map triangulated for surfaces that
 /// are not height fields.
 pub const MESH_RES: usize = 512;
@@ -336,19 +339,37 @@ impl Ndf {
             area_of[t * pb + q] += area;
             sum_of[t * pb + q] += area * n;
         }
-        let mut normals: Vec<(f64, DVec3, f64)> = area_of
+        let normals: Vec<(DVec3, f64)> = area_of
             .iter()
             .zip(&sum_of)
             .filter(|(a, s)| **a > 0.0 && s.length() > 0.0)
-            .map(|(&a, s)| {
-                let n = s.normalize();
-                (n.z.clamp(-1.0, 1.0).acos(), n, a)
-            })
+            .map(|(&a, s)| (s.normalize(), a))
             .collect();
-        let (rows, n) = (NDF_PHI_RES, NDF_RES);
-        if normals.is_empty() {
+        let Some(mut ndf) = Self::kernel(&normals, smoothing) else {
             return Self::uniform().anisotropic();
+        };
+        for v in &mut ndf.values {
+            *v = (1.0 - DIFFUSE_SHARE) * *v + DIFFUSE_SHARE / PI;
         }
+        ndf
+    }
+
+    /// The anisotropic NDF (`NDF_PHI_RES x NDF_RES` nodes) of the weighted
+    /// directions `normals` (unit, `z > 0`) spread by the von Mises-Fisher
+    /// kernel `exp(kappa (m.n - 1))`, `kappa = 1 / smoothing²`, evaluated
+    /// at each node (contributions below `exp(-40)` left out), normalised
+    /// exactly for the bilinear interpolation of the nodes; `None` without
+    /// a direction of positive weight.
+    fn kernel(normals: &[(DVec3, f64)], smoothing: f64) -> Option<Self> {
+        let mut normals: Vec<(f64, DVec3, f64)> = normals
+            .iter()
+            .filter(|(n, w)| *w > 0.0 && n.z > 0.0)
+            .map(|&(n, w)| (n.z.clamp(-1.0, 1.0).acos(), n, w))
+            .collect();
+        if normals.is_empty() {
+            return None;
+        }
+        let (rows, n) = (NDF_PHI_RES, NDF_RES);
         normals.sort_by(|a, b| a.0.total_cmp(&b.0));
         let thetas: Vec<f64> = normals.iter().map(|x| x.0).collect();
         let kappa = 1.0 / (smoothing * smoothing);
@@ -390,10 +411,32 @@ impl Ndf {
                 v * cos[idx % n] * w / (rows - 1) as f64
             })
             .sum();
-        for v in &mut values {
-            *v = (1.0 - DIFFUSE_SHARE) * *v / norm + DIFFUSE_SHARE / PI;
+        if norm <= 0.0 {
+            return None;
         }
-        Self { values, rows }
+        values.iter_mut().for_each(|v| *v /= norm);
+        Some(Self { values, rows })
+    }
+
+    /// This anisotropic NDF mixed with the distribution of the half
+    /// vectors `half` (unit, weighted) that a table's light takes
+    /// ([`Ndf::kernel`] of them, spread by `smoothing`): a share
+    /// [`TABLE_SHARE`] of the result, the rest this NDF scaled down.
+    #[must_use]
+    fn with_half_vectors(&self, half: &[(DVec3, f64)], smoothing: f64) -> Self {
+        let a = self.anisotropic();
+        match Self::kernel(half, smoothing) {
+            Some(h) => Self {
+                values: a
+                    .values
+                    .iter()
+                    .zip(&h.values)
+                    .map(|(d, t)| (1.0 - TABLE_SHARE) * d + TABLE_SHARE * t)
+                    .collect(),
+                rows: a.rows,
+            },
+            None => a,
+        }
     }
 
     /// This NDF on [`NDF_PHI_RES`] rows of `u_phi`: an isotropic one
@@ -563,7 +606,13 @@ impl Grids {
     /// The grids of the NDF `ndf` at the incidences `thetas_rad` and the
     /// light azimuths of `layout` (for a turned layout the NDF of the
     /// surface turned by a half turn, as the file's data is).
-    fn new(ndf: &Ndf, thetas_rad: &[f64], layout: &Layout) -> Self {
+    fn new(
+        ndf: &Ndf,
+        thetas_rad: &[f64],
+        layout: &Layout,
+        half: &[(DVec3, f64)],
+        smoothing: f64,
+    ) -> Self {
         if layout.is_isotropic() {
             assert_eq!(ndf.rows, 1, "an isotropic file takes an isotropic NDF");
             let ndf_grid: Vec<f64> = (0..2)
@@ -584,7 +633,8 @@ impl Grids {
         let file_ndf = match layout.reduction {
             Reduction::HalfTurn | Reduction::Quadrant => ndf.turned(),
             _ => ndf.anisotropic(),
-        };
+        }
+        .with_half_vectors(half, smoothing);
         let ndf_grid: Vec<f64> = file_ndf.values.iter().map(|&v| f32_round(v)).collect();
         let sigma = anisotropic_sigma(&ndf_grid);
         let ndf_at = |u: [f64; 2]| bilinear(&ndf_grid, NDF_RES, NDF_PHI_RES, u);
@@ -625,6 +675,40 @@ impl Grids {
             warps,
         }
     }
+}
+
+/// The half vectors of the light of `table` (several azimuths) at every
+/// node of `layout` and incidence `thetas_rad`, in the file's frame: per
+/// cell, the half vector between the node's `wi` and the cell's centre
+/// (turned by a half turn for a turned node), weighted by the cell's
+/// fraction over the incidence's reflectance (each incidence weighs the
+/// same).
+fn half_vectors(table: &BrdfTable, layout: &Layout, thetas_rad: &[f64]) -> Vec<(DVec3, f64)> {
+    let grid = table.grid();
+    let n = table.azimuths_deg().len();
+    let turned = matches!(layout.reduction, Reduction::HalfTurn | Reduction::Quadrant);
+    let mut out = Vec::new();
+    for node in &layout.nodes {
+        for (k, &theta) in thetas_rad.iter().enumerate() {
+            let wi = incident(theta, node.phi_deg.to_radians());
+            let fractions = table.fractions(k * n + node.azimuth);
+            let total: f64 = fractions.iter().sum();
+            if total <= 0.0 {
+                continue;
+            }
+            for (flat, &f) in fractions.iter().enumerate() {
+                if f <= 0.0 {
+                    continue;
+                }
+                let (band, cell) = grid.band_cell(flat);
+                let (t, p) = grid.centre(band, cell);
+                let wo = DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+                let wo = if turned { rotate_z(wo, PI) } else { wo };
+                out.push(((wi + wo).normalize(), f / total));
+            }
+        }
+    }
+    out
 }
 
 /// An RGL file's contents before encoding (or after reading back).
@@ -730,7 +814,14 @@ impl Rgl {
             .iter()
             .map(|d| d.to_radians())
             .collect();
-        let grids = Grids::new(ndf, &thetas, &layout);
+        let ni = thetas.len();
+        let half = if layout.is_isotropic() {
+            Vec::new()
+        } else {
+            half_vectors(per_channel[0], &layout, &thetas)
+        };
+        let smoothing = smoothing_for(per_channel[0].bands());
+        let grids = Grids::new(ndf, &thetas, &layout, &half, smoothing);
         // The BRDF of channel `w` at file node `node`, incidence `theta`,
         // towards `wo` (the file's frame): isotropic, averaged with its
         // mirror image in the plane of incidence; anisotropic, the node's
@@ -758,7 +849,6 @@ impl Rgl {
                 channel(w, node).eval(theta, rotate_z(wo, -node.phi_deg.to_radians()))
             }
         };
-        let ni = thetas.len();
         let r = SAMPLE_RES;
         let spectra = (0..layout.nodes.len() * ni)
             .into_par_iter()
