@@ -3,7 +3,10 @@
 //! azimuth) and angle of incidence holding that azimuth's table exactly,
 //! read back and judged per incidence and azimuth; MERL writes the
 //! azimuths' average and warns when they disagree beyond their errors (and
-//! only then); RGL refuses with one line naming the file and `phi_i_deg`.
+//! only then); RGL writes an anisotropic file for the azimuth sets that
+//! fill one of the reader's domains (the whole circle, 0 to 180, 0 to 90)
+//! and refuses others with one line naming the file, `phi_i_deg`,
+//! `light.phi_deg` and `--phi`, before tracing for `roks brdf --export`.
 //! The tables are synthetic: an analytic BRDF integrated exactly over each
 //! Carlson cell, written by the `brdf.csv` writer.
 
@@ -437,7 +440,79 @@ fn export_brdf_cli_of_several_azimuths() {
         &o,
         &aniso.join("brdf.csv"),
         &out,
-        &["phi_i_deg", "2 light azimuths"],
+        &[
+            "phi_i_deg",
+            "light.phi_deg",
+            "--phi",
+            "0, 90 deg",
+            "0 to 180",
+        ],
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `roks` with `args`, killed after `seconds`: `None` if it had not
+/// finished by then (a refusal that did not come before the work).
+fn roks_within(args: &[&str], seconds: u64) -> Option<std::process::Output> {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run roks");
+    let start = std::time::Instant::now();
+    while start.elapsed() < std::time::Duration::from_secs(seconds) {
+        if child.try_wait().expect("wait").is_some() {
+            return Some(child.wait_with_output().expect("output"));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    None
+}
+
+/// `roks brdf --export rgl` (or pbsdf) of light azimuths that no file of
+/// the format holds is refused before tracing: 10^12 photons would not
+/// finish, and the child is killed after 20 seconds, which fails the test
+/// (checked: with the refusal of rgl disabled the run is still tracing at
+/// 20 s). One line naming `--export`, `light.phi_deg` and `--phi` (rgl:
+/// and what is accepted), status 2, nothing written. Sets refused for rgl:
+/// 0 and 90 (two nodes of a quadrant: the reader would take them as
+/// isotropic), 0, 45, 135 (no domain), 30, 120, 210 (no 0 nor 180);
+/// pbsdf refuses any two.
+#[test]
+fn several_azimuths_refused_before_tracing() {
+    let dir = scratch("refuse");
+    let out = dir.join("run");
+    for (format, phi, extra) in [
+        ("rgl", "0,90", None),
+        ("rgl", "0,45,135", None),
+        ("rgl", "30,120,210", None),
+        ("pbsdf", "0,180", Some("mueller")),
+    ] {
+        let mut args = vec!["brdf", "--out", s(&out), "--phi", phi];
+        args.extend(["--photons", "1000000000000", "--export", format]);
+        if let Some(p) = extra {
+            args.extend(["--polarisation", p]);
+        }
+        let o = roks_within(&args, 20)
+            .unwrap_or_else(|| panic!("{format} {phi}: not refused within 20 s (tracing)"));
+        let expect: Vec<String> = if format == "rgl" {
+            vec![
+                "--export rgl: light.phi_deg (--phi)".into(),
+                format!("the light azimuths {} deg", phi.replace(',', ", ")),
+                "0 to 90 (first 0, last 90, at least three".into(),
+            ]
+        } else {
+            vec![
+                "--export pbsdf: the table has 2 light azimuths".into(),
+                "the pbsdf format holds phi_i = 0 only".into(),
+            ]
+        };
+        let expect: Vec<&str> = expect.iter().map(String::as_str).collect();
+        cli_common::assert_input_error(format, &o, Path::new("--export"), &out, &expect);
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -70,6 +70,17 @@ def bound(c, sel, bands, mirror=True):
     return np.array([np.abs(f[row] - f[k]).max() for k, row in enumerate(near)])
 
 
+def light_azimuth(a):
+    """The azimuth (degrees) at which the tests read an anisotropic file for
+    the run's light azimuth a: a, but 1e-4 degrees above 0 for 0. Mitsuba
+    turns a light with wi.y = +0 of a 0-180 file by a half turn and then
+    takes atan2(-0, x < 0), which drjit returns as +pi, not -pi: the node 0
+    (the run's 180 turned) is read instead of -180 (the run's 0). A light
+    exactly at azimuth 0 of a 0-180 file is a Mitsuba edge case of
+    measure zero; 1e-4 degrees off, the node -180 is read."""
+    return 1e-4 if a == 0 else a
+
+
 def mitsuba_eval(mi, bsdf, theta_deg, dirs, wavelength_nm, phi_deg=0.0):
     ctx = mi.BSDFContext()
     si = mi.SurfaceInteraction3f()
@@ -410,7 +421,8 @@ def aniso_compare(mi, folder, query_phi=None, turn=False, file="rgl.bsdf", mirro
                 sel &= c["phi_i_deg"] == a
             dirs = centres(c, sel)
             q = dirs * np.array([-1, -1, 1]) if turn else dirs
-            got = mitsuba_eval(mi, bsdf, theta, q, 550.0, a if query_phi is None else query_phi(a)) / dirs[:, 2]
+            got = mitsuba_eval(mi, bsdf, theta, q, 550.0,
+                               light_azimuth(a) if query_phi is None else query_phi(a)) / dirs[:, 2]
             f, se = c["brdf"][sel], c["brdf_stderr"][sel]
             se = zero_count_stderr(f, se, c["projected_solid_angle_sr"][sel], c["fraction"][sel])
             yield a, theta, f, se, got, bound(c, sel, bands, mirror=mirror)
@@ -446,11 +458,12 @@ def test_half_turn_reaches_the_other_half(mi, aniso):
     assert len(off) == 9 and not any(off.values()), off
 
 
-def mitsuba_reflectance(mi, path, theta_deg, phi_deg, rings=360):
+def mitsuba_reflectance(mi, path, theta_deg, phi_deg, rings=360, lobe=False):
     """The reflectance of Mitsuba's eval (f cos(theta_o)) in scalar_spectral
     at 550 nm with the light at theta_deg, phi_deg: the midpoint rule on
     `rings` rings of equal polar width times 4 rings azimuth sectors, each
-    cell weighted by its solid angle."""
+    cell weighted by its solid angle. With `lobe`, also the mean outgoing
+    direction of the reflected light (a vector, weighted by f cos dω)."""
     mi.set_variant("scalar_spectral")
     bsdf = mi.load_dict({"type": "measured", "filename": str(path)})
     dt, dp = np.pi / 2 / rings, 2 * np.pi / (4 * rings)
@@ -459,7 +472,52 @@ def mitsuba_reflectance(mi, path, theta_deg, phi_deg, rings=360):
     tt, pp = np.meshgrid(t, p, indexing="ij")
     dirs = np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], axis=-1).reshape(-1, 3)
     solid = ((np.cos(t - dt / 2) - np.cos(t + dt / 2)) * dp)[:, None].repeat(4 * rings, axis=1).ravel()
-    return (mitsuba_eval(mi, bsdf, theta_deg, dirs, 550.0, phi_deg) * solid).sum()
+    w = mitsuba_eval(mi, bsdf, theta_deg, dirs, 550.0, phi_deg) * solid
+    return (w.sum(), (w[:, None] * dirs).sum(axis=0) / w.sum()) if lobe else w.sum()
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param("circle", marks=pytest.mark.xfail(strict=True, reason=(
+        "known defect: at the circle file's interior node 0 the grooves' retroreflected spike "
+        "(table: 0.27 of 0.73 at 30 degrees, one cell 5.6 degrees wide) falls between the "
+        "96 x 96 spectra nodes and is lost: the lobe's mean direction (0.881, 0, 0.471) "
+        "against the table's (0.739, 0, 0.618) at 30 degrees, reflectance 0.782 against "
+        "0.800 at 60 (the writer's own 0.5-degree check passes: it normalises to it)"))),
+    "half",
+])
+def test_anisotropic_reflectance_and_lobe_per_azimuth(mi, aniso, name):
+    """Per run azimuth a and incidence: the reflectance of Mitsuba's eval
+    with the light at a ([mitsuba_reflectance]) is the table's within
+    max(1 %, 4 sigma), and the mean outgoing direction of its light is the
+    table's (fractions times cell centres) within two band widths (the
+    cells' own spread). For the 0-180 file also with the light at a + 180
+    for 0 < a < 180 (the node a - 180 read directly): the same reflectance
+    and the table's mean direction turned by a half turn. The per-cell
+    comparison above bounds a lone spike cell by its own value (its
+    neighbours are 0), so a file that loses or moves a spike can pass it;
+    this test cannot be passed so (checked: a writer skipping the half turn
+    fails it)."""
+    c = read_columns(aniso[name] / "brdf.csv")
+    bands = int(c["band"].max())
+    path = aniso[name] / "rgl.bsdf"
+    bad = []
+    for a in ANISO[name]:
+        for theta in ANISO_THETA:
+            sel = (c["theta_i_deg"] == theta) & (c["phi_i_deg"] == a)
+            p, f = c["projected_solid_angle_sr"][sel], c["fraction"][sel]
+            r_table = (c["brdf"][sel] * p).sum()
+            allowed = max(0.01 * r_table, 4 * np.sqrt(((c["brdf_stderr"][sel] * p) ** 2).sum()))
+            mean = (f[:, None] * centres(c, sel)).sum(axis=0) / f.sum()
+            queries = [(light_azimuth(a), mean)]
+            if name == "half" and 0 < a < 180:
+                queries.append((a + 180, mean * np.array([-1, -1, 1])))
+            for q, want in queries:
+                r_file, got = mitsuba_reflectance(mi, path, theta, q, lobe=True)
+                if abs(r_file - r_table) > allowed:
+                    bad.append(("reflectance", a, q, theta, r_file, r_table, allowed))
+                if np.linalg.norm(got - want) > 2 * np.radians(90 / bands):
+                    bad.append(("lobe", a, q, theta, got.round(3), want.round(3)))
+    assert not bad, (name, bad)
 
 
 def test_anisotropic_file_differs_from_the_isotropic_one(mi, aniso):

@@ -65,13 +65,45 @@
 //!   `mitsuba.chi2` drop a sample of weight 0 while `pdf` counts it). The
 //!   renderers sample the sample square in proportion to it, then the vndf
 //!   warp, so that their samples follow `f cos(theta_o)`.
-//! * `theta_i` (radians): the table's incidences; `phi_i = [0]` (one light
-//!   azimuth: isotropic; the axis stays for tables at several azimuths);
+//! * `theta_i` (radians): the table's incidences; `phi_i = [0]` for a
+//!   table of one light azimuth (isotropic; anisotropic files: below);
 //!   `wavelengths` (nm): the run's; a monochrome run (no wavelengths) is
 //!   written as a grey spectrum, the same table at 360 and 830 nm (the
 //!   limits of the CIE observer), so that spectral renderers see the same
 //!   value at every visible wavelength.
 //! * `description`: the comment; `jacobian = [1]`.
+//!
+//! # Anisotropic files (several light azimuths)
+//!
+//! A table of several light azimuths is written as an anisotropic file
+//! when its azimuths fill one of the reader's azimuth domains
+//! ([`layout`]: the whole circle, reduction 1, nothing assumed; 0 to 180,
+//! reduction 2, a half turn assumed to leave the surface unchanged; 0 to
+//! 90, reduction 4, mirror symmetry about the xz and yz planes assumed;
+//! [`layout::symmetry_figure`] judges the assumption), and refused
+//! otherwise. Then `phi_i` holds the layout's nodes (radians, at least
+//! three), and the reader takes the half vector's azimuth absolute (the
+//! sample's frame):
+//!
+//! * `ndf` ([`NDF_PHI_RES`] x [`NDF_RES`]): the facets' kernel at each
+//!   node's direction without the azimuth average
+//!   ([`Ndf::from_mesh_anisotropic`]; for a turned layout the surface
+//!   turned by a half turn, as its data are), mixed with [`TABLE_SHARE`]
+//!   of the distribution of the half vectors of the table's own light
+//!   ([`Ndf::with_half_vectors`]: the facets miss light that leaves after
+//!   several reflections, and `spectra` then has no node where it goes);
+//! * `sigma` ([`SIGMA_PHI_RES`] x [`SIGMA_RES`]): its projected area at
+//!   each `(theta_i, phi_i)`;
+//! * `vndf`, `luminance`, `spectra`: a block per `(phi_i, theta_i)` node
+//!   with the light at the node's azimuth and the node's table in its own
+//!   plane of incidence (the file's `wo` turned by `-phi_i`), **not**
+//!   averaged with its mirror image, each block scaled to its table's
+//!   reflectance.
+//!
+//! [`check`] judges every incidence and light azimuth. Known defect: a
+//! spike one Carlson cell wide in a direction the NDF barely reaches (the
+//! grooves' retroreflection) can fall between the `spectra` nodes of a
+//! block and be lost there (`python/tests/test_rgl.py`).
 //!
 //! # Resampling error
 //!
@@ -1249,6 +1281,57 @@ mod tests {
         for t in [0.3, 0.8, 1.2] {
             assert!(ndf.projected_area(t) >= t.cos() - 2e-3, "{t}");
         }
+    }
+
+    /// The anisotropic NDF of a plane tilted 30 degrees about y (normals at
+    /// theta 30, azimuth 180) is normalised for the bilinear interpolation
+    /// of its nodes (∫ D cos dω = 1 by the midpoint rule on 512² cells of
+    /// the `u` square, to 2e-3), peaks at the node nearest (30, 180) and
+    /// is the uniform share alone a quarter turn away; turned by a half
+    /// turn it peaks at azimuth 0. An azimuth-averaged NDF (the isotropic
+    /// kernel) would be equal at 0 and 180.
+    #[test]
+    fn anisotropic_ndf_keeps_the_azimuth() {
+        let ndf = Ndf::from_mesh_anisotropic(&tilted(30f64.to_radians()), 0.05);
+        assert_eq!(ndf.rows, NDF_PHI_RES);
+        let n = 512;
+        let total: f64 = (0..n * n)
+            .map(|k| {
+                let u = [
+                    ((k % n) as f64 + 0.5) / n as f64,
+                    ((k / n) as f64 + 0.5) / n as f64,
+                ];
+                let jac = 2.0 * PI * PI * u[0] * u2theta(u[0]).sin();
+                bilinear(&ndf.values, NDF_RES, NDF_PHI_RES, u) * u2theta(u[0]).cos() * jac
+            })
+            .sum::<f64>()
+            / (n * n) as f64;
+        assert!((total - 1.0).abs() < 2e-3, "{total}");
+        let at = |ndf: &Ndf, theta_deg: f64, phi_deg: f64| {
+            bilinear(
+                &ndf.values,
+                NDF_RES,
+                NDF_PHI_RES,
+                [theta2u(theta_deg.to_radians()), phi2u(phi_deg.to_radians())],
+            )
+        };
+        let peak = ndf
+            .values
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap()
+            .0;
+        let (row, col) = (peak / NDF_RES, peak % NDF_RES);
+        let u = theta2u(30f64.to_radians()) * (NDF_RES - 1) as f64;
+        assert!((col as f64 - u).abs() <= 1.0, "{col} vs {u}");
+        assert!(row == 0 || row == NDF_PHI_RES - 1, "row {row}");
+        let floor = DIFFUSE_SHARE / PI;
+        assert!((at(&ndf, 30.0, 90.0) / floor - 1.0).abs() < 1e-6);
+        assert!(at(&ndf, 30.0, 180.0) > 100.0 * at(&ndf, 30.0, 0.0));
+        let turned = ndf.turned();
+        assert!(turned.values[(NDF_PHI_RES / 2) * NDF_RES + col] == ndf.values[peak]);
+        assert!(at(&turned, 30.0, 0.0) > 100.0 * at(&turned, 30.0, 180.0));
     }
 
     /// `bessel_i0e` against I0 from its power series `sum (x/2)^2k / k!²`
