@@ -348,6 +348,33 @@ fn rgl_anisotropic_holds_each_azimuth() {
     );
 }
 
+/// The symmetry a reduced RGL file assumes, judged from the table: the
+/// synthetic BRDF that turns with the light (`s = 1`, isotropic: unchanged
+/// by a half turn, and mirror symmetric about the plane of incidence)
+/// passes both (chi^2/dof within the bound: the cells are exact, so 0 to
+/// rounding); the one that does not (`s = 2`: `1 + 0.5 cos(phi - 2 phi_k)`)
+/// fails both: at 180 its table is `1 + 0.5 cos(phi)`, the one at 0
+/// turned is `1 - 0.5 cos(phi)`; at 90 it is `1 - 0.5 cos(phi)`, not
+/// symmetric about the yz plane. The whole circle assumes nothing (no
+/// cell compared).
+#[test]
+fn rgl_symmetry_figure_judges_the_assumption() {
+    use roks::export::rgl::layout::{Reduction, symmetry_figure};
+    let m = 16;
+    for (azimuths, reduction) in [
+        (&[0.0, 90.0, 180.0][..], Reduction::HalfTurn),
+        (&[0.0, 45.0, 90.0], Reduction::Quadrant),
+    ] {
+        let iso = BrdfTable::parse(&csv_at(m, 1.0, azimuths), "iso.csv").unwrap();
+        let aniso = BrdfTable::parse(&csv_at(m, 2.0, azimuths), "aniso.csv").unwrap();
+        let f = symmetry_figure(&[&iso], reduction);
+        assert!(f.dof > 100 && f.isotropic() && f.chi2_dof < 1e-6, "{reduction:?} {f:?}");
+        let f = symmetry_figure(&[&aniso], reduction);
+        assert!(f.dof > 100 && !f.isotropic(), "{reduction:?} {f:?}");
+        assert_eq!(symmetry_figure(&[&aniso], Reduction::Circle).dof, 0);
+    }
+}
+
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("roks-azimuths-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

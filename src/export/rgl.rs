@@ -452,10 +452,10 @@ impl Ndf {
 
     /// This anisotropic NDF mixed with the distribution of the half
     /// vectors `half` (unit, weighted) that a table's light takes
-    /// ([`Ndf::kernel`] of them, spread by `smoothing`): a share
+    /// (their von Mises-Fisher kernel, spread by `smoothing`): a share
     /// [`TABLE_SHARE`] of the result, the rest this NDF scaled down.
     #[must_use]
-    fn with_half_vectors(&self, half: &[(DVec3, f64)], smoothing: f64) -> Self {
+    pub fn with_half_vectors(&self, half: &[(DVec3, f64)], smoothing: f64) -> Self {
         let a = self.anisotropic();
         match Self::kernel(half, smoothing) {
             Some(h) => Self {

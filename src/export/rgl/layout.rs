@@ -10,7 +10,7 @@
 //! when `wi.y >= 0` (so the file needs `phi_i` in `[-180, 0]`); with
 //! reduction 4 it mirrors `x -> -x` when `wi.x >= 0` and `y -> -y` when
 //! `wi.y >= 0` (`phi_i` in `[-180, -90]`). A roks table at light azimuths
-//! `a` (degrees in `[0, 360)`, `[light] phi_deg`) fills one of these
+//! `a` (degrees in 0-360, `light.phi_deg`) fills one of these
 //! domains exactly when ([`Layout::of`]):
 //!
 //! * one azimuth: the isotropic file (`phi_i = [0]`, outgoing azimuths
