@@ -368,7 +368,10 @@ fn rgl_symmetry_figure_judges_the_assumption() {
         let iso = BrdfTable::parse(&csv_at(m, 1.0, azimuths), "iso.csv").unwrap();
         let aniso = BrdfTable::parse(&csv_at(m, 2.0, azimuths), "aniso.csv").unwrap();
         let f = symmetry_figure(&[&iso], reduction);
-        assert!(f.dof > 100 && f.isotropic() && f.chi2_dof < 1e-6, "{reduction:?} {f:?}");
+        assert!(
+            f.dof > 100 && f.isotropic() && f.chi2_dof < 1e-6,
+            "{reduction:?} {f:?}"
+        );
         let f = symmetry_figure(&[&aniso], reduction);
         assert!(f.dof > 100 && !f.isotropic(), "{reduction:?} {f:?}");
         assert_eq!(symmetry_figure(&[&aniso], Reduction::Circle).dof, 0);

@@ -164,8 +164,7 @@ pub struct ExportFile {
 /// Why a table cannot be exported in a format.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ExportRefusal {
-    /// RGL or pbsdf (isotropic formats) of a table of several light
-    /// azimuths.
+    /// pbsdf (an isotropic format) of a table of several light azimuths.
     #[error(
         "the table has {count} light azimuths (phi_i_deg); the {format} format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
     )]
