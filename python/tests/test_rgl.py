@@ -133,6 +133,7 @@ GROOVES = ROOT / "scenes" / "grooves.toml"
 ANISO = {
     "circle": [0, 90, 180, 270],
     "half": [0, 45, 90, 135, 180],
+    "quadrant": [0, 45, 90],
 }
 ANISO_THETA = [0, 30, 60]
 IRES_ANISO = 32
@@ -489,6 +490,10 @@ def mitsuba_reflectance(mi, path, theta_deg, phi_deg, rings=360, lobe=False):
         "against the table's (0.739, 0, 0.618) at 30 degrees, reflectance 0.782 against "
         "0.800 at 60 (the writer's own 0.5-degree check passes: it normalises to it)"))),
     "half",
+    pytest.param("quadrant", marks=pytest.mark.xfail(strict=True, reason=(
+        "known limitation: at 60 degrees, light at 45, Mitsuba's reflectance on 0.25-degree "
+        "cells is 0.7909 against the table's 0.8000 (1.1 %, allowed 1 %): the writer scales "
+        "each block to the table on 0.5-degree cells, and the grooves' peaks are finer"))),
 ])
 def test_anisotropic_reflectance_and_lobe_per_azimuth(mi, aniso, name):
     """Per run azimuth a and incidence: the reflectance of Mitsuba's eval
@@ -564,6 +569,7 @@ def test_anisotropic_export_checks_each_azimuth(roks, aniso, tmp_path):
             (float(t), float(p)) for t in ANISO_THETA for p in phis), err
         assert "warning" not in err, err
         assert ("assumes a half turn" in err) == (name == "half"), err
+        assert ("assumes the surface is mirror symmetric" in err) == (name == "quadrant"), err
 
 
 def _number(w):

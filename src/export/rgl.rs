@@ -100,10 +100,13 @@
 //!   averaged with its mirror image, each block scaled to its table's
 //!   reflectance.
 //!
-//! [`check`] judges every incidence and light azimuth. Known defect: a
-//! spike one Carlson cell wide in a direction the NDF barely reaches (the
-//! grooves' retroreflection) can fall between the `spectra` nodes of a
-//! block and be lost there (`python/tests/test_rgl.py`).
+//! [`check`] judges every incidence and light azimuth. Known defects
+//! (`python/tests/test_rgl.py`, expected failures): a spike one Carlson
+//! cell wide in a direction the NDF barely reaches (the grooves'
+//! retroreflection) can fall between the `spectra` nodes of a block and be
+//! lost there; and a block is scaled to its table's reflectance on the
+//! 0.5-degree cells of [`CHECK_RINGS`], which peaks finer than that (the
+//! grooves') make up to 1-2 % off the file's true integral.
 //!
 //! # Resampling error
 //!
