@@ -219,26 +219,8 @@ fn bad_input_exits_2_naming_the_file() {
     let out = dir.join("run");
     let o = brdf(&out, &["--export", "zemax,obj"]);
     cli_common::assert_input_error("brdf --export", &o, Path::new("--export"), &out, &["`obj`"]);
-    // rgl and pbsdf hold one light azimuth: a run of two is refused before
-    // tracing (10^12 photons would not finish), one line, nothing written.
-    for (format, extra) in [("rgl", None), ("pbsdf", Some("mueller"))] {
-        let mut args = vec!["brdf", "--out", s(&out), "--phi", "0,90"];
-        args.extend(["--photons", "1000000000000", "--export", format]);
-        if let Some(p) = extra {
-            args.extend(["--polarisation", p]);
-        }
-        let o = roks(&args);
-        cli_common::assert_input_error(
-            format,
-            &o,
-            Path::new("--export"),
-            &out,
-            &[
-                &format!("--export {format}: the table has 2 light azimuths"),
-                &format!("the {format} format holds phi_i = 0 only"),
-            ],
-        );
-    }
+    // Light azimuths that rgl and pbsdf cannot hold are refused before
+    // tracing: tests/export_azimuths.rs (several_azimuths_refused_before_tracing).
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -57,25 +57,39 @@ def centres(c, sel):
     return np.stack([np.sin(to) * np.cos(po), np.sin(to) * np.sin(po), np.cos(to)], axis=1)
 
 
-def bound(c, sel, bands):
+def bound(c, sel, bands, mirror=True):
     """Per cell: the largest |f_n - f_c| over cells n within two band widths
-    of the cell or of its mirror image (the stated resampling error)."""
+    of the cell or (an isotropic file, averaged with its mirror image:
+    `mirror`) of its mirror image (the stated resampling error)."""
     d = centres(c, sel)
     f = c["brdf"][sel]
-    mirror = d * np.array([1, -1, 1])
     radius = np.cos(2 * np.radians(90 / bands))
-    near = (d @ d.T > radius) | (mirror @ d.T > radius)
+    near = d @ d.T > radius
+    if mirror:
+        near |= (d * np.array([1, -1, 1])) @ d.T > radius
     return np.array([np.abs(f[row] - f[k]).max() for k, row in enumerate(near)])
 
 
-def mitsuba_eval(mi, bsdf, theta_deg, dirs, wavelength_nm):
+def light_azimuth(a):
+    """The azimuth (degrees) at which the tests read an anisotropic file for
+    the run's light azimuth a: a, but 1e-4 degrees above 0 for 0. Mitsuba
+    turns a light with wi.y = +0 of a 0-180 file by a half turn and then
+    takes atan2(-0, x < 0), which drjit returns as +pi, not -pi: the node 0
+    (the run's 180 turned) is read instead of -180 (the run's 0). A light
+    exactly at azimuth 0 of a 0-180 file is a Mitsuba edge case of
+    measure zero; 1e-4 degrees off, the node -180 is read."""
+    return 1e-4 if a == 0 else a
+
+
+def mitsuba_eval(mi, bsdf, theta_deg, dirs, wavelength_nm, phi_deg=0.0):
     ctx = mi.BSDFContext()
     si = mi.SurfaceInteraction3f()
     # At exactly normal incidence Mitsuba's light azimuth atan2(0, 0) comes
     # out as pi (the 0-degree slice is read turned by 180 degrees); the light
-    # of a roks table is at azimuth 0, the limit from the +x side.
-    t = max(np.radians(theta_deg), 1e-7)
-    si.wi = mi.Vector3f(np.sin(t), 0.0, np.cos(t))
+    # of a roks table is at azimuth 0, the limit from the +x side (at
+    # azimuth phi_deg: from that side).
+    t, p = max(np.radians(theta_deg), 1e-7), np.radians(phi_deg)
+    si.wi = mi.Vector3f(np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t))
     si.wavelengths = [wavelength_nm] * 4
     return np.array([bsdf.eval(ctx, si, mi.Vector3f(*d))[0] for d in dirs])
 
@@ -110,6 +124,52 @@ def test_chi2_sample_against_pdf(mi, folders):
         test = chi2.ChiSquareTest(domain=chi2.SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func,
                                   sample_dim=3, res=61, ires=16, sample_count=200_000)
         assert test.run(), test.messages
+
+
+# Anisotropic files: the 45-degree V-grooves of scenes/grooves.toml (along
+# y; half-turn and mirror symmetric), traced at the whole circle and at 0 to
+# 180 degrees of light azimuth, exported with the grooves' own NDF.
+GROOVES = ROOT / "scenes" / "grooves.toml"
+ANISO = {
+    "circle": [0, 90, 180, 270],
+    "half": [0, 45, 90, 135, 180],
+    "quadrant": [0, 45, 90],
+}
+ANISO_THETA = [0, 30, 60]
+IRES_ANISO = 32
+
+
+@pytest.fixture(scope="module")
+def aniso(roks, tmp_path_factory):
+    """Per layout: the folder, with rgl.bsdf; and an isotropic file of the
+    grooves lit across them alone (azimuth 0) in "iso"."""
+    tmp = tmp_path_factory.mktemp("rgl_aniso")
+    out = {}
+    theta = ",".join(map(str, ANISO_THETA))
+    for name, phis in {**ANISO, "iso": [0]}.items():
+        d = tmp / name
+        run(roks, "brdf", GROOVES, "--out", d, "-q", "--photons", 40_000, "--theta", theta,
+            "--phi", ",".join(map(str, phis)))
+        run(roks, "export-brdf", d, "--format", "rgl", "--out", d / "rgl.bsdf", "-q", "--scene", GROOVES)
+        out[name] = d
+    return out
+
+
+@pytest.mark.parametrize("name,phi_deg", [("half", 90.0), ("half", 60.0), ("circle", 225.0)])
+def test_chi2_anisotropic(mi, aniso, name, phi_deg):
+    """`mitsuba.chi2` on the anisotropic files at 30 degrees: at a node's
+    azimuth (90), between nodes (60; 225 for the circle) where the reader
+    interpolates the blocks of the two nodes around."""
+    import mitsuba as m
+    m.set_variant("llvm_ad_spectral")
+    from mitsuba import chi2
+    path = str(aniso[name] / "rgl.bsdf")
+    t, p = np.radians(30.0), np.radians(phi_deg)
+    wi = m.ScalarVector3f(np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t))
+    sample_func, pdf_func = chi2.BSDFAdapter("measured", f'<string name="filename" value="{path}"/>', wi=wi)
+    test = chi2.ChiSquareTest(domain=chi2.SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func,
+                              sample_dim=3, res=61, ires=IRES_ANISO, sample_count=200_000)
+    assert test.run(), test.messages
 
 
 def test_no_sample_of_zero_weight_above_the_horizon(mi, folders):
@@ -343,3 +403,178 @@ def test_broken_files_are_caught(mi, folders, tmp_path):
             se = zero_count_stderr(f, se, proj, fraction)
             off += int((np.abs(got - f) > 4 * se + b + 1e-5 * f.max()).sum())
         assert off >= 100, (what, off)
+
+
+def aniso_compare(mi, folder, query_phi=None, turn=False, file="rgl.bsdf", mirror=False):
+    """Per incidence and light azimuth a of the run: (a, theta, table BRDF,
+    its standard error with zero-count cells given one photon's, Mitsuba's
+    eval / cos(theta_o), the resampling bound). Mitsuba is queried with the
+    light at azimuth `query_phi(a)` (default a) towards the cell centres,
+    turned by a half turn when `turn`."""
+    mi.set_variant("scalar_spectral")
+    c = read_columns(folder / "brdf.csv")
+    bsdf = mi.load_dict({"type": "measured", "filename": str(folder / file)})
+    bands = int(c["band"].max())
+    for a in np.unique(c["phi_i_deg"]) if "phi_i_deg" in c else [0.0]:
+        for theta in np.unique(c["theta_i_deg"]):
+            sel = c["theta_i_deg"] == theta
+            if "phi_i_deg" in c:
+                sel &= c["phi_i_deg"] == a
+            dirs = centres(c, sel)
+            q = dirs * np.array([-1, -1, 1]) if turn else dirs
+            got = mitsuba_eval(mi, bsdf, theta, q, 550.0,
+                               light_azimuth(a) if query_phi is None else query_phi(a)) / dirs[:, 2]
+            f, se = c["brdf"][sel], c["brdf_stderr"][sel]
+            se = zero_count_stderr(f, se, c["projected_solid_angle_sr"][sel], c["fraction"][sel])
+            yield a, theta, f, se, got, bound(c, sel, bands, mirror=mirror)
+
+
+def off_cells(rows):
+    """Cells beyond 4 standard errors + the resampling bound, per (a, theta)."""
+    return {(a, theta): int((np.abs(got - f) > 4 * se + b + 1e-5 * f.max()).sum())
+            for a, theta, f, se, got, b in rows}
+
+
+@pytest.mark.parametrize("name", list(ANISO))
+def test_anisotropic_eval_matches_the_table_per_cell(mi, aniso, name):
+    """Mitsuba's eval of the anisotropic file with the light at each run
+    azimuth agrees at every cell centre with that azimuth's table within 4
+    standard errors + the resampling bound (cells within two band widths;
+    no mirror image: an anisotropic file is not averaged with it). For
+    "half" the light at 90 or 135 degrees has wi.y > 0, which the reader
+    turns by a half turn onto the node a - 180. The grooves' table is a few
+    lone spike cells, whose neighbours are 0, so this bound only pins the
+    cells farther than two band widths from any lit cell: a writer that
+    skips the half turn, or takes the half vector's azimuth relative to the
+    light's, still passes it (checked); the reflectance and lobe test below
+    fails for both."""
+    off = off_cells(aniso_compare(mi, aniso[name]))
+    assert not any(off.values()), off
+
+
+def test_half_turn_reaches_the_other_half(mi, aniso):
+    """The 0-180 file read with the light at a + 180 (225, 270, 315: wi.y <
+    0, no reduction, the node a - 180 itself) towards the cell centres
+    turned by a half turn is the table at a: the file holds azimuth a
+    turned (within the per-cell bound of the test above, as weak at the
+    grooves' spikes; the lobe test below also reads at a + 180)."""
+    rows = [r for r in aniso_compare(mi, aniso["half"], query_phi=lambda a: a + 180.0, turn=True)
+            if 0 < r[0] < 180]
+    off = off_cells(rows)
+    assert len(off) == 9 and not any(off.values()), off
+
+
+def mitsuba_reflectance(mi, path, theta_deg, phi_deg, rings=360, lobe=False):
+    """The reflectance of Mitsuba's eval (f cos(theta_o)) in scalar_spectral
+    at 550 nm with the light at theta_deg, phi_deg: the midpoint rule on
+    `rings` rings of equal polar width times 4 rings azimuth sectors, each
+    cell weighted by its solid angle. With `lobe`, also the mean outgoing
+    direction of the reflected light (a vector, weighted by f cos dω)."""
+    mi.set_variant("scalar_spectral")
+    bsdf = mi.load_dict({"type": "measured", "filename": str(path)})
+    dt, dp = np.pi / 2 / rings, 2 * np.pi / (4 * rings)
+    t = (np.arange(rings) + 0.5) * dt
+    p = (np.arange(4 * rings) + 0.5) * dp
+    tt, pp = np.meshgrid(t, p, indexing="ij")
+    dirs = np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], axis=-1).reshape(-1, 3)
+    solid = ((np.cos(t - dt / 2) - np.cos(t + dt / 2)) * dp)[:, None].repeat(4 * rings, axis=1).ravel()
+    w = mitsuba_eval(mi, bsdf, theta_deg, dirs, 550.0, phi_deg) * solid
+    return (w.sum(), (w[:, None] * dirs).sum(axis=0) / w.sum()) if lobe else w.sum()
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param("circle", marks=pytest.mark.xfail(strict=True, reason=(
+        "known defect: at the circle file's interior node 0 the grooves' retroreflected spike "
+        "(table: 0.27 of 0.73 at 30 degrees, one cell 5.6 degrees wide) falls between the "
+        "96 x 96 spectra nodes and is lost: the lobe's mean direction (0.881, 0, 0.471) "
+        "against the table's (0.739, 0, 0.618) at 30 degrees, reflectance 0.782 against "
+        "0.800 at 60 (the writer's own 0.5-degree check passes: it normalises to it)"))),
+    "half",
+    pytest.param("quadrant", marks=pytest.mark.xfail(strict=True, reason=(
+        "known limitation: at 60 degrees, light at 45, Mitsuba's reflectance on 0.25-degree "
+        "cells is 0.7909 against the table's 0.8000 (1.1 %, allowed 1 %): the writer scales "
+        "each block to the table on 0.5-degree cells, and the grooves' peaks are finer"))),
+])
+def test_anisotropic_reflectance_and_lobe_per_azimuth(mi, aniso, name):
+    """Per run azimuth a and incidence: the reflectance of Mitsuba's eval
+    with the light at a ([mitsuba_reflectance]) is the table's within
+    max(1 %, 4 sigma), and the mean outgoing direction of its light is the
+    table's (fractions times cell centres) within two band widths (the
+    cells' own spread). For the 0-180 file also with the light at a + 180
+    for 0 < a < 180 (the node a - 180 read directly): the same reflectance
+    and the table's mean direction turned by a half turn. The per-cell
+    comparison above bounds a lone spike cell by its own value (its
+    neighbours are 0), so a file that loses or moves a spike can pass it;
+    this test cannot be passed so (checked: a writer skipping the half turn,
+    or taking the half vector's azimuth relative to the light's, fails it
+    for the 0-180 file)."""
+    c = read_columns(aniso[name] / "brdf.csv")
+    bands = int(c["band"].max())
+    path = aniso[name] / "rgl.bsdf"
+    bad = []
+    for a in ANISO[name]:
+        for theta in ANISO_THETA:
+            sel = (c["theta_i_deg"] == theta) & (c["phi_i_deg"] == a)
+            p, f = c["projected_solid_angle_sr"][sel], c["fraction"][sel]
+            r_table = (c["brdf"][sel] * p).sum()
+            allowed = max(0.01 * r_table, 4 * np.sqrt(((c["brdf_stderr"][sel] * p) ** 2).sum()))
+            mean = (f[:, None] * centres(c, sel)).sum(axis=0) / f.sum()
+            queries = [(light_azimuth(a), mean)]
+            if name == "half" and 0 < a < 180:
+                queries.append((a + 180, mean * np.array([-1, -1, 1])))
+            for q, want in queries:
+                r_file, got = mitsuba_reflectance(mi, path, theta, q, lobe=True)
+                if abs(r_file - r_table) > allowed:
+                    bad.append(("reflectance", a, q, theta, r_file, r_table, allowed))
+                if np.linalg.norm(got - want) > 2 * np.radians(90 / bands):
+                    bad.append(("lobe", a, q, theta, got.round(3), want.round(3)))
+    assert not bad, (name, bad)
+
+
+def test_anisotropic_file_differs_from_the_isotropic_one(mi, aniso):
+    """Along the grooves (light at 90 degrees) every photon meets both walls
+    once: reflectance 0.64 at every incidence; across them (0) at 30
+    degrees 0.7324 (docs/src/anisotropy.md). The isotropic file of the
+    grooves lit across them turns with the light, so read at 90 it gives
+    the across table's reflectance; the anisotropic files give the along
+    one. The reflectance of Mitsuba's eval ([mitsuba_reflectance], 0.25-degree
+    cells, finer than the writer's normalisation on 0.5-degree cells, which
+    Mitsuba's eval reproduces to 5 digits) at 30 and 60 degrees: the
+    anisotropic files within max(1 %, 4 sigma) of the table at 90 (measured
+    0.2-0.8 % off; at 1-degree cells up to 2.6 %: the files' peaks are
+    narrower than a degree), the isotropic one beyond 5 times that."""
+    c = read_columns(aniso["circle"] / "brdf.csv")
+    for theta in (30.0, 60.0):
+        sel = (c["theta_i_deg"] == theta) & (c["phi_i_deg"] == 90.0)
+        p = c["projected_solid_angle_sr"][sel]
+        r_table = (c["brdf"][sel] * p).sum()
+        allowed = max(0.01 * r_table, 4 * np.sqrt(((c["brdf_stderr"][sel] * p) ** 2).sum()))
+        for name in ("circle", "half"):
+            r_file = mitsuba_reflectance(mi, aniso[name] / "rgl.bsdf", theta, 90.0)
+            assert abs(r_file - r_table) <= allowed, (name, theta, r_file, r_table, allowed)
+        r_iso = mitsuba_reflectance(mi, aniso["iso"] / "rgl.bsdf", theta, 90.0)
+        assert abs(r_iso - r_table) > 5 * allowed, (theta, r_iso, r_table, allowed)
+
+
+def test_anisotropic_export_checks_each_azimuth(roks, aniso, tmp_path):
+    """The export's read-back check prints one row per incidence and light
+    azimuth (a phi_i column), file within the tolerance (no warning), and a
+    note on the half-turn symmetry the 0-180 file assumes."""
+    for name, phis in ANISO.items():
+        err = run(roks, "export-brdf", aniso[name], "--format", "rgl", "--out", tmp_path / f"{name}.bsdf",
+                  "--scene", GROOVES)
+        rows = [line.split() for line in err.splitlines()
+                if len(line.split()) == 5 and all(_number(w) for w in line.split()[:4])]
+        assert sorted((float(r[0]), float(r[1])) for r in rows) == sorted(
+            (float(t), float(p)) for t in ANISO_THETA for p in phis), err
+        assert "warning" not in err, err
+        assert ("assumes a half turn" in err) == (name == "half"), err
+        assert ("assumes the surface is mirror symmetric" in err) == (name == "quadrant"), err
+
+
+def _number(w):
+    try:
+        float(w)
+        return True
+    except ValueError:
+        return False

@@ -128,7 +128,7 @@ impl BrdfArgs {
 pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let scene = a.scene()?;
     let mut run = scene.brdf_run();
-    check_export_formats(&a.export, &run.wavelengths_um, run.phi_deg.len())?;
+    check_export_formats(&a.export, &run.wavelengths_um, &run.phi_deg)?;
     if a.export.contains(&BrdfFormat::Pbsdf)
         && run.polarisation.tally != crate::tally::PolarTally::Mueller
     {

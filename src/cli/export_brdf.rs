@@ -25,7 +25,7 @@ use crate::export::brdf_formats::{
     BrdfFormat, ExportFile, ExportRefusal, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
     reflectance_check,
 };
-use crate::optics::brdf_table::BrdfTables;
+use crate::optics::brdf_table::{BrdfTable, BrdfTables};
 use crate::output::brdf_folder::BrdfFolder;
 
 /// The options of `roks export-brdf`.
@@ -304,13 +304,19 @@ pub fn export_rgl(
 ) -> Result<Vec<ExportFile>, Failure> {
     use crate::export::rgl;
     let format = BrdfFormat::Rgl;
-    tables
-        .require_one_azimuth(
-            "--format rgl (its file holds the light azimuth phi_i = 0 only; export zemax for an Asymmetrical4D file, or merl for their average)",
-        )
-        .map_err(|e| Failure::Input(e.to_string()))?;
+    let layout = rgl::layout::Layout::of(tables.azimuths_deg()).map_err(|reason| {
+        Failure::Input(format!(
+            "{}: column 2 (phi_i_deg, the run's light.phi_deg or --phi): --format rgl: {reason}",
+            tables.tables()[0].file()
+        ))
+    })?;
+    rgl_symmetry_note(tables, &layout);
     let ndf = match surface {
-        Some(s) => rgl::surface_ndf(s, rgl::smoothing_for(tables.tables()[0].bands())),
+        Some(s) => rgl::surface_ndf(
+            s,
+            rgl::smoothing_for(tables.tables()[0].bands()),
+            !layout.is_isotropic(),
+        ),
         None => {
             eprintln!(
                 "note: rgl: no micro scene (--scene) for the NDF: the uniform NDF 1/pi is written; the file's values are the same, its importance sampling follows the table alone"
@@ -318,10 +324,11 @@ pub fn export_rgl(
             rgl::Ndf::uniform()
         }
     };
-    let rgb_file = tables
-        .spectral()
-        .filter(|_| rgb)
-        .and_then(|s| rgl::Rgl::rgb_from_spectral(s, &ndf, comment));
+    let defect = |e: String| Failure::Other(anyhow::anyhow!("export {format}: {e}"));
+    let rgb_file = match tables.spectral().filter(|_| rgb) {
+        Some(s) => rgl::Rgl::rgb_from_spectral(s, &ndf, comment).map_err(defect)?,
+        None => None,
+    };
     let (bytes, checks) = match &rgb_file {
         Some((file, channels)) => {
             let bytes = file.to_bytes();
@@ -333,7 +340,9 @@ pub fn export_rgl(
             (bytes, checks)
         }
         None => {
-            let bytes = rgl::Rgl::from_tables(tables, &ndf, comment).to_bytes();
+            let bytes = rgl::Rgl::from_tables(tables, &ndf, comment)
+                .map_err(defect)?
+                .to_bytes();
             let checks = rgl::check(tables, &bytes, format.file_name());
             (bytes, checks)
         }
@@ -347,6 +356,36 @@ pub fn export_rgl(
         bytes,
         clipped: None,
     }])
+}
+
+/// The symmetry an anisotropic RGL file of `tables` assumes
+/// ([`crate::export::rgl::layout`]), judged from the table: a note naming
+/// the assumption, and one warning line when the table contradicts it
+/// beyond its 4-sigma bound ([`crate::export::rgl::layout::symmetry_figure`]).
+fn rgl_symmetry_note(tables: &BrdfTables, layout: &crate::export::rgl::layout::Layout) {
+    use crate::export::rgl::layout::{Reduction, symmetry_figure};
+    let assumed = match layout.reduction {
+        Reduction::Isotropic | Reduction::Circle => return,
+        Reduction::HalfTurn => {
+            "a half turn leaves the surface unchanged (the table at 180 deg is the one at 0 turned)"
+        }
+        Reduction::Quadrant => {
+            "the surface is mirror symmetric about the xz and yz planes (the table at 0 deg symmetric about the plane of incidence, the one at 90 deg too)"
+        }
+    };
+    let tables: Vec<&BrdfTable> = tables.tables().iter().collect();
+    let figure = symmetry_figure(&tables, layout.reduction);
+    let judged = format!(
+        "chi^2/dof = {:.3} over {} cell pairs, bound {:.3}",
+        figure.chi2_dof, figure.dof, figure.bound
+    );
+    if figure.dof > 0 && !figure.isotropic() {
+        eprintln!(
+            "warning: rgl: the file assumes {assumed}, but the table departs from it: {judged}; trace the whole circle (0 and 180 among light.phi_deg, azimuths beyond 180) for a file that assumes nothing"
+        );
+    } else {
+        eprintln!("note: rgl: the file assumes {assumed}; the table agrees ({judged})");
+    }
 }
 
 /// Per wavelength (one line for a monochrome table) and incidence, the
@@ -411,18 +450,28 @@ pub fn export_pbsdf(tables: &BrdfTables, quiet: bool) -> Result<Vec<ExportFile>,
 
 /// Refuse `--export` formats (of `roks brdf`, `roks merge`) that cannot
 /// hold a run of wavelengths `wavelengths_um` (empty: monochrome,
-/// [`BrdfFormat::check_wavelengths`]) and `azimuths` light azimuths (rgl
-/// and pbsdf hold one, [`ExportRefusal::Azimuths`]), before any work.
+/// [`BrdfFormat::check_wavelengths`]) and light azimuths `azimuths_deg`
+/// (pbsdf holds one, [`ExportRefusal::Azimuths`]; rgl the sets of
+/// [`crate::export::rgl::layout::Layout::of`]), before any work.
 ///
 /// # Errors
-/// Bad input naming `--export` and the format.
+/// Bad input naming `--export` and the format (and for the azimuths
+/// `light.phi_deg` and `--phi`).
 pub fn check_export_formats(
     formats: &[BrdfFormat],
     wavelengths_um: &[f64],
-    azimuths: usize,
+    azimuths_deg: &[f64],
 ) -> Result<(), Failure> {
+    let azimuths = azimuths_deg.len();
     for &f in formats {
-        let refusal = if matches!(f, BrdfFormat::Rgl | BrdfFormat::Pbsdf) && azimuths > 1 {
+        let refusal = if f == BrdfFormat::Rgl && azimuths > 1 {
+            crate::export::rgl::layout::Layout::of(azimuths_deg)
+                .map(|_| ())
+                .map_err(|reason| {
+                    Failure::Input(format!("--export rgl: light.phi_deg (--phi): {reason}"))
+                })?;
+            f.check_wavelengths(wavelengths_um)
+        } else if f == BrdfFormat::Pbsdf && azimuths > 1 {
             Err(ExportRefusal::Azimuths {
                 format: f,
                 count: azimuths,

@@ -74,7 +74,7 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     check_export_formats(
         &a.export,
         &merged.description.run.wavelengths_um,
-        merged.description.run.phi_deg.len(),
+        &merged.description.run.phi_deg,
     )?;
     let scene = merged.description.scene.clone();
     let photons = merged.description.run.photons;

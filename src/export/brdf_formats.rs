@@ -138,7 +138,8 @@ impl BrdfFormat {
                 &rgl::Ndf::uniform(),
                 comment,
             )
-            .to_bytes(),
+            .map(|r| r.to_bytes())
+            .unwrap_or_default(),
             Self::Pbsdf => pbsdf::Pbsdf::from_tables(&BrdfTables::Monochrome(table.clone()))
                 .map(|p| p.to_bytes())
                 .unwrap_or_default(),
@@ -163,8 +164,7 @@ pub struct ExportFile {
 /// Why a table cannot be exported in a format.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ExportRefusal {
-    /// RGL or pbsdf (isotropic formats) of a table of several light
-    /// azimuths.
+    /// pbsdf (an isotropic format) of a table of several light azimuths.
     #[error(
         "the table has {count} light azimuths (phi_i_deg); the {format} format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
     )]
@@ -173,6 +173,13 @@ pub enum ExportRefusal {
         format: BrdfFormat,
         /// Number of light azimuths.
         count: usize,
+    },
+    /// RGL of a table whose light azimuths no RGL file holds
+    /// ([`rgl::layout::Layout::of`]).
+    #[error("{reason}")]
+    RglAzimuths {
+        /// Why (one line, with what is accepted).
+        reason: String,
     },
     /// MERL of a spectral table whose wavelengths do not cover the visible.
     #[error(
@@ -298,7 +305,10 @@ impl BrdfFormat {
         grid: ZemaxGrid,
     ) -> Result<Vec<ExportFile>, ExportRefusal> {
         let count = tables.azimuths_deg().len();
-        if matches!(self, Self::Rgl | Self::Pbsdf) && count > 1 {
+        if self == Self::Rgl {
+            rgl::layout::Layout::of(tables.azimuths_deg())
+                .map_err(|reason| ExportRefusal::RglAzimuths { reason })?;
+        } else if self == Self::Pbsdf && count > 1 {
             return Err(ExportRefusal::Azimuths {
                 format: self,
                 count,
@@ -330,7 +340,9 @@ impl BrdfFormat {
             Self::Rgl => vec![ExportFile {
                 file_name: self.file_name().to_owned(),
                 wavelength_um: None,
-                bytes: rgl::Rgl::from_tables(tables, &rgl::Ndf::uniform(), comment).to_bytes(),
+                bytes: rgl::Rgl::from_tables(tables, &rgl::Ndf::uniform(), comment)
+                    .map_err(|reason| ExportRefusal::RglAzimuths { reason })?
+                    .to_bytes(),
                 clipped: None,
             }],
             Self::Pbsdf => unreachable!("returned above"),

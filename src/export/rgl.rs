@@ -65,13 +65,48 @@
 //!   `mitsuba.chi2` drop a sample of weight 0 while `pdf` counts it). The
 //!   renderers sample the sample square in proportion to it, then the vndf
 //!   warp, so that their samples follow `f cos(theta_o)`.
-//! * `theta_i` (radians): the table's incidences; `phi_i = [0]` (one light
-//!   azimuth: isotropic; the axis stays for tables at several azimuths);
+//! * `theta_i` (radians): the table's incidences; `phi_i = [0]` for a
+//!   table of one light azimuth (isotropic; anisotropic files: below);
 //!   `wavelengths` (nm): the run's; a monochrome run (no wavelengths) is
 //!   written as a grey spectrum, the same table at 360 and 830 nm (the
 //!   limits of the CIE observer), so that spectral renderers see the same
 //!   value at every visible wavelength.
 //! * `description`: the comment; `jacobian = [1]`.
+//!
+//! # Anisotropic files (several light azimuths)
+//!
+//! A table of several light azimuths is written as an anisotropic file
+//! when its azimuths fill one of the reader's azimuth domains
+//! ([`layout`]: the whole circle, reduction 1, nothing assumed; 0 to 180,
+//! reduction 2, a half turn assumed to leave the surface unchanged; 0 to
+//! 90, reduction 4, mirror symmetry about the xz and yz planes assumed;
+//! [`layout::symmetry_figure`] judges the assumption), and refused
+//! otherwise. Then `phi_i` holds the layout's nodes (radians, at least
+//! three), and the reader takes the half vector's azimuth absolute (the
+//! sample's frame):
+//!
+//! * `ndf` ([`NDF_PHI_RES`] x [`NDF_RES`]): the facets' kernel at each
+//!   node's direction without the azimuth average
+//!   ([`Ndf::from_mesh_anisotropic`]; for a turned layout the surface
+//!   turned by a half turn, as its data are), mixed with [`TABLE_SHARE`]
+//!   of the distribution of the half vectors of the table's own light
+//!   ([`Ndf::with_half_vectors`]: the facets miss light that leaves after
+//!   several reflections, and `spectra` then has no node where it goes);
+//! * `sigma` ([`SIGMA_PHI_RES`] x [`SIGMA_RES`]): its projected area at
+//!   each `(theta_i, phi_i)`;
+//! * `vndf`, `luminance`, `spectra`: a block per `(phi_i, theta_i)` node
+//!   with the light at the node's azimuth and the node's table in its own
+//!   plane of incidence (the file's `wo` turned by `-phi_i`), **not**
+//!   averaged with its mirror image, each block scaled to its table's
+//!   reflectance.
+//!
+//! [`check`] judges every incidence and light azimuth. Known defects
+//! (`python/tests/test_rgl.py`, expected failures): a spike one Carlson
+//! cell wide in a direction the NDF barely reaches (the grooves'
+//! retroreflection) can fall between the `spectra` nodes of a block and be
+//! lost there; and a block is scaled to its table's reflectance on the
+//! 0.5-degree cells of [`CHECK_RINGS`], which peaks finer than that (the
+//! grooves') make up to 1-2 % off the file's true integral.
 //!
 //! # Resampling error
 //!
@@ -83,6 +118,7 @@
 //! the default grids). [`check`] reads the file back and reports the
 //! integrated reflectance against the table's.
 
+pub mod layout;
 pub mod tensor;
 pub mod warp;
 
@@ -94,6 +130,7 @@ use rayon::prelude::*;
 use super::Mesh;
 use super::resample::{FormatError, symmetric_eval};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use layout::{Layout, Node, Reduction};
 use tensor::{Field, TensorFile};
 use warp::{Warp, bilinear};
 
@@ -101,6 +138,15 @@ use warp::{Warp, bilinear};
 pub const NDF_RES: usize = 128;
 /// Nodes of `sigma` along `u_theta` of the incidence.
 pub const SIGMA_RES: usize = 64;
+/// Nodes of an anisotropic file's NDF along `u_phi` (2 degrees apart; the
+/// first and the last are the same azimuth, -180 and 180 degrees).
+pub const NDF_PHI_RES: usize = 181;
+/// Nodes of an anisotropic file's `sigma` along `u_phi` of the incidence
+/// (4 degrees apart).
+pub const SIGMA_PHI_RES: usize = 91;
+/// Bins of an anisotropic NDF's facet normals ([`Ndf::from_mesh_anisotropic`]):
+/// polar angle over 0-90 degrees, azimuth over 360.
+pub const NORMAL_BINS_2D: [usize; 2] = [180, 360];
 /// Nodes of the vndf warp per side.
 pub const VNDF_RES: usize = 64;
 /// Nodes of `spectra` and `luminance` per side: at 64 cells beside a
@@ -110,6 +156,9 @@ pub const VNDF_RES: usize = 64;
 pub const SAMPLE_RES: usize = 96;
 /// Share of the uniform NDF `1/pi` mixed into the facets' one.
 pub const DIFFUSE_SHARE: f64 = 0.05;
+/// Share of an anisotropic file's NDF given to the half vectors of the
+/// table's own light ([`Ndf::with_half_vectors`]).
+pub const TABLE_SHARE: f64 = 0.25;
 /// Points per period side of the height map triangulated for surfaces that
 /// are not height fields.
 pub const MESH_RES: usize = 512;
@@ -182,12 +231,17 @@ fn u_of(d: DVec3) -> [f64; 2] {
     [theta2u(d.z.clamp(-1.0, 1.0).acos()), phi2u(d.y.atan2(d.x))]
 }
 
-/// An isotropic distribution of micro normals tabulated at `NDF_RES` nodes
-/// of `u_theta` (sr⁻¹, normalised: `∫ D cos(theta_m) dω = 1`).
+/// A distribution of micro normals tabulated at `rows x NDF_RES` nodes of
+/// `(u_phi, u_theta)` (sr⁻¹, normalised: `∫ D cos(theta_m) dω = 1`): one
+/// row for an isotropic NDF (averaged over the azimuth), [`NDF_PHI_RES`]
+/// rows for an anisotropic one (in the sample frame, absolute azimuth).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ndf {
-    /// `D` at the nodes `u_theta = k / (NDF_RES - 1)`.
+    /// `D` at the nodes `u_theta = k / (NDF_RES - 1)`, `u_phi = r / (rows -
+    /// 1)` (`rows > 1`), `u_theta` fastest.
     pub values: Vec<f64>,
+    /// Rows of `u_phi`: 1 for an isotropic NDF.
+    pub rows: usize,
 }
 
 /// `∫ hat_k(u(theta)) g(theta) dω` over the upper hemisphere for each node
@@ -217,6 +271,7 @@ impl Ndf {
     pub fn uniform() -> Self {
         Self {
             values: vec![1.0 / PI; NDF_RES],
+            rows: 1,
         }
     }
 
@@ -285,7 +340,168 @@ impl Ndf {
         for v in &mut values {
             *v = (1.0 - DIFFUSE_SHARE) * *v / norm + DIFFUSE_SHARE / PI;
         }
-        Self { values }
+        Self { values, rows: 1 }
+    }
+
+    /// The anisotropic NDF of the upward-facing triangles of `mesh`, at
+    /// [`NDF_PHI_RES`] x [`NDF_RES`] nodes of `(u_phi, u_theta)` in the
+    /// sample frame: as [`from_mesh`](Self::from_mesh) without the average
+    /// over the azimuth, the kernel `exp(kappa (m.n - 1))` evaluated at each
+    /// node's direction `m`. The normals are first binned on
+    /// [`NORMAL_BINS_2D`] bins (0.5 x 1 degree), each bin's area-weighted
+    /// mean normal standing for it; contributions below `exp(-40)` of a
+    /// bin's weight are left out. Normalised exactly for the bilinear
+    /// interpolation of the nodes, then mixed with [`DIFFUSE_SHARE`] of the
+    /// uniform NDF.
+    #[must_use]
+    pub fn from_mesh_anisotropic(mesh: &Mesh, smoothing: f64) -> Self {
+        let [tb, pb] = NORMAL_BINS_2D;
+        let mut area_of = vec![0.0; tb * pb];
+        let mut sum_of = vec![DVec3::ZERO; tb * pb];
+        for f in &mesh.faces {
+            let p = f.map(|k| {
+                let v = mesh.vertices[k as usize];
+                DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
+            });
+            let normal = (p[1] - p[0]).cross(p[2] - p[0]);
+            let area = 0.5 * normal.length();
+            if area == 0.0 || normal.z <= 0.0 {
+                continue;
+            }
+            let n = normal / (2.0 * area);
+            let t = ((n.z.min(1.0).acos() / FRAC_PI_2 * tb as f64) as usize).min(tb - 1);
+            let q = ((phi2u(n.y.atan2(n.x)) * pb as f64) as usize).min(pb - 1);
+            area_of[t * pb + q] += area;
+            sum_of[t * pb + q] += area * n;
+        }
+        let normals: Vec<(DVec3, f64)> = area_of
+            .iter()
+            .zip(&sum_of)
+            .filter(|(a, s)| **a > 0.0 && s.length() > 0.0)
+            .map(|(&a, s)| (s.normalize(), a))
+            .collect();
+        let Some(mut ndf) = Self::kernel(&normals, smoothing) else {
+            return Self::uniform().anisotropic();
+        };
+        for v in &mut ndf.values {
+            *v = (1.0 - DIFFUSE_SHARE) * *v + DIFFUSE_SHARE / PI;
+        }
+        ndf
+    }
+
+    /// The anisotropic NDF (`NDF_PHI_RES x NDF_RES` nodes) of the weighted
+    /// directions `normals` (unit, `z > 0`) spread by the von Mises-Fisher
+    /// kernel `exp(kappa (m.n - 1))`, `kappa = 1 / smoothing²`, evaluated
+    /// at each node (contributions below `exp(-40)` left out), normalised
+    /// exactly for the bilinear interpolation of the nodes; `None` without
+    /// a direction of positive weight.
+    fn kernel(normals: &[(DVec3, f64)], smoothing: f64) -> Option<Self> {
+        let mut normals: Vec<(f64, DVec3, f64)> = normals
+            .iter()
+            .filter(|(n, w)| *w > 0.0 && n.z > 0.0)
+            .map(|&(n, w)| (n.z.clamp(-1.0, 1.0).acos(), n, w))
+            .collect();
+        if normals.is_empty() {
+            return None;
+        }
+        let (rows, n) = (NDF_PHI_RES, NDF_RES);
+        normals.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let thetas: Vec<f64> = normals.iter().map(|x| x.0).collect();
+        let kappa = 1.0 / (smoothing * smoothing);
+        let cut = 1.0 - 40.0 / kappa;
+        let reach = cut.max(-1.0).acos();
+        let mut values: Vec<f64> = (0..rows * n)
+            .into_par_iter()
+            .map(|idx| {
+                let u = [
+                    (idx % n) as f64 / (n - 1) as f64,
+                    (idx / n) as f64 / (rows - 1) as f64,
+                ];
+                let m = dir_of(u);
+                let tm = u2theta(u[0]);
+                let lo = thetas.partition_point(|&t| t < tm - reach);
+                let hi = thetas.partition_point(|&t| t <= tm + reach);
+                normals[lo..hi]
+                    .iter()
+                    .map(|&(_, nn, w)| {
+                        let d = m.dot(nn);
+                        if d > cut {
+                            w * (kappa * (d - 1.0)).exp()
+                        } else {
+                            0.0
+                        }
+                    })
+                    .sum()
+            })
+            .collect();
+        // ∫ hat_k(u_theta) hat_r(u_phi) cos dω = tent_k / (rows - 1), half
+        // that for the first and the last row (the same azimuth).
+        let cos = tent_integrals(n, f64::cos);
+        let norm: f64 = values
+            .iter()
+            .enumerate()
+            .map(|(idx, v)| {
+                let r = idx / n;
+                let w = if r == 0 || r == rows - 1 { 0.5 } else { 1.0 };
+                v * cos[idx % n] * w / (rows - 1) as f64
+            })
+            .sum();
+        if norm <= 0.0 {
+            return None;
+        }
+        values.iter_mut().for_each(|v| *v /= norm);
+        Some(Self { values, rows })
+    }
+
+    /// This anisotropic NDF mixed with the distribution of the half
+    /// vectors `half` (unit, weighted) that a table's light takes
+    /// (their von Mises-Fisher kernel, spread by `smoothing`): a share
+    /// [`TABLE_SHARE`] of the result, the rest this NDF scaled down.
+    #[must_use]
+    pub fn with_half_vectors(&self, half: &[(DVec3, f64)], smoothing: f64) -> Self {
+        let a = self.anisotropic();
+        match Self::kernel(half, smoothing) {
+            Some(h) => Self {
+                values: a
+                    .values
+                    .iter()
+                    .zip(&h.values)
+                    .map(|(d, t)| (1.0 - TABLE_SHARE) * d + TABLE_SHARE * t)
+                    .collect(),
+                rows: a.rows,
+            },
+            None => a,
+        }
+    }
+
+    /// This NDF on [`NDF_PHI_RES`] rows of `u_phi`: an isotropic one
+    /// repeated, an anisotropic one as it is.
+    #[must_use]
+    pub fn anisotropic(&self) -> Self {
+        if self.rows > 1 {
+            return self.clone();
+        }
+        Self {
+            values: (0..NDF_PHI_RES).flat_map(|_| self.values.clone()).collect(),
+            rows: NDF_PHI_RES,
+        }
+    }
+
+    /// The NDF of the surface turned by a half turn about its normal
+    /// (`D'(phi) = D(phi + 180 degrees)`), on [`NDF_PHI_RES`] rows: the
+    /// rows moved by exactly half of them.
+    #[must_use]
+    pub fn turned(&self) -> Self {
+        let a = self.anisotropic();
+        let (rows, n) = (a.rows, NDF_RES);
+        let period = rows - 1;
+        let values = (0..rows)
+            .flat_map(|r| {
+                let src = (r + period / 2) % period;
+                a.values[src * n..(src + 1) * n].to_vec()
+            })
+            .collect();
+        Self { values, rows }
     }
 
     /// `D` at `u_theta` (linear between the nodes).
@@ -325,32 +541,59 @@ fn f32_round(v: f64) -> f64 {
     f64::from(v as f32)
 }
 
-/// The grids of an RGL file that depend on the NDF and the incidence
-/// angles only, as the renderer interpolates them (values rounded to `f32`).
+/// Turn `d` about `z` by `angle` (radians).
+fn rotate_z(d: DVec3, angle: f64) -> DVec3 {
+    let (s, c) = angle.sin_cos();
+    DVec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z)
+}
+
+/// The direction towards the light at incidence `theta` and azimuth `phi`
+/// (radians): `(sin theta cos phi, sin theta sin phi, cos theta)`, exactly
+/// `(sin theta, 0, cos theta)` at `phi = 0`.
+fn incident(theta: f64, phi: f64) -> DVec3 {
+    let (sp, cp) = phi.sin_cos();
+    DVec3::new(theta.sin() * cp, theta.sin() * sp, theta.cos())
+}
+
+/// The grids of an RGL file that depend on the NDF and the incidences
+/// only, as the renderer interpolates them (values rounded to `f32`).
 struct Grids {
-    /// `ndf` as written, `2 x NDF_RES`.
+    /// Whether the file is isotropic (at most two `phi_i` nodes).
+    isotropic: bool,
+    /// `ndf` as written, `ndf_rows x NDF_RES`.
     ndf: Vec<f64>,
-    /// `sigma` as written, `2 x SIGMA_RES`.
+    ndf_rows: usize,
+    /// `sigma` as written, `sigma_rows x SIGMA_RES`.
     sigma: Vec<f64>,
-    /// Per incidence, the vndf node values as written.
+    sigma_rows: usize,
+    /// Per incidence node (`phi_i` node `p`, `theta_i` node `k`: `p n_theta
+    /// + k`), the vndf node values as written.
     vndf: Vec<Vec<f64>>,
-    /// Per incidence, the warp of its vndf.
+    /// Per incidence node, the warp of its vndf.
     warps: Vec<Warp>,
 }
 
 impl Grids {
     fn ndf_at(&self, u: [f64; 2]) -> f64 {
-        bilinear(&self.ndf, NDF_RES, 2, u)
+        bilinear(&self.ndf, NDF_RES, self.ndf_rows, u)
     }
-    fn sigma_at(&self, theta_i: f64) -> f64 {
-        bilinear(&self.sigma, SIGMA_RES, 2, [theta2u(theta_i), 0.5])
+    /// `sigma` of the incidence `wi` at `theta_i`, `phi_i` (radians; the
+    /// azimuth is not read for an isotropic file).
+    fn sigma_at(&self, theta_i: f64, phi_i: f64) -> f64 {
+        let v = if self.isotropic { 0.5 } else { phi2u(phi_i) };
+        bilinear(
+            &self.sigma,
+            SIGMA_RES,
+            self.sigma_rows,
+            [theta2u(theta_i), v],
+        )
     }
 }
 
-/// The vndf node values at incidence `theta_i` for the NDF `ndf` (as
-/// interpolated from its grid `ndf_at`).
-fn vndf_nodes(theta_i: f64, ndf_at: impl Fn([f64; 2]) -> f64) -> Vec<f64> {
-    let wi = DVec3::new(theta_i.sin(), 0.0, theta_i.cos());
+/// The vndf node values towards the light `wi` for the NDF `ndf` (as
+/// interpolated from its grid `ndf_at`; the azimuth of `m` absolute, which
+/// for the isotropic file's `wi` at azimuth 0 is the relative one).
+fn vndf_nodes(wi: DVec3, ndf_at: impl Fn([f64; 2]) -> f64) -> Vec<f64> {
     let r = VNDF_RES;
     (0..r * r)
         .map(|k| {
@@ -365,29 +608,142 @@ fn vndf_nodes(theta_i: f64, ndf_at: impl Fn([f64; 2]) -> f64) -> Vec<f64> {
         .collect()
 }
 
+/// The projected area `∫ D(m) max(0, wi.m) dω` of the anisotropic NDF
+/// `ndf` (its interpolated grid, `NDF_PHI_RES` rows) at the nodes of an
+/// anisotropic `sigma` grid (`SIGMA_PHI_RES x SIGMA_RES`), by the midpoint
+/// rule on 256 x 256 cells of the `u` square as [`Ndf::projected_area`].
+fn anisotropic_sigma(ndf: &[f64]) -> Vec<f64> {
+    let n = 256;
+    let points: Vec<(DVec3, f64)> = (0..n * n)
+        .map(|k| {
+            let u = [
+                ((k % n) as f64 + 0.5) / n as f64,
+                ((k / n) as f64 + 0.5) / n as f64,
+            ];
+            let jac = 2.0 * PI * PI * u[0] * u2theta(u[0]).sin();
+            (dir_of(u), bilinear(ndf, NDF_RES, NDF_PHI_RES, u) * jac)
+        })
+        .collect();
+    (0..SIGMA_PHI_RES * SIGMA_RES)
+        .into_par_iter()
+        .map(|idx| {
+            let wi = dir_of([
+                (idx % SIGMA_RES) as f64 / (SIGMA_RES - 1) as f64,
+                (idx / SIGMA_RES) as f64 / (SIGMA_PHI_RES - 1) as f64,
+            ]);
+            let sum: f64 = points.iter().map(|(m, d)| d * wi.dot(*m).max(0.0)).sum();
+            f32_round(sum / (n * n) as f64)
+        })
+        .collect()
+}
+
 impl Grids {
-    fn new(ndf: &Ndf, thetas_rad: &[f64]) -> Self {
-        let ndf_grid: Vec<f64> = (0..2)
-            .flat_map(|_| ndf.values.iter().map(|&v| f32_round(v)))
+    /// The grids of the NDF `ndf` at the incidences `thetas_rad` and the
+    /// light azimuths of `layout` (for a turned layout the NDF of the
+    /// surface turned by a half turn, as the file's data is).
+    fn new(
+        ndf: &Ndf,
+        thetas_rad: &[f64],
+        layout: &Layout,
+        half: &[(DVec3, f64)],
+        smoothing: f64,
+    ) -> Self {
+        if layout.is_isotropic() {
+            assert_eq!(ndf.rows, 1, "an isotropic file takes an isotropic NDF");
+            let ndf_grid: Vec<f64> = (0..2)
+                .flat_map(|_| ndf.values.iter().map(|&v| f32_round(v)))
+                .collect();
+            let sigma_row: Vec<f64> = (0..SIGMA_RES)
+                .into_par_iter()
+                .map(|k| f32_round(ndf.projected_area(u2theta(k as f64 / (SIGMA_RES - 1) as f64))))
+                .collect();
+            let sigma = [sigma_row.clone(), sigma_row].concat();
+            let ndf_at = |u: [f64; 2]| bilinear(&ndf_grid, NDF_RES, 2, u);
+            let vndf: Vec<Vec<f64>> = thetas_rad
+                .iter()
+                .map(|&t| vndf_nodes(incident(t, 0.0), ndf_at))
+                .collect();
+            return Self::finish(true, ndf_grid, 2, sigma, 2, vndf);
+        }
+        let file_ndf = match layout.reduction {
+            Reduction::HalfTurn | Reduction::Quadrant => ndf.turned(),
+            _ => ndf.anisotropic(),
+        }
+        .with_half_vectors(half, smoothing);
+        let ndf_grid: Vec<f64> = file_ndf.values.iter().map(|&v| f32_round(v)).collect();
+        let sigma = anisotropic_sigma(&ndf_grid);
+        let ndf_at = |u: [f64; 2]| bilinear(&ndf_grid, NDF_RES, NDF_PHI_RES, u);
+        let vndf: Vec<Vec<f64>> = layout
+            .nodes
+            .iter()
+            .flat_map(|node| {
+                thetas_rad
+                    .iter()
+                    .map(move |&t| incident(t, node.phi_deg.to_radians()))
+            })
+            .collect::<Vec<_>>()
+            .par_iter()
+            .map(|&wi| vndf_nodes(wi, ndf_at))
             .collect();
-        let sigma_row: Vec<f64> = (0..SIGMA_RES)
-            .into_par_iter()
-            .map(|k| f32_round(ndf.projected_area(u2theta(k as f64 / (SIGMA_RES - 1) as f64))))
-            .collect();
-        let sigma = [sigma_row.clone(), sigma_row].concat();
-        let ndf_at = |u: [f64; 2]| bilinear(&ndf_grid, NDF_RES, 2, u);
-        let vndf: Vec<Vec<f64>> = thetas_rad.iter().map(|&t| vndf_nodes(t, ndf_at)).collect();
+        Self::finish(false, ndf_grid, NDF_PHI_RES, sigma, SIGMA_PHI_RES, vndf)
+    }
+
+    fn finish(
+        isotropic: bool,
+        ndf: Vec<f64>,
+        ndf_rows: usize,
+        sigma: Vec<f64>,
+        sigma_rows: usize,
+        vndf: Vec<Vec<f64>>,
+    ) -> Self {
         let warps = vndf
             .iter()
             .map(|v| Warp::new(v, VNDF_RES, VNDF_RES))
             .collect();
         Self {
-            ndf: ndf_grid,
+            isotropic,
+            ndf,
+            ndf_rows,
             sigma,
+            sigma_rows,
             vndf,
             warps,
         }
     }
+}
+
+/// The half vectors of the light of `table` (several azimuths) at every
+/// node of `layout` and incidence `thetas_rad`, in the file's frame: per
+/// cell, the half vector between the node's `wi` and the cell's centre
+/// (turned by a half turn for a turned node), weighted by the cell's
+/// fraction over the incidence's reflectance (each incidence weighs the
+/// same).
+fn half_vectors(table: &BrdfTable, layout: &Layout, thetas_rad: &[f64]) -> Vec<(DVec3, f64)> {
+    let grid = table.grid();
+    let n = table.azimuths_deg().len();
+    let turned = matches!(layout.reduction, Reduction::HalfTurn | Reduction::Quadrant);
+    let mut out = Vec::new();
+    for node in &layout.nodes {
+        for (k, &theta) in thetas_rad.iter().enumerate() {
+            let wi = incident(theta, node.phi_deg.to_radians());
+            let fractions = table.fractions(k * n + node.azimuth);
+            let total: f64 = fractions.iter().sum();
+            if total <= 0.0 {
+                continue;
+            }
+            for (flat, &f) in fractions.iter().enumerate() {
+                if f <= 0.0 {
+                    continue;
+                }
+                let (band, cell) = grid.band_cell(flat);
+                let (t, p) = grid.centre(band, cell);
+                let wo = DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+                let wo = if turned { rotate_z(wo, PI) } else { wo };
+                out.push(((wi + wo).normalize(), f / total));
+            }
+        }
+    }
+    out
 }
 
 /// An RGL file's contents before encoding (or after reading back).
@@ -395,10 +751,14 @@ impl Grids {
 pub struct Rgl {
     /// Incidence angles (radians), ascending.
     pub theta_i: Vec<f64>,
+    /// Light azimuths `phi_i` of the file (radians, ascending): `[0]` for
+    /// an isotropic file; see [`layout`] for an anisotropic one.
+    pub phi_i: Vec<f64>,
     /// Wavelengths (nm), ascending; empty for an RGB file.
     pub wavelengths_nm: Vec<f64>,
-    /// `spectra[incidence][wavelength]` (an RGB file: `[incidence][channel]`,
-    /// the `rgb` field): `SAMPLE_RES²` node values.
+    /// `spectra[p n_theta + k][wavelength]` (`p` the `phi_i` node, `k`
+    /// the `theta_i` node; an RGB file: `[..][channel]`, the `rgb` field):
+    /// `SAMPLE_RES²` node values.
     pub spectra: Vec<Vec<Vec<f64>>>,
     /// The description.
     pub description: String,
@@ -414,8 +774,11 @@ impl std::fmt::Debug for Grids {
 impl Clone for Grids {
     fn clone(&self) -> Self {
         Self {
+            isotropic: self.isotropic,
             ndf: self.ndf.clone(),
+            ndf_rows: self.ndf_rows,
             sigma: self.sigma.clone(),
+            sigma_rows: self.sigma_rows,
             vndf: self.vndf.clone(),
             warps: self.warps.clone(),
         }
@@ -425,9 +788,14 @@ impl Clone for Grids {
 impl Rgl {
     /// The RGL file of `tables` (one per wavelength `wavelengths_um`, µm;
     /// empty with one table: monochrome, written grey at [`GREY_NM`]) with
-    /// the NDF `ndf`; see the module documentation.
-    #[must_use]
-    pub fn from_tables(tables: &BrdfTables, ndf: &Ndf, description: &str) -> Self {
+    /// the NDF `ndf`; see the module documentation. A table of several
+    /// light azimuths gives an anisotropic file ([`Layout::of`]), which
+    /// takes an anisotropic NDF ([`Ndf::from_mesh_anisotropic`]; an
+    /// isotropic one is repeated over the azimuth).
+    ///
+    /// # Errors
+    /// Light azimuths that no RGL file holds ([`Layout::of`]: the reason).
+    pub fn from_tables(tables: &BrdfTables, ndf: &Ndf, description: &str) -> Result<Self, String> {
         let (wavelengths_nm, per_wavelength): (Vec<f64>, Vec<&BrdfTable>) =
             match tables.wavelengths_um() {
                 [] => (GREY_NM.to_vec(), vec![&tables.tables()[0]; 2]),
@@ -446,20 +814,24 @@ impl Rgl {
     /// 1931 XYZ under D65 of the BRDF spectrum of each cell, then the sRGB
     /// matrix), negative (out of gamut) values written as 0. `None` unless
     /// the wavelengths cover the visible.
-    #[must_use]
+    ///
+    /// # Errors
+    /// As [`from_tables`](Self::from_tables).
     pub fn rgb_from_spectral(
         tables: &crate::optics::brdf_table::SpectralTables,
         ndf: &Ndf,
         description: &str,
-    ) -> Option<(Self, [BrdfTable; 3])> {
-        let channels = super::merl::srgb_tables(tables)?;
+    ) -> Result<Option<(Self, [BrdfTable; 3])>, String> {
+        let Some(channels) = super::merl::srgb_tables(tables) else {
+            return Ok(None);
+        };
         let file = Self::build(
             &channels.iter().collect::<Vec<_>>(),
             Vec::new(),
             ndf,
             description,
-        );
-        Some((file, channels))
+        )?;
+        Ok(Some((file, channels)))
     }
 
     /// The file of one table per channel (`wavelengths_nm` the channels'
@@ -470,43 +842,77 @@ impl Rgl {
         wavelengths_nm: Vec<f64>,
         ndf: &Ndf,
         description: &str,
-    ) -> Self {
+    ) -> Result<Self, String> {
+        let layout = Layout::of(per_channel[0].azimuths_deg())?;
         let thetas: Vec<f64> = per_channel[0]
-            .thetas_deg()
+            .angles_deg()
             .iter()
             .map(|d| d.to_radians())
             .collect();
-        let grids = Grids::new(ndf, &thetas);
-        let per_wavelength = per_channel;
+        let ni = thetas.len();
+        let half = if layout.is_isotropic() {
+            Vec::new()
+        } else {
+            half_vectors(per_channel[0], &layout, &thetas)
+        };
+        let smoothing = smoothing_for(per_channel[0].bands());
+        let grids = Grids::new(ndf, &thetas, &layout, &half, smoothing);
+        // The BRDF of channel `w` at file node `node`, incidence `theta`,
+        // towards `wo` (the file's frame): isotropic, averaged with its
+        // mirror image in the plane of incidence; anisotropic, the node's
+        // azimuth's table towards `wo` turned by `-phi_i` (into its plane
+        // of incidence: for a turned node, the run's `wo` turned by a half
+        // turn), not averaged.
+        let per_azimuth: Vec<Vec<BrdfTable>> = if layout.is_isotropic() {
+            Vec::new()
+        } else {
+            (0..per_channel[0].azimuths_deg().len())
+                .map(|j| per_channel.iter().map(|t| t.azimuth(j)).collect())
+                .collect()
+        };
+        let channel = |w: usize, node: &Node| -> &BrdfTable {
+            if layout.is_isotropic() {
+                per_channel[w]
+            } else {
+                &per_azimuth[node.azimuth][w]
+            }
+        };
+        let eval = |w: usize, node: &Node, theta: f64, wo: DVec3| -> f64 {
+            if layout.is_isotropic() {
+                symmetric_eval(per_channel[w], theta, wo)
+            } else {
+                channel(w, node).eval(theta, rotate_z(wo, -node.phi_deg.to_radians()))
+            }
+        };
         let r = SAMPLE_RES;
-        let spectra = thetas
-            .par_iter()
-            .enumerate()
-            .map(|(k, &theta)| {
-                let wi = DVec3::new(theta.sin(), 0.0, theta.cos());
-                let factor = 4.0 * grids.sigma_at(theta);
+        let spectra = (0..layout.nodes.len() * ni)
+            .into_par_iter()
+            .map(|flat| {
+                let (node, theta) = (&layout.nodes[flat / ni], thetas[flat % ni]);
+                let phi = node.phi_deg.to_radians();
+                let wi = incident(theta, phi);
+                let factor = 4.0 * grids.sigma_at(theta, phi);
                 let nodes: Vec<(DVec3, f64)> = (0..r * r)
                     .map(|n| {
                         let s = [
                             (n % r) as f64 / (r - 1) as f64,
                             (n / r) as f64 / (r - 1) as f64,
                         ];
-                        let u = grids.warps[k].sample(s);
+                        let u = grids.warps[flat].sample(s);
                         let m = dir_of(u);
                         let wo = 2.0 * wi.dot(m) * m - wi;
                         (wo, factor / grids.ndf_at(u))
                     })
                     .collect();
-                per_wavelength
-                    .iter()
-                    .map(|table| {
+                (0..per_channel.len())
+                    .map(|w| {
                         nodes
                             .iter()
                             .map(|&(wo, scale)| {
                                 if wo.z <= 0.0 {
                                     0.0
                                 } else {
-                                    (symmetric_eval(table, theta, wo) * wo.z * scale).max(0.0)
+                                    (eval(w, node, theta, wo) * wo.z * scale).max(0.0)
                                 }
                             })
                             .collect()
@@ -516,6 +922,11 @@ impl Rgl {
             .collect();
         let mut file = Self {
             theta_i: thetas,
+            phi_i: layout
+                .nodes
+                .iter()
+                .map(|n| n.phi_deg.to_radians())
+                .collect(),
             wavelengths_nm,
             spectra,
             description: description.into(),
@@ -524,20 +935,21 @@ impl Rgl {
         // Normalise each incidence and channel to the table's reflectance:
         // the interpolation between the nodes does not keep the integral
         // near a narrow peak (a few % at a mirror spike).
-        let r = reflectance(&file, CHECK_RINGS);
-        for (k, per_k) in file.spectra.iter_mut().enumerate() {
+        let refl = reflectance(&file, CHECK_RINGS);
+        for (flat, per_k) in file.spectra.iter_mut().enumerate() {
+            let node = &layout.nodes[flat / ni];
             for (w, values) in per_k.iter_mut().enumerate() {
-                let want = per_channel[w].reflectance(file.theta_i[k]);
-                if r[k][w] > 0.0 && want > 0.0 {
-                    let scale = want / r[k][w];
+                let want = channel(w, node).reflectance(file.theta_i[flat % ni]);
+                if refl[flat][w] > 0.0 && want > 0.0 {
+                    let scale = want / refl[flat][w];
                     values.iter_mut().for_each(|v| *v *= scale);
                 }
             }
         }
-        file
+        Ok(file)
     }
 
-    /// The `luminance` node values of incidence `k`.
+    /// The `luminance` node values of incidence node `k` (`p n_theta + k`).
     fn luminance(&self, k: usize) -> Vec<f64> {
         let spectra = &self.spectra[k];
         let n = spectra.len() as f64;
@@ -561,26 +973,31 @@ impl Rgl {
     /// The tensor file.
     #[must_use]
     pub fn to_bytes(&self) -> Vec<u8> {
-        let (ni, nw, r) = (self.theta_i.len(), self.spectra[0].len(), SAMPLE_RES);
+        let (np, ni) = (self.phi_i.len(), self.theta_i.len());
+        let (nw, r) = (self.spectra[0].len(), SAMPLE_RES);
         let flat = |v: Vec<Vec<f64>>| v.concat();
-        let luminance = flat((0..ni).map(|k| self.luminance(k)).collect());
+        let luminance = flat((0..np * ni).map(|k| self.luminance(k)).collect());
         let spectra = flat(self.spectra.iter().map(|s| s.concat()).collect());
         let mut fields = vec![
             Field::f32("theta_i", &[ni], &self.theta_i),
-            Field::f32("phi_i", &[1], &[0.0]),
-            Field::f32("ndf", &[2, NDF_RES], &self.grids.ndf),
-            Field::f32("sigma", &[2, SIGMA_RES], &self.grids.sigma),
+            Field::f32("phi_i", &[np], &self.phi_i),
+            Field::f32("ndf", &[self.grids.ndf_rows, NDF_RES], &self.grids.ndf),
+            Field::f32(
+                "sigma",
+                &[self.grids.sigma_rows, SIGMA_RES],
+                &self.grids.sigma,
+            ),
             Field::f32(
                 "vndf",
-                &[1, ni, VNDF_RES, VNDF_RES],
+                &[np, ni, VNDF_RES, VNDF_RES],
                 &self.grids.vndf.concat(),
             ),
-            Field::f32("luminance", &[1, ni, r, r], &luminance),
+            Field::f32("luminance", &[np, ni, r, r], &luminance),
         ];
         if self.wavelengths_nm.is_empty() {
-            fields.push(Field::f32("rgb", &[1, ni, 3, r, r], &spectra));
+            fields.push(Field::f32("rgb", &[np, ni, 3, r, r], &spectra));
         } else {
-            fields.push(Field::f32("spectra", &[1, ni, nw, r, r], &spectra));
+            fields.push(Field::f32("spectra", &[np, ni, nw, r, r], &spectra));
             fields.push(Field::f32("wavelengths", &[nw], &self.wavelengths_nm));
         }
         fields.push(Field::bytes("description", self.description.as_bytes()));
@@ -588,8 +1005,9 @@ impl Rgl {
         tensor::write(&fields)
     }
 
-    /// Read a file written by [`to_bytes`](Self::to_bytes) (isotropic,
-    /// spectral, on this module's grids); `file` names it in errors.
+    /// Read a file written by [`to_bytes`](Self::to_bytes) (isotropic or
+    /// anisotropic, spectral or RGB, on this module's grids); `file` names
+    /// it in errors.
     ///
     /// # Errors
     /// A field missing, of the wrong type or shape.
@@ -597,15 +1015,23 @@ impl Rgl {
         let t = TensorFile::parse(bytes, file)?;
         let wrong = |what: &str| FormatError {
             file: file.into(),
-            message: format!(
-                "{what} (roks reads back the files it writes: isotropic, spectral, its own grid sizes)"
-            ),
+            message: format!("{what} (roks reads back the files it writes: its own grid sizes)"),
         };
         let widen = |v: &[f32]| v.iter().map(|&x| f64::from(x)).collect::<Vec<f64>>();
         let (_, theta) = t.f32("theta_i", 1)?;
+        let (_, phi) = t.f32("phi_i", 1)?;
         let rgb = t.f32("rgb", 5).is_ok();
         let wl: &[f32] = if rgb { &[] } else { t.f32("wavelengths", 1)?.1 };
-        let (ni, nw) = (theta.len(), if rgb { 3 } else { wl.len() });
+        let (np, ni, nw) = (phi.len(), theta.len(), if rgb { 3 } else { wl.len() });
+        let isotropic = np <= 2;
+        if np == 2 {
+            return Err(wrong("phi_i has two nodes"));
+        }
+        let (ndf_rows, sigma_rows) = if isotropic {
+            (2, 2)
+        } else {
+            (NDF_PHI_RES, SIGMA_PHI_RES)
+        };
         let r = SAMPLE_RES;
         let field = |name: &str, shape: &[usize]| -> Result<Vec<f64>, FormatError> {
             let (s, v) = t.f32(name, shape.len())?;
@@ -616,12 +1042,11 @@ impl Rgl {
             }
             Ok(widen(v))
         };
-        let ndf = field("ndf", &[2, NDF_RES])?;
-        let sigma = field("sigma", &[2, SIGMA_RES])?;
-        let vndf = field("vndf", &[1, ni, VNDF_RES, VNDF_RES])?;
-        field("phi_i", &[1])?;
-        field("luminance", &[1, ni, r, r])?;
-        let spectra = field(if rgb { "rgb" } else { "spectra" }, &[1, ni, nw, r, r])?;
+        let ndf = field("ndf", &[ndf_rows, NDF_RES])?;
+        let sigma = field("sigma", &[sigma_rows, SIGMA_RES])?;
+        let vndf = field("vndf", &[np, ni, VNDF_RES, VNDF_RES])?;
+        field("luminance", &[np, ni, r, r])?;
+        let spectra = field(if rgb { "rgb" } else { "spectra" }, &[np, ni, nw, r, r])?;
         if t.bytes("jacobian")? != [1] {
             return Err(wrong("jacobian is not [1]"));
         }
@@ -630,43 +1055,38 @@ impl Rgl {
             .chunks(VNDF_RES * VNDF_RES)
             .map(<[f64]>::to_vec)
             .collect();
-        let warps = vndf
-            .iter()
-            .map(|v| Warp::new(v, VNDF_RES, VNDF_RES))
-            .collect();
         Ok(Self {
             theta_i: widen(theta),
+            phi_i: widen(phi),
             wavelengths_nm: widen(wl),
             spectra: spectra
                 .chunks(nw * r * r)
                 .map(|s| s.chunks(r * r).map(<[f64]>::to_vec).collect())
                 .collect(),
             description,
-            grids: Grids {
-                ndf,
-                sigma,
-                vndf,
-                warps,
-            },
+            grids: Grids::finish(isotropic, ndf, ndf_rows, sigma, sigma_rows, vndf),
         })
     }
 
-    /// `f(wi, wo) cos(theta_o)` of the file at tabulated incidence `k`
-    /// towards `wo` (unit, local frame, light on the `+x` side), per
+    /// `f(wi, wo) cos(theta_o)` of the file at incidence node `k` (`p
+    /// n_theta + k'`: `phi_i` node `p`, `theta_i` node `k'`; for an
+    /// isotropic file the `theta_i` node) towards `wo` (unit, the file's
+    /// frame; an isotropic file's light is on the `+x` side), per
     /// wavelength: the renderer's evaluation (module documentation) at a
-    /// node of `theta_i`.
+    /// node of `phi_i` and `theta_i`.
     #[must_use]
     pub fn eval_cos(&self, k: usize, wo: DVec3) -> Vec<f64> {
         let nw = self.spectra[k].len();
         if wo.z <= 0.0 {
             return vec![0.0; nw];
         }
-        let theta = self.theta_i[k];
-        let wi = DVec3::new(theta.sin(), 0.0, theta.cos());
+        let ni = self.theta_i.len();
+        let (theta, phi) = (self.theta_i[k % ni], self.phi_i[k / ni]);
+        let wi = incident(theta, phi);
         let m = (wi + wo).normalize();
         let u = u_of(m);
         let s = self.grids.warps[k].invert(u);
-        let scale = self.grids.ndf_at(u) / (4.0 * self.grids.sigma_at(theta));
+        let scale = self.grids.ndf_at(u) / (4.0 * self.grids.sigma_at(theta, phi));
         self.spectra[k]
             .iter()
             .map(|sp| bilinear(sp, SAMPLE_RES, SAMPLE_RES, s) * scale)
@@ -675,28 +1095,33 @@ impl Rgl {
 }
 
 /// The NDF of a micro surface (see the module documentation), spread by
-/// `smoothing` radians ([`Ndf::from_mesh`]).
+/// `smoothing` radians: [`Ndf::from_mesh`], or with `anisotropic`
+/// [`Ndf::from_mesh_anisotropic`].
 #[must_use]
-pub fn surface_ndf(surface: &crate::micro::MicroSurface, smoothing: f64) -> Ndf {
+pub fn surface_ndf(surface: &crate::micro::MicroSurface, smoothing: f64, anisotropic: bool) -> Ndf {
     let mesh = match surface.heightfield() {
         Some(field) => super::field_mesh(field),
         None => super::height_field_mesh(surface, MESH_RES),
     };
-    Ndf::from_mesh(&mesh, smoothing)
+    if anisotropic {
+        Ndf::from_mesh_anisotropic(&mesh, smoothing)
+    } else {
+        Ndf::from_mesh(&mesh, smoothing)
+    }
 }
 
 /// The directional-hemispherical reflectance of an RGL file read back, per
-/// tabulated incidence and wavelength (`[incidence][wavelength]`): its
-/// `f cos(theta_o)` integrated over the hemisphere by the midpoint rule on
-/// `rings` rings of equal polar width times `4 rings` azimuth sectors, each
-/// cell weighted by its solid angle.
+/// incidence node (`p n_theta + k`, as [`Rgl::spectra`]) and wavelength:
+/// its `f cos(theta_o)` integrated over the hemisphere by the midpoint
+/// rule on `rings` rings of equal polar width times `4 rings` azimuth
+/// sectors, each cell weighted by its solid angle.
 #[must_use]
 pub fn reflectance(file: &Rgl, rings: usize) -> Vec<Vec<f64>> {
     let sectors = 4 * rings;
     let dtheta = FRAC_PI_2 / rings as f64;
     let dphi = TAU / sectors as f64;
     let nw = file.spectra[0].len();
-    (0..file.theta_i.len())
+    (0..file.spectra.len())
         .map(|k| {
             let per_ring: Vec<Vec<f64>> = (0..rings)
                 .into_par_iter()
@@ -726,9 +1151,10 @@ pub fn reflectance(file: &Rgl, rings: usize) -> Vec<Vec<f64>> {
 /// 0.5 degree; the file is smooth on that scale).
 pub const CHECK_RINGS: usize = 180;
 
-/// Read `bytes` back and compare the reflectance of every incidence and
-/// wavelength with the tables' (`[wavelength][incidence]`; a monochrome
-/// table: one row, from the file's first wavelength).
+/// Read `bytes` back and compare the reflectance of every incidence (and
+/// light azimuth, in the order of [`BrdfTable::thetas_deg`]: angle, then
+/// azimuth) and wavelength with the tables' (`[wavelength][incidence]`; a
+/// monochrome table: one row, from the file's first wavelength).
 ///
 /// # Errors
 /// If the file does not read back.
@@ -741,26 +1167,67 @@ pub fn check(
 }
 
 /// [`check`] of a file with one channel per table of `channels` (an RGB
-/// file: the tables of [`Rgl::rgb_from_spectral`]).
+/// file: the tables of [`Rgl::rgb_from_spectral`]). Each light azimuth is
+/// judged at the first `phi_i` node that holds it ([`Layout::of`]).
 ///
 /// # Errors
-/// If the file does not read back.
+/// If the file does not read back, or its `phi_i` nodes are not those of
+/// the tables' azimuths.
 pub fn check_channels(
     channels: &[&BrdfTable],
     bytes: &[u8],
     file: &str,
 ) -> Result<Vec<Vec<super::resample::ReflectanceCheck>>, FormatError> {
     let rgl = Rgl::parse(bytes, file)?;
+    let error = |message: String| FormatError {
+        file: file.into(),
+        message,
+    };
+    let azimuths = channels[0].azimuths_deg();
+    let layout = Layout::of(azimuths).map_err(error)?;
+    let nodes: Vec<f64> = layout.nodes.iter().map(|n| n.phi_deg).collect();
+    let in_file: Vec<f64> = rgl.phi_i.iter().map(|p| p.to_degrees()).collect();
+    if nodes.len() != in_file.len()
+        || nodes
+            .iter()
+            .zip(&in_file)
+            .any(|(a, b)| (a - b).abs() > 1e-4)
+    {
+        return Err(error(format!(
+            "phi_i {in_file:?} deg is not the layout {nodes:?} deg of the table's light azimuths"
+        )));
+    }
     let r = reflectance(&rgl, CHECK_RINGS);
+    let ni = rgl.theta_i.len();
+    let several = azimuths.len() > 1;
     Ok(channels
         .iter()
         .enumerate()
         .map(|(w, table)| {
+            let per_azimuth: Vec<BrdfTable> = if several {
+                (0..azimuths.len()).map(|j| table.azimuth(j)).collect()
+            } else {
+                Vec::new()
+            };
             table
-                .thetas_deg()
+                .angles_deg()
                 .iter()
                 .enumerate()
-                .map(|(k, &deg)| super::resample::ReflectanceCheck::of_table(table, deg, r[k][w]))
+                .flat_map(|(k, &deg)| {
+                    let (per_azimuth, layout, r) = (&per_azimuth, &layout, &r);
+                    (0..azimuths.len()).map(move |j| {
+                        let t = if several { &per_azimuth[j] } else { *table };
+                        let p = layout
+                            .nodes
+                            .iter()
+                            .position(|n| n.azimuth == j)
+                            .expect("every azimuth has a node");
+                        super::resample::ReflectanceCheck {
+                            phi_i_deg: several.then_some(azimuths[j]),
+                            ..super::resample::ReflectanceCheck::of_table(t, deg, r[p * ni + k][w])
+                        }
+                    })
+                })
                 .collect()
         })
         .collect())
@@ -813,6 +1280,57 @@ mod tests {
         for t in [0.3, 0.8, 1.2] {
             assert!(ndf.projected_area(t) >= t.cos() - 2e-3, "{t}");
         }
+    }
+
+    /// The anisotropic NDF of a plane tilted 30 degrees about y (normals at
+    /// theta 30, azimuth 180) is normalised for the bilinear interpolation
+    /// of its nodes (∫ D cos dω = 1 by the midpoint rule on 512² cells of
+    /// the `u` square, to 2e-3), peaks at the node nearest (30, 180) and
+    /// is the uniform share alone a quarter turn away; turned by a half
+    /// turn it peaks at azimuth 0. An azimuth-averaged NDF (the isotropic
+    /// kernel) would be equal at 0 and 180.
+    #[test]
+    fn anisotropic_ndf_keeps_the_azimuth() {
+        let ndf = Ndf::from_mesh_anisotropic(&tilted(30f64.to_radians()), 0.05);
+        assert_eq!(ndf.rows, NDF_PHI_RES);
+        let n = 512;
+        let total: f64 = (0..n * n)
+            .map(|k| {
+                let u = [
+                    ((k % n) as f64 + 0.5) / n as f64,
+                    ((k / n) as f64 + 0.5) / n as f64,
+                ];
+                let jac = 2.0 * PI * PI * u[0] * u2theta(u[0]).sin();
+                bilinear(&ndf.values, NDF_RES, NDF_PHI_RES, u) * u2theta(u[0]).cos() * jac
+            })
+            .sum::<f64>()
+            / (n * n) as f64;
+        assert!((total - 1.0).abs() < 2e-3, "{total}");
+        let at = |ndf: &Ndf, theta_deg: f64, phi_deg: f64| {
+            bilinear(
+                &ndf.values,
+                NDF_RES,
+                NDF_PHI_RES,
+                [theta2u(theta_deg.to_radians()), phi2u(phi_deg.to_radians())],
+            )
+        };
+        let peak = ndf
+            .values
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap()
+            .0;
+        let (row, col) = (peak / NDF_RES, peak % NDF_RES);
+        let u = theta2u(30f64.to_radians()) * (NDF_RES - 1) as f64;
+        assert!((col as f64 - u).abs() <= 1.0, "{col} vs {u}");
+        assert!(row == 0 || row == NDF_PHI_RES - 1, "row {row}");
+        let floor = DIFFUSE_SHARE / PI;
+        assert!((at(&ndf, 30.0, 90.0) / floor - 1.0).abs() < 1e-6);
+        assert!(at(&ndf, 30.0, 180.0) > 100.0 * at(&ndf, 30.0, 0.0));
+        let turned = ndf.turned();
+        assert!(turned.values[(NDF_PHI_RES / 2) * NDF_RES + col] == ndf.values[peak]);
+        assert!(at(&turned, 30.0, 0.0) > 100.0 * at(&turned, 30.0, 180.0));
     }
 
     /// `bessel_i0e` against I0 from its power series `sum (x/2)^2k / k!²`
@@ -871,7 +1389,8 @@ mod tests {
             .map(|&t| (t, 0.0, fr.clone(), vec![1e-4; fr.len()]))
             .collect();
         let table = BrdfTable::from_blocks(grid, blocks, "lambert").unwrap();
-        let file = Rgl::from_tables(&BrdfTables::Monochrome(table), &Ndf::uniform(), "lambert");
+        let file =
+            Rgl::from_tables(&BrdfTables::Monochrome(table), &Ndf::uniform(), "lambert").unwrap();
         for k in 0..2 {
             let lum = file.luminance(k);
             let max = lum.iter().copied().fold(0.0, f64::max);
@@ -909,7 +1428,9 @@ mod tests {
         let table = BrdfTable::from_blocks(grid, blocks, "lambert").unwrap();
         let tables = BrdfTables::Monochrome(table);
         let ndf = Ndf::uniform();
-        let bytes = Rgl::from_tables(&tables, &ndf, "lambert").to_bytes();
+        let bytes = Rgl::from_tables(&tables, &ndf, "lambert")
+            .unwrap()
+            .to_bytes();
         let back = Rgl::parse(&bytes, "lambert.bsdf").unwrap();
         assert_eq!(back.description, "lambert");
         assert_eq!(back.wavelengths_nm, GREY_NM);
