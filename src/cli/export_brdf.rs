@@ -324,7 +324,9 @@ pub fn export_rgl(
             rgl::Ndf::uniform()
         }
     };
-    let defect = |e: String| Failure::Other(anyhow::anyhow!("export {format}: {e}"));
+    let defect = |e: crate::export::rgl::layout::LayoutError| {
+        Failure::Other(anyhow::anyhow!("export {format}: {e}"))
+    };
     let rgb_file = match tables.spectral().filter(|_| rgb) {
         Some(s) => rgl::Rgl::rgb_from_spectral(s, &ndf, comment).map_err(defect)?,
         None => None,

@@ -176,11 +176,8 @@ pub enum ExportRefusal {
     },
     /// RGL of a table whose light azimuths no RGL file holds
     /// ([`rgl::layout::Layout::of`]).
-    #[error("{reason}")]
-    RglAzimuths {
-        /// Why (one line, with what is accepted).
-        reason: String,
-    },
+    #[error(transparent)]
+    RglAzimuths(#[from] rgl::layout::LayoutError),
     /// MERL of a spectral table whose wavelengths do not cover the visible.
     #[error(
         "the wavelengths {first}-{last} um do not cover the visible range {VISIBLE_MIN_UM}-{VISIBLE_MAX_UM} um, which the red, green and blue channels of a MERL file (linear sRGB under D65) need; export zemax (one file per wavelength) or trace wavelengths from {VISIBLE_MIN_UM} to {VISIBLE_MAX_UM} um"
@@ -306,8 +303,7 @@ impl BrdfFormat {
     ) -> Result<Vec<ExportFile>, ExportRefusal> {
         let count = tables.azimuths_deg().len();
         if self == Self::Rgl {
-            rgl::layout::Layout::of(tables.azimuths_deg())
-                .map_err(|reason| ExportRefusal::RglAzimuths { reason })?;
+            rgl::layout::Layout::of(tables.azimuths_deg())?;
         } else if self == Self::Pbsdf && count > 1 {
             return Err(ExportRefusal::Azimuths {
                 format: self,
@@ -340,9 +336,7 @@ impl BrdfFormat {
             Self::Rgl => vec![ExportFile {
                 file_name: self.file_name().to_owned(),
                 wavelength_um: None,
-                bytes: rgl::Rgl::from_tables(tables, &rgl::Ndf::uniform(), comment)
-                    .map_err(|reason| ExportRefusal::RglAzimuths { reason })?
-                    .to_bytes(),
+                bytes: rgl::Rgl::from_tables(tables, &rgl::Ndf::uniform(), comment)?.to_bytes(),
                 clipped: None,
             }],
             Self::Pbsdf => unreachable!("returned above"),

@@ -75,28 +75,29 @@
 //!
 //! # Anisotropic files (several light azimuths)
 //!
-//! A table of several light azimuths is written as an anisotropic file
-//! when its azimuths fill one of the reader's azimuth domains
-//! ([`layout`]: the whole circle, reduction 1, nothing assumed; 0 to 180,
-//! reduction 2, a half turn assumed to leave the surface unchanged; 0 to
-//! 90, reduction 4, mirror symmetry about the xz and yz planes assumed;
-//! [`layout::symmetry_figure`] judges the assumption), and refused
-//! otherwise. Then `phi_i` holds the layout's nodes (radians, at least
-//! three), and the reader takes the half vector's azimuth absolute (the
-//! sample's frame):
+//! A table of several light azimuths is written as an anisotropic file over
+//! the whole circle of light azimuths (reduction 1, the only one pbrt-v4
+//! reads) when its azimuths are the whole circle (nothing assumed), 0 to
+//! 180 (the rest filled by a half turn, assumed to leave the surface
+//! unchanged) or 0 to 90 (filled by the mirrors about the xz and yz planes,
+//! assumed symmetries) ([`layout`]; [`layout::symmetry_figure`] judges the
+//! assumption), and refused otherwise. Then `phi_i` holds the layout's
+//! nodes (radians, -pi to pi), and the reader takes the half vector's
+//! azimuth absolute (the sample's frame):
 //!
 //! * `ndf` ([`NDF_PHI_RES`] x [`NDF_RES`]): the facets' kernel at each
 //!   node's direction without the azimuth average
-//!   ([`Ndf::from_mesh_anisotropic`]; for a turned layout the surface
-//!   turned by a half turn, as its data are), mixed with [`TABLE_SHARE`]
+//!   ([`Ndf::from_mesh_anisotropic`]), mixed with [`TABLE_SHARE`]
 //!   of the distribution of the half vectors of the table's own light
 //!   ([`Ndf::with_half_vectors`]: the facets miss light that leaves after
 //!   several reflections, and `spectra` then has no node where it goes);
 //! * `sigma` ([`SIGMA_PHI_RES`] x [`SIGMA_RES`]): its projected area at
 //!   each `(theta_i, phi_i)`;
 //! * `vndf`, `luminance`, `spectra`: a block per `(phi_i, theta_i)` node
-//!   with the light at the node's azimuth and the node's table in its own
-//!   plane of incidence (the file's `wo` turned by `-phi_i`), **not**
+//!   with the light at the node's azimuth and the table of the run's
+//!   azimuth it comes from in its own plane of incidence (the file's `wo`
+//!   moved by the node's [`layout::Symmetry`], then turned by minus the
+//!   run's azimuth), **not**
 //!   averaged with its mirror image, each block scaled to its table's
 //!   reflectance.
 //!
@@ -130,7 +131,7 @@ use rayon::prelude::*;
 use super::Mesh;
 use super::resample::{FormatError, symmetric_eval};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
-use layout::{Layout, Node, Reduction};
+use layout::{Layout, LayoutError, Node};
 use tensor::{Field, TensorFile};
 use warp::{Warp, bilinear};
 
@@ -487,23 +488,6 @@ impl Ndf {
         }
     }
 
-    /// The NDF of the surface turned by a half turn about its normal
-    /// (`D'(phi) = D(phi + 180 degrees)`), on [`NDF_PHI_RES`] rows: the
-    /// rows moved by exactly half of them.
-    #[must_use]
-    pub fn turned(&self) -> Self {
-        let a = self.anisotropic();
-        let (rows, n) = (a.rows, NDF_RES);
-        let period = rows - 1;
-        let values = (0..rows)
-            .flat_map(|r| {
-                let src = (r + period / 2) % period;
-                a.values[src * n..(src + 1) * n].to_vec()
-            })
-            .collect();
-        Self { values, rows }
-    }
-
     /// `D` at `u_theta` (linear between the nodes).
     #[must_use]
     pub fn at(&self, u_theta: f64) -> f64 {
@@ -639,8 +623,7 @@ fn anisotropic_sigma(ndf: &[f64]) -> Vec<f64> {
 
 impl Grids {
     /// The grids of the NDF `ndf` at the incidences `thetas_rad` and the
-    /// light azimuths of `layout` (for a turned layout the NDF of the
-    /// surface turned by a half turn, as the file's data is).
+    /// light azimuths of `layout`.
     fn new(
         ndf: &Ndf,
         thetas_rad: &[f64],
@@ -665,11 +648,7 @@ impl Grids {
                 .collect();
             return Self::finish(true, ndf_grid, 2, sigma, 2, vndf);
         }
-        let file_ndf = match layout.reduction {
-            Reduction::HalfTurn | Reduction::Quadrant => ndf.turned(),
-            _ => ndf.anisotropic(),
-        }
-        .with_half_vectors(half, smoothing);
+        let file_ndf = ndf.anisotropic().with_half_vectors(half, smoothing);
         let ndf_grid: Vec<f64> = file_ndf.values.iter().map(|&v| f32_round(v)).collect();
         let sigma = anisotropic_sigma(&ndf_grid);
         let ndf_at = |u: [f64; 2]| bilinear(&ndf_grid, NDF_RES, NDF_PHI_RES, u);
@@ -715,13 +694,12 @@ impl Grids {
 /// The half vectors of the light of `table` (several azimuths) at every
 /// node of `layout` and incidence `thetas_rad`, in the file's frame: per
 /// cell, the half vector between the node's `wi` and the cell's centre
-/// (turned by a half turn for a turned node), weighted by the cell's
+/// (moved by the node's [`layout::Symmetry`]), weighted by the cell's
 /// fraction over the incidence's reflectance (each incidence weighs the
 /// same).
 fn half_vectors(table: &BrdfTable, layout: &Layout, thetas_rad: &[f64]) -> Vec<(DVec3, f64)> {
     let grid = table.grid();
     let n = table.azimuths_deg().len();
-    let turned = matches!(layout.reduction, Reduction::HalfTurn | Reduction::Quadrant);
     let mut out = Vec::new();
     for node in &layout.nodes {
         for (k, &theta) in thetas_rad.iter().enumerate() {
@@ -738,7 +716,7 @@ fn half_vectors(table: &BrdfTable, layout: &Layout, thetas_rad: &[f64]) -> Vec<(
                 let (band, cell) = grid.band_cell(flat);
                 let (t, p) = grid.centre(band, cell);
                 let wo = DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
-                let wo = if turned { rotate_z(wo, PI) } else { wo };
+                let wo = node.symmetry.apply(wo);
                 out.push(((wi + wo).normalize(), f / total));
             }
         }
@@ -795,7 +773,11 @@ impl Rgl {
     ///
     /// # Errors
     /// Light azimuths that no RGL file holds ([`Layout::of`]: the reason).
-    pub fn from_tables(tables: &BrdfTables, ndf: &Ndf, description: &str) -> Result<Self, String> {
+    pub fn from_tables(
+        tables: &BrdfTables,
+        ndf: &Ndf,
+        description: &str,
+    ) -> Result<Self, LayoutError> {
         let (wavelengths_nm, per_wavelength): (Vec<f64>, Vec<&BrdfTable>) =
             match tables.wavelengths_um() {
                 [] => (GREY_NM.to_vec(), vec![&tables.tables()[0]; 2]),
@@ -821,7 +803,7 @@ impl Rgl {
         tables: &crate::optics::brdf_table::SpectralTables,
         ndf: &Ndf,
         description: &str,
-    ) -> Result<Option<(Self, [BrdfTable; 3])>, String> {
+    ) -> Result<Option<(Self, [BrdfTable; 3])>, LayoutError> {
         let Some(channels) = super::merl::srgb_tables(tables) else {
             return Ok(None);
         };
@@ -842,7 +824,7 @@ impl Rgl {
         wavelengths_nm: Vec<f64>,
         ndf: &Ndf,
         description: &str,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, LayoutError> {
         let layout = Layout::of(per_channel[0].azimuths_deg())?;
         let thetas: Vec<f64> = per_channel[0]
             .angles_deg()
@@ -860,9 +842,9 @@ impl Rgl {
         // The BRDF of channel `w` at file node `node`, incidence `theta`,
         // towards `wo` (the file's frame): isotropic, averaged with its
         // mirror image in the plane of incidence; anisotropic, the node's
-        // azimuth's table towards `wo` turned by `-phi_i` (into its plane
-        // of incidence: for a turned node, the run's `wo` turned by a half
-        // turn), not averaged.
+        // azimuth's table towards `wo` moved by the node's isometry (onto
+        // the run's light) and turned by minus the run's azimuth (into its
+        // plane of incidence), not averaged.
         let per_azimuth: Vec<Vec<BrdfTable>> = if layout.is_isotropic() {
             Vec::new()
         } else {
@@ -881,7 +863,8 @@ impl Rgl {
             if layout.is_isotropic() {
                 symmetric_eval(per_channel[w], theta, wo)
             } else {
-                channel(w, node).eval(theta, rotate_z(wo, -node.phi_deg.to_radians()))
+                let a = per_channel[0].azimuths_deg()[node.azimuth].to_radians();
+                channel(w, node).eval(theta, rotate_z(node.symmetry.apply(wo), -a))
             }
         };
         let r = SAMPLE_RES;
@@ -1184,7 +1167,7 @@ pub fn check_channels(
         message,
     };
     let azimuths = channels[0].azimuths_deg();
-    let layout = Layout::of(azimuths).map_err(error)?;
+    let layout = Layout::of(azimuths).map_err(|e| error(e.to_string()))?;
     let nodes: Vec<f64> = layout.nodes.iter().map(|n| n.phi_deg).collect();
     let in_file: Vec<f64> = rgl.phi_i.iter().map(|p| p.to_degrees()).collect();
     if nodes.len() != in_file.len()
@@ -1286,9 +1269,8 @@ mod tests {
     /// theta 30, azimuth 180) is normalised for the bilinear interpolation
     /// of its nodes (∫ D cos dω = 1 by the midpoint rule on 512² cells of
     /// the `u` square, to 2e-3), peaks at the node nearest (30, 180) and
-    /// is the uniform share alone a quarter turn away; turned by a half
-    /// turn it peaks at azimuth 0. An azimuth-averaged NDF (the isotropic
-    /// kernel) would be equal at 0 and 180.
+    /// is the uniform share alone a quarter turn away. An azimuth-averaged
+    /// NDF (the isotropic kernel) would be equal at 0 and 180.
     #[test]
     fn anisotropic_ndf_keeps_the_azimuth() {
         let ndf = Ndf::from_mesh_anisotropic(&tilted(30f64.to_radians()), 0.05);
@@ -1328,9 +1310,6 @@ mod tests {
         let floor = DIFFUSE_SHARE / PI;
         assert!((at(&ndf, 30.0, 90.0) / floor - 1.0).abs() < 1e-6);
         assert!(at(&ndf, 30.0, 180.0) > 100.0 * at(&ndf, 30.0, 0.0));
-        let turned = ndf.turned();
-        assert!(turned.values[(NDF_PHI_RES / 2) * NDF_RES + col] == ndf.values[peak]);
-        assert!(at(&turned, 30.0, 0.0) > 100.0 * at(&turned, 30.0, 180.0));
     }
 
     /// `bessel_i0e` against I0 from its power series `sum (x/2)^2k / k!²`
