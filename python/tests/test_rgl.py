@@ -70,17 +70,6 @@ def bound(c, sel, bands, mirror=True):
     return np.array([np.abs(f[row] - f[k]).max() for k, row in enumerate(near)])
 
 
-def light_azimuth(a):
-    """The azimuth (degrees) at which the tests read an anisotropic file for
-    the run's light azimuth a: a, but 1e-4 degrees above 0 for 0. Mitsuba
-    turns a light with wi.y = +0 of a 0-180 file by a half turn and then
-    takes atan2(-0, x < 0), which drjit returns as +pi, not -pi: the node 0
-    (the run's 180 turned) is read instead of -180 (the run's 0). A light
-    exactly at azimuth 0 of a 0-180 file is a Mitsuba edge case of
-    measure zero; 1e-4 degrees off, the node -180 is read."""
-    return 1e-4 if a == 0 else a
-
-
 def mitsuba_eval(mi, bsdf, theta_deg, dirs, wavelength_nm, phi_deg=0.0):
     ctx = mi.BSDFContext()
     si = mi.SurfaceInteraction3f()
@@ -423,7 +412,7 @@ def aniso_compare(mi, folder, query_phi=None, turn=False, file="rgl.bsdf", mirro
             dirs = centres(c, sel)
             q = dirs * np.array([-1, -1, 1]) if turn else dirs
             got = mitsuba_eval(mi, bsdf, theta, q, 550.0,
-                               light_azimuth(a) if query_phi is None else query_phi(a)) / dirs[:, 2]
+                               a if query_phi is None else query_phi(a)) / dirs[:, 2]
             f, se = c["brdf"][sel], c["brdf_stderr"][sel]
             se = zero_count_stderr(f, se, c["projected_solid_angle_sr"][sel], c["fraction"][sel])
             yield a, theta, f, se, got, bound(c, sel, bands, mirror=mirror)
@@ -453,8 +442,8 @@ def test_anisotropic_eval_matches_the_table_per_cell(mi, aniso, name):
 
 
 def test_half_turn_reaches_the_other_half(mi, aniso):
-    """The 0-180 file read with the light at a + 180 (225, 270, 315: wi.y <
-    0, no reduction, the node a - 180 itself) towards the cell centres
+    """The 0-180 file read with the light at a + 180 (225, 270, 315: the
+    nodes a - 180, filled by the half turn) towards the cell centres
     turned by a half turn is the table at a: the file holds azimuth a
     turned (within the per-cell bound of the test above, as weak at the
     grooves' spikes; the lobe test below also reads at a + 180)."""
@@ -490,10 +479,7 @@ def mitsuba_reflectance(mi, path, theta_deg, phi_deg, rings=360, lobe=False):
         "against the table's (0.739, 0, 0.618) at 30 degrees, reflectance 0.782 against "
         "0.800 at 60 (the writer's own 0.5-degree check passes: it normalises to it)"))),
     "half",
-    pytest.param("quadrant", marks=pytest.mark.xfail(strict=True, reason=(
-        "known limitation: at 60 degrees, light at 45, Mitsuba's reflectance on 0.25-degree "
-        "cells is 0.7909 against the table's 0.8000 (1.1 %, allowed 1 %): the writer scales "
-        "each block to the table on 0.5-degree cells, and the grooves' peaks are finer"))),
+    "quadrant",
 ])
 def test_anisotropic_reflectance_and_lobe_per_azimuth(mi, aniso, name):
     """Per run azimuth a and incidence: the reflectance of Mitsuba's eval
@@ -501,8 +487,12 @@ def test_anisotropic_reflectance_and_lobe_per_azimuth(mi, aniso, name):
     max(1 %, 4 sigma), and the mean outgoing direction of its light is the
     table's (fractions times cell centres) within two band widths (the
     cells' own spread). For the 0-180 file also with the light at a + 180
-    for 0 < a < 180 (the node a - 180 read directly): the same reflectance
-    and the table's mean direction turned by a half turn. The per-cell
+    for 0 < a < 180 (the node a - 180, filled by the half turn): the same
+    reflectance and the table's mean direction turned by a half turn; for
+    the 0-90 file at 180 - a, 360 - a and a + 180 (the nodes filled by the
+    mirror about yz, about xz and the half turn), the mean direction moved
+    alike. Every file spans the whole circle (reduction 1: pbrt-v4 reads
+    no other). The per-cell
     comparison above bounds a lone spike cell by its own value (its
     neighbours are 0), so a file that loses or moves a spike can pass it;
     this test cannot be passed so (checked: a writer skipping the half turn,
@@ -519,9 +509,16 @@ def test_anisotropic_reflectance_and_lobe_per_azimuth(mi, aniso, name):
             r_table = (c["brdf"][sel] * p).sum()
             allowed = max(0.01 * r_table, 4 * np.sqrt(((c["brdf_stderr"][sel] * p) ** 2).sum()))
             mean = (f[:, None] * centres(c, sel)).sum(axis=0) / f.sum()
-            queries = [(light_azimuth(a), mean)]
+            queries = [(a, mean)]
             if name == "half" and 0 < a < 180:
                 queries.append((a + 180, mean * np.array([-1, -1, 1])))
+            if name == "quadrant":
+                # the rest of the circle, filled by the mirrors and the half turn
+                if a < 90:
+                    queries.append((180 - a, mean * np.array([-1, 1, 1])))
+                    queries.append((a + 180, mean * np.array([-1, -1, 1])))
+                if a > 0:
+                    queries.append((360 - a, mean * np.array([1, -1, 1])))
             for q, want in queries:
                 r_file, got = mitsuba_reflectance(mi, path, theta, q, lobe=True)
                 if abs(r_file - r_table) > allowed:
