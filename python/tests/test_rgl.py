@@ -57,16 +57,20 @@ def centres(c, sel):
     return np.stack([np.sin(to) * np.cos(po), np.sin(to) * np.sin(po), np.cos(to)], axis=1)
 
 
-def bound(c, sel, bands, mirror=True):
+def bound(c, sel, bands, mirror=True, phi_deg=0.0):
     """Per cell: the largest |f_n - f_c| over cells n within two band widths
     of the cell or (an isotropic file, averaged with its mirror image:
-    `mirror`) of its mirror image (the stated resampling error)."""
+    `mirror`) of its mirror image in the plane of incidence, at the light
+    azimuth `phi_deg` (the stated resampling error)."""
     d = centres(c, sel)
     f = c["brdf"][sel]
     radius = np.cos(2 * np.radians(90 / bands))
     near = d @ d.T > radius
     if mirror:
-        near |= (d * np.array([1, -1, 1])) @ d.T > radius
+        u = np.array([np.cos(np.radians(phi_deg)), np.sin(np.radians(phi_deg)), 0.0])
+        h = d * np.array([1, 1, 0])
+        image = 2 * (h @ u)[:, None] * u - h + d * np.array([0, 0, 1])
+        near |= image @ d.T > radius
     return np.array([np.abs(f[row] - f[k]).max() for k, row in enumerate(near)])
 
 
@@ -88,6 +92,10 @@ CASES = [
     ("gaussian_al", "gaussian.toml", ["--photons", 400_000, "--theta", "0,40,70"], None),
     ("gold", "gold-spectral.toml", ["--photons", 100_000, "--theta", "30",
                                     "--wavelengths", "0.45,0.55,0.65"], [450.0, 550.0, 650.0]),
+    # The Gaussian Al field as an ensemble of 16 realisations (256 x 256
+    # each), light at azimuth 45 degrees; the file's NDF pools the facets of
+    # all 16.
+    ("gaussian_ensemble", "gaussian-ensemble.toml", ["--photons", 262_144, "--theta", "0,40,70"], None),
 ]
 
 
@@ -199,8 +207,9 @@ def compare(folder, wavelengths):
             if "wavelength_um" in c:
                 sel &= np.isclose(c["wavelength_um"], lam / 1e3)
             dirs = centres(c, sel)
-            got = mitsuba_eval(m, bsdf, theta, dirs, lam) / dirs[:, 2]
-            yield (lam, theta, c["brdf"][sel], c["brdf_stderr"][sel], got, bound(c, sel, bands),
+            phi = float(c["phi_i_deg"][sel][0])  # the light's azimuth: the file is relative to it
+            got = mitsuba_eval(m, bsdf, theta, dirs, lam, phi) / dirs[:, 2]
+            yield (lam, theta, c["brdf"][sel], c["brdf_stderr"][sel], got, bound(c, sel, bands, phi_deg=phi),
                    c["projected_solid_angle_sr"][sel], c["fraction"][sel])
 
 
@@ -213,7 +222,17 @@ def zero_count_stderr(f, se, proj, fraction):
     return np.where(f > 0, se, one / proj)
 
 
-@pytest.mark.parametrize("name,scene,opts,wavelengths", CASES, ids=[c[0] for c in CASES])
+ENSEMBLE_LEAK = pytest.mark.xfail(strict=True, reason=(
+    "known defect: the ensemble's file puts 0.003-0.01 1/sr (0.1-0.4 % of the peak) into cells "
+    "where the table has no photon and neither have its neighbours within two band widths: at "
+    "0 degrees 2 of 2112 cells off with 262144 photons (theta_o 57 deg, phi 213 and 237), 28 "
+    "with the scene's 1048576, in rings about 15 degrees either side of the light's plane; the "
+    "file's NDF (all 16 realisations' facets) has density where the traced light has none, "
+    "and the interpolated spectra times the NDF ratio leaks there"))
+
+
+@pytest.mark.parametrize("name,scene,opts,wavelengths", [
+    pytest.param(*c, id=c[0], marks=[ENSEMBLE_LEAK] if c[0] == "gaussian_ensemble" else []) for c in CASES])
 def test_measured_eval_matches_the_table_per_cell(mi, folders, name, scene, opts, wavelengths):
     for lam, theta, f, se, got, b, proj, fraction in compare(folders[name], wavelengths):
         se = zero_count_stderr(f, se, proj, fraction)

@@ -190,7 +190,7 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     bar.finish_and_clear();
 
     let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
-    let extra = export_formats(&folder, &a.export, &comment, a.quiet, Some(&scene.surface))?;
+    let extra = export_formats(&folder, &a.export, &comment, a.quiet, &scene.surfaces())?;
     let mut files = folder.files(extra);
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     files.push(("surface.png".into(), surface));

@@ -191,13 +191,8 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
         export_pbsdf(&tables, a.quiet)?
     } else if format == BrdfFormat::Rgl {
         let scene = rgl_scene(a.scene.as_deref(), &summary)?;
-        export_rgl(
-            &tables,
-            &comment,
-            a.quiet,
-            scene.as_ref().map(|s| &s.surface),
-            a.rgb,
-        )?
+        let surfaces = scene.as_ref().map(|s| s.surfaces()).unwrap_or_default();
+        export_rgl(&tables, &comment, a.quiet, &surfaces, a.rgb)?
     } else {
         export_tables_on(
             &tables,
@@ -287,7 +282,8 @@ fn rgl_scene(
 }
 
 /// The RGL file of `tables` ([`crate::export::rgl`]) with the NDF of
-/// `surface` (none: the uniform NDF, with a note), read back and judged
+/// `surfaces`, the micro surface's realisations pooled (none: the uniform
+/// NDF, with a note), read back and judged
 /// like the other exports: per wavelength (one line for a monochrome
 /// table, written grey; per channel for an RGB file, `rgb`, which needs
 /// spectral tables covering the visible) and incidence, the file's
@@ -299,7 +295,7 @@ pub fn export_rgl(
     tables: &BrdfTables,
     comment: &str,
     quiet: bool,
-    surface: Option<&crate::micro::MicroSurface>,
+    surfaces: &[&crate::micro::MicroSurface],
     rgb: bool,
 ) -> Result<Vec<ExportFile>, Failure> {
     use crate::export::rgl;
@@ -311,13 +307,13 @@ pub fn export_rgl(
         ))
     })?;
     rgl_symmetry_note(tables, &layout);
-    let ndf = match surface {
-        Some(s) => rgl::surface_ndf(
-            s,
+    let ndf = match surfaces {
+        [_, ..] => rgl::surface_ndf(
+            surfaces,
             rgl::smoothing_for(tables.tables()[0].bands()),
             !layout.is_isotropic(),
         ),
-        None => {
+        [] => {
             eprintln!(
                 "note: rgl: no micro scene (--scene) for the NDF: the uniform NDF 1/pi is written; the file's values are the same, its importance sampling follows the table alone"
             );
@@ -490,7 +486,8 @@ pub fn check_export_formats(
 /// merge`) of the result `folder`'s table, `(file name, bytes)`: each
 /// format once, in the order given, with `comment` in their headers and
 /// judged as [`export_tables`] judges them; an rgl file gets the NDF of
-/// the micro `surface` when there is one ([`export_rgl`]).
+/// the micro surface's realisations `surfaces` when there are any
+/// ([`export_rgl`]).
 ///
 /// # Errors
 /// As [`export_tables`].
@@ -499,7 +496,7 @@ pub fn export_formats(
     formats: &[BrdfFormat],
     comment: &str,
     quiet: bool,
-    surface: Option<&crate::micro::MicroSurface>,
+    surfaces: &[&crate::micro::MicroSurface],
 ) -> Result<Vec<(String, Vec<u8>)>, Failure> {
     if formats.is_empty() {
         return Ok(Vec::new());
@@ -510,10 +507,8 @@ pub fn export_formats(
         if formats[..k].contains(&format) {
             continue;
         }
-        let exported = match (format, surface) {
-            (BrdfFormat::Rgl, Some(surface)) => {
-                export_rgl(&tables, comment, quiet, Some(surface), false)?
-            }
+        let exported = match (format, surfaces) {
+            (BrdfFormat::Rgl, [_, ..]) => export_rgl(&tables, comment, quiet, surfaces, false)?,
             (BrdfFormat::Pbsdf, _) => {
                 // The run's Mueller table: the text of the folder's mueller.csv.
                 let (name, text) = folder

@@ -83,8 +83,9 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
         "scene {}, {photons} photons per angle",
         folder.description.name
     );
-    let surface = rgl_surface(&a.export, &scene);
-    let extra = export_formats(&folder, &a.export, &comment, a.quiet, surface.as_ref())?;
+    let micro = rgl_scene(&a.export, &scene);
+    let surfaces = micro.as_ref().map(|s| s.surfaces()).unwrap_or_default();
+    let extra = export_formats(&folder, &a.export, &comment, a.quiet, &surfaces)?;
     let mut files = folder.files(extra);
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     // The surface's picture comes from the micro geometry, not the sums:
@@ -101,16 +102,16 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The micro surface whose NDF an rgl export of merged shards writes: that
-/// of the scene file `scene` the shards name (the embedded default for
-/// `<default scene>`), when `formats` hold rgl and the file loads; `None`
-/// otherwise.
-fn rgl_surface(formats: &[BrdfFormat], scene: &str) -> Option<crate::micro::MicroSurface> {
+/// The micro scene whose surfaces (every realisation) give the NDF an rgl
+/// export of merged shards writes: that of the scene file `scene` the
+/// shards name (the embedded default for `<default scene>`), when
+/// `formats` hold rgl and the file loads; `None` otherwise.
+fn rgl_scene(formats: &[BrdfFormat], scene: &str) -> Option<crate::scene::micro::MicroScene> {
     if !formats.contains(&BrdfFormat::Rgl) {
         return None;
     }
     let path = (scene != "<default scene>").then(|| std::path::Path::new(scene));
-    load_scene(path).ok().map(|s| s.surface)
+    load_scene(path).ok()
 }
 
 /// `roks merge` of `roks trace` shards: the folder of the single run.

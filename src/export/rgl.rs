@@ -36,7 +36,8 @@
 //!   node, so that the NDF is smooth between the nodes), mixed with a share [`DIFFUSE_SHARE`] of the
 //!   uniform `D = 1/pi` so that it is positive everywhere (the multiply
 //!   scattered light of a roks table reaches directions where no facet
-//!   points). Height fields give their own triangles; other surfaces
+//!   points). Height fields give their own triangles (an ensemble the
+//!   triangles of all its realisations, pooled); other surfaces
 //!   (bumps, bodies) the triangulated height map of vertical rays at
 //!   [`MESH_RES`]² points per period (overhangs are not seen).
 //! * `sigma` (`2 x SIGMA_RES`): the projected area `∫ D(m) max(0, wi.m) dω`
@@ -276,8 +277,9 @@ impl Ndf {
         }
     }
 
-    /// The NDF of the upward-facing triangles of `mesh` (a height field:
-    /// see the module documentation): every triangle's normal `n`, weighted
+    /// The NDF of the upward-facing triangles of `meshes` (height fields,
+    /// one per surface realisation, pooled: see the module documentation;
+    /// [`upward_facets`]): every triangle's normal `n`, weighted
     /// by its area, spread over the sphere by the von Mises-Fisher kernel
     /// `exp(kappa (m.n - 1))` of angular width `smoothing` (radians,
     /// `kappa = 1 / smoothing²`), averaged over the azimuth about the
@@ -294,19 +296,10 @@ impl Ndf {
     /// renderer's grids can follow; [`smoothing_for`] matches it to the
     /// table's cells, which cannot resolve finer detail anyway.
     #[must_use]
-    pub fn from_mesh(mesh: &Mesh, smoothing: f64) -> Self {
+    pub fn from_mesh(meshes: &[Mesh], smoothing: f64) -> Self {
         let mut bins = vec![0.0; NORMAL_BINS];
         let mut projected = 0.0;
-        for f in &mesh.faces {
-            let p = f.map(|k| {
-                let v = mesh.vertices[k as usize];
-                DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
-            });
-            let normal = (p[1] - p[0]).cross(p[2] - p[0]);
-            let area = 0.5 * normal.length();
-            if area == 0.0 || normal.z <= 0.0 {
-                continue;
-            }
+        for (normal, area) in upward_facets(meshes) {
             let cos = normal.z / (2.0 * area);
             projected += area * cos;
             let bin = (cos.min(1.0).acos() / FRAC_PI_2 * NORMAL_BINS as f64) as usize;
@@ -344,7 +337,7 @@ impl Ndf {
         Self { values, rows: 1 }
     }
 
-    /// The anisotropic NDF of the upward-facing triangles of `mesh`, at
+    /// The anisotropic NDF of the upward-facing triangles of `meshes`, at
     /// [`NDF_PHI_RES`] x [`NDF_RES`] nodes of `(u_phi, u_theta)` in the
     /// sample frame: as [`from_mesh`](Self::from_mesh) without the average
     /// over the azimuth, the kernel `exp(kappa (m.n - 1))` evaluated at each
@@ -355,20 +348,11 @@ impl Ndf {
     /// interpolation of the nodes, then mixed with [`DIFFUSE_SHARE`] of the
     /// uniform NDF.
     #[must_use]
-    pub fn from_mesh_anisotropic(mesh: &Mesh, smoothing: f64) -> Self {
+    pub fn from_mesh_anisotropic(meshes: &[Mesh], smoothing: f64) -> Self {
         let [tb, pb] = NORMAL_BINS_2D;
         let mut area_of = vec![0.0; tb * pb];
         let mut sum_of = vec![DVec3::ZERO; tb * pb];
-        for f in &mesh.faces {
-            let p = f.map(|k| {
-                let v = mesh.vertices[k as usize];
-                DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
-            });
-            let normal = (p[1] - p[0]).cross(p[2] - p[0]);
-            let area = 0.5 * normal.length();
-            if area == 0.0 || normal.z <= 0.0 {
-                continue;
-            }
+        for (normal, area) in upward_facets(meshes) {
             let n = normal / (2.0 * area);
             let t = ((n.z.min(1.0).acos() / FRAC_PI_2 * tb as f64) as usize).min(tb - 1);
             let q = ((phi2u(n.y.atan2(n.x)) * pb as f64) as usize).min(pb - 1);
@@ -1081,16 +1065,40 @@ impl Rgl {
 /// `smoothing` radians: [`Ndf::from_mesh`], or with `anisotropic`
 /// [`Ndf::from_mesh_anisotropic`].
 #[must_use]
-pub fn surface_ndf(surface: &crate::micro::MicroSurface, smoothing: f64, anisotropic: bool) -> Ndf {
-    let mesh = match surface.heightfield() {
-        Some(field) => super::field_mesh(field),
-        None => super::height_field_mesh(surface, MESH_RES),
-    };
+pub fn surface_ndf(
+    surfaces: &[&crate::micro::MicroSurface],
+    smoothing: f64,
+    anisotropic: bool,
+) -> Ndf {
+    let meshes: Vec<Mesh> = surfaces
+        .iter()
+        .map(|surface| match surface.heightfield() {
+            Some(field) => super::field_mesh(field),
+            None => super::height_field_mesh(surface, MESH_RES),
+        })
+        .collect();
     if anisotropic {
-        Ndf::from_mesh_anisotropic(&mesh, smoothing)
+        Ndf::from_mesh_anisotropic(&meshes, smoothing)
     } else {
-        Ndf::from_mesh(&mesh, smoothing)
+        Ndf::from_mesh(&meshes, smoothing)
     }
+}
+
+/// The upward-facing triangles of `meshes`, in order: each one's normal
+/// `(b - a) x (c - a)` (length twice its area) and its area; triangles of
+/// no area or facing down (overhangs seen from below) left out.
+fn upward_facets(meshes: &[Mesh]) -> impl Iterator<Item = (DVec3, f64)> + '_ {
+    meshes.iter().flat_map(|mesh| {
+        mesh.faces.iter().filter_map(move |f| {
+            let p = f.map(|k| {
+                let v = mesh.vertices[k as usize];
+                DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]))
+            });
+            let normal = (p[1] - p[0]).cross(p[2] - p[0]);
+            let area = 0.5 * normal.length();
+            (area > 0.0 && normal.z > 0.0).then_some((normal, area))
+        })
+    })
 }
 
 /// The directional-hemispherical reflectance of an RGL file read back, per
@@ -1240,7 +1248,7 @@ mod tests {
     /// peak at the node nearest 30 degrees.
     #[test]
     fn ndf_of_facets_is_normalised_and_peaks_at_their_angle() {
-        let ndf = Ndf::from_mesh(&tilted(30f64.to_radians()), 0.02);
+        let ndf = Ndf::from_mesh(&[tilted(30f64.to_radians())], 0.02);
         let cos = tent_integrals(NDF_RES, f64::cos);
         let total: f64 = ndf.values.iter().zip(&cos).map(|(v, c)| v * c).sum();
         assert!((total - 1.0).abs() < 1e-8, "{total}");
@@ -1265,6 +1273,28 @@ mod tests {
         }
     }
 
+    /// The NDF of several realisations pools their facets: a flat square
+    /// and one tilted 30 degrees give an NDF with weight at both angles
+    /// (each alone at one only, the other at the uniform floor of
+    /// [`DIFFUSE_SHARE`]), isotropic and anisotropic alike.
+    #[test]
+    fn ndf_pools_every_realisation() {
+        let node = |deg: f64| (theta2u(deg.to_radians()) * (NDF_RES - 1) as f64).round() as usize;
+        let floor = DIFFUSE_SHARE / PI;
+        let (flat, tilt) = (tilted(0.0), tilted(30f64.to_radians()));
+        let iso = |meshes: &[Mesh]| Ndf::from_mesh(meshes, 0.05).values;
+        let both = iso(&[flat.clone(), tilt.clone()]);
+        assert!(both[node(0.0)] > 10.0 * floor && both[node(30.0)] > 10.0 * floor);
+        assert!(iso(&[flat.clone()])[node(30.0)] < 1.01 * floor);
+        assert!(iso(&[tilt.clone()])[node(0.0)] < 1.01 * floor);
+        let aniso = Ndf::from_mesh_anisotropic(&[flat, tilt], 0.05);
+        let row = |phi_deg: f64| {
+            (phi2u(phi_deg.to_radians()) * (NDF_PHI_RES - 1) as f64).round() as usize
+        };
+        assert!(aniso.values[row(0.0) * NDF_RES + node(0.0)] > 10.0 * floor);
+        assert!(aniso.values[row(180.0) * NDF_RES + node(30.0)] > 10.0 * floor);
+    }
+
     /// The anisotropic NDF of a plane tilted 30 degrees about y (normals at
     /// theta 30, azimuth 180) is normalised for the bilinear interpolation
     /// of its nodes (∫ D cos dω = 1 by the midpoint rule on 512² cells of
@@ -1273,7 +1303,7 @@ mod tests {
     /// NDF (the isotropic kernel) would be equal at 0 and 180.
     #[test]
     fn anisotropic_ndf_keeps_the_azimuth() {
-        let ndf = Ndf::from_mesh_anisotropic(&tilted(30f64.to_radians()), 0.05);
+        let ndf = Ndf::from_mesh_anisotropic(&[tilted(30f64.to_radians())], 0.05);
         assert_eq!(ndf.rows, NDF_PHI_RES);
         let n = 512;
         let total: f64 = (0..n * n)
@@ -1335,7 +1365,7 @@ mod tests {
     #[test]
     fn ndf_of_a_mirror_is_smooth() {
         let smoothing = smoothing_for(32);
-        let ndf = Ndf::from_mesh(&tilted(0.0), smoothing);
+        let ndf = Ndf::from_mesh(&[tilted(0.0)], smoothing);
         let peak = ndf.values[0];
         for w in ndf.values.windows(2) {
             if w[0] > 1e-3 * peak {
