@@ -279,7 +279,7 @@ impl Ndf {
 
     /// The NDF of the upward-facing triangles of `meshes` (height fields,
     /// one per surface realisation, pooled: see the module documentation;
-    /// [`upward_facets`]): every triangle's normal `n`, weighted
+    /// `upward_facets`): every triangle's normal `n`, weighted
     /// by its area, spread over the sphere by the von Mises-Fisher kernel
     /// `exp(kappa (m.n - 1))` of angular width `smoothing` (radians,
     /// `kappa = 1 / smoothing²`), averaged over the azimuth about the
