@@ -11,7 +11,7 @@
 //! Carlson cell, written by the `brdf.csv` writer.
 
 mod cli_common;
-use cli_common::roks;
+use cli_common::{roks, roks_within};
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -511,28 +511,6 @@ fn export_brdf_cli_of_several_azimuths() {
         ],
     );
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// `roks` with `args`, killed after `seconds`: `None` if it had not
-/// finished by then (a refusal that did not come before the work).
-fn roks_within(args: &[&str], seconds: u64) -> Option<std::process::Output> {
-    use std::process::{Command, Stdio};
-    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run roks");
-    let start = std::time::Instant::now();
-    while start.elapsed() < std::time::Duration::from_secs(seconds) {
-        if child.try_wait().expect("wait").is_some() {
-            return Some(child.wait_with_output().expect("output"));
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    let _ = child.kill();
-    let _ = child.wait();
-    None
 }
 
 /// `roks brdf --export rgl` (or pbsdf) of light azimuths that no file of

@@ -9,10 +9,9 @@
 mod cli_common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Output;
 
-use cli_common::assert_input_error;
+use cli_common::{assert_input_error, roks_within};
 use serde_json::Value;
 
 /// Most periodic crossings of one flight (`roks::micro::MAX_CROSSINGS`).
@@ -28,24 +27,8 @@ fn scratch(name: &str) -> PathBuf {
 
 /// Run `roks args`, killing it after 60 s (a hang).
 fn roks_watched(case: &str, args: &[&str]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run roks");
-    let start = Instant::now();
-    loop {
-        if child.try_wait().expect("wait").is_some() {
-            return child.wait_with_output().expect("output");
-        }
-        if start.elapsed() > Duration::from_secs(60) {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{case}: roks {args:?} hung (killed after 60 s)");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    roks_within(args, 60)
+        .unwrap_or_else(|| panic!("{case}: roks {args:?} hung (killed after 60 s)"))
 }
 
 /// The micro scene of a case: `[surface]` lines, then the rest.
