@@ -114,9 +114,9 @@ def test_chi2_sample_against_pdf(mi, folders):
     for theta in (0.0, 40.0):
         t = np.radians(theta)
         wi = m.ScalarVector3f(np.sin(t), 0.0, np.cos(t))
-        # ires 16: the pdf follows the 96 x 96 luminance grid; at 8 points a
+        # ires 16: the pdf follows the fine luminance grid; at 8 points a
         # bin side its quadrature overshoots the histogram's sum (1.0038 vs
-        # 0.9991 measured at 96 x 96).
+        # 0.9991 measured at 96 x 96 nodes).
         sample_func, pdf_func = chi2.BSDFAdapter("measured", f'<string name="filename" value="{path}"/>', wi=wi)
         test = chi2.ChiSquareTest(domain=chi2.SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func,
                                   sample_dim=3, res=61, ires=16, sample_count=200_000)
@@ -222,17 +222,7 @@ def zero_count_stderr(f, se, proj, fraction):
     return np.where(f > 0, se, one / proj)
 
 
-ENSEMBLE_LEAK = pytest.mark.xfail(strict=True, reason=(
-    "known defect: the ensemble's file puts 0.003-0.01 1/sr (0.1-0.4 % of the peak) into cells "
-    "where the table has no photon and neither have its neighbours within two band widths: at "
-    "0 degrees 2 of 2112 cells off with 262144 photons (theta_o 57 deg, phi 213 and 237), 28 "
-    "with the scene's 1048576, in rings about 15 degrees either side of the light's plane; the "
-    "file's NDF (all 16 realisations' facets) has density where the traced light has none, "
-    "and the interpolated spectra times the NDF ratio leaks there"))
-
-
-@pytest.mark.parametrize("name,scene,opts,wavelengths", [
-    pytest.param(*c, id=c[0], marks=[ENSEMBLE_LEAK] if c[0] == "gaussian_ensemble" else []) for c in CASES])
+@pytest.mark.parametrize("name,scene,opts,wavelengths", CASES, ids=[c[0] for c in CASES])
 def test_measured_eval_matches_the_table_per_cell(mi, folders, name, scene, opts, wavelengths):
     for lam, theta, f, se, got, b, proj, fraction in compare(folders[name], wavelengths):
         se = zero_count_stderr(f, se, proj, fraction)
@@ -491,12 +481,7 @@ def mitsuba_reflectance(mi, path, theta_deg, phi_deg, rings=360, lobe=False):
 
 
 @pytest.mark.parametrize("name", [
-    pytest.param("circle", marks=pytest.mark.xfail(strict=True, reason=(
-        "known defect: at the circle file's interior node 0 the grooves' retroreflected spike "
-        "(table: 0.27 of 0.73 at 30 degrees, one cell 5.6 degrees wide) falls between the "
-        "96 x 96 spectra nodes and is lost: the lobe's mean direction (0.881, 0, 0.471) "
-        "against the table's (0.739, 0, 0.618) at 30 degrees, reflectance 0.782 against "
-        "0.800 at 60 (the writer's own 0.5-degree check passes: it normalises to it)"))),
+    "circle",
     "half",
     "quadrant",
 ])
@@ -554,11 +539,10 @@ def test_anisotropic_file_differs_from_the_isotropic_one(mi, aniso):
     grooves lit across them turns with the light, so read at 90 it gives
     the across table's reflectance; the anisotropic files give the along
     one. The reflectance of Mitsuba's eval ([mitsuba_reflectance], 0.25-degree
-    cells, finer than the writer's normalisation on 0.5-degree cells, which
-    Mitsuba's eval reproduces to 5 digits) at 30 and 60 degrees: the
-    anisotropic files within max(1 %, 4 sigma) of the table at 90 (measured
-    0.2-0.8 % off; at 1-degree cells up to 2.6 %: the files' peaks are
-    narrower than a degree), the isotropic one beyond 5 times that."""
+    cells, a quadrature independent of the writer's normalisation over the
+    sample square) at 30 and 60 degrees: the anisotropic files within
+    max(1 %, 4 sigma) of the table at 90 (measured 0.06-0.16 % off), the
+    isotropic one beyond 5 times that."""
     c = read_columns(aniso["circle"] / "brdf.csv")
     for theta in (30.0, 60.0):
         sel = (c["theta_i_deg"] == theta) & (c["phi_i_deg"] == 90.0)
