@@ -147,6 +147,17 @@ impl Warp {
     }
 }
 
+/// The midpoints of the `n x n` equal cells of the unit square, row by
+/// row (`x` fastest): the points of the midpoint rule on it.
+pub fn midpoints(n: usize) -> impl Iterator<Item = [f64; 2]> {
+    (0..n * n).map(move |k| {
+        [
+            ((k % n) as f64 + 0.5) / n as f64,
+            ((k / n) as f64 + 0.5) / n as f64,
+        ]
+    })
+}
+
 /// Bilinear interpolation at `u` in `[0, 1]²` (clamped) of node values
 /// `values` (`w x h`, row-major, `x` fastest): Mitsuba's
 /// `Marginal2D::eval` without normalisation.
@@ -185,16 +196,7 @@ mod tests {
     fn density_is_normalised() {
         let w = warp();
         let n = 400;
-        let sum: f64 = (0..n * n)
-            .map(|k| {
-                let u = [
-                    ((k % n) as f64 + 0.5) / n as f64,
-                    ((k / n) as f64 + 0.5) / n as f64,
-                ];
-                w.eval(u)
-            })
-            .sum::<f64>()
-            / (n * n) as f64;
+        let sum: f64 = midpoints(n).map(|u| w.eval(u)).sum::<f64>() / (n * n) as f64;
         assert!((sum - 1.0).abs() < 1e-5, "{sum}");
     }
 
