@@ -159,7 +159,8 @@ pub const VNDF_RES: usize = 64;
 /// centres; the Gaussian Al field at 40 degrees, near the horizon, where
 /// the outgoing direction moves twice as fast as the half vector): 6 of
 /// 2112 at 96 nodes, 2 at 128, none at 160. The default scene's file is
-/// then 3.2 MB (1.3 MB at 96).
+/// then 3.2 MB, written and checked in 2.8 s on 2 cores (1.3 MB and 0.5 s
+/// at 96 nodes with the table's values at the nodes).
 pub const SAMPLE_RES: usize = 160;
 /// Share of the uniform NDF `1/pi` mixed into the facets' one.
 pub const DIFFUSE_SHARE: f64 = 0.05;
