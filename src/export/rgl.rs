@@ -1579,11 +1579,11 @@ mod tests {
             assert!((got - mean).abs() < 1e-12, "({x}, {y}): {got} vs {mean}");
             // Place: all of it on the node nearest the point.
             let lit: Vec<usize> = (0..nodes.len()).filter(|&k| nodes[k] > 0.0).collect();
-            let nearest = (y / BOX_SUBDIVISION
-                + usize::from(y % BOX_SUBDIVISION >= BOX_SUBDIVISION / 2))
-                * SAMPLE_RES
-                + x / BOX_SUBDIVISION
-                + usize::from(x % BOX_SUBDIVISION >= BOX_SUBDIVISION / 2);
+            let node = |i: usize| {
+                let c = (i as f64 + 0.5) / n as f64;
+                (c * (SAMPLE_RES - 1) as f64).round() as usize
+            };
+            let nearest = node(y) * SAMPLE_RES + node(x);
             assert_eq!(lit, vec![nearest], "({x}, {y})");
         }
     }
