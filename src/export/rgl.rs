@@ -132,7 +132,7 @@ use rayon::prelude::*;
 
 use super::Mesh;
 use super::resample::{FormatError, symmetric_eval};
-use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use crate::optics::brdf_table::{BrdfTable, BrdfTables, rotate_z};
 use layout::{Layout, LayoutError, Node};
 use tensor::{Field, TensorFile};
 use warp::{Warp, bilinear, midpoints};
@@ -511,16 +511,11 @@ fn f32_round(v: f64) -> f64 {
     f64::from(v as f32)
 }
 
-/// Turn `d` about `z` by `angle` (radians).
-fn rotate_z(d: DVec3, angle: f64) -> DVec3 {
-    let (s, c) = angle.sin_cos();
-    DVec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z)
-}
-
-/// The direction towards the light at incidence `theta` and azimuth `phi`
-/// (radians): `(sin theta cos phi, sin theta sin phi, cos theta)`, exactly
-/// `(sin theta, 0, cos theta)` at `phi = 0`.
-fn incident(theta: f64, phi: f64) -> DVec3 {
+/// The unit vector of polar angle `theta` and azimuth `phi` (radians):
+/// `(sin theta cos phi, sin theta sin phi, cos theta)`, exactly
+/// `(sin theta, 0, cos theta)` at `phi = 0` (the light at incidence
+/// `theta`, azimuth `phi`; a cell's centre).
+fn direction(theta: f64, phi: f64) -> DVec3 {
     let (sp, cp) = phi.sin_cos();
     DVec3::new(theta.sin() * cp, theta.sin() * sp, theta.cos())
 }
@@ -627,7 +622,7 @@ impl Grids {
             let ndf_at = |u: [f64; 2]| bilinear(&ndf_grid, NDF_RES, 2, u);
             let vndf: Vec<Vec<f64>> = thetas_rad
                 .iter()
-                .map(|&t| vndf_nodes(incident(t, 0.0), ndf_at))
+                .map(|&t| vndf_nodes(direction(t, 0.0), ndf_at))
                 .collect();
             return Self::finish(true, ndf_grid, 2, sigma, 2, vndf);
         }
@@ -641,7 +636,7 @@ impl Grids {
             .flat_map(|node| {
                 thetas_rad
                     .iter()
-                    .map(move |&t| incident(t, node.phi_deg.to_radians()))
+                    .map(move |&t| direction(t, node.phi_deg.to_radians()))
             })
             .collect::<Vec<_>>()
             .par_iter()
@@ -686,7 +681,7 @@ fn half_vectors(table: &BrdfTable, layout: &Layout, thetas_rad: &[f64]) -> Vec<(
     let mut out = Vec::new();
     for node in &layout.nodes {
         for (k, &theta) in thetas_rad.iter().enumerate() {
-            let wi = incident(theta, node.phi_deg.to_radians());
+            let wi = direction(theta, node.phi_deg.to_radians());
             let fractions = table.fractions(k * n + node.azimuth);
             let total: f64 = fractions.iter().sum();
             if total <= 0.0 {
@@ -698,8 +693,7 @@ fn half_vectors(table: &BrdfTable, layout: &Layout, thetas_rad: &[f64]) -> Vec<(
                 }
                 let (band, cell) = grid.band_cell(flat);
                 let (t, p) = grid.centre(band, cell);
-                let wo = DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
-                let wo = node.symmetry.apply(wo);
+                let wo = node.symmetry.apply(direction(t, p));
                 out.push(((wi + wo).normalize(), f / total));
             }
         }
@@ -880,7 +874,7 @@ impl Rgl {
             .map(|flat| {
                 let (node, theta) = (&layout.nodes[flat / ni], thetas[flat % ni]);
                 let phi = node.phi_deg.to_radians();
-                let wi = incident(theta, phi);
+                let wi = direction(theta, phi);
                 let factor = 4.0 * grids.sigma_at(theta, phi);
                 let fine: Vec<(DVec3, f64)> = fine_points()
                     .map(|s| {
@@ -1064,7 +1058,7 @@ impl Rgl {
         }
         let ni = self.theta_i.len();
         let (theta, phi) = (self.theta_i[k % ni], self.phi_i[k / ni]);
-        let wi = incident(theta, phi);
+        let wi = direction(theta, phi);
         let m = (wi + wo).normalize();
         let u = u_of(m);
         let s = self.grids.warps[k].invert(u);
@@ -1179,7 +1173,7 @@ pub fn sample_space_reflectance(file: &Rgl, subdivision: usize) -> Vec<Vec<f64>>
         .into_par_iter()
         .map(|k| {
             let (theta, phi) = (file.theta_i[k % ni], file.phi_i[k / ni]);
-            let wi = incident(theta, phi);
+            let wi = direction(theta, phi);
             let warp = &file.grids.warps[k];
             let four_sigma = 4.0 * file.grids.sigma_at(theta, phi);
             let mut sum = vec![0.0; file.spectra[k].len()];
@@ -1317,6 +1311,13 @@ mod tests {
         }
     }
 
+    /// The index of the largest of `values`.
+    fn peak_node(values: &[f64]) -> usize {
+        (0..values.len())
+            .max_by(|&a, &b| values[a].total_cmp(&values[b]))
+            .unwrap()
+    }
+
     /// The tabulated NDF is normalised (∫ D cos dω = 1) and puts the
     /// facets' weight at their angle: a surface of 30-degree facets has its
     /// peak at the node nearest 30 degrees.
@@ -1326,13 +1327,7 @@ mod tests {
         let cos = tent_integrals(NDF_RES, f64::cos);
         let total: f64 = ndf.values.iter().zip(&cos).map(|(v, c)| v * c).sum();
         assert!((total - 1.0).abs() < 1e-8, "{total}");
-        let peak = ndf
-            .values
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.total_cmp(b.1))
-            .unwrap()
-            .0;
+        let peak = peak_node(&ndf.values);
         let u = theta2u(30f64.to_radians()) * (NDF_RES - 1) as f64;
         assert!((peak as f64 - u).abs() <= 1.0, "{peak} vs {u}");
         // sigma(0) of a normalised NDF is 1 (∫ D cos dω), and sigma grows
@@ -1396,13 +1391,7 @@ mod tests {
                 [theta2u(theta_deg.to_radians()), phi2u(phi_deg.to_radians())],
             )
         };
-        let peak = ndf
-            .values
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.total_cmp(b.1))
-            .unwrap()
-            .0;
+        let peak = peak_node(&ndf.values);
         let (row, col) = (peak / NDF_RES, peak % NDF_RES);
         let u = theta2u(30f64.to_radians()) * (NDF_RES - 1) as f64;
         assert!((col as f64 - u).abs() <= 1.0, "{col} vs {u}");

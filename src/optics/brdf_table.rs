@@ -470,8 +470,9 @@ fn unit(u: f64) -> f64 {
     }
 }
 
-/// Rotate `d` about `z` by `angle` (radians).
-fn rotate_z(d: DVec3, angle: f64) -> DVec3 {
+/// Rotate `d` about `z` by `angle` (radians, counter-clockwise seen from
+/// `+z`).
+pub(crate) fn rotate_z(d: DVec3, angle: f64) -> DVec3 {
     if angle == 0.0 {
         return d;
     }
