@@ -244,6 +244,12 @@ class PiecewiseLinear2D:
     def _lookup(self, table, corners, *tail):
         return sum(w * table[(*index, *tail)].astype(np.float64) for index, w in corners)
 
+    def _patch(self, corners, x, y):
+        """The density at the four nodes of the patch at (x, y): v00, v10,
+        v01, v11 (first index x, second y)."""
+        return (self._lookup(self.data, corners, y, x), self._lookup(self.data, corners, y, x + 1),
+                self._lookup(self.data, corners, y + 1, x), self._lookup(self.data, corners, y + 1, x + 1))
+
     def evaluate(self, pos: np.ndarray, *params) -> np.ndarray:
         """`Evaluate(pos, params...)`: the density at points `pos` (N x 2)."""
         pos, bad = _finite(np.asarray(pos, np.float64) * self.inv_patch)
@@ -251,11 +257,7 @@ class PiecewiseLinear2D:
         w1 = pos - off
         w0 = 1.0 - w1
         corners = self._corners(params)
-        x, y = off[:, 0], off[:, 1]
-        v00 = self._lookup(self.data, corners, y, x)
-        v10 = self._lookup(self.data, corners, y, x + 1)
-        v01 = self._lookup(self.data, corners, y + 1, x)
-        v11 = self._lookup(self.data, corners, y + 1, x + 1)
+        v00, v10, v01, v11 = self._patch(corners, off[:, 0], off[:, 1])
         value = (w0[:, 1] * (w0[:, 0] * v00 + w1[:, 0] * v10)
                  + w1[:, 1] * (w0[:, 0] * v01 + w1[:, 0] * v11)) * np.prod(self.inv_patch)
         return np.where(bad, np.nan, value)
@@ -268,10 +270,7 @@ class PiecewiseLinear2D:
         s = s - pos
         corners = self._corners(params)
         x, y = pos[:, 0], pos[:, 1]
-        v00 = self._lookup(self.data, corners, y, x)
-        v10 = self._lookup(self.data, corners, y, x + 1)
-        v01 = self._lookup(self.data, corners, y + 1, x)
-        v11 = self._lookup(self.data, corners, y + 1, x + 1)
+        v00, v10, v01, v11 = self._patch(corners, x, y)
         w1 = s
         w0 = 1.0 - w1
         c0 = w0[:, 1] * v00 + w1[:, 1] * v01
