@@ -127,6 +127,13 @@ standard errors of the normalised elements, `m01_norm_stderr`): read into
 `PolarTable.extra` (NaN allowed: a ratio where m00 = 0), so a file that
 gains such columns still reads."""
 
+EXTRA_ERROR_COLUMN = re.compile(r"^[a-z][a-z0-9_]*(stderr|photon|dof|realisation|spread)[a-z0-9_]*$")
+"""Columns that may stand anywhere among the known ones of any table roks
+writes: more standard errors and their parts (e.g. `brdf_stderr_photon`,
+the photon-noise part of an ensemble's error, or degrees of freedom),
+read into the table's `extra` dict (NaN allowed), so a file that gains
+them still reads. A column of any other name is refused."""
+
 NAN_COLUMNS = frozenset({"dop"} | {n + "_m00_stderr" for n in MUELLER_NAMES[1:]})
 """Columns where NaN is a value (an undefined degree of polarisation; the
 error of m_ij/m00 where m00 = 0)."""
@@ -155,11 +162,31 @@ def _text(path: Path) -> str:
         raise ResultError(f"{show(path)}: byte {e.start}: not UTF-8 text") from None
 
 
+def _base_header(header: tuple[str, ...], accept, extra) -> tuple[str, ...] | None:
+    """The accepted header that `header` is, once the columns matching
+    `extra` or `EXTRA_ERROR_COLUMN` are taken out (the known columns in
+    their order, the others anywhere among them); None if there is none."""
+    if header in accept:
+        return header
+    best = None
+    for a in accept:
+        known = set(a)
+        if tuple(c for c in header if c in known) != a:
+            continue
+        if all((extra is not None and extra.match(c)) or EXTRA_ERROR_COLUMN.match(c)
+               for c in header if c not in known):
+            if best is None or len(a) > len(best):
+                best = a
+    return best
+
+
 def _table_text(path: Path, accept: tuple[tuple[str, ...], ...] | None, extra=None):
     """(header, rows of cells as float array) of a CSV table of numbers.
 
-    `accept`: the headers allowed (None: any); `extra`: a regex that columns
-    after an accepted header may match (their names are returned too)."""
+    `accept`: the headers allowed (None: any); `extra`: a regex that more
+    columns among an accepted header's may match, besides
+    `EXTRA_ERROR_COLUMN` (their names are returned too). A column whose
+    name holds `stderr` must not be negative."""
     text = _text(path)
     if not text:
         raise ResultError(f"{show(path)}: empty file")
@@ -169,10 +196,10 @@ def _table_text(path: Path, accept: tuple[tuple[str, ...], ...] | None, extra=No
     lines = text.split("\n")
     lines.pop()
     header = tuple(lines[0].lstrip("\ufeff").rstrip("\r").split(","))
-    if accept is not None and header not in accept:
-        ok = extra is not None and any(
-            header[:len(a)] == a and all(extra.match(c) for c in header[len(a):]) for a in accept)
-        if not ok:
+    base = header
+    if accept is not None:
+        base = _base_header(header, accept, extra)
+        if base is None:
             want = " or ".join(",".join(a)[:60] + "..." for a in accept[:2])
             raise ResultError(f"{show(path)}: line 1: not the header of roks's {path.name} (expected {want})")
     if len(set(header)) != len(header):
@@ -192,7 +219,7 @@ def _table_text(path: Path, accept: tuple[tuple[str, ...], ...] | None, extra=No
     if data is None or data.shape[1] != ncol:
         _explain(path, header, lines[1:])
     bad = ~np.isfinite(data)
-    extras = set(header) - set(next((a for a in accept or () if header[:len(a)] == a), header))
+    extras = set(header) - set(base)
     for j, name in enumerate(header):
         if name in NAN_COLUMNS or name in extras:
             bad[:, j] &= ~np.isnan(data[:, j])
@@ -200,6 +227,15 @@ def _table_text(path: Path, accept: tuple[tuple[str, ...], ...] | None, extra=No
         i, j = np.argwhere(bad)[0]
         cell = lines[i + 1].rstrip("\r").split(",")[j]
         raise ResultError(f"{show(path)}: line {i + 2} column {header[j]}: {cell[:30]!r} is not a finite number")
+    errors = [j for j, name in enumerate(header) if "stderr" in name]
+    if errors:
+        negative = data[:, errors] < 0  # NaN compares false: allowed where NaN is
+        if negative.any():
+            i, k = np.argwhere(negative)[0]
+            j = errors[k]
+            cell = lines[i + 1].rstrip("\r").split(",")[j]
+            raise ResultError(f"{show(path)}: line {i + 2} column {header[j]}: {cell[:30]!r} is a negative "
+                              f"standard error")
     return header, data
 
 
@@ -244,7 +280,11 @@ def _table(cls, path: Path, **extra):
     accept = tuple(h for h in (HEADERS[cls.FILE], SPECTRAL_HEADERS.get(cls.FILE),
                                *AZIMUTH_HEADERS.get(cls.FILE, ())) if h)
     header, data = _table_text(path, accept)
-    names = {f.name for f in fields(cls)}
+    names = {f.name for f in fields(cls)} - {"extra"}
+    known = set().union(*accept)
+    more = {c: data[:, i] for i, c in enumerate(header) if c not in known}
+    if "extra" in {f.name for f in fields(cls)}:
+        extra = {**extra, "extra": more}
     obj = cls(path=path, **{c: data[:, i] for i, c in enumerate(header) if c in names}, **extra)
     obj._check()
     return obj
@@ -252,11 +292,13 @@ def _table(cls, path: Path, **extra):
 
 def _select(obj, mask: np.ndarray):
     """A copy of a table dataclass with every array field restricted to `mask`."""
-    kw = {}
-    for f in fields(obj):
-        v = getattr(obj, f.name)
-        kw[f.name] = v[mask] if isinstance(v, np.ndarray) and v.ndim >= 1 and len(v) == len(mask) else v
-    return type(obj)(**kw)
+    def cut(v):
+        if isinstance(v, np.ndarray) and v.ndim >= 1 and len(v) == len(mask):
+            return v[mask]
+        if isinstance(v, dict):
+            return {k: cut(x) for k, x in v.items()}
+        return v
+    return type(obj)(**{f.name: cut(getattr(obj, f.name)) for f in fields(obj)})
 
 
 def _close(a: np.ndarray, x: float, tol: float = 1e-9) -> np.ndarray:
@@ -328,6 +370,73 @@ def _monochrome(table):
         raise ResultError(f"{show(table.path)}: a spectral table: choose a wavelength (at_wavelength) first")
 
 
+def _list(values) -> str:
+    return ", ".join(f"{v:g}" for v in values)
+
+
+def _phi(table, phi_i_deg: float | None, phi: float | None) -> float | None:
+    """The azimuth asked for by `phi_i_deg` or its short name `phi`."""
+    if phi is not None and phi_i_deg is not None and phi != phi_i_deg:
+        raise ResultError(f"{show(table.path)}: two azimuths asked for ({phi_i_deg:g} and {phi:g} deg)")
+    return phi if phi is not None else phi_i_deg
+
+
+def _at(table, theta_i_deg: float, phi_i_deg: float | None, wavelength_um: float | None):
+    """The rows of one incidence (theta, and phi of a run of several light
+    azimuths) and wavelength (of a spectral table of several), refusing to
+    mix the blocks of several azimuths or wavelengths."""
+    m = _close(table.theta_i_deg, theta_i_deg)
+    if not m.any():
+        raise ResultError(f"{show(table.path)}: no rows for incidence {theta_i_deg:g} deg")
+    phis = table.phi_i_deg
+    if phi_i_deg is not None:
+        if phis is None:  # a one-azimuth in-plane table has no phi_i_deg column
+            raise ResultError(f"{show(table.path)}: a table of one light azimuth has no phi_i_deg column: "
+                              f"at({theta_i_deg:g}) without phi")
+        m &= _close(phis, phi_i_deg)
+        if not m.any():
+            raise ResultError(f"{show(table.path)}: no rows for incidence {theta_i_deg:g} deg at azimuth "
+                              f"{phi_i_deg:g} deg (has {_list(dict.fromkeys(phis.tolist()))})")
+    elif phis is not None:
+        there = list(dict.fromkeys(phis[m].tolist()))
+        if len(there) > 1:
+            raise ResultError(f"{show(table.path)}: incidence {theta_i_deg:g} deg has {len(there)} light azimuths "
+                              f"({_list(there)} deg): name one, e.g. at({theta_i_deg:g}, phi={there[0]:g})")
+    waves = table.wavelength_um
+    if wavelength_um is not None:
+        if waves is None:
+            raise ResultError(f"{show(table.path)}: a monochrome table has no wavelength {wavelength_um:g} um")
+        m &= _close(waves, wavelength_um)
+        if not m.any():
+            raise ResultError(f"{show(table.path)}: no rows for incidence {theta_i_deg:g} deg at wavelength "
+                              f"{wavelength_um:g} um (has {_list(dict.fromkeys(waves.tolist()))})")
+    elif waves is not None:
+        there = list(dict.fromkeys(waves[m].tolist()))
+        if len(there) > 1:
+            raise ResultError(f"{show(table.path)}: incidence {theta_i_deg:g} deg has {len(there)} wavelengths "
+                              f"({_list(there)} um): name one, e.g. at({theta_i_deg:g}, "
+                              f"wavelength_um={there[0]:g}), or at_wavelength first")
+    return _select(table, m)
+
+
+def _one_azimuth(table, phi_i_deg: float | None):
+    """The rows of light azimuth `phi_i_deg` (all rows of a table of one
+    azimuth); a table of several needs it named."""
+    phis = table.phi_i_deg
+    there = [] if phis is None else list(dict.fromkeys(phis.tolist()))
+    if phi_i_deg is None:
+        if len(there) > 1:
+            raise ResultError(f"{show(table.path)}: {len(there)} light azimuths ({_list(there)} deg): name one "
+                              f"(phi_i_deg)")
+        return table
+    if phis is None:
+        raise ResultError(f"{show(table.path)}: a table of one light azimuth has no phi_i_deg column")
+    m = _close(phis, phi_i_deg)
+    if not m.any():
+        raise ResultError(f"{show(table.path)}: no rows at azimuth {phi_i_deg:g} deg (has {_list(there)})")
+    return _select(table, m)
+
+
 def _replace_field(obj, name, value):
     kw = {f.name: getattr(obj, f.name) for f in fields(obj)}
     kw[name] = value
@@ -362,6 +471,9 @@ class BrdfTable(_Spectral):
     brdf: np.ndarray
     brdf_stderr: np.ndarray
     wavelength_um: np.ndarray | None = None
+    extra: dict | None = None
+    """Columns beyond roks's known ones (`EXTRA_ERROR_COLUMN`, e.g. the
+    photon-noise part of an ensemble's standard errors), by name."""
 
     @classmethod
     def read(cls, path: str | Path) -> "BrdfTable":
@@ -386,23 +498,30 @@ class BrdfTable(_Spectral):
         except ValueError as e:
             raise ResultError(f"{show(self.path)}: {e}") from None
 
-    def at(self, theta_i_deg: float, phi_i_deg: float | None = None) -> "BrdfTable":
-        """The rows of one incidence (matched within 1e-9 degrees)."""
-        m = _close(self.theta_i_deg, theta_i_deg)
-        if phi_i_deg is not None:
-            m &= _close(self.phi_i_deg, phi_i_deg)
-        if not m.any():
-            raise ResultError(f"{show(self.path)}: no rows for incidence {theta_i_deg:g} deg")
-        return _select(self, m)
+    @property
+    def azimuths(self) -> list[float]:
+        """The light azimuths phi_i_deg of the blocks (degrees), in file order."""
+        return list(dict.fromkeys(self.phi_i_deg.tolist()))
 
-    def cells(self) -> dict[float, dict[tuple[int, int], tuple[float, float]]]:
-        """{theta_i_deg: {(band, cell): (fraction, fraction_stderr)}} (a monochrome table)."""
+    def at(self, theta_i_deg: float, phi_i_deg: float | None = None, *, phi: float | None = None,
+           wavelength_um: float | None = None) -> "BrdfTable":
+        """The block of one incidence (matched within 1e-9 degrees; `phi` is
+        `phi_i_deg`): of a run of several light azimuths the azimuth must be
+        named, and of a spectral run of several wavelengths the wavelength
+        (or `at_wavelength` first); else ResultError saying so."""
+        return _at(self, theta_i_deg, _phi(self, phi_i_deg, phi), wavelength_um)
+
+    def cells(self, phi_i_deg: float | None = None) -> dict[float, dict[tuple[int, int], tuple[float, float]]]:
+        """{theta_i_deg: {(band, cell): (fraction, fraction_stderr)}} (a
+        monochrome table; of a run of several light azimuths, the azimuth
+        `phi_i_deg`, which must then be given)."""
         _monochrome(self)
+        t = _one_azimuth(self, phi_i_deg)
         out: dict = {}
-        for t, j, c, f, e in zip(self.theta_i_deg.tolist(), self.band.astype(int).tolist(),
-                                 self.cell.astype(int).tolist(), self.fraction.tolist(),
-                                 self.fraction_stderr.tolist()):
-            out.setdefault(t, {})[(j, c)] = (f, e)
+        for th, j, c, f, e in zip(t.theta_i_deg.tolist(), t.band.astype(int).tolist(),
+                                  t.cell.astype(int).tolist(), t.fraction.tolist(),
+                                  t.fraction_stderr.tolist()):
+            out.setdefault(th, {})[(j, c)] = (f, e)
         return out
 
 
@@ -422,6 +541,9 @@ class InPlane(_Spectral):
     wavelength_um: np.ndarray | None = None
     phi_i_deg: np.ndarray | None = None
     """The light azimuth of a run of several (`None`: one azimuth, in summary.json)."""
+    extra: dict | None = None
+    """Columns beyond roks's known ones (`EXTRA_ERROR_COLUMN`, e.g. the
+    photon-noise part of an ensemble's standard errors), by name."""
 
     @classmethod
     def read(cls, path: str | Path) -> "InPlane":
@@ -435,17 +557,19 @@ class InPlane(_Spectral):
         if not np.all(bins == bins[0]) or not np.all(np.diff(bins[0]) > 0):
             raise ResultError(f"{show(self.path)}: the theta_o_deg bins differ between blocks or do not increase")
 
-    def at(self, theta_i_deg: float) -> "InPlane":
-        m = _close(self.theta_i_deg, theta_i_deg)
-        if not m.any():
-            raise ResultError(f"{show(self.path)}: no rows for incidence {theta_i_deg:g} deg")
-        return _select(self, m)
+    def at(self, theta_i_deg: float, phi_i_deg: float | None = None, *, phi: float | None = None,
+           wavelength_um: float | None = None) -> "InPlane":
+        """The block of one incidence, as `BrdfTable.at` (a run of several
+        light azimuths or wavelengths: name the one)."""
+        return _at(self, theta_i_deg, _phi(self, phi_i_deg, phi), wavelength_um)
 
-    def by_theta(self) -> dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """{theta_i_deg: (theta_o_deg, brdf, brdf_stderr)} (a monochrome table)."""
+    def by_theta(self, phi_i_deg: float | None = None) -> dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """{theta_i_deg: (theta_o_deg, brdf, brdf_stderr)} (a monochrome table;
+        of a run of several light azimuths, the azimuth `phi_i_deg`)."""
         _monochrome(self)
-        return {t: (s.theta_o_deg, s.brdf, s.brdf_stderr)
-                for t in dict.fromkeys(self.theta_i_deg.tolist()) for s in [self.at(t)]}
+        t = _one_azimuth(self, phi_i_deg)
+        return {th: (s.theta_o_deg, s.brdf, s.brdf_stderr)
+                for th in dict.fromkeys(t.theta_i_deg.tolist()) for s in [t.at(th)]}
 
 
 @dataclass(frozen=True)
@@ -503,14 +627,16 @@ class PolarTable(_Spectral):
                 return cls.read(Path(folder) / name)
         return None
 
-    def cells(self) -> dict[float, dict[tuple[int, int], tuple[list[float], list[float]]]]:
-        """{theta_i_deg: {(band, cell): (values, stderrs)}} (a monochrome table)."""
+    def cells(self, phi_i_deg: float | None = None) -> dict[float, dict[tuple[int, int], tuple[list[float], list[float]]]]:
+        """{theta_i_deg: {(band, cell): (values, stderrs)}} (a monochrome table;
+        of a run of several light azimuths, the azimuth `phi_i_deg`)."""
         _monochrome(self)
+        t = _one_azimuth(self, phi_i_deg)
         out: dict = {}
-        for t, j, c, v, e in zip(self.theta_i_deg.tolist(), self.band.astype(int).tolist(),
-                                 self.cell.astype(int).tolist(), self.values.tolist(),
-                                 self.stderr.tolist()):
-            out.setdefault(t, {})[(j, c)] = (v, e)
+        for th, j, c, v, e in zip(t.theta_i_deg.tolist(), t.band.astype(int).tolist(),
+                                  t.cell.astype(int).tolist(), t.values.tolist(),
+                                  t.stderr.tolist()):
+            out.setdefault(th, {})[(j, c)] = (v, e)
         return out
 
 
@@ -535,6 +661,9 @@ class ColourTable:
     r: np.ndarray
     g: np.ndarray
     b: np.ndarray
+    extra: dict | None = None
+    """Columns beyond roks's known ones (`EXTRA_ERROR_COLUMN`, e.g. the
+    photon-noise part of an ensemble's standard errors), by name."""
 
     @classmethod
     def read(cls, path: str | Path) -> "ColourTable":
@@ -560,6 +689,9 @@ class Reflectance:
     reflectance: np.ndarray
     reflectance_stderr: np.ndarray
     wavelength_um: np.ndarray | None = None
+    extra: dict | None = None
+    """Columns beyond roks's known ones (`EXTRA_ERROR_COLUMN`, e.g. the
+    photon-noise part of an ensemble's standard errors), by name."""
 
     @classmethod
     def read(cls, path: str | Path) -> "Reflectance":
@@ -602,6 +734,9 @@ class FarField(_Spectral):
     brdf: np.ndarray
     brdf_stderr: np.ndarray
     wavelength_um: np.ndarray | None = None
+    extra: dict | None = None
+    """Columns beyond roks's known ones (`EXTRA_ERROR_COLUMN`, e.g. the
+    photon-noise part of an ensemble's standard errors), by name."""
 
     @classmethod
     def read(cls, path: str | Path) -> "FarField":
@@ -662,6 +797,9 @@ class FitInPlane:
     theta_o_deg: np.ndarray
     measured: np.ndarray
     model: np.ndarray
+    extra: dict | None = None
+    """Columns beyond roks's known ones (`EXTRA_ERROR_COLUMN`, e.g. the
+    photon-noise part of an ensemble's standard errors), by name."""
 
     @classmethod
     def read(cls, path: str | Path) -> "FitInPlane":
@@ -847,6 +985,42 @@ def read_png(path: str | Path) -> np.ndarray:
         raise ResultError(f"{show(path)}: not a PNG picture: {type(e).__name__}") from None
 
 
+def _read_bsdf(path: str | Path):
+    """A `.bsdf` file: the RGL tensor file (`brdf_rgl.bsdf`) by its magic
+    bytes, else a Zemax text (`brdf.bsdf`, `brdf_<wavelength>um.bsdf`)."""
+    from .exports import is_tensor_file, read_rgl, read_zemax
+    return read_rgl(path) if is_tensor_file(path) else read_zemax(path)
+
+
+def _read_json(path: str | Path):
+    """A JSON file of another name, by its content: a fit-model file (`model`
+    and `fits`), an export marker (`format` and `files`), a summary
+    (`incidence` or `sources`), a tallies file (`format` roks-tallies...)."""
+    from .summary import read_export_marker, read_fit_model, read_json
+    path = Path(path)
+    data = read_json(path)
+    if isinstance(data, dict):
+        if "model" in data and "fits" in data:
+            return read_fit_model(path)
+        if str(data.get("format", "")).endswith("tallies"):
+            return read_tallies(path)
+        if "files" in data and "format" in data:
+            return read_export_marker(path)
+        if "incidence" in data or "sources" in data:
+            return read_summary(path)
+        if "parameters" in data and "misfit" in data:
+            return read_fit(path)
+    raise ResultError(f"{show(path)}: not a JSON file roks writes (a summary, tallies, fit or export file)")
+
+
+def _lazy(module: str, name: str):
+    def read(path):
+        import importlib
+        return getattr(importlib.import_module(f"roks_tools.{module}"), name)(path)
+    read.__name__ = name
+    return read
+
+
 READERS = {
     "summary.json": read_summary,
     "tallies.json": read_tallies,
@@ -861,17 +1035,44 @@ READERS = {
     "fit.json": read_fit,
     "fit_inplane.csv": FitInPlane.read,
     "fitted.toml": read_toml,
+    "export.json": _lazy("summary", "read_export_marker"),
 }
-"""The reader of every file roks writes, by name (pictures: `read_file`)."""
+"""The reader of every file roks writes, by name (other names: by
+extension, `SUFFIX_READERS`, and `read_file`)."""
+
+SUFFIX_READERS = {
+    ".bsdf": _read_bsdf,
+    ".pbsdf": _lazy("exports", "read_pbsdf"),
+    ".binary": _lazy("exports", "read_merl"),
+    ".ply": _lazy("exports", "read_ply"),
+    ".json": _read_json,
+}
+"""Readers by extension: Zemax (`brdf.bsdf`, `brdf_<wavelength>um.bsdf`)
+or RGL (`brdf_rgl.bsdf`) by content, pbsdf, MERL, PLY (export-mesh), and
+JSON files of other names by content (`fit_<model>.json` of fit-model, or
+any file given as `--out`)."""
 
 
 def read_file(path: str | Path):
-    """Any file roks writes into a result folder, by its name: the tables
-    and JSON files (`READERS`), `*.png` pictures (`read_png`), `*.exr`
-    renders (`read_exr`, needs mitsuba)."""
+    """Any file roks writes into a result folder (or as `--out`), by its
+    name: the tables and JSON files (`READERS`), `fit_<model>.json`
+    (`summary.read_fit_model`), `*_opticstudio.txt` (ABg rows,
+    `exports.read_opticstudio_abg`), the exports by extension
+    (`SUFFIX_READERS`: `.bsdf` Zemax or RGL, `.pbsdf`, `.binary` MERL,
+    `.ply`), `*.png` pictures (`read_png`), `*.exr` renders (`read_exr`,
+    needs mitsuba). Each returns its typed object; ResultError naming the
+    file for a file of no known name or that is not what roks writes."""
     path = Path(path)
     if path.name in READERS:
         return READERS[path.name](path)
+    if path.name.startswith("fit_") and path.suffix == ".json":
+        from .summary import read_fit_model
+        return read_fit_model(path)
+    if path.name.endswith("_opticstudio.txt"):
+        from .exports import read_opticstudio_abg
+        return read_opticstudio_abg(path)
+    if path.suffix in SUFFIX_READERS:
+        return SUFFIX_READERS[path.suffix](path)
     if path.suffix == ".png":
         return read_png(path)
     if path.suffix == ".exr":

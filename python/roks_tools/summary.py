@@ -567,13 +567,75 @@ class Tallies(_Fields):
         return self.description.get("run", {})
 
 
-def read_tallies(path: str | Path) -> Tallies:
-    """tallies.json, typed (format `roks-tallies` version 1); ResultError naming the file."""
+TRACE_TALLIES_FORMAT = "roks-trace-tallies"
+TRACE_TALLIES_VERSION = 1
+
+
+@dataclass(frozen=True)
+class TalliesPosition(_Fields):
+    """One beam position (of a spectral run: one position and wavelength,
+    position-major) of a `roks trace` shard's tallies.json: its photons in
+    the shard and its tree nodes (`tallies`: the raw sums, floats as
+    decimal strings)."""
+
+    photons: int
+    seconds: ExactFloat
+    nodes: list[TallyNode]
+    wavelength_um: ExactFloat | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class TraceTallies(_Fields):
+    """tallies.json of a `roks trace --shard I/N` run (format
+    `roks-trace-tallies`): the raw sums of the shard's block of every beam
+    position, exactly, and the run's description (beams, run, shard)."""
+
+    path: Path
+    format: str
+    format_version: int
+    batch: int
+    seconds: ExactFloat
+    description: dict[str, Any]
+    positions: list[TalliesPosition]
+    raw: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def run(self) -> dict[str, Any]:
+        """The run as traced (seed, far field, polarisation, wavelengths)."""
+        return self.description.get("run", {})
+
+    @property
+    def shard(self) -> ShardRange | None:
+        """The shard's index and count (None: a whole run)."""
+        s = self.description.get("shard")
+        return None if s is None else _object(ShardRange, s, f"{show(self.path)}: description.shard")
+
+
+def read_tallies(path: str | Path) -> Tallies | TraceTallies:
+    """tallies.json, typed: of `roks brdf --shard` / `roks merge` (format
+    `roks-tallies` version 1, `Tallies`) or of `roks trace --shard` (format
+    `roks-trace-tallies` version 1, `TraceTallies`); ResultError naming the
+    file."""
     path = Path(path)
     data = read_json(path)
     where = show(path) + ":"
+    if isinstance(data, dict) and data.get("format") == TRACE_TALLIES_FORMAT:
+        if data.get("format_version") != TRACE_TALLIES_VERSION:
+            raise ResultError(f"{where} format_version {_short(data.get('format_version'))}, this reader knows "
+                              f"{TRACE_TALLIES_VERSION}")
+        t = _object(TraceTallies, data, where, path=path)
+        beams = t.description.get("beams")
+        if not isinstance(beams, list) or not beams:
+            raise ResultError(f"{where} description.beams: expected a list of the beam positions")
+        nw = max(len(t.run.get("wavelengths_um") or []), 1) if isinstance(t.run, dict) else 1
+        if len(t.positions) != len(beams) * nw:
+            raise ResultError(f"{where} positions: {len(t.positions)} entries for {len(beams)} beam positions x "
+                              f"{nw} wavelengths (a cut file?)")
+        return t
     if not isinstance(data, dict) or data.get("format") != TALLIES_FORMAT:
-        raise ResultError(f"{where} not a roks tallies.json (format {TALLIES_FORMAT!r})")
+        raise ResultError(f"{where} not a roks tallies.json (format {TALLIES_FORMAT!r} or "
+                          f"{TRACE_TALLIES_FORMAT!r})")
     if data.get("format_version") != TALLIES_VERSION:
         raise ResultError(f"{where} format_version {data.get('format_version')!r}, this reader knows {TALLIES_VERSION}")
     # The photons held: the shard's block of the run, or the whole run.
@@ -589,3 +651,141 @@ def read_tallies(path: str | Path) -> Tallies:
     if t.format_version != TALLIES_VERSION:
         raise ResultError(f"{where} format_version {t.format_version}, this reader knows {TALLIES_VERSION}")
     return t
+
+
+# ----------------------------------------------------------------------------
+# fit_<model>.json of `roks fit-model`
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ModelParameter(_Fields):
+    """One parameter of an analytic model's fit: its value and standard
+    error (None: undetermined, a singular covariance; a value roks could
+    not compute, NaN in the fit, is written null and read None)."""
+
+    name: str
+    value: float | None
+    stderr: float | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class ModelReflectance(_Fields):
+    """One incidence of a fit: the table's reflectance and the model's over
+    the same cells, their difference and, where roks judges it, `ok`."""
+
+    theta_i_deg: float
+    table: float
+    model: float | None = None
+    difference: float | None = None
+    chi2_per_cell: float | None = None
+    ok: bool | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class ModelFit(_Fields):
+    """One fit of `fit_<model>.json`: per incidence (ABg, Harvey) or over
+    all incidences (GGX, Beckmann)."""
+
+    theta_i_deg: list[float]
+    parameters: list[ModelParameter]
+    termination: str
+    chi2: float | None = None
+    dof: int | None = None
+    chi2_per_dof: float | None = None
+    covariance_scaled: bool | None = None
+    cells: int | None = None
+    cells_left_out: int | None = None
+    reflectance: list[ModelReflectance] = field(default_factory=list)
+    largest_residuals: list[dict[str, Any]] = field(default_factory=list)
+    raw: dict = field(default_factory=dict, repr=False)
+
+    def parameter(self, name: str) -> ModelParameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+
+@dataclass(frozen=True)
+class FitModelSummary(_Fields):
+    """fit_<model>.json of `roks fit-model`: the model, the table fitted,
+    the fits, and (ABg) the rows of OpticStudio's dialog and FRED's
+    parameters; `warnings` where roks writes them."""
+
+    path: Path
+    model: str
+    fits: list[ModelFit]
+    table: str | None = None
+    wavelength_um: float | None = None
+    version: str | None = None
+    definition: str | None = None
+    material: str | None = None
+    opticstudio: dict[str, Any] | None = None
+    fred: dict[str, Any] | None = None
+    warnings: list[Any] | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+def read_fit_model(path: str | Path) -> FitModelSummary:
+    """fit_<model>.json of `roks fit-model`, typed; ResultError naming the file."""
+    path = Path(path)
+    data = read_json(path)
+    where = show(path) + ":"
+    if not isinstance(data, dict) or "fits" not in data or "model" not in data:
+        raise ResultError(f"{where} not a roks fit-model file (an object with 'model' and 'fits')")
+    f = _object(FitModelSummary, data, where, path=path)
+    if not f.fits:
+        raise ResultError(f"{where} fits: no fit")
+    for i, fit in enumerate(f.fits):
+        if not fit.parameters:
+            raise ResultError(f"{where} fits[{i}].parameters: no parameter")
+        for j, p in enumerate(fit.parameters):
+            if p.stderr is not None and p.stderr < 0:
+                raise ResultError(f"{where} fits[{i}].parameters[{j}].stderr: {p.stderr} is negative")
+    return f
+
+
+# ----------------------------------------------------------------------------
+# export.json of `roks export-brdf` (a folder of per-wavelength files)
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ExportMarker(_Fields):
+    """export.json: the files of a folder of per-wavelength exports of
+    `roks export-brdf` (spectral Zemax), their format and table."""
+
+    path: Path
+    format: str
+    files: list[str]
+    version: str | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def source(self) -> str | None:
+        """The table exported (`from`)."""
+        return self.raw.get("from")
+
+
+def read_export_marker(path: str | Path) -> ExportMarker:
+    """export.json, typed; every file it names must be beside it (else
+    ResultError naming the file and the missing one)."""
+    path = Path(path)
+    data = read_json(path)
+    where = show(path) + ":"
+    if not isinstance(data, dict):
+        raise ResultError(f"{where} expected a JSON object")
+    m = _object(ExportMarker, data, where, path=path)
+    if "from" in data and not isinstance(data["from"], str):
+        raise ResultError(f"{where} from: expected a string, got {_short(data['from'])}")
+    if not m.files:
+        raise ResultError(f"{where} files: names no file")
+    for i, name in enumerate(m.files):
+        if "/" in name or "\\" in name or name in ("", ".", ".."):
+            raise ResultError(f"{where} files[{i}]: {name!r} is not a file name")
+        if not (path.parent / name).is_file():
+            raise ResultError(f"{where} files[{i}]: {name} is not beside it (an incomplete set?)")
+    return m
