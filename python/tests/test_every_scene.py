@@ -112,9 +112,7 @@ def _check_brdf(r: BrdfResult):
         assert e.photons > 0 and (s.shard is not None or e.photons == s.photons_per_incidence)
         by_wave = {w.wavelength_um: w for w in e.spectrum} if e.spectrum else {}
         for w in waves:
-            t = b.at(e.theta_deg, e.phi_deg)
-            if w is not None:
-                t = t.at_wavelength(w)
+            t = b.at(e.theta_deg, e.phi_deg, wavelength_um=w)
             assert len(t.fraction) == grid.n_cells
             assert np.array_equal(t.band, grid.band) and np.array_equal(t.cell, grid.cell)
             want = e.reflectance if w is None else by_wave[w].reflectance
@@ -122,9 +120,8 @@ def _check_brdf(r: BrdfResult):
             assert abs(t.fraction.sum() - want) <= 1e-9 * grid.n_cells + 1e-12, (e.theta_deg, w)
             assert np.allclose(t.brdf, t.fraction / t.projected_solid_angle_sr, rtol=1e-9, atol=0)
             assert np.allclose(t.solid_angle_sr, grid.solid_angle, rtol=1e-12, atol=0)
-            ip = r.inplane.at(e.theta_deg)
-            if w is not None:
-                ip = ip.at_wavelength(w)
+            ip = r.inplane.at(e.theta_deg, e.phi_deg if r.inplane.phi_i_deg is not None else None,
+                              wavelength_um=w)
             assert len(ip.theta_o_deg) > 0 and np.all(ip.brdf >= 0)
         if w is None:
             assert abs(sum(e.reflectance_by_bounces) - e.reflectance) < 1e-9
@@ -149,8 +146,7 @@ def _check_brdf(r: BrdfResult):
         for (e, w), ti in zip(blocks, r.tallies.incidence):
             assert ti.theta_deg == e.theta_deg and ti.photons == e.photons and ti.wavelength_um == w
             frac = np.array(ti.carlson_fraction())
-            t = b.at(e.theta_deg, e.phi_deg)
-            t = (t if w is None else t.at_wavelength(w)).fraction
+            t = b.at(e.theta_deg, e.phi_deg, wavelength_um=w).fraction
             assert len(frac) == len(t)
             assert np.allclose(frac, t, rtol=1e-9, atol=1e-15)
 
@@ -228,8 +224,7 @@ def test_shards_and_merge_read(roks, workspace, spectral):
     for k, (e, w) in enumerate(blocks):
         parts = [np.array(s.tallies.incidence[k].carlson_fraction()) * s.tallies.incidence[k].photons
                  for s in shards]
-        t = merged.brdf.at(e.theta_deg)
-        t = t if w is None else t.at_wavelength(w)
+        t = merged.brdf.at(e.theta_deg, e.phi_deg, wavelength_um=w)
         assert np.allclose(sum(parts) / e.photons, t.fraction, rtol=1e-9, atol=1e-15)
 
 
