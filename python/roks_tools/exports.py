@@ -16,7 +16,10 @@ returning typed objects of numpy arrays.
 * `AbgRows` (`read_opticstudio_abg`): the ABg rows for OpticStudio's
   dialog that `roks fit-model --model abg` writes (`fit_abg_opticstudio.txt`);
 * `PlyMesh` (`read_ply`): the binary little-endian PLY of
-  `roks export-mesh` (src/export/mod.rs `write_ply`).
+  `roks export-mesh` (src/export/mod.rs `write_ply`);
+* `HeightMap` (`read_height_map`): the text height map of `roks
+  export-heightfield --out FILE.txt` (an `.exr` one is read by
+  `results.read_exr`).
 
 `fit_<model>.json` and `export.json` are JSON: `roks_tools.summary`
 (`read_fit_model`, `read_export_marker`) reads them.
@@ -43,7 +46,7 @@ from .errors import ResultError, show
 __all__ = [
     "ZemaxBsdf", "read_zemax", "Merl", "read_merl", "MERL_SCALES", "TensorFile", "read_tensor_file",
     "RglBsdf", "read_rgl", "Pbsdf", "read_pbsdf", "AbgRows", "read_opticstudio_abg", "PlyMesh", "read_ply",
-    "is_tensor_file",
+    "is_tensor_file", "HeightMap", "read_height_map",
 ]
 
 MAX_EXPORT_BYTES = 4 << 30
@@ -181,6 +184,7 @@ class _Tokens:
             for i, (line, t) in enumerate(chunk):
                 if _not_decimal(t) or not math.isfinite(float(t)):
                     raise self.error(line, f"{key}: value {i + 1} of {n}: {t[:30]!r} is not a finite number")
+            raise self.error(chunk[0][0], f"{key}: not {n} finite numbers")
         self.pos += n
         return v
 
@@ -704,3 +708,54 @@ def read_ply(path: str | Path) -> PlyMesh:
         k = int(np.flatnonzero((faces < 0).any(axis=1) | (faces >= nv).any(axis=1))[0])
         raise ResultError(f"{show(path)}: face {k}: a vertex index outside 0..{nv - 1}")
     return PlyMesh(path=path, vertices=vertices, faces=np.array(faces), comments=comments)
+
+
+# ----------------------------------------------------------------------------
+# Text height maps of export-heightfield
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class HeightMap:
+    """A text height map (`roks export-heightfield --out FILE.txt`, or one a
+    scene's `heightfield = { file = ... }` loads): `heights[j, i]` the
+    height of vertex (i, j) at x = i pitch, y = j pitch (file units);
+    `comments`: the `#` lines (roks's names the scene and the pitch)."""
+
+    path: Path
+    heights: np.ndarray
+    comments: list[str] = field(default_factory=list)
+
+
+def read_height_map(path: str | Path) -> HeightMap:
+    """A text height map: one row of heights per line, separated by
+    whitespace or commas; empty lines and lines starting with `#` ignored;
+    every row as long as the first, every height a finite number (the
+    format of src/micro/heightfield_io.rs)."""
+    path = Path(path)
+    text = _text(path, "a text height map")
+    if text and not text.endswith("\n"):
+        raise ResultError(f"{show(path)}: line {text.count(chr(10)) + 1}: the file ends inside a line (cut?)")
+    rows, comments, width = [], [], None
+    for n, line in enumerate(text.split("\n")[:-1], start=1):
+        line = line.lstrip("\ufeff").strip()
+        if not line:
+            continue
+        if line.startswith("#"):
+            comments.append(line[1:].strip())
+            continue
+        cells = line.replace(",", " ").split()
+        bad = next((c for c in cells if _not_decimal(c)), None)
+        if bad is not None:
+            raise ResultError(f"{show(path)}: line {n}: {bad[:30]!r} is not a number")
+        if width is None:
+            width = len(cells)
+        elif len(cells) != width:
+            raise ResultError(f"{show(path)}: line {n}: {len(cells)} heights, the first row has {width}")
+        v = [float(c) for c in cells]
+        if not all(math.isfinite(x) for x in v):
+            raise ResultError(f"{show(path)}: line {n}: a height that is not a finite number")
+        rows.append(v)
+    if not rows:
+        raise ResultError(f"{show(path)}: no heights")
+    return HeightMap(path=path, heights=np.array(rows), comments=comments)

@@ -1008,6 +1008,9 @@ def _read_json(path: str | Path):
             return read_export_marker(path)
         if "incidence" in data or "sources" in data:
             return read_summary(path)
+        if "ranking" in data:
+            from .summary import read_fit_ranking
+            return read_fit_ranking(path)
         if "parameters" in data and "misfit" in data:
             return read_fit(path)
     raise ResultError(f"{show(path)}: not a JSON file roks writes (a summary, tallies, fit or export file)")
@@ -1036,6 +1039,8 @@ READERS = {
     "fit_inplane.csv": FitInPlane.read,
     "fitted.toml": read_toml,
     "export.json": _lazy("summary", "read_export_marker"),
+    "fit_summary.json": _lazy("summary", "read_fit_ranking"),
+    ".roks-files.json": _lazy("summary", "read_files_record"),
 }
 """The reader of every file roks writes, by name (other names: by
 extension, `SUFFIX_READERS`, and `read_file`)."""
@@ -1057,7 +1062,8 @@ def read_file(path: str | Path):
     """Any file roks writes into a result folder (or as `--out`), by its
     name: the tables and JSON files (`READERS`), `fit_<model>.json`
     (`summary.read_fit_model`), `*_opticstudio.txt` (ABg rows,
-    `exports.read_opticstudio_abg`), the exports by extension
+    `exports.read_opticstudio_abg`), other `*.txt` (a text height map of
+    export-heightfield, `exports.read_height_map`), the exports by extension
     (`SUFFIX_READERS`: `.bsdf` Zemax or RGL, `.pbsdf`, `.binary` MERL,
     `.ply`), `*.png` pictures (`read_png`), `*.exr` renders (`read_exr`,
     needs mitsuba). Each returns its typed object; ResultError naming the
@@ -1071,6 +1077,9 @@ def read_file(path: str | Path):
     if path.name.endswith("_opticstudio.txt"):
         from .exports import read_opticstudio_abg
         return read_opticstudio_abg(path)
+    if path.suffix == ".txt":
+        from .exports import read_height_map
+        return read_height_map(path)
     if path.suffix in SUFFIX_READERS:
         return SUFFIX_READERS[path.suffix](path)
     if path.suffix == ".png":

@@ -628,7 +628,8 @@ def read_tallies(path: str | Path) -> Tallies | TraceTallies:
         beams = t.description.get("beams")
         if not isinstance(beams, list) or not beams:
             raise ResultError(f"{where} description.beams: expected a list of the beam positions")
-        nw = max(len(t.run.get("wavelengths_um") or []), 1) if isinstance(t.run, dict) else 1
+        waves = t.run.get("wavelengths_um") if isinstance(t.run, dict) else None
+        nw = len(waves) if isinstance(waves, list) and waves else 1
         if len(t.positions) != len(beams) * nw:
             raise ResultError(f"{where} positions: {len(t.positions)} entries for {len(beams)} beam positions x "
                               f"{nw} wavelengths (a cut file?)")
@@ -680,6 +681,8 @@ class ModelReflectance(_Fields):
     model: float | None = None
     difference: float | None = None
     chi2_per_cell: float | None = None
+    table_stderr: float | None = None
+    tolerance: float | None = None
     ok: bool | None = None
     raw: dict = field(default_factory=dict, repr=False)
 
@@ -692,6 +695,7 @@ class ModelFit(_Fields):
     theta_i_deg: list[float]
     parameters: list[ModelParameter]
     termination: str
+    converged: bool | None = None
     chi2: float | None = None
     dof: int | None = None
     chi2_per_dof: float | None = None
@@ -746,6 +750,85 @@ def read_fit_model(path: str | Path) -> FitModelSummary:
             if p.stderr is not None and p.stderr < 0:
                 raise ResultError(f"{where} fits[{i}].parameters[{j}].stderr: {p.stderr} is negative")
     return f
+
+
+@dataclass(frozen=True)
+class RankedModel(_Fields):
+    """One model of fit_summary.json's ranking."""
+
+    model: str
+    file: str | None = None
+    chi2_per_dof: float | None = None
+    passes: bool | None = None
+    verdict: str | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class FitRanking(_Fields):
+    """fit_summary.json of `roks fit-model --model all`: the models ranked
+    (best first), the one to `use` (None when none passes), the `advice`
+    line, the models `not_fitted` and why."""
+
+    path: Path
+    ranking: list[RankedModel]
+    use: str | None = None
+    advice: str | None = None
+    rule: str | None = None
+    not_fitted: list[dict[str, Any]] | None = None
+    table: str | None = None
+    version: str | None = None
+    raw: dict = field(default_factory=dict, repr=False)
+
+
+def read_fit_ranking(path: str | Path) -> FitRanking:
+    """fit_summary.json of `roks fit-model --model all`, typed; ResultError naming the file."""
+    path = Path(path)
+    data = read_json(path)
+    where = show(path) + ":"
+    if not isinstance(data, dict) or "ranking" not in data:
+        raise ResultError(f"{where} not a roks fit_summary.json (an object with 'ranking')")
+    r = _object(FitRanking, data, where, path=path)
+    names = [m.model for m in r.ranking]
+    if r.use is not None and r.use not in names:
+        raise ResultError(f"{where} use: {r.use!r} is not a model of the ranking")
+    return r
+
+
+# ----------------------------------------------------------------------------
+# .roks-files.json: the record of the files roks wrote into a result folder
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FilesRecord(_Fields):
+    """.roks-files.json: the command that wrote the result folder (`command`),
+    the roks version (`roks`) and every file roks wrote into it with the
+    command that wrote it (`files`: name -> command)."""
+
+    path: Path
+    roks: str
+    command: str
+    files: dict[str, str]
+    raw: dict = field(default_factory=dict, repr=False)
+
+    def added(self) -> dict[str, str]:
+        """The files later commands (export-brdf, fit-model, plot) added."""
+        return {f: c for f, c in self.files.items() if c != self.command}
+
+
+def read_files_record(path: str | Path) -> FilesRecord:
+    """.roks-files.json, typed; every entry a plain file name (ResultError naming the file)."""
+    path = Path(path)
+    data = read_json(path)
+    where = show(path) + ":"
+    if not isinstance(data, dict):
+        raise ResultError(f"{where} expected a JSON object")
+    r = _object(FilesRecord, data, where, path=path)
+    for name in r.files:
+        if "/" in name or "\\" in name or name in ("", ".", ".."):
+            raise ResultError(f"{where} files: {name!r} is not a file name")
+    return r
 
 
 # ----------------------------------------------------------------------------

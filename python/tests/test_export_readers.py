@@ -25,7 +25,8 @@ a fact it does not compute itself:
 * fit_<model>.json: each fit's table reflectance is the sum of brdf.csv's
   fractions; fit_abg_opticstudio.txt's rows are the JSON's to the text's
   digits; export.json names the files beside it;
-* PLY: (n + 1)^2 vertices on the documented grid and 2 n^2 triangles.
+* PLY: (n + 1)^2 vertices on the documented grid and 2 n^2 triangles; their
+  heights those of export-heightfield's text height map.
 
 Each new reader also refuses bad bytes (cut, garbage, another format) with
 a one-line `ResultError` naming the file.
@@ -41,7 +42,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roks_tools.exports import (MERL_SCALES, AbgRows, Merl, Pbsdf, PlyMesh, RglBsdf, ZemaxBsdf,
+from roks_tools.exports import (MERL_SCALES, AbgRows, HeightMap, Merl, Pbsdf, PlyMesh, RglBsdf, ZemaxBsdf,
                                 zemax_direction)
 from roks_tools.results import BrdfTable, InPlane, PolarTable, ResultError, read_file, read_png
 from roks_tools.runner import repo_root, run
@@ -67,6 +68,7 @@ def folders(roks, tmp_path_factory) -> dict[str, Path]:
     for m in MODELS:
         _roks(roks, "fit-model", a, "--model", m, "-q")
     _roks(roks, "export-mesh", default, "--resolution", MESH_N, "--out", a / "mesh.ply")
+    _roks(roks, "export-heightfield", default, "--resolution", MESH_N, "--out", a / "heights.txt")
     _roks(roks, "export-brdf", a, "--format", "zemax", "--grid", "5,2", "--out", a / "coarse.bsdf", "-q")
     two = tmp / "two"
     _roks(roks, "brdf", default, "--photons", 500, "--theta", "0,60", "--phi", "0,90", "--export", "zemax",
@@ -93,7 +95,7 @@ def folders(roks, tmp_path_factory) -> dict[str, Path]:
 
 EXPECTED = {
     "brdf.bsdf": ZemaxBsdf, "coarse.bsdf": ZemaxBsdf, "brdf_rgl.bsdf": RglBsdf, "brdf.pbsdf": Pbsdf,
-    "brdf.binary": Merl, "mesh.ply": PlyMesh, "fit_abg_opticstudio.txt": AbgRows,
+    "brdf.binary": Merl, "mesh.ply": PlyMesh, "heights.txt": HeightMap, "fit_abg_opticstudio.txt": AbgRows,
     **{f"fit_{m}.json": FitModelSummary for m in MODELS},
 }
 
@@ -349,6 +351,10 @@ def test_ply_of_export_mesh_is_the_grid(folders):
     i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="xy")  # vertex (i, j) at j (n + 1) + i
     assert np.array_equal(mesh.vertices[:, 0], np.float32(lx * (i.ravel() / n)))
     assert np.array_equal(mesh.vertices[:, 1], np.float32(ly * (j.ravel() / n)))
+    # the heights of export-heightfield at the same vertices (the periodic copies i = n, j = n: those of 0)
+    h = read_file(folders["all"] / "heights.txt").heights
+    assert h.shape == (n, n) and any("roks height map" in c for c in read_file(folders["all"] / "heights.txt").comments)
+    assert np.array_equal(mesh.vertices[:, 2], np.float32(h[j.ravel() % n, i.ravel() % n]))
     # counter-clockwise seen from above: every face normal points up
     v = mesh.vertices.astype(float)[mesh.faces]
     normal_z = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])[:, 2]
@@ -461,7 +467,7 @@ def test_more_error_columns_are_read_as_extra(folders, tmp_path):
 # ----------------------------------------------------------------------------
 
 BAD_NAMES = ["brdf.bsdf", "brdf_rgl.bsdf", "brdf.pbsdf", "brdf.binary", "fit_abg.json", "fit_harvey.json",
-             "fit_abg_opticstudio.txt", "mesh.ply", "export.json", "tallies.json"]
+             "fit_abg_opticstudio.txt", "mesh.ply", "heights.txt", "export.json", "tallies.json"]
 
 
 def _source(folders, name: str) -> Path:
@@ -572,3 +578,41 @@ def test_png_reader_is_the_picture_reader(folders):
     p = folders["all"] / "surface.png"
     a = read_file(p)
     assert np.array_equal(a, read_png(p)) and a.shape[2] in (3, 4)
+
+
+# ----------------------------------------------------------------------------
+# Files of the same folders written by newer commands: the record of the files
+# roks wrote (.roks-files.json) and fit-model --model all's ranking
+# ----------------------------------------------------------------------------
+
+RECORD = {"roks": "0.1.0", "command": "brdf",
+          "files": {"brdf.csv": "brdf", "summary.json": "brdf", "fit_abg.json": "fit-model"}}
+RANKING = {"ranking": [{"model": "beckmann", "file": "fit_beckmann.json", "chi2_per_dof": 1.2, "passes": True,
+                        "verdict": "ok", "incidences": 3, "incidences_ok": 3},
+                       {"model": "abg", "file": "fit_abg.json", "chi2_per_dof": 0.9, "passes": False,
+                        "verdict": "2 incidences off"}],
+           "use": "beckmann", "advice": "use beckmann", "rule": "no warning first", "not_fitted": [],
+           "table": "out/brdf.csv", "version": "0.1.0"}
+
+
+def test_files_record_and_fit_ranking_read(tmp_path):
+    import json
+    (tmp_path / ".roks-files.json").write_text(json.dumps(RECORD, indent=2) + "\n")
+    r = read_file(tmp_path / ".roks-files.json")
+    assert r.command == "brdf" and r.added() == {"fit_abg.json": "fit-model"}
+    (tmp_path / "fit_summary.json").write_text(json.dumps(RANKING, indent=2) + "\n")
+    f = read_file(tmp_path / "fit_summary.json")
+    assert [m.model for m in f.ranking] == ["beckmann", "abg"] and f.use == "beckmann"
+    assert f.ranking[0]["incidences_ok"] == 3  # keys the class does not name are kept
+    for name, doc, what in [
+        (".roks-files.json", {**RECORD, "files": {"../x": "brdf"}}, "is not a file name"),
+        (".roks-files.json", {**RECORD, "files": ["brdf.csv"]}, "files: expected an object"),
+        ("fit_summary.json", {**RANKING, "use": "ggx"}, "use: 'ggx' is not a model of the ranking"),
+        ("fit_summary.json", {"models": []}, "not a roks fit_summary.json"),
+    ]:
+        p = tmp_path / f"case-{what[:8].replace(' ', '_')}" / name
+        p.parent.mkdir(exist_ok=True)
+        p.write_text(json.dumps(doc))
+        assert what in _refused(p)
+        p.write_text(json.dumps(doc)[:-3])
+        _refused(p)
