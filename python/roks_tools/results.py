@@ -43,7 +43,8 @@ import numpy as np
 
 from .carlson import CarlsonGrid
 from .errors import ResultError, show
-from .summary import BrdfSummary, FitSummary, Tallies, TraceSummary, read_fit, read_summary, read_tallies
+from .summary import (BrdfSummary, FitSummary, Tallies, TraceSummary, TraceTallies, read_fit, read_summary,
+                      read_tallies)
 
 __all__ = [
     "ResultError", "read_columns", "BrdfTable", "InPlane", "PolarTable", "ColourTable", "Reflectance",
@@ -899,13 +900,17 @@ class BrdfResult:
 @dataclass(frozen=True)
 class TraceResult:
     """A `roks trace` result folder, read whole (farfield.csv and
-    farfield_stokes.csv None when the run did not ask for them)."""
+    farfield_stokes.csv None when the run did not ask for them). The
+    folder of a shard (`roks trace --shard I/N`) holds summary.json and
+    tallies.json only: `tallies` is its raw sums (`TraceTallies`), the
+    tables None."""
 
     folder: Path
     summary: TraceSummary
-    reflectance: Reflectance
+    reflectance: Reflectance | None
     farfield: FarField | None
     farfield_stokes: FarFieldStokes | None = None
+    tallies: "TraceTallies | None" = None
 
     @classmethod
     def load(cls, folder: str | Path) -> "TraceResult":
@@ -915,6 +920,18 @@ class TraceResult:
         summary = read_summary(_need(folder, "summary.json"))
         if not isinstance(summary, TraceSummary):
             raise ResultError(f"{show(folder / 'summary.json')}: a `roks brdf` summary, not `roks trace`'s")
+        if summary.shard is not None and not (folder / "reflectance.csv").exists():
+            tallies = read_tallies(_need(folder, "tallies.json"))
+            if not isinstance(tallies, TraceTallies):
+                raise ResultError(f"{show(tallies.path)}: the tallies of a `roks brdf` shard beside a "
+                                  f"`roks trace` summary.json")
+            if (tallies.shard.index, tallies.shard.count) != (summary.shard.index, summary.shard.count):
+                raise ResultError(f"{show(tallies.path)}: shard {tallies.shard.index}/{tallies.shard.count} but "
+                                  f"summary.json says {summary.shard.index}/{summary.shard.count}")
+            nw = len(tallies.positions) // max(len(summary.sources), 1)  # position-major, then wavelength
+            if [p.photons for p in tallies.positions] != [x.photons for x in summary.sources for _ in range(nw)]:
+                raise ResultError(f"{show(tallies.path)}: the photons of the positions differ from summary.json's")
+            return cls(folder, summary, None, None, None, tallies)
         r = cls(folder, summary, Reflectance.read(_need(folder, "reflectance.csv")),
                 _optional(folder, "farfield.csv", FarField.read),
                 _optional(folder, "farfield_stokes.csv", FarFieldStokes.read))

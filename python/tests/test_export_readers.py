@@ -44,7 +44,7 @@ import pytest
 
 from roks_tools.exports import (MERL_SCALES, AbgRows, HeightMap, Merl, Pbsdf, PlyMesh, RglBsdf, ZemaxBsdf,
                                 zemax_direction)
-from roks_tools.results import BrdfTable, InPlane, PolarTable, ResultError, read_file, read_png
+from roks_tools.results import BrdfTable, InPlane, PolarTable, ResultError, load_result, read_file, read_png
 from roks_tools.runner import repo_root, run
 from roks_tools.summary import (ExportMarker, FitModelSummary, TraceSummary, TraceTallies, read_summary,
                                 read_tallies)
@@ -375,6 +375,8 @@ def test_read_tallies_reads_an_object_shard(folders):
         assert [p.photons for p in t.positions] == [x.photons for x in s.sources]
         for p in t.positions:  # the nodes hold the position's photons
             assert sum(int(n.tallies["photons"]) for n in p.nodes) == p.photons
+        r = load_result(folders[f"shard{i}"])  # the shard's folder: summary.json and tallies.json
+        assert r.reflectance is None and r.tallies.positions == t.positions
     beams = parts[0].description["beams"]
     assert [a.photons + b.photons for a, b in zip(*(t.positions for t in parts))] == [x["photons"] for x in beams]
 
