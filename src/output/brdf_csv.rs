@@ -326,6 +326,31 @@ mod tests {
         assert_eq!(column(15), "brdf_stderr");
     }
 
+    /// The table of several surface realisations: the photon-noise
+    /// columns end every row; the reader takes the file, with the errors of
+    /// `fraction_stderr` (the ensemble's), and refuses a photon column that
+    /// is not a number, naming it.
+    #[test]
+    fn photon_columns_read_back() {
+        let f = [0.1, 0.2, 0.3, 0.4];
+        let rows: String = rows(1, 30.0, 0.0, &f, 0.5)
+            .lines()
+            .map(|l| format!("{l},1.0e-3,2.0e-3\n"))
+            .collect();
+        let text = format!("{HEADER},{PHOTON_COLUMNS}\n{rows}");
+        let table = parse(&text, "t.csv").unwrap();
+        assert_eq!(table.fraction_stderrs(0), [0.05, 0.1, 0.15, 0.2]);
+        let bad = text.replacen("1.0e-3", "x", 1);
+        let e = parse(&bad, "t.csv").unwrap_err().to_string();
+        assert!(
+            e.contains("line 2") && e.contains("fraction_stderr_photon"),
+            "{e}"
+        );
+        // A photon column too few: the row is refused.
+        let short = text.replacen(",2.0e-3", "", 1);
+        assert!(parse(&short, "t.csv").is_err());
+    }
+
     #[test]
     fn rows_are_in_the_file_format() {
         let grid = CarlsonGrid::new(1).unwrap();
