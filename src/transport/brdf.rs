@@ -802,7 +802,7 @@ pub struct Ensemble {
     /// Per polarisation bin `slot K + k`: `Σ_r (X_r - ρ Y_r)²` with `X_r`,
     /// `Y_r` realisation `r`'s sums of component `k` and component 0 of the
     /// slot and `ρ = X / Y` the ensemble's ratio (the linearised residuals
-    /// of [`Ensemble::ratio_stderr`]); 0 where `Y = 0`.
+    /// of [`IncidenceResult::polar_ratio`]); 0 where `Y = 0`.
     pub ratio: Option<Vec<f64>>,
 }
 
