@@ -595,3 +595,114 @@ fn the_example_ensemble_scene_runs() {
     );
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// One column of a CSV text, by its header name.
+fn csv_column(text: &str, name: &str) -> Vec<f64> {
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let i = header
+        .iter()
+        .position(|h| *h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header:?}"));
+    lines
+        .map(|l| l.split(',').nth(i).unwrap().parse().unwrap())
+        .collect()
+}
+
+/// `(z of the reflectance, Σ z² / n over the cells, n)` of two result
+/// folders of the same scene, with the errors of `brdf.csv`'s column
+/// `stderr` and the reflectance's `summary.json` key `reflectance_key`:
+/// `z = (f_a - f_b) / sqrt(s_a² + s_b²)` over the cells with `s_a² + s_b²
+/// > 0`.
+fn agreement(
+    a: &std::path::Path,
+    b: &std::path::Path,
+    stderr: &str,
+    key: &str,
+) -> (f64, f64, usize) {
+    use cli_common::summary_without_timing;
+    let csv = |d: &std::path::Path| String::from_utf8(cli_common::read(d, "brdf.csv")).unwrap();
+    let (ta, tb) = (csv(a), csv(b));
+    let (fa, fb) = (csv_column(&ta, "fraction"), csv_column(&tb, "fraction"));
+    let (sa, sb) = (csv_column(&ta, stderr), csv_column(&tb, stderr));
+    let (mut chi2, mut n) = (0.0, 0);
+    for c in 0..fa.len() {
+        let var = sa[c] * sa[c] + sb[c] * sb[c];
+        if var > 0.0 {
+            chi2 += (fa[c] - fb[c]).powi(2) / var;
+            n += 1;
+        }
+    }
+    let (ea, eb) = (summary_without_timing(a), summary_without_timing(b));
+    let (ia, ib) = (&ea["incidence"][0], &eb["incidence"][0]);
+    let r = |i: &serde_json::Value, k: &str| i[k].as_f64().unwrap();
+    let z = (r(ia, "reflectance") - r(ib, "reflectance")) / r(ia, key).hypot(r(ib, key));
+    (z, chi2 / n as f64, n)
+}
+
+/// Two independent ensembles (other geometry seeds, other tracing seeds)
+/// of the Gaussian field of `scenes/gaussian-ensemble.toml` (16
+/// realisations, at 30 degrees, 16 bands, 16 batches per realisation) agree
+/// within the errors they report: the reflectances within 4 standard
+/// errors, and over the cells `var(z) = Σ z² / n` within 4 sigma of 1 for
+/// a chi² of `n` degrees of freedom, `|var(z) - 1| <= 4 sqrt(2 / n)`. (With
+/// errors of 15 degrees of freedom each, z follows Student's t of about 30
+/// degrees of freedom, whose variance 30/28 is well inside that bound.)
+/// The photon-noise errors alone (`fraction_stderr_photon`,
+/// `reflectance_stderr_photon`: the files' errors before the ensemble's)
+/// fail the same test: the surfaces differ by more than their photons.
+/// The summary gives 15 degrees of freedom.
+#[test]
+fn two_independent_ensembles_agree_within_their_errors() {
+    let root = scratch("two-ensembles");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gaussian-ensemble.toml"),
+    )
+    .unwrap()
+    .replace("bands = 32", "bands = 16");
+    let run = |name: &str, geometry: u64, seed: u64| {
+        let scene = root.join(format!("{name}.toml"));
+        let t = text.replace("seed = 3 }", &format!("seed = {geometry} }}"));
+        assert!(t.contains(&format!("resolution = 256, seed = {geometry} }}")));
+        std::fs::write(&scene, t).unwrap();
+        let out = root.join(name);
+        let photons = (16 * 16 * BATCH).to_string();
+        let o = cli_common::roks(&[
+            "brdf",
+            scene.to_str().unwrap(),
+            "-q",
+            "--photons",
+            &photons,
+            "--theta",
+            "30",
+            "--seed",
+            &seed.to_string(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    };
+    let (a, b) = (run("a", 3, 1), run("b", 1003, 2));
+    let s = cli_common::summary_without_timing(&a);
+    assert_eq!(s["incidence"][0]["stderr_dof"], 15, "{}", s["incidence"][0]);
+    let (z, var, n) = agreement(&a, &b, "fraction_stderr", "reflectance_stderr");
+    let bound = 4.0 * (2.0 / n as f64).sqrt();
+    eprintln!("ensemble errors: z {z:.2}, var(z) {var:.6} over {n} cells (1 +- {bound:.3})");
+    let (z_p, var_p, n_p) = agreement(
+        &a,
+        &b,
+        "fraction_stderr_photon",
+        "reflectance_stderr_photon",
+    );
+    let bound_p = 4.0 * (2.0 / n_p as f64).sqrt();
+    eprintln!("photon errors: z {z_p:.2}, var(z) {var_p:.3} over {n_p} cells (1 +- {bound_p:.3})");
+    assert!(z.abs() <= 4.0, "reflectances differ by z = {z}");
+    assert!((var - 1.0).abs() <= bound, "var(z) {var} over {n} cells");
+    // The old errors (photon noise only) fail.
+    assert!(
+        z_p.abs() > 4.0 || (var_p - 1.0).abs() > bound_p,
+        "photon errors pass: z {z_p}, var(z) {var_p}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

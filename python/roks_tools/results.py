@@ -122,6 +122,27 @@ AZIMUTH_HEADERS = {
 """The columns of a file that has `phi_i_deg` only for a run of several light
 azimuths (mono and spectral), by file name."""
 
+PHOTON_COLUMNS = {
+    "brdf.csv": ("fraction_stderr_photon", "brdf_stderr_photon"),
+    "inplane.csv": ("brdf_stderr_photon",),
+}
+"""The columns that end the header of a run of several surface realisations
+(`[surface] realisations = R > 1`), by file name: the standard errors from the
+photons alone. The file's `fraction_stderr` / `brdf_stderr` are then the
+ensemble mean's (the spread between the realisations, `stderr_dof` degrees of
+freedom in summary.json)."""
+
+
+def _accepted(name: str) -> tuple[tuple[str, ...], ...]:
+    """The headers roks writes for the file `name`: monochrome, spectral,
+    several azimuths, each with the photon-noise columns of several surface
+    realisations where the file has them."""
+    plain = tuple(h for h in (HEADERS[name], SPECTRAL_HEADERS.get(name),
+                              *AZIMUTH_HEADERS.get(name, ())) if h)
+    extra = PHOTON_COLUMNS.get(name)
+    return plain + tuple(h + extra for h in plain) if extra else plain
+
+
 EXTRA_POLAR_COLUMN = re.compile(r"^[ms][0-3]{1,2}[a-z0-9_]*$")
 """Columns that may follow the known ones of stokes.csv / mueller.csv (e.g.
 standard errors of the normalised elements, `m01_norm_stderr`): read into
@@ -267,8 +288,7 @@ def read_columns(path: str | Path, columns: tuple[str, ...] | None = None) -> di
     if columns is not None:
         accept = (tuple(columns),)
     elif path.name in HEADERS:
-        accept = tuple(h for h in (HEADERS[path.name], SPECTRAL_HEADERS.get(path.name),
-                                   *AZIMUTH_HEADERS.get(path.name, ())) if h)
+        accept = _accepted(path.name)
     else:
         accept = None
     header, data = _table_text(path, accept)
@@ -278,11 +298,11 @@ def read_columns(path: str | Path, columns: tuple[str, ...] | None = None) -> di
 def _table(cls, path: Path, **extra):
     """The dataclass `cls` from its file (mono or spectral header, or a
     run of several light azimuths'), shape-checked."""
-    accept = tuple(h for h in (HEADERS[cls.FILE], SPECTRAL_HEADERS.get(cls.FILE),
-                               *AZIMUTH_HEADERS.get(cls.FILE, ())) if h)
-    header, data = _table_text(path, accept)
+    plain = tuple(h for h in (HEADERS[cls.FILE], SPECTRAL_HEADERS.get(cls.FILE),
+                              *AZIMUTH_HEADERS.get(cls.FILE, ())) if h)
+    header, data = _table_text(path, _accepted(cls.FILE))
     names = {f.name for f in fields(cls)} - {"extra"}
-    known = set().union(*accept)
+    known = set().union(*plain)
     more = {c: data[:, i] for i, c in enumerate(header) if c not in known}
     if "extra" in {f.name for f in fields(cls)}:
         extra = {**extra, "extra": more}

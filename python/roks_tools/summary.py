@@ -252,6 +252,12 @@ class Incidence(_Fields):
     reflected_mueller_stderr: list[float] | None = None
     spectrum: list[WavelengthResult] | None = None
     colour: Colour | None = None
+    # Several surface realisations: reflectance_stderr (and the tables'
+    # errors) are the ensemble mean's, from the realisations' spread, with
+    # stderr_dof = R - 1 degrees of freedom; the photon noise alone is
+    # reflectance_stderr_photon.
+    reflectance_stderr_photon: float | None = None
+    stderr_dof: int | None = None
     raw: dict = field(default_factory=dict, repr=False)
 
 

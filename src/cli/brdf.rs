@@ -197,7 +197,7 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     write_folder(&out, &files)?;
 
     if !a.quiet {
-        print_table(&folder);
+        print_results(&folder, Some(scene.random));
         eprintln!("wrote {} ({:.1} s)", out.display(), folder.seconds);
     }
     Ok(())
@@ -207,6 +207,15 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
 /// several), on stderr (also `roks merge`); with several azimuths, the
 /// anisotropy figure ([`crate::tally::anisotropy`]) after it.
 pub fn print_table(folder: &BrdfFolder) {
+    print_results(folder, None);
+}
+
+/// [`print_table`] of a run whose surface is known to be random or not
+/// (`random`, [`crate::scene::micro::MicroScene::random`]; `None`:
+/// unknown, as for merged shards): the anisotropy figure of a table that
+/// is anisotropic beyond its bound then says what that means
+/// ([`anisotropy_note`]).
+pub fn print_results(folder: &BrdfFolder, random: Option<bool>) {
     let results = &folder.results;
     let azimuths = folder.run().phi_deg.len() > 1;
     let spectral = results.iter().any(|r| r.wavelength_um.is_some());
@@ -276,7 +285,39 @@ pub fn print_table(folder: &BrdfFolder) {
             "anisotropy: chi2/dof {:.3} over {} cells of {} pairs of azimuths (isotropic within 4 sigma below {:.3}; p = {:.2e})",
             f.chi2_dof, f.dof, a.pair_count, f.bound, f.p_value
         );
+        if let Some(note) = anisotropy_note(f, folder.run().realisations, random) {
+            eprintln!("anisotropy: {note}");
+        }
     }
+}
+
+/// What an anisotropy figure `f` beyond its bound means for a run of
+/// `realisations` surface realisations of a surface that is random or not
+/// (`random`; `None`: unknown): one realisation of a random surface is
+/// anisotropic by nature (its own hills and valleys do not turn with the
+/// light), and the random surface's BRDF is the mean over realisations;
+/// an ensemble is judged with its own errors. `None` within the bound, and
+/// for a surface known not to be random (its anisotropy is the surface's).
+#[must_use]
+pub fn anisotropy_note(
+    f: &crate::tally::anisotropy::Figure,
+    realisations: u64,
+    random: Option<bool>,
+) -> Option<String> {
+    if f.isotropic() || random == Some(false) {
+        return None;
+    }
+    let what = "one realisation of a random surface is anisotropic by nature (its own hills and valleys do not turn with the light), while the random surface's BRDF is the mean over realisations";
+    let advice = "set [surface] realisations = R (16 or more; the tables' errors are then the ensemble's) and judge the ensemble";
+    Some(match (realisations, random) {
+        (1, Some(true)) => format!("{what}: {advice}"),
+        (1, _) => format!(
+            "if the surface is random (a gaussian height field, random bumps), {what}: {advice}"
+        ),
+        (r, _) => format!(
+            "beyond the bound with the errors of the mean over {r} realisations: the random surface itself is anisotropic (a height field's triangles turn onto themselves only by half turns), or the realisations are too few to average its hills and valleys"
+        ),
+    })
 }
 
 #[cfg(test)]

@@ -246,8 +246,17 @@ fn header_is_spectral(csv: &Path) -> bool {
     let mut line = String::new();
     // The header is short: a longer first line is not it.
     let mut reader = std::io::BufReader::new(file).take(4096);
-    reader.read_line(&mut line).is_ok()
-        && line.trim_end() == crate::output::brdf_csv::SPECTRAL_HEADER
+    if reader.read_line(&mut line).is_err() {
+        return false;
+    }
+    // With several surface realisations, the photon-noise columns follow.
+    let spectral = crate::output::brdf_csv::SPECTRAL_HEADER;
+    let line = line.trim_end();
+    line == spectral
+        || line
+            .strip_prefix(spectral)
+            .and_then(|r| r.strip_prefix(','))
+            == Some(crate::output::brdf_csv::PHOTON_COLUMNS)
 }
 
 /// The file that names a folder of per-wavelength exports (its format,

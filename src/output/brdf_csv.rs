@@ -19,6 +19,15 @@
 //! `brdf_stderr`: the same per projected solid angle (sr⁻¹); these four
 //! with 10 significant digits.
 //!
+//! With several surface realisations (`[surface] realisations = R > 1`)
+//! `fraction_stderr` and `brdf_stderr` are the standard errors of the
+//! ensemble mean, from the spread between the realisations (`R - 1`
+//! degrees of freedom, `stderr_dof` in `summary.json`; see
+//! [`crate::transport::brdf::Ensemble`]), and two more columns end every
+//! row ([`PHOTON_COLUMNS`]): `fraction_stderr_photon` and
+//! `brdf_stderr_photon`, the photon noise alone. A run of one surface has
+//! no such columns.
+//!
 //! A spectral run (`[light] wavelengths_um`) has one more column,
 //! `wavelength_um` (µm, shortest round-trip form), right after `phi_i_deg`
 //! ([`SPECTRAL_HEADER`]): one block per incidence and wavelength,
@@ -45,6 +54,11 @@ pub const HEADER: &str = "theta_i_deg,phi_i_deg,band,cell,theta_lo_deg,theta_hi_
 /// Columns of a spectral run's `brdf.csv`: [`HEADER`] with `wavelength_um`
 /// after `phi_i_deg`.
 pub const SPECTRAL_HEADER: &str = "theta_i_deg,phi_i_deg,wavelength_um,band,cell,theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,theta_deg,phi_deg,solid_angle_sr,projected_solid_angle_sr,fraction,fraction_stderr,brdf,brdf_stderr";
+
+/// The columns that end the header of a run of several surface
+/// realisations (after `brdf_stderr`): the standard errors from the
+/// photons alone.
+pub const PHOTON_COLUMNS: &str = "fraction_stderr_photon,brdf_stderr_photon";
 
 /// The name of column `i` (0-based) of [`HEADER`].
 ///
@@ -81,9 +95,20 @@ pub struct Block<'a> {
 /// If a block does not have one fraction and one standard error per cell.
 #[must_use]
 pub fn write_rows<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block<'a>>) -> String {
+    write_rows_photon(grid, blocks, None)
+}
+
+/// [`write_rows`], each row ending with [`PHOTON_COLUMNS`] when `photon`
+/// gives, per block, the photon-noise standard error of each fraction.
+fn write_rows_photon<'a>(
+    grid: &CarlsonGrid,
+    blocks: impl IntoIterator<Item = Block<'a>>,
+    photon: Option<&[Vec<f64>]>,
+) -> String {
     let omega = grid.solid_angle();
     let mut s = String::new();
-    for b in blocks {
+    for (i, b) in blocks.into_iter().enumerate() {
+        let photon = photon.map(|p| &p[i]);
         assert_eq!(b.fractions.len(), grid.n_cells(), "one fraction per cell");
         assert_eq!(b.stderr.len(), grid.n_cells(), "one stderr per cell");
         s.reserve(200 * grid.n_cells());
@@ -98,7 +123,7 @@ pub fn write_rows<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block
             if let Some(w) = b.wavelength_um {
                 let _ = write!(s, "{w},");
             }
-            let _ = writeln!(
+            let _ = write!(
                 s,
                 "{band},{cell},{},{},{},{},{},{},{omega:.12e},{proj:.12e},{f:.9e},{fe:.9e},{:.9e},{:.9e}",
                 mu_top.acos().to_degrees(),
@@ -110,6 +135,10 @@ pub fn write_rows<'a>(grid: &CarlsonGrid, blocks: impl IntoIterator<Item = Block
                 f / proj,
                 fe / proj,
             );
+            if let Some(p) = photon {
+                let _ = write!(s, ",{:.9e},{:.9e}", p[flat], p[flat] / proj);
+            }
+            s.push('\n');
         }
     }
     s
@@ -150,18 +179,37 @@ pub fn write<'a>(
     results: impl IntoIterator<Item = &'a IncidenceResult> + Copy,
 ) -> String {
     let f = fractions(run, results);
-    write_blocks(
-        &run.grid(),
-        results
-            .into_iter()
-            .zip(&f)
-            .map(|(r, (fractions, stderr))| Block {
-                theta_i_deg: r.theta_i_deg,
-                phi_i_deg: r.phi_i_deg,
-                wavelength_um: r.wavelength_um,
-                fractions,
-                stderr,
-            }),
+    let blocks = results
+        .into_iter()
+        .zip(&f)
+        .map(|(r, (fractions, stderr))| Block {
+            theta_i_deg: r.theta_i_deg,
+            phi_i_deg: r.phi_i_deg,
+            wavelength_um: r.wavelength_um,
+            fractions,
+            stderr,
+        });
+    if run.realisations <= 1 {
+        return write_blocks(&run.grid(), blocks);
+    }
+    // Several realisations: the photon noise after the ensemble's errors.
+    let grid = run.grid();
+    let photon: Vec<Vec<f64>> = results
+        .into_iter()
+        .map(|r| {
+            (0..grid.n_cells())
+                .map(|c| r.carlson_stderr_photon(c))
+                .collect()
+        })
+        .collect();
+    let header = if run.wavelengths_um.is_empty() {
+        HEADER
+    } else {
+        SPECTRAL_HEADER
+    };
+    format!(
+        "{header},{PHOTON_COLUMNS}\n{}",
+        write_rows_photon(&grid, blocks, Some(&photon))
     )
 }
 
@@ -276,6 +324,31 @@ mod tests {
         assert_eq!(column(0), "theta_i_deg");
         assert_eq!(column(12), "fraction");
         assert_eq!(column(15), "brdf_stderr");
+    }
+
+    /// The table of several surface realisations: the photon-noise
+    /// columns end every row; the reader takes the file, with the errors of
+    /// `fraction_stderr` (the ensemble's), and refuses a photon column that
+    /// is not a number, naming it.
+    #[test]
+    fn photon_columns_read_back() {
+        let f = [0.1, 0.2, 0.3, 0.4];
+        let rows: String = rows(1, 30.0, 0.0, &f, 0.5)
+            .lines()
+            .map(|l| format!("{l},1.0e-3,2.0e-3\n"))
+            .collect();
+        let text = format!("{HEADER},{PHOTON_COLUMNS}\n{rows}");
+        let table = parse(&text, "t.csv").unwrap();
+        assert_eq!(table.fraction_stderrs(0), [0.05, 0.1, 0.15, 0.2]);
+        let bad = text.replacen("1.0e-3", "x", 1);
+        let e = parse(&bad, "t.csv").unwrap_err().to_string();
+        assert!(
+            e.contains("line 2") && e.contains("fraction_stderr_photon"),
+            "{e}"
+        );
+        // A photon column too few: the row is refused.
+        let short = text.replacen(",2.0e-3", "", 1);
+        assert!(parse(&short, "t.csv").is_err());
     }
 
     #[test]

@@ -87,7 +87,7 @@ pub fn write(run: &BrdfRun, results: &BrdfResult) -> Option<(&'static str, Strin
                 );
             } else {
                 for i in 1..k {
-                    match p.ratio(1 + flat, i, r.tallies.photons) {
+                    match r.polar_ratio(1 + flat, i) {
                         Some((_, se)) => {
                             let _ = write!(s, ",{se:.9e}");
                         }

@@ -179,8 +179,17 @@ pub struct IncidenceSummary {
     pub reflectance: f64,
     /// Reflectance by number of reflections.
     pub reflectance_by_bounces: Vec<f64>,
-    /// Standard error of `reflectance`.
+    /// Standard error of `reflectance`: with several surface realisations
+    /// (`[surface] realisations = R > 1`), that of the ensemble mean, from
+    /// the spread between the realisations (`stderr_dof` degrees of
+    /// freedom, see [`crate::transport::brdf::Ensemble`]); else from the
+    /// photons (or the replicates of a lattice launch).
     pub reflectance_stderr: f64,
+    /// With several surface realisations: the standard error of
+    /// `reflectance` from the photons alone (the photon noise part of
+    /// `reflectance_stderr`, without the surfaces' variation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflectance_stderr_photon: Option<f64>,
     /// With a Mueller tally: the hemisphere's Mueller matrix, row-major.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reflected_mueller: Option<Vec<f64>>,
@@ -204,6 +213,14 @@ pub struct IncidenceSummary {
     /// these wavelengths).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spectrum: Option<Vec<WavelengthSummary>>,
+    /// With several surface realisations: the degrees of freedom of the
+    /// standard errors of this incidence (here and in `brdf.csv`,
+    /// `inplane.csv`, `stokes.csv`, `mueller.csv`), `R - 1` for `R`
+    /// realisations: the errors come from `R` values, so a
+    /// `z = difference / stderr` follows Student's t with these degrees of
+    /// freedom.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stderr_dof: Option<u64>,
     /// Intersection tests per segment.
     pub tests_per_segment: Option<f64>,
     /// Incidence polar angle.
@@ -220,9 +237,12 @@ pub struct IncidenceSummary {
 /// `surface_spread` = `sqrt(max(0, spread² - monte_carlo_spread²))` the
 /// part that comes from the surfaces differing. When `surface_spread`
 /// dominates, more realisations (not more photons) narrow the ensemble's
-/// error; the incidence's `reflectance_stderr` is the Monte Carlo error of
-/// the ensemble mean over all photons, and `spread / sqrt(R)` the error of
-/// the mean over realisations, which includes the surfaces' variation.
+/// error. `spread / sqrt(R)` is the error of the mean over realisations,
+/// which includes the surfaces' variation; the incidence's
+/// `reflectance_stderr` is that of the ensemble mean (the same for
+/// realisations of equal photons; photon-weighted otherwise, see
+/// [`crate::transport::brdf::Ensemble`]) and `reflectance_stderr_photon`
+/// its Monte Carlo part, from all photons.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RealisationsSummary {
@@ -395,6 +415,11 @@ impl IncidenceSummary {
         first.lost_walls = mean(|e| e.lost_walls);
         first.reflectance = mean(|e| e.reflectance);
         first.reflectance_stderr = mean(|e| e.reflectance_stderr);
+        first.reflectance_stderr_photon = all
+            .iter()
+            .map(|e| e.reflectance_stderr_photon)
+            .sum::<Option<f64>>()
+            .map(|s| s / count);
         first.reflectance_by_bounces = mean_vectors(all.iter().map(|e| &e.reflectance_by_bounces));
         first.reflected_mueller = mean_opt(|e| &e.reflected_mueller);
         first.reflected_mueller_stderr = mean_opt(|e| &e.reflected_mueller_stderr);
@@ -452,6 +477,8 @@ impl IncidenceSummary {
             reflectance,
             reflectance_by_bounces: t.by_bounces.iter().map(|w| w / n).collect(),
             reflectance_stderr,
+            reflectance_stderr_photon: (!r.realisations.is_empty())
+                .then(|| r.reflectance_stderr_photon()),
             reflected_mueller_stderr: mueller.as_ref().map(|x| x.1.clone()),
             reflected_mueller: mueller.map(|x| x.0),
             reflected_stokes_stderr: stokes.as_ref().map(|x| x.1.clone()),
@@ -460,6 +487,7 @@ impl IncidenceSummary {
             segments: t.segments,
             segments_per_second: r.segments_per_second(),
             spectrum: None,
+            stderr_dof: r.stderr_dof(),
             tests_per_segment: tests.is_finite().then_some(tests),
             theta_deg: r.theta_i_deg,
         }

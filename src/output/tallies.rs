@@ -909,6 +909,7 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 .finish()
                 .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0))?;
             i += 1;
+            let (realisations, ensemble) = run.realisation_results(theta, phi, &kept, &tallies);
             wavelength.push(IncidenceResult {
                 theta_i_deg: theta,
                 phi_i_deg: phi,
@@ -917,7 +918,8 @@ pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
                 nodes: Vec::new(),
                 tallies,
                 seconds,
-                realisations: run.realisation_results(theta, phi, &kept),
+                realisations,
+                ensemble,
             });
         }
         let by_azimuth = ByAzimuth {

@@ -238,10 +238,21 @@ impl Csv {
 
 /// `header` and, with `wavelength_um` after `after`, its spectral form.
 fn headers(header: &str, after: &str) -> Vec<String> {
-    vec![
+    let plain = [
         header.to_owned(),
         crate::output::spectral_header(header, after),
-    ]
+    ];
+    // With several surface realisations, the photon-noise columns end the
+    // header of brdf.csv and inplane.csv.
+    let photon = [
+        crate::output::brdf_csv::PHOTON_COLUMNS,
+        crate::output::inplane_csv::PHOTON_COLUMN,
+    ];
+    let with_photon: Vec<String> = plain
+        .iter()
+        .flat_map(|h| photon.iter().map(move |p| format!("{h},{p}")))
+        .collect();
+    plain.into_iter().chain(with_photon).collect()
 }
 
 /// Every picture of a result folder whose files `file(name)` gives (the

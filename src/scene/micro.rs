@@ -474,6 +474,10 @@ pub struct MicroScene {
     /// The further surface realisations `1..R` (`[surface] realisations`),
     /// each built once; empty for one.
     pub more_realisations: Vec<MicroSurface>,
+    /// Whether the surface is drawn at random (a Gaussian height field or
+    /// random bumps, no explicit bodies): one realisation of a random
+    /// surface, which `[surface] realisations` averages.
+    pub random: bool,
     /// Material names, in the order of `surface.materials`.
     pub material_names: Vec<String>,
     /// Illumination as written (with the overrides applied).
@@ -867,6 +871,13 @@ impl MicroSceneSpec {
             )?);
         }
 
+        let random = self.bodies.is_empty()
+            && (self
+                .surface
+                .heightfield
+                .as_ref()
+                .is_some_and(|f| f.file.is_none())
+                || !self.bumps.is_empty());
         let more_realisations = self.more_realisations(
             &scene_file,
             (size, edges),
@@ -899,6 +910,7 @@ impl MicroSceneSpec {
             scene_file,
             surface,
             more_realisations,
+            random,
             material_names: names,
             light,
             run,

@@ -35,18 +35,30 @@
 //!
 //! A run ([`Anisotropy::of`]) compares every pair of azimuths `a < b` at
 //! every incidence angle and wavelength, and sums the pairs' chi² and dof.
+//! With more than [`ALL_PAIRS_MAX`] azimuths it compares each azimuth with
+//! the next one in the run's order only (`n - 1` pairs of `n` azimuths,
+//! not `n (n - 1) / 2`: the figure's cost and its list of pairs grow as
+//! the azimuths, not as their square; every azimuth is still compared).
 //! With more than two azimuths the pairs share tables, so their terms are
 //! correlated: the mean of the total `chi²/dof` is still 1 for an isotropic
 //! surface, but its spread exceeds `sqrt(2/dof)`; judge the pairs one by
 //! one then.
 //!
 //! A random surface is isotropic only in the mean over realisations
-//! (`[surface] realisations`), and a height field only up to its grid:
+//! (`[surface] realisations`): one realisation has its own hills and
+//! valleys, which do not turn with the light, so its table fails the
+//! figure by nature once the photons resolve them; the ensemble's table,
+//! with the errors of the ensemble mean, is the one to judge. A height
+//! field is isotropic only up to its grid:
 //! its triangles (every square cut along the same diagonal) are unchanged
 //! by a half turn, so azimuths 180 degrees apart are equivalent exactly,
 //! others only for a field fine against its correlation length.
 
 use super::carlson::CarlsonGrid;
+
+/// Up to this many azimuths, every pair of azimuths is compared; beyond
+/// it, each azimuth with the next one (see the module docs).
+pub const ALL_PAIRS_MAX: usize = 8;
 
 /// One table at one light azimuth: the fraction and its standard error
 /// per flat Carlson cell (as `brdf.csv`'s `fraction`, `fraction_stderr`).
@@ -195,14 +207,22 @@ pub struct Group<'a> {
 }
 
 impl Anisotropy {
-    /// Compare every pair of azimuths of each group; `None` when no group
-    /// has two azimuths.
+    /// Compare every pair of azimuths of each group (of more than
+    /// [`ALL_PAIRS_MAX`] azimuths, each with the next); `None` when no
+    /// group has two azimuths.
     #[must_use]
     pub fn of(grid: &CarlsonGrid, groups: &[Group]) -> Option<Self> {
         let mut pairs = Vec::new();
         for g in groups {
+            let all = g.tables.len() <= ALL_PAIRS_MAX;
             for (i, a) in g.tables.iter().enumerate() {
-                for b in &g.tables[i + 1..] {
+                let later = &g.tables[i + 1..];
+                let partners = if all {
+                    later
+                } else {
+                    &later[..later.len().min(1)]
+                };
+                for b in partners {
                     pairs.push(Pair {
                         figure: compare(grid, a, b),
                         phi_a_deg: a.phi_deg,
@@ -304,6 +324,51 @@ mod tests {
         let at = Figure::new(f.bound * 1000.0, 1000);
         assert!(at.p_value > 1e-5 && at.p_value < 1e-4, "{at:?}");
         assert_eq!(Figure::new(0.0, 0).p_value, 1.0);
+    }
+
+    /// Up to [`ALL_PAIRS_MAX`] azimuths every pair is compared, beyond it
+    /// each azimuth with the next: `n (n - 1) / 2` pairs, then `n - 1`,
+    /// each the [`compare`] of its two tables.
+    #[test]
+    fn pairs_of_few_and_of_many_azimuths() {
+        let grid = CarlsonGrid::new(4).unwrap();
+        let e = vec![0.1; grid.n_cells()];
+        let shape = |d: f64| 2.0 + (2.0 * d.to_radians()).cos();
+        for n in [2, 3, ALL_PAIRS_MAX, ALL_PAIRS_MAX + 1, 1000] {
+            let phis: Vec<f64> = (0..n).map(|i| 90.0 * i as f64).collect();
+            let fs: Vec<Vec<f64>> = phis.iter().map(|&p| table(&grid, p + 5.0, shape)).collect();
+            let tables = phis
+                .iter()
+                .zip(&fs)
+                .map(|(&phi_deg, f)| Table {
+                    phi_deg,
+                    fraction: f,
+                    stderr: &e,
+                })
+                .collect();
+            let a = Anisotropy::of(
+                &grid,
+                &[Group {
+                    theta_i_deg: 30.0,
+                    wavelength_um: None,
+                    tables,
+                }],
+            )
+            .unwrap();
+            let want: Vec<(f64, f64)> = if n <= ALL_PAIRS_MAX {
+                (0..n)
+                    .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+                    .map(|(i, j)| (phis[i], phis[j]))
+                    .collect()
+            } else {
+                phis.windows(2).map(|w| (w[0], w[1])).collect()
+            };
+            let got: Vec<(f64, f64)> = a.pairs.iter().map(|p| (p.phi_a_deg, p.phi_b_deg)).collect();
+            assert_eq!(got, want, "{n} azimuths");
+            assert_eq!(a.pair_count, want.len() as u64);
+            // The tables turn with the light by whole cells: chi² 0.
+            assert!(a.figure.chi2 < 1e-20 && a.figure.dof > 0, "{:?}", a.figure);
+        }
     }
 
     /// Cells empty in both tables are not compared; a cell lit in one only

@@ -762,6 +762,132 @@ pub struct IncidenceResult {
     /// With several surface realisations, each one's reflectance (from the
     /// tree nodes over its block of batches); empty for one.
     pub realisations: Vec<RealisationResult>,
+    /// With several surface realisations (at least two with photons): the
+    /// spread between them, from which every standard error of this leaf
+    /// comes ([`Ensemble`]); `None` otherwise (photon noise, or lattice
+    /// replicates).
+    pub ensemble: Option<Ensemble>,
+}
+
+/// The spread between the surface realisations of an ensemble at one leaf
+/// (incidence, azimuth, wavelength): the errors of the ensemble mean.
+///
+/// The ensemble's estimate of a bin is its pooled mean `m = S / N` (`S`
+/// the sum over all `N` photons), the mean of the realisations' estimates
+/// `m_r = S_r / n_r` weighted by their photons `w_r = n_r / N`. Its
+/// standard error over the population of surfaces is that of a cluster
+/// sample of `R` realisations,
+/// `se² = R / (R - 1) · Σ_r w_r² (m_r - m)² = R / (R - 1) · Σ_r (S_r - n_r m)² / N²`,
+/// with `R - 1` degrees of freedom: for realisations of equal photons, the
+/// sample standard deviation of the `R` estimates over `sqrt(R)`. It
+/// counts the photon noise too (each `m_r` has its own). Kept per bin as
+/// the sums of squares `Σ_r (S_r - n_r m)²`, one realisation at a time (not
+/// `R` copies of the table); made from the leaf's tree nodes
+/// ([`BrdfRun::realisation_results`]), so bit for bit the same for any
+/// thread count and shard split.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ensemble {
+    /// `R`: the realisations with photons (at least 2).
+    pub count: u64,
+    /// `N`: the photons of all of them.
+    pub photons: u64,
+    /// `Σ_r (S_r - n_r m)²` of the reflected weight (one bin).
+    pub reflected: Vec<f64>,
+    /// The same per Carlson cell.
+    pub carlson: Vec<f64>,
+    /// The same per in-plane bin.
+    pub inplane: Vec<f64>,
+    /// The same per polarisation bin (with a polarisation tally).
+    pub polar: Option<Vec<f64>>,
+    /// Per polarisation bin `slot K + k`: `Σ_r (X_r - ρ Y_r)²` with `X_r`,
+    /// `Y_r` realisation `r`'s sums of component `k` and component 0 of the
+    /// slot and `ρ = X / Y` the ensemble's ratio (the linearised residuals
+    /// of [`IncidenceResult::polar_ratio`]); 0 where `Y = 0`.
+    pub ratio: Option<Vec<f64>>,
+}
+
+impl Ensemble {
+    /// The spread of the realisations `parts` (each one's sums) about the
+    /// ensemble `total` (their sum); `None` with fewer than 2 realisations
+    /// with photons.
+    #[must_use]
+    pub fn of(total: &BrdfTallies, parts: impl Iterator<Item = BrdfTallies>) -> Option<Self> {
+        let big_n = total.photons as f64;
+        // Σ (S_r - n_r S / N)² per bin, added into `d`.
+        let add = |d: &mut [f64], s_r: &[f64], s: &[f64], w: f64| {
+            for ((d, &x), &all) in d.iter_mut().zip(s_r).zip(s) {
+                *d += (x - w * all).powi(2);
+            }
+        };
+        let mut e = Self {
+            count: 0,
+            photons: total.photons,
+            reflected: vec![0.0; total.reflected.len()],
+            carlson: vec![0.0; total.carlson.len()],
+            inplane: vec![0.0; total.inplane.len()],
+            polar: total.polar.as_ref().map(|p| vec![0.0; p.bins()]),
+            ratio: total.polar.as_ref().map(|p| vec![0.0; p.bins()]),
+        };
+        for part in parts {
+            if part.photons == 0 {
+                continue;
+            }
+            e.count += 1;
+            let w = part.photons as f64 / big_n;
+            add(
+                &mut e.reflected,
+                &part.reflected.sum,
+                &total.reflected.sum,
+                w,
+            );
+            add(&mut e.carlson, &part.carlson.sum, &total.carlson.sum, w);
+            add(&mut e.inplane, &part.inplane.sum, &total.inplane.sum, w);
+            if let (Some(d), Some(p), Some(all)) = (&mut e.polar, &part.polar, &total.polar) {
+                add(d, &p.sums.sum, &all.sums.sum, w);
+            }
+            if let (Some(d), Some(p), Some(all)) = (&mut e.ratio, &part.polar, &total.polar) {
+                let k = all.components;
+                for (slot, d) in d.chunks_mut(k).enumerate() {
+                    let at = slot * k;
+                    let y = all.sums.sum[at];
+                    if y == 0.0 {
+                        continue;
+                    }
+                    for (j, d) in d.iter_mut().enumerate() {
+                        let rho = all.sums.sum[at + j] / y;
+                        *d += (p.sums.sum[at + j] - rho * p.sums.sum[at]).powi(2);
+                    }
+                }
+            }
+        }
+        (e.count >= 2).then_some(e)
+    }
+
+    /// Degrees of freedom of the errors: `R - 1`.
+    #[must_use]
+    pub fn dof(&self) -> u64 {
+        self.count - 1
+    }
+
+    /// The standard error of a mean per photon whose sum of squares
+    /// (`Σ_r (S_r - n_r m)²`) is `d`: `sqrt(R / (R - 1) · d) / N`.
+    #[must_use]
+    pub fn stderr(&self, d: f64) -> f64 {
+        let r = self.count as f64;
+        (r / (r - 1.0) * d).sqrt() / self.photons as f64
+    }
+
+    /// The standard error of the ratio `X / Y` of polarisation bin `bin`
+    /// (component `k` of a slot) to component 0 of its slot, `y` being
+    /// `Y`, the ensemble's sum of component 0: the delta method over the
+    /// realisations, `sqrt(R / (R - 1) · Σ_r (X_r - ρ Y_r)²) / Y` (that of
+    /// [`PolarTallies::ratio`] over lattice replicates, with realisations
+    /// for replicates).
+    fn ratio_stderr(&self, bin: usize, y: f64) -> Option<f64> {
+        let d = self.ratio.as_ref()?[bin];
+        let r = self.count as f64;
+        Some((r / (r - 1.0) * d).sqrt() / y.abs())
+    }
 }
 
 /// The reflectance of one surface realisation of a run (its block of
@@ -787,6 +913,7 @@ impl RealisationResult {
             nodes: Vec::new(),
             seconds: 0.0,
             realisations: Vec::new(),
+            ensemble: None,
         };
         let (reflectance, reflectance_stderr) = if r.tallies.photons == 0 {
             (0.0, 0.0)
@@ -819,45 +946,119 @@ impl IncidenceResult {
         }
     }
 
-    /// Directional-hemispherical reflectance and its standard error.
+    /// Directional-hemispherical reflectance and its standard error (with
+    /// several surface realisations, that of the ensemble mean: see
+    /// [`Ensemble`]).
     #[must_use]
     pub fn reflectance(&self) -> (f64, f64) {
         let n = self.tallies.photons;
         (
             self.tallies.reflected.mean(0, n),
-            self.stderr(|t| &t.reflected, |r| &r.reflected, 0),
+            self.stderr(|t| &t.reflected, |r| &r.reflected, |e| &e.reflected, 0),
         )
     }
 
-    /// Standard error of the weight fraction in Carlson cell `cell`.
+    /// The standard error of the reflectance from the photons alone
+    /// (lattice replicates for a lattice launch), without the spread
+    /// between surface realisations.
     #[must_use]
-    pub fn carlson_stderr(&self, cell: usize) -> f64 {
-        self.stderr(|t| &t.carlson, |r| &r.carlson, cell)
+    pub fn reflectance_stderr_photon(&self) -> f64 {
+        self.photon_stderr(|t| &t.reflected, |r| &r.reflected, 0)
     }
 
-    /// Standard error of the weight fraction in in-plane bin `bin`.
+    /// Standard error of the weight fraction in Carlson cell `cell` (with
+    /// several surface realisations, of the ensemble mean).
+    #[must_use]
+    pub fn carlson_stderr(&self, cell: usize) -> f64 {
+        self.stderr(|t| &t.carlson, |r| &r.carlson, |e| &e.carlson, cell)
+    }
+
+    /// [`IncidenceResult::carlson_stderr`] from the photons alone.
+    #[must_use]
+    pub fn carlson_stderr_photon(&self, cell: usize) -> f64 {
+        self.photon_stderr(|t| &t.carlson, |r| &r.carlson, cell)
+    }
+
+    /// Standard error of the weight fraction in in-plane bin `bin` (with
+    /// several surface realisations, of the ensemble mean).
     #[must_use]
     pub fn inplane_stderr(&self, bin: usize) -> f64 {
-        self.stderr(|t| &t.inplane, |r| &r.inplane, bin)
+        self.stderr(|t| &t.inplane, |r| &r.inplane, |e| &e.inplane, bin)
+    }
+
+    /// [`IncidenceResult::inplane_stderr`] from the photons alone.
+    #[must_use]
+    pub fn inplane_stderr_photon(&self, bin: usize) -> f64 {
+        self.photon_stderr(|t| &t.inplane, |r| &r.inplane, bin)
+    }
+
+    /// The degrees of freedom of this leaf's standard errors when they come
+    /// from the spread between surface realisations (`R - 1`); `None` for
+    /// photon noise.
+    #[must_use]
+    pub fn stderr_dof(&self) -> Option<u64> {
+        self.ensemble.as_ref().map(Ensemble::dof)
     }
 
     /// Mean per launched photon of polarisation bin `bin` (see
-    /// [`crate::tally::polar`]), and its standard error; `None` without a
+    /// [`crate::tally::polar`]), and its standard error (with several
+    /// surface realisations, of the ensemble mean); `None` without a
     /// polarisation tally.
     #[must_use]
     pub fn polar(&self, bin: usize) -> Option<(f64, f64)> {
         let t = &self.tallies;
         let p = t.polar.as_ref()?;
         let mean = p.sums.mean(bin, t.photons);
-        let se = match (&t.replicates, &p.replicates) {
-            (Some(r), Some(sums)) => r.stderr(sums, bin, t.photons),
-            _ => p.sums.stderr(bin, t.photons),
+        let se = match self
+            .ensemble
+            .as_ref()
+            .and_then(|e| Some((e, e.polar.as_ref()?)))
+        {
+            Some((e, d)) => e.stderr(d[bin]),
+            None => match (&t.replicates, &p.replicates) {
+                (Some(r), Some(sums)) => r.stderr(sums, bin, t.photons),
+                _ => p.sums.stderr(bin, t.photons),
+            },
         };
         Some((mean, se))
     }
 
-    /// Per photon, or from the replicate spread for a lattice run.
+    /// The normalised component `k / 0` of polarisation slot `slot` and
+    /// its standard error ([`PolarTallies::ratio`]; with several surface
+    /// realisations, of the ensemble's ratio, [`Ensemble`]); `None` without
+    /// a polarisation tally or where component 0 is 0.
+    #[must_use]
+    pub fn polar_ratio(&self, slot: usize, k: usize) -> Option<(f64, f64)> {
+        let t = &self.tallies;
+        let p = t.polar.as_ref()?;
+        let (ratio, se) = p.ratio(slot, k, t.photons)?;
+        let y = p.sums.sum[slot * p.components];
+        let bin = slot * p.components + k;
+        let se = self
+            .ensemble
+            .as_ref()
+            .and_then(|e| e.ratio_stderr(bin, y))
+            .unwrap_or(se);
+        Some((ratio, se))
+    }
+
+    /// From the realisations' spread if there is one ([`Ensemble`]), else
+    /// [`IncidenceResult::photon_stderr`].
     fn stderr(
+        &self,
+        per_photon: impl Fn(&BrdfTallies) -> &Accumulator,
+        per_replicate: impl Fn(&Replicates) -> &[f64],
+        per_realisation: impl Fn(&Ensemble) -> &[f64],
+        bin: usize,
+    ) -> f64 {
+        match &self.ensemble {
+            Some(e) => e.stderr(per_realisation(e)[bin]),
+            None => self.photon_stderr(per_photon, per_replicate, bin),
+        }
+    }
+
+    /// Per photon, or from the replicate spread for a lattice run.
+    fn photon_stderr(
         &self,
         per_photon: impl Fn(&BrdfTallies) -> &Accumulator,
         per_replicate: impl Fn(&Replicates) -> &[f64],
@@ -1326,7 +1527,8 @@ impl BrdfRun {
             .map(|(l, mut nodes)| {
                 let tallies = add_up(&self.combine(nodes.iter()))
                     .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
-                let realisations = self.realisation_results(theta, phi, &nodes);
+                let (realisations, ensemble) =
+                    self.realisation_results(theta, phi, &nodes, &tallies);
                 // The root is kept once, as the sums.
                 if let [n] = nodes.as_slice()
                     && (n.level, n.index) == (self.root_level(), 0)
@@ -1339,6 +1541,7 @@ impl BrdfRun {
                     wavelength_um: self.wavelength(l),
                     tallies,
                     realisations,
+                    ensemble,
                     nodes,
                     seconds,
                 }
@@ -1354,7 +1557,10 @@ impl BrdfRun {
     /// `theta_deg` (and light azimuth `phi_deg`) from the tree `nodes` of a trace or of merged shards, in
     /// batch order, each within one realisation's block: realisation `r`'s
     /// sums are its nodes pushed into the run's tree and added left to
-    /// right (so a shard split anywhere gives the same bits). Empty for one
+    /// right (so a shard split anywhere gives the same bits); and their
+    /// spread about `total` (the leaf's sums, those of all the nodes), the
+    /// [`Ensemble`] the leaf's standard errors come from (`None` with fewer
+    /// than two realisations with photons). Empty and `None` for one
     /// realisation.
     #[must_use]
     pub fn realisation_results(
@@ -1362,21 +1568,24 @@ impl BrdfRun {
         theta_deg: f64,
         phi_deg: f64,
         nodes: &[Node<BrdfTallies>],
-    ) -> Vec<RealisationResult> {
+        total: &BrdfTallies,
+    ) -> (Vec<RealisationResult>, Option<Ensemble>) {
         if self.realisations <= 1 {
-            return Vec::new();
+            return (Vec::new(), None);
         }
-        (0..self.realisations)
-            .map(|r| {
-                let (b0, b1) = self.realisation_batches(r);
-                let inside = nodes
-                    .iter()
-                    .filter(|n| n.start() >= u128::from(b0) && n.start() < u128::from(b1));
-                let sums = add_up(&self.combine(inside))
-                    .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
-                RealisationResult::of(sums, theta_deg, phi_deg)
-            })
-            .collect()
+        let mut results = Vec::with_capacity(self.realisations as usize);
+        let parts = (0..self.realisations).map(|r| {
+            let (b0, b1) = self.realisation_batches(r);
+            let inside = nodes
+                .iter()
+                .filter(|n| n.start() >= u128::from(b0) && n.start() < u128::from(b1));
+            let sums = add_up(&self.combine(inside))
+                .unwrap_or_else(|| self.empty_tallies(&self.grid(), &self.inplane()));
+            results.push(RealisationResult::of(sums.clone(), theta_deg, phi_deg));
+            sums
+        });
+        let ensemble = Ensemble::of(total, parts);
+        (results, ensemble)
     }
 
     /// The level of the root of the run's batch tree: the smallest `K`
@@ -2007,6 +2216,130 @@ fn score_polar<const K: usize>(
 mod tests {
     use super::*;
     use crate::scene::micro::{DEFAULT_SCENE, MicroScene};
+
+    /// Tallies of `photons` photons whose Carlson cells (one band: 4
+    /// cells), reflected weight and Mueller cell sums hold `sums` (component
+    /// `k` of a cell's Mueller sums: `sums[cell] * (k + 1) + k`).
+    fn synthetic(photons: u64, sums: [f64; 4]) -> BrdfTallies {
+        let grid = CarlsonGrid::new(1).unwrap();
+        let inplane = InPlaneTally::new(10.0, 1.0, 0.0).unwrap();
+        let mut t = BrdfTallies::new(&grid, &inplane, None, PolarTally::Mueller);
+        t.photons = photons;
+        t.carlson.sum.copy_from_slice(&sums);
+        t.reflected.sum[0] = sums.iter().sum();
+        let p = t.polar.as_mut().unwrap();
+        for (c, s) in sums.iter().enumerate() {
+            for k in 0..16 {
+                let bin = p.cell_bin(c, k);
+                p.sums.sum[bin] = s * (k + 1) as f64 + k as f64;
+            }
+        }
+        t
+    }
+
+    /// The leaf of an ensemble of realisations `parts`.
+    fn ensemble_leaf(parts: &[BrdfTallies]) -> IncidenceResult {
+        let mut total = parts[0].clone();
+        for p in &parts[1..] {
+            total.merge(p);
+        }
+        let ensemble = Ensemble::of(&total, parts.iter().cloned());
+        IncidenceResult {
+            theta_i_deg: 0.0,
+            phi_i_deg: 0.0,
+            wavelength_um: None,
+            tallies: total,
+            nodes: Vec::new(),
+            seconds: 0.0,
+            realisations: Vec::new(),
+            ensemble,
+        }
+    }
+
+    /// Four realisations of 10 photons each: the ensemble's standard error
+    /// of a cell is the sample standard deviation of the four realisations'
+    /// estimates over sqrt(4), with 3 degrees of freedom (the formula
+    /// written out); the photon-noise error stays that of the sums.
+    #[test]
+    fn ensemble_stderr_is_the_sample_formula() {
+        let cells = [
+            [1.0, 0.0, 2.0, 7.0],
+            [2.0, 0.0, 2.0, 5.0],
+            [3.0, 1.0, 2.0, 6.0],
+            [6.0, 0.0, 2.0, 9.0],
+        ];
+        let parts: Vec<BrdfTallies> = cells.iter().map(|c| synthetic(10, *c)).collect();
+        let leaf = ensemble_leaf(&parts);
+        assert_eq!(leaf.stderr_dof(), Some(3));
+        let sample = |m: [f64; 4]| {
+            let mean = m.iter().sum::<f64>() / 4.0;
+            let var = m.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / 3.0;
+            (var / 4.0).sqrt()
+        };
+        for c in 0..4 {
+            let m = cells.map(|r| r[c] / 10.0);
+            let want = sample(m);
+            let got = leaf.carlson_stderr(c);
+            assert!((got - want).abs() <= 1e-15, "cell {c}: {got} vs {want}");
+        }
+        // Cell 0: estimates 0.1, 0.2, 0.3, 0.6, spread sqrt(14/12) / 10.
+        assert!((leaf.carlson_stderr(0) - (14.0_f64 / 12.0).sqrt() / 10.0).abs() < 1e-15);
+        // The same in every realisation: no spread.
+        assert_eq!(leaf.carlson_stderr(2), 0.0);
+        let r = cells.map(|r| r.iter().sum::<f64>() / 10.0);
+        assert!((leaf.reflectance().1 - sample(r)).abs() <= 1e-15);
+        // The photon noise: the accumulator's own formula over all photons.
+        let t = &leaf.tallies;
+        assert_eq!(
+            leaf.carlson_stderr_photon(1),
+            t.carlson.stderr(1, t.photons)
+        );
+        assert_eq!(
+            leaf.reflectance_stderr_photon(),
+            t.reflected.stderr(0, t.photons)
+        );
+        // A Mueller element: the same sample formula.
+        let p = t.polar.as_ref().unwrap();
+        let bin = p.cell_bin(3, 5);
+        let m = cells.map(|r| (r[3] * 6.0 + 5.0) / 10.0);
+        assert!((leaf.polar(bin).unwrap().1 - sample(m)).abs() <= 1e-15);
+        // m_05 / m_00 of cell 3: the delta method over the realisations,
+        // sqrt(R / (R - 1) sum (X_r - rho Y_r)²) / Y.
+        let (x, y) = (cells.map(|r| r[3] * 6.0 + 5.0), cells.map(|r| r[3]));
+        let rho = x.iter().sum::<f64>() / y.iter().sum::<f64>();
+        let ss: f64 = (0..4).map(|q| (x[q] - rho * y[q]).powi(2)).sum();
+        let want = (4.0 / 3.0 * ss).sqrt() / y.iter().sum::<f64>();
+        let (ratio, se) = leaf.polar_ratio(4, 5).unwrap();
+        assert!((ratio - rho).abs() < 1e-15);
+        assert!((se - want).abs() <= 1e-15 * want, "{se} vs {want}");
+    }
+
+    /// Realisations of unequal photons (10, 20, 30): the error of the
+    /// photon-weighted ensemble mean, `sqrt(R / (R - 1) sum w_r² (m_r -
+    /// m)²)` with `w_r = n_r / N`; a realisation without photons does not
+    /// count, and fewer than two with photons give no ensemble (the photon
+    /// noise then).
+    #[test]
+    fn ensemble_of_unequal_realisations() {
+        let (n, s) = ([10_u64, 20, 30], [3.0, 4.0, 12.0]);
+        let mut parts: Vec<BrdfTallies> = (0..3)
+            .map(|i| synthetic(n[i], [s[i], 0.0, 0.0, 0.0]))
+            .collect();
+        parts.push(synthetic(0, [0.0; 4]));
+        let leaf = ensemble_leaf(&parts);
+        assert_eq!(leaf.stderr_dof(), Some(2));
+        let big_n = 60.0;
+        let m = s.iter().sum::<f64>() / big_n;
+        let ss: f64 = (0..3)
+            .map(|i| (n[i] as f64 / big_n * (s[i] / n[i] as f64 - m)).powi(2))
+            .sum();
+        let want = (1.5 * ss).sqrt();
+        assert!((leaf.carlson_stderr(0) - want).abs() <= 1e-15, "{want}");
+        let one = ensemble_leaf(&[synthetic(10, [1.0; 4]), synthetic(0, [0.0; 4])]);
+        assert!(one.ensemble.is_none());
+        assert_eq!(one.stderr_dof(), None);
+        assert_eq!(one.carlson_stderr(0), one.carlson_stderr_photon(0));
+    }
 
     #[test]
     fn incidence_angles() {

@@ -56,12 +56,20 @@
 //! spectral run ([`BrdfTables::with_summary_text`]) must list the same
 //! `wavelengths_um`; each wavelength's table takes its reflectance and
 //! standard error from `incidence[k].spectrum[l]`.
+//!
+//! # Several surface realisations
+//!
+//! The table of a run of several surface realisations ends every row with
+//! [`PHOTON_COLUMNS`] (the photon-noise part of the standard errors); the
+//! reader takes such a file, monochrome or spectral, and checks that these
+//! columns are finite numbers; the table's errors are `fraction_stderr`,
+//! the ensemble's.
 
 use std::path::Path;
 
 use thiserror::Error;
 
-use super::{COLUMNS, HEADER, SPECTRAL_HEADER};
+use super::{COLUMNS, HEADER, PHOTON_COLUMNS, SPECTRAL_HEADER};
 use crate::optics::brdf_table::{
     BlockData, BrdfTable, BrdfTables, BrdfValuesError, MAX_FRACTION, SpectralTables, azimuth_note,
     sort_incidences,
@@ -96,6 +104,8 @@ const C_WAVELENGTH: usize = 2;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Layout {
     spectral: bool,
+    /// [`PHOTON_COLUMNS`] end the rows (several surface realisations).
+    photon: bool,
 }
 
 impl Layout {
@@ -109,7 +119,7 @@ impl Layout {
 
     /// Number of columns.
     fn columns(self) -> usize {
-        COLUMNS + usize::from(self.spectral)
+        COLUMNS + usize::from(self.spectral) + 2 * usize::from(self.photon)
     }
 
     /// Zero-based index in the file of the monochrome column `c`.
@@ -123,7 +133,12 @@ impl Layout {
 
     /// Name of the file's column `index` (zero-based).
     fn name(self, index: usize) -> &'static str {
-        self.header().split(',').nth(index).unwrap_or("?")
+        let photon = if self.photon { PHOTON_COLUMNS } else { "" };
+        self.header()
+            .split(',')
+            .chain(photon.split(',').filter(|c| !c.is_empty()))
+            .nth(index)
+            .unwrap_or("?")
     }
 
     /// 1-based number and name of the monochrome column `c`, as the file
@@ -655,10 +670,25 @@ fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, Brd
         .enumerate()
         .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
     let header = lines.next().map_or("", |(_, l)| l);
-    let header = header.strip_prefix('\u{feff}').unwrap_or(header);
-    let layout = match header.trim_end() {
-        HEADER => Layout { spectral: false },
-        SPECTRAL_HEADER if spectral_ok => Layout { spectral: true },
+    let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
+    let full = header;
+    // Several surface realisations: the photon-noise columns at the end.
+    let (header, photon) = match header
+        .strip_suffix(PHOTON_COLUMNS)
+        .and_then(|h| h.strip_suffix(','))
+    {
+        Some(h) => (h, true),
+        None => (header, false),
+    };
+    let layout = match header {
+        HEADER => Layout {
+            spectral: false,
+            photon,
+        },
+        SPECTRAL_HEADER if spectral_ok => Layout {
+            spectral: true,
+            photon,
+        },
         SPECTRAL_HEADER => {
             return Err(BrdfTableError::Spectral {
                 file: file(),
@@ -674,7 +704,7 @@ fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, Brd
                 } else {
                     String::new()
                 },
-                found: shorten(header, 200),
+                found: shorten(full, 200),
             });
         }
     };
@@ -826,6 +856,11 @@ fn parse_row(text: &str, line: usize, name: &str, layout: Layout) -> Result<Row,
     let mut v = [0.0; 16];
     let mut wavelength = None;
     for index in 0..layout.columns() {
+        if index >= layout.columns() - 2 * usize::from(layout.photon) {
+            // The photon-noise columns: numbers, not the table's errors.
+            number(index)?;
+            continue;
+        }
         if layout.spectral && index == C_WAVELENGTH {
             wavelength = Some(number(index)?);
             continue;

@@ -306,7 +306,10 @@ impl BrdfTable {
     ///   fractions to 10 digits), and `reflectance_stderr` is a finite
     ///   number >= 0 no larger than any mean of `photons` scores in `[0, 1]`
     ///   can have, `sqrt(R (1 - R) / (k - 1))` with `k = min(photons, 16)`
-    ///   (16: the replicates of a lattice launch);
+    ///   (16: the replicates of a lattice launch), or for an ensemble of
+    ///   `S` surface realisations (`stderr_dof = S - 1`) the most its error
+    ///   can be, `sqrt(S / (S - 1) max(w_s) R (1 - R))` (`w_s` a
+    ///   realisation's share of the photons);
     /// * `run.bands` is the table's.
     ///
     /// # Errors
@@ -441,10 +444,24 @@ impl BrdfTable {
                 }));
             }
             let photons = entry.photons;
+            // The errors of an ensemble of R surface realisations (the
+            // photon share w_r of each): R / (R - 1) sum w_r² (m_r - m)²,
+            // at most R / (R - 1) max(w_r) m (1 - m).
+            let ensemble = entry
+                .stderr_dof
+                .zip(entry.realisations.as_ref())
+                .filter(|(dof, _)| *dof >= 1 && photons > 0)
+                .map(|(dof, re)| {
+                    let w =
+                        re.photons.iter().max().copied().unwrap_or(photons) as f64 / photons as f64;
+                    (dof as f64 + 1.0) / dof as f64 * w
+                });
             if photons >= 2 {
                 let dof = photons.min(16) as f64 - 1.0;
                 let rc = r.clamp(0.0, 1.0);
-                let bound = (rc * (1.0 - rc) / dof).sqrt();
+                let bound = (rc * (1.0 - rc) / dof)
+                    .max(rc * (1.0 - rc) * ensemble.unwrap_or(0.0))
+                    .sqrt();
                 if se > bound * (1.0 + 1e-6) + 1e-12 {
                     return Err(fail(SummaryProblem::StderrBound {
                         key,
