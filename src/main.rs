@@ -21,6 +21,7 @@ fn main() -> ExitCode {
         eprintln!("roks: {e}");
         return ExitCode::from(2);
     }
+    roks::outdir::set_command(cli.command.name());
     let result = match cli.command {
         Command::Brdf(a) => brdf::execute(a),
         Command::Stats(a) => stats::execute(a),

@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{Written, check_memory, check_out_file, load_scene, set_threads, write_file};
+use super::common::{
+    FileKind, Written, check_memory, check_out_file, load_scene, set_threads, write_file,
+};
 use super::parse::{integer, number, positive};
 use crate::render::{PinholeCamera, RenderSettings, ToneSettings, Tonemap};
 use crate::scene::SceneKind;
@@ -23,6 +25,10 @@ pub struct RenderArgs {
     /// Output EXR file.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace an existing OUT or its PNG preview even when it is not an EXR (a PNG) that roks
+    /// wrote (see docs/src/output-safety.md).
+    #[arg(long)]
+    pub force: bool,
     /// Micro scenes: view direction THETA,PHI in degrees (toward the camera).
     #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', default_value = "0,0", value_parser = number)]
     pub view: Vec<f64>,
@@ -159,7 +165,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
         &format!("a {w} x {h} image (radiance, EXR and PNG)"),
         crate::render::image_memory_bytes(w, h),
     )?;
-    check_out_file(&a.out, a.scene.as_slice())?;
+    check_out_file(&a.out, a.scene.as_slice(), FileKind::Exr, a.force)?;
     let png = a.out.with_extension("png");
     if png == a.out {
         return Err(Failure::Input(format!(
@@ -167,7 +173,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
             a.out.display()
         )));
     }
-    check_out_file(&png, a.scene.as_slice())?;
+    check_out_file(&png, a.scene.as_slice(), FileKind::Png, a.force)?;
     let threads = a.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
