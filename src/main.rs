@@ -22,6 +22,10 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     roks::outdir::set_command(cli.command.name());
+    if let Err(e) = roks::interrupt::install() {
+        eprintln!("roks: cannot handle interrupts: {e}");
+        return ExitCode::from(1);
+    }
     let result = match cli.command {
         Command::Brdf(a) => brdf::execute(a),
         Command::Stats(a) => stats::execute(a),

@@ -600,7 +600,9 @@ fn replaced(dir: &Path, new: &[&str]) -> Replaced {
 /// Write `files` (name, bytes) as the result folder `path`, replacing any
 /// folder there whole (see the module documentation), with the record of
 /// its files ([`record`]) naming `command` as their writer. `path` should
-/// have passed [`check_folder`].
+/// have passed [`check_folder`]. The write holds the commit lock
+/// ([`crate::interrupt::commit`]): an interrupt finds the old folder or
+/// the new one, and no staging folder.
 ///
 /// # Errors
 /// Creating, writing, syncing or renaming failed (the staging folder is
@@ -610,6 +612,7 @@ pub fn write_folder(
     files: &[(&str, &[u8])],
     command: &str,
 ) -> std::io::Result<Replaced> {
+    let _commit = crate::interrupt::commit();
     let (parent, name) = split(path).map_err(std::io::Error::other)?;
     let path = &resolve(&parent.join(name)).map_err(std::io::Error::other)?;
     let (parent, name) = split(path).map_err(std::io::Error::other)?;

@@ -302,10 +302,12 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
         std::fs::create_dir_all(dir)
             .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
     }
+    let _commit = crate::interrupt::commit();
     crate::outdir::record_added(path, crate::outdir::command())
         .map_err(|e| anyhow::anyhow!("cannot write the record of {}: {e}", path.display()))?;
     crate::output::write_atomic(path, bytes)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    crate::interrupt::kept(shown(path));
     Ok(())
 }
 
@@ -329,6 +331,7 @@ pub fn write_folder<N: AsRef<str>, B: AsRef<[u8]>>(
         .collect();
     let replaced = crate::outdir::write_folder(out, &files, command)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    crate::interrupt::kept(shown(out));
     for line in removed_lines(out, &replaced) {
         eprintln!("roks: {}", escape_controls(&line));
     }

@@ -343,6 +343,8 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     doc["fits"] = serde_json::to_value(&fits).map_err(anyhow::Error::from)?;
     let png = fit_model::plot::png(table, plot_model.as_ref(), &fits, &title)?;
     let text = serde_json::to_string_pretty(&doc).map_err(anyhow::Error::from)? + "\n";
+    // All or none, for an interrupt.
+    let commit = crate::interrupt::commit();
     if a.model == ModelKind::Abg {
         let name = a
             .dir
@@ -356,6 +358,7 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     }
     write_file(&png_path, &png)?;
     write_file(&out, text.as_bytes())?;
+    drop(commit);
     if !a.quiet {
         for f in &fits {
             let params: Vec<String> = f

@@ -58,6 +58,8 @@ pub fn execute(a: PlotArgs) -> Result<(), Failure> {
         crate::outdir::check_replace(&path, crate::outdir::kind::FileKind::Png, a.force)
             .map_err(|e| Failure::Input(format!("{}: {e}", super::common::shown(&path))))?;
     }
+    // All or none, for an interrupt.
+    let _commit = crate::interrupt::commit();
     for (name, png) in &pictures {
         super::common::write_file(&dir.join(name), png)?;
     }

@@ -335,9 +335,12 @@ fn write_images(
     let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (png, applied) = write_png_preview(img, tone).map_err(|e| anyhow::anyhow!("{e}"))?;
     let png_path = out.with_extension("png");
+    // Both or neither, for an interrupt.
+    let commit = crate::interrupt::commit();
     for (path, bytes) in [(out, &exr), (png_path.as_path(), &png)] {
         write_file(path, bytes)?;
     }
+    drop(commit);
     let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
     let curve = match tone.tonemap {
         Tonemap::Log => format!("log, --decades {:.3}", applied.decades),
