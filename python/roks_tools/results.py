@@ -48,7 +48,7 @@ from .summary import BrdfSummary, FitSummary, Tallies, TraceSummary, read_fit, r
 __all__ = [
     "ResultError", "read_columns", "BrdfTable", "InPlane", "PolarTable", "ColourTable", "Reflectance",
     "FarField", "FarFieldStokes", "FitInPlane", "BrdfResult", "TraceResult", "FitResult", "load_result",
-    "read_file", "read_exr", "read_summary", "read_tallies", "read_fit", "read_toml", "HEADERS", "SPECTRAL_HEADERS",
+    "read_file", "read_exr", "read_summary", "read_tallies", "read_fit", "read_toml", "read_record", "HEADERS", "SPECTRAL_HEADERS",
 ]
 
 BRDF_COLUMNS = (
@@ -685,6 +685,23 @@ def read_toml(path: str | Path) -> dict:
         raise ResultError(f"{show(path)}: TOML nested too deeply") from None
 
 
+def read_record(path: str | Path) -> dict:
+    """`.roks-files.json`, the record of the files roks wrote into a result
+    folder (docs/src/output-safety.md), as a dict with `roks` (version),
+    `command` and `files` (file name -> the command that wrote it);
+    ResultError naming the file."""
+    import json
+    path = Path(path)
+    try:
+        v = json.loads(_text(path))
+    except (json.JSONDecodeError, RecursionError) as e:
+        raise ResultError(f"{show(path)}: not JSON: {str(e).splitlines()[0] if str(e) else type(e).__name__}") from None
+    if (not isinstance(v, dict) or not isinstance(v.get("command"), str) or not isinstance(v.get("files"), dict)
+            or not all(isinstance(k, str) and isinstance(c, str) for k, c in v["files"].items())):
+        raise ResultError(f"{show(path)}: not a record of roks (keys roks, command, files: name -> command)")
+    return v
+
+
 def _need(folder: Path, name: str) -> Path:
     p = folder / name
     if not p.is_file():
@@ -861,6 +878,7 @@ READERS = {
     "fit.json": read_fit,
     "fit_inplane.csv": FitInPlane.read,
     "fitted.toml": read_toml,
+    ".roks-files.json": read_record,
 }
 """The reader of every file roks writes, by name (pictures: `read_file`)."""
 

@@ -329,9 +329,12 @@ pub fn write_folder<N: AsRef<str>, B: AsRef<[u8]>>(
         .iter()
         .map(|(n, b)| (n.as_ref(), b.as_ref()))
         .collect();
+    // The swap and its note for an interrupt's line under one lock.
+    let commit = crate::interrupt::commit();
     let replaced = crate::outdir::write_folder(out, &files, command)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
     crate::interrupt::kept(shown(out));
+    drop(commit);
     for line in removed_lines(out, &replaced) {
         eprintln!("roks: {}", escape_controls(&line));
     }
