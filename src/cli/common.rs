@@ -132,8 +132,7 @@ pub fn result_dir(
     let Some(out) = given else {
         let out = Path::new("out").join(name);
         let key = format!("{scene_file}: name");
-        check_out_dir(&out, &key, force)?;
-        check_kept(&key, &[Written::Folder(&out)], reads)?;
+        check_out_dir(&out, &key, reads, force)?;
         if let Some(other) = recorded_scene(&out)
             .filter(|o| o != scene_file && !same_file(Path::new(o), Path::new(scene_file)))
         {
@@ -145,8 +144,7 @@ pub fn result_dir(
         }
         return Ok(out);
     };
-    check_out_dir(out, "--out", force)?;
-    check_kept("--out", &[Written::Folder(out)], reads)?;
+    check_out_dir(out, "--out", reads, force)?;
     Ok(out.to_path_buf())
 }
 
@@ -168,15 +166,20 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 /// Check a result folder before any work is done; `key` names it in the
-/// message (`--out`, or `SCENE: name` for the default out/NAME); `force`
-/// (`--force`) replaces a result folder holding files roks did not write.
+/// message (`--out`, or `SCENE: name` for the default out/NAME): it can
+/// be a result folder, replacing it destroys none of `reads`, the files the
+/// run reads ([`check_kept`]), and every file in it is roks's own unless
+/// `force` (`--force`), in this order.
 ///
 /// # Errors
 /// Bad input when the folder exists and is neither empty nor a roks result,
-/// or (without `force`) holds a file roks did not write.
-pub fn check_out_dir(out: &Path, key: &str, force: bool) -> Result<(), Failure> {
-    crate::outdir::check_folder(out, force)
-        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", shown(out))))
+/// holds one of `reads`, or (without `force`) holds a file roks did not
+/// write.
+pub fn check_out_dir(out: &Path, key: &str, reads: &[PathBuf], force: bool) -> Result<(), Failure> {
+    let bad = |e| Failure::Input(format!("{key}: {}: {e}", shown(out)));
+    crate::outdir::check_folder(out, true).map_err(bad)?;
+    check_kept(key, &[Written::Folder(out)], reads)?;
+    crate::outdir::check_folder(out, force).map_err(bad)
 }
 
 /// Check an output file (`--out`) of `kind` before any work is done: it

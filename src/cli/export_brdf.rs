@@ -18,9 +18,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{
-    FileKind, Written, check_kept, check_out_dir, check_out_file, shown, write_file, write_folder,
-};
+use super::common::{FileKind, check_out_dir, check_out_file, shown, write_file, write_folder};
 use crate::export::brdf_formats::{
     BrdfFormat, ExportFile, ExportRefusal, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
     reflectance_check,
@@ -131,8 +129,7 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     // is spectral comes from its header line (the loader checks it again).
     let folder = format == BrdfFormat::Zemax && header_is_spectral(&csv);
     if folder {
-        check_out_dir(&a.out, "--out", a.force)?;
-        check_kept("--out", &[Written::Folder(&a.out)], &inputs)?;
+        check_out_dir(&a.out, "--out", &inputs, a.force)?;
     } else {
         check_out_file(&a.out, &inputs, format.file_kind(), a.force)?;
     }

@@ -105,10 +105,9 @@ pub fn execute(a: FitArgs) -> Result<(), Failure> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
-    check_out_dir(&out, "--out", a.force)?;
     let mut reads = crate::scene::micro::MicroScene::reads_of(&a.scene);
     reads.push(a.measured.clone());
-    super::common::check_kept("--out", &[super::common::Written::Folder(&out)], &reads)?;
+    check_out_dir(&out, "--out", &reads, a.force)?;
     let quiet = a.quiet;
     let result = problem
         .fit_observed(&mut |k, values, misfit, rejected| {

@@ -52,8 +52,7 @@ pub struct MergeArgs {
 /// Bad input (a shard's tallies.json, shards of different runs, gaps or
 /// overlaps, `--out`, memory), or a failed write.
 pub fn execute(a: MergeArgs) -> Result<(), Failure> {
-    check_out_dir(&a.out, "--out", a.force)?;
-    super::common::check_kept("--out", &[super::common::Written::Folder(&a.out)], &a.dirs)?;
+    check_out_dir(&a.out, "--out", &a.dirs, a.force)?;
     if object_tallies::is_trace_shard(&a.dirs[0]) {
         if !a.export.is_empty() {
             return Err(Failure::Input(

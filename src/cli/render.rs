@@ -165,7 +165,9 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
         &format!("a {w} x {h} image (radiance, EXR and PNG)"),
         crate::render::image_memory_bytes(w, h),
     )?;
-    check_out_file(&a.out, a.scene.as_slice(), FileKind::Exr, a.force)?;
+    // Whether a file there may be replaced: after the files the scene
+    // reads are known (`check_kept`).
+    check_out_file(&a.out, a.scene.as_slice(), FileKind::Exr, true)?;
     let png = a.out.with_extension("png");
     if png == a.out {
         return Err(Failure::Input(format!(
@@ -173,7 +175,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
             a.out.display()
         )));
     }
-    check_out_file(&png, a.scene.as_slice(), FileKind::Png, a.force)?;
+    check_out_file(&png, a.scene.as_slice(), FileKind::Png, true)?;
     let threads = a.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
@@ -188,7 +190,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
         return object(&a, path, &tone);
     }
     let scene = load_scene(a.scene.as_deref())?;
-    check_kept(&a.out, &scene.reads)?;
+    check_kept(&a.out, &scene.reads, a.force)?;
     let (light_theta, light_phi) = match &a.light {
         Some(l) => (l[0], l[1]),
         None => (scene.light.theta_deg[0], scene.light.phi_deg[0]),
@@ -220,7 +222,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
 /// `roks render` of an object scene: a pinhole camera view.
 fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failure> {
     let scene = ObjectScene::load(path)?;
-    check_kept(&a.out, &scene.reads)?;
+    check_kept(&a.out, &scene.reads, a.force)?;
     for (name, v) in [("--camera", &a.camera), ("--look-at", &a.look_at)] {
         if v.as_ref().is_some_and(|v| v.len() != 3) {
             return Err(Failure::Input(format!(
@@ -307,11 +309,18 @@ fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failur
 
 /// Refuse an `out` (EXR) or its PNG preview beside it that would replace
 /// one of `reads`, the files the scene reads (a height map, a 16-bit PNG
-/// map, an n, k table).
-fn check_kept(out: &Path, reads: &[PathBuf]) -> Result<(), Failure> {
+/// map, an n, k table); then refuse an existing OUT or OUT.png that is
+/// not an EXR (a PNG) roks wrote, unless `force`
+/// ([`crate::outdir::check_replace`]).
+fn check_kept(out: &Path, reads: &[PathBuf], force: bool) -> Result<(), Failure> {
     let png = out.with_extension("png");
     let written = [Written::File(out), Written::File(&png)];
-    super::common::check_kept("--out", &written, reads)
+    super::common::check_kept("--out", &written, reads)?;
+    for (path, kind) in [(out, FileKind::Exr), (png.as_path(), FileKind::Png)] {
+        crate::outdir::check_replace(path, kind, force)
+            .map_err(|e| Failure::Input(format!("--out: {}: {e}", super::common::shown(path))))?;
+    }
+    Ok(())
 }
 
 /// Write `img` as OUT (EXR) and OUT.png (preview, tone-mapped by `tone`),

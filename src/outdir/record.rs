@@ -138,9 +138,9 @@ const KNOWN_PATTERNS: [(&str, &str); 8] = [
     ("fit_", "_opticstudio.txt"),
 ];
 
-/// Whether `name` is a file name roks writes into a result folder
-/// ([`KNOWN`], [`KNOWN_PATTERNS`]): how a folder without a record (written
-/// by an earlier roks) is judged.
+/// Whether `name` is a file name roks writes into a result folder (its
+/// tables, summaries, pictures, exports and fits, by name or pattern):
+/// how a folder without a record (written by an earlier roks) is judged.
 #[must_use]
 pub fn known_name(name: &str) -> bool {
     KNOWN.contains(&name)
