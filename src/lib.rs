@@ -126,6 +126,7 @@ pub mod export;
 pub mod fit;
 pub mod fit_model;
 pub mod geometry;
+pub mod interrupt;
 pub mod limits;
 pub mod micro;
 pub mod object;

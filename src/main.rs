@@ -21,6 +21,11 @@ fn main() -> ExitCode {
         eprintln!("roks: {e}");
         return ExitCode::from(2);
     }
+    roks::outdir::set_command(cli.command.name());
+    if let Err(e) = roks::interrupt::install() {
+        eprintln!("roks: cannot handle interrupts: {e}");
+        return ExitCode::from(1);
+    }
     let result = match cli.command {
         Command::Brdf(a) => brdf::execute(a),
         Command::Stats(a) => stats::execute(a),

@@ -22,10 +22,21 @@
 //! An existing folder is only replaced when it is empty or a roks result (it
 //! holds a `summary.json` or `fit.json` with a `version`, and no subfolder):
 //! anything else is refused before tracing, so `--out ~/Documents` cannot
-//! delete a folder roks did not write.
+//! delete a folder roks did not write. A result folder is only replaced
+//! when every file in it is roks's own: each folder carries the record of
+//! the files roks wrote into it ([`record`]); a file not in it (a user's
+//! `notes.txt`) is refused by name before any work, unless `--force`. A
+//! rerun removes the files later commands had added to the old result
+//! (they were made from its table) and says so in one line.
 
 use std::io::Write as _;
 use std::path::{Component, Path, PathBuf};
+
+pub mod kind;
+pub mod record;
+
+use kind::FileKind;
+use record::{RECORD, Record};
 
 /// Longest scene name, in bytes, that [`check_name`] accepts as a folder
 /// name (a file name may have 255; the staging suffix needs room).
@@ -70,6 +81,11 @@ pub enum OutPathError {
         "exists and {0}, so it is not a roks result folder, which a run replaces whole; choose a new folder"
     )]
     NotAResult(NotAResult),
+    /// A roks result folder that holds a file roks did not write.
+    #[error(
+        "holds the file {0:?}, which roks did not write; the run replaces the folder whole and would delete it: move the file, write elsewhere, or give --force to replace the folder anyway"
+    )]
+    Foreign(std::ffi::OsString),
     /// A symbolic link to a file where a folder is wanted.
     #[error("is a link to a file, not a folder")]
     LinkToFile,
@@ -82,6 +98,15 @@ pub enum OutPathError {
     /// A folder where a file is wanted.
     #[error("is a folder, not a file")]
     IsFolder,
+    /// An existing file that is not the kind of roks output to be written.
+    #[error(
+        "exists and is not {} that roks wrote, so it is kept: write elsewhere, or give --force to replace it",
+        .0.what()
+    )]
+    NotOurs(FileKind),
+    /// An existing path that is not a regular file (a FIFO, a device).
+    #[error("exists and is not a regular file, so it is not replaced; write elsewhere")]
+    NotRegular,
     /// A path ending in `/` where a file is wanted.
     #[error("ends with `/`, so it names a folder; a file is written here")]
     SlashEnded,
@@ -224,8 +249,9 @@ fn check_parent(parent: &Path) -> Result<(), OutPathError> {
 }
 
 /// Whether `dir` may be replaced by a new result: empty, or a roks result
-/// folder (no subfolder, and a [`RESULT_MARKERS`] file with a `version`).
-fn replaceable(dir: &Path) -> Result<(), OutPathError> {
+/// folder (no subfolder, and a [`RESULT_MARKERS`] file with a `version`)
+/// every file of which is roks's own ([`foreign`]; with `force`, any).
+fn replaceable(dir: &Path, force: bool) -> Result<(), OutPathError> {
     let entries = std::fs::read_dir(dir)
         .and_then(Iterator::collect::<Result<Vec<_>, _>>)
         .map_err(OutPathError::Unreadable)?;
@@ -239,28 +265,65 @@ fn replaceable(dir: &Path) -> Result<(), OutPathError> {
     {
         return refuse(NotAResult::Subfolder(sub.file_name()));
     }
-    let marked = RESULT_MARKERS.iter().any(|m| {
+    if !marked(dir) {
+        return refuse(NotAResult::NoMarker);
+    }
+    match foreign(dir).into_iter().next() {
+        Some(name) if !force => Err(OutPathError::Foreign(name)),
+        _ => Ok(()),
+    }
+}
+
+/// Whether `dir` holds a [`RESULT_MARKERS`] file with a `version`.
+fn marked(dir: &Path) -> bool {
+    RESULT_MARKERS.iter().any(|m| {
         crate::limits::read_capped(&dir.join(m), crate::limits::MAX_SCENE_BYTES)
             .ok()
             .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
             .is_some_and(|v| v.get("version").is_some_and(serde_json::Value::is_string))
+    })
+}
+
+/// The entries of the result folder `dir` that roks did not write, sorted
+/// by name: not in its record ([`record`]), nor the record itself, nor a
+/// temporary file of a killed roks write; a folder without a record (an
+/// earlier roks's): those whose names roks does not write
+/// ([`record::known_name`]).
+#[must_use]
+pub fn foreign(dir: &Path) -> Vec<std::ffi::OsString> {
+    let recorded = Record::read(dir);
+    let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.file_name()).collect())
+        .unwrap_or_default();
+    names.sort();
+    names.retain(|n| {
+        let Some(name) = n.to_str() else {
+            return true;
+        };
+        let own = name == RECORD
+            || record::temporary(name)
+            || recorded
+                .as_ref()
+                .map_or_else(|| record::known_name(name), |r| r.files.contains_key(name));
+        !own
     });
-    if marked {
-        Ok(())
-    } else {
-        refuse(NotAResult::NoMarker)
-    }
+    names
 }
 
 /// Check, before any work, that a result folder can be written at `path`
 /// (a symbolic link to a folder: at its target, which is replaced). The
 /// error is the reason, for a message after the option and path.
 ///
+/// With `force`, a roks result folder is replaced even when it holds files
+/// roks did not write (never a folder that is not a roks result, nor one
+/// that holds a folder).
+///
 /// # Errors
 /// `path` is a file or a link to one, names no folder (`/`, `..`), is a
-/// folder that is neither empty nor a roks result, or no folder can be
-/// created beside it.
-pub fn check_folder(path: &Path) -> Result<(), OutPathError> {
+/// folder that is neither empty nor a roks result, or one that holds a file
+/// roks did not write (without `force`), or no folder can be created
+/// beside it.
+pub fn check_folder(path: &Path, force: bool) -> Result<(), OutPathError> {
     let (parent, name) = split(path)?;
     let path = &parent.join(name);
     match std::fs::symlink_metadata(path) {
@@ -276,7 +339,7 @@ pub fn check_folder(path: &Path) -> Result<(), OutPathError> {
             } else {
                 return Err(OutPathError::IsFile);
             };
-            replaceable(&target)?;
+            replaceable(&target, force)?;
             check_parent(&split(&target)?.0).map_err(|e| OutPathError::Beside(Box::new(e)))
         }
         Err(e) if absent(&e) => check_parent(&parent),
@@ -294,7 +357,8 @@ fn resolve(path: &Path) -> Result<PathBuf, OutPathError> {
 }
 
 /// Check, before any work, that a single file can be written at `path` (not
-/// a folder; its folder can be created and written).
+/// a folder; its folder can be created and written). Whether a file there
+/// may be replaced is [`check_replace`]'s.
 ///
 /// # Errors
 /// The reason, as for [`check_folder`].
@@ -308,6 +372,40 @@ pub fn check_file(path: &Path) -> Result<(), OutPathError> {
         return Err(OutPathError::SlashEnded);
     }
     check_parent(&parent)
+}
+
+/// Check, before any work, that the file at `path`, if any, may be
+/// replaced by a single-file output of `kind`: there is none (or a
+/// dangling link), it is empty, it is that kind of roks output by its own
+/// bytes ([`FileKind::recognises`]), or the record of the result folder it
+/// is in lists it (a folder of an earlier roks without a record: a name
+/// roks writes there); with `force`, any regular file. Never a FIFO or
+/// device.
+///
+/// # Errors
+/// [`OutPathError::NotOurs`], [`OutPathError::NotRegular`], or the path
+/// names no file.
+pub fn check_replace(path: &Path, kind: FileKind, force: bool) -> Result<(), OutPathError> {
+    let (parent, name) = split(path)?;
+    let (parent, name) = (parent.as_path(), name.as_os_str());
+    let Ok(m) = std::fs::metadata(path) else {
+        return Ok(());
+    };
+    if !m.is_file() {
+        return Err(OutPathError::NotRegular);
+    }
+    let recorded = || {
+        let name = name.to_string_lossy();
+        Record::read(parent).map_or_else(
+            || marked(parent) && record::known_name(&name),
+            |r| r.files.contains_key(name.as_ref()),
+        )
+    };
+    if force || m.len() == 0 || kind.recognises(path) || recorded() {
+        Ok(())
+    } else {
+        Err(OutPathError::NotOurs(kind))
+    }
 }
 
 /// `path` as the system reaches it: absolute (from the working folder), its
@@ -455,14 +553,66 @@ fn sync_dir(dir: &Path) {
     }
 }
 
+/// What replacing a result folder removed beside the old run's own files
+/// ([`write_folder`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Replaced {
+    /// Files that later commands had added to the old result (name, the
+    /// command that wrote it; `an earlier roks` for a folder without a
+    /// record), which the new run did not write again.
+    pub added: Vec<(String, String)>,
+    /// Files roks did not write (only with `--force`).
+    pub foreign: Vec<String>,
+}
+
+/// What writing `new` (file names) over the folder `dir` removes beside
+/// the old run's own files ([`Replaced`]).
+fn replaced(dir: &Path, new: &[&str]) -> Replaced {
+    let mut out = Replaced::default();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return out;
+    };
+    let rec = Record::read(dir);
+    let mut names: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    for name in names {
+        if name == RECORD || record::temporary(&name) || new.contains(&name.as_str()) {
+            continue;
+        }
+        match &rec {
+            Some(r) => match r.files.get(&name) {
+                Some(by) if *by != r.command => out.added.push((name, by.clone())),
+                Some(_) => {}
+                None => out.foreign.push(name),
+            },
+            None if record::known_name(&name) => {
+                out.added.push((name, "an earlier roks".to_owned()));
+            }
+            None => out.foreign.push(name),
+        }
+    }
+    out
+}
+
 /// Write `files` (name, bytes) as the result folder `path`, replacing any
-/// folder there whole (see the module documentation). `path` should have
-/// passed [`check_folder`].
+/// folder there whole (see the module documentation), with the record of
+/// its files ([`record`]) naming `command` as their writer. `path` should
+/// have passed [`check_folder`]. The write holds the commit lock
+/// ([`crate::interrupt::commit`]): an interrupt finds the old folder or
+/// the new one, and no staging folder.
 ///
 /// # Errors
 /// Creating, writing, syncing or renaming failed (the staging folder is
 /// then removed and any old result left in place).
-pub fn write_folder(path: &Path, files: &[(&str, &[u8])]) -> std::io::Result<()> {
+pub fn write_folder(
+    path: &Path,
+    files: &[(&str, &[u8])],
+    command: &str,
+) -> std::io::Result<Replaced> {
+    let _commit = crate::interrupt::commit();
     let (parent, name) = split(path).map_err(std::io::Error::other)?;
     let path = &resolve(&parent.join(name)).map_err(std::io::Error::other)?;
     let (parent, name) = split(path).map_err(std::io::Error::other)?;
@@ -477,9 +627,12 @@ pub fn write_folder(path: &Path, files: &[(&str, &[u8])]) -> std::io::Result<()>
     if std::fs::symlink_metadata(&staging).is_ok() {
         std::fs::remove_dir_all(&staging)?;
     }
+    let names: Vec<&str> = files.iter().map(|f| f.0).collect();
+    let report = replaced(path, &names);
+    let record = Record::new(command, names.iter().copied()).to_bytes();
     std::fs::create_dir(&staging)?;
     let written = (|| {
-        for (file, bytes) in files {
+        for (file, bytes) in files.iter().copied().chain([(RECORD, record.as_slice())]) {
             let mut f = std::fs::File::create(staging.join(file))?;
             f.write_all(bytes)?;
             f.sync_all()?;
@@ -492,7 +645,58 @@ pub fn write_folder(path: &Path, files: &[(&str, &[u8])]) -> std::io::Result<()>
     }
     written?;
     sync_dir(&parent);
-    Ok(())
+    Ok(report)
+}
+
+/// The name of the running command (`brdf`, `fit-model`, ...), for the
+/// records of result folders ([`record_added`]); set once by the binary
+/// ([`set_command`]), `roks` until then.
+static COMMAND: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();
+
+/// Name the running command (once; later calls are ignored).
+pub fn set_command(name: &'static str) {
+    let _ = COMMAND.set(name);
+}
+
+/// The running command ([`set_command`]), `roks` when none was named.
+#[must_use]
+pub fn command() -> &'static str {
+    COMMAND.get().copied().unwrap_or("roks")
+}
+
+/// Add `path`, a file about to be written by `command`, to the record of
+/// the result folder it is in, if that folder has one (and does not list
+/// it yet): later checks then know it as roks's own. Recorded before the
+/// file is written, so a kill between the two leaves a record naming a
+/// missing file, never a file roks wrote missing from the record.
+///
+/// # Errors
+/// The record cannot be rewritten.
+pub fn record_added(path: &Path, command: &str) -> std::io::Result<()> {
+    let Ok((dir, name)) = split(path) else {
+        return Ok(());
+    };
+    let Some(mut rec) = Record::read(&dir) else {
+        return Ok(());
+    };
+    let name = name.to_string_lossy().into_owned();
+    if name == RECORD || rec.files.contains_key(&name) {
+        return Ok(());
+    }
+    rec.files.insert(name, command.to_owned());
+    // Atomically, as `crate::output::write_atomic` writes.
+    let path = dir.join(RECORD);
+    let tmp = dir.join(format!(".{RECORD}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(&rec.to_bytes())?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, &path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
 
 /// Put the complete folder `staging` at `path`. A folder already at `path`
@@ -584,7 +788,7 @@ mod tests {
     fn the_portable_swap_replaces_the_folder_whole() {
         let d = scratch("two-renames");
         let out = d.join("r");
-        write_folder(&out, &[("a.txt", b"old"), ("summary.json", b"{}")]).unwrap();
+        write_folder(&out, &[("a.txt", b"old"), ("summary.json", b"{}")], "brdf").unwrap();
         let staging = d.join(".r.new-1");
         std::fs::create_dir(&staging).unwrap();
         std::fs::write(staging.join("b.txt"), b"new").unwrap();
@@ -597,7 +801,7 @@ mod tests {
     fn a_rerun_leaves_only_its_own_files_and_removes_dead_leftovers() {
         let d = scratch("rerun");
         let out = d.join("r");
-        write_folder(&out, &[("old.png", b"1"), ("summary.json", b"{}")]).unwrap();
+        write_folder(&out, &[("old.png", b"1"), ("summary.json", b"{}")], "brdf").unwrap();
         // Leftovers of a killed run (no such pid) and of a live one (ours is
         // skipped by name, so use pid 1, which always exists).
         for dead in [".r.new-4294967", ".r.old-4294968"] {
@@ -605,20 +809,25 @@ mod tests {
             std::fs::write(d.join(dead).join("x"), b"").unwrap();
         }
         std::fs::create_dir(d.join(".r.new-1")).unwrap();
-        write_folder(&out, &[("summary.json", b"{}")]).unwrap();
-        assert_eq!(names(&out), ["summary.json"]);
+        let report = write_folder(&out, &[("summary.json", b"{}")], "brdf").unwrap();
+        assert_eq!(report, Replaced::default());
+        assert_eq!(names(&out), [RECORD, "summary.json"]);
         assert_eq!(names(&d), [".r.new-1", "r"]);
+    }
+
+    fn check_folder_(p: &Path) -> Result<(), OutPathError> {
+        check_folder(p, false)
     }
 
     #[test]
     fn only_empty_or_result_folders_are_replaced() {
         let d = scratch("replaceable");
-        assert!(check_folder(&d.join("new")).is_ok());
+        assert!(check_folder_(&d.join("new")).is_ok());
         std::fs::create_dir(d.join("empty")).unwrap();
-        assert!(check_folder(&d.join("empty")).is_ok());
+        assert!(check_folder_(&d.join("empty")).is_ok());
         std::fs::create_dir_all(d.join("mine/sub")).unwrap();
         assert!(
-            check_folder(&d.join("mine"))
+            check_folder_(&d.join("mine"))
                 .unwrap_err()
                 .to_string()
                 .contains("holds the folder")
@@ -626,30 +835,69 @@ mod tests {
         std::fs::create_dir(d.join("notes")).unwrap();
         std::fs::write(d.join("notes/summary.json"), b"{\"a\": 1}").unwrap();
         assert!(
-            check_folder(&d.join("notes"))
+            check_folder_(&d.join("notes"))
                 .unwrap_err()
                 .to_string()
                 .contains("no roks summary.json")
         );
         std::fs::write(d.join("notes/summary.json"), b"{\"version\": \"0.1.0\"}").unwrap();
-        assert!(check_folder(&d.join("notes")).is_ok());
+        assert!(check_folder_(&d.join("notes")).is_ok());
+        // A result of an earlier roks (no record) is judged by its names.
+        std::fs::write(d.join("notes/notes.txt"), b"mine").unwrap();
+        let e = check_folder_(&d.join("notes")).unwrap_err().to_string();
+        assert!(
+            e.starts_with("holds the file \"notes.txt\", which roks did not write"),
+            "{e}"
+        );
+        assert!(check_folder(&d.join("notes"), true).is_ok());
         std::fs::write(d.join("file"), b"").unwrap();
         assert!(
-            check_folder(&d.join("file"))
+            check_folder_(&d.join("file"))
                 .unwrap_err()
                 .to_string()
                 .contains("is a file")
         );
         assert!(
-            check_folder(&d.join("file/x"))
+            check_folder_(&d.join("file/x"))
                 .unwrap_err()
                 .to_string()
                 .contains("is a file")
         );
-        assert!(check_folder(Path::new("/")).is_err());
-        assert!(check_folder(&d.join("..")).is_err());
+        assert!(check_folder_(Path::new("/")).is_err());
+        assert!(check_folder_(&d.join("..")).is_err());
         assert_eq!(split(Path::new("a/b/.")).unwrap(), ("a".into(), "b".into()));
         assert_eq!(split(Path::new("b/")).unwrap(), (".".into(), "b".into()));
         assert_eq!(split(Path::new("/b")).unwrap(), ("/".into(), "b".into()));
+    }
+
+    #[test]
+    fn a_result_folder_is_replaced_only_when_every_file_is_recorded() {
+        let d = scratch("record");
+        let out = d.join("r");
+        let summary = br#"{"version": "0.1.0"}"#.as_slice();
+        write_folder(
+            &out,
+            &[("summary.json", summary), ("brdf.csv", b"x")],
+            "brdf",
+        )
+        .unwrap();
+        assert!(check_folder(&out, false).is_ok());
+        // A later export recorded before it is written; a user's file not.
+        record_added(&out.join("mine.bsdf"), "export-brdf").unwrap();
+        std::fs::write(out.join("mine.bsdf"), b"z").unwrap();
+        assert!(check_folder(&out, false).is_ok());
+        std::fs::write(out.join("a note"), b"mine").unwrap();
+        assert_eq!(foreign(&out), ["a note"]);
+        assert!(
+            matches!(check_folder(&out, false), Err(OutPathError::Foreign(n)) if n == "a note")
+        );
+        // With --force the rerun replaces it, and says what it removed.
+        let report = write_folder(&out, &[("summary.json", summary)], "brdf").unwrap();
+        assert_eq!(
+            report.added,
+            [("mine.bsdf".to_owned(), "export-brdf".to_owned())]
+        );
+        assert_eq!(report.foreign, ["a note"]);
+        assert_eq!(names(&out), [RECORD, "summary.json"]);
     }
 }

@@ -76,8 +76,11 @@ pub fn write_wavelength(s: &mut String, r: &IncidenceResult) {
 
 /// Write `bytes` to `path` atomically (temporary sibling `.NAME.PID.tmp`,
 /// synced, then renamed over `path`): a reader sees the old file or the new
-/// one. Temporary files of killed writes of `path` are removed first.
+/// one. Temporary files of killed writes of `path` are removed first. The
+/// write holds the commit lock ([`crate::interrupt::commit`]): an
+/// interrupt finds the old file or the new one, and no temporary file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let _commit = crate::interrupt::commit();
     let name = path
         .file_name()
         .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());

@@ -701,7 +701,10 @@ pub fn write_exr(img: &Image) -> Result<Vec<u8>, RenderProblem> {
     let w = img.width;
     let layer = Layer::new(
         (img.width, img.height),
-        LayerAttributes::named("radiance"),
+        LayerAttributes {
+            software_name: Some(Text::from(crate::outdir::kind::EXR_SOFTWARE)),
+            ..LayerAttributes::named("radiance")
+        },
         encoding,
         SpecificChannels::rgb(|p: Vec2<usize>| {
             let [r, g, b] = img.rgb[p.y() * w + p.x()];
@@ -736,7 +739,7 @@ pub fn write_png_preview(
     image::codecs::png::PngEncoder::new(&mut out)
         .write_image(&bytes, width, height, image::ExtendedColorType::Rgb8)
         .map_err(RenderProblem::Png)?;
-    Ok((out, applied))
+    Ok((crate::outdir::kind::mark_png(out), applied))
 }
 
 #[cfg(test)]

@@ -976,6 +976,7 @@ fn shared_options_keep_their_place_in_the_help() {
         listed_options("brdf"),
         [
             "--out",
+            "--force",
             "--photons",
             "--seed",
             "--threads",
@@ -997,6 +998,7 @@ fn shared_options_keep_their_place_in_the_help() {
         listed_options("trace"),
         [
             "--out",
+            "--force",
             "--photons",
             "--seed",
             "--threads",

@@ -240,7 +240,12 @@ fn trace_and_merge_replace_their_folders_whole() {
     );
     assert_eq!(
         names(&out),
-        ["reflectance.csv", "reflectance.png", "summary.json"]
+        [
+            ".roks-files.json",
+            "reflectance.csv",
+            "reflectance.png",
+            "summary.json"
+        ]
     );
 
     let micro = write_scene(&dir, MICRO);
@@ -285,7 +290,10 @@ fn trace_and_merge_replace_their_folders_whole() {
         std::fs::copy(shards[0].join(&name), copy.join(&name)).unwrap();
     }
     std::fs::write(copy.join("brdf.bsdf"), "a stale export\n").unwrap();
-    let a = [
+    // Not in the folder's record (.roks-files.json, copied from the shard):
+    // a file roks did not write there, refused unless --force
+    // (docs/src/output-safety.md).
+    let mut a = vec![
         "merge",
         s(&shards[0]),
         s(&shards[1]),
@@ -293,10 +301,15 @@ fn trace_and_merge_replace_their_folders_whole() {
         s(&copy),
         "-q",
     ];
+    let o = roks_in(&dir, &a);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("holds the file \"brdf.bsdf\""));
+    a.push("--force");
     ok(&roks_in(&dir, &a), "merge");
     assert_eq!(
         names(&copy),
         [
+            ".roks-files.json",
             "brdf.csv",
             "hemisphere_30deg.png",
             "inplane.csv",
@@ -822,6 +835,7 @@ fn a_link_to_a_result_folder_is_followed() {
         assert_eq!(
             names(&target),
             [
+                ".roks-files.json",
                 "brdf.csv",
                 png.as_str(),
                 "inplane.csv",

@@ -176,6 +176,10 @@ fn merged_exports_and_pictures_equal_the_single_run() {
     expected.sort();
     assert_eq!(names(&merged), expected);
     for f in names(&whole) {
+        if f == ".roks-files.json" {
+            // The record names the writer: brdf here, merge there.
+            continue;
+        }
         if f == "summary.json" {
             assert_eq!(
                 summary_without_timing(&whole),

@@ -170,6 +170,7 @@ fn spectral_folders_export_through_the_binary() {
     assert_eq!(
         names,
         [
+            ".roks-files.json",
             "brdf_0.45um.bsdf",
             "brdf_0.55um.bsdf",
             "brdf_0.65um.bsdf",

@@ -133,6 +133,26 @@ pub enum Command {
     Plot(plot::PlotArgs),
 }
 
+impl Command {
+    /// The command's name on the command line (`brdf`, `fit-model`, ...).
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Brdf(_) => "brdf",
+            Self::Stats(_) => "stats",
+            Self::Trace(_) => "trace",
+            Self::Fit(_) => "fit",
+            Self::ExportMesh(_) => "export-mesh",
+            Self::ExportHeightfield(_) => "export-heightfield",
+            Self::Render(_) => "render",
+            Self::Merge(_) => "merge",
+            Self::ExportBrdf(_) => "export-brdf",
+            Self::FitModel(_) => "fit-model",
+            Self::Plot(_) => "plot",
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use clap::CommandFactory;
@@ -177,6 +197,7 @@ mod tests {
                     photons: Some(1000),
                     seed: Some(7),
                     threads: Some(2),
+                    force: false,
                 }
             );
         }

@@ -159,6 +159,7 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
         &scene.scene_file.file,
         &scene.name,
         &scene.reads,
+        a.tracing.force,
     )?;
 
     let map = scene.surface.height_map(rx, ry);
@@ -194,7 +195,7 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let mut files = folder.files(extra);
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     files.push(("surface.png".into(), surface));
-    write_folder(&out, &files)?;
+    write_folder(&out, &files, "brdf")?;
 
     if !a.quiet {
         print_results(&folder, Some(scene.random));

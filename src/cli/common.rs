@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 
 use super::Failure;
+pub use crate::outdir::kind::FileKind;
 use crate::scene::micro::{MicroScene, Overrides};
 
 /// The micro scene at `path`, or the embedded default scene.
@@ -115,6 +116,8 @@ pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Fai
 /// `summary.json` names it), the run is refused, so an edited copy of a
 /// scene that kept its `name` cannot silently replace the original's
 /// result. `--out` names a folder on purpose and may replace any result.
+/// `force` (`--force`) replaces a result folder that holds files roks did
+/// not write ([`crate::outdir::check_folder`]).
 ///
 /// # Errors
 /// Bad input when the folder cannot be a result folder, or is the default
@@ -124,12 +127,12 @@ pub fn result_dir(
     scene_file: &str,
     name: &str,
     reads: &[PathBuf],
+    force: bool,
 ) -> Result<PathBuf, Failure> {
     let Some(out) = given else {
         let out = Path::new("out").join(name);
         let key = format!("{scene_file}: name");
-        check_out_dir(&out, &key)?;
-        check_kept(&key, &[Written::Folder(&out)], reads)?;
+        check_out_dir(&out, &key, reads, force)?;
         if let Some(other) = recorded_scene(&out)
             .filter(|o| o != scene_file && !same_file(Path::new(o), Path::new(scene_file)))
         {
@@ -141,8 +144,7 @@ pub fn result_dir(
         }
         return Ok(out);
     };
-    check_out_dir(out, "--out")?;
-    check_kept("--out", &[Written::Folder(out)], reads)?;
+    check_out_dir(out, "--out", reads, force)?;
     Ok(out.to_path_buf())
 }
 
@@ -164,35 +166,57 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 /// Check a result folder before any work is done; `key` names it in the
-/// message (`--out`, or `SCENE: name` for the default out/NAME).
+/// message (`--out`, or `SCENE: name` for the default out/NAME): it can
+/// be a result folder, replacing it destroys none of `reads`, the files the
+/// run reads ([`check_kept`]), and every file in it is roks's own unless
+/// `force` (`--force`), in this order.
 ///
 /// # Errors
-/// Bad input when the folder exists and is neither empty nor a roks result.
-pub fn check_out_dir(out: &Path, key: &str) -> Result<(), Failure> {
-    crate::outdir::check_folder(out)
-        .map_err(|e| Failure::Input(format!("{key}: {}: {e}", shown(out))))
+/// Bad input when the folder exists and is neither empty nor a roks result,
+/// holds one of `reads`, or (without `force`) holds a file roks did not
+/// write.
+pub fn check_out_dir(out: &Path, key: &str, reads: &[PathBuf], force: bool) -> Result<(), Failure> {
+    let bad = |e| Failure::Input(format!("{key}: {}: {e}", shown(out)));
+    crate::outdir::check_folder(out, true).map_err(bad)?;
+    check_kept(key, &[Written::Folder(out)], reads)?;
+    crate::outdir::check_folder(out, force).map_err(bad)
 }
 
-/// Check an output file (`--out`) before any work is done: it can be
-/// written as a file (not a folder, nor a path ending in `/`; its folder
-/// can be made), and writing it replaces none of `inputs`, the files the
-/// command reads ([`check_kept`]).
+/// Check an output file (`--out`) of `kind` before any work is done: it
+/// can be written as a file (not a folder, nor a path ending in `/`; its
+/// folder can be made), writing it replaces none of `inputs`, the files
+/// the command reads ([`check_kept`]), and a file already there is that
+/// kind of roks output, or roks's by its folder's record, or `force`
+/// (`--force`) is given ([`crate::outdir::check_replace`]).
 ///
 /// # Errors
-/// Bad input when `out` cannot be written as a file or would replace one
-/// of `inputs`.
-pub fn check_out_file(out: &Path, inputs: &[PathBuf]) -> Result<(), Failure> {
-    check_out_file_as("--out", out, inputs)
+/// Bad input when `out` cannot be written as a file, would replace one of
+/// `inputs`, or is a file roks may not replace.
+pub fn check_out_file(
+    out: &Path,
+    inputs: &[PathBuf],
+    kind: FileKind,
+    force: bool,
+) -> Result<(), Failure> {
+    check_out_file_as("--out", out, inputs, kind, force)
 }
 
 /// [`check_out_file`] of the output of `option`.
 ///
 /// # Errors
 /// As [`check_out_file`].
-pub fn check_out_file_as(option: &str, out: &Path, inputs: &[PathBuf]) -> Result<(), Failure> {
-    crate::outdir::check_file(out)
-        .map_err(|e| Failure::Input(format!("{option}: {}: {e}", shown(out))))?;
-    check_kept(option, &[Written::File(out)], inputs)
+pub fn check_out_file_as(
+    option: &str,
+    out: &Path,
+    inputs: &[PathBuf],
+    kind: FileKind,
+    force: bool,
+) -> Result<(), Failure> {
+    let bad =
+        |e: crate::outdir::OutPathError| Failure::Input(format!("{option}: {}: {e}", shown(out)));
+    crate::outdir::check_file(out).map_err(bad)?;
+    check_kept(option, &[Written::File(out)], inputs)?;
+    crate::outdir::check_replace(out, kind, force).map_err(bad)
 }
 
 /// What a command writes, to be checked against what it reads.
@@ -269,7 +293,10 @@ pub fn escape_controls(text: &str) -> String {
         .collect()
 }
 
-/// Write `bytes` to `path` atomically, creating its folder.
+/// Write `bytes` to `path` atomically, creating its folder. A file written
+/// into a result folder is added to its record first
+/// ([`crate::outdir::record_added`], as written by the running command),
+/// so that a rerun knows it as roks's own.
 ///
 /// # Errors
 /// The I/O error, naming the path.
@@ -278,28 +305,72 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
         std::fs::create_dir_all(dir)
             .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
     }
+    let _commit = crate::interrupt::commit();
+    crate::outdir::record_added(path, crate::outdir::command())
+        .map_err(|e| anyhow::anyhow!("cannot write the record of {}: {e}", path.display()))?;
     crate::output::write_atomic(path, bytes)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    crate::interrupt::kept(shown(path));
     Ok(())
 }
 
-/// Write the result folder `out` whole, `files` as (name, bytes): staged
-/// beside it, then swapped in (see [`crate::outdir`]); a reader never sees
-/// old and new files mixed.
+/// Write the result folder `out` whole, `files` as (name, bytes), with the
+/// record naming `command` as their writer: staged beside it, then swapped
+/// in (see [`crate::outdir`]); a reader never sees old and new files
+/// mixed. The files that later commands had added to the old result, and
+/// those roks did not write (only with `--force`), are named on stderr, one
+/// line each ([`removed_lines`]).
 ///
 /// # Errors
 /// The I/O error, naming the folder.
 pub fn write_folder<N: AsRef<str>, B: AsRef<[u8]>>(
     out: &Path,
     files: &[(N, B)],
+    command: &str,
 ) -> Result<(), Failure> {
     let files: Vec<(&str, &[u8])> = files
         .iter()
         .map(|(n, b)| (n.as_ref(), b.as_ref()))
         .collect();
-    crate::outdir::write_folder(out, &files)
+    // The swap and its note for an interrupt's line under one lock.
+    let commit = crate::interrupt::commit();
+    let replaced = crate::outdir::write_folder(out, &files, command)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    crate::interrupt::kept(shown(out));
+    drop(commit);
+    for line in removed_lines(out, &replaced) {
+        eprintln!("roks: {}", escape_controls(&line));
+    }
     Ok(())
+}
+
+/// The lines that say what replacing the result folder `out` removed
+/// beside the old run's own files: the files later commands had added (they
+/// were made from the old table, so they go with it) and those roks did not
+/// write (`--force`).
+#[must_use]
+pub fn removed_lines(out: &Path, r: &crate::outdir::Replaced) -> Vec<String> {
+    let mut lines = Vec::new();
+    if !r.added.is_empty() {
+        let names: Vec<String> = r
+            .added
+            .iter()
+            .map(|(f, by)| format!("{f} ({by})"))
+            .collect();
+        lines.push(format!(
+            "{}: removed {}: added to the old result by later commands and made from its table, which this run replaced; run them again to remake them",
+            shown(out),
+            names.join(", ")
+        ));
+    }
+    if !r.foreign.is_empty() {
+        lines.push(format!(
+            "--force: {}: removed {}, which roks did not write",
+            shown(out),
+            r.foreign.join(", ")
+        ));
+    }
+    lines
 }
 
 /// Write `text` to standard output; a closed pipe (`roks stats | head`) is a
@@ -379,6 +450,11 @@ pub struct TracingArgs {
     /// (an existing one must be empty or a roks result).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace the output folder even when it holds files roks did not
+    /// write (they are deleted; a folder that holds a folder, or is not a
+    /// roks result, is still refused).
+    #[arg(long)]
+    pub force: bool,
     /// Photons per incidence angle or beam position (overrides the scene's).
     #[arg(long, value_parser = super::parse::positive::<u64>)]
     pub photons: Option<u64>,
@@ -411,15 +487,18 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let given = dir.join("given");
-        assert_eq!(result_dir(Some(&given), "s.toml", "x", &[]).unwrap(), given);
         assert_eq!(
-            result_dir(None, "s.toml", "x", &[]).unwrap(),
+            result_dir(Some(&given), "s.toml", "x", &[], false).unwrap(),
+            given
+        );
+        assert_eq!(
+            result_dir(None, "s.toml", "x", &[], false).unwrap(),
             Path::new("out").join("x")
         );
         // A file that is not a roks result is never replaced.
         let foreign = dir.join("notes.txt");
         std::fs::write(&foreign, "mine").unwrap();
-        let e = result_dir(Some(&foreign), "s.toml", "x", &[]).unwrap_err();
+        let e = result_dir(Some(&foreign), "s.toml", "x", &[], false).unwrap_err();
         assert!(
             matches!(&e, Failure::Input(m) if m.starts_with(&format!("--out: {}: ", foreign.display()))),
             "{e}"

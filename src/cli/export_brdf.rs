@@ -18,9 +18,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{
-    Written, check_kept, check_out_dir, check_out_file, shown, write_file, write_folder,
-};
+use super::common::{FileKind, check_out_dir, check_out_file, shown, write_file, write_folder};
 use crate::export::brdf_formats::{
     BrdfFormat, ExportFile, ExportRefusal, ReflectanceCheck, ZemaxGrid, colour_reflectance_check,
     reflectance_check,
@@ -44,6 +42,11 @@ pub struct ExportBrdfArgs {
     /// OUT/export.json naming the set).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace OUT even when it is not an export roks wrote (a file of
+    /// another kind, or a folder holding files roks did not write; a folder
+    /// that holds a folder, or is not a roks result, is still refused).
+    #[arg(long)]
+    pub force: bool,
     /// Zemax grid AZIMUTH_STEP,RADIAL_STEP in degrees (default 2,1): finer
     /// steps follow a narrow peak more closely, in a larger file.
     #[arg(long, value_name = "AZIMUTH_DEG,RADIAL_DEG", value_parser = grid)]
@@ -126,10 +129,9 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     // is spectral comes from its header line (the loader checks it again).
     let folder = format == BrdfFormat::Zemax && header_is_spectral(&csv);
     if folder {
-        check_out_dir(&a.out, "--out")?;
-        check_kept("--out", &[Written::Folder(&a.out)], &inputs)?;
+        check_out_dir(&a.out, "--out", &inputs, a.force)?;
     } else {
-        check_out_file(&a.out, &inputs)?;
+        check_out_file(&a.out, &inputs, format.file_kind(), a.force)?;
     }
     let mut tables = BrdfTables::load(&csv).map_err(|e| Failure::Input(e.to_string()))?;
     if folder != (format == BrdfFormat::Zemax && tables.spectral().is_some()) {
@@ -216,7 +218,7 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
             .collect();
         let text = serde_json::to_string_pretty(&marker).map_err(anyhow::Error::from)?;
         written.push((EXPORT_MARKER.to_owned(), (text + "\n").into_bytes()));
-        write_folder(&a.out, &written)?;
+        write_folder(&a.out, &written, "export-brdf")?;
         if !a.quiet {
             eprintln!("wrote {} ({format}, {} files)", shown(&a.out), files.len());
         }
@@ -233,6 +235,19 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+impl BrdfFormat {
+    /// The kind of file an export of this format is, to tell an existing
+    /// one ([`crate::outdir::kind`]).
+    fn file_kind(self) -> FileKind {
+        match self {
+            Self::Zemax => FileKind::Zemax,
+            Self::Merl => FileKind::Merl,
+            Self::Rgl => FileKind::Rgl,
+            Self::Pbsdf => FileKind::Pbsdf,
+        }
+    }
 }
 
 /// Whether the `brdf.csv` at `csv` is a spectral run's: its first line is

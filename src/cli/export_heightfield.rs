@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::common::{check_memory, check_out_file, load_scene, own_grid, write_file};
+use super::common::{FileKind, check_memory, check_out_file, load_scene, own_grid, write_file};
 use super::parse::integer;
 use crate::micro::heightfield_io::{self, Format, HeightGrid};
 
@@ -18,6 +18,10 @@ pub struct ExportHeightfieldArgs {
     /// Output file: .exr (one f32 channel Y) or .txt (text grid, exact).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace an existing OUT even when it is not a height map that roks
+    /// wrote (see docs/src/output-safety.md).
+    #[arg(long)]
+    pub force: bool,
     /// Vertices per side for a scene of bumps (default 512); a height-field
     /// scene writes its own grid and only accepts its own resolution.
     #[arg(long, value_parser = integer::<usize>)]
@@ -37,7 +41,12 @@ pub fn execute(a: ExportHeightfieldArgs) -> Result<(), Failure> {
     }
     let scene = load_scene(a.scene.as_deref())?;
     own_grid(&scene, a.resolution)?;
-    check_out_file(&a.out, &scene.reads)?;
+    let kind = if format == Format::Exr {
+        FileKind::Exr
+    } else {
+        FileKind::HeightText
+    };
+    check_out_file(&a.out, &scene.reads, kind, a.force)?;
     let ext = a
         .out
         .extension()

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{check_memory, check_out_file, load_scene, own_grid, write_file};
+use super::common::{FileKind, check_memory, check_out_file, load_scene, own_grid, write_file};
 use super::parse::{integer, number};
 use crate::export::object_mesh::{MAX_VOXELS_PER_SIDE, object_mesh};
 use crate::scene::SceneKind;
@@ -21,6 +21,10 @@ pub struct ExportMeshArgs {
     /// Output PLY file.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace an existing OUT even when it is not a PLY mesh that roks
+    /// wrote (see docs/src/output-safety.md).
+    #[arg(long)]
+    pub force: bool,
     /// Grid cells per side of the period (default 512; a height-field scene
     /// writes its own grid and triangles, and only accepts its own
     /// resolution); for object scenes, voxels along the longest side of
@@ -64,7 +68,7 @@ pub fn execute(a: ExportMeshArgs) -> Result<(), Failure> {
         &format!("a mesh of {} x {} grid squares", n.0, n.1),
         crate::export::mesh_memory_bytes(n.0, n.1),
     )?;
-    check_out_file(&a.out, &scene.reads)?;
+    check_out_file(&a.out, &scene.reads, FileKind::Ply, a.force)?;
     let mesh = match scene.surface.heightfield() {
         Some(field) => crate::export::field_mesh(field),
         None => crate::export::height_field_mesh(&scene.surface, resolution),
@@ -103,7 +107,7 @@ fn object(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
         let what = format!("the voxel grid of resolution {resolution} over --bounds");
         check_memory("--resolution", &what, bytes)?;
     }
-    check_out_file(&a.out, &scene.reads)?;
+    check_out_file(&a.out, &scene.reads, FileKind::Ply, a.force)?;
     let mesh = object_mesh(&scene.object, lo, hi, resolution)
         .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.scene_file.file)))?;
     if mesh.faces.is_empty() {

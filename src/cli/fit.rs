@@ -55,6 +55,11 @@ pub struct FitArgs {
     /// existing one must be empty or a roks result).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace the output folder even when it holds files roks did not
+    /// write (they are deleted; a folder that holds a folder, or is not a
+    /// roks result, is still refused).
+    #[arg(long)]
+    pub force: bool,
     /// No progress lines on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -100,10 +105,9 @@ pub fn execute(a: FitArgs) -> Result<(), Failure> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
-    check_out_dir(&out, "--out")?;
     let mut reads = crate::scene::micro::MicroScene::reads_of(&a.scene);
     reads.push(a.measured.clone());
-    super::common::check_kept("--out", &[super::common::Written::Folder(&out)], &reads)?;
+    check_out_dir(&out, "--out", &reads, a.force)?;
     let quiet = a.quiet;
     let result = problem
         .fit_observed(&mut |k, values, misfit, rejected| {
@@ -138,6 +142,7 @@ pub fn execute(a: FitArgs) -> Result<(), Failure> {
             ("fitted.toml", fitted.as_bytes()),
             ("fit.json", text.as_bytes()),
         ],
+        "fit",
     )?;
     if !quiet {
         for (i, p) in params.iter().enumerate() {

@@ -13,7 +13,7 @@ use clap::Args;
 use serde_json::json;
 
 use super::Failure;
-use super::common::{check_out_file, write_file};
+use super::common::{FileKind, check_out_file, write_file};
 use super::parse::number;
 use crate::fit_model::microfacet::{Distribution, Microfacet};
 use crate::fit_model::{self, FitResult, ModelKind, abg, harvey, observations};
@@ -35,6 +35,10 @@ pub struct FitModelArgs {
     /// with _opticstudio.txt.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace an existing output (JSON, plot, text) even when it is not that kind of fit-model output that roks
+    /// wrote (see docs/src/output-safety.md).
+    #[arg(long)]
+    pub force: bool,
     /// ggx, beckmann: the material's refractive index n (with --k; default:
     /// the material of the scene named in summary.json).
     #[arg(long, value_parser = number, allow_negative_numbers = true)]
@@ -168,8 +172,12 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     let png_path = beside(&out, ".png");
     let abg_path = beside(&out, "_opticstudio.txt");
     let inputs = [csv.clone(), summary_path.clone()];
-    for p in [&out, &png_path, &abg_path] {
-        check_out_file(p, &inputs)?;
+    for (p, kind) in [
+        (&out, FileKind::FitJson),
+        (&png_path, FileKind::Png),
+        (&abg_path, FileKind::FitText),
+    ] {
+        check_out_file(p, &inputs, kind, a.force)?;
     }
     let mut tables = BrdfTables::load(&csv).map_err(|e| input(e.to_string()))?;
     tables
@@ -335,6 +343,8 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     doc["fits"] = serde_json::to_value(&fits).map_err(anyhow::Error::from)?;
     let png = fit_model::plot::png(table, plot_model.as_ref(), &fits, &title)?;
     let text = serde_json::to_string_pretty(&doc).map_err(anyhow::Error::from)? + "\n";
+    // All or none, for an interrupt.
+    let commit = crate::interrupt::commit();
     if a.model == ModelKind::Abg {
         let name = a
             .dir
@@ -348,6 +358,7 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     }
     write_file(&png_path, &png)?;
     write_file(&out, text.as_bytes())?;
+    drop(commit);
     if !a.quiet {
         for f in &fits {
             let params: Vec<String> = f

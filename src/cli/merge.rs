@@ -25,6 +25,11 @@ pub struct MergeArgs {
     /// result).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace the output folder even when it holds files roks did not
+    /// write (they are deleted; a folder that holds a folder, or is not a
+    /// roks result, is still refused).
+    #[arg(long)]
+    pub force: bool,
     /// Also export the merged table, as `roks brdf --export` does for the
     /// whole run (comma-separated: zemax, merl, rgl; the same files). An
     /// rgl file takes the NDF of the micro scene the shards name, when that
@@ -47,8 +52,7 @@ pub struct MergeArgs {
 /// Bad input (a shard's tallies.json, shards of different runs, gaps or
 /// overlaps, `--out`, memory), or a failed write.
 pub fn execute(a: MergeArgs) -> Result<(), Failure> {
-    check_out_dir(&a.out, "--out")?;
-    super::common::check_kept("--out", &[super::common::Written::Folder(&a.out)], &a.dirs)?;
+    check_out_dir(&a.out, "--out", &a.dirs, a.force)?;
     if object_tallies::is_trace_shard(&a.dirs[0]) {
         if !a.export.is_empty() {
             return Err(Failure::Input(
@@ -94,7 +98,7 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     if let Ok(png) = std::fs::read(a.dirs[0].join("surface.png")) {
         files.push(("surface.png".into(), png));
     }
-    write_folder(&a.out, &files)?;
+    write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         print_table(&folder);
         eprintln!("merged {n_parts} shards into {}", a.out.display());
@@ -127,7 +131,7 @@ fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
         .description
         .folder(&merged.result, merged.seconds, None)
         .map_err(anyhow::Error::msg)?;
-    write_folder(&a.out, &files)?;
+    write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         super::trace::print_table(&merged.description.run, &merged.result);
         eprintln!("merged {n_parts} shards into {}", a.out.display());

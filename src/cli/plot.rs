@@ -20,6 +20,10 @@ pub struct PlotArgs {
     /// Nothing on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Replace a picture even when the file of its name in DIR is not a
+    /// PNG that roks wrote (see docs/src/output-safety.md).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Run `roks plot`: the pictures made from the folder's files
@@ -48,10 +52,16 @@ pub fn execute(a: PlotArgs) -> Result<(), Failure> {
         Err(why) if !a.quiet => eprintln!("roks: surface.png not redrawn: {why}"),
         Err(_) => {}
     }
-    for (name, png) in &pictures {
+    // Every picture checked before any is written.
+    for (name, _) in &pictures {
         let path = dir.join(name);
-        crate::output::write_atomic(&path, png)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+        crate::outdir::check_replace(&path, crate::outdir::kind::FileKind::Png, a.force)
+            .map_err(|e| Failure::Input(format!("{}: {e}", super::common::shown(&path))))?;
+    }
+    // All or none, for an interrupt.
+    let _commit = crate::interrupt::commit();
+    for (name, png) in &pictures {
+        super::common::write_file(&dir.join(name), png)?;
     }
     if !a.quiet {
         let names: Vec<&str> = pictures.iter().map(|p| p.0.as_str()).collect();

@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{Written, check_memory, check_out_file, load_scene, set_threads, write_file};
+use super::common::{
+    FileKind, Written, check_memory, check_out_file, load_scene, set_threads, write_file,
+};
 use super::parse::{integer, number, positive};
 use crate::render::{PinholeCamera, RenderSettings, ToneSettings, Tonemap};
 use crate::scene::SceneKind;
@@ -23,6 +25,10 @@ pub struct RenderArgs {
     /// Output EXR file.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace an existing OUT or its PNG preview even when it is not an EXR (a PNG) that roks
+    /// wrote (see docs/src/output-safety.md).
+    #[arg(long)]
+    pub force: bool,
     /// Micro scenes: view direction THETA,PHI in degrees (toward the camera).
     #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', default_value = "0,0", value_parser = number)]
     pub view: Vec<f64>,
@@ -159,7 +165,9 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
         &format!("a {w} x {h} image (radiance, EXR and PNG)"),
         crate::render::image_memory_bytes(w, h),
     )?;
-    check_out_file(&a.out, a.scene.as_slice())?;
+    // Whether a file there may be replaced: after the files the scene
+    // reads are known (`check_kept`).
+    check_out_file(&a.out, a.scene.as_slice(), FileKind::Exr, true)?;
     let png = a.out.with_extension("png");
     if png == a.out {
         return Err(Failure::Input(format!(
@@ -167,7 +175,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
             a.out.display()
         )));
     }
-    check_out_file(&png, a.scene.as_slice())?;
+    check_out_file(&png, a.scene.as_slice(), FileKind::Png, true)?;
     let threads = a.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
@@ -182,7 +190,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
         return object(&a, path, &tone);
     }
     let scene = load_scene(a.scene.as_deref())?;
-    check_kept(&a.out, &scene.reads)?;
+    check_kept(&a.out, &scene.reads, a.force)?;
     let (light_theta, light_phi) = match &a.light {
         Some(l) => (l[0], l[1]),
         None => (scene.light.theta_deg[0], scene.light.phi_deg[0]),
@@ -214,7 +222,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
 /// `roks render` of an object scene: a pinhole camera view.
 fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failure> {
     let scene = ObjectScene::load(path)?;
-    check_kept(&a.out, &scene.reads)?;
+    check_kept(&a.out, &scene.reads, a.force)?;
     for (name, v) in [("--camera", &a.camera), ("--look-at", &a.look_at)] {
         if v.as_ref().is_some_and(|v| v.len() != 3) {
             return Err(Failure::Input(format!(
@@ -301,11 +309,18 @@ fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failur
 
 /// Refuse an `out` (EXR) or its PNG preview beside it that would replace
 /// one of `reads`, the files the scene reads (a height map, a 16-bit PNG
-/// map, an n, k table).
-fn check_kept(out: &Path, reads: &[PathBuf]) -> Result<(), Failure> {
+/// map, an n, k table); then refuse an existing OUT or OUT.png that is
+/// not an EXR (a PNG) roks wrote, unless `force`
+/// ([`crate::outdir::check_replace`]).
+fn check_kept(out: &Path, reads: &[PathBuf], force: bool) -> Result<(), Failure> {
     let png = out.with_extension("png");
     let written = [Written::File(out), Written::File(&png)];
-    super::common::check_kept("--out", &written, reads)
+    super::common::check_kept("--out", &written, reads)?;
+    for (path, kind) in [(out, FileKind::Exr), (png.as_path(), FileKind::Png)] {
+        crate::outdir::check_replace(path, kind, force)
+            .map_err(|e| Failure::Input(format!("--out: {}: {e}", super::common::shown(path))))?;
+    }
+    Ok(())
 }
 
 /// Write `img` as OUT (EXR) and OUT.png (preview, tone-mapped by `tone`),
@@ -329,9 +344,12 @@ fn write_images(
     let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (png, applied) = write_png_preview(img, tone).map_err(|e| anyhow::anyhow!("{e}"))?;
     let png_path = out.with_extension("png");
+    // Both or neither, for an interrupt.
+    let commit = crate::interrupt::commit();
     for (path, bytes) in [(out, &exr), (png_path.as_path(), &png)] {
         write_file(path, bytes)?;
     }
+    drop(commit);
     let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
     let curve = match tone.tonemap {
         Tonemap::Log => format!("log, --decades {:.3}", applied.decades),

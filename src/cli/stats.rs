@@ -28,6 +28,10 @@ pub struct StatsArgs {
     /// Also draw the height map with its statistics into this PNG file.
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
+    /// Replace an existing --png file even when it is not a PNG that roks
+    /// wrote (see docs/src/output-safety.md).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Run `roks stats`. With `[surface] realisations = R > 1` the statistics
@@ -39,7 +43,13 @@ pub struct StatsArgs {
 pub fn execute(a: StatsArgs) -> Result<(), Failure> {
     let scene = load_scene(a.scene.as_deref())?;
     if let Some(path) = &a.png {
-        super::common::check_out_file_as("--png", path, &scene.reads)?;
+        super::common::check_out_file_as(
+            "--png",
+            path,
+            &scene.reads,
+            super::common::FileKind::Png,
+            a.force,
+        )?;
     }
     let (r, ry) = stats_grid(
         &scene,
@@ -51,8 +61,7 @@ pub fn execute(a: StatsArgs) -> Result<(), Failure> {
     let s = surface_stats(&map);
     if let Some(path) = &a.png {
         let png = super::plot::surface_png(&scene, &map, &s)?;
-        crate::output::write_atomic(path, &png)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+        super::common::write_file(path, &png)?;
     }
     drop(map);
     let mut out = String::new();

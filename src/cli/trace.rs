@@ -102,6 +102,7 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
         &scene.scene_file.file,
         &scene.name,
         &scene.reads,
+        a.tracing.force,
     )?;
     let traced = blocks.iter().zip(&photons).fold(0, |s: u64, (b, &n)| {
         s.saturating_add(((b.end * BATCH).min(n)).saturating_sub(b.start * BATCH))
@@ -152,7 +153,7 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
     let files = description
         .folder(&result, seconds, tallies)
         .map_err(anyhow::Error::msg)?;
-    write_folder(&out, &files)?;
+    write_folder(&out, &files, "trace")?;
 
     if !a.quiet {
         print_table(&run, &result);

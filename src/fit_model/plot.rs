@@ -128,5 +128,5 @@ pub fn png(
     image::imageops::replace(&mut both, &b, 0, i64::from(a.height()));
     let mut bytes = std::io::Cursor::new(Vec::new());
     both.write_to(&mut bytes, image::ImageFormat::Png)?;
-    Ok(bytes.into_inner())
+    Ok(crate::outdir::kind::mark_png(bytes.into_inner()))
 }

@@ -310,7 +310,10 @@ fn write_exr(grid: &HeightGrid) -> Result<Vec<u8>, HeightMapError> {
     };
     let layer = Layer::new(
         (grid.nx, grid.ny),
-        LayerAttributes::named("height"),
+        LayerAttributes {
+            software_name: Some(Text::from(crate::outdir::kind::EXR_SOFTWARE)),
+            ..LayerAttributes::named("height")
+        },
         encoding,
         AnyChannels::sort(SmallVec::from_vec(vec![channel])),
     );

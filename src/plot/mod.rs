@@ -61,7 +61,7 @@ fn encode_png(width: u32, height: u32, buf: Vec<u8>) -> anyhow::Result<Vec<u8>> 
         .ok_or_else(|| anyhow::anyhow!("plot: buffer size"))?;
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-    Ok(png)
+    Ok(crate::outdir::kind::mark_png(png))
 }
 
 /// A rectangle of pixels, `[x0, x1) x [y0, y1)`.
