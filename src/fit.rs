@@ -13,7 +13,12 @@
 //!   `theta_i_deg,theta_o_deg,brdf` and optionally a fourth column
 //!   `brdf_stderr`; `theta_o_deg` is signed exactly like roks's own
 //!   `inplane.csv` (positive on the specular side, negative toward the light),
-//!   so an `inplane.csv` is itself a valid measured file.
+//!   so an `inplane.csv` is itself a valid measured file. A measurement at
+//!   several light azimuths has the column `phi_i_deg` (degrees, in
+//!   `[0, 360)`) after `theta_i_deg`, as `inplane.csv` of a run of several
+//!   azimuths has; without it the scene must trace one azimuth (its
+//!   `[light] phi_deg`), since nothing says which azimuth a row was
+//!   measured at.
 //! * The parameters ([`FitParam`], written `key=lo:hi`): TOML key paths into
 //!   the scene with bounds, e.g. `bumps[0].radius=1:4`,
 //!   `materials.z302.n=1:3`, `materials.z302.k=0:1`. A key whose value is a
@@ -27,7 +32,10 @@
 //!    (as floats), and the scene is rebuilt from the table's text with
 //!    [`MicroScene::from_str`], so every check of the scene file applies. The
 //!    scene's [`BrdfRun`](crate::transport::brdf::BrdfRun) is run at only the
-//!    distinct measured incidence angles, with [`FitOptions::photons`] photons
+//!    distinct measured incidence angles (and, with a `phi_i_deg` column,
+//!    the distinct measured light azimuths, every angle at every azimuth;
+//!    each row is compared with the curve of its own incidence and
+//!    azimuth), with [`FitOptions::photons`] photons
 //!    and the **fixed** seed [`FitOptions::seed`]. The in-plane BRDF of each
 //!    bin is `inplane.mean(bin, n) / projected_solid_angle(bin)`, and the
 //!    model value at a measured `theta_o` is the linear interpolation between
@@ -613,19 +621,27 @@ impl FitParam {
 pub struct Measured {
     /// `(theta_i_deg, theta_o_deg, brdf, brdf_stderr)`, in file order.
     pub points: Vec<(f64, f64, f64, Option<f64>)>,
+    /// The light azimuth of every point (degrees, in `[0, 360)`, in file
+    /// order) when the file has the column `phi_i_deg`; `None`: the
+    /// points are at the scene's one light azimuth.
+    pub phi_i_deg: Option<Vec<f64>>,
 }
 
 impl Measured {
-    /// Parse a CSV with header `theta_i_deg,theta_o_deg,brdf[,brdf_stderr]`
-    /// (blank lines and `#` comments allowed). `name` is used in messages.
+    /// Parse a CSV with header `theta_i_deg,theta_o_deg,brdf[,brdf_stderr]`,
+    /// or with `phi_i_deg` after `theta_i_deg` (the header of `inplane.csv`
+    /// of a run of several light azimuths) (blank lines and `#` comments
+    /// allowed). `name` is used in messages.
     pub fn parse(text: &str, name: &str) -> Result<Self, FitError> {
         let err = |line: usize, message: String| FitError::Measured {
             file: name.to_string(),
             line,
             message,
         };
-        let mut ncols = None;
+        // (columns, whether column 2 is phi_i_deg)
+        let mut ncols: Option<(usize, bool)> = None;
         let mut points = Vec::new();
+        let mut azimuths = Vec::new();
         for (i, raw) in text.lines().enumerate() {
             let line = i + 1;
             let content = raw.trim_start_matches('\u{feff}').trim();
@@ -633,19 +649,27 @@ impl Measured {
                 continue;
             }
             let fields: Vec<&str> = content.split(',').map(str::trim).collect();
-            let Some(n) = ncols else {
+            let Some((n, with_phi)) = ncols else {
                 let three = ["theta_i_deg", "theta_o_deg", "brdf"];
-                let ok = fields[..] == three
-                    || (fields.len() == 4 && fields[..3] == three && fields[3] == "brdf_stderr");
+                let with_phi = fields.get(1) == Some(&"phi_i_deg");
+                let rest: Vec<&str> = if with_phi {
+                    std::iter::once(fields[0])
+                        .chain(fields[2..].iter().copied())
+                        .collect()
+                } else {
+                    fields.clone()
+                };
+                let ok = rest[..] == three
+                    || (rest.len() == 4 && rest[..3] == three && rest[3] == "brdf_stderr");
                 if !ok {
                     return Err(err(
                         line,
                         format!(
-                            "header must be `theta_i_deg,theta_o_deg,brdf` or `theta_i_deg,theta_o_deg,brdf,brdf_stderr`, got `{content}`"
+                            "header must be `theta_i_deg,theta_o_deg,brdf` or `theta_i_deg,theta_o_deg,brdf,brdf_stderr` (with `phi_i_deg` after `theta_i_deg` for several light azimuths), got `{content}`"
                         ),
                     ));
                 }
-                ncols = Some(fields.len());
+                ncols = Some((fields.len(), with_phi));
                 continue;
             };
             if fields.len() != n {
@@ -654,9 +678,9 @@ impl Measured {
                     format!("expected {n} fields, found {}", fields.len()),
                 ));
             }
-            let mut v = [0.0; 4];
+            let mut all = [0.0; 5];
             for (j, f) in fields.iter().enumerate() {
-                v[j] = f
+                all[j] = f
                     .parse::<f64>()
                     .ok()
                     .filter(|x| x.is_finite())
@@ -667,6 +691,23 @@ impl Measured {
                         )
                     })?;
             }
+            // `v`: theta_i, theta_o, brdf, brdf_stderr, without phi_i.
+            let mut v = [0.0; 4];
+            if with_phi {
+                let phi = all[1];
+                if !(0.0..360.0).contains(&phi) {
+                    return Err(err(
+                        line,
+                        format!("phi_i_deg must be in [0, 360), got {phi}"),
+                    ));
+                }
+                azimuths.push(phi);
+                v[0] = all[0];
+                v[1..n - 1].copy_from_slice(&all[2..n]);
+            } else {
+                v[..n].copy_from_slice(&all[..n]);
+            }
+            let n = if with_phi { n - 1 } else { n };
             if !(0.0..90.0).contains(&v[0]) {
                 return Err(err(
                     line,
@@ -687,16 +728,33 @@ impl Measured {
             }
             points.push((v[0], v[1], v[2], (n == 4).then_some(v[3])));
         }
-        if ncols.is_none() {
+        let Some((_, with_phi)) = ncols else {
             return Err(err(0, "empty file (no header)".into()));
-        }
+        };
         if points.is_empty() {
             return Err(err(0, "no data rows".into()));
         }
         if points.iter().all(|p| p.2 == 0.0) {
             return Err(err(0, "every brdf is 0".into()));
         }
-        Ok(Self { points })
+        Ok(Self {
+            points,
+            phi_i_deg: with_phi.then_some(azimuths),
+        })
+    }
+
+    /// The distinct light azimuths (degrees) of a file with `phi_i_deg`, in
+    /// order of first appearance; `None` without the column.
+    #[must_use]
+    pub fn azimuths(&self) -> Option<Vec<f64>> {
+        let phi = self.phi_i_deg.as_ref()?;
+        let mut out: Vec<f64> = Vec::new();
+        for &p in phi {
+            if !out.contains(&p) {
+                out.push(p);
+            }
+        }
+        Some(out)
     }
 
     /// The distinct incidence angles, in order of first appearance.
@@ -808,6 +866,9 @@ pub struct Problem {
     paths: Vec<KeyPath>,
     measured: Measured,
     thetas: Vec<f64>,
+    /// The measured light azimuths (degrees), traced instead of the
+    /// scene's; `None`: the scene's one azimuth.
+    phis: Option<Vec<f64>>,
     eps: f64,
     opts: FitOptions,
 }
@@ -867,6 +928,17 @@ impl Problem {
                 "light.wavelengths_um",
                 format!(
                     "roks fit compares one in-plane curve per incidence angle with the measurement, but the scene traces {wavelengths} wavelengths: fit one wavelength at a time ([light] wavelengths_um = [W])"
+                ),
+            )));
+        }
+        // A measurement without azimuths is one curve per incidence angle:
+        // the model must be one too, so one light azimuth.
+        let azimuths = scene.brdf_run().phi_deg.len();
+        if azimuths > 1 && measured.phi_i_deg.is_none() {
+            return Err(FitError::Scene(scene_file.error(
+                "light.phi_deg",
+                format!(
+                    "roks fit compares one in-plane curve per incidence angle with the measurement, but the scene traces {azimuths} light azimuths and the measurement has no phi_i_deg column: give each row's azimuth (column phi_i_deg after theta_i_deg, as inplane.csv of such a run has) or fit one azimuth ([light] phi_deg = P)"
                 ),
             )));
         }
@@ -957,6 +1029,7 @@ impl Problem {
             paths,
             measured: measured.clone(),
             thetas: measured.incidence_angles(),
+            phis: measured.azimuths(),
             eps: 1e-3 * max,
             opts: opts.clone(),
         };
@@ -1090,6 +1163,9 @@ impl Problem {
         let scene = self.build(values)?;
         let mut run = scene.brdf_run();
         run.theta_deg.clone_from(&self.thetas);
+        if let Some(phis) = &self.phis {
+            run.phi_deg = crate::transport::brdf::Azimuths(phis.clone());
+        }
         run.photons = self.opts.photons;
         run.seed = self.opts.seed;
         run.shard = None;
@@ -1102,12 +1178,19 @@ impl Problem {
         let results = run.trace_whole(&scene.surface, &|_| {});
         let tally = run.inplane();
         let centres: Vec<f64> = (0..tally.n_bins()).map(|b| tally.centre_deg(b)).collect();
-        let curves: Vec<Vec<f64>> = results
-            .iter()
-            .map(|r| {
-                let n = r.tallies.photons;
-                (0..tally.n_bins())
-                    .map(|b| r.tallies.inplane.mean(b, n) / tally.projected_solid_angle(b))
+        // The curve of incidence `i` and light azimuth `a` (the result is
+        // nested incidence x azimuth x wavelength; one wavelength).
+        let curve = |i: usize, a: usize| -> Vec<f64> {
+            let r = results.leaf(i, a, 0);
+            let n = r.tallies.photons;
+            (0..tally.n_bins())
+                .map(|b| r.tallies.inplane.mean(b, n) / tally.projected_solid_angle(b))
+                .collect()
+        };
+        let curves: Vec<Vec<Vec<f64>>> = (0..results.incidence.len())
+            .map(|i| {
+                (0..results.incidence[i].azimuth.len())
+                    .map(|a| curve(i, a))
                     .collect()
             })
             .collect();
@@ -1115,13 +1198,21 @@ impl Problem {
             .measured
             .points
             .iter()
-            .map(|&(ti, to, _, _)| {
-                let k = self
+            .enumerate()
+            .map(|(p, &(ti, to, _, _))| {
+                let i = self
                     .thetas
                     .iter()
                     .position(|&t| t == ti)
                     .expect("distinct angles");
-                interpolate(&centres, &curves[k], to)
+                let a = match (&self.phis, &self.measured.phi_i_deg) {
+                    (Some(phis), Some(phi)) => phis
+                        .iter()
+                        .position(|&q| q == phi[p])
+                        .expect("distinct azimuths"),
+                    _ => 0,
+                };
+                interpolate(&centres, &curves[i][a], to)
             })
             .collect())
     }
@@ -1617,6 +1708,30 @@ mod tests {
         )
         .unwrap();
         assert_eq!(m.points, vec![(0.0, 0.0, 1.0, Some(0.1))]);
+        assert_eq!(m.phi_i_deg, None);
+        // The columns of inplane.csv of a run of several light azimuths.
+        let m = Measured::parse(
+            "theta_i_deg,phi_i_deg,theta_o_deg,brdf,brdf_stderr\n30,0,5,1,0.1\n30,90,5,2,0.2\n60,90,-5,3,0.3\n",
+            "z.csv",
+        )
+        .unwrap();
+        assert_eq!(
+            m.points,
+            vec![
+                (30.0, 5.0, 1.0, Some(0.1)),
+                (30.0, 5.0, 2.0, Some(0.2)),
+                (60.0, -5.0, 3.0, Some(0.3))
+            ]
+        );
+        assert_eq!(m.phi_i_deg, Some(vec![0.0, 90.0, 90.0]));
+        assert_eq!(m.azimuths(), Some(vec![0.0, 90.0]));
+        let m = Measured::parse(
+            "theta_i_deg,phi_i_deg,theta_o_deg,brdf\n0,45,0,1\n",
+            "z.csv",
+        )
+        .unwrap();
+        assert_eq!(m.points, vec![(0.0, 0.0, 1.0, None)]);
+        assert_eq!(m.phi_i_deg, Some(vec![45.0]));
 
         let h = "theta_i_deg,theta_o_deg,brdf\n";
         for (text, msg) in [
@@ -1660,6 +1775,18 @@ mod tests {
                 "z.csv: line 3: brdf must be >= 0, got -0.1",
             ),
             (&format!("{h}30,0,0\n"), "z.csv: line 0: every brdf is 0"),
+            (
+                "theta_i_deg,phi_i_deg,theta_o_deg,brdf\n30,360,0,1\n",
+                "z.csv: line 2: phi_i_deg must be in [0, 360), got 360",
+            ),
+            (
+                "theta_i_deg,phi_i_deg,theta_o_deg,brdf\n30,0,1\n",
+                "z.csv: line 2: expected 4 fields, found 3",
+            ),
+            (
+                "theta_i_deg,theta_o_deg,phi_i_deg,brdf\n30,0,0,1\n",
+                "z.csv: line 1: header must be",
+            ),
             (
                 "theta_i_deg,theta_o_deg,brdf,brdf_stderr\n30,0,1,-1\n",
                 "z.csv: line 2: brdf_stderr must be >= 0, got -1",
@@ -1762,6 +1889,7 @@ mod tests {
                 (60.0, 7.0, 1.0, None),
                 (60.0, 89.0, 1.0, None),
             ],
+            phi_i_deg: None,
         };
         // Model points from the fit's own model; then the misfit there is exactly 0.
         let p = Problem::new(&truth, &scene_file(), &params, &probe, &opts()).unwrap();
@@ -1775,6 +1903,7 @@ mod tests {
                 .zip(&model)
                 .map(|(q, &b)| (q.0, q.1, b, None))
                 .collect(),
+            phi_i_deg: None,
         };
         let zero = misfit(&truth, &scene_file(), &params, &[1.8, 2.5], &m, &opts()).unwrap();
         assert_eq!(zero, 0.0);
@@ -1792,11 +1921,77 @@ mod tests {
         }
     }
 
+    /// A scene of two light azimuths (issue 42): each measured row is
+    /// compared with the curve of its own incidence and azimuth. The
+    /// measurement is roks's own `inplane.csv` of the true scene at 30 and
+    /// 60 degrees and azimuths 0 and 90 (its `phi_i_deg` column; same
+    /// photons and seed as the fit), read whole: the misfit at the truth is
+    /// 0 to the CSV's 9 digits, and the model at every row is that row.
+    /// Each azimuth draws its own photons, so a row compared with another
+    /// azimuth's or incidence's curve would differ. A measurement without
+    /// azimuths cannot say which curve a row belongs to: refused.
+    #[test]
+    fn two_azimuths_compare_each_row_with_its_own_block() {
+        let truth = scene(PAINT, "[1.0, 1.8]", 2.5).replace(
+            "[light]\ntheta_deg = [0.0]\n",
+            "[light]\ntheta_deg = [0.0]\nphi_deg = [0.0, 90.0]\n",
+        );
+        let s = MicroScene::from_str(&truth, scene_file(), "truth".into()).unwrap();
+        let mut run = s.brdf_run();
+        assert_eq!(run.phi_deg.len(), 2);
+        run.theta_deg = vec![30.0, 60.0];
+        run.photons = PHOTONS;
+        run.seed = 7;
+        let results = run.trace_whole(&s.surface, &|_| {});
+        let csv = inplane_csv(&run, &results);
+        assert!(csv.starts_with("theta_i_deg,phi_i_deg,"), "{}", &csv[..60]);
+        let m = Measured::parse(&csv, "truth/inplane.csv").unwrap();
+        assert_eq!(m.azimuths(), Some(vec![0.0, 90.0]));
+        let params: Vec<FitParam> = vec!["bumps[0].radius=1:4".parse().unwrap()];
+        let p = Problem::new(&truth, &scene_file(), &params, &m, &opts()).unwrap();
+        let model = p.model(&[2.5]).unwrap();
+        let mut differ = 0;
+        for (q, b) in m.points.iter().zip(&model) {
+            assert!((b - q.2).abs() <= 1e-8 * q.2.max(1e-12), "{q:?} vs {b}");
+            differ += usize::from(q.2 > 0.0 && (b - q.2).abs() > 1e-3 * q.2);
+        }
+        assert_eq!(differ, 0);
+        let near_zero = p.misfit(&[2.5]);
+        assert!(near_zero < 1e-15, "{near_zero}");
+        // The blocks differ from each other (other photons, other angle):
+        // a row read against another block's curve would show.
+        let n = m.points.len() / 4;
+        let block = |k: usize| &m.points[k * n..(k + 1) * n];
+        let apart = |a: &[(f64, f64, f64, Option<f64>)], b: &[(f64, f64, f64, Option<f64>)]| {
+            a.iter()
+                .zip(b)
+                .filter(|(x, y)| (x.2 - y.2).abs() > 1e-6 * x.2.max(y.2))
+                .count()
+        };
+        assert!(apart(block(1), block(2)) > n / 2, "(30, 90) vs (60, 0)");
+        assert!(apart(block(0), block(1)) > n / 2, "(30, 0) vs (30, 90)");
+        // The measured azimuths are traced, whatever the scene's.
+        let one = truth.replace("phi_deg = [0.0, 90.0]", "phi_deg = 45.0");
+        let p = Problem::new(&one, &scene_file(), &params, &m, &opts()).unwrap();
+        assert!(p.misfit(&[2.5]) < 1e-15);
+        // Without phi_i_deg: refused, naming the key.
+        let rows = Measured {
+            points: m.points.clone(),
+            phi_i_deg: None,
+        };
+        let e = Problem::new(&truth, &scene_file(), &params, &rows, &opts()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "test.toml: light.phi_deg: roks fit compares one in-plane curve per incidence angle with the measurement, but the scene traces 2 light azimuths and the measurement has no phi_i_deg column: give each row's azimuth (column phi_i_deg after theta_i_deg, as inplane.csv of such a run has) or fit one azimuth ([light] phi_deg = P)"
+        );
+    }
+
     #[test]
     fn infeasible_points_have_infinite_misfit() {
         let truth = scene(PAINT, "[1.0, 1.8]", 2.5);
         let m = Measured {
             points: vec![(30.0, 0.0, 1.0, None)],
+            phi_i_deg: None,
         };
         // Each bound alone is valid (with the other end at its start value),
         // but the two ends can cross.
@@ -1837,6 +2032,7 @@ mod tests {
         let truth = scene(PAINT, "[1.0, 1.8]", 2.5);
         let m = Measured {
             points: vec![(30.0, 0.0, 1.0, None)],
+            phi_i_deg: None,
         };
         let new = |spec: &str| {
             let p: FitParam = spec.parse().unwrap();

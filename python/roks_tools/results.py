@@ -118,6 +118,8 @@ SPECTRAL_HEADERS = {
 AZIMUTH_INPLANE_COLUMNS = ("theta_i_deg", "phi_i_deg", "theta_o_deg", "brdf", "brdf_stderr")
 AZIMUTH_HEADERS = {
     "inplane.csv": (AZIMUTH_INPLANE_COLUMNS, _spectral(AZIMUTH_INPLANE_COLUMNS, "phi_i_deg")),
+    # roks fit of a measurement with light azimuths (phi_i_deg column).
+    "fit_inplane.csv": (("theta_i_deg", "phi_i_deg", "theta_o_deg", "measured", "model"),),
 }
 """The columns of a file that has `phi_i_deg` only for a run of several light
 azimuths (mono and spectral), by file name."""
@@ -809,7 +811,8 @@ class FarFieldStokes(_Spectral):
 @dataclass(frozen=True)
 class FitInPlane:
     """fit_inplane.csv of `roks fit`: the measured in-plane BRDF (1/sr) and
-    the fitted model's at each measured point (theta_i_deg, signed theta_o_deg)."""
+    the fitted model's at each measured point (theta_i_deg, signed theta_o_deg;
+    phi_i_deg when the measurement gave light azimuths, else None)."""
 
     FILE = "fit_inplane.csv"
 
@@ -818,6 +821,7 @@ class FitInPlane:
     theta_o_deg: np.ndarray
     measured: np.ndarray
     model: np.ndarray
+    phi_i_deg: np.ndarray | None = None
     extra: dict | None = None
     """Columns beyond roks's known ones (`EXTRA_ERROR_COLUMN`, e.g. the
     photon-noise part of an ensemble's standard errors), by name."""

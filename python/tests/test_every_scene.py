@@ -246,6 +246,24 @@ def test_fit_folder_reads(roks, workspace):
     assert r.fitted["bumps"][0]["height"][1] == p.fitted
 
 
+def test_fit_folder_of_two_azimuths_reads(roks, workspace):
+    """`roks fit` to an inplane.csv of two light azimuths (its phi_i_deg
+    column): fit_inplane.csv keeps the column, row for row."""
+    measured = workspace / "results" / "fit-measured-phi"
+    _run(roks, workspace, "default", measured, ["--theta", "30", "--phi", "0,90"])
+    out = workspace / "results" / "fit-phi"
+    run([roks, "fit", workspace / "scenes" / "default.toml", measured / "inplane.csv", "--param",
+         "bumps[0].height[1]=3:6", "--photons", PHOTONS, "--max-evals", 2, "--scan", 0, "--restarts", 0,
+         "--out", out, "-q"], "test_every_scene", echo=False)
+    r = _read_every_file(out)
+    assert isinstance(r, FitResult)
+    ip = read_file(measured / "inplane.csv")
+    assert r.inplane.phi_i_deg is not None and set(r.inplane.phi_i_deg) == {0.0, 90.0}
+    assert np.array_equal(r.inplane.phi_i_deg, ip.phi_i_deg)
+    assert np.array_equal(r.inplane.theta_o_deg, ip.theta_o_deg)
+    assert np.allclose(r.inplane.measured, ip.brdf, rtol=1e-9, atol=0)
+
+
 def test_a_file_without_reader_is_named(tmp_path):
     p = tmp_path / "notes.txt"
     p.write_text("x\n")

@@ -564,9 +564,10 @@ pub fn export_formats(
 /// components). Unless `quiet`, the comparison is printed on stderr; a
 /// warning line is printed, quiet or not, for every incidence where the
 /// file is off the table by more than `max(1 %, 4 standard errors)`
-/// ([`ReflectanceCheck::passes`]), with the finer Zemax grid that passes
-/// when there is one. `option` names the option that asked for the format
-/// in a refusal.
+/// ([`ReflectanceCheck::passes`]), for a Zemax file with the coarsest
+/// finer grid that makes that incidence (and light azimuth) pass, or that
+/// none does. `option` names the option that asked for the format in a
+/// refusal.
 ///
 /// # Errors
 /// A refusal (MERL of wavelengths not covering the visible, exit status 2)
@@ -650,7 +651,7 @@ pub fn export_tables_on(
                     eprintln!("{what}: {heading}");
                     print_check(&check);
                 }
-                let finer = || grid.finer_that_passes(table);
+                let finer = |failing: &[usize]| grid.finer_per_check(table, failing);
                 warn_off(
                     &what,
                     &check,
@@ -666,28 +667,21 @@ pub fn export_tables_on(
 /// wavelength, a channel) whose file is off its table
 /// ([`ReflectanceCheck::passes`]): the difference in percent and in
 /// standard errors, and what would do better: for Zemax (`zemax`: the grid
-/// used and the search for a finer one) the finer grid that passes, or
-/// that no grid does; for MERL that its grid is fixed.
+/// used and the search for finer ones, given the indices of the failing
+/// checks) per incidence (and light azimuth) the coarsest finer grid that
+/// makes that block pass, or that none does; for MERL that its grid is
+/// fixed.
 fn warn_off(
     what: &str,
     check: &[ReflectanceCheck],
-    zemax: Option<(ZemaxGrid, &dyn Fn() -> Option<ZemaxGrid>)>,
+    zemax: Option<(ZemaxGrid, &dyn Fn(&[usize]) -> Vec<Option<ZemaxGrid>>)>,
 ) {
-    let off: Vec<&ReflectanceCheck> = check.iter().filter(|c| !c.passes()).collect();
-    if off.is_empty() {
+    let failing: Vec<usize> = (0..check.len()).filter(|&i| !check[i].passes()).collect();
+    if failing.is_empty() {
         return;
     }
-    let remedy = match zemax {
-        Some((grid, finer)) => match finer() {
-            Some(g) => format!(
-                "the finer grid `--grid {},{}` of roks export-brdf passes",
-                g.azimuth_step_deg, g.radial_step_deg
-            ),
-            None => format!(
-                "no finer grid (to an eighth of {},{} degrees) passes: the difference is not the grid's",
-                grid.azimuth_step_deg, grid.radial_step_deg
-            ),
-        },
+    let fixed = match zemax {
+        Some(_) => String::new(),
         None if what.starts_with("pbsdf") => format!(
             "the pbsdf grid is fixed ({} x {} x {} nodes of theta_h, theta_d, phi_d)",
             crate::export::pbsdf::THETA_H,
@@ -700,7 +694,38 @@ fn warn_off(
         ),
         None => "the MERL grid is fixed by its format; export zemax for a finer one".to_string(),
     };
-    for c in off {
+    let finer = zemax.map(|(grid, search)| (grid, search(&failing)));
+    for (n, &i) in failing.iter().enumerate() {
+        let c = &check[i];
+        let here = if c.phi_i_deg.is_some() {
+            "at this incidence and azimuth"
+        } else {
+            "at this incidence"
+        };
+        let remedy = match &finer {
+            Some((grid, found)) => match found[n] {
+                Some(g) => format!(
+                    "the finer grid `--grid {},{}` of roks export-brdf passes {here}",
+                    g.azimuth_step_deg, g.radial_step_deg
+                ),
+                None => match grid.searched().last() {
+                    Some(f) => format!(
+                        "no finer grid (to {},{} degrees) passes {here}: the difference is not the grid's",
+                        f.azimuth_step_deg, f.radial_step_deg
+                    ),
+                    None => format!(
+                        "the grid {},{} is as fine as the search goes ({}): no finer grid is tried",
+                        grid.azimuth_step_deg,
+                        grid.radial_step_deg,
+                        {
+                            let f = ZemaxGrid::finest_searched();
+                            format!("{},{} degrees", f.azimuth_step_deg, f.radial_step_deg)
+                        }
+                    ),
+                },
+            },
+            None => fixed.clone(),
+        };
         let sigmas = if c.table_stderr > 0.0 {
             format!(
                 "{:.1} standard errors",

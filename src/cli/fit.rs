@@ -16,7 +16,8 @@ use crate::output::summary::{self, FitSummary};
 pub struct FitArgs {
     /// Micro scene file (TOML) whose parameters are adjusted.
     pub scene: PathBuf,
-    /// Measured in-plane BRDF (CSV: theta_i_deg,theta_o_deg,brdf[,brdf_stderr]).
+    /// Measured in-plane BRDF (CSV: theta_i_deg,theta_o_deg,brdf[,brdf_stderr];
+    /// with phi_i_deg after theta_i_deg for several light azimuths).
     pub measured: PathBuf,
     /// A parameter to fit: KEY=LO:HI (repeat for several).
     #[arg(long = "param", required = true, value_name = "KEY=LO:HI")]
@@ -130,9 +131,17 @@ pub fn execute(a: FitArgs) -> Result<(), Failure> {
         &params,
         &result,
     );
-    let mut csv = String::from("theta_i_deg,theta_o_deg,measured,model\n");
-    for ((ti, to, b, _), m) in measured.points.iter().zip(&result.model) {
-        csv.push_str(&format!("{ti},{to},{b:.9e},{m:.9e}\n"));
+    // With the measurement's light azimuths: its phi_i_deg column too.
+    let mut csv = match measured.phi_i_deg {
+        Some(_) => String::from("theta_i_deg,phi_i_deg,theta_o_deg,measured,model\n"),
+        None => String::from("theta_i_deg,theta_o_deg,measured,model\n"),
+    };
+    for (k, ((ti, to, b, _), m)) in measured.points.iter().zip(&result.model).enumerate() {
+        let phi = measured
+            .phi_i_deg
+            .as_ref()
+            .map_or(String::new(), |p| format!("{},", p[k]));
+        csv.push_str(&format!("{ti},{phi}{to},{b:.9e},{m:.9e}\n"));
     }
     let text = summary::to_text(&summary);
     write_folder(

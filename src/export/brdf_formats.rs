@@ -428,23 +428,67 @@ impl ZemaxGrid {
         .into_bytes()
     }
 
-    /// The first of this grid's steps halved once, twice and three times
-    /// whose file of `table` passes the reflectance check at every
-    /// incidence ([`ReflectanceCheck::passes`]); `None` if none does (the
-    /// difference then does not come from the grid).
+    /// The finest grid the search for a finer grid tries: an eighth of
+    /// the default steps, 0.25 x 0.125 degrees (an `Asymmetrical4D` block
+    /// of 1441 x 1441 values, about 29 MB of text per incidence and
+    /// azimuth); a search from a finer grid than the default would
+    /// otherwise write files of gigabytes.
     #[must_use]
-    pub fn finer_that_passes(self, table: &BrdfTable) -> Option<Self> {
-        (1..=3).map(|k| f64::from(1 << k)).find_map(|f| {
-            let grid = Self {
-                azimuth_step_deg: self.azimuth_step_deg / f,
-                radial_step_deg: self.radial_step_deg / f,
+    pub fn finest_searched() -> Self {
+        Self {
+            azimuth_step_deg: zemax::AZIMUTH_STEP_DEG / 8.0,
+            radial_step_deg: zemax::RADIAL_STEP_DEG / 8.0,
+        }
+    }
+
+    /// The grids [`finer_per_check`](Self::finer_per_check) tries, coarsest
+    /// first: this grid's steps halved once, twice and three times, as
+    /// far as [`finest_searched`](Self::finest_searched) (none for a grid
+    /// already that fine).
+    #[must_use]
+    pub fn searched(self) -> Vec<Self> {
+        let floor = Self::finest_searched();
+        (1..=3)
+            .map(|k| {
+                let f = f64::from(1 << k);
+                Self {
+                    azimuth_step_deg: self.azimuth_step_deg / f,
+                    radial_step_deg: self.radial_step_deg / f,
+                }
+            })
+            .take_while(|g| {
+                g.azimuth_step_deg >= floor.azimuth_step_deg * (1.0 - 1e-9)
+                    && g.radial_step_deg >= floor.radial_step_deg * (1.0 - 1e-9)
+            })
+            .collect()
+    }
+
+    /// Per check of `failing` (indices into the [`reflectance_check`] of
+    /// this grid's file of `table`: per incidence angle, then light
+    /// azimuth), the coarsest of the [`searched`](Self::searched) grids
+    /// whose file passes that check ([`ReflectanceCheck::passes`]); `None`
+    /// where none does (the difference there does not come from the grid).
+    /// Each check is judged on its own: a block that passes on a finer grid
+    /// is named with it even where another block passes on none. The finer
+    /// files are written only while a check is unresolved.
+    #[must_use]
+    pub fn finer_per_check(self, table: &BrdfTable, failing: &[usize]) -> Vec<Option<Self>> {
+        let mut found: Vec<Option<Self>> = vec![None; failing.len()];
+        for grid in self.searched() {
+            if found.iter().all(Option::is_some) {
+                break;
+            }
+            let Ok(checks) = reflectance_check(table, BrdfFormat::Zemax, &grid.export(table, ""))
+            else {
+                continue;
             };
-            let bytes = grid.export(table, "");
-            reflectance_check(table, BrdfFormat::Zemax, &bytes)
-                .ok()
-                .filter(|c| c.iter().all(ReflectanceCheck::passes))
-                .map(|_| grid)
-        })
+            for (slot, &i) in found.iter_mut().zip(failing) {
+                if slot.is_none() && checks.get(i).is_some_and(ReflectanceCheck::passes) {
+                    *slot = Some(grid);
+                }
+            }
+        }
+        found
     }
 }
 

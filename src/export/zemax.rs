@@ -61,11 +61,24 @@
 //! sample rotation `rho` is the table of light azimuth `phi_i_deg = rho`
 //! ([`BrdfTable::azimuth`]) in its plane-of-incidence frame below: `rho` is
 //! the azimuth of the light (its side of the plane of incidence) from the
-//! sample's `+x` axis, counter-clockwise seen from above, as in `brdf.csv`.
+//! sample's `+x` axis, counter-clockwise seen from above, as in `brdf.csv`
+//! (a comment line of the file says so). The current Zemax article
+//! describes the sample rotation as "the angle between the normal of the
+//! plane of incidence and the +X local axis", which read literally is a
+//! quarter turn from this, but names neither the normal's side nor the
+//! angle's sense; the 2008 specification does not define it; libbsdf (the
+//! independent reader of such files) reads it as the light's azimuth, as
+//! written here (docs/src/exports.md, "SampleRotation").
 //! No plane symmetry is assumed: the table is not averaged with its mirror
 //! image. OpticStudio's own tabular BSDF model reads one sample rotation
 //! only (Zemax knowledge base article 231, page 3, note 3); other readers of
 //! the format take the rotations.
+//!
+//! `Symmetry` is written `Asymmetrical4D`, the spelling of the
+//! specification's Table 1 and of the public writers (Ansys's BSDF
+//! converter among them); its formatting notes spell it `ASymmetrical4D`,
+//! the only spelling libbsdf takes (case-sensitively). The reader here
+//! takes both (keywords in any letter case).
 //!
 //! `Source` can only be `Measured` in this format; a comment line says the
 //! data are a roks Monte Carlo table. Numbers are printed with 7 significant
@@ -359,6 +372,9 @@ impl ZemaxBsdf {
             let _ = writeln!(s, "# {}", comment.replace(['\n', '\r'], " "));
         }
         s.push_str("# ScatterAzimuth and ScatterRadial are measured from the specular direction; BRDF in 1/sr\n");
+        if self.symmetry == Symmetry::Asymmetrical4D {
+            s.push_str("# SampleRotation is the azimuth of the light from the sample's +x axis, counter-clockwise seen from above (degrees)\n");
+        }
         let _ = writeln!(
             s,
             "Source  Measured\nSymmetry  {}\nSpectralContent  Monochrome\nScatterType  BRDF\nSampleRotation  {}\n{}",
@@ -689,5 +705,39 @@ mod tests {
         assert_eq!(z.eval(0, DVec3::new(1.0, 0.0, -0.1)), 0.0);
         let back = ZemaxBsdf::parse(&z.to_text("x"), "z.bsdf").unwrap();
         assert_eq!(back, z);
+    }
+
+    /// The `Symmetry` line of an `Asymmetrical4D` file is exactly the one
+    /// the guide's `sed` line rewrites for libbsdf (which takes only
+    /// `ASymmetrical4D`, compared case-sensitively); the rewritten file
+    /// reads back the same here (keywords in any letter case).
+    #[test]
+    fn asymmetrical_spelling_for_libbsdf() {
+        let z = ZemaxBsdf {
+            symmetry: Symmetry::Asymmetrical4D,
+            rotation_deg: vec![0.0, 90.0],
+            aoi_deg: vec![0.0],
+            azimuth_deg: vec![0.0, 180.0, 360.0],
+            radial_deg: vec![0.0, 90.0],
+            tis: vec![0.5, 0.25],
+            brdf: vec![vec![1.0, 2.0, 3.0, 4.0, 1.0, 2.0], vec![5.0; 6]],
+        };
+        let text = z.to_text("");
+        let line = "Symmetry  Asymmetrical4D";
+        assert_eq!(text.lines().filter(|l| *l == line).count(), 1, "{text}");
+        // sed 's/^Symmetry  Asymmetrical4D$/Symmetry  ASymmetrical4D/'
+        let libbsdf: String = text
+            .lines()
+            .map(|l| {
+                if l == line {
+                    "Symmetry  ASymmetrical4D"
+                } else {
+                    l
+                }
+            })
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_ne!(libbsdf, text);
+        assert_eq!(ZemaxBsdf::parse(&libbsdf, "z.bsdf").unwrap(), z);
     }
 }
