@@ -41,6 +41,7 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use serde::Serialize;
 
+use crate::export::resample::ReflectanceCheck;
 use crate::optics::brdf_table::BrdfTable;
 use crate::tally::CarlsonGrid;
 
@@ -342,6 +343,11 @@ pub struct FitResult {
     pub cells_left_out: usize,
     /// Levenberg-Marquardt's termination, as the crate names it.
     pub termination: String,
+    /// Whether the minimiser converged: a termination the crate counts as
+    /// successful (`Converged`, `Orthogonal`, `ResidualsZero`); any other
+    /// (`LostPatience`: out of evaluations, `NoImprovementPossible`,
+    /// `Numerical`) is named in the warnings ([`warnings`]).
+    pub converged: bool,
     /// Per incidence: the table's reflectance and the model's over the
     /// same cells (Σ BRDF x projected solid angle), and their difference:
     /// for a single-scattering model on a rough surface, mostly the light
@@ -370,6 +376,17 @@ pub struct ReflectanceCompare {
     pub difference: f64,
     /// `chi²/cells` of this incidence's cells.
     pub chi2_per_cell: f64,
+    /// The standard error of the table's reflectance at this incidence
+    /// (as the exports' checks take it: `summary.json`'s, else the cells'
+    /// errors added in quadrature; [`BrdfTable::reflectance_stderr`]).
+    pub table_stderr: f64,
+    /// The largest `|difference|` allowed: `max(1 % of table, 4
+    /// table_stderr)`, the rule of the exports' read-back checks
+    /// ([`ReflectanceCheck::tolerance`]).
+    pub tolerance: f64,
+    /// The verdict: `|difference| <= tolerance` (false also when the
+    /// model's reflectance is not a number).
+    pub ok: bool,
 }
 
 /// Why a fit could not be made.
@@ -377,11 +394,56 @@ pub struct ReflectanceCompare {
 #[error("{0}")]
 pub struct FitError(pub String);
 
+/// Whether `table` holds something a model can be fitted to, the same for
+/// every model: at every incidence a finite, positive reflectance spread
+/// over at least two cells. A flat mirror's table (all the light in the
+/// specular cell) or an absorbing surface's (no light) has no lobe to fit:
+/// a least-squares fit to either runs its widths to 0 or infinity and ends
+/// at parameters that are not numbers.
+///
+/// # Errors
+/// The first incidence that fails, named, and why.
+pub fn check_representable(table: &BrdfTable) -> Result<(), FitError> {
+    for (i, theta) in table.thetas_deg().iter().enumerate() {
+        let fractions = table.fractions(i);
+        let stderrs = table.fraction_stderrs(i);
+        if let Some(k) = fractions
+            .iter()
+            .zip(stderrs)
+            .position(|(f, e)| !f.is_finite() || !e.is_finite())
+        {
+            return Err(FitError(format!(
+                "theta_i {theta} deg: cell {k} of the table is not a number"
+            )));
+        }
+        let lit: Vec<usize> = (0..fractions.len())
+            .filter(|&k| fractions[k] > 0.0)
+            .collect();
+        match lit.as_slice() {
+            [] => {
+                return Err(FitError(format!(
+                    "theta_i {theta} deg: the table reflects nothing there (reflectance 0): no lobe to fit"
+                )));
+            }
+            [k] => {
+                let (band, cell) = table.grid().band_cell(*k);
+                return Err(FitError(format!(
+                    "theta_i {theta} deg: all the light ({:.6}) is in one cell (band {band}, cell {cell}): a mirror's reflection, narrower than the grid, which no model's lobe resolves (use the table itself, or a finer grid: more bands)",
+                    fractions[*k]
+                )));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// Fit `model` to `cells` of `table`, starting from the best of `starts`
 /// (internal parameters).
 ///
 /// # Errors
-/// Fewer cells than parameters, or no start with a finite `chi²`.
+/// Fewer cells than parameters, no start with a finite `chi²`, or a
+/// minimum at parameters that are not finite numbers.
 pub fn fit(
     model: &dyn Model,
     table: &BrdfTable,
@@ -435,7 +497,19 @@ pub fn fit(
             value,
             stderr: standard_error(d, cov[(k, k)]),
         })
-        .collect();
+        .collect::<Vec<Parameter>>();
+    if let Some(p) = parameters.iter().find(|p| !p.value.is_finite()) {
+        return Err(FitError(format!(
+            "the fit ends at {} = {} (termination {:?}): the table is not of this model's form",
+            p.name, p.value, report.termination
+        )));
+    }
+    if !chi2.is_finite() {
+        return Err(FitError(format!(
+            "the fit ends at chi^2 = {chi2} (termination {:?}): the table is not of this model's form",
+            report.termination
+        )));
+    }
     let grid = table.grid();
     let mut residuals: Vec<Residual> = cells
         .iter()
@@ -474,12 +548,23 @@ pub fn fit(
             let (n, c2) = mine().fold((0usize, 0.0), |(n, c), (_, r)| {
                 (n + 1, c + r.sigma * r.sigma)
             });
+            let theta_i_deg = table.incidence(i).theta_deg;
+            let check = ReflectanceCheck {
+                theta_i_deg,
+                phi_i_deg: None,
+                table: table_r,
+                file: model_r,
+                table_stderr: table.reflectance_stderr(theta_i_deg.to_radians()),
+            };
             ReflectanceCompare {
-                theta_i_deg: table.incidence(i).theta_deg,
+                theta_i_deg,
                 table: table_r,
                 model: model_r,
                 difference: table_r - model_r,
                 chi2_per_cell: c2 / n.max(1) as f64,
+                table_stderr: check.table_stderr,
+                tolerance: check.tolerance(),
+                ok: check.passes(),
             }
         })
         .collect();
@@ -498,6 +583,7 @@ pub fn fit(
         cells: cells.len(),
         cells_left_out: left_out,
         termination: format!("{:?}", report.termination),
+        converged: report.termination.was_successful(),
         reflectance,
         largest_residuals: residuals,
         internal: q,
@@ -516,13 +602,246 @@ pub fn per_incidence(
     obs: &Observations,
     starts: impl Fn(&[&Observation]) -> Vec<Vec<f64>>,
 ) -> Result<Vec<FitResult>, FitError> {
+    check_representable(table)?;
     (0..table.thetas_deg().len())
         .map(|i| {
             let cells: Vec<&Observation> = obs.cells.iter().filter(|o| o.incidence == i).collect();
             fit(model, table, &cells, &starts(&cells), obs.left_out)
-                .map_err(|e| FitError(format!("theta_i_deg = {}: {}", table.thetas_deg()[i], e.0)))
+                .map_err(|e| FitError(format!("theta_i {} deg: {}", table.thetas_deg()[i], e.0)))
         })
         .collect()
+}
+
+/// Per incidence of `obs`, the reflectance of `model` at internal
+/// parameters `q` (one set for every incidence, as FRED takes ABg and
+/// Harvey-Shack) over the cells of `obs` beside the table's, judged as
+/// [`FitResult::reflectance`] is.
+#[must_use]
+pub fn reflectance_of(
+    model: &dyn Model,
+    q: &[f64],
+    table: &BrdfTable,
+    obs: &Observations,
+) -> Vec<ReflectanceCompare> {
+    (0..table.thetas_deg().len())
+        .filter_map(|i| {
+            let mine: Vec<&Observation> = obs.cells.iter().filter(|o| o.incidence == i).collect();
+            if mine.is_empty() {
+                return None;
+            }
+            let (mut t, mut m, mut c2) = (0.0, 0.0, 0.0);
+            for o in &mine {
+                let v = cell_model(model, q, o);
+                t += o.brdf * o.proj;
+                m += v * o.proj;
+                c2 += ((o.brdf - v) / o.stderr).powi(2);
+            }
+            let theta_i_deg = table.incidence(i).theta_deg;
+            let check = ReflectanceCheck {
+                theta_i_deg,
+                phi_i_deg: None,
+                table: t,
+                file: m,
+                table_stderr: table.reflectance_stderr(theta_i_deg.to_radians()),
+            };
+            Some(ReflectanceCompare {
+                theta_i_deg,
+                table: t,
+                model: m,
+                difference: t - m,
+                chi2_per_cell: c2 / mine.len() as f64,
+                table_stderr: check.table_stderr,
+                tolerance: check.tolerance(),
+                ok: check.passes(),
+            })
+        })
+        .collect()
+}
+
+/// The warnings of the fits of model `name` (one line each, no trailing
+/// period), in the order of the fits: every incidence whose reflectance
+/// is off the table's by more than `max(1 %, 4 standard errors)`
+/// ([`ReflectanceCompare::ok`]), every fit that did not converge
+/// ([`FitResult::converged`]), and every parameter whose standard error
+/// exceeds its value in magnitude, or has none (singular covariance).
+#[must_use]
+pub fn warnings(name: &str, fits: &[FitResult]) -> Vec<String> {
+    let mut out = Vec::new();
+    for f in fits {
+        let at = if f.theta_i_deg.len() == 1 {
+            format!("theta_i {} deg", f.theta_i_deg[0])
+        } else {
+            "all incidences".to_owned()
+        };
+        if !f.converged {
+            out.push(format!(
+                "{name}: {at}: the fit did not converge (termination {}): its parameters are not a minimum of chi^2",
+                f.termination
+            ));
+        }
+        for p in &f.parameters {
+            if p.stderr.is_nan() {
+                out.push(format!(
+                    "{name}: {at}: {} = {:.5e} has no standard error (singular covariance: undetermined)",
+                    p.name, p.value
+                ));
+            } else if p.stderr > p.value.abs() {
+                out.push(format!(
+                    "{name}: {at}: {} = {:.5e} +- {:.2e}: the standard error exceeds the value (undetermined)",
+                    p.name, p.value, p.stderr
+                ));
+            }
+        }
+        for r in f.reflectance.iter().filter(|r| !r.ok) {
+            out.push(format!("{name}: {}", reflectance_off(r)));
+        }
+    }
+    out
+}
+
+/// The words of a failed reflectance verdict, in the exports' wording:
+/// `theta_i X deg: the model's reflectance ... is ... % off the table's ...
+/// (N standard errors; allowed: max(1 %, 4 standard errors))`.
+#[must_use]
+pub fn reflectance_off(r: &ReflectanceCompare) -> String {
+    let sigmas = if r.table_stderr > 0.0 {
+        format!(
+            "{:.1} standard errors",
+            (r.model - r.table).abs() / r.table_stderr
+        )
+    } else {
+        "no standard error".to_owned()
+    };
+    format!(
+        "theta_i {} deg: the model's reflectance {:.6} is {:+.2} % off the table's {:.6} ({sigmas}; allowed: max(1 %, 4 standard errors))",
+        r.theta_i_deg,
+        r.model,
+        100.0 * (r.model / r.table - 1.0),
+        r.table
+    )
+}
+
+/// How one model's fits did, in numbers: what `roks fit-model` prints as
+/// its verdict and ranks the models by ([`Judgement::rank_key`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct Judgement {
+    /// The model (`--model`'s name).
+    pub model: String,
+    /// `Σ chi² / Σ dof` over the model's fits (for a per-incidence model,
+    /// pooled over its incidences).
+    pub chi2_per_dof: f64,
+    /// Incidences judged.
+    pub incidences: usize,
+    /// Incidences whose reflectance verdict is `ok`.
+    pub incidences_ok: usize,
+    /// The largest relative reflectance error `model / table - 1` in
+    /// magnitude (signed), and at which incidence (degrees).
+    pub worst_reflectance_error: f64,
+    /// The incidence (degrees) of [`worst_reflectance_error`](Self::worst_reflectance_error).
+    pub worst_at_theta_i_deg: f64,
+    /// Fits that did not converge.
+    pub not_converged: usize,
+    /// Parameters whose standard error exceeds their value or is unknown.
+    pub undetermined_parameters: usize,
+    /// Number of warnings ([`warnings`]).
+    pub warnings: usize,
+    /// No warnings: every incidence `ok`, every fit converged, every
+    /// parameter determined.
+    pub passes: bool,
+}
+
+impl Judgement {
+    /// The judgement of model `name`'s `fits`.
+    #[must_use]
+    pub fn of(name: &str, fits: &[FitResult]) -> Self {
+        let all: Vec<&ReflectanceCompare> = fits.iter().flat_map(|f| &f.reflectance).collect();
+        let rel = |r: &ReflectanceCompare| r.model / r.table - 1.0;
+        let worst = all
+            .iter()
+            .max_by(|a, b| rel(a).abs().total_cmp(&rel(b).abs()))
+            .map_or((0.0, f64::NAN), |r| (rel(r), r.theta_i_deg));
+        let (chi2, dof) = fits
+            .iter()
+            .fold((0.0, 0usize), |(c, d), f| (c + f.chi2, d + f.dof));
+        let w = warnings(name, fits).len();
+        Self {
+            model: name.to_owned(),
+            chi2_per_dof: chi2 / dof.max(1) as f64,
+            incidences: all.len(),
+            incidences_ok: all.iter().filter(|r| r.ok).count(),
+            worst_reflectance_error: worst.0,
+            worst_at_theta_i_deg: worst.1,
+            not_converged: fits.iter().filter(|f| !f.converged).count(),
+            undetermined_parameters: fits
+                .iter()
+                .flat_map(|f| &f.parameters)
+                .filter(|p| p.stderr.is_nan() || p.stderr > p.value.abs())
+                .count(),
+            warnings: w,
+            passes: w == 0,
+        }
+    }
+
+    /// The order of the ranking, best first: models without warnings
+    /// first, then fewer incidences off the table's reflectance, then the
+    /// smaller `chi²/dof`.
+    #[must_use]
+    pub fn rank_key(&self) -> (bool, usize, f64) {
+        (
+            !self.passes,
+            self.incidences - self.incidences_ok,
+            self.chi2_per_dof,
+        )
+    }
+
+    /// The one-line verdict: that every check passes, or what fails.
+    #[must_use]
+    pub fn line(&self) -> String {
+        let worst = format!(
+            "worst reflectance error {:+.2} % at theta_i {} deg",
+            100.0 * self.worst_reflectance_error,
+            self.worst_at_theta_i_deg
+        );
+        if self.passes {
+            return format!(
+                "{}: ok: every incidence's reflectance within max(1 %, 4 standard errors) of the table's ({worst}), converged, every parameter determined; chi2/dof {:.3}",
+                self.model, self.chi2_per_dof
+            );
+        }
+        let mut what = Vec::new();
+        let off = self.incidences - self.incidences_ok;
+        if off > 0 {
+            what.push(format!(
+                "{off} of {} incidences off the table's reflectance by more than max(1 %, 4 standard errors) ({worst})",
+                self.incidences
+            ));
+        }
+        if self.not_converged > 0 {
+            what.push(format!("{} fits not converged", self.not_converged));
+        }
+        if self.undetermined_parameters > 0 {
+            what.push(format!(
+                "{} parameters undetermined (standard error above the value)",
+                self.undetermined_parameters
+            ));
+        }
+        format!(
+            "{}: NOT OK: {}; chi2/dof {:.3}; {} warnings",
+            self.model,
+            what.join(", "),
+            self.chi2_per_dof,
+            self.warnings
+        )
+    }
+}
+
+/// Sort `judgements` best first by [`Judgement::rank_key`] (stable: equal
+/// keys keep their order).
+pub fn rank(judgements: &mut [Judgement]) {
+    judgements.sort_by(|a, b| {
+        let (x, y) = (a.rank_key(), b.rank_key());
+        x.0.cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.total_cmp(&y.2))
+    });
 }
 
 /// For a model `amplitude x shape(s)`: per shape point `s` of `grid`, the
