@@ -394,9 +394,14 @@ pub struct ReflectanceCompare {
 #[error("{0}")]
 pub struct FitError(pub String);
 
+/// The most cells one direction's light falls in: 4, at the pole, where
+/// the four cells of band 1 meet and roks shares it among them (elsewhere
+/// 1, or 2 on an edge).
+pub const MIRROR_CELLS: usize = 4;
+
 /// Whether `table` holds something a model can be fitted to, the same for
-/// every model: at every incidence a finite, positive reflectance spread
-/// over at least two cells. A flat mirror's table (all the light in the
+/// every model: at every incidence finite numbers and a positive
+/// reflectance spread over more than [`MIRROR_CELLS`] cells. A flat mirror's table (all the light in the
 /// specular cell) or an absorbing surface's (no light) has no lobe to fit:
 /// a least-squares fit to either runs its widths to 0 or infinity and ends
 /// at parameters that are not numbers.
@@ -416,23 +421,18 @@ pub fn check_representable(table: &BrdfTable) -> Result<(), FitError> {
                 "theta_i {theta} deg: cell {k} of the table is not a number"
             )));
         }
-        let lit: Vec<usize> = (0..fractions.len())
-            .filter(|&k| fractions[k] > 0.0)
-            .collect();
-        match lit.as_slice() {
-            [] => {
-                return Err(FitError(format!(
-                    "theta_i {theta} deg: the table reflects nothing there (reflectance 0): no lobe to fit"
-                )));
-            }
-            [k] => {
-                let (band, cell) = table.grid().band_cell(*k);
-                return Err(FitError(format!(
-                    "theta_i {theta} deg: all the light ({:.6}) is in one cell (band {band}, cell {cell}): a mirror's reflection, narrower than the grid, which no model's lobe resolves (use the table itself, or a finer grid: more bands)",
-                    fractions[*k]
-                )));
-            }
-            _ => {}
+        let lit = fractions.iter().filter(|&&f| f > 0.0).count();
+        let reflectance: f64 = fractions.iter().sum();
+        if lit == 0 {
+            return Err(FitError(format!(
+                "theta_i {theta} deg: the table reflects nothing there (reflectance 0): no lobe to fit"
+            )));
+        }
+        if lit <= MIRROR_CELLS {
+            return Err(FitError(format!(
+                "theta_i {theta} deg: all the light ({reflectance:.6}) is in {lit} cell{} (one direction falls in at most {MIRROR_CELLS}, where cells meet): a mirror's reflection, narrower than the grid's cells, whose width no model can be fitted to; use the table itself",
+                if lit == 1 { "" } else { "s" }
+            )));
         }
     }
     Ok(())
@@ -1031,6 +1031,42 @@ mod tests {
     fn rotate(d: DVec3, a: f64) -> DVec3 {
         let (s, c) = a.sin_cos();
         DVec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z)
+    }
+
+    /// A table with no light at an incidence, or all of it in one cell, is
+    /// refused before any fit, naming the incidence; a lobe over many cells
+    /// is not.
+    #[test]
+    fn tables_without_a_lobe_are_not_representable() {
+        let grid = CarlsonGrid::new(6).unwrap();
+        let n = grid.n_cells();
+        let lobe = synthetic(
+            &abg::Abg,
+            |_| vec![0.01f64.ln(), 0.01f64.ln(), 2.0],
+            &[0.0, 30.0],
+            6,
+            0.03,
+            1,
+        );
+        let table = |blocks| BrdfTable::from_blocks(grid, blocks, "t").unwrap();
+        assert_eq!(check_representable(&table(lobe.clone())), Ok(()));
+        let mut dark = lobe.clone();
+        dark[1].2 = vec![0.0; n];
+        dark[1].3 = vec![0.0; n];
+        let e = check_representable(&table(dark)).unwrap_err().0;
+        assert!(
+            e.starts_with("theta_i 30 deg: the table reflects nothing"),
+            "{e}"
+        );
+        let mut mirror = lobe;
+        mirror[1].2 = vec![0.0; n];
+        mirror[1].2[n - 1] = 0.9;
+        mirror[1].3 = vec![0.0; n];
+        let e = check_representable(&table(mirror)).unwrap_err().0;
+        assert!(
+            e.starts_with("theta_i 30 deg: all the light (0.900000) is in 1 cell "),
+            "{e}"
+        );
     }
 
     #[test]
