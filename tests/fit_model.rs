@@ -492,7 +492,7 @@ bands = 16
     // Every model, ranked: Beckmann (one alpha, the field's slopes) above
     // ABg; each model's files written; the ranking in fit_summary.json in
     // the order of the rule: no warning first, then fewer incidences off,
-    // then chi2/dof.
+    // then fewer fits not converged, then chi2/dof.
     let o = roks(&["fit-model", out.to_str().unwrap(), "--model", "all"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
@@ -511,6 +511,7 @@ bands = 16
         (
             !r["passes"].as_bool().unwrap(),
             r["incidences"].as_u64().unwrap() - r["incidences_ok"].as_u64().unwrap(),
+            r["not_converged"].as_u64().unwrap(),
             r["chi2_per_dof"].as_f64().unwrap(),
         )
     };

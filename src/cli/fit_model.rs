@@ -559,7 +559,7 @@ fn summary_json(
     };
     let doc = json!({
         "table": csv.display().to_string(),
-        "rule": "ranked: models with no warning first, then fewer incidences whose reflectance is off the table's by more than max(1 %, 4 standard errors), then the smaller chi2/dof (pooled over the model's fits: sum chi2 / sum dof)",
+        "rule": "ranked: models with no warning first, then fewer incidences whose reflectance is off the table's by more than max(1 %, 4 standard errors), then fewer fits not converged, then the smaller chi2/dof (pooled over the model's fits: sum chi2 / sum dof)",
         "use": ranking.first().filter(|j| j.passes).map(|j| j.model.clone()),
         "advice": advice(&ranking),
         "ranking": ranking

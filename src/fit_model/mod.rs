@@ -783,13 +783,14 @@ impl Judgement {
     }
 
     /// The order of the ranking, best first: models without warnings
-    /// first, then fewer incidences off the table's reflectance, then the
-    /// smaller `chi²/dof`.
+    /// first, then fewer incidences off the table's reflectance, then
+    /// fewer fits not converged, then the smaller `chi²/dof`.
     #[must_use]
-    pub fn rank_key(&self) -> (bool, usize, f64) {
+    pub fn rank_key(&self) -> (bool, usize, usize, f64) {
         (
             !self.passes,
             self.incidences - self.incidences_ok,
+            self.not_converged,
             self.chi2_per_dof,
         )
     }
@@ -817,7 +818,11 @@ impl Judgement {
             ));
         }
         if self.not_converged > 0 {
-            what.push(format!("{} fits not converged", self.not_converged));
+            what.push(format!(
+                "{} fit{} not converged",
+                self.not_converged,
+                if self.not_converged == 1 { "" } else { "s" }
+            ));
         }
         if self.undetermined_parameters > 0 {
             what.push(format!(
