@@ -845,7 +845,10 @@ impl Judgement {
 pub fn rank(judgements: &mut [Judgement]) {
     judgements.sort_by(|a, b| {
         let (x, y) = (a.rank_key(), b.rank_key());
-        x.0.cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.total_cmp(&y.2))
+        x.0.cmp(&y.0)
+            .then(x.1.cmp(&y.1))
+            .then(x.2.cmp(&y.2))
+            .then(x.3.total_cmp(&y.3))
     });
 }
 
@@ -1071,6 +1074,91 @@ mod tests {
         assert!(
             e.starts_with("theta_i 30 deg: all the light (0.900000) is in 1 cell "),
             "{e}"
+        );
+    }
+
+    /// A fit result of one incidence with these parameters `(value,
+    /// stderr)`, termination and reflectance verdict.
+    fn result(params: &[(f64, f64)], converged: bool, ok: bool, chi2: f64) -> FitResult {
+        FitResult {
+            theta_i_deg: vec![15.0],
+            parameters: params
+                .iter()
+                .enumerate()
+                .map(|(k, &(value, stderr))| Parameter {
+                    name: format!("p{k}"),
+                    value,
+                    stderr,
+                })
+                .collect(),
+            chi2,
+            dof: 10,
+            chi2_per_dof: chi2 / 10.0,
+            covariance_scaled: false,
+            cells: 12,
+            cells_left_out: 0,
+            termination: if converged {
+                "Converged"
+            } else {
+                "LostPatience"
+            }
+            .into(),
+            converged,
+            reflectance: vec![ReflectanceCompare {
+                theta_i_deg: 15.0,
+                table: 0.5,
+                model: if ok { 0.499 } else { 0.4 },
+                difference: if ok { 0.001 } else { 0.1 },
+                chi2_per_cell: 1.0,
+                table_stderr: 1e-3,
+                tolerance: 0.005,
+                ok,
+            }],
+            largest_residuals: Vec::new(),
+            internal: Vec::new(),
+            incidences: vec![0],
+        }
+    }
+
+    /// Every failed judgement is one warning naming the model, the
+    /// incidence and what failed; a clean fit has none; the ranking puts
+    /// the clean fit first, then fewer failing incidences, then fewer fits
+    /// not converged, then the smaller chi²/dof.
+    #[test]
+    fn warnings_and_ranking() {
+        let clean = result(&[(1.0, 0.1), (-2.0, 1.9)], true, true, 30.0);
+        assert!(warnings("m", std::slice::from_ref(&clean)).is_empty());
+        let bad = result(&[(1.0, 1.5), (-2.0, f64::NAN)], false, false, 5.0);
+        let w = warnings("m", std::slice::from_ref(&bad));
+        assert_eq!(w.len(), 4, "{w:#?}");
+        assert!(
+            w[0].starts_with(
+                "m: theta_i 15 deg: the fit did not converge (termination LostPatience)"
+            )
+        );
+        assert!(w[1].contains("p0 = 1.00000e0 +- 1.50e0: the standard error exceeds the value"));
+        assert!(w[2].contains("p1 = -2.00000e0 has no standard error"));
+        assert!(w[3].starts_with("m: theta_i 15 deg: the model's reflectance 0.400000 is -20.00 % off the table's 0.500000 (100.0 standard errors;"));
+        let j = |name, r: &FitResult| Judgement::of(name, std::slice::from_ref(r));
+        let unconverged = result(&[(1.0, 0.1)], false, true, 1.0);
+        let off = result(&[(1.0, 0.1)], true, false, 2.0);
+        let off_unconverged = result(&[(1.0, 0.1)], false, false, 1.0);
+        let mut all = vec![
+            j("d", &off_unconverged),
+            j("c", &off),
+            j("b", &unconverged),
+            j("a", &clean),
+        ];
+        rank(&mut all);
+        let order: Vec<&str> = all.iter().map(|x| x.model.as_str()).collect();
+        assert_eq!(order, ["a", "b", "c", "d"]);
+        assert!(all[0].passes && all[0].line().starts_with("a: ok: "));
+        assert!(
+            all[3]
+                .line()
+                .starts_with("d: NOT OK: 1 of 1 incidences off"),
+            "{}",
+            all[3].line()
         );
     }
 
