@@ -381,6 +381,10 @@ fn bad_input_is_one_line_and_status_2() {
             vec!["--wavelength", "one wavelength"],
         ),
         (vec!["fit-model", d, "--model", "phong"], vec!["--model"]),
+        (
+            vec!["fit-model", d, "--model", "all", "--out", "x.json"],
+            vec!["--out", "--model all", "give --out with one model"],
+        ),
     ] {
         let o = roks(&args);
         let stderr = String::from_utf8_lossy(&o.stderr);
