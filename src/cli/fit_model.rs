@@ -689,7 +689,16 @@ fn fit_one(ctx: &Context<'_>, kind: ModelKind, paths: Paths) -> Result<Fitted, N
             (vec![fit], Box::new(model))
         }
     };
-    let warnings = fit_model::warnings(kind.name(), &fits);
+    let mut warnings = fit_model::warnings(kind.name(), &fits);
+    if matches!(kind, ModelKind::Ggx | ModelKind::Beckmann) {
+        // Where a single-scattering model is below the table, say what it
+        // cannot hold (summary.json's reflectance_by_bounces tells how much).
+        for w in &mut warnings {
+            if w.contains("the model's reflectance") && w.contains("% off") && w.contains(" is -") {
+                w.push_str("; the model scatters once: the table's light scattered twice or more (summary.json: reflectance_by_bounces) is not in it");
+            }
+        }
+    }
     let judgement = Judgement::of(kind.name(), &fits);
     doc["fits"] = serde_json::to_value(&fits).map_err(anyhow::Error::from)?;
     doc["warnings"] = json!(warnings);
