@@ -5,7 +5,15 @@
 //! Files (default `RESULT_DIR/fit_<model>.json`; `--out FILE` moves them
 //! all): `FILE` (JSON), `FILE` with the extension `.png` (the plot) and, for
 //! ABg, `FILE` with `_opticstudio.txt` in place of its extension. Each is
-//! written atomically (a temporary file renamed over it).
+//! written atomically (a temporary file renamed over it), and only once
+//! every fit is made. `--model all` fits every model, writes each one's
+//! files and `RESULT_DIR/fit_summary.json`, the models ranked
+//! ([`fit_model::rank`]).
+//!
+//! Every fit is judged ([`fit_model::warnings`], [`Judgement`]): each
+//! warning is printed on stderr (quiet or not), then the verdict in one
+//! line. A table no model can take (a mirror's, nothing reflected) is
+//! refused with `cannot fit: ...`, exit status 2, nothing written.
 
 use std::path::{Path, PathBuf};
 
@@ -16,7 +24,7 @@ use super::Failure;
 use super::common::{FileKind, check_out_file, write_file};
 use super::parse::number;
 use crate::fit_model::microfacet::{Distribution, Microfacet};
-use crate::fit_model::{self, FitResult, ModelKind, abg, harvey, observations};
+use crate::fit_model::{self, FitResult, Judgement, ModelKind, abg, harvey, observations};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
 use crate::optics::material::{Reflectance, ReflectanceError};
 
@@ -27,9 +35,9 @@ pub struct FitModelArgs {
     pub dir: PathBuf,
     /// The model: abg, harvey (per incidence), ggx or beckmann (one
     /// roughness for all incidences, with Smith shadowing and the material's
-    /// Fresnel factor).
+    /// Fresnel factor), or all (every model, ranked; fit_summary.json).
     #[arg(long, ignore_case = true, hide_possible_values = true)]
-    pub model: ModelKind,
+    pub model: ModelChoice,
     /// Output JSON (default RESULT_DIR/fit_<model>.json); the plot is
     /// written beside it with the extension .png, OpticStudio's ABg rows
     /// with _opticstudio.txt.
@@ -70,6 +78,7 @@ fn beside(out: &Path, suffix: &str) -> PathBuf {
 /// The material of a microfacet fit and where it came from.
 fn material(
     a: &FitModelArgs,
+    kind: ModelKind,
     scene: Option<&str>,
     wavelengths: &[f64],
     lane: usize,
@@ -105,7 +114,7 @@ fn material(
     let Some(scene) = scene else {
         return Err(Failure::Input(format!(
             "--model {}: {}: no summary.json naming the scene, so the material is unknown: give --n N --k K or --reflectance R",
-            a.model,
+            kind,
             a.dir.display()
         )));
     };
@@ -150,11 +159,125 @@ fn material(
     ))
 }
 
+/// What `--model` takes: one model, or every one ranked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModelChoice {
+    /// ABg, per incidence.
+    Abg,
+    /// Harvey-Shack, per incidence.
+    Harvey,
+    /// GGX microfacet, one alpha.
+    Ggx,
+    /// Beckmann microfacet, one alpha.
+    Beckmann,
+    /// Every model, ranked (fit_summary.json).
+    All,
+}
+
+impl ModelChoice {
+    /// The models this choice fits, in the order they are fitted.
+    fn kinds(self) -> Vec<ModelKind> {
+        match self {
+            Self::Abg => vec![ModelKind::Abg],
+            Self::Harvey => vec![ModelKind::Harvey],
+            Self::Ggx => vec![ModelKind::Ggx],
+            Self::Beckmann => vec![ModelKind::Beckmann],
+            Self::All => vec![
+                ModelKind::Abg,
+                ModelKind::Harvey,
+                ModelKind::Ggx,
+                ModelKind::Beckmann,
+            ],
+        }
+    }
+}
+
+impl std::fmt::Display for ModelChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::All => f.write_str("all"),
+            Self::Abg => f.write_str("abg"),
+            Self::Harvey => f.write_str("harvey"),
+            Self::Ggx => f.write_str("ggx"),
+            Self::Beckmann => f.write_str("beckmann"),
+        }
+    }
+}
+
+/// The files of one model's fit: the JSON, the plot and, for ABg,
+/// OpticStudio's rows.
+struct Paths {
+    json: PathBuf,
+    png: PathBuf,
+    opticstudio: Option<PathBuf>,
+}
+
+impl Paths {
+    fn of(kind: ModelKind, json: PathBuf) -> Self {
+        Self {
+            png: beside(&json, ".png"),
+            opticstudio: (kind == ModelKind::Abg).then(|| beside(&json, "_opticstudio.txt")),
+            json,
+        }
+    }
+
+    fn all(&self) -> Vec<(&PathBuf, FileKind)> {
+        let mut v = vec![(&self.json, FileKind::FitJson), (&self.png, FileKind::Png)];
+        v.extend(self.opticstudio.as_ref().map(|p| (p, FileKind::FitText)));
+        v
+    }
+}
+
+/// One model fitted: its files' bytes (not yet written), fits, warnings
+/// and verdict.
+struct Fitted {
+    kind: ModelKind,
+    paths: Paths,
+    files: Vec<(PathBuf, Vec<u8>)>,
+    fits: Vec<FitResult>,
+    material: Option<String>,
+    warnings: Vec<String>,
+    judgement: Judgement,
+}
+
+/// Why a model was not fitted.
+enum NotFitted {
+    /// The table is not of a form the model takes (`cannot fit: ...`),
+    /// or, with `--model all`, a microfacet model has no material.
+    Skipped(String),
+    /// Bad input or a failed write: the command fails.
+    Failed(Failure),
+}
+
+impl From<Failure> for NotFitted {
+    fn from(f: Failure) -> Self {
+        Self::Failed(f)
+    }
+}
+
+impl From<anyhow::Error> for NotFitted {
+    fn from(e: anyhow::Error) -> Self {
+        Self::Failed(Failure::Other(e))
+    }
+}
+
+/// What every model's fit reads.
+struct Context<'a> {
+    a: &'a FitModelArgs,
+    csv: &'a Path,
+    table: &'a BrdfTable,
+    obs: &'a fit_model::Observations,
+    scene: Option<&'a str>,
+    wavelengths: &'a [f64],
+    lane: usize,
+}
+
 /// Run `roks fit-model`.
 ///
 /// # Errors
-/// Bad input (the result folder, its table or summary, options), a fit
-/// that cannot be made, or a failed write.
+/// Bad input (the result folder, its table or summary, options), a table
+/// no model can be fitted to (`cannot fit: ...`, exit status 2), or a
+/// failed write.
 pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     let input = |e: String| Failure::Input(e);
     if !a.dir.is_dir() {
@@ -165,19 +288,31 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     }
     let csv = a.dir.join("brdf.csv");
     let summary_path = a.dir.join("summary.json");
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| a.dir.join(format!("fit_{}.json", a.model)));
-    let png_path = beside(&out, ".png");
-    let abg_path = beside(&out, "_opticstudio.txt");
+    if a.model == ModelChoice::All && a.out.is_some() {
+        return Err(input(
+            "--out: --model all writes fit_<model>.json for every model and fit_summary.json into the result folder; give --out with one model"
+                .into(),
+        ));
+    }
+    let kinds = a.model.kinds();
+    let paths: Vec<Paths> = kinds
+        .iter()
+        .map(|&k| {
+            Paths::of(
+                k,
+                a.out
+                    .clone()
+                    .unwrap_or_else(|| a.dir.join(format!("fit_{k}.json"))),
+            )
+        })
+        .collect();
+    let summary_out = a.dir.join("fit_summary.json");
     let inputs = [csv.clone(), summary_path.clone()];
-    for (p, kind) in [
-        (&out, FileKind::FitJson),
-        (&png_path, FileKind::Png),
-        (&abg_path, FileKind::FitText),
-    ] {
+    for (p, kind) in paths.iter().flat_map(Paths::all) {
         check_out_file(p, &inputs, kind, a.force)?;
+    }
+    if a.model == ModelChoice::All {
+        check_out_file(&summary_out, &inputs, FileKind::FitJson, a.force)?;
     }
     let mut tables = BrdfTables::load(&csv).map_err(|e| input(e.to_string()))?;
     tables
@@ -234,7 +369,7 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
             (&s.tables()[l], l)
         }
     };
-    if a.model == ModelKind::Abg || a.model == ModelKind::Harvey {
+    if a.model == ModelChoice::Abg || a.model == ModelChoice::Harvey {
         for (option, given) in [
             ("--n", a.n.is_some()),
             ("--k", a.k.is_some()),
@@ -249,21 +384,233 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
         }
     }
     let obs = observations(table, photons.as_deref());
-    let fail =
-        |e: fit_model::FitError| input(format!("{}: --model {}: {e}", csv.display(), a.model));
-    let mut doc = json!({
-        "model": a.model.name(),
+    let ctx = Context {
+        a: &a,
+        csv: &csv,
+        table,
+        obs: &obs,
+        scene: scene.as_deref(),
+        wavelengths: &wavelengths,
+        lane,
+    };
+    let mut fitted = Vec::new();
+    let mut skipped: Vec<(ModelKind, String)> = Vec::new();
+    for (&kind, p) in kinds.iter().zip(paths) {
+        match fit_one(&ctx, kind, p) {
+            Ok(f) => fitted.push(f),
+            Err(NotFitted::Failed(e)) => return Err(e),
+            Err(NotFitted::Skipped(why)) => {
+                if a.model != ModelChoice::All {
+                    return Err(input(why));
+                }
+                skipped.push((kind, why));
+            }
+        }
+    }
+    if fitted.is_empty() {
+        // --model all and no model fitted: the first reason.
+        let why = skipped.first().map_or_else(String::new, |s| s.1.clone());
+        return Err(input(why));
+    }
+    let summary_text = (a.model == ModelChoice::All)
+        .then(|| summary_json(&csv, &fitted, &skipped))
+        .transpose()?;
+    // All or none, for an interrupt.
+    let commit = crate::interrupt::commit();
+    for f in &fitted {
+        for (path, bytes) in &f.files {
+            write_file(path, bytes)?;
+        }
+    }
+    if let Some(text) = &summary_text {
+        write_file(&summary_out, text.as_bytes())?;
+    }
+    drop(commit);
+    for f in &fitted {
+        if !a.quiet && a.model != ModelChoice::All {
+            print_parameters(&f.fits);
+            if let Some(m) = &f.material {
+                eprintln!("material: {m}");
+            }
+        }
+        for w in &f.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    if a.quiet {
+        return Ok(());
+    }
+    if a.model == ModelChoice::All {
+        for (kind, why) in &skipped {
+            eprintln!("{kind}: not fitted: {why}");
+        }
+        print_ranking(&fitted);
+        eprintln!(
+            "wrote {} and fit_<model>.json, .png (abg: _opticstudio.txt) for {}",
+            summary_out.display(),
+            fitted
+                .iter()
+                .map(|f| f.kind.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    } else {
+        let f = &fitted[0];
+        eprintln!("verdict: {}", f.judgement.line());
+        eprintln!(
+            "wrote {}",
+            f.paths
+                .all()
+                .iter()
+                .map(|(p, _)| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// The parameter lines of a single model's fits on stderr.
+fn print_parameters(fits: &[FitResult]) {
+    for f in fits {
+        let params: Vec<String> = f
+            .parameters
+            .iter()
+            .map(|p| {
+                if p.stderr.is_nan() {
+                    format!("{} = {:.5e} (undetermined)", p.name, p.value)
+                } else {
+                    format!("{} = {:.5e} +- {:.2e}", p.name, p.value, p.stderr)
+                }
+            })
+            .collect();
+        let at = if f.theta_i_deg.len() == 1 {
+            format!("theta_i {:>5} deg", f.theta_i_deg[0])
+        } else {
+            "all incidences".into()
+        };
+        eprintln!(
+            "{at}: {}; chi2/dof {:.3}{}",
+            params.join(", "),
+            f.chi2_per_dof,
+            if f.covariance_scaled {
+                " (errors scaled by it)"
+            } else {
+                ""
+            }
+        );
+    }
+}
+
+/// The models ranked ([`fit_model::rank`]), best first.
+fn ranked(fitted: &[Fitted]) -> Vec<Judgement> {
+    let mut j: Vec<Judgement> = fitted.iter().map(|f| f.judgement.clone()).collect();
+    fit_model::rank(&mut j);
+    j
+}
+
+/// Which model to use, in one line, from the ranking (best first).
+fn advice(ranking: &[Judgement]) -> String {
+    match ranking.first() {
+        Some(best) if best.passes => format!(
+            "use {}: its reflectance is within max(1 %, 4 standard errors) of the table's at every incidence, with no warning (chi2/dof {:.3})",
+            best.model, best.chi2_per_dof
+        ),
+        Some(best) => format!(
+            "no model passes every check; the nearest is {} ({} of {} incidences ok, chi2/dof {:.3}): read its warnings before using it, or use the table itself",
+            best.model, best.incidences_ok, best.incidences, best.chi2_per_dof
+        ),
+        None => "no model was fitted".into(),
+    }
+}
+
+/// The ranking table and the advice on stderr.
+fn print_ranking(fitted: &[Fitted]) {
+    let ranking = ranked(fitted);
+    eprintln!(
+        "{:>4} {:<9} {:>10} {:>14} {:>20} {:>9} {:>8}",
+        "rank", "model", "chi2/dof", "incidences ok", "worst reflectance", "converged", "warnings"
+    );
+    for (k, j) in ranking.iter().enumerate() {
+        eprintln!(
+            "{:>4} {:<9} {:>10.3} {:>14} {:>20} {:>9} {:>8}",
+            k + 1,
+            j.model,
+            j.chi2_per_dof,
+            format!("{} of {}", j.incidences_ok, j.incidences),
+            format!(
+                "{:+.2} % at {}",
+                100.0 * j.worst_reflectance_error,
+                j.worst_at_theta_i_deg
+            ),
+            if j.not_converged == 0 { "yes" } else { "no" },
+            j.warnings
+        );
+    }
+    eprintln!("{}", advice(&ranking));
+}
+
+/// The text of `fit_summary.json`: the models ranked, the advice, and the
+/// models not fitted with why.
+fn summary_json(
+    csv: &Path,
+    fitted: &[Fitted],
+    skipped: &[(ModelKind, String)],
+) -> Result<String, Failure> {
+    let ranking = ranked(fitted);
+    let file_of = |name: &str| {
+        fitted
+            .iter()
+            .find(|f| f.kind.name() == name)
+            .map(|f| f.paths.json.display().to_string())
+    };
+    let doc = json!({
         "table": csv.display().to_string(),
+        "rule": "ranked: models with no warning first, then fewer incidences whose reflectance is off the table's by more than max(1 %, 4 standard errors), then fewer fits not converged, then the smaller chi2/dof (pooled over the model's fits: sum chi2 / sum dof)",
+        "use": ranking.first().filter(|j| j.passes).map(|j| j.model.clone()),
+        "advice": advice(&ranking),
+        "ranking": ranking
+            .iter()
+            .map(|j| {
+                let mut v = serde_json::to_value(j).unwrap_or_default();
+                v["file"] = json!(file_of(&j.model));
+                v["verdict"] = json!(j.line());
+                v
+            })
+            .collect::<Vec<_>>(),
+        "not_fitted": skipped
+            .iter()
+            .map(|(k, why)| json!({"model": k.name(), "reason": why}))
+            .collect::<Vec<_>>(),
+        "version": env!("CARGO_PKG_VERSION"),
+    });
+    Ok(serde_json::to_string_pretty(&doc).map_err(anyhow::Error::from)? + "\n")
+}
+
+/// Fit `kind` and make its files' bytes.
+fn fit_one(ctx: &Context<'_>, kind: ModelKind, paths: Paths) -> Result<Fitted, NotFitted> {
+    let (a, table, obs) = (ctx.a, ctx.table, ctx.obs);
+    let cannot = |e: fit_model::FitError| {
+        NotFitted::Skipped(format!(
+            "cannot fit: {}: --model {kind}: {e}",
+            ctx.csv.display()
+        ))
+    };
+    let mut doc = json!({
+        "model": kind.name(),
+        "table": ctx.csv.display().to_string(),
         "wavelength_um": a.wavelength,
         "errors": "standard errors from the covariance (J^T J)^-1 of the weighted residuals at the minimum, multiplied by chi2/dof where that exceeds 1 (covariance_scaled); first-order propagation to the model's parameters",
         "cells": "every cell of the table with its brdf_stderr; a cell no photon left through gets 1/(N x projected solid angle), N the incidence's photons in summary.json, or is left out without it (cells_left_out)",
         "cell_average": "the model's BRDF averaged over each Carlson cell in projected solid angle (3 x 3 Gauss-Legendre in cos^2 theta and phi)",
+        "verdicts": "fits[].reflectance[].ok: the model's reflectance within tolerance = max(1 % of the table's, 4 table_stderr) of the table's, the rule of the exports' read-back checks; warnings: every incidence that fails it, every fit that did not converge, every parameter whose standard error exceeds its value or is unknown",
         "version": env!("CARGO_PKG_VERSION"),
     });
     let title;
-    let (fits, plot_model): (Vec<FitResult>, Box<dyn fit_model::Model>) = match a.model {
+    let mut material_line = None;
+    let (fits, plot_model): (Vec<FitResult>, Box<dyn fit_model::Model>) = match kind {
         ModelKind::Abg => {
-            let fits = abg::fit(table, &obs).map_err(fail)?;
+            let fits = abg::fit(table, obs).map_err(cannot)?;
             doc["definition"] = json!(
                 "BSDF = A / (B + |beta - beta0|^g) (1/sr); beta, beta0: the scattered and specular directions projected on the surface (lengths sin theta_s, sin theta_i); per incidence"
             );
@@ -273,38 +620,46 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
                 "wave_um": a.wavelength.unwrap_or(0.0),
                 "rows": rows,
             });
+            let near = fit_model::nearest(&fits, 30.0);
             doc["fred"] = json!({
                 "dialog": "Scatterers > Create a new scatter model > ABg scatter: Acoef, Bcoef, G; one set (FRED's ABg does not depend on incidence): the fit nearest 30 degrees; check Halt Incident Ray (the table holds all reflected light)",
                 "abg": abg::fred(&fits),
             });
+            fred_verdict(&mut doc, &abg::Abg, &near.internal, table, obs);
             title = "ABg".to_owned();
             (fits, Box::new(abg::Abg))
         }
         ModelKind::Harvey => {
-            let fits = harvey::fit(table, &obs).map_err(fail)?;
+            let fits = harvey::fit(table, obs).map_err(cannot)?;
             doc["definition"] = json!(
                 "BSDF = b0 (1 + (|beta - beta0| / l)^2)^(s/2) (1/sr); beta, beta0 as for ABg; per incidence"
             );
-            let near30 = (!fits.is_empty())
-                .then(|| fit_model::nearest(&fits, 30.0))
-                .map(|f| {
-                    json!({
-                        "b0": f.parameters[0].value,
-                        "L": f.parameters[1].value,
-                        "S": f.parameters[2].value,
-                        "from_theta_i_deg": f.theta_i_deg[0],
-                    })
-                });
+            let f = fit_model::nearest(&fits, 30.0);
             doc["fred"] = json!({
                 "dialog": "Scatterers > Harvey-Shack: b0, L, S; one set: the fit nearest 30 degrees",
-                "harvey_shack": near30,
+                "harvey_shack": {
+                    "b0": f.parameters[0].value,
+                    "L": f.parameters[1].value,
+                    "S": f.parameters[2].value,
+                    "from_theta_i_deg": f.theta_i_deg[0],
+                },
             });
+            fred_verdict(&mut doc, &harvey::Harvey, &f.internal, table, obs);
             title = "Harvey-Shack".to_owned();
             (fits, Box::new(harvey::Harvey))
         }
         ModelKind::Ggx | ModelKind::Beckmann => {
-            let (material, source) = material(&a, scene.as_deref(), &wavelengths, lane)?;
-            let distribution = if a.model == ModelKind::Ggx {
+            let explicit = a.n.is_some() || a.k.is_some() || a.reflectance.is_some();
+            let (material, source) = match material(a, kind, ctx.scene, ctx.wavelengths, ctx.lane) {
+                Ok(m) => m,
+                // --model all: without a material the microfacet
+                // models are left out, and the ranking says why.
+                Err(Failure::Input(why)) if a.model == ModelChoice::All && !explicit => {
+                    return Err(NotFitted::Skipped(why));
+                }
+                Err(e) => return Err(e.into()),
+            };
+            let distribution = if kind == ModelKind::Ggx {
                 Distribution::Ggx
             } else {
                 Distribution::Beckmann
@@ -313,7 +668,7 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
                 distribution,
                 material,
             };
-            let fit = fit_model::microfacet::fit(&model, table, &obs).map_err(fail)?;
+            let fit = fit_model::microfacet::fit(&model, table, obs).map_err(cannot)?;
             doc["definition"] = json!(format!(
                 "f = F(wi.h) D(h) G2 / (4 cos_i cos_o), {} distribution, Smith height-correlated G2 = 1 / (1 + Lambda_i + Lambda_o); one alpha for every incidence{}",
                 if distribution == Distribution::Ggx {
@@ -328,6 +683,7 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
                 }
             ));
             doc["material"] = json!(source);
+            material_line = Some(source);
             doc["single_scattering"] = json!(
                 "the model scatters once: reflectance[].difference (table - model) is mostly the light the surface scatters twice or more"
             );
@@ -340,69 +696,85 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
             (vec![fit], Box::new(model))
         }
     };
+    let mut warnings = fit_model::warnings(kind.name(), &fits);
+    if matches!(kind, ModelKind::Ggx | ModelKind::Beckmann) {
+        // Where a single-scattering model is below the table, say what it
+        // cannot hold (summary.json's reflectance_by_bounces tells how much).
+        for w in &mut warnings {
+            if w.contains("the model's reflectance") && w.contains("% off") && w.contains(" is -") {
+                w.push_str("; the model scatters once: the table's light scattered twice or more (summary.json: reflectance_by_bounces) is not in it");
+            }
+        }
+    }
+    let judgement = Judgement::of(kind.name(), &fits);
     doc["fits"] = serde_json::to_value(&fits).map_err(anyhow::Error::from)?;
+    doc["warnings"] = json!(warnings);
+    doc["verdict"] = json!(judgement.line());
     let png = fit_model::plot::png(table, plot_model.as_ref(), &fits, &title)?;
     let text = serde_json::to_string_pretty(&doc).map_err(anyhow::Error::from)? + "\n";
-    // All or none, for an interrupt.
-    let commit = crate::interrupt::commit();
-    if a.model == ModelKind::Abg {
+    let mut files = Vec::new();
+    if let Some(p) = &paths.opticstudio {
         let name = a
             .dir
             .file_name()
             .map_or_else(|| "roks".into(), |s| s.to_string_lossy().into_owned());
         let rows = abg::opticstudio_rows(&fits);
-        write_file(
-            &abg_path,
-            abg::opticstudio_text(&name, a.wavelength.unwrap_or(0.0), &rows).as_bytes(),
-        )?;
-    }
-    write_file(&png_path, &png)?;
-    write_file(&out, text.as_bytes())?;
-    drop(commit);
-    if !a.quiet {
-        for f in &fits {
-            let params: Vec<String> = f
-                .parameters
-                .iter()
-                .map(|p| {
-                    if p.stderr.is_nan() {
-                        format!("{} = {:.5e} (undetermined)", p.name, p.value)
-                    } else {
-                        format!("{} = {:.5e} +- {:.2e}", p.name, p.value, p.stderr)
-                    }
-                })
-                .collect();
-            let at = if f.theta_i_deg.len() == 1 {
-                format!("theta_i {:>5} deg", f.theta_i_deg[0])
-            } else {
-                "all incidences".into()
-            };
-            eprintln!(
-                "{at}: {}; chi2/dof {:.3}{}",
-                params.join(", "),
-                f.chi2_per_dof,
-                if f.covariance_scaled {
-                    " (errors scaled by it)"
-                } else {
-                    ""
-                }
-            );
-        }
-        if let Some(m) = doc.get("material") {
-            eprintln!("material: {}", m.as_str().unwrap_or_default());
-        }
-        eprintln!(
-            "wrote {}, {}{}",
-            out.display(),
-            png_path.display(),
-            if a.model == ModelKind::Abg {
-                format!(", {}", abg_path.display())
-            } else {
-                String::new()
-            }
+        let body = abg::opticstudio_text(
+            &name,
+            a.wavelength.unwrap_or(0.0),
+            &rows,
+            &judgement.line(),
+            &warnings,
         );
+        files.push((p.clone(), body.into_bytes()));
     }
-    Ok(())
+    files.push((paths.png.clone(), png));
+    files.push((paths.json.clone(), text.into_bytes()));
+    Ok(Fitted {
+        kind,
+        paths,
+        files,
+        fits,
+        material: material_line,
+        warnings,
+        judgement,
+    })
+}
+
+/// FRED takes one set of a per-incidence model for every incidence: that
+/// set's reflectance at each of the table's incidences, judged, into
+/// `doc["fred"]["verdict"]` (a line) and `["reflectance"]` (per incidence).
+fn fred_verdict(
+    doc: &mut serde_json::Value,
+    model: &dyn fit_model::Model,
+    q: &[f64],
+    table: &BrdfTable,
+    obs: &fit_model::Observations,
+) {
+    let r = fit_model::reflectance_of(model, q, table, obs);
+    let off: Vec<String> = r
+        .iter()
+        .filter(|c| !c.ok)
+        .map(|c| {
+            format!(
+                "{} deg ({:+.1} %)",
+                c.theta_i_deg,
+                100.0 * (c.model / c.table - 1.0)
+            )
+        })
+        .collect();
+    let line = if off.is_empty() {
+        "ok: the one set's reflectance is within max(1 %, 4 standard errors) of the table's at every incidence".to_owned()
+    } else {
+        format!(
+            "OFF: the one set's reflectance is off the table's by more than max(1 %, 4 standard errors) at {} of {} incidences: {}",
+            off.len(),
+            r.len(),
+            off.join(", ")
+        )
+    };
+    doc["fred"]["verdict"] = json!(line);
+    doc["fred"]["reflectance"] = serde_json::to_value(&r).unwrap_or_default();
 }
 
 /// The micro scene at `path` (`None`: the embedded default) built at

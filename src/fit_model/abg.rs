@@ -102,6 +102,12 @@ pub struct OpticStudioRow {
     pub g: f64,
     /// The fit's TIS over the table's cells.
     pub tis: f64,
+    /// The table's reflectance over the same cells.
+    pub table_tis: f64,
+    /// The verdict of the fit's reflectance at this angle
+    /// ([`super::ReflectanceCompare::ok`]): the TIS within `max(1 %, 4
+    /// standard errors)` of the table's.
+    pub ok: bool,
 }
 
 /// The parameters in FRED's ABg dialog (one set).
@@ -139,6 +145,8 @@ pub fn opticstudio_rows(fits: &[FitResult]) -> Vec<OpticStudioRow> {
                 b: f.parameters[1].value,
                 g: f.parameters[2].value,
                 tis: f.reflectance[0].model,
+                table_tis: f.reflectance[0].table,
+                ok: f.reflectance[0].ok,
             }
         })
         .collect()
@@ -161,22 +169,43 @@ pub fn fred(fits: &[FitResult]) -> Fred {
 }
 
 /// The text for OpticStudio's "ABg Scatter Data Catalogs" dialog: the
-/// entry's name and wavelength, then one row per angle of incidence with
-/// the dialog's fields `Angle A B g` in its order (and the TIS as a
-/// comment), for typing in or pasting into an ABg data file.
+/// entry's name and wavelength, the fit's verdict and every warning
+/// ([`super::warnings`]) as comments, then one row per angle of incidence
+/// with the dialog's fields `Angle A B g` in its order (and, as a comment,
+/// the TIS of the fit, the table's and the verdict: `ok`, or `OFF` where
+/// they differ by more than `max(1 %, 4 standard errors)`), for typing in
+/// or pasting into an ABg data file.
 #[must_use]
-pub fn opticstudio_text(name: &str, wavelength_um: f64, rows: &[OpticStudioRow]) -> String {
+pub fn opticstudio_text(
+    name: &str,
+    wavelength_um: f64,
+    rows: &[OpticStudioRow],
+    verdict: &str,
+    warnings: &[String],
+) -> String {
     let mut s = format!(
         "! ABg data for OpticStudio (Setup > ABg Scatter Data Catalogs), fitted by roks fit-model\n\
          ! BSDF = A / (B + |beta - beta0|^g), beta, beta0 the projected scattered and specular directions, 1/sr\n\
          ! Name {name}\n\
          ! Wave {wavelength_um} (um; 0 = no scaling with wavelength)\n\
-         ! Angle(deg) A B g   ! TIS of the fit\n"
+         ! Verdict {verdict}\n"
+    );
+    for w in warnings {
+        s.push_str(&format!("! WARNING {w}\n"));
+    }
+    s.push_str(
+        "! Angle(deg) A B g   ! TIS of the fit, the table's, verdict (ok: within max(1 %, 4 standard errors))\n",
     );
     for r in rows {
         s.push_str(&format!(
-            "{} {:.6e} {:.6e} {:.6}   ! {:.5}\n",
-            r.angle_deg, r.a, r.b, r.g, r.tis
+            "{} {:.6e} {:.6e} {:.6}   ! {:.5} {:.5} {}\n",
+            r.angle_deg,
+            r.a,
+            r.b,
+            r.g,
+            r.tis,
+            r.table_tis,
+            if r.ok { "ok" } else { "OFF" }
         ));
     }
     s

@@ -138,12 +138,14 @@ impl Model for Microfacet {
 /// Fit `model`'s `alpha` to every incidence of `table` together.
 ///
 /// # Errors
-/// Too few cells, or no finite start.
+/// A table no model represents ([`super::check_representable`]), too few
+/// cells, or no finite start.
 pub fn fit(
     model: &Microfacet,
     table: &BrdfTable,
     obs: &Observations,
 ) -> Result<FitResult, FitError> {
+    super::check_representable(table)?;
     let cells: Vec<&Observation> = obs.cells.iter().collect();
     let starts: Vec<Vec<f64>> = linspace(0.01f64.ln(), 2.0f64.ln(), 40)
         .into_iter()

@@ -41,6 +41,7 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use serde::Serialize;
 
+use crate::export::resample::ReflectanceCheck;
 use crate::optics::brdf_table::BrdfTable;
 use crate::tally::CarlsonGrid;
 
@@ -342,6 +343,11 @@ pub struct FitResult {
     pub cells_left_out: usize,
     /// Levenberg-Marquardt's termination, as the crate names it.
     pub termination: String,
+    /// Whether the minimiser converged: a termination the crate counts as
+    /// successful (`Converged`, `Orthogonal`, `ResidualsZero`); any other
+    /// (`LostPatience`: out of evaluations, `NoImprovementPossible`,
+    /// `Numerical`) is named in the warnings ([`warnings`]).
+    pub converged: bool,
     /// Per incidence: the table's reflectance and the model's over the
     /// same cells (Σ BRDF x projected solid angle), and their difference:
     /// for a single-scattering model on a rough surface, mostly the light
@@ -370,6 +376,17 @@ pub struct ReflectanceCompare {
     pub difference: f64,
     /// `chi²/cells` of this incidence's cells.
     pub chi2_per_cell: f64,
+    /// The standard error of the table's reflectance at this incidence
+    /// (as the exports' checks take it: `summary.json`'s, else the cells'
+    /// errors added in quadrature; [`BrdfTable::reflectance_stderr`]).
+    pub table_stderr: f64,
+    /// The largest `|difference|` allowed: `max(1 % of table, 4
+    /// table_stderr)`, the rule of the exports' read-back checks
+    /// ([`ReflectanceCheck::tolerance`]).
+    pub tolerance: f64,
+    /// The verdict: `|difference| <= tolerance` (false also when the
+    /// model's reflectance is not a number).
+    pub ok: bool,
 }
 
 /// Why a fit could not be made.
@@ -377,11 +394,56 @@ pub struct ReflectanceCompare {
 #[error("{0}")]
 pub struct FitError(pub String);
 
+/// The most cells one direction's light falls in: 4, at the pole, where
+/// the four cells of band 1 meet and roks shares it among them (elsewhere
+/// 1, or 2 on an edge).
+pub const MIRROR_CELLS: usize = 4;
+
+/// Whether `table` holds something a model can be fitted to, the same for
+/// every model: at every incidence finite numbers and a positive
+/// reflectance spread over more than [`MIRROR_CELLS`] cells. A flat mirror's table (all the light in the
+/// specular cell) or an absorbing surface's (no light) has no lobe to fit:
+/// a least-squares fit to either runs its widths to 0 or infinity and ends
+/// at parameters that are not numbers.
+///
+/// # Errors
+/// The first incidence that fails, named, and why.
+pub fn check_representable(table: &BrdfTable) -> Result<(), FitError> {
+    for (i, theta) in table.thetas_deg().iter().enumerate() {
+        let fractions = table.fractions(i);
+        let stderrs = table.fraction_stderrs(i);
+        if let Some(k) = fractions
+            .iter()
+            .zip(stderrs)
+            .position(|(f, e)| !f.is_finite() || !e.is_finite())
+        {
+            return Err(FitError(format!(
+                "theta_i {theta} deg: cell {k} of the table is not a number"
+            )));
+        }
+        let lit = fractions.iter().filter(|&&f| f > 0.0).count();
+        let reflectance: f64 = fractions.iter().sum();
+        if lit == 0 {
+            return Err(FitError(format!(
+                "theta_i {theta} deg: the table reflects nothing there (reflectance 0): no lobe to fit"
+            )));
+        }
+        if lit <= MIRROR_CELLS {
+            return Err(FitError(format!(
+                "theta_i {theta} deg: all the light ({reflectance:.6}) is in {lit} cell{} (one direction falls in at most {MIRROR_CELLS}, where cells meet): a mirror's reflection, narrower than the grid's cells, whose width no model can be fitted to; use the table itself",
+                if lit == 1 { "" } else { "s" }
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Fit `model` to `cells` of `table`, starting from the best of `starts`
 /// (internal parameters).
 ///
 /// # Errors
-/// Fewer cells than parameters, or no start with a finite `chi²`.
+/// Fewer cells than parameters, no start with a finite `chi²`, or a
+/// minimum at parameters that are not finite numbers.
 pub fn fit(
     model: &dyn Model,
     table: &BrdfTable,
@@ -435,7 +497,19 @@ pub fn fit(
             value,
             stderr: standard_error(d, cov[(k, k)]),
         })
-        .collect();
+        .collect::<Vec<Parameter>>();
+    if let Some(p) = parameters.iter().find(|p| !p.value.is_finite()) {
+        return Err(FitError(format!(
+            "the fit ends at {} = {} (termination {:?}): the table is not of this model's form",
+            p.name, p.value, report.termination
+        )));
+    }
+    if !chi2.is_finite() {
+        return Err(FitError(format!(
+            "the fit ends at chi^2 = {chi2} (termination {:?}): the table is not of this model's form",
+            report.termination
+        )));
+    }
     let grid = table.grid();
     let mut residuals: Vec<Residual> = cells
         .iter()
@@ -474,12 +548,23 @@ pub fn fit(
             let (n, c2) = mine().fold((0usize, 0.0), |(n, c), (_, r)| {
                 (n + 1, c + r.sigma * r.sigma)
             });
+            let theta_i_deg = table.incidence(i).theta_deg;
+            let check = ReflectanceCheck {
+                theta_i_deg,
+                phi_i_deg: None,
+                table: table_r,
+                file: model_r,
+                table_stderr: table.reflectance_stderr(theta_i_deg.to_radians()),
+            };
             ReflectanceCompare {
-                theta_i_deg: table.incidence(i).theta_deg,
+                theta_i_deg,
                 table: table_r,
                 model: model_r,
                 difference: table_r - model_r,
                 chi2_per_cell: c2 / n.max(1) as f64,
+                table_stderr: check.table_stderr,
+                tolerance: check.tolerance(),
+                ok: check.passes(),
             }
         })
         .collect();
@@ -498,6 +583,7 @@ pub fn fit(
         cells: cells.len(),
         cells_left_out: left_out,
         termination: format!("{:?}", report.termination),
+        converged: report.termination.was_successful(),
         reflectance,
         largest_residuals: residuals,
         internal: q,
@@ -516,13 +602,254 @@ pub fn per_incidence(
     obs: &Observations,
     starts: impl Fn(&[&Observation]) -> Vec<Vec<f64>>,
 ) -> Result<Vec<FitResult>, FitError> {
+    check_representable(table)?;
     (0..table.thetas_deg().len())
         .map(|i| {
             let cells: Vec<&Observation> = obs.cells.iter().filter(|o| o.incidence == i).collect();
             fit(model, table, &cells, &starts(&cells), obs.left_out)
-                .map_err(|e| FitError(format!("theta_i_deg = {}: {}", table.thetas_deg()[i], e.0)))
+                .map_err(|e| FitError(format!("theta_i {} deg: {}", table.thetas_deg()[i], e.0)))
         })
         .collect()
+}
+
+/// Per incidence of `obs`, the reflectance of `model` at internal
+/// parameters `q` (one set for every incidence, as FRED takes ABg and
+/// Harvey-Shack) over the cells of `obs` beside the table's, judged as
+/// [`FitResult::reflectance`] is.
+#[must_use]
+pub fn reflectance_of(
+    model: &dyn Model,
+    q: &[f64],
+    table: &BrdfTable,
+    obs: &Observations,
+) -> Vec<ReflectanceCompare> {
+    (0..table.thetas_deg().len())
+        .filter_map(|i| {
+            let mine: Vec<&Observation> = obs.cells.iter().filter(|o| o.incidence == i).collect();
+            if mine.is_empty() {
+                return None;
+            }
+            let (mut t, mut m, mut c2) = (0.0, 0.0, 0.0);
+            for o in &mine {
+                let v = cell_model(model, q, o);
+                t += o.brdf * o.proj;
+                m += v * o.proj;
+                c2 += ((o.brdf - v) / o.stderr).powi(2);
+            }
+            let theta_i_deg = table.incidence(i).theta_deg;
+            let check = ReflectanceCheck {
+                theta_i_deg,
+                phi_i_deg: None,
+                table: t,
+                file: m,
+                table_stderr: table.reflectance_stderr(theta_i_deg.to_radians()),
+            };
+            Some(ReflectanceCompare {
+                theta_i_deg,
+                table: t,
+                model: m,
+                difference: t - m,
+                chi2_per_cell: c2 / mine.len() as f64,
+                table_stderr: check.table_stderr,
+                tolerance: check.tolerance(),
+                ok: check.passes(),
+            })
+        })
+        .collect()
+}
+
+/// The warnings of the fits of model `name` (one line each, no trailing
+/// period), in the order of the fits: every incidence whose reflectance
+/// is off the table's by more than `max(1 %, 4 standard errors)`
+/// ([`ReflectanceCompare::ok`]), every fit that did not converge
+/// ([`FitResult::converged`]), and every parameter whose standard error
+/// exceeds its value in magnitude, or has none (singular covariance).
+#[must_use]
+pub fn warnings(name: &str, fits: &[FitResult]) -> Vec<String> {
+    let mut out = Vec::new();
+    for f in fits {
+        let at = if f.theta_i_deg.len() == 1 {
+            format!("theta_i {} deg", f.theta_i_deg[0])
+        } else {
+            "all incidences".to_owned()
+        };
+        if !f.converged {
+            out.push(format!(
+                "{name}: {at}: the fit did not converge (termination {}): its parameters are not a minimum of chi^2",
+                f.termination
+            ));
+        }
+        for p in &f.parameters {
+            if p.stderr.is_nan() {
+                out.push(format!(
+                    "{name}: {at}: {} = {:.5e} has no standard error (singular covariance: undetermined)",
+                    p.name, p.value
+                ));
+            } else if p.stderr > p.value.abs() {
+                out.push(format!(
+                    "{name}: {at}: {} = {:.5e} +- {:.2e}: the standard error exceeds the value (undetermined)",
+                    p.name, p.value, p.stderr
+                ));
+            }
+        }
+        for r in f.reflectance.iter().filter(|r| !r.ok) {
+            out.push(format!("{name}: {}", reflectance_off(r)));
+        }
+    }
+    out
+}
+
+/// The words of a failed reflectance verdict, in the exports' wording:
+/// `theta_i X deg: the model's reflectance ... is ... % off the table's ...
+/// (N standard errors; allowed: max(1 %, 4 standard errors))`.
+#[must_use]
+pub fn reflectance_off(r: &ReflectanceCompare) -> String {
+    let sigmas = if r.table_stderr > 0.0 {
+        format!(
+            "{:.1} standard errors",
+            (r.model - r.table).abs() / r.table_stderr
+        )
+    } else {
+        "no standard error".to_owned()
+    };
+    format!(
+        "theta_i {} deg: the model's reflectance {:.6} is {:+.2} % off the table's {:.6} ({sigmas}; allowed: max(1 %, 4 standard errors))",
+        r.theta_i_deg,
+        r.model,
+        100.0 * (r.model / r.table - 1.0),
+        r.table
+    )
+}
+
+/// How one model's fits did, in numbers: what `roks fit-model` prints as
+/// its verdict and ranks the models by ([`Judgement::rank_key`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct Judgement {
+    /// The model (`--model`'s name).
+    pub model: String,
+    /// `Σ chi² / Σ dof` over the model's fits (for a per-incidence model,
+    /// pooled over its incidences).
+    pub chi2_per_dof: f64,
+    /// Incidences judged.
+    pub incidences: usize,
+    /// Incidences whose reflectance verdict is `ok`.
+    pub incidences_ok: usize,
+    /// The largest relative reflectance error `model / table - 1` in
+    /// magnitude (signed), and at which incidence (degrees).
+    pub worst_reflectance_error: f64,
+    /// The incidence (degrees) of [`worst_reflectance_error`](Self::worst_reflectance_error).
+    pub worst_at_theta_i_deg: f64,
+    /// Fits that did not converge.
+    pub not_converged: usize,
+    /// Parameters whose standard error exceeds their value or is unknown.
+    pub undetermined_parameters: usize,
+    /// Number of warnings ([`warnings`]).
+    pub warnings: usize,
+    /// No warnings: every incidence `ok`, every fit converged, every
+    /// parameter determined.
+    pub passes: bool,
+}
+
+impl Judgement {
+    /// The judgement of model `name`'s `fits`.
+    #[must_use]
+    pub fn of(name: &str, fits: &[FitResult]) -> Self {
+        let all: Vec<&ReflectanceCompare> = fits.iter().flat_map(|f| &f.reflectance).collect();
+        let rel = |r: &ReflectanceCompare| r.model / r.table - 1.0;
+        let worst = all
+            .iter()
+            .max_by(|a, b| rel(a).abs().total_cmp(&rel(b).abs()))
+            .map_or((0.0, f64::NAN), |r| (rel(r), r.theta_i_deg));
+        let (chi2, dof) = fits
+            .iter()
+            .fold((0.0, 0usize), |(c, d), f| (c + f.chi2, d + f.dof));
+        let w = warnings(name, fits).len();
+        Self {
+            model: name.to_owned(),
+            chi2_per_dof: chi2 / dof.max(1) as f64,
+            incidences: all.len(),
+            incidences_ok: all.iter().filter(|r| r.ok).count(),
+            worst_reflectance_error: worst.0,
+            worst_at_theta_i_deg: worst.1,
+            not_converged: fits.iter().filter(|f| !f.converged).count(),
+            undetermined_parameters: fits
+                .iter()
+                .flat_map(|f| &f.parameters)
+                .filter(|p| p.stderr.is_nan() || p.stderr > p.value.abs())
+                .count(),
+            warnings: w,
+            passes: w == 0,
+        }
+    }
+
+    /// The order of the ranking, best first: models without warnings
+    /// first, then fewer incidences off the table's reflectance, then
+    /// fewer fits not converged, then the smaller `chi²/dof`.
+    #[must_use]
+    pub fn rank_key(&self) -> (bool, usize, usize, f64) {
+        (
+            !self.passes,
+            self.incidences - self.incidences_ok,
+            self.not_converged,
+            self.chi2_per_dof,
+        )
+    }
+
+    /// The one-line verdict: that every check passes, or what fails.
+    #[must_use]
+    pub fn line(&self) -> String {
+        let worst = format!(
+            "worst reflectance error {:+.2} % at theta_i {} deg",
+            100.0 * self.worst_reflectance_error,
+            self.worst_at_theta_i_deg
+        );
+        if self.passes {
+            return format!(
+                "{}: ok: every incidence's reflectance within max(1 %, 4 standard errors) of the table's ({worst}), converged, every parameter determined; chi2/dof {:.3}",
+                self.model, self.chi2_per_dof
+            );
+        }
+        let mut what = Vec::new();
+        let off = self.incidences - self.incidences_ok;
+        if off > 0 {
+            what.push(format!(
+                "{off} of {} incidences off the table's reflectance by more than max(1 %, 4 standard errors) ({worst})",
+                self.incidences
+            ));
+        }
+        if self.not_converged > 0 {
+            what.push(format!(
+                "{} fit{} not converged",
+                self.not_converged,
+                if self.not_converged == 1 { "" } else { "s" }
+            ));
+        }
+        if self.undetermined_parameters > 0 {
+            what.push(format!(
+                "{} parameters undetermined (standard error above the value)",
+                self.undetermined_parameters
+            ));
+        }
+        format!(
+            "{}: NOT OK: {}; chi2/dof {:.3}; {} warnings",
+            self.model,
+            what.join(", "),
+            self.chi2_per_dof,
+            self.warnings
+        )
+    }
+}
+
+/// Sort `judgements` best first by [`Judgement::rank_key`] (stable: equal
+/// keys keep their order).
+pub fn rank(judgements: &mut [Judgement]) {
+    judgements.sort_by(|a, b| {
+        let (x, y) = (a.rank_key(), b.rank_key());
+        x.0.cmp(&y.0)
+            .then(x.1.cmp(&y.1))
+            .then(x.2.cmp(&y.2))
+            .then(x.3.total_cmp(&y.3))
+    });
 }
 
 /// For a model `amplitude x shape(s)`: per shape point `s` of `grid`, the
@@ -712,6 +1039,127 @@ mod tests {
     fn rotate(d: DVec3, a: f64) -> DVec3 {
         let (s, c) = a.sin_cos();
         DVec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z)
+    }
+
+    /// A table with no light at an incidence, or all of it in one cell, is
+    /// refused before any fit, naming the incidence; a lobe over many cells
+    /// is not.
+    #[test]
+    fn tables_without_a_lobe_are_not_representable() {
+        let grid = CarlsonGrid::new(6).unwrap();
+        let n = grid.n_cells();
+        let lobe = synthetic(
+            &abg::Abg,
+            |_| vec![0.01f64.ln(), 0.01f64.ln(), 2.0],
+            &[0.0, 30.0],
+            6,
+            0.03,
+            1,
+        );
+        let table = |blocks| BrdfTable::from_blocks(grid, blocks, "t").unwrap();
+        assert_eq!(check_representable(&table(lobe.clone())), Ok(()));
+        let mut dark = lobe.clone();
+        dark[1].2 = vec![0.0; n];
+        dark[1].3 = vec![0.0; n];
+        let e = check_representable(&table(dark)).unwrap_err().0;
+        assert!(
+            e.starts_with("theta_i 30 deg: the table reflects nothing"),
+            "{e}"
+        );
+        let mut mirror = lobe;
+        mirror[1].2 = vec![0.0; n];
+        mirror[1].2[n - 1] = 0.9;
+        mirror[1].3 = vec![0.0; n];
+        let e = check_representable(&table(mirror)).unwrap_err().0;
+        assert!(
+            e.starts_with("theta_i 30 deg: all the light (0.900000) is in 1 cell "),
+            "{e}"
+        );
+    }
+
+    /// A fit result of one incidence with these parameters `(value,
+    /// stderr)`, termination and reflectance verdict.
+    fn result(params: &[(f64, f64)], converged: bool, ok: bool, chi2: f64) -> FitResult {
+        FitResult {
+            theta_i_deg: vec![15.0],
+            parameters: params
+                .iter()
+                .enumerate()
+                .map(|(k, &(value, stderr))| Parameter {
+                    name: format!("p{k}"),
+                    value,
+                    stderr,
+                })
+                .collect(),
+            chi2,
+            dof: 10,
+            chi2_per_dof: chi2 / 10.0,
+            covariance_scaled: false,
+            cells: 12,
+            cells_left_out: 0,
+            termination: if converged {
+                "Converged"
+            } else {
+                "LostPatience"
+            }
+            .into(),
+            converged,
+            reflectance: vec![ReflectanceCompare {
+                theta_i_deg: 15.0,
+                table: 0.5,
+                model: if ok { 0.499 } else { 0.4 },
+                difference: if ok { 0.001 } else { 0.1 },
+                chi2_per_cell: 1.0,
+                table_stderr: 1e-3,
+                tolerance: 0.005,
+                ok,
+            }],
+            largest_residuals: Vec::new(),
+            internal: Vec::new(),
+            incidences: vec![0],
+        }
+    }
+
+    /// Every failed judgement is one warning naming the model, the
+    /// incidence and what failed; a clean fit has none; the ranking puts
+    /// the clean fit first, then fewer failing incidences, then fewer fits
+    /// not converged, then the smaller chi²/dof.
+    #[test]
+    fn warnings_and_ranking() {
+        let clean = result(&[(1.0, 0.1), (-2.0, 1.9)], true, true, 30.0);
+        assert!(warnings("m", std::slice::from_ref(&clean)).is_empty());
+        let bad = result(&[(1.0, 1.5), (-2.0, f64::NAN)], false, false, 5.0);
+        let w = warnings("m", std::slice::from_ref(&bad));
+        assert_eq!(w.len(), 4, "{w:#?}");
+        assert!(
+            w[0].starts_with(
+                "m: theta_i 15 deg: the fit did not converge (termination LostPatience)"
+            )
+        );
+        assert!(w[1].contains("p0 = 1.00000e0 +- 1.50e0: the standard error exceeds the value"));
+        assert!(w[2].contains("p1 = -2.00000e0 has no standard error"));
+        assert!(w[3].starts_with("m: theta_i 15 deg: the model's reflectance 0.400000 is -20.00 % off the table's 0.500000 (100.0 standard errors;"));
+        let j = |name, r: &FitResult| Judgement::of(name, std::slice::from_ref(r));
+        let unconverged = result(&[(1.0, 0.1)], false, true, 1.0);
+        let off = result(&[(1.0, 0.1)], true, false, 2.0);
+        let off_unconverged = result(&[(1.0, 0.1)], false, false, 1.0);
+        let mut all = vec![
+            j("d", &off_unconverged),
+            j("c", &off),
+            j("b", &unconverged),
+            j("a", &clean),
+        ];
+        rank(&mut all);
+        let order: Vec<&str> = all.iter().map(|x| x.model.as_str()).collect();
+        assert_eq!(order, ["a", "b", "c", "d"]);
+        assert!(all[0].passes && all[0].line().starts_with("a: ok: "));
+        assert!(
+            all[3]
+                .line()
+                .starts_with("d: NOT OK: 1 of 1 incidences off"),
+            "{}",
+            all[3].line()
+        );
     }
 
     #[test]

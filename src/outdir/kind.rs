@@ -113,10 +113,11 @@ impl FileKind {
             }
             Self::Rgl => tensor_has(head, &["ndf", "luminance"]),
             Self::Pbsdf => tensor_has(head, &["theta_h", "theta_d", "phi_d"]),
+            // A fit (fit_<model>.json) or the ranking of `--model all`
+            // (fit_summary.json).
             Self::FitJson => serde_json::from_slice::<serde_json::Value>(head).is_ok_and(|v| {
-                ["model", "fits", "version"]
-                    .iter()
-                    .all(|k| v.get(k).is_some())
+                let has = |keys: &[&str]| keys.iter().all(|k| v.get(k).is_some());
+                has(&["model", "fits", "version"]) || has(&["ranking", "rule", "version"])
             }),
             Self::FitText => {
                 let l = first_line();
