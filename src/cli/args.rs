@@ -177,6 +177,7 @@ mod tests {
                     photons: Some(1000),
                     seed: Some(7),
                     threads: Some(2),
+                    check: false,
                 }
             );
         }
