@@ -361,6 +361,22 @@ impl NkSpectrum {
         }
     }
 
+    /// The files [`NkSpectrum::read`] reads for the table named `name`:
+    /// `name` itself for a CSV table, else the Mitsuba pair
+    /// (`NAME.eta.spd`, `NAME.k.spd`) that `NAME`, `NAME.eta.spd` or
+    /// `NAME.k.spd` names. A scene hashes (and protects) each of them.
+    #[must_use]
+    pub fn files_of(name: &str) -> Vec<String> {
+        if name.ends_with(".csv") {
+            return vec![name.to_owned()];
+        }
+        let stem = name
+            .strip_suffix(".eta.spd")
+            .or_else(|| name.strip_suffix(".k.spd"))
+            .unwrap_or(name);
+        vec![format!("{stem}.eta.spd"), format!("{stem}.k.spd")]
+    }
+
     /// Reads a CSV table (see [`NkSpectrum::parse_csv`]).
     ///
     /// # Errors
@@ -693,7 +709,7 @@ pub(super) fn bracket(abscissae: &[f64], at: f64) -> Option<(usize, usize, f64)>
 
 /// Reads a file as UTF-8 text, naming it in the error.
 fn read_text(path: &Path, file: &str) -> Result<String, SpectrumError> {
-    crate::limits::read_text_capped(path, crate::limits::max_data_bytes()).map_err(|e| {
+    crate::limits::read_input_text_capped(path, crate::limits::max_data_bytes()).map_err(|e| {
         SpectrumError::Io {
             file: file.to_owned(),
             message: e.to_string(),
