@@ -354,7 +354,7 @@ impl NkSpectrum {
             .map(str::to_owned);
         match stem {
             Some(stem) => Self::read_spd_pair(Path::new(&stem)),
-            None if Path::new(&format!("{name}.eta.spd")).is_file() => Self::read_spd_pair(path),
+            None if Path::new(&format!("{name}.eta.spd")).exists() => Self::read_spd_pair(path),
             None => Err(SpectrumError::UnknownFormat {
                 file: name.into_owned(),
             }),
