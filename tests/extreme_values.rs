@@ -711,11 +711,15 @@ fn bumps_wider_than_the_period_are_traced_through_the_few_on_top() {
 fn negative_zero_angles_are_written_as_zero() {
     let dir = scratch("negative-zero");
     let scene = dir.join("nz.toml");
-    let text = scene_text("size = [30.0, 30.0]", &bumps(""))
-        .replace("theta_deg = [30]", "theta_deg = [-0.0]\nphi_deg = [-0.0, 90.0]")
-        + "[tally]\nbands = 2\ninplane_step_deg = 90\n";
+    let text = scene_text("size = [30.0, 30.0]", &bumps("")).replace(
+        "theta_deg = [30]",
+        "theta_deg = [-0.0]\nphi_deg = [-0.0, 90.0]",
+    ) + "[tally]\nbands = 2\ninplane_step_deg = 90\n";
     std::fs::write(&scene, &text).unwrap();
-    for args in [&["--photons", "100"][..], &["--photons", "100", "--theta", "-0"]] {
+    for args in [
+        &["--photons", "100"][..],
+        &["--photons", "100", "--theta", "-0"],
+    ] {
         completes("negative zero", &scene, args);
         let out = scene.with_extension("out");
         let names: Vec<String> = std::fs::read_dir(&out)

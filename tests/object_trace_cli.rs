@@ -246,7 +246,11 @@ fn summary_says_whether_the_far_field_was_tallied() {
         let summary: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
         assert_eq!(summary["farfield"], serde_json::json!(tallied), "{case}");
-        assert_eq!(summary["farfield_stokes"], serde_json::json!(false), "{case}");
+        assert_eq!(
+            summary["farfield_stokes"],
+            serde_json::json!(false),
+            "{case}"
+        );
         assert_eq!(out.join("farfield.csv").exists(), tallied, "{case}");
         assert!(!out.join("farfield_stokes.csv").exists(), "{case}");
     }

@@ -677,9 +677,8 @@ fn spd_pair_on_different_grids_by_its_stem() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let summary: serde_json::Value =
         serde_json::from_slice(&cli_common::read(&out, "summary.json")).unwrap();
-    let lerp = |x: f64, (x0, y0): (f64, f64), (x1, y1): (f64, f64)| {
-        y0 + (y1 - y0) * (x - x0) / (x1 - x0)
-    };
+    let lerp =
+        |x: f64, (x0, y0): (f64, f64), (x1, y1): (f64, f64)| y0 + (y1 - y0) * (x - x0) / (x1 - x0);
     let spectrum = summary["incidence"][0]["spectrum"].as_array().unwrap();
     for (w, at) in [(500.0, &spectrum[0]), (600.0, &spectrum[1])] {
         let n = lerp(w, (400.0, 1.0), (700.0, 2.5));

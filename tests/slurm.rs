@@ -724,7 +724,11 @@ fn script_checks_exports_and_sinfo_before_submitting() {
         "sinfo down",
         &o,
         &out,
-        &["sinfo", "Unable to contact slurm controller", "exit status 1"],
+        &[
+            "sinfo",
+            "Unable to contact slurm controller",
+            "exit status 1",
+        ],
     );
 
     fake("sinfo", sinfo_up);
@@ -757,7 +761,10 @@ fn script_checks_exports_and_sinfo_before_submitting() {
     let log = fs::read_to_string(&calls).unwrap();
     assert_eq!(log.matches("sbatch ").count(), 2, "{log}");
     assert!(log.contains("--array=0-3"), "{log}");
-    assert!(log.contains("merge") && log.contains("--export zemax"), "{log}");
+    assert!(
+        log.contains("merge") && log.contains("--export zemax"),
+        "{log}"
+    );
     assert!(!out.exists(), "the check wrote {}", out.display());
     let _ = fs::remove_dir_all(&dir);
 }

@@ -167,8 +167,10 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
             run.theta_deg.len(),
             run.phi_deg.len(),
             run.photons,
-            run.shard
-                .map_or(String::new(), |s| format!(", shard {}/{}", s.index, s.count))
+            run.shard.map_or(String::new(), |s| format!(
+                ", shard {}/{}",
+                s.index, s.count
+            ))
         );
         super::common::report_check(&scene.scene_file.file, &what, a.quiet);
         return Ok(());

@@ -107,8 +107,10 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
         let what = format!(
             "{} beam positions{}",
             photons.len(),
-            a.shard
-                .map_or(String::new(), |s| format!(", shard {}/{}", s.index, s.count))
+            a.shard.map_or(String::new(), |s| format!(
+                ", shard {}/{}",
+                s.index, s.count
+            ))
         );
         super::common::report_check(&scene.scene_file.file, &what, a.quiet);
         return Ok(());

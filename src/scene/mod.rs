@@ -812,8 +812,9 @@ impl MaterialSpec {
                 }
                 let at = lane_key(key, "table", many, l);
                 let path = scene_file.dir.join(file);
-                let text = crate::limits::read_input_text_capped(&path, crate::limits::max_data_bytes())
-                    .map_err(|e| {
+                let text =
+                    crate::limits::read_input_text_capped(&path, crate::limits::max_data_bytes())
+                        .map_err(|e| {
                         scene_file.error(&at, format!("cannot read {}: {e}", path.display()))
                     })?;
                 let table = AngleTable::parse_csv(&text)

@@ -51,9 +51,11 @@ pub const BOUNCE_BINS: usize = 64;
 
 /// Bytes per in-plane bin and incidence of a run's result files beside its
 /// tallies (`inplane.csv` as text, and read back for `inplane.png`), for
-/// [`BrdfRun::memory_bytes`]: measured (peak RSS of `/usr/bin/time -v`) on
-/// 10 angles x 100 light azimuths with 0.01 degree bins (18000 each).
-pub const INPLANE_ROW_BYTES: u64 = 200;
+/// [`BrdfRun::memory_bytes`]. Measured with `/usr/bin/time -v` on 10
+/// angles x 10 light azimuths (1 photon each): 631 MB peak RSS with 0.01
+/// degree bins (18001), 142 MB with 1 degree bins (181), so 275 bytes per
+/// bin and incidence, 16 of them the tallies counted apart.
+pub const INPLANE_ROW_BYTES: u64 = 260;
 
 /// What to run: the one description of a `roks brdf` run, built once from
 /// the scene and the command line's overrides
