@@ -132,23 +132,23 @@ pub const PATHS_PER_CORE_SECOND: f64 = 3e6;
 
 /// The cost of a `w` x `h` render at `spp` samples per pixel on `threads`
 /// cores: its camera paths and an estimate of its seconds; refused above
-/// [`MAX_PATHS`] unless `force`.
+/// [`MAX_PATHS`], or above [`MAX_SPP`] samples per pixel, unless `force`.
 ///
 /// # Errors
 /// Bad input naming `--spp` and `--size`, the paths and the time.
 pub fn check_cost(w: u64, h: u64, spp: u32, threads: usize, force: bool) -> Result<u64, Failure> {
     let paths = w.saturating_mul(h).saturating_mul(u64::from(spp));
+    if paths > MAX_PATHS && !force {
+        let hours = paths as f64 / (PATHS_PER_CORE_SECOND * threads.max(1) as f64) / 3600.0;
+        return Err(Failure::Input(format!(
+            "--spp: {w} x {h} pixels x {spp} samples = {paths:.3e} camera paths, above the bound of {MAX_PATHS:.0e} (about {hours:.1} h on {threads} cores at {PATHS_PER_CORE_SECOND:.0e} paths/s per core); lower --spp or --size, or give --force-long-render"
+        )));
+    }
     if spp > MAX_SPP && !force {
         // A pixel's samples are traced one after another on one core.
         let minutes = f64::from(spp) / PATHS_PER_CORE_SECOND / 60.0;
         return Err(Failure::Input(format!(
             "--spp: {spp} samples per pixel, above the bound of {MAX_SPP} (2^24): a pixel's samples are traced one after another on one core (about {minutes:.0} min per pixel at {PATHS_PER_CORE_SECOND:.0e} paths/s); lower --spp, or give --force-long-render"
-        )));
-    }
-    if paths > MAX_PATHS && !force {
-        let hours = paths as f64 / (PATHS_PER_CORE_SECOND * threads.max(1) as f64) / 3600.0;
-        return Err(Failure::Input(format!(
-            "--spp: {w} x {h} pixels x {spp} samples = {paths:.3e} camera paths, above the bound of {MAX_PATHS:.0e} (about {hours:.1} h on {threads} cores at {PATHS_PER_CORE_SECOND:.0e} paths/s per core); lower --spp or --size, or give --force-long-render"
         )));
     }
     Ok(paths)
