@@ -19,8 +19,9 @@
 # roks replaces a result folder whole). Nothing is submitted unless all of
 # this holds (otherwise one line on stderr, exit status 2):
 #   * the roks binary exists, the scene file exists (its absolute path is
-#     submitted), and `roks brdf` (`roks trace` for an object scene) accepts
-#     the scene, the options and `--shard SHARDS-1/SHARDS` (a shard is whole
+#     submitted), and `roks brdf --check` (`roks trace --check` for an object
+#     scene) accepts the scene, the options, the exports the merge will
+#     write (--export) and `--shard SHARDS-1/SHARDS` (a shard is whole
 #     batches of 4096 photons: of every incidence angle for brdf, so SHARDS
 #     may not exceed ceil(photons / 4096); of the beam positions laid end to
 #     end for trace, so SHARDS may not exceed the sum over the positions of
@@ -32,7 +33,8 @@
 #     folders to start afresh);
 #   * CPUS (cores per shard) is at most the cores of a node of the partition
 #     (SBATCH_PARTITION, else the default one); unset, it is 8 or the node's
-#     cores if fewer.
+#     cores if fewer;
+#   * sinfo answers (a controller that is down is named, exit status 2).
 # Settings from the environment: ROKS, CPUS, TIME (per shard, default
 # 04:00:00), and sbatch's own SBATCH_PARTITION, SBATCH_ACCOUNT,
 # SBATCH_MEM_PER_CPU, ... (the shards and the merge all read them).
@@ -101,9 +103,22 @@ require_empty() {
     fi
 }
 
+# Run sinfo with the arguments given; its output on stdout. When it fails
+# (the controller is down, a bad partition), die with its first line.
+sinfo_or_die() {
+    local out rc=0
+    out=$(sinfo "$@" 2>&1) || rc=$?
+    if [ "$rc" -ne 0 ]; then
+        die "sinfo cannot reach the Slurm controller (exit status $rc): $(first_line "${out:-no message}")"
+    fi
+    printf '%s\n' "$out"
+}
+
 # The most cores a node of partition $1 offers.
 partition_cpus() {
-    sinfo -h -N -p "$1" -o '%c' 2>/dev/null | tr -dc '0-9\n' | sort -n | tail -n 1
+    local out
+    out=$(sinfo_or_die -h -N -p "$1" -o '%c') || exit $?
+    printf '%s\n' "$out" | tr -dc '0-9\n' | sort -n | tail -n 1
 }
 
 # Load the run's settings kept in OUT.shards/slurm_run.env.
@@ -411,7 +426,11 @@ require_empty "$OUT.logs"
 need_slurm
 
 # Cores per shard: no more than a node of the partition has.
-partition=${SBATCH_PARTITION:-$(sinfo -h -o '%P' 2>/dev/null | sed -n 's/\*$//p' | head -n 1)}
+partition=${SBATCH_PARTITION:-}
+if [ -z "$partition" ]; then
+    partitions=$(sinfo_or_die -h -o '%P')
+    partition=$(printf '%s\n' "$partitions" | sed -n 's/\*$//p' | head -n 1)
+fi
 [ -n "$partition" ] || die "no default Slurm partition: set SBATCH_PARTITION"
 node_cpus=$(partition_cpus "$partition")
 [ -n "$node_cpus" ] || die "SBATCH_PARTITION: no nodes in the Slurm partition \`$partition\`"
@@ -424,20 +443,20 @@ elif ((10#$CPUS > node_cpus)); then
 fi
 CPUS=$((10#$CPUS))
 
-# Let roks check the scene, the options and the last shard before anything
-# is submitted: --out names a file, which roks refuses only after every other
-# check, so a run that would start is recognised by that refusal alone.
-probe=$(mktemp)
-trap 'rm -f -- "$probe"' EXIT
+# Let roks check the scene, the options, the last shard and the exports the
+# merge will write (`--check`: everything the run checks, nothing traced or
+# written) before anything is submitted, so that a run the merge would refuse
+# (an unknown format, rgl of azimuths no RGL file holds, pbsdf without a
+# Mueller tally) is refused now, not after every shard has run.
 set +e
 # shellcheck disable=SC2086
-why=$(eval "$(printf '%q' "$ROKS") $CMD $(printf '%q' "$SCENE") -q --shard $((SHARDS - 1))/$SHARDS --out $(printf '%q' "$probe")$EXTRA" 2>&1 >/dev/null)
+why=$(eval "$(printf '%q' "$ROKS") $CMD $(printf '%q' "$SCENE") -q --check --shard $((SHARDS - 1))/$SHARDS --out $(printf '%q' "$OUT.shards/$(shard_name $((SHARDS - 1)))")$EXTRA$MERGE_EXTRA" 2>&1 >/dev/null)
 rc=$?
 set -e
-case $why in
-    *"--out: $probe: is a file, not a folder"*) ;;
-    *) why=$(first_line "$why") && die "roks $CMD refuses the run: ${why#roks: }${why:+ }(exit status $rc)" ;;
-esac
+if [ "$rc" -ne 0 ]; then
+    why=$(first_line "$why")
+    die "roks $CMD refuses the run: ${why#roks: }${why:+ }(exit status $rc)"
+fi
 
 mkdir -p -- "$OUT.shards" "$OUT.logs" || die "OUT: cannot create $OUT.shards and $OUT.logs"
 STATE=$OUT.shards/slurm_run.env

@@ -62,6 +62,71 @@ pub fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// `Ok` when `path` names a regular file (after symbolic links), else an
+/// error of kind `InvalidInput` saying what it is (`is a FIFO (named pipe),
+/// not a regular file`). Checked before a file a scene reads is opened:
+/// opening a FIFO waits for a writer (forever, if none comes), and a
+/// device or a socket is no table either.
+///
+/// # Errors
+/// The I/O error of `stat`, or the `InvalidInput` error.
+pub fn require_regular(path: &Path) -> std::io::Result<()> {
+    let kind = std::fs::metadata(path)?.file_type();
+    if kind.is_file() {
+        return Ok(());
+    }
+    let what = if kind.is_dir() {
+        "a folder"
+    } else {
+        special_kind(kind)
+    };
+    Err(std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        format!("is {what}, not a regular file"),
+    ))
+}
+
+/// What a file that is neither a regular file nor a folder is.
+#[cfg(unix)]
+fn special_kind(kind: std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt as _;
+    if kind.is_fifo() {
+        "a FIFO (named pipe)"
+    } else if kind.is_socket() {
+        "a socket"
+    } else if kind.is_char_device() || kind.is_block_device() {
+        "a device"
+    } else {
+        "a special file"
+    }
+}
+
+/// What a file that is neither a regular file nor a folder is.
+#[cfg(not(unix))]
+fn special_kind(_: std::fs::FileType) -> &'static str {
+    "a special file"
+}
+
+/// [`read_capped`] of a file a scene reads (an n, k table, an angle table,
+/// a height map, a BRDF table), refused unless it is a regular file
+/// ([`require_regular`]) before it is opened.
+///
+/// # Errors
+/// As [`require_regular`] and [`read_capped`].
+pub fn read_input_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
+    require_regular(path)?;
+    read_capped(path, cap)
+}
+
+/// [`read_input_capped`] as UTF-8 text.
+///
+/// # Errors
+/// As [`read_input_capped`], or `InvalidData` for text that is not UTF-8.
+pub fn read_input_text_capped(path: &Path, cap: u64) -> std::io::Result<String> {
+    require_regular(path)?;
+    read_text_capped(path, cap)
+}
+
 /// [`read_capped`] as UTF-8 text.
 ///
 /// # Errors
@@ -265,6 +330,32 @@ mod tests {
         assert_eq!(format_bytes(512), "512 B");
         assert_eq!(format_bytes(3 << 29), "1.5 GiB");
         assert_eq!(format_bytes(100 << 20), "100.0 MiB");
+    }
+
+    #[test]
+    fn only_regular_files_are_inputs() {
+        let dir = std::env::temp_dir().join(format!("roks-limits-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("t.csv");
+        std::fs::write(&file, "x").unwrap();
+        assert_eq!(read_input_capped(&file, 10).unwrap(), b"x");
+        let fifo = dir.join("fifo.csv");
+        let _ = std::fs::remove_file(&fifo);
+        assert!(
+            std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+        // Refused before it is opened: no writer, yet no wait.
+        let e = read_input_text_capped(&fifo, 10).unwrap_err();
+        assert_eq!(e.to_string(), "is a FIFO (named pipe), not a regular file");
+        let e = read_input_capped(Path::new("/dev/zero"), 10).unwrap_err();
+        assert_eq!(e.to_string(), "is a device, not a regular file");
+        let e = require_regular(&dir).unwrap_err();
+        assert_eq!(e.to_string(), "is a folder, not a regular file");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -702,3 +702,40 @@ fn bumps_wider_than_the_period_are_traced_through_the_few_on_top() {
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// `-0` is `0`: an incidence angle and light azimuths written `-0.0` (in the
+/// scene or as `--theta -0`) give the files and pictures of `0`
+/// (`hemisphere_0deg_phi0.png`, never `..._phi-0.png`), and no `-0`
+/// anywhere in `summary.json`, `brdf.csv` or `inplane.csv`.
+#[test]
+fn negative_zero_angles_are_written_as_zero() {
+    let dir = scratch("negative-zero");
+    let scene = dir.join("nz.toml");
+    let text = scene_text("size = [30.0, 30.0]", &bumps("")).replace(
+        "theta_deg = [30]",
+        "theta_deg = [-0.0]\nphi_deg = [-0.0, 90.0]",
+    ) + "[tally]\nbands = 2\ninplane_step_deg = 90\n";
+    std::fs::write(&scene, &text).unwrap();
+    for args in [
+        &["--photons", "100"][..],
+        &["--photons", "100", "--theta", "-0"],
+    ] {
+        completes("negative zero", &scene, args);
+        let out = scene.with_extension("out");
+        let names: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(names.iter().all(|n| !n.contains("-0")), "{names:?}");
+        for name in ["hemisphere_0deg_phi0.png", "hemisphere_0deg_phi90.png"] {
+            assert!(names.iter().any(|n| n == name), "{name}: {names:?}");
+        }
+        for file in ["summary.json", "brdf.csv", "inplane.csv"] {
+            let text = std::fs::read_to_string(out.join(file)).unwrap();
+            assert!(
+                !text.contains("-0.0") && !text.contains("\n-0,") && !text.contains(",-0,"),
+                "{file}: -0 in it"
+            );
+        }
+    }
+}

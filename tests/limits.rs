@@ -344,9 +344,9 @@ fn statistics_maps_are_refused_above_the_limit() {
     );
     let o = roks_limited(None, &["stats", s, "--resolution", "100000"]);
     assert_option_refused("stats", &o, "--resolution", &out, &["GiB"]);
-    // Small limit, moderate map.
-    let o = roks_limited(Some("10M"), &["stats", s, "--resolution", "2048"]);
-    assert_option_refused("stats 2048", &o, "--resolution", &out, &["10.0 MiB"]);
+    // Small limit (above the scene's run of 10 incidences), moderate map.
+    let o = roks_limited(Some("32M"), &["stats", s, "--resolution", "2048"]);
+    assert_option_refused("stats 2048", &o, "--resolution", &out, &["32.0 MiB"]);
 }
 
 #[test]
@@ -664,8 +664,8 @@ fn worker_threads_are_refused_above_the_limit() {
 
 /// Input files are read up to a bound (a scene file 64 MiB, a data file an
 /// eighth of the memory limit), so an endless or huge file is one line,
-/// exit 2, in bounded memory: `/dev/zero` as the scene, as an angle table,
-/// as an nk table and as the measured BRDF of `fit`, and a
+/// exit 2, in bounded memory: `/dev/zero` as the scene and as the measured
+/// BRDF of `fit`, a 13 MiB file as an angle table and as an nk table, and a
 /// 70 MB scene of comment lines (before the bound, it went to the TOML
 /// parser, which asked for several times its size and aborted under the
 /// 4 GB address-space limit: found by fuzzing).
@@ -681,12 +681,18 @@ fn endless_and_huge_input_files_are_refused_in_bounded_memory() {
     let zero = Path::new("/dev/zero");
     let o = roks_limited(Some("100M"), &["stats", "/dev/zero"]);
     assert_input_error("stats /dev/zero", &o, zero, &out, &["larger than 64.0 MiB"]);
-    // An nk table is named by its extension: a link zero.csv to /dev/zero.
-    let link = dir.join("zero.csv");
-    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    // A file a scene reads must be a regular file (a device is refused
+    // before it is opened: tests/scene_errors.rs), so the bound is shown on
+    // a sparse regular file of 13 MiB (an nk table is named by its
+    // extension: .csv).
+    let big = dir.join("zero.csv");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(13 << 20)
+        .unwrap();
     for (case, key, file) in [
-        ("table", "materials.m.table", "/dev/zero"),
-        ("nk", "materials.m.nk", link.to_str().unwrap()),
+        ("table", "materials.m.table", big.to_str().unwrap()),
+        ("nk", "materials.m.nk", big.to_str().unwrap()),
     ] {
         let text = micro(&format!("{case} = \"{file}\""), "");
         let scene = write(&dir, &format!("{case}.toml"), &text);

@@ -225,6 +225,38 @@ fn good_scene_runs() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `summary.json` says whether the far field was tallied (`farfield`, and
+/// `farfield_stokes` for its Stokes vectors), so a missing `farfield.csv`
+/// is told from one never written; each key matches the files.
+#[test]
+fn summary_says_whether_the_far_field_was_tallied() {
+    let dir = scratch("trace-farfield-key");
+    for (case, text, tallied) in [
+        ("with", GOOD.to_string(), true),
+        (
+            "without",
+            GOOD.replace("farfield = true", "farfield = false"),
+            false,
+        ),
+    ] {
+        let scene = write_scene(&dir, case, &text);
+        let out = dir.join(case);
+        let o = trace(&scene, &out, &[]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(summary["farfield"], serde_json::json!(tallied), "{case}");
+        assert_eq!(
+            summary["farfield_stokes"],
+            serde_json::json!(false),
+            "{case}"
+        );
+        assert_eq!(out.join("farfield.csv").exists(), tallied, "{case}");
+        assert!(!out.join("farfield_stokes.csv").exists(), "{case}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A BRDF table that does not exist yet names the command that makes it:
 /// the micro scene beside the object scene whose result folder it is
 /// (`micro.toml`, named by its file stem, writes `out/micro/`), else the

@@ -564,3 +564,136 @@ fn inplane_step_too_fine() {
         );
     }
 }
+
+/// Every file a scene reads that is not a regular file (a FIFO without a
+/// writer, which used to block the open forever, or a device) is refused
+/// before it is opened: an nk table, an angle table, a height map, a
+/// Mitsuba `.spd` file, each one line naming the file's key, exit 2.
+#[test]
+fn input_files_that_are_not_regular_files() {
+    let dir = scratch("fifo");
+    let fifo = dir.join("pipe.csv");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .expect("mkfifo")
+            .success()
+    );
+    for name in ["pipe.eta.spd", "pipe.txt"] {
+        std::os::unix::fs::symlink(&fifo, dir.join(name)).unwrap();
+    }
+    std::fs::write(dir.join("pipe.k.spd"), "400 1\n800 2\n").unwrap();
+    let spectral = "photons = 1000\nwavelengths_um = [0.5]";
+    for (case, text, key, what) in [
+        (
+            "nk",
+            broken("reflectance = 0.8", "nk = \"pipe.csv\"").replace("photons = 1000", spectral),
+            "materials.paint.nk",
+            "FIFO",
+        ),
+        (
+            "spd",
+            broken("reflectance = 0.8", "nk = \"pipe\"").replace("photons = 1000", spectral),
+            "materials.paint.nk",
+            "FIFO",
+        ),
+        (
+            "table",
+            broken("reflectance = 0.8", "table = \"pipe.csv\""),
+            "materials.paint.table",
+            "FIFO",
+        ),
+        (
+            "device",
+            broken("reflectance = 0.8", "table = \"/dev/null\""),
+            "materials.paint.table",
+            "is a device, not a regular file",
+        ),
+        (
+            "heightfield",
+            "[surface]\nmaterial = \"paint\"\nheightfield = { file = \"pipe.txt\", pixel = 1.0 }\n[materials.paint]\nreflectance = 0.8\n".to_string(),
+            "surface.heightfield.file",
+            "FIFO",
+        ),
+    ] {
+        let scene = dir.join(format!("{case}.toml"));
+        std::fs::write(&scene, &text).unwrap();
+        let out = dir.join("out");
+        let args = [
+            "brdf",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--photons",
+            "100",
+            "-q",
+        ];
+        let o = cli_common::roks_within(&args, 30)
+            .unwrap_or_else(|| panic!("{case}: roks hung on a FIFO (killed after 30 s)"));
+        cli_common::assert_input_error(case, &o, &scene, &out, &[key, what]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `[light] wavelengths_um = []` is refused at its key (it used to run as a
+/// monochrome scene), also when `--wavelengths` replaces it.
+#[test]
+fn empty_wavelength_list() {
+    let text = broken("photons = 1000", "photons = 1000\nwavelengths_um = []");
+    check(
+        "wavelengths-empty",
+        &text,
+        &["light.wavelengths_um", "needs at least one wavelength"],
+    );
+}
+
+/// A Mitsuba `.spd` pair on different wavelength grids, named by its stem
+/// (`nk = "Au"` with `Au.eta.spd` and `Au.k.spd`), runs: n and k are each
+/// interpolated linearly onto the run's wavelengths. A flat Fresnel surface
+/// reflects exactly ((n-1)^2 + k^2) / ((n+1)^2 + k^2) at normal incidence,
+/// with n and k interpolated here independently; the summary hashes both
+/// files. It used to be refused as "Au: cannot read: No such file".
+#[test]
+fn spd_pair_on_different_grids_by_its_stem() {
+    let dir = scratch("spd-grids");
+    // n: 400 -> 1.0, 700 -> 2.5; k: 450 -> 3.0, 550 -> 4.0, 650 -> 6.0 (nm).
+    std::fs::write(dir.join("Au.eta.spd"), "# n\n400 1.0\n700 2.5\n").unwrap();
+    std::fs::write(dir.join("Au.k.spd"), "450 3.0\n550 4.0\n650 6.0\n").unwrap();
+    let scene = dir.join("au.toml");
+    std::fs::write(
+        &scene,
+        "[surface]\nsize = [10.0, 10.0]\nmaterial = \"au\"\n[materials.au]\nnk = \"Au\"\n[light]\ntheta_deg = [0]\nphotons = 4096\nwavelengths_um = [0.5, 0.6]\n[tally]\nbands = 2\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = cli_common::roks(&[
+        "brdf",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&cli_common::read(&out, "summary.json")).unwrap();
+    let lerp =
+        |x: f64, (x0, y0): (f64, f64), (x1, y1): (f64, f64)| y0 + (y1 - y0) * (x - x0) / (x1 - x0);
+    let spectrum = summary["incidence"][0]["spectrum"].as_array().unwrap();
+    for (w, at) in [(500.0, &spectrum[0]), (600.0, &spectrum[1])] {
+        let n = lerp(w, (400.0, 1.0), (700.0, 2.5));
+        let k = if w <= 550.0 {
+            lerp(w, (450.0, 3.0), (550.0, 4.0))
+        } else {
+            lerp(w, (550.0, 4.0), (650.0, 6.0))
+        };
+        let r = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
+        let got = at["reflectance"].as_f64().unwrap();
+        assert!((got - r).abs() < 1e-12, "{w} nm: {got} vs {r}");
+    }
+    let files = &summary["content"]["files"];
+    for key in ["materials.au.nk", "materials.au.nk.k"] {
+        assert!(files[key].is_string(), "{key}: {files}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

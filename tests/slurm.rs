@@ -646,3 +646,125 @@ fn slurm_runs_merge_into_the_single_run_and_recover_from_a_killed_shard() {
         started.elapsed().as_secs_f64()
     );
 }
+
+/// The script's own checks without a Slurm cluster: fake `sbatch`,
+/// `squeue`, `scancel` and `sinfo` on `PATH` (each logs its call; `sbatch`
+/// prints a job id). Exports the merge would refuse (an unknown format, rgl
+/// of the light azimuths [0, 90], pbsdf without a Mueller tally) are refused
+/// before anything is submitted, with roks's own reason; a clean run is
+/// submitted (checked by `roks brdf --check`, nothing traced); a `sinfo`
+/// that cannot reach the controller is named in one line, exit status 2
+/// (it used to end the script with status 1 and no message).
+#[test]
+fn script_checks_exports_and_sinfo_before_submitting() {
+    let dir = std::env::temp_dir().join(format!("roks-slurm-fake-{}", std::process::id()));
+    let _ = fs::remove_dir_all(&dir);
+    let bin = dir.join("bin");
+    fs::create_dir_all(&bin).unwrap();
+    let calls = dir.join("calls.log");
+    let fake = |name: &str, body: &str| {
+        let path = bin.join(name);
+        fs::write(
+            &path,
+            format!(
+                "#!/bin/sh\necho \"{name} $*\" >> '{}'\n{body}\n",
+                calls.display()
+            ),
+        )
+        .unwrap();
+        fs::set_permissions(&path, fs::Permissions::from_mode(0o755)).unwrap();
+    };
+    fake("sbatch", "echo 42");
+    fake("squeue", "exit 0");
+    fake("scancel", "exit 0");
+    let sinfo_up = "case \"$*\" in *%P*) echo 'debug*' ;; *) echo 2 ;; esac";
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let scene = root().join("scenes/default.toml");
+    let run = |case: &str, args: &[&str]| -> (Output, PathBuf) {
+        let out = dir.join(case);
+        let mut all = vec![scene.to_str().unwrap(), out.to_str().unwrap()];
+        all.extend_from_slice(args);
+        let _ = fs::remove_file(&calls);
+        let o = Command::new(root().join("scripts/slurm_brdf.sh"))
+            .args(&all)
+            .env("PATH", &path)
+            .env("ROKS", env!("CARGO_BIN_EXE_roks"))
+            .env_remove("SBATCH_PARTITION")
+            .env_remove("CPUS")
+            .output()
+            .unwrap();
+        (o, out)
+    };
+    let refused = |case: &str, o: &Output, out: &Path, expect: &[&str]| {
+        let stderr = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{case}: {stderr}");
+        let line = stderr
+            .strip_suffix('\n')
+            .unwrap_or_else(|| panic!("{case}: {stderr:?}"));
+        assert!(!line.contains('\n'), "{case}: not one line: {stderr:?}");
+        for e in expect {
+            assert!(line.contains(e), "{case}: no `{e}` in {line:?}");
+        }
+        let log = fs::read_to_string(&calls).unwrap_or_default();
+        assert!(!log.contains("sbatch"), "{case}: submitted: {log}");
+        let shards = PathBuf::from(format!("{}.shards", out.display()));
+        assert!(!shards.exists(), "{case}: {} was created", shards.display());
+    };
+
+    fake(
+        "sinfo",
+        "echo 'sinfo: error: Unable to contact slurm controller (connect failure)' >&2; exit 1",
+    );
+    let (o, out) = run("sinfo-down", &["4", "--photons", "40960"]);
+    refused(
+        "sinfo down",
+        &o,
+        &out,
+        &[
+            "sinfo",
+            "Unable to contact slurm controller",
+            "exit status 1",
+        ],
+    );
+
+    fake("sinfo", sinfo_up);
+    for (case, args, expect) in [
+        (
+            "gltf",
+            &["--export", "gltf"][..],
+            &["roks brdf refuses the run", "--export", "gltf"][..],
+        ),
+        (
+            "rgl-0-90",
+            &["--phi", "0,90", "--export", "rgl"][..],
+            &["roks brdf refuses the run", "--export rgl", "light.phi_deg"][..],
+        ),
+        (
+            "pbsdf-no-mueller",
+            &["--export=pbsdf"][..],
+            &["roks brdf refuses the run", "--export pbsdf", "mueller"][..],
+        ),
+    ] {
+        let mut all = vec!["4", "--photons", "40960"];
+        all.extend_from_slice(args);
+        let (o, out) = run(case, &all);
+        refused(case, &o, &out, expect);
+    }
+
+    // A run the checks accept is submitted: the shards and the merge.
+    let (o, out) = run("clean", &["4", "--photons", "40960", "--export", "zemax"]);
+    assert!(o.status.success(), "clean: {}", text(&o.stderr));
+    let log = fs::read_to_string(&calls).unwrap();
+    assert_eq!(log.matches("sbatch ").count(), 2, "{log}");
+    assert!(log.contains("--array=0-3"), "{log}");
+    assert!(
+        log.contains("merge") && log.contains("--export zemax"),
+        "{log}"
+    );
+    assert!(!out.exists(), "the check wrote {}", out.display());
+    let _ = fs::remove_dir_all(&dir);
+}

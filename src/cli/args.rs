@@ -198,6 +198,7 @@ mod tests {
                     seed: Some(7),
                     threads: Some(2),
                     force: false,
+                    check: false,
                 }
             );
         }

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use clap::Args;
+use clap::{ArgAction, Args};
 
 use super::Failure;
 use super::common::{TracingArgs, progress_bar, result_dir, set_threads, stats_grid, write_folder};
@@ -33,12 +33,12 @@ pub struct BrdfArgs {
     #[command(flatten)]
     pub tracing: TracingArgs,
     /// Incidence angles in degrees, comma-separated (overrides [light] theta_deg).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number, action = ArgAction::Set)]
     pub theta: Option<Vec<f64>>,
     /// Light azimuths in degrees, comma-separated, each in [0, 360) (overrides
     /// [light] phi_deg): every incidence angle is traced at each, and every
     /// result file gains the azimuth.
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number)]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = number, action = ArgAction::Set)]
     pub phi: Option<Vec<f64>>,
     /// Wavelengths in um, carried by every photon (overrides [light]
     /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
@@ -85,7 +85,8 @@ pub struct BrdfArgs {
         long,
         value_delimiter = ',',
         ignore_case = true,
-        hide_possible_values = true
+        hide_possible_values = true,
+        action = ArgAction::Set
     )]
     pub export: Vec<BrdfFormat>,
     /// No progress bar and no table on stderr.
@@ -161,6 +162,20 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
         &scene.reads,
         a.tracing.force,
     )?;
+    if a.tracing.check {
+        let what = format!(
+            "{} incidence angles x {} light azimuths, {} photons each{}",
+            run.theta_deg.len(),
+            run.phi_deg.len(),
+            run.photons,
+            run.shard.map_or(String::new(), |s| format!(
+                ", shard {}/{}",
+                s.index, s.count
+            ))
+        );
+        super::common::report_check(&scene.scene_file.file, &what, a.quiet);
+        return Ok(());
+    }
 
     let map = scene.surface.height_map(rx, ry);
     let stats = surface_stats(&map);

@@ -464,6 +464,20 @@ pub struct TracingArgs {
     /// Worker threads (default: all cores). Does not change results.
     #[arg(long, value_parser = super::parse::positive::<usize>)]
     pub threads: Option<usize>,
+    /// Check the scene, the options (with --shard, --export and --out) and
+    /// the memory the run needs, as the run would, then stop: one line on
+    /// stdout (none with --quiet), exit status 0, nothing traced and
+    /// nothing written; a refusal is the run's own line, exit status 2.
+    #[arg(long)]
+    pub check: bool,
+}
+
+/// The line of `--check` (unless `quiet`): `check: SCENE: accepted (WHAT);
+/// nothing traced, nothing written`.
+pub fn report_check(scene_file: &str, what: &str, quiet: bool) {
+    if !quiet {
+        println!("check: {scene_file}: accepted ({what}); nothing traced, nothing written");
+    }
 }
 
 #[cfg(test)]

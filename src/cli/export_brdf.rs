@@ -161,6 +161,15 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
             "--scene: only for --format rgl (the NDF of its micro surface)".into(),
         ));
     }
+    let azimuths = tables.azimuths_deg().len();
+    if format == BrdfFormat::Pbsdf && azimuths > 1 {
+        // An isotropic format: refused as docs/src/exports.md says.
+        return Err(Failure::Input(format!(
+            "--format {format}: {}: {}",
+            shown(&csv),
+            crate::export::pbsdf::PbsdfRefusal::Azimuths(azimuths)
+        )));
+    }
     if format == BrdfFormat::Pbsdf {
         let mueller = a.dir.join("mueller.csv");
         if !mueller.is_file() {

@@ -33,7 +33,7 @@ pub struct ExportMeshArgs {
     pub resolution: Option<usize>,
     /// Object scenes (required there): the box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX
     /// whose solid walls are meshed (solids cut by it are capped).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, value_parser = number, action = clap::ArgAction::Set)]
     pub bounds: Option<Vec<f64>>,
 }
 

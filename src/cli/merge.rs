@@ -38,7 +38,8 @@ pub struct MergeArgs {
         long,
         value_delimiter = ',',
         ignore_case = true,
-        hide_possible_values = true
+        hide_possible_values = true,
+        action = clap::ArgAction::Set
     )]
     pub export: Vec<BrdfFormat>,
     /// No table on stderr.

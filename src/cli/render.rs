@@ -30,12 +30,12 @@ pub struct RenderArgs {
     #[arg(long)]
     pub force: bool,
     /// Micro scenes: view direction THETA,PHI in degrees (toward the camera).
-    #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', default_value = "0,0", value_parser = number)]
+    #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', default_value = "0,0", value_parser = number, action = clap::ArgAction::Set)]
     pub view: Vec<f64>,
     /// Direction THETA,PHI toward the light disc's centre, in degrees, polar
     /// angle from +z [default: a micro scene's first incidence; an object
     /// scene's: against its first beam].
-    #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    #[arg(long, value_name = "THETA,PHI", value_delimiter = ',', allow_hyphen_values = true, value_parser = number, action = clap::ArgAction::Set)]
     pub light: Option<Vec<f64>>,
     /// Angular radius of the light disc (degrees).
     #[arg(long, value_name = "DEG", default_value_t = 5.0, value_parser = number)]
@@ -46,7 +46,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "B", value_parser = number)]
     pub background: Option<f64>,
     /// Image size W,H in pixels.
-    #[arg(long, value_name = "W,H", value_delimiter = ',', default_value = "512,512", value_parser = positive::<usize>)]
+    #[arg(long, value_name = "W,H", value_delimiter = ',', default_value = "512,512", value_parser = positive::<usize>, action = clap::ArgAction::Set)]
     pub size: Vec<usize>,
     /// Samples per pixel.
     #[arg(long, default_value_t = 16, value_parser = positive::<u32>)]
@@ -59,14 +59,14 @@ pub struct RenderArgs {
     pub threads: Option<usize>,
     /// Object scenes: pinhole camera position X,Y,Z [default: on the first
     /// beam's axis, 2.5 beam-sweep lengths before its start, at least 50 units].
-    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, value_parser = number, action = clap::ArgAction::Set)]
     pub camera: Option<Vec<f64>>,
     /// Object scenes: point the camera looks at X,Y,Z [default: the first
     /// beam's start point moved 100 units along the beam].
-    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, value_parser = number)]
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, value_parser = number, action = clap::ArgAction::Set)]
     pub look_at: Option<Vec<f64>>,
     /// Object scenes: up direction X,Y,Z of the image.
-    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, default_value = "0,1,0", value_parser = number)]
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', allow_hyphen_values = true, default_value = "0,1,0", value_parser = number, action = clap::ArgAction::Set)]
     pub up: Vec<f64>,
     /// Object scenes: vertical field of view (degrees).
     #[arg(long, value_name = "DEG", default_value_t = 40.0, value_parser = number)]
@@ -86,7 +86,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "EV", allow_hyphen_values = true, value_parser = number)]
     pub exposure: Option<f64>,
     /// Render even when the estimated cost exceeds MAX_PATHS (1e10 camera
-    /// paths: width x height x spp), which is otherwise refused up front.
+    /// paths: width x height x spp) or --spp exceeds MAX_SPP (2^24 =
+    /// 16777216 samples per pixel), which are otherwise refused up front.
     #[arg(long)]
     pub force_long_render: bool,
     /// Log curve: decades of radiance from white to black [default:
@@ -120,6 +121,15 @@ pub const OBJECT_BACKGROUND: f64 = 1e-3;
 /// [`PATHS_PER_CORE_SECOND`].
 pub const MAX_PATHS: u64 = 10_000_000_000;
 
+/// The most samples per pixel a render starts without
+/// `--force-long-render`: 2^24. A pixel's samples are traced in sequence on
+/// one core (rows run in parallel), so beyond the bound on all paths
+/// ([`MAX_PATHS`]) a small image of many samples would still run for hours
+/// on one core (`--size 1,1 --spp 4294967295`: about 24 min per pixel).
+/// 2^24 samples take about 6 s per pixel at [`PATHS_PER_CORE_SECOND`], and
+/// leave a Monte Carlo error of 1/4096 of one sample's spread.
+pub const MAX_SPP: u32 = 1 << 24;
+
 /// Camera paths per second and core of the default micro scene's render,
 /// measured (`/usr/bin/time roks render --size 512,512 --spp 64 --threads
 /// 1`: 16.8e6 paths in 5.5 s of user time); object scenes with micro
@@ -128,7 +138,7 @@ pub const PATHS_PER_CORE_SECOND: f64 = 3e6;
 
 /// The cost of a `w` x `h` render at `spp` samples per pixel on `threads`
 /// cores: its camera paths and an estimate of its seconds; refused above
-/// [`MAX_PATHS`] unless `force`.
+/// [`MAX_PATHS`], or above [`MAX_SPP`] samples per pixel, unless `force`.
 ///
 /// # Errors
 /// Bad input naming `--spp` and `--size`, the paths and the time.
@@ -138,6 +148,13 @@ pub fn check_cost(w: u64, h: u64, spp: u32, threads: usize, force: bool) -> Resu
         let hours = paths as f64 / (PATHS_PER_CORE_SECOND * threads.max(1) as f64) / 3600.0;
         return Err(Failure::Input(format!(
             "--spp: {w} x {h} pixels x {spp} samples = {paths:.3e} camera paths, above the bound of {MAX_PATHS:.0e} (about {hours:.1} h on {threads} cores at {PATHS_PER_CORE_SECOND:.0e} paths/s per core); lower --spp or --size, or give --force-long-render"
+        )));
+    }
+    if spp > MAX_SPP && !force {
+        // A pixel's samples are traced one after another on one core.
+        let minutes = f64::from(spp) / PATHS_PER_CORE_SECOND / 60.0;
+        return Err(Failure::Input(format!(
+            "--spp: {spp} samples per pixel, above the bound of {MAX_SPP} (2^24): a pixel's samples are traced one after another on one core (about {minutes:.0} min per pixel at {PATHS_PER_CORE_SECOND:.0e} paths/s); lower --spp, or give --force-long-render"
         )));
     }
     Ok(paths)

@@ -104,6 +104,18 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
         &scene.reads,
         a.tracing.force,
     )?;
+    if a.tracing.check {
+        let what = format!(
+            "{} beam positions{}",
+            photons.len(),
+            a.shard.map_or(String::new(), |s| format!(
+                ", shard {}/{}",
+                s.index, s.count
+            ))
+        );
+        super::common::report_check(&scene.scene_file.file, &what, a.quiet);
+        return Ok(());
+    }
     let traced = blocks.iter().zip(&photons).fold(0, |s: u64, (b, &n)| {
         s.saturating_add(((b.end * BATCH).min(n)).saturating_sub(b.start * BATCH))
     });

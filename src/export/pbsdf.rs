@@ -194,6 +194,11 @@ pub enum PbsdfRefusal {
         "no Mueller-matrix BRDF (mueller.csv of a run with [tally] polarisation = \"mueller\")"
     )]
     NoMueller,
+    /// A table of several light azimuths: the format is isotropic.
+    #[error(
+        "the table has {0} light azimuths (phi_i_deg); the pbsdf format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
+    )]
+    Azimuths(usize),
 }
 
 /// The wavelengths (nm) of a file of tables at `wavelengths_um` (empty or
@@ -535,9 +540,13 @@ impl Pbsdf {
     /// The file of `tables` (each with its Mueller table attached).
     ///
     /// # Errors
-    /// [`PbsdfRefusal`]: a number of wavelengths other than 1 or 5, or no
-    /// Mueller table.
+    /// [`PbsdfRefusal`]: several light azimuths, a number of wavelengths
+    /// other than 1 or 5, or no Mueller table.
     pub fn from_tables(tables: &BrdfTables) -> Result<Self, PbsdfRefusal> {
+        let azimuths = tables.azimuths_deg().len();
+        if azimuths > 1 {
+            return Err(PbsdfRefusal::Azimuths(azimuths));
+        }
         let (wvls, grey) = file_wavelengths(tables.wavelengths_um())?;
         let t = tables.tables();
         if !t.iter().all(BrdfTable::has_mueller) {

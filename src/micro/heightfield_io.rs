@@ -140,6 +140,7 @@ pub enum HeightMapError {
 /// is bounded by the file's, 5 times the file (every height takes at least
 /// two characters and becomes 8 bytes). The error is one line without the path.
 pub fn read_memory_bytes(path: &Path) -> Result<(u64, Option<(usize, usize)>), HeightMapError> {
+    crate::limits::require_regular(path).map_err(HeightMapError::Io)?;
     let file = std::fs::metadata(path).map_err(HeightMapError::Io)?.len();
     let size = match Format::of(path) {
         Format::Png => {
@@ -172,7 +173,7 @@ pub fn read_memory_bytes(path: &Path) -> Result<(u64, Option<(usize, usize)>), H
 /// # Errors
 /// A [`HeightMapError`].
 pub fn read(path: &Path) -> Result<HeightGrid, HeightMapError> {
-    let bytes = crate::limits::read_capped(path, crate::limits::max_data_bytes())
+    let bytes = crate::limits::read_input_capped(path, crate::limits::max_data_bytes())
         .map_err(HeightMapError::Io)?;
     let grid = match Format::of(path) {
         Format::Exr => read_exr(&bytes)?,

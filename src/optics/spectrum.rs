@@ -354,11 +354,27 @@ impl NkSpectrum {
             .map(str::to_owned);
         match stem {
             Some(stem) => Self::read_spd_pair(Path::new(&stem)),
-            None if Path::new(&format!("{name}.eta.spd")).is_file() => Self::read_spd_pair(path),
+            None if Path::new(&format!("{name}.eta.spd")).exists() => Self::read_spd_pair(path),
             None => Err(SpectrumError::UnknownFormat {
                 file: name.into_owned(),
             }),
         }
+    }
+
+    /// The files [`NkSpectrum::read`] reads for the table named `name`:
+    /// `name` itself for a CSV table, else the Mitsuba pair
+    /// (`NAME.eta.spd`, `NAME.k.spd`) that `NAME`, `NAME.eta.spd` or
+    /// `NAME.k.spd` names. A scene hashes (and protects) each of them.
+    #[must_use]
+    pub fn files_of(name: &str) -> Vec<String> {
+        if name.ends_with(".csv") {
+            return vec![name.to_owned()];
+        }
+        let stem = name
+            .strip_suffix(".eta.spd")
+            .or_else(|| name.strip_suffix(".k.spd"))
+            .unwrap_or(name);
+        vec![format!("{stem}.eta.spd"), format!("{stem}.k.spd")]
     }
 
     /// Reads a CSV table (see [`NkSpectrum::parse_csv`]).
@@ -693,7 +709,7 @@ pub(super) fn bracket(abscissae: &[f64], at: f64) -> Option<(usize, usize, f64)>
 
 /// Reads a file as UTF-8 text, naming it in the error.
 fn read_text(path: &Path, file: &str) -> Result<String, SpectrumError> {
-    crate::limits::read_text_capped(path, crate::limits::max_data_bytes()).map_err(|e| {
+    crate::limits::read_input_text_capped(path, crate::limits::max_data_bytes()).map_err(|e| {
         SpectrumError::Io {
             file: file.to_owned(),
             message: e.to_string(),

@@ -194,6 +194,8 @@ impl TraceDescription {
         let surface_names = &self.surfaces;
         TraceSummary {
             content: self.content.clone(),
+            farfield: self.run.farfield,
+            farfield_stokes: self.run.tallies_farfield_stokes(),
             name: self.name.clone(),
             scene: self.scene.clone(),
             seconds,

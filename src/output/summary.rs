@@ -748,6 +748,16 @@ pub struct TraceSummary {
     /// from an older file without it).
     #[serde(default)]
     pub content: Content,
+    /// Whether the far field was tallied (`[tally] farfield = true`): then
+    /// the folder holds `farfield.csv`, else it was never written (false
+    /// when read from an older file without the key).
+    #[serde(default)]
+    pub farfield: bool,
+    /// Whether the Stokes vector was tallied per far-field cell (`[tally]
+    /// polarisation = "stokes"` with polarised transport): then the folder
+    /// holds `farfield_stokes.csv`.
+    #[serde(default)]
+    pub farfield_stokes: bool,
     /// The scene's `name`.
     pub name: String,
     /// The scene file as given.
@@ -993,6 +1003,8 @@ mod tests {
         };
         assert_sorted(&TraceSummary {
             content: Content::default(),
+            farfield: true,
+            farfield_stokes: false,
             name: "n".into(),
             scene: "s.toml".into(),
             seconds: 1.0,

@@ -87,7 +87,7 @@ use crate::micro::heightfield_io::{self, Format};
 use crate::micro::{Edges, MicroSurface, Placed};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::Incident;
-use crate::tally::{PolarTally, Symmetry};
+use crate::tally::{CarlsonGrid, PolarTally, Symmetry};
 use crate::transport::brdf::{Azimuths, BrdfRun, Polarisation};
 use crate::transport::launch::Launch;
 use crate::transport::micro::Controls;
@@ -359,6 +359,40 @@ pub struct LightSpec {
     /// Wavelengths (µm) of a spectral run, all carried by every photon
     /// (absent: monochrome).
     pub wavelengths_um: Option<WavelengthsSpec>,
+}
+
+impl LightSpec {
+    /// Write `-0` as `0` in the incidence angles and light azimuths (the
+    /// same direction): a run, its files and its picture names never say
+    /// `-0` (`hemisphere_0deg_phi0.png`, not `..._phi-0.png`).
+    pub fn zero_signs(&mut self) {
+        for x in self.theta_deg.iter_mut().chain(self.phi_deg.0.iter_mut()) {
+            // -0 + 0 = +0; every other value is unchanged.
+            *x += 0.0;
+        }
+    }
+}
+
+/// The wavelengths of `[light] wavelengths_um` (`None`: a monochrome run,
+/// none), expanded but not yet checked ([`BrdfRun::check`] does); an
+/// empty list is refused at the key, not taken for a monochrome run.
+fn run_wavelengths(
+    scene_file: &SceneFile,
+    spec: Option<&WavelengthsSpec>,
+) -> Result<Vec<f64>, SceneError> {
+    let Some(w) = spec else {
+        return Ok(Vec::new());
+    };
+    let values = w
+        .expand()
+        .map_err(|e| scene_file.error("light.wavelengths_um", e))?;
+    if values.is_empty() {
+        return Err(scene_file.error(
+            "light.wavelengths_um",
+            crate::optics::spectrum::WavelengthListError::Empty,
+        ));
+    }
+    Ok(values)
 }
 
 impl Default for LightSpec {
@@ -720,17 +754,13 @@ impl MicroScene {
         if *overrides != Overrides::default() {
             // The file's own run values, which the options replace, are
             // still the file's: checked (once) as written.
-            let wavelengths = match &spec.light.wavelengths_um {
-                Some(w) => w
-                    .expand()
-                    .map_err(|e| scene_file.error("light.wavelengths_um", e))?,
-                None => Vec::new(),
-            };
+            let wavelengths = run_wavelengths(&scene_file, spec.light.wavelengths_um.as_ref())?;
             brdf_run_of(&spec, Polarisation::default(), wavelengths)
                 .check()
                 .map_err(|e| scene_file.error(e.field().scene_key(), e))?;
         }
         overrides.apply(&mut spec);
+        spec.light.zero_signs();
         let files = spec.files();
         let mut scene = spec
             .build(scene_file, fallback_name)
@@ -782,12 +812,7 @@ impl MicroSceneSpec {
             .size
             .map(|size| check_size(&scene_file, size))
             .transpose()?;
-        let wavelengths_um = match &self.light.wavelengths_um {
-            Some(w) => w
-                .expand()
-                .map_err(|e| scene_file.error("light.wavelengths_um", e))?,
-            None => Vec::new(),
-        };
+        let wavelengths_um = run_wavelengths(&scene_file, self.light.wavelengths_um.as_ref())?;
         // The run's values, checked here once (a merge checks a run read
         // back the same way); the polarisation, which needs the materials,
         // is resolved below.
@@ -1008,12 +1033,35 @@ impl MicroSceneSpec {
 impl MicroScene {
     /// Refuse `run` (this scene's, or with options applied) when its
     /// tallies and result tables ([`BrdfRun::memory_bytes`]) exceed the
-    /// memory limit; the error names `tally.bands`, their main factor.
+    /// memory limit; the error names their main factor: `light.phi_deg`
+    /// for several light azimuths (each multiplies every tally and table),
+    /// else `tally.inplane_step_deg` when the in-plane bins outnumber the
+    /// Carlson cells, else `tally.bands`.
     pub fn check_run_memory(&self, run: &BrdfRun) -> Result<(), SceneError> {
+        let azimuths = run.phi_deg.len();
+        let bins = run.inplane_bins();
+        let cells = CarlsonGrid::new(run.bands).map_or(0, |g| g.n_cells()) as u64;
+        let key = if azimuths > 1 {
+            "light.phi_deg"
+        } else if bins > cells {
+            "tally.inplane_step_deg"
+        } else {
+            "tally.bands"
+        };
         let what = format!(
-            "the tallies and tables of {} Carlson bands for {} incidences{}{}",
+            "the tallies and tables of {} Carlson bands for {} incidences{}{}{}{}",
             run.bands,
             run.theta_deg.len(),
+            if azimuths > 1 {
+                format!(" x {azimuths} light azimuths")
+            } else {
+                String::new()
+            },
+            if bins > cells {
+                format!(" with {bins} in-plane bins each")
+            } else {
+                String::new()
+            },
             match run.polarisation.tally {
                 PolarTally::None => "",
                 PolarTally::Stokes => " with Stokes sums",
@@ -1025,8 +1073,7 @@ impl MicroScene {
                 ""
             },
         );
-        self.scene_file
-            .check_memory("tally.bands", &what, run.memory_bytes())
+        self.scene_file.check_memory(key, &what, run.memory_bytes())
     }
 }
 

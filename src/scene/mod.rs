@@ -165,6 +165,7 @@ fn hex(bytes: &[u8]) -> String {
 /// SHA-256 (lower-case hex) of the file at `path`, read in blocks of 1 MiB.
 fn sha256_file(path: &Path) -> std::io::Result<String> {
     use std::io::Read as _;
+    crate::limits::require_regular(path)?;
     let mut file = std::fs::File::open(path)?;
     let mut hasher = sha2::Sha256::new();
     let mut buf = vec![0; 1 << 20];
@@ -659,7 +660,11 @@ impl MaterialSpec {
     pub fn files(&self, key: &str) -> Vec<(String, String)> {
         let mut files = Vec::new();
         if let Some(f) = &self.nk {
-            files.push((format!("{key}.nk"), f.clone()));
+            // A Mitsuba pair is two files: n under `nk`, k under `nk.k`.
+            let read = crate::optics::spectrum::NkSpectrum::files_of(f);
+            for (file, suffix) in read.into_iter().zip(["", ".k"]) {
+                files.push((format!("{key}.nk{suffix}"), file));
+            }
         }
         match &self.table {
             Some(Files::One(f)) => files.push((format!("{key}.table"), f.clone())),
@@ -807,8 +812,9 @@ impl MaterialSpec {
                 }
                 let at = lane_key(key, "table", many, l);
                 let path = scene_file.dir.join(file);
-                let text = crate::limits::read_text_capped(&path, crate::limits::max_data_bytes())
-                    .map_err(|e| {
+                let text =
+                    crate::limits::read_input_text_capped(&path, crate::limits::max_data_bytes())
+                        .map_err(|e| {
                         scene_file.error(&at, format!("cannot read {}: {e}", path.display()))
                     })?;
                 let table = AngleTable::parse_csv(&text)

@@ -428,7 +428,7 @@ pub(crate) fn shorten(s: &str, n: usize) -> String {
 /// [`BrdfTableError::Io`] naming the file.
 pub(crate) fn read_text(path: &Path) -> Result<(String, String), BrdfTableError> {
     let name = path.display().to_string();
-    match crate::limits::read_text_capped(path, crate::limits::max_data_bytes()) {
+    match crate::limits::read_input_text_capped(path, crate::limits::max_data_bytes()) {
         Ok(text) => Ok((name, text)),
         Err(e) => Err(BrdfTableError::Io {
             file: name,
