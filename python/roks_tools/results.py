@@ -1099,12 +1099,22 @@ JSON files of other names by content (`fit_<model>.json` of fit-model, or
 any file given as `--out`)."""
 
 
+def _first_line(path: Path) -> str:
+    """The first line of a file (up to 200 bytes), or '' when it cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(200).split(b"\n", 1)[0].decode("utf-8", "replace").lstrip("\ufeff")
+    except OSError:
+        return ""
+
+
 def read_file(path: str | Path):
     """Any file roks writes into a result folder (or as `--out`), by its
     name: the tables and JSON files (`READERS`), `fit_<model>.json`
     (`summary.read_fit_model`), `*_opticstudio.txt` (ABg rows,
-    `exports.read_opticstudio_abg`), other `*.txt` (a text height map of
-    export-heightfield, `exports.read_height_map`), the exports by extension
+    `exports.read_opticstudio_abg`), other `*.txt` whose first line is
+    export-heightfield's `# roks height map ...` (`exports.read_height_map`;
+    a height map of yours: call it directly), the exports by extension
     (`SUFFIX_READERS`: `.bsdf` Zemax or RGL, `.pbsdf`, `.binary` MERL,
     `.ply`), `*.png` pictures (`read_png`), `*.exr` renders (`read_exr`,
     needs mitsuba). Each returns its typed object; ResultError naming the
@@ -1118,7 +1128,7 @@ def read_file(path: str | Path):
     if path.name.endswith("_opticstudio.txt"):
         from .exports import read_opticstudio_abg
         return read_opticstudio_abg(path)
-    if path.suffix == ".txt":
+    if path.suffix == ".txt" and _first_line(path).startswith("# roks height map"):
         from .exports import read_height_map
         return read_height_map(path)
     if path.suffix in SUFFIX_READERS:

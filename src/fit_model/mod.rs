@@ -248,6 +248,11 @@ impl Problem<'_> {
     }
 }
 
+/// The residual of a cell where the model is not a finite number at a trial
+/// point: far above any real misfit (its square, summed over a million
+/// cells, stays finite), so such a step is always rejected.
+const OVERFLOW_RESIDUAL: f64 = 1e100;
+
 impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     type ResidualStorage = Owned<f64, Dyn>;
     type JacobianStorage = Owned<f64, Dyn, Dyn>;
@@ -261,9 +266,13 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
         self.q.clone()
     }
 
+    /// Residuals at a trial point. Where the model overflows there (a step
+    /// far out in `ln b0` or `ln l`, say), the residual is a finite penalty,
+    /// [`OVERFLOW_RESIDUAL`], so that the step is rejected and the damping
+    /// raised, instead of ending the whole fit (the crate ends it on `None`).
     fn residuals(&self) -> Option<DVector<f64>> {
         let r = self.residuals_at(self.q.as_slice());
-        r.iter().all(|x| x.is_finite()).then_some(r)
+        Some(r.map(|x| if x.is_finite() { x } else { OVERFLOW_RESIDUAL }))
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
