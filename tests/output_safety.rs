@@ -140,59 +140,30 @@ fn setup(name: &str) -> PathBuf {
 /// writes (the foreign file is put there), and `(flag, beside)`: the
 /// option that names it and a second file it writes beside it.
 fn single_file_writers() -> Vec<(&'static str, Vec<&'static str>, &'static str)> {
+    let export = |format| {
+        vec![
+            "export-brdf",
+            "res",
+            "--format",
+            format,
+            "--out",
+            "OUT",
+            "-q",
+        ]
+    };
+    let heights = vec![
+        "export-heightfield",
+        "scene.toml",
+        "--out",
+        "OUT",
+        "--resolution",
+        "4",
+    ];
     vec![
-        (
-            "export-brdf zemax",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "zemax",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.toml",
-        ),
-        (
-            "export-brdf merl",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "merl",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.binary",
-        ),
-        (
-            "export-brdf rgl",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "rgl",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.bsdf",
-        ),
-        (
-            "export-brdf pbsdf",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "pbsdf",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.pbsdf",
-        ),
+        ("export-brdf zemax", export("zemax"), "x.toml"),
+        ("export-brdf merl", export("merl"), "x.binary"),
+        ("export-brdf rgl", export("rgl"), "x.bsdf"),
+        ("export-brdf pbsdf", export("pbsdf"), "x.pbsdf"),
         (
             "fit-model json",
             vec!["fit-model", "res", "--model", "abg", "--out", "OUT", "-q"],
@@ -224,30 +195,8 @@ fn single_file_writers() -> Vec<(&'static str, Vec<&'static str>, &'static str)>
             ],
             "x.ply",
         ),
-        (
-            "export-heightfield txt",
-            vec![
-                "export-heightfield",
-                "scene.toml",
-                "--out",
-                "OUT",
-                "--resolution",
-                "4",
-            ],
-            "x.txt",
-        ),
-        (
-            "export-heightfield exr",
-            vec![
-                "export-heightfield",
-                "scene.toml",
-                "--out",
-                "OUT",
-                "--resolution",
-                "4",
-            ],
-            "x.exr",
-        ),
+        ("export-heightfield txt", heights.clone(), "x.txt"),
+        ("export-heightfield exr", heights, "x.exr"),
         (
             "stats --png",
             vec!["stats", "scene.toml", "--resolution", "16", "--png", "OUT"],
