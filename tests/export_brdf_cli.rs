@@ -4,7 +4,7 @@
 //! status 2 and one line naming the file and key, writing nothing.
 
 mod cli_common;
-use cli_common::roks;
+use cli_common::{brdf_quiet, roks};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -229,17 +229,21 @@ fn brdf_of(dir: &Path, name: &str, scene: &str, photons: &str) -> PathBuf {
     let file = dir.join(format!("{name}.toml"));
     std::fs::write(&file, scene).unwrap();
     let out = dir.join(name);
-    let o = roks(&[
-        "brdf",
-        s(&file),
-        "--out",
-        s(&out),
-        "--photons",
-        photons,
-        "-q",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    brdf_quiet(&file, &out, photons);
     out
+}
+
+/// The words of `line` that are numbers, in order.
+fn numbers(line: &str) -> Vec<f64> {
+    line.split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect()
+}
+
+/// The grid a verdict's warning `w` names as passing: `--grid A,R`
+/// between backquotes.
+fn named_grid(w: &str) -> Option<&str> {
+    w.split("`--grid ").nth(1).and_then(|r| r.split('`').next())
 }
 
 /// The (table, file) reflectance pairs of the comparison `roks export-brdf`
@@ -250,10 +254,7 @@ fn judged(o: &Output) -> (Vec<(f64, f64)>, Vec<String>) {
     let rows = stderr
         .lines()
         .filter_map(|l| {
-            let v: Vec<f64> = l
-                .split_whitespace()
-                .filter_map(|w| w.parse().ok())
-                .collect();
+            let v = numbers(l);
             (v.len() == 4).then(|| (v[1], v[2]))
         })
         .collect();
@@ -307,11 +308,7 @@ fn exports_are_judged_against_the_table() {
         w.contains("theta_i 0 deg") && w.contains("allowed: max(1 %, 4 standard errors)"),
         "{w}"
     );
-    let grid = w
-        .split("`--grid ")
-        .nth(1)
-        .and_then(|r| r.split('`').next())
-        .unwrap_or_else(|| panic!("no finer grid named: {w}"));
+    let grid = named_grid(w).unwrap_or_else(|| panic!("no finer grid named: {w}"));
     let (rows, warnings) = export(&cones, &["--grid", grid]);
     assert!(warnings.is_empty(), "--grid {grid}: {warnings:?}");
     assert!((rows[0].1 / rows[0].0 - 1.0).abs() <= 0.01, "{rows:?}");
@@ -329,11 +326,7 @@ fn exports_are_judged_against_the_table() {
     for (w, (k, theta)) in warnings.iter().zip([(1, "30"), (2, "60")]) {
         assert!(w.contains(&format!("theta_i {theta} deg")), "{w}");
         assert!(w.contains("passes at this incidence"), "{w}");
-        let grid = w
-            .split("`--grid ")
-            .nth(1)
-            .and_then(|r| r.split('`').next())
-            .unwrap_or_else(|| panic!("no finer grid named: {w}"));
+        let grid = named_grid(w).unwrap_or_else(|| panic!("no finer grid named: {w}"));
         let (rows, _) = export(&flat, &["--grid", grid]);
         let (t, f) = rows[k];
         assert!((f / t - 1.0).abs() <= 0.01, "--grid {grid}: {rows:?}");
@@ -369,11 +362,7 @@ fn warned_block(w: &str) -> (f64, f64, Option<String>) {
             .and_then(|v| v.trim_end_matches([',', ':']).parse().ok())
             .unwrap_or_else(|| panic!("no {key} in {w}"))
     };
-    let grid = w
-        .split("`--grid ")
-        .nth(1)
-        .and_then(|r| r.split('`').next())
-        .map(str::to_owned);
+    let grid = named_grid(w).map(str::to_owned);
     if grid.is_none() {
         assert!(
             w.contains("no finer grid (to 0.25,0.125 degrees) passes at this incidence and azimuth: the difference is not the grid's"),
@@ -403,16 +392,7 @@ fn zemax_grids_are_judged_per_incidence_and_azimuth() {
     let dir = scratch("grooves");
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/grooves.toml");
     let run = dir.join("run");
-    let o = roks(&[
-        "brdf",
-        s(&scene),
-        "--out",
-        s(&run),
-        "--photons",
-        "20000",
-        "-q",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    brdf_quiet(&scene, &run, "20000");
     let o = roks(&[
         "export-brdf",
         s(&run),
@@ -426,10 +406,7 @@ fn zemax_grids_are_judged_per_incidence_and_azimuth() {
     let rows: Vec<Row> = stderr
         .lines()
         .filter_map(|l| {
-            let v: Vec<f64> = l
-                .split_whitespace()
-                .filter_map(|w| w.parse().ok())
-                .collect();
+            let v = numbers(l);
             (v.len() == 5).then(|| (v[0], v[1], v[2], v[3]))
         })
         .collect();

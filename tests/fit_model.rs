@@ -260,9 +260,8 @@ fn microfacet_models_give_back_alpha() {
 #[test]
 fn microfacet_fits_to_a_gaussian_field_land_near_its_rms_slope() {
     let dir = folder("gaussian");
-    let scene = dir.join("field.toml");
-    std::fs::write(
-        &scene,
+    let out = trace(
+        &dir,
         r#"name = "field"
 [surface]
 size = [48.0, 48.0]
@@ -280,16 +279,8 @@ seed = 1
 [tally]
 bands = 24
 "#,
-    )
-    .unwrap();
-    let out = dir.join("out");
-    let o = roks(&[
-        "brdf",
-        scene.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    );
+    let scene = dir.join("scene.toml");
     let o = roks(&[
         "stats",
         scene.to_str().unwrap(),
@@ -407,7 +398,8 @@ fn bad_input_is_one_line_and_status_2() {
     assert!(!dir.join("fit_abg.json").exists());
 }
 
-/// `roks brdf` of `scene` (TOML text) into `dir/out`; the result folder.
+/// `roks brdf` of `scene` (TOML text, written to `dir/scene.toml`) into
+/// `dir/out`; the result folder.
 fn trace(dir: &Path, scene: &str) -> PathBuf {
     let path = dir.join("scene.toml");
     std::fs::write(&path, scene).unwrap();

@@ -34,7 +34,7 @@ mod object_common;
 use std::path::Path;
 use std::process::Command;
 
-use cli_common::{read, summary_without_timing};
+use cli_common::{CAVITY, read, summary_without_timing};
 use num_complex::Complex64;
 use object_common::{run, scene, scratch};
 use serde_json::Value;
@@ -360,20 +360,7 @@ fn cavity(model: &str, tally: &str, transport: &str) -> String {
         r#"
 seed = 11
 
-[quadrics]
-s = {{ sphere = {{ center = [0.0, 0.0, 0.0], r = 10.0 }} }}
-o = {{ sphere = {{ center = [0.0, 0.0, 0.0], r = 11.0 }} }}
-cut = {{ plane = [0.0, 0.0, 1.0, 6.0] }}
-
-[[cells]]
-name = "cavity"
-region = "-s -cut"
-fill = "void"
-[[cells]]
-name = "shell"
-region = "+s -o -cut"
-fill = "solid"
-
+{CAVITY}
 [walls]
 s = "wall"
 

@@ -13,7 +13,7 @@ mod cli_common;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use cli_common::{read, roks, summary_without_timing};
+use cli_common::{names, read, roks, summary_without_timing};
 
 /// An open cylindrical cavity: Fresnel side wall (polarising), a
 /// specular + Lambertian floor and rim. `{sources}` and `{extra}` are
@@ -140,16 +140,6 @@ fn shards(scene: &Path, root: &Path, n: u32) -> Vec<PathBuf> {
             d
         })
         .collect()
-}
-
-/// The file names of a folder, sorted.
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 /// Merge `n` shards (given in reverse) and compare with the single run

@@ -8,7 +8,7 @@ mod object_common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use cli_common::{read, summary_without_timing};
+use cli_common::{CAVITY, read, summary_without_timing};
 use object_common::scratch;
 
 /// A periodic micro scene for the `micro` wall model.
@@ -33,23 +33,12 @@ seed = 4
 /// z = 6) in a shell of outer radius 11; the inner wall is Lambertian, the
 /// outer one rough (micro descent), the cut face `cut` has no model; a beam
 /// through the aperture. Each error case breaks one thing in it.
-const GOOD: &str = r#"
+fn good() -> String {
+    format!(
+        r#"
 seed = 9
 
-[quadrics]
-s = { sphere = { center = [0.0, 0.0, 0.0], r = 10.0 } }
-o = { sphere = { center = [0.0, 0.0, 0.0], r = 11.0 } }
-cut = { plane = [0.0, 0.0, 1.0, 6.0] }
-
-[[cells]]
-name = "cavity"
-region = "-s -cut"
-fill = "void"
-[[cells]]
-name = "shell"
-region = "+s -o -cut"
-fill = "solid"
-
+{CAVITY}
 [walls]
 s = "paint"
 o = "rough"
@@ -61,14 +50,16 @@ diffuse = 0.7
 micro = "micro.toml"
 
 [[sources]]
-beam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }
+beam = {{ direction = [0.0, 0.0, -1.0], diameter = 2.0 }}
 position = [0.0, 0.0, 7.0]
 photons = 2000
 
 [tally]
 bands = 4
 farfield = true
-"#;
+"#
+    )
+}
 
 /// Write `text` as `<dir>/<case>.toml` next to the micro scene files.
 fn write_scene(dir: &Path, case: &str, text: &str) -> PathBuf {
@@ -108,7 +99,7 @@ fn trace_same_bytes_for_any_thread_count() {
     let dir = scratch("trace-repro");
     // Sweep the beam from the aperture (inner wall) out over the shell's
     // outer wall (micro descent); the cut face gets a model too.
-    let text = GOOD
+    let text = good()
         .replace(
             "position = [0.0, 0.0, 7.0]",
             "sweep = { from = [0.0, 0.0, 12.0], to = [9.5, 3.0, 12.0], steps = 3 }",
@@ -191,8 +182,8 @@ fn trace_same_bytes_for_any_thread_count() {
 
 /// Replace `from` (which must occur) by `to` in the good scene.
 fn broken(from: &str, to: &str) -> String {
-    assert!(GOOD.contains(from), "`{from}` not in the good scene");
-    GOOD.replacen(from, to, 1)
+    assert!(good().contains(from), "`{from}` not in the good scene");
+    good().replacen(from, to, 1)
 }
 
 /// Run `roks trace` on `text` and check the error contract; `expect` are
@@ -215,7 +206,7 @@ fn check_with(case: &str, text: &str, extra: &[&str], expect: &[&str]) {
 #[test]
 fn good_scene_runs() {
     let dir = scratch("trace-good");
-    let scene = write_scene(&dir, "good", GOOD);
+    let scene = write_scene(&dir, "good", &good());
     let out = dir.join("out");
     let o = trace(&scene, &out, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -232,10 +223,10 @@ fn good_scene_runs() {
 fn summary_says_whether_the_far_field_was_tallied() {
     let dir = scratch("trace-farfield-key");
     for (case, text, tallied) in [
-        ("with", GOOD.to_string(), true),
+        ("with", good(), true),
         (
             "without",
-            GOOD.replace("farfield = true", "farfield = false"),
+            good().replace("farfield = true", "farfield = false"),
             false,
         ),
     ] {

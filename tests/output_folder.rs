@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use cli_common::assert_input_error;
+use cli_common::{assert_input_error, ok};
 
 /// A small periodic micro scene (fast to trace).
 const MICRO: &str = r#"
@@ -42,47 +42,13 @@ bands = 8
 
 /// An object scene with a micro wall (`micro.toml` beside it) and the far
 /// field tallied.
-const OBJECT: &str = r#"
-seed = 9
-
-[quadrics]
-s = { sphere = { center = [0.0, 0.0, 0.0], r = 10.0 } }
-o = { sphere = { center = [0.0, 0.0, 0.0], r = 11.0 } }
-cut = { plane = [0.0, 0.0, 1.0, 6.0] }
-
-[[cells]]
-name = "cavity"
-region = "-s -cut"
-fill = "void"
-[[cells]]
-name = "shell"
-region = "+s -o -cut"
-fill = "solid"
-
-[walls]
-s = "paint"
-o = "paint"
-cut = "paint"
-
-[models.paint]
-diffuse = 0.7
-
-[[sources]]
-beam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }
-position = [0.0, 0.0, 7.0]
-photons = 2000
-
-[tally]
-bands = 4
-farfield = true
-"#;
+fn object_scene() -> String {
+    cli_common::painted_cavity(2000, "farfield = true\n")
+}
 
 /// A fresh, empty scratch folder for this test process.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("roks-outdir-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    cli_common::scratch("outdir", name)
 }
 
 fn s(p: &Path) -> &str {
@@ -99,31 +65,7 @@ fn write_scene(dir: &Path, text: &str) -> PathBuf {
 /// Run roks in `cwd`, killed after 60 s (a hang detector, not a speed
 /// assertion: every run here takes well under a second).
 fn roks_in(cwd: &Path, args: &[&str]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .current_dir(cwd)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run roks");
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(60) {
-            child.kill().unwrap();
-            panic!("roks {args:?} still running after 60 s");
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    child.wait_with_output().unwrap()
-}
-
-fn ok(o: &Output, what: &str) {
-    assert!(
-        o.status.success(),
-        "{what}: {}: {}",
-        o.status,
-        String::from_utf8_lossy(&o.stderr)
-    );
+    cli_common::roks_in(cwd, args, 60)
 }
 
 /// Every entry of `dir` (names, hidden ones included) and the bytes of its
@@ -221,7 +163,7 @@ fn a_rerun_replaces_the_result_folder_whole() {
 #[test]
 fn trace_and_merge_replace_their_folders_whole() {
     let dir = scratch("trace-merge");
-    let scene = write_scene(&dir, OBJECT);
+    let scene = write_scene(&dir, &object_scene());
     let out = dir.join("res");
     ok(
         &roks_in(&dir, &["trace", s(&scene), "--out", s(&out), "-q"]),
@@ -231,7 +173,7 @@ fn trace_and_merge_replace_their_folders_whole() {
     let scene2 = dir.join("nofar.toml");
     std::fs::write(
         &scene2,
-        OBJECT.replace("farfield = true", "farfield = false"),
+        object_scene().replace("farfield = true", "farfield = false"),
     )
     .unwrap();
     ok(
@@ -481,7 +423,7 @@ fn a_bad_out_folder_is_refused_before_tracing() {
     let dir = scratch("bad-out");
     let scene = write_scene(&dir, MICRO);
     let object = dir.join("object.toml");
-    std::fs::write(&object, OBJECT).unwrap();
+    std::fs::write(&object, object_scene()).unwrap();
     let measured = dir.join("measured.csv");
     std::fs::write(
         &measured,
@@ -708,7 +650,7 @@ fn a_scene_name_that_is_not_one_plain_folder_is_refused() {
     let dir = scratch("names");
     let long = "x".repeat(201);
     let body = MICRO.replace("name = \"small\"\n", "");
-    let object_body = OBJECT.to_string();
+    let object_body = object_scene();
     for (name, reason) in [
         (r#""../escaped""#, "contains '/'"),
         (r#""/tmp/abs""#, "contains '/'"),
@@ -854,7 +796,7 @@ fn a_link_to_a_result_folder_is_followed() {
 #[test]
 fn an_input_error_after_tracing_writes_nothing() {
     let dir = scratch("late");
-    let scene = write_scene(&dir, &OBJECT.replace("s = \"paint\"\n", ""));
+    let scene = write_scene(&dir, &object_scene().replace("s = \"paint\"\n", ""));
     let out = dir.join("res");
     let o = roks_in(&dir, &["trace", s(&scene), "--out", s(&out), "-q"]);
     assert_input_error("unmodelled wall", &o, &scene, &out, &["walls.s"]);

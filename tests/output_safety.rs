@@ -19,6 +19,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use cli_common::{names, ok};
+
 /// A small periodic micro scene (fast to trace), Fresnel material so that
 /// a Mueller tally is meaningful.
 const MICRO: &str = r#"
@@ -49,75 +51,21 @@ bands = 8
 "#;
 
 /// An object scene (fast to trace).
-const OBJECT: &str = r#"
-seed = 9
-
-[quadrics]
-s = { sphere = { center = [0.0, 0.0, 0.0], r = 10.0 } }
-o = { sphere = { center = [0.0, 0.0, 0.0], r = 11.0 } }
-cut = { plane = [0.0, 0.0, 1.0, 6.0] }
-
-[[cells]]
-name = "cavity"
-region = "-s -cut"
-fill = "void"
-[[cells]]
-name = "shell"
-region = "+s -o -cut"
-fill = "solid"
-
-[walls]
-s = "paint"
-o = "paint"
-cut = "paint"
-
-[models.paint]
-diffuse = 0.7
-
-[[sources]]
-beam = { direction = [0.0, 0.0, -1.0], diameter = 2.0 }
-position = [0.0, 0.0, 7.0]
-photons = 500
-
-[tally]
-bands = 4
-"#;
+fn object_scene() -> String {
+    cli_common::painted_cavity(500, "")
+}
 
 /// Photons no test waits for: a refusal must come before the work.
 const DAYS: &str = "1000000000000";
 
 /// A fresh, empty scratch folder for this test process.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("roks-safety-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    cli_common::scratch("safety", name)
 }
 
 /// Run roks in `cwd`, killed after 120 s (a hang detector).
 fn roks_in(cwd: &Path, args: &[&str]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_roks"))
-        .args(args)
-        .current_dir(cwd)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run roks");
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(120) {
-            child.kill().unwrap();
-            panic!("roks {args:?} still running after 120 s");
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    child.wait_with_output().unwrap()
-}
-
-fn ok(o: &Output, what: &str) -> String {
-    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(o.status.success(), "{what}: {}: {stderr}", o.status);
-    stderr
+    cli_common::roks_in(cwd, args, 120)
 }
 
 /// Refused: exit 2, one line on stderr holding every string of `expect`,
@@ -130,16 +78,6 @@ fn refused(case: &str, o: &Output, expect: &[&str]) {
     for e in expect {
         assert!(stderr.contains(e), "{case}: {e:?} not in {stderr}");
     }
-}
-
-/// The entry names of `dir`, sorted (hidden ones included).
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 /// Hidden staging or temporary entries in `dir` (`.NAME.new-PID`,
@@ -177,7 +115,7 @@ fn foreign() -> [(&'static str, Vec<u8>); 3] {
 fn setup(name: &str) -> PathBuf {
     let dir = scratch(name);
     std::fs::write(dir.join("scene.toml"), MICRO).unwrap();
-    std::fs::write(dir.join("object.toml"), OBJECT).unwrap();
+    std::fs::write(dir.join("object.toml"), object_scene()).unwrap();
     let o = roks_in(
         &dir,
         &[
@@ -202,59 +140,30 @@ fn setup(name: &str) -> PathBuf {
 /// writes (the foreign file is put there), and `(flag, beside)`: the
 /// option that names it and a second file it writes beside it.
 fn single_file_writers() -> Vec<(&'static str, Vec<&'static str>, &'static str)> {
+    let export = |format| {
+        vec![
+            "export-brdf",
+            "res",
+            "--format",
+            format,
+            "--out",
+            "OUT",
+            "-q",
+        ]
+    };
+    let heights = vec![
+        "export-heightfield",
+        "scene.toml",
+        "--out",
+        "OUT",
+        "--resolution",
+        "4",
+    ];
     vec![
-        (
-            "export-brdf zemax",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "zemax",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.toml",
-        ),
-        (
-            "export-brdf merl",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "merl",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.binary",
-        ),
-        (
-            "export-brdf rgl",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "rgl",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.bsdf",
-        ),
-        (
-            "export-brdf pbsdf",
-            vec![
-                "export-brdf",
-                "res",
-                "--format",
-                "pbsdf",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            "x.pbsdf",
-        ),
+        ("export-brdf zemax", export("zemax"), "x.toml"),
+        ("export-brdf merl", export("merl"), "x.binary"),
+        ("export-brdf rgl", export("rgl"), "x.bsdf"),
+        ("export-brdf pbsdf", export("pbsdf"), "x.pbsdf"),
         (
             "fit-model json",
             vec!["fit-model", "res", "--model", "abg", "--out", "OUT", "-q"],
@@ -286,30 +195,8 @@ fn single_file_writers() -> Vec<(&'static str, Vec<&'static str>, &'static str)>
             ],
             "x.ply",
         ),
-        (
-            "export-heightfield txt",
-            vec![
-                "export-heightfield",
-                "scene.toml",
-                "--out",
-                "OUT",
-                "--resolution",
-                "4",
-            ],
-            "x.txt",
-        ),
-        (
-            "export-heightfield exr",
-            vec![
-                "export-heightfield",
-                "scene.toml",
-                "--out",
-                "OUT",
-                "--resolution",
-                "4",
-            ],
-            "x.exr",
-        ),
+        ("export-heightfield txt", heights.clone(), "x.txt"),
+        ("export-heightfield exr", heights, "x.exr"),
         (
             "stats --png",
             vec!["stats", "scene.toml", "--resolution", "16", "--png", "OUT"],
@@ -357,6 +244,15 @@ fn a_users_file_given_as_out_is_kept_unless_forced() {
     }
     // The files written beside --out: render's PNG preview and fit-model's
     // plot and OpticStudio text, each refused as its own kind.
+    let fit = vec![
+        "fit-model",
+        "res",
+        "--model",
+        "abg",
+        "--out",
+        "f.json",
+        "-q",
+    ];
     let beside: [(&str, Vec<&str>, &str); 3] = [
         (
             "render preview",
@@ -372,32 +268,8 @@ fn a_users_file_given_as_out_is_kept_unless_forced() {
             ],
             "pic.png",
         ),
-        (
-            "fit-model plot",
-            vec![
-                "fit-model",
-                "res",
-                "--model",
-                "abg",
-                "--out",
-                "f.json",
-                "-q",
-            ],
-            "f.png",
-        ),
-        (
-            "fit-model text",
-            vec![
-                "fit-model",
-                "res",
-                "--model",
-                "abg",
-                "--out",
-                "f.json",
-                "-q",
-            ],
-            "f_opticstudio.txt",
-        ),
+        ("fit-model plot", fit.clone(), "f.png"),
+        ("fit-model text", fit, "f_opticstudio.txt"),
     ];
     for (what, a, name) in beside {
         for (kind, bytes) in foreign() {
@@ -454,6 +326,15 @@ fn a_users_file_given_as_out_is_kept_unless_forced() {
 /// The folder writers and a way to make each one's result, and its rerun
 /// that would take days (so a refusal must come before the work).
 fn folder_writers() -> Vec<(&'static str, Vec<&'static str>, Vec<&'static str>)> {
+    let zemax = vec![
+        "export-brdf",
+        "spec",
+        "--format",
+        "zemax",
+        "--out",
+        "OUT",
+        "-q",
+    ];
     vec![
         (
             "brdf",
@@ -537,27 +418,7 @@ fn folder_writers() -> Vec<(&'static str, Vec<&'static str>, Vec<&'static str>)>
                 "-q",
             ],
         ),
-        (
-            "export-brdf spectral zemax",
-            vec![
-                "export-brdf",
-                "spec",
-                "--format",
-                "zemax",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-            vec![
-                "export-brdf",
-                "spec",
-                "--format",
-                "zemax",
-                "--out",
-                "OUT",
-                "-q",
-            ],
-        ),
+        ("export-brdf spectral zemax", zemax.clone(), zemax),
     ]
 }
 

@@ -311,6 +311,13 @@ fn text(bytes: &[u8]) -> String {
 /// The script refused bad input: exit status 2, one line on stderr holding
 /// every string of `expect`, nothing submitted, no shard folder.
 fn assert_refused(cluster: &Cluster, case: &str, o: &Output, out: &Path, expect: &[&str]) {
+    assert_one_line_refusal(case, o, out, expect);
+    assert!(cluster.queue().is_empty(), "{case}: jobs were submitted");
+}
+
+/// Exit status 2, one line on stderr holding every string of `expect`, and
+/// no shard folder `out.shards` (what was submitted is the caller's check).
+fn assert_one_line_refusal(case: &str, o: &Output, out: &Path, expect: &[&str]) {
     let stderr = text(&o.stderr);
     assert_eq!(
         o.status.code(),
@@ -325,7 +332,6 @@ fn assert_refused(cluster: &Cluster, case: &str, o: &Output, out: &Path, expect:
     for e in expect {
         assert!(line.contains(e), "{case}: no `{e}` in {line:?}");
     }
-    assert!(cluster.queue().is_empty(), "{case}: jobs were submitted");
     let shards = PathBuf::from(format!("{}.shards", out.display()));
     assert!(!shards.exists(), "{case}: {} was created", shards.display());
 }
@@ -700,19 +706,9 @@ fn script_checks_exports_and_sinfo_before_submitting() {
         (o, out)
     };
     let refused = |case: &str, o: &Output, out: &Path, expect: &[&str]| {
-        let stderr = text(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{case}: {stderr}");
-        let line = stderr
-            .strip_suffix('\n')
-            .unwrap_or_else(|| panic!("{case}: {stderr:?}"));
-        assert!(!line.contains('\n'), "{case}: not one line: {stderr:?}");
-        for e in expect {
-            assert!(line.contains(e), "{case}: no `{e}` in {line:?}");
-        }
+        assert_one_line_refusal(case, o, out, expect);
         let log = fs::read_to_string(&calls).unwrap_or_default();
         assert!(!log.contains("sbatch"), "{case}: submitted: {log}");
-        let shards = PathBuf::from(format!("{}.shards", out.display()));
-        assert!(!shards.exists(), "{case}: {} was created", shards.display());
     };
 
     fake(

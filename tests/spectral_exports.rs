@@ -21,7 +21,7 @@ use roks::optics::spectrum::NkSpectrum;
 use roks::output::brdf_csv;
 use roks::tally::CarlsonGrid;
 
-use cli_common::{assert_input_error, roks};
+use cli_common::{assert_input_error, brdf_quiet, roks};
 
 const DEFAULT: &str = roks::scene::micro::DEFAULT_SCENE;
 
@@ -380,16 +380,7 @@ fn bad_spectral_folders_exit_2_naming_the_file() {
     )
     .unwrap();
     let run = dir.join("run");
-    let o = roks(&[
-        "brdf",
-        s(&scene),
-        "--out",
-        s(&run),
-        "--photons",
-        "4096",
-        "-q",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    brdf_quiet(&scene, &run, "4096");
     let csv = std::fs::read_to_string(run.join("brdf.csv")).unwrap();
     let summary = std::fs::read_to_string(run.join("summary.json")).unwrap();
     let target = dir.join("x").join("out.bsdf");

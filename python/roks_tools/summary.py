@@ -184,6 +184,18 @@ def _no_constant(name: str):
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _read_object(cls, path: str | Path, refusal: str, keys: tuple[str, ...] = ()):
+    """The dataclass `cls` read from the JSON file `path`, and `where` (the
+    `path:` prefix of its messages); ResultError `refusal` naming the file
+    when it is not an object holding every key of `keys`."""
+    path = Path(path)
+    data = read_json(path)
+    where = show(path) + ":"
+    if not isinstance(data, dict) or any(k not in data for k in keys):
+        raise ResultError(f"{where} {refusal}")
+    return _object(cls, data, where, path=path), where
+
+
 def read_typed(cls, path: str | Path):
     """A JSON file as the dataclass `cls` (types checked, ResultError naming
     the file and key)."""
@@ -741,12 +753,9 @@ class FitModelSummary(_Fields):
 
 def read_fit_model(path: str | Path) -> FitModelSummary:
     """fit_<model>.json of `roks fit-model`, typed; ResultError naming the file."""
-    path = Path(path)
-    data = read_json(path)
-    where = show(path) + ":"
-    if not isinstance(data, dict) or "fits" not in data or "model" not in data:
-        raise ResultError(f"{where} not a roks fit-model file (an object with 'model' and 'fits')")
-    f = _object(FitModelSummary, data, where, path=path)
+    f, where = _read_object(
+        FitModelSummary, path, "not a roks fit-model file (an object with 'model' and 'fits')", ("fits", "model")
+    )
     if not f.fits:
         raise ResultError(f"{where} fits: no fit")
     for i, fit in enumerate(f.fits):
@@ -789,12 +798,7 @@ class FitRanking(_Fields):
 
 def read_fit_ranking(path: str | Path) -> FitRanking:
     """fit_summary.json of `roks fit-model --model all`, typed; ResultError naming the file."""
-    path = Path(path)
-    data = read_json(path)
-    where = show(path) + ":"
-    if not isinstance(data, dict) or "ranking" not in data:
-        raise ResultError(f"{where} not a roks fit_summary.json (an object with 'ranking')")
-    r = _object(FitRanking, data, where, path=path)
+    r, where = _read_object(FitRanking, path, "not a roks fit_summary.json (an object with 'ranking')", ("ranking",))
     names = [m.model for m in r.ranking]
     if r.use is not None and r.use not in names:
         raise ResultError(f"{where} use: {r.use!r} is not a model of the ranking")
@@ -825,12 +829,7 @@ class FilesRecord(_Fields):
 
 def read_files_record(path: str | Path) -> FilesRecord:
     """.roks-files.json, typed; every entry a plain file name (ResultError naming the file)."""
-    path = Path(path)
-    data = read_json(path)
-    where = show(path) + ":"
-    if not isinstance(data, dict):
-        raise ResultError(f"{where} expected a JSON object")
-    r = _object(FilesRecord, data, where, path=path)
+    r, where = _read_object(FilesRecord, path, "expected a JSON object")
     for name in r.files:
         if "/" in name or "\\" in name or name in ("", ".", ".."):
             raise ResultError(f"{where} files: {name!r} is not a file name")
@@ -862,19 +861,14 @@ class ExportMarker(_Fields):
 def read_export_marker(path: str | Path) -> ExportMarker:
     """export.json, typed; every file it names must be beside it (else
     ResultError naming the file and the missing one)."""
-    path = Path(path)
-    data = read_json(path)
-    where = show(path) + ":"
-    if not isinstance(data, dict):
-        raise ResultError(f"{where} expected a JSON object")
-    m = _object(ExportMarker, data, where, path=path)
-    if "from" in data and not isinstance(data["from"], str):
-        raise ResultError(f"{where} from: expected a string, got {_short(data['from'])}")
+    m, where = _read_object(ExportMarker, path, "expected a JSON object")
+    if "from" in m.raw and not isinstance(m.raw["from"], str):
+        raise ResultError(f"{where} from: expected a string, got {_short(m.raw['from'])}")
     if not m.files:
         raise ResultError(f"{where} files: names no file")
     for i, name in enumerate(m.files):
         if "/" in name or "\\" in name or name in ("", ".", ".."):
             raise ResultError(f"{where} files[{i}]: {name!r} is not a file name")
-        if not (path.parent / name).is_file():
+        if not (m.path.parent / name).is_file():
             raise ResultError(f"{where} files[{i}]: {name} is not beside it (an incomplete set?)")
     return m

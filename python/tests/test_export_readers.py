@@ -48,6 +48,7 @@ from roks_tools.results import BrdfTable, InPlane, PolarTable, ResultError, load
 from roks_tools.runner import repo_root, run
 from roks_tools.summary import (ExportMarker, FitModelSummary, TraceSummary, TraceTallies, read_summary,
                                 read_tallies)
+from test_readers_bad_bytes import _mutate, _refused_or_read
 
 SCENES = repo_root() / "scenes"
 MODELS = ("abg", "harvey", "ggx", "beckmann")
@@ -555,23 +556,7 @@ def test_random_corruptions_raise_only_result_error(folders, tmp_path, name):
     data = _source(folders, name).read_bytes()
     refused = 0
     for _ in range(40):
-        d = bytearray(data)
-        i = rng.randrange(len(d))
-        kind = rng.randrange(4)
-        if kind == 0:
-            d[i] = rng.randrange(256)
-        elif kind == 1:
-            d[i:i] = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 8)))
-        elif kind == 2:
-            del d[i:i + rng.randrange(1, 200)]
-        else:
-            del d[i:]
-        p = _broken(tmp_path, _source(folders, name), bytes(d))
-        try:
-            read_file(p)
-        except ResultError as e:
-            assert str(p) in str(e) and "\n" not in str(e), str(e)
-            refused += 1
+        refused += _refused_or_read(_broken(tmp_path, _source(folders, name), _mutate(data, rng, kinds=4)))
     assert refused > 0
 
 

@@ -735,14 +735,7 @@ fn warn_off(
             },
             None => fixed.clone(),
         };
-        let sigmas = if c.table_stderr > 0.0 {
-            format!(
-                "{:.1} standard errors",
-                (c.file - c.table).abs() / c.table_stderr
-            )
-        } else {
-            "no standard error".to_string()
-        };
+        let sigmas = crate::export::resample::standard_errors(c.file - c.table, c.table_stderr);
         let phi = c
             .phi_i_deg
             .map_or(String::new(), |p| format!(", phi_i {p} deg"));

@@ -85,6 +85,18 @@ impl ReflectanceCheck {
     }
 }
 
+/// `|difference|` counted in standard errors `stderr` as the verdicts
+/// word it: `N.N standard errors` (one decimal), or `no standard error`
+/// where `stderr` is not positive.
+#[must_use]
+pub fn standard_errors(difference: f64, stderr: f64) -> String {
+    if stderr > 0.0 {
+        format!("{:.1} standard errors", difference.abs() / stderr)
+    } else {
+        "no standard error".to_owned()
+    }
+}
+
 /// `∫ f(ω) cos(theta) dω` over the upper hemisphere by the midpoint rule on
 /// `n` rings of equal polar width `90 / n` degrees times `4 n` equal azimuth
 /// sectors (cells about `90 / n` degrees square), each weighted by its exact

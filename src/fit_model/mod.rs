@@ -398,6 +398,33 @@ pub struct ReflectanceCompare {
     pub ok: bool,
 }
 
+impl ReflectanceCompare {
+    /// The comparison at incidence `i` of `table`: the table's
+    /// reflectance `table_r` and the model's `model_r` over the same
+    /// cells, judged by the exports' rule ([`ReflectanceCheck`]) against
+    /// the table's standard error at that incidence.
+    fn judged(table: &BrdfTable, i: usize, table_r: f64, model_r: f64, chi2_per_cell: f64) -> Self {
+        let theta_i_deg = table.incidence(i).theta_deg;
+        let check = ReflectanceCheck {
+            theta_i_deg,
+            phi_i_deg: None,
+            table: table_r,
+            file: model_r,
+            table_stderr: table.reflectance_stderr(theta_i_deg.to_radians()),
+        };
+        Self {
+            theta_i_deg,
+            table: table_r,
+            model: model_r,
+            difference: table_r - model_r,
+            chi2_per_cell,
+            table_stderr: check.table_stderr,
+            tolerance: check.tolerance(),
+            ok: check.passes(),
+        }
+    }
+}
+
 /// Why a fit could not be made.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{0}")]
@@ -557,24 +584,7 @@ pub fn fit(
             let (n, c2) = mine().fold((0usize, 0.0), |(n, c), (_, r)| {
                 (n + 1, c + r.sigma * r.sigma)
             });
-            let theta_i_deg = table.incidence(i).theta_deg;
-            let check = ReflectanceCheck {
-                theta_i_deg,
-                phi_i_deg: None,
-                table: table_r,
-                file: model_r,
-                table_stderr: table.reflectance_stderr(theta_i_deg.to_radians()),
-            };
-            ReflectanceCompare {
-                theta_i_deg,
-                table: table_r,
-                model: model_r,
-                difference: table_r - model_r,
-                chi2_per_cell: c2 / n.max(1) as f64,
-                table_stderr: check.table_stderr,
-                tolerance: check.tolerance(),
-                ok: check.passes(),
-            }
+            ReflectanceCompare::judged(table, i, table_r, model_r, c2 / n.max(1) as f64)
         })
         .collect();
     residuals.sort_by(|a, b| b.sigma.abs().total_cmp(&a.sigma.abs()));
@@ -645,24 +655,13 @@ pub fn reflectance_of(
                 m += v * o.proj;
                 c2 += ((o.brdf - v) / o.stderr).powi(2);
             }
-            let theta_i_deg = table.incidence(i).theta_deg;
-            let check = ReflectanceCheck {
-                theta_i_deg,
-                phi_i_deg: None,
-                table: t,
-                file: m,
-                table_stderr: table.reflectance_stderr(theta_i_deg.to_radians()),
-            };
-            Some(ReflectanceCompare {
-                theta_i_deg,
-                table: t,
-                model: m,
-                difference: t - m,
-                chi2_per_cell: c2 / mine.len() as f64,
-                table_stderr: check.table_stderr,
-                tolerance: check.tolerance(),
-                ok: check.passes(),
-            })
+            Some(ReflectanceCompare::judged(
+                table,
+                i,
+                t,
+                m,
+                c2 / mine.len() as f64,
+            ))
         })
         .collect()
 }
@@ -713,14 +712,7 @@ pub fn warnings(name: &str, fits: &[FitResult]) -> Vec<String> {
 /// (N standard errors; allowed: max(1 %, 4 standard errors))`.
 #[must_use]
 pub fn reflectance_off(r: &ReflectanceCompare) -> String {
-    let sigmas = if r.table_stderr > 0.0 {
-        format!(
-            "{:.1} standard errors",
-            (r.model - r.table).abs() / r.table_stderr
-        )
-    } else {
-        "no standard error".to_owned()
-    };
+    let sigmas = crate::export::resample::standard_errors(r.model - r.table, r.table_stderr);
     format!(
         "theta_i {} deg: the model's reflectance {:.6} is {:+.2} % off the table's {:.6} ({sigmas}; allowed: max(1 %, 4 standard errors))",
         r.theta_i_deg,
