@@ -9,7 +9,7 @@ mod cli_common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use cli_common::{assert_input_error, ok};
 
