@@ -972,6 +972,13 @@ class TraceResult:
         _agree(r.path, "the positions", np.stack([r.x, r.y, r.z], axis=1), pos)
         if s.wavelengths_um:
             _agree(r.path, "the wavelengths", r.wavelength_um, np.tile(s.wavelengths_um, len(s.sources)))
+        for name, key in (("farfield.csv", "farfield"), ("farfield_stokes.csv", "farfield_stokes")):
+            # summary.json says whether the far field was tallied (older
+            # files lack the key: then the file's presence is all there is).
+            if key in s.raw and getattr(s, key) != (getattr(self, key) is not None):
+                said = "was" if getattr(s, key) else "was not"
+                raise ResultError(f"{show(self.folder / name)}: summary.json says the far field {said} "
+                                  f"tallied, but the file is {'missing' if getattr(s, key) else 'there'}")
         for t in (self.farfield, self.farfield_stokes):
             if t is not None and (t.source.max() >= len(s.sources) or len(t.source) % (len(s.sources) * nw)):
                 raise ResultError(f"{show(t.path)}: not {len(s.sources)} positions x {nw} wavelengths "

@@ -443,6 +443,11 @@ class TraceSummary(_Fields):
     version: str | None = None
     shard: ShardRange | None = None
     wavelengths_um: list[float] | None = None
+    farfield: bool = False
+    """Whether the far field was tallied (`farfield.csv` written); False
+    for files of roks before the key existed."""
+    farfield_stokes: bool = False
+    """Whether the far field's Stokes vectors were tallied (`farfield_stokes.csv`)."""
     raw: dict = field(default_factory=dict, repr=False)
 
     kind = "trace"

@@ -153,6 +153,8 @@ def _check_brdf(r: BrdfResult):
 
 def _check_trace(r: TraceResult):
     s, refl = r.summary, r.reflectance
+    # summary.json says whether each far field was tallied: exactly when its file is there.
+    assert s.farfield == (r.farfield is not None) and s.farfield_stokes == (r.farfield_stokes is not None)
     waves = s.wavelengths_um or [None]
     nw = len(waves)
     assert len(refl.x) == len(s.sources) * nw > 0

@@ -12,6 +12,7 @@ random corruptions use a fixed seed, so a failure repeats.
 
 from __future__ import annotations
 
+import json
 import random
 import shutil
 from pathlib import Path
@@ -237,3 +238,22 @@ def test_polar_table_with_more_columns_reads(genuine, tmp_path):
     assert t.extra["m01_norm_stderr"][1] == 0.5
     p.write_text("\n".join([lines[0] + ",other", *(ln + ",1" for ln in lines[1:])]) + "\n")
     _refused(p, "not the header")
+
+
+def test_a_missing_far_field_is_told_from_one_never_tallied(genuine, tmp_path):
+    """summary.json of roks trace says whether each far field was tallied
+    (`farfield`, `farfield_stokes`): a folder that lost farfield.csv is
+    refused naming it, and one whose summary says the far field was not
+    tallied reads without it."""
+    folder = tmp_path / "trace"
+    shutil.copytree(genuine["trace-summary.json"].parent, folder)
+    r = load_result(folder)
+    assert r.summary.farfield and r.summary.farfield_stokes and r.farfield is not None
+    (folder / "farfield.csv").unlink()
+    with pytest.raises(ResultError, match=r"farfield\.csv: summary\.json says the far field was tallied, but the file is missing"):
+        load_result(folder)
+    s = json.loads((folder / "summary.json").read_text())
+    s["farfield"] = False
+    (folder / "summary.json").write_text(json.dumps(s))
+    r = load_result(folder)
+    assert not r.summary.farfield and r.farfield is None
