@@ -50,6 +50,13 @@ pub fn execute(a: ExportMeshArgs) -> Result<(), Failure> {
     {
         return object(&a, path);
     }
+    if a.bounds.is_some() {
+        // A micro scene's mesh is its one period: nothing to box.
+        return Err(Failure::Input(
+            "--bounds: only for an object scene (a micro scene's mesh is one period of its surface)"
+                .to_owned(),
+        ));
+    }
     let resolution = a.resolution.unwrap_or(512);
     if !(1..=crate::export::MAX_CELLS_PER_SIDE).contains(&resolution) {
         return Err(Failure::Input(format!(
