@@ -32,20 +32,19 @@
 use std::io::Write as _;
 use std::path::{Component, Path, PathBuf};
 
+pub mod check;
+pub mod file;
 pub mod kind;
 pub mod record;
+pub mod write;
 
+use file::ResultFile;
 use kind::FileKind;
 use record::{RECORD, Record};
 
 /// Longest scene name, in bytes, that [`check_name`] accepts as a folder
 /// name (a file name may have 255; the staging suffix needs room).
 pub const MAX_NAME_BYTES: usize = 200;
-
-/// Files by which a folder is recognised as a roks result (with a `version`
-/// key inside): a run's summary, a fit's, a folder of per-wavelength
-/// exports' (`roks export-brdf`).
-const RESULT_MARKERS: [&str; 3] = ["summary.json", "fit.json", "export.json"];
 
 /// Why a result folder or file cannot be written at a path ([`check_folder`],
 /// [`check_file`]): the reason, for a message after the option and path.
@@ -248,36 +247,133 @@ fn check_parent(parent: &Path) -> Result<(), OutPathError> {
         })
 }
 
-/// Whether `dir` may be replaced by a new result: empty, or a roks result
-/// folder (no subfolder, and a [`RESULT_MARKERS`] file with a `version`)
-/// every file of which is roks's own ([`foreign`]; with `force`, any).
-fn replaceable(dir: &Path, force: bool) -> Result<(), OutPathError> {
-    let entries = std::fs::read_dir(dir)
-        .and_then(Iterator::collect::<Result<Vec<_>, _>>)
-        .map_err(OutPathError::Unreadable)?;
-    if entries.is_empty() {
-        return Ok(());
+/// Whose an entry of a result folder is ([`Listing`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Owner {
+    /// The record itself, or a temporary file of a killed roks write.
+    Roks,
+    /// A file the folder's own command wrote.
+    Run,
+    /// A file a later command added (the command; `an earlier roks` in a
+    /// folder without a record).
+    Added(String),
+    /// A file roks did not write.
+    Foreign,
+}
+
+/// The entries of an existing folder, sorted by name, each with its owner
+/// by the folder's record ([`record`]; a folder without one: by name,
+/// [`record::known_name`]): the folder listed and its record read once,
+/// for every check and report on it.
+#[derive(Debug, Clone)]
+pub struct Listing {
+    /// The folder (a symbolic link's target).
+    dir: PathBuf,
+    /// Each entry's name, whether it is a folder, and its owner.
+    entries: Vec<(std::ffi::OsString, bool, Owner)>,
+}
+
+impl Listing {
+    /// List `dir` and judge its entries.
+    fn read(dir: &Path) -> std::io::Result<Self> {
+        let rec = Record::read(dir);
+        let mut entries: Vec<(std::ffi::OsString, bool, Owner)> = std::fs::read_dir(dir)?
+            .map(|e| {
+                let e = e?;
+                let name = e.file_name();
+                let owner = name
+                    .to_str()
+                    .map_or(Owner::Foreign, |n| owner(n, rec.as_ref()));
+                Ok((name, e.file_type().is_ok_and(|t| t.is_dir()), owner))
+            })
+            .collect::<std::io::Result<_>>()?;
+        entries.sort_by(|a, b| a.0.cmp(&b.0));
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            entries,
+        })
     }
-    let refuse = |why| Err(OutPathError::NotAResult(why));
-    if let Some(sub) = entries
-        .iter()
-        .find(|e| e.file_type().is_ok_and(|t| t.is_dir()))
-    {
-        return refuse(NotAResult::Subfolder(sub.file_name()));
+
+    /// Whether the folder may be replaced by a new result as a folder:
+    /// empty, or a roks result (no subfolder, and a
+    /// [`ResultFile::MARKERS`] file with a `version`). Its files are
+    /// [`Self::check_foreign`]'s.
+    ///
+    /// # Errors
+    /// [`OutPathError::NotAResult`].
+    fn check_shape(&self) -> Result<(), OutPathError> {
+        if self.entries.is_empty() {
+            return Ok(());
+        }
+        let refuse = |why| Err(OutPathError::NotAResult(why));
+        if let Some(sub) = self.entries.iter().find(|e| e.1) {
+            return refuse(NotAResult::Subfolder(sub.0.clone()));
+        }
+        if !marked(&self.dir) {
+            return refuse(NotAResult::NoMarker);
+        }
+        Ok(())
     }
-    if !marked(dir) {
-        return refuse(NotAResult::NoMarker);
+
+    /// Check that every file of the folder is roks's own, unless `force`.
+    ///
+    /// # Errors
+    /// [`OutPathError::Foreign`], naming the first such file.
+    pub fn check_foreign(&self, force: bool) -> Result<(), OutPathError> {
+        match self.foreign().next() {
+            Some(name) if !force => Err(OutPathError::Foreign(name.clone())),
+            _ => Ok(()),
+        }
     }
-    match foreign(dir).into_iter().next() {
-        Some(name) if !force => Err(OutPathError::Foreign(name)),
-        _ => Ok(()),
+
+    /// The entries roks did not write, sorted by name.
+    fn foreign(&self) -> impl Iterator<Item = &std::ffi::OsString> {
+        self.entries
+            .iter()
+            .filter(|e| e.2 == Owner::Foreign)
+            .map(|e| &e.0)
+    }
+
+    /// What writing `new` (file names) over the folder removes beside the
+    /// old run's own files ([`Replaced`]).
+    fn replaced(&self, new: &[&str]) -> Replaced {
+        let mut out = Replaced::default();
+        for (name, _, owner) in &self.entries {
+            let name = name.to_string_lossy().into_owned();
+            if new.contains(&name.as_str()) {
+                continue;
+            }
+            match owner {
+                Owner::Added(by) => out.added.push((name, by.clone())),
+                Owner::Foreign => out.foreign.push(name),
+                Owner::Roks | Owner::Run => {}
+            }
+        }
+        out
     }
 }
 
-/// Whether `dir` holds a [`RESULT_MARKERS`] file with a `version`.
+/// The owner of the entry `name` of a result folder with the record `rec`
+/// (`None`: a folder of an earlier roks, judged by name).
+fn owner(name: &str, rec: Option<&Record>) -> Owner {
+    if name == RECORD || record::temporary(name) {
+        return Owner::Roks;
+    }
+    match rec {
+        Some(r) => match r.files.get(name) {
+            Some(by) if *by != r.command => Owner::Added(by.clone()),
+            Some(_) => Owner::Run,
+            None => Owner::Foreign,
+        },
+        None if record::known_name(name) => Owner::Added("an earlier roks".to_owned()),
+        None => Owner::Foreign,
+    }
+}
+
+/// Whether `dir` holds a [`ResultFile::MARKERS`] file with a `version`.
 fn marked(dir: &Path) -> bool {
-    RESULT_MARKERS.iter().any(|m| {
-        crate::limits::read_capped(&dir.join(m), crate::limits::MAX_SCENE_BYTES)
+    ResultFile::MARKERS.iter().any(|m| {
+        crate::limits::read_capped(&m.path_in(dir), crate::limits::MAX_SCENE_BYTES)
             .ok()
             .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
             .is_some_and(|v| v.get("version").is_some_and(serde_json::Value::is_string))
@@ -291,23 +387,9 @@ fn marked(dir: &Path) -> bool {
 /// ([`record::known_name`]).
 #[must_use]
 pub fn foreign(dir: &Path) -> Vec<std::ffi::OsString> {
-    let recorded = Record::read(dir);
-    let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(dir)
-        .map(|d| d.flatten().map(|e| e.file_name()).collect())
-        .unwrap_or_default();
-    names.sort();
-    names.retain(|n| {
-        let Some(name) = n.to_str() else {
-            return true;
-        };
-        let own = name == RECORD
-            || record::temporary(name)
-            || recorded
-                .as_ref()
-                .map_or_else(|| record::known_name(name), |r| r.files.contains_key(name));
-        !own
-    });
-    names
+    Listing::read(dir)
+        .map(|l| l.foreign().cloned().collect())
+        .unwrap_or_default()
 }
 
 /// Check, before any work, that a result folder can be written at `path`
@@ -316,7 +398,8 @@ pub fn foreign(dir: &Path) -> Vec<std::ffi::OsString> {
 ///
 /// With `force`, a roks result folder is replaced even when it holds files
 /// roks did not write (never a folder that is not a roks result, nor one
-/// that holds a folder).
+/// that holds a folder). The same as [`check_folder_shape`], then
+/// [`Listing::check_foreign`] of the folder it found.
 ///
 /// # Errors
 /// `path` is a file or a link to one, names no folder (`/`, `..`), is a
@@ -324,6 +407,20 @@ pub fn foreign(dir: &Path) -> Vec<std::ffi::OsString> {
 /// roks did not write (without `force`), or no folder can be created
 /// beside it.
 pub fn check_folder(path: &Path, force: bool) -> Result<(), OutPathError> {
+    match check_folder_shape(path)? {
+        Some(listing) => listing.check_foreign(force),
+        None => Ok(()),
+    }
+}
+
+/// The shape part of [`check_folder`]: `path` can be a result folder (it
+/// is none, or an empty folder or a roks result, and a folder can be
+/// created beside it), whoever wrote its files. The existing folder's
+/// [`Listing`] (`None` when there is none), for the check of its files.
+///
+/// # Errors
+/// As [`check_folder`], but for a file roks did not write.
+pub fn check_folder_shape(path: &Path) -> Result<Option<Listing>, OutPathError> {
     let (parent, name) = split(path)?;
     let path = &parent.join(name);
     match std::fs::symlink_metadata(path) {
@@ -339,10 +436,12 @@ pub fn check_folder(path: &Path, force: bool) -> Result<(), OutPathError> {
             } else {
                 return Err(OutPathError::IsFile);
             };
-            replaceable(&target, force)?;
-            check_parent(&split(&target)?.0).map_err(|e| OutPathError::Beside(Box::new(e)))
+            let listing = Listing::read(&target).map_err(OutPathError::Unreadable)?;
+            listing.check_shape()?;
+            check_parent(&split(&target)?.0).map_err(|e| OutPathError::Beside(Box::new(e)))?;
+            Ok(Some(listing))
         }
-        Err(e) if absent(&e) => check_parent(&parent),
+        Err(e) if absent(&e) => check_parent(&parent).map(|()| None),
         Err(e) => Err(OutPathError::Io(e)),
     }
 }
@@ -565,38 +664,6 @@ pub struct Replaced {
     pub foreign: Vec<String>,
 }
 
-/// What writing `new` (file names) over the folder `dir` removes beside
-/// the old run's own files ([`Replaced`]).
-fn replaced(dir: &Path, new: &[&str]) -> Replaced {
-    let mut out = Replaced::default();
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return out;
-    };
-    let rec = Record::read(dir);
-    let mut names: Vec<String> = entries
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    for name in names {
-        if name == RECORD || record::temporary(&name) || new.contains(&name.as_str()) {
-            continue;
-        }
-        match &rec {
-            Some(r) => match r.files.get(&name) {
-                Some(by) if *by != r.command => out.added.push((name, by.clone())),
-                Some(_) => {}
-                None => out.foreign.push(name),
-            },
-            None if record::known_name(&name) => {
-                out.added.push((name, "an earlier roks".to_owned()));
-            }
-            None => out.foreign.push(name),
-        }
-    }
-    out
-}
-
 /// Write `files` (name, bytes) as the result folder `path`, replacing any
 /// folder there whole (see the module documentation), with the record of
 /// its files ([`record`]) naming `command` as their writer. `path` should
@@ -628,7 +695,9 @@ pub fn write_folder(
         std::fs::remove_dir_all(&staging)?;
     }
     let names: Vec<&str> = files.iter().map(|f| f.0).collect();
-    let report = replaced(path, &names);
+    let report = Listing::read(path)
+        .map(|l| l.replaced(&names))
+        .unwrap_or_default();
     let record = Record::new(command, names.iter().copied()).to_bytes();
     std::fs::create_dir(&staging)?;
     let written = (|| {

@@ -106,18 +106,20 @@ pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Fai
     }
 }
 
-/// The result folder: `given` (`--out`), or `out/<name>` (named in messages
-/// by the scene file's `name` key), checked before any work is done: it
-/// can be a result folder, and replacing it destroys none of `reads`, the
-/// files the run reads ([`check_kept`]).
-///
-/// The default folder is never taken over from another scene file: when
-/// `out/<name>` holds the result of a scene at another path (its
-/// `summary.json` names it), the run is refused, so an edited copy of a
-/// scene that kept its `name` cannot silently replace the original's
-/// result. `--out` names a folder on purpose and may replace any result.
-/// `force` (`--force`) replaces a result folder that holds files roks did
-/// not write ([`crate::outdir::check_folder`]).
+pub use crate::outdir::check::{Written, escape_controls, shown};
+pub use crate::outdir::write::removed_lines;
+
+impl From<crate::outdir::check::OutputError> for Failure {
+    fn from(e: crate::outdir::check::OutputError) -> Self {
+        use crate::outdir::check::OutputError;
+        match e {
+            OutputError::Refused(m) => Self::Input(m),
+            OutputError::Write(m) => Self::Other(anyhow::Error::msg(m)),
+        }
+    }
+}
+
+/// [`crate::outdir::check::result_dir`], as a command's failure.
 ///
 /// # Errors
 /// Bad input when the folder cannot be a result folder, or is the default
@@ -129,65 +131,21 @@ pub fn result_dir(
     reads: &[PathBuf],
     force: bool,
 ) -> Result<PathBuf, Failure> {
-    let Some(out) = given else {
-        let out = Path::new("out").join(name);
-        let key = format!("{scene_file}: name");
-        check_out_dir(&out, &key, reads, force)?;
-        if let Some(other) = recorded_scene(&out)
-            .filter(|o| o != scene_file && !same_file(Path::new(o), Path::new(scene_file)))
-        {
-            return Err(Failure::Input(format!(
-                "{key}: {} holds the result of {}, another scene named {name:?}; give --out, or another name",
-                shown(&out),
-                other.escape_debug()
-            )));
-        }
-        return Ok(out);
-    };
-    check_out_dir(out, "--out", reads, force)?;
-    Ok(out.to_path_buf())
+    Ok(crate::outdir::check::result_dir(
+        given, scene_file, name, reads, force,
+    )?)
 }
 
-/// The scene file recorded in the `summary.json` of the result folder
-/// `out` (`None` when there is none to read).
-fn recorded_scene(out: &Path) -> Option<String> {
-    let text = std::fs::read(out.join("summary.json")).ok()?;
-    let v: serde_json::Value = serde_json::from_slice(&text).ok()?;
-    v.get("scene")?.as_str().map(str::to_owned)
-}
-
-/// Whether `a` and `b` are one existing file: both resolve (links, `..`,
-/// relative to the working folder) to the same path.
-fn same_file(a: &Path, b: &Path) -> bool {
-    matches!(
-        (std::fs::canonicalize(a), std::fs::canonicalize(b)),
-        (Ok(x), Ok(y)) if x == y
-    )
-}
-
-/// Check a result folder before any work is done; `key` names it in the
-/// message (`--out`, or `SCENE: name` for the default out/NAME): it can
-/// be a result folder, replacing it destroys none of `reads`, the files the
-/// run reads ([`check_kept`]), and every file in it is roks's own unless
-/// `force` (`--force`), in this order.
+/// [`crate::outdir::check::check_out_dir`], as a command's failure.
 ///
 /// # Errors
-/// Bad input when the folder exists and is neither empty nor a roks result,
-/// holds one of `reads`, or (without `force`) holds a file roks did not
-/// write.
+/// Bad input when the folder cannot be replaced.
 pub fn check_out_dir(out: &Path, key: &str, reads: &[PathBuf], force: bool) -> Result<(), Failure> {
-    let bad = |e| Failure::Input(format!("{key}: {}: {e}", shown(out)));
-    crate::outdir::check_folder(out, true).map_err(bad)?;
-    check_kept(key, &[Written::Folder(out)], reads)?;
-    crate::outdir::check_folder(out, force).map_err(bad)
+    Ok(crate::outdir::check::check_out_dir(out, key, reads, force)?)
 }
 
-/// Check an output file (`--out`) of `kind` before any work is done: it
-/// can be written as a file (not a folder, nor a path ending in `/`; its
-/// folder can be made), writing it replaces none of `inputs`, the files
-/// the command reads ([`check_kept`]), and a file already there is that
-/// kind of roks output, or roks's by its folder's record, or `force`
-/// (`--force`) is given ([`crate::outdir::check_replace`]).
+/// [`crate::outdir::check::check_out_file_as`] of `--out`, as a command's
+/// failure.
 ///
 /// # Errors
 /// Bad input when `out` cannot be written as a file, would replace one of
@@ -201,7 +159,7 @@ pub fn check_out_file(
     check_out_file_as("--out", out, inputs, kind, force)
 }
 
-/// [`check_out_file`] of the output of `option`.
+/// [`crate::outdir::check::check_out_file_as`], as a command's failure.
 ///
 /// # Errors
 /// As [`check_out_file`].
@@ -212,28 +170,12 @@ pub fn check_out_file_as(
     kind: FileKind,
     force: bool,
 ) -> Result<(), Failure> {
-    let bad =
-        |e: crate::outdir::OutPathError| Failure::Input(format!("{option}: {}: {e}", shown(out)));
-    crate::outdir::check_file(out).map_err(bad)?;
-    check_kept(option, &[Written::File(out)], inputs)?;
-    crate::outdir::check_replace(out, kind, force).map_err(bad)
+    Ok(crate::outdir::check::check_out_file_as(
+        option, out, inputs, kind, force,
+    )?)
 }
 
-/// What a command writes, to be checked against what it reads.
-#[derive(Debug, Clone, Copy)]
-pub enum Written<'a> {
-    /// A result folder, replaced whole (every file in it goes).
-    Folder(&'a Path),
-    /// One file, replaced.
-    File(&'a Path),
-}
-
-/// The one decision, for every command, that its outputs destroy no input:
-/// refuse (naming `option`) when one of `outputs` is, holds (a folder
-/// replaced whole) or would replace one of `inputs` (the scene, every file
-/// it names, a table wall's files, merged folders), however either path is
-/// spelt: symbolic links, `..`, trailing `/`, hard links
-/// ([`crate::outdir::replaces`]). Call it before any work.
+/// [`crate::outdir::check::check_kept`], as a command's failure.
 ///
 /// # Errors
 /// Bad input naming the option, the output and the input.
@@ -242,84 +184,18 @@ pub fn check_kept(
     outputs: &[Written<'_>],
     inputs: &[PathBuf],
 ) -> Result<(), Failure> {
-    for w in outputs {
-        let (out, folder) = match *w {
-            Written::Folder(p) => (p, true),
-            Written::File(p) => (p, false),
-        };
-        if let Some(input) = inputs
-            .iter()
-            .find(|i| crate::outdir::replaces(out, folder, i))
-        {
-            let how = if folder && !crate::outdir::replaces(out, false, input) {
-                "holds"
-            } else {
-                "is"
-            };
-            return Err(Failure::Input(format!(
-                "{option}: {}: {how} {}, a file this run reads, which writing {} would destroy; write elsewhere",
-                shown(out),
-                shown(input),
-                if folder {
-                    "the folder (replaced whole)"
-                } else {
-                    "it"
-                }
-            )));
-        }
-    }
-    Ok(())
+    Ok(crate::outdir::check::check_kept(option, outputs, inputs)?)
 }
 
-/// `path` for a message: as given, with control characters (a newline in
-/// a file name) escaped as `\n`, `\u{1b}`, so that every message stays one
-/// line.
-#[must_use]
-pub fn shown(path: &Path) -> String {
-    escape_controls(&path.display().to_string())
-}
-
-/// `text` with its control characters escaped (`\n`, `\t`, `\u{7f}`).
-#[must_use]
-pub fn escape_controls(text: &str) -> String {
-    text.chars()
-        .map(|c| {
-            if c.is_control() {
-                c.escape_default().to_string()
-            } else {
-                c.to_string()
-            }
-        })
-        .collect()
-}
-
-/// Write `bytes` to `path` atomically, creating its folder. A file written
-/// into a result folder is added to its record first
-/// ([`crate::outdir::record_added`], as written by the running command),
-/// so that a rerun knows it as roks's own.
+/// [`crate::outdir::write::write_file`], as a command's failure.
 ///
 /// # Errors
 /// The I/O error, naming the path.
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
-    }
-    let _commit = crate::interrupt::commit();
-    crate::outdir::record_added(path, crate::outdir::command())
-        .map_err(|e| anyhow::anyhow!("cannot write the record of {}: {e}", path.display()))?;
-    crate::output::write_atomic(path, bytes)
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
-    crate::interrupt::kept(shown(path));
-    Ok(())
+    Ok(crate::outdir::write::write_file(path, bytes)?)
 }
 
-/// Write the result folder `out` whole, `files` as (name, bytes), with the
-/// record naming `command` as their writer: staged beside it, then swapped
-/// in (see [`crate::outdir`]); a reader never sees old and new files
-/// mixed. The files that later commands had added to the old result, and
-/// those roks did not write (only with `--force`), are named on stderr, one
-/// line each ([`removed_lines`]).
+/// [`crate::outdir::write::write_folder`], as a command's failure.
 ///
 /// # Errors
 /// The I/O error, naming the folder.
@@ -328,49 +204,7 @@ pub fn write_folder<N: AsRef<str>, B: AsRef<[u8]>>(
     files: &[(N, B)],
     command: &str,
 ) -> Result<(), Failure> {
-    let files: Vec<(&str, &[u8])> = files
-        .iter()
-        .map(|(n, b)| (n.as_ref(), b.as_ref()))
-        .collect();
-    // The swap and its note for an interrupt's line under one lock.
-    let commit = crate::interrupt::commit();
-    let replaced = crate::outdir::write_folder(out, &files, command)
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
-    crate::interrupt::kept(shown(out));
-    drop(commit);
-    for line in removed_lines(out, &replaced) {
-        eprintln!("roks: {}", escape_controls(&line));
-    }
-    Ok(())
-}
-
-/// The lines that say what replacing the result folder `out` removed
-/// beside the old run's own files: the files later commands had added (they
-/// were made from the old table, so they go with it) and those roks did not
-/// write (`--force`).
-#[must_use]
-pub fn removed_lines(out: &Path, r: &crate::outdir::Replaced) -> Vec<String> {
-    let mut lines = Vec::new();
-    if !r.added.is_empty() {
-        let names: Vec<String> = r
-            .added
-            .iter()
-            .map(|(f, by)| format!("{f} ({by})"))
-            .collect();
-        lines.push(format!(
-            "{}: removed {}: added to the old result by later commands and made from its table, which this run replaced; run them again to remake them",
-            shown(out),
-            names.join(", ")
-        ));
-    }
-    if !r.foreign.is_empty() {
-        lines.push(format!(
-            "--force: {}: removed {}, which roks did not write",
-            shown(out),
-            r.foreign.join(", ")
-        ));
-    }
-    lines
+    Ok(crate::outdir::write::write_folder(out, files, command)?)
 }
 
 /// Write `text` to standard output; a closed pipe (`roks stats | head`) is a

@@ -28,7 +28,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The record's file name in a result folder.
-pub const RECORD: &str = ".roks-files.json";
+pub const RECORD: &str = super::file::ResultFile::Record.name();
 
 /// The record of a result folder (see the module documentation).
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -95,58 +95,13 @@ pub fn temporary(name: &str) -> bool {
         })
 }
 
-/// The names of files roks writes into a result folder, for folders
-/// written before the record existed: the tables, summaries and pictures
-/// of `brdf`, `trace`, `merge` and `fit`, the exports of `brdf --export`
-/// and `export-brdf`, the fits of `fit-model`.
-const KNOWN: [&str; 24] = [
-    "summary.json",
-    "brdf.csv",
-    "inplane.csv",
-    "tallies.json",
-    "stokes.csv",
-    "mueller.csv",
-    "colour.csv",
-    "reflectance.csv",
-    "farfield.csv",
-    "farfield_stokes.csv",
-    "fit.json",
-    "fitted.toml",
-    "fit_inplane.csv",
-    "export.json",
-    "surface.png",
-    "inplane.png",
-    "reflectance.png",
-    "brdf.bsdf",
-    "brdf.binary",
-    "brdf_rgl.bsdf",
-    "brdf.pbsdf",
-    "fit_abg_opticstudio.txt",
-    "fit_harvey_fred.txt",
-    "fit_abg_fred.txt",
-];
-
-/// Name patterns (prefix, suffix) of the files roks writes, as [`KNOWN`].
-const KNOWN_PATTERNS: [(&str, &str); 8] = [
-    ("hemisphere_", ".png"),
-    ("dop_", ".png"),
-    ("mueller_", ".png"),
-    ("colour_", ".png"),
-    ("brdf_", "um.bsdf"),
-    ("fit_", ".json"),
-    ("fit_", ".png"),
-    ("fit_", "_opticstudio.txt"),
-];
-
 /// Whether `name` is a file name roks writes into a result folder (its
-/// tables, summaries, pictures, exports and fits, by name or pattern):
-/// how a folder without a record (written by an earlier roks) is judged.
+/// tables, summaries, pictures, exports and fits, by name or pattern:
+/// [`super::file`]): how a folder without a record (written by an earlier
+/// roks) is judged.
 #[must_use]
 pub fn known_name(name: &str) -> bool {
-    KNOWN.contains(&name)
-        || KNOWN_PATTERNS.iter().any(|(p, s)| {
-            name.len() > p.len() + s.len() && name.starts_with(p) && name.ends_with(s)
-        })
+    super::file::known(name)
 }
 
 #[cfg(test)]
