@@ -28,6 +28,7 @@
 use std::io::Write as _;
 use std::path::Path;
 
+use crate::outdir::file::ResultPattern;
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
 
 pub mod brdf_csv;
@@ -37,6 +38,7 @@ pub mod inplane_csv;
 pub mod object_csv;
 pub mod object_tallies;
 pub mod polar_csv;
+pub mod result_tables;
 pub mod summary;
 pub mod tallies;
 
@@ -121,7 +123,7 @@ pub fn number_label(x: f64) -> String {
 /// File name of the degree-of-polarisation map of incidence `theta_i_deg`.
 #[must_use]
 pub fn dop_file(theta_i_deg: f64) -> String {
-    format!("dop_{}deg.png", number_label(theta_i_deg))
+    ResultPattern::Dop.name(&format!("{}deg", number_label(theta_i_deg)))
 }
 
 /// The file name `name` of a picture of one incidence (`<what>_<θ>deg...`)
@@ -144,7 +146,7 @@ pub fn at_azimuth(name: &str, phi_i_deg: Option<f64>) -> String {
 /// File name of the hemisphere map of incidence `theta_i_deg`.
 #[must_use]
 pub fn hemisphere_file(theta_i_deg: f64) -> String {
-    format!("hemisphere_{}deg.png", number_label(theta_i_deg))
+    ResultPattern::Hemisphere.name(&format!("{}deg", number_label(theta_i_deg)))
 }
 
 #[cfg(test)]

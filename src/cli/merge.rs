@@ -128,10 +128,10 @@ fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
         .collect::<Result<Vec<_>, _>>()?;
     let n_parts = parts.len();
     let merged = object_tallies::merge_shards(parts)?;
-    let files = merged
+    let mut files = merged
         .description
-        .folder(&merged.result, merged.seconds, None)
-        .map_err(anyhow::Error::msg)?;
+        .folder(&merged.result, merged.seconds, None);
+    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         super::trace::print_table(&merged.description.run, &merged.result);

@@ -8,9 +8,11 @@ use clap::Args;
 
 use super::Failure;
 use crate::micro::surface_stats::{HeightMap, SurfaceStats, surface_stats};
+use crate::outdir::file::ResultFile;
 use crate::output::summary::{BrdfSummary, Surface};
 use crate::plot::SurfacePicture;
 use crate::scene::micro::MicroScene;
+use crate::scene::source::SceneSource;
 
 /// The options of `roks plot`.
 #[derive(Args, Debug)]
@@ -37,19 +39,22 @@ pub struct PlotArgs {
 /// (one line naming it); a failed write.
 pub fn execute(a: PlotArgs) -> Result<(), Failure> {
     let dir = &a.dir;
-    if !dir.join("summary.json").is_file() {
+    if !ResultFile::Summary.path_in(dir).is_file() {
         return Err(Failure::Input(format!(
-            "{}: not a roks result folder (no summary.json)",
-            dir.display()
+            "{}: not a roks result folder (no {})",
+            dir.display(),
+            ResultFile::Summary
         )));
     }
     let mut pictures =
         crate::plot::folder::pictures_in(dir).map_err(|e| Failure::Input(e.to_string()))?;
     let surface = surface_of(dir);
     match &surface {
-        Ok(Some(png)) => pictures.push(("surface.png".to_owned(), png.clone())),
+        Ok(Some(png)) => pictures.push((ResultFile::SurfacePicture.name().to_owned(), png.clone())),
         Ok(None) => {}
-        Err(why) if !a.quiet => eprintln!("roks: surface.png not redrawn: {why}"),
+        Err(why) if !a.quiet => {
+            eprintln!("roks: {} not redrawn: {why}", ResultFile::SurfacePicture)
+        }
         Err(_) => {}
     }
     // Every picture checked before any is written.
@@ -96,14 +101,14 @@ enum NoSurface {
 /// object folder; an error (why not) when the scene cannot be loaded or
 /// its surface's statistics differ from the run's.
 fn surface_of(dir: &Path) -> Result<Option<Vec<u8>>, NoSurface> {
-    let text = std::fs::read_to_string(dir.join("summary.json")).map_err(NoSurface::Summary)?;
+    let text =
+        std::fs::read_to_string(ResultFile::Summary.path_in(dir)).map_err(NoSurface::Summary)?;
     let Ok(s) = serde_json::from_str::<BrdfSummary>(&text) else {
         return Ok(None);
     };
-    let scene = if s.scene == "<default scene>" {
-        MicroScene::default_scene()
-    } else {
-        MicroScene::load(Path::new(&s.scene)).map_err(NoSurface::Scene)?
+    let scene = match SceneSource::from_recorded(&s.scene).path() {
+        None => MicroScene::default_scene(),
+        Some(p) => MicroScene::load(p).map_err(NoSurface::Scene)?,
     };
     let r = s.surface.height_map_resolution;
     let (rx, ry) = scene.surface.heightfield().map_or((r, r), |f| (f.nx, f.ny));

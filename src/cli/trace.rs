@@ -162,9 +162,11 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
             scene.scene_file.file, scene.beam_source[k], r.tallies.started_inside, r.beam.position
         )));
     }
-    let files = description
-        .folder(&result, seconds, tallies)
-        .map_err(anyhow::Error::msg)?;
+    let shard = tallies.is_some();
+    let mut files = description.folder(&result, seconds, tallies);
+    if !shard {
+        crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
+    }
     write_folder(&out, &files, "trace")?;
 
     if !a.quiet {

@@ -10,9 +10,10 @@
 //! and `summary.json`.
 
 use super::summary::{BrdfSummary, Description, to_text};
-use super::tallies::{Merged, TALLIES_FILE, TalliesFile};
+use super::tallies::{Merged, TalliesFile};
 use super::{brdf_csv, inplane_csv, polar_csv};
 use crate::optics::brdf_table::BrdfTables;
+use crate::outdir::file::ResultFile;
 use crate::transport::brdf::{BrdfResult, BrdfRun};
 
 /// A result folder's contents, before they are written.
@@ -109,11 +110,11 @@ impl BrdfFolder {
     pub fn files(&self, extra: Vec<(String, Vec<u8>)>) -> Vec<(String, Vec<u8>)> {
         let mut files = vec![
             (
-                "brdf.csv".to_owned(),
+                ResultFile::Brdf.name().to_owned(),
                 brdf_csv::write(self.run(), &self.results).into_bytes(),
             ),
             (
-                "inplane.csv".to_owned(),
+                ResultFile::Inplane.name().to_owned(),
                 inplane_csv::write(self.run(), &self.results).into_bytes(),
             ),
         ];
@@ -121,14 +122,17 @@ impl BrdfFolder {
             files.push((name.to_owned(), text.as_bytes().to_vec()));
         }
         if let Some(text) = super::colour_csv::write(self.run(), &self.results) {
-            files.push(("colour.csv".to_owned(), text.into_bytes()));
+            files.push((ResultFile::Colour.name().to_owned(), text.into_bytes()));
         }
         files.extend(extra);
         if let Some(t) = &self.tallies {
-            files.push((TALLIES_FILE.to_owned(), t.to_text().into_bytes()));
+            files.push((
+                ResultFile::Tallies.name().to_owned(),
+                t.to_text().into_bytes(),
+            ));
         }
         files.push((
-            "summary.json".to_owned(),
+            ResultFile::Summary.name().to_owned(),
             to_text(&self.summary()).into_bytes(),
         ));
         files

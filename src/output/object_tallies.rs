@@ -48,7 +48,6 @@ use super::summary::{self, PositionSummary, TraceShard, TraceSummary};
 use super::tallies::{FieldError, NodeFile, TALLIES_FILE, first_difference};
 use crate::object::source::Beam;
 use crate::optics::polarisation::Incident;
-use crate::plot::folder::PlotError;
 use crate::scene::{Content, SceneError};
 use crate::shard::{Shard, ShardError};
 use crate::tally::exact::{self, Exact};
@@ -215,24 +214,23 @@ impl TraceDescription {
 
     /// The result folder's files for `result` (the roots, or a shard's
     /// partial sums) and total time `seconds`: `reflectance.csv`,
-    /// `farfield.csv` and `farfield_stokes.csv` when tallied,
-    /// `summary.json` and the pictures; a shard (with its `tallies` file)
-    /// writes `summary.json` and `tallies.json` only.
-    ///
-    /// # Errors
-    /// A picture that cannot be drawn.
+    /// `farfield.csv` and `farfield_stokes.csv` when tallied, and
+    /// `summary.json` (the caller adds the pictures,
+    /// [`crate::plot::folder::add_pictures`]); a shard (with its `tallies`
+    /// file) writes `summary.json` and `tallies.json` only.
+    #[must_use]
     pub fn folder(
         &self,
         result: &ObjectResult,
         seconds: f64,
         tallies: Option<TraceTalliesFile>,
-    ) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
+    ) -> Vec<(String, Vec<u8>)> {
         let summary = summary::to_text(&self.summary(result, seconds));
         let mut files: Vec<(String, Vec<u8>)> = Vec::new();
         if let Some(t) = tallies {
             files.push(("summary.json".into(), summary.into_bytes()));
             files.push((TALLIES_FILE.into(), t.to_text().into_bytes()));
-            return Ok(files);
+            return files;
         }
         let run = &self.run;
         files.push((
@@ -248,8 +246,7 @@ impl TraceDescription {
             files.push(("farfield_stokes.csv".into(), f.into_bytes()));
         }
         files.push(("summary.json".into(), summary.into_bytes()));
-        crate::plot::folder::add_pictures(&mut files)?;
-        Ok(files)
+        files
     }
 
     /// Check a description read from a file: a run the tracer can lay out

@@ -34,8 +34,11 @@ use rayon::prelude::*;
 
 use super::mueller::MuellerKind;
 use super::{HemisphereMap, LinePlot, MapScale, MuellerMaps, Series};
+use crate::outdir::file::{ResultFile, ResultPattern};
 use crate::output::number_label;
 use crate::output::polar_csv::MuellerFile;
+pub use crate::output::result_tables::{FileProblem, TablesError};
+use crate::output::result_tables::{IncidenceSums, InplaneRow, MicroTables, ResultTables};
 use crate::output::summary::{BrdfSummary, TraceSummary};
 use crate::tally::CarlsonGrid;
 
@@ -64,13 +67,8 @@ impl Picture {
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
     /// A file of the folder that is missing or does not fit.
-    #[error("{file}: {problem}")]
-    File {
-        /// The file's name in the folder, e.g. `brdf.csv`.
-        file: &'static str,
-        /// What is wrong.
-        problem: FileProblem,
-    },
+    #[error("{0}")]
+    File(#[from] TablesError),
     /// A picture that cannot be drawn.
     #[error("{name}: {error}")]
     Draw {
@@ -89,197 +87,18 @@ pub enum PlotError {
     },
 }
 
-/// What is wrong with a file of a result folder ([`PlotError::File`]).
-#[derive(Debug, thiserror::Error)]
-pub enum FileProblem {
-    /// No `summary.json`.
-    #[error("missing (not a roks result folder)")]
-    NotAResult,
-    /// A file the pictures need is missing.
-    #[error("missing")]
-    Missing,
-    /// JSON that is not a summary.
-    #[error("{0}")]
-    Json(serde_json::Error),
-    /// A summary of neither kind of run.
-    #[error("neither of roks brdf (incidence) nor of roks trace (sources)")]
-    NeitherKind,
-    /// A summary's bands that make no Carlson grid.
-    #[error("bands: {0} is not a grid")]
-    Bands(usize),
-    /// A CSV without its header (the file's name).
-    #[error("line 1: not the header of roks's {0}")]
-    Header(&'static str),
-    /// A CSV field that is not a number (1-based line and column).
-    #[error("line {line}: column {column}: `{text}` is not a number")]
-    Number {
-        /// Line.
-        line: usize,
-        /// Column.
-        column: usize,
-        /// The field.
-        text: String,
-    },
-    /// A CSV row without the header's columns.
-    #[error("line {line}: expected {expected} columns, found {found}")]
-    Columns {
-        /// Line.
-        line: usize,
-        /// The header's columns.
-        expected: usize,
-        /// The row's.
-        found: usize,
-    },
-    /// Rows that are not whole blocks of the grid's cells.
-    #[error("{rows} rows are not whole blocks of {cells} cells")]
-    Blocks {
-        /// Rows.
-        rows: usize,
-        /// Cells of the grid.
-        cells: usize,
-    },
-    /// A block of one incidence that is not the grid's cells long.
-    #[error("a block of theta_i_deg = {theta_i_deg} is not {cells} cells long")]
-    Block {
-        /// The block's incidence (degrees).
-        theta_i_deg: f64,
-        /// Cells of the grid.
-        cells: usize,
-    },
-    /// An incidence without one block per wavelength.
-    #[error(
-        "theta_i_deg = {theta_i_deg} has {blocks} blocks, expected {lanes} (one per wavelength)"
-    )]
-    Lanes {
-        /// The incidence (degrees).
-        theta_i_deg: f64,
-        /// Its blocks.
-        blocks: usize,
-        /// The run's wavelengths (1: monochrome).
-        lanes: usize,
-    },
-    /// A `mueller.csv` that cannot be read.
-    #[error("{0}")]
-    Mueller(crate::output::polar_csv::MuellerError),
-    /// A block of `mueller.csv` that is not the grid's cells long.
-    #[error("line {line}: a block is not {cells} cells long")]
-    MuellerBlock {
-        /// The block's first line.
-        line: usize,
-        /// Cells of the grid.
-        cells: usize,
-    },
-}
-
-fn bad(file: &'static str, problem: FileProblem) -> PlotError {
-    PlotError::File { file, problem }
-}
-
-/// A CSV table of numbers, read by its header's column names.
-struct Csv {
-    columns: Vec<String>,
-    rows: Vec<Vec<f64>>,
-}
-
-impl Csv {
-    /// Parse `text` of file `name`, whose header must be one of `headers`.
-    fn parse(name: &'static str, text: &str, headers: &[String]) -> Result<Self, PlotError> {
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| !l.trim().is_empty());
-        let header = lines.next().map_or("", |(_, l)| l);
-        let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
-        if !headers.iter().any(|h| h == header) {
-            return Err(bad(name, FileProblem::Header(name)));
-        }
-        let columns: Vec<String> = header.split(',').map(str::to_owned).collect();
-        let mut rows = Vec::new();
-        for (i, l) in lines {
-            let row: Vec<f64> = l
-                .split(',')
-                .enumerate()
-                .map(|(c, f)| {
-                    f.trim().parse::<f64>().map_err(|_| {
-                        bad(
-                            name,
-                            FileProblem::Number {
-                                line: i + 1,
-                                column: c + 1,
-                                text: f.trim().to_owned(),
-                            },
-                        )
-                    })
-                })
-                .collect::<Result<_, _>>()?;
-            if row.len() != columns.len() {
-                return Err(bad(
-                    name,
-                    FileProblem::Columns {
-                        line: i + 1,
-                        expected: columns.len(),
-                        found: row.len(),
-                    },
-                ));
-            }
-            rows.push(row);
-        }
-        Ok(Self { columns, rows })
-    }
-
-    /// Index of column `c` (which the header has).
-    fn col(&self, c: &str) -> usize {
-        self.columns
-            .iter()
-            .position(|x| x == c)
-            .expect("a column of the header")
-    }
-}
-
-/// `header` and, with `wavelength_um` after `after`, its spectral form.
-fn headers(header: &str, after: &str) -> Vec<String> {
-    let plain = [
-        header.to_owned(),
-        crate::output::spectral_header(header, after),
-    ];
-    // With several surface realisations, the photon-noise columns end the
-    // header of brdf.csv and inplane.csv.
-    let photon = [
-        crate::output::brdf_csv::PHOTON_COLUMNS,
-        crate::output::inplane_csv::PHOTON_COLUMN,
-    ];
-    let with_photon: Vec<String> = plain
-        .iter()
-        .flat_map(|h| photon.iter().map(move |p| format!("{h},{p}")))
-        .collect();
-    plain.into_iter().chain(with_photon).collect()
-}
-
-/// Every picture of a result folder whose files `file(name)` gives (the
-/// text, `None` for a file the folder does not have), each as its file
-/// name and PNG bytes.
+/// Every picture of a result folder, from its typed tables, each as its
+/// file name and PNG bytes.
 ///
 /// # Errors
-/// A one-line message naming the file (and line) that cannot be read, or
-/// a picture that cannot be drawn.
-pub fn pictures(
-    file: &dyn Fn(&str) -> Option<String>,
-) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
-    const SUMMARY: &str = "summary.json";
-    let json = |e| bad(SUMMARY, FileProblem::Json(e));
-    let summary = file(SUMMARY).ok_or(bad(SUMMARY, FileProblem::NotAResult))?;
-    let value: serde_json::Value = serde_json::from_str(&summary).map_err(json)?;
-    let pictures = if value.get("incidence").is_some() {
-        let s: BrdfSummary = serde_json::from_value(value).map_err(json)?;
-        micro(&s, file)?
-    } else if value.get("sources").is_some() {
-        let s: TraceSummary = serde_json::from_value(value).map_err(json)?;
-        vec![(
-            "reflectance.png".to_owned(),
-            Picture::Line(object_reflectance(&s)),
-        )]
-    } else {
-        return Err(bad(SUMMARY, FileProblem::NeitherKind));
+/// A picture that cannot be drawn.
+pub fn pictures(tables: &ResultTables) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
+    let pictures = match tables {
+        ResultTables::Micro(t) => micro(t),
+        ResultTables::Object(s) => vec![(
+            ResultFile::ReflectancePicture.name().to_owned(),
+            Picture::Line(object_reflectance(s)),
+        )],
     };
     pictures
         .par_iter()
@@ -295,38 +114,37 @@ pub fn pictures(
 }
 
 /// [`pictures`] of a folder's files as `(name, bytes)` (those of a folder
-/// about to be written).
+/// about to be written), read by [`ResultTables::of`].
 ///
 /// # Errors
-/// As [`pictures`].
+/// A file that cannot be read, or a picture that cannot be drawn.
 pub fn pictures_of(files: &[(String, Vec<u8>)]) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
-    pictures(&|name| {
-        files
-            .iter()
-            .find(|f| f.0 == name)
-            .map(|f| String::from_utf8_lossy(&f.1).into_owned())
-    })
+    pictures(&ResultTables::of(files)?)
 }
 
 /// Add the [`pictures`] of a folder's files (about to be written) to them.
 ///
 /// # Errors
-/// As [`pictures`].
+/// As [`pictures_of`].
 pub fn add_pictures(files: &mut Vec<(String, Vec<u8>)>) -> Result<(), PlotError> {
     let pictures = pictures_of(files)?;
     files.extend(pictures);
     Ok(())
 }
 
-/// [`pictures`] of the folder `dir` on disk.
+/// [`pictures`] of the folder `dir` on disk, read by
+/// [`ResultTables::read_dir`].
 ///
 /// # Errors
-/// As [`pictures`], the file names relative to `dir`.
+/// As [`pictures_of`], the file names relative to `dir`.
 pub fn pictures_in(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
-    pictures(&|name| std::fs::read_to_string(dir.join(name)).ok()).map_err(|e| PlotError::Folder {
-        dir: dir.to_path_buf(),
-        error: Box::new(e),
-    })
+    ResultTables::read_dir(dir)
+        .map_err(PlotError::from)
+        .and_then(|t| pictures(&t))
+        .map_err(|e| PlotError::Folder {
+            dir: dir.to_path_buf(),
+            error: Box::new(e),
+        })
 }
 
 /// What a micro run's titles say of its photons: per incidence, and for a
@@ -340,262 +158,193 @@ fn photons_text(s: &BrdfSummary) -> String {
     }
 }
 
-/// The pictures of a micro folder.
-fn micro(
-    s: &BrdfSummary,
-    read: &dyn Fn(&str) -> Option<String>,
-) -> Result<Vec<(String, Picture)>, PlotError> {
-    let grid = CarlsonGrid::new(s.run.bands)
-        .ok_or_else(|| bad("summary.json", FileProblem::Bands(s.run.bands)))?;
-    let n = grid.n_cells();
-    let lanes = s.run.wavelengths_um.len().max(1);
-    let spectral = !s.run.wavelengths_um.is_empty();
-    let photons = photons_text(s);
-    // Several light azimuths: the azimuth in every picture's name and title.
-    let several = s.run.phi_deg.len() > 1;
-    let file = |name: String, phi: f64| crate::output::at_azimuth(&name, several.then_some(phi));
-    let at = |theta: f64, phi: f64| {
-        if several {
+/// What every picture of one micro folder shares: its tables, the titles'
+/// photons text and wavelength note, and how it names an incidence.
+struct Micro<'a> {
+    t: &'a MicroTables,
+    photons: String,
+    /// `, mean over the wavelengths` for a spectral run.
+    mean: &'static str,
+    /// Several light azimuths: the azimuth in every picture's name and title.
+    several: bool,
+}
+
+impl Micro<'_> {
+    /// The picture `name` of one incidence at light azimuth `phi`.
+    fn file(&self, name: &str, phi: f64) -> String {
+        crate::output::at_azimuth(name, self.several.then_some(phi))
+    }
+
+    /// The incidence in a title.
+    fn at(&self, theta: f64, phi: f64) -> String {
+        if self.several {
             format!("θi = {theta}°, φi = {phi}°")
         } else {
             format!("θi = {theta}°")
         }
-    };
-    let mean = if spectral {
-        ", mean over the wavelengths".to_owned()
-    } else {
-        String::new()
-    };
-    let mut out = Vec::new();
+    }
 
+    /// A hemisphere map of one incidence.
+    fn map(&self, b: &IncidenceSums, title: String, values: Vec<f64>, scale: MapScale) -> Picture {
+        Picture::Map(HemisphereMap {
+            title,
+            grid: self.t.grid,
+            values,
+            scale,
+            empty_label: "no photon".into(),
+            theta_i_deg: b.theta_i_deg,
+            phi_i_deg: b.phi_i_deg,
+        })
+    }
+}
+
+/// The pictures of a micro folder.
+fn micro(t: &MicroTables) -> Vec<(String, Picture)> {
+    let s = &t.summary;
+    let m = Micro {
+        t,
+        photons: photons_text(s),
+        mean: if s.run.wavelengths_um.is_empty() {
+            ""
+        } else {
+            ", mean over the wavelengths"
+        },
+        several: s.run.phi_deg.len() > 1,
+    };
+    let lanes = s.run.wavelengths_um.len().max(1);
+    let mut out = Vec::new();
     // brdf.csv: per incidence, the mean BRDF over the wavelengths per cell.
-    let text = read("brdf.csv").ok_or_else(|| bad("brdf.csv", FileProblem::Missing))?;
-    let brdf = Csv::parse(
-        "brdf.csv",
-        &text,
-        &headers(crate::output::brdf_csv::HEADER, "phi_i_deg"),
-    )?;
-    let blocks = incidence_blocks(&brdf, "brdf.csv", n, lanes, &["brdf"])?;
-    for ((theta, phi), sums) in &blocks {
-        let values = sums[0]
+    for b in &t.brdf {
+        let values = b.sums[0]
             .iter()
             .map(|&v| if v > 0.0 { v / lanes as f64 } else { f64::NAN })
             .collect();
+        let (theta, phi) = (b.theta_i_deg, b.phi_i_deg);
+        let title = format!(
+            "{}: BRDF at {} ({}{})",
+            s.name,
+            m.at(theta, phi),
+            m.photons,
+            m.mean
+        );
         out.push((
-            file(crate::output::hemisphere_file(*theta), *phi),
-            Picture::Map(HemisphereMap {
-                title: format!("{}: BRDF at {} ({photons}{mean})", s.name, at(*theta, *phi)),
-                grid,
-                values,
-                scale: MapScale::LogBrdf,
-                empty_label: "no photon".into(),
-                theta_i_deg: *theta,
-                phi_i_deg: *phi,
-            }),
+            m.file(&crate::output::hemisphere_file(theta), phi),
+            m.map(b, title, values, MapScale::LogBrdf),
         ));
     }
-
-    // inplane.csv: one curve per incidence.
-    let text = read("inplane.csv").ok_or_else(|| bad("inplane.csv", FileProblem::Missing))?;
-    let inplane = Csv::parse(
-        "inplane.csv",
-        &text,
-        &if several {
-            headers(crate::output::inplane_csv::AZIMUTH_HEADER, "phi_i_deg")
-        } else {
-            headers(crate::output::inplane_csv::HEADER, "theta_i_deg")
-        },
-    )?;
     out.push((
-        "inplane.png".to_owned(),
-        Picture::Line(inplane_plot(s, &inplane, lanes, &photons)),
+        ResultFile::InplanePicture.name().to_owned(),
+        Picture::Line(inplane_plot(s, &t.inplane, lanes, &m.photons)),
     ));
     out.push((
-        "reflectance.png".to_owned(),
-        Picture::Line(micro_reflectance(s, &photons)),
+        ResultFile::ReflectancePicture.name().to_owned(),
+        Picture::Line(micro_reflectance(s, &m.photons)),
     ));
-
-    // stokes.csv: the degree of polarisation of the Stokes vector summed
-    // over the wavelengths.
-    if let Some(text) = read("stokes.csv") {
-        let stokes = Csv::parse(
-            "stokes.csv",
-            &text,
-            &headers(crate::output::polar_csv::STOKES_HEADER, "phi_i_deg"),
-        )?;
-        let incident = s.run.polarisation.incident.name();
-        for ((theta, phi), sums) in
-            incidence_blocks(&stokes, "stokes.csv", n, lanes, &["s0", "s1", "s2", "s3"])?
-        {
-            let dop: Vec<f64> = (0..n)
-                .map(|c| {
-                    let s0 = sums[0][c];
-                    if s0 > 0.0 {
-                        (sums[1][c].powi(2) + sums[2][c].powi(2) + sums[3][c].powi(2)).sqrt() / s0
-                    } else {
-                        f64::NAN
-                    }
-                })
-                .collect();
-            let (lo, hi) = dop
-                .iter()
-                .filter(|v| v.is_finite())
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                    (a.min(v), b.max(v))
-                });
-            let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
-            out.push((
-                file(crate::output::dop_file(theta), phi),
-                Picture::Map(HemisphereMap {
-                    title: format!(
-                        "{}: degree of polarisation at {} ({incident} light, {photons}{mean})",
-                        s.name,
-                        at(theta, phi)
-                    ),
-                    grid,
-                    values: dop,
-                    scale: MapScale::Linear {
-                        label: "degree of polarisation".into(),
-                        lo,
-                        hi,
-                    },
-                    empty_label: "no light: undefined".into(),
-                    theta_i_deg: theta,
-                    phi_i_deg: phi,
-                }),
-            ));
-        }
+    for b in t.stokes.iter().flatten() {
+        out.push(dop_picture(&m, b));
     }
-
-    if let Some(text) = read("mueller.csv") {
-        out.extend(mueller_pictures(s, &grid, &text, &photons)?);
+    if let Some(file) = &t.mueller {
+        out.extend(mueller_pictures(s, &t.grid, file, &m.photons));
     }
-
-    if let Some(text) = read("colour.csv") {
-        let colour = Csv::parse(
-            "colour.csv",
-            &text,
-            &[crate::output::colour_csv::HEADER.to_owned()],
-        )?;
-        for ((theta, phi), v) in
-            incidence_blocks(&colour, "colour.csv", n, 1, &["X", "Y", "Z", "r", "g", "b"])?
-        {
-            let cells: Vec<([f64; 3], [f64; 3])> = (0..n)
-                .map(|c| ([v[0][c], v[1][c], v[2][c]], [v[3][c], v[4][c], v[5][c]]))
-                .collect();
-            let lit = |c: usize| {
-                blocks
-                    .iter()
-                    .find(|b| b.0 == (theta, phi))
-                    .is_none_or(|b| b.1[0][c] > 0.0)
-            };
-            out.push((
-                file(crate::output::colour_csv::colour_file(theta), phi),
-                Picture::Map(HemisphereMap {
-                    title: format!(
-                        "{}: colour of the BRDF (D65, sRGB) at {} ({photons})",
-                        s.name,
-                        at(theta, phi)
-                    ),
-                    grid,
-                    values: (0..n)
-                        .map(|c| if lit(c) { v[1][c] } else { f64::NAN })
-                        .collect(),
-                    scale: MapScale::Rgb {
-                        label: "luminance Y of the BRDF (1/sr)".into(),
-                        colours: crate::output::colour_csv::display_colours(&cells),
-                    },
-                    empty_label: "no photon".into(),
-                    theta_i_deg: theta,
-                    phi_i_deg: phi,
-                }),
-            ));
-        }
+    for c in t.colour.iter().flatten() {
+        out.push(colour_picture(&m, c));
     }
-    Ok(out)
+    out
 }
 
-/// Per incidence `(theta_i_deg, phi_i_deg)`, in the file's order: per
-/// column of `columns`, the sum over the wavelengths of each cell's value.
-/// Every block (incidence and wavelength) must hold the `n` cells in grid
-/// order, and each incidence `lanes` blocks.
-#[allow(clippy::type_complexity)]
-fn incidence_blocks(
-    t: &Csv,
-    name: &'static str,
-    n: usize,
-    lanes: usize,
-    columns: &[&str],
-) -> Result<Vec<((f64, f64), Vec<Vec<f64>>)>, PlotError> {
-    let (ct, cp) = (t.col("theta_i_deg"), t.col("phi_i_deg"));
-    let cols: Vec<usize> = columns.iter().map(|c| t.col(c)).collect();
-    if t.rows.len() % n != 0 {
-        return Err(bad(
-            name,
-            FileProblem::Blocks {
-                rows: t.rows.len(),
-                cells: n,
-            },
-        ));
-    }
-    let mut out: Vec<((f64, f64), Vec<Vec<f64>>, usize)> = Vec::new();
-    for block in t.rows.chunks(n) {
-        let key = (block[0][ct], block[0][cp]);
-        if block.iter().any(|r| (r[ct], r[cp]) != key) {
-            return Err(bad(
-                name,
-                FileProblem::Block {
-                    theta_i_deg: key.0,
-                    cells: n,
-                },
-            ));
-        }
-        let at = match out.iter().position(|o| o.0 == key) {
-            Some(k) => k,
-            None => {
-                out.push((key, vec![vec![0.0; n]; cols.len()], 0));
-                out.len() - 1
+/// `dop_<θ>deg.png`: the degree of polarisation of the Stokes vector
+/// summed over the wavelengths (`stokes.csv`).
+fn dop_picture(m: &Micro<'_>, b: &IncidenceSums) -> (String, Picture) {
+    let s = &m.t.summary;
+    let sums = &b.sums;
+    let dop: Vec<f64> = (0..m.t.grid.n_cells())
+        .map(|c| {
+            let s0 = sums[0][c];
+            if s0 > 0.0 {
+                (sums[1][c].powi(2) + sums[2][c].powi(2) + sums[3][c].powi(2)).sqrt() / s0
+            } else {
+                f64::NAN
             }
-        };
-        out[at].2 += 1;
-        for (k, &c) in cols.iter().enumerate() {
-            for (cell, r) in block.iter().enumerate() {
-                out[at].1[k][cell] += r[c];
-            }
-        }
+        })
+        .collect();
+    let (lo, hi) = dop
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
+    let (theta, phi) = (b.theta_i_deg, b.phi_i_deg);
+    let title = format!(
+        "{}: degree of polarisation at {} ({} light, {}{})",
+        s.name,
+        m.at(theta, phi),
+        s.run.polarisation.incident.name(),
+        m.photons,
+        m.mean
+    );
+    let scale = MapScale::Linear {
+        label: "degree of polarisation".into(),
+        lo,
+        hi,
+    };
+    let mut picture = m.map(b, title, dop, scale);
+    if let Picture::Map(map) = &mut picture {
+        map.empty_label = "no light: undefined".into();
     }
-    if let Some(o) = out.iter().find(|o| o.2 != lanes) {
-        return Err(bad(
-            name,
-            FileProblem::Lanes {
-                theta_i_deg: o.0.0,
-                blocks: o.2,
-                lanes,
-            },
-        ));
-    }
-    Ok(out.into_iter().map(|o| (o.0, o.1)).collect())
+    (m.file(&crate::output::dop_file(theta), phi), picture)
+}
+
+/// `colour_<θ>deg.png`: the colour of the BRDF (`colour.csv`), where
+/// `brdf.csv` has light.
+fn colour_picture(m: &Micro<'_>, v: &IncidenceSums) -> (String, Picture) {
+    let s = &m.t.summary;
+    let (theta, phi) = (v.theta_i_deg, v.phi_i_deg);
+    let v_ = &v.sums;
+    let cells: Vec<([f64; 3], [f64; 3])> = (0..m.t.grid.n_cells())
+        .map(|c| {
+            (
+                [v_[0][c], v_[1][c], v_[2][c]],
+                [v_[3][c], v_[4][c], v_[5][c]],
+            )
+        })
+        .collect();
+    let lit = |c: usize| {
+        m.t.brdf
+            .iter()
+            .find(|b| (b.theta_i_deg, b.phi_i_deg) == (theta, phi))
+            .is_none_or(|b| b.sums[0][c] > 0.0)
+    };
+    let title = format!(
+        "{}: colour of the BRDF (D65, sRGB) at {} ({})",
+        s.name,
+        m.at(theta, phi),
+        m.photons
+    );
+    let values = (0..m.t.grid.n_cells())
+        .map(|c| if lit(c) { v_[1][c] } else { f64::NAN })
+        .collect();
+    let scale = MapScale::Rgb {
+        label: "luminance Y of the BRDF (1/sr)".into(),
+        colours: crate::output::colour_csv::display_colours(&cells),
+    };
+    (
+        m.file(&crate::output::colour_csv::colour_file(theta), phi),
+        m.map(v, title, values, scale),
+    )
 }
 
 /// `inplane.png`: per incidence, the in-plane BRDF (mean over the
 /// wavelengths) against signed `θo`, error bars of 2 standard errors (the
 /// mean of the wavelengths' errors, an upper bound of the mean's error);
 /// broken at bins without photons.
-fn inplane_plot(s: &BrdfSummary, t: &Csv, lanes: usize, photons: &str) -> LinePlot {
-    let (ci, co, cb, ce) = (
-        t.col("theta_i_deg"),
-        t.col("theta_o_deg"),
-        t.col("brdf"),
-        t.col("brdf_stderr"),
-    );
-    // Several light azimuths: the column of the azimuth.
-    let cp = t.columns.iter().position(|c| c == "phi_i_deg");
+fn inplane_plot(s: &BrdfSummary, rows: &[InplaneRow], lanes: usize, photons: &str) -> LinePlot {
     // Per incidence (and azimuth): (theta_i, phi_i) and, by theta_o's
     // order key, (theta_o, sums of brdf and stderr).
     type Curve = ((f64, Option<f64>), BTreeMap<u64, (f64, f64, f64)>);
     let mut curves: Vec<Curve> = Vec::new();
-    for r in &t.rows {
-        let key = (r[ci], cp.map(|c| r[c]));
+    for r in rows {
+        let key = (r.theta_i_deg, r.phi_i_deg);
         let at = match curves.iter().position(|c| c.0 == key) {
             Some(k) => k,
             None => {
@@ -605,12 +354,16 @@ fn inplane_plot(s: &BrdfSummary, t: &Csv, lanes: usize, photons: &str) -> LinePl
         };
         // Ordered by theta_o: the key is the f64's order-preserving bits.
         let key = {
-            let b = r[co].to_bits();
-            if r[co] < 0.0 { !b } else { b | (1 << 63) }
+            let b = r.theta_o_deg.to_bits();
+            if r.theta_o_deg < 0.0 {
+                !b
+            } else {
+                b | (1 << 63)
+            }
         };
-        let e = curves[at].1.entry(key).or_insert((r[co], 0.0, 0.0));
-        e.1 += r[cb];
-        e.2 += r[ce];
+        let e = curves[at].1.entry(key).or_insert((r.theta_o_deg, 0.0, 0.0));
+        e.1 += r.brdf;
+        e.2 += r.brdf_stderr;
     }
     let l = lanes as f64;
     let series = curves
@@ -777,37 +530,16 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
 fn mueller_pictures(
     s: &BrdfSummary,
     grid: &CarlsonGrid,
-    text: &str,
+    file: &MuellerFile,
     photons: &str,
-) -> Result<Vec<(String, Picture)>, PlotError> {
-    const MUELLER: &str = "mueller.csv";
+) -> Vec<(String, Picture)> {
     let n = grid.n_cells();
-    let file = MuellerFile::parse(text).map_err(|e| bad(MUELLER, FileProblem::Mueller(e)))?;
-    if file.rows.len() % n != 0 {
-        return Err(bad(
-            MUELLER,
-            FileProblem::Blocks {
-                rows: file.rows.len(),
-                cells: n,
-            },
-        ));
-    }
     let mut out = Vec::new();
+    // Whole blocks of one incidence, azimuth and wavelength (checked by
+    // the reader).
     for block in file.rows.chunks(n) {
         let r0 = &block[0];
         let (theta, w) = (r0.theta_i_deg, r0.wavelength_um);
-        if block
-            .iter()
-            .any(|r| (r.theta_i_deg, r.phi_i_deg, r.wavelength_um) != (theta, r0.phi_i_deg, w))
-        {
-            return Err(bad(
-                MUELLER,
-                FileProblem::MuellerBlock {
-                    line: r0.line,
-                    cells: n,
-                },
-            ));
-        }
         let suffix = w.map_or(String::new(), |w| format!("_{}um", number_label(w)));
         let mut at_w = w.map_or(String::new(), |w| format!(" at {w} µm"));
         // Several light azimuths: the azimuth in the names and titles.
@@ -830,7 +562,7 @@ fn mueller_pictures(
         let title = |what: &str| format!("{}: {what} at θi = {theta}°{at_w} ({photons})", s.name);
         out.push((
             crate::output::at_azimuth(
-                &format!("mueller_{}deg{suffix}.png", number_label(theta)),
+                &ResultPattern::Mueller.name(&format!("{}deg{suffix}", number_label(theta))),
                 phi,
             ),
             Picture::Mueller(MuellerMaps {
@@ -845,7 +577,8 @@ fn mueller_pictures(
         if r0.normalised_stderr.is_some() {
             out.push((
                 crate::output::at_azimuth(
-                    &format!("mueller_stderr_{}deg{suffix}.png", number_label(theta)),
+                    &ResultPattern::Mueller
+                        .name(&format!("stderr_{}deg{suffix}", number_label(theta))),
                     phi,
                 ),
                 Picture::Mueller(MuellerMaps {
@@ -859,7 +592,7 @@ fn mueller_pictures(
             ));
         }
     }
-    Ok(out)
+    out
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@
 
 pub mod micro;
 pub mod object;
+pub mod source;
 
 use std::collections::BTreeMap;
 use std::fmt;
