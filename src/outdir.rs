@@ -127,7 +127,12 @@ pub enum NotAResult {
     #[error("holds the folder {0:?}")]
     Subfolder(std::ffi::OsString),
     /// No result marker with a `version`.
-    #[error("has no roks summary.json, fit.json or export.json")]
+    #[error(
+        "has no roks {}, {} or {}",
+        ResultFile::Summary,
+        ResultFile::Fit,
+        ResultFile::Export
+    )]
     NoMarker,
 }
 

@@ -10,7 +10,6 @@ use super::Failure;
 use crate::micro::surface_stats::{HeightMap, SurfaceStats, surface_stats};
 use crate::outdir::file::ResultFile;
 use crate::output::summary::{BrdfSummary, Surface};
-use crate::plot::SurfacePicture;
 use crate::scene::micro::MicroScene;
 use crate::scene::source::SceneSource;
 
@@ -136,8 +135,7 @@ fn surface_of(dir: &Path) -> Result<Option<Vec<u8>>, NoSurface> {
         .map_err(NoSurface::Draw)
 }
 
-/// `surface.png`: the height map `map` of `scene`'s surface with its
-/// statistics `stats`.
+/// `surface.png` ([`crate::plot::surface_png`]), as a command's failure.
 ///
 /// # Errors
 /// If the picture cannot be drawn.
@@ -146,14 +144,5 @@ pub fn surface_png(
     map: &HeightMap,
     stats: &SurfaceStats,
 ) -> Result<Vec<u8>, Failure> {
-    SurfacePicture {
-        title: format!(
-            "{}: the micro surface, one period ({} x {} scene units)",
-            scene.name, scene.surface.size.x, scene.surface.size.y
-        ),
-        map,
-        stats: Surface::new(stats, map.nx),
-    }
-    .to_png()
-    .map_err(Failure::Other)
+    crate::plot::surface_png(scene, map, stats).map_err(Failure::Other)
 }

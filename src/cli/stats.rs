@@ -60,7 +60,7 @@ pub fn execute(a: StatsArgs) -> Result<(), Failure> {
     let map = scene.surface.height_map(r, ry);
     let s = surface_stats(&map);
     if let Some(path) = &a.png {
-        let png = super::plot::surface_png(&scene, &map, &s)?;
+        let png = crate::plot::surface_png(&scene, &map, &s).map_err(Failure::Other)?;
         super::common::write_file(path, &png)?;
     }
     drop(map);

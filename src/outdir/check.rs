@@ -201,3 +201,41 @@ pub fn escape_controls(text: &str) -> String {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The refusals of a result folder come in one order: its shape, then
+    /// the inputs it would destroy, then the files roks did not write
+    /// (which `--force` lets go).
+    #[test]
+    fn a_folder_is_refused_for_its_shape_then_its_inputs_then_its_files() {
+        let d = std::env::temp_dir().join(format!("roks-outdir-check-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        let out = d.join("r");
+        let summary = br#"{"version": "0.1.0"}"#.as_slice();
+        super::super::write_folder(&out, &[("summary.json", summary)], "brdf").unwrap();
+        std::fs::write(out.join("scene.toml"), b"mine").unwrap();
+        let reads = [out.join("scene.toml")];
+        let message = |reads: &[PathBuf], force| match check_out_dir(&out, "--out", reads, force) {
+            Err(OutputError::Refused(m)) => m,
+            other => panic!("{other:?}"),
+        };
+        let shown_out = shown(&out);
+        // The input the run reads, before the file roks did not write.
+        assert!(
+            message(&reads, false).starts_with(&format!("--out: {shown_out}: holds ")),
+            "{}",
+            message(&reads, false)
+        );
+        assert!(
+            message(&[], false).contains("holds the file \"scene.toml\", which roks did not write")
+        );
+        assert!(check_out_dir(&out, "--out", &[], true).is_ok());
+        // Not a result folder: refused for that first, even with --force.
+        std::fs::remove_file(out.join("summary.json")).unwrap();
+        assert!(message(&reads, true).contains("not a roks result folder"));
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}

@@ -509,7 +509,7 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
             photons.first().copied().unwrap_or(0)
         )
     } else {
-        "photons per position as in summary.json".to_owned()
+        format!("photons per position as in {}", ResultFile::Summary)
     };
     let what = match s.wavelengths_um.len() {
         0 => "reflectance".to_owned(),

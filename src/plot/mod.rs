@@ -29,6 +29,27 @@ pub use line::{LinePlot, Series};
 pub use mueller::MuellerMaps;
 pub use surface::SurfacePicture;
 
+/// `surface.png`: the height map `map` of `scene`'s surface with its
+/// statistics `stats`.
+///
+/// # Errors
+/// If the picture cannot be drawn.
+pub fn surface_png(
+    scene: &crate::scene::micro::MicroScene,
+    map: &crate::micro::surface_stats::HeightMap,
+    stats: &crate::micro::surface_stats::SurfaceStats,
+) -> anyhow::Result<Vec<u8>> {
+    SurfacePicture {
+        title: format!(
+            "{}: the micro surface, one period ({} x {} scene units)",
+            scene.name, scene.surface.size.x, scene.surface.size.y
+        ),
+        map,
+        stats: crate::output::summary::Surface::new(stats, map.nx),
+    }
+    .to_png()
+}
+
 /// Why a picture could not be drawn: the drawing library's error on the
 /// in-memory bitmap.
 pub type DrawError = DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>;
