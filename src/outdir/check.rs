@@ -224,10 +224,11 @@ mod tests {
         };
         let shown_out = shown(&out);
         // The input the run reads, before the file roks did not write.
+        let m = message(&reads, false);
         assert!(
-            message(&reads, false).starts_with(&format!("--out: {shown_out}: holds ")),
-            "{}",
-            message(&reads, false)
+            m.starts_with(&format!("--out: {shown_out}: holds "))
+                && m.ends_with("a file this run reads, which writing the folder (replaced whole) would destroy; write elsewhere"),
+            "{m}"
         );
         assert!(
             message(&[], false).contains("holds the file \"scene.toml\", which roks did not write")
