@@ -19,7 +19,7 @@
 //! `segments_per_second`, which are the sums of the shards' times).
 //!
 //! The shard file of both levels, its checks and the merge are
-//! [`file`]'s, generic over the level ([`file::Level`]).
+//! [`file`](mod@file)'s, generic over the level ([`file::Level`]).
 //!
 //! Alternatives rejected: storing per-batch partial sums (exact but about
 //! 40 kB per batch and incidence: gigabytes for large runs); exact fixed-point
