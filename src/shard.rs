@@ -18,12 +18,17 @@
 //! `summary.json` equal except for timings (`seconds`,
 //! `segments_per_second`, which are the sums of the shards' times).
 //!
+//! The shard file of both levels, its checks and the merge are
+//! [`file`](mod@file)'s, generic over the level ([`file::Level`]).
+//!
 //! Alternatives rejected: storing per-batch partial sums (exact but about
 //! 40 kB per batch and incidence: gigabytes for large runs); exact fixed-point
 //! or compensated accumulation (would change the `Accumulator` used everywhere,
 //! and fixed point is not exact for tiny weights).
 
 use crate::transport::BATCH;
+
+pub mod file;
 
 /// `--shard I/N`: block `index` (0-based) of `count`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

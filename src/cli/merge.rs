@@ -11,9 +11,7 @@ use super::brdf::print_table;
 use super::common::{check_out_dir, load_scene, write_folder};
 use super::export_brdf::{check_export_formats, export_formats};
 use crate::export::brdf_formats::BrdfFormat;
-use crate::output::brdf_folder::BrdfFolder;
-use crate::output::object_tallies;
-use crate::output::tallies::{self, TALLIES_FILE};
+use crate::output::merge::{self, MergeError, ShardKind};
 
 /// The options of `roks merge`.
 #[derive(Args, Debug)]
@@ -47,14 +45,15 @@ pub struct MergeArgs {
     pub quiet: bool,
 }
 
-/// Run `roks merge`.
+/// Run `roks merge`: the library merges ([`crate::output::merge`]), this
+/// adds the exports, writes the folder and prints.
 ///
 /// # Errors
 /// Bad input (a shard's tallies.json, shards of different runs, gaps or
 /// overlaps, `--out`, memory), or a failed write.
 pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     check_out_dir(&a.out, "--out", &a.dirs, a.force)?;
-    if object_tallies::is_trace_shard(&a.dirs[0]) {
+    if ShardKind::of(&a.dirs[0]) == ShardKind::Trace {
         if !a.export.is_empty() {
             return Err(Failure::Input(
                 "--export: only for shards of `roks brdf` (`roks trace` writes no table)".into(),
@@ -62,49 +61,33 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
         }
         return merge_trace(&a);
     }
-    let parts = a
-        .dirs
-        .iter()
-        .map(|d| tallies::read_shard(d))
-        .collect::<Result<Vec<_>, _>>()?;
-    let n_parts = parts.len();
-    let merged = tallies::merge_shards(parts)?;
-    let bytes = merged.description.run.memory_bytes();
-    crate::limits::check("the merged tallies and tables", bytes).map_err(|e| {
-        Failure::Input(format!(
-            "{}: {TALLIES_FILE}: description.run.bands: {e}",
-            a.dirs[0].display(),
-        ))
-    })?;
-    check_export_formats(
-        &a.export,
-        &merged.description.run.wavelengths_um,
-        &merged.description.run.phi_deg,
-    )?;
-    let scene = merged.description.scene.clone();
-    let photons = merged.description.run.photons;
-    let folder = BrdfFolder::merged(merged);
+    let merged = merge::merge_brdf(&a.dirs).map_err(failure)?;
+    let folder = &merged.folder;
+    let run = &folder.description.run;
+    check_export_formats(&a.export, &run.wavelengths_um, &run.phi_deg)?;
     let comment = format!(
-        "scene {}, {photons} photons per angle",
-        folder.description.name
+        "scene {}, {} photons per angle",
+        folder.description.name, run.photons
     );
-    let micro = rgl_scene(&a.export, &scene);
+    let micro = rgl_scene(&a.export, &folder.description.scene);
     let surfaces = micro.as_ref().map(|s| s.surfaces()).unwrap_or_default();
-    let extra = export_formats(&folder, &a.export, &comment, a.quiet, &surfaces)?;
-    let mut files = folder.files(extra);
-    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
-    // The surface's picture comes from the micro geometry, not the sums:
-    // every shard of one run drew the same one (their descriptions, with
-    // the scene's content and the statistics grid, are equal).
-    if let Ok(png) = std::fs::read(a.dirs[0].join("surface.png")) {
-        files.push(("surface.png".into(), png));
-    }
+    let extra = export_formats(folder, &a.export, &comment, a.quiet, &surfaces)?;
+    let files = merged.files(extra).map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
-        print_table(&folder);
-        eprintln!("merged {n_parts} shards into {}", a.out.display());
+        print_table(folder);
+        eprintln!("merged {} shards into {}", merged.shards, a.out.display());
     }
     Ok(())
+}
+
+/// The failure of a merge: bad input (exit status 2), or a picture that
+/// cannot be made.
+fn failure(e: MergeError) -> Failure {
+    match e {
+        MergeError::Input(e) => e.into(),
+        MergeError::Picture(e) => anyhow::Error::msg(e).into(),
+    }
 }
 
 /// The micro scene whose surfaces (every realisation) give the NDF an rgl
@@ -121,21 +104,14 @@ fn rgl_scene(formats: &[BrdfFormat], scene: &str) -> Option<crate::scene::micro:
 
 /// `roks merge` of `roks trace` shards: the folder of the single run.
 fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
-    let parts = a
-        .dirs
-        .iter()
-        .map(|d| object_tallies::read_shard(d))
-        .collect::<Result<Vec<_>, _>>()?;
-    let n_parts = parts.len();
-    let merged = object_tallies::merge_shards(parts)?;
-    let mut files = merged
-        .description
-        .folder(&merged.result, merged.seconds, None);
+    let merged = merge::merge_trace(&a.dirs).map_err(failure)?;
+    let mut files = merged.files().map_err(anyhow::Error::msg)?;
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
-        super::trace::print_table(&merged.description.run, &merged.result);
-        eprintln!("merged {n_parts} shards into {}", a.out.display());
+        let m = &merged.merged;
+        super::trace::print_table(&m.description.run, &m.results);
+        eprintln!("merged {} shards into {}", merged.shards, a.out.display());
     }
     Ok(())
 }

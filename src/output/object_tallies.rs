@@ -38,25 +38,27 @@
 //! `summary.json` (the sum of the shards').
 
 use std::ops::Range;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::summary::{self, PositionSummary, TraceShard, TraceSummary};
-use super::tallies::{FieldError, NodeFile, TALLIES_FILE, first_difference};
 use crate::object::source::Beam;
 use crate::optics::polarisation::Incident;
 use crate::scene::{Content, SceneError};
+use crate::shard::file::{
+    self as shard_file, Contents, FieldError, Leaf, Level, MergedLeaf, NodeFile, TALLIES_FILE,
+    typed_plain,
+};
 use crate::shard::{Shard, ShardError};
 use crate::tally::exact::{self, Exact};
 use crate::tally::realisable::SUM_TOLERANCE;
 use crate::tally::sum::Node;
 use crate::transport::BATCH;
 use crate::transport::object::{
-    ByPosition, ObjectResult, ObjectRun, ObjectTallies, PositionNodes, PositionResult, root,
-    shard_blocks,
+    ByPosition, ObjectResult, ObjectRun, ObjectTallies, PositionNodes, PositionResult, shard_blocks,
 };
 
 /// `format` of a `roks trace` shard's `tallies.json`.
@@ -414,35 +416,7 @@ pub fn partial_results(d: &TraceDescription, nodes: &[Vec<PositionNodes>]) -> Ob
 /// `false` for any other or unreadable file.
 #[must_use]
 pub fn is_trace_shard(dir: &Path) -> bool {
-    let Ok(text) =
-        crate::limits::read_text_capped(&dir.join(TALLIES_FILE), crate::limits::max_data_bytes())
-    else {
-        return false;
-    };
-    serde_json::from_str::<Value>(&text).is_ok_and(|v| v["format"] == FORMAT)
-}
-
-/// One shard folder's `tallies.json`, read and checked alone.
-#[derive(Debug, Clone)]
-pub struct ShardFile {
-    /// `dir/tallies.json` as shown in messages.
-    pub file: String,
-    /// Its description (checked).
-    pub description: TraceDescription,
-    /// Per position, per wavelength (one for a monochrome run): the
-    /// checked nodes and the time.
-    pub positions: Vec<Vec<(Vec<Node<ObjectTallies>>, f64)>>,
-    /// Total time (s).
-    pub seconds: f64,
-}
-
-/// Read `v` as a `T`, naming the JSON path of the first bad value.
-fn typed<T: serde::de::DeserializeOwned>(v: Value) -> Result<T, FieldError> {
-    serde_path_to_error::deserialize(v).map_err(|e| {
-        let path = e.path().to_string();
-        let path = if path == "." { String::new() } else { path };
-        FieldError::new(path, e.into_inner().to_string())
-    })
+    shard_file::is_format::<Object>(dir)
 }
 
 /// Check a node's sums against the run: the bins of its layout, exactly
@@ -535,6 +509,245 @@ fn check_stokes_sums(t: &ObjectTallies) -> Result<(), FieldError> {
     Ok(())
 }
 
+/// The object level ([`Level`]): `roks trace` runs, their
+/// [`TraceTalliesFile`] and [`ObjectResult`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Object;
+
+/// One shard folder's `tallies.json` of a `roks trace` run, read and
+/// checked alone.
+pub type ShardFile = shard_file::ShardFile<Object>;
+
+/// Shards of one `roks trace` run, checked against each other and summed:
+/// per position and wavelength the root of its tree.
+pub type Merged = shard_file::Merged<Object>;
+
+impl Level for Object {
+    type Description = TraceDescription;
+    type Tallies = ObjectTallies;
+    type File = TraceTalliesFile<Value>;
+    type Result = ObjectResult;
+
+    const FORMAT: &'static str = FORMAT;
+    const FORMAT_VERSION: u64 = FORMAT_VERSION;
+    const KIND: &'static str = "roks trace tallies file";
+    const ENTRIES: &'static str = "positions";
+    const DESCRIBED_BY_FIRST_BLOCK: bool = true;
+
+    fn parse(v: Value) -> Result<Self::File, FieldError> {
+        typed_plain(v)
+    }
+
+    fn batch(file: &Self::File) -> u64 {
+        file.batch
+    }
+
+    /// A valid description, one entry per position and wavelength of the
+    /// run (its wavelength, time and nodes), a total time `>= 0`.
+    fn check(t: Self::File) -> Result<Contents<Self>, FieldError> {
+        let d = t.description;
+        d.check().map_err(|e| e.under("description"))?;
+        let lanes = d.run.lane_count();
+        if t.positions.len() != d.beams.len() * lanes {
+            return Err(FieldError::new(
+                "positions",
+                format!(
+                    "must list the run's {} beam positions x {lanes} wavelengths, found {}",
+                    d.beams.len(),
+                    t.positions.len()
+                ),
+            ));
+        }
+        let blocks = d
+            .blocks()
+            .map_err(|e| FieldError::new("description.shard", e))?;
+        let zero = d.zero();
+        // The file lists position, then wavelength.
+        let leaves = t
+            .positions
+            .into_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let (k, l) = (i / lanes, i % lanes);
+                check_position(p, &d, (k, l), &blocks[k], &zero)
+                    .map_err(|e| e.under(&format!("positions[{i}]")))
+            })
+            .collect::<Result<_, _>>()?;
+        if t.seconds < 0.0 {
+            return Err(FieldError::new("seconds", "must be >= 0"));
+        }
+        Ok(Contents {
+            description: d,
+            leaves,
+            seconds: t.seconds,
+        })
+    }
+
+    fn unshard(d: &mut TraceDescription) {
+        d.shard = None;
+    }
+
+    fn scene_mut(d: &mut TraceDescription) -> &mut String {
+        &mut d.scene
+    }
+
+    /// By shard index: shards `0..N-1` of one `N`, each once.
+    fn order(parts: &mut Vec<ShardFile>) -> Result<(), SceneError> {
+        let f0 = parts[0].file.clone();
+        let count = parts[0].description.shard.map_or(1, |s| s.count);
+        for p in parts.iter() {
+            let c = p.description.shard.map_or(1, |s| s.count);
+            if c != count {
+                return Err(FieldError::new(
+                    "description.shard.count",
+                    format!("{c} shards, but {f0} is one of {count}"),
+                )
+                .in_file(&p.file));
+            }
+        }
+        let index = |p: &ShardFile| p.description.shard.map_or(0, |s| s.index);
+        parts.sort_by_key(index);
+        for (k, w) in parts.windows(2).enumerate() {
+            if index(&w[0]) == index(&w[1]) {
+                return Err(FieldError::new(
+                    "description.shard.index",
+                    format!(
+                        "shard {} of {count} given twice (also {})",
+                        index(&w[1]),
+                        w[0].file
+                    ),
+                )
+                .in_file(&parts[k + 1].file));
+            }
+        }
+        let missing: Vec<String> = (0..count)
+            .filter(|i| parts.binary_search_by_key(i, index).is_err())
+            .take(10)
+            .map(|i| i.to_string())
+            .collect();
+        if !missing.is_empty() {
+            return Err(FieldError::new(
+                "description.shard",
+                format!(
+                    "the run has {count} shards; missing: {}",
+                    missing.join(", ")
+                ),
+            )
+            .in_file(&f0));
+        }
+        Ok(())
+    }
+
+    fn leaf_batches(d: &TraceDescription, leaf: usize) -> u64 {
+        d.beams[leaf / d.run.lane_count()].photons.div_ceil(BATCH)
+    }
+
+    fn result(d: &TraceDescription, leaves: Vec<MergedLeaf<ObjectTallies>>) -> ObjectResult {
+        let mut leaves = leaves.into_iter();
+        let position = d
+            .beams
+            .iter()
+            .map(|beam| ByPosition {
+                wavelength: (0..d.run.lane_count())
+                    .map(|l| {
+                        let leaf = leaves.next().expect("one leaf per lane");
+                        PositionResult {
+                            beam: beam.beam(),
+                            wavelength_um: d.run.wavelength(l),
+                            tallies: leaf.tallies,
+                            seconds: leaf.seconds,
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
+        ObjectResult { position }
+    }
+}
+
+/// Check entry `(k, l)` (beam position, wavelength) of a shard of the run
+/// `d`: the run's wavelength, a time `>= 0`, and nodes that tile exactly
+/// the shard's batches `block` of the position, each with the layout of
+/// `zero` and exactly its batches' photons ([`check_node`]).
+///
+/// # Errors
+/// The first problem, at its key under the entry.
+fn check_position(
+    p: PositionFile<Value>,
+    d: &TraceDescription,
+    (k, l): (usize, usize),
+    block: &Range<u64>,
+    zero: &ObjectTallies,
+) -> Result<Leaf<ObjectTallies>, FieldError> {
+    if p.wavelength_um.map(|w| w.0.to_bits()) != d.run.wavelength(l).map(f64::to_bits) {
+        return Err(FieldError::new(
+            "wavelength_um",
+            "is not the run's wavelength of this entry",
+        ));
+    }
+    // Exact numbers are finite.
+    if p.seconds < 0.0 {
+        return Err(FieldError::new("seconds", "must be >= 0"));
+    }
+    let n_photons = d.beams[k].photons;
+    let batches = n_photons.div_ceil(BATCH);
+    let mut next = u128::from(block.start);
+    let mut nodes = Vec::with_capacity(p.nodes.len());
+    for (j, n) in p.nodes.into_iter().enumerate() {
+        let at = |e: FieldError| e.under(&format!("nodes[{j}]"));
+        let node = Node {
+            level: u32::try_from(n.level).unwrap_or(u32::MAX).min(64),
+            index: n.index,
+            value: (),
+        };
+        // The start first: a node that starts at `next` has an index
+        // within the run (no overflow in its end).
+        let follows = node.start() == next;
+        let end = if follows {
+            node.end().min(u128::from(batches))
+        } else {
+            0
+        };
+        if !follows || end > u128::from(block.end) {
+            return Err(at(FieldError::new(
+                "",
+                format!(
+                    "tree node ({}, {}) is not the next of this shard's batches [{}, {}) from {next}",
+                    n.level, n.index, block.start, block.end
+                ),
+            )));
+        }
+        let value: ObjectTallies = typed_plain(n.tallies).map_err(|e| at(e.under("tallies")))?;
+        let first = node.start() * u128::from(BATCH);
+        let last = (end * u128::from(BATCH)).min(u128::from(n_photons));
+        check_node(
+            &value,
+            zero,
+            u64::try_from(last - first).unwrap_or(u64::MAX),
+        )
+        .map_err(|e| at(e.under("tallies")))?;
+        next = end;
+        nodes.push(Node {
+            level: node.level,
+            index: n.index,
+            value,
+        });
+    }
+    if next != u128::from(block.end) && block.start < block.end {
+        return Err(FieldError::new(
+            "nodes",
+            format!(
+                "cover batches up to {next}, but this shard holds [{}, {})",
+                block.start, block.end
+            ),
+        ));
+    }
+    Ok(Leaf {
+        nodes,
+        seconds: p.seconds,
+    })
+}
+
 /// Read `dir/tallies.json` of a `roks trace` shard: JSON of [`FORMAT`]
 /// version [`FORMAT_VERSION`] with the fields of [`TraceTalliesFile`],
 /// `batch` = [`BATCH`], a valid description, one entry per position and
@@ -544,256 +757,19 @@ fn check_stokes_sums(t: &ObjectTallies) -> Result<(), FieldError> {
 /// # Errors
 /// One [`SceneError`] naming the file and the key (JSON path).
 pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
-    let path: PathBuf = dir.join(TALLIES_FILE);
-    let file = path.display().to_string();
-    let err = |e: FieldError| e.in_file(&file);
-    let text = crate::limits::read_text_capped(&path, crate::limits::max_data_bytes())
-        .map_err(|e| err(FieldError::new("", format!("cannot read: {e}"))))?;
-    let v: Value = serde_json::from_str(&text)
-        .map_err(|e| err(FieldError::new("", format!("invalid JSON: {e}"))))?;
-    if v["format"] != FORMAT || v["format_version"] != FORMAT_VERSION {
-        return Err(err(FieldError::new(
-            "format",
-            format!(
-                "not a roks trace tallies file (format \"{FORMAT}\", format_version {FORMAT_VERSION})"
-            ),
-        )));
-    }
-    let t: TraceTalliesFile<Value> = typed(v).map_err(err)?;
-    if t.batch != BATCH {
-        return Err(err(FieldError::new(
-            "batch",
-            format!("{} is not this version's batch of {BATCH} photons", t.batch),
-        )));
-    }
-    let d = t.description;
-    d.check().map_err(|e| err(e.under("description")))?;
-    let lanes = d.run.lane_count();
-    if t.positions.len() != d.beams.len() * lanes {
-        return Err(err(FieldError::new(
-            "positions",
-            format!(
-                "must list the run's {} beam positions x {lanes} wavelengths, found {}",
-                d.beams.len(),
-                t.positions.len()
-            ),
-        )));
-    }
-    let blocks = d
-        .blocks()
-        .map_err(|e| err(FieldError::new("description.shard", e)))?;
-    let zero = d.zero();
-    // The file lists position, then wavelength.
-    let mut entries = t.positions.into_iter().enumerate();
-    let mut positions = Vec::with_capacity(d.beams.len());
-    for (k, l) in (0..d.beams.len()).flat_map(|k| (0..lanes).map(move |l| (k, l))) {
-        let (i, p) = entries.next().expect("the count is checked above");
-        let at = |e: FieldError| err(e.under(&format!("positions[{i}]")));
-        if l == 0 {
-            positions.push(Vec::with_capacity(lanes));
-        }
-        if p.wavelength_um.map(|w| w.0.to_bits()) != d.run.wavelength(l).map(f64::to_bits) {
-            return Err(at(FieldError::new(
-                "wavelength_um",
-                "is not the run's wavelength of this entry",
-            )));
-        }
-        // Exact numbers are finite.
-        if p.seconds < 0.0 {
-            return Err(at(FieldError::new("seconds", "must be >= 0")));
-        }
-        let n_photons = d.beams[k].photons;
-        let batches = n_photons.div_ceil(BATCH);
-        let mut next = u128::from(blocks[k].start);
-        let mut nodes = Vec::with_capacity(p.nodes.len());
-        for (j, n) in p.nodes.into_iter().enumerate() {
-            let at = |e: FieldError| at(e.under(&format!("nodes[{j}]")));
-            let node = Node {
-                level: u32::try_from(n.level).unwrap_or(u32::MAX).min(64),
-                index: n.index,
-                value: (),
-            };
-            // The start first: a node that starts at `next` has an index
-            // within the run (no overflow in its end).
-            let follows = node.start() == next;
-            let end = if follows {
-                node.end().min(u128::from(batches))
-            } else {
-                0
-            };
-            if !follows || end > u128::from(blocks[k].end) {
-                return Err(at(FieldError::new(
-                    "",
-                    format!(
-                        "tree node ({}, {}) is not the next of this shard's batches [{}, {}) from {next}",
-                        n.level, n.index, blocks[k].start, blocks[k].end
-                    ),
-                )));
-            }
-            let value: ObjectTallies = typed(n.tallies).map_err(|e| at(e.under("tallies")))?;
-            let first = node.start() * u128::from(BATCH);
-            let last = (end * u128::from(BATCH)).min(u128::from(n_photons));
-            check_node(
-                &value,
-                &zero,
-                u64::try_from(last - first).unwrap_or(u64::MAX),
-            )
-            .map_err(|e| at(e.under("tallies")))?;
-            next = end;
-            nodes.push(Node {
-                level: node.level,
-                index: n.index,
-                value,
-            });
-        }
-        if next != u128::from(blocks[k].end) && blocks[k].start < blocks[k].end {
-            return Err(at(FieldError::new(
-                "nodes",
-                format!(
-                    "cover batches up to {next}, but this shard holds [{}, {})",
-                    blocks[k].start, blocks[k].end
-                ),
-            )));
-        }
-        positions[k].push((nodes, p.seconds));
-    }
-    if t.seconds < 0.0 {
-        return Err(err(FieldError::new("seconds", "must be >= 0")));
-    }
-    Ok(ShardFile {
-        file,
-        description: d,
-        positions,
-        seconds: t.seconds,
-    })
+    shard_file::read_shard::<Object>(dir)
 }
 
-/// Shards of one `roks trace` run, checked against each other and summed.
-#[derive(Debug, Clone)]
-pub struct Merged {
-    /// The run (no shard), as the first shard describes it.
-    pub description: TraceDescription,
-    /// Per position and wavelength: the root of its tree.
-    pub result: ObjectResult,
-    /// Sum of the shards' total times (s).
-    pub seconds: f64,
-}
-
-/// What must agree between the shards of one run: the description
-/// without the scene's path and the shard.
-fn shared(d: &TraceDescription) -> Value {
-    let mut d = d.clone();
-    d.scene = String::new();
-    d.shard = None;
-    serde_json::to_value(d).unwrap_or_default()
-}
-
-/// Merge `roks trace` shard files (any order): equal descriptions (but for
-/// the scene's path and the shard, [`first_difference`]), shards `0..N-1`
-/// of one `N`, each once; the nodes of all shards pushed in shard order
-/// into each position's tree: its root is the single run's sum bit for bit.
+/// Merge `roks trace` shard files (any order,
+/// [`shard_file::merge_shards`]): equal descriptions (but for the scene's
+/// path and the shard, [`shard_file::first_difference`]), shards `0..N-1` of one `N`,
+/// each once; the nodes of all shards pushed in shard order into each
+/// position's tree: its root is the single run's sum bit for bit.
 ///
 /// # Errors
 /// One [`SceneError`] naming the shard file at fault and the key.
-pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
-    let Some(p0) = parts.first() else {
-        return Err(FieldError::new("", "no shard folders").in_file("merge"));
-    };
-    let first = shared(&p0.description);
-    let f0 = p0.file.clone();
-    let count = p0.description.shard.map_or(1, |s| s.count);
-    for p in &parts {
-        if let Some(key) = first_difference(&first, &shared(&p.description)) {
-            let key = format!("description.{key}");
-            return Err(FieldError::new(
-                key.clone(),
-                format!("differs from {f0} (`{key}` differs: not a shard of the same run)"),
-            )
-            .in_file(&p.file));
-        }
-        let c = p.description.shard.map_or(1, |s| s.count);
-        if c != count {
-            return Err(FieldError::new(
-                "description.shard.count",
-                format!("{c} shards, but {f0} is one of {count}"),
-            )
-            .in_file(&p.file));
-        }
-    }
-    let index = |p: &ShardFile| p.description.shard.map_or(0, |s| s.index);
-    parts.sort_by_key(index);
-    for (k, w) in parts.windows(2).enumerate() {
-        if index(&w[0]) == index(&w[1]) {
-            return Err(FieldError::new(
-                "description.shard.index",
-                format!(
-                    "shard {} of {count} given twice (also {})",
-                    index(&w[1]),
-                    w[0].file
-                ),
-            )
-            .in_file(&parts[k + 1].file));
-        }
-    }
-    let missing: Vec<String> = (0..count)
-        .filter(|i| parts.binary_search_by_key(i, index).is_err())
-        .take(10)
-        .map(|i| i.to_string())
-        .collect();
-    if !missing.is_empty() {
-        return Err(FieldError::new(
-            "description.shard",
-            format!(
-                "the run has {count} shards; missing: {}",
-                missing.join(", ")
-            ),
-        )
-        .in_file(&f0));
-    }
-    let mut description = parts[0].description.clone();
-    description.shard = None;
-    let zero = description.zero();
-    // Per position and wavelength: the shards' nodes in shard order, and
-    // the sum of their times.
-    let mut leaves: Vec<Vec<(Vec<Node<ObjectTallies>>, f64)>> = description
-        .beams
-        .iter()
-        .map(|_| vec![(Vec::new(), 0.0); description.run.lane_count()])
-        .collect();
-    let mut seconds = 0.0;
-    for p in parts {
-        seconds += p.seconds;
-        for (into, lanes) in leaves.iter_mut().zip(p.positions) {
-            for ((nodes, at), (ns, s)) in into.iter_mut().zip(lanes) {
-                nodes.extend(ns);
-                *at += s;
-            }
-        }
-    }
-    let mut entry = 0; // the index in the file's `positions`
-    let mut position = Vec::with_capacity(leaves.len());
-    for (beam, lanes) in description.beams.iter().zip(leaves) {
-        let batches = beam.photons.div_ceil(BATCH);
-        let mut wavelength = Vec::with_capacity(lanes.len());
-        for (l, (ns, seconds_at)) in lanes.into_iter().enumerate() {
-            let tallies = root(ns, batches, &|| zero.clone()).map_err(|e| {
-                FieldError::new(format!("positions[{entry}].nodes"), e).in_file(&f0)
-            })?;
-            entry += 1;
-            wavelength.push(PositionResult {
-                beam: beam.beam(),
-                wavelength_um: description.run.wavelength(l),
-                tallies,
-                seconds: seconds_at,
-            });
-        }
-        position.push(ByPosition { wavelength });
-    }
-    Ok(Merged {
-        description,
-        result: ObjectResult { position },
-        seconds,
-    })
+pub fn merge_shards(parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
+    shard_file::merge_shards(parts)
 }
 
 #[cfg(test)]

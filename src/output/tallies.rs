@@ -1,5 +1,8 @@
-//! `tallies.json`: the raw sums of a `roks brdf --shard I/N` run (and of
-//! `roks merge`), exactly, for merging shards.
+//! `tallies.json` of a micro run: the raw sums of a `roks brdf --shard
+//! I/N` run (and of `roks merge`), exactly, for merging shards. The file
+//! format, the checks both levels share, the content identity and the
+//! merge are [`crate::shard::file`]'s; this module is the micro [`Level`]
+//! ([`Micro`]): its file layout, its checks and its result tree.
 //!
 //! # The file
 //!
@@ -15,7 +18,8 @@
 //! field by field). Keys are written in alphabetical order. The sums'
 //! floating-point numbers are decimal strings ([`crate::tally::exact`]),
 //! the description's are JSON numbers in their shortest round-trip form:
-//! both read back bit for bit.
+//! both read back bit for bit. Angles are in degrees, wavelengths in µm,
+//! times in seconds.
 //!
 //! # Reading it back
 //!
@@ -23,15 +27,21 @@
 //! file: it must be JSON of [`FORMAT`] version [`FORMAT_VERSION`] with the
 //! fields of [`TalliesFile`] and no others; the description must hold a
 //! valid run (the scene's run checks, [`BrdfRun::check`]) and be the same
-//! in every shard (compared field by field, [`first_difference`]), every tally must have the run's layout and its
-//! numbers be within what the photon count allows ([`check_tallies`]),
-//! each tree node must hold exactly the photons of its batches, and each
-//! shard's nodes must tile exactly its own photon range. Errors are one
-//! [`SceneError`] naming the shard's `tallies.json` and the JSON path of the
-//! value, e.g. `sh1/tallies.json: incidence[0].nodes[2].tallies.carlson.sum[5]:
-//! NaN is not a finite number`.
-
-use std::path::{Path, PathBuf};
+//! in every shard (compared field by field, [`first_difference`]), every
+//! tally must have the run's layout and its numbers be within what the
+//! photon count allows ([`check_tallies`]), each tree node must hold
+//! exactly the photons of its batches, and each shard's nodes must tile
+//! exactly its own photon range. Errors are one [`SceneError`] naming the
+//! shard's `tallies.json` and the JSON path of the value, e.g.
+//! `sh1/tallies.json: incidence[0].nodes[2].tallies.carlson.sum[5]: NaN is
+//! not a finite number`.
+//!
+//! # Determinism
+//!
+//! A shard holds the photons `[first, last)` of block `I` of `N` of every
+//! leaf ([`Shard::photon_range`]: whole batches); its complete tree nodes
+//! are the single run's, and the merge pushes them in photon order into
+//! the same tree, so any split gives the single run's sums bit for bit.
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -39,9 +49,11 @@ use serde_json::Value;
 use super::summary::Description;
 use crate::scene::SceneError;
 use crate::shard::Shard;
+use crate::shard::file::{self as shard_file, Contents, Leaf, Level, MergedLeaf, typed};
+pub use crate::shard::file::{FieldError, NodeFile, TALLIES_FILE, first_difference};
 use crate::tally::exact::{self, Exact};
-use crate::tally::sum::{DyadicSum, Node};
-use crate::tally::{Accumulator, Merge, PolarTally};
+use crate::tally::sum::Node;
+use crate::tally::{Accumulator, PolarTally};
 use crate::transport::BATCH;
 use crate::transport::brdf::{
     BOUNCE_BINS, BrdfResult, BrdfRun, BrdfTallies, ByAzimuth, ByIncidence, IncidenceResult,
@@ -51,143 +63,6 @@ use crate::transport::brdf::{
 pub const FORMAT: &str = "roks-tallies";
 /// `format_version` of `tallies.json`.
 pub const FORMAT_VERSION: u64 = 1;
-/// File name of the raw sums in a result folder.
-pub const TALLIES_FILE: &str = "tallies.json";
-
-/// A problem at a key of a `tallies.json`: the JSON path of the value
-/// (e.g. `incidence[0].nodes[2].tallies.carlson.sum[5]`) and what is wrong.
-/// [`FieldError::in_file`] makes it the one-line [`SceneError`] of a file.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct FieldError {
-    /// JSON path (empty: the whole file).
-    pub key: String,
-    /// What is wrong (one line).
-    pub message: String,
-}
-
-impl FieldError {
-    /// An error at `key`.
-    #[must_use]
-    pub fn new(key: impl Into<String>, message: impl std::fmt::Display) -> Self {
-        Self {
-            key: key.into(),
-            message: message.to_string(),
-        }
-    }
-
-    /// The same error with its key under `prefix`: `prefix.key`,
-    /// `prefix[i]` for an index key, `prefix` for an empty key.
-    #[must_use]
-    pub fn under(mut self, prefix: &str) -> Self {
-        self.key = join_key(prefix, &self.key);
-        self
-    }
-
-    /// As the error of file `file` (a path as shown to the user).
-    #[must_use]
-    pub fn in_file(self, file: &str) -> SceneError {
-        SceneError {
-            file: file.to_owned(),
-            key: self.key,
-            message: self.message,
-        }
-    }
-
-    /// The error of reading a JSON value as a typed struct, at its path:
-    /// a missing field is named as its own key (`settings.seed: missing`).
-    fn from_serde(e: serde_path_to_error::Error<serde_json::Error>) -> Self {
-        let path = e.path().to_string();
-        let path = if path == "." { String::new() } else { path };
-        // From a `Value` the message has no line and column.
-        let message = e.into_inner().to_string();
-        if let Some(field) = message
-            .strip_prefix("missing field `")
-            .and_then(|m| m.strip_suffix('`'))
-        {
-            return Self::new(join_key(&path, field), "missing");
-        }
-        Self::new(path, message)
-    }
-}
-
-impl std::fmt::Display for FieldError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.key.is_empty() {
-            write!(f, "{}", self.message)
-        } else {
-            write!(f, "{}: {}", self.key, self.message)
-        }
-    }
-}
-
-fn join_key(prefix: &str, key: &str) -> String {
-    if prefix.is_empty() {
-        key.to_owned()
-    } else if key.is_empty() {
-        prefix.to_owned()
-    } else if key.starts_with('[') {
-        format!("{prefix}{key}")
-    } else {
-        format!("{prefix}.{key}")
-    }
-}
-
-/// Read `v` as a `T`, naming the JSON path of the first bad value.
-///
-/// # Errors
-/// At the path of the value that does not fit `T`.
-fn typed<T: serde::de::DeserializeOwned>(v: Value) -> Result<T, FieldError> {
-    serde_path_to_error::deserialize(v).map_err(FieldError::from_serde)
-}
-
-/// The first field (a JSON path, in key order) at which `a` and `b`
-/// differ, `None` when they are equal: objects key by key, arrays index by
-/// index (a longer array differs at its first extra index).
-#[must_use]
-pub fn first_difference(a: &Value, b: &Value) -> Option<String> {
-    match (a, b) {
-        (Value::Object(x), Value::Object(y)) => {
-            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
-            keys.sort();
-            keys.dedup();
-            keys.into_iter().find_map(|k| match (x.get(k), y.get(k)) {
-                (Some(u), Some(v)) => first_difference(u, v).map(|rest| join_key(k, &rest)),
-                _ => Some(k.clone()),
-            })
-        }
-        (Value::Array(x), Value::Array(y)) => (0..x.len().max(y.len())).find_map(|i| {
-            let at = format!("[{i}]");
-            match (x.get(i), y.get(i)) {
-                (Some(u), Some(v)) => first_difference(u, v).map(|rest| join_key(&at, &rest)),
-                _ => Some(at),
-            }
-        }),
-        _ => (a != b).then(String::new),
-    }
-}
-
-/// What must agree between the shards of one run: the description
-/// without the scene's path and the shard's block.
-fn shared(d: &Description) -> Value {
-    let mut d = d.clone();
-    d.scene = String::new();
-    d.run.shard = None;
-    serde_json::to_value(d).unwrap_or_default()
-}
-
-/// A complete node of the batch tree as stored: its sums `T`
-/// ([`BrdfTallies`]; read first as a JSON value, then checked against the
-/// run, see [`checked_nodes`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NodeFile<T = BrdfTallies> {
-    /// Position among the nodes of its level.
-    pub index: u64,
-    /// Height above the leaves (0: one batch).
-    pub level: u64,
-    /// The sums of the batches it covers.
-    pub tallies: T,
-}
 
 /// One incidence angle of `tallies.json` (of a spectral run: one
 /// incidence angle and wavelength, incidence-major).
@@ -358,6 +233,76 @@ pub fn check_layout(t: &BrdfTallies, run: &BrdfRun, photons: u64) -> Result<(), 
 /// sums of many terms (a tampered number is off by far more).
 const SUM_TOL: f64 = 1e-6;
 
+/// The bounds of [`check_tallies`] for a tally of `photons` photons.
+struct Bounds {
+    /// The photons, as a number.
+    n: f64,
+    /// The photons with the rounding slack: the largest sum of weights.
+    most: f64,
+    /// The photons.
+    photons: u64,
+}
+
+impl Bounds {
+    fn new(photons: u64) -> Self {
+        let n = photons as f64;
+        Self {
+            n,
+            most: n * (1.0 + SUM_TOL) + 1e-12,
+            photons,
+        }
+    }
+
+    /// A weight sum (`signed`: a polarisation sum, `|x| <= n`) at `key`.
+    fn value(&self, x: f64, key: String, signed: bool) -> Result<(), FieldError> {
+        if !signed && x < 0.0 {
+            return Err(FieldError::new(key, format!("{x} must be >= 0")));
+        }
+        if x.abs() > self.most {
+            return Err(FieldError::new(
+                key,
+                format!(
+                    "{x} exceeds the {} photons of the tally (each photon carries a weight of at most 1)",
+                    self.photons
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Every value of `xs`, at `key[i]`.
+    fn values(&self, xs: &[f64], key: &str, signed: bool) -> Result<(), FieldError> {
+        for (i, &x) in xs.iter().enumerate() {
+            self.value(x, format!("{key}[{i}]"), signed)?;
+        }
+        Ok(())
+    }
+
+    /// The sums and sums of squares of an accumulator at `key`.
+    fn accumulator(&self, a: &Accumulator, key: &str, signed: bool) -> Result<(), FieldError> {
+        for (i, (&s, &q)) in a.sum.iter().zip(&a.sum_sq).enumerate() {
+            self.value(s, format!("{key}.sum[{i}]"), signed)?;
+            self.value(q, format!("{key}.sum_sq[{i}]"), false)?;
+            if !signed && q > s * (1.0 + SUM_TOL) + 1e-300 {
+                return Err(FieldError::new(
+                    format!("{key}.sum_sq[{i}]"),
+                    format!("{q} exceeds the sum {s} (scores of at most 1 have x² <= x)"),
+                ));
+            }
+            if s * s > self.n * q * (1.0 + SUM_TOL) + 1e-300 {
+                return Err(FieldError::new(
+                    format!("{key}.sum_sq[{i}]"),
+                    format!(
+                        "{q} is too small for the sum {s} over {} photons (sum² <= photons × sum_sq)",
+                        self.photons
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The bounds every tally of a run obeys, with `n` its photons: each
 /// history scores a weight in `[0, 1]` (photons start with weight 1 and no
 /// reflection, roulette survival or symmetry fold makes it larger), so per
@@ -372,60 +317,20 @@ const SUM_TOL: f64 = 1e-6;
 /// # Errors
 /// The first value out of bounds, at its key.
 pub fn check_tallies(t: &BrdfTallies, run: &BrdfRun) -> Result<(), FieldError> {
-    let n = t.photons as f64;
-    let most = n * (1.0 + SUM_TOL) + 1e-12;
-    let in_range = |x: f64, key: String, signed: bool| -> Result<(), FieldError> {
-        if !signed && x < 0.0 {
-            return Err(FieldError::new(key, format!("{x} must be >= 0")));
-        }
-        if x.abs() > most {
-            return Err(FieldError::new(
-                key,
-                format!(
-                    "{x} exceeds the {} photons of the tally (each photon carries a weight of at most 1)",
-                    t.photons
-                ),
-            ));
-        }
-        Ok(())
-    };
-    let acc = |a: &Accumulator, key: &str, signed: bool| -> Result<(), FieldError> {
-        for (i, (&s, &q)) in a.sum.iter().zip(&a.sum_sq).enumerate() {
-            in_range(s, format!("{key}.sum[{i}]"), signed)?;
-            in_range(q, format!("{key}.sum_sq[{i}]"), false)?;
-            if !signed && q > s * (1.0 + SUM_TOL) + 1e-300 {
-                return Err(FieldError::new(
-                    format!("{key}.sum_sq[{i}]"),
-                    format!("{q} exceeds the sum {s} (scores of at most 1 have x² <= x)"),
-                ));
-            }
-            if s * s > n * q * (1.0 + SUM_TOL) + 1e-300 {
-                return Err(FieldError::new(
-                    format!("{key}.sum_sq[{i}]"),
-                    format!(
-                        "{q} is too small for the sum {s} over {} photons (sum² <= photons × sum_sq)",
-                        t.photons
-                    ),
-                ));
-            }
-        }
-        Ok(())
-    };
-    acc(&t.reflected, "reflected", false)?;
-    acc(&t.carlson, "carlson", false)?;
-    acc(&t.inplane, "inplane", false)?;
-    for (i, &x) in t.by_bounces.iter().enumerate() {
-        in_range(x, format!("by_bounces[{i}]"), false)?;
-    }
+    let b = Bounds::new(t.photons);
+    b.accumulator(&t.reflected, "reflected", false)?;
+    b.accumulator(&t.carlson, "carlson", false)?;
+    b.accumulator(&t.inplane, "inplane", false)?;
+    b.values(&t.by_bounces, "by_bounces", false)?;
     for (x, key) in [
         (t.lost_walls, "lost_walls"),
         (t.lost_cap, "lost_cap"),
         (t.lost_numeric, "lost_numeric"),
     ] {
-        in_range(x, key.into(), false)?;
+        b.value(x, key.into(), false)?;
     }
     let spent = t.reflected.sum[0] + t.lost_walls + t.lost_cap + t.lost_numeric;
-    if spent > most {
+    if spent > b.most {
         return Err(FieldError::new(
             "reflected.sum[0]",
             format!(
@@ -434,6 +339,26 @@ pub fn check_tallies(t: &BrdfTallies, run: &BrdfRun) -> Result<(), FieldError> {
             ),
         ));
     }
+    check_counts(t, run)?;
+    if let Some(r) = &t.replicates {
+        b.values(&r.reflected, "replicates.reflected", false)?;
+        b.values(&r.carlson, "replicates.carlson", false)?;
+        b.values(&r.inplane, "replicates.inplane", false)?;
+    }
+    if let Some(p) = &t.polar {
+        b.accumulator(&p.sums, "polar.sums", true)?;
+        if let Some(r) = &p.replicates {
+            b.values(r, "polar.replicates", true)?;
+        }
+        b.values(&p.cross, "polar.cross", true)?;
+    }
+    Ok(())
+}
+
+/// The counts of [`check_tallies`]: capped and numeric histories at most
+/// the photons, bounces and segments at most the photons times the run's
+/// caps.
+fn check_counts(t: &BrdfTallies, run: &BrdfRun) -> Result<(), FieldError> {
     for (x, key) in [
         (t.capped_histories, "capped_histories"),
         (t.numeric_histories, "numeric_histories"),
@@ -455,26 +380,6 @@ pub fn check_tallies(t: &BrdfTallies, run: &BrdfRun) -> Result<(), FieldError> {
                 key,
                 format!("{x} exceeds {} photons × {what} {cap}", t.photons),
             ));
-        }
-    }
-    if let Some(r) = &t.replicates {
-        for (xs, key) in [
-            (&r.reflected, "replicates.reflected"),
-            (&r.carlson, "replicates.carlson"),
-            (&r.inplane, "replicates.inplane"),
-        ] {
-            for (i, &x) in xs.iter().enumerate() {
-                in_range(x, format!("{key}[{i}]"), false)?;
-            }
-        }
-    }
-    if let Some(p) = &t.polar {
-        acc(&p.sums, "polar.sums", true)?;
-        for (i, &x) in p.replicates.iter().flatten().enumerate() {
-            in_range(x, format!("polar.replicates[{i}]"), true)?;
-        }
-        for (i, &x) in p.cross.iter().enumerate() {
-            in_range(x, format!("polar.cross[{i}]"), true)?;
         }
     }
     Ok(())
@@ -548,98 +453,323 @@ pub fn checked_nodes(
         .collect()
 }
 
-/// One shard folder's `tallies.json`, read and checked alone.
-#[derive(Debug, Clone)]
-pub struct ShardFile {
-    /// The folder.
-    pub dir: PathBuf,
-    /// `dir/tallies.json` as shown in messages.
-    pub file: String,
-    /// Its contents, the sums of each node still as JSON.
-    pub tallies: TalliesFile<Value>,
-}
+/// The micro level ([`Level`]): `roks brdf` runs, their [`TalliesFile`]
+/// and [`BrdfResult`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Micro;
 
-impl ShardFile {
-    /// Photon indices `[first, last)` it holds.
-    #[must_use]
-    pub fn photons(&self) -> (u64, u64) {
-        let r = self.tallies.description.run.photon_range();
-        (r.start, r.end)
+/// One shard folder's `tallies.json` of a `roks brdf` run, read and
+/// checked alone.
+pub type ShardFile = shard_file::ShardFile<Micro>;
+
+/// Shards of one `roks brdf` run, checked against each other and summed:
+/// the whole run's sums, each leaf's one node its tree's root and its time
+/// the sum of the shards' times (s).
+pub type Merged = shard_file::Merged<Micro>;
+
+impl Level for Micro {
+    type Description = Description;
+    type Tallies = BrdfTallies;
+    type File = TalliesFile<Value>;
+    type Result = BrdfResult;
+
+    const FORMAT: &'static str = FORMAT;
+    const FORMAT_VERSION: u64 = FORMAT_VERSION;
+    const KIND: &'static str = "roks tallies file";
+    const ENTRIES: &'static str = "incidence";
+    const DESCRIBED_BY_FIRST_BLOCK: bool = false;
+
+    fn batch(file: &Self::File) -> u64 {
+        file.batch
+    }
+
+    /// A valid run ([`BrdfRun::check`]), the block `--shard I/N` gives, a
+    /// time `>= 0`, and one entry per leaf of the run (its angles, time and nodes).
+    fn check(file: Self::File) -> Result<Contents<Self>, FieldError> {
+        let run = &file.description.run;
+        run.check().map_err(|e| {
+            FieldError::new(
+                format!("description.run.{}", e.field().run_key()),
+                e.to_string(),
+            )
+        })?;
+        check_block(run)?;
+        let seconds = check_seconds(file.seconds)?;
+        check_leaf_count(run, file.incidence.len())?;
+        let leaves = file
+            .incidence
+            .into_iter()
+            .enumerate()
+            .map(|(i, inc)| {
+                check_leaf(inc, i, run).map_err(|e| e.under(&format!("incidence[{i}]")))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Contents {
+            description: file.description,
+            leaves,
+            seconds,
+        })
+    }
+
+    fn unshard(d: &mut Description) {
+        d.run.shard = None;
+    }
+
+    fn scene_mut(d: &mut Description) -> &mut String {
+        &mut d.scene
+    }
+
+    /// By photon range, which must tile the run in whole batches.
+    fn order(parts: &mut Vec<ShardFile>) -> Result<(), SceneError> {
+        let total = parts.first().map_or(0, |p| p.description.run.photons);
+        parts.sort_by_key(photons);
+        check_tiling(parts, total)
+    }
+
+    fn leaf_batches(d: &Description, _leaf: usize) -> u64 {
+        d.run.photons.div_ceil(BATCH)
+    }
+
+    /// Several realisations: the shards' nodes (each within one
+    /// realisation's block) make the sums of each.
+    fn keeps_nodes(d: &Description) -> bool {
+        d.run.realisations > 1
+    }
+
+    /// The intersection tests, which must add up within 2^64.
+    fn add_counts(count: &mut u64, t: &BrdfTallies) -> Result<(), FieldError> {
+        *count = count.checked_add(t.intersection_tests).ok_or_else(|| {
+            FieldError::new(
+                "tallies.intersection_tests",
+                "the shards' counts add up past 2^64",
+            )
+        })?;
+        Ok(())
+    }
+
+    /// The roots nested as a trace's result (incidence, azimuth,
+    /// wavelength), with the realisations' sums of a run of several.
+    fn result(d: &Description, leaves: Vec<MergedLeaf<BrdfTallies>>) -> BrdfResult {
+        let run = &d.run;
+        let lanes = run.lane_count();
+        let mut leaves = leaves.into_iter();
+        let incidence = run
+            .theta_deg
+            .iter()
+            .map(|&theta| ByIncidence {
+                theta_i_deg: theta,
+                azimuth: run
+                    .phi_deg
+                    .iter()
+                    .map(|&phi| ByAzimuth {
+                        phi_i_deg: phi,
+                        wavelength: (0..lanes)
+                            .map(|l| {
+                                let leaf = leaves.next().expect("one leaf per lane");
+                                incidence_result(run, theta, phi, l, leaf)
+                            })
+                            .collect(),
+                    })
+                    .collect(),
+            })
+            .collect();
+        BrdfResult { incidence }
     }
 }
 
-/// Read `dir/tallies.json`: JSON of [`FORMAT`] version [`FORMAT_VERSION`]
-/// with the fields of [`TalliesFile`], `batch` = [`BATCH`], a valid run
-/// ([`BrdfRun::check`]) and, for a shard, the block `--shard I/N` gives.
+/// The merged leaf of incidence `theta`, light azimuth `phi` (degrees) and
+/// lane `l` of `run`.
+fn incidence_result(
+    run: &BrdfRun,
+    theta: f64,
+    phi: f64,
+    l: usize,
+    leaf: MergedLeaf<BrdfTallies>,
+) -> IncidenceResult {
+    let (realisations, ensemble) = run.realisation_results(theta, phi, &leaf.nodes, &leaf.tallies);
+    IncidenceResult {
+        theta_i_deg: theta,
+        phi_i_deg: phi,
+        wavelength_um: run.wavelength(l),
+        // The root is kept once, as the sums.
+        nodes: Vec::new(),
+        tallies: leaf.tallies,
+        seconds: leaf.seconds,
+        realisations,
+        ensemble,
+    }
+}
+
+/// Photon indices `[first, last)` a shard holds.
+fn photons(p: &ShardFile) -> (u64, u64) {
+    let r = p.description.run.photon_range();
+    (r.start, r.end)
+}
+
+/// Read `dir/tallies.json` of a `roks brdf` shard: JSON of [`FORMAT`]
+/// version [`FORMAT_VERSION`] with the fields of [`TalliesFile`], `batch` =
+/// [`BATCH`], a valid run ([`BrdfRun::check`]), for a shard the block
+/// `--shard I/N` gives, and the run's leaves (angles, times, nodes).
 ///
 /// # Errors
 /// One [`SceneError`] naming the file and the key.
-pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
-    let path = dir.join(TALLIES_FILE);
-    let file = path.display().to_string();
-    let err = |key: &str, message: String| FieldError::new(key, message).in_file(&file);
-    let text = crate::limits::read_text_capped(&path, crate::limits::max_data_bytes())
-        .map_err(|e| err("", format!("cannot read: {e}")))?;
-    let v: Value =
-        serde_json::from_str(&text).map_err(|e| err("", format!("invalid JSON: {e}")))?;
-    if v["format"] != FORMAT || v["format_version"] != FORMAT_VERSION {
-        return Err(err(
-            "format",
+pub fn read_shard(dir: &std::path::Path) -> Result<ShardFile, SceneError> {
+    shard_file::read_shard::<Micro>(dir)
+}
+
+/// Merge the shard files of one `roks brdf` run (any order,
+/// [`shard_file::merge_shards`]): equal descriptions (but for the scene's
+/// path and the shard, [`first_difference`]) and photon ranges that tile
+/// the run in whole batches. The nodes of all shards are pushed in photon
+/// order into one tree per leaf: its root is the single run's sum bit for
+/// bit.
+///
+/// # Errors
+/// One [`SceneError`] naming the shard file at fault and the key (JSON
+/// path) of the value.
+pub fn merge_shards(parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
+    shard_file::merge_shards(parts)
+}
+
+/// For a shard, that `run.shard` is the block of photons `--shard I/N`
+/// gives.
+fn check_block(run: &BrdfRun) -> Result<(), FieldError> {
+    let Some(s) = run.shard else {
+        return Ok(());
+    };
+    let block = Shard {
+        index: s.index,
+        count: s.count,
+    };
+    let expected = (s.count > 0 && s.index < s.count)
+        .then(|| block.photon_range(run.photons).ok())
+        .flatten();
+    if expected != Some((s.first_photon, s.last_photon)) {
+        return Err(FieldError::new(
+            "description.run.shard",
             format!(
-                "not a roks tallies file (format \"{FORMAT}\", format_version {FORMAT_VERSION})"
+                "photons [{}, {}) are not block {} of {} of the run's {} photons",
+                s.first_photon, s.last_photon, s.index, s.count, run.photons
             ),
         ));
     }
-    let batch = v["batch"].clone();
-    let tallies: TalliesFile<Value> = typed(v).map_err(|e| e.in_file(&file))?;
-    if tallies.batch != BATCH {
-        return Err(err(
-            "batch",
-            format!("{batch} is not this version's batch of {BATCH} photons"),
-        ));
-    }
-    let run = &tallies.description.run;
-    run.check().map_err(|e| {
-        err(
-            &format!("description.run.{}", e.field().run_key()),
-            e.to_string(),
-        )
-    })?;
-    if let Some(s) = run.shard {
-        let block = Shard {
-            index: s.index,
-            count: s.count,
-        };
-        let expected = (s.count > 0 && s.index < s.count)
-            .then(|| block.photon_range(run.photons).ok())
-            .flatten();
-        if expected != Some((s.first_photon, s.last_photon)) {
-            return Err(err(
-                "description.run.shard",
-                format!(
-                    "photons [{}, {}) are not block {} of {} of the run's {} photons",
-                    s.first_photon, s.last_photon, s.index, s.count, run.photons
-                ),
-            ));
-        }
-    }
-    Ok(ShardFile {
-        dir: dir.to_path_buf(),
-        file,
-        tallies,
-    })
+    Ok(())
 }
 
-/// Shards of one run, checked against each other and summed.
-#[derive(Debug, Clone)]
-pub struct Merged {
-    /// The run (all photons: no shard), as the first shard describes it.
-    pub description: Description,
-    /// The whole run's sums; each leaf's one node is its tree's root, its
-    /// time the sum of the shards' times (s).
-    pub results: BrdfResult,
-    /// Sum of the shards' total times (s).
-    pub seconds: f64,
+/// That a file lists `n` leaves, those of `run`.
+fn check_leaf_count(run: &BrdfRun, n: usize) -> Result<(), FieldError> {
+    let azimuths = run.phi_deg.len();
+    if n == run.theta_deg.len() * azimuths * run.lane_count() {
+        return Ok(());
+    }
+    Err(FieldError::new(
+        "incidence",
+        format!(
+            "must list the run's {} incidence angles{}{}, found {n}",
+            run.theta_deg.len(),
+            if azimuths > 1 {
+                format!(" at {azimuths} light azimuths")
+            } else {
+                String::new()
+            },
+            if run.wavelengths_um.is_empty() {
+                String::new()
+            } else {
+                format!(" at {} wavelengths", run.wavelengths_um.len())
+            }
+        ),
+    ))
+}
+
+/// That leaf `i` of a file of `run` is the run's: its incidence angle,
+/// light azimuth and wavelength, its time, and nodes that pass
+/// [`checked_nodes`], tile exactly the shard's batches, hold its photons
+/// and realisable polarisation sums.
+///
+/// # Errors
+/// The first problem, at its key under the leaf.
+fn check_leaf(
+    inc: IncidenceNodes<Value>,
+    i: usize,
+    run: &BrdfRun,
+) -> Result<Leaf<BrdfTallies>, FieldError> {
+    let (azimuths, lanes) = (run.phi_deg.len(), run.lane_count());
+    let (t, a, l) = (i / lanes / azimuths, i / lanes % azimuths, i % lanes);
+    check_angles(&inc, run, (t, a, l))?;
+    let seconds = check_seconds(inc.seconds)?;
+    let nodes = checked_nodes(inc.nodes, run).map_err(|e| e.under("nodes"))?;
+    let range = run.photon_range();
+    check_node_tiling(
+        &nodes,
+        (range.start, range.end),
+        run.photons.div_ceil(BATCH),
+    )?;
+    if inc.photons != range.end - range.start {
+        return Err(FieldError::new(
+            "photons",
+            format!(
+                "{} is not last_photon - first_photon = {}",
+                inc.photons,
+                range.end - range.start
+            ),
+        ));
+    }
+    for (k, node) in nodes.iter().enumerate() {
+        crate::tally::realisable::check_sums(
+            node.value.polar.as_ref(),
+            &node.value.carlson,
+            run.polarisation.incident.stokes(),
+        )
+        .map_err(|e| FieldError::new(format!("nodes[{k}].tallies.polar"), e))?;
+    }
+    Ok(Leaf { nodes, seconds })
+}
+
+/// That a leaf is at incidence `t`, light azimuth `a` and lane `l` of
+/// `run`, bit for bit.
+fn check_angles(
+    inc: &IncidenceNodes<Value>,
+    run: &BrdfRun,
+    (t, a, l): (usize, usize, usize),
+) -> Result<(), FieldError> {
+    let (theta, phi) = (run.theta_deg[t], run.phi_deg[a]);
+    let wavelength = run.wavelength(l);
+    if inc.theta_deg.to_bits() != theta.to_bits() {
+        return Err(FieldError::new(
+            "theta_deg",
+            format!(
+                "{} is not description.run.theta_deg[{t}] = {theta}",
+                inc.theta_deg
+            ),
+        ));
+    }
+    let several = (run.phi_deg.len() > 1).then_some(phi);
+    if inc.phi_deg.map(|p| p.0.to_bits()) != several.map(f64::to_bits) {
+        return Err(FieldError::new(
+            "phi_deg",
+            match (inc.phi_deg, several) {
+                (_, Some(p)) => format!(
+                    "{} is not description.run.phi_deg[{a}] = {p}",
+                    inc.phi_deg.map_or("absent".into(), |p| p.0.to_string())
+                ),
+                _ => "not expected in a run of one light azimuth".into(),
+            },
+        ));
+    }
+    if inc.wavelength_um.map(|w| w.0.to_bits()) != wavelength.map(f64::to_bits) {
+        return Err(FieldError::new(
+            "wavelength_um",
+            match (inc.wavelength_um, wavelength) {
+                (_, Some(w)) => format!(
+                    "{} is not description.run.wavelengths_um[{l}] = {w}",
+                    inc.wavelength_um
+                        .map_or("absent".into(), |w| w.0.to_string())
+                ),
+                _ => "not expected in a monochrome run".into(),
+            },
+        ));
+    }
+    Ok(())
 }
 
 /// Check that shards sorted by photon range tile the run's `total`
@@ -650,7 +780,7 @@ pub struct Merged {
 fn check_tiling(parts: &[ShardFile], total: u64) -> Result<(), SceneError> {
     let mut next = 0;
     for (k, p) in parts.iter().enumerate() {
-        let (first, last) = p.photons();
+        let (first, last) = photons(p);
         let err = |key: &str, m: String| Err(FieldError::new(key, m).in_file(&p.file));
         if first % BATCH != 0 || last > total || (last % BATCH != 0 && last != total) {
             return err(
@@ -737,215 +867,6 @@ fn check_seconds(s: f64) -> Result<f64, FieldError> {
     Ok(s)
 }
 
-/// Merge shard files (any order): equal descriptions (but for the scene's
-/// path and the shard, [`first_difference`]), photon ranges that tile the run in whole
-/// batches, per shard an `incidence` list of the run's angles whose nodes
-/// tile exactly that shard's batches and pass [`checked_nodes`], and
-/// counts that add up without overflow. The nodes of all shards are pushed
-/// in photon order into one [`DyadicSum`] per incidence: its root is the
-/// single run's sum bit for bit.
-///
-/// # Errors
-/// One [`SceneError`] naming the shard file at fault and the key (JSON
-/// path) of the value.
-pub fn merge_shards(mut parts: Vec<ShardFile>) -> Result<Merged, SceneError> {
-    let Some(p0) = parts.first() else {
-        return Err(FieldError::new("", "no shard folders").in_file("merge"));
-    };
-    let mut description = p0.tallies.description.clone();
-    let f0 = p0.file.clone();
-    let first = shared(&description);
-    for p in &parts[1..] {
-        if let Some(key) = first_difference(&first, &shared(&p.tallies.description)) {
-            let key = join_key("description", &key);
-            return Err(FieldError::new(
-                key.clone(),
-                format!("differs from {f0} (`{key}` differs: not a shard of the same run)"),
-            )
-            .in_file(&p.file));
-        }
-    }
-    description.run.shard = None;
-    let run = description.run.clone();
-    let total = run.photons;
-    parts.sort_by_key(ShardFile::photons);
-    check_tiling(&parts, total)?;
-
-    let batches = total.div_ceil(BATCH);
-    let lanes = run.lane_count();
-    let azimuths = run.phi_deg.len();
-    let leaves = run.theta_deg.len() * azimuths * lanes;
-    let mut seconds = 0.0;
-    for p in &parts {
-        let at = |e: FieldError| e.in_file(&p.file);
-        seconds += check_seconds(p.tallies.seconds).map_err(at)?;
-        let n = p.tallies.incidence.len();
-        if n != leaves {
-            return Err(at(FieldError::new(
-                "incidence",
-                format!(
-                    "must list the run's {} incidence angles{}{}, found {n}",
-                    run.theta_deg.len(),
-                    if azimuths > 1 {
-                        format!(" at {azimuths} light azimuths")
-                    } else {
-                        String::new()
-                    },
-                    if run.wavelengths_um.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" at {} wavelengths", run.wavelengths_um.len())
-                    }
-                ),
-            )));
-        }
-    }
-    // Per incidence angle, light azimuth and wavelength: the tree's sum,
-    // time, tests and (several realisations) the nodes.
-    #[allow(clippy::type_complexity)]
-    let mut sums: Vec<Vec<(DyadicSum<BrdfTallies>, f64, u64, Vec<Node<BrdfTallies>>)>> =
-        (0..run.theta_deg.len() * azimuths)
-            .map(|_| {
-                (0..lanes)
-                    .map(|_| (DyadicSum::new(batches), 0.0, 0, Vec::new()))
-                    .collect()
-            })
-            .collect();
-    for p in parts {
-        let range = p.photons();
-        // The file lists the leaves incidence-major, then azimuth, then
-        // wavelength.
-        let mut entries = p.tallies.incidence.into_iter().enumerate();
-        for (ta, lane_sums) in sums.iter_mut().enumerate() {
-            let (t, a) = (ta / azimuths, ta % azimuths);
-            let (theta, phi) = (run.theta_deg[t], run.phi_deg[a]);
-            for (l, (sum, secs, tests, kept)) in lane_sums.iter_mut().enumerate() {
-                let (i, inc) = entries.next().expect("the number of leaves was checked");
-                let key = format!("incidence[{i}]");
-                let at = |e: FieldError| e.under(&key).in_file(&p.file);
-                let wavelength = run.wavelength(l);
-                if inc.theta_deg.to_bits() != theta.to_bits() {
-                    return Err(at(FieldError::new(
-                        "theta_deg",
-                        format!(
-                            "{} is not description.run.theta_deg[{t}] = {theta}",
-                            inc.theta_deg
-                        ),
-                    )));
-                }
-                let several = (azimuths > 1).then_some(phi);
-                if inc.phi_deg.map(|p| p.0.to_bits()) != several.map(f64::to_bits) {
-                    return Err(at(FieldError::new(
-                        "phi_deg",
-                        match (inc.phi_deg, several) {
-                            (_, Some(p)) => format!(
-                                "{} is not description.run.phi_deg[{a}] = {p}",
-                                inc.phi_deg.map_or("absent".into(), |p| p.0.to_string())
-                            ),
-                            _ => "not expected in a run of one light azimuth".into(),
-                        },
-                    )));
-                }
-                if inc.wavelength_um.map(|w| w.0.to_bits()) != wavelength.map(f64::to_bits) {
-                    return Err(at(FieldError::new(
-                        "wavelength_um",
-                        match (inc.wavelength_um, wavelength) {
-                            (_, Some(w)) => format!(
-                                "{} is not description.run.wavelengths_um[{l}] = {w}",
-                                inc.wavelength_um
-                                    .map_or("absent".into(), |w| w.0.to_string())
-                            ),
-                            _ => "not expected in a monochrome run".into(),
-                        },
-                    )));
-                }
-                *secs += check_seconds(inc.seconds).map_err(at)?;
-                let nodes = checked_nodes(inc.nodes, &run).map_err(|e| at(e.under("nodes")))?;
-                check_node_tiling(&nodes, range, batches).map_err(at)?;
-                if inc.photons != range.1 - range.0 {
-                    return Err(at(FieldError::new(
-                        "photons",
-                        format!(
-                            "{} is not last_photon - first_photon = {}",
-                            inc.photons,
-                            range.1 - range.0
-                        ),
-                    )));
-                }
-                for (k, node) in nodes.into_iter().enumerate() {
-                    crate::tally::realisable::check_sums(
-                        node.value.polar.as_ref(),
-                        &node.value.carlson,
-                        run.polarisation.incident.stokes(),
-                    )
-                    .map_err(|e| at(FieldError::new(format!("nodes[{k}].tallies.polar"), e)))?;
-                    *tests = tests
-                        .checked_add(node.value.intersection_tests)
-                        .ok_or_else(|| {
-                            at(FieldError::new(
-                                format!("nodes[{k}].tallies.intersection_tests"),
-                                "the shards' counts add up past 2^64",
-                            ))
-                        })?;
-                    // Several realisations: the shards' nodes (each within
-                    // one realisation's block) kept for the sums of each.
-                    if run.realisations > 1 {
-                        kept.push(node.clone());
-                    }
-                    sum.push(node, &BrdfTallies::merge)
-                        .map_err(|e| at(FieldError::new(format!("nodes[{k}]"), e)))?;
-                }
-            }
-        }
-    }
-    // The roots, nested as a trace's result.
-    let mut i = 0;
-    let mut incidence: Vec<ByIncidence> = Vec::with_capacity(run.theta_deg.len());
-    for (ta, lane_sums) in sums.into_iter().enumerate() {
-        let (theta, phi) = (run.theta_deg[ta / azimuths], run.phi_deg[ta % azimuths]);
-        let mut wavelength = Vec::with_capacity(lanes);
-        for (l, (sum, seconds, _, kept)) in lane_sums.into_iter().enumerate() {
-            let tallies = sum
-                .finish()
-                .map_err(|e| FieldError::new(format!("incidence[{i}].nodes"), e).in_file(&f0))?;
-            i += 1;
-            let (realisations, ensemble) = run.realisation_results(theta, phi, &kept, &tallies);
-            wavelength.push(IncidenceResult {
-                theta_i_deg: theta,
-                phi_i_deg: phi,
-                wavelength_um: run.wavelength(l),
-                // The root is kept once, as the sums.
-                nodes: Vec::new(),
-                tallies,
-                seconds,
-                realisations,
-                ensemble,
-            });
-        }
-        let by_azimuth = ByAzimuth {
-            phi_i_deg: phi,
-            wavelength,
-        };
-        if ta % azimuths == 0 {
-            incidence.push(ByIncidence {
-                theta_i_deg: theta,
-                azimuth: vec![by_azimuth],
-            });
-        } else {
-            incidence
-                .last_mut()
-                .expect("azimuth 0 came first")
-                .azimuth
-                .push(by_azimuth);
-        }
-    }
-    Ok(Merged {
-        description,
-        results: BrdfResult { incidence },
-        seconds,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1006,19 +927,39 @@ mod tests {
         BrdfFolder::traced(d, results, 0.0)
     }
 
-    /// The shard folders' `tallies.json` of `run` cut in `count` blocks.
-    fn shards(scene: &MicroScene, run: &BrdfRun, count: u64) -> Vec<ShardFile> {
+    /// The shard folders' `tallies.json` of `run` cut in `count` blocks,
+    /// as read back (node sums as JSON), with their file names.
+    fn raw_shards(
+        scene: &MicroScene,
+        run: &BrdfRun,
+        count: u64,
+    ) -> Vec<(String, TalliesFile<Value>)> {
         (0..count)
             .map(|index| {
                 let f = traced(scene, description(&block(run, index, count)));
                 let text = f.tallies.unwrap().to_text();
-                ShardFile {
-                    dir: PathBuf::from(format!("s{index}")),
-                    file: format!("s{index}/tallies.json"),
-                    tallies: serde_json::from_str(&text).unwrap(),
-                }
+                (
+                    format!("s{index}/tallies.json"),
+                    serde_json::from_str(&text).unwrap(),
+                )
             })
             .collect()
+    }
+
+    /// Shard files checked alone ([`ShardFile::checked`]), as `roks merge`
+    /// reads them.
+    fn checked(raw: Vec<(String, TalliesFile<Value>)>) -> Result<Vec<ShardFile>, SceneError> {
+        raw.into_iter()
+            .enumerate()
+            .map(|(k, (file, t))| {
+                ShardFile::checked(std::path::Path::new(&format!("s{k}")), file, t)
+            })
+            .collect()
+    }
+
+    /// The checked shard files of `run` cut in `count` blocks.
+    fn shards(scene: &MicroScene, run: &BrdfRun, count: u64) -> Vec<ShardFile> {
+        checked(raw_shards(scene, run, count)).unwrap()
     }
 
     #[test]
@@ -1124,7 +1065,7 @@ mod tests {
             ("s1/tallies.json", "description.run.shard.last_photon")
         );
         let mut other = parts.clone();
-        other[1].tallies.description.run.seed += 1;
+        other[1].description.run.seed += 1;
         let e = merge_shards(other).err().unwrap();
         assert_eq!(
             (e.file.as_str(), e.key.as_str()),
@@ -1137,21 +1078,22 @@ mod tests {
     #[test]
     fn nodes_must_tile_their_shard_and_hold_sound_sums() {
         let (scene, run) = scene_and_run();
-        let mut parts = shards(&scene, &run, 2);
+        let merged = |raw| checked(raw).and_then(merge_shards).err().unwrap();
+        let mut parts = raw_shards(&scene, &run, 2);
         // The second shard's first node moved to the first shard.
-        let node = parts[1].tallies.incidence[0].nodes.remove(0);
-        parts[0].tallies.incidence[0].nodes.push(node);
-        let e = merge_shards(parts).err().unwrap();
+        let node = parts[1].1.incidence[0].nodes.remove(0);
+        parts[0].1.incidence[0].nodes.push(node);
+        let e = merged(parts);
         assert_eq!(e.file, "s0/tallies.json");
         assert!(e.key.starts_with("incidence[0].nodes["), "{e}");
-        let mut parts = shards(&scene, &run, 2);
-        parts[1].tallies.incidence[1].nodes[0].tallies["lost_walls"] = "-1.0".into();
-        let e = merge_shards(parts).err().unwrap();
+        let mut parts = raw_shards(&scene, &run, 2);
+        parts[1].1.incidence[1].nodes[0].tallies["lost_walls"] = "-1.0".into();
+        let e = merged(parts);
         assert_eq!(e.key, "incidence[1].nodes[0].tallies.lost_walls");
         assert_eq!(e.message, "-1 must be >= 0");
-        let mut parts = shards(&scene, &run, 2);
-        parts[0].tallies.incidence[0].nodes[0].tallies["polar"] = serde_json::json!({});
-        let e = merge_shards(parts).err().unwrap();
+        let mut parts = raw_shards(&scene, &run, 2);
+        parts[0].1.incidence[0].nodes[0].tallies["polar"] = serde_json::json!({});
+        let e = merged(parts);
         assert_eq!(e.key, "incidence[0].nodes[0].tallies.polar");
         assert_eq!(e.message, "not expected for this run");
     }
