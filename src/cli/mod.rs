@@ -1,7 +1,9 @@
 //! The `roks` command line: its arguments ([`args::Cli`]), one module per
 //! command, and the one-line messages of bad input. The binary only parses,
-//! dispatches to a command's `run` and maps a [`Failure`] to its exit status;
-//! each command reads its inputs, calls the library and writes its files.
+//! dispatches to a command's `execute` and maps a [`Failure`] to its exit
+//! status; each command parses its options, calls the library API
+//! ([`crate::api`]: load, trace, write) and prints. Library errors carry
+//! their messages ([`crate::api::Error`]) and become a [`Failure`] by `?`.
 //!
 //! # Conventions
 //! * Every bad option gives exactly one line on stderr, `roks: --seed: ...`,
@@ -83,6 +85,16 @@ impl std::error::Error for Failure {}
 impl From<SceneError> for Failure {
     fn from(e: SceneError) -> Self {
         Self::Input(e.to_string())
+    }
+}
+
+impl From<crate::api::Error> for Failure {
+    /// A library error: bad input but for a failed read or write.
+    fn from(e: crate::api::Error) -> Self {
+        match e {
+            crate::api::Error::Io(e) => Self::Other(e),
+            e => Self::Input(e.to_string()),
+        }
     }
 }
 
