@@ -185,6 +185,7 @@ struct Traced {
 /// let brdf = result.brdf()?;
 /// assert_eq!(back.brdf()?.column("brdf"), brdf.column("brdf"));
 /// assert_eq!(brdf.rows(), result.cells());
+/// assert_eq!(result.shape(), [1, 1, 1, result.cells()]);
 /// # std::fs::remove_dir_all(&dir)?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
@@ -220,9 +221,15 @@ impl BrdfResult {
         let summary: BrdfSummary = serde_json::from_str(&summary_text)
             .map_err(|e| Error::Input(format!("{summary_name}: {e}")))?;
         let table_name = dir.join("brdf.csv").display().to_string();
-        crate::optics::brdf_table::BrdfTables::parse(&file("brdf.csv")?, &table_name)
+        let tables = crate::optics::brdf_table::BrdfTables::parse(&file("brdf.csv")?, &table_name)
             .and_then(|t| t.with_summary_text(&summary_text, &summary_name))
             .map_err(|e| Error::Input(e.to_string()))?;
+        if let Ok(text) = file("mueller.csv") {
+            let name = dir.join("mueller.csv").display().to_string();
+            tables
+                .with_mueller_text(&text, &name)
+                .map_err(|e| Error::Input(e.to_string()))?;
+        }
         Ok(Self {
             summary: summary.into(),
             files,
@@ -268,6 +275,20 @@ impl BrdfResult {
     #[must_use]
     pub fn wavelengths_um(&self) -> &[f64] {
         &self.run().wavelengths_um
+    }
+
+    /// The shape of the tree's tables, `[incidence angles, light azimuths,
+    /// wavelengths (1 for a monochrome run), Carlson cells]`: the rows of
+    /// [`brdf`](Self::brdf) reshaped (row-major) to it.
+    #[must_use]
+    pub fn shape(&self) -> [usize; 4] {
+        let lanes = self.wavelengths_um().len().max(1);
+        [
+            self.theta_deg().len(),
+            self.phi_deg().len(),
+            lanes,
+            self.cells(),
+        ]
     }
 
     /// The Carlson cells of one incidence's block of `brdf.csv`: `2 M (M + 1)`

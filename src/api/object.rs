@@ -268,6 +268,21 @@ impl TraceResult {
             traced: None,
         };
         result.reflectance()?;
+        // A far field tallied has its file, one never tallied none.
+        let tallied = [
+            ("farfield.csv", result.summary.farfield),
+            ("farfield_stokes.csv", result.summary.farfield_stokes),
+        ];
+        for (file, said) in tallied {
+            if result.table(file)?.is_some() != said {
+                let how = if said { "missing" } else { "present" };
+                return Err(Error::Input(format!(
+                    "{}: {how}, while {name} says the far field was{} tallied",
+                    dir.join(file).display(),
+                    if said { "" } else { " not" }
+                )));
+            }
+        }
         Ok(result)
     }
 

@@ -103,27 +103,3 @@ impl From<anyhow::Error> for Failure {
         Self::Other(e)
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn failures_name_their_cause_and_status() {
-        let input = Failure::Input("s.toml: light.photons: must be > 0".into());
-        assert_eq!(input.to_string(), "s.toml: light.photons: must be > 0");
-        assert_eq!(input.exit_code(), ExitCode::from(2));
-        let scene = Failure::from(SceneError {
-            file: "s.toml".into(),
-            key: "bumps[0].radius".into(),
-            message: "must be positive".into(),
-        });
-        assert!(
-            matches!(&scene, Failure::Input(m) if m == "s.toml: bumps[0].radius: must be positive")
-        );
-        // The chain of causes on one line.
-        let other = Failure::from(anyhow::anyhow!("disk full").context("cannot write out/x"));
-        assert_eq!(other.to_string(), "cannot write out/x: disk full");
-        assert_eq!(other.exit_code(), ExitCode::from(1));
-    }
-}

@@ -129,15 +129,8 @@ impl RenderArgs {
     }
 }
 
-pub use crate::render::job::{MAX_PATHS, MAX_SPP, OBJECT_BACKGROUND, PATHS_PER_CORE_SECOND};
-
-/// [`crate::render::job::check_cost`].
-///
-/// # Errors
-/// Bad input naming `--spp` and `--size`, the paths and the time.
-pub fn check_cost(w: u64, h: u64, spp: u32, threads: usize, force: bool) -> Result<u64, Failure> {
-    Ok(crate::render::job::check_cost(w, h, spp, threads, force).map_err(Error::from)?)
-}
+/// The bound on a render's cost (kept here for the tests that name it).
+pub use crate::render::job::check_cost;
 
 /// Run `roks render`.
 ///
@@ -163,7 +156,7 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
     let threads = a.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
-    check_cost(w, h, a.spp, threads, a.force_long_render)?;
+    check_cost(w, h, a.spp, threads, a.force_long_render).map_err(Error::from)?;
     let tone = a.tone()?;
     // A file that cannot be read is left to the micro loader's message.
     let (img, lost) = match a.scene.as_deref() {
