@@ -2,6 +2,29 @@
 //! objects in geometric optics, after the program ROKS-RG (Klass, Shakhovsky,
 //! Badyuk, Ulyanov, J. Opt. Technol. 2014).
 //!
+//! # Using roks as a library
+//!
+//! The library API is [`api`], re-exported here: load a scene
+//! ([`load_micro`], [`load_object`]) with [`Overrides`]; trace it
+//! ([`BrdfJob`] to a [`BrdfResult`], [`TraceJob`] to a [`TraceResult`]);
+//! write the result folder (`write`) or read one back (`read`) into the
+//! same type; take its tables as columns ([`Table::column`], plain `f64`
+//! slices for numpy) and the tree's axes (`theta_deg`, `phi_deg`,
+//! `wavelengths_um`). Errors are one [`Error`], whose `Display` is the
+//! command line's one-line message. The command line calls only this.
+//!
+//! ```
+//! let overrides = roks::Overrides { photons: Some(1024), ..Default::default() };
+//! let scene = roks::load_micro(None, &overrides)?;
+//! let result = roks::BrdfJob::new(&scene, &roks::BrdfOptions {
+//!     stats_resolution: Some(16),
+//!     ..Default::default()
+//! })?
+//! .trace(&|_| {})?;
+//! println!("reflectance per incidence: {:?}", result.reflectance());
+//! # Ok::<(), roks::Error>(())
+//! ```
+//!
 //! Layout, by physics. The geometry sits at the bottom: [`geometry`] uses
 //! no other module, [`micro`] and [`object`] use it and [`optics`], and
 //! [`transport`] traces histories through them; [`scene`] builds all of
@@ -39,6 +62,7 @@
 //!   fitted to a table (`roks fit-model`).
 //! * [`plot`]: PNG plots with titles, axes and legends (embedded font).
 //! * [`limits`]: the memory budget (`ROKS_MAX_MEMORY`): sizes estimated before allocating.
+//! * [`api`]: the library API over all of these (above).
 //! * [`cli`]: the command line: one module per command over shared arguments,
 //!   value parsers and one-line messages (the binary only dispatches).
 //!
@@ -121,6 +145,7 @@
 //!   folder its relative paths are read from), never a source.
 #![forbid(unsafe_code)]
 
+pub mod api;
 pub mod cli;
 pub mod export;
 pub mod fit;
@@ -142,3 +167,8 @@ pub mod transport;
 
 #[cfg(test)]
 mod test_streams;
+
+pub use api::{
+    BrdfJob, BrdfOptions, BrdfReport, BrdfResult, Error, MicroScene, ObjectScene, Overrides, Table,
+    TraceJob, TraceOptions, TraceReport, TraceResult, load_micro, load_object,
+};

@@ -35,7 +35,6 @@ pub mod brdf_csv;
 pub mod brdf_folder;
 pub mod colour_csv;
 pub mod inplane_csv;
-pub mod merge;
 pub mod object_csv;
 pub mod object_tallies;
 pub mod polar_csv;

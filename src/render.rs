@@ -38,6 +38,7 @@ use crate::transport::carrier::{Carrier, Spectral};
 use crate::transport::micro::{Controls, Fate, trace};
 use crate::transport::rng::photon_rng;
 
+pub mod job;
 mod lit;
 pub mod tonemap;
 

@@ -10,67 +10,42 @@ use super::Failure;
 pub use crate::outdir::kind::FileKind;
 use crate::scene::micro::{MicroScene, Overrides};
 
-/// The micro scene at `path`, or the embedded default scene.
+/// The micro scene at `path`, or the embedded default scene
+/// ([`crate::api::load_micro`]).
 ///
 /// # Errors
 /// The scene file's error (bad input).
 pub fn load_scene(path: Option<&Path>) -> Result<MicroScene, Failure> {
-    Ok(match path {
-        Some(p) => MicroScene::load(p)?,
-        None => MicroScene::default_scene(),
-    })
+    load_scene_with(path, &Overrides::default())
 }
 
-/// Height-map samples per side of the grid of the surface statistics,
-/// unless given: the same for `roks brdf` (summary.json's `surface`) and
-/// `roks stats`, so the two print the same figures.
-pub const STATS_RESOLUTION: usize = 512;
+pub use crate::api::STATS_RESOLUTION;
 
-/// The micro scene at `path` (`None`: the embedded default) with
-/// `overrides` laid over its keys, built and checked once.
+/// [`crate::api::load_micro`].
 ///
 /// # Errors
 /// Bad input naming the option or the scene file and key.
 pub fn load_scene_with(path: Option<&Path>, overrides: &Overrides) -> Result<MicroScene, Failure> {
-    match path {
-        Some(p) => MicroScene::load_with(p, overrides),
-        None => MicroScene::default_with(overrides),
-    }
-    .map_err(|e| Failure::Input(e.to_string()))
+    Ok(crate::api::load_micro(path, overrides)?)
 }
 
-/// Use `threads` worker threads (`--threads`; `None`: all cores).
+/// [`crate::api::set_threads`].
 ///
 /// # Errors
 /// Bad input when their stacks exceed the memory limit.
 pub fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
-    if let Some(t) = threads {
-        // Each worker reserves a 2 MiB stack (rayon's default).
-        let bytes = crate::limits::product(&[t as u64, 2 << 20]);
-        check_memory(
-            "--threads",
-            &format!("the stacks of {t} worker threads"),
-            bytes,
-        )?;
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build_global()
-            .map_err(|e| Failure::Other(e.into()))?;
-    }
-    Ok(())
+    Ok(crate::api::set_threads(threads)?)
 }
 
-/// Refuse `option` when `bytes`, the estimate for `what`, exceed the memory
-/// limit ([`crate::limits`]).
+/// [`crate::api::check_memory`].
 ///
 /// # Errors
 /// Bad input, naming `option`.
-pub fn check_memory(option: &str, what: &str, bytes: u64) -> Result<(), Failure> {
-    crate::limits::check(what, bytes).map_err(|e| Failure::Input(format!("{option}: {e}")))
+pub fn check_memory(option: &'static str, what: &str, bytes: u64) -> Result<(), Failure> {
+    Ok(crate::api::check_memory(option, what, bytes)?)
 }
 
-/// The height-map grid for statistics: `requested` (checked; `option`
-/// names it), or the height field's own grid, or `default` x `default`.
+/// [`crate::api::stats_grid`].
 ///
 /// # Errors
 /// Bad input for fewer than 2 samples or a grid beyond the memory limit.
@@ -78,32 +53,17 @@ pub fn stats_grid(
     scene: &MicroScene,
     requested: Option<usize>,
     default: usize,
-    option: &str,
+    option: &'static str,
 ) -> Result<(usize, usize), Failure> {
-    match (requested, scene.surface.heightfield()) {
-        (Some(r), _) if r < 2 => Err(Failure::Input(format!("{option}: must be >= 2"))),
-        (Some(r), _) => {
-            let what = format!("the statistics of a {r} x {r} height map");
-            check_memory(option, &what, scene.surface.stats_memory_bytes(r, r))?;
-            Ok((r, r))
-        }
-        (None, Some(f)) => Ok((f.nx, f.ny)),
-        (None, None) => Ok((default, default)),
-    }
+    Ok(crate::api::stats_grid(scene, requested, default, option)?)
 }
 
-/// A height-field scene's own grid, refusing any other `--resolution`.
+/// [`crate::api::own_grid`].
 ///
 /// # Errors
 /// Bad input when `resolution` is not the field's own.
 pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Failure> {
-    match (scene.surface.heightfield(), resolution) {
-        (Some(f), Some(r)) if (r, r) != (f.nx, f.ny) => Err(Failure::Input(format!(
-            "--resolution: {}: a height field is written on its own {} x {} grid, got {r}",
-            scene.scene_file.file, f.nx, f.ny
-        ))),
-        _ => Ok(()),
-    }
+    Ok(crate::api::own_grid(scene, resolution)?)
 }
 
 pub use crate::outdir::check::{Written, escape_controls, shown};
@@ -317,17 +277,6 @@ pub fn report_check(scene_file: &str, what: &str, quiet: bool) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn grids_for_statistics() {
-        let scene = MicroScene::default_scene();
-        assert_eq!(stats_grid(&scene, None, 512, "--x").unwrap(), (512, 512));
-        assert_eq!(stats_grid(&scene, Some(64), 512, "--x").unwrap(), (64, 64));
-        let e = stats_grid(&scene, Some(1), 512, "--stats-resolution").unwrap_err();
-        assert!(matches!(e, Failure::Input(m) if m == "--stats-resolution: must be >= 2"));
-        // Bumps have no grid of their own: any resolution is theirs.
-        assert!(own_grid(&scene, Some(3)).is_ok());
-    }
 
     #[test]
     fn result_folders_are_named_by_their_key() {

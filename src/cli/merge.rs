@@ -11,7 +11,7 @@ use super::brdf::print_table;
 use super::common::{check_out_dir, load_scene, write_folder};
 use super::export_brdf::{check_export_formats, export_formats};
 use crate::export::brdf_formats::BrdfFormat;
-use crate::output::merge::{self, MergeError, ShardKind};
+use crate::api::merge::{self, MergeError, ShardKind};
 
 /// The options of `roks merge`.
 #[derive(Args, Debug)]
@@ -45,7 +45,7 @@ pub struct MergeArgs {
     pub quiet: bool,
 }
 
-/// Run `roks merge`: the library merges ([`crate::output::merge`]), this
+/// Run `roks merge`: the library merges ([`crate::api::merge`]), this
 /// adds the exports, writes the folder and prints.
 ///
 /// # Errors
@@ -105,8 +105,7 @@ fn rgl_scene(formats: &[BrdfFormat], scene: &str) -> Option<crate::scene::micro:
 /// `roks merge` of `roks trace` shards: the folder of the single run.
 fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
     let merged = merge::merge_trace(&a.dirs).map_err(failure)?;
-    let mut files = merged.files().map_err(anyhow::Error::msg)?;
-    crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
+    let files = merged.files().map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         let m = &merged.merged;

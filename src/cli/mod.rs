@@ -1,7 +1,9 @@
 //! The `roks` command line: its arguments ([`args::Cli`]), one module per
 //! command, and the one-line messages of bad input. The binary only parses,
-//! dispatches to a command's `run` and maps a [`Failure`] to its exit status;
-//! each command reads its inputs, calls the library and writes its files.
+//! dispatches to a command's `execute` and maps a [`Failure`] to its exit
+//! status; each command parses its options, calls the library API
+//! ([`crate::api`]: load, trace, write) and prints. Library errors carry
+//! their messages ([`crate::api::Error`]) and become a [`Failure`] by `?`.
 //!
 //! # Conventions
 //! * Every bad option gives exactly one line on stderr, `roks: --seed: ...`,
@@ -86,32 +88,18 @@ impl From<SceneError> for Failure {
     }
 }
 
-impl From<anyhow::Error> for Failure {
-    fn from(e: anyhow::Error) -> Self {
-        Self::Other(e)
+impl From<crate::api::Error> for Failure {
+    /// A library error: bad input but for a failed read or write.
+    fn from(e: crate::api::Error) -> Self {
+        match e {
+            crate::api::Error::Io(e) => Self::Other(e),
+            e => Self::Input(e.to_string()),
+        }
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn failures_name_their_cause_and_status() {
-        let input = Failure::Input("s.toml: light.photons: must be > 0".into());
-        assert_eq!(input.to_string(), "s.toml: light.photons: must be > 0");
-        assert_eq!(input.exit_code(), ExitCode::from(2));
-        let scene = Failure::from(SceneError {
-            file: "s.toml".into(),
-            key: "bumps[0].radius".into(),
-            message: "must be positive".into(),
-        });
-        assert!(
-            matches!(&scene, Failure::Input(m) if m == "s.toml: bumps[0].radius: must be positive")
-        );
-        // The chain of causes on one line.
-        let other = Failure::from(anyhow::anyhow!("disk full").context("cannot write out/x"));
-        assert_eq!(other.to_string(), "cannot write out/x: disk full");
-        assert_eq!(other.exit_code(), ExitCode::from(1));
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Self::Other(e)
     }
 }

@@ -12,9 +12,10 @@ use super::common::{
     FileKind, Written, check_memory, check_out_file, load_scene, set_threads, write_file,
 };
 use super::parse::{integer, number, positive};
-use crate::render::{PinholeCamera, RenderSettings, ToneSettings, Tonemap};
+use crate::api::{Error, ObjectScene};
+use crate::render::job::{RenderOptions, Rendered, check_unmodelled};
+use crate::render::{ToneSettings, Tonemap};
 use crate::scene::SceneKind;
-use crate::scene::object::ObjectScene;
 
 /// The options of `roks render`.
 #[derive(Args, Debug)]
@@ -105,83 +106,42 @@ impl RenderArgs {
             exposure_ev: self.exposure,
             decades: self.decades,
         };
-        t.validate().map_err(|e| Failure::Input(e.to_string()))?;
+        t.validate().map_err(crate::api::Error::from)?;
         Ok(t)
     }
+
+    /// The options of the render itself.
+    fn options(&self) -> RenderOptions {
+        RenderOptions {
+            view: self.view.clone(),
+            light: self.light.clone(),
+            disc: self.disc,
+            background: self.background,
+            size: self.size.clone(),
+            spp: self.spp,
+            seed: self.seed,
+            camera: self.camera.clone(),
+            look_at: self.look_at.clone(),
+            up: self.up.clone(),
+            fov: self.fov,
+            light_sampling: !self.no_light_sampling,
+        }
+    }
 }
 
-/// The background of an object render when `--background` is not given:
-/// 1e-3 of the disc's radiance, so that walls the disc leaves dark still
-/// show their shape (walls of a few percent reflectance are then a few
-/// 1e-5, inside the log preview's automatic range).
-pub const OBJECT_BACKGROUND: f64 = 1e-3;
-
-/// The most camera paths (width x height x samples per pixel) a render
-/// starts without `--force-long-render`: about an hour on one core at
-/// [`PATHS_PER_CORE_SECOND`].
-pub const MAX_PATHS: u64 = 10_000_000_000;
-
-/// The most samples per pixel a render starts without
-/// `--force-long-render`: 2^24. A pixel's samples are traced in sequence on
-/// one core (rows run in parallel), so beyond the bound on all paths
-/// ([`MAX_PATHS`]) a small image of many samples would still run for hours
-/// on one core (`--size 1,1 --spp 4294967295`: about 24 min per pixel).
-/// 2^24 samples take about 6 s per pixel at [`PATHS_PER_CORE_SECOND`], and
-/// leave a Monte Carlo error of 1/4096 of one sample's spread.
-pub const MAX_SPP: u32 = 1 << 24;
-
-/// Camera paths per second and core of the default micro scene's render,
-/// measured (`/usr/bin/time roks render --size 512,512 --spp 64 --threads
-/// 1`: 16.8e6 paths in 5.5 s of user time); object scenes with micro
-/// walls are slower, so the estimate is a lower bound of the time.
-pub const PATHS_PER_CORE_SECOND: f64 = 3e6;
-
-/// The cost of a `w` x `h` render at `spp` samples per pixel on `threads`
-/// cores: its camera paths and an estimate of its seconds; refused above
-/// [`MAX_PATHS`], or above [`MAX_SPP`] samples per pixel, unless `force`.
-///
-/// # Errors
-/// Bad input naming `--spp` and `--size`, the paths and the time.
-pub fn check_cost(w: u64, h: u64, spp: u32, threads: usize, force: bool) -> Result<u64, Failure> {
-    let paths = w.saturating_mul(h).saturating_mul(u64::from(spp));
-    if paths > MAX_PATHS && !force {
-        let hours = paths as f64 / (PATHS_PER_CORE_SECOND * threads.max(1) as f64) / 3600.0;
-        return Err(Failure::Input(format!(
-            "--spp: {w} x {h} pixels x {spp} samples = {paths:.3e} camera paths, above the bound of {MAX_PATHS:.0e} (about {hours:.1} h on {threads} cores at {PATHS_PER_CORE_SECOND:.0e} paths/s per core); lower --spp or --size, or give --force-long-render"
-        )));
-    }
-    if spp > MAX_SPP && !force {
-        // A pixel's samples are traced one after another on one core.
-        let minutes = f64::from(spp) / PATHS_PER_CORE_SECOND / 60.0;
-        return Err(Failure::Input(format!(
-            "--spp: {spp} samples per pixel, above the bound of {MAX_SPP} (2^24): a pixel's samples are traced one after another on one core (about {minutes:.0} min per pixel at {PATHS_PER_CORE_SECOND:.0e} paths/s); lower --spp, or give --force-long-render"
-        )));
-    }
-    Ok(paths)
-}
+/// The bound on a render's cost (kept here for the tests that name it).
+pub use crate::render::job::check_cost;
 
 /// Run `roks render`.
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
 pub fn execute(a: RenderArgs) -> Result<(), Failure> {
-    for (name, n) in [
-        ("--view", a.view.len()),
-        ("--size", a.size.len()),
-        ("--light", a.light.as_ref().map_or(2, Vec::len)),
-    ] {
-        if n != 2 {
-            return Err(Failure::Input(format!(
-                "{name}: give two comma-separated values"
-            )));
-        }
-    }
+    let o = a.options();
+    o.check_pairs().map_err(Error::from)?;
     let (w, h) = (a.size[0] as u64, a.size[1] as u64);
-    check_memory(
-        "--size",
-        &format!("a {w} x {h} image (radiance, EXR and PNG)"),
-        crate::render::image_memory_bytes(w, h),
-    )?;
+    let what = format!("a {w} x {h} image (radiance, EXR and PNG)");
+    check_memory("--size", &what, crate::render::image_memory_bytes(w, h))?;
     // Whether a file there may be replaced: after the files the scene
     // reads are known (`check_kept`).
     check_out_file(&a.out, a.scene.as_slice(), FileKind::Exr, true)?;
@@ -196,132 +156,31 @@ pub fn execute(a: RenderArgs) -> Result<(), Failure> {
     let threads = a.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
-    check_cost(w, h, a.spp, threads, a.force_long_render)?;
+    check_cost(w, h, a.spp, threads, a.force_long_render).map_err(Error::from)?;
     let tone = a.tone()?;
     // A file that cannot be read is left to the micro loader's message.
-    if let Some(path) = a
-        .scene
-        .as_deref()
-        .filter(|p| matches!(crate::scene::kind(p), Ok(SceneKind::Object)))
-    {
-        return object(&a, path, &tone);
-    }
-    let scene = load_scene(a.scene.as_deref())?;
-    check_kept(&a.out, &scene.reads, a.force)?;
-    let (light_theta, light_phi) = match &a.light {
-        Some(l) => (l[0], l[1]),
-        None => (scene.light.theta_deg[0], scene.light.phi_deg[0]),
-    };
-    let settings = RenderSettings {
-        width: a.size[0],
-        height: a.size[1],
-        spp: a.spp,
-        view_theta_deg: a.view[0],
-        view_phi_deg: a.view[1],
-        light_theta_deg: light_theta,
-        light_phi_deg: light_phi,
-        light_radius_deg: a.disc,
-        light_radiance: 1.0,
-        background_radiance: a.background.unwrap_or(0.0),
-        seed: a.seed,
-        light_sampling: !a.no_light_sampling,
-    };
-    settings
-        .validate()
-        .map_err(|e| Failure::Input(e.to_string()))?;
-    set_threads(a.threads)?;
-    let (img, losses) =
-        crate::render::render_at(&scene.surface, &scene.run.wavelengths_um, &settings);
-    let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
-    write_images(&a.out, &img, &tone, losses.lost, paths)
-}
-
-/// `roks render` of an object scene: a pinhole camera view.
-fn object(a: &RenderArgs, path: &Path, tone: &ToneSettings) -> Result<(), Failure> {
-    let scene = ObjectScene::load(path)?;
-    check_kept(&a.out, &scene.reads, a.force)?;
-    for (name, v) in [("--camera", &a.camera), ("--look-at", &a.look_at)] {
-        if v.as_ref().is_some_and(|v| v.len() != 3) {
-            return Err(Failure::Input(format!(
-                "{name}: give three comma-separated values"
-            )));
+    let (img, lost) = match a.scene.as_deref() {
+        Some(path) if matches!(crate::scene::kind(path), Ok(SceneKind::Object)) => {
+            let scene = ObjectScene::load(path)?;
+            check_kept(&a.out, &scene.reads, a.force)?;
+            let (camera, settings) = o.object(&scene).map_err(Error::from)?;
+            set_threads(a.threads)?;
+            let (img, losses) = crate::render::render_object(&scene, &camera, &settings);
+            let file = &scene.scene_file.file;
+            check_unmodelled(file, losses.unmodelled).map_err(Error::from)?;
+            (img, losses.lost)
         }
-    }
-    if a.up.len() != 3 {
-        return Err(Failure::Input(
-            "--up: give three comma-separated values".into(),
-        ));
-    }
-    let beam = scene.beams[0];
-    let v3 = |v: &Vec<f64>| glam::DVec3::new(v[0], v[1], v[2]);
-    let sweep = scene
-        .beams
-        .iter()
-        .map(|b| (b.position - beam.position).length())
-        .fold(0.0_f64, f64::max);
-    let look_at = a
-        .look_at
-        .as_ref()
-        .map_or(beam.position + 100.0 * beam.direction, v3);
-    let position = a
-        .camera
-        .as_ref()
-        .map_or(beam.position - (2.5 * sweep).max(50.0) * beam.direction, v3);
-    let camera = PinholeCamera {
-        position,
-        look_at,
-        up: v3(&a.up),
-        fov_deg: a.fov,
-    };
-    let (light_theta, light_phi) = match &a.light {
-        Some(l) => (l[0], l[1]),
-        None => {
-            // Toward the light: against the first beam.
-            let t = -beam.direction;
-            (
-                t.z.clamp(-1.0, 1.0).acos().to_degrees(),
-                t.y.atan2(t.x).to_degrees(),
-            )
+        path => {
+            let scene = load_scene(path)?;
+            check_kept(&a.out, &scene.reads, a.force)?;
+            let settings = o.micro(&scene).map_err(Error::from)?;
+            set_threads(a.threads)?;
+            let wavelengths = &scene.run.wavelengths_um;
+            let (img, losses) = crate::render::render_at(&scene.surface, wavelengths, &settings);
+            (img, losses.lost)
         }
     };
-    let settings = RenderSettings {
-        width: a.size[0],
-        height: a.size[1],
-        spp: a.spp,
-        light_theta_deg: light_theta,
-        light_phi_deg: light_phi,
-        light_radius_deg: a.disc,
-        light_radiance: 1.0,
-        background_radiance: a.background.unwrap_or(OBJECT_BACKGROUND),
-        seed: a.seed,
-        light_sampling: !a.no_light_sampling,
-        ..RenderSettings::default()
-    };
-    settings
-        .validate()
-        .and_then(|()| camera.validate())
-        .map_err(|e| Failure::Input(format!("{}: {e}", scene.scene_file.file)))?;
-    if scene
-        .object
-        .solids
-        .iter()
-        .any(|s| s.body.contains(camera.position))
-    {
-        return Err(Failure::Input(format!(
-            "{}: --camera: the camera position {} lies inside a solid cell",
-            scene.scene_file.file, camera.position
-        )));
-    }
-    set_threads(a.threads)?;
-    let (img, losses) = crate::render::render_object(&scene, &camera, &settings);
-    if losses.unmodelled > 0 {
-        return Err(Failure::Input(format!(
-            "{}: walls: {} camera paths hit a surface without a model in [walls]",
-            scene.scene_file.file, losses.unmodelled
-        )));
-    }
-    let paths = (settings.width * settings.height) as u64 * u64::from(settings.spp);
-    write_images(&a.out, &img, tone, losses.lost, paths)
+    write_images(&a.out, &img, &tone, lost, o.paths())
 }
 
 /// Refuse an `out` (EXR) or its PNG preview beside it that would replace
@@ -341,10 +200,11 @@ fn check_kept(out: &Path, reads: &[PathBuf], force: bool) -> Result<(), Failure>
 }
 
 /// Write `img` as OUT (EXR) and OUT.png (preview, tone-mapped by `tone`),
-/// and report the mean, the exposure used and the `lost` camera paths (caps, guards, edge walls, micro descents). Each
-/// file is replaced atomically, the EXR first: a reader sees each old or
-/// new, and for an instant (or after a kill between the two) a new EXR
-/// beside the old PNG.
+/// and report the mean, the exposure used and the `lost` camera paths
+/// (caps, guards, edge walls, micro descents) of `paths`. Each file is
+/// replaced atomically, the EXR first: a reader sees each old or new, and
+/// for an instant (or after a kill between the two) a new EXR beside the
+/// old PNG.
 fn write_images(
     out: &Path,
     img: &crate::render::Image,
@@ -357,27 +217,21 @@ fn write_images(
             "roks: render: {lost} of {paths} camera paths lost (bounce cap, numerical guard, absorbing edge or micro descent); they add 0"
         );
     }
-    use crate::render::{write_exr, write_png_preview};
-    let exr = write_exr(img).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let (png, applied) = write_png_preview(img, tone).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let r = Rendered::of(img, tone)?;
     let png_path = out.with_extension("png");
     // Both or neither, for an interrupt.
     let commit = crate::interrupt::commit();
-    for (path, bytes) in [(out, &exr), (png_path.as_path(), &png)] {
+    for (path, bytes) in [(out, &r.exr), (png_path.as_path(), &r.png)] {
         write_file(path, bytes)?;
     }
     drop(commit);
-    let mean = img.rgb.iter().map(|p| f64::from(p[0])).sum::<f64>() / img.rgb.len() as f64;
-    let curve = match tone.tonemap {
-        Tonemap::Log => format!("log, --decades {:.3}", applied.decades),
-        Tonemap::Linear => "linear".into(),
-        Tonemap::Filmic => "filmic".into(),
-    };
     eprintln!(
-        "wrote {} and {} (mean radiance {mean:.4e} of the disc's; preview: {curve}, --exposure {:.3})",
+        "wrote {} and {} (mean radiance {:.4e} of the disc's; preview: {}, --exposure {:.3})",
         out.display(),
         png_path.display(),
-        applied.exposure_ev
+        r.mean,
+        r.curve,
+        r.exposure_ev
     );
     Ok(())
 }

@@ -18,7 +18,7 @@
 //!
 //! ```
 //! use std::path::PathBuf;
-//! use roks::output::merge::{ShardKind, merge_brdf};
+//! use roks::api::merge::{ShardKind, merge_brdf};
 //!
 //! // Two shards of one `roks brdf` run (test data of the repository).
 //! let dirs: Vec<PathBuf> = ["s0", "s1"]
@@ -38,9 +38,9 @@
 
 use std::path::{Path, PathBuf};
 
-use super::brdf_folder::BrdfFolder;
-use super::object_tallies::{self, Object};
-use super::tallies::{self, Micro};
+use crate::output::brdf_folder::BrdfFolder;
+use crate::output::object_tallies::{self, Object};
+use crate::output::tallies::{self, Micro};
 use crate::plot::folder::PlotError;
 use crate::scene::SceneError;
 use crate::shard::file::{self as shard_file, Level, ShardFile, TALLIES_FILE};
@@ -162,7 +162,9 @@ impl TraceMerge {
     /// A picture that cannot be drawn.
     pub fn files(&self) -> Result<Vec<(String, Vec<u8>)>, PlotError> {
         let m = &self.merged;
-        m.description.folder(&m.results, m.seconds, None)
+        let mut files = m.description.folder(&m.results, m.seconds, None);
+        crate::plot::folder::add_pictures(&mut files)?;
+        Ok(files)
     }
 }
 

@@ -1,0 +1,185 @@
+//! The library API: what the command line, the Python module and the
+//! report call. Load a scene (a file, or the embedded default) with
+//! overrides; trace a micro scene to a [`BrdfResult`] or an object scene to
+//! a [`TraceResult`]; write either as a result folder; read a result folder
+//! back into the same type; print its table ([`BrdfReport`],
+//! [`TraceReport`]). Every error is an [`Error`] whose `Display` is the
+//! command line's one-line message.
+//!
+//! ```
+//! use roks::api::{BrdfJob, BrdfOptions, Overrides, load_micro};
+//!
+//! let overrides = Overrides { photons: Some(2048), ..Overrides::default() };
+//! let scene = load_micro(None, &overrides)?;
+//! let options = BrdfOptions { stats_resolution: Some(16), ..BrdfOptions::default() };
+//! let result = BrdfJob::new(&scene, &options)?.trace(&|_| {})?;
+//! // One reflectance per incidence angle of the default scene.
+//! assert_eq!(result.reflectance().len(), result.theta_deg().len());
+//! let brdf = result.brdf()?;
+//! let cells = result.cells();
+//! assert_eq!(brdf.column("brdf").unwrap().len(), result.theta_deg().len() * cells);
+//! # Ok::<(), roks::api::Error>(())
+//! ```
+
+use std::path::Path;
+
+mod error;
+mod micro;
+mod object;
+mod report;
+pub mod merge;
+mod table;
+pub mod values;
+
+pub use error::Error;
+pub use micro::{BrdfJob, BrdfOptions, BrdfResult, STATS_RESOLUTION};
+pub use object::{TraceJob, TraceOptions, TraceResult, load_object};
+pub use report::{BrdfReport, TraceReport, anisotropy_note};
+pub use table::{Table, TableError};
+
+pub use crate::scene::WavelengthsSpec;
+pub use crate::scene::micro::{MicroScene, Overrides};
+pub use crate::scene::object::ObjectScene;
+pub use crate::shard::Shard;
+
+/// The micro scene at `path` (`None`: the embedded default scene) with
+/// `overrides` laid over its keys, built and checked once: an error at a
+/// key an override set names its option (`--theta: angle 1: ...`).
+///
+/// # Errors
+/// [`Error::Scene`] naming the scene file and key, or [`Error::Option`].
+pub fn load_micro(path: Option<&Path>, overrides: &Overrides) -> Result<MicroScene, Error> {
+    use crate::scene::micro::BuildError;
+    match path {
+        Some(p) => MicroScene::load_with(p, overrides),
+        None => MicroScene::default_with(overrides),
+    }
+    .map_err(|e| match e {
+        BuildError::Scene(e) => Error::Scene(e),
+        BuildError::Option { option, message } => Error::Option { option, message },
+    })
+}
+
+/// Use `threads` worker threads for every later trace or render (`None`:
+/// all cores). Results do not depend on it. Set once per process.
+///
+/// # Errors
+/// [`Error::Option`] naming `--threads` when their stacks exceed the memory
+/// limit ([`crate::limits`]); [`Error::Io`] when the pool was set already.
+pub fn set_threads(threads: Option<usize>) -> Result<(), Error> {
+    if let Some(t) = threads {
+        // Each worker reserves a 2 MiB stack (rayon's default).
+        let bytes = crate::limits::product(&[t as u64, 2 << 20]);
+        let what = format!("the stacks of {t} worker threads");
+        check_memory("--threads", &what, bytes)?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build_global()
+            .map_err(anyhow::Error::from)?;
+    }
+    Ok(())
+}
+
+/// Refuse `option` when `bytes`, the estimate for `what`, exceed the memory
+/// limit ([`crate::limits`]).
+///
+/// # Errors
+/// [`Error::Option`] naming `option`.
+pub fn check_memory(option: &'static str, what: &str, bytes: u64) -> Result<(), Error> {
+    crate::limits::check(what, bytes).map_err(|e| Error::option(option, e))
+}
+
+/// The height-map grid for statistics: `requested` (checked; `option`
+/// names it), or the height field's own grid, or `default` x `default`.
+///
+/// # Errors
+/// [`Error::Option`] for fewer than 2 samples or a grid beyond the memory
+/// limit.
+pub fn stats_grid(
+    scene: &MicroScene,
+    requested: Option<usize>,
+    default: usize,
+    option: &'static str,
+) -> Result<(usize, usize), Error> {
+    match (requested, scene.surface.heightfield()) {
+        (Some(r), _) if r < 2 => Err(Error::option(option, "must be >= 2")),
+        (Some(r), _) => {
+            let what = format!("the statistics of a {r} x {r} height map");
+            check_memory(option, &what, scene.surface.stats_memory_bytes(r, r))?;
+            Ok((r, r))
+        }
+        (None, Some(f)) => Ok((f.nx, f.ny)),
+        (None, None) => Ok((default, default)),
+    }
+}
+
+/// A height-field scene's own grid, refusing any other `resolution`
+/// (`--resolution`).
+///
+/// # Errors
+/// [`Error::Option`] when `resolution` is not the field's own.
+pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Error> {
+    match (scene.surface.heightfield(), resolution) {
+        (Some(f), Some(r)) if (r, r) != (f.nx, f.ny) => Err(Error::option(
+            "--resolution",
+            format!(
+                "{}: a height field is written on its own {} x {} grid, got {r}",
+                scene.scene_file.file, f.nx, f.ny
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Every file of the result folder `dir` (not its record of roks's files),
+/// by name.
+fn read_folder(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, Error> {
+    let cannot = |e: std::io::Error| anyhow::anyhow!("cannot read {}: {e}", dir.display());
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(cannot)? {
+        let entry = entry.map_err(cannot)?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') || !entry.file_type().map_err(cannot)?.is_file() {
+            continue;
+        }
+        let bytes = std::fs::read(entry.path()).map_err(cannot)?;
+        files.push((name, bytes));
+    }
+    files.sort();
+    Ok(files)
+}
+
+/// Write the result folder `out` whole, as `command` wrote it, after the
+/// output checks ([`crate::outdir::check_folder`]).
+fn write_folder(
+    out: &Path,
+    files: &[(String, Vec<u8>)],
+    command: &str,
+    force: bool,
+) -> Result<(), Error> {
+    crate::outdir::check_folder(out, force).map_err(|error| Error::Out {
+        path: out.to_path_buf(),
+        error,
+    })?;
+    let files: Vec<(&str, &[u8])> = files.iter().map(|(n, b)| (n.as_str(), &b[..])).collect();
+    crate::outdir::write_folder(out, &files, command)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grids_for_statistics() {
+        let scene = MicroScene::default_scene();
+        assert_eq!(stats_grid(&scene, None, 512, "--x").unwrap(), (512, 512));
+        assert_eq!(stats_grid(&scene, Some(64), 512, "--x").unwrap(), (64, 64));
+        let e = stats_grid(&scene, Some(1), 512, "--stats-resolution").unwrap_err();
+        assert_eq!(e.to_string(), "--stats-resolution: must be >= 2");
+        assert!(e.is_input());
+        // Bumps have no grid of their own: any resolution is theirs.
+        assert!(own_grid(&scene, Some(3)).is_ok());
+    }
+}
