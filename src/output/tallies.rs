@@ -38,6 +38,7 @@ use serde_json::Value;
 
 use super::summary::Description;
 use crate::scene::SceneError;
+use crate::scene::keys::RunField;
 use crate::shard::Shard;
 use crate::tally::exact::{self, Exact};
 use crate::tally::sum::{DyadicSum, Node};
@@ -601,7 +602,7 @@ pub fn read_shard(dir: &Path) -> Result<ShardFile, SceneError> {
     let run = &tallies.description.run;
     run.check().map_err(|e| {
         err(
-            &format!("description.run.{}", e.field().run_key()),
+            &format!("description.run.{}", RunField::of(&e).run_key()),
             e.to_string(),
         )
     })?;
