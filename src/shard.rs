@@ -23,7 +23,7 @@
 //! or compensated accumulation (would change the `Accumulator` used everywhere,
 //! and fixed point is not exact for tiny weights).
 
-use crate::transport::BATCH;
+use crate::tally::sum::BATCH;
 
 /// `--shard I/N`: block `index` (0-based) of `count`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
