@@ -2,7 +2,8 @@
 //! `roks merge` reads a shard: every history scores a realisable Stokes
 //! vector (or Mueller matrix) into a cell, and realisable ones form a convex
 //! cone, so each cell's sum must be realisable too, and its intensity must
-//! be the Carlson sum of the same cell.
+//! be the Carlson sum of the same cell. A cell's Mueller matrix, summed or
+//! read from `mueller.csv`, is checked by [`unrealisable`].
 
 use super::{Accumulator, PolarTallies};
 
