@@ -154,6 +154,7 @@ pub mod geometry;
 pub mod interrupt;
 pub mod limits;
 pub mod micro;
+pub mod num;
 pub mod object;
 pub mod optics;
 pub mod outdir;

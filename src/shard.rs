@@ -26,7 +26,7 @@
 //! or compensated accumulation (would change the `Accumulator` used everywhere,
 //! and fixed point is not exact for tiny weights).
 
-use crate::transport::BATCH;
+use crate::tally::sum::BATCH;
 
 pub mod file;
 

@@ -62,10 +62,6 @@ pub type Mueller = [[f64; 4]; 4];
 /// Unpolarised light of unit intensity.
 pub const UNPOLARISED: Stokes = [1.0, 0.0, 0.0, 0.0];
 
-/// Signs of the Stokes components under a mirror reflection of the whole
-/// configuration (the handedness of every frame flips): `S2`, `S3` change sign.
-pub const MIRROR_SIGNS: [f64; 4] = [1.0, 1.0, -1.0, -1.0];
-
 /// `(cos 2a, sin 2a)` of the angle `a` that turns reference vector `from`
 /// into `to` about the direction of flight `forward` (all unit, `from` and
 /// `to` perpendicular to `forward`); positive counter-clockwise about

@@ -532,7 +532,7 @@ pub enum WavelengthListError {
     TooMany {
         /// The wavelengths given.
         count: usize,
-        /// [`crate::transport::carrier::MAX_WAVELENGTHS`].
+        /// [`MAX_WAVELENGTHS`].
         max: usize,
     },
     /// A wavelength that is not a finite number > 0.
@@ -568,14 +568,19 @@ impl WavelengthListError {
     }
 }
 
+/// Most wavelengths one trace carries
+/// ([`crate::transport::carrier::Spectral`]): enough for the visible at 5 nm
+/// (81) or the thermal infrared from 3 to 14 µm at 0.1 µm (111).
+pub const MAX_WAVELENGTHS: usize = 128;
+
 /// Check the wavelengths of a spectral run (µm): at least one, at most
-/// [`crate::transport::carrier::MAX_WAVELENGTHS`], each finite and `> 0`,
+/// [`MAX_WAVELENGTHS`], each finite and `> 0`,
 /// strictly increasing.
 ///
 /// # Errors
 /// The first problem, as a [`WavelengthListError`].
 pub fn check_wavelengths(wavelengths_um: &[f64]) -> Result<(), WavelengthListError> {
-    let max = crate::transport::carrier::MAX_WAVELENGTHS;
+    let max = MAX_WAVELENGTHS;
     if wavelengths_um.is_empty() {
         return Err(WavelengthListError::Empty);
     }

@@ -48,6 +48,7 @@ use serde_json::Value;
 
 use super::summary::Description;
 use crate::scene::SceneError;
+use crate::scene::keys::RunField;
 use crate::shard::Shard;
 use crate::shard::file::{self as shard_file, Contents, Leaf, Level, MergedLeaf, typed};
 pub use crate::shard::file::{FieldError, NodeFile, TALLIES_FILE, first_difference};
@@ -489,7 +490,7 @@ impl Level for Micro {
         let run = &file.description.run;
         run.check().map_err(|e| {
             FieldError::new(
-                format!("description.run.{}", e.field().run_key()),
+                format!("description.run.{}", RunField::of(&e).run_key()),
                 e.to_string(),
             )
         })?;

@@ -67,6 +67,7 @@
 //! most [`crate::transport::launch::MAX_PHOTONS`] = 2^53 photons per angle.
 
 use super::Num;
+use super::keys::RunField;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -757,7 +758,7 @@ impl MicroScene {
             let wavelengths = run_wavelengths(&scene_file, spec.light.wavelengths_um.as_ref())?;
             brdf_run_of(&spec, Polarisation::default(), wavelengths)
                 .check()
-                .map_err(|e| scene_file.error(e.field().scene_key(), e))?;
+                .map_err(|e| scene_file.error(RunField::of(&e).scene_key(), e))?;
         }
         overrides.apply(&mut spec);
         spec.light.zero_signs();
@@ -818,7 +819,7 @@ impl MicroSceneSpec {
         // is resolved below.
         let mut run = brdf_run_of(&self, Polarisation::default(), wavelengths_um);
         run.check()
-            .map_err(|e| scene_file.error(e.field().scene_key(), e))?;
+            .map_err(|e| scene_file.error(RunField::of(&e).scene_key(), e))?;
         let (names, materials) =
             build_materials(&scene_file, &self.materials, &run.wavelengths_um)?;
         let substrate = material_index(
@@ -924,7 +925,7 @@ impl MicroSceneSpec {
             tally.polarisation,
             tally.symmetry,
         )
-        .map_err(|e| scene_file.error(e.scene_key(), e))?;
+        .map_err(|e| scene_file.error(RunField::from(&e).scene_key(), e))?;
 
         let surface = match field {
             Some(field) => MicroSurface::from_height_field(field, materials, substrate),

@@ -19,7 +19,7 @@
 //! `|psi| <= half_width` are accepted, so each bin is a `step x 2 half_width`
 //! detector.
 
-use crate::scene::Num;
+use crate::num::Num;
 use glam::DVec3;
 
 /// Tolerance on `180 / step_deg` being a whole number.

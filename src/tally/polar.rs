@@ -25,7 +25,6 @@
 use serde::Deserialize;
 
 use super::Accumulator;
-use crate::optics::polarisation::MIRROR_SIGNS;
 
 /// Which polarisation tally a run keeps (`[tally] polarisation`,
 /// `--polarisation`: the names in lower case).
@@ -57,6 +56,10 @@ impl PolarTally {
         }
     }
 }
+
+/// Signs of the Stokes components under a mirror reflection of the whole
+/// configuration (the handedness of every frame flips): `S2`, `S3` change sign.
+pub const MIRROR_SIGNS: [f64; 4] = [1.0, 1.0, -1.0, -1.0];
 
 /// Sign of component `k` (of `components`) under a mirror reflection in the
 /// plane of incidence: `S2`, `S3` flip; `m_ij` by the product of its row and

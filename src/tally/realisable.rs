@@ -2,7 +2,8 @@
 //! `roks merge` reads a shard: every history scores a realisable Stokes
 //! vector (or Mueller matrix) into a cell, and realisable ones form a convex
 //! cone, so each cell's sum must be realisable too, and its intensity must
-//! be the Carlson sum of the same cell.
+//! be the Carlson sum of the same cell. A cell's Mueller matrix, summed or
+//! read from `mueller.csv`, is checked by [`unrealisable`].
 
 use super::{Accumulator, PolarTallies};
 
@@ -10,6 +11,85 @@ use super::{Accumulator, PolarTallies};
 /// same scores in one order, differing only by rounding (about 1e-16 per
 /// addition), far below 1e-9.
 pub const SUM_TOLERANCE: f64 = 1e-9;
+
+/// Relative tolerance of [`unrealisable`]: a cell's Mueller matrix may miss
+/// the cone of physical outputs by this fraction of the sum of its
+/// absolute elements. A Monte Carlo tally is a sum of the realisable
+/// matrices of single paths (Fresnel reflections between frame rotations),
+/// and realisable matrices form a convex cone, so the tallied matrix is
+/// realisable exactly; only the text's rounding (10 significant digits in
+/// `mueller.csv`, relative 5e-10 per element) moves it, far below 1e-6.
+pub const REALISABLE_TOLERANCE: f64 = 1e-6;
+
+/// Pure input states (unit Stokes vectors, `S0 = 1` left out) at which
+/// [`unrealisable`] probes a Mueller matrix: the six axis states (s, p,
+/// +-45 deg, right, left) and 250 points of a Fibonacci lattice on the
+/// Poincaré sphere.
+fn probe_states() -> impl Iterator<Item = [f64; 3]> {
+    const LATTICE: usize = 250;
+    let axes = [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ];
+    let golden = std::f64::consts::PI * (3.0 - 5.0_f64.sqrt());
+    let lattice = (0..LATTICE).map(move |k| {
+        let z = 1.0 - (2.0 * k as f64 + 1.0) / LATTICE as f64;
+        let r = (1.0 - z * z).sqrt();
+        let a = golden * k as f64;
+        [r * a.cos(), r * a.sin(), z]
+    });
+    axes.into_iter().chain(lattice)
+}
+
+/// Why `m`, a cell's Mueller-matrix BRDF (row-major, `m[4 i + j]` =
+/// `m_ij`), cannot be that of a physical surface, or `None`. Checked, each
+/// within [`REALISABLE_TOLERANCE`] of the sum of `|m_ij|`:
+/// `m00 >= 0`; for unpolarised input the output's degree of polarisation
+/// at most 1, `sqrt(m10² + m20² + m30²) <= m00`; and the same for the
+/// output `S = M (1, s)` of every pure input state `s` of a probe set (the
+/// six axis states and a 250-point Fibonacci lattice on the Poincaré
+/// sphere): `S0 >= sqrt(S1² + S2² + S3²)`. The exact condition is this for
+/// every `s` on the sphere (Givens & Kostinski's); the probes are a
+/// sampled necessary condition, catching any violation wider than the
+/// lattice spacing (about 0.22 rad).
+#[must_use]
+pub fn unrealisable(m: &[f64; 16]) -> Option<String> {
+    let tol = REALISABLE_TOLERANCE * m.iter().map(|v| v.abs()).sum::<f64>();
+    if m.iter().any(|v| !v.is_finite()) {
+        return Some("a Mueller element is not finite".into());
+    }
+    if m[0] < -tol {
+        return Some(format!("m00 = {} < 0", m[0]));
+    }
+    let out = |s: [f64; 3]| -> [f64; 4] {
+        std::array::from_fn(|i| {
+            m[4 * i] + m[4 * i + 1] * s[0] + m[4 * i + 2] * s[1] + m[4 * i + 3] * s[2]
+        })
+    };
+    let dop_check = |state: &str, o: [f64; 4]| {
+        let pol = (o[1] * o[1] + o[2] * o[2] + o[3] * o[3]).sqrt();
+        (o[0] + tol < pol).then(|| {
+            format!(
+                "the output of {state} has S0 = {} < |S1, S2, S3| = {pol} (degree of polarisation {:.4} > 1)",
+                o[0],
+                pol / o[0].abs().max(f64::MIN_POSITIVE)
+            )
+        })
+    };
+    if let Some(why) = dop_check("unpolarised light", [m[0], m[4], m[8], m[12]]) {
+        return Some(why);
+    }
+    probe_states().find_map(|s| {
+        dop_check(
+            &format!("the pure state (1, {:.4}, {:.4}, {:.4})", s[0], s[1], s[2]),
+            out(s),
+        )
+    })
+}
 
 /// Why a Carlson cell's polarisation sums cannot be those of a run
 /// ([`check_sums`]), naming the cell.
@@ -27,7 +107,7 @@ pub enum SumsError {
         /// The Carlson cell.
         cell: usize,
         /// What is not realisable
-        /// ([`crate::optics::brdf_table::unrealisable`]).
+        /// ([`unrealisable`]).
         why: String,
     },
     /// The Stokes sum is polarised beyond its intensity.
@@ -61,7 +141,7 @@ pub enum SumsError {
 /// `S0 = 1`) cannot be those of a run, or `Ok`: per Carlson cell, a Stokes
 /// sum has `S0 >= sqrt(S1² + S2² + S3²)` and `S0` equal to the Carlson sum;
 /// a Mueller sum is realisable
-/// ([`crate::optics::brdf_table::unrealisable`]) and `m00 + m01 s1 + m02
+/// ([`unrealisable`]) and `m00 + m01 s1 + m02
 /// s2 + m03 s3` (its intensity for the incident state `s`) equals the
 /// Carlson sum; each within [`SUM_TOLERANCE`] of the sum of the absolute
 /// terms.
@@ -83,7 +163,7 @@ pub fn check_sums(
         };
         let (intensity, scale) = if k == 16 {
             let m: [f64; 16] = v.try_into().expect("16 components");
-            if let Some(why) = crate::optics::brdf_table::unrealisable(&m) {
+            if let Some(why) = unrealisable(&m) {
                 return Err(SumsError::Mueller { cell, why });
             }
             let i: f64 = (0..4).map(|j| m[j] * incident[j]).sum();

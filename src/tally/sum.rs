@@ -25,6 +25,12 @@
 //!
 //! The tree is generic over the value summed: it knows nothing of what a
 //! tally holds (the caller passes the addition, e.g. [`super::Merge::merge`]).
+//! Its leaves are batches of [`BATCH`] photons: here, below both the
+//! transport that traces them and the shards that split a run into them.
+
+/// Photons per batch: the unit of parallel work and of summation order (a
+/// leaf of the batch tree; a shard is whole batches).
+pub const BATCH: u64 = 4096;
 
 /// Why nodes cannot be pushed onto a [`DyadicSum`], or do not make its
 /// root: the node (level, index) and the batch concerned.

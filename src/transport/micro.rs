@@ -44,7 +44,9 @@ impl Default for Controls {
     }
 }
 
-/// How a history ended; `C` is what the photon carried ([`Carrier`]).
+/// How a history in a micro surface ended; `C` is what the photon carried
+/// ([`Carrier`]). Not the object level's [`super::object::Fate`]: see
+/// [`super::History`] for why they differ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Fate<C = f64> {
     /// Left through the launch plane with this direction (unit, z > 0) and weight.
@@ -75,16 +77,9 @@ pub enum Fate<C = f64> {
     },
 }
 
-/// A finished history.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct History<C = f64> {
-    /// How it ended.
-    pub fate: Fate<C>,
-    /// Reflections (bodies and reflecting walls).
-    pub bounces: u32,
-    /// Straight flights traced (queries of the geometry).
-    pub segments: u32,
-}
+/// A finished history in a micro surface ([`super::History`] of a
+/// micro [`Fate`]).
+pub type History<C = f64> = super::History<Fate<C>>;
 
 /// Trace a photon entering the micro surface at `start` (on or above the
 /// launch plane, inside the period) travelling along unit `dir` (z < 0),

@@ -9,9 +9,10 @@
 //! * [`wall`]: the wall models of objects (micro descent, BRDF table, ideal, specular).
 //! * [`object`]: histories through a 3-D object (`roks trace`).
 //!
-//! Both levels name their history loop `trace`, its result `History` and
-//! its end `Fate` ([`micro::trace`], [`object::trace`]); the module path
-//! tells them apart.
+//! Both levels name their history loop `trace` and its end `Fate`
+//! ([`micro::trace`], [`object::trace`]; the module path tells them apart);
+//! both return the one [`History`], over their own fate
+//! ([`micro::History`], [`object::History`]).
 
 pub mod brdf;
 pub mod carrier;
@@ -25,8 +26,27 @@ pub mod wall;
 use rand::RngExt;
 use rayon::prelude::*;
 
-/// Photons per batch: the unit of parallel work and of summation order.
-pub const BATCH: u64 = 4096;
+/// A finished history at either level: how it ended (`F`, the level's
+/// fate: [`micro::Fate`] or [`object::Fate`], each over what the photon
+/// carried) and what it cost. The two fates differ on purpose: the micro
+/// level tells apart the weight absorbed by its absorbing walls, cut by a
+/// cap and stopped by a numerical guard (`tallies.json` counts each), the
+/// object level lumps them as lost and has an end of its own, a surface
+/// without a wall model ([`object::Fate::Unmodelled`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct History<F> {
+    /// How it ended.
+    pub fate: F,
+    /// Reflections: at bodies and reflecting walls (micro level), at walls
+    /// (object level: 0 for an escape, the photon missed the object).
+    pub bounces: u32,
+    /// Straight flights traced (queries of the geometry).
+    pub segments: u32,
+}
+
+/// Photons per batch ([`crate::tally::sum::BATCH`]): the unit of parallel
+/// work and of summation order.
+pub use crate::tally::sum::BATCH;
 
 /// Most bytes of batch tallies [`parallel_batches`] and [`parallel_batches_ordered`] hold at a
 /// time, as whole chunks of batches (see [`pending_batches`]).

@@ -762,7 +762,8 @@ type BatchArgs<'a> = (
 );
 
 /// How a history through an object ended (see [`trace`]); `C` is what
-/// the photon carried ([`Carrier`]).
+/// the photon carried ([`Carrier`]). Not the micro level's
+/// [`super::micro::Fate`]: see [`super::History`] for why they differ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Fate<C = f64> {
     /// Met no solid any more: leaves to infinity along unit `dir` with `weight`.
@@ -788,16 +789,9 @@ pub enum Fate<C = f64> {
     },
 }
 
-/// A finished history through an object.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct History<C = f64> {
-    /// How it ended.
-    pub fate: Fate<C>,
-    /// Reflections at walls (0 for an escape: the photon missed the object).
-    pub bounces: u32,
-    /// Straight flights traced.
-    pub segments: u32,
-}
+/// A finished history through an object ([`super::History`] of an object
+/// [`Fate`]).
+pub type History<C = f64> = super::History<Fate<C>>;
 
 /// Follow one photon (or camera ray, by reciprocity) from `p` along unit `d`
 /// through `object`: the one history loop of the macro level, used by

@@ -16,9 +16,7 @@ use crate::optics::fresnel::{CHUNK, FresnelChunk, FresnelLanes};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::{Stokes, rotation};
 
-/// Most wavelengths one trace carries ([`Spectral`]): enough for the
-/// visible at 5 nm (81) or the thermal infrared from 3 to 14 µm at 0.1 µm (111).
-pub const MAX_WAVELENGTHS: usize = 128;
+pub use crate::optics::spectrum::MAX_WAVELENGTHS;
 
 /// A carrier per wavelength: the photon's path does not depend on the
 /// wavelength in geometric optics, only its weights do, so one trace carries
