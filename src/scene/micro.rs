@@ -832,77 +832,14 @@ impl MicroSceneSpec {
             EdgesSpec::Absorbing => Edges::Absorbing,
             EdgesSpec::Reflecting => Edges::Reflecting,
         };
-        let field = match &self.surface.heightfield {
-            Some(hf) => {
-                for (key, given) in [
-                    ("bumps", !self.bumps.is_empty()),
-                    ("bodies", !self.bodies.is_empty()),
-                    ("quadrics", !self.quadrics.is_empty()),
-                ] {
-                    if given {
-                        return Err(scene_file.error(
-                            key,
-                            "cannot be combined with surface.heightfield (the height field is the whole surface)",
-                        ));
-                    }
-                }
-                if edges != Edges::Periodic {
-                    return Err(scene_file.error(
-                        "surface.edges",
-                        "a height field is periodic: edges must be \"periodic\"",
-                    ));
-                }
-                Some(hf.build(&scene_file, given_size)?)
-            }
-            None => None,
-        };
+        let field = self.height_field(&scene_file, given_size, edges)?;
         let size = match (given_size, &field) {
             (_, Some(f)) => f.size,
             (Some(size), None) => size,
             (None, None) => return Err(scene_file.error("surface.size", "missing")),
         };
-
-        let mut placed = Vec::new();
-        // Estimated bytes of the built surface so far (see `placed_cost`).
-        let mut bytes = 0;
-        for (t, spec) in self.bumps.iter().enumerate() {
-            let material = match &spec.material {
-                Some(m) => material_index(&scene_file, &names, m, &format!("bumps[{t}].material"))?,
-                None => substrate,
-            };
-            placed.extend(spec.populate(&scene_file, t, size, edges, material, &mut bytes)?);
-        }
-
-        let mut quadrics = BTreeMap::new();
-        for (name, q) in &self.quadrics {
-            quadrics.insert(
-                name.clone(),
-                q.build(&scene_file, &format!("quadrics.{name}"))?,
-            );
-        }
-        for (b, spec) in self.bodies.iter().enumerate() {
-            let key = format!("bodies[{b}]");
-            let material = match &spec.material {
-                Some(m) => material_index(&scene_file, &names, m, &format!("{key}.material"))?,
-                None => substrate,
-            };
-            placed.push(explicit_body(
-                &scene_file,
-                &key,
-                spec,
-                &quadrics,
-                size,
-                material,
-            )?);
-        }
-
-        let random = self.bodies.is_empty()
-            && (self
-                .surface
-                .heightfield
-                .as_ref()
-                .is_some_and(|f| f.file.is_none())
-                || !self.bumps.is_empty());
+        let (placed, bytes) = self.place_solids(&scene_file, &names, substrate, size, edges)?;
+        let random = self.is_random();
         let more_realisations = self.more_realisations(
             &scene_file,
             (size, edges),
@@ -944,6 +881,94 @@ impl MicroSceneSpec {
         };
         scene.check_run_memory(&scene.run)?;
         Ok(scene)
+    }
+
+    /// The `surface.heightfield`, if given, built (over `given_size`, if
+    /// given): refused with bumps, bodies or quadrics (the height field is
+    /// the whole surface) and with edges other than periodic.
+    fn height_field(
+        &self,
+        scene_file: &SceneFile,
+        given_size: Option<DVec2>,
+        edges: Edges,
+    ) -> Result<Option<HeightField>, SceneError> {
+        let Some(hf) = &self.surface.heightfield else {
+            return Ok(None);
+        };
+        for (key, given) in [
+            ("bumps", !self.bumps.is_empty()),
+            ("bodies", !self.bodies.is_empty()),
+            ("quadrics", !self.quadrics.is_empty()),
+        ] {
+            if given {
+                return Err(scene_file.error(
+                    key,
+                    "cannot be combined with surface.heightfield (the height field is the whole surface)",
+                ));
+            }
+        }
+        if edges != Edges::Periodic {
+            return Err(scene_file.error(
+                "surface.edges",
+                "a height field is periodic: edges must be \"periodic\"",
+            ));
+        }
+        Some(hf.build(scene_file, given_size)).transpose()
+    }
+
+    /// The solids over a period of `size`: every `[[bumps]]` table's bumps
+    /// placed, then the `[[bodies]]` over `[quadrics]` (material
+    /// `substrate` unless given); with the estimated bytes of the bumps'
+    /// surface (see `placed_cost`).
+    fn place_solids(
+        &self,
+        scene_file: &SceneFile,
+        names: &[String],
+        substrate: usize,
+        size: DVec2,
+        edges: Edges,
+    ) -> Result<(Vec<Placed>, u64), SceneError> {
+        let mut placed = Vec::new();
+        // Estimated bytes of the built surface so far (see `placed_cost`).
+        let mut bytes = 0;
+        for (t, spec) in self.bumps.iter().enumerate() {
+            let material = match &spec.material {
+                Some(m) => material_index(scene_file, names, m, &format!("bumps[{t}].material"))?,
+                None => substrate,
+            };
+            placed.extend(spec.populate(scene_file, t, size, edges, material, &mut bytes)?);
+        }
+
+        let mut quadrics = BTreeMap::new();
+        for (name, q) in &self.quadrics {
+            quadrics.insert(
+                name.clone(),
+                q.build(scene_file, &format!("quadrics.{name}"))?,
+            );
+        }
+        for (b, spec) in self.bodies.iter().enumerate() {
+            let key = format!("bodies[{b}]");
+            let material = match &spec.material {
+                Some(m) => material_index(scene_file, names, m, &format!("{key}.material"))?,
+                None => substrate,
+            };
+            placed.push(explicit_body(
+                scene_file, &key, spec, &quadrics, size, material,
+            )?);
+        }
+        Ok((placed, bytes))
+    }
+
+    /// Whether the surface is drawn at random (a generated height field or
+    /// bump tables, and no explicit bodies).
+    fn is_random(&self) -> bool {
+        self.bodies.is_empty()
+            && (self
+                .surface
+                .heightfield
+                .as_ref()
+                .is_some_and(|f| f.file.is_none())
+                || !self.bumps.is_empty())
     }
 }
 
