@@ -1412,6 +1412,37 @@ impl BumpSpec {
         material: usize,
         bytes: &mut u64,
     ) -> Result<Vec<Placed>, SceneError> {
+        let ranges = self.checked_ranges(scene_file, t, size)?;
+        self.check_memory(scene_file, t, (size, edges), material, &ranges, bytes)?;
+        let BumpRanges { depth, cap, base } = ranges;
+        let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));
+        let mut out = Vec::with_capacity(self.count);
+        for _ in 0..self.count {
+            // Fixed draw order: every parameter draws whether or not it is a range.
+            let u: [f64; 7] = std::array::from_fn(|_| rng.random::<f64>());
+            let radius = self.radius.at(u[2]);
+            let bump = Bump {
+                center: DVec2::new(u[0] * size.x, u[1] * size.y),
+                radius,
+                radius_y: self.radius_y.map_or(radius, |r| r.at(u[3])),
+                height: self.height.at(u[4]),
+                depth: depth.at(u[5]),
+                cap: cap.at(u[6]),
+                base: base.at(u[6]),
+            };
+            out.push(self.shape.body(&bump, material));
+        }
+        Ok(out)
+    }
+
+    /// Check table `t`'s ranges (over a period of `size`) and the keys its
+    /// shape uses, and return its depth, cap and base with their defaults.
+    fn checked_ranges(
+        &self,
+        scene_file: &SceneFile,
+        t: usize,
+        size: DVec2,
+    ) -> Result<BumpRanges, SceneError> {
         let key = |k: &str| format!("bumps[{t}].{k}");
         self.radius.check(scene_file, &key("radius"), 0.0, false)?;
         self.height.check(scene_file, &key("height"), 0.0, false)?;
@@ -1463,6 +1494,23 @@ impl BumpSpec {
         let eoh = self.shape == Shape::EllipsoidOnHyperboloid;
         used("cap", self.cap.is_some(), eoh)?;
         used("base", self.base.is_some(), eoh)?;
+        Ok(BumpRanges { depth, cap, base })
+    }
+
+    /// Add table `t`'s estimated memory (from its largest bump, every
+    /// range at its top, over a period of `size` with `edges`) to `bytes`
+    /// and refuse the table if the sum exceeds the limit; also refuses
+    /// more than 10 million bumps.
+    fn check_memory(
+        &self,
+        scene_file: &SceneFile,
+        t: usize,
+        (size, edges): (DVec2, Edges),
+        material: usize,
+        ranges: &BumpRanges,
+        bytes: &mut u64,
+    ) -> Result<(), SceneError> {
+        let key = |k: &str| format!("bumps[{t}].{k}");
         if self.count > 10_000_000 {
             return Err(scene_file.error(key("count"), "more than 10 million bumps"));
         }
@@ -1473,9 +1521,9 @@ impl BumpSpec {
             radius: top(&self.radius),
             radius_y: top(&self.radius_y.unwrap_or(self.radius)),
             height: top(&self.height),
-            depth: top(&depth),
-            cap: top(&cap),
-            base: top(&base),
+            depth: top(&ranges.depth),
+            cap: top(&ranges.cap),
+            base: top(&ranges.base),
         };
         let (copies, per_bump) =
             crate::micro::placed_cost(&self.shape.body(&largest, material), size, edges);
@@ -1483,31 +1531,22 @@ impl BumpSpec {
         let solids = copies as f64 * self.count as f64;
         if copies > 2 {
             let what = format!("periodic ghost copies (about {solids:.1e} solids)");
-            scene_file.check_memory(&format!("bumps[{t}]"), &what, *bytes)?;
+            scene_file.check_memory(&format!("bumps[{t}]"), &what, *bytes)
         } else {
             let what = format!("{} bumps (solids and acceleration grid)", self.count);
-            scene_file.check_memory(&key("count"), &what, *bytes)?;
+            scene_file.check_memory(&key("count"), &what, *bytes)
         }
-
-        let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));
-        let mut out = Vec::with_capacity(self.count);
-        for _ in 0..self.count {
-            // Fixed draw order: every parameter draws whether or not it is a range.
-            let u: [f64; 7] = std::array::from_fn(|_| rng.random::<f64>());
-            let radius = self.radius.at(u[2]);
-            let bump = Bump {
-                center: DVec2::new(u[0] * size.x, u[1] * size.y),
-                radius,
-                radius_y: self.radius_y.map_or(radius, |r| r.at(u[3])),
-                height: self.height.at(u[4]),
-                depth: depth.at(u[5]),
-                cap: cap.at(u[6]),
-                base: base.at(u[6]),
-            };
-            out.push(self.shape.body(&bump, material));
-        }
-        Ok(out)
     }
+}
+
+/// A bump table's ranges with their defaults filled in.
+struct BumpRanges {
+    /// `depth` (default 0).
+    depth: Range,
+    /// `cap` (default 0.5).
+    cap: Range,
+    /// `base` (default 1.5).
+    base: Range,
 }
 
 /// An explicit `[[bodies]]` entry: tested for every flight, its top found by
