@@ -1168,7 +1168,7 @@ impl HeightFieldSpec {
                 "needs gaussian = { sigma, tau } or file = \"...\"",
             )),
             (Some(g), None) => self.gaussian(scene_file, g, size),
-            (None, Some(file)) => self.from_file(scene_file, file, size),
+            (None, Some(file)) => self.load_map(scene_file, file, size),
         }
     }
 
@@ -1263,7 +1263,7 @@ impl HeightFieldSpec {
     /// Load the height map `file` (relative to the scene's folder), its
     /// memory checked before it is decoded, its heights scaled by
     /// `height_scale` and its cell from `size` or `pixel`.
-    fn from_file(
+    fn load_map(
         &self,
         scene_file: &SceneFile,
         file: &str,
