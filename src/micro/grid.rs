@@ -25,6 +25,8 @@
 //!   hundreds in every cell, their periodic copies included, and most of
 //!   them are buried so.
 
+use std::ops::RangeInclusive;
+
 use glam::{DVec2, DVec3};
 
 use super::Solid;
@@ -235,6 +237,68 @@ pub(super) fn f32_up(z: f64) -> f32 {
 impl Grid {
     /// The grid over a period of `size` for `solids[i]`, `i` in `gridded` (ascending).
     pub(super) fn build(size: DVec2, solids: &[Solid], gridded: &[usize]) -> Self {
+        let shape = Shape::of(size, solids, gridded);
+        // Records: compact ones first, each group in the Morton order of the
+        // grid cell of its centre (ties by solid index).
+        let compact = |i: usize| QuadricRecord::of(&solids[i].body);
+        let mut order: Vec<(bool, u64, usize)> = gridded
+            .iter()
+            .map(|&i| (compact(i).is_none(), shape.centre_key(&solids[i]), i))
+            .collect();
+        order.sort_unstable();
+        let mut records = Vec::new();
+        let mut ids = Vec::with_capacity(order.len());
+        let mut record_of = vec![u32::MAX; solids.len()];
+        for &(_, _, i) in &order {
+            record_of[i] = ids.len() as u32;
+            match compact(i) {
+                Some((surface, record)) => {
+                    records.push(record);
+                    ids.push(RecordId {
+                        solid: i as u32,
+                        surface: surface as u32,
+                        material: solids[i].body.material as u32,
+                    });
+                }
+                // A solid tested through its body has no fixed surface.
+                None => ids.push(RecordId {
+                    solid: i as u32,
+                    surface: u32::MAX,
+                    material: solids[i].body.material as u32,
+                }),
+            }
+        }
+        let mut slots = Slots::fill(&shape, solids, &order, &record_of);
+        slots.drop_buried();
+        let (cells, items, exact) = slots.into_cells(&shape, &ids);
+        Self {
+            n: [shape.nx, shape.ny],
+            pitch: shape.pitch,
+            inv_pitch: shape.pitch.recip(),
+            cells,
+            items,
+            exact,
+            records,
+            ids,
+            record_of,
+        }
+    }
+}
+
+/// The cells of a grid under construction: `nx` x `ny` over the period,
+/// each `pitch` wide (length units).
+struct Shape {
+    /// Cells along x.
+    nx: usize,
+    /// Cells along y.
+    ny: usize,
+    /// Cell sides (length units).
+    pitch: DVec2,
+}
+
+impl Shape {
+    /// The cells over a period of `size` for `solids[i]`, `i` in `gridded`.
+    fn of(size: DVec2, solids: &[Solid], gridded: &[usize]) -> Self {
         // Grid pitch: a fifth of the median footprint side, so a bump spans
         // about 6 x 6 grid cells and its exact height over each is a tight
         // bound (coarser pitches test more bumps per segment, finer ones
@@ -260,64 +324,79 @@ impl Grid {
         let nx = ((size.x / target).ceil() as usize).clamp(1, 2048);
         let ny = ((size.y / target).ceil() as usize).clamp(1, 2048);
         let pitch = DVec2::new(size.x / nx as f64, size.y / ny as f64);
-        let range = |lo: f64, hi: f64, pitch: f64, n: usize| {
-            let a = ((lo / pitch).floor().max(0.0) as usize).min(n - 1);
-            let b = ((hi / pitch).floor().max(0.0) as usize).min(n - 1);
-            a..=b
-        };
-        // Records: compact ones first, each group in the Morton order of the
-        // grid cell of its centre (ties by solid index).
-        let key = |i: usize| {
-            let b = &solids[i].body.bounds;
-            let c = 0.5 * (b.min + b.max);
-            let ix = *range(c.x, c.x, pitch.x, nx).start();
-            let iy = *range(c.y, c.y, pitch.y, ny).start();
-            morton(ix, iy)
-        };
-        let compact = |i: usize| QuadricRecord::of(&solids[i].body);
-        let mut order: Vec<(bool, u64, usize)> = gridded
-            .iter()
-            .map(|&i| (compact(i).is_none(), key(i), i))
-            .collect();
-        order.sort_unstable();
-        let mut records = Vec::new();
-        let mut ids = Vec::with_capacity(order.len());
-        let mut record_of = vec![u32::MAX; solids.len()];
-        for &(_, _, i) in &order {
-            record_of[i] = ids.len() as u32;
-            match compact(i) {
-                Some((surface, record)) => {
-                    records.push(record);
-                    ids.push(RecordId {
-                        solid: i as u32,
-                        surface: surface as u32,
-                        material: solids[i].body.material as u32,
-                    });
-                }
-                // A solid tested through its body has no fixed surface.
-                None => ids.push(RecordId {
-                    solid: i as u32,
-                    surface: u32::MAX,
-                    material: solids[i].body.material as u32,
-                }),
-            }
-        }
-        // The lists in one flat array, each cell's slots reserved by a first
-        // pass over the solids' bounds (an upper bound: a solid leaves the
-        // cells where it does not reach up); no list of its own per cell.
-        let cell_ranges = |i: usize| {
-            let b = &solids[i].body.bounds;
-            (
-                range(b.min.x, b.max.x, pitch.x, nx),
-                range(b.min.y, b.max.y, pitch.y, ny),
-            )
-        };
-        // Both passes below visit the solids in the records' order (the
+        Self { nx, ny, pitch }
+    }
+
+    /// The cell indices `lo..=hi` (length units) falls in along an axis
+    /// of `n` cells `pitch` wide, clamped to the grid.
+    fn span(lo: f64, hi: f64, pitch: f64, n: usize) -> RangeInclusive<usize> {
+        let a = ((lo / pitch).floor().max(0.0) as usize).min(n - 1);
+        let b = ((hi / pitch).floor().max(0.0) as usize).min(n - 1);
+        a..=b
+    }
+
+    /// The Morton index of the cell of a solid's bounds' centre.
+    fn centre_key(&self, solid: &Solid) -> u64 {
+        let b = &solid.body.bounds;
+        let c = 0.5 * (b.min + b.max);
+        let ix = *Self::span(c.x, c.x, self.pitch.x, self.nx).start();
+        let iy = *Self::span(c.y, c.y, self.pitch.y, self.ny).start();
+        morton(ix, iy)
+    }
+
+    /// The cells (x and y ranges) a solid's bounds cover.
+    fn footprint(&self, solid: &Solid) -> (RangeInclusive<usize>, RangeInclusive<usize>) {
+        let b = &solid.body.bounds;
+        (
+            Self::span(b.min.x, b.max.x, self.pitch.x, self.nx),
+            Self::span(b.min.y, b.max.y, self.pitch.y, self.ny),
+        )
+    }
+}
+
+/// The solids listed per grid cell while the grid is built: the lists in
+/// one flat array (`rec`, `top`), cell `c`'s in
+/// `first[c]..first[c] + len[c]`; no list of its own per cell.
+struct Slots {
+    /// Start of each cell's slots (`nx * ny + 1` entries).
+    first: Vec<usize>,
+    /// Slots used per cell.
+    len: Vec<u32>,
+    /// Record of each slot.
+    rec: Vec<u32>,
+    /// Height of the solid over the cell of each slot (length units).
+    top: Vec<f64>,
+    /// Highest solid over each cell.
+    zmax: Vec<f64>,
+    /// The height up to which some solid fills the grid cell's whole
+    /// column: a flight over the cell (outside every solid) stays above
+    /// it, so a solid wholly below it there is not listed there (buried
+    /// under larger bumps; it is listed wherever it reaches above them).
+    floor: Vec<f64>,
+}
+
+impl Slots {
+    /// Every solid of `order` (records' order) listed in the cells its
+    /// bounds cover where it reaches up, with its exact height there.
+    fn fill(
+        shape: &Shape,
+        solids: &[Solid],
+        order: &[(bool, u64, usize)],
+        record_of: &[u32],
+    ) -> Self {
+        let (nx, ny, pitch) = (shape.nx, shape.ny, shape.pitch);
+        // Each cell's slots are reserved by a first pass over the solids'
+        // bounds (an upper bound: a solid leaves the cells where it does not
+        // reach up).
+        // Both passes visit the solids in the records' order (the
         // Morton order of their centres), so that neighbouring solids write
         // neighbouring cells one after the other: in the solids' own order
         // (random places) every solid's cells were cache misses. Their cell
         // ranges are gathered first, in a loop of independent loads.
-        let ranges: Vec<_> = order.iter().map(|&(_, _, i)| cell_ranges(i)).collect();
+        let ranges: Vec<_> = order
+            .iter()
+            .map(|&(_, _, i)| shape.footprint(&solids[i]))
+            .collect();
         let mut first = vec![0_usize; nx * ny + 1];
         for (xs, ys) in ranges.iter().cloned() {
             for iy in ys {
@@ -330,16 +409,15 @@ impl Grid {
             first[c + 1] += first[c];
         }
         let slots = first[nx * ny];
-        let mut len = vec![0_u32; nx * ny];
-        // Record and height of each slot, in two arrays (no padding).
-        let mut listed_rec = vec![0_u32; slots];
-        let mut listed_top = vec![0.0_f64; slots];
-        let mut zmax = vec![f64::NEG_INFINITY; nx * ny];
-        // The height up to which some solid fills the grid cell's whole
-        // column: a flight over the cell (outside every solid) stays above
-        // it, so a solid wholly below it there is not listed there (buried
-        // under larger bumps; it is listed wherever it reaches above them).
-        let mut floor = vec![f64::NEG_INFINITY; nx * ny];
+        let mut s = Self {
+            first,
+            len: vec![0_u32; nx * ny],
+            // Record and height of each slot, in two arrays (no padding).
+            rec: vec![0_u32; slots],
+            top: vec![0.0_f64; slots],
+            zmax: vec![f64::NEG_INFINITY; nx * ny],
+            floor: vec![f64::NEG_INFINITY; nx * ny],
+        };
         for (&(_, _, i), (xs, ys)) in order.iter().zip(ranges) {
             for iy in ys {
                 for ix in xs.clone() {
@@ -349,14 +427,36 @@ impl Grid {
                         continue;
                     }
                     let c = iy * nx + ix;
-                    let slot = first[c] + len[c] as usize;
-                    (listed_rec[slot], listed_top[slot]) = (record_of[i], top);
-                    len[c] += 1;
-                    zmax[c] = zmax[c].max(top);
-                    floor[c] = floor[c].max(solids[i].covers_over(lo, lo + pitch));
+                    let slot = s.first[c] + s.len[c] as usize;
+                    (s.rec[slot], s.top[slot]) = (record_of[i], top);
+                    s.len[c] += 1;
+                    s.zmax[c] = s.zmax[c].max(top);
+                    s.floor[c] = s.floor[c].max(solids[i].covers_over(lo, lo + pitch));
                 }
             }
         }
+        s
+    }
+
+    /// Buried solids leave their cells' slots (in place, in order).
+    fn drop_buried(&mut self) {
+        for c in 0..self.len.len() {
+            let mut kept = 0;
+            for k in self.first[c]..self.first[c] + self.len[c] as usize {
+                if self.top[k] >= self.floor[c] {
+                    let to = self.first[c] + kept;
+                    (self.rec[to], self.top[to]) = (self.rec[k], self.top[k]);
+                    kept += 1;
+                }
+            }
+            self.len[c] = kept as u32;
+        }
+    }
+
+    /// The grid's cells, items and exact heights: the cells' lists laid
+    /// out in the Morton order of the cells, each tallest first.
+    fn into_cells(self, shape: &Shape, ids: &[RecordId]) -> (Vec<GridCell>, Vec<Item>, Vec<f64>) {
+        let (nx, ny) = (shape.nx, shape.ny);
         let mut cells = vec![
             GridCell {
                 zmax: f64::NEG_INFINITY,
@@ -365,30 +465,18 @@ impl Grid {
             };
             nx * ny
         ];
-        // Buried solids leave their cells' slots (in place, in order).
-        for c in 0..nx * ny {
-            let mut kept = 0;
-            for k in first[c]..first[c] + len[c] as usize {
-                if listed_top[k] >= floor[c] {
-                    let to = first[c] + kept;
-                    (listed_rec[to], listed_top[to]) = (listed_rec[k], listed_top[k]);
-                    kept += 1;
-                }
-            }
-            len[c] = kept as u32;
-        }
-        let kept: usize = len.iter().map(|&n| n as usize).sum();
+        let kept: usize = self.len.iter().map(|&n| n as usize).sum();
         let mut items = Vec::with_capacity(kept);
         let mut exact = Vec::with_capacity(kept);
         let mut l: Vec<(u32, f64)> = Vec::new();
         for c in morton_order(nx, ny) {
             l.clear();
-            let own = first[c]..first[c] + len[c] as usize;
+            let own = self.first[c]..self.first[c] + self.len[c] as usize;
             l.extend(
-                listed_rec[own.clone()]
+                self.rec[own.clone()]
                     .iter()
                     .copied()
-                    .zip(listed_top[own].iter().copied()),
+                    .zip(self.top[own].iter().copied()),
             );
             // Tallest first (ties in the solids' order), so a flight stops
             // scanning at the first solid below it.
@@ -405,22 +493,12 @@ impl Grid {
                 exact.push(top);
             }
             cells[c] = GridCell {
-                zmax: zmax[c],
+                zmax: self.zmax[c],
                 start,
                 end: items.len() as u32,
             };
         }
-        Self {
-            n: [nx, ny],
-            pitch,
-            inv_pitch: pitch.recip(),
-            cells,
-            items,
-            exact,
-            records,
-            ids,
-            record_of,
-        }
+        (cells, items, exact)
     }
 }
 

@@ -547,8 +547,31 @@ impl MicroSurface {
             Relief::Solids(s) => s,
         };
         let ray = Ray::new(o, d);
-        let inv = ray.inv_d;
-        // Where the flight leaves the period's box: the top or a side.
+        let (exit, t_exit) = self.period_exit(&ray);
+        let mut near = Nearest {
+            t: t_exit,
+            hit: None,
+            tests: 0,
+        };
+        s.global_entry(&ray, standing, &mut near);
+        let q = scratch.next_query();
+        s.walk_grid(&ray, standing, &mut scratch.stamp[..], q, &mut near);
+        scratch.tests += near.tests;
+        match near.hit {
+            None => exit,
+            Some((solid, surface)) => Event::Hit {
+                t: near.t,
+                facet: Facet::Solid { solid, surface },
+            },
+        }
+    }
+
+    /// Where a flight starting inside the period leaves the period's box:
+    /// the top or a side ([`Event::Trapped`] at infinity for a flight
+    /// along the plane that leaves by neither), and the distance.
+    #[inline]
+    fn period_exit(&self, ray: &Ray) -> (Event, f64) {
+        let (o, d, inv) = (ray.o, ray.d, ray.inv_d);
         let mut exit = Event::Trapped;
         let mut t_best = f64::INFINITY;
         if d.z > 0.0 {
@@ -570,15 +593,32 @@ impl MicroSurface {
                 exit = Event::Side { t, axis, upper };
             }
         }
-        // The nearest entry so far: (solid, surface).
-        let mut hit: Option<(usize, usize)> = None;
-        let mut tests = 0_u64;
+        (exit, t_best)
+    }
+}
+
+/// The nearest entry into a solid a flight has found so far.
+struct Nearest {
+    /// Its distance, or that of the period's exit while `hit` is `None`.
+    t: f64,
+    /// (solid, surface) entered.
+    hit: Option<(usize, usize)>,
+    /// Intersection tests made (see [`Scratch::tests`]).
+    tests: u64,
+}
+
+impl Solids {
+    /// Test the solids every flight meets (the global ones, unbounded in
+    /// x or y), the substrate first, for an entry nearer than `near`.
+    #[inline]
+    fn global_entry(&self, ray: &Ray, standing: Option<Facet>, near: &mut Nearest) {
+        let (o, d) = (ray.o, ray.d);
         // The substrate (solid 0, always the first global solid) inline: the
         // arithmetic of its body's test of the plane z = 0 (`a = 0`,
         // `b = d.z / 2`, `c = o.z`, entered going down), which a rising
         // flight above it skips, and a flight standing on it never meets.
         if !(d.z >= 0.0 && o.z > 0.0) {
-            tests += 1;
+            near.tests += 1;
             let b = 0.5 * d.z;
             if b < 0.0
                 && standing
@@ -588,65 +628,57 @@ impl MicroSurface {
                     })
             {
                 let t = -o.z / (2.0 * b);
-                if t > 0.0 && t <= t_best {
-                    t_best = t;
-                    hit = Some((0, 0));
+                if t > 0.0 && t <= near.t {
+                    near.t = t;
+                    near.hit = Some((0, 0));
                 }
             }
         }
-        for &i in &s.global[1..] {
+        for &i in &self.global[1..] {
             // A rising flight above a solid's top cannot enter it.
-            if d.z >= 0.0 && o.z > s.list[i].body.bounds.max.z {
+            if d.z >= 0.0 && o.z > self.list[i].body.bounds.max.z {
                 continue;
             }
-            if let Some(e) = s.body_entry(i, &ray, t_best, standing, &mut tests) {
-                t_best = e.t;
-                hit = Some((i, e.surface));
+            if let Some(e) = self.body_entry(i, ray, near.t, standing, &mut near.tests) {
+                near.t = e.t;
+                near.hit = Some((i, e.surface));
             }
         }
-        // Walk the grid cells under the flight (Amanatides & Woo), nearest first.
-        let q = scratch.next_query();
-        let g = &s.grid;
+    }
+
+    /// Walk the grid cells under the flight (Amanatides & Woo), nearest
+    /// first, testing the solids listed in each that reach down to the
+    /// flight there, until the nearest entry is within the cell walked.
+    /// `stamp` and `q`: records already tested by this query are skipped.
+    #[inline]
+    fn walk_grid(
+        &self,
+        ray: &Ray,
+        standing: Option<Facet>,
+        stamp: &mut [u32],
+        q: u32,
+        near: &mut Nearest,
+    ) {
+        let (o, d) = (ray.o, ray.d);
+        let g = &self.grid;
         // The record the flight stands on (a compact one, on its surface), if any.
         let standing_rec = match standing {
             Some(Facet::Solid { solid, surface }) => g.compact(solid, surface),
             _ => None,
         }
         .unwrap_or(usize::MAX);
-        let mut gc_at = [0usize; 2];
-        let mut t_next = [f64::INFINITY; 2];
-        let mut t_delta = [f64::INFINITY; 2];
-        let mut step = [0isize; 2];
-        for k in 0..2 {
-            // o is inside the period, so truncation is the floor (and `as`
-            // saturates; grids have at most 2048 cells a side).
-            let c = ((o[k] * g.inv_pitch[k]) as u32 as usize).min(g.n[k] - 1);
-            gc_at[k] = c;
-            if d[k] > 0.0 {
-                step[k] = 1;
-                t_next[k] = ((c + 1) as f64 * g.pitch[k] - o[k]) * inv[k];
-                t_delta[k] = g.pitch[k] * inv[k];
-            } else if d[k] < 0.0 {
-                step[k] = -1;
-                t_next[k] = (c as f64 * g.pitch[k] - o[k]) * inv[k];
-                t_delta[k] = -g.pitch[k] * inv[k];
-            }
-        }
+        let mut walk = GridWalk::start(g, ray);
         let n_records = g.records.len();
         let rising = d.z >= 0.0;
-        let stamp = &mut scratch.stamp[..];
         let mut t_enter = 0.0_f64;
-        // The distances compared below are never NaN (finite start and
-        // direction), so a plain select makes the comparisons of `f64::min`.
-        let min = |a: f64, b: f64| if b < a { b } else { a };
-        while t_enter <= t_best {
-            let t_leave = min(t_next[0], t_next[1]);
-            let gc = g.cells[gc_at[1] * g.n[0] + gc_at[0]];
+        while t_enter <= near.t {
+            let t_leave = min_of(walk.t_next[0], walk.t_next[1]);
+            let gc = g.cells[walk.at[1] * g.n[0] + walk.at[0]];
             // Lowest point of the flight within this grid cell.
             let z_low = if rising {
                 o.z + t_enter * d.z
             } else {
-                o.z + min(t_leave, t_best) * d.z
+                o.z + min_of(t_leave, near.t) * d.z
             };
             if z_low <= gc.zmax {
                 // An item's f32 height `z_up` (rounded up) is below z_low
@@ -664,48 +696,104 @@ impl MicroSurface {
                     }
                     stamp[r] = q;
                     if r < n_records {
-                        tests += 1;
-                        if let Some((t, ill)) = g.records[r].entry(o, d, t_best, r == standing_rec)
+                        near.tests += 1;
+                        if let Some((t, ill)) = g.records[r].entry(o, d, near.t, r == standing_rec)
                         {
                             let id = g.ids[r];
                             let (solid, surface) = (id.solid as usize, id.surface as usize);
                             // Polish the distance where it is used (see Quadric::refine_root).
-                            t_best = if ill {
-                                s.refine(solid, surface, o, d, t)
+                            near.t = if ill {
+                                self.refine(solid, surface, o, d, t)
                             } else {
                                 t
                             };
-                            hit = Some((solid, surface));
+                            near.hit = Some((solid, surface));
                         }
                     } else {
                         let solid = g.ids[r].solid as usize;
-                        if let Some(e) = s.body_entry(solid, &ray, t_best, standing, &mut tests) {
-                            t_best = e.t;
-                            hit = Some((solid, e.surface));
+                        if let Some(e) =
+                            self.body_entry(solid, ray, near.t, standing, &mut near.tests)
+                        {
+                            near.t = e.t;
+                            near.hit = Some((solid, e.surface));
                         }
                     }
                 }
             }
-            if t_best <= t_leave {
+            if near.t <= t_leave {
                 break;
             }
-            let k = usize::from(t_next[1] < t_next[0]);
-            let c = gc_at[k].wrapping_add_signed(step[k]);
-            if c >= g.n[k] {
-                break;
+            match walk.step(g) {
+                Some(t) => t_enter = t,
+                None => break,
             }
-            gc_at[k] = c;
-            t_enter = t_next[k];
-            t_next[k] += t_delta[k];
         }
-        scratch.tests += tests;
-        match hit {
-            None => exit,
-            Some((solid, surface)) => Event::Hit {
-                t: t_best,
-                facet: Facet::Solid { solid, surface },
-            },
+    }
+}
+
+/// The distances compared in the grid walk are never NaN (finite start and
+/// direction), so a plain select makes the comparisons of `f64::min`.
+#[inline]
+fn min_of(a: f64, b: f64) -> f64 {
+    if b < a { b } else { a }
+}
+
+/// The state of a walk through the grid's cells along a flight
+/// (Amanatides & Woo): the cell it is in and where it crosses the next
+/// cell boundary in x and in y.
+struct GridWalk {
+    /// The cell (x, y).
+    at: [usize; 2],
+    /// Distance to the next boundary crossed in x and in y.
+    t_next: [f64; 2],
+    /// Distance between boundaries in x and in y.
+    t_delta: [f64; 2],
+    /// The step in cells at each crossing (+1, -1, or 0: never crossed).
+    step: [isize; 2],
+}
+
+impl GridWalk {
+    /// The walk of `ray`, which starts inside the period, through grid `g`.
+    #[inline]
+    fn start(g: &grid::Grid, ray: &Ray) -> Self {
+        let (o, d, inv) = (ray.o, ray.d, ray.inv_d);
+        let mut walk = Self {
+            at: [0; 2],
+            t_next: [f64::INFINITY; 2],
+            t_delta: [f64::INFINITY; 2],
+            step: [0; 2],
+        };
+        for k in 0..2 {
+            // o is inside the period, so truncation is the floor (and `as`
+            // saturates; grids have at most 2048 cells a side).
+            let c = ((o[k] * g.inv_pitch[k]) as u32 as usize).min(g.n[k] - 1);
+            walk.at[k] = c;
+            if d[k] > 0.0 {
+                walk.step[k] = 1;
+                walk.t_next[k] = ((c + 1) as f64 * g.pitch[k] - o[k]) * inv[k];
+                walk.t_delta[k] = g.pitch[k] * inv[k];
+            } else if d[k] < 0.0 {
+                walk.step[k] = -1;
+                walk.t_next[k] = (c as f64 * g.pitch[k] - o[k]) * inv[k];
+                walk.t_delta[k] = -g.pitch[k] * inv[k];
+            }
         }
+        walk
+    }
+
+    /// Cross into the next cell: the distance where it is entered, or
+    /// `None` when the flight leaves the grid.
+    #[inline]
+    fn step(&mut self, g: &grid::Grid) -> Option<f64> {
+        let k = usize::from(self.t_next[1] < self.t_next[0]);
+        let c = self.at[k].wrapping_add_signed(self.step[k]);
+        if c >= g.n[k] {
+            return None;
+        }
+        self.at[k] = c;
+        let t_enter = self.t_next[k];
+        self.t_next[k] += self.t_delta[k];
+        Some(t_enter)
     }
 }
 

@@ -197,94 +197,12 @@ impl MuellerFile {
             .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
             .filter(|(_, l)| !l.trim().is_empty());
         let header = lines.next().map_or("", |(_, l)| l);
-        let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
-        let full = MUELLER_HEADER;
-        let matrix = matrix_header();
-        let spectral_of = |h: &str| super::spectral_header(h, "phi_i_deg");
-        let (spectral, normalised) = if header == full {
-            (false, true)
-        } else if header == matrix {
-            (false, false)
-        } else if header == spectral_of(full) {
-            (true, true)
-        } else if header == spectral_of(matrix) {
-            (true, false)
-        } else {
-            return Err(MuellerError {
-                line: 1,
-                problem: MuellerProblem::Header,
-            });
-        };
-        let off = usize::from(spectral);
-        let columns = off
-            + if normalised {
-                53
-            } else {
-                MUELLER_MATRIX_COLUMNS
-            };
+        let (spectral, normalised) = mueller_layout(header)?;
         let mut rows = Vec::new();
         let mut last_line = 1;
         for (line, l) in lines {
             last_line = line;
-            let fail = |problem| MuellerError { line, problem };
-            let f: Vec<&str> = l.split(',').map(str::trim).collect();
-            if f.len() != columns {
-                return Err(fail(MuellerProblem::Columns {
-                    expected: columns,
-                    found: f.len(),
-                }));
-            }
-            let parse = |i: usize, nan_ok: bool| -> Result<f64, MuellerError> {
-                f[i].parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite() || (nan_ok && v.is_nan()))
-                    .ok_or_else(|| {
-                        fail(MuellerProblem::Number {
-                            column: i + 1,
-                            text: shorten(f[i], 40),
-                        })
-                    })
-            };
-            let error = |i: usize, nan_ok: bool| -> Result<f64, MuellerError> {
-                let se = parse(i, nan_ok)?;
-                if se < 0.0 {
-                    return Err(fail(MuellerProblem::Negative {
-                        column: i + 1,
-                        value: se,
-                    }));
-                }
-                Ok(se)
-            };
-            let mut m = [0.0; 16];
-            let mut stderr = [0.0; 16];
-            for k in 0..16 {
-                m[k] = parse(6 + off + 2 * k, false)?;
-                stderr[k] = error(7 + off + 2 * k, false)?;
-            }
-            let normalised_stderr = if normalised {
-                let mut n = [0.0; 16];
-                for (k, v) in n.iter_mut().enumerate().skip(1) {
-                    *v = error(MUELLER_MATRIX_COLUMNS + off + k - 1, true)?;
-                }
-                Some(n)
-            } else {
-                None
-            };
-            rows.push(MuellerRow {
-                line,
-                theta_i_deg: parse(0, false)?,
-                phi_i_deg: parse(1, false)?,
-                wavelength_um: if spectral {
-                    Some(parse(2, false)?)
-                } else {
-                    None
-                },
-                band: f[2 + off].to_owned(),
-                cell: f[3 + off].to_owned(),
-                m,
-                stderr,
-                normalised_stderr,
-            });
+            rows.push(mueller_row(line, l, spectral, normalised)?);
         }
         Ok(Self {
             spectral,
@@ -292,6 +210,108 @@ impl MuellerFile {
             last_line,
         })
     }
+}
+
+/// Whether a `mueller.csv` `header` line (byte-order mark and trailing
+/// blanks dropped) is that of a spectral run, and whether it has the
+/// normalised standard errors.
+fn mueller_layout(header: &str) -> Result<(bool, bool), MuellerError> {
+    let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
+    let full = MUELLER_HEADER;
+    let matrix = matrix_header();
+    let spectral_of = |h: &str| super::spectral_header(h, "phi_i_deg");
+    if header == full {
+        Ok((false, true))
+    } else if header == matrix {
+        Ok((false, false))
+    } else if header == spectral_of(full) {
+        Ok((true, true))
+    } else if header == spectral_of(matrix) {
+        Ok((true, false))
+    } else {
+        Err(MuellerError {
+            line: 1,
+            problem: MuellerProblem::Header,
+        })
+    }
+}
+
+/// Data row `l` (at `line`) of a `mueller.csv` of the layout
+/// [`mueller_layout`] read: the header's column count, finite incidence,
+/// matrix and error numbers (normalised errors: a number or `nan`), errors
+/// `>= 0`.
+fn mueller_row(
+    line: usize,
+    l: &str,
+    spectral: bool,
+    normalised: bool,
+) -> Result<MuellerRow, MuellerError> {
+    let off = usize::from(spectral);
+    let columns = off
+        + if normalised {
+            53
+        } else {
+            MUELLER_MATRIX_COLUMNS
+        };
+    let fail = |problem| MuellerError { line, problem };
+    let f: Vec<&str> = l.split(',').map(str::trim).collect();
+    if f.len() != columns {
+        return Err(fail(MuellerProblem::Columns {
+            expected: columns,
+            found: f.len(),
+        }));
+    }
+    let parse = |i: usize, nan_ok: bool| -> Result<f64, MuellerError> {
+        f[i].parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() || (nan_ok && v.is_nan()))
+            .ok_or_else(|| {
+                fail(MuellerProblem::Number {
+                    column: i + 1,
+                    text: shorten(f[i], 40),
+                })
+            })
+    };
+    let error = |i: usize, nan_ok: bool| -> Result<f64, MuellerError> {
+        let se = parse(i, nan_ok)?;
+        if se < 0.0 {
+            return Err(fail(MuellerProblem::Negative {
+                column: i + 1,
+                value: se,
+            }));
+        }
+        Ok(se)
+    };
+    let mut m = [0.0; 16];
+    let mut stderr = [0.0; 16];
+    for k in 0..16 {
+        m[k] = parse(6 + off + 2 * k, false)?;
+        stderr[k] = error(7 + off + 2 * k, false)?;
+    }
+    let normalised_stderr = if normalised {
+        let mut n = [0.0; 16];
+        for (k, v) in n.iter_mut().enumerate().skip(1) {
+            *v = error(MUELLER_MATRIX_COLUMNS + off + k - 1, true)?;
+        }
+        Some(n)
+    } else {
+        None
+    };
+    Ok(MuellerRow {
+        line,
+        theta_i_deg: parse(0, false)?,
+        phi_i_deg: parse(1, false)?,
+        wavelength_um: if spectral {
+            Some(parse(2, false)?)
+        } else {
+            None
+        },
+        band: f[2 + off].to_owned(),
+        cell: f[3 + off].to_owned(),
+        m,
+        stderr,
+        normalised_stderr,
+    })
 }
 
 /// The first [`MUELLER_MATRIX_COLUMNS`] columns of [`MUELLER_HEADER`].
@@ -615,53 +635,88 @@ impl BrdfTable {
         name: &str,
         wavelength: Option<f64>,
     ) -> Result<Self, MuellerTableError> {
-        let fail = |line: usize, problem| MuellerTableError::Mueller {
+        let fail = |(line, problem)| MuellerTableError::Mueller {
             file: name.to_owned(),
             line,
             problem,
         };
         let at = AtWavelength(wavelength);
+        let blocks = self.mueller_blocks(rows, last_line, at).map_err(fail)?;
+        for i in 0..self.thetas_deg().len() {
+            let inc = self.incidence(i);
+            let block = blocks
+                .iter()
+                .find(|b| b.theta_i_deg == inc.theta_deg && b.phi_i_deg == inc.phi_i_deg)
+                .ok_or_else(|| {
+                    fail((
+                        last_line,
+                        MuellerTableProblem::NoBlock {
+                            theta_i_deg: inc.theta_deg,
+                            phi_i_deg: inc.phi_i_deg,
+                            at,
+                            table: self.file().to_owned(),
+                        },
+                    ))
+                })?;
+            self.attach_block(i, block, last_line, at).map_err(fail)?;
+        }
+        Ok(self)
+    }
+
+    /// The data `rows` of a `mueller.csv` table grouped into blocks of one
+    /// incidence, each the grid's cells in order, one block per incidence
+    /// of this table; or the line and problem of the first failure
+    /// (`last_line`: the file's last).
+    fn mueller_blocks(
+        &self,
+        rows: &[&MuellerRow],
+        last_line: usize,
+        at: AtWavelength,
+    ) -> Result<Vec<MuellerBlock>, (usize, MuellerTableProblem)> {
         let n = self.grid().n_cells();
-        // Per block: theta_i_deg, phi_i_deg, matrices per cell, their lines.
-        type MuellerBlock = (f64, f64, Vec<[f64; 16]>, Vec<usize>);
         let mut blocks: Vec<MuellerBlock> = Vec::new();
         for row in rows {
             let (line, theta, phi) = (row.line, row.theta_i_deg, row.phi_i_deg);
-            if blocks.last().is_none_or(|b| b.2.len() == n) {
-                blocks.push((theta, phi, Vec::with_capacity(n), Vec::with_capacity(n)));
+            if blocks.last().is_none_or(|b| b.m.len() == n) {
+                blocks.push(MuellerBlock {
+                    theta_i_deg: theta,
+                    phi_i_deg: phi,
+                    m: Vec::with_capacity(n),
+                    lines: Vec::with_capacity(n),
+                });
             }
             let block = blocks.last_mut().expect("pushed");
-            if (theta, phi) != (block.0, block.1) {
-                return Err(fail(
+            if (theta, phi) != (block.theta_i_deg, block.phi_i_deg) {
+                return Err((
                     line,
                     MuellerTableProblem::BlockEnds {
-                        theta_i_deg: block.0,
+                        theta_i_deg: block.theta_i_deg,
                         at,
-                        found: block.2.len(),
+                        found: block.m.len(),
                         cells: n,
                     },
                 ));
             }
-            let (band, cell) = self.grid().band_cell(block.2.len());
+            let (band, cell) = self.grid().band_cell(block.m.len());
             if row.band != band.to_string() || row.cell != cell.to_string() {
-                return Err(fail(line, MuellerTableProblem::Order { band, cell }));
+                return Err((line, MuellerTableProblem::Order { band, cell }));
             }
-            block.2.push(row.m);
-            block.3.push(line);
+            block.m.push(row.m);
+            block.lines.push(line);
         }
-        if let Some(b) = blocks.last().filter(|b| b.2.len() != n) {
-            return Err(fail(
+        if let Some(b) = blocks.last().filter(|b| b.m.len() != n) {
+            return Err((
                 last_line,
                 MuellerTableProblem::Incomplete {
-                    theta_i_deg: b.0,
+                    theta_i_deg: b.theta_i_deg,
                     at,
-                    found: b.2.len(),
+                    found: b.m.len(),
                     cells: n,
                 },
             ));
         }
         if blocks.len() != self.thetas_deg().len() {
-            return Err(fail(
+            return Err((
                 last_line,
                 MuellerTableProblem::Blocks {
                     found: blocks.len(),
@@ -671,81 +726,93 @@ impl BrdfTable {
                 },
             ));
         }
-        for i in 0..self.thetas_deg().len() {
-            let inc = self.incidence(i);
-            let block = blocks
-                .iter()
-                .find(|b| b.0 == inc.theta_deg && b.1 == inc.phi_i_deg)
-                .ok_or_else(|| {
-                    fail(
+        Ok(blocks)
+    }
+
+    /// Attach `block` to incidence `i`: every matrix realisable, `m00`
+    /// the table's BRDF (or, for a polarised incident state, the table's
+    /// fractions set from `m00`), the matrices kept normalised by `m00`;
+    /// or the line and problem of the first failure.
+    fn attach_block(
+        &mut self,
+        i: usize,
+        block: &MuellerBlock,
+        last_line: usize,
+        at: AtWavelength,
+    ) -> Result<(), (usize, MuellerTableProblem)> {
+        let n = self.grid().n_cells();
+        let theta_i_deg = self.incidence(i).theta_deg;
+        for (flat, m) in block.m.iter().enumerate() {
+            if let Some(why) = crate::optics::brdf_table::unrealisable(m) {
+                return Err((
+                    block.lines[flat],
+                    MuellerTableProblem::Unrealisable {
+                        theta_i_deg,
+                        at,
+                        cell: flat,
+                        why,
+                    },
+                ));
+            }
+        }
+        let brdfs: Vec<f64> = (0..n).map(|flat| self.cell_brdf(i, flat)).collect();
+        match incident_state(&block.m, &brdfs) {
+            Err(flat) => {
+                return Err((
+                    block.lines[flat],
+                    MuellerTableProblem::M00 {
+                        theta_i_deg,
+                        at,
+                        cell: flat,
+                        m00: block.m[flat][0],
+                        brdf: brdfs[flat],
+                        table: self.file().to_owned(),
+                    },
+                ));
+            }
+            // A polarised incident state: the wall meets every state, so
+            // it samples the unpolarised BRDF, m00.
+            Ok(Some(_)) => {
+                let fractions = (0..n)
+                    .map(|flat| block.m[flat][0] * self.cell_proj(flat))
+                    .collect();
+                self.set_fractions(i, fractions).map_err(|total| {
+                    (
                         last_line,
-                        MuellerTableProblem::NoBlock {
-                            theta_i_deg: inc.theta_deg,
-                            phi_i_deg: inc.phi_i_deg,
+                        MuellerTableProblem::M00Above {
+                            theta_i_deg,
                             at,
-                            table: self.file().to_owned(),
+                            total,
                         },
                     )
                 })?;
-            for (flat, m) in block.2.iter().enumerate() {
-                if let Some(why) = crate::optics::brdf_table::unrealisable(m) {
-                    return Err(fail(
-                        block.3[flat],
-                        MuellerTableProblem::Unrealisable {
-                            theta_i_deg: inc.theta_deg,
-                            at,
-                            cell: flat,
-                            why,
-                        },
-                    ));
-                }
             }
-            let brdfs: Vec<f64> = (0..n).map(|flat| self.cell_brdf(i, flat)).collect();
-            match incident_state(&block.2, &brdfs) {
-                Err(flat) => {
-                    return Err(fail(
-                        block.3[flat],
-                        MuellerTableProblem::M00 {
-                            theta_i_deg: inc.theta_deg,
-                            at,
-                            cell: flat,
-                            m00: block.2[flat][0],
-                            brdf: brdfs[flat],
-                            table: self.file().to_owned(),
-                        },
-                    ));
-                }
-                // A polarised incident state: the wall meets every state, so
-                // it samples the unpolarised BRDF, m00.
-                Ok(Some(_)) => {
-                    let fractions = (0..n)
-                        .map(|flat| block.2[flat][0] * self.cell_proj(flat))
-                        .collect();
-                    self.set_fractions(i, fractions).map_err(|total| {
-                        fail(
-                            last_line,
-                            MuellerTableProblem::M00Above {
-                                theta_i_deg: inc.theta_deg,
-                                at,
-                                total,
-                            },
-                        )
-                    })?;
-                }
-                Ok(None) => {}
-            }
-            let mut normalised = Vec::with_capacity(n);
-            for m in &block.2 {
-                normalised.push(if m[0] > 0.0 {
-                    m.map(|v| v / m[0])
-                } else {
-                    [0.0; 16]
-                });
-            }
-            self.set_mueller(i, normalised);
+            Ok(None) => {}
         }
-        Ok(self)
+        let mut normalised = Vec::with_capacity(n);
+        for m in &block.m {
+            normalised.push(if m[0] > 0.0 {
+                m.map(|v| v / m[0])
+            } else {
+                [0.0; 16]
+            });
+        }
+        self.set_mueller(i, normalised);
+        Ok(())
     }
+}
+
+/// The rows of one incidence in a `mueller.csv`, while they are checked
+/// against a BRDF table.
+struct MuellerBlock {
+    /// Angle of incidence (degrees).
+    theta_i_deg: f64,
+    /// Light azimuth (degrees).
+    phi_i_deg: f64,
+    /// The matrix of each cell so far (grid order).
+    m: Vec<[f64; 16]>,
+    /// The line of each.
+    lines: Vec<usize>,
 }
 
 /// The incident state of the run that wrote `brdfs` (a `brdf.csv` block's

@@ -1,7 +1,9 @@
 //! Equal-area maps of a quantity over the hemisphere of outgoing directions
 //! ([`HemisphereMap`]): `hemisphere_*`, `dop_*` and `colour_*` pictures.
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{TickFormat, encode_png, log_ticks, register_font, ticks};
 use crate::tally::CarlsonGrid;
@@ -265,15 +267,31 @@ impl HemisphereMap {
     /// Rings, ticks, markers, labels, title, the colour bar's scale and the
     /// key of cells without a value.
     fn overlay(&self, buf: &mut [u8], key: bool) -> Result<(), super::DrawError> {
-        use plotters::style::text_anchor::{HPos, Pos, VPos};
-        let (lo, hi) = self.range();
         let root = BitMapBackend::with_buffer(buf, (MAP_W, MAP_H)).into_drawing_area();
-        let text = |size: u32, colour: RGBColor, h: HPos| {
-            ("sans-serif", size)
-                .into_font()
-                .color(&colour)
-                .pos(Pos::new(h, VPos::Center))
-        };
+        self.draw_axes(&root)?;
+        self.draw_heading(&root)?;
+        self.draw_colour_bar(&root, key)?;
+        root.present()?;
+        Ok(())
+    }
+
+    /// Black or white sans-serif text of `size` pixels, anchored at `h`
+    /// and centred vertically on its position.
+    fn text(size: u32, colour: RGBColor, h: HPos) -> TextStyle<'static> {
+        ("sans-serif", size)
+            .into_font()
+            .color(&colour)
+            .pos(Pos::new(h, VPos::Center))
+    }
+
+    /// Rings of constant theta, azimuth ticks and their labels, and the
+    /// markers of the specular direction and of the direction toward the
+    /// light.
+    fn draw_axes(
+        &self,
+        root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    ) -> Result<(), super::DrawError> {
+        let text = Self::text;
         let (cx, cy) = (MAP_CX.round() as i32, MAP_CY.round() as i32);
         // Rings of constant theta; labels along phi = 90 degrees.
         for (deg, colour) in [(30.0, WHITE), (60.0, WHITE), (90.0, BLACK)] {
@@ -324,7 +342,15 @@ impl HemisphereMap {
                 root.draw(&PathElement::new(vec![p(a), p(b)], WHITE.stroke_width(2)))?;
             }
         }
-        // Title and legend.
+        Ok(())
+    }
+
+    /// The title and, below it, the legend of the projection and markers.
+    fn draw_heading(
+        &self,
+        root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    ) -> Result<(), super::DrawError> {
+        let text = Self::text;
         let title = super::title_lines(&self.title, 80);
         for (k, l) in title.iter().enumerate() {
             root.draw(&Text::new(
@@ -350,7 +376,18 @@ impl HemisphereMap {
                 text(13, BLACK, HPos::Center),
             ))?;
         }
-        // Colour bar frame, ticks and label.
+        Ok(())
+    }
+
+    /// The colour bar's frame, label, scale and ticks, and (`key`: some
+    /// cell has no value) the key of the cells without a value.
+    fn draw_colour_bar(
+        &self,
+        root: &DrawingArea<BitMapBackend<'_>, Shift>,
+        key: bool,
+    ) -> Result<(), super::DrawError> {
+        let text = Self::text;
+        let (lo, hi) = self.range();
         let (bx0, bx1) = (BAR_X.0 as i32, BAR_X.1 as i32);
         let (by0, by1) = (BAR_Y.0 as i32, BAR_Y.1 as i32);
         root.draw(&Rectangle::new(
@@ -393,7 +430,6 @@ impl HemisphereMap {
                 text(13, BLACK, HPos::Left),
             ))?;
         }
-        root.present()?;
         Ok(())
     }
 

@@ -3,6 +3,8 @@
 //! in a column beside the data, no line across a point without a value,
 //! unique tick labels.
 
+use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use super::{Rect, TickFormat, encode_png, log_ticks, register_font, ticks};
@@ -233,15 +235,8 @@ impl LinePlot {
     }
 
     fn draw(&self, buf: &mut [u8], width: u32, height: u32) -> Result<(), super::DrawError> {
-        use plotters::style::text_anchor::{HPos, Pos, VPos};
         let root = BitMapBackend::with_buffer(buf, (width, height)).into_drawing_area();
         root.fill(&WHITE)?;
-        let centred = |size: u32| {
-            ("sans-serif", size)
-                .into_font()
-                .color(&BLACK)
-                .pos(Pos::new(HPos::Center, VPos::Center))
-        };
         let title = super::title_lines(&self.title, (width / 11) as usize);
         for (k, l) in title.iter().enumerate() {
             let (y, size) = match (title.len(), k) {
@@ -252,7 +247,7 @@ impl LinePlot {
             root.draw(&Text::new(l.clone(), (width as i32 / 2, y), centred(size)))?;
         }
         let ((x0, x1), (y0, y1)) = self.ranges();
-        let (tx, ty) = self.axis_ticks();
+        let ticks = self.axis_ticks();
         let layout = self.layout(width, height);
         let mut first = 0;
         for (series, (chart_r, legend_r)) in self.panels().into_iter().zip(&layout.panels) {
@@ -279,75 +274,9 @@ impl LinePlot {
                 .y_desc(&self.y_label)
                 .axis_desc_style(("sans-serif", 14))
                 .draw()?;
-            let grid = RGBColor(220, 220, 220);
-            for (t, _) in &ty {
-                chart.draw_series(LineSeries::new([(x0, *t), (x1, *t)], grid.stroke_width(1)))?;
-            }
-            for (t, _) in &tx {
-                chart.draw_series(LineSeries::new([(*t, y0), (*t, y1)], grid.stroke_width(1)))?;
-            }
-            let tick = |h: HPos, v: VPos| {
-                ("sans-serif", 14)
-                    .into_font()
-                    .color(&BLACK)
-                    .pos(Pos::new(h, v))
-            };
-            for (t, label) in &ty {
-                let (px, py) = chart.backend_coord(&(x0, *t));
-                root.draw(&PathElement::new(
-                    vec![(px - 5, py), (px, py)],
-                    BLACK.stroke_width(1),
-                ))?;
-                root.draw(&Text::new(
-                    label.clone(),
-                    (px - 8, py),
-                    tick(HPos::Right, VPos::Center),
-                ))?;
-            }
-            for (t, label) in &tx {
-                let (px, py) = chart.backend_coord(&(*t, y0));
-                root.draw(&PathElement::new(
-                    vec![(px, py), (px, py + 5)],
-                    BLACK.stroke_width(1),
-                ))?;
-                root.draw(&Text::new(
-                    label.clone(),
-                    (px, py + 8),
-                    tick(HPos::Center, VPos::Top),
-                ))?;
-            }
-            for (k, s) in series.iter().enumerate() {
-                let colour = Self::colour(k);
-                for run in self.segments(s) {
-                    chart.draw_series(LineSeries::new(
-                        run.iter().map(|p| (p.0, p.1)),
-                        colour.stroke_width(2),
-                    ))?;
-                    chart.draw_series(
-                        run.iter()
-                            .map(|p| Circle::new((p.0, p.1), 3, colour.filled())),
-                    )?;
-                    chart.draw_series(run.iter().filter(|p| p.3 > p.2).map(|p| {
-                        ErrorBar::new_vertical(p.0, p.2, p.1, p.3, colour.stroke_width(1), 6)
-                    }))?;
-                }
-            }
-            // The legend, in its own column.
-            let label = ("sans-serif", 14)
-                .into_font()
-                .color(&BLACK)
-                .pos(Pos::new(HPos::Left, VPos::Center));
-            for (k, s) in series.iter().enumerate() {
-                let colour = Self::colour(k);
-                let y = legend_r.y0 + 20 + LEGEND_ROW * k as i32;
-                let x = legend_r.x0 + 6;
-                root.draw(&PathElement::new(
-                    vec![(x, y), (x + 24, y)],
-                    colour.stroke_width(2),
-                ))?;
-                root.draw(&Circle::new((x + 12, y), 3, colour.filled()))?;
-                root.draw(&Text::new(s.label.clone(), (x + 32, y), label.clone()))?;
-            }
+            draw_ticks(&root, &mut chart, ((x0, x1), (y0, y1)), &ticks)?;
+            self.draw_curves(&mut chart, series)?;
+            draw_legend(&root, legend_r, series)?;
             first += series.len();
         }
         debug_assert_eq!(first, self.series.len());
@@ -366,6 +295,121 @@ impl LinePlot {
         root.present()?;
         Ok(())
     }
+
+    /// Draw each of `series` (one panel's) in its colour: its runs of
+    /// points joined, the points, their error bars.
+    fn draw_curves(
+        &self,
+        chart: &mut Chart<'_, '_>,
+        series: &[Series],
+    ) -> Result<(), super::DrawError> {
+        for (k, s) in series.iter().enumerate() {
+            let colour = Self::colour(k);
+            for run in self.segments(s) {
+                chart.draw_series(LineSeries::new(
+                    run.iter().map(|p| (p.0, p.1)),
+                    colour.stroke_width(2),
+                ))?;
+                chart.draw_series(
+                    run.iter()
+                        .map(|p| Circle::new((p.0, p.1), 3, colour.filled())),
+                )?;
+                chart.draw_series(run.iter().filter(|p| p.3 > p.2).map(|p| {
+                    ErrorBar::new_vertical(p.0, p.2, p.1, p.3, colour.stroke_width(1), 6)
+                }))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A panel's chart: plotted x and y coordinates on the picture.
+type Chart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Black sans-serif text of `size` pixels centred on its position.
+fn centred(size: u32) -> TextStyle<'static> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    ("sans-serif", size)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Center, VPos::Center))
+}
+
+/// Draw the grid lines of `ticks` (x, y) across `chart` (axis ranges
+/// `((x0, x1), (y0, y1))`, plotted coordinates), and the tick marks and
+/// their labels on `root` beside its axes.
+fn draw_ticks(
+    root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    chart: &mut Chart<'_, '_>,
+    ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
+    (tx, ty): &(Ticks, Ticks),
+) -> Result<(), super::DrawError> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let grid = RGBColor(220, 220, 220);
+    for (t, _) in ty {
+        chart.draw_series(LineSeries::new([(x0, *t), (x1, *t)], grid.stroke_width(1)))?;
+    }
+    for (t, _) in tx {
+        chart.draw_series(LineSeries::new([(*t, y0), (*t, y1)], grid.stroke_width(1)))?;
+    }
+    let tick = |h: HPos, v: VPos| {
+        ("sans-serif", 14)
+            .into_font()
+            .color(&BLACK)
+            .pos(Pos::new(h, v))
+    };
+    for (t, label) in ty {
+        let (px, py) = chart.backend_coord(&(x0, *t));
+        root.draw(&PathElement::new(
+            vec![(px - 5, py), (px, py)],
+            BLACK.stroke_width(1),
+        ))?;
+        root.draw(&Text::new(
+            label.clone(),
+            (px - 8, py),
+            tick(HPos::Right, VPos::Center),
+        ))?;
+    }
+    for (t, label) in tx {
+        let (px, py) = chart.backend_coord(&(*t, y0));
+        root.draw(&PathElement::new(
+            vec![(px, py), (px, py + 5)],
+            BLACK.stroke_width(1),
+        ))?;
+        root.draw(&Text::new(
+            label.clone(),
+            (px, py + 8),
+            tick(HPos::Center, VPos::Top),
+        ))?;
+    }
+    Ok(())
+}
+
+/// Draw the legend of `series` (one panel's) in its own column `legend_r`
+/// of `root`: per curve its line and point in its colour, and its label.
+fn draw_legend(
+    root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    legend_r: &Rect,
+    series: &[Series],
+) -> Result<(), super::DrawError> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let label = ("sans-serif", 14)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    for (k, s) in series.iter().enumerate() {
+        let colour = LinePlot::colour(k);
+        let y = legend_r.y0 + 20 + LEGEND_ROW * k as i32;
+        let x = legend_r.x0 + 6;
+        root.draw(&PathElement::new(
+            vec![(x, y), (x + 24, y)],
+            colour.stroke_width(2),
+        ))?;
+        root.draw(&Circle::new((x + 12, y), 3, colour.filled()))?;
+        root.draw(&Text::new(s.label.clone(), (x + 32, y), label.clone()))?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -2,7 +2,9 @@
 //! `mueller_<theta>deg.png` and `mueller_stderr_<theta>deg.png`): a 4 x 4
 //! grid of equal-area maps, one per element.
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::hemisphere::{NO_VALUE, paint_disc, viridis};
 use super::{TickFormat, encode_png, register_font, ticks};
@@ -179,14 +181,16 @@ impl MuellerMaps {
     }
 
     fn overlay(&self, buf: &mut [u8], empty: bool) -> Result<(), super::DrawError> {
-        use plotters::style::text_anchor::{HPos, Pos, VPos};
         let root = BitMapBackend::with_buffer(buf, (W, H)).into_drawing_area();
-        let text = |size: u32, h: HPos| {
-            ("sans-serif", size)
-                .into_font()
-                .color(&BLACK)
-                .pos(Pos::new(h, VPos::Center))
-        };
+        self.draw_heading(&root)?;
+        self.draw_panel_frames(&root)?;
+        self.draw_colour_bar(&root, empty)?;
+        root.present()?;
+        Ok(())
+    }
+
+    /// The title and, below it, what the panels show.
+    fn draw_heading(&self, root: &Root<'_>) -> Result<(), super::DrawError> {
         let title = super::title_lines(&self.title, 110);
         for (k, l) in title.iter().enumerate() {
             root.draw(&Text::new(
@@ -217,6 +221,12 @@ impl MuellerMaps {
             (W as i32 / 2, below + 17),
             text(13, HPos::Center),
         ))?;
+        Ok(())
+    }
+
+    /// Each of the 16 panels' outline, name and ring at the specular
+    /// direction.
+    fn draw_panel_frames(&self, root: &Root<'_>) -> Result<(), super::DrawError> {
         let spec_theta = self.theta_i_deg.to_radians();
         let rho = R * super::hemisphere::equal_area_radius(spec_theta);
         let (s, c) = (self.phi_i_deg + 180.0).to_radians().sin_cos();
@@ -244,6 +254,12 @@ impl MuellerMaps {
             root.draw(&Circle::new(spec, 7, BLACK.stroke_width(3)))?;
             root.draw(&Circle::new(spec, 7, WHITE.stroke_width(1)))?;
         }
+        Ok(())
+    }
+
+    /// The colour bar's frame, labels and ticks, and (`empty`: some cell
+    /// has no light) the key of the cells without a value.
+    fn draw_colour_bar(&self, root: &Root<'_>, empty: bool) -> Result<(), super::DrawError> {
         root.draw(&Rectangle::new(
             [(BAR_X - 1, BAR.0 - 1), (BAR_X + 24, BAR.1 + 1)],
             BLACK.stroke_width(1),
@@ -308,9 +324,20 @@ impl MuellerMaps {
                 text(13, HPos::Left),
             ))?;
         }
-        root.present()?;
         Ok(())
     }
+}
+
+/// The picture being drawn on.
+type Root<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// Black sans-serif text of `size` pixels, anchored at `h` and centred
+/// vertically on its position.
+fn text(size: u32, h: HPos) -> TextStyle<'static> {
+    ("sans-serif", size)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(h, VPos::Center))
 }
 
 #[cfg(test)]

@@ -2,7 +2,9 @@
 //! `roks brdf` and `roks stats --png`): its height map seen from above with
 //! its statistics.
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{TickFormat, encode_png, register_font, ticks, viridis};
 use crate::micro::surface_stats::HeightMap;
@@ -128,19 +130,33 @@ impl SurfacePicture<'_> {
         (pw, ph): (u32, u32),
         (lo, hi): (f64, f64),
     ) -> Result<(), super::DrawError> {
-        use plotters::style::text_anchor::{HPos, Pos, VPos};
         let root = BitMapBackend::with_buffer(buf, (W, H)).into_drawing_area();
-        let text = |size: u32, h: HPos, v: VPos| {
-            ("sans-serif", size)
-                .into_font()
-                .color(&BLACK)
-                .pos(Pos::new(h, v))
-        };
         root.draw(&Text::new(
             self.title.clone(),
             (W as i32 / 2, 22),
             text(18, HPos::Center, VPos::Center),
         ))?;
+        self.draw_map_axes(&root, (pw, ph))?;
+        draw_height_bar(&root, (lo, hi))?;
+        let y0 = MAP_Y as i32;
+        for (k, l) in self.stats_lines().iter().enumerate() {
+            root.draw(&Text::new(
+                l.clone(),
+                (BAR_X as i32 + 110, y0 + 10 + 24 * k as i32),
+                text(14, HPos::Left, VPos::Center),
+            ))?;
+        }
+        root.present()?;
+        Ok(())
+    }
+
+    /// The frame of the map (`pw x ph` pixels), its x and y ticks in
+    /// scene units, and the axis labels.
+    fn draw_map_axes(
+        &self,
+        root: &DrawingArea<BitMapBackend<'_>, Shift>,
+        (pw, ph): (u32, u32),
+    ) -> Result<(), super::DrawError> {
         let (x0, y0) = (MAP_X as i32, MAP_Y as i32);
         let (x1, y1) = (x0 + pw as i32, y0 + ph as i32);
         root.draw(&Rectangle::new(
@@ -193,44 +209,52 @@ impl SurfacePicture<'_> {
                 .transform(FontTransform::Rotate270)
                 .pos(Pos::new(HPos::Center, VPos::Center)),
         ))?;
-        // Colour bar of heights.
-        let (bx, by0, by1) = (BAR_X as i32, y0, y0 + SIDE as i32 - 1);
-        root.draw(&Rectangle::new(
-            [(bx - 1, by0 - 1), (bx + 24, by1 + 1)],
+        Ok(())
+    }
+}
+
+/// Black sans-serif text of `size` pixels anchored at `(h, v)`.
+fn text(size: u32, h: HPos, v: VPos) -> TextStyle<'static> {
+    ("sans-serif", size)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(h, v))
+}
+
+/// The colour bar of heights `lo..=hi` (scene units): frame, label and
+/// ticks.
+fn draw_height_bar(
+    root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    (lo, hi): (f64, f64),
+) -> Result<(), super::DrawError> {
+    let (bx, by0, by1) = (BAR_X as i32, MAP_Y as i32, MAP_Y as i32 + SIDE as i32 - 1);
+    root.draw(&Rectangle::new(
+        [(bx - 1, by0 - 1), (bx + 24, by1 + 1)],
+        BLACK.stroke_width(1),
+    ))?;
+    root.draw(&Text::new(
+        "height (scene units)",
+        (bx + 12, by0 - 14),
+        text(14, HPos::Center, VPos::Center),
+    ))?;
+    let th: Vec<f64> = ticks(lo, hi, 6)
+        .into_iter()
+        .filter(|t| (lo..=hi).contains(t))
+        .collect();
+    let fh = TickFormat::for_ticks(&th, false);
+    for t in &th {
+        let y = by1 - ((t - lo) / (hi - lo) * f64::from(SIDE - 1)).round() as i32;
+        root.draw(&PathElement::new(
+            vec![(bx + 24, y), (bx + 30, y)],
             BLACK.stroke_width(1),
         ))?;
         root.draw(&Text::new(
-            "height (scene units)",
-            (bx + 12, by0 - 14),
-            text(14, HPos::Center, VPos::Center),
+            fh.label(*t),
+            (bx + 33, y),
+            text(13, HPos::Left, VPos::Center),
         ))?;
-        let th: Vec<f64> = ticks(lo, hi, 6)
-            .into_iter()
-            .filter(|t| (lo..=hi).contains(t))
-            .collect();
-        let fh = TickFormat::for_ticks(&th, false);
-        for t in &th {
-            let y = by1 - ((t - lo) / (hi - lo) * f64::from(SIDE - 1)).round() as i32;
-            root.draw(&PathElement::new(
-                vec![(bx + 24, y), (bx + 30, y)],
-                BLACK.stroke_width(1),
-            ))?;
-            root.draw(&Text::new(
-                fh.label(*t),
-                (bx + 33, y),
-                text(13, HPos::Left, VPos::Center),
-            ))?;
-        }
-        for (k, l) in self.stats_lines().iter().enumerate() {
-            root.draw(&Text::new(
-                l.clone(),
-                (BAR_X as i32 + 110, y0 + 10 + 24 * k as i32),
-                text(14, HPos::Left, VPos::Center),
-            ))?;
-        }
-        root.present()?;
-        Ok(())
     }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -833,77 +833,14 @@ impl MicroSceneSpec {
             EdgesSpec::Absorbing => Edges::Absorbing,
             EdgesSpec::Reflecting => Edges::Reflecting,
         };
-        let field = match &self.surface.heightfield {
-            Some(hf) => {
-                for (key, given) in [
-                    ("bumps", !self.bumps.is_empty()),
-                    ("bodies", !self.bodies.is_empty()),
-                    ("quadrics", !self.quadrics.is_empty()),
-                ] {
-                    if given {
-                        return Err(scene_file.error(
-                            key,
-                            "cannot be combined with surface.heightfield (the height field is the whole surface)",
-                        ));
-                    }
-                }
-                if edges != Edges::Periodic {
-                    return Err(scene_file.error(
-                        "surface.edges",
-                        "a height field is periodic: edges must be \"periodic\"",
-                    ));
-                }
-                Some(hf.build(&scene_file, given_size)?)
-            }
-            None => None,
-        };
+        let field = self.height_field(&scene_file, given_size, edges)?;
         let size = match (given_size, &field) {
             (_, Some(f)) => f.size,
             (Some(size), None) => size,
             (None, None) => return Err(scene_file.error("surface.size", "missing")),
         };
-
-        let mut placed = Vec::new();
-        // Estimated bytes of the built surface so far (see `placed_cost`).
-        let mut bytes = 0;
-        for (t, spec) in self.bumps.iter().enumerate() {
-            let material = match &spec.material {
-                Some(m) => material_index(&scene_file, &names, m, &format!("bumps[{t}].material"))?,
-                None => substrate,
-            };
-            placed.extend(spec.populate(&scene_file, t, size, edges, material, &mut bytes)?);
-        }
-
-        let mut quadrics = BTreeMap::new();
-        for (name, q) in &self.quadrics {
-            quadrics.insert(
-                name.clone(),
-                q.build(&scene_file, &format!("quadrics.{name}"))?,
-            );
-        }
-        for (b, spec) in self.bodies.iter().enumerate() {
-            let key = format!("bodies[{b}]");
-            let material = match &spec.material {
-                Some(m) => material_index(&scene_file, &names, m, &format!("{key}.material"))?,
-                None => substrate,
-            };
-            placed.push(explicit_body(
-                &scene_file,
-                &key,
-                spec,
-                &quadrics,
-                size,
-                material,
-            )?);
-        }
-
-        let random = self.bodies.is_empty()
-            && (self
-                .surface
-                .heightfield
-                .as_ref()
-                .is_some_and(|f| f.file.is_none())
-                || !self.bumps.is_empty());
+        let (placed, bytes) = self.place_solids(&scene_file, &names, substrate, size, edges)?;
+        let random = self.is_random();
         let more_realisations = self.more_realisations(
             &scene_file,
             (size, edges),
@@ -945,6 +882,94 @@ impl MicroSceneSpec {
         };
         scene.check_run_memory(&scene.run)?;
         Ok(scene)
+    }
+
+    /// The `surface.heightfield`, if given, built (over `given_size`, if
+    /// given): refused with bumps, bodies or quadrics (the height field is
+    /// the whole surface) and with edges other than periodic.
+    fn height_field(
+        &self,
+        scene_file: &SceneFile,
+        given_size: Option<DVec2>,
+        edges: Edges,
+    ) -> Result<Option<HeightField>, SceneError> {
+        let Some(hf) = &self.surface.heightfield else {
+            return Ok(None);
+        };
+        for (key, given) in [
+            ("bumps", !self.bumps.is_empty()),
+            ("bodies", !self.bodies.is_empty()),
+            ("quadrics", !self.quadrics.is_empty()),
+        ] {
+            if given {
+                return Err(scene_file.error(
+                    key,
+                    "cannot be combined with surface.heightfield (the height field is the whole surface)",
+                ));
+            }
+        }
+        if edges != Edges::Periodic {
+            return Err(scene_file.error(
+                "surface.edges",
+                "a height field is periodic: edges must be \"periodic\"",
+            ));
+        }
+        Some(hf.build(scene_file, given_size)).transpose()
+    }
+
+    /// The solids over a period of `size`: every `[[bumps]]` table's bumps
+    /// placed, then the `[[bodies]]` over `[quadrics]` (material
+    /// `substrate` unless given); with the estimated bytes of the bumps'
+    /// surface (see `placed_cost`).
+    fn place_solids(
+        &self,
+        scene_file: &SceneFile,
+        names: &[String],
+        substrate: usize,
+        size: DVec2,
+        edges: Edges,
+    ) -> Result<(Vec<Placed>, u64), SceneError> {
+        let mut placed = Vec::new();
+        // Estimated bytes of the built surface so far (see `placed_cost`).
+        let mut bytes = 0;
+        for (t, spec) in self.bumps.iter().enumerate() {
+            let material = match &spec.material {
+                Some(m) => material_index(scene_file, names, m, &format!("bumps[{t}].material"))?,
+                None => substrate,
+            };
+            placed.extend(spec.populate(scene_file, t, size, edges, material, &mut bytes)?);
+        }
+
+        let mut quadrics = BTreeMap::new();
+        for (name, q) in &self.quadrics {
+            quadrics.insert(
+                name.clone(),
+                q.build(scene_file, &format!("quadrics.{name}"))?,
+            );
+        }
+        for (b, spec) in self.bodies.iter().enumerate() {
+            let key = format!("bodies[{b}]");
+            let material = match &spec.material {
+                Some(m) => material_index(scene_file, names, m, &format!("{key}.material"))?,
+                None => substrate,
+            };
+            placed.push(explicit_body(
+                scene_file, &key, spec, &quadrics, size, material,
+            )?);
+        }
+        Ok((placed, bytes))
+    }
+
+    /// Whether the surface is drawn at random (a generated height field or
+    /// bump tables, and no explicit bodies).
+    fn is_random(&self) -> bool {
+        self.bodies.is_empty()
+            && (self
+                .surface
+                .heightfield
+                .as_ref()
+                .is_some_and(|f| f.file.is_none())
+                || !self.bumps.is_empty())
     }
 }
 
@@ -1134,26 +1159,6 @@ impl HeightFieldSpec {
         scene_file: &SceneFile,
         size: Option<DVec2>,
     ) -> Result<HeightField, SceneError> {
-        let key = |k: &str| format!("surface.heightfield.{k}");
-        let refuse = |k: &str, given: bool, what: &str| {
-            if given {
-                Err(scene_file.error(key(k), format!("applies to {what} only")))
-            } else {
-                Ok(())
-            }
-        };
-        let positive = |k: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(v)
-            } else {
-                Err(scene_file.error(key(k), format!("must be > 0, got {}", Num(v))))
-            }
-        };
-        let length = |k: &str, v: f64| {
-            let v = positive(k, v)?;
-            length_bounds(v).map_err(|e| scene_file.error(key(k), e))?;
-            Ok(v)
-        };
         match (&self.gaussian, &self.file) {
             (Some(_), Some(_)) => Err(scene_file.error(
                 "surface.heightfield",
@@ -1163,150 +1168,216 @@ impl HeightFieldSpec {
                 "surface.heightfield",
                 "needs gaussian = { sigma, tau } or file = \"...\"",
             )),
-            (Some(g), None) => {
-                refuse("pixel", self.pixel.is_some(), "file maps")?;
-                refuse("height_scale", self.height_scale.is_some(), "file maps")?;
-                let size = size.ok_or_else(|| {
-                    scene_file.error(
-                        "surface.size",
-                        "missing (a gaussian height field needs the cell)",
-                    )
-                })?;
-                let (nx, ny) = match self.resolution {
-                    Some(Resolution::One(n)) => (n, n),
-                    Some(Resolution::Two([nx, ny])) => (nx, ny),
-                    None => return Err(scene_file.error(key("resolution"), "missing")),
-                };
-                if ![nx, ny].iter().all(|n| (2..=16384).contains(n)) {
+            (Some(g), None) => self.gaussian(scene_file, g, size),
+            (None, Some(file)) => self.load_map(scene_file, file, size),
+        }
+    }
+
+    /// The full key of `surface.heightfield.k`.
+    fn key(k: &str) -> String {
+        format!("surface.heightfield.{k}")
+    }
+
+    /// Refuse key `k`, `given` though it applies to `what` only.
+    fn refuse(scene_file: &SceneFile, k: &str, given: bool, what: &str) -> Result<(), SceneError> {
+        if given {
+            Err(scene_file.error(Self::key(k), format!("applies to {what} only")))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Length `v` of key `k`, checked > 0 and within the traced lengths.
+    fn length(scene_file: &SceneFile, k: &str, v: f64) -> Result<f64, SceneError> {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(scene_file.error(Self::key(k), format!("must be > 0, got {}", Num(v))));
+        }
+        length_bounds(v).map_err(|e| scene_file.error(Self::key(k), e))?;
+        Ok(v)
+    }
+
+    /// Synthesise a Gaussian field `g` over the cell `size` (which it
+    /// needs), checked: resolution, memory, and a correlation length
+    /// between the grid pitch and the cell's longer side.
+    fn gaussian(
+        &self,
+        scene_file: &SceneFile,
+        g: &GaussianSpec,
+        size: Option<DVec2>,
+    ) -> Result<HeightField, SceneError> {
+        let key = Self::key;
+        Self::refuse(scene_file, "pixel", self.pixel.is_some(), "file maps")?;
+        Self::refuse(
+            scene_file,
+            "height_scale",
+            self.height_scale.is_some(),
+            "file maps",
+        )?;
+        let size = size.ok_or_else(|| {
+            scene_file.error(
+                "surface.size",
+                "missing (a gaussian height field needs the cell)",
+            )
+        })?;
+        let (nx, ny) = match self.resolution {
+            Some(Resolution::One(n)) => (n, n),
+            Some(Resolution::Two([nx, ny])) => (nx, ny),
+            None => return Err(scene_file.error(key("resolution"), "missing")),
+        };
+        if ![nx, ny].iter().all(|n| (2..=16384).contains(n)) {
+            return Err(scene_file.error(
+                key("resolution"),
+                format!("must be in 2..=16384, got {nx} x {ny}"),
+            ));
+        }
+        scene_file.check_memory(
+            &key("resolution"),
+            &format!("a {nx} x {ny} height field (heights, hierarchy, statistics)"),
+            HeightField::memory_bytes(nx, ny),
+        )?;
+        let sigma = Self::length(scene_file, "gaussian.sigma", g.sigma)?;
+        let tau = Self::length(scene_file, "gaussian.tau", g.tau)?;
+        let pitch = (size.x / nx as f64).max(size.y / ny as f64);
+        if tau < pitch {
+            return Err(scene_file.error(
+                key("gaussian.tau"),
+                format!("{tau} is below the grid pitch {pitch}: raise the resolution"),
+            ));
+        }
+        // The synthesis keeps the spectrum's modes of the period; for
+        // tau beyond the period they vanish (the field would be one
+        // sinusoid, or nothing once exp(-k² tau² / 8) underflows).
+        let longest = size.max_element();
+        if tau > longest {
+            return Err(scene_file.error(
+                key("gaussian.tau"),
+                format!(
+                    "{tau} exceeds the cell's longer side {longest}: a Gaussian field needs at least one correlation length in the cell"
+                ),
+            ));
+        }
+        let field = HeightField::gaussian(nx, ny, size, sigma, tau, self.seed.unwrap_or(1));
+        check_field(scene_file, &field, &key("gaussian.sigma"))?;
+        Ok(field)
+    }
+
+    /// Load the height map `file` (relative to the scene's folder), its
+    /// memory checked before it is decoded, its heights scaled by
+    /// `height_scale` and its cell from `size` or `pixel`.
+    fn load_map(
+        &self,
+        scene_file: &SceneFile,
+        file: &str,
+        size: Option<DVec2>,
+    ) -> Result<HeightField, SceneError> {
+        let key = Self::key;
+        Self::refuse(
+            scene_file,
+            "resolution",
+            self.resolution.is_some(),
+            "gaussian fields",
+        )?;
+        Self::refuse(scene_file, "seed", self.seed.is_some(), "gaussian fields")?;
+        let path = scene_file.dir.join(file);
+        let format = Format::of(&path);
+        let scale = match self.height_scale {
+            Some(s) => Self::length(scene_file, "height_scale", s)?,
+            None if format == Format::Png => {
+                return Err(scene_file.error(
+                    key("height_scale"),
+                    "missing: a PNG map holds counts 0..=65535; give the height of one count (length units)",
+                ));
+            }
+            None => 1.0,
+        };
+        let file_error = |e: heightfield_io::HeightMapError| {
+            scene_file.error(key("file"), format!("{}: {e}", path.display()))
+        };
+        // The memory from the header (or the text's length) before decoding.
+        let check = |bytes: u64, (nx, ny): (usize, usize)| {
+            let what = format!(
+                "{}: a {nx} x {ny} height map (heights, hierarchy, statistics)",
+                path.display()
+            );
+            scene_file.check_memory(&key("file"), &what, bytes)
+        };
+        let (read_bytes, declared) =
+            heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
+        if let Some((nx, ny)) = declared {
+            check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
+        } else {
+            let what = format!("{}: reading the text height map", path.display());
+            scene_file.check_memory(&key("file"), &what, read_bytes)?;
+        }
+        let grid = heightfield_io::read(&path).map_err(file_error)?;
+        let (nx, ny) = (grid.nx, grid.ny);
+        check(HeightField::memory_bytes(nx, ny), (nx, ny))?;
+        let size = self.map_size(scene_file, (nx, ny), size)?;
+        // Scaled heights within the traced lengths, before the field
+        // (which assumes finite heights) is built.
+        let scale_key = if self.height_scale.is_some() {
+            key("height_scale")
+        } else {
+            key("file")
+        };
+        let h: Vec<f64> = grid.h.into_iter().map(|z| z * scale).collect();
+        if let Some(z) = h.iter().find(|z| z.is_nan() || z.abs() > MAX_LENGTH) {
+            return Err(scene_file.error(
+                scale_key,
+                format!(
+                    "{}: a height of {z:e} after scaling by {scale} is beyond the largest length {MAX_LENGTH:e}",
+                    path.display()
+                ),
+            ));
+        }
+        let field = HeightField::new(nx, ny, size, h);
+        check_field(scene_file, &field, &scale_key)?;
+        Ok(field)
+    }
+
+    /// The cell of an `nx` x `ny` height map: `[surface] size` (`given`),
+    /// or `pixel` times the pixels, or both when they agree.
+    fn map_size(
+        &self,
+        scene_file: &SceneFile,
+        (nx, ny): (usize, usize),
+        given: Option<DVec2>,
+    ) -> Result<DVec2, SceneError> {
+        Ok(match (self.pixel, given) {
+            (None, None) => {
+                return Err(scene_file.error(
+                    "surface.size",
+                    "missing: give surface.size or surface.heightfield.pixel",
+                ));
+            }
+            (None, Some(size)) => size,
+            (Some(p), given) => {
+                let p = Self::length(scene_file, "pixel", p)?;
+                let derived = DVec2::new(nx as f64 * p, ny as f64 * p);
+                if derived.max_element() > MAX_LENGTH {
                     return Err(scene_file.error(
-                        key("resolution"),
-                        format!("must be in 2..=16384, got {nx} x {ny}"),
-                    ));
-                }
-                scene_file.check_memory(
-                    &key("resolution"),
-                    &format!("a {nx} x {ny} height field (heights, hierarchy, statistics)"),
-                    HeightField::memory_bytes(nx, ny),
-                )?;
-                let sigma = length("gaussian.sigma", g.sigma)?;
-                let tau = length("gaussian.tau", g.tau)?;
-                let pitch = (size.x / nx as f64).max(size.y / ny as f64);
-                if tau < pitch {
-                    return Err(scene_file.error(
-                        key("gaussian.tau"),
-                        format!("{tau} is below the grid pitch {pitch}: raise the resolution"),
-                    ));
-                }
-                // The synthesis keeps the spectrum's modes of the period; for
-                // tau beyond the period they vanish (the field would be one
-                // sinusoid, or nothing once exp(-k² tau² / 8) underflows).
-                let longest = size.max_element();
-                if tau > longest {
-                    return Err(scene_file.error(
-                        key("gaussian.tau"),
+                        Self::key("pixel"),
                         format!(
-                            "{tau} exceeds the cell's longer side {longest}: a Gaussian field needs at least one correlation length in the cell"
+                            "{nx} x {ny} pixels of {p} make a cell of [{:e}, {:e}], beyond the largest length {MAX_LENGTH:e}",
+                            derived.x, derived.y
                         ),
                     ));
                 }
-                let field = HeightField::gaussian(nx, ny, size, sigma, tau, self.seed.unwrap_or(1));
-                check_field(scene_file, &field, &key("gaussian.sigma"))?;
-                Ok(field)
-            }
-            (None, Some(file)) => {
-                refuse("resolution", self.resolution.is_some(), "gaussian fields")?;
-                refuse("seed", self.seed.is_some(), "gaussian fields")?;
-                let path = scene_file.dir.join(file);
-                let format = Format::of(&path);
-                let scale = match self.height_scale {
-                    Some(s) => length("height_scale", s)?,
-                    None if format == Format::Png => {
-                        return Err(scene_file.error(
-                            key("height_scale"),
-                            "missing: a PNG map holds counts 0..=65535; give the height of one count (length units)",
-                        ));
-                    }
-                    None => 1.0,
-                };
-                let file_error = |e: heightfield_io::HeightMapError| {
-                    scene_file.error(key("file"), format!("{}: {e}", path.display()))
-                };
-                // The memory from the header (or the text's length) before decoding.
-                let check = |bytes: u64, (nx, ny): (usize, usize)| {
-                    let what = format!(
-                        "{}: a {nx} x {ny} height map (heights, hierarchy, statistics)",
-                        path.display()
-                    );
-                    scene_file.check_memory(&key("file"), &what, bytes)
-                };
-                let (read_bytes, declared) =
-                    heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
-                if let Some((nx, ny)) = declared {
-                    check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
-                } else {
-                    let what = format!("{}: reading the text height map", path.display());
-                    scene_file.check_memory(&key("file"), &what, read_bytes)?;
-                }
-                let grid = heightfield_io::read(&path).map_err(file_error)?;
-                let (nx, ny) = (grid.nx, grid.ny);
-                check(HeightField::memory_bytes(nx, ny), (nx, ny))?;
-                let size = match (self.pixel, size) {
-                    (None, None) => {
+                match given {
+                    Some(s) if ((s - derived).abs().cmpgt(1e-9 * derived)).any() => {
                         return Err(scene_file.error(
                             "surface.size",
-                            "missing: give surface.size or surface.heightfield.pixel",
+                            format!(
+                                "[{}, {}] contradicts the height map: {nx} x {ny} pixels of {p} make [{}, {}]",
+                                s.x, s.y, derived.x, derived.y
+                            ),
                         ));
                     }
-                    (None, Some(size)) => size,
-                    (Some(p), given) => {
-                        let p = length("pixel", p)?;
-                        let derived = DVec2::new(nx as f64 * p, ny as f64 * p);
-                        if derived.max_element() > MAX_LENGTH {
-                            return Err(scene_file.error(
-                                key("pixel"),
-                                format!(
-                                    "{nx} x {ny} pixels of {p} make a cell of [{:e}, {:e}], beyond the largest length {MAX_LENGTH:e}",
-                                    derived.x, derived.y
-                                ),
-                            ));
-                        }
-                        match given {
-                            Some(s) if ((s - derived).abs().cmpgt(1e-9 * derived)).any() => {
-                                return Err(scene_file.error(
-                                    "surface.size",
-                                    format!(
-                                        "[{}, {}] contradicts the height map: {nx} x {ny} pixels of {p} make [{}, {}]",
-                                        s.x, s.y, derived.x, derived.y
-                                    ),
-                                ));
-                            }
-                            Some(s) => s,
-                            None => derived,
-                        }
-                    }
-                };
-                // Scaled heights within the traced lengths, before the field
-                // (which assumes finite heights) is built.
-                let scale_key = if self.height_scale.is_some() {
-                    key("height_scale")
-                } else {
-                    key("file")
-                };
-                let h: Vec<f64> = grid.h.into_iter().map(|z| z * scale).collect();
-                if let Some(z) = h.iter().find(|z| z.is_nan() || z.abs() > MAX_LENGTH) {
-                    return Err(scene_file.error(
-                        scale_key,
-                        format!(
-                            "{}: a height of {z:e} after scaling by {scale} is beyond the largest length {MAX_LENGTH:e}",
-                            path.display()
-                        ),
-                    ));
+                    Some(s) => s,
+                    None => derived,
                 }
-                let field = HeightField::new(nx, ny, size, h);
-                check_field(scene_file, &field, &scale_key)?;
-                Ok(field)
             }
-        }
+        })
     }
 }
 
@@ -1342,6 +1413,37 @@ impl BumpSpec {
         material: usize,
         bytes: &mut u64,
     ) -> Result<Vec<Placed>, SceneError> {
+        let ranges = self.checked_ranges(scene_file, t, size)?;
+        self.check_memory(scene_file, t, (size, edges), material, &ranges, bytes)?;
+        let BumpRanges { depth, cap, base } = ranges;
+        let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));
+        let mut out = Vec::with_capacity(self.count);
+        for _ in 0..self.count {
+            // Fixed draw order: every parameter draws whether or not it is a range.
+            let u: [f64; 7] = std::array::from_fn(|_| rng.random::<f64>());
+            let radius = self.radius.at(u[2]);
+            let bump = Bump {
+                center: DVec2::new(u[0] * size.x, u[1] * size.y),
+                radius,
+                radius_y: self.radius_y.map_or(radius, |r| r.at(u[3])),
+                height: self.height.at(u[4]),
+                depth: depth.at(u[5]),
+                cap: cap.at(u[6]),
+                base: base.at(u[6]),
+            };
+            out.push(self.shape.body(&bump, material));
+        }
+        Ok(out)
+    }
+
+    /// Check table `t`'s ranges (over a period of `size`) and the keys its
+    /// shape uses, and return its depth, cap and base with their defaults.
+    fn checked_ranges(
+        &self,
+        scene_file: &SceneFile,
+        t: usize,
+        size: DVec2,
+    ) -> Result<BumpRanges, SceneError> {
         let key = |k: &str| format!("bumps[{t}].{k}");
         self.radius.check(scene_file, &key("radius"), 0.0, false)?;
         self.height.check(scene_file, &key("height"), 0.0, false)?;
@@ -1393,6 +1495,23 @@ impl BumpSpec {
         let eoh = self.shape == Shape::EllipsoidOnHyperboloid;
         used("cap", self.cap.is_some(), eoh)?;
         used("base", self.base.is_some(), eoh)?;
+        Ok(BumpRanges { depth, cap, base })
+    }
+
+    /// Add table `t`'s estimated memory (from its largest bump, every
+    /// range at its top, over a period of `size` with `edges`) to `bytes`
+    /// and refuse the table if the sum exceeds the limit; also refuses
+    /// more than 10 million bumps.
+    fn check_memory(
+        &self,
+        scene_file: &SceneFile,
+        t: usize,
+        (size, edges): (DVec2, Edges),
+        material: usize,
+        ranges: &BumpRanges,
+        bytes: &mut u64,
+    ) -> Result<(), SceneError> {
+        let key = |k: &str| format!("bumps[{t}].{k}");
         if self.count > 10_000_000 {
             return Err(scene_file.error(key("count"), "more than 10 million bumps"));
         }
@@ -1403,9 +1522,9 @@ impl BumpSpec {
             radius: top(&self.radius),
             radius_y: top(&self.radius_y.unwrap_or(self.radius)),
             height: top(&self.height),
-            depth: top(&depth),
-            cap: top(&cap),
-            base: top(&base),
+            depth: top(&ranges.depth),
+            cap: top(&ranges.cap),
+            base: top(&ranges.base),
         };
         let (copies, per_bump) =
             crate::micro::placed_cost(&self.shape.body(&largest, material), size, edges);
@@ -1413,31 +1532,22 @@ impl BumpSpec {
         let solids = copies as f64 * self.count as f64;
         if copies > 2 {
             let what = format!("periodic ghost copies (about {solids:.1e} solids)");
-            scene_file.check_memory(&format!("bumps[{t}]"), &what, *bytes)?;
+            scene_file.check_memory(&format!("bumps[{t}]"), &what, *bytes)
         } else {
             let what = format!("{} bumps (solids and acceleration grid)", self.count);
-            scene_file.check_memory(&key("count"), &what, *bytes)?;
+            scene_file.check_memory(&key("count"), &what, *bytes)
         }
-
-        let mut rng = Pcg64Mcg::seed_from_u64(self.seed.unwrap_or(1 + t as u64));
-        let mut out = Vec::with_capacity(self.count);
-        for _ in 0..self.count {
-            // Fixed draw order: every parameter draws whether or not it is a range.
-            let u: [f64; 7] = std::array::from_fn(|_| rng.random::<f64>());
-            let radius = self.radius.at(u[2]);
-            let bump = Bump {
-                center: DVec2::new(u[0] * size.x, u[1] * size.y),
-                radius,
-                radius_y: self.radius_y.map_or(radius, |r| r.at(u[3])),
-                height: self.height.at(u[4]),
-                depth: depth.at(u[5]),
-                cap: cap.at(u[6]),
-                base: base.at(u[6]),
-            };
-            out.push(self.shape.body(&bump, material));
-        }
-        Ok(out)
     }
+}
+
+/// A bump table's ranges with their defaults filled in.
+struct BumpRanges {
+    /// `depth` (default 0).
+    depth: Range,
+    /// `cap` (default 0.5).
+    cap: Range,
+    /// `base` (default 1.5).
+    base: Range,
 }
 
 /// An explicit `[[bodies]]` entry: tested for every flight, its top found by

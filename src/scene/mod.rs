@@ -686,23 +686,8 @@ impl MaterialSpec {
             return Err(scene_file.error(format!("{key}.k"), "`k` needs `n`"));
         }
         let lanes = wavelengths_um.len();
-        // One value per wavelength (or the one value, for a monochrome scene).
-        let per_lane = |name: &str, v: &Values| -> Result<Vec<f64>, SceneError> {
-            match v {
-                Values::One(x) => Ok(vec![*x; lanes.max(1)]),
-                Values::Many(_) if lanes == 0 => Err(scene_file.error(
-                    format!("{key}.{name}"),
-                    "an array (one value per wavelength) needs [light] wavelengths_um",
-                )),
-                Values::Many(xs) if xs.len() != lanes => Err(scene_file.error(
-                    format!("{key}.{name}"),
-                    format!("has {} values for {lanes} wavelengths", xs.len()),
-                )),
-                Values::Many(xs) => Ok(xs.clone()),
-            }
-        };
         let models: Vec<Reflectance> = if let Some(r) = &self.reflectance {
-            let values = per_lane("reflectance", r)?;
+            let values = per_lane(scene_file, key, "reflectance", r, lanes)?;
             if let Some((l, r)) = values
                 .iter()
                 .enumerate()
@@ -715,99 +700,160 @@ impl MaterialSpec {
             }
             values.into_iter().map(Reflectance::Constant).collect()
         } else if let Some(n) = &self.n {
-            let ns = per_lane("n", n)?;
-            let ks = per_lane("k", self.k.as_ref().unwrap_or(&Values::One(0.0)))?;
-            let many_n = r_is_many(self.n.as_ref());
-            let many_k = r_is_many(self.k.as_ref());
-            for (l, (&n, &k)) in ns.iter().zip(&ks).enumerate() {
-                if !(n.is_finite() && n > 0.0) {
-                    return Err(scene_file.error(
-                        lane_key(key, "n", many_n, l),
-                        format!("must be > 0, got {}", Num(n)),
-                    ));
-                }
-                if !(k.is_finite() && k >= 0.0) {
-                    return Err(scene_file.error(
-                        lane_key(key, "k", many_k, l),
-                        format!("must be >= 0, got {}", Num(k)),
-                    ));
-                }
-            }
-            ns.into_iter()
-                .zip(ks)
-                .map(|(n, k)| Reflectance::Fresnel { n, k })
-                .collect()
+            self.fresnel(scene_file, key, n, lanes)?
         } else if let Some(file) = &self.nk {
-            let at = format!("{key}.nk");
-            if lanes == 0 {
-                return Err(scene_file.error(
-                    at,
-                    "a measured n, k table needs [light] wavelengths_um to sample it at",
-                ));
-            }
-            let path = scene_file.dir.join(file);
-            let table = crate::optics::spectrum::NkSpectrum::read(&path)
-                .map_err(|e| scene_file.error(&at, e.to_string()))?;
-            let nks = table
-                .sample(wavelengths_um)
-                .map_err(|e| scene_file.error(&at, e.to_string()))?;
-            let mut models = Vec::with_capacity(lanes);
-            for (nk, w) in nks.into_iter().zip(wavelengths_um) {
-                if nk.n <= 0.0 {
-                    return Err(scene_file.error(
-                        &at,
-                        format!(
-                            "{}: n = {} at {} um: the Fresnel model needs n > 0",
-                            path.display(),
-                            Num(nk.n),
-                            Num(*w)
-                        ),
-                    ));
-                }
-                models.push(Reflectance::from(nk));
-            }
-            models
+            measured_nk(scene_file, key, file, wavelengths_um)?
         } else {
-            let files = match self.table.as_ref() {
-                Some(Files::One(f)) => vec![f.clone(); lanes.max(1)],
-                Some(Files::Many(_)) if lanes == 0 => {
-                    return Err(scene_file.error(
-                        format!("{key}.table"),
-                        "an array (one file per wavelength) needs [light] wavelengths_um",
-                    ));
-                }
-                Some(Files::Many(fs)) if fs.len() != lanes => {
-                    return Err(scene_file.error(
-                        format!("{key}.table"),
-                        format!("has {} files for {lanes} wavelengths", fs.len()),
-                    ));
-                }
-                Some(Files::Many(fs)) => fs.clone(),
-                None => Vec::new(),
-            };
-            let many = matches!(self.table, Some(Files::Many(_)));
-            let mut models: Vec<Reflectance> = Vec::with_capacity(files.len());
-            for (l, file) in files.iter().enumerate() {
-                // The same file at every wavelength is read once.
-                if l > 0 && !many {
-                    models.push(models[0].clone());
-                    continue;
-                }
-                let at = lane_key(key, "table", many, l);
-                let path = scene_file.dir.join(file);
-                let text =
-                    crate::limits::read_input_text_capped(&path, crate::limits::max_data_bytes())
-                        .map_err(|e| {
-                        scene_file.error(&at, format!("cannot read {}: {e}", path.display()))
-                    })?;
-                let table = AngleTable::parse_csv(&text)
-                    .map_err(|e| scene_file.error(&at, format!("{}: {e}", path.display())))?;
-                models.push(Reflectance::Table(table));
-            }
-            models
+            self.angle_tables(scene_file, key, lanes)?
         };
         Ok(spectral_model(models))
     }
+
+    /// The Fresnel models of `n` (and `k`, default 0) per wavelength, for
+    /// `lanes` wavelengths (0: monochrome), n > 0 and k >= 0 checked.
+    fn fresnel(
+        &self,
+        scene_file: &SceneFile,
+        key: &str,
+        n: &Values,
+        lanes: usize,
+    ) -> Result<Vec<Reflectance>, SceneError> {
+        let ns = per_lane(scene_file, key, "n", n, lanes)?;
+        let k = self.k.as_ref().unwrap_or(&Values::One(0.0));
+        let ks = per_lane(scene_file, key, "k", k, lanes)?;
+        let many_n = r_is_many(self.n.as_ref());
+        let many_k = r_is_many(self.k.as_ref());
+        for (l, (&n, &k)) in ns.iter().zip(&ks).enumerate() {
+            if !(n.is_finite() && n > 0.0) {
+                return Err(scene_file.error(
+                    lane_key(key, "n", many_n, l),
+                    format!("must be > 0, got {}", Num(n)),
+                ));
+            }
+            if !(k.is_finite() && k >= 0.0) {
+                return Err(scene_file.error(
+                    lane_key(key, "k", many_k, l),
+                    format!("must be >= 0, got {}", Num(k)),
+                ));
+            }
+        }
+        Ok(ns
+            .into_iter()
+            .zip(ks)
+            .map(|(n, k)| Reflectance::Fresnel { n, k })
+            .collect())
+    }
+
+    /// The angle-table models of `table` per wavelength (one file, read
+    /// once, for every one of `lanes` wavelengths, or one file each).
+    fn angle_tables(
+        &self,
+        scene_file: &SceneFile,
+        key: &str,
+        lanes: usize,
+    ) -> Result<Vec<Reflectance>, SceneError> {
+        let files = match self.table.as_ref() {
+            Some(Files::One(f)) => vec![f.clone(); lanes.max(1)],
+            Some(Files::Many(_)) if lanes == 0 => {
+                return Err(scene_file.error(
+                    format!("{key}.table"),
+                    "an array (one file per wavelength) needs [light] wavelengths_um",
+                ));
+            }
+            Some(Files::Many(fs)) if fs.len() != lanes => {
+                return Err(scene_file.error(
+                    format!("{key}.table"),
+                    format!("has {} files for {lanes} wavelengths", fs.len()),
+                ));
+            }
+            Some(Files::Many(fs)) => fs.clone(),
+            None => Vec::new(),
+        };
+        let many = matches!(self.table, Some(Files::Many(_)));
+        let mut models: Vec<Reflectance> = Vec::with_capacity(files.len());
+        for (l, file) in files.iter().enumerate() {
+            // The same file at every wavelength is read once.
+            if l > 0 && !many {
+                models.push(models[0].clone());
+                continue;
+            }
+            let at = lane_key(key, "table", many, l);
+            let path = scene_file.dir.join(file);
+            let text =
+                crate::limits::read_input_text_capped(&path, crate::limits::max_data_bytes())
+                    .map_err(|e| {
+                        scene_file.error(&at, format!("cannot read {}: {e}", path.display()))
+                    })?;
+            let table = AngleTable::parse_csv(&text)
+                .map_err(|e| scene_file.error(&at, format!("{}: {e}", path.display())))?;
+            models.push(Reflectance::Table(table));
+        }
+        Ok(models)
+    }
+}
+
+/// Material key `key.name`'s value per wavelength, for `lanes`
+/// wavelengths: an array has one each (it needs wavelengths), one value
+/// stands for all (or is the one value of a monochrome scene).
+fn per_lane(
+    scene_file: &SceneFile,
+    key: &str,
+    name: &str,
+    v: &Values,
+    lanes: usize,
+) -> Result<Vec<f64>, SceneError> {
+    match v {
+        Values::One(x) => Ok(vec![*x; lanes.max(1)]),
+        Values::Many(_) if lanes == 0 => Err(scene_file.error(
+            format!("{key}.{name}"),
+            "an array (one value per wavelength) needs [light] wavelengths_um",
+        )),
+        Values::Many(xs) if xs.len() != lanes => Err(scene_file.error(
+            format!("{key}.{name}"),
+            format!("has {} values for {lanes} wavelengths", xs.len()),
+        )),
+        Values::Many(xs) => Ok(xs.clone()),
+    }
+}
+
+/// The Fresnel models of material `key`'s measured n, k table `file`
+/// (relative to the scene's folder) sampled at `wavelengths_um`, which it
+/// needs; n > 0 checked.
+fn measured_nk(
+    scene_file: &SceneFile,
+    key: &str,
+    file: &str,
+    wavelengths_um: &[f64],
+) -> Result<Vec<Reflectance>, SceneError> {
+    let at = format!("{key}.nk");
+    if wavelengths_um.is_empty() {
+        return Err(scene_file.error(
+            at,
+            "a measured n, k table needs [light] wavelengths_um to sample it at",
+        ));
+    }
+    let path = scene_file.dir.join(file);
+    let table = crate::optics::spectrum::NkSpectrum::read(&path)
+        .map_err(|e| scene_file.error(&at, e.to_string()))?;
+    let nks = table
+        .sample(wavelengths_um)
+        .map_err(|e| scene_file.error(&at, e.to_string()))?;
+    let mut models = Vec::with_capacity(wavelengths_um.len());
+    for (nk, w) in nks.into_iter().zip(wavelengths_um) {
+        if nk.n <= 0.0 {
+            return Err(scene_file.error(
+                &at,
+                format!(
+                    "{}: n = {} at {} um: the Fresnel model needs n > 0",
+                    path.display(),
+                    Num(nk.n),
+                    Num(*w)
+                ),
+            ));
+        }
+        models.push(Reflectance::from(nk));
+    }
+    Ok(models)
 }
 
 /// Whether a value was given as an array.

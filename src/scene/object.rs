@@ -429,9 +429,94 @@ impl ObjectSceneSpec {
         fallback_name: String,
     ) -> Result<ObjectScene, SceneError> {
         let surface_names: Vec<String> = self.quadrics.keys().cloned().collect();
+        let object = self.build_object(&scene_file, &surface_names)?;
+        let transport = self.transport;
+        let controls = transport_controls(&scene_file, &transport)?;
+        let wavelengths_um = self.wavelengths(&scene_file)?;
+        let lanes = wavelengths_um.len().max(1) as u64;
+        let model_names: Vec<String> = self.models.keys().cloned().collect();
+        let mut models = Vec::new();
+        for (name, m) in &self.models {
+            models.push(m.build(
+                &scene_file,
+                &format!("models.{name}"),
+                controls,
+                &wavelengths_um,
+            )?);
+        }
+        let walls = self.build_walls(&scene_file, &surface_names, &model_names)?;
+
+        let tally = &self.tally;
+        let farfield_stokes = check_tally(&scene_file, tally)?;
+        let polarisation = match transport.polarisation {
+            Some(false) if farfield_stokes => {
+                return Err(scene_file.error(
+                    "transport.polarisation",
+                    "false conflicts with [tally] polarisation = \"stokes\" (Stokes tallies need polarised transport)",
+                ));
+            }
+            Some(on) => on,
+            None => farfield_stokes || models.iter().any(WallModel::polarises),
+        };
+        let memory = position_memory_bytes(
+            surface_names.len(),
+            tally.bands,
+            tally.farfield,
+            farfield_stokes,
+        );
+        let launches = self.build_beams(&scene_file, &object, memory, lanes)?;
+        let (per_position, fixed) = memory;
+        scene_file.check_memory(
+            "tally.bands",
+            &format!(
+                "the tallies and tables of {} Carlson bands for {} beam positions{}",
+                tally.bands,
+                launches.beams.len(),
+                if wavelengths_um.is_empty() {
+                    String::new()
+                } else {
+                    format!(" and {lanes} wavelengths")
+                }
+            ),
+            fixed.saturating_mul(lanes).saturating_add(
+                (launches.beams.len() as u64).saturating_mul(per_position.saturating_mul(lanes)),
+            ),
+        )?;
+        let run = ObjectRun {
+            seed: self.seed.unwrap_or(1),
+            bands: tally.bands,
+            farfield: tally.farfield,
+            controls,
+            polarisation,
+            farfield_stokes,
+            wavelengths_um,
+        };
+        Ok(ObjectScene {
+            name: super::scene_name(&scene_file, self.name, fallback_name)?,
+            scene_file,
+            object,
+            walls,
+            models,
+            model_names,
+            beams: launches.beams,
+            beam_source: launches.beam_source,
+            photons: launches.photons,
+            run,
+            reads: Vec::new(),
+            content: super::Content::default(),
+        })
+    }
+
+    /// The geometry: `[quadrics]` built and `[[cells]]` sorted into solid
+    /// and void zones (at least one cell, at least one solid).
+    fn build_object(
+        &self,
+        scene_file: &SceneFile,
+        surface_names: &[String],
+    ) -> Result<Object, SceneError> {
         let mut quadrics = Vec::new();
         for (name, q) in &self.quadrics {
-            quadrics.push(q.build(&scene_file, &format!("quadrics.{name}"))?);
+            quadrics.push(q.build(scene_file, &format!("quadrics.{name}"))?);
         }
         if self.zones.is_empty() {
             return Err(scene_file.error("cells", "the object needs at least one cell"));
@@ -440,14 +525,8 @@ impl ObjectSceneSpec {
         let mut voids = Vec::new();
         for (c, zone) in self.zones.iter().enumerate() {
             let key = format!("cells[{c}].region");
-            let (body, ids) = super::region_body(
-                &scene_file,
-                &key,
-                &zone.region,
-                &surface_names,
-                &quadrics,
-                0,
-            )?;
+            let (body, ids) =
+                super::region_body(scene_file, &key, &zone.region, surface_names, &quadrics, 0)?;
             match zone.fill {
                 Fill::Solid => solids.push(SolidZone {
                     name: zone.name.clone(),
@@ -463,39 +542,29 @@ impl ObjectSceneSpec {
         if solids.is_empty() {
             return Err(scene_file.error("cells", "no solid cell: nothing to reflect from"));
         }
-        let object = Object::new(surface_names.clone(), solids, voids);
+        Ok(Object::new(surface_names.to_vec(), solids, voids))
+    }
 
-        let transport = self.transport;
-        if transport.max_bounces == 0 {
-            return Err(scene_file.error("transport.max_bounces", "must be > 0"));
-        }
-        if !(transport.roulette_weight >= 0.0 && transport.roulette_weight < 1.0) {
-            return Err(scene_file.error("transport.roulette_weight", "must be in [0, 1)"));
-        }
-        let controls = Controls {
-            max_bounces: transport.max_bounces,
-            roulette_weight: transport.roulette_weight,
-            ..Controls::default()
-        };
-
-        let wavelengths_um = match &self.light.wavelengths_um {
+    /// `light.wavelengths_um` resolved (µm; empty for a monochrome run).
+    fn wavelengths(&self, scene_file: &SceneFile) -> Result<Vec<f64>, SceneError> {
+        Ok(match &self.light.wavelengths_um {
             Some(w) => w.resolve().map_err(|e| match e.index() {
                 Some(i) => scene_file.error(format!("light.wavelengths_um[{i}]"), e),
                 None => scene_file.error("light.wavelengths_um", e),
             })?,
             None => Vec::new(),
-        };
-        let lanes = wavelengths_um.len().max(1) as u64;
-        let model_names: Vec<String> = self.models.keys().cloned().collect();
-        let mut models = Vec::new();
-        for (name, m) in &self.models {
-            models.push(m.build(
-                &scene_file,
-                &format!("models.{name}"),
-                controls,
-                &wavelengths_um,
-            )?);
-        }
+        })
+    }
+
+    /// `[walls]`: the model index of each surface id (`None`: absorbing),
+    /// every surface and model named checked against `[quadrics]` and
+    /// `[models]` (both sorted names).
+    fn build_walls(
+        &self,
+        scene_file: &SceneFile,
+        surface_names: &[String],
+        model_names: &[String],
+    ) -> Result<Walls, SceneError> {
         let mut walls: Walls = vec![None; surface_names.len()];
         for (surface, model) in &self.walls {
             let key = format!("walls.{surface}");
@@ -517,43 +586,24 @@ impl ObjectSceneSpec {
             })?;
             walls[sid] = Some(mid);
         }
+        Ok(walls)
+    }
 
-        let tally = self.tally;
-        if !(1..=1000).contains(&tally.bands) {
-            return Err(scene_file.error(
-                "tally.bands",
-                format!("must be in 1..=1000, got {}", tally.bands),
-            ));
-        }
-        if tally.polarisation == PolarTally::Mueller {
-            return Err(scene_file.error(
-                "tally.polarisation",
-                "\"mueller\" is for micro scenes (roks brdf); object scenes tally \"stokes\" or \"none\"",
-            ));
-        }
-        let farfield_stokes = tally.polarisation == PolarTally::Stokes;
-        if farfield_stokes && !tally.farfield {
-            return Err(scene_file.error(
-                "tally.polarisation",
-                "\"stokes\" tallies the far field: set [tally] farfield = true",
-            ));
-        }
-        let polarisation = match transport.polarisation {
-            Some(false) if farfield_stokes => {
-                return Err(scene_file.error(
-                    "transport.polarisation",
-                    "false conflicts with [tally] polarisation = \"stokes\" (Stokes tallies need polarised transport)",
-                ));
-            }
-            Some(on) => on,
-            None => farfield_stokes || models.iter().any(WallModel::polarises),
-        };
+    /// Every `[[sources]]` entry's beams, position by position, each
+    /// checked to start in open space or one void cell. `memory` is
+    /// [`position_memory_bytes`] and `lanes` the wavelengths per photon
+    /// (for the memory check of a sweep).
+    fn build_beams(
+        &self,
+        scene_file: &SceneFile,
+        object: &Object,
+        memory: (u64, u64),
+        lanes: u64,
+    ) -> Result<Launches, SceneError> {
         if self.sources.is_empty() {
             return Err(scene_file.error("sources", "needs at least one [[sources]] entry"));
         }
-        let mut beams = Vec::new();
-        let mut beam_source = Vec::new();
-        let mut photons = Vec::new();
+        let mut launches = Launches::default();
         for (i, s) in self.sources.iter().enumerate() {
             let key = |k: &str| format!("sources[{i}].{k}");
             let dir = DVec3::from_array(s.beam.direction);
@@ -568,151 +618,180 @@ impl ObjectSceneSpec {
             crate::transport::launch::check_count(s.photons)
                 .map_err(|e| scene_file.error(key("photons"), e))?;
             let state = match &s.polarisation {
-                Some(spec) => spec.build(&scene_file, &key("polarisation"))?,
+                Some(spec) => spec.build(scene_file, &key("polarisation"))?,
                 None => Incident::Unpolarised,
             };
-            let positions: Vec<DVec3> = match (&s.sweep, &s.position) {
-                (Some(_), Some(_)) | (None, None) => {
-                    return Err(scene_file.error(
-                        format!("sources[{i}]"),
-                        "give exactly one of `sweep`, `position`",
-                    ));
-                }
-                (None, Some(p)) => vec![DVec3::from_array(*p)],
-                (Some(sw), None) => {
-                    if sw.steps == 0 {
-                        return Err(scene_file.error(key("sweep.steps"), "must be >= 1"));
-                    }
-                    let (per_position, fixed) = position_memory_bytes(
-                        surface_names.len(),
-                        tally.bands,
-                        tally.farfield,
-                        farfield_stokes,
-                    );
-                    let positions = (beams.len() as u64).saturating_add(sw.steps as u64);
-                    let bytes = fixed.saturating_mul(lanes).saturating_add(
-                        positions.saturating_mul(per_position.saturating_mul(lanes)),
-                    );
-                    scene_file.check_memory(
-                        &key("sweep.steps"),
-                        &format!("{positions} beam positions (tallies and result tables)"),
-                        bytes,
-                    )?;
-                    let (a, b) = (DVec3::from_array(sw.from), DVec3::from_array(sw.to));
-                    (0..sw.steps)
-                        .map(|j| {
-                            let f = if sw.steps == 1 {
-                                0.0
-                            } else {
-                                j as f64 / (sw.steps - 1) as f64
-                            };
-                            a + (b - a) * f
-                        })
-                        .collect()
-                }
-            };
-            for p in positions {
-                if !p.is_finite() {
-                    return Err(scene_file.error(key("position"), "must be finite"));
-                }
-                // Photons must start in open space or in exactly one void cell.
-                let (in_solids, in_voids) = object.zones_at(p);
-                if let Some(&c) = in_solids.first() {
-                    return Err(scene_file.error(
-                        key("position"),
-                        format!(
-                            "beam position {p} is inside solid cell `{}`",
-                            object.solids[c].name
-                        ),
-                    ));
-                }
-                if in_voids.len() > 1 {
-                    let names: Vec<&str> = in_voids
-                        .iter()
-                        .map(|&v| object.voids[v].name.as_str())
-                        .collect();
-                    return Err(scene_file.error(
-                        "cells",
-                        format!(
-                            "void cells {} overlap at beam position {p}",
-                            names.join(" and ")
-                        ),
-                    ));
-                }
+            let before = launches.beams.len() as u64;
+            for p in source_positions(scene_file, i, s, before, memory, lanes)? {
                 let beam = Beam {
                     position: p,
                     direction,
                     diameter: s.beam.diameter,
                     polarisation: state,
                 };
-                // The whole launch disc must be in open space or void: check
-                // rings of it (photons starting inside a solid are also
-                // counted at run time and reported).
-                for ring in 1..=4 {
-                    for k in 0..32 {
-                        let q = beam.start(f64::from(ring) * 0.25, f64::from(k) / 32.0);
-                        if let Some(&c) = object.zones_at(q).0.first() {
-                            return Err(scene_file.error(
-                                key("beam.diameter"),
-                                format!(
-                                    "the beam's disc at {p} reaches into solid cell `{}` (at {q})",
-                                    object.solids[c].name
-                                ),
-                            ));
-                        }
-                    }
-                }
-                beams.push(beam);
-                beam_source.push(i);
-                photons.push(s.photons);
+                check_beam_start(scene_file, object, i, &beam)?;
+                launches.beams.push(beam);
+                launches.beam_source.push(i);
+                launches.photons.push(s.photons);
             }
         }
-        let (per_position, fixed) = position_memory_bytes(
-            surface_names.len(),
-            tally.bands,
-            tally.farfield,
-            farfield_stokes,
-        );
-        scene_file.check_memory(
-            "tally.bands",
-            &format!(
-                "the tallies and tables of {} Carlson bands for {} beam positions{}",
-                tally.bands,
-                beams.len(),
-                if wavelengths_um.is_empty() {
-                    String::new()
-                } else {
-                    format!(" and {lanes} wavelengths")
-                }
-            ),
-            fixed.saturating_mul(lanes).saturating_add(
-                (beams.len() as u64).saturating_mul(per_position.saturating_mul(lanes)),
-            ),
-        )?;
-        let run = ObjectRun {
-            seed: self.seed.unwrap_or(1),
-            bands: tally.bands,
-            farfield: tally.farfield,
-            controls,
-            polarisation,
-            farfield_stokes,
-            wavelengths_um,
-        };
-        Ok(ObjectScene {
-            name: super::scene_name(&scene_file, self.name, fallback_name)?,
-            scene_file,
-            object,
-            walls,
-            models,
-            model_names,
-            beams,
-            beam_source,
-            photons,
-            run,
-            reads: Vec::new(),
-            content: super::Content::default(),
-        })
+        Ok(launches)
     }
+}
+
+/// The beams of an object scene, each with its `[[sources]]` entry and
+/// photons (three parallel lists).
+#[derive(Debug, Default)]
+struct Launches {
+    /// Beam positions, source by source.
+    beams: Vec<Beam>,
+    /// Which `[[sources]]` entry each beam comes from.
+    beam_source: Vec<usize>,
+    /// Photons per position, per beam.
+    photons: Vec<u64>,
+}
+
+/// `[transport]` checked into the history limits of a run.
+fn transport_controls(
+    scene_file: &SceneFile,
+    transport: &TransportSpec,
+) -> Result<Controls, SceneError> {
+    if transport.max_bounces == 0 {
+        return Err(scene_file.error("transport.max_bounces", "must be > 0"));
+    }
+    if !(transport.roulette_weight >= 0.0 && transport.roulette_weight < 1.0) {
+        return Err(scene_file.error("transport.roulette_weight", "must be in [0, 1)"));
+    }
+    Ok(Controls {
+        max_bounces: transport.max_bounces,
+        roulette_weight: transport.roulette_weight,
+        ..Controls::default()
+    })
+}
+
+/// `[tally]` checked (bands, the polarisation an object scene can tally);
+/// returns whether the far field tallies Stokes vectors.
+fn check_tally(scene_file: &SceneFile, tally: &ObjectTallySpec) -> Result<bool, SceneError> {
+    if !(1..=1000).contains(&tally.bands) {
+        return Err(scene_file.error(
+            "tally.bands",
+            format!("must be in 1..=1000, got {}", tally.bands),
+        ));
+    }
+    if tally.polarisation == PolarTally::Mueller {
+        return Err(scene_file.error(
+            "tally.polarisation",
+            "\"mueller\" is for micro scenes (roks brdf); object scenes tally \"stokes\" or \"none\"",
+        ));
+    }
+    let farfield_stokes = tally.polarisation == PolarTally::Stokes;
+    if farfield_stokes && !tally.farfield {
+        return Err(scene_file.error(
+            "tally.polarisation",
+            "\"stokes\" tallies the far field: set [tally] farfield = true",
+        ));
+    }
+    Ok(farfield_stokes)
+}
+
+/// The beam positions of `[[sources]]` entry `i`: its `position`, or the
+/// `steps` evenly spaced points of its `sweep` (checked against the memory
+/// of `before` earlier positions plus these, see [`position_memory_bytes`]).
+fn source_positions(
+    scene_file: &SceneFile,
+    i: usize,
+    s: &SourceSpec,
+    before: u64,
+    (per_position, fixed): (u64, u64),
+    lanes: u64,
+) -> Result<Vec<DVec3>, SceneError> {
+    let key = |k: &str| format!("sources[{i}].{k}");
+    match (&s.sweep, &s.position) {
+        (Some(_), Some(_)) | (None, None) => Err(scene_file.error(
+            format!("sources[{i}]"),
+            "give exactly one of `sweep`, `position`",
+        )),
+        (None, Some(p)) => Ok(vec![DVec3::from_array(*p)]),
+        (Some(sw), None) => {
+            if sw.steps == 0 {
+                return Err(scene_file.error(key("sweep.steps"), "must be >= 1"));
+            }
+            let positions = before.saturating_add(sw.steps as u64);
+            let bytes = fixed
+                .saturating_mul(lanes)
+                .saturating_add(positions.saturating_mul(per_position.saturating_mul(lanes)));
+            scene_file.check_memory(
+                &key("sweep.steps"),
+                &format!("{positions} beam positions (tallies and result tables)"),
+                bytes,
+            )?;
+            let (a, b) = (DVec3::from_array(sw.from), DVec3::from_array(sw.to));
+            Ok((0..sw.steps)
+                .map(|j| {
+                    let f = if sw.steps == 1 {
+                        0.0
+                    } else {
+                        j as f64 / (sw.steps - 1) as f64
+                    };
+                    a + (b - a) * f
+                })
+                .collect())
+        }
+    }
+}
+
+/// Check that a beam of `[[sources]]` entry `i` starts in open space or in
+/// exactly one void cell, its whole launch disc too (rings of it; photons
+/// starting inside a solid are also counted at run time and reported).
+fn check_beam_start(
+    scene_file: &SceneFile,
+    object: &Object,
+    i: usize,
+    beam: &Beam,
+) -> Result<(), SceneError> {
+    let key = |k: &str| format!("sources[{i}].{k}");
+    let p = beam.position;
+    if !p.is_finite() {
+        return Err(scene_file.error(key("position"), "must be finite"));
+    }
+    let (in_solids, in_voids) = object.zones_at(p);
+    if let Some(&c) = in_solids.first() {
+        return Err(scene_file.error(
+            key("position"),
+            format!(
+                "beam position {p} is inside solid cell `{}`",
+                object.solids[c].name
+            ),
+        ));
+    }
+    if in_voids.len() > 1 {
+        let names: Vec<&str> = in_voids
+            .iter()
+            .map(|&v| object.voids[v].name.as_str())
+            .collect();
+        return Err(scene_file.error(
+            "cells",
+            format!(
+                "void cells {} overlap at beam position {p}",
+                names.join(" and ")
+            ),
+        ));
+    }
+    for ring in 1..=4 {
+        for k in 0..32 {
+            let q = beam.start(f64::from(ring) * 0.25, f64::from(k) / 32.0);
+            if let Some(&c) = object.zones_at(q).0.first() {
+                return Err(scene_file.error(
+                    key("beam.diameter"),
+                    format!(
+                        "the beam's disc at {p} reaches into solid cell `{}` (at {q})",
+                        object.solids[c].name
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 impl ModelSpec {

@@ -496,11 +496,6 @@ impl BrdfTables {
             grid,
             blocks,
         } = parsed;
-        let fail = |line: usize, message: String| BrdfTableError::Wavelength {
-            file: name.to_owned(),
-            line,
-            message,
-        };
         // Consecutive blocks of one incidence.
         let mut incidences: Vec<Vec<Block>> = Vec::new();
         for b in blocks {
@@ -511,73 +506,12 @@ impl BrdfTables {
                 _ => incidences.push(vec![b]),
             }
         }
-        let list = |ws: &[f64]| {
-            ws.iter()
-                .map(|w| format!("{w}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
         let wavelengths: Vec<f64> = incidences[0]
             .iter()
             .map(|b| b.wavelength.unwrap_or(f64::NAN))
             .collect();
         for group in &incidences {
-            let first = &group[0];
-            for (k, b) in group.iter().enumerate() {
-                let w = b.wavelength.unwrap_or(f64::NAN);
-                if k > 0 {
-                    let before = group[k - 1].wavelength.unwrap_or(f64::NAN);
-                    // Wavelengths are finite (checked per row).
-                    if w <= before {
-                        return Err(fail(
-                            b.start,
-                            format!(
-                                "{w} um after {before} um: the wavelengths of an incidence (theta_i_deg = {}, from line {}) must be strictly increasing",
-                                first.theta_i, first.start
-                            ),
-                        ));
-                    }
-                }
-                match wavelengths.get(k) {
-                    Some(&want) if want == w => {}
-                    Some(&want) => {
-                        return Err(fail(
-                            b.start,
-                            format!(
-                                "found {w} um, expected {want} um: incidence theta_i_deg = {} (from line {}) must list the wavelengths of the first incidence ({} um), in order",
-                                first.theta_i,
-                                first.start,
-                                list(&wavelengths)
-                            ),
-                        ));
-                    }
-                    None => {
-                        return Err(fail(
-                            b.start,
-                            format!(
-                                "{w} um: incidence theta_i_deg = {} (from line {}) has more wavelengths than the first incidence ({} um)",
-                                first.theta_i,
-                                first.start,
-                                list(&wavelengths)
-                            ),
-                        ));
-                    }
-                }
-            }
-            if group.len() < wavelengths.len() {
-                let last = &group[group.len() - 1];
-                return Err(fail(
-                    last.start,
-                    format!(
-                        "incidence theta_i_deg = {} (from line {}) stops after {} um: it lacks {} um of the wavelengths of the first incidence ({} um)",
-                        first.theta_i,
-                        first.start,
-                        last.wavelength.unwrap_or(f64::NAN),
-                        list(&wavelengths[group.len()..]),
-                        list(&wavelengths)
-                    ),
-                ));
-            }
+            check_wavelengths(group, &wavelengths, name)?;
         }
         // One table per wavelength: its block of every incidence.
         let (column, _) = layout.column(C_FRACTION);
@@ -608,6 +542,84 @@ impl BrdfTables {
             name,
         )?))
     }
+}
+
+/// Check the blocks of one incidence (`group`, consecutive in file
+/// `name`): their wavelengths strictly increasing and those of the first
+/// incidence (`wavelengths`, um), in order, none missing.
+fn check_wavelengths(
+    group: &[Block],
+    wavelengths: &[f64],
+    name: &str,
+) -> Result<(), BrdfTableError> {
+    let fail = |line: usize, message: String| BrdfTableError::Wavelength {
+        file: name.to_owned(),
+        line,
+        message,
+    };
+    let list = |ws: &[f64]| {
+        ws.iter()
+            .map(|w| format!("{w}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let first = &group[0];
+    for (k, b) in group.iter().enumerate() {
+        let w = b.wavelength.unwrap_or(f64::NAN);
+        if k > 0 {
+            let before = group[k - 1].wavelength.unwrap_or(f64::NAN);
+            // Wavelengths are finite (checked per row).
+            if w <= before {
+                return Err(fail(
+                    b.start,
+                    format!(
+                        "{w} um after {before} um: the wavelengths of an incidence (theta_i_deg = {}, from line {}) must be strictly increasing",
+                        first.theta_i, first.start
+                    ),
+                ));
+            }
+        }
+        match wavelengths.get(k) {
+            Some(&want) if want == w => {}
+            Some(&want) => {
+                return Err(fail(
+                    b.start,
+                    format!(
+                        "found {w} um, expected {want} um: incidence theta_i_deg = {} (from line {}) must list the wavelengths of the first incidence ({} um), in order",
+                        first.theta_i,
+                        first.start,
+                        list(wavelengths)
+                    ),
+                ));
+            }
+            None => {
+                return Err(fail(
+                    b.start,
+                    format!(
+                        "{w} um: incidence theta_i_deg = {} (from line {}) has more wavelengths than the first incidence ({} um)",
+                        first.theta_i,
+                        first.start,
+                        list(wavelengths)
+                    ),
+                ));
+            }
+        }
+    }
+    if group.len() < wavelengths.len() {
+        let last = &group[group.len() - 1];
+        return Err(fail(
+            last.start,
+            format!(
+                "incidence theta_i_deg = {} (from line {}) stops after {} um: it lacks {} um of the wavelengths of the first incidence ({} um)",
+                first.theta_i,
+                first.start,
+                last.wavelength.unwrap_or(f64::NAN),
+                list(&wavelengths[group.len()..]),
+                list(wavelengths)
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The table of checked blocks (of one wavelength): sorted by angle, then
@@ -664,12 +676,39 @@ fn monochrome(
 /// grid order, complete, the first block's bands, geometry and derived
 /// columns.
 fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, BrdfTableError> {
-    let file = || name.to_owned();
     let mut lines = text
         .lines()
         .enumerate()
         .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)));
     let header = lines.next().map_or("", |(_, l)| l);
+    let layout = read_layout(header, name, spectral_ok)?;
+    let (blocks, last_line) = group_rows(lines, name, layout)?;
+
+    // Every block complete, all with the first block's bands.
+    let mut first: Option<(usize, usize)> = None; // (bands, rows)
+    for b in &blocks {
+        let (bands, rows) = check_complete(b, first, name)?;
+        first.get_or_insert((bands, rows));
+    }
+    let bands = first.map_or(1, |(m, _)| m);
+    let grid = CarlsonGrid::new(bands).ok_or_else(|| BrdfTableError::Empty {
+        file: name.to_owned(),
+        line: last_line,
+    })?;
+    for b in &blocks {
+        check_geometry(b, grid, name, layout)?;
+    }
+    Ok(Parsed {
+        layout,
+        grid,
+        blocks,
+    })
+}
+
+/// The columns a `brdf.csv` `header` line announces (monochrome, or
+/// spectral if `spectral_ok`; with the photon-noise columns of several
+/// surface realisations or without).
+fn read_layout(header: &str, name: &str, spectral_ok: bool) -> Result<Layout, BrdfTableError> {
     let header = header.strip_prefix('\u{feff}').unwrap_or(header).trim_end();
     let full = header;
     // Several surface realisations: the photon-noise columns at the end.
@@ -680,7 +719,7 @@ fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, Brd
         Some(h) => (h, true),
         None => (header, false),
     };
-    let layout = match header {
+    Ok(match header {
         HEADER => Layout {
             spectral: false,
             photon,
@@ -691,13 +730,13 @@ fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, Brd
         },
         SPECTRAL_HEADER => {
             return Err(BrdfTableError::Spectral {
-                file: file(),
+                file: name.to_owned(),
                 expected: HEADER,
             });
         }
         _ => {
             return Err(BrdfTableError::Header {
-                file: file(),
+                file: name.to_owned(),
                 expected: HEADER,
                 spectral: if spectral_ok {
                     format!(" or, with wavelengths, `{SPECTRAL_HEADER}`")
@@ -707,10 +746,18 @@ fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, Brd
                 found: shorten(full, 200),
             });
         }
-    };
+    })
+}
 
-    // Group consecutive rows with the same incidence (and wavelength)
-    // into blocks.
+/// The data `lines` (numbered) parsed and grouped: consecutive rows with
+/// the same incidence (and wavelength) make a block, each row checked to
+/// be its block's next cell; with the number of the last line. No blocks
+/// is an error.
+fn group_rows<'a>(
+    lines: impl Iterator<Item = (usize, &'a str)>,
+    name: &str,
+    layout: Layout,
+) -> Result<(Vec<Block>, usize), BrdfTableError> {
     let mut blocks: Vec<Block> = Vec::new();
     let mut last_line = 1;
     for (line, text) in lines {
@@ -738,146 +785,83 @@ fn parse_blocks(text: &str, name: &str, spectral_ok: bool) -> Result<Parsed, Brd
     }
     if blocks.is_empty() {
         return Err(BrdfTableError::Empty {
-            file: file(),
+            file: name.to_owned(),
             line: last_line,
         });
     }
+    Ok((blocks, last_line))
+}
 
-    // Every block complete, all with the first block's bands.
-    let mut first: Option<(usize, usize)> = None; // (bands, rows)
-    for b in &blocks {
-        let (bands, rows) = check_complete(b, first, name)?;
-        first.get_or_insert((bands, rows));
-    }
-    let bands = first.map_or(1, |(m, _)| m);
-    let grid = CarlsonGrid::new(bands).ok_or_else(|| BrdfTableError::Empty {
-        file: file(),
-        line: last_line,
-    })?;
-
-    // Geometry columns against the grid.
+/// The geometry columns of every row of block `b` against `grid` (to
+/// [`GRID_TOL`], relative for the solid angles), and its derived columns.
+fn check_geometry(
+    b: &Block,
+    grid: CarlsonGrid,
+    name: &str,
+    layout: Layout,
+) -> Result<(), BrdfTableError> {
     let omega = grid.solid_angle();
-    for b in &blocks {
-        for (flat, row) in b.rows.iter().enumerate() {
-            let (band, cell) = grid.band_cell(flat);
-            let (mu_bot, mu_top) = grid.mu_edges(band);
-            let (theta_c, phi_c) = grid.centre(band, cell);
-            let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
-            let proj = grid.projected_solid_angle(band, cell);
-            for &(col, found) in &row.geometry {
-                let (expected, relative) = match col {
-                    C_THETA_LO => (mu_top.acos().to_degrees(), false),
-                    C_THETA_HI => (mu_bot.acos().to_degrees(), false),
-                    C_PHI_LO => (phi_lo.to_degrees(), false),
-                    C_PHI_HI => (phi_hi.to_degrees(), false),
-                    C_THETA_C => (theta_c.to_degrees(), false),
-                    C_PHI_C => (phi_c.to_degrees(), false),
-                    C_OMEGA => (omega, true),
-                    _ => (proj, true),
-                };
-                let tol = if relative {
-                    GRID_TOL * expected
-                } else {
-                    GRID_TOL
-                };
-                if (found - expected).abs() > tol {
-                    let (column, name_of) = layout.column(col);
-                    return Err(BrdfTableError::Grid {
-                        file: file(),
-                        line: row.line,
-                        column,
-                        name: name_of,
-                        found,
-                        expected,
-                        bands,
-                    });
-                }
+    for (flat, row) in b.rows.iter().enumerate() {
+        let (band, cell) = grid.band_cell(flat);
+        let (mu_bot, mu_top) = grid.mu_edges(band);
+        let (theta_c, phi_c) = grid.centre(band, cell);
+        let (phi_lo, phi_hi) = grid.phi_edges(band, cell);
+        let proj = grid.projected_solid_angle(band, cell);
+        for &(col, found) in &row.geometry {
+            let (expected, relative) = match col {
+                C_THETA_LO => (mu_top.acos().to_degrees(), false),
+                C_THETA_HI => (mu_bot.acos().to_degrees(), false),
+                C_PHI_LO => (phi_lo.to_degrees(), false),
+                C_PHI_HI => (phi_hi.to_degrees(), false),
+                C_THETA_C => (theta_c.to_degrees(), false),
+                C_PHI_C => (phi_c.to_degrees(), false),
+                C_OMEGA => (omega, true),
+                _ => (proj, true),
+            };
+            let tol = if relative {
+                GRID_TOL * expected
+            } else {
+                GRID_TOL
+            };
+            if (found - expected).abs() > tol {
+                let (column, name_of) = layout.column(col);
+                return Err(BrdfTableError::Grid {
+                    file: name.to_owned(),
+                    line: row.line,
+                    column,
+                    name: name_of,
+                    found,
+                    expected,
+                    bands: grid.bands(),
+                });
             }
-            check_derived(row, proj, name, layout)?;
         }
+        check_derived(row, proj, name, layout)?;
     }
-    Ok(Parsed {
-        layout,
-        grid,
-        blocks,
-    })
+    Ok(())
 }
 
 /// Parse one data row.
 fn parse_row(text: &str, line: usize, name: &str, layout: Layout) -> Result<Row, BrdfTableError> {
-    let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-    if fields.len() != layout.columns() {
+    let fields = Fields {
+        fields: text.split(',').map(str::trim).collect(),
+        line,
+        name,
+        layout,
+    };
+    if fields.fields.len() != layout.columns() {
         return Err(BrdfTableError::Columns {
             file: name.to_owned(),
             line,
             expected: layout.columns(),
-            found: fields.len(),
+            found: fields.fields.len(),
         });
     }
-    // `index`: the file's column (0-based).
-    let number = |index: usize| -> Result<f64, BrdfTableError> {
-        match fields[index].parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            _ => Err(BrdfTableError::Number {
-                file: name.to_owned(),
-                line,
-                column: index + 1,
-                name: layout.name(index),
-                text: shorten(fields[index], 40),
-                what: "finite number",
-            }),
-        }
-    };
-    let integer = |index: usize| -> Result<usize, BrdfTableError> {
-        fields[index]
-            .parse::<usize>()
-            .map_err(|_| BrdfTableError::Number {
-                file: name.to_owned(),
-                line,
-                column: index + 1,
-                name: layout.name(index),
-                text: shorten(fields[index], 40),
-                what: "non-negative integer",
-            })
-    };
-    // `col`: the monochrome column.
-    let range = |col: usize, value: f64, requirement: &'static str| {
-        let (column, name_of) = layout.column(col);
-        BrdfTableError::OutOfRange {
-            file: name.to_owned(),
-            line,
-            column,
-            name: name_of,
-            value,
-            requirement,
-        }
-    };
-    // Every numeric column must be finite, in column order.
-    let mut v = [0.0; 16];
-    let mut wavelength = None;
-    for index in 0..layout.columns() {
-        if index >= layout.columns() - 2 * usize::from(layout.photon) {
-            // The photon-noise columns: numbers, not the table's errors.
-            number(index)?;
-            continue;
-        }
-        if layout.spectral && index == C_WAVELENGTH {
-            wavelength = Some(number(index)?);
-            continue;
-        }
-        let col = if layout.spectral && index > C_WAVELENGTH {
-            index - 1
-        } else {
-            index
-        };
-        if col != C_BAND && col != C_CELL {
-            v[col] = number(index)?;
-        }
-    }
-    let band = integer(layout.at(C_BAND))?;
-    let cell = integer(layout.at(C_CELL))?;
+    let (v, wavelength) = fields.values()?;
+    let band = fields.integer(layout.at(C_BAND))?;
+    let cell = fields.integer(layout.at(C_CELL))?;
     if !(0.0..90.0).contains(&v[C_THETA_I]) {
-        return Err(range(C_THETA_I, v[C_THETA_I], "must be in [0, 90)"));
+        return Err(fields.out_of_range(C_THETA_I, v[C_THETA_I], "must be in [0, 90)"));
     }
     if let Some(w) = wavelength.filter(|w| *w <= 0.0) {
         return Err(BrdfTableError::OutOfRange {
@@ -891,11 +875,11 @@ fn parse_row(text: &str, line: usize, name: &str, layout: Layout) -> Result<Row,
     }
     for col in [C_FRACTION, C_FRACTION_SE, C_BRDF, C_BRDF_SE] {
         if v[col] < 0.0 {
-            return Err(range(col, v[col], "must be >= 0"));
+            return Err(fields.out_of_range(col, v[col], "must be >= 0"));
         }
     }
     if v[C_FRACTION] > MAX_FRACTION {
-        return Err(range(
+        return Err(fields.out_of_range(
             C_FRACTION,
             v[C_FRACTION],
             "must be <= 1 (the share of the launched light leaving through the cell)",
@@ -917,6 +901,90 @@ fn parse_row(text: &str, line: usize, name: &str, layout: Layout) -> Result<Row,
         brdf: v[C_BRDF],
         brdf_se: v[C_BRDF_SE],
     })
+}
+
+/// The fields of one data row of `brdf.csv` file `name` (at `line`), read
+/// by column.
+struct Fields<'a> {
+    /// The comma-separated fields, trimmed.
+    fields: Vec<&'a str>,
+    /// Line number (1-based).
+    line: usize,
+    /// The file, for errors.
+    name: &'a str,
+    /// The file's columns.
+    layout: Layout,
+}
+
+impl Fields<'_> {
+    /// Every numeric column, each checked finite in column order: the
+    /// values by monochrome column (band and cell left 0) and the
+    /// wavelength of a spectral table.
+    fn values(&self) -> Result<([f64; 16], Option<f64>), BrdfTableError> {
+        let layout = self.layout;
+        let mut v = [0.0; 16];
+        let mut wavelength = None;
+        for index in 0..layout.columns() {
+            if index >= layout.columns() - 2 * usize::from(layout.photon) {
+                // The photon-noise columns: numbers, not the table's errors.
+                self.number(index)?;
+                continue;
+            }
+            if layout.spectral && index == C_WAVELENGTH {
+                wavelength = Some(self.number(index)?);
+                continue;
+            }
+            let col = if layout.spectral && index > C_WAVELENGTH {
+                index - 1
+            } else {
+                index
+            };
+            if col != C_BAND && col != C_CELL {
+                v[col] = self.number(index)?;
+            }
+        }
+        Ok((v, wavelength))
+    }
+
+    /// The finite number in the file's column `index` (0-based).
+    fn number(&self, index: usize) -> Result<f64, BrdfTableError> {
+        match self.fields[index].parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(self.not_a(index, "finite number")),
+        }
+    }
+
+    /// The non-negative integer in the file's column `index` (0-based).
+    fn integer(&self, index: usize) -> Result<usize, BrdfTableError> {
+        self.fields[index]
+            .parse::<usize>()
+            .map_err(|_| self.not_a(index, "non-negative integer"))
+    }
+
+    /// The file's column `index` (0-based) is not `what`.
+    fn not_a(&self, index: usize, what: &'static str) -> BrdfTableError {
+        BrdfTableError::Number {
+            file: self.name.to_owned(),
+            line: self.line,
+            column: index + 1,
+            name: self.layout.name(index),
+            text: shorten(self.fields[index], 40),
+            what,
+        }
+    }
+
+    /// Monochrome column `col`'s `value` breaks `requirement`.
+    fn out_of_range(&self, col: usize, value: f64, requirement: &'static str) -> BrdfTableError {
+        let (column, name_of) = self.layout.column(col);
+        BrdfTableError::OutOfRange {
+            file: self.name.to_owned(),
+            line: self.line,
+            column,
+            name: name_of,
+            value,
+            requirement,
+        }
+    }
 }
 
 /// The derived columns of `row` must follow from the others: `brdf =

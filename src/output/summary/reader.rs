@@ -335,148 +335,185 @@ impl BrdfTable {
             file: name.to_owned(),
             problem,
         };
-        let table = self.file().to_owned();
-        let entries = &summary.incidence;
         let run = &summary.run;
         if run.bands != self.grid().bands() {
             return Err(fail(SummaryProblem::Bands {
                 found: run.bands,
                 expected: self.grid().bands(),
-                table,
+                table: self.file().to_owned(),
             }));
         }
+        self.check_entries(summary).map_err(fail)?;
+        for i in 0..self.thetas_deg().len() {
+            let (entry, key, r, se) = self.summary_value(summary, i, lane).map_err(fail)?;
+            check_stderr(entry, key, r, se, self.incidence(i).theta_deg).map_err(fail)?;
+            self.set_stated_stderr(i, se);
+        }
+        Ok(self)
+    }
+
+    /// Check that every entry of `summary` is an incidence of this table,
+    /// with the photons per incidence of the summary's run (or its shard's
+    /// block).
+    fn check_entries(&self, summary: &BrdfSummary) -> Result<(), SummaryProblem> {
+        let run = &summary.run;
         // Photons per incidence of this summary's folder: the run's, or
         // its shard's block.
         let per_incidence = run.shard.as_ref().map_or(run.photons, |s| {
             s.last_photon.saturating_sub(s.first_photon)
         });
-        let at =
-            |e: &IncidenceSummary, theta: f64, phi: f64| e.theta_deg == theta && e.phi_deg == phi;
-        for (k, e) in entries.iter().enumerate() {
+        for (k, e) in summary.incidence.iter().enumerate() {
             let listed = (0..self.thetas_deg().len())
                 .map(|i| self.incidence(i))
-                .any(|inc| at(e, inc.theta_deg, inc.phi_i_deg));
+                .any(|inc| entry_at(e, inc.theta_deg, inc.phi_i_deg));
             if !listed {
-                return Err(fail(SummaryProblem::NotTabulated {
+                return Err(SummaryProblem::NotTabulated {
                     k,
                     theta_deg: e.theta_deg,
                     phi_deg: e.phi_deg,
-                    table,
-                }));
+                    table: self.file().to_owned(),
+                });
             }
             if e.photons == 0 {
-                return Err(fail(SummaryProblem::NoPhotons(k)));
+                return Err(SummaryProblem::NoPhotons(k));
             }
             if e.photons != per_incidence {
-                return Err(fail(SummaryProblem::Photons {
+                return Err(SummaryProblem::Photons {
                     k,
                     found: e.photons,
                     expected: per_incidence,
-                }));
-            }
-        }
-        for i in 0..self.thetas_deg().len() {
-            let inc = self.incidence(i);
-            let theta = inc.theta_deg;
-            let (k, entry) = entries
-                .iter()
-                .enumerate()
-                .find(|(_, e)| at(e, theta, inc.phi_i_deg))
-                .ok_or_else(|| {
-                    fail(SummaryProblem::NoEntry {
-                        theta_deg: theta,
-                        phi_deg: inc.phi_i_deg,
-                        table: table.clone(),
-                    })
-                })?;
-            // This table's reflectance and its standard error, and their key.
-            let (r, se, key) = match lane {
-                None => (
-                    entry.reflectance,
-                    entry.reflectance_stderr,
-                    EntryKey {
-                        incidence: k,
-                        spectrum: None,
-                    },
-                ),
-                Some((l, w)) => {
-                    let key = EntryKey {
-                        incidence: k,
-                        spectrum: Some(l),
-                    };
-                    let v = entry
-                        .spectrum
-                        .as_ref()
-                        .and_then(|s| s.get(l))
-                        .ok_or_else(|| {
-                            fail(SummaryProblem::NoWavelength {
-                                key,
-                                theta_deg: theta,
-                                table: table.clone(),
-                                wavelength_um: w,
-                            })
-                        })?;
-                    if v.wavelength_um != w {
-                        return Err(fail(SummaryProblem::Wavelength {
-                            key,
-                            found: v.wavelength_um,
-                            expected: w,
-                            table,
-                        }));
-                    }
-                    (v.reflectance, v.reflectance_stderr, key)
-                }
-            };
-            let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
-            if !close {
-                return Err(fail(SummaryProblem::Reflectance {
-                    key,
-                    found: r,
-                    theta_deg: theta,
-                    expected: inc.reflectance,
-                    table,
-                }));
-            }
-            if !(se.is_finite() && se >= 0.0) {
-                return Err(fail(SummaryProblem::Stderr {
-                    key,
-                    theta_deg: theta,
-                }));
-            }
-            let photons = entry.photons;
-            // The errors of an ensemble of R surface realisations (the
-            // photon share w_r of each): R / (R - 1) sum w_r² (m_r - m)²,
-            // at most R / (R - 1) max(w_r) m (1 - m).
-            let ensemble = entry
-                .stderr_dof
-                .zip(entry.realisations.as_ref())
-                .filter(|(dof, _)| *dof >= 1 && photons > 0)
-                .map(|(dof, re)| {
-                    let w =
-                        re.photons.iter().max().copied().unwrap_or(photons) as f64 / photons as f64;
-                    (dof as f64 + 1.0) / dof as f64 * w
                 });
-            if photons >= 2 {
-                let dof = photons.min(16) as f64 - 1.0;
-                let rc = r.clamp(0.0, 1.0);
-                let bound = (rc * (1.0 - rc) / dof)
-                    .max(rc * (1.0 - rc) * ensemble.unwrap_or(0.0))
-                    .sqrt();
-                if se > bound * (1.0 + 1e-6) + 1e-12 {
-                    return Err(fail(SummaryProblem::StderrBound {
-                        key,
-                        found: se,
-                        bound,
-                        reflectance: r,
-                        photons,
-                        theta_deg: theta,
-                    }));
-                }
             }
-            self.set_stated_stderr(i, se);
         }
-        Ok(self)
+        Ok(())
     }
+
+    /// The entry of `summary` for this table's incidence `i`, the key of
+    /// its value for this table (`lane`: see
+    /// [`apply_summary`](Self::apply_summary)), and that value's
+    /// reflectance and standard error, the reflectance checked to be the
+    /// table's (within 1e-7).
+    fn summary_value<'s>(
+        &self,
+        summary: &'s BrdfSummary,
+        i: usize,
+        lane: Option<(usize, f64)>,
+    ) -> Result<(&'s IncidenceSummary, EntryKey, f64, f64), SummaryProblem> {
+        let inc = self.incidence(i);
+        let theta = inc.theta_deg;
+        let table = || self.file().to_owned();
+        let (k, entry) = summary
+            .incidence
+            .iter()
+            .enumerate()
+            .find(|(_, e)| entry_at(e, theta, inc.phi_i_deg))
+            .ok_or_else(|| SummaryProblem::NoEntry {
+                theta_deg: theta,
+                phi_deg: inc.phi_i_deg,
+                table: table(),
+            })?;
+        // This table's reflectance and its standard error, and their key.
+        let (r, se, key) = match lane {
+            None => (
+                entry.reflectance,
+                entry.reflectance_stderr,
+                EntryKey {
+                    incidence: k,
+                    spectrum: None,
+                },
+            ),
+            Some((l, w)) => {
+                let key = EntryKey {
+                    incidence: k,
+                    spectrum: Some(l),
+                };
+                let v = entry
+                    .spectrum
+                    .as_ref()
+                    .and_then(|s| s.get(l))
+                    .ok_or_else(|| SummaryProblem::NoWavelength {
+                        key,
+                        theta_deg: theta,
+                        table: table(),
+                        wavelength_um: w,
+                    })?;
+                if v.wavelength_um != w {
+                    return Err(SummaryProblem::Wavelength {
+                        key,
+                        found: v.wavelength_um,
+                        expected: w,
+                        table: table(),
+                    });
+                }
+                (v.reflectance, v.reflectance_stderr, key)
+            }
+        };
+        let close = (r - inc.reflectance).abs() <= 1e-7; // false for NaN
+        if !close {
+            return Err(SummaryProblem::Reflectance {
+                key,
+                found: r,
+                theta_deg: theta,
+                expected: inc.reflectance,
+                table: table(),
+            });
+        }
+        Ok((entry, key, r, se))
+    }
+}
+
+/// Whether summary entry `e` is the incidence at polar angle `theta` and
+/// azimuth `phi` (degrees, exactly).
+fn entry_at(e: &IncidenceSummary, theta: f64, phi: f64) -> bool {
+    e.theta_deg == theta && e.phi_deg == phi
+}
+
+/// Check the standard error `se` a summary `entry` states for its value
+/// `key` of reflectance `r` (at polar angle `theta`, degrees): finite,
+/// >= 0, and within the largest a mean of its photons can have.
+fn check_stderr(
+    entry: &IncidenceSummary,
+    key: EntryKey,
+    r: f64,
+    se: f64,
+    theta: f64,
+) -> Result<(), SummaryProblem> {
+    if !(se.is_finite() && se >= 0.0) {
+        return Err(SummaryProblem::Stderr {
+            key,
+            theta_deg: theta,
+        });
+    }
+    let photons = entry.photons;
+    // The errors of an ensemble of R surface realisations (the
+    // photon share w_r of each): R / (R - 1) sum w_r² (m_r - m)²,
+    // at most R / (R - 1) max(w_r) m (1 - m).
+    let ensemble = entry
+        .stderr_dof
+        .zip(entry.realisations.as_ref())
+        .filter(|(dof, _)| *dof >= 1 && photons > 0)
+        .map(|(dof, re)| {
+            let w = re.photons.iter().max().copied().unwrap_or(photons) as f64 / photons as f64;
+            (dof as f64 + 1.0) / dof as f64 * w
+        });
+    if photons >= 2 {
+        let dof = photons.min(16) as f64 - 1.0;
+        let rc = r.clamp(0.0, 1.0);
+        let bound = (rc * (1.0 - rc) / dof)
+            .max(rc * (1.0 - rc) * ensemble.unwrap_or(0.0))
+            .sqrt();
+        if se > bound * (1.0 + 1e-6) + 1e-12 {
+            return Err(SummaryProblem::StderrBound {
+                key,
+                found: se,
+                bound,
+                reflectance: r,
+                photons,
+                theta_deg: theta,
+            });
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
