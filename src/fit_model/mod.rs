@@ -552,11 +552,42 @@ pub fn fit(
             report.termination
         )));
     }
+    let (residuals, reflectance, thetas) = judge(model, table, cells, &q);
+    Ok(FitResult {
+        theta_i_deg: thetas
+            .iter()
+            .map(|&i| table.incidence(i).theta_deg)
+            .collect(),
+        parameters,
+        chi2,
+        dof,
+        chi2_per_dof,
+        covariance_scaled: chi2_per_dof > 1.0,
+        cells: cells.len(),
+        cells_left_out: left_out,
+        termination: format!("{:?}", report.termination),
+        converged: report.termination.was_successful(),
+        reflectance,
+        largest_residuals: residuals,
+        internal: q,
+        incidences: thetas,
+    })
+}
+
+/// The residuals of `model` at `q` on `cells` of `table`, the largest ten
+/// by magnitude, and each incidence's reflectance judged (with the
+/// incidences, in the order of `cells`).
+fn judge(
+    model: &dyn Model,
+    table: &BrdfTable,
+    cells: &[&Observation],
+    q: &[f64],
+) -> (Vec<Residual>, Vec<ReflectanceCompare>, Vec<usize>) {
     let grid = table.grid();
     let mut residuals: Vec<Residual> = cells
         .iter()
         .map(|o| {
-            let m = cell_model(model, &q, o);
+            let m = cell_model(model, q, o);
             let (band, cell) = grid.band_cell(o.flat);
             let (theta, phi) = grid.centre(band, cell);
             let inc = table.incidence(o.incidence);
@@ -595,25 +626,7 @@ pub fn fit(
         .collect();
     residuals.sort_by(|a, b| b.sigma.abs().total_cmp(&a.sigma.abs()));
     residuals.truncate(10);
-    Ok(FitResult {
-        theta_i_deg: thetas
-            .iter()
-            .map(|&i| table.incidence(i).theta_deg)
-            .collect(),
-        parameters,
-        chi2,
-        dof,
-        chi2_per_dof,
-        covariance_scaled: chi2_per_dof > 1.0,
-        cells: cells.len(),
-        cells_left_out: left_out,
-        termination: format!("{:?}", report.termination),
-        converged: report.termination.was_successful(),
-        reflectance,
-        largest_residuals: residuals,
-        internal: q,
-        incidences: thetas,
-    })
+    (residuals, reflectance, thetas)
 }
 
 /// Fit `model` to every incidence of `table` on its own, each started
