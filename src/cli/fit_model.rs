@@ -10,9 +10,12 @@
 //! files and `RESULT_DIR/fit_summary.json`, the models ranked
 //! ([`crate::fit_model::rank`]).
 //!
-//! Every fit is judged ([`crate::fit_model::warnings`], [`crate::fit_model::Judgement`]): each
-//! warning is printed on stderr (quiet or not), then the verdict in one
-//! line. A table no model can take (a mirror's, nothing reflected) is
+//! The fits, their files and the lines printed are made by
+//! [`crate::fit_model::run::Request::run`]; this module parses the options,
+//! checks the outputs, writes the files and prints the lines. Every fit is
+//! judged ([`crate::fit_model::warnings`], [`crate::fit_model::Judgement`]):
+//! each warning is printed on stderr (quiet or not), then the verdict in
+//! one line. A table no model can take (a mirror's, nothing reflected) is
 //! refused with `cannot fit: ...`, exit status 2, nothing written.
 
 use std::path::PathBuf;

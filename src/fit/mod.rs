@@ -7,7 +7,7 @@
 //! BRDF matches a measured one.
 //!
 //! # Inputs
-//! * The micro scene as TOML text, with its [`SceneFile`] (file name for
+//! * The micro scene as TOML text, with its [`SceneFile`](crate::scene::SceneFile) (file name for
 //!   messages, folder for relative paths such as reflectance tables).
 //! * The measured in-plane BRDF ([`Measured`]): a CSV with the header
 //!   `theta_i_deg,theta_o_deg,brdf` and optionally a fourth column
@@ -30,7 +30,7 @@
 //! # Method
 //! 1. **Model.** The parameter values are written into the parsed TOML table
 //!    (as floats), and the scene is rebuilt from the table's text with
-//!    [`MicroScene::from_str`], so every check of the scene file applies. The
+//!    [`MicroScene::from_str`](crate::scene::micro::MicroScene::from_str), so every check of the scene file applies. The
 //!    scene's [`BrdfRun`](crate::transport::brdf::BrdfRun) is run at only the
 //!    distinct measured incidence angles (and, with a `phi_i_deg` column,
 //!    the distinct measured light azimuths, every angle at every azimuth;

@@ -1,6 +1,6 @@
 //! A prepared fit ([`Problem`]): the scene as a TOML table, the parameters
 //! and the measurement checked; the model's in-plane BRDF and the misfit
-//! at any parameter values. The search is in [`super::search`].
+//! at any parameter values. The search is in `search.rs`.
 
 use toml::{Table, Value};
 

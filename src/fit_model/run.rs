@@ -151,10 +151,15 @@ impl Request {
         self.dir.join("brdf.csv")
     }
 
+    /// `summary.json` of the result folder.
+    fn summary_path(&self) -> PathBuf {
+        self.dir.join("summary.json")
+    }
+
     /// The files the run reads: `brdf.csv` and `summary.json`.
     #[must_use]
     pub fn inputs(&self) -> [PathBuf; 2] {
-        [self.csv(), self.dir.join("summary.json")]
+        [self.csv(), self.summary_path()]
     }
 
     /// Where `fit_summary.json` goes.
@@ -212,7 +217,7 @@ impl Request {
     fn load(&self) -> Result<Loaded, RunError> {
         let input = RunError::Input;
         let csv = self.csv();
-        let summary_path = self.dir.join("summary.json");
+        let summary_path = self.summary_path();
         let mut tables = BrdfTables::load(&csv).map_err(|e| input(e.to_string()))?;
         tables
             .require_one_azimuth("roks fit-model (its models are isotropic)")
