@@ -302,3 +302,69 @@ impl FitSummary {
         Ok(serde_json::to_string_pretty(self)? + "\n")
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn judgement(model: &str, passes: bool, chi2: f64, worst_at: f64) -> Judgement {
+        Judgement {
+            model: model.into(),
+            chi2_per_dof: chi2,
+            incidences: 3,
+            incidences_ok: if passes { 3 } else { 1 },
+            worst_reflectance_error: -0.0123,
+            worst_at_theta_i_deg: worst_at,
+            not_converged: 0,
+            undetermined_parameters: usize::from(!passes),
+            warnings: if passes { 0 } else { 2 },
+            passes,
+        }
+    }
+
+    /// `fit_summary.json` as the struct writes it is byte for byte the
+    /// document the command built before with `json!` (an untyped map,
+    /// keys sorted; each ranked entry the judgement's fields with `file`
+    /// and `verdict` added), a NaN incidence included.
+    #[test]
+    fn the_summary_is_the_untyped_document_byte_for_byte() {
+        let judged = vec![
+            (
+                judgement("abg", false, 2.5, 30.0),
+                "r/fit_abg.json".to_owned(),
+            ),
+            (
+                judgement("ggx", true, 1.1, f64::NAN),
+                "r/fit_ggx.json".to_owned(),
+            ),
+        ];
+        let skipped = [("beckmann", "cannot fit: why".to_owned())];
+        let typed = FitSummary::new("r/brdf.csv", &judged, &skipped)
+            .to_text()
+            .unwrap();
+        let mut ranking: Vec<Judgement> = judged.iter().map(|j| j.0.clone()).collect();
+        rank(&mut ranking);
+        let untyped = json!({
+            "table": "r/brdf.csv",
+            "rule": RULE,
+            "use": ranking.first().filter(|j| j.passes).map(|j| j.model.clone()),
+            "advice": advice(&ranking),
+            "ranking": ranking
+                .iter()
+                .map(|j| {
+                    let mut v = serde_json::to_value(j).unwrap();
+                    v["file"] = json!(format!("r/fit_{}.json", j.model));
+                    v["verdict"] = json!(j.line());
+                    v
+                })
+                .collect::<Vec<_>>(),
+            "not_fitted": [{"model": "beckmann", "reason": "cannot fit: why"}],
+            "version": env!("CARGO_PKG_VERSION"),
+        });
+        let untyped = serde_json::to_string_pretty(&untyped).unwrap() + "\n";
+        assert_eq!(typed, untyped);
+        assert!(typed.contains("\"use\": \"ggx\""), "{typed}");
+        assert!(typed.contains("\"worst_at_theta_i_deg\": null"), "{typed}");
+    }
+}
