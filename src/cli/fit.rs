@@ -1,15 +1,14 @@
 //! `roks fit`: fit the parameters of a micro scene to a measured in-plane
 //! BRDF, and write fit.json, fitted.toml and fit_inplane.csv.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::Args;
 
 use super::Failure;
 use super::common::{check_out_dir, set_threads, write_folder};
 use super::parse::{integer, number, positive};
-use crate::fit::{FitError, FitOptions, FitParam, Measured, Problem};
-use crate::output::summary::{self, FitSummary};
+use crate::fit::{FitError, FitOptions, Inputs, evaluation_line};
 
 /// The options of `roks fit`.
 #[derive(Args, Debug)]
@@ -66,25 +65,13 @@ pub struct FitArgs {
     pub quiet: bool,
 }
 
-/// Run `roks fit`.
+/// Run `roks fit` ([`crate::fit::Inputs`], [`crate::fit::Prepared::run`]).
 ///
 /// # Errors
 /// Bad input (scene, measurements, parameters, options), or a failed write.
 pub fn execute(a: FitArgs) -> Result<(), Failure> {
     let input = |e: FitError| Failure::Input(e.to_string());
-    let text = crate::scene::read_scene_text(&a.scene)?;
-    let scene_file = crate::scene::SceneFile::from_path(&a.scene);
-    let measured_text =
-        crate::limits::read_text_capped(&a.measured, crate::limits::max_data_bytes())
-            .map_err(|e| Failure::Input(format!("{}: cannot read: {e}", a.measured.display())))?;
-    let measured =
-        Measured::parse(&measured_text, &a.measured.display().to_string()).map_err(input)?;
-    let params = a
-        .params
-        .iter()
-        .map(|p| p.parse::<FitParam>())
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(input)?;
+    let inputs = Inputs::read(&a.scene, &a.measured, &a.params).map_err(input)?;
     let opts = FitOptions {
         photons: a.photons,
         seed: a.seed,
@@ -97,76 +84,22 @@ pub fn execute(a: FitArgs) -> Result<(), Failure> {
         scan: a.scan,
     };
     set_threads(a.threads)?;
-    let problem = Problem::new(&text, &scene_file, &params, &measured, &opts).map_err(input)?;
-    let name = a
-        .scene
-        .file_stem()
-        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(format!("{name}-fit")));
-    let mut reads = crate::scene::micro::MicroScene::reads_of(&a.scene);
-    reads.push(a.measured.clone());
-    check_out_dir(&out, "--out", &reads, a.force)?;
+    let fit = inputs.prepare(&opts).map_err(input)?;
+    let out = a.out.clone().unwrap_or_else(|| fit.default_out());
+    check_out_dir(&out, "--out", &fit.reads(), a.force)?;
     let quiet = a.quiet;
-    let result = problem
-        .fit_observed(&mut |k, values, misfit, rejected| {
+    let outcome = fit
+        .run(&mut |k, values, misfit, rejected| {
             if !quiet {
-                match rejected {
-                    Some(why) => {
-                        eprintln!("evaluation {k:>4}: rejected by the scene at {values:?}: {why}");
-                    }
-                    None => eprintln!("evaluation {k:>4}: misfit {misfit:.6e} at {values:?}"),
-                }
+                eprintln!("{}", evaluation_line(k, values, misfit, rejected));
             }
         })
         .map_err(input)?;
-    let fitted = problem.apply(&result.values).map_err(input)?;
-    let summary = FitSummary::new(
-        &scene_file.file,
-        &a.measured.display().to_string(),
-        a.seed,
-        a.photons,
-        &params,
-        &result,
-    );
-    // With the measurement's light azimuths: its phi_i_deg column too.
-    let mut csv = match measured.phi_i_deg {
-        Some(_) => String::from("theta_i_deg,phi_i_deg,theta_o_deg,measured,model\n"),
-        None => String::from("theta_i_deg,theta_o_deg,measured,model\n"),
-    };
-    for (k, ((ti, to, b, _), m)) in measured.points.iter().zip(&result.model).enumerate() {
-        let phi = measured
-            .phi_i_deg
-            .as_ref()
-            .map_or(String::new(), |p| format!("{},", p[k]));
-        csv.push_str(&format!("{ti},{phi}{to},{b:.9e},{m:.9e}\n"));
-    }
-    let text = summary::to_text(&summary);
-    write_folder(
-        &out,
-        &[
-            ("fit_inplane.csv", csv.as_bytes()),
-            ("fitted.toml", fitted.as_bytes()),
-            ("fit.json", text.as_bytes()),
-        ],
-        "fit",
-    )?;
+    write_folder(&out, &outcome.files, "fit")?;
     if !quiet {
-        for (i, p) in params.iter().enumerate() {
-            eprintln!(
-                "{} = {:.6} (start {:.6}, bounds {}:{})",
-                p.key, result.values[i], result.start[i], p.lo, p.hi
-            );
+        for line in outcome.lines(&out) {
+            eprintln!("{line}");
         }
-        eprintln!(
-            "misfit {:.3e} (start {:.3e}), {} evaluations; wrote {}",
-            result.misfit,
-            result.start_misfit,
-            result.evaluations,
-            out.display()
-        );
     }
     Ok(())
 }

@@ -33,8 +33,14 @@
 
 pub mod abg;
 pub mod harvey;
+pub mod material;
 pub mod microfacet;
+mod one;
 pub mod plot;
+pub mod ranking;
+pub mod run;
+
+pub use ranking::{Judgement, rank};
 
 use glam::DVec3;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
@@ -546,11 +552,42 @@ pub fn fit(
             report.termination
         )));
     }
+    let (residuals, reflectance, thetas) = judge(model, table, cells, &q);
+    Ok(FitResult {
+        theta_i_deg: thetas
+            .iter()
+            .map(|&i| table.incidence(i).theta_deg)
+            .collect(),
+        parameters,
+        chi2,
+        dof,
+        chi2_per_dof,
+        covariance_scaled: chi2_per_dof > 1.0,
+        cells: cells.len(),
+        cells_left_out: left_out,
+        termination: format!("{:?}", report.termination),
+        converged: report.termination.was_successful(),
+        reflectance,
+        largest_residuals: residuals,
+        internal: q,
+        incidences: thetas,
+    })
+}
+
+/// The residuals of `model` at `q` on `cells` of `table`, the largest ten
+/// by magnitude, and each incidence's reflectance judged (with the
+/// incidences, in the order of `cells`).
+fn judge(
+    model: &dyn Model,
+    table: &BrdfTable,
+    cells: &[&Observation],
+    q: &[f64],
+) -> (Vec<Residual>, Vec<ReflectanceCompare>, Vec<usize>) {
     let grid = table.grid();
     let mut residuals: Vec<Residual> = cells
         .iter()
         .map(|o| {
-            let m = cell_model(model, &q, o);
+            let m = cell_model(model, q, o);
             let (band, cell) = grid.band_cell(o.flat);
             let (theta, phi) = grid.centre(band, cell);
             let inc = table.incidence(o.incidence);
@@ -589,25 +626,7 @@ pub fn fit(
         .collect();
     residuals.sort_by(|a, b| b.sigma.abs().total_cmp(&a.sigma.abs()));
     residuals.truncate(10);
-    Ok(FitResult {
-        theta_i_deg: thetas
-            .iter()
-            .map(|&i| table.incidence(i).theta_deg)
-            .collect(),
-        parameters,
-        chi2,
-        dof,
-        chi2_per_dof,
-        covariance_scaled: chi2_per_dof > 1.0,
-        cells: cells.len(),
-        cells_left_out: left_out,
-        termination: format!("{:?}", report.termination),
-        converged: report.termination.was_successful(),
-        reflectance,
-        largest_residuals: residuals,
-        internal: q,
-        incidences: thetas,
-    })
+    (residuals, reflectance, thetas)
 }
 
 /// Fit `model` to every incidence of `table` on its own, each started
@@ -720,137 +739,6 @@ pub fn reflectance_off(r: &ReflectanceCompare) -> String {
         100.0 * (r.model / r.table - 1.0),
         r.table
     )
-}
-
-/// How one model's fits did, in numbers: what `roks fit-model` prints as
-/// its verdict and ranks the models by ([`Judgement::rank_key`]).
-#[derive(Debug, Clone, Serialize)]
-pub struct Judgement {
-    /// The model (`--model`'s name).
-    pub model: String,
-    /// `Σ chi² / Σ dof` over the model's fits (for a per-incidence model,
-    /// pooled over its incidences).
-    pub chi2_per_dof: f64,
-    /// Incidences judged.
-    pub incidences: usize,
-    /// Incidences whose reflectance verdict is `ok`.
-    pub incidences_ok: usize,
-    /// The largest relative reflectance error `model / table - 1` in
-    /// magnitude (signed), and at which incidence (degrees).
-    pub worst_reflectance_error: f64,
-    /// The incidence (degrees) of [`worst_reflectance_error`](Self::worst_reflectance_error).
-    pub worst_at_theta_i_deg: f64,
-    /// Fits that did not converge.
-    pub not_converged: usize,
-    /// Parameters whose standard error exceeds their value or is unknown.
-    pub undetermined_parameters: usize,
-    /// Number of warnings ([`warnings`]).
-    pub warnings: usize,
-    /// No warnings: every incidence `ok`, every fit converged, every
-    /// parameter determined.
-    pub passes: bool,
-}
-
-impl Judgement {
-    /// The judgement of model `name`'s `fits`.
-    #[must_use]
-    pub fn of(name: &str, fits: &[FitResult]) -> Self {
-        let all: Vec<&ReflectanceCompare> = fits.iter().flat_map(|f| &f.reflectance).collect();
-        let rel = |r: &ReflectanceCompare| r.model / r.table - 1.0;
-        let worst = all
-            .iter()
-            .max_by(|a, b| rel(a).abs().total_cmp(&rel(b).abs()))
-            .map_or((0.0, f64::NAN), |r| (rel(r), r.theta_i_deg));
-        let (chi2, dof) = fits
-            .iter()
-            .fold((0.0, 0usize), |(c, d), f| (c + f.chi2, d + f.dof));
-        let w = warnings(name, fits).len();
-        Self {
-            model: name.to_owned(),
-            chi2_per_dof: chi2 / dof.max(1) as f64,
-            incidences: all.len(),
-            incidences_ok: all.iter().filter(|r| r.ok).count(),
-            worst_reflectance_error: worst.0,
-            worst_at_theta_i_deg: worst.1,
-            not_converged: fits.iter().filter(|f| !f.converged).count(),
-            undetermined_parameters: fits
-                .iter()
-                .flat_map(|f| &f.parameters)
-                .filter(|p| p.stderr.is_nan() || p.stderr > p.value.abs())
-                .count(),
-            warnings: w,
-            passes: w == 0,
-        }
-    }
-
-    /// The order of the ranking, best first: models without warnings
-    /// first, then fewer incidences off the table's reflectance, then
-    /// fewer fits not converged, then the smaller `chi²/dof`.
-    #[must_use]
-    pub fn rank_key(&self) -> (bool, usize, usize, f64) {
-        (
-            !self.passes,
-            self.incidences - self.incidences_ok,
-            self.not_converged,
-            self.chi2_per_dof,
-        )
-    }
-
-    /// The one-line verdict: that every check passes, or what fails.
-    #[must_use]
-    pub fn line(&self) -> String {
-        let worst = format!(
-            "worst reflectance error {:+.2} % at theta_i {} deg",
-            100.0 * self.worst_reflectance_error,
-            self.worst_at_theta_i_deg
-        );
-        if self.passes {
-            return format!(
-                "{}: ok: every incidence's reflectance within max(1 %, 4 standard errors) of the table's ({worst}), converged, every parameter determined; chi2/dof {:.3}",
-                self.model, self.chi2_per_dof
-            );
-        }
-        let mut what = Vec::new();
-        let off = self.incidences - self.incidences_ok;
-        if off > 0 {
-            what.push(format!(
-                "{off} of {} incidences off the table's reflectance by more than max(1 %, 4 standard errors) ({worst})",
-                self.incidences
-            ));
-        }
-        if self.not_converged > 0 {
-            what.push(format!(
-                "{} fit{} not converged",
-                self.not_converged,
-                if self.not_converged == 1 { "" } else { "s" }
-            ));
-        }
-        if self.undetermined_parameters > 0 {
-            what.push(format!(
-                "{} parameters undetermined (standard error above the value)",
-                self.undetermined_parameters
-            ));
-        }
-        format!(
-            "{}: NOT OK: {}; chi2/dof {:.3}; {} warnings",
-            self.model,
-            what.join(", "),
-            self.chi2_per_dof,
-            self.warnings
-        )
-    }
-}
-
-/// Sort `judgements` best first by [`Judgement::rank_key`] (stable: equal
-/// keys keep their order).
-pub fn rank(judgements: &mut [Judgement]) {
-    judgements.sort_by(|a, b| {
-        let (x, y) = (a.rank_key(), b.rank_key());
-        x.0.cmp(&y.0)
-            .then(x.1.cmp(&y.1))
-            .then(x.2.cmp(&y.2))
-            .then(x.3.total_cmp(&y.3))
-    });
 }
 
 /// For a model `amplitude x shape(s)`: per shape point `s` of `grid`, the
