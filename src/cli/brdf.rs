@@ -7,7 +7,6 @@ use clap::{ArgAction, Args};
 
 use super::Failure;
 use super::common::{TracingArgs, progress_bar, result_dir, set_threads, stats_grid, write_folder};
-use super::export_brdf::{check_export_formats, export_formats};
 use super::parse::{integer, number};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::micro::surface_stats::surface_stats;
@@ -129,14 +128,7 @@ impl BrdfArgs {
 pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let scene = a.scene()?;
     let mut run = scene.brdf_run();
-    check_export_formats(&a.export, &run.wavelengths_um, &run.phi_deg)?;
-    if a.export.contains(&BrdfFormat::Pbsdf)
-        && run.polarisation.tally != crate::tally::PolarTally::Mueller
-    {
-        return Err(Failure::Input(
-            "--export pbsdf: needs the Mueller-matrix BRDF: --polarisation mueller ([tally] polarisation = \"mueller\")".into(),
-        ));
-    }
+    crate::export::folder::check_run(&a.export, &run)?;
     let (rx, ry) = stats_grid(
         &scene,
         a.stats_resolution,
@@ -206,8 +198,12 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     bar.finish_and_clear();
 
     let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
-    let extra = export_formats(&folder, &a.export, &comment, a.quiet, &scene.surfaces())?;
-    let mut files = folder.files(extra);
+    let exports =
+        crate::export::folder::export_folder(&folder, &a.export, &comment, &scene.surfaces())?;
+    for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
+        eprintln!("{line}");
+    }
+    let mut files = folder.files(exports.named_files());
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     files.push(("surface.png".into(), surface));
     write_folder(&out, &files, "brdf")?;

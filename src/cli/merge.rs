@@ -9,7 +9,6 @@ use clap::Args;
 use super::Failure;
 use super::brdf::print_table;
 use super::common::{check_out_dir, load_scene, write_folder};
-use super::export_brdf::{check_export_formats, export_formats};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::output::object_tallies;
@@ -76,11 +75,7 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
             a.dirs[0].display(),
         ))
     })?;
-    check_export_formats(
-        &a.export,
-        &merged.description.run.wavelengths_um,
-        &merged.description.run.phi_deg,
-    )?;
+    crate::export::folder::check_run(&a.export, &merged.description.run)?;
     let scene = merged.description.scene.clone();
     let photons = merged.description.run.photons;
     let folder = BrdfFolder::merged(merged);
@@ -90,8 +85,11 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     );
     let micro = rgl_scene(&a.export, &scene);
     let surfaces = micro.as_ref().map(|s| s.surfaces()).unwrap_or_default();
-    let extra = export_formats(&folder, &a.export, &comment, a.quiet, &surfaces)?;
-    let mut files = folder.files(extra);
+    let exports = crate::export::folder::export_folder(&folder, &a.export, &comment, &surfaces)?;
+    for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
+        eprintln!("{line}");
+    }
+    let mut files = folder.files(exports.named_files());
     crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
     // The surface's picture comes from the micro geometry, not the sums:
     // every shard of one run drew the same one (their descriptions, with
