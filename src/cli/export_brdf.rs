@@ -1,17 +1,13 @@
 //! `roks export-brdf`: the BRDF table of a `roks brdf` result folder in a
-//! format other programs read (Zemax tabular BSDF, MERL binary), with the
-//! reflectance of the file read back beside the table's.
-//!
-//! A spectral folder (`brdf.csv` with `wavelength_um`) gives a Zemax file
-//! per wavelength, written into `--out` as a folder (`--out gold`:
-//! `gold/brdf_0.45um.bsdf`, `gold/brdf_0.55um.bsdf`, ..., the names of
-//! `roks brdf --export zemax`, the wavelengths written with the same
-//! digits so that they sort; and `gold/export.json`, which names the set),
-//! all or nothing: the folder is staged and swapped in whole
-//! ([`crate::outdir`]), so a kill or a full disk leaves the old set or the
-//! new one, never a mix; and one colour MERL file at `--out` (its
-//! wavelengths must cover the visible). See
-//! [`crate::export::brdf_formats`].
+//! format other programs read (Zemax, MERL, RGL, pbsdf: the registry
+//! [`crate::export::brdf_formats::BrdfFormat`]), with the reflectance of
+//! the file read back beside the table's. A spectral Zemax export is a
+//! set of files, one per wavelength, with `export.json` naming the set
+//! ([`crate::export::folder::ExportMarker`]), written into `--out` as a
+//! folder replaced whole ([`crate::outdir`]): a kill or a full disk leaves
+//! the old set or the new one, never a mix. This module parses the
+//! options, calls [`crate::export::folder`] and the format's
+//! [`crate::export::exporter::Exporter`], and prints what they return.
 
 use std::path::{Path, PathBuf};
 
@@ -20,7 +16,7 @@ use clap::Args;
 use super::Failure;
 use super::common::{check_out_dir, check_out_file, shown, write_file, write_folder};
 use crate::export::brdf_formats::{BrdfFormat, ZemaxGrid};
-use crate::export::exporter::{Export, ExportError, ExportInput};
+use crate::export::exporter::{Export, ExportInput};
 use crate::export::folder::{self, EXPORT_MARKER, ExportMarker};
 use crate::optics::brdf_table::BrdfTables;
 
@@ -89,16 +85,7 @@ fn grid(s: &str) -> Result<ZemaxGrid, GridError> {
     let [azimuth_step_deg, radial_step_deg] = steps[..] else {
         return Err(GridError::Form(s.to_owned()));
     };
-    for step in [azimuth_step_deg, radial_step_deg] {
-        let n = 180.0 / step;
-        if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
-            return Err(GridError::Step(step));
-        }
-    }
-    Ok(ZemaxGrid {
-        azimuth_step_deg,
-        radial_step_deg,
-    })
+    ZemaxGrid::new(azimuth_step_deg, radial_step_deg).map_err(GridError::Step)
 }
 
 /// Run `roks export-brdf`: the checks of the folder, the options and
@@ -133,15 +120,9 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     }
     let mut tables = folder::read_table(&csv, &summary, format, to_folder)?;
     check_options(&a)?;
-    format.exporter().check_table_file(&tables, &shown(&csv))?;
-    if format.exporter().needs_mueller() {
-        tables = folder::with_mueller_file(tables, &mueller)?;
-    }
+    tables = folder::with_mueller_for(format, tables, &csv, &mueller)?;
     check_rgb(&a, &tables, &csv)?;
-    let scene = match format {
-        BrdfFormat::Rgl => folder::rgl_scene(a.scene.as_deref(), &summary)?,
-        _ => None,
-    };
+    let scene = folder::scene_for(format, a.scene.as_deref(), &summary)?;
     let surfaces = scene.as_ref().map(|s| s.surfaces()).unwrap_or_default();
     let comment = format!("from {}", csv.display());
     let input = ExportInput {
@@ -157,40 +138,33 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     write(&a, &csv, &export, to_folder)
 }
 
-/// The options that only some formats take.
+/// The options that only one format takes (`--grid`, `--scene`).
 fn check_options(a: &ExportBrdfArgs) -> Result<(), Failure> {
     let format = a.format;
-    if a.grid.is_some() && format != BrdfFormat::Zemax {
-        return Err(Failure::Input(format!(
-            "--grid: only for --format zemax (the {format} grid is fixed by its format)"
-        )));
-    }
-    if a.scene.is_some() && format != BrdfFormat::Rgl {
-        return Err(Failure::Input(
-            "--scene: only for --format rgl (the NDF of its micro surface)".into(),
-        ));
-    }
-    Ok(())
+    Err(Failure::Input(
+        if a.grid.is_some() && format != BrdfFormat::Zemax {
+            format!("--grid: only for --format zemax (the {format} grid is fixed by its format)")
+        } else if a.scene.is_some() && format != BrdfFormat::Rgl {
+            "--scene: only for --format rgl (the NDF of its micro surface)".into()
+        } else {
+            return Ok(());
+        },
+    ))
 }
 
 /// `--rgb`: only for rgl, of a spectral run covering the visible.
 fn check_rgb(a: &ExportBrdfArgs, tables: &BrdfTables, csv: &Path) -> Result<(), Failure> {
-    if a.rgb && a.format != BrdfFormat::Rgl {
-        return Err(Failure::Input(
-            "--rgb: only for --format rgl (an RGB measured file)".into(),
-        ));
-    }
-    if a.rgb
-        && tables
-            .spectral()
-            .is_none_or(|s| crate::export::merl::srgb_tables(s).is_none())
-    {
-        return Err(Failure::Input(format!(
+    let colour = |s| crate::export::merl::srgb_tables(s).is_some();
+    Err(Failure::Input(if a.rgb && a.format != BrdfFormat::Rgl {
+        "--rgb: only for --format rgl (an RGB measured file)".into()
+    } else if a.rgb && !tables.spectral().is_some_and(colour) {
+        format!(
             "--rgb: {}: needs a spectral run whose wavelengths cover 0.38-0.78 um (the colour of colour.csv)",
             shown(csv)
-        )));
-    }
-    Ok(())
+        )
+    } else {
+        return Ok(());
+    }))
 }
 
 /// Write the files of `export` of the table `csv` at `a.out`: a set of
@@ -204,8 +178,11 @@ fn write(a: &ExportBrdfArgs, csv: &Path, export: &Export, to_folder: bool) -> Re
         written.push((EXPORT_MARKER.to_owned(), marker.into_bytes()));
         write_folder(&a.out, &written, "export-brdf")?;
         if !a.quiet {
-            let n = export.files.len();
-            eprintln!("wrote {} ({format}, {n} files)", shown(&a.out));
+            eprintln!(
+                "wrote {} ({format}, {} files)",
+                shown(&a.out),
+                export.files.len()
+            );
         }
         return Ok(());
     }
@@ -217,15 +194,4 @@ fn write(a: &ExportBrdfArgs, csv: &Path, export: &Export, to_folder: bool) -> Re
         }
     }
     Ok(())
-}
-
-/// An export's error: bad input (exit status 2) or a writer's defect (1).
-impl From<ExportError> for Failure {
-    fn from(e: ExportError) -> Self {
-        if e.is_input() {
-            Self::Input(e.to_string())
-        } else {
-            Self::Other(anyhow::Error::msg(e.to_string()))
-        }
-    }
 }

@@ -335,6 +335,24 @@ impl Default for ZemaxGrid {
 }
 
 impl ZemaxGrid {
+    /// The grid of steps `azimuth_step_deg` and `radial_step_deg` (degrees),
+    /// each in (0, 90] and dividing 180 into whole steps (to 1e-9).
+    ///
+    /// # Errors
+    /// The first step that is not.
+    pub fn new(azimuth_step_deg: f64, radial_step_deg: f64) -> Result<Self, f64> {
+        for step in [azimuth_step_deg, radial_step_deg] {
+            let n = 180.0 / step;
+            if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
+                return Err(step);
+            }
+        }
+        Ok(Self {
+            azimuth_step_deg,
+            radial_step_deg,
+        })
+    }
+
     /// The Zemax file of `table` on this grid, with `comment`.
     #[must_use]
     pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {

@@ -261,6 +261,12 @@ pub trait Exporter: Sync {
         false
     }
 
+    /// Whether the file holds the micro surface's NDF
+    /// ([`ExportInput::surfaces`]), so that `export-brdf` loads its scene.
+    fn uses_surfaces(&self) -> bool {
+        false
+    }
+
     /// Checks of an `export-brdf` table before its Mueller table is read
     /// (`csv` names it): a table the format cannot hold at all.
     ///

@@ -223,6 +223,44 @@ pub fn with_mueller_file(tables: BrdfTables, path: &Path) -> Result<BrdfTables, 
         .map_err(|e| ExportError::Mueller(e.to_string()))
 }
 
+/// `tables` (read from `csv`) ready for an export of `format`: checked
+/// ([`Exporter::check_table_file`](super::exporter::Exporter::check_table_file))
+/// and, for a format that needs it, with the Mueller table of the
+/// `mueller.csv` at `mueller` ([`with_mueller_file`]).
+///
+/// # Errors
+/// A table the format cannot hold, or as [`with_mueller_file`].
+pub fn with_mueller_for(
+    format: BrdfFormat,
+    tables: BrdfTables,
+    csv: &Path,
+    mueller: &Path,
+) -> Result<BrdfTables, ExportError> {
+    let exporter = format.exporter();
+    exporter.check_table_file(&tables, &csv.display().to_string())?;
+    if exporter.needs_mueller() {
+        return with_mueller_file(tables, mueller);
+    }
+    Ok(tables)
+}
+
+/// The micro scene of an export of `format` that writes the micro
+/// surface's NDF ([`Exporter::uses_surfaces`](super::exporter::Exporter::uses_surfaces)):
+/// [`rgl_scene`]; `None` for the other formats.
+///
+/// # Errors
+/// As [`rgl_scene`].
+pub fn scene_for(
+    format: BrdfFormat,
+    scene: Option<&Path>,
+    summary: &Path,
+) -> Result<Option<MicroScene>, SceneError> {
+    if format.exporter().uses_surfaces() {
+        return rgl_scene(scene, summary);
+    }
+    Ok(None)
+}
+
 /// The micro scene whose NDF an rgl export of a result folder writes:
 /// `scene` if given, else the scene that `summary` (the folder's
 /// summary.json, read through [`BrdfSummary`]) names when that file is

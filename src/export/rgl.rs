@@ -1329,6 +1329,10 @@ impl Exporter for RglFormat {
         BrdfFormat::Rgl
     }
 
+    fn uses_surfaces(&self) -> bool {
+        true
+    }
+
     fn check_run(&self, wavelengths_um: &[f64], azimuths_deg: &[f64]) -> Result<(), ExportError> {
         if azimuths_deg.len() > 1 {
             Layout::of(azimuths_deg).map_err(ExportError::RunAzimuths)?;
