@@ -92,9 +92,8 @@ pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Me
         .into_par_iter()
         .flat_map_iter(|k| {
             let grid = &grid;
-            (0..dims[1]).flat_map(move |j| {
-                (0..dims[0]).map(move |i| grid.inside(grid.point(i, j, k)))
-            })
+            (0..dims[1])
+                .flat_map(move |j| (0..dims[0]).map(move |i| grid.inside(grid.point(i, j, k))))
         })
         .collect();
     // One vertex per voxel with a sign change (see the module docs).
