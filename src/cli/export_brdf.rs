@@ -195,3 +195,35 @@ fn write(a: &ExportBrdfArgs, csv: &Path, export: &Export, to_folder: bool) -> Re
     }
     Ok(())
 }
+
+/// The old path of [`folder::check_run`] without its Mueller check, kept
+/// for branches merged after this one; the coordinator removes it.
+///
+/// # Errors
+/// As [`folder::check_run`].
+#[doc(hidden)]
+pub fn check_export_formats(f: &[BrdfFormat], w: &[f64], phi: &[f64]) -> Result<(), Failure> {
+    f.iter()
+        .try_for_each(|f| f.exporter().check_run(w, phi))
+        .map_err(Failure::from)
+}
+
+/// The old path of [`folder::export_folder`] (its notices printed), kept
+/// for branches merged after this one; the coordinator removes it.
+///
+/// # Errors
+/// As [`folder::export_folder`].
+#[doc(hidden)]
+pub fn export_formats(
+    folder: &crate::output::brdf_folder::BrdfFolder,
+    formats: &[BrdfFormat],
+    comment: &str,
+    quiet: bool,
+    surfaces: &[&crate::micro::MicroSurface],
+) -> Result<Vec<(String, Vec<u8>)>, Failure> {
+    let export = folder::export_folder(folder, formats, comment, surfaces)?;
+    for line in export.notices.iter().filter_map(|n| n.line(quiet)) {
+        eprintln!("{line}");
+    }
+    Ok(export.named_files())
+}

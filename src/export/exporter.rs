@@ -6,6 +6,20 @@
 //! A format is one module ([`super::zemax`], [`super::merl`], [`super::rgl`],
 //! [`super::pbsdf`]) that implements [`Exporter`]; the registry
 //! ([`super::brdf_formats::BrdfFormat`], one line per format) names it.
+//!
+//! # Adding a format
+//!
+//! 1. Its module under `src/export/`, with a unit struct implementing
+//!    [`Exporter`] (its name, file name, file kind, bytes, read-back check;
+//!    the provided methods cover a format without spectral files, Mueller
+//!    table or micro surface).
+//! 2. One line of the registry in `src/export/brdf_formats.rs` (with its
+//!    doc line), which makes it a value of `--format` and `--export`.
+//! 3. Its page in the guide (`docs/src/exports.md`).
+//!
+//! `roks export-brdf`, `roks brdf --export` and `roks merge --export` then
+//! take it with no change to the command line. A file of a new kind needs a
+//! [`FileKind`] to be told apart when `--out` exists (`src/outdir/kind.rs`).
 
 use std::fmt::Write as _;
 

@@ -448,7 +448,7 @@ impl Merl {
 }
 
 /// The MERL format's entry of the registry
-/// ([`BrdfFormat::Merl`](super::brdf_formats::BrdfFormat::Merl)): one
+/// ([`BrdfFormat::Merl`]): one
 /// file, grey for a monochrome table (or a run of one wavelength), the
 /// linear sRGB of the BRDF under D65 for a spectral one covering the
 /// visible (refused otherwise: [`ExportRefusal::NotVisible`]).

@@ -743,7 +743,7 @@ pub fn check(
 }
 
 /// The pbsdf format's entry of the registry
-/// ([`BrdfFormat::Pbsdf`](super::brdf_formats::BrdfFormat::Pbsdf)): one
+/// ([`BrdfFormat::Pbsdf`]): one
 /// file of tables with their Mueller tables attached, one light azimuth,
 /// one wavelength (written grey at [`GREY_NM`], with a note) or five; read
 /// back as the reflectance of its `m00` per wavelength and incidence.

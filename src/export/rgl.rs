@@ -1302,7 +1302,7 @@ pub fn check_channels(
 }
 
 /// The RGL format's entry of the registry
-/// ([`BrdfFormat::Rgl`](super::brdf_formats::BrdfFormat::Rgl)): one file
+/// ([`BrdfFormat::Rgl`]): one file
 /// of every wavelength (a monochrome table written grey; an RGB file of a
 /// spectral run covering the visible with [`ExportInput::rgb`]) with the
 /// NDF of the micro surface's realisations pooled ([`surface_ndf`]; none:

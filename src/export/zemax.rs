@@ -655,7 +655,7 @@ impl<'a> Tokens<'a> {
 }
 
 /// The Zemax format's entry of the registry
-/// ([`BrdfFormat::Zemax`](super::brdf_formats::BrdfFormat::Zemax)): a
+/// ([`BrdfFormat::Zemax`]): a
 /// monochrome table gives one file, a spectral one a file per wavelength;
 /// each is read back with [`ZemaxBsdf::parse`], and a check off its table
 /// names the coarsest finer grid that passes
