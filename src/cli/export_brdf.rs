@@ -16,9 +16,8 @@ use clap::Args;
 use super::Failure;
 use super::common::{check_out_dir, check_out_file, shown, write_file, write_folder};
 use crate::export::brdf_formats::{BrdfFormat, ZemaxGrid};
-use crate::export::exporter::{Export, ExportInput};
-use crate::export::folder::{self, EXPORT_MARKER, ExportMarker};
-use crate::optics::brdf_table::BrdfTables;
+use crate::export::exporter::Export;
+use crate::export::folder::{self, EXPORT_MARKER, ExportMarker, FolderExport};
 
 /// The options of `roks export-brdf`.
 #[derive(Args, Debug)]
@@ -88,21 +87,21 @@ fn grid(s: &str) -> Result<ZemaxGrid, GridError> {
     ZemaxGrid::new(azimuth_step_deg, radial_step_deg).map_err(GridError::Step)
 }
 
-/// Run `roks export-brdf`: the checks of the folder, the options and
-/// `--out`, then the export ([`crate::export::exporter::Exporter::export`]),
-/// its notes and checks printed, and its files written.
+/// Run `roks export-brdf`: the checks of the folder and `--out`, then the
+/// export ([`FolderExport::export`]), its notes and checks printed, and
+/// its files written.
 ///
 /// # Errors
 /// Bad input (the result folder, its table or summary, `--out`, MERL of
 /// wavelengths that do not cover the visible), or a failed write.
 pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
-    let format = a.format;
-    let csv = a.dir.join("brdf.csv");
-    let summary = a.dir.join("summary.json");
-    let mueller = a.dir.join("mueller.csv");
-    // The files of the result this export reads.
-    let mut inputs = vec![csv.clone(), summary.clone(), mueller.clone()];
-    inputs.extend(a.scene.clone());
+    let request = FolderExport {
+        dir: &a.dir,
+        format: a.format,
+        grid: a.grid,
+        scene: a.scene.as_deref(),
+        rgb: a.rgb,
+    };
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(
             "{}: not a folder (expected the result folder of `roks brdf`, with brdf.csv)",
@@ -111,60 +110,18 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     }
     // Several files (a spectral Zemax export) go into --out as a folder.
     // `--out` is checked before the table is read, so whether the table
-    // is spectral comes from its header line (the loader checks it again).
-    let to_folder = folder::writes_folder(format, &csv);
+    // is spectral comes from its header line (the export checks it again).
+    let to_folder = request.writes_folder();
     if to_folder {
-        check_out_dir(&a.out, "--out", &inputs, a.force)?;
+        check_out_dir(&a.out, "--out", &request.inputs(), a.force)?;
     } else {
-        check_out_file(&a.out, &inputs, format.file_kind(), a.force)?;
+        check_out_file(&a.out, &request.inputs(), a.format.file_kind(), a.force)?;
     }
-    let mut tables = folder::read_table(&csv, &summary, format, to_folder)?;
-    check_options(&a)?;
-    tables = folder::with_mueller_for(format, tables, &csv, &mueller)?;
-    check_rgb(&a, &tables, &csv)?;
-    let scene = folder::scene_for(format, a.scene.as_deref(), &summary)?;
-    let surfaces = scene.as_ref().map(|s| s.surfaces()).unwrap_or_default();
-    let comment = format!("from {}", csv.display());
-    let input = ExportInput {
-        grid: a.grid.unwrap_or_default(),
-        surfaces: &surfaces,
-        rgb: a.rgb,
-        ..ExportInput::new(&tables, &comment)
-    };
-    let export = format.exporter().export(&input)?;
+    let export = request.export(to_folder)?;
     for line in export.notices.iter().filter_map(|n| n.line(a.quiet)) {
         eprintln!("{line}");
     }
-    write(&a, &csv, &export, to_folder)
-}
-
-/// The options that only one format takes (`--grid`, `--scene`).
-fn check_options(a: &ExportBrdfArgs) -> Result<(), Failure> {
-    let format = a.format;
-    Err(Failure::Input(
-        if a.grid.is_some() && format != BrdfFormat::Zemax {
-            format!("--grid: only for --format zemax (the {format} grid is fixed by its format)")
-        } else if a.scene.is_some() && format != BrdfFormat::Rgl {
-            "--scene: only for --format rgl (the NDF of its micro surface)".into()
-        } else {
-            return Ok(());
-        },
-    ))
-}
-
-/// `--rgb`: only for rgl, of a spectral run covering the visible.
-fn check_rgb(a: &ExportBrdfArgs, tables: &BrdfTables, csv: &Path) -> Result<(), Failure> {
-    let colour = |s| crate::export::merl::srgb_tables(s).is_some();
-    Err(Failure::Input(if a.rgb && a.format != BrdfFormat::Rgl {
-        "--rgb: only for --format rgl (an RGB measured file)".into()
-    } else if a.rgb && !tables.spectral().is_some_and(colour) {
-        format!(
-            "--rgb: {}: needs a spectral run whose wavelengths cover 0.38-0.78 um (the colour of colour.csv)",
-            shown(csv)
-        )
-    } else {
-        return Ok(());
-    }))
+    write(&a, &request.csv(), &export, to_folder)
 }
 
 /// Write the files of `export` of the table `csv` at `a.out`: a set of

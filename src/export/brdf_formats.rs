@@ -483,6 +483,51 @@ mod tests {
         assert!(zero(0.0).passes() && !zero(1e-9).passes());
     }
 
+    /// A table of `f = 0.1` on 4 bands at normal incidence, one block per
+    /// light azimuth of `phis` (degrees).
+    fn flat_table(phis: &[f64]) -> BrdfTable {
+        let g = crate::tally::CarlsonGrid::new(4).unwrap();
+        let f = vec![0.1; g.n_cells()];
+        let blocks = phis
+            .iter()
+            .map(|&p| (0.0, p, f.clone(), vec![0.0; f.len()]))
+            .collect();
+        BrdfTable::from_blocks(g, blocks, "t.csv").unwrap()
+    }
+
+    /// A table a format cannot hold is an error, never empty bytes (as
+    /// `export_on` returned before): pbsdf without the Mueller table, rgl
+    /// of light azimuths no RGL file holds; the formats that hold it give
+    /// bytes that read back.
+    #[test]
+    fn an_export_that_cannot_be_made_is_an_error() {
+        let one = flat_table(&[0.0]);
+        let refused = BrdfFormat::Pbsdf.export(&one, "");
+        assert!(
+            matches!(
+                refused,
+                Err(ExportError::Pbsdf(pbsdf::PbsdfRefusal::NoMueller))
+            ),
+            "{refused:?}"
+        );
+        let odd = flat_table(&[0.0, 45.0]);
+        let refused = BrdfFormat::Rgl.export(&odd, "");
+        assert!(
+            matches!(
+                &refused,
+                Err(ExportError::Refused {
+                    refusal: ExportRefusal::RglAzimuths(_),
+                    ..
+                })
+            ),
+            "{refused:?}"
+        );
+        for format in [BrdfFormat::Zemax, BrdfFormat::Merl] {
+            let bytes = format.export(&one, "").unwrap();
+            assert!(reflectance_check(&one, format, &bytes).is_ok(), "{format}");
+        }
+    }
+
     #[test]
     fn format_names_are_the_option_values() {
         use clap::ValueEnum as _;

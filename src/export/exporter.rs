@@ -203,6 +203,23 @@ pub enum ExportError {
     /// A table (or the summary beside it) that does not read.
     #[error(transparent)]
     Table(#[from] BrdfTableError),
+    /// `--grid` of a format without a grid to choose.
+    #[error("--grid: only for --format zemax (the {0} grid is fixed by its format)")]
+    GridOnlyZemax(BrdfFormat),
+    /// `--scene` of a format that does not write the surface's NDF.
+    #[error("--scene: only for --format rgl (the NDF of its micro surface)")]
+    SceneOnlyRgl,
+    /// `--rgb` of a format without an RGB file.
+    #[error("--rgb: only for --format rgl (an RGB measured file)")]
+    RgbOnlyRgl,
+    /// `--rgb` of the table at the path given, not spectral over the visible.
+    #[error(
+        "--rgb: {0}: needs a spectral run whose wavelengths cover 0.38-0.78 um (the colour of colour.csv)"
+    )]
+    RgbNotVisible(String),
+    /// A micro scene that does not load (its message).
+    #[error("{0}")]
+    Scene(String),
     /// A table whose file changed while it was read (`path`).
     #[error("{0}: changed while it was read (its header and its rows disagree on wavelength_um)")]
     Changed(String),
@@ -273,6 +290,12 @@ pub trait Exporter: Sync {
     /// (`mueller.csv`, [`BrdfTables::with_mueller`]).
     fn needs_mueller(&self) -> bool {
         false
+    }
+
+    /// The options of `roks export-brdf` that only some formats take
+    /// (`--grid`, `--scene`, `--rgb`) and this one does.
+    fn options(&self) -> &'static [&'static str] {
+        &[]
     }
 
     /// Whether the file holds the micro surface's NDF

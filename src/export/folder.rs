@@ -1,16 +1,16 @@
 //! Exports of a result folder of `roks brdf` (or `roks merge`): the
 //! checks of `--export` before a run ([`check_run`]), the files of its
 //! `--export` formats ([`export_folder`]), and for `roks export-brdf` the
-//! table read back from the folder's files ([`read_table`],
-//! [`with_mueller_file`], [`rgl_scene`]) and the marker of a set of files
-//! ([`ExportMarker`]). Each returns values (files, checks, lines to show,
+//! table of the folder's files in a format with its options
+//! ([`FolderExport`]: [`read_table`], [`with_mueller_file`], [`rgl_scene`])
+//! and the marker of a set of files ([`ExportMarker`]). Each returns values (files, checks, lines to show,
 //! [`Export`]) or an [`ExportError`]; the command line prints them.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::brdf_formats::BrdfFormat;
+use super::brdf_formats::{BrdfFormat, ZemaxGrid};
 use super::exporter::{Export, ExportError, ExportInput};
 use crate::micro::MicroSurface;
 use crate::optics::brdf_table::BrdfTables;
@@ -141,6 +141,93 @@ impl ExportMarker {
     #[must_use]
     pub fn text(&self) -> String {
         serde_json::to_string_pretty(self).expect("strings serialise") + "\n"
+    }
+}
+
+/// What `roks export-brdf` asks of a result folder: the export of its
+/// table in `format` with the format's options.
+#[derive(Debug, Clone, Copy)]
+pub struct FolderExport<'a> {
+    /// The result folder of `roks brdf` (with `brdf.csv`).
+    pub dir: &'a Path,
+    /// The format.
+    pub format: BrdfFormat,
+    /// `--grid` (Zemax).
+    pub grid: Option<ZemaxGrid>,
+    /// `--scene`: the micro scene of the NDF (RGL).
+    pub scene: Option<&'a Path>,
+    /// `--rgb`: an RGB file (RGL).
+    pub rgb: bool,
+}
+
+impl FolderExport<'_> {
+    /// The table, `brdf.csv`.
+    #[must_use]
+    pub fn csv(&self) -> PathBuf {
+        self.dir.join("brdf.csv")
+    }
+
+    /// The files of the result this export reads (`--out` must not be one).
+    #[must_use]
+    pub fn inputs(&self) -> Vec<PathBuf> {
+        let mut inputs = vec![self.csv(), self.summary(), self.mueller()];
+        inputs.extend(self.scene.map(Path::to_path_buf));
+        inputs
+    }
+
+    /// The run's summary, `summary.json`.
+    fn summary(&self) -> PathBuf {
+        self.dir.join("summary.json")
+    }
+
+    /// The run's Mueller table, `mueller.csv`.
+    fn mueller(&self) -> PathBuf {
+        self.dir.join("mueller.csv")
+    }
+
+    /// Whether the export is a set of files ([`writes_folder`]).
+    #[must_use]
+    pub fn writes_folder(&self) -> bool {
+        writes_folder(self.format, &self.csv())
+    }
+
+    /// The export, read back and judged; `folder` is what
+    /// [`writes_folder`](Self::writes_folder) said before (the table must
+    /// still agree).
+    ///
+    /// # Errors
+    /// Bad input (the table, its summary or Mueller table, an option the
+    /// format does not take, a scene that does not load, a table the format
+    /// cannot hold) or a writer's defect.
+    pub fn export(&self, folder: bool) -> Result<Export, ExportError> {
+        let (format, csv, summary) = (self.format, self.csv(), self.summary());
+        let tables = read_table(&csv, &summary, format, folder)?;
+        let takes = |option| format.exporter().options().contains(&option);
+        if self.grid.is_some() && !takes("--grid") {
+            return Err(ExportError::GridOnlyZemax(format));
+        }
+        if self.scene.is_some() && !takes("--scene") {
+            return Err(ExportError::SceneOnlyRgl);
+        }
+        let tables = with_mueller_for(format, tables, &csv, &self.mueller())?;
+        if self.rgb && !takes("--rgb") {
+            return Err(ExportError::RgbOnlyRgl);
+        }
+        let colour = |s| super::merl::srgb_tables(s).is_some();
+        if self.rgb && !tables.spectral().is_some_and(colour) {
+            return Err(ExportError::RgbNotVisible(csv.display().to_string()));
+        }
+        let scene = scene_for(format, self.scene, &summary)
+            .map_err(|e| ExportError::Scene(e.to_string()))?;
+        let surfaces = scene.as_ref().map(|s| s.surfaces()).unwrap_or_default();
+        let comment = format!("from {}", csv.display());
+        let input = ExportInput {
+            grid: self.grid.unwrap_or_default(),
+            surfaces: &surfaces,
+            rgb: self.rgb,
+            ..ExportInput::new(&tables, &comment)
+        };
+        format.exporter().export(&input)
     }
 }
 

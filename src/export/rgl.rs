@@ -1333,6 +1333,10 @@ impl Exporter for RglFormat {
         true
     }
 
+    fn options(&self) -> &'static [&'static str] {
+        &["--scene", "--rgb"]
+    }
+
     fn check_run(&self, wavelengths_um: &[f64], azimuths_deg: &[f64]) -> Result<(), ExportError> {
         if azimuths_deg.len() > 1 {
             Layout::of(azimuths_deg).map_err(ExportError::RunAzimuths)?;

@@ -684,6 +684,10 @@ impl Exporter for ZemaxFormat {
         true
     }
 
+    fn options(&self) -> &'static [&'static str] {
+        &["--grid"]
+    }
+
     fn spectral_file_names(&self, wavelengths_um: &[f64]) -> Vec<String> {
         wavelength_labels(wavelengths_um)
             .iter()
