@@ -483,11 +483,12 @@ mod tests {
         assert!(zero(0.0).passes() && !zero(1e-9).passes());
     }
 
-    /// A table of `f = 0.1` on 4 bands at normal incidence, one block per
-    /// light azimuth of `phis` (degrees).
+    /// A table on 4 bands at normal incidence, half the light spread
+    /// evenly over the cells, one block per light azimuth of `phis`
+    /// (degrees).
     fn flat_table(phis: &[f64]) -> BrdfTable {
         let g = crate::tally::CarlsonGrid::new(4).unwrap();
-        let f = vec![0.1; g.n_cells()];
+        let f = vec![0.5 / g.n_cells() as f64; g.n_cells()];
         let blocks = phis
             .iter()
             .map(|&p| (0.0, p, f.clone(), vec![0.0; f.len()]))
