@@ -360,6 +360,10 @@ pub trait Exporter: Sync {
     }
 }
 
+/// What would do better, per failing check: given the checks and the
+/// indices of the failing ones, one text each.
+pub type Remedy<'a> = dyn Fn(&[ReflectanceCheck], &[usize]) -> Vec<String> + 'a;
+
 /// The heading of a comparison table.
 pub const HEADING: &str =
     "reflectance of the file (read back, integrated over the hemisphere) vs the table";
@@ -393,7 +397,7 @@ impl Export {
         what: String,
         heading: Option<String>,
         checks: Vec<ReflectanceCheck>,
-        remedy: &dyn Fn(&[ReflectanceCheck], &[usize]) -> Vec<String>,
+        remedy: &Remedy<'_>,
     ) {
         self.notices.extend(heading.map(Notice::Table));
         self.notices.extend(table_lines(&checks));
@@ -403,20 +407,15 @@ impl Export {
 
     /// [`add_check`](Self::add_check) with the usual heading,
     /// `{what}: reflectance of the file ... vs the table`.
-    pub fn add_judged(
-        &mut self,
-        what: String,
-        checks: Vec<ReflectanceCheck>,
-        remedy: &dyn Fn(&[ReflectanceCheck], &[usize]) -> Vec<String>,
-    ) {
+    pub fn add_judged(&mut self, what: String, checks: Vec<ReflectanceCheck>, remedy: &Remedy<'_>) {
         let heading = format!("{what}: {HEADING}");
         self.add_check(what, Some(heading), checks, remedy);
     }
 }
 
 /// A remedy that is the same for every failing check (a fixed grid).
-pub fn fixed(remedy: String) -> impl Fn(&[ReflectanceCheck], &[usize]) -> Vec<String> {
-    move |_, failing| vec![remedy.clone(); failing.len()]
+pub fn fixed(remedy: String) -> Box<Remedy<'static>> {
+    Box::new(move |_, failing| vec![remedy.clone(); failing.len()])
 }
 
 /// A warning for every check of `what` (a format, a wavelength, a channel)
@@ -424,11 +423,7 @@ pub fn fixed(remedy: String) -> impl Fn(&[ReflectanceCheck], &[usize]) -> Vec<St
 /// difference in percent and in standard errors, and `remedy` (given the
 /// indices of the failing checks, one text each).
 #[must_use]
-pub fn off_warnings(
-    what: &str,
-    check: &[ReflectanceCheck],
-    remedy: &dyn Fn(&[ReflectanceCheck], &[usize]) -> Vec<String>,
-) -> Vec<Notice> {
+pub fn off_warnings(what: &str, check: &[ReflectanceCheck], remedy: &Remedy<'_>) -> Vec<Notice> {
     let failing: Vec<usize> = (0..check.len()).filter(|&i| !check[i].passes()).collect();
     if failing.is_empty() {
         return Vec::new();
