@@ -105,7 +105,7 @@ fn zemax_asymmetrical4d_holds_each_azimuth() {
     let g = CarlsonGrid::new(m).unwrap();
     let table = BrdfTable::parse(&csv(m, 2.0), "aniso.csv").unwrap();
     assert_eq!(table.azimuths_deg(), &[0.0, 90.0]);
-    let bytes = BrdfFormat::Zemax.export(&table, "two azimuths");
+    let bytes = BrdfFormat::Zemax.export(&table, "two azimuths").unwrap();
     let text = std::str::from_utf8(&bytes).unwrap();
     assert!(
         text.contains("\nSymmetry  Asymmetrical4D\n"),
@@ -184,7 +184,7 @@ fn one_azimuth_stays_plane_symmetrical() {
     let m = 8;
     let table = BrdfTable::parse(&csv(m, 2.0), "aniso.csv").unwrap();
     let alone = table.azimuth(0);
-    let bytes = BrdfFormat::Zemax.export(&alone, "one");
+    let bytes = BrdfFormat::Zemax.export(&alone, "one").unwrap();
     let text = std::str::from_utf8(&bytes).unwrap();
     assert!(
         text.contains("\nSymmetry  PlaneSymmetrical\n")

@@ -58,7 +58,9 @@ fn brdf_export_option_and_export_command_agree() {
             "{stderr}"
         );
         let exported = std::fs::read(&again).unwrap();
-        let library = f.export(&table, &format!("from {}", out.join("brdf.csv").display()));
+        let library = f
+            .export(&table, &format!("from {}", out.join("brdf.csv").display()))
+            .unwrap();
         assert!(
             exported == library,
             "{f}: export-brdf differs from the library"

@@ -77,10 +77,10 @@ fn zemax_of_a_constant_material_is_the_monochrome_export() {
         &default_with("wavelengths_um = [0.45, 0.55, 0.65]", "0, 45"),
     );
     let mono_t = mono.monochrome().unwrap();
-    let want = BrdfFormat::Zemax.export(mono_t, "c");
+    let want = BrdfFormat::Zemax.export(mono_t, "c").unwrap();
     let s = spec.spectral().unwrap();
     for t in s.tables() {
-        assert!(BrdfFormat::Zemax.export(t, "c") == want);
+        assert!(BrdfFormat::Zemax.export(t, "c").unwrap() == want);
     }
     let files = BrdfFormat::Zemax.export_tables(&spec, "c").unwrap();
     let names: Vec<&str> = files.iter().map(|f| f.file_name.as_str()).collect();
@@ -90,7 +90,12 @@ fn zemax_of_a_constant_material_is_the_monochrome_export() {
     );
     for (f, w) in files.iter().zip([0.45, 0.55, 0.65]) {
         assert_eq!(f.wavelength_um, Some(w));
-        assert!(f.bytes == BrdfFormat::Zemax.export(mono_t, &wavelength_comment("c", w)));
+        assert!(
+            f.bytes
+                == BrdfFormat::Zemax
+                    .export(mono_t, &wavelength_comment("c", w))
+                    .unwrap()
+        );
         let text = String::from_utf8_lossy(&f.bytes);
         assert!(text.contains(&format!("# c; wavelength {w} um\n")), "{w}");
         assert!(text.contains("\nSpectralContent  Monochrome\n"));

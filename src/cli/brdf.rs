@@ -9,7 +9,6 @@ use super::Failure;
 use super::common::{
     TracingArgs, progress_bar, report_check, result_dir, set_threads, write_folder,
 };
-use super::export_brdf::{check_export_formats, export_formats};
 use super::parse::{integer, number};
 pub use crate::api::anisotropy_note;
 use crate::api::{BrdfJob, BrdfOptions, BrdfReport, MicroScene, Overrides, Shard, WavelengthsSpec};
@@ -130,14 +129,7 @@ impl BrdfArgs {
 pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let scene = a.scene()?;
     let run = scene.brdf_run();
-    check_export_formats(&a.export, &run.wavelengths_um, &run.phi_deg)?;
-    if a.export.contains(&BrdfFormat::Pbsdf)
-        && run.polarisation.tally != crate::tally::PolarTally::Mueller
-    {
-        return Err(Failure::Input(
-            "--export pbsdf: needs the Mueller-matrix BRDF: --polarisation mueller ([tally] polarisation = \"mueller\")".into(),
-        ));
-    }
+    crate::export::folder::check_run(&a.export, &run)?;
     let options = BrdfOptions {
         shard: a.shard,
         stats_resolution: a.stats_resolution,
@@ -163,8 +155,12 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     bar.finish_and_clear();
     let folder = result.traced().expect("traced");
     let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
-    let extra = export_formats(folder, &a.export, &comment, a.quiet, &scene.surfaces())?;
-    write_folder(&out, &result.files(extra)?, "brdf")?;
+    let exports =
+        crate::export::folder::export_folder(folder, &a.export, &comment, &scene.surfaces())?;
+    for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
+        eprintln!("{line}");
+    }
+    write_folder(&out, &result.files(exports.named_files())?, "brdf")?;
     if !a.quiet {
         eprint!(
             "{}",

@@ -9,7 +9,6 @@ use clap::Args;
 use super::Failure;
 use super::brdf::print_table;
 use super::common::{check_out_dir, load_scene, write_folder};
-use super::export_brdf::{check_export_formats, export_formats};
 use crate::export::brdf_formats::BrdfFormat;
 use crate::api::merge::{self, MergeError, ShardKind};
 
@@ -64,15 +63,18 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     let merged = merge::merge_brdf(&a.dirs).map_err(failure)?;
     let folder = &merged.folder;
     let run = &folder.description.run;
-    check_export_formats(&a.export, &run.wavelengths_um, &run.phi_deg)?;
+    crate::export::folder::check_run(&a.export, run)?;
     let comment = format!(
         "scene {}, {} photons per angle",
         folder.description.name, run.photons
     );
     let micro = rgl_scene(&a.export, &folder.description.scene);
     let surfaces = micro.as_ref().map(|s| s.surfaces()).unwrap_or_default();
-    let extra = export_formats(folder, &a.export, &comment, a.quiet, &surfaces)?;
-    let files = merged.files(extra).map_err(anyhow::Error::msg)?;
+    let exports = crate::export::folder::export_folder(folder, &a.export, &comment, &surfaces)?;
+    for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
+        eprintln!("{line}");
+    }
+    let files = merged.files(exports.named_files()).map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         print_table(folder);

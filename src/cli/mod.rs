@@ -82,6 +82,17 @@ impl fmt::Display for Failure {
 
 impl std::error::Error for Failure {}
 
+/// An export's error: bad input (exit status 2) or a writer's defect (1).
+impl From<crate::export::exporter::ExportError> for Failure {
+    fn from(e: crate::export::exporter::ExportError) -> Self {
+        if e.is_input() {
+            Self::Input(e.to_string())
+        } else {
+            Self::Other(anyhow::Error::msg(e.to_string()))
+        }
+    }
+}
+
 impl From<SceneError> for Failure {
     fn from(e: SceneError) -> Self {
         Self::Input(e.to_string())

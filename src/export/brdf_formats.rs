@@ -32,7 +32,7 @@
 //!
 //! [`BrdfFormat::export_tables`] exports a monochrome table as before (one
 //! file, [`BrdfFormat::file_name`], the same bytes as
-//! [`BrdfFormat::export`]) and a spectral one ([`SpectralTables`]) as:
+//! [`BrdfFormat::export`]) and a spectral one ([`SpectralTables`](crate::optics::brdf_table::SpectralTables)) as:
 //!
 //! * **Zemax**: one `Monochrome` file per wavelength, named
 //!   `brdf_<wavelength>um.bsdf` ([`BrdfFormat::spectral_file_names`]; the
@@ -62,88 +62,97 @@
 
 use std::fmt;
 
-use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
-use crate::optics::colour::{VISIBLE_MAX_UM, VISIBLE_MIN_UM, covers_visible};
-use glam::DVec3;
-use rayon::prelude::*;
+use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use crate::optics::colour::{VISIBLE_MAX_UM, VISIBLE_MIN_UM};
+use crate::outdir::kind::FileKind;
 use thiserror::Error;
 
+pub use super::exporter::{Export, ExportError, ExportInput, Exporter};
+pub use super::merl::colour_reflectance_check;
 pub use super::resample::{
     CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected, symmetric_eval,
 };
 use super::{merl, pbsdf, rgl, zemax};
 
-/// An export format of `roks export-brdf --format` and `roks brdf
-/// --export` (the names in lower case).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum BrdfFormat {
-    /// Zemax / Radiant tabular BSDF text (`brdf.bsdf`).
-    #[value(help = None::<&str>)]
-    Zemax,
-    /// MERL binary (`brdf.binary`).
-    #[value(help = None::<&str>)]
-    Merl,
+/// The registry: one line per format, its variant of [`BrdfFormat`] and
+/// the module's [`Exporter`]. Every per-format answer comes from there.
+macro_rules! registry {
+    ($($(#[$doc:meta])* $variant:ident => $exporter:expr,)*) => {
+        /// An export format of `roks export-brdf --format` and `roks brdf
+        /// --export` (the names in lower case).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+        pub enum BrdfFormat {
+            $($(#[$doc])* #[value(help = None::<&str>)] $variant,)*
+        }
+
+        impl BrdfFormat {
+            /// The format's module.
+            #[must_use]
+            pub fn exporter(self) -> &'static dyn Exporter {
+                match self {
+                    $(Self::$variant => &$exporter,)*
+                }
+            }
+        }
+    };
+}
+
+registry! {
+    /// Zemax / Radiant tabular BSDF text (`brdf.bsdf`; [`super::zemax`]).
+    Zemax => zemax::ZemaxFormat,
+    /// MERL binary (`brdf.binary`; [`super::merl`]).
+    Merl => merl::MerlFormat,
     /// RGL measured BRDF tensor file (`brdf_rgl.bsdf`; [`super::rgl`]),
     /// read by Mitsuba 3's `measured` and pbrt-v4's `measured` materials.
-    #[value(help = None::<&str>)]
-    Rgl,
+    Rgl => rgl::RglFormat,
     /// Polarised measured BRDF tensor file (`brdf.pbsdf`; [`super::pbsdf`]),
     /// read by Mitsuba 3's `measured_polarized`; needs the run's
     /// `mueller.csv`.
-    #[value(help = None::<&str>)]
-    Pbsdf,
+    Pbsdf => pbsdf::PbsdfFormat,
 }
 
 impl BrdfFormat {
     /// The name on the command line.
     #[must_use]
     pub fn name(self) -> &'static str {
-        match self {
-            Self::Zemax => "zemax",
-            Self::Merl => "merl",
-            Self::Rgl => "rgl",
-            Self::Pbsdf => "pbsdf",
-        }
+        self.exporter().name()
     }
 
     /// The file name `roks brdf --export` writes beside `brdf.csv`.
     #[must_use]
     pub fn file_name(self) -> &'static str {
-        match self {
-            Self::Zemax => "brdf.bsdf",
-            Self::Merl => "brdf.binary",
-            Self::Rgl => "brdf_rgl.bsdf",
-            Self::Pbsdf => "brdf.pbsdf",
-        }
+        self.exporter().file_name()
+    }
+
+    /// The kind of file an export of this format is, to tell an existing
+    /// one ([`crate::outdir::kind`]).
+    #[must_use]
+    pub fn file_kind(self) -> FileKind {
+        self.exporter().file_kind()
     }
 
     /// The file's bytes for `table`; `comment` (one line) goes into the
-    /// Zemax header and is ignored by MERL, which has none. A pbsdf file
-    /// needs the table's Mueller table: without one the bytes are empty
-    /// ([`export_tables`](Self::export_tables) refuses instead).
-    #[must_use]
-    pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
+    /// header of the formats that have one.
+    ///
+    /// # Errors
+    /// A table the format cannot hold (RGL: light azimuths no file holds;
+    /// pbsdf: a table without its Mueller table).
+    pub fn export(self, table: &BrdfTable, comment: &str) -> Result<Vec<u8>, ExportError> {
         self.export_on(table, comment, ZemaxGrid::default())
     }
 
-    /// [`export`](Self::export) with a Zemax file on `grid` (MERL's grid
-    /// is fixed by its format).
-    #[must_use]
-    pub fn export_on(self, table: &BrdfTable, comment: &str, grid: ZemaxGrid) -> Vec<u8> {
-        match self {
-            Self::Zemax => grid.export(table, comment),
-            Self::Merl => merl::Merl::from_table(table).to_bytes(),
-            Self::Rgl => rgl::Rgl::from_tables(
-                &BrdfTables::Monochrome(table.clone()),
-                &rgl::Ndf::uniform(),
-                comment,
-            )
-            .map(|r| r.to_bytes())
-            .unwrap_or_default(),
-            Self::Pbsdf => pbsdf::Pbsdf::from_tables(&BrdfTables::Monochrome(table.clone()))
-                .map(|p| p.to_bytes())
-                .unwrap_or_default(),
-        }
+    /// [`export`](Self::export) with a Zemax file on `grid` (the other
+    /// formats' grids are fixed).
+    ///
+    /// # Errors
+    /// As [`export`](Self::export).
+    pub fn export_on(
+        self,
+        table: &BrdfTable,
+        comment: &str,
+        grid: ZemaxGrid,
+    ) -> Result<Vec<u8>, ExportError> {
+        self.exporter().table_bytes(table, comment, grid)
     }
 }
 
@@ -237,19 +246,11 @@ impl BrdfFormat {
     /// The file names `roks brdf --export` writes beside a spectral
     /// `brdf.csv` with wavelengths `wavelengths_um` (µm, increasing), one
     /// per wavelength: `brdf_<label>um.bsdf` for Zemax, the labels of
-    /// [`wavelength_labels`]; MERL has one file for all wavelengths,
-    /// [`file_name`](Self::file_name), repeated.
+    /// [`wavelength_labels`]; the other formats have one file for all
+    /// wavelengths, [`file_name`](Self::file_name), repeated.
     #[must_use]
     pub fn spectral_file_names(self, wavelengths_um: &[f64]) -> Vec<String> {
-        match self {
-            Self::Zemax => wavelength_labels(wavelengths_um)
-                .iter()
-                .map(|w| format!("brdf_{w}um.bsdf"))
-                .collect(),
-            Self::Merl | Self::Rgl | Self::Pbsdf => {
-                vec![self.file_name().to_owned(); wavelengths_um.len()]
-            }
-        }
+        self.exporter().spectral_file_names(wavelengths_um)
     }
 
     /// Whether tables at `wavelengths_um` (µm, increasing; empty:
@@ -260,121 +261,40 @@ impl BrdfFormat {
     /// not cover the visible (one wavelength exports as a grey table);
     /// [`ExportRefusal::Pbsdf`] for pbsdf of other than 0, 1 or 5.
     pub fn check_wavelengths(self, wavelengths_um: &[f64]) -> Result<(), ExportRefusal> {
-        if self == Self::Pbsdf {
-            return pbsdf::file_wavelengths(wavelengths_um)
-                .map(|_| ())
-                .map_err(ExportRefusal::from);
-        }
-        match (self, wavelengths_um.first(), wavelengths_um.last()) {
-            // One wavelength is a monochrome table: a grey MERL file.
-            (Self::Merl, Some(&first), Some(&last))
-                if wavelengths_um.len() > 1 && !covers_visible(wavelengths_um) =>
-            {
-                Err(ExportRefusal::NotVisible { first, last })
-            }
-            _ => Ok(()),
-        }
+        self.exporter().check_wavelengths(wavelengths_um)
     }
 
     /// The files of `tables` in this format (see the module documentation):
     /// one for a monochrome table ([`export`](Self::export)); for a
     /// spectral one a Zemax file per wavelength (`comment` followed by the
-    /// wavelength) or one colour MERL file.
+    /// wavelength), one colour MERL file, one RGL or pbsdf file.
     ///
     /// # Errors
-    /// As [`check_wavelengths`](Self::check_wavelengths).
+    /// A table the format cannot hold ([`ExportError::Refused`] and the
+    /// like) or a writer's defect.
     pub fn export_tables(
         self,
         tables: &BrdfTables,
         comment: &str,
-    ) -> Result<Vec<ExportFile>, ExportRefusal> {
+    ) -> Result<Vec<ExportFile>, ExportError> {
         self.export_tables_on(tables, comment, ZemaxGrid::default())
     }
 
     /// [`export_tables`](Self::export_tables) with Zemax files on `grid`.
     ///
     /// # Errors
-    /// As [`check_wavelengths`](Self::check_wavelengths).
+    /// As [`export_tables`](Self::export_tables).
     pub fn export_tables_on(
         self,
         tables: &BrdfTables,
         comment: &str,
         grid: ZemaxGrid,
-    ) -> Result<Vec<ExportFile>, ExportRefusal> {
-        let count = tables.azimuths_deg().len();
-        if self == Self::Rgl {
-            rgl::layout::Layout::of(tables.azimuths_deg())?;
-        } else if self == Self::Pbsdf && count > 1 {
-            return Err(ExportRefusal::Azimuths {
-                format: self,
-                count,
-            });
-        }
-        if self == Self::Pbsdf {
-            // One file holds the five wavelengths (or the grey table).
-            return Ok(vec![ExportFile {
-                file_name: self.file_name().to_owned(),
-                wavelength_um: None,
-                bytes: pbsdf::Pbsdf::from_tables(tables)?.to_bytes(),
-                clipped: None,
-            }]);
-        }
-        let spectral = match tables {
-            BrdfTables::Monochrome(t) => {
-                return Ok(vec![ExportFile {
-                    file_name: self.file_name().to_owned(),
-                    wavelength_um: None,
-                    bytes: self.export_on(t, comment, grid),
-                    clipped: None,
-                }]);
-            }
-            BrdfTables::Spectral(s) => s,
+    ) -> Result<Vec<ExportFile>, ExportError> {
+        let input = ExportInput {
+            grid,
+            ..ExportInput::new(tables, comment)
         };
-        self.check_wavelengths(spectral.wavelengths_um())?;
-        Ok(match self {
-            // One file holds every wavelength.
-            Self::Rgl => vec![ExportFile {
-                file_name: self.file_name().to_owned(),
-                wavelength_um: None,
-                bytes: rgl::Rgl::from_tables(tables, &rgl::Ndf::uniform(), comment)?.to_bytes(),
-                clipped: None,
-            }],
-            Self::Pbsdf => unreachable!("returned above"),
-            Self::Zemax => spectral
-                .wavelengths_um()
-                .par_iter()
-                .zip(spectral.tables())
-                .zip(self.spectral_file_names(spectral.wavelengths_um()))
-                .map(|((&w, t), file_name)| ExportFile {
-                    file_name,
-                    wavelength_um: Some(w),
-                    bytes: self.export_on(t, &wavelength_comment(comment, w), grid),
-                    clipped: None,
-                })
-                .collect(),
-            // A run of one wavelength exports as a monochrome one: grey.
-            Self::Merl if spectral.wavelengths_um().len() == 1 => vec![ExportFile {
-                file_name: self.file_name().to_owned(),
-                wavelength_um: None,
-                bytes: self.export(&spectral.tables()[0], comment),
-                clipped: None,
-            }],
-            Self::Merl => {
-                let (m, clipped) = merl::Merl::from_spectral(spectral).ok_or_else(|| {
-                    let w = spectral.wavelengths_um();
-                    ExportRefusal::NotVisible {
-                        first: w[0],
-                        last: w[w.len() - 1],
-                    }
-                })?;
-                vec![ExportFile {
-                    file_name: self.file_name().to_owned(),
-                    wavelength_um: None,
-                    bytes: m.to_bytes(),
-                    clipped: Some(clipped),
-                }]
-            }
-        })
+        Ok(self.exporter().build(&input)?.files)
     }
 }
 
@@ -415,6 +335,24 @@ impl Default for ZemaxGrid {
 }
 
 impl ZemaxGrid {
+    /// The grid of steps `azimuth_step_deg` and `radial_step_deg` (degrees),
+    /// each in (0, 90] and dividing 180 into whole steps (to 1e-9).
+    ///
+    /// # Errors
+    /// The first step that is not.
+    pub fn new(azimuth_step_deg: f64, radial_step_deg: f64) -> Result<Self, f64> {
+        for step in [azimuth_step_deg, radial_step_deg] {
+            let n = 180.0 / step;
+            if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
+                return Err(step);
+            }
+        }
+        Ok(Self {
+            azimuth_step_deg,
+            radial_step_deg,
+        })
+    }
+
     /// The Zemax file of `table` on this grid, with `comment`.
     #[must_use]
     pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
@@ -496,7 +434,7 @@ impl ZemaxGrid {
 /// integrate its BRDF times `cos(theta_o)` over the hemisphere at every
 /// tabulated incidence angle of `table` by [`integrate_projected`] with
 /// [`CHECK_RINGS`] rings: the file's directional-hemispherical reflectance,
-/// beside the table's.
+/// beside the table's ([`Exporter::check_table`] of the format's module).
 ///
 /// Zemax: the file's `AngleOfIncidence` blocks, interpolated bilinearly in
 /// (azimuth, radial) by [`zemax::ZemaxBsdf::eval`]; for a table of several
@@ -514,115 +452,7 @@ pub fn reflectance_check(
     format: BrdfFormat,
     bytes: &[u8],
 ) -> Result<Vec<ReflectanceCheck>, FormatError> {
-    let name = format.file_name();
-    let file_r: Box<dyn Fn(usize, f64) -> f64> = match format {
-        BrdfFormat::Zemax => {
-            let text = std::str::from_utf8(bytes).map_err(|e| FormatError {
-                file: name.into(),
-                message: format!("not UTF-8 text: {e}"),
-            })?;
-            let z = zemax::ZemaxBsdf::parse(text, name)?;
-            let n = table.azimuths_deg().len();
-            if n > 1 {
-                return Ok(azimuth_checks(table, &z));
-            }
-            Box::new(move |k, _| integrate_projected(CHECK_RINGS, |d| z.eval(k, d)))
-        }
-        BrdfFormat::Merl => {
-            let m = merl::Merl::parse(bytes, name)?;
-            Box::new(move |_, theta| {
-                let light = DVec3::new(theta.sin(), 0.0, theta.cos());
-                integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[0])
-            })
-        }
-        BrdfFormat::Rgl => {
-            let checks = rgl::check(&BrdfTables::Monochrome(table.clone()), bytes, name)?;
-            return Ok(checks.into_iter().next().unwrap_or_default());
-        }
-        BrdfFormat::Pbsdf => {
-            let checks = pbsdf::check(&BrdfTables::Monochrome(table.clone()), bytes, name)?;
-            return Ok(checks.into_iter().next().unwrap_or_default());
-        }
-    };
-    Ok(table
-        .angles_deg()
-        .iter()
-        .enumerate()
-        .map(|(k, &deg)| ReflectanceCheck::of_table(table, deg, file_r(k, deg.to_radians())))
-        .collect())
-}
-
-/// The checks of an `Asymmetrical4D` file `z` of `table` (several light
-/// azimuths): per incidence angle, then azimuth, block `j m + t` (sample
-/// rotation `j`, angle `t` of `m`) integrated beside the reflectance of
-/// azimuth `j`'s table.
-fn azimuth_checks(table: &BrdfTable, z: &zemax::ZemaxBsdf) -> Vec<ReflectanceCheck> {
-    let angles = table.angles_deg();
-    let m = angles.len();
-    let azimuths: Vec<BrdfTable> = (0..table.azimuths_deg().len())
-        .map(|j| table.azimuth(j))
-        .collect();
-    angles
-        .iter()
-        .enumerate()
-        .flat_map(|(t, &deg)| {
-            azimuths
-                .iter()
-                .enumerate()
-                .map(move |(j, a)| ReflectanceCheck {
-                    phi_i_deg: Some(a.azimuths_deg()[0]),
-                    ..ReflectanceCheck::of_table(
-                        a,
-                        deg,
-                        integrate_projected(CHECK_RINGS, |d| z.eval(j * m + t, d)),
-                    )
-                })
-        })
-        .collect()
-}
-
-/// [`reflectance_check`] of a colour MERL file (`bytes` written by
-/// [`merl::Merl::from_spectral`] for `tables`): per tabulated incidence and
-/// channel (red, green, blue), the channel of the file integrated over the
-/// hemisphere beside the linear sRGB of the table's reflectance spectrum
-/// (the reflectance of [`merl::srgb_tables`]). Clipped negative
-/// components make the file's value larger than the table's.
-///
-/// # Errors
-/// If the reader rejects `bytes`, or the wavelengths do not cover the
-/// visible.
-pub fn colour_reflectance_check(
-    tables: &SpectralTables,
-    bytes: &[u8],
-) -> Result<Vec<[ReflectanceCheck; 3]>, FormatError> {
-    let name = BrdfFormat::Merl.file_name();
-    let channels = merl::srgb_tables(tables).ok_or_else(|| FormatError {
-        file: name.into(),
-        message: "the wavelengths do not cover the visible: no colour".into(),
-    })?;
-    let weights = crate::optics::colour::XyzWeights::d65(tables.wavelengths_um())
-        .map(|w| w.srgb_weights())
-        .unwrap_or_default();
-    let m = merl::Merl::parse(bytes, name)?;
-    Ok(tables.tables()[0]
-        .angles_deg()
-        .iter()
-        .map(|&deg| {
-            let theta = deg.to_radians();
-            let light = DVec3::new(theta.sin(), 0.0, theta.cos());
-            [0, 1, 2].map(|c| ReflectanceCheck {
-                theta_i_deg: deg,
-                phi_i_deg: None,
-                table: channels[c].reflectance(theta),
-                file: integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[c]),
-                table_stderr: weights
-                    .iter()
-                    .zip(tables.tables())
-                    .map(|(w, t)| w[c].abs() * t.reflectance_stderr(theta))
-                    .sum(),
-            })
-        })
-        .collect())
+    format.exporter().check_table(table, bytes)
 }
 
 #[cfg(test)]
@@ -651,6 +481,52 @@ mod tests {
             ..check(file, 0.0)
         };
         assert!(zero(0.0).passes() && !zero(1e-9).passes());
+    }
+
+    /// A table on 4 bands at normal incidence, half the light spread
+    /// evenly over the cells, one block per light azimuth of `phis`
+    /// (degrees).
+    fn flat_table(phis: &[f64]) -> BrdfTable {
+        let g = crate::tally::CarlsonGrid::new(4).unwrap();
+        let f = vec![0.5 / g.n_cells() as f64; g.n_cells()];
+        let blocks = phis
+            .iter()
+            .map(|&p| (0.0, p, f.clone(), vec![0.0; f.len()]))
+            .collect();
+        BrdfTable::from_blocks(g, blocks, "t.csv").unwrap()
+    }
+
+    /// A table a format cannot hold is an error, never empty bytes (as
+    /// `export_on` returned before): pbsdf without the Mueller table, rgl
+    /// of light azimuths no RGL file holds; the formats that hold it give
+    /// bytes that read back.
+    #[test]
+    fn an_export_that_cannot_be_made_is_an_error() {
+        let one = flat_table(&[0.0]);
+        let refused = BrdfFormat::Pbsdf.export(&one, "");
+        assert!(
+            matches!(
+                refused,
+                Err(ExportError::Pbsdf(pbsdf::PbsdfRefusal::NoMueller))
+            ),
+            "{refused:?}"
+        );
+        let odd = flat_table(&[0.0, 45.0]);
+        let refused = BrdfFormat::Rgl.export(&odd, "");
+        assert!(
+            matches!(
+                &refused,
+                Err(ExportError::Refused {
+                    refusal: ExportRefusal::RglAzimuths(_),
+                    ..
+                })
+            ),
+            "{refused:?}"
+        );
+        for format in [BrdfFormat::Zemax, BrdfFormat::Merl] {
+            let bytes = format.export(&one, "").unwrap();
+            assert!(reflectance_check(&one, format, &bytes).is_ok(), "{format}");
+        }
     }
 
     #[test]

@@ -93,9 +93,17 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::resample::{FormatError, symmetric_eval};
-use crate::optics::brdf_table::{BrdfTable, SpectralTables};
+use super::brdf_formats::{BrdfFormat, ExportFile, ExportRefusal, ZemaxGrid};
+use super::exporter::{
+    Export, ExportError, ExportInput, Exporter, HEADING, Notice, fixed, one_file,
+};
+use super::resample::{
+    CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected, symmetric_eval,
+};
+use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
 use crate::optics::colour::XyzWeights;
+use crate::optics::colour::covers_visible;
+use crate::outdir::kind::FileKind;
 
 /// What a MERL export of `table` (several light azimuths: their average)
 /// must tell: `None` for a table of one azimuth; else `(warning, line)`,
@@ -437,6 +445,229 @@ impl Merl {
         let at = index(i, j, k);
         [0, 1, 2].map(|c| self.values[c * N + at])
     }
+}
+
+/// The MERL format's entry of the registry
+/// ([`BrdfFormat::Merl`]): one
+/// file, grey for a monochrome table (or a run of one wavelength), the
+/// linear sRGB of the BRDF under D65 for a spectral one covering the
+/// visible (refused otherwise: [`ExportRefusal::NotVisible`]).
+#[derive(Debug, Clone, Copy)]
+pub struct MerlFormat;
+
+/// What a check off its table can do about a MERL file.
+const FIXED: &str = "the MERL grid is fixed by its format; export zemax for a finer one";
+
+impl Exporter for MerlFormat {
+    fn name(&self) -> &'static str {
+        "merl"
+    }
+
+    fn file_name(&self) -> &'static str {
+        "brdf.binary"
+    }
+
+    fn file_kind(&self) -> FileKind {
+        FileKind::Merl
+    }
+
+    fn format(&self) -> BrdfFormat {
+        BrdfFormat::Merl
+    }
+
+    fn check_wavelengths(&self, wavelengths_um: &[f64]) -> Result<(), ExportRefusal> {
+        match (wavelengths_um.first(), wavelengths_um.last()) {
+            // One wavelength is a monochrome table: a grey MERL file.
+            (Some(&first), Some(&last))
+                if wavelengths_um.len() > 1 && !covers_visible(wavelengths_um) =>
+            {
+                Err(ExportRefusal::NotVisible { first, last })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn table_bytes(
+        &self,
+        table: &BrdfTable,
+        _comment: &str,
+        _grid: ZemaxGrid,
+    ) -> Result<Vec<u8>, ExportError> {
+        Ok(Merl::from_table(table).to_bytes())
+    }
+
+    fn build(&self, input: &ExportInput<'_>) -> Result<Export, ExportError> {
+        let format = self.format();
+        let spectral = match input.tables {
+            BrdfTables::Monochrome(t) => {
+                return Ok(Export::of(vec![one_file(
+                    format,
+                    Merl::from_table(t).to_bytes(),
+                )]));
+            }
+            BrdfTables::Spectral(s) => s,
+        };
+        let refused = |refusal| ExportError::Refused {
+            option: input.option,
+            format,
+            refusal,
+        };
+        self.check_wavelengths(spectral.wavelengths_um())
+            .map_err(refused)?;
+        // A run of one wavelength exports as a monochrome one: grey.
+        if spectral.wavelengths_um().len() == 1 {
+            let bytes = Merl::from_table(&spectral.tables()[0]).to_bytes();
+            return Ok(Export::of(vec![one_file(format, bytes)]));
+        }
+        let (m, clipped) = Merl::from_spectral(spectral).ok_or_else(|| {
+            let w = spectral.wavelengths_um();
+            refused(ExportRefusal::NotVisible {
+                first: w[0],
+                last: w[w.len() - 1],
+            })
+        })?;
+        Ok(Export::of(vec![ExportFile {
+            clipped: Some(clipped),
+            ..one_file(format, m.to_bytes())
+        }]))
+    }
+
+    fn judge(&self, input: &ExportInput<'_>, export: &mut Export) -> Result<(), ExportError> {
+        let unreadable = |error| ExportError::Unreadable {
+            format: self.format(),
+            error,
+        };
+        let tables = input.tables;
+        match tables.spectral() {
+            Some(s) if s.wavelengths_um().len() > 1 => {
+                let file = export.files[0].clone();
+                let check = colour_reflectance_check(s, &file.bytes).map_err(unreadable)?;
+                self.judge_colour(export, &check, file.clipped);
+            }
+            _ => {
+                // Several light azimuths: the file is their average.
+                let mean;
+                let table = match tables.spectral() {
+                    Some(s) => {
+                        mean = s.mean();
+                        &mean
+                    }
+                    None => &tables.tables()[0],
+                };
+                match azimuth_note(table) {
+                    Some((true, line)) => export.notices.push(Notice::Warning(line)),
+                    Some((false, line)) => export.notices.push(Notice::Aside(line)),
+                    None => {}
+                }
+                let files = export.files.clone();
+                for (file, table) in files.iter().zip(tables.tables()) {
+                    let check = self.check_table(table, &file.bytes).map_err(unreadable)?;
+                    let what = match file.wavelength_um {
+                        Some(w) => format!("{} ({w} um)", self.name()),
+                        None => self.name().to_owned(),
+                    };
+                    export.add_judged(what, check, &fixed(FIXED.into()));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn check_table(
+        &self,
+        table: &BrdfTable,
+        bytes: &[u8],
+    ) -> Result<Vec<ReflectanceCheck>, FormatError> {
+        let m = Merl::parse(bytes, self.file_name())?;
+        Ok(table
+            .angles_deg()
+            .iter()
+            .map(|&deg| {
+                let theta = deg.to_radians();
+                let light = DVec3::new(theta.sin(), 0.0, theta.cos());
+                let file_r = integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[0]);
+                ReflectanceCheck::of_table(table, deg, file_r)
+            })
+            .collect())
+    }
+}
+
+impl MerlFormat {
+    /// The checks of a colour file per channel (`check`: per incidence,
+    /// red, green and blue), and the count of clipped components.
+    fn judge_colour(
+        &self,
+        export: &mut Export,
+        check: &[[ReflectanceCheck; 3]],
+        clipped: Option<Clipped>,
+    ) {
+        let format = self.name();
+        for (c, channel) in ["red", "green", "blue"].iter().enumerate() {
+            let channel_check: Vec<_> = check.iter().map(|k| k[c]).collect();
+            if c == 0 {
+                export.notices.push(Notice::Table(format!(
+                    "{format}: {HEADING}, linear sRGB under D65"
+                )));
+            }
+            export.add_check(
+                format!("{format} ({channel})"),
+                Some(format!("{channel}:")),
+                channel_check,
+                &fixed(FIXED.into()),
+            );
+        }
+        if let Some(clip) = clipped.filter(|c| c.values > 0) {
+            export.notices.push(Notice::Table(format!(
+                "{format}: {} values had a negative linear sRGB component (out of gamut), stored as 0; the most negative {:.3e} 1/sr",
+                clip.values, clip.most_negative
+            )));
+        }
+    }
+}
+
+/// [`reflectance_check`](super::brdf_formats::reflectance_check) of a
+/// colour MERL file (`bytes` written by [`Merl::from_spectral`] for
+/// `tables`): per tabulated incidence and channel (red, green, blue), the
+/// channel of the file integrated over the hemisphere beside the linear
+/// sRGB of the table's reflectance spectrum (the reflectance of
+/// [`srgb_tables`]). Clipped negative components make the file's value
+/// larger than the table's.
+///
+/// # Errors
+/// If the reader rejects `bytes`, or the wavelengths do not cover the
+/// visible.
+pub fn colour_reflectance_check(
+    tables: &SpectralTables,
+    bytes: &[u8],
+) -> Result<Vec<[ReflectanceCheck; 3]>, FormatError> {
+    let name = MerlFormat.file_name();
+    let channels = srgb_tables(tables).ok_or_else(|| FormatError {
+        file: name.into(),
+        message: "the wavelengths do not cover the visible: no colour".into(),
+    })?;
+    let weights = crate::optics::colour::XyzWeights::d65(tables.wavelengths_um())
+        .map(|w| w.srgb_weights())
+        .unwrap_or_default();
+    let m = Merl::parse(bytes, name)?;
+    Ok(tables.tables()[0]
+        .angles_deg()
+        .iter()
+        .map(|&deg| {
+            let theta = deg.to_radians();
+            let light = DVec3::new(theta.sin(), 0.0, theta.cos());
+            [0, 1, 2].map(|c| ReflectanceCheck {
+                theta_i_deg: deg,
+                phi_i_deg: None,
+                table: channels[c].reflectance(theta),
+                file: integrate_projected(CHECK_RINGS, |d| m.lookup(light, d)[c]),
+                table_stderr: weights
+                    .iter()
+                    .zip(tables.tables())
+                    .map(|(w, t)| w[c].abs() * t.reflectance_stderr(theta))
+                    .sum(),
+            })
+        })
+        .collect())
 }
 
 #[cfg(test)]

@@ -1,8 +1,12 @@
 //! Exports for other programs: micro surfaces as triangle meshes (`roks
 //! export-mesh`, this file), the walls of object scenes as meshes
-//! ([`object_mesh`]) and BRDF tables in the Zemax and MERL formats
-//! (`roks export-brdf`: [`brdf_formats`] dispatches to [`zemax`] and
-//! [`merl`], which share [`resample`]).
+//! ([`object_mesh`]) and BRDF tables in the Zemax, MERL, RGL and pbsdf
+//! formats (`roks export-brdf`, `roks brdf --export`): each format is one
+//! module ([`zemax`], [`merl`], [`rgl`], [`pbsdf`], sharing [`resample`])
+//! implementing [`exporter::Exporter`], named by one line of the registry
+//! [`brdf_formats::BrdfFormat`]; [`folder`] exports a result folder. An
+//! export returns its files, their read-back checks and the lines to show
+//! as values ([`exporter::Export`]), or an [`exporter::ExportError`].
 //!
 //! [`height_field_mesh`] samples the top surface of a [`MicroSurface`] on a
 //! regular grid over one period and triangulates it; [`field_mesh`] writes
@@ -44,6 +48,8 @@
 //! `Lx * (n / n)` and so are exactly `Lx` and `Ly` (rounded to `f32`).
 
 pub mod brdf_formats;
+pub mod exporter;
+pub mod folder;
 pub mod merl;
 pub mod object_mesh;
 pub mod pbsdf;

@@ -85,71 +85,143 @@ pub enum MeshError {
 /// If the box is empty or not finite, or `n` is 0 or above
 /// [`MAX_VOXELS_PER_SIDE`], or the grid would exceed 2^31 vertices.
 pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Mesh, MeshError> {
-    if !(lo.is_finite() && hi.is_finite()) || (hi - lo).min_element() <= 0.0 {
-        return Err(MeshError::Box { lo, hi });
-    }
-    if n == 0 || n > MAX_VOXELS_PER_SIDE {
-        return Err(MeshError::Resolution(n));
-    }
-    let size = hi - lo;
-    let h = size.max_element() / n as f64;
-    let cells = voxels(lo, hi, n);
-    let step = DVec3::new(
-        size.x / cells[0] as f64,
-        size.y / cells[1] as f64,
-        size.z / cells[2] as f64,
-    );
-    // Vertex grid indices -1 ..= cells + 1 map to 0 ..= cells + 2.
-    let dims = cells.map(|c| c + 3);
-    let total = dims[0] * dims[1] * dims[2];
-    if total > i32::MAX as usize {
-        return Err(MeshError::TooManyVertices(total));
-    }
-    let point = |i: usize, j: usize, k: usize| {
-        lo + DVec3::new(
-            (i as f64 - 1.0) * step.x,
-            (j as f64 - 1.0) * step.y,
-            (k as f64 - 1.0) * step.z,
-        )
-    };
-    let in_box = |p: DVec3| p.cmpge(lo).all() && p.cmple(hi).all();
-    let inside = |p: DVec3| in_box(p) && object.solids.iter().any(|s| s.body.contains(p));
-    let index = |i: usize, j: usize, k: usize| (k * dims[1] + j) * dims[0] + i;
-
+    let grid = Grid::new(object, lo, hi, n)?;
     // Classify every vertex (parallel over z slices; order-independent).
+    let dims = grid.dims;
     let flags: Vec<bool> = (0..dims[2])
         .into_par_iter()
         .flat_map_iter(|k| {
-            (0..dims[1]).flat_map(move |j| (0..dims[0]).map(move |i| inside(point(i, j, k))))
+            let grid = &grid;
+            (0..dims[1])
+                .flat_map(move |j| (0..dims[0]).map(move |i| grid.inside(grid.point(i, j, k))))
         })
         .collect();
+    // One vertex per voxel with a sign change (see the module docs).
+    let voxel_dims = [dims[0] - 1, dims[1] - 1, dims[2] - 1];
+    let voxel_vertex: Vec<Option<DVec3>> = (0..voxel_dims[2])
+        .into_par_iter()
+        .flat_map_iter(|k| {
+            let (grid, flags) = (&grid, &flags);
+            (0..voxel_dims[1]).flat_map(move |j| {
+                (0..voxel_dims[0]).map(move |i| grid.voxel_vertex(flags, i, j, k))
+            })
+        })
+        .collect();
+    // Number the voxel vertices in grid order (deterministic).
+    let mut ids = vec![u32::MAX; voxel_vertex.len()];
+    let mut vertices = Vec::new();
+    for (v, p) in voxel_vertex.iter().enumerate() {
+        if let Some(p) = p {
+            ids[v] = vertices.len() as u32;
+            vertices.push([p.x as f32, p.y as f32, p.z as f32]);
+        }
+    }
+    let faces = grid.faces(&flags, &ids);
+    Ok(Mesh { vertices, faces })
+}
 
-    // The boundary crossing on the edge from vertex p (inside == a) to q.
-    let crossing = |mut p: DVec3, mut q: DVec3| {
-        let a = inside(p);
+/// The vertex grid of [`object_mesh`]: the box, its steps and the object's
+/// walls.
+struct Grid<'a> {
+    /// The object.
+    object: &'a Object,
+    /// Every quadric of its solids.
+    surfaces: Vec<&'a crate::geometry::quadric::Quadric>,
+    /// The box.
+    lo: DVec3,
+    /// The box.
+    hi: DVec3,
+    /// Voxel side along the longest side of the box.
+    h: f64,
+    /// Grid step per axis.
+    step: DVec3,
+    /// Vertices per axis (grid indices -1 ..= cells + 1 map to 0 ..= cells + 2).
+    dims: [usize; 3],
+}
+
+impl<'a> Grid<'a> {
+    /// The grid of `n` voxels along the longest side of `[lo, hi]`.
+    fn new(object: &'a Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Self, MeshError> {
+        if !(lo.is_finite() && hi.is_finite()) || (hi - lo).min_element() <= 0.0 {
+            return Err(MeshError::Box { lo, hi });
+        }
+        if n == 0 || n > MAX_VOXELS_PER_SIDE {
+            return Err(MeshError::Resolution(n));
+        }
+        let size = hi - lo;
+        let h = size.max_element() / n as f64;
+        let cells = voxels(lo, hi, n);
+        let step = DVec3::new(
+            size.x / cells[0] as f64,
+            size.y / cells[1] as f64,
+            size.z / cells[2] as f64,
+        );
+        // Vertex grid indices -1 ..= cells + 1 map to 0 ..= cells + 2.
+        let dims = cells.map(|c| c + 3);
+        let total = dims[0] * dims[1] * dims[2];
+        if total > i32::MAX as usize {
+            return Err(MeshError::TooManyVertices(total));
+        }
+        let surfaces = object
+            .solids
+            .iter()
+            .flat_map(|s| s.body.surfaces.iter())
+            .collect();
+        Ok(Self {
+            object,
+            surfaces,
+            lo,
+            hi,
+            h,
+            step,
+            dims,
+        })
+    }
+
+    /// The position of grid vertex `(i, j, k)`.
+    fn point(&self, i: usize, j: usize, k: usize) -> DVec3 {
+        let step = self.step;
+        self.lo
+            + DVec3::new(
+                (i as f64 - 1.0) * step.x,
+                (j as f64 - 1.0) * step.y,
+                (k as f64 - 1.0) * step.z,
+            )
+    }
+
+    /// Whether `p` is in the box and in a solid zone.
+    fn inside(&self, p: DVec3) -> bool {
+        let in_box = p.cmpge(self.lo).all() && p.cmple(self.hi).all();
+        in_box && self.object.solids.iter().any(|s| s.body.contains(p))
+    }
+
+    /// The flat index of grid vertex `(i, j, k)`.
+    fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        (k * self.dims[1] + j) * self.dims[0] + i
+    }
+
+    /// The boundary crossing on the edge from vertex `p` to `q`.
+    fn crossing(&self, mut p: DVec3, mut q: DVec3) -> DVec3 {
+        let a = self.inside(p);
         for _ in 0..60 {
             let m = 0.5 * (p + q);
-            if inside(m) == a {
+            if self.inside(m) == a {
                 p = m;
             } else {
                 q = m;
             }
         }
         0.5 * (p + q)
-    };
+    }
 
-    // The outward unit normal of the wall at the crossing `x` of the edge from
-    // `p_in` (inside) to `p_out`: the quadric that separates the two ends and
-    // lies nearest to `x` (distance estimate |f| / |grad f|), or a box face.
-    let surfaces: Vec<_> = object
-        .solids
-        .iter()
-        .flat_map(|s| s.body.surfaces.iter())
-        .collect();
-    let normal = |x: DVec3, p_in: DVec3, p_out: DVec3| {
+    /// The outward unit normal of the wall at the crossing `x` of the edge
+    /// from `p_in` (inside) to `p_out`: the quadric that separates the two
+    /// ends and lies nearest to `x` (distance estimate |f| / |grad f|), or a
+    /// box face.
+    fn normal(&self, x: DVec3, p_in: DVec3, p_out: DVec3) -> Option<DVec3> {
         let along = p_out - p_in;
         let mut best: Option<(f64, DVec3)> = None;
-        for q in &surfaces {
+        for q in &self.surfaces {
             if (q.eval(p_in) > 0.0) == (q.eval(p_out) > 0.0) {
                 continue;
             }
@@ -165,9 +237,9 @@ pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Me
         }
         // A cap on the box: the crossing lies on a face.
         for a in 0..3 {
-            for (face, sign) in [(lo[a], -1.0), (hi[a], 1.0)] {
+            for (face, sign) in [(self.lo[a], -1.0), (self.hi[a], 1.0)] {
                 let dist = (x[a] - face).abs();
-                if dist <= 1e-9 * h && best.is_none_or(|(d, _)| dist < d) {
+                if dist <= 1e-9 * self.h && best.is_none_or(|(d, _)| dist < d) {
                     let mut n = DVec3::ZERO;
                     n[a] = sign;
                     best = Some((dist, n));
@@ -175,102 +247,89 @@ pub fn object_mesh(object: &Object, lo: DVec3, hi: DVec3, n: usize) -> Result<Me
             }
         }
         best.map(|(_, n)| if n.dot(along) < 0.0 { -n } else { n })
-    };
-
-    // One vertex per voxel with a sign change (see the module docs).
-    let axes = [DVec3::X, DVec3::Y, DVec3::Z];
-    let voxel_dims = [dims[0] - 1, dims[1] - 1, dims[2] - 1];
-    let voxel_vertex: Vec<Option<DVec3>> = (0..voxel_dims[2])
-        .into_par_iter()
-        .flat_map_iter(|k| {
-            let flags = &flags;
-            (0..voxel_dims[1]).flat_map(move |j| {
-                (0..voxel_dims[0]).map(move |i| {
-                    let corner = |c: usize| {
-                        let (di, dj, dk) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
-                        (i + di, j + dj, k + dk)
-                    };
-                    let f = |c: usize| {
-                        let (a, b, d) = corner(c);
-                        flags[index(a, b, d)]
-                    };
-                    let first = f(0);
-                    if (1..8).all(|c| f(c) == first) {
-                        return None;
-                    }
-                    let mut planes = [(DVec3::ZERO, None); 12];
-                    let mut count = 0;
-                    for c in 0..8 {
-                        for (bit, _) in axes.iter().enumerate() {
-                            let o = c ^ (1 << bit);
-                            if o > c && f(c) != f(o) {
-                                let (ci, co) = if f(c) { (c, o) } else { (o, c) };
-                                let (a, b, d) = corner(ci);
-                                let p_in = point(a, b, d);
-                                let (a, b, d) = corner(co);
-                                let p_out = point(a, b, d);
-                                let x = crossing(p_in, p_out);
-                                planes[count] = (x, normal(x, p_in, p_out));
-                                count += 1;
-                            }
-                        }
-                    }
-                    let (a, b, d) = corner(0);
-                    let (v_lo, v_hi) = (point(a, b, d), point(a + 1, b + 1, d + 1));
-                    Some(qef_vertex(&planes[..count], v_lo, v_hi))
-                })
-            })
-        })
-        .collect();
-    let vindex = |i: usize, j: usize, k: usize| (k * voxel_dims[1] + j) * voxel_dims[0] + i;
-
-    // Number the voxel vertices in grid order (deterministic).
-    let mut ids = vec![u32::MAX; voxel_vertex.len()];
-    let mut vertices = Vec::new();
-    for (v, p) in voxel_vertex.iter().enumerate() {
-        if let Some(p) = p {
-            ids[v] = vertices.len() as u32;
-            vertices.push([p.x as f32, p.y as f32, p.z as f32]);
-        }
     }
 
-    // A quad for every edge with a sign change, around it through the four
-    // voxels sharing it; (a, b, c) cyclic, so the order (0,0), (-1,0),
-    // (-1,-1), (0,-1) in (b, c) is counter-clockwise seen from +a.
-    let mut faces = Vec::new();
-    for k in 0..dims[2] {
-        for j in 0..dims[1] {
-            for i in 0..dims[0] {
-                let here = [i, j, k];
-                let f0 = flags[index(i, j, k)];
-                for a in 0..3 {
-                    let mut next = here;
-                    next[a] += 1;
-                    if next[a] >= dims[a] || flags[index(next[0], next[1], next[2])] == f0 {
-                        continue;
-                    }
-                    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                    // (An edge in the padding's outer planes has both ends outside.)
-                    debug_assert!(here[b] > 0 && here[c] > 0);
-                    let quad = [(0, 0), (1, 0), (1, 1), (0, 1)].map(|(db, dc)| {
-                        let mut v = here;
-                        v[b] -= db;
-                        v[c] -= dc;
-                        ids[vindex(v[0], v[1], v[2])]
-                    });
-                    // Outward normal +a when the inside is at `here`.
-                    let q = if f0 {
-                        quad
-                    } else {
-                        [quad[0], quad[3], quad[2], quad[1]]
-                    };
-                    faces.push([q[0], q[1], q[2]]);
-                    faces.push([q[0], q[2], q[3]]);
+    /// The mesh vertex of voxel `(i, j, k)` (its low corner's grid vertex),
+    /// `None` without a sign change among its corners' `flags`.
+    fn voxel_vertex(&self, flags: &[bool], i: usize, j: usize, k: usize) -> Option<DVec3> {
+        let corner = |c: usize| {
+            let (di, dj, dk) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            (i + di, j + dj, k + dk)
+        };
+        let f = |c: usize| {
+            let (a, b, d) = corner(c);
+            flags[self.index(a, b, d)]
+        };
+        let first = f(0);
+        if (1..8).all(|c| f(c) == first) {
+            return None;
+        }
+        let mut planes = [(DVec3::ZERO, None); 12];
+        let mut count = 0;
+        for c in 0..8 {
+            for bit in 0..3 {
+                let o = c ^ (1 << bit);
+                if o > c && f(c) != f(o) {
+                    let (ci, co) = if f(c) { (c, o) } else { (o, c) };
+                    let (a, b, d) = corner(ci);
+                    let p_in = self.point(a, b, d);
+                    let (a, b, d) = corner(co);
+                    let p_out = self.point(a, b, d);
+                    let x = self.crossing(p_in, p_out);
+                    planes[count] = (x, self.normal(x, p_in, p_out));
+                    count += 1;
                 }
             }
         }
+        let (a, b, d) = corner(0);
+        let (v_lo, v_hi) = (self.point(a, b, d), self.point(a + 1, b + 1, d + 1));
+        Some(qef_vertex(&planes[..count], v_lo, v_hi))
     }
-    Ok(Mesh { vertices, faces })
+
+    /// A quad for every edge with a sign change of `flags`, around it
+    /// through the four voxels sharing it (`ids`: their vertices); (a, b,
+    /// c) cyclic, so the order (0,0), (-1,0), (-1,-1), (0,-1) in (b, c) is
+    /// counter-clockwise seen from +a.
+    fn faces(&self, flags: &[bool], ids: &[u32]) -> Vec<[u32; 3]> {
+        let dims = self.dims;
+        let voxel_dims = [dims[0] - 1, dims[1] - 1, dims[2] - 1];
+        let vindex = |i: usize, j: usize, k: usize| (k * voxel_dims[1] + j) * voxel_dims[0] + i;
+        let mut faces = Vec::new();
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    let here = [i, j, k];
+                    let f0 = flags[self.index(i, j, k)];
+                    for a in 0..3 {
+                        let mut next = here;
+                        next[a] += 1;
+                        if next[a] >= dims[a] || flags[self.index(next[0], next[1], next[2])] == f0
+                        {
+                            continue;
+                        }
+                        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+                        // (An edge in the padding's outer planes has both ends outside.)
+                        debug_assert!(here[b] > 0 && here[c] > 0);
+                        let quad = [(0, 0), (1, 0), (1, 1), (0, 1)].map(|(db, dc)| {
+                            let mut v = here;
+                            v[b] -= db;
+                            v[c] -= dc;
+                            ids[vindex(v[0], v[1], v[2])]
+                        });
+                        // Outward normal +a when the inside is at `here`.
+                        let q = if f0 {
+                            quad
+                        } else {
+                            [quad[0], quad[3], quad[2], quad[1]]
+                        };
+                        faces.push([q[0], q[1], q[2]]);
+                        faces.push([q[0], q[2], q[3]]);
+                    }
+                }
+            }
+        }
+        faces
+    }
 }
 
 /// The point nearest, in least squares, to the planes through `x` with unit

@@ -141,10 +141,13 @@ use glam::DVec3;
 use rayon::prelude::*;
 use thiserror::Error;
 
+use super::brdf_formats::{BrdfFormat, ExportRefusal, ZemaxGrid};
+use super::exporter::{Export, ExportError, ExportInput, Exporter, Notice, fixed, one_file};
 use super::resample::{CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected};
 use super::rgl::tensor::{Data, Field, TensorFile};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
 use crate::optics::polarisation::{hemisphere_reference, rotation};
+use crate::outdir::kind::FileKind;
 
 /// Nodes of `theta_h`.
 pub const THETA_H: usize = 46;
@@ -737,6 +740,123 @@ pub fn check(
                 .collect()
         })
         .collect())
+}
+
+/// The pbsdf format's entry of the registry
+/// ([`BrdfFormat::Pbsdf`]): one
+/// file of tables with their Mueller tables attached, one light azimuth,
+/// one wavelength (written grey at [`GREY_NM`], with a note) or five; read
+/// back as the reflectance of its `m00` per wavelength and incidence.
+#[derive(Debug, Clone, Copy)]
+pub struct PbsdfFormat;
+
+impl Exporter for PbsdfFormat {
+    fn name(&self) -> &'static str {
+        "pbsdf"
+    }
+
+    fn file_name(&self) -> &'static str {
+        "brdf.pbsdf"
+    }
+
+    fn file_kind(&self) -> FileKind {
+        FileKind::Pbsdf
+    }
+
+    fn format(&self) -> BrdfFormat {
+        BrdfFormat::Pbsdf
+    }
+
+    fn needs_mueller(&self) -> bool {
+        true
+    }
+
+    fn check_wavelengths(&self, wavelengths_um: &[f64]) -> Result<(), ExportRefusal> {
+        file_wavelengths(wavelengths_um)
+            .map(|_| ())
+            .map_err(ExportRefusal::from)
+    }
+
+    fn check_run(&self, wavelengths_um: &[f64], azimuths_deg: &[f64]) -> Result<(), ExportError> {
+        let format = self.format();
+        let count = azimuths_deg.len();
+        let refusal = if count > 1 {
+            Err(ExportRefusal::Azimuths { format, count })
+        } else {
+            self.check_wavelengths(wavelengths_um)
+        };
+        refusal.map_err(|refusal| ExportError::Run { format, refusal })
+    }
+
+    fn check_table_file(&self, tables: &BrdfTables, csv: &str) -> Result<(), ExportError> {
+        let azimuths = tables.azimuths_deg().len();
+        if azimuths > 1 {
+            // An isotropic format: refused as docs/src/exports.md says.
+            return Err(ExportError::FileRefused {
+                format: self.format(),
+                file: csv.to_owned(),
+                reason: PbsdfRefusal::Azimuths(azimuths).to_string(),
+            });
+        }
+        Ok(())
+    }
+
+    fn table_bytes(
+        &self,
+        table: &BrdfTable,
+        _comment: &str,
+        _grid: ZemaxGrid,
+    ) -> Result<Vec<u8>, ExportError> {
+        let tables = BrdfTables::Monochrome(table.clone());
+        Ok(Pbsdf::from_tables(&tables)
+            .map_err(ExportError::Pbsdf)?
+            .to_bytes())
+    }
+
+    fn build(&self, input: &ExportInput<'_>) -> Result<Export, ExportError> {
+        let file = Pbsdf::from_tables(input.tables).map_err(ExportError::Pbsdf)?;
+        let mut export = Export::of(vec![one_file(self.format(), file.to_bytes())]);
+        if input.tables.wavelengths_um().len() <= 1 {
+            export.notices.push(Notice::Note(format!(
+                "pbsdf: a table of one wavelength, written at the five wavelengths {GREY_NM:?} nm that Mitsuba's measured_polarized holds: the same Mueller BRDF at each"
+            )));
+        }
+        Ok(export)
+    }
+
+    fn judge(&self, input: &ExportInput<'_>, export: &mut Export) -> Result<(), ExportError> {
+        let tables = input.tables;
+        let checks = check(tables, &export.files[0].bytes, self.file_name()).map_err(|error| {
+            ExportError::Unreadable {
+                format: self.format(),
+                error,
+            }
+        })?;
+        let remedy = fixed(format!(
+            "the pbsdf grid is fixed ({THETA_H} x {THETA_D} x {PHI_D} nodes of theta_h, theta_d, phi_d)"
+        ));
+        for (k, check) in checks.into_iter().enumerate() {
+            let what = match tables.wavelengths_um().get(k) {
+                Some(w) => format!("{} ({w} um)", self.name()),
+                None => self.name().to_owned(),
+            };
+            export.add_judged(what, check, &remedy);
+        }
+        Ok(())
+    }
+
+    fn check_table(
+        &self,
+        table: &BrdfTable,
+        bytes: &[u8],
+    ) -> Result<Vec<ReflectanceCheck>, FormatError> {
+        let checks = check(
+            &BrdfTables::Monochrome(table.clone()),
+            bytes,
+            self.file_name(),
+        )?;
+        Ok(checks.into_iter().next().unwrap_or_default())
+    }
 }
 
 #[cfg(test)]

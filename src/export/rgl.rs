@@ -131,8 +131,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Mesh;
+use super::brdf_formats::{BrdfFormat, ZemaxGrid};
+use super::exporter::{Export, ExportError, ExportInput, Exporter, Notice, fixed, one_file};
 use super::resample::{FormatError, symmetric_eval};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables, rotate_z};
+use crate::outdir::kind::FileKind;
 use layout::{Layout, LayoutError, Node};
 use tensor::{Field, TensorFile};
 use warp::{Warp, bilinear, midpoints};
@@ -896,6 +899,7 @@ impl Rgl {
                     .collect()
             })
             .collect();
+        let thetas_copy = thetas.clone();
         let mut file = Self {
             theta_i: thetas,
             phi_i: layout
@@ -908,21 +912,26 @@ impl Rgl {
             description: description.into(),
             grids,
         };
-        // Normalise each incidence and channel to the table's reflectance:
-        // the interpolation between the nodes does not keep the integral
-        // near a narrow peak (a few % at a mirror spike).
-        let refl = sample_space_reflectance(&file, BOX_SUBDIVISION);
-        for (flat, per_k) in file.spectra.iter_mut().enumerate() {
-            let node = &layout.nodes[flat / ni];
+        file.normalise(|flat, w| {
+            channel(w, &layout.nodes[flat / ni]).reflectance(thetas_copy[flat % ni])
+        });
+        Ok(file)
+    }
+
+    /// Normalise each incidence node `flat` and channel `w` to the table's
+    /// reflectance `want(flat, w)`: the interpolation between the nodes does
+    /// not keep the integral near a narrow peak (a few % at a mirror spike).
+    fn normalise(&mut self, want: impl Fn(usize, usize) -> f64) {
+        let refl = sample_space_reflectance(self, BOX_SUBDIVISION);
+        for (flat, per_k) in self.spectra.iter_mut().enumerate() {
             for (w, values) in per_k.iter_mut().enumerate() {
-                let want = channel(w, node).reflectance(file.theta_i[flat % ni]);
+                let want = want(flat, w);
                 if refl[flat][w] > 0.0 && want > 0.0 {
                     let scale = want / refl[flat][w];
                     values.iter_mut().for_each(|v| *v *= scale);
                 }
             }
         }
-        Ok(file)
     }
 
     /// The `luminance` node values of incidence node `k` (`p n_theta + k`).
@@ -1290,6 +1299,187 @@ pub fn check_channels(
                 .collect()
         })
         .collect())
+}
+
+/// The RGL format's entry of the registry
+/// ([`BrdfFormat::Rgl`]): one file
+/// of every wavelength (a monochrome table written grey; an RGB file of a
+/// spectral run covering the visible with [`ExportInput::rgb`]) with the
+/// NDF of the micro surface's realisations pooled ([`surface_ndf`]; none:
+/// the uniform NDF, with a note), a note or a warning on the symmetry an
+/// anisotropic file assumes, and read back per wavelength (or channel)
+/// and incidence ([`check`]).
+#[derive(Debug, Clone, Copy)]
+pub struct RglFormat;
+
+impl Exporter for RglFormat {
+    fn name(&self) -> &'static str {
+        "rgl"
+    }
+
+    fn file_name(&self) -> &'static str {
+        "brdf_rgl.bsdf"
+    }
+
+    fn file_kind(&self) -> FileKind {
+        FileKind::Rgl
+    }
+
+    fn format(&self) -> BrdfFormat {
+        BrdfFormat::Rgl
+    }
+
+    fn uses_surfaces(&self) -> bool {
+        true
+    }
+
+    fn options(&self) -> &'static [&'static str] {
+        &["--scene", "--rgb"]
+    }
+
+    fn check_run(&self, wavelengths_um: &[f64], azimuths_deg: &[f64]) -> Result<(), ExportError> {
+        if azimuths_deg.len() > 1 {
+            Layout::of(azimuths_deg).map_err(ExportError::RunAzimuths)?;
+        }
+        self.check_wavelengths(wavelengths_um)
+            .map_err(|refusal| ExportError::Run {
+                format: self.format(),
+                refusal,
+            })
+    }
+
+    fn table_bytes(
+        &self,
+        table: &BrdfTable,
+        comment: &str,
+        _grid: ZemaxGrid,
+    ) -> Result<Vec<u8>, ExportError> {
+        let tables = BrdfTables::Monochrome(table.clone());
+        Rgl::from_tables(&tables, &Ndf::uniform(), comment)
+            .map(|r| r.to_bytes())
+            .map_err(|e| ExportError::Refused {
+                option: "--format",
+                format: self.format(),
+                refusal: e.into(),
+            })
+    }
+
+    fn build(&self, input: &ExportInput<'_>) -> Result<Export, ExportError> {
+        let (tables, comment) = (input.tables, input.comment);
+        let layout =
+            Layout::of(tables.azimuths_deg()).map_err(|reason| ExportError::RglAzimuths {
+                file: tables.tables()[0].file().to_owned(),
+                option: input.option,
+                reason,
+            })?;
+        let mut export = Export::default();
+        export.notices.extend(symmetry_note(tables, &layout));
+        let ndf = match input.surfaces {
+            [_, ..] => surface_ndf(
+                input.surfaces,
+                smoothing_for(tables.tables()[0].bands()),
+                !layout.is_isotropic(),
+            ),
+            [] => {
+                export.notices.push(Notice::Note(
+                    "rgl: no micro scene (--scene) for the NDF: the uniform NDF 1/pi is written; the file's values are the same, its importance sampling follows the table alone".into(),
+                ));
+                Ndf::uniform()
+            }
+        };
+        let defect = |error| ExportError::Defect {
+            format: self.format(),
+            error,
+        };
+        let rgb_file = match tables.spectral().filter(|_| input.rgb) {
+            Some(s) => Rgl::rgb_from_spectral(s, &ndf, comment).map_err(defect)?,
+            None => None,
+        };
+        let bytes = match rgb_file {
+            Some((file, _)) => file.to_bytes(),
+            None => Rgl::from_tables(tables, &ndf, comment)
+                .map_err(defect)?
+                .to_bytes(),
+        };
+        export.files = vec![one_file(self.format(), bytes)];
+        Ok(export)
+    }
+
+    fn judge(&self, input: &ExportInput<'_>, export: &mut Export) -> Result<(), ExportError> {
+        let tables = input.tables;
+        let name = self.file_name();
+        let bytes = &export.files[0].bytes;
+        // The channels of an RGB file: made when the tables cover the visible.
+        let channels = tables
+            .spectral()
+            .filter(|_| input.rgb)
+            .and_then(super::merl::srgb_tables);
+        let checks = match &channels {
+            Some(channels) => check_channels(&channels.iter().collect::<Vec<_>>(), bytes, name),
+            None => check(tables, bytes, name),
+        }
+        .map_err(|error| ExportError::Unreadable {
+            format: self.format(),
+            error,
+        })?;
+        let remedy = fixed(format!(
+            "the rgl grids are fixed ({SAMPLE_RES} x {SAMPLE_RES} samples per incidence); export zemax for a finer one"
+        ));
+        for (k, check) in checks.into_iter().enumerate() {
+            let what = match (channels.is_some(), tables.wavelengths_um().get(k)) {
+                (true, _) => format!("{} ({} channel)", self.name(), ["red", "green", "blue"][k]),
+                (false, Some(w)) => format!("{} ({w} um)", self.name()),
+                (false, None) => self.name().to_owned(),
+            };
+            export.add_judged(what, check, &remedy);
+        }
+        Ok(())
+    }
+
+    fn check_table(
+        &self,
+        table: &BrdfTable,
+        bytes: &[u8],
+    ) -> Result<Vec<super::resample::ReflectanceCheck>, FormatError> {
+        let checks = check(
+            &BrdfTables::Monochrome(table.clone()),
+            bytes,
+            self.file_name(),
+        )?;
+        Ok(checks.into_iter().next().unwrap_or_default())
+    }
+}
+
+/// The symmetry an anisotropic RGL file of `tables` assumes ([`layout`]),
+/// judged from the table: a note naming the assumption, or a warning when
+/// the table contradicts it beyond its 4-sigma bound
+/// ([`layout::symmetry_figure`]); `None` for a file that assumes nothing.
+fn symmetry_note(tables: &BrdfTables, layout: &Layout) -> Option<Notice> {
+    use layout::{Reduction, symmetry_figure};
+    let assumed = match layout.reduction {
+        Reduction::Isotropic | Reduction::Circle => return None,
+        Reduction::HalfTurn => {
+            "a half turn leaves the surface unchanged (the table at 180 deg is the one at 0 turned)"
+        }
+        Reduction::Quadrant => {
+            "the surface is mirror symmetric about the xz and yz planes (the table at 0 deg symmetric about the plane of incidence, the one at 90 deg too)"
+        }
+    };
+    let tables: Vec<&BrdfTable> = tables.tables().iter().collect();
+    let figure = symmetry_figure(&tables, layout.reduction);
+    let judged = format!(
+        "chi^2/dof = {:.3} over {} cell pairs, bound {:.3}",
+        figure.chi2_dof, figure.dof, figure.bound
+    );
+    Some(if figure.dof > 0 && !figure.isotropic() {
+        Notice::Warning(format!(
+            "rgl: the file assumes {assumed}, but the table departs from it: {judged}; trace the whole circle (0 and 180 among light.phi_deg, azimuths beyond 180) for a file that assumes nothing"
+        ))
+    } else {
+        Notice::Note(format!(
+            "rgl: the file assumes {assumed}; the table agrees ({judged})"
+        ))
+    })
 }
 
 #[cfg(test)]

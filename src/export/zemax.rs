@@ -121,8 +121,17 @@ use std::fmt::Write as _;
 
 use glam::DVec3;
 
-use super::resample::{FormatError, symmetric_eval};
-use crate::optics::brdf_table::BrdfTable;
+use rayon::prelude::*;
+
+use super::brdf_formats::{
+    BrdfFormat, ExportFile, ZemaxGrid, wavelength_comment, wavelength_labels,
+};
+use super::exporter::{Export, ExportError, ExportInput, Exporter, here, one_file};
+use super::resample::{
+    CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected, symmetric_eval,
+};
+use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use crate::outdir::kind::FileKind;
 
 /// Default azimuth step of [`ZemaxBsdf::from_table`] (degrees).
 pub const AZIMUTH_STEP_DEG: f64 = 2.0;
@@ -643,6 +652,194 @@ impl<'a> Tokens<'a> {
             })
             .collect()
     }
+}
+
+/// The Zemax format's entry of the registry
+/// ([`BrdfFormat::Zemax`]): a
+/// monochrome table gives one file, a spectral one a file per wavelength;
+/// each is read back with [`ZemaxBsdf::parse`], and a check off its table
+/// names the coarsest finer grid that passes
+/// ([`ZemaxGrid::finer_per_check`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ZemaxFormat;
+
+impl Exporter for ZemaxFormat {
+    fn name(&self) -> &'static str {
+        "zemax"
+    }
+
+    fn file_name(&self) -> &'static str {
+        "brdf.bsdf"
+    }
+
+    fn file_kind(&self) -> FileKind {
+        FileKind::Zemax
+    }
+
+    fn format(&self) -> BrdfFormat {
+        BrdfFormat::Zemax
+    }
+
+    fn one_file_per_wavelength(&self) -> bool {
+        true
+    }
+
+    fn options(&self) -> &'static [&'static str] {
+        &["--grid"]
+    }
+
+    fn spectral_file_names(&self, wavelengths_um: &[f64]) -> Vec<String> {
+        wavelength_labels(wavelengths_um)
+            .iter()
+            .map(|w| format!("brdf_{w}um.bsdf"))
+            .collect()
+    }
+
+    fn table_bytes(
+        &self,
+        table: &BrdfTable,
+        comment: &str,
+        grid: ZemaxGrid,
+    ) -> Result<Vec<u8>, ExportError> {
+        Ok(grid.export(table, comment))
+    }
+
+    fn build(&self, input: &ExportInput<'_>) -> Result<Export, ExportError> {
+        let (grid, comment) = (input.grid, input.comment);
+        Ok(Export::of(match input.tables {
+            BrdfTables::Monochrome(t) => vec![one_file(self.format(), grid.export(t, comment))],
+            BrdfTables::Spectral(spectral) => spectral
+                .wavelengths_um()
+                .par_iter()
+                .zip(spectral.tables())
+                .zip(self.spectral_file_names(spectral.wavelengths_um()))
+                .map(|((&w, t), file_name)| ExportFile {
+                    file_name,
+                    wavelength_um: Some(w),
+                    bytes: grid.export(t, &wavelength_comment(comment, w)),
+                    clipped: None,
+                })
+                .collect(),
+        }))
+    }
+
+    fn judge(&self, input: &ExportInput<'_>, export: &mut Export) -> Result<(), ExportError> {
+        let grid = input.grid;
+        let files = export.files.clone();
+        for (file, table) in files.iter().zip(input.tables.tables()) {
+            let check =
+                self.check_table(table, &file.bytes)
+                    .map_err(|error| ExportError::Unreadable {
+                        format: self.format(),
+                        error,
+                    })?;
+            let what = match file.wavelength_um {
+                Some(w) => format!("{} ({w} um)", self.name()),
+                None => self.name().to_owned(),
+            };
+            let remedy = |check: &[ReflectanceCheck], failing: &[usize]| {
+                finer_remedies(grid, table, check, failing)
+            };
+            export.add_judged(what, check, &remedy);
+        }
+        Ok(())
+    }
+
+    fn check_table(
+        &self,
+        table: &BrdfTable,
+        bytes: &[u8],
+    ) -> Result<Vec<ReflectanceCheck>, FormatError> {
+        let name = self.file_name();
+        let text = std::str::from_utf8(bytes).map_err(|e| FormatError {
+            file: name.into(),
+            message: format!("not UTF-8 text: {e}"),
+        })?;
+        let z = ZemaxBsdf::parse(text, name)?;
+        if table.azimuths_deg().len() > 1 {
+            return Ok(azimuth_checks(table, &z));
+        }
+        Ok(table
+            .angles_deg()
+            .iter()
+            .enumerate()
+            .map(|(k, &deg)| {
+                let file_r = integrate_projected(CHECK_RINGS, |d| z.eval(k, d));
+                ReflectanceCheck::of_table(table, deg, file_r)
+            })
+            .collect())
+    }
+}
+
+/// Per failing check (indices `failing` into `check`, the checks of the
+/// file of `table` on `grid`) what would do better: the coarsest finer
+/// grid that makes that incidence (and light azimuth) pass, or that none
+/// does, or that the grid is already as fine as the search goes.
+fn finer_remedies(
+    grid: ZemaxGrid,
+    table: &BrdfTable,
+    check: &[ReflectanceCheck],
+    failing: &[usize],
+) -> Vec<String> {
+    let found = grid.finer_per_check(table, failing);
+    failing
+        .iter()
+        .zip(found)
+        .map(|(&i, found)| {
+            let here = here(&check[i]);
+            match found {
+                Some(g) => format!(
+                    "the finer grid `--grid {},{}` of roks export-brdf passes {here}",
+                    g.azimuth_step_deg, g.radial_step_deg
+                ),
+                None => match grid.searched().last() {
+                    Some(f) => format!(
+                        "no finer grid (to {},{} degrees) passes {here}: the difference is not the grid's",
+                        f.azimuth_step_deg, f.radial_step_deg
+                    ),
+                    None => {
+                        let f = ZemaxGrid::finest_searched();
+                        format!(
+                            "the grid {},{} is as fine as the search goes ({},{} degrees): no finer grid is tried",
+                            grid.azimuth_step_deg,
+                            grid.radial_step_deg,
+                            f.azimuth_step_deg,
+                            f.radial_step_deg
+                        )
+                    }
+                },
+            }
+        })
+        .collect()
+}
+
+/// The checks of an `Asymmetrical4D` file `z` of `table` (several light
+/// azimuths): per incidence angle, then azimuth, block `j m + t` (sample
+/// rotation `j`, angle `t` of `m`) integrated beside the reflectance of
+/// azimuth `j`'s table.
+fn azimuth_checks(table: &BrdfTable, z: &ZemaxBsdf) -> Vec<ReflectanceCheck> {
+    let angles = table.angles_deg();
+    let m = angles.len();
+    let azimuths: Vec<BrdfTable> = (0..table.azimuths_deg().len())
+        .map(|j| table.azimuth(j))
+        .collect();
+    angles
+        .iter()
+        .enumerate()
+        .flat_map(|(t, &deg)| {
+            azimuths
+                .iter()
+                .enumerate()
+                .map(move |(j, a)| ReflectanceCheck {
+                    phi_i_deg: Some(a.azimuths_deg()[0]),
+                    ..ReflectanceCheck::of_table(
+                        a,
+                        deg,
+                        integrate_projected(CHECK_RINGS, |d| z.eval(j * m + t, d)),
+                    )
+                })
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -224,6 +224,19 @@ fn parse(text: &str, name: &str) -> Result<BrdfSummary, BrdfTableError> {
     Ok(summary)
 }
 
+impl BrdfSummary {
+    /// The `summary.json` of `roks brdf` at `path`, read through its typed
+    /// struct.
+    ///
+    /// # Errors
+    /// [`BrdfTableError::Io`] if it cannot be read; [`BrdfTableError::Summary`]
+    /// if it is not JSON or not that of a `roks brdf` run, naming the key.
+    pub fn read(path: &Path) -> Result<Self, BrdfTableError> {
+        let (name, text) = read_text(path)?;
+        parse(&text, &name)
+    }
+}
+
 impl BrdfTables {
     /// The same tables with the exact reflectance standard errors of the
     /// `summary.json` at `path` (see [`with_summary_text`](Self::with_summary_text)).
