@@ -31,7 +31,12 @@ fn sources(root: &Path) -> Vec<String> {
             if p.is_dir() {
                 walk(&p, root, out);
             } else if p.extension().is_some_and(|e| e == "rs") {
-                out.push(p.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/"));
+                out.push(
+                    p.strip_prefix(root)
+                        .unwrap()
+                        .to_string_lossy()
+                        .replace('\\', "/"),
+                );
             }
         }
     }
@@ -82,7 +87,15 @@ fn module_files(root: &Path, segments: &[&str]) -> Vec<PathBuf> {
 /// mod, macro, enum variant or field) or re-exported in one of `files`.
 fn defined(files: &[PathBuf], name: &str) -> bool {
     let keywords = [
-        "fn ", "struct ", "enum ", "trait ", "type ", "const ", "static ", "mod ", "macro_rules! ",
+        "fn ",
+        "struct ",
+        "enum ",
+        "trait ",
+        "type ",
+        "const ",
+        "static ",
+        "mod ",
+        "macro_rules! ",
     ];
     files.iter().any(|f| {
         let text = std::fs::read_to_string(f).unwrap();
@@ -114,15 +127,22 @@ fn problems(root: &Path, doc: &str) -> Vec<String> {
     let ticked = backticked(doc);
     let ticked_set: BTreeSet<&str> = ticked.iter().copied().collect();
     for file in sources(root) {
-        let by_module = module_path(&file)
-            .is_some_and(|m| ticked.iter().any(|t| *t == m || t.starts_with(&format!("{m}::"))));
+        let by_module = module_path(&file).is_some_and(|m| {
+            ticked
+                .iter()
+                .any(|t| *t == m || t.starts_with(&format!("{m}::")))
+        });
         if !doc.contains(&file) && !by_module {
-            found.push(format!("{file} is not named (neither its path nor its module path)"));
+            found.push(format!(
+                "{file} is not named (neither its path nor its module path)"
+            ));
         }
     }
     for m in &top {
         if !doc.lines().any(|l| l.starts_with(&format!("| `{m}` |"))) {
-            found.push(format!("top-level module `{m}` has no row in the module table"));
+            found.push(format!(
+                "top-level module `{m}` has no row in the module table"
+            ));
         }
     }
     for t in ticked_set {
@@ -152,7 +172,10 @@ fn problems(root: &Path, doc: &str) -> Vec<String> {
         if segments.len() < 2 || !top.contains(segments[0]) {
             continue;
         }
-        if segments.iter().any(|s| s.is_empty() || !s.chars().all(|c| c.is_alphanumeric() || c == '_')) {
+        if segments
+            .iter()
+            .any(|s| s.is_empty() || !s.chars().all(|c| c.is_alphanumeric() || c == '_'))
+        {
             continue;
         }
         let modules = segments
@@ -173,7 +196,10 @@ fn problems(root: &Path, doc: &str) -> Vec<String> {
         // (`Type::method`) anywhere in the same module
         for item in &segments[depth..] {
             if !defined(&files, item) {
-                found.push(format!("`{t}`: `{item}` is not defined in {}", segments[..depth].join("::")));
+                found.push(format!(
+                    "`{t}`: `{item}` is not defined in {}",
+                    segments[..depth].join("::")
+                ));
                 break;
             }
         }
@@ -186,7 +212,11 @@ fn architecture_names_every_file_rightly() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let doc = std::fs::read_to_string(root.join("ARCHITECTURE.md")).unwrap();
     let found = problems(root, &doc);
-    assert!(found.is_empty(), "ARCHITECTURE.md is out of date:\n{}", found.join("\n"));
+    assert!(
+        found.is_empty(),
+        "ARCHITECTURE.md is out of date:\n{}",
+        found.join("\n")
+    );
 }
 
 #[test]
@@ -202,9 +232,17 @@ fn wrong_names_are_found() {
         "`BrdfRun::no_such_method`: `no_such_method` is not defined in the crate",
         "top-level module `geometry` has no row in the module table",
     ] {
-        assert!(found.iter().any(|f| f.starts_with(wanted)), "not found: {wanted}\n{}", found.join("\n"));
+        assert!(
+            found.iter().any(|f| f.starts_with(wanted)),
+            "not found: {wanted}\n{}",
+            found.join("\n")
+        );
     }
     // and nothing is reported for a right name
     let right = problems(root, "`tally::accumulator` `src/lib.rs`");
-    assert!(!right.iter().any(|f| f.contains("tally::accumulator") || f.contains("src/lib.rs:")));
+    assert!(
+        !right
+            .iter()
+            .any(|f| f.contains("tally::accumulator") || f.contains("src/lib.rs:"))
+    );
 }
