@@ -11,8 +11,16 @@
 //! The graph must be acyclic: a circle is printed file by file, and the fix is
 //! to move the shared item to the module that owns its physics.
 //!
+//! Two more rules sit on the same graph. No two top-level modules (the
+//! folders and files of `src/`) import each other, in either direction
+//! through any of their files: a shared item goes down to where both see it.
+//! And no command module of `cli` imports another: what two commands share
+//! lives in the library (or in `cli::common`, `cli::args`, `cli::parse`,
+//! `cli::messages`, which are not commands).
+//!
 //! `circle_is_found` runs the same parser and search on a small synthetic
-//! crate with one circle, so the check itself is tested.
+//! crate with one circle and one two-way tie, so the checks themselves are
+//! tested.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -417,6 +425,53 @@ fn find_circle(edges: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Option<Vec<PathB
     None
 }
 
+/// The top-level module a file belongs to (`transport/brdf.rs` ->
+/// `transport`); the crate root and `main.rs` belong to none.
+fn top_level(file: &Path) -> Option<String> {
+    let first = file.components().next()?.as_os_str().to_string_lossy();
+    let name = first.strip_suffix(".rs").unwrap_or(&first);
+    (name != "lib" && name != "main").then(|| name.to_string())
+}
+
+/// Every pair of top-level modules that import each other, with one file
+/// edge for each direction (`a -> b` as `a/x.rs -> b/y.rs`).
+fn two_way_ties(edges: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Vec<String> {
+    let mut one_way: BTreeMap<(String, String), String> = BTreeMap::new();
+    for (from, tos) in edges {
+        for to in tos {
+            if let (Some(a), Some(b)) = (top_level(from), top_level(to))
+                && a != b
+            {
+                one_way
+                    .entry((a, b))
+                    .or_insert_with(|| format!("{} -> {}", from.display(), to.display()));
+            }
+        }
+    }
+    one_way
+        .iter()
+        .filter(|((a, b), _)| a < b)
+        .filter_map(|((a, b), there)| {
+            let back = one_way.get(&(b.clone(), a.clone()))?;
+            Some(format!("{a} <-> {b}: {there}, and {back}"))
+        })
+        .collect()
+}
+
+/// The files of `cli` that are commands (not the shared parts).
+fn is_command(file: &Path) -> bool {
+    file.starts_with("cli")
+        && ![
+            "cli/mod.rs",
+            "cli/args.rs",
+            "cli/common.rs",
+            "cli/parse.rs",
+            "cli/messages.rs",
+        ]
+        .iter()
+        .any(|shared| file == Path::new(shared))
+}
+
 fn read_tree(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, String>) {
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();
@@ -469,6 +524,42 @@ fn no_import_circles() {
 }
 
 #[test]
+fn top_level_modules_import_one_way() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = BTreeMap::new();
+    read_tree(&root, &root, &mut files);
+    let ties = two_way_ties(&graph(&files));
+    assert!(
+        ties.is_empty(),
+        "top-level modules that import each other:\n{}",
+        ties.join("\n")
+    );
+}
+
+#[test]
+fn no_command_imports_another() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = BTreeMap::new();
+    read_tree(&root, &root, &mut files);
+    let edges = graph(&files);
+    assert!(is_command(Path::new("cli/brdf.rs")) && !is_command(Path::new("cli/common.rs")));
+    let crossing: Vec<String> = edges
+        .iter()
+        .filter(|(from, _)| is_command(from))
+        .flat_map(|(from, tos)| {
+            tos.iter()
+                .filter(|to| is_command(to))
+                .map(move |to| format!("{} -> {}", from.display(), to.display()))
+        })
+        .collect();
+    assert!(
+        crossing.is_empty(),
+        "command modules that import each other:\n{}",
+        crossing.join("\n")
+    );
+}
+
+#[test]
 fn circle_is_found() {
     let files: BTreeMap<PathBuf, String> = [
         ("lib.rs", "pub mod a;\npub mod b;\n/// [`crate::b`]\nmod c;"),
@@ -501,6 +592,11 @@ fn circle_is_found() {
     );
     assert!(edges[Path::new("c.rs")].is_empty());
     assert!(edges[Path::new("lib.rs")].is_empty());
+    // a -> b (y -> b) and b -> a (b -> x): one two-way tie; c and the root none.
+    assert_eq!(
+        two_way_ties(&edges),
+        vec!["a <-> b: a/y.rs -> b.rs, and b.rs -> a/x.rs".to_string()]
+    );
     let circle = find_circle(&edges).expect("the circle x -> y -> b -> x");
     assert_eq!(circle.len(), 4, "{}", show(&circle));
     assert_eq!(circle.first(), circle.last());
@@ -508,4 +604,5 @@ fn circle_is_found() {
     let mut cut = files.clone();
     cut.insert(PathBuf::from("b.rs"), "pub fn g() {}".to_string());
     assert_eq!(find_circle(&graph(&cut)), None);
+    assert!(two_way_ties(&graph(&cut)).is_empty());
 }
