@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use crate::api::values::{ValueError, number};
+use crate::api::values::zemax_grid;
 use crate::export::brdf_formats::{BrdfFormat, ZemaxGrid};
 use crate::export::exporter::Export;
 use crate::export::folder::{EXPORT_MARKER, ExportMarker, FolderExport};
@@ -45,7 +45,7 @@ pub struct ExportBrdfArgs {
     pub force: bool,
     /// Zemax grid AZIMUTH_STEP,RADIAL_STEP in degrees (default 2,1): finer
     /// steps follow a narrow peak more closely, in a larger file.
-    #[arg(long, value_name = "AZIMUTH_DEG,RADIAL_DEG", value_parser = grid)]
+    #[arg(long, value_name = "AZIMUTH_DEG,RADIAL_DEG", value_parser = zemax_grid)]
     pub grid: Option<ZemaxGrid>,
     /// The micro scene the folder was traced from, for the NDF of an rgl
     /// file (default: the scene summary.json names, if it is there, or the
@@ -61,33 +61,6 @@ pub struct ExportBrdfArgs {
     /// file's reflectance is off the table's).
     #[arg(long, short)]
     pub quiet: bool,
-}
-
-/// Why a `--grid` value was refused.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum GridError {
-    /// A step that is not a number.
-    #[error(transparent)]
-    Number(#[from] ValueError),
-    /// Not two steps.
-    #[error("expected AZIMUTH_DEG,RADIAL_DEG, got {0:?}")]
-    Form(String),
-    /// A step outside (0, 90] or not dividing 180.
-    #[error("each step must be in (0, 90] degrees and divide 180, got {0}")]
-    Step(f64),
-}
-
-/// The value of `--grid`: two steps in degrees, each in (0, 90] and
-/// dividing 180 into whole steps (to 1e-9).
-fn grid(s: &str) -> Result<ZemaxGrid, GridError> {
-    let steps: Vec<f64> = s
-        .split(',')
-        .map(|v| number(v.trim()))
-        .collect::<Result<_, _>>()?;
-    let [azimuth_step_deg, radial_step_deg] = steps[..] else {
-        return Err(GridError::Form(s.to_owned()));
-    };
-    ZemaxGrid::new(azimuth_step_deg, radial_step_deg).map_err(GridError::Step)
 }
 
 /// Run `roks export-brdf`: the checks of the folder and `--out`, then the
