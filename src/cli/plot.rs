@@ -1,6 +1,6 @@
 //! `roks plot`: redraw every picture of a result folder from its files
-//! (micro, object, spectral, polarised, merged or shard folders), and the
-//! picture of a micro surface that `roks brdf` and `roks stats --png` draw.
+//! (micro, object, spectral, polarised, merged or shard folders), made by
+//! [`crate::api::redraw`].
 
 use std::path::PathBuf;
 
