@@ -24,17 +24,20 @@
 use std::path::Path;
 
 mod error;
+pub mod merge;
+pub mod mesh;
 mod micro;
 mod object;
+pub mod redraw;
+pub mod render;
 mod report;
-pub mod merge;
 mod table;
 pub mod values;
 
 pub use error::Error;
 pub use micro::{BrdfJob, BrdfOptions, BrdfResult, STATS_RESOLUTION};
 pub use object::{TraceJob, TraceOptions, TraceResult, load_object};
-pub use report::{BrdfReport, TraceReport, anisotropy_note};
+pub use report::{BrdfReport, StatsReport, TraceReport, anisotropy_note};
 pub use table::{Table, TableError};
 
 pub use crate::scene::WavelengthsSpec;
@@ -58,6 +61,13 @@ pub fn load_micro(path: Option<&Path>, overrides: &Overrides) -> Result<MicroSce
         BuildError::Scene(e) => Error::Scene(e),
         BuildError::Option { option, message } => Error::Option { option, message },
     })
+}
+
+/// The comment the exported tables of a run carry (`roks brdf --export`,
+/// `roks merge --export`): `scene NAME, N photons per angle`.
+#[must_use]
+pub fn export_comment(scene: &str, photons_per_angle: u64) -> String {
+    format!("scene {scene}, {photons_per_angle} photons per angle")
 }
 
 /// Use `threads` worker threads for every later trace or render (`None`:

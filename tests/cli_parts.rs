@@ -5,10 +5,10 @@
 use std::process::ExitCode;
 
 use clap::{CommandFactory, Parser, Subcommand};
+use roks::api::values::integer;
 use roks::cli::Failure;
 use roks::cli::args::{Cli, Command};
 use roks::cli::messages::{command, message};
-use roks::cli::parse::integer;
 use roks::scene::SceneError;
 
 #[test]

@@ -377,14 +377,14 @@ fn a_render_beyond_the_bound_is_refused_with_its_estimate() {
     assert!(t.elapsed().as_secs() < 30, "{:?}", t.elapsed());
     assert!(!d.join("r.exr").exists());
     // Exactly at the bound: accepted by the check (not run here).
-    assert!(roks::cli::render::check_cost(100_000, 100_000, 1, 1, false).is_ok());
-    assert!(roks::cli::render::check_cost(100_000, 100_000, 2, 1, false).is_err());
-    assert!(roks::cli::render::check_cost(100_000, 100_000, 2, 1, true).is_ok());
+    assert!(roks::render::job::check_cost(100_000, 100_000, 1, 1, false).is_ok());
+    assert!(roks::render::job::check_cost(100_000, 100_000, 2, 1, false).is_err());
+    assert!(roks::render::job::check_cost(100_000, 100_000, 2, 1, true).is_ok());
     // One pixel below the path bound, above 2^24 samples per pixel (which
     // one core traces in sequence): refused unless forced.
-    assert!(roks::cli::render::check_cost(1, 1, 1 << 24, 2, false).is_ok());
-    assert!(roks::cli::render::check_cost(1, 1, (1 << 24) + 1, 2, false).is_err());
-    assert!(roks::cli::render::check_cost(1, 1, u32::MAX, 2, true).is_ok());
+    assert!(roks::render::job::check_cost(1, 1, 1 << 24, 2, false).is_ok());
+    assert!(roks::render::job::check_cost(1, 1, (1 << 24) + 1, 2, false).is_err());
+    assert!(roks::render::job::check_cost(1, 1, u32::MAX, 2, true).is_ok());
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -65,3 +65,14 @@ impl Error {
         !matches!(self, Self::Io(_))
     }
 }
+
+/// An output refused (bad input) or a failed write ([`Error::Io`]).
+impl From<crate::outdir::check::OutputError> for Error {
+    fn from(e: crate::outdir::check::OutputError) -> Self {
+        use crate::outdir::check::OutputError;
+        match e {
+            OutputError::Refused(m) => Self::Input(m),
+            OutputError::Write(m) => Self::Io(anyhow::Error::msg(m)),
+        }
+    }
+}

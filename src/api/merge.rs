@@ -38,11 +38,15 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::export::brdf_formats::BrdfFormat;
+use crate::outdir::file::ResultFile;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::output::object_tallies::{self, Object};
 use crate::output::tallies::{self, Micro};
 use crate::plot::folder::PlotError;
 use crate::scene::SceneError;
+use crate::scene::micro::{MicroScene, Overrides};
+use crate::scene::source::SceneSource;
 use crate::shard::file::{self as shard_file, Level, ShardFile, TALLIES_FILE};
 
 /// The level of a shard folder, by its `tallies.json`'s `format`.
@@ -115,9 +119,31 @@ impl BrdfMerge {
         let mut files = self.folder.files(extra);
         crate::plot::folder::add_pictures(&mut files)?;
         if let Some(png) = &self.surface_png {
-            files.push(("surface.png".into(), png.clone()));
+            files.push((ResultFile::SurfacePicture.name().into(), png.clone()));
         }
         Ok(files)
+    }
+
+    /// The comment the exports of the merged table carry (as those of the
+    /// single run, [`crate::api::export_comment`]).
+    #[must_use]
+    pub fn export_comment(&self) -> String {
+        let d = &self.folder.description;
+        crate::api::export_comment(&d.name, d.run.photons)
+    }
+
+    /// The micro scene whose surfaces (every realisation) give the NDF an
+    /// rgl export of the merged shards writes: that of the scene file the
+    /// shards name (the embedded default for
+    /// [`crate::scene::source::DEFAULT_SCENE`]), when `formats` hold rgl
+    /// and the file loads; `None` otherwise.
+    #[must_use]
+    pub fn rgl_scene(&self, formats: &[BrdfFormat]) -> Option<MicroScene> {
+        if !formats.contains(&BrdfFormat::Rgl) {
+            return None;
+        }
+        let source = SceneSource::from_recorded(&self.folder.description.scene);
+        crate::api::load_micro(source.path(), &Overrides::default()).ok()
     }
 }
 
@@ -140,7 +166,7 @@ pub fn merge_brdf(dirs: &[PathBuf]) -> Result<BrdfMerge, MergeError> {
     Ok(BrdfMerge {
         folder: BrdfFolder::merged(merged),
         shards,
-        surface_png: std::fs::read(dirs[0].join("surface.png")).ok(),
+        surface_png: std::fs::read(ResultFile::SurfacePicture.path_in(&dirs[0])).ok(),
     })
 }
 

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use super::{Error, Table, read_folder, write_folder};
 use crate::micro::surface_stats::surface_stats;
+use crate::outdir::file::ResultFile;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::output::summary::{BrdfSummary, Description, Surface};
 use crate::scene::micro::MicroScene;
@@ -216,16 +217,19 @@ impl BrdfResult {
                 .map(|(_, b)| String::from_utf8_lossy(b).into_owned())
                 .ok_or_else(|| Error::Input(format!("{}: missing", dir.join(name).display())))
         };
-        let summary_name = dir.join("summary.json").display().to_string();
-        let summary_text = file("summary.json")?;
+        let summary_name = ResultFile::Summary.path_in(dir).display().to_string();
+        let summary_text = file(ResultFile::Summary.name())?;
         let summary: BrdfSummary = serde_json::from_str(&summary_text)
             .map_err(|e| Error::Input(format!("{summary_name}: {e}")))?;
-        let table_name = dir.join("brdf.csv").display().to_string();
-        let tables = crate::optics::brdf_table::BrdfTables::parse(&file("brdf.csv")?, &table_name)
-            .and_then(|t| t.with_summary_text(&summary_text, &summary_name))
-            .map_err(|e| Error::Input(e.to_string()))?;
-        if let Ok(text) = file("mueller.csv") {
-            let name = dir.join("mueller.csv").display().to_string();
+        let table_name = ResultFile::Brdf.path_in(dir).display().to_string();
+        let tables = crate::optics::brdf_table::BrdfTables::parse(
+            &file(ResultFile::Brdf.name())?,
+            &table_name,
+        )
+        .and_then(|t| t.with_summary_text(&summary_text, &summary_name))
+        .map_err(|e| Error::Input(e.to_string()))?;
+        if let Ok(text) = file(ResultFile::Mueller.name()) {
+            let name = ResultFile::Mueller.path_in(dir).display().to_string();
             tables
                 .with_mueller_text(&text, &name)
                 .map_err(|e| Error::Input(e.to_string()))?;
@@ -324,7 +328,7 @@ impl BrdfResult {
     /// [`Error::Input`] for a table that cannot be read (a folder whose
     /// file was altered).
     pub fn brdf(&self) -> Result<Table, Error> {
-        self.table("brdf.csv")
+        self.table(ResultFile::Brdf.name())
     }
 
     /// `inplane.csv` (the BRDF in the plane of incidence) as columns.
@@ -332,7 +336,7 @@ impl BrdfResult {
     /// # Errors
     /// As [`brdf`](Self::brdf).
     pub fn inplane(&self) -> Result<Table, Error> {
-        self.table("inplane.csv")
+        self.table(ResultFile::Inplane.name())
     }
 
     /// The polarisation table (`stokes.csv` or `mueller.csv`) as columns,
@@ -341,7 +345,7 @@ impl BrdfResult {
     /// # Errors
     /// As [`brdf`](Self::brdf).
     pub fn polarisation(&self) -> Result<Option<Table>, Error> {
-        ["stokes.csv", "mueller.csv"]
+        [ResultFile::Stokes.name(), ResultFile::Mueller.name()]
             .into_iter()
             .find(|n| self.file(n).is_some())
             .map(|n| self.table(n))
@@ -404,7 +408,10 @@ impl BrdfResult {
         };
         let mut files = t.folder.files(extra);
         crate::plot::folder::add_pictures(&mut files).map_err(anyhow::Error::msg)?;
-        files.push(("surface.png".into(), t.surface_png.clone()));
+        files.push((
+            ResultFile::SurfacePicture.name().into(),
+            t.surface_png.clone(),
+        ));
         Ok(files)
     }
 

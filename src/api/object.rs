@@ -6,6 +6,7 @@ use std::ops::Range;
 use std::path::Path;
 
 use super::{Error, Table, read_folder, write_folder};
+use crate::outdir::file::ResultFile;
 use crate::output::object_tallies::{self, TraceDescription, TraceTalliesFile};
 use crate::output::summary::TraceSummary;
 use crate::scene::WavelengthsSpec;
@@ -257,10 +258,10 @@ impl TraceResult {
     /// [`Error::Io`] for a folder that cannot be read.
     pub fn read(dir: &Path) -> Result<Self, Error> {
         let files = read_folder(dir)?;
-        let name = dir.join("summary.json").display().to_string();
+        let name = ResultFile::Summary.path_in(dir).display().to_string();
         let (_, text) = files
             .iter()
-            .find(|(n, _)| n == "summary.json")
+            .find(|(n, _)| n == ResultFile::Summary.name())
             .ok_or_else(|| Error::Input(format!("{name}: missing")))?;
         let summary: TraceSummary =
             serde_json::from_slice(text).map_err(|e| Error::Input(format!("{name}: {e}")))?;
@@ -272,15 +273,15 @@ impl TraceResult {
         result.reflectance()?;
         // A far field tallied has its file, one never tallied none.
         let tallied = [
-            ("farfield.csv", result.summary.farfield),
-            ("farfield_stokes.csv", result.summary.farfield_stokes),
+            (ResultFile::Farfield, result.summary.farfield),
+            (ResultFile::FarfieldStokes, result.summary.farfield_stokes),
         ];
         for (file, said) in tallied {
-            if result.table(file)?.is_some() != said {
+            if result.table(file.name())?.is_some() != said {
                 let how = if said { "missing" } else { "present" };
                 return Err(Error::Input(format!(
                     "{}: {how}, while {name} says the far field was{} tallied",
-                    dir.join(file).display(),
+                    file.path_in(dir).display(),
                     if said { "" } else { " not" }
                 )));
             }
@@ -307,8 +308,8 @@ impl TraceResult {
     /// # Errors
     /// [`Error::Input`] for a table that cannot be read.
     pub fn reflectance(&self) -> Result<Table, Error> {
-        self.table("reflectance.csv")?
-            .ok_or_else(|| Error::Input("reflectance.csv: missing".into()))
+        self.table(ResultFile::Reflectance.name())?
+            .ok_or_else(|| Error::Input(format!("{}: missing", ResultFile::Reflectance)))
     }
 
     /// `farfield.csv` as columns, `None` when the far field was not tallied.
@@ -316,7 +317,7 @@ impl TraceResult {
     /// # Errors
     /// As [`reflectance`](Self::reflectance).
     pub fn farfield(&self) -> Result<Option<Table>, Error> {
-        self.table("farfield.csv")
+        self.table(ResultFile::Farfield.name())
     }
 
     /// The result as traced (the run and its sums); `None` when read back.

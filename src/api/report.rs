@@ -3,7 +3,9 @@
 
 use std::fmt;
 
+use crate::micro::surface_stats::SurfaceStats;
 use crate::output::brdf_folder::BrdfFolder;
+use crate::scene::micro::MicroScene;
 use crate::tally::anisotropy::Figure;
 use crate::transport::brdf::IncidenceResult;
 use crate::transport::object::{ObjectResult, ObjectRun};
@@ -173,5 +175,76 @@ impl fmt::Display for TraceReport<'_> {
             )?;
         }
         Ok(())
+    }
+}
+
+/// The surface statistics of a micro scene as `roks stats` prints them:
+/// the scene file, the cell, the height-map grid, with several
+/// realisations a line saying the statistics are realisation 0's, then
+/// sigma, tau, sigma/tau, RMS slope, heights and the solids' acceleration
+/// figures, one per line (each ending in a newline).
+#[derive(Debug, Clone, Copy)]
+pub struct StatsReport<'a> {
+    /// The scene.
+    pub scene: &'a MicroScene,
+    /// The statistics of its height map.
+    pub stats: &'a SurfaceStats,
+    /// The height map's samples per side (x, y).
+    pub grid: (usize, usize),
+}
+
+impl fmt::Display for StatsReport<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (scene, s, (r, ry)) = (self.scene, self.stats, self.grid);
+        let size = scene.surface.size;
+        writeln!(f, "scene            {}", scene.scene_file.file)?;
+        writeln!(
+            f,
+            "cell             {} x {} ({:?} edges)",
+            size.x, size.y, scene.surface.edges
+        )?;
+        writeln!(f, "height map       {r} x {ry}")?;
+        let realisations = scene.run.realisations;
+        if realisations > 1 {
+            writeln!(
+                f,
+                "realisations     {realisations}: statistics of realisation 0 (the scene's own seed) only"
+            )?;
+        }
+        writeln!(
+            f,
+            "sigma            {:.6}   RMS height about the mean",
+            s.sigma
+        )?;
+        match s.tau_undefined {
+            None => {
+                writeln!(
+                    f,
+                    "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
+                    s.tau
+                )?;
+                writeln!(f, "sigma_over_tau   {:.6}", s.sigma_over_tau)?;
+            }
+            Some(why) => {
+                writeln!(f, "tau              {why}")?;
+                writeln!(f, "sigma_over_tau   undefined (tau is undefined)")?;
+            }
+        }
+        writeln!(
+            f,
+            "rms_slope        {:.6}   sqrt(mean |grad h|^2)",
+            s.rms_slope
+        )?;
+        writeln!(f, "mean_height      {:.6}", s.mean)?;
+        writeln!(f, "max_height       {:.6}", s.max_height)?;
+        writeln!(f, "min_height       {:.6}", s.min_height)?;
+        let (global, per_cell) = scene.surface.acceleration_stats();
+        writeln!(
+            f,
+            "solids           {} ({} tested per flight, {:.1} per grid cell)",
+            scene.surface.solids().len(),
+            global,
+            per_cell
+        )
     }
 }

@@ -265,6 +265,38 @@ pub fn wavelengths(s: &str) -> Result<crate::scene::WavelengthsSpec, ValueError>
     }
 }
 
+/// Why a `--grid` value ([`zemax_grid`]) was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GridError {
+    /// A step that is not a number.
+    #[error(transparent)]
+    Number(#[from] ValueError),
+    /// Not two steps.
+    #[error("expected AZIMUTH_DEG,RADIAL_DEG, got {0:?}")]
+    Form(String),
+    /// A step outside (0, 90] or not dividing 180.
+    #[error("each step must be in (0, 90] degrees and divide 180, got {0}")]
+    Step(f64),
+}
+
+/// A Zemax grid `AZIMUTH_DEG,RADIAL_DEG` (`roks export-brdf --grid`): two
+/// steps in degrees, each in (0, 90] and dividing 180 into whole steps
+/// (to 1e-9).
+///
+/// # Errors
+/// [`GridError`].
+pub fn zemax_grid(s: &str) -> Result<crate::export::brdf_formats::ZemaxGrid, GridError> {
+    let steps: Vec<f64> = s
+        .split(',')
+        .map(|v| number(v.trim()))
+        .collect::<Result<_, _>>()?;
+    let [azimuth_step_deg, radial_step_deg] = steps[..] else {
+        return Err(GridError::Form(s.to_owned()));
+    };
+    crate::export::brdf_formats::ZemaxGrid::new(azimuth_step_deg, radial_step_deg)
+        .map_err(GridError::Step)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

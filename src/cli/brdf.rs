@@ -6,14 +6,11 @@ use std::path::PathBuf;
 use clap::{ArgAction, Args};
 
 use super::Failure;
-use super::common::{
-    TracingArgs, progress_bar, report_check, result_dir, set_threads, write_folder,
-};
-use super::parse::{integer, number};
-pub use crate::api::anisotropy_note;
+use super::common::{TracingArgs, progress_bar, report_check};
+use crate::api::values::{integer, number, wavelengths};
 use crate::api::{BrdfJob, BrdfOptions, BrdfReport, MicroScene, Overrides, Shard, WavelengthsSpec};
 use crate::export::brdf_formats::BrdfFormat;
-use crate::output::brdf_folder::BrdfFolder;
+use crate::outdir::{check::result_dir, write::write_folder};
 use crate::tally::{PolarTally, Symmetry};
 use crate::transport::launch::Launch;
 
@@ -40,7 +37,7 @@ pub struct BrdfArgs {
     /// Wavelengths in um, carried by every photon (overrides [light]
     /// wavelengths_um): comma-separated (0.45,0.55,0.65) or FROM:TO:STEP
     /// (0.38:0.78:0.01). Results get a wavelength_um column.
-    #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
+    #[arg(long, value_parser = wavelengths, allow_negative_numbers = true)]
     pub wavelengths: Option<WavelengthsSpec>,
     /// Entry points (overrides [light] launch): random, or lattice (16
     /// randomly shifted R2 lattices; standard errors from their spread;
@@ -135,7 +132,7 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
         stats_resolution: a.stats_resolution,
     };
     let job = BrdfJob::new(&scene, &options)?;
-    set_threads(a.tracing.threads)?;
+    crate::api::set_threads(a.tracing.threads)?;
     let file = &scene.scene_file.file;
     let out = result_dir(
         a.tracing.out.as_deref(),
@@ -154,7 +151,7 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     let result = job.trace(&|n| bar.inc(n))?;
     bar.finish_and_clear();
     let folder = result.traced().expect("traced");
-    let comment = format!("scene {}, {per_angle} photons per angle", scene.name);
+    let comment = crate::api::export_comment(&scene.name, per_angle);
     let exports =
         crate::export::folder::export_folder(folder, &a.export, &comment, &scene.surfaces())?;
     for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
@@ -172,16 +169,4 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
         eprintln!("wrote {} ({:.1} s)", out.display(), folder.seconds);
     }
     Ok(())
-}
-
-/// The table of results per incidence angle, on stderr (`roks merge`; see
-/// [`BrdfReport`]).
-pub fn print_table(folder: &BrdfFolder) {
-    eprint!(
-        "{}",
-        BrdfReport {
-            folder,
-            random: None
-        }
-    );
 }

@@ -1,73 +1,12 @@
-//! What several commands do alike: load a micro scene, set the worker
-//! threads, check output paths and memory before any work, write files,
-//! show progress.
+//! What several commands do alike: the tracing options, the `--check`
+//! line, the progress bar, printing to stdout, and output errors as a
+//! command's failure.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 
 use super::Failure;
-pub use crate::outdir::kind::FileKind;
-use crate::scene::micro::{MicroScene, Overrides};
-
-/// The micro scene at `path`, or the embedded default scene
-/// ([`crate::api::load_micro`]).
-///
-/// # Errors
-/// The scene file's error (bad input).
-pub fn load_scene(path: Option<&Path>) -> Result<MicroScene, Failure> {
-    load_scene_with(path, &Overrides::default())
-}
-
-pub use crate::api::STATS_RESOLUTION;
-
-/// [`crate::api::load_micro`].
-///
-/// # Errors
-/// Bad input naming the option or the scene file and key.
-pub fn load_scene_with(path: Option<&Path>, overrides: &Overrides) -> Result<MicroScene, Failure> {
-    Ok(crate::api::load_micro(path, overrides)?)
-}
-
-/// [`crate::api::set_threads`].
-///
-/// # Errors
-/// Bad input when their stacks exceed the memory limit.
-pub fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
-    Ok(crate::api::set_threads(threads)?)
-}
-
-/// [`crate::api::check_memory`].
-///
-/// # Errors
-/// Bad input, naming `option`.
-pub fn check_memory(option: &'static str, what: &str, bytes: u64) -> Result<(), Failure> {
-    Ok(crate::api::check_memory(option, what, bytes)?)
-}
-
-/// [`crate::api::stats_grid`].
-///
-/// # Errors
-/// Bad input for fewer than 2 samples or a grid beyond the memory limit.
-pub fn stats_grid(
-    scene: &MicroScene,
-    requested: Option<usize>,
-    default: usize,
-    option: &'static str,
-) -> Result<(usize, usize), Failure> {
-    Ok(crate::api::stats_grid(scene, requested, default, option)?)
-}
-
-/// [`crate::api::own_grid`].
-///
-/// # Errors
-/// Bad input when `resolution` is not the field's own.
-pub fn own_grid(scene: &MicroScene, resolution: Option<usize>) -> Result<(), Failure> {
-    Ok(crate::api::own_grid(scene, resolution)?)
-}
-
-pub use crate::outdir::check::{Written, escape_controls, shown};
-pub use crate::outdir::write::removed_lines;
 
 impl From<crate::outdir::check::OutputError> for Failure {
     fn from(e: crate::outdir::check::OutputError) -> Self {
@@ -77,94 +16,6 @@ impl From<crate::outdir::check::OutputError> for Failure {
             OutputError::Write(m) => Self::Other(anyhow::Error::msg(m)),
         }
     }
-}
-
-/// [`crate::outdir::check::result_dir`], as a command's failure.
-///
-/// # Errors
-/// Bad input when the folder cannot be a result folder, or is the default
-/// folder of another scene file.
-pub fn result_dir(
-    given: Option<&Path>,
-    scene_file: &str,
-    name: &str,
-    reads: &[PathBuf],
-    force: bool,
-) -> Result<PathBuf, Failure> {
-    Ok(crate::outdir::check::result_dir(
-        given, scene_file, name, reads, force,
-    )?)
-}
-
-/// [`crate::outdir::check::check_out_dir`], as a command's failure.
-///
-/// # Errors
-/// Bad input when the folder cannot be replaced.
-pub fn check_out_dir(out: &Path, key: &str, reads: &[PathBuf], force: bool) -> Result<(), Failure> {
-    Ok(crate::outdir::check::check_out_dir(out, key, reads, force)?)
-}
-
-/// [`crate::outdir::check::check_out_file_as`] of `--out`, as a command's
-/// failure.
-///
-/// # Errors
-/// Bad input when `out` cannot be written as a file, would replace one of
-/// `inputs`, or is a file roks may not replace.
-pub fn check_out_file(
-    out: &Path,
-    inputs: &[PathBuf],
-    kind: FileKind,
-    force: bool,
-) -> Result<(), Failure> {
-    check_out_file_as("--out", out, inputs, kind, force)
-}
-
-/// [`crate::outdir::check::check_out_file_as`], as a command's failure.
-///
-/// # Errors
-/// As [`check_out_file`].
-pub fn check_out_file_as(
-    option: &str,
-    out: &Path,
-    inputs: &[PathBuf],
-    kind: FileKind,
-    force: bool,
-) -> Result<(), Failure> {
-    Ok(crate::outdir::check::check_out_file_as(
-        option, out, inputs, kind, force,
-    )?)
-}
-
-/// [`crate::outdir::check::check_kept`], as a command's failure.
-///
-/// # Errors
-/// Bad input naming the option, the output and the input.
-pub fn check_kept(
-    option: &str,
-    outputs: &[Written<'_>],
-    inputs: &[PathBuf],
-) -> Result<(), Failure> {
-    Ok(crate::outdir::check::check_kept(option, outputs, inputs)?)
-}
-
-/// [`crate::outdir::write::write_file`], as a command's failure.
-///
-/// # Errors
-/// The I/O error, naming the path.
-pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
-    Ok(crate::outdir::write::write_file(path, bytes)?)
-}
-
-/// [`crate::outdir::write::write_folder`], as a command's failure.
-///
-/// # Errors
-/// The I/O error, naming the folder.
-pub fn write_folder<N: AsRef<str>, B: AsRef<[u8]>>(
-    out: &Path,
-    files: &[(N, B)],
-    command: &str,
-) -> Result<(), Failure> {
-    Ok(crate::outdir::write::write_folder(out, files, command)?)
 }
 
 /// Write `text` to standard output; a closed pipe (`roks stats | head`) is a
@@ -250,13 +101,13 @@ pub struct TracingArgs {
     #[arg(long)]
     pub force: bool,
     /// Photons per incidence angle or beam position (overrides the scene's).
-    #[arg(long, value_parser = super::parse::positive::<u64>)]
+    #[arg(long, value_parser = crate::api::values::positive::<u64>)]
     pub photons: Option<u64>,
     /// Tracing seed (overrides the scene's).
-    #[arg(long, value_parser = super::parse::integer::<u64>)]
+    #[arg(long, value_parser = crate::api::values::integer::<u64>)]
     pub seed: Option<u64>,
     /// Worker threads (default: all cores). Does not change results.
-    #[arg(long, value_parser = super::parse::positive::<usize>)]
+    #[arg(long, value_parser = crate::api::values::positive::<usize>)]
     pub threads: Option<usize>,
     /// Check the scene, the options (with --shard, --export and --out) and
     /// the memory the run needs, as the run would, then stop: one line on
@@ -277,6 +128,8 @@ pub fn report_check(scene_file: &str, what: &str, quiet: bool) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::outdir::check::result_dir;
+    use std::path::Path;
 
     #[test]
     fn result_folders_are_named_by_their_key() {
@@ -295,7 +148,7 @@ mod tests {
         // A file that is not a roks result is never replaced.
         let foreign = dir.join("notes.txt");
         std::fs::write(&foreign, "mine").unwrap();
-        let e = result_dir(Some(&foreign), "s.toml", "x", &[], false).unwrap_err();
+        let e = Failure::from(result_dir(Some(&foreign), "s.toml", "x", &[], false).unwrap_err());
         assert!(
             matches!(&e, Failure::Input(m) if m.starts_with(&format!("--out: {}: ", foreign.display()))),
             "{e}"

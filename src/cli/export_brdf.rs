@@ -14,10 +14,13 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{check_out_dir, check_out_file, shown, write_file, write_folder};
+use crate::api::values::zemax_grid;
 use crate::export::brdf_formats::{BrdfFormat, ZemaxGrid};
 use crate::export::exporter::Export;
-use crate::export::folder::{self, EXPORT_MARKER, ExportMarker, FolderExport};
+use crate::export::folder::{EXPORT_MARKER, ExportMarker, FolderExport};
+use crate::outdir::check::{check_out_dir, check_out_file_as, shown};
+use crate::outdir::file::ResultFile;
+use crate::outdir::write::{write_file, write_folder};
 
 /// The options of `roks export-brdf`.
 #[derive(Args, Debug)]
@@ -42,7 +45,7 @@ pub struct ExportBrdfArgs {
     pub force: bool,
     /// Zemax grid AZIMUTH_STEP,RADIAL_STEP in degrees (default 2,1): finer
     /// steps follow a narrow peak more closely, in a larger file.
-    #[arg(long, value_name = "AZIMUTH_DEG,RADIAL_DEG", value_parser = grid)]
+    #[arg(long, value_name = "AZIMUTH_DEG,RADIAL_DEG", value_parser = zemax_grid)]
     pub grid: Option<ZemaxGrid>,
     /// The micro scene the folder was traced from, for the NDF of an rgl
     /// file (default: the scene summary.json names, if it is there, or the
@@ -58,33 +61,6 @@ pub struct ExportBrdfArgs {
     /// file's reflectance is off the table's).
     #[arg(long, short)]
     pub quiet: bool,
-}
-
-/// Why a `--grid` value was refused.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum GridError {
-    /// A step that is not a number.
-    #[error(transparent)]
-    Number(#[from] super::parse::ValueError),
-    /// Not two steps.
-    #[error("expected AZIMUTH_DEG,RADIAL_DEG, got {0:?}")]
-    Form(String),
-    /// A step outside (0, 90] or not dividing 180.
-    #[error("each step must be in (0, 90] degrees and divide 180, got {0}")]
-    Step(f64),
-}
-
-/// The value of `--grid`: two steps in degrees, each in (0, 90] and
-/// dividing 180 into whole steps (to 1e-9).
-fn grid(s: &str) -> Result<ZemaxGrid, GridError> {
-    let steps: Vec<f64> = s
-        .split(',')
-        .map(|v| super::parse::number(v.trim()))
-        .collect::<Result<_, _>>()?;
-    let [azimuth_step_deg, radial_step_deg] = steps[..] else {
-        return Err(GridError::Form(s.to_owned()));
-    };
-    ZemaxGrid::new(azimuth_step_deg, radial_step_deg).map_err(GridError::Step)
 }
 
 /// Run `roks export-brdf`: the checks of the folder and `--out`, then the
@@ -104,8 +80,9 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     };
     if !a.dir.is_dir() {
         return Err(Failure::Input(format!(
-            "{}: not a folder (expected the result folder of `roks brdf`, with brdf.csv)",
-            shown(&a.dir)
+            "{}: not a folder (expected the result folder of `roks brdf`, with {})",
+            shown(&a.dir),
+            ResultFile::Brdf
         )));
     }
     // Several files (a spectral Zemax export) go into --out as a folder.
@@ -115,7 +92,8 @@ pub fn execute(a: ExportBrdfArgs) -> Result<(), Failure> {
     if to_folder {
         check_out_dir(&a.out, "--out", &request.inputs(), a.force)?;
     } else {
-        check_out_file(&a.out, &request.inputs(), a.format.file_kind(), a.force)?;
+        let kind = a.format.file_kind();
+        check_out_file_as("--out", &a.out, &request.inputs(), kind, a.force)?;
     }
     let export = request.export(to_folder)?;
     for line in export.notices.iter().filter_map(|n| n.line(a.quiet)) {
@@ -151,36 +129,4 @@ fn write(a: &ExportBrdfArgs, csv: &Path, export: &Export, to_folder: bool) -> Re
         }
     }
     Ok(())
-}
-
-/// The old path of [`folder::check_run`] without its Mueller check, kept
-/// for branches merged after this one; the coordinator removes it.
-///
-/// # Errors
-/// As [`folder::check_run`].
-#[doc(hidden)]
-pub fn check_export_formats(f: &[BrdfFormat], w: &[f64], phi: &[f64]) -> Result<(), Failure> {
-    f.iter()
-        .try_for_each(|f| f.exporter().check_run(w, phi))
-        .map_err(Failure::from)
-}
-
-/// The old path of [`folder::export_folder`] (its notices printed), kept
-/// for branches merged after this one; the coordinator removes it.
-///
-/// # Errors
-/// As [`folder::export_folder`].
-#[doc(hidden)]
-pub fn export_formats(
-    folder: &crate::output::brdf_folder::BrdfFolder,
-    formats: &[BrdfFormat],
-    comment: &str,
-    quiet: bool,
-    surfaces: &[&crate::micro::MicroSurface],
-) -> Result<Vec<(String, Vec<u8>)>, Failure> {
-    let export = folder::export_folder(folder, formats, comment, surfaces)?;
-    for line in export.notices.iter().filter_map(|n| n.line(quiet)) {
-        eprintln!("{line}");
-    }
-    Ok(export.named_files())
 }

@@ -6,9 +6,11 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::common::{FileKind, check_memory, check_out_file, load_scene, own_grid, write_file};
-use super::parse::integer;
-use crate::micro::heightfield_io::{self, Format, HeightGrid};
+use crate::api::mesh::HeightMapFile;
+use crate::api::values::integer;
+use crate::api::{Overrides, load_micro, own_grid};
+use crate::micro::heightfield_io::Format;
+use crate::outdir::{check::check_out_file_as, kind::FileKind, write::write_file};
 
 /// The options of `roks export-heightfield`.
 #[derive(Args, Debug)]
@@ -39,14 +41,14 @@ pub fn execute(a: ExportHeightfieldArgs) -> Result<(), Failure> {
             "--out: PNG height maps are read, not written; use .exr or .txt".into(),
         ));
     }
-    let scene = load_scene(a.scene.as_deref())?;
+    let scene = load_micro(a.scene.as_deref(), &Overrides::default())?;
     own_grid(&scene, a.resolution)?;
     let kind = if format == Format::Exr {
         FileKind::Exr
     } else {
         FileKind::HeightText
     };
-    check_out_file(&a.out, &scene.reads, kind, a.force)?;
+    check_out_file_as("--out", &a.out, &scene.reads, kind, a.force)?;
     let ext = a
         .out
         .extension()
@@ -57,62 +59,18 @@ pub fn execute(a: ExportHeightfieldArgs) -> Result<(), Failure> {
             a.out.display()
         )));
     }
-    let grid = match scene.surface.heightfield() {
-        Some(f) => HeightGrid {
-            nx: f.nx,
-            ny: f.ny,
-            h: f.h.clone(),
-        },
-        None => {
-            let n = a.resolution.unwrap_or(512);
-            if !(2..=16384).contains(&n) {
-                return Err(Failure::Input(format!(
-                    "--resolution: must be in 2..=16384, got {n}"
-                )));
-            }
-            // Heights (8 bytes) and the file (up to 24 bytes of text) per vertex.
-            let bytes = crate::limits::product(&[n as u64, n as u64, 32]);
-            check_memory("--resolution", &format!("a {n} x {n} height map"), bytes)?;
-            let s = scene.surface.size;
-            let mut scratch = crate::micro::Scratch::new(&scene.surface);
-            let h: Vec<f64> = (0..n * n)
-                .map(|k| {
-                    let (i, j) = ((k % n) as f64, (k / n) as f64);
-                    scene.surface.height_at(
-                        s.x * (i / n as f64),
-                        s.y * (j / n as f64),
-                        &mut scratch,
-                    )
-                })
-                .collect();
-            HeightGrid { nx: n, ny: n, h }
-        }
-    };
-    let size = scene.surface.size;
-    let (px, py) = (size.x / grid.nx as f64, size.y / grid.ny as f64);
-    let comment = format!(
-        "roks height map of {}: {} x {} vertices, pitch {px:?} x {py:?} (length units); row j is y = j * pitch",
-        scene.scene_file.file, grid.nx, grid.ny
-    );
-    let bytes = heightfield_io::write(&grid, format, &comment).map_err(|e| anyhow::anyhow!(e))?;
-    write_file(&a.out, &bytes)?;
-    let file = a
+    let file = HeightMapFile::of(&scene, a.resolution, format)?;
+    write_file(&a.out, &file.bytes)?;
+    let name = a
         .out
         .file_name()
         .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
-    let keys = if px == py {
-        format!("heightfield = {{ file = {file:?}, pixel = {px:?} }}")
-    } else {
-        format!(
-            "size = [{:?}, {:?}]\nheightfield = {{ file = {file:?} }}",
-            size.x, size.y
-        )
-    };
     eprintln!(
-        "wrote {} ({} x {} heights); load it with, in [surface]:\n{keys}",
+        "wrote {} ({} x {} heights); load it with, in [surface]:\n{}",
         a.out.display(),
-        grid.nx,
-        grid.ny
+        file.grid.0,
+        file.grid.1,
+        file.scene_keys(&name)
     );
     Ok(())
 }

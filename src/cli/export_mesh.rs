@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Failure;
-use super::common::{FileKind, check_memory, check_out_file, load_scene, own_grid, write_file};
-use super::parse::{integer, number};
-use crate::export::object_mesh::{MAX_VOXELS_PER_SIDE, object_mesh};
+use crate::api::values::{integer, number};
+use crate::api::{ObjectScene, Overrides, load_micro, mesh};
+use crate::export::write_ply;
+use crate::outdir::{check::check_out_file_as, kind::FileKind, write::write_file};
 use crate::scene::SceneKind;
-use crate::scene::object::ObjectScene;
 
 /// The options of `roks export-mesh`.
 #[derive(Args, Debug)]
@@ -57,30 +57,12 @@ pub fn execute(a: ExportMeshArgs) -> Result<(), Failure> {
                 .to_owned(),
         ));
     }
-    let resolution = a.resolution.unwrap_or(512);
-    if !(1..=crate::export::MAX_CELLS_PER_SIDE).contains(&resolution) {
-        return Err(Failure::Input(format!(
-            "--resolution: must be in 1..={}, got {resolution}",
-            crate::export::MAX_CELLS_PER_SIDE,
-        )));
-    }
-    let scene = load_scene(a.scene.as_deref())?;
-    own_grid(&scene, a.resolution)?;
-    let n = scene
-        .surface
-        .heightfield()
-        .map_or((resolution, resolution), |f| (f.nx, f.ny));
-    check_memory(
-        "--resolution",
-        &format!("a mesh of {} x {} grid squares", n.0, n.1),
-        crate::export::mesh_memory_bytes(n.0, n.1),
-    )?;
-    check_out_file(&a.out, &scene.reads, FileKind::Ply, a.force)?;
-    let mesh = match scene.surface.heightfield() {
-        Some(field) => crate::export::field_mesh(field),
-        None => crate::export::height_field_mesh(&scene.surface, resolution),
-    };
-    write_file(&a.out, &crate::export::write_ply(&mesh))?;
+    let n = mesh::micro_resolution(a.resolution)?;
+    let scene = load_micro(a.scene.as_deref(), &Overrides::default())?;
+    mesh::check_micro(&scene, a.resolution, n)?;
+    check_out_file_as("--out", &a.out, &scene.reads, FileKind::Ply, a.force)?;
+    let mesh = mesh::micro_mesh(&scene, n);
+    write_file(&a.out, &write_ply(&mesh))?;
     eprintln!(
         "wrote {} ({} vertices, {} triangles, one {} x {} period)",
         a.out.display(),
@@ -95,35 +77,10 @@ pub fn execute(a: ExportMeshArgs) -> Result<(), Failure> {
 /// `roks export-mesh` of an object scene: its solid walls in a box.
 fn object(a: &ExportMeshArgs, path: &Path) -> Result<(), Failure> {
     let scene = ObjectScene::load(path)?;
-    let Some(b) = a.bounds.as_ref().filter(|b| b.len() == 6) else {
-        return Err(Failure::Input(format!(
-            "{}: --bounds: an object scene needs the box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX to mesh",
-            scene.scene_file.file
-        )));
-    };
-    let resolution = a.resolution.unwrap_or(512);
-    if !(1..=MAX_VOXELS_PER_SIDE).contains(&resolution) {
-        return Err(Failure::Input(format!(
-            "--resolution: must be in 1..={MAX_VOXELS_PER_SIDE} for object scenes, got {resolution}"
-        )));
-    }
-    let lo = glam::DVec3::new(b[0], b[1], b[2]);
-    let hi = glam::DVec3::new(b[3], b[4], b[5]);
-    if lo.is_finite() && hi.is_finite() && (hi - lo).min_element() > 0.0 {
-        let bytes = crate::export::object_mesh::memory_bytes(lo, hi, resolution);
-        let what = format!("the voxel grid of resolution {resolution} over --bounds");
-        check_memory("--resolution", &what, bytes)?;
-    }
-    check_out_file(&a.out, &scene.reads, FileKind::Ply, a.force)?;
-    let mesh = object_mesh(&scene.object, lo, hi, resolution)
-        .map_err(|e| Failure::Input(format!("{}: --bounds: {e}", scene.scene_file.file)))?;
-    if mesh.faces.is_empty() {
-        return Err(Failure::Input(format!(
-            "{}: --bounds: no solid wall inside the box {lo} .. {hi}",
-            scene.scene_file.file
-        )));
-    }
-    write_file(&a.out, &crate::export::write_ply(&mesh))?;
+    let (lo, hi, n) = mesh::object_box(&scene, a.bounds.as_deref(), a.resolution)?;
+    check_out_file_as("--out", &a.out, &scene.reads, FileKind::Ply, a.force)?;
+    let mesh = mesh::object_mesh(&scene, lo, hi, n)?;
+    write_file(&a.out, &write_ply(&mesh))?;
     eprintln!(
         "wrote {} ({} vertices, {} triangles: the solid walls of {} in the box)",
         a.out.display(),

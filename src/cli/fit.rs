@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::common::{check_out_dir, set_threads, write_folder};
-use super::parse::{integer, number, positive};
+use crate::api::values::{integer, number, positive};
 use crate::fit::{FitError, FitOptions, Inputs, evaluation_line};
+use crate::outdir::{check::check_out_dir, write::write_folder};
 
 /// The options of `roks fit`.
 #[derive(Args, Debug)]
@@ -70,8 +70,7 @@ pub struct FitArgs {
 /// # Errors
 /// Bad input (scene, measurements, parameters, options), or a failed write.
 pub fn execute(a: FitArgs) -> Result<(), Failure> {
-    let input = |e: FitError| Failure::Input(e.to_string());
-    let inputs = Inputs::read(&a.scene, &a.measured, &a.params).map_err(input)?;
+    let inputs = Inputs::read(&a.scene, &a.measured, &a.params)?;
     let opts = FitOptions {
         photons: a.photons,
         seed: a.seed,
@@ -83,18 +82,16 @@ pub fn execute(a: FitArgs) -> Result<(), Failure> {
         inplane_width_deg: a.inplane_width,
         scan: a.scan,
     };
-    set_threads(a.threads)?;
-    let fit = inputs.prepare(&opts).map_err(input)?;
+    crate::api::set_threads(a.threads)?;
+    let fit = inputs.prepare(&opts)?;
     let out = a.out.clone().unwrap_or_else(|| fit.default_out());
     check_out_dir(&out, "--out", &fit.reads(), a.force)?;
     let quiet = a.quiet;
-    let outcome = fit
-        .run(&mut |k, values, misfit, rejected| {
-            if !quiet {
-                eprintln!("{}", evaluation_line(k, values, misfit, rejected));
-            }
-        })
-        .map_err(input)?;
+    let outcome = fit.run(&mut |k, values, misfit, rejected| {
+        if !quiet {
+            eprintln!("{}", evaluation_line(k, values, misfit, rejected));
+        }
+    })?;
     write_folder(&out, &outcome.files, "fit")?;
     if !quiet {
         for line in outcome.lines(&out) {
@@ -102,4 +99,12 @@ pub fn execute(a: FitArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// A fit's error: bad input (scene, measurements, parameters), exit
+/// status 2.
+impl From<FitError> for Failure {
+    fn from(e: FitError) -> Self {
+        Self::Input(e.to_string())
+    }
 }

@@ -23,11 +23,10 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::common::{FileKind, check_out_file, write_file};
-use super::parse::number;
+use crate::api::values::number;
 use crate::fit_model::material::MaterialOptions;
-pub use crate::fit_model::run::ModelChoice;
-use crate::fit_model::run::{OutputKind, Request, RunError};
+use crate::fit_model::run::{ModelChoice, OutputKind, Request, RunError};
+use crate::outdir::{check::check_out_file_as, kind::FileKind, write::write_file};
 
 /// The options of `roks fit-model`.
 #[derive(Args, Debug)]
@@ -101,7 +100,7 @@ pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
             OutputKind::Png => FileKind::Png,
             OutputKind::Text => FileKind::FitText,
         };
-        check_out_file(&p, &inputs, kind, a.force)?;
+        check_out_file_as("--out", &p, &inputs, kind, a.force)?;
     }
     let report = request.run()?;
     // All or none, for an interrupt.

@@ -7,10 +7,10 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::brdf::print_table;
-use super::common::{check_out_dir, load_scene, write_folder};
-use crate::export::brdf_formats::BrdfFormat;
 use crate::api::merge::{self, MergeError, ShardKind};
+use crate::api::{BrdfReport, TraceReport};
+use crate::export::brdf_formats::BrdfFormat;
+use crate::outdir::{check::check_out_dir, write::write_folder};
 
 /// The options of `roks merge`.
 #[derive(Args, Debug)]
@@ -60,58 +60,48 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
         }
         return merge_trace(&a);
     }
-    let merged = merge::merge_brdf(&a.dirs).map_err(failure)?;
+    let merged = merge::merge_brdf(&a.dirs)?;
     let folder = &merged.folder;
-    let run = &folder.description.run;
-    crate::export::folder::check_run(&a.export, run)?;
-    let comment = format!(
-        "scene {}, {} photons per angle",
-        folder.description.name, run.photons
-    );
-    let micro = rgl_scene(&a.export, &folder.description.scene);
+    crate::export::folder::check_run(&a.export, &folder.description.run)?;
+    let micro = merged.rgl_scene(&a.export);
     let surfaces = micro.as_ref().map(|s| s.surfaces()).unwrap_or_default();
+    let comment = merged.export_comment();
     let exports = crate::export::folder::export_folder(folder, &a.export, &comment, &surfaces)?;
     for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
         eprintln!("{line}");
     }
-    let files = merged.files(exports.named_files()).map_err(anyhow::Error::msg)?;
+    let files = merged
+        .files(exports.named_files())
+        .map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
-        print_table(folder);
+        let random = None;
+        eprint!("{}", BrdfReport { folder, random });
         eprintln!("merged {} shards into {}", merged.shards, a.out.display());
     }
     Ok(())
 }
 
-/// The failure of a merge: bad input (exit status 2), or a picture that
-/// cannot be made.
-fn failure(e: MergeError) -> Failure {
-    match e {
-        MergeError::Input(e) => e.into(),
-        MergeError::Picture(e) => anyhow::Error::msg(e).into(),
+/// A merge's failure: bad input (exit status 2), or a picture that cannot
+/// be made.
+impl From<MergeError> for Failure {
+    fn from(e: MergeError) -> Self {
+        match e {
+            MergeError::Input(e) => e.into(),
+            MergeError::Picture(e) => anyhow::Error::msg(e).into(),
+        }
     }
-}
-
-/// The micro scene whose surfaces (every realisation) give the NDF an rgl
-/// export of merged shards writes: that of the scene file `scene` the
-/// shards name (the embedded default for `<default scene>`), when
-/// `formats` hold rgl and the file loads; `None` otherwise.
-fn rgl_scene(formats: &[BrdfFormat], scene: &str) -> Option<crate::scene::micro::MicroScene> {
-    if !formats.contains(&BrdfFormat::Rgl) {
-        return None;
-    }
-    let path = (scene != "<default scene>").then(|| std::path::Path::new(scene));
-    load_scene(path).ok()
 }
 
 /// `roks merge` of `roks trace` shards: the folder of the single run.
 fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
-    let merged = merge::merge_trace(&a.dirs).map_err(failure)?;
+    let merged = merge::merge_trace(&a.dirs)?;
     let files = merged.files().map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         let m = &merged.merged;
-        super::trace::print_table(&m.description.run, &m.results);
+        let (run, result) = (&m.description.run, &m.results);
+        eprint!("{}", TraceReport { run, result });
         eprintln!("merged {} shards into {}", merged.shards, a.out.display());
     }
     Ok(())

@@ -15,7 +15,7 @@
 //! * Every option that takes a value takes a negative number as its value
 //!   (`--seed -1` is the value -1 of `--seed`, refused as out of range; not
 //!   an unknown option `-1`).
-//! * Numbers are exact ([`parse`]): integer options take digits or exact
+//! * Numbers are exact ([`crate::api::values`]): integer options take digits or exact
 //!   forms like `1e6`, real options any finite decimal.
 //! * Options that override a scene key are checked by the scene loader's own
 //!   checks, so that a value gives the same message either way.
@@ -37,7 +37,6 @@ pub mod fit;
 pub mod fit_model;
 pub mod merge;
 pub mod messages;
-pub mod parse;
 pub mod plot;
 pub mod render;
 pub mod stats;
@@ -73,8 +72,8 @@ impl fmt::Display for Failure {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         // One line, whatever a quoted file name holds.
         let text = match self {
-            Self::Input(message) => common::escape_controls(message),
-            Self::Other(e) => common::escape_controls(&format!("{e:#}")),
+            Self::Input(message) => crate::outdir::check::escape_controls(message),
+            Self::Other(e) => crate::outdir::check::escape_controls(&format!("{e:#}")),
         };
         f.write_str(&text)
     }

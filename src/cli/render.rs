@@ -3,19 +3,15 @@
 //! seen by a pinhole camera, lit by a small bright disc (and, for an object
 //! scene, a dim uniform background by default, so that its walls show).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::Args;
 
 use super::Failure;
-use super::common::{
-    FileKind, Written, check_memory, check_out_file, load_scene, set_threads, write_file,
-};
-use super::parse::{integer, number, positive};
-use crate::api::{Error, ObjectScene};
-use crate::render::job::{RenderOptions, Rendered, check_unmodelled};
+use crate::api::render::{RenderFiles, render};
+use crate::api::values::{integer, number, positive};
+use crate::render::job::{RenderOptions, Rendered, check_cost};
 use crate::render::{ToneSettings, Tonemap};
-use crate::scene::SceneKind;
 
 /// The options of `roks render`.
 #[derive(Args, Debug)]
@@ -129,106 +125,37 @@ impl RenderArgs {
     }
 }
 
-/// The bound on a render's cost (kept here for the tests that name it).
-pub use crate::render::job::check_cost;
-
 /// Run `roks render`.
 ///
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
 pub fn execute(a: RenderArgs) -> Result<(), Failure> {
     let o = a.options();
-    o.check_pairs().map_err(Error::from)?;
+    o.check_pairs().map_err(crate::api::Error::from)?;
     let (w, h) = (a.size[0] as u64, a.size[1] as u64);
     let what = format!("a {w} x {h} image (radiance, EXR and PNG)");
-    check_memory("--size", &what, crate::render::image_memory_bytes(w, h))?;
+    crate::api::check_memory("--size", &what, crate::render::image_memory_bytes(w, h))?;
     // Whether a file there may be replaced: after the files the scene
-    // reads are known (`check_kept`).
-    check_out_file(&a.out, a.scene.as_slice(), FileKind::Exr, true)?;
-    let png = a.out.with_extension("png");
-    if png == a.out {
-        return Err(Failure::Input(format!(
-            "--out: {}: is the name of the PNG preview; give the EXR file (OUT.exr, beside which OUT.png is written)",
-            a.out.display()
-        )));
-    }
-    check_out_file(&png, a.scene.as_slice(), FileKind::Png, true)?;
+    // reads are known (`RenderFiles::check_kept`).
+    let files = RenderFiles::new(&a.out, a.scene.as_slice())?;
     let threads = a.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
-    check_cost(w, h, a.spp, threads, a.force_long_render).map_err(Error::from)?;
+    check_cost(w, h, a.spp, threads, a.force_long_render).map_err(crate::api::Error::from)?;
     let tone = a.tone()?;
-    // A file that cannot be read is left to the micro loader's message.
-    let (img, lost) = match a.scene.as_deref() {
-        Some(path) if matches!(crate::scene::kind(path), Ok(SceneKind::Object)) => {
-            let scene = ObjectScene::load(path)?;
-            check_kept(&a.out, &scene.reads, a.force)?;
-            let (camera, settings) = o.object(&scene).map_err(Error::from)?;
-            set_threads(a.threads)?;
-            let (img, losses) = crate::render::render_object(&scene, &camera, &settings);
-            let file = &scene.scene_file.file;
-            check_unmodelled(file, losses.unmodelled).map_err(Error::from)?;
-            (img, losses.lost)
-        }
-        path => {
-            let scene = load_scene(path)?;
-            check_kept(&a.out, &scene.reads, a.force)?;
-            let settings = o.micro(&scene).map_err(Error::from)?;
-            set_threads(a.threads)?;
-            let wavelengths = &scene.run.wavelengths_um;
-            let (img, losses) = crate::render::render_at(&scene.surface, wavelengths, &settings);
-            (img, losses.lost)
-        }
-    };
-    write_images(&a.out, &img, &tone, lost, o.paths())
-}
-
-/// Refuse an `out` (EXR) or its PNG preview beside it that would replace
-/// one of `reads`, the files the scene reads (a height map, a 16-bit PNG
-/// map, an n, k table); then refuse an existing OUT or OUT.png that is
-/// not an EXR (a PNG) roks wrote, unless `force`
-/// ([`crate::outdir::check_replace`]).
-fn check_kept(out: &Path, reads: &[PathBuf], force: bool) -> Result<(), Failure> {
-    let png = out.with_extension("png");
-    let written = [Written::File(out), Written::File(&png)];
-    super::common::check_kept("--out", &written, reads)?;
-    for (path, kind) in [(out, FileKind::Exr), (png.as_path(), FileKind::Png)] {
-        crate::outdir::check_replace(path, kind, force)
-            .map_err(|e| Failure::Input(format!("--out: {}: {e}", super::common::shown(path))))?;
-    }
-    Ok(())
-}
-
-/// Write `img` as OUT (EXR) and OUT.png (preview, tone-mapped by `tone`),
-/// and report the mean, the exposure used and the `lost` camera paths
-/// (caps, guards, edge walls, micro descents) of `paths`. Each file is
-/// replaced atomically, the EXR first: a reader sees each old or new, and
-/// for an instant (or after a kill between the two) a new EXR beside the
-/// old PNG.
-fn write_images(
-    out: &Path,
-    img: &crate::render::Image,
-    tone: &ToneSettings,
-    lost: u64,
-    paths: u64,
-) -> Result<(), Failure> {
+    let (img, lost) = render(a.scene.as_deref(), &o, a.threads, &files, a.force)?;
     if lost > 0 {
         eprintln!(
-            "roks: render: {lost} of {paths} camera paths lost (bounce cap, numerical guard, absorbing edge or micro descent); they add 0"
+            "roks: render: {lost} of {} camera paths lost (bounce cap, numerical guard, absorbing edge or micro descent); they add 0",
+            o.paths()
         );
     }
-    let r = Rendered::of(img, tone)?;
-    let png_path = out.with_extension("png");
-    // Both or neither, for an interrupt.
-    let commit = crate::interrupt::commit();
-    for (path, bytes) in [(out, &r.exr), (png_path.as_path(), &r.png)] {
-        write_file(path, bytes)?;
-    }
-    drop(commit);
+    let r = Rendered::of(&img, &tone)?;
+    files.write(&r)?;
     eprintln!(
         "wrote {} and {} (mean radiance {:.4e} of the disc's; preview: {}, --exposure {:.3})",
-        out.display(),
-        png_path.display(),
+        files.exr.display(),
+        files.png.display(),
         r.mean,
         r.curve,
         r.exposure_ev

@@ -1,15 +1,16 @@
 //! `roks stats`: the surface statistics of a micro scene, as text or JSON
 //! on standard output.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
 
 use super::Failure;
-use super::common::{load_scene, print_stdout, stats_grid};
-use super::parse::integer;
+use super::common::print_stdout;
+use crate::api::values::integer;
+use crate::api::{Overrides, STATS_RESOLUTION, StatsReport, load_micro, stats_grid};
 use crate::micro::surface_stats::surface_stats;
+use crate::outdir::{check::check_out_file_as, kind::FileKind, write::write_file};
 use crate::output::summary::Surface;
 
 /// The options of `roks stats`.
@@ -41,88 +42,26 @@ pub struct StatsArgs {
 /// # Errors
 /// Bad input (scene, `--resolution`), or a failed write to stdout.
 pub fn execute(a: StatsArgs) -> Result<(), Failure> {
-    let scene = load_scene(a.scene.as_deref())?;
+    let scene = load_micro(a.scene.as_deref(), &Overrides::default())?;
     if let Some(path) = &a.png {
-        super::common::check_out_file_as(
-            "--png",
-            path,
-            &scene.reads,
-            super::common::FileKind::Png,
-            a.force,
-        )?;
+        check_out_file_as("--png", path, &scene.reads, FileKind::Png, a.force)?;
     }
-    let (r, ry) = stats_grid(
-        &scene,
-        a.resolution,
-        super::common::STATS_RESOLUTION,
-        "--resolution",
-    )?;
-    let map = scene.surface.height_map(r, ry);
-    let s = surface_stats(&map);
+    let grid = stats_grid(&scene, a.resolution, STATS_RESOLUTION, "--resolution")?;
+    let map = scene.surface.height_map(grid.0, grid.1);
+    let stats = surface_stats(&map);
     if let Some(path) = &a.png {
-        let png = crate::plot::surface_png(&scene, &map, &s).map_err(Failure::Other)?;
-        super::common::write_file(path, &png)?;
+        write_file(path, &crate::plot::surface_png(&scene, &map, &stats)?)?;
     }
     drop(map);
-    let mut out = String::new();
     if a.json {
-        let v = Surface::new(&s, r);
-        let _ = writeln!(
-            out,
-            "{}",
-            serde_json::to_string_pretty(&v).map_err(anyhow::Error::from)?
-        );
-        return print_stdout(&out);
+        let v = Surface::new(&stats, grid.0);
+        let json = serde_json::to_string_pretty(&v).map_err(anyhow::Error::from)?;
+        return print_stdout(&format!("{json}\n"));
     }
-    let size = scene.surface.size;
-    let _ = writeln!(out, "scene            {}", scene.scene_file.file);
-    let _ = writeln!(
-        out,
-        "cell             {} x {} ({:?} edges)",
-        size.x, size.y, scene.surface.edges
-    );
-    let _ = writeln!(out, "height map       {r} x {ry}");
-    let realisations = scene.run.realisations;
-    if realisations > 1 {
-        let _ = writeln!(
-            out,
-            "realisations     {realisations}: statistics of realisation 0 (the scene's own seed) only"
-        );
-    }
-    let _ = writeln!(
-        out,
-        "sigma            {:.6}   RMS height about the mean",
-        s.sigma
-    );
-    match s.tau_undefined {
-        None => {
-            let _ = writeln!(
-                out,
-                "tau              {:.6}   lag where the radial autocorrelation falls to 1/e",
-                s.tau
-            );
-            let _ = writeln!(out, "sigma_over_tau   {:.6}", s.sigma_over_tau);
-        }
-        Some(why) => {
-            let _ = writeln!(out, "tau              {why}");
-            let _ = writeln!(out, "sigma_over_tau   undefined (tau is undefined)");
-        }
-    }
-    let _ = writeln!(
-        out,
-        "rms_slope        {:.6}   sqrt(mean |grad h|^2)",
-        s.rms_slope
-    );
-    let _ = writeln!(out, "mean_height      {:.6}", s.mean);
-    let _ = writeln!(out, "max_height       {:.6}", s.max_height);
-    let _ = writeln!(out, "min_height       {:.6}", s.min_height);
-    let (global, per_cell) = scene.surface.acceleration_stats();
-    let _ = writeln!(
-        out,
-        "solids           {} ({} tested per flight, {:.1} per grid cell)",
-        scene.surface.solids().len(),
-        global,
-        per_cell
-    );
-    print_stdout(&out)
+    let report = StatsReport {
+        scene: &scene,
+        stats: &stats,
+        grid,
+    };
+    print_stdout(&report.to_string())
 }

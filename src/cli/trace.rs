@@ -9,11 +9,9 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Failure;
-use super::common::{
-    TracingArgs, progress_bar, report_check, result_dir, set_threads, write_folder,
-};
+use super::common::{TracingArgs, progress_bar, report_check};
 use crate::api::{Shard, TraceJob, TraceOptions, TraceReport, load_object};
-use crate::transport::object::{ObjectResult, ObjectRun};
+use crate::outdir::{check::result_dir, write::write_folder};
 
 /// The options of `roks trace`.
 #[derive(Args, Debug)]
@@ -36,7 +34,7 @@ pub struct TraceArgs {
     /// wavelengths_um): comma-separated (3,8,12) or FROM:TO:STEP (3:14:0.5).
     /// Results get a wavelength_um column and summary.json a spectrum per
     /// source.
-    #[arg(long, value_parser = super::parse::wavelengths, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::api::values::wavelengths, allow_negative_numbers = true)]
     pub wavelengths: Option<crate::scene::WavelengthsSpec>,
     /// Trace only block I of N of the run (0-based): whole batches of 4096
     /// photons of the beam positions laid end to end. The folder holds
@@ -62,7 +60,7 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
         shard: a.shard,
     };
     let job = TraceJob::new(&scene, &options)?;
-    set_threads(a.tracing.threads)?;
+    crate::api::set_threads(a.tracing.threads)?;
     let file = &scene.scene_file.file;
     let out = result_dir(
         a.tracing.out.as_deref(),
@@ -89,10 +87,4 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
         );
     }
     Ok(())
-}
-
-/// The table of results per beam position, on stderr (`roks merge`; see
-/// [`TraceReport`]).
-pub(super) fn print_table(run: &ObjectRun, result: &ObjectResult) {
-    eprint!("{}", TraceReport { run, result });
 }

@@ -526,7 +526,7 @@ pub struct MicroScene {
     /// scene file itself (loaded from a file) and the files its content
     /// identity hashes ([`MicroSceneSpec::files`]: n, k tables, angle
     /// tables, height maps). No output may replace one
-    /// ([`crate::cli::common::check_kept`]).
+    /// ([`crate::outdir::check::check_kept`]).
     pub reads: Vec<PathBuf>,
 }
 

@@ -83,7 +83,7 @@ impl SceneFile {
     /// The files `files` (`(key, path relative to the scene's folder)`:
     /// the list a scene's [`Content`] hashes) as reached from the working
     /// folder: what the scene reads, which no output may replace
-    /// ([`crate::cli::common::check_kept`]).
+    /// ([`crate::outdir::check::check_kept`]).
     #[must_use]
     pub fn paths(&self, files: &[(String, String)]) -> Vec<PathBuf> {
         files.iter().map(|(_, f)| self.dir.join(f)).collect()

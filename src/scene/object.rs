@@ -318,7 +318,7 @@ pub struct ObjectScene {
     /// and angle tables, each `micro` wall's scene and its files, each
     /// `brdf` wall's table with the `summary.json` and `mueller.csv` beside
     /// it). No output may replace one
-    /// ([`crate::cli::common::check_kept`]).
+    /// ([`crate::outdir::check::check_kept`]).
     pub reads: Vec<PathBuf>,
     /// SHA-256 of the scene text and of every file it reads
     /// ([`ObjectSceneSpec::files`]; empty for a scene built from a spec).
