@@ -12,7 +12,7 @@ use super::common::{
 use super::parse::{integer, number};
 pub use crate::api::anisotropy_note;
 use crate::api::{BrdfJob, BrdfOptions, BrdfReport, MicroScene, Overrides, Shard, WavelengthsSpec};
-use crate::export::brdf_formats::BrdfFormat;
+use crate::export::exporter::BrdfFormat;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::tally::{PolarTally, Symmetry};
 use crate::transport::launch::Launch;

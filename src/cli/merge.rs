@@ -9,8 +9,8 @@ use clap::Args;
 use super::Failure;
 use super::brdf::print_table;
 use super::common::{check_out_dir, load_scene, write_folder};
-use crate::export::brdf_formats::BrdfFormat;
 use crate::api::merge::{self, MergeError, ShardKind};
+use crate::export::exporter::BrdfFormat;
 
 /// The options of `roks merge`.
 #[derive(Args, Debug)]
@@ -74,7 +74,9 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
         eprintln!("{line}");
     }
-    let files = merged.files(exports.named_files()).map_err(anyhow::Error::msg)?;
+    let files = merged
+        .files(exports.named_files())
+        .map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         print_table(folder);

@@ -10,8 +10,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::brdf_formats::{BrdfFormat, ZemaxGrid};
-use super::exporter::{Export, ExportError, ExportInput};
+use super::exporter::{BrdfFormat, Export, ExportError, ExportInput, ZemaxGrid};
 use crate::micro::MicroSurface;
 use crate::optics::brdf_table::BrdfTables;
 use crate::output::brdf_folder::BrdfFolder;
