@@ -11,7 +11,7 @@
 //! ([`crate::fit_model::rank`]).
 //!
 //! The fits, their files and the lines printed are made by
-//! [`crate::fit_model::run::Request::run`]; this module parses the options,
+//! [`crate::fit_model::one::Request::run`]; this module parses the options,
 //! checks the outputs, writes the files and prints the lines. Every fit is
 //! judged ([`crate::fit_model::warnings`], [`crate::fit_model::Judgement`]):
 //! each warning is printed on stderr (quiet or not), then the verdict in
@@ -26,8 +26,8 @@ use super::Failure;
 use super::common::{FileKind, check_out_file, write_file};
 use super::parse::number;
 use crate::fit_model::material::MaterialOptions;
-pub use crate::fit_model::run::ModelChoice;
-use crate::fit_model::run::{OutputKind, Request, RunError};
+pub use crate::fit_model::one::ModelChoice;
+use crate::fit_model::one::{OutputKind, Request, RunError};
 
 /// The options of `roks fit-model`.
 #[derive(Args, Debug)]

@@ -272,7 +272,9 @@ mod tests {
         assert!(
             matches!(
                 refused,
-                Err(ExportError::Pbsdf(crate::export::exporter::PbsdfRefusal::NoMueller))
+                Err(ExportError::Pbsdf(
+                    crate::export::exporter::PbsdfRefusal::NoMueller
+                ))
             ),
             "{refused:?}"
         );
