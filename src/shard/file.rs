@@ -53,8 +53,8 @@ use serde_json::Value;
 
 use crate::scene::SceneError;
 use crate::tally::Merge;
+use crate::tally::sum::BATCH;
 use crate::tally::sum::{DyadicSum, Node};
-use crate::transport::BATCH;
 
 /// File name of the raw sums in a result folder.
 pub const TALLIES_FILE: &str = "tallies.json";
