@@ -53,9 +53,9 @@ use crate::shard::Shard;
 use crate::shard::file::{self as shard_file, Contents, Leaf, Level, MergedLeaf, typed};
 pub use crate::shard::file::{FieldError, NodeFile, TALLIES_FILE, first_difference};
 use crate::tally::exact::{self, Exact};
+use crate::tally::sum::BATCH;
 use crate::tally::sum::Node;
 use crate::tally::{Accumulator, PolarTally};
-use crate::transport::BATCH;
 use crate::transport::brdf::{
     BOUNCE_BINS, BrdfResult, BrdfRun, BrdfTallies, ByAzimuth, ByIncidence, IncidenceResult,
 };

@@ -66,8 +66,8 @@
 //! side; a Gaussian field's `tau` is at most the period's longer side; at
 //! most [`crate::transport::launch::MAX_PHOTONS`] = 2^53 photons per angle.
 
-use super::Num;
 use super::keys::RunField;
+use crate::num::Num;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

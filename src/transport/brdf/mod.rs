@@ -47,5 +47,3 @@ pub use run::{
     Azimuths, BrdfRun, INPLANE_ROW_BYTES, Polarisation, ShardRange, check_incidence, toward_light,
 };
 pub use tallies::{BOUNCE_BINS, BrdfTallies, Replicates, add_up};
-
-pub use super::BATCH;
