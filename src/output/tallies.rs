@@ -51,7 +51,7 @@ use crate::scene::SceneError;
 use crate::scene::keys::RunField;
 use crate::shard::Shard;
 use crate::shard::file::{self as shard_file, Contents, Leaf, Level, MergedLeaf, typed};
-pub use crate::shard::file::{FieldError, NodeFile, TALLIES_FILE, first_difference};
+use crate::shard::file::{FieldError, NodeFile};
 use crate::tally::exact::{self, Exact};
 use crate::tally::sum::BATCH;
 use crate::tally::sum::Node;
@@ -875,6 +875,7 @@ mod tests {
     use crate::output::brdf_folder::BrdfFolder;
     use crate::output::summary::Surface;
     use crate::scene::micro::MicroScene;
+    use crate::shard::file::first_difference;
 
     /// A small run of the default scene: 3 whole batches and a partial one.
     fn scene_and_run() -> (MicroScene, BrdfRun) {
