@@ -1,6 +1,6 @@
 //! Result files: one submodule per format, each the one home of its
 //! columns or keys, its writer and (for the files roks reads back) its
-//! reader; and writing files atomically ([`write_atomic`]: a temporary
+//! reader; and writing files atomically ([`write_atomic`](crate::outdir::write::write_atomic): a temporary
 //! file in the same folder, then a rename, so a reader never sees half a
 //! file).
 //!

@@ -14,7 +14,7 @@
 //!   2020 (`brdf.pbsdf`; [`super::pbsdf`]: the Mueller table resampled onto
 //!   the Rusinkiewicz grid), read by Mitsuba 3's `measured_polarized`.
 //!
-//! Zemax and MERL resample the table with [`symmetric_eval`] (in
+//! Zemax and MERL resample the table with [`symmetric_eval`](super::resample::symmetric_eval) (in
 //! [`super::resample`], which the formats share; this module only
 //! dispatches to them): the table's BRDF
 //! (constant over each Carlson cell, linear in the incidence angle between
@@ -36,7 +36,7 @@
 //!
 //! * **Zemax**: one `Monochrome` file per wavelength, named
 //!   `brdf_<wavelength>um.bsdf` ([`BrdfFormat::spectral_file_names`]; the
-//!   wavelength in µm, written by [`wavelength_labels`] with the same
+//!   wavelength in µm, written by [`wavelength_labels`](zemax::wavelength_labels) with the same
 //!   number of digits for every file of the set, so that the names sort
 //!   as the wavelengths do: `brdf_0.38um.bsdf`, `brdf_0.40um.bsdf`, ...,
 //!   or `brdf_03.0um.bsdf` ... `brdf_14.0um.bsdf`), each the export of
@@ -134,7 +134,7 @@ impl BrdfFormat {
     /// The file names `roks brdf --export` writes beside a spectral
     /// `brdf.csv` with wavelengths `wavelengths_um` (µm, increasing), one
     /// per wavelength: `brdf_<label>um.bsdf` for Zemax, the labels of
-    /// [`wavelength_labels`]; the other formats have one file for all
+    /// [`wavelength_labels`](zemax::wavelength_labels); the other formats have one file for all
     /// wavelengths, [`file_name`](Self::file_name), repeated.
     #[must_use]
     pub fn spectral_file_names(self, wavelengths_um: &[f64]) -> Vec<String> {
@@ -194,8 +194,8 @@ impl fmt::Display for BrdfFormat {
 
 /// Read an export back (`bytes` as written by [`BrdfFormat::export`]) and
 /// integrate its BRDF times `cos(theta_o)` over the hemisphere at every
-/// tabulated incidence angle of `table` by [`integrate_projected`] with
-/// [`CHECK_RINGS`] rings: the file's directional-hemispherical reflectance,
+/// tabulated incidence angle of `table` by [`integrate_projected`](super::resample::integrate_projected) with
+/// [`CHECK_RINGS`](super::resample::CHECK_RINGS) rings: the file's directional-hemispherical reflectance,
 /// beside the table's ([`Exporter::check_table`] of the format's module).
 ///
 /// Zemax: the file's `AngleOfIncidence` blocks, interpolated bilinearly in

@@ -71,7 +71,7 @@ pub struct ExportFile {
     pub clipped: Option<Clipped>,
 }
 
-/// Linear sRGB components below 0 stored as 0 by [`Merl::from_spectral`].
+/// Linear sRGB components below 0 stored as 0 by [`Merl::from_spectral`](super::merl::Merl::from_spectral).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Clipped {
     /// Number of stored values (bins times channels) that were negative.

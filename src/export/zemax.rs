@@ -967,7 +967,7 @@ impl ZemaxGrid {
             .collect()
     }
 
-    /// Per check of `failing` (indices into the [`reflectance_check`] of
+    /// Per check of `failing` (indices into the [`reflectance_check`](super::brdf_formats::reflectance_check) of
     /// this grid's file of `table`: per incidence angle, then light
     /// azimuth), the coarsest of the [`searched`](Self::searched) grids
     /// whose file passes that check ([`ReflectanceCheck::passes`]); `None`

@@ -1,4 +1,4 @@
-//! One model of `roks fit-model` fitted ([`fit_one`]): its fits, warnings
+//! One model of `roks fit-model` fitted (`fit_one`): its fits, warnings
 //! and verdict, and the bytes of its files: the JSON document, the plot
 //! and, for ABg, OpticStudio's rows.
 

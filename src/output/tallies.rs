@@ -27,7 +27,7 @@
 //! file: it must be JSON of [`FORMAT`] version [`FORMAT_VERSION`] with the
 //! fields of [`TalliesFile`] and no others; the description must hold a
 //! valid run (the scene's run checks, [`BrdfRun::check`]) and be the same
-//! in every shard (compared field by field, [`first_difference`]), every
+//! in every shard (compared field by field, [`first_difference`](crate::shard::file::first_difference)), every
 //! tally must have the run's layout and its numbers be within what the
 //! photon count allows ([`check_tallies`]), each tree node must hold
 //! exactly the photons of its batches, and each shard's nodes must tile
@@ -620,7 +620,7 @@ pub fn read_shard(dir: &std::path::Path) -> Result<ShardFile, SceneError> {
 
 /// Merge the shard files of one `roks brdf` run (any order,
 /// [`shard_file::merge_shards`]): equal descriptions (but for the scene's
-/// path and the shard, [`first_difference`]) and photon ranges that tile
+/// path and the shard, [`first_difference`](crate::shard::file::first_difference)) and photon ranges that tile
 /// the run in whole batches. The nodes of all shards are pushed in photon
 /// order into one tree per leaf: its root is the single run's sum bit for
 /// bit.
