@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use super::{FitError, FitOptions, FitParam, FitResult, Measured, Observer, Problem};
+use crate::outdir::file::ResultFile;
 use crate::output::summary::{self, FitParameter, FitStep, FitSummary};
 use crate::scene::SceneFile;
 
@@ -135,9 +136,12 @@ impl Prepared {
         let csv = inplane_csv(&inputs.measured, &result);
         Ok(Outcome {
             files: vec![
-                ("fit_inplane.csv", csv.into_bytes()),
-                ("fitted.toml", fitted.into_bytes()),
-                ("fit.json", summary::to_text(&summary).into_bytes()),
+                (ResultFile::FitInplane.name(), csv.into_bytes()),
+                (ResultFile::Fitted.name(), fitted.into_bytes()),
+                (
+                    ResultFile::Fit.name(),
+                    summary::to_text(&summary).into_bytes(),
+                ),
             ],
             result,
             params: inputs.params.clone(),
