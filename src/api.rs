@@ -24,10 +24,10 @@
 use std::path::Path;
 
 mod error;
-pub mod merge;
 mod micro;
 mod object;
 mod report;
+pub mod merge;
 mod table;
 pub mod values;
 

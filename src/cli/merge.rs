@@ -74,9 +74,7 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
         eprintln!("{line}");
     }
-    let files = merged
-        .files(exports.named_files())
-        .map_err(anyhow::Error::msg)?;
+    let files = merged.files(exports.named_files()).map_err(anyhow::Error::msg)?;
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         print_table(folder);
