@@ -366,7 +366,7 @@ pub fn rgl_scene(scene: Option<&Path>, summary: &Path) -> Result<Option<MicroSce
         .flatten()
         .map(|s| s.scene);
     match named.as_deref() {
-        Some("<default scene>") => Ok(Some(MicroScene::default_scene())),
+        Some(crate::scene::source::DEFAULT_SCENE) => Ok(Some(MicroScene::default_scene())),
         Some(p) if Path::new(p).is_file() => MicroScene::load(Path::new(p)).map(Some),
         _ => Ok(None),
     }

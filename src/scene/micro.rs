@@ -722,7 +722,7 @@ impl MicroScene {
     #[must_use]
     pub fn default_scene() -> Self {
         let scene_file = SceneFile {
-            file: "<default scene>".into(),
+            file: super::source::DEFAULT_SCENE.into(),
             dir: ".".into(),
         };
         Self::from_str(DEFAULT_SCENE, scene_file, "default".into())
@@ -774,7 +774,7 @@ impl MicroScene {
     /// The embedded default scene with `overrides`.
     pub fn default_with(overrides: &Overrides) -> Result<Self, BuildError> {
         let scene_file = SceneFile {
-            file: "<default scene>".into(),
+            file: super::source::DEFAULT_SCENE.into(),
             dir: ".".into(),
         };
         Self::from_str_with(DEFAULT_SCENE, scene_file, "default".into(), overrides)
