@@ -3,7 +3,7 @@
 //! mixed output.
 //!
 //! Every write of an output ([`crate::outdir::write_folder`],
-//! [`crate::output::write_atomic`]) runs under the commit lock
+//! [`crate::outdir::write::write_atomic`]) runs under the commit lock
 //! ([`commit`]): from the creation of its staging folder or temporary file
 //! to the final rename. The handler ([`install`]) takes the same lock, so
 //! it waits for a write in progress to end (renamed in, whole) and no write

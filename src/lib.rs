@@ -108,7 +108,7 @@
 //!   `History` whose `Fate` says how it ended.
 //! * **Carrier**: what a photon carries ([`transport::carrier`]): a scalar
 //!   weight, or a Stokes vector or Mueller matrix with its reference frame.
-//! * **Batch**: [`transport::BATCH`] consecutive photons, the unit of
+//! * **Batch**: [`tally::sum::BATCH`] consecutive photons, the unit of
 //!   parallel work; batches are summed in index order, so results are
 //!   bit-identical for any thread count. **Shard**: a contiguous range of
 //!   a BRDF run's batches run on its own and merged exactly (`roks merge`);

@@ -642,7 +642,7 @@ fn remove_stale(parent: &Path, patterns: &[(String, &str)]) {
 }
 
 /// Remove the temporary files `.NAME.PID.tmp` of killed writes of
-/// `path` (see [`crate::output::write_atomic`]).
+/// `path` (see [`crate::outdir::write::write_atomic`]).
 pub fn remove_stale_tmp(path: &Path) {
     if let Ok((parent, name)) = split(path) {
         let name = name.to_string_lossy();
@@ -758,7 +758,7 @@ pub fn record_added(path: &Path, command: &str) -> std::io::Result<()> {
         return Ok(());
     }
     rec.files.insert(name, command.to_owned());
-    // Atomically, as `crate::output::write_atomic` writes.
+    // Atomically, as `crate::outdir::write::write_atomic` writes.
     let path = dir.join(RECORD);
     let tmp = dir.join(format!(".{RECORD}.{}.tmp", std::process::id()));
     let result = (|| {

@@ -1,6 +1,6 @@
 //! Result files: one submodule per format, each the one home of its
 //! columns or keys, its writer and (for the files roks reads back) its
-//! reader; and writing files atomically ([`write_atomic`]: a temporary
+//! reader; and writing files atomically ([`write_atomic`](crate::outdir::write::write_atomic): a temporary
 //! file in the same folder, then a rename, so a reader never sees half a
 //! file).
 //!
@@ -24,9 +24,6 @@
 //! ([`summary::TraceSummary`]); with `--shard` `summary.json` and
 //! `tallies.json` ([`object_tallies`]); `roks fit` writes `fit.json`
 //! ([`summary::FitSummary`]).
-
-use std::io::Write as _;
-use std::path::Path;
 
 use crate::outdir::file::ResultPattern;
 use crate::transport::brdf::{BrdfRun, IncidenceResult};
@@ -74,30 +71,6 @@ pub fn write_wavelength(s: &mut String, r: &IncidenceResult) {
     if let Some(w) = r.wavelength_um {
         let _ = write!(s, "{w},");
     }
-}
-
-/// Write `bytes` to `path` atomically (temporary sibling `.NAME.PID.tmp`,
-/// synced, then renamed over `path`): a reader sees the old file or the new
-/// one. Temporary files of killed writes of `path` are removed first. The
-/// write holds the commit lock ([`crate::interrupt::commit`]): an
-/// interrupt finds the old file or the new one, and no temporary file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let _commit = crate::interrupt::commit();
-    let name = path
-        .file_name()
-        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-    crate::outdir::remove_stale_tmp(path);
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
 }
 
 /// Longest number written in decimal in a file name; longer ones (such as

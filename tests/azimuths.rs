@@ -11,7 +11,8 @@ use std::path::{Path, PathBuf};
 
 use cli_common::{assert_input_error, read, roks, summary_without_timing};
 use roks::tally::anisotropy::Anisotropy;
-use roks::transport::brdf::{Azimuths, BATCH, BrdfResult, BrdfRun};
+use roks::tally::sum::BATCH;
+use roks::transport::brdf::{Azimuths, BrdfResult, BrdfRun};
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("roks-azimuths-{}-{name}", std::process::id()));

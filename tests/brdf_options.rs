@@ -6,7 +6,7 @@ use clap::FromArgMatches;
 use roks::cli::Failure;
 use roks::cli::args::{Cli, Command};
 use roks::cli::brdf::BrdfArgs;
-use roks::export::brdf_formats::BrdfFormat;
+use roks::export::exporter::BrdfFormat;
 use roks::scene::micro::MicroScene;
 use roks::shard::Shard;
 use roks::tally::{PolarTally, Symmetry};

@@ -17,7 +17,8 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use roks::export::brdf_formats::{BrdfFormat, reflectance_check};
+use roks::export::brdf_formats::reflectance_check;
+use roks::export::exporter::BrdfFormat;
 use roks::export::merl;
 use roks::export::zemax::{self, Symmetry, ZemaxBsdf};
 use roks::optics::brdf_table::BrdfTable;

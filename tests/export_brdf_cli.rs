@@ -9,7 +9,7 @@ use cli_common::{brdf_quiet, roks};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use roks::export::brdf_formats::BrdfFormat;
+use roks::export::exporter::BrdfFormat;
 use roks::optics::brdf_table::BrdfTable;
 
 fn scratch(name: &str) -> PathBuf {
@@ -390,7 +390,9 @@ fn warned_block(w: &str) -> (f64, f64, Option<String>) {
 /// the three halvings passes.
 #[test]
 fn zemax_grids_are_judged_per_incidence_and_azimuth() {
-    use roks::export::brdf_formats::{ReflectanceCheck, ZemaxGrid, reflectance_check};
+    use roks::export::brdf_formats::reflectance_check;
+    use roks::export::exporter::ZemaxGrid;
+    use roks::export::resample::ReflectanceCheck;
     let dir = scratch("grooves");
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/grooves.toml");
     let run = dir.join("run");

@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 use roks::scene::SceneFile;
 use roks::scene::micro::{DEFAULT_SCENE, MicroScene};
 use roks::tally::PolarTally;
-use roks::transport::BATCH;
+use roks::tally::sum::BATCH;
 use roks::transport::brdf::{BrdfRun, BrdfTallies, ShardRange};
 use roks::transport::launch::Launch;
 use sha2::{Digest, Sha256};

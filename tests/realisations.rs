@@ -13,8 +13,8 @@
 mod common;
 
 use roks::scene::micro::{MicroScene, realisation_seed};
+use roks::tally::sum::BATCH;
 use roks::tally::sum::Node;
-use roks::transport::BATCH;
 use roks::transport::brdf::{BrdfRun, BrdfTallies, IncidenceResult, ShardRange, add_up};
 
 /// A Gaussian field of `cells` correlation lengths (tau = 2) per side, 8

@@ -13,8 +13,9 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use roks::export::brdf_formats::{BrdfFormat, wavelength_comment};
+use roks::export::exporter::BrdfFormat;
 use roks::export::merl::{self, Merl};
+use roks::export::zemax::wavelength_comment;
 use roks::optics::brdf_table::BrdfTables;
 use roks::optics::colour::{d65_white_xyz, srgb8, xyz_d65, xyz_to_linear_srgb};
 use roks::optics::spectrum::NkSpectrum;

@@ -38,7 +38,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::export::brdf_formats::BrdfFormat;
+use crate::export::exporter::BrdfFormat;
 use crate::outdir::file::ResultFile;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::output::object_tallies::{self, Object};

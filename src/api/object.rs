@@ -12,7 +12,7 @@ use crate::output::summary::TraceSummary;
 use crate::scene::WavelengthsSpec;
 use crate::scene::object::ObjectScene;
 use crate::shard::Shard;
-use crate::transport::BATCH;
+use crate::tally::sum::BATCH;
 use crate::transport::object::{ObjectResult, ObjectRun};
 
 /// The object scene at `path`, with `wavelengths` (`--wavelengths`)

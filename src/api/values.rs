@@ -285,7 +285,7 @@ pub enum GridError {
 ///
 /// # Errors
 /// [`GridError`].
-pub fn zemax_grid(s: &str) -> Result<crate::export::brdf_formats::ZemaxGrid, GridError> {
+pub fn zemax_grid(s: &str) -> Result<crate::export::exporter::ZemaxGrid, GridError> {
     let steps: Vec<f64> = s
         .split(',')
         .map(|v| number(v.trim()))
@@ -293,7 +293,7 @@ pub fn zemax_grid(s: &str) -> Result<crate::export::brdf_formats::ZemaxGrid, Gri
     let [azimuth_step_deg, radial_step_deg] = steps[..] else {
         return Err(GridError::Form(s.to_owned()));
     };
-    crate::export::brdf_formats::ZemaxGrid::new(azimuth_step_deg, radial_step_deg)
+    crate::export::exporter::ZemaxGrid::new(azimuth_step_deg, radial_step_deg)
         .map_err(GridError::Step)
 }
 

@@ -9,7 +9,7 @@ use super::Failure;
 use super::common::{TracingArgs, progress_bar, report_check};
 use crate::api::values::{integer, number, wavelengths};
 use crate::api::{BrdfJob, BrdfOptions, BrdfReport, MicroScene, Overrides, Shard, WavelengthsSpec};
-use crate::export::brdf_formats::BrdfFormat;
+use crate::export::exporter::BrdfFormat;
 use crate::outdir::{check::result_dir, write::write_folder};
 use crate::tally::{PolarTally, Symmetry};
 use crate::transport::launch::Launch;

@@ -1,6 +1,6 @@
 //! `roks export-brdf`: the BRDF table of a `roks brdf` result folder in a
 //! format other programs read (Zemax, MERL, RGL, pbsdf: the registry
-//! [`crate::export::brdf_formats::BrdfFormat`]), with the reflectance of
+//! [`crate::export::exporter::BrdfFormat`]), with the reflectance of
 //! the file read back beside the table's. A spectral Zemax export is a
 //! set of files, one per wavelength, with `export.json` naming the set
 //! ([`crate::export::folder::ExportMarker`]), written into `--out` as a
@@ -15,8 +15,8 @@ use clap::Args;
 
 use super::Failure;
 use crate::api::values::zemax_grid;
-use crate::export::brdf_formats::{BrdfFormat, ZemaxGrid};
 use crate::export::exporter::Export;
+use crate::export::exporter::{BrdfFormat, ZemaxGrid};
 use crate::export::folder::{EXPORT_MARKER, ExportMarker, FolderExport};
 use crate::outdir::check::{check_out_dir, check_out_file_as, shown};
 use crate::outdir::file::ResultFile;

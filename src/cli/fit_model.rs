@@ -11,7 +11,7 @@
 //! ([`crate::fit_model::rank`]).
 //!
 //! The fits, their files and the lines printed are made by
-//! [`crate::fit_model::run::Request::run`]; this module parses the options,
+//! [`crate::fit_model::one::Request::run`]; this module parses the options,
 //! checks the outputs, writes the files and prints the lines. Every fit is
 //! judged ([`crate::fit_model::warnings`], [`crate::fit_model::Judgement`]):
 //! each warning is printed on stderr (quiet or not), then the verdict in
@@ -25,7 +25,7 @@ use clap::Args;
 use super::Failure;
 use crate::api::values::number;
 use crate::fit_model::material::MaterialOptions;
-use crate::fit_model::run::{ModelChoice, OutputKind, Request, RunError};
+use crate::fit_model::one::{ModelChoice, OutputKind, Request, RunError};
 use crate::outdir::{check::check_out_file_as, kind::FileKind, write::write_file};
 
 /// The options of `roks fit-model`.

@@ -9,7 +9,7 @@ use clap::Args;
 use super::Failure;
 use crate::api::merge::{self, MergeError, ShardKind};
 use crate::api::{BrdfReport, TraceReport};
-use crate::export::brdf_formats::BrdfFormat;
+use crate::export::exporter::BrdfFormat;
 use crate::outdir::{check::check_out_dir, write::write_folder};
 
 /// The options of `roks merge`.

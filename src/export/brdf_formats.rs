@@ -14,7 +14,7 @@
 //!   2020 (`brdf.pbsdf`; [`super::pbsdf`]: the Mueller table resampled onto
 //!   the Rusinkiewicz grid), read by Mitsuba 3's `measured_polarized`.
 //!
-//! Zemax and MERL resample the table with [`symmetric_eval`] (in
+//! Zemax and MERL resample the table with [`symmetric_eval`](super::resample::symmetric_eval) (in
 //! [`super::resample`], which the formats share; this module only
 //! dispatches to them): the table's BRDF
 //! (constant over each Carlson cell, linear in the incidence angle between
@@ -36,7 +36,7 @@
 //!
 //! * **Zemax**: one `Monochrome` file per wavelength, named
 //!   `brdf_<wavelength>um.bsdf` ([`BrdfFormat::spectral_file_names`]; the
-//!   wavelength in µm, written by [`wavelength_labels`] with the same
+//!   wavelength in µm, written by [`wavelength_labels`](zemax::wavelength_labels) with the same
 //!   number of digits for every file of the set, so that the names sort
 //!   as the wavelengths do: `brdf_0.38um.bsdf`, `brdf_0.40um.bsdf`, ...,
 //!   or `brdf_03.0um.bsdf` ... `brdf_14.0um.bsdf`), each the export of
@@ -62,53 +62,27 @@
 
 use std::fmt;
 
-use crate::optics::brdf_table::{BrdfTable, BrdfTables};
-use crate::optics::colour::{VISIBLE_MAX_UM, VISIBLE_MIN_UM};
-use crate::outdir::kind::FileKind;
-use thiserror::Error;
-
-pub use super::exporter::{Export, ExportError, ExportInput, Exporter};
-pub use super::merl::colour_reflectance_check;
-pub use super::resample::{
-    CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected, symmetric_eval,
+use super::exporter::{
+    BrdfFormat, ExportError, ExportFile, ExportInput, ExportRefusal, Exporter, ZemaxGrid,
 };
+use super::resample::{FormatError, ReflectanceCheck};
 use super::{merl, pbsdf, rgl, zemax};
+use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use crate::outdir::kind::FileKind;
 
 /// The registry: one line per format, its variant of [`BrdfFormat`] and
 /// the module's [`Exporter`]. Every per-format answer comes from there.
-macro_rules! registry {
-    ($($(#[$doc:meta])* $variant:ident => $exporter:expr,)*) => {
-        /// An export format of `roks export-brdf --format` and `roks brdf
-        /// --export` (the names in lower case).
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-        pub enum BrdfFormat {
-            $($(#[$doc])* #[value(help = None::<&str>)] $variant,)*
+impl BrdfFormat {
+    /// The format's module.
+    #[must_use]
+    pub fn exporter(self) -> &'static dyn Exporter {
+        match self {
+            Self::Zemax => &zemax::ZemaxFormat,
+            Self::Merl => &merl::MerlFormat,
+            Self::Rgl => &rgl::RglFormat,
+            Self::Pbsdf => &pbsdf::PbsdfFormat,
         }
-
-        impl BrdfFormat {
-            /// The format's module.
-            #[must_use]
-            pub fn exporter(self) -> &'static dyn Exporter {
-                match self {
-                    $(Self::$variant => &$exporter,)*
-                }
-            }
-        }
-    };
-}
-
-registry! {
-    /// Zemax / Radiant tabular BSDF text (`brdf.bsdf`; [`super::zemax`]).
-    Zemax => zemax::ZemaxFormat,
-    /// MERL binary (`brdf.binary`; [`super::merl`]).
-    Merl => merl::MerlFormat,
-    /// RGL measured BRDF tensor file (`brdf_rgl.bsdf`; [`super::rgl`]),
-    /// read by Mitsuba 3's `measured` and pbrt-v4's `measured` materials.
-    Rgl => rgl::RglFormat,
-    /// Polarised measured BRDF tensor file (`brdf.pbsdf`; [`super::pbsdf`]),
-    /// read by Mitsuba 3's `measured_polarized`; needs the run's
-    /// `mueller.csv`.
-    Pbsdf => pbsdf::PbsdfFormat,
+    }
 }
 
 impl BrdfFormat {
@@ -156,97 +130,11 @@ impl BrdfFormat {
     }
 }
 
-/// One file of an export.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ExportFile {
-    /// Its name beside `brdf.csv` in a result folder
-    /// ([`BrdfFormat::file_name`], or [`BrdfFormat::spectral_file_names`]).
-    pub file_name: String,
-    /// The wavelength (µm) of a spectral table's Zemax file.
-    pub wavelength_um: Option<f64>,
-    /// The file's bytes.
-    pub bytes: Vec<u8>,
-    /// The colour MERL's linear sRGB components stored as 0.
-    pub clipped: Option<merl::Clipped>,
-}
-
-/// Why a table cannot be exported in a format.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum ExportRefusal {
-    /// pbsdf (an isotropic format) of a table of several light azimuths.
-    #[error(
-        "the table has {count} light azimuths (phi_i_deg); the {format} format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
-    )]
-    Azimuths {
-        /// The format refused.
-        format: BrdfFormat,
-        /// Number of light azimuths.
-        count: usize,
-    },
-    /// RGL of a table whose light azimuths no RGL file holds
-    /// ([`rgl::layout::Layout::of`]).
-    #[error(transparent)]
-    RglAzimuths(#[from] rgl::layout::LayoutError),
-    /// MERL of a spectral table whose wavelengths do not cover the visible.
-    #[error(
-        "the wavelengths {first}-{last} um do not cover the visible range {VISIBLE_MIN_UM}-{VISIBLE_MAX_UM} um, which the red, green and blue channels of a MERL file (linear sRGB under D65) need; export zemax (one file per wavelength) or trace wavelengths from {VISIBLE_MIN_UM} to {VISIBLE_MAX_UM} um"
-    )]
-    NotVisible {
-        /// First wavelength (µm).
-        first: f64,
-        /// Last wavelength (µm).
-        last: f64,
-    },
-    /// A pbsdf file of another number of wavelengths than 1 or 5, or of a
-    /// table without its Mueller table.
-    #[error(transparent)]
-    Pbsdf(#[from] pbsdf::PbsdfRefusal),
-}
-
-/// Labels of the wavelengths `wavelengths_um` (µm, positive and finite)
-/// for file names that sort as the wavelengths do: each in decimal with as
-/// many decimals as the longest of their shortest round-trip forms needs,
-/// and its integer part padded with zeros to the widest one's
-/// (`[0.38, 0.4, 0.42]` -> `0.38, 0.40, 0.42`; `[3.0, 10.6]` -> `03.0,
-/// 10.6`; `[3.0, 8.0, 12.0]` -> `03, 08, 12`). Distinct wavelengths get
-/// distinct labels: a shortest form with at most that many decimals is the
-/// nearest such decimal to its value, so the padded form is the same digits.
-/// Should a label pass [`crate::output::LABEL_DIGITS`] characters (such as
-/// `[1e-300, 0.5]`), every label is the shortest exponent form instead
-/// (`1e-300, 5e-1`: distinct, though no longer sorting as the wavelengths).
-#[must_use]
-pub fn wavelength_labels(wavelengths_um: &[f64]) -> Vec<String> {
-    let labels = padded_labels(wavelengths_um);
-    if labels.iter().any(|l| l.len() > crate::output::LABEL_DIGITS) {
-        return wavelengths_um.iter().map(|w| format!("{w:e}")).collect();
-    }
-    labels
-}
-
-/// The padded decimal labels of [`wavelength_labels`].
-fn padded_labels(wavelengths_um: &[f64]) -> Vec<String> {
-    let decimals = wavelengths_um
-        .iter()
-        .map(|w| w.to_string().split_once('.').map_or(0, |(_, f)| f.len()))
-        .max()
-        .unwrap_or(0);
-    let fixed: Vec<String> = wavelengths_um
-        .iter()
-        .map(|w| format!("{w:.decimals$}"))
-        .collect();
-    let int_width = |s: &str| s.find('.').unwrap_or(s.len());
-    let width = fixed.iter().map(|s| int_width(s)).max().unwrap_or(0);
-    fixed
-        .into_iter()
-        .map(|s| format!("{}{s}", "0".repeat(width - int_width(&s))))
-        .collect()
-}
-
 impl BrdfFormat {
     /// The file names `roks brdf --export` writes beside a spectral
     /// `brdf.csv` with wavelengths `wavelengths_um` (µm, increasing), one
     /// per wavelength: `brdf_<label>um.bsdf` for Zemax, the labels of
-    /// [`wavelength_labels`]; the other formats have one file for all
+    /// [`wavelength_labels`](zemax::wavelength_labels); the other formats have one file for all
     /// wavelengths, [`file_name`](Self::file_name), repeated.
     #[must_use]
     pub fn spectral_file_names(self, wavelengths_um: &[f64]) -> Vec<String> {
@@ -298,142 +186,16 @@ impl BrdfFormat {
     }
 }
 
-/// The comment of a spectral table's Zemax file of wavelength
-/// `wavelength_um` (µm).
-#[must_use]
-pub fn wavelength_comment(comment: &str, wavelength_um: f64) -> String {
-    if comment.trim().is_empty() {
-        format!("wavelength {wavelength_um} um")
-    } else {
-        format!("{comment}; wavelength {wavelength_um} um")
-    }
-}
-
 impl fmt::Display for BrdfFormat {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
 }
 
-/// A Zemax grid: the steps of the azimuth and radial angles (degrees).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ZemaxGrid {
-    /// Azimuth step, degrees (the grid runs 0-180, or 0-360 for a table of
-    /// several light azimuths).
-    pub azimuth_step_deg: f64,
-    /// Radial step, degrees (the grid runs 0-180).
-    pub radial_step_deg: f64,
-}
-
-impl Default for ZemaxGrid {
-    fn default() -> Self {
-        Self {
-            azimuth_step_deg: zemax::AZIMUTH_STEP_DEG,
-            radial_step_deg: zemax::RADIAL_STEP_DEG,
-        }
-    }
-}
-
-impl ZemaxGrid {
-    /// The grid of steps `azimuth_step_deg` and `radial_step_deg` (degrees),
-    /// each in (0, 90] and dividing 180 into whole steps (to 1e-9).
-    ///
-    /// # Errors
-    /// The first step that is not.
-    pub fn new(azimuth_step_deg: f64, radial_step_deg: f64) -> Result<Self, f64> {
-        for step in [azimuth_step_deg, radial_step_deg] {
-            let n = 180.0 / step;
-            if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
-                return Err(step);
-            }
-        }
-        Ok(Self {
-            azimuth_step_deg,
-            radial_step_deg,
-        })
-    }
-
-    /// The Zemax file of `table` on this grid, with `comment`.
-    #[must_use]
-    pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
-        let max_azimuth = zemax::ZemaxBsdf::symmetry_of(table).max_azimuth_deg();
-        zemax::ZemaxBsdf::from_table_on(
-            table,
-            zemax::steps(self.azimuth_step_deg, max_azimuth),
-            zemax::steps(self.radial_step_deg, 180.0),
-        )
-        .to_text(comment)
-        .into_bytes()
-    }
-
-    /// The finest grid the search for a finer grid tries: an eighth of
-    /// the default steps, 0.25 x 0.125 degrees (an `Asymmetrical4D` block
-    /// of 1441 x 1441 values, about 29 MB of text per incidence and
-    /// azimuth); a search from a finer grid than the default would
-    /// otherwise write files of gigabytes.
-    #[must_use]
-    pub fn finest_searched() -> Self {
-        Self {
-            azimuth_step_deg: zemax::AZIMUTH_STEP_DEG / 8.0,
-            radial_step_deg: zemax::RADIAL_STEP_DEG / 8.0,
-        }
-    }
-
-    /// The grids [`finer_per_check`](Self::finer_per_check) tries, coarsest
-    /// first: this grid's steps halved once, twice and three times, as
-    /// far as [`finest_searched`](Self::finest_searched) (none for a grid
-    /// already that fine).
-    #[must_use]
-    pub fn searched(self) -> Vec<Self> {
-        let floor = Self::finest_searched();
-        (1..=3)
-            .map(|k| {
-                let f = f64::from(1 << k);
-                Self {
-                    azimuth_step_deg: self.azimuth_step_deg / f,
-                    radial_step_deg: self.radial_step_deg / f,
-                }
-            })
-            .take_while(|g| {
-                g.azimuth_step_deg >= floor.azimuth_step_deg * (1.0 - 1e-9)
-                    && g.radial_step_deg >= floor.radial_step_deg * (1.0 - 1e-9)
-            })
-            .collect()
-    }
-
-    /// Per check of `failing` (indices into the [`reflectance_check`] of
-    /// this grid's file of `table`: per incidence angle, then light
-    /// azimuth), the coarsest of the [`searched`](Self::searched) grids
-    /// whose file passes that check ([`ReflectanceCheck::passes`]); `None`
-    /// where none does (the difference there does not come from the grid).
-    /// Each check is judged on its own: a block that passes on a finer grid
-    /// is named with it even where another block passes on none. The finer
-    /// files are written only while a check is unresolved.
-    #[must_use]
-    pub fn finer_per_check(self, table: &BrdfTable, failing: &[usize]) -> Vec<Option<Self>> {
-        let mut found: Vec<Option<Self>> = vec![None; failing.len()];
-        for grid in self.searched() {
-            if found.iter().all(Option::is_some) {
-                break;
-            }
-            let Ok(checks) = reflectance_check(table, BrdfFormat::Zemax, &grid.export(table, ""))
-            else {
-                continue;
-            };
-            for (slot, &i) in found.iter_mut().zip(failing) {
-                if slot.is_none() && checks.get(i).is_some_and(ReflectanceCheck::passes) {
-                    *slot = Some(grid);
-                }
-            }
-        }
-        found
-    }
-}
-
 /// Read an export back (`bytes` as written by [`BrdfFormat::export`]) and
 /// integrate its BRDF times `cos(theta_o)` over the hemisphere at every
-/// tabulated incidence angle of `table` by [`integrate_projected`] with
-/// [`CHECK_RINGS`] rings: the file's directional-hemispherical reflectance,
+/// tabulated incidence angle of `table` by [`integrate_projected`](super::resample::integrate_projected) with
+/// [`CHECK_RINGS`](super::resample::CHECK_RINGS) rings: the file's directional-hemispherical reflectance,
 /// beside the table's ([`Exporter::check_table`] of the format's module).
 ///
 /// Zemax: the file's `AngleOfIncidence` blocks, interpolated bilinearly in
@@ -458,6 +220,9 @@ pub fn reflectance_check(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::export::exporter::ExportRefusal;
+    use crate::export::resample::integrate_projected;
+    use crate::export::zemax::wavelength_labels;
 
     /// The tolerance is max(1 % of the table, 4 standard errors).
     #[test]
@@ -507,7 +272,9 @@ mod tests {
         assert!(
             matches!(
                 refused,
-                Err(ExportError::Pbsdf(pbsdf::PbsdfRefusal::NoMueller))
+                Err(ExportError::Pbsdf(
+                    crate::export::exporter::PbsdfRefusal::NoMueller
+                ))
             ),
             "{refused:?}"
         );

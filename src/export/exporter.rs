@@ -5,7 +5,8 @@
 //!
 //! A format is one module ([`super::zemax`], [`super::merl`], [`super::rgl`],
 //! [`super::pbsdf`]) that implements [`Exporter`]; the registry
-//! ([`super::brdf_formats::BrdfFormat`], one line per format) names it.
+//! ([`BrdfFormat::exporter`] in [`super::brdf_formats`], one line per format)
+//! names it.
 //!
 //! # Adding a format
 //!
@@ -13,8 +14,9 @@
 //!    [`Exporter`] (its name, file name, file kind, bytes, read-back check;
 //!    the provided methods cover a format without spectral files, Mueller
 //!    table or micro surface).
-//! 2. One line of the registry in `src/export/brdf_formats.rs` (with its
-//!    doc line), which makes it a value of `--format` and `--export`.
+//! 2. Its variant of [`BrdfFormat`] (with its doc line), which makes it a
+//!    value of `--format` and `--export`, and its line of the registry
+//!    in `src/export/brdf_formats.rs` (the compiler asks for it).
 //! 3. Its page in the guide (`docs/src/exports.md`).
 //!
 //! `roks export-brdf`, `roks brdf --export` and `roks merge --export` then
@@ -25,14 +27,126 @@ use std::fmt::Write as _;
 
 use thiserror::Error;
 
-use super::brdf_formats::{BrdfFormat, ExportFile, ExportRefusal, ZemaxGrid};
-use super::pbsdf::PbsdfRefusal;
 use super::resample::{FormatError, ReflectanceCheck, standard_errors};
 use super::rgl::layout::LayoutError;
 use crate::micro::MicroSurface;
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use crate::optics::colour::{VISIBLE_MAX_UM, VISIBLE_MIN_UM};
 use crate::outdir::kind::FileKind;
 use crate::output::brdf_csv::BrdfTableError;
+
+/// An export format of `roks export-brdf --format` and `roks brdf
+/// --export` (the names in lower case); its module is named by the
+/// registry ([`BrdfFormat::exporter`], in [`super::brdf_formats`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BrdfFormat {
+    /// Zemax / Radiant tabular BSDF text (`brdf.bsdf`; [`super::zemax`]).
+    #[value(help = None::<&str>)]
+    Zemax,
+    /// MERL binary (`brdf.binary`; [`super::merl`]).
+    #[value(help = None::<&str>)]
+    Merl,
+    /// RGL measured BRDF tensor file (`brdf_rgl.bsdf`; [`super::rgl`]),
+    /// read by Mitsuba 3's `measured` and pbrt-v4's `measured` materials.
+    #[value(help = None::<&str>)]
+    Rgl,
+    /// Polarised measured BRDF tensor file (`brdf.pbsdf`; [`super::pbsdf`]),
+    /// read by Mitsuba 3's `measured_polarized`; needs the run's
+    /// `mueller.csv`.
+    #[value(help = None::<&str>)]
+    Pbsdf,
+}
+
+/// One file of an export.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportFile {
+    /// Its name beside `brdf.csv` in a result folder
+    /// ([`BrdfFormat::file_name`], or [`BrdfFormat::spectral_file_names`]).
+    pub file_name: String,
+    /// The wavelength (µm) of a spectral table's Zemax file.
+    pub wavelength_um: Option<f64>,
+    /// The file's bytes.
+    pub bytes: Vec<u8>,
+    /// The colour MERL's linear sRGB components stored as 0.
+    pub clipped: Option<Clipped>,
+}
+
+/// Linear sRGB components below 0 stored as 0 by [`Merl::from_spectral`](super::merl::Merl::from_spectral).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Clipped {
+    /// Number of stored values (bins times channels) that were negative.
+    pub values: usize,
+    /// The most negative of them (sr⁻¹; 0 if none).
+    pub most_negative: f64,
+}
+
+/// Why a table cannot be exported in a format.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ExportRefusal {
+    /// pbsdf (an isotropic format) of a table of several light azimuths.
+    #[error(
+        "the table has {count} light azimuths (phi_i_deg); the {format} format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
+    )]
+    Azimuths {
+        /// The format refused.
+        format: BrdfFormat,
+        /// Number of light azimuths.
+        count: usize,
+    },
+    /// RGL of a table whose light azimuths no RGL file holds
+    /// ([`super::rgl::layout::Layout::of`]).
+    #[error(transparent)]
+    RglAzimuths(#[from] LayoutError),
+    /// MERL of a spectral table whose wavelengths do not cover the visible.
+    #[error(
+        "the wavelengths {first}-{last} um do not cover the visible range {VISIBLE_MIN_UM}-{VISIBLE_MAX_UM} um, which the red, green and blue channels of a MERL file (linear sRGB under D65) need; export zemax (one file per wavelength) or trace wavelengths from {VISIBLE_MIN_UM} to {VISIBLE_MAX_UM} um"
+    )]
+    NotVisible {
+        /// First wavelength (µm).
+        first: f64,
+        /// Last wavelength (µm).
+        last: f64,
+    },
+    /// A pbsdf file of another number of wavelengths than 1 or 5, or of a
+    /// table without its Mueller table.
+    #[error(transparent)]
+    Pbsdf(#[from] PbsdfRefusal),
+}
+
+/// Why a table cannot be written as a pbsdf file.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum PbsdfRefusal {
+    /// Neither one wavelength nor five.
+    #[error(
+        "wavelength_um: {0} wavelengths, but Mitsuba's measured_polarized holds exactly 5 (trace 5 wavelengths, or one for a grey file)"
+    )]
+    Wavelengths(usize),
+    /// Five wavelengths that are not distinct whole nanometres in `u16`.
+    #[error(
+        "wavelength_um: {0:?} um are not 5 distinct wavelengths in whole nanometres up to 65535 (the file's u16 wvls)"
+    )]
+    Nanometres(Vec<f64>),
+    /// No Mueller table attached.
+    #[error(
+        "no Mueller-matrix BRDF (mueller.csv of a run with [tally] polarisation = \"mueller\")"
+    )]
+    NoMueller,
+    /// A table of several light azimuths: the format is isotropic.
+    #[error(
+        "the table has {0} light azimuths (phi_i_deg); the pbsdf format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
+    )]
+    Azimuths(usize),
+}
+
+/// A Zemax grid: the steps of the azimuth and radial angles (degrees).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZemaxGrid {
+    /// Azimuth step, degrees (the grid runs 0-180, or 0-360 for a table of
+    /// several light azimuths).
+    pub azimuth_step_deg: f64,
+    /// Radial step, degrees (the grid runs 0-180).
+    pub radial_step_deg: f64,
+}
 
 /// What an export of a table needs besides the format.
 #[derive(Debug, Clone, Copy)]

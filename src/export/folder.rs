@@ -10,10 +10,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::brdf_formats::{BrdfFormat, ZemaxGrid};
-use super::exporter::{Export, ExportError, ExportInput};
+use super::exporter::{BrdfFormat, Export, ExportError, ExportInput, ZemaxGrid};
 use crate::micro::MicroSurface;
 use crate::optics::brdf_table::BrdfTables;
+use crate::outdir::file::ResultFile;
 use crate::output::brdf_folder::BrdfFolder;
 use crate::output::summary::BrdfSummary;
 use crate::scene::SceneError;
@@ -110,7 +110,7 @@ impl Export {
 
 /// The file that names a folder of per-wavelength exports (its format,
 /// table and files, and the roks version, which lets a rerun replace it).
-pub const EXPORT_MARKER: &str = "export.json";
+pub const EXPORT_MARKER: &str = ResultFile::Export.name();
 
 /// The content of [`EXPORT_MARKER`] (its keys in this order).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -164,7 +164,7 @@ impl FolderExport<'_> {
     /// The table, `brdf.csv`.
     #[must_use]
     pub fn csv(&self) -> PathBuf {
-        self.dir.join("brdf.csv")
+        self.dir.join(ResultFile::Brdf.name())
     }
 
     /// The files of the result this export reads (`--out` must not be one).
@@ -177,12 +177,12 @@ impl FolderExport<'_> {
 
     /// The run's summary, `summary.json`.
     fn summary(&self) -> PathBuf {
-        self.dir.join("summary.json")
+        self.dir.join(ResultFile::Summary.name())
     }
 
     /// The run's Mueller table, `mueller.csv`.
     fn mueller(&self) -> PathBuf {
-        self.dir.join("mueller.csv")
+        self.dir.join(ResultFile::Mueller.name())
     }
 
     /// Whether the export is a set of files ([`writes_folder`]).
@@ -366,7 +366,7 @@ pub fn rgl_scene(scene: Option<&Path>, summary: &Path) -> Result<Option<MicroSce
         .flatten()
         .map(|s| s.scene);
     match named.as_deref() {
-        Some("<default scene>") => Ok(Some(MicroScene::default_scene())),
+        Some(crate::scene::source::DEFAULT_SCENE) => Ok(Some(MicroScene::default_scene())),
         Some(p) if Path::new(p).is_file() => MicroScene::load(Path::new(p)).map(Some),
         _ => Ok(None),
     }

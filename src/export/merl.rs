@@ -93,9 +93,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::brdf_formats::{BrdfFormat, ExportFile, ExportRefusal, ZemaxGrid};
 use super::exporter::{
-    Export, ExportError, ExportInput, Exporter, HEADING, Notice, fixed, one_file,
+    BrdfFormat, Clipped, Export, ExportError, ExportFile, ExportInput, ExportRefusal, Exporter,
+    HEADING, Notice, ZemaxGrid, fixed, one_file,
 };
 use super::resample::{
     CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected, symmetric_eval,
@@ -303,15 +303,6 @@ pub fn srgb_tables(tables: &SpectralTables) -> Option<[BrdfTable; 3]> {
         let channel: Vec<f64> = weights.iter().map(|w| w[c]).collect();
         tables.linear_combination(&channel)
     }))
-}
-
-/// Linear sRGB components below 0 stored as 0 by [`Merl::from_spectral`].
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Clipped {
-    /// Number of stored values (bins times channels) that were negative.
-    pub values: usize,
-    /// The most negative of them (sr⁻¹; 0 if none).
-    pub most_negative: f64,
 }
 
 impl Merl {

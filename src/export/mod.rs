@@ -4,7 +4,7 @@
 //! formats (`roks export-brdf`, `roks brdf --export`): each format is one
 //! module ([`zemax`], [`merl`], [`rgl`], [`pbsdf`], sharing [`resample`])
 //! implementing [`exporter::Exporter`], named by one line of the registry
-//! [`brdf_formats::BrdfFormat`]; [`folder`] exports a result folder. An
+//! [`exporter::BrdfFormat`] (its registry in [`brdf_formats`]); [`folder`] exports a result folder. An
 //! export returns its files, their read-back checks and the lines to show
 //! as values ([`exporter::Export`]), or an [`exporter::ExportError`].
 //!

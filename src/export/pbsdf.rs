@@ -139,10 +139,11 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 use glam::DVec3;
 use rayon::prelude::*;
-use thiserror::Error;
 
-use super::brdf_formats::{BrdfFormat, ExportRefusal, ZemaxGrid};
-use super::exporter::{Export, ExportError, ExportInput, Exporter, Notice, fixed, one_file};
+use super::exporter::{
+    BrdfFormat, Export, ExportError, ExportInput, ExportRefusal, Exporter, Notice, PbsdfRefusal,
+    ZemaxGrid, fixed, one_file,
+};
 use super::resample::{CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected};
 use super::rgl::tensor::{Data, Field, TensorFile};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
@@ -177,31 +178,6 @@ pub fn theta_d_node(k: usize) -> f64 {
 #[must_use]
 pub fn phi_d_node(k: usize) -> f64 {
     -PI + k as f64 / (PHI_D - 1) as f64 * 2.0 * PI
-}
-
-/// Why a table cannot be written as a pbsdf file.
-#[derive(Debug, Clone, PartialEq, Error)]
-pub enum PbsdfRefusal {
-    /// Neither one wavelength nor five.
-    #[error(
-        "wavelength_um: {0} wavelengths, but Mitsuba's measured_polarized holds exactly 5 (trace 5 wavelengths, or one for a grey file)"
-    )]
-    Wavelengths(usize),
-    /// Five wavelengths that are not distinct whole nanometres in `u16`.
-    #[error(
-        "wavelength_um: {0:?} um are not 5 distinct wavelengths in whole nanometres up to 65535 (the file's u16 wvls)"
-    )]
-    Nanometres(Vec<f64>),
-    /// No Mueller table attached.
-    #[error(
-        "no Mueller-matrix BRDF (mueller.csv of a run with [tally] polarisation = \"mueller\")"
-    )]
-    NoMueller,
-    /// A table of several light azimuths: the format is isotropic.
-    #[error(
-        "the table has {0} light azimuths (phi_i_deg); the pbsdf format holds phi_i = 0 only: export zemax (Asymmetrical4D) or merl (their average)"
-    )]
-    Azimuths(usize),
 }
 
 /// The wavelengths (nm) of a file of tables at `wavelengths_um` (empty or

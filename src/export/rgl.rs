@@ -131,8 +131,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::Mesh;
-use super::brdf_formats::{BrdfFormat, ZemaxGrid};
-use super::exporter::{Export, ExportError, ExportInput, Exporter, Notice, fixed, one_file};
+use super::exporter::{
+    BrdfFormat, Export, ExportError, ExportInput, Exporter, Notice, ZemaxGrid, fixed, one_file,
+};
 use super::resample::{FormatError, symmetric_eval};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables, rotate_z};
 use crate::outdir::kind::FileKind;

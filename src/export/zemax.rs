@@ -123,10 +123,9 @@ use glam::DVec3;
 
 use rayon::prelude::*;
 
-use super::brdf_formats::{
-    BrdfFormat, ExportFile, ZemaxGrid, wavelength_comment, wavelength_labels,
+use super::exporter::{
+    BrdfFormat, Export, ExportError, ExportFile, ExportInput, Exporter, ZemaxGrid, here, one_file,
 };
-use super::exporter::{Export, ExportError, ExportInput, Exporter, here, one_file};
 use super::resample::{
     CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected, symmetric_eval,
 };
@@ -840,6 +839,160 @@ fn azimuth_checks(table: &BrdfTable, z: &ZemaxBsdf) -> Vec<ReflectanceCheck> {
                 })
         })
         .collect()
+}
+
+/// Labels of the wavelengths `wavelengths_um` (µm, positive and finite)
+/// for file names that sort as the wavelengths do: each in decimal with as
+/// many decimals as the longest of their shortest round-trip forms needs,
+/// and its integer part padded with zeros to the widest one's
+/// (`[0.38, 0.4, 0.42]` -> `0.38, 0.40, 0.42`; `[3.0, 10.6]` -> `03.0,
+/// 10.6`; `[3.0, 8.0, 12.0]` -> `03, 08, 12`). Distinct wavelengths get
+/// distinct labels: a shortest form with at most that many decimals is the
+/// nearest such decimal to its value, so the padded form is the same digits.
+/// Should a label pass [`crate::output::LABEL_DIGITS`] characters (such as
+/// `[1e-300, 0.5]`), every label is the shortest exponent form instead
+/// (`1e-300, 5e-1`: distinct, though no longer sorting as the wavelengths).
+#[must_use]
+pub fn wavelength_labels(wavelengths_um: &[f64]) -> Vec<String> {
+    let labels = padded_labels(wavelengths_um);
+    if labels.iter().any(|l| l.len() > crate::output::LABEL_DIGITS) {
+        return wavelengths_um.iter().map(|w| format!("{w:e}")).collect();
+    }
+    labels
+}
+
+/// The padded decimal labels of [`wavelength_labels`].
+fn padded_labels(wavelengths_um: &[f64]) -> Vec<String> {
+    let decimals = wavelengths_um
+        .iter()
+        .map(|w| w.to_string().split_once('.').map_or(0, |(_, f)| f.len()))
+        .max()
+        .unwrap_or(0);
+    let fixed: Vec<String> = wavelengths_um
+        .iter()
+        .map(|w| format!("{w:.decimals$}"))
+        .collect();
+    let int_width = |s: &str| s.find('.').unwrap_or(s.len());
+    let width = fixed.iter().map(|s| int_width(s)).max().unwrap_or(0);
+    fixed
+        .into_iter()
+        .map(|s| format!("{}{s}", "0".repeat(width - int_width(&s))))
+        .collect()
+}
+
+/// The comment of a spectral table's Zemax file of wavelength
+/// `wavelength_um` (µm).
+#[must_use]
+pub fn wavelength_comment(comment: &str, wavelength_um: f64) -> String {
+    if comment.trim().is_empty() {
+        format!("wavelength {wavelength_um} um")
+    } else {
+        format!("{comment}; wavelength {wavelength_um} um")
+    }
+}
+
+impl Default for ZemaxGrid {
+    fn default() -> Self {
+        Self {
+            azimuth_step_deg: AZIMUTH_STEP_DEG,
+            radial_step_deg: RADIAL_STEP_DEG,
+        }
+    }
+}
+
+impl ZemaxGrid {
+    /// The grid of steps `azimuth_step_deg` and `radial_step_deg` (degrees),
+    /// each in (0, 90] and dividing 180 into whole steps (to 1e-9).
+    ///
+    /// # Errors
+    /// The first step that is not.
+    pub fn new(azimuth_step_deg: f64, radial_step_deg: f64) -> Result<Self, f64> {
+        for step in [azimuth_step_deg, radial_step_deg] {
+            let n = 180.0 / step;
+            if !(step > 0.0 && step <= 90.0) || (n - n.round()).abs() > 1e-9 * n {
+                return Err(step);
+            }
+        }
+        Ok(Self {
+            azimuth_step_deg,
+            radial_step_deg,
+        })
+    }
+
+    /// The Zemax file of `table` on this grid, with `comment`.
+    #[must_use]
+    pub fn export(self, table: &BrdfTable, comment: &str) -> Vec<u8> {
+        let max_azimuth = ZemaxBsdf::symmetry_of(table).max_azimuth_deg();
+        ZemaxBsdf::from_table_on(
+            table,
+            steps(self.azimuth_step_deg, max_azimuth),
+            steps(self.radial_step_deg, 180.0),
+        )
+        .to_text(comment)
+        .into_bytes()
+    }
+
+    /// The finest grid the search for a finer grid tries: an eighth of
+    /// the default steps, 0.25 x 0.125 degrees (an `Asymmetrical4D` block
+    /// of 1441 x 1441 values, about 29 MB of text per incidence and
+    /// azimuth); a search from a finer grid than the default would
+    /// otherwise write files of gigabytes.
+    #[must_use]
+    pub fn finest_searched() -> Self {
+        Self {
+            azimuth_step_deg: AZIMUTH_STEP_DEG / 8.0,
+            radial_step_deg: RADIAL_STEP_DEG / 8.0,
+        }
+    }
+
+    /// The grids [`finer_per_check`](Self::finer_per_check) tries, coarsest
+    /// first: this grid's steps halved once, twice and three times, as
+    /// far as [`finest_searched`](Self::finest_searched) (none for a grid
+    /// already that fine).
+    #[must_use]
+    pub fn searched(self) -> Vec<Self> {
+        let floor = Self::finest_searched();
+        (1..=3)
+            .map(|k| {
+                let f = f64::from(1 << k);
+                Self {
+                    azimuth_step_deg: self.azimuth_step_deg / f,
+                    radial_step_deg: self.radial_step_deg / f,
+                }
+            })
+            .take_while(|g| {
+                g.azimuth_step_deg >= floor.azimuth_step_deg * (1.0 - 1e-9)
+                    && g.radial_step_deg >= floor.radial_step_deg * (1.0 - 1e-9)
+            })
+            .collect()
+    }
+
+    /// Per check of `failing` (indices into the [`reflectance_check`](super::brdf_formats::reflectance_check) of
+    /// this grid's file of `table`: per incidence angle, then light
+    /// azimuth), the coarsest of the [`searched`](Self::searched) grids
+    /// whose file passes that check ([`ReflectanceCheck::passes`]); `None`
+    /// where none does (the difference there does not come from the grid).
+    /// Each check is judged on its own: a block that passes on a finer grid
+    /// is named with it even where another block passes on none. The finer
+    /// files are written only while a check is unresolved.
+    #[must_use]
+    pub fn finer_per_check(self, table: &BrdfTable, failing: &[usize]) -> Vec<Option<Self>> {
+        let mut found: Vec<Option<Self>> = vec![None; failing.len()];
+        for grid in self.searched() {
+            if found.iter().all(Option::is_some) {
+                break;
+            }
+            let Ok(checks) = ZemaxFormat.check_table(table, &grid.export(table, "")) else {
+                continue;
+            };
+            for (slot, &i) in found.iter_mut().zip(failing) {
+                if slot.is_none() && checks.get(i).is_some_and(ReflectanceCheck::passes) {
+                    *slot = Some(grid);
+                }
+            }
+        }
+        found
+    }
 }
 
 #[cfg(test)]

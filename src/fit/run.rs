@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use super::{FitError, FitOptions, FitParam, FitResult, Measured, Observer, Problem};
-use crate::output::summary::{self, FitSummary};
+use crate::outdir::file::ResultFile;
+use crate::output::summary::{self, FitParameter, FitStep, FitSummary};
 use crate::scene::SceneFile;
 
 /// The inputs of a fit, read and parsed: the scene's text, the
@@ -135,9 +136,12 @@ impl Prepared {
         let csv = inplane_csv(&inputs.measured, &result);
         Ok(Outcome {
             files: vec![
-                ("fit_inplane.csv", csv.into_bytes()),
-                ("fitted.toml", fitted.into_bytes()),
-                ("fit.json", summary::to_text(&summary).into_bytes()),
+                (ResultFile::FitInplane.name(), csv.into_bytes()),
+                (ResultFile::Fitted.name(), fitted.into_bytes()),
+                (
+                    ResultFile::Fit.name(),
+                    summary::to_text(&summary).into_bytes(),
+                ),
             ],
             result,
             params: inputs.params.clone(),
@@ -199,4 +203,56 @@ fn inplane_csv(measured: &Measured, result: &FitResult) -> String {
         csv.push_str(&format!("{ti},{phi}{to},{b:.9e},{m:.9e}\n"));
     }
     csv
+}
+
+impl FitSummary {
+    /// The summary of fit `result` of `params` to `measured` (as given) on
+    /// scene file `scene`, with `photons` per model run and `seed`.
+    #[must_use]
+    pub fn new(
+        scene: &str,
+        measured: &str,
+        seed: u64,
+        photons: u64,
+        params: &[FitParam],
+        result: &FitResult,
+    ) -> Self {
+        Self {
+            converged: result.converged,
+            evaluations: result.evaluations,
+            history: result
+                .history
+                .iter()
+                .enumerate()
+                .map(|(k, (v, m))| {
+                    let rejected = result.rejected.iter().find(|r| r.0 == k);
+                    FitStep {
+                        misfit: rejected.is_none().then_some(*m).filter(|m| m.is_finite()),
+                        rejected: rejected.map(|r| r.1.clone()),
+                        values: v.clone(),
+                    }
+                })
+                .collect(),
+            measured: measured.to_owned(),
+            misfit: result.misfit,
+            parameters: params
+                .iter()
+                .enumerate()
+                .map(|(i, p)| FitParameter {
+                    at_bound: format!("{:?}", result.at_bounds[i]).to_lowercase(),
+                    fitted: result.values[i],
+                    hi: p.hi,
+                    key: p.key.clone(),
+                    lo: p.lo,
+                    start: result.start[i],
+                })
+                .collect(),
+            photons,
+            rejected_evaluations: result.rejected.len(),
+            scene: scene.to_owned(),
+            seed,
+            start_misfit: result.start_misfit,
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+        }
+    }
 }

@@ -56,7 +56,7 @@ pub fn material(
         ));
     };
     let path = Path::new(scene);
-    let loaded = if scene == "<default scene>" {
+    let loaded = if scene == crate::scene::source::DEFAULT_SCENE {
         load_at(None, wavelengths)
     } else if !path.exists() {
         return Err(format!(

@@ -35,7 +35,7 @@ pub mod abg;
 pub mod harvey;
 pub mod material;
 pub mod microfacet;
-mod one;
+pub mod one;
 pub mod plot;
 pub mod ranking;
 pub mod run;

@@ -1,4 +1,4 @@
-//! One model of `roks fit-model` fitted ([`fit_one`]): its fits, warnings
+//! One model of `roks fit-model` fitted (`fit_one`): its fits, warnings
 //! and verdict, and the bytes of its files: the JSON document, the plot
 //! and, for ABg, OpticStudio's rows.
 
@@ -6,11 +6,96 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
 
+use super::material::MaterialOptions;
 use super::microfacet::{Distribution, Microfacet};
-use super::run::{ModelChoice, OutputKind, Request, RunError};
 use super::{FitResult, Judgement, Model, ModelKind, Observations, abg, harvey};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
+
+/// What `--model` takes: one model, or every one ranked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModelChoice {
+    /// ABg, per incidence.
+    Abg,
+    /// Harvey-Shack, per incidence.
+    Harvey,
+    /// GGX microfacet, one alpha.
+    Ggx,
+    /// Beckmann microfacet, one alpha.
+    Beckmann,
+    /// Every model, ranked (fit_summary.json).
+    All,
+}
+
+impl ModelChoice {
+    /// The models this choice fits, in the order they are fitted.
+    #[must_use]
+    pub fn kinds(self) -> Vec<ModelKind> {
+        match self {
+            Self::Abg => vec![ModelKind::Abg],
+            Self::Harvey => vec![ModelKind::Harvey],
+            Self::Ggx => vec![ModelKind::Ggx],
+            Self::Beckmann => vec![ModelKind::Beckmann],
+            Self::All => vec![
+                ModelKind::Abg,
+                ModelKind::Harvey,
+                ModelKind::Ggx,
+                ModelKind::Beckmann,
+            ],
+        }
+    }
+}
+
+impl std::fmt::Display for ModelChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::All => f.write_str("all"),
+            Self::Abg => f.write_str("abg"),
+            Self::Harvey => f.write_str("harvey"),
+            Self::Ggx => f.write_str("ggx"),
+            Self::Beckmann => f.write_str("beckmann"),
+        }
+    }
+}
+
+/// Why `roks fit-model` failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Bad input (the result folder, its table or summary, the options),
+    /// or a table no model can be fitted to (`cannot fit: ...`): one line.
+    #[error("{0}")]
+    Input(String),
+    /// Anything else (making the plot or the JSON).
+    #[error(transparent)]
+    Other(#[from] anyhow::Error),
+}
+
+/// The kind of a file `roks fit-model` writes (for the output checks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputKind {
+    /// A model's JSON, or `fit_summary.json`.
+    Json,
+    /// A model's plot (PNG).
+    Png,
+    /// ABg's rows for OpticStudio (text).
+    Text,
+}
+
+/// One `roks fit-model` run: the options as given.
+#[derive(Debug, Clone)]
+pub struct Request {
+    /// The result folder of `roks brdf` (with `brdf.csv`, and
+    /// `summary.json` for the photons and the scene).
+    pub dir: PathBuf,
+    /// The model(s).
+    pub model: ModelChoice,
+    /// The model's JSON (default `dir/fit_<model>.json`); one model only.
+    pub out: Option<PathBuf>,
+    /// The material of a microfacet fit.
+    pub material: MaterialOptions,
+    /// A spectral table: the wavelength (µm) to fit, one of the table's.
+    pub wavelength: Option<f64>,
+}
 
 /// The path of `out` with its extension replaced by `suffix` (which
 /// includes any dot or underscore).

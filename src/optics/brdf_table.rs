@@ -113,7 +113,6 @@ use glam::DVec3;
 use thiserror::Error;
 
 use crate::tally::CarlsonGrid;
-pub use crate::tally::realisable::{REALISABLE_TOLERANCE, unrealisable};
 
 /// Most a fraction, or the sum of the fractions of one incidence, may be:
 /// 1 (every photon starts with weight 1 and no weight grows) plus rounding.

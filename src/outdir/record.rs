@@ -84,7 +84,7 @@ impl Record {
 }
 
 /// Whether `name` is a temporary file of an atomic write of roks
-/// (`.NAME.PID.tmp`, [`crate::output::write_atomic`]), left by a kill.
+/// (`.NAME.PID.tmp`, [`crate::outdir::write::write_atomic`]), left by a kill.
 #[must_use]
 pub fn temporary(name: &str) -> bool {
     name.strip_prefix('.')

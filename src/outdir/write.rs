@@ -2,6 +2,7 @@
 //! result folder whole ([`write_folder`]), and the lines that say what a
 //! replaced folder lost ([`removed_lines`]).
 
+use std::io::Write as _;
 use std::path::Path;
 
 use super::check::{OutputError, escape_controls, shown};
@@ -26,7 +27,7 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
             path.display()
         ))
     })?;
-    crate::output::write_atomic(path, bytes)
+    write_atomic(path, bytes)
         .map_err(|e| OutputError::Write(format!("cannot write {}: {e}", path.display())))?;
     crate::interrupt::kept(shown(path));
     Ok(())
@@ -89,4 +90,28 @@ pub fn removed_lines(out: &Path, r: &Replaced) -> Vec<String> {
         ));
     }
     lines
+}
+
+/// Write `bytes` to `path` atomically (temporary sibling `.NAME.PID.tmp`,
+/// synced, then renamed over `path`): a reader sees the old file or the new
+/// one. Temporary files of killed writes of `path` are removed first. The
+/// write holds the commit lock ([`crate::interrupt::commit`]): an
+/// interrupt finds the old file or the new one, and no temporary file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let _commit = crate::interrupt::commit();
+    let name = path
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    super::remove_stale_tmp(path);
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }

@@ -55,8 +55,8 @@ use crate::shard::file::{
 use crate::shard::{Shard, ShardError};
 use crate::tally::exact::{self, Exact};
 use crate::tally::realisable::SUM_TOLERANCE;
+use crate::tally::sum::BATCH;
 use crate::tally::sum::Node;
-use crate::transport::BATCH;
 use crate::transport::object::{
     ByPosition, ObjectResult, ObjectRun, ObjectTallies, PositionNodes, PositionResult, shard_blocks,
 };

@@ -466,7 +466,7 @@ pub enum MuellerTableProblem {
         table: String,
     },
     /// A cell whose matrix no physical surface has
-    /// ([`crate::optics::brdf_table::unrealisable`]).
+    /// ([`crate::tally::realisable::unrealisable`]).
     #[error("theta_i_deg = {theta_i_deg}{at}: cell {cell}: not a physical Mueller matrix: {why}")]
     Unrealisable {
         /// The incidence angle.
@@ -743,7 +743,7 @@ impl BrdfTable {
         let n = self.grid().n_cells();
         let theta_i_deg = self.incidence(i).theta_deg;
         for (flat, m) in block.m.iter().enumerate() {
-            if let Some(why) = crate::optics::brdf_table::unrealisable(m) {
+            if let Some(why) = crate::tally::realisable::unrealisable(m) {
                 return Err((
                     block.lines[flat],
                     MuellerTableProblem::Unrealisable {

@@ -860,58 +860,6 @@ pub struct FitSummary {
     pub version: String,
 }
 
-impl FitSummary {
-    /// The summary of fit `result` of `params` to `measured` (as given) on
-    /// scene file `scene`, with `photons` per model run and `seed`.
-    #[must_use]
-    pub fn new(
-        scene: &str,
-        measured: &str,
-        seed: u64,
-        photons: u64,
-        params: &[crate::fit::FitParam],
-        result: &crate::fit::FitResult,
-    ) -> Self {
-        Self {
-            converged: result.converged,
-            evaluations: result.evaluations,
-            history: result
-                .history
-                .iter()
-                .enumerate()
-                .map(|(k, (v, m))| {
-                    let rejected = result.rejected.iter().find(|r| r.0 == k);
-                    FitStep {
-                        misfit: rejected.is_none().then_some(*m).filter(|m| m.is_finite()),
-                        rejected: rejected.map(|r| r.1.clone()),
-                        values: v.clone(),
-                    }
-                })
-                .collect(),
-            measured: measured.to_owned(),
-            misfit: result.misfit,
-            parameters: params
-                .iter()
-                .enumerate()
-                .map(|(i, p)| FitParameter {
-                    at_bound: format!("{:?}", result.at_bounds[i]).to_lowercase(),
-                    fitted: result.values[i],
-                    hi: p.hi,
-                    key: p.key.clone(),
-                    lo: p.lo,
-                    start: result.start[i],
-                })
-                .collect(),
-            photons,
-            rejected_evaluations: result.rejected.len(),
-            scene: scene.to_owned(),
-            seed,
-            start_misfit: result.start_misfit,
-            version: env!("CARGO_PKG_VERSION").to_owned(),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

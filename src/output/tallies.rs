@@ -27,7 +27,7 @@
 //! file: it must be JSON of [`FORMAT`] version [`FORMAT_VERSION`] with the
 //! fields of [`TalliesFile`] and no others; the description must hold a
 //! valid run (the scene's run checks, [`BrdfRun::check`]) and be the same
-//! in every shard (compared field by field, [`first_difference`]), every
+//! in every shard (compared field by field, [`first_difference`](crate::shard::file::first_difference)), every
 //! tally must have the run's layout and its numbers be within what the
 //! photon count allows ([`check_tallies`]), each tree node must hold
 //! exactly the photons of its batches, and each shard's nodes must tile
@@ -51,11 +51,11 @@ use crate::scene::SceneError;
 use crate::scene::keys::RunField;
 use crate::shard::Shard;
 use crate::shard::file::{self as shard_file, Contents, Leaf, Level, MergedLeaf, typed};
-pub use crate::shard::file::{FieldError, NodeFile, TALLIES_FILE, first_difference};
+use crate::shard::file::{FieldError, NodeFile};
 use crate::tally::exact::{self, Exact};
+use crate::tally::sum::BATCH;
 use crate::tally::sum::Node;
 use crate::tally::{Accumulator, PolarTally};
-use crate::transport::BATCH;
 use crate::transport::brdf::{
     BOUNCE_BINS, BrdfResult, BrdfRun, BrdfTallies, ByAzimuth, ByIncidence, IncidenceResult,
 };
@@ -620,7 +620,7 @@ pub fn read_shard(dir: &std::path::Path) -> Result<ShardFile, SceneError> {
 
 /// Merge the shard files of one `roks brdf` run (any order,
 /// [`shard_file::merge_shards`]): equal descriptions (but for the scene's
-/// path and the shard, [`first_difference`]) and photon ranges that tile
+/// path and the shard, [`first_difference`](crate::shard::file::first_difference)) and photon ranges that tile
 /// the run in whole batches. The nodes of all shards are pushed in photon
 /// order into one tree per leaf: its root is the single run's sum bit for
 /// bit.
@@ -875,6 +875,7 @@ mod tests {
     use crate::output::brdf_folder::BrdfFolder;
     use crate::output::summary::Surface;
     use crate::scene::micro::MicroScene;
+    use crate::shard::file::first_difference;
 
     /// A small run of the default scene: 3 whole batches and a partial one.
     fn scene_and_run() -> (MicroScene, BrdfRun) {

@@ -37,7 +37,7 @@ use super::{HemisphereMap, LinePlot, MapScale, MuellerMaps, Series};
 use crate::outdir::file::{ResultFile, ResultPattern};
 use crate::output::number_label;
 use crate::output::polar_csv::MuellerFile;
-pub use crate::output::result_tables::{FileProblem, TablesError};
+use crate::output::result_tables::TablesError;
 use crate::output::result_tables::{IncidenceSums, InplaneRow, MicroTables, ResultTables};
 use crate::output::summary::{BrdfSummary, TraceSummary};
 use crate::tally::CarlsonGrid;

@@ -66,8 +66,8 @@
 //! side; a Gaussian field's `tau` is at most the period's longer side; at
 //! most [`crate::transport::launch::MAX_PHOTONS`] = 2^53 photons per angle.
 
-use super::Num;
 use super::keys::RunField;
+use crate::num::Num;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -722,7 +722,7 @@ impl MicroScene {
     #[must_use]
     pub fn default_scene() -> Self {
         let scene_file = SceneFile {
-            file: "<default scene>".into(),
+            file: super::source::DEFAULT_SCENE.into(),
             dir: ".".into(),
         };
         Self::from_str(DEFAULT_SCENE, scene_file, "default".into())
@@ -774,7 +774,7 @@ impl MicroScene {
     /// The embedded default scene with `overrides`.
     pub fn default_with(overrides: &Overrides) -> Result<Self, BuildError> {
         let scene_file = SceneFile {
-            file: "<default scene>".into(),
+            file: super::source::DEFAULT_SCENE.into(),
             dir: ".".into(),
         };
         Self::from_str_with(DEFAULT_SCENE, scene_file, "default".into(), overrides)

@@ -15,6 +15,8 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use crate::num::Num;
+
 use glam::DVec3;
 use serde::Deserialize;
 
@@ -46,8 +48,6 @@ impl fmt::Display for SceneError {
 }
 
 impl std::error::Error for SceneError {}
-
-pub use crate::num::Num;
 
 /// Where a scene came from: the file name for messages and the folder for relative paths.
 #[derive(Debug, Clone)]
@@ -552,7 +552,7 @@ pub enum WavelengthsError {
     TooMany {
         /// The wavelengths the grid gives.
         count: f64,
-        /// [`crate::transport::carrier::MAX_WAVELENGTHS`].
+        /// [`crate::optics::spectrum::MAX_WAVELENGTHS`].
         max: usize,
     },
     /// The wavelengths of the list or grid refused
@@ -591,7 +591,7 @@ impl WavelengthsSpec {
                     return Err(WavelengthsError::Bounds { from, to });
                 }
                 let count = ((to - from) / step * (1.0 + 1e-12)).floor() + 1.0;
-                let max = crate::transport::carrier::MAX_WAVELENGTHS;
+                let max = crate::optics::spectrum::MAX_WAVELENGTHS;
                 if count > max as f64 {
                     return Err(WavelengthsError::TooMany { count, max });
                 }

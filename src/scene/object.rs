@@ -104,7 +104,7 @@
 //!   equals `farfield.csv`'s `brdf`), with standard errors and the degree of
 //!   polarisation, in the same frames (below the horizon too).
 
-use super::Num;
+use crate::num::Num;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

@@ -51,13 +51,14 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use crate::outdir::file::ResultFile;
 use crate::scene::SceneError;
 use crate::tally::Merge;
+use crate::tally::sum::BATCH;
 use crate::tally::sum::{DyadicSum, Node};
-use crate::transport::BATCH;
 
 /// File name of the raw sums in a result folder.
-pub const TALLIES_FILE: &str = "tallies.json";
+pub const TALLIES_FILE: &str = ResultFile::Tallies.name();
 
 /// A problem at a key of a `tallies.json`: the JSON path of the value
 /// (e.g. `incidence[0].nodes[2].tallies.carlson.sum[5]`) and what is wrong.

@@ -26,6 +26,8 @@ pub mod wall;
 use rand::RngExt;
 use rayon::prelude::*;
 
+use crate::tally::sum::BATCH;
+
 /// A finished history at either level: how it ended (`F`, the level's
 /// fate: [`micro::Fate`] or [`object::Fate`], each over what the photon
 /// carried) and what it cost. The two fates differ on purpose: the micro
@@ -46,7 +48,6 @@ pub struct History<F> {
 
 /// Photons per batch ([`crate::tally::sum::BATCH`]): the unit of parallel
 /// work and of summation order.
-pub use crate::tally::sum::BATCH;
 
 /// Most bytes of batch tallies [`parallel_batches`] and [`parallel_batches_ordered`] hold at a
 /// time, as whole chunks of batches (see [`pending_batches`]).

@@ -42,6 +42,8 @@ use std::time::Instant;
 use glam::DVec3;
 use rand::RngExt;
 
+use crate::tally::sum::BATCH;
+
 use super::carrier::{Carrier, Polarised, Spectral, SpectralPolarised};
 use super::micro::Controls;
 use super::rng::photon_rng;
@@ -55,8 +57,6 @@ use crate::tally::Merge;
 use crate::tally::carlson::Cells;
 use crate::tally::sum::{DyadicSum, Node, TreeError};
 use crate::tally::{Accumulator, CarlsonGrid};
-
-pub use super::BATCH;
 
 /// A far-field grid over the full sphere: the Carlson hemisphere grid for
 /// `z > 0` and its mirror image for `z < 0` (Carlson cell `i + n_cells`).

@@ -44,12 +44,13 @@
 use glam::DVec3;
 use rand::RngExt;
 
-use super::carrier::{Carrier, MAX_WAVELENGTHS};
+use super::carrier::Carrier;
 use super::micro::{Controls, Fate, trace};
 use crate::micro::{Edges, MicroSurface, Scratch};
 use crate::optics::brdf_table::{BrdfTable, SpectralTables};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::hemisphere_reference;
+use crate::optics::spectrum::MAX_WAVELENGTHS;
 
 /// What a micro descent needs: a periodic micro surface and the limits of
 /// a history in it.

@@ -1,10 +1,10 @@
 //! Why a run description is refused: [`RunError`] and the errors of its
 //! parts (incidence angles, light azimuths, polarisation settings).
 
-use super::BATCH;
 #[cfg(doc)]
 use super::{Azimuths, BrdfRun, Polarisation, check_incidence};
 use crate::num::Num;
+use crate::tally::sum::BATCH;
 
 use crate::optics::polarisation::{Incident, IncidentError};
 use crate::optics::spectrum::WavelengthListError;

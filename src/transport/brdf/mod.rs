@@ -4,7 +4,7 @@
 //! Photons start at uniform points of the cell on the launch plane, random
 //! or on randomised lattices ([`super::launch`]), travelling along
 //! `-omega_i`. Photon `n` uses the stream `(seed, n)` only;
-//! photons are traced in fixed batches of [`BATCH`] and the batch tallies are
+//! photons are traced in fixed batches of [`BATCH`](crate::tally::sum::BATCH) and the batch tallies are
 //! summed over a fixed binary tree on batch indices ([`crate::tally::sum`]), so
 //! results are bit-identical for any thread count, and shards of a run
 //! (`--shard I/N`) merge to exactly the single run's sums.
@@ -47,5 +47,3 @@ pub use run::{
     Azimuths, BrdfRun, INPLANE_ROW_BYTES, Polarisation, ShardRange, check_incidence, toward_light,
 };
 pub use tallies::{BOUNCE_BINS, BrdfTallies, Replicates, add_up};
-
-pub use super::BATCH;

@@ -2,9 +2,9 @@
 //! its light azimuths ([`Azimuths`]), shard block ([`ShardRange`]) and
 //! polarisation settings ([`Polarisation`]), their checks and their sizes.
 
-use super::BATCH;
 use super::error::{AzimuthError, IncidenceError, PolarisationError, RunError};
 use super::tallies::{BOUNCE_BINS, BrdfTallies};
+use crate::tally::sum::BATCH;
 
 use glam::DVec3;
 

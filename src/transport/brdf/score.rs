@@ -9,10 +9,11 @@ use super::trace::Spare;
 use glam::DVec3;
 
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
+use crate::optics::spectrum::MAX_WAVELENGTHS;
 use crate::tally::lanes::{LaneSums, LaneTally};
 use crate::tally::polar::mirror_sign;
 use crate::tally::{InPlaneTally, Locator, PolarTallies, Symmetry, symmetry};
-use crate::transport::carrier::{Carrier, MAX_WAVELENGTHS};
+use crate::transport::carrier::Carrier;
 use crate::transport::micro::{Fate, History};
 
 impl BrdfRun {

@@ -4,10 +4,10 @@
 //! over the fixed batch tree; [`BrdfRun::trace`] and
 //! [`BrdfRun::trace_whole`] are shorthands of it for one surface.
 
-use super::BATCH;
 use super::result::{BrdfResult, ByAzimuth, ByIncidence, IncidenceResult};
 use super::run::{BrdfRun, toward_light};
 use super::tallies::{BrdfTallies, add_up};
+use crate::tally::sum::BATCH;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -15,10 +15,11 @@ use rand::RngExt;
 
 use crate::micro::{MicroSurface, Scratch};
 use crate::optics::polarisation::{Stokes, hemisphere_reference};
+use crate::optics::spectrum::MAX_WAVELENGTHS;
 use crate::tally::lanes::LaneSums;
 use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{InPlaneTally, Locator, Merge, PolarTally};
-use crate::transport::carrier::{Carrier, LaneCarrier, MAX_WAVELENGTHS, Polarised};
+use crate::transport::carrier::{Carrier, LaneCarrier, Polarised};
 use crate::transport::launch::{Lattices, Launch};
 use crate::transport::micro::trace;
 use crate::transport::order;

@@ -33,7 +33,7 @@ use crate::optics::polarisation::{Stokes, rotation};
 
 mod spectral;
 
-pub use spectral::{LaneCarrier, MAX_WAVELENGTHS, Spectral, SpectralPolarised};
+pub use spectral::{LaneCarrier, Spectral, SpectralPolarised};
 
 /// The turn of a carrier's reference frame into the s frame of one
 /// reflection ([`Carrier::s_turn`]): the rotator `(cos 2a, sin 2a)` if the

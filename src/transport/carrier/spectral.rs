@@ -15,8 +15,7 @@ use crate::optics::fresnel::FresnelMueller;
 use crate::optics::fresnel::{CHUNK, FresnelChunk, FresnelLanes};
 use crate::optics::material::Reflectance;
 use crate::optics::polarisation::{Stokes, rotation};
-
-pub use crate::optics::spectrum::MAX_WAVELENGTHS;
+use crate::optics::spectrum::MAX_WAVELENGTHS;
 
 /// A carrier per wavelength: the photon's path does not depend on the
 /// wavelength in geometric optics, only its weights do, so one trace carries
