@@ -124,7 +124,8 @@
 //!   statistics it is the [`output::summary::Description`] that
 //!   `summary.json` and `tallies.json` hold and `roks merge` compares.
 //! * **Result** of a BRDF trace: [`transport::brdf::BrdfResult`], returned
-//!   by the one entry point [`transport::brdf::BrdfRun::trace`] and nested
+//!   by the micro level's one entry point
+//!   [`transport::brdf::BrdfRun::trace_realisations`] (through [`api::BrdfJob`]) and nested
 //!   as incidence x light azimuth x wavelength; a **leaf**
 //!   ([`transport::brdf::IncidenceResult`]) holds one incidence's,
 //!   azimuth's and wavelength's sums and the batch-tree nodes a shard

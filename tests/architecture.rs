@@ -101,7 +101,11 @@ fn defined(files: &[PathBuf], name: &str) -> bool {
         let text = std::fs::read_to_string(f).unwrap();
         text.lines().any(|line| {
             let l = line.trim_start();
-            let l = l.strip_prefix("pub(crate) ").or_else(|| l.strip_prefix("pub ")).unwrap_or(l);
+            // any visibility: `pub`, `pub(crate)`, `pub(super)`, `pub(in ...)`
+            let l = match l.strip_prefix("pub(") {
+                Some(rest) => rest.split_once(") ").map_or(l, |(_, item)| item),
+                None => l.strip_prefix("pub ").unwrap_or(l),
+            };
             let word_at = |rest: &str| {
                 rest.starts_with(name)
                     && !rest[name.len()..].starts_with(|c: char| c.is_alphanumeric() || c == '_')
