@@ -103,6 +103,7 @@ use super::resample::{
 use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
 use crate::optics::colour::XyzWeights;
 use crate::optics::colour::covers_visible;
+use crate::outdir::file::ResultFile;
 use crate::outdir::kind::FileKind;
 
 /// What a MERL export of `table` (several light azimuths: their average)
@@ -455,7 +456,7 @@ impl Exporter for MerlFormat {
     }
 
     fn file_name(&self) -> &'static str {
-        "brdf.binary"
+        ResultFile::Merl.name()
     }
 
     fn file_kind(&self) -> FileKind {

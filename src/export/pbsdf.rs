@@ -148,6 +148,7 @@ use super::resample::{CHECK_RINGS, FormatError, ReflectanceCheck, integrate_proj
 use super::rgl::tensor::{Data, Field, TensorFile};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
 use crate::optics::polarisation::{hemisphere_reference, rotation};
+use crate::outdir::file::ResultFile;
 use crate::outdir::kind::FileKind;
 
 /// Nodes of `theta_h`.
@@ -732,7 +733,7 @@ impl Exporter for PbsdfFormat {
     }
 
     fn file_name(&self) -> &'static str {
-        "brdf.pbsdf"
+        ResultFile::Pbsdf.name()
     }
 
     fn file_kind(&self) -> FileKind {

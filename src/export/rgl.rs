@@ -136,6 +136,7 @@ use super::exporter::{
 };
 use super::resample::{FormatError, symmetric_eval};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables, rotate_z};
+use crate::outdir::file::ResultFile;
 use crate::outdir::kind::FileKind;
 use layout::{Layout, LayoutError, Node};
 use tensor::{Field, TensorFile};
@@ -1319,7 +1320,7 @@ impl Exporter for RglFormat {
     }
 
     fn file_name(&self) -> &'static str {
-        "brdf_rgl.bsdf"
+        ResultFile::Rgl.name()
     }
 
     fn file_kind(&self) -> FileKind {

@@ -130,6 +130,7 @@ use super::resample::{
     CHECK_RINGS, FormatError, ReflectanceCheck, integrate_projected, symmetric_eval,
 };
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use crate::outdir::file::ResultFile;
 use crate::outdir::kind::FileKind;
 
 /// Default azimuth step of [`ZemaxBsdf::from_table`] (degrees).
@@ -668,7 +669,7 @@ impl Exporter for ZemaxFormat {
     }
 
     fn file_name(&self) -> &'static str {
-        "brdf.bsdf"
+        ResultFile::Zemax.name()
     }
 
     fn file_kind(&self) -> FileKind {

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::ModelKind;
 use crate::optics::material::{Reflectance, ReflectanceError};
+use crate::outdir::file::ResultFile;
 use crate::scene::micro::{MicroScene, Overrides};
 
 /// The material options of `roks fit-model`, as given.
@@ -61,7 +62,7 @@ pub fn material(
     } else if !path.exists() {
         return Err(format!(
             "{}: scene: {scene}: no such file (relative to the folder roks brdf ran in?): run from there, or give --n N --k K or --reflectance R",
-            dir.join("summary.json").display()
+            ResultFile::Summary.path_in(dir).display()
         ));
     } else {
         load_at(Some(path), wavelengths)

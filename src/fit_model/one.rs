@@ -11,6 +11,7 @@ use super::microfacet::{Distribution, Microfacet};
 use super::{FitResult, Judgement, Model, ModelKind, Observations, abg, harvey};
 use crate::optics::brdf_table::BrdfTable;
 use crate::optics::material::Reflectance;
+use crate::outdir::file::ResultPattern;
 
 /// What `--model` takes: one model, or every one ranked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -118,8 +119,9 @@ impl Paths {
     /// The files of `kind` whose JSON is `json`.
     pub(crate) fn of(kind: ModelKind, json: PathBuf) -> Self {
         Self {
-            png: beside(&json, ".png"),
-            opticstudio: (kind == ModelKind::Abg).then(|| beside(&json, "_opticstudio.txt")),
+            png: beside(&json, ResultPattern::FitPicture.parts().1),
+            opticstudio: (kind == ModelKind::Abg)
+                .then(|| beside(&json, ResultPattern::FitOpticStudio.parts().1)),
             json,
         }
     }

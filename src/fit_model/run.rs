@@ -19,6 +19,7 @@ use super::one::{
 use super::ranking::{FitSummary, ranked, ranking_lines};
 use super::{FitResult, ModelKind, observations};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
+use crate::outdir::file::ResultFile;
 
 /// What a run made: the files (not yet written) and what to print.
 #[derive(Debug)]
@@ -65,12 +66,12 @@ impl Loaded {
 impl Request {
     /// `brdf.csv` of the result folder.
     fn csv(&self) -> PathBuf {
-        self.dir.join("brdf.csv")
+        ResultFile::Brdf.path_in(&self.dir)
     }
 
     /// `summary.json` of the result folder.
     fn summary_path(&self) -> PathBuf {
-        self.dir.join("summary.json")
+        ResultFile::Summary.path_in(&self.dir)
     }
 
     /// The files the run reads: `brdf.csv` and `summary.json`.
@@ -81,7 +82,7 @@ impl Request {
 
     /// Where `fit_summary.json` goes.
     fn summary_out(&self) -> PathBuf {
-        self.dir.join("fit_summary.json")
+        ResultFile::FitRanking.path_in(&self.dir)
     }
 
     /// Each model's files.

@@ -41,6 +41,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
+use crate::outdir::file::ResultFile;
 use crate::tally::CarlsonGrid;
 use crate::transport::brdf::{BrdfResult, BrdfRun, IncidenceResult};
 
@@ -284,7 +285,7 @@ pub fn table(run: &BrdfRun, results: &BrdfResult) -> BrdfTables {
         .map(|l| lane_table(run, results.lane(l)))
         .collect();
     BrdfTables::Spectral(
-        SpectralTables::new(run.wavelengths_um.clone(), tables, "brdf.csv")
+        SpectralTables::new(run.wavelengths_um.clone(), tables, ResultFile::Brdf.name())
             .expect("a run's wavelengths are strictly increasing"),
     )
 }
@@ -311,7 +312,8 @@ fn lane_table<'a>(run: &BrdfRun, results: impl Iterator<Item = &'a IncidenceResu
             )
         })
         .collect();
-    BrdfTable::from_blocks(run.grid(), blocks, "brdf.csv").expect("a run's results are a table")
+    BrdfTable::from_blocks(run.grid(), blocks, ResultFile::Brdf.name())
+        .expect("a run's results are a table")
 }
 
 #[cfg(test)]

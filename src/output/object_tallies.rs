@@ -47,6 +47,7 @@ use serde_json::Value;
 use super::summary::{self, PositionSummary, TraceShard, TraceSummary};
 use crate::object::source::Beam;
 use crate::optics::polarisation::Incident;
+use crate::outdir::file::ResultFile;
 use crate::scene::{Content, SceneError};
 use crate::shard::file::{
     self as shard_file, Contents, FieldError, Leaf, Level, MergedLeaf, NodeFile, TALLIES_FILE,
@@ -230,24 +231,24 @@ impl TraceDescription {
         let summary = summary::to_text(&self.summary(result, seconds));
         let mut files: Vec<(String, Vec<u8>)> = Vec::new();
         if let Some(t) = tallies {
-            files.push(("summary.json".into(), summary.into_bytes()));
+            files.push((ResultFile::Summary.name().into(), summary.into_bytes()));
             files.push((TALLIES_FILE.into(), t.to_text().into_bytes()));
             return files;
         }
         let run = &self.run;
         files.push((
-            "reflectance.csv".into(),
+            ResultFile::Reflectance.name().into(),
             super::object_csv::reflectance_csv(result).into_bytes(),
         ));
         if run.farfield {
             let f = super::object_csv::farfield_csv(run, result);
-            files.push(("farfield.csv".into(), f.into_bytes()));
+            files.push((ResultFile::Farfield.name().into(), f.into_bytes()));
         }
         if run.tallies_farfield_stokes() {
             let f = super::object_csv::farfield_stokes_csv(run, result);
-            files.push(("farfield_stokes.csv".into(), f.into_bytes()));
+            files.push((ResultFile::FarfieldStokes.name().into(), f.into_bytes()));
         }
-        files.push(("summary.json".into(), summary.into_bytes()));
+        files.push((ResultFile::Summary.name().into(), summary.into_bytes()));
         files
     }
 

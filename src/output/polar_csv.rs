@@ -17,6 +17,7 @@ use std::path::Path;
 
 use crate::optics::brdf_table::{BrdfTable, BrdfTables, SpectralTables};
 use crate::optics::polarisation::degree_of_polarisation;
+use crate::outdir::file::ResultFile;
 use crate::output::brdf_csv::BrdfTableError;
 use crate::output::brdf_csv::reader::{read_text, shorten};
 use crate::tally::{CarlsonGrid, PolarTally};
@@ -49,8 +50,8 @@ pub const MUELLER_MATRIX_COLUMNS: usize = 38;
 pub fn write(run: &BrdfRun, results: &BrdfResult) -> Option<(&'static str, String)> {
     let (name, header) = match run.polarisation.tally {
         PolarTally::None => return None,
-        PolarTally::Stokes => ("stokes.csv", STOKES_HEADER),
-        PolarTally::Mueller => ("mueller.csv", MUELLER_HEADER),
+        PolarTally::Stokes => (ResultFile::Stokes.name(), STOKES_HEADER),
+        PolarTally::Mueller => (ResultFile::Mueller.name(), MUELLER_HEADER),
     };
     let k = run.polarisation.tally.components();
     let grid: CarlsonGrid = run.grid();

@@ -105,6 +105,7 @@
 //!   polarisation, in the same frames (below the horizon too).
 
 use crate::num::Num;
+use crate::outdir::file::ResultFile;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -409,7 +410,10 @@ impl ObjectSceneSpec {
             if let Some(f) = &m.brdf {
                 files.push((format!("{key}.brdf"), f.clone()));
                 let table = Path::new(f);
-                for (beside, k) in [("summary.json", "summary"), ("mueller.csv", "mueller")] {
+                for (beside, k) in [
+                    (ResultFile::Summary.name(), "summary"),
+                    (ResultFile::Mueller.name(), "mueller"),
+                ] {
                     let other = table.with_file_name(beside);
                     if scene_file.dir.join(&other).exists() {
                         let other = other.to_string_lossy().into_owned();
@@ -929,11 +933,11 @@ fn brdf_wall(
         .require_one_azimuth("a BRDF wall (its tangent frame follows the light, so the wall has no surface azimuth to choose one by)")
         .map_err(|e| fail(&e))?;
     // The run's summary beside the table carries the exact reflectance errors.
-    let summary = path.with_file_name("summary.json");
+    let summary = path.with_file_name(ResultFile::Summary.name());
     if summary.exists() {
         tables = tables.with_summary(&summary).map_err(|e| fail(&e))?;
     }
-    let mueller = path.with_file_name("mueller.csv");
+    let mueller = path.with_file_name(ResultFile::Mueller.name());
     let spectral = match tables {
         BrdfTables::Monochrome(mut table) => {
             // A Mueller table of the same run beside it: the wall keeps polarisation.
