@@ -2,7 +2,7 @@
 # Create (or update) the project's Python environment in .venv at the repo
 # root and install the package roks_tools (python/, editable: edits to
 # python/roks_tools take effect without reinstalling) with its extras
-# `mitsuba` (mitsuba, drjit) and `test` (pytest). The one dependency list,
+# `mitsuba` (mitsuba, drjit) and `test` (pytest, scipy, mypy). The one dependency list,
 # pinned, is python/pyproject.toml. Safe to run again: an existing .venv is
 # reused and pip only installs what is missing or at another version.
 #
@@ -32,7 +32,7 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore")  # colour-science runs without its optional SciPy
     import colour
 extra = []
-for name in ("pytest", "mitsuba", "drjit"):
+for name in ("pytest", "scipy", "mitsuba", "drjit"):
     try:
         extra.append(f"{name} {__import__(name).__version__}")
     except ImportError:
