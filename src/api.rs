@@ -40,8 +40,10 @@ pub use object::{TraceJob, TraceOptions, TraceResult, load_object};
 pub use report::{BrdfReport, StatsReport, TraceReport, anisotropy_note};
 pub use table::{Table, TableError};
 
+pub use crate::interrupt::Cancel;
+pub use crate::micro::heightfield_io::HeightGrid;
 pub use crate::scene::WavelengthsSpec;
-pub use crate::scene::micro::{MicroScene, Overrides};
+pub use crate::scene::micro::{HEIGHT_MAP_ARRAY, HeightMapArray, MicroScene, Overrides};
 pub use crate::scene::object::ObjectScene;
 pub use crate::shard::Shard;
 
@@ -52,10 +54,60 @@ pub use crate::shard::Shard;
 /// # Errors
 /// [`Error::Scene`] naming the scene file and key, or [`Error::Option`].
 pub fn load_micro(path: Option<&Path>, overrides: &Overrides) -> Result<MicroScene, Error> {
+    let source = match path {
+        Some(p) => MicroSource::File(p),
+        None => MicroSource::Default,
+    };
+    load_micro_from(&source, overrides, None)
+}
+
+/// The name of a scene given as text ([`MicroSource::Text`]) in messages
+/// and in its result's description.
+pub const SCENE_TEXT: &str = "<scene text>";
+
+/// Where a micro scene comes from.
+#[derive(Debug, Clone, Copy)]
+pub enum MicroSource<'a> {
+    /// The embedded default scene.
+    Default,
+    /// A scene file (relative files resolve against its folder).
+    File(&'a Path),
+    /// Scene text (TOML), named [`SCENE_TEXT`] in messages; its relative
+    /// files resolve against `base_dir`; its name, without a `name` key,
+    /// is `scene`.
+    Text {
+        /// The TOML text.
+        text: &'a str,
+        /// The folder its relative file names are in.
+        base_dir: &'a Path,
+    },
+}
+
+/// [`load_micro`] from any [`MicroSource`], and with `map` (when given)
+/// as the surface's height field: `[surface] heightfield = { file, pixel }`
+/// with the array's heights in place of the file's, checked exactly as that
+/// key is ([`MicroScene::from_str_map`]; the file is named
+/// [`HEIGHT_MAP_ARRAY`] in messages).
+///
+/// # Errors
+/// As [`load_micro`].
+pub fn load_micro_from(
+    source: &MicroSource<'_>,
+    overrides: &Overrides,
+    map: Option<&HeightMapArray>,
+) -> Result<MicroScene, Error> {
+    use crate::scene::SceneFile;
     use crate::scene::micro::BuildError;
-    match path {
-        Some(p) => MicroScene::load_with(p, overrides),
-        None => MicroScene::default_with(overrides),
+    match source {
+        MicroSource::File(p) => MicroScene::load_map(p, overrides, map),
+        MicroSource::Default => MicroScene::default_map(overrides, map),
+        MicroSource::Text { text, base_dir } => {
+            let scene_file = SceneFile {
+                file: SCENE_TEXT.into(),
+                dir: base_dir.to_path_buf(),
+            };
+            MicroScene::from_str_map(text, scene_file, "scene".into(), overrides, map)
+        }
     }
     .map_err(|e| match e {
         BuildError::Scene(e) => Error::Scene(e),
@@ -88,6 +140,55 @@ pub fn set_threads(threads: Option<usize>) -> Result<(), Error> {
             .map_err(anyhow::Error::from)?;
     }
     Ok(())
+}
+
+/// How an in-process run runs (the Python module's): on its own pool of
+/// worker threads, and stopped by a cancel token. Neither changes results.
+/// The command line instead sets the process's pool once ([`set_threads`])
+/// and is stopped by its signal handler.
+#[derive(Debug, Clone, Default)]
+pub struct Control {
+    /// Worker threads of this run (`None`: all cores), in a pool of its
+    /// own: other runs of the process keep theirs.
+    pub threads: Option<usize>,
+    /// The token that stops the run between photon batches
+    /// ([`Cancel::cancel`]); the run then ends with [`Error::Interrupted`].
+    pub cancel: Option<Cancel>,
+}
+
+impl Control {
+    /// Run `op` on this run's own pool of worker threads, each watching
+    /// the cancel token ([`crate::interrupt::watch`]).
+    ///
+    /// # Errors
+    /// [`Error::Option`] naming `--threads` for 0 threads or stacks beyond
+    /// the memory limit; [`Error::Interrupted`] when the token was
+    /// cancelled before `op` returned; else `op`'s error.
+    pub fn run<R: Send>(&self, op: impl FnOnce() -> Result<R, Error> + Send) -> Result<R, Error> {
+        let threads = match self.threads {
+            Some(t) => {
+                let t = crate::api::values::positive::<usize>(&t.to_string())
+                    .map_err(|e| Error::option("--threads", e))?;
+                let bytes = crate::limits::product(&[t as u64, 2 << 20]);
+                let what = format!("the stacks of {t} worker threads");
+                check_memory("--threads", &what, bytes)?;
+                t
+            }
+            // rayon's default: all cores (or RAYON_NUM_THREADS).
+            None => 0,
+        };
+        let token = self.cancel.clone();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .start_handler(move |_| crate::interrupt::watch(token.clone()))
+            .build()
+            .map_err(anyhow::Error::from)?;
+        let result = pool.install(op);
+        if self.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+            return Err(Error::Interrupted);
+        }
+        result
+    }
 }
 
 /// Refuse `option` when `bytes`, the estimate for `what`, exceed the memory

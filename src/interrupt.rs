@@ -17,8 +17,15 @@
 //! them: an interrupt then keeps all of them or none. The guard is
 //! reentrant within a thread.
 
+//!
+//! In-process runs (the library API, the Python module) are not ended by
+//! a signal: they carry a [`Cancel`] token, which the photon loops check
+//! between batches ([`cancelled`]), and the run then ends with nothing
+//! written.
+
 use std::cell::RefCell;
-use std::sync::{Mutex, MutexGuard, PoisonError};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
 /// The exit status of an interrupted run (128 + SIGINT, as shells report it).
 pub const EXIT_STATUS: u8 = 130;
@@ -120,6 +127,51 @@ pub fn install() -> Result<(), String> {
         std::process::exit(i32::from(EXIT_STATUS));
     })
     .map_err(|e| e.to_string())
+}
+
+/// A cancel token of an in-process run: clones share one flag; once
+/// [`cancel`](Self::cancel)led, the run's photon loops stop between batches
+/// of [`crate::tally::sum::BATCH`] photons (well under a second), and the
+/// run ends with an error, writing nothing.
+#[derive(Debug, Clone, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    /// A token not cancelled yet.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Ask the run to stop (from any thread).
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether [`cancel`](Self::cancel) was called.
+    #[must_use]
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+thread_local! {
+    /// The token of the run this thread works for (the workers of a run's
+    /// own thread pool: [`watch`]).
+    static CURRENT: RefCell<Option<Cancel>> = const { RefCell::new(None) };
+}
+
+/// Make `token` the one this thread's work checks ([`cancelled`]); called
+/// when a run's own worker thread starts.
+pub fn watch(token: Option<Cancel>) {
+    CURRENT.with(|c| *c.borrow_mut() = token);
+}
+
+/// Whether the run this thread works for was cancelled (never, for a
+/// thread without a token: the command line's).
+#[must_use]
+pub fn cancelled() -> bool {
+    CURRENT.with(|c| c.borrow().as_ref().is_some_and(Cancel::is_cancelled))
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use crate::scene::SceneError;
 
 /// Why a call of the library API ([`crate::api`]) fails. Every variant
-/// but [`Error::Io`] is bad input (`roks` exits with status 2); its
+/// but [`Error::Io`] and [`Error::Interrupted`] is bad input (`roks` exits with status 2); its
 /// `Display` is one line, word for word the command line's message.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -47,6 +47,10 @@ pub enum Error {
     /// Anything else: reading or writing files (not bad input).
     #[error(transparent)]
     Io(#[from] anyhow::Error),
+    /// An in-process run stopped by its cancel token
+    /// ([`crate::api::Control`]): nothing was written.
+    #[error("interrupted: nothing written")]
+    Interrupted,
 }
 
 impl Error {
@@ -62,7 +66,7 @@ impl Error {
     /// write (exit status 1).
     #[must_use]
     pub fn is_input(&self) -> bool {
-        !matches!(self, Self::Io(_))
+        !matches!(self, Self::Io(_) | Self::Interrupted)
     }
 }
 

@@ -131,6 +131,9 @@ impl<'s> BrdfJob<'s> {
         let results = description
             .run
             .trace_realisations(&scene.surfaces(), photons, progress);
+        if crate::interrupt::cancelled() {
+            return Err(Error::Interrupted);
+        }
         let folder = BrdfFolder::traced(description, results, clock.elapsed().as_secs_f64());
         Ok(BrdfResult {
             summary: std::sync::OnceLock::new(),
@@ -141,6 +144,23 @@ impl<'s> BrdfJob<'s> {
                 random: scene.random,
             }),
         })
+    }
+}
+
+impl BrdfJob<'_> {
+    /// [`trace`](Self::trace) in-process under `control`: on the run's
+    /// own worker threads, stopped between photon batches by its cancel
+    /// token. The result does not depend on the threads.
+    ///
+    /// # Errors
+    /// As [`trace`](Self::trace) and [`Control::run`](super::Control::run)
+    /// ([`Error::Interrupted`] when cancelled).
+    pub fn trace_with(
+        self,
+        control: &super::Control,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<BrdfResult, Error> {
+        control.run(|| self.trace(progress))
     }
 }
 

@@ -149,6 +149,9 @@ impl<'s> TraceJob<'s> {
             &self.blocks,
             progress,
         );
+        if crate::interrupt::cancelled() {
+            return Err(Error::Interrupted);
+        }
         let seconds = clock.elapsed().as_secs_f64();
         let n_surfaces = scene.object.surface_names.len();
         let (result, tallies) = if self.shard {
@@ -173,6 +176,23 @@ impl<'s> TraceJob<'s> {
             files,
             traced: Some((self.run, result)),
         })
+    }
+}
+
+impl TraceJob<'_> {
+    /// [`trace`](Self::trace) in-process under `control`: on the run's
+    /// own worker threads, stopped between photon batches by its cancel
+    /// token. The result does not depend on the threads.
+    ///
+    /// # Errors
+    /// As [`trace`](Self::trace) and [`Control::run`](super::Control::run)
+    /// ([`Error::Interrupted`] when cancelled).
+    pub fn trace_with(
+        self,
+        control: &super::Control,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<TraceResult, Error> {
+        control.run(|| self.trace(progress))
     }
 }
 

@@ -31,7 +31,36 @@ pub fn command<C: CommandFactory>() -> Command {
 /// # Errors
 /// The exit code to end the process with, its output printed.
 pub fn parse_args<C: CommandFactory + FromArgMatches>() -> Result<C, ExitCode> {
-    let args: Vec<OsString> = std::env::args_os().collect();
+    parse_args_from(std::env::args_os()).map_err(ExitCode::from)
+}
+
+/// The command line `args` (the program name first) parsed without
+/// printing: a bad argument gives the one line [`parse_args`] prints after
+/// `roks: `, `--help` and `--version` their text. The Python module checks
+/// its options of a scene this way, with the command line's messages.
+///
+/// # Errors
+/// The one-line message.
+pub fn try_parse<C: CommandFactory + FromArgMatches>(args: &[String]) -> Result<C, String> {
+    let cmd = command::<C>();
+    cmd.clone()
+        .try_get_matches_from(args)
+        .and_then(|mut m| C::from_arg_matches_mut(&mut m))
+        .map_err(|e| match e.kind() {
+            ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => e.to_string(),
+            _ => message(&cmd, &args[1.min(args.len())..], &e),
+        })
+}
+
+/// [`parse_args`] of `args` (the program name first, as
+/// [`std::env::args_os`] gives them).
+///
+/// # Errors
+/// As [`parse_args`], the exit status as a number (0 or 2).
+pub fn parse_args_from<C: CommandFactory + FromArgMatches>(
+    args: impl IntoIterator<Item = OsString>,
+) -> Result<C, u8> {
+    let args: Vec<OsString> = args.into_iter().collect();
     let cmd = command::<C>();
     let e = match cmd
         .clone()
@@ -45,7 +74,7 @@ pub fn parse_args<C: CommandFactory + FromArgMatches>() -> Result<C, ExitCode> {
         ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
             // A closed pipe (`roks --help | head`) is a clean end.
             let _ = e.print();
-            Err(ExitCode::SUCCESS)
+            Err(0)
         }
         _ => {
             let args: Vec<String> = args
@@ -59,7 +88,7 @@ pub fn parse_args<C: CommandFactory + FromArgMatches>() -> Result<C, ExitCode> {
                 let help = cmd.clone().render_help();
                 let _ = write!(std::io::stderr(), "\n{help}");
             }
-            Err(ExitCode::from(2))
+            Err(2)
         }
     }
 }

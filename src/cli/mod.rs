@@ -42,10 +42,58 @@ pub mod render;
 pub mod stats;
 pub mod trace;
 
+use std::ffi::OsString;
 use std::fmt;
 use std::process::ExitCode;
 
 use crate::scene::SceneError;
+use args::{Cli, Command};
+
+/// Run the command line `args` (the program name first, as
+/// [`std::env::args_os`] gives them) as the `roks` binary does, and return
+/// its exit status: 0 success; 2 bad input (scene file or arguments: one
+/// line on stderr naming the file and key, nothing written); 1 other
+/// failures (I/O); 130 interrupted. The binary and the Python package's
+/// `roks` command both call this.
+///
+/// It installs the interrupt handler ([`crate::interrupt::install`]) and
+/// names the running command for the records of result folders: call it
+/// once per process, from a command-line entry point only.
+pub fn run(args: impl IntoIterator<Item = OsString>) -> u8 {
+    let cli = match messages::parse_args_from::<Cli>(args) {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
+    if let Err(e) = crate::limits::max_memory() {
+        eprintln!("roks: {e}");
+        return 2;
+    }
+    crate::outdir::set_command(cli.command.name());
+    if let Err(e) = crate::interrupt::install() {
+        eprintln!("roks: cannot handle interrupts: {e}");
+        return 1;
+    }
+    let result = match cli.command {
+        Command::Brdf(a) => brdf::execute(a),
+        Command::Stats(a) => stats::execute(a),
+        Command::Trace(a) => trace::execute(a),
+        Command::Fit(a) => fit::execute(a),
+        Command::ExportMesh(a) => export_mesh::execute(a),
+        Command::ExportHeightfield(a) => export_heightfield::execute(a),
+        Command::Render(a) => render::execute(a),
+        Command::Merge(a) => merge::execute(a),
+        Command::ExportBrdf(a) => export_brdf::execute(a),
+        Command::FitModel(a) => fit_model::execute(a),
+        Command::Plot(a) => plot::execute(a),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(failure) => {
+            eprintln!("roks: {failure}");
+            failure.status()
+        }
+    }
+}
 
 /// Why a command failed, by exit status.
 #[derive(Debug)]
@@ -61,9 +109,15 @@ impl Failure {
     /// The exit status of the process: 2 for bad input, 1 otherwise.
     #[must_use]
     pub fn exit_code(&self) -> ExitCode {
+        ExitCode::from(self.status())
+    }
+
+    /// [`exit_code`](Self::exit_code) as a number: 2 or 1.
+    #[must_use]
+    pub fn status(&self) -> u8 {
         match self {
-            Self::Input(_) => ExitCode::from(2),
-            Self::Other(_) => ExitCode::from(1),
+            Self::Input(_) => 2,
+            Self::Other(_) => 1,
         }
     }
 }

@@ -180,6 +180,15 @@ pub fn read(path: &Path) -> Result<HeightGrid, HeightMapError> {
         Format::Png => read_png(&bytes)?,
         Format::Text => read_text(&bytes)?,
     };
+    check(grid)
+}
+
+/// The checks of every height grid read ([`read`]) or given as an array:
+/// at least 2 x 2 samples, every height finite.
+///
+/// # Errors
+/// [`HeightMapError::TooSmall`] or [`HeightMapError::NotFinite`].
+pub fn check(grid: HeightGrid) -> Result<HeightGrid, HeightMapError> {
     if grid.nx < 2 || grid.ny < 2 {
         return Err(HeightMapError::TooSmall {
             nx: grid.nx,

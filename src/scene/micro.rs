@@ -256,6 +256,27 @@ pub struct HeightFieldSpec {
     pub pixel: Option<f64>,
     /// File: length units per file height unit.
     pub height_scale: Option<f64>,
+    /// The heights given as an array in place of `file`'s
+    /// ([`MicroScene::from_str_map`]); `file` then names it in messages.
+    #[serde(skip)]
+    pub array: Option<heightfield_io::HeightGrid>,
+}
+
+/// The name of a height map given as an array
+/// ([`MicroScene::from_str_map`]) in messages: `surface.heightfield.file`'s
+/// value.
+pub const HEIGHT_MAP_ARRAY: &str = "<height map array>";
+
+/// A height map given as an array (the Python module's numpy array), laid
+/// out as a height-map file is ([`crate::micro::heightfield_io`]): `nx` x
+/// `ny` heights (length units), row-major, row `j` at `y = j pixel` and
+/// column `i` at `x = i pixel`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeightMapArray {
+    /// The heights.
+    pub grid: heightfield_io::HeightGrid,
+    /// The grid pitch (length units): `surface.heightfield.pixel`.
+    pub pixel: f64,
 }
 
 /// `gaussian = { sigma, tau }` (length units).
@@ -706,13 +727,24 @@ impl MicroScene {
     /// Load a scene file with `overrides` laid over its keys before it is
     /// built (its materials are sampled at overriding wavelengths).
     pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Self, BuildError> {
+        Self::load_map(path, overrides, None)
+    }
+
+    /// [`MicroScene::load_with`] with a height map given as an array
+    /// ([`MicroScene::from_str_map`]).
+    pub fn load_map(
+        path: &Path,
+        overrides: &Overrides,
+        map: Option<&HeightMapArray>,
+    ) -> Result<Self, BuildError> {
         let text = super::read_scene_text(path)?;
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-        let mut scene = Self::from_str_with(
+        let mut scene = Self::from_str_map(
             &text,
             SceneFile::from_path(path),
             name.unwrap_or_default(),
             overrides,
+            map,
         )?;
         scene.reads.insert(0, path.to_path_buf());
         Ok(scene)
@@ -750,6 +782,25 @@ impl MicroScene {
         fallback_name: String,
         overrides: &Overrides,
     ) -> Result<Self, BuildError> {
+        Self::from_str_map(text, scene_file, fallback_name, overrides, None)
+    }
+
+    /// [`MicroScene::from_str_with`], and with `map` (when given) as the
+    /// surface's height field: `[surface] heightfield = { file, pixel }`
+    /// with the heights of the array in place of the file's (file named
+    /// [`HEIGHT_MAP_ARRAY`]), replacing the scene's own height field and
+    /// checked exactly as such a key is (the grid, the cell it makes with
+    /// `[surface] size`, and no `[[bumps]]`, `[[bodies]]` nor
+    /// `[quadrics]` beside it). Its content hash
+    /// (`surface.heightfield.file`) is that of the grid's dimensions and
+    /// heights (little-endian `u64` nx, ny, then `f64` heights).
+    pub fn from_str_map(
+        text: &str,
+        scene_file: SceneFile,
+        fallback_name: String,
+        overrides: &Overrides,
+        map: Option<&HeightMapArray>,
+    ) -> Result<Self, BuildError> {
         let mut spec: MicroSceneSpec = parse_toml(&scene_file, text)
             .map_err(|e| super::other_kind(text, "cells", e, "an object scene ([[cells]]): roks trace traces it; this command takes micro scenes ([surface])"))?;
         if *overrides != Overrides::default() {
@@ -762,22 +813,48 @@ impl MicroScene {
         }
         overrides.apply(&mut spec);
         spec.light.zero_signs();
+        if let Some(m) = map {
+            spec.surface.heightfield = Some(HeightFieldSpec {
+                gaussian: None,
+                resolution: None,
+                seed: None,
+                file: Some(HEIGHT_MAP_ARRAY.into()),
+                pixel: Some(m.pixel),
+                height_scale: None,
+                array: Some(m.grid.clone()),
+            });
+        }
         let files = spec.files();
         let mut scene = spec
             .build(scene_file, fallback_name)
             .map_err(|e| overrides.blame(e))?;
         scene.content = Content::of(&scene.scene_file, text, &files)?;
+        if let Some(m) = map {
+            scene
+                .content
+                .files
+                .insert("surface.heightfield.file".into(), array_sha256(&m.grid));
+        }
         scene.reads = scene.scene_file.paths(&files);
         Ok(scene)
     }
 
     /// The embedded default scene with `overrides`.
     pub fn default_with(overrides: &Overrides) -> Result<Self, BuildError> {
+        Self::default_map(overrides, None)
+    }
+
+    /// The embedded default scene with `overrides` and a height map given
+    /// as an array ([`MicroScene::from_str_map`]).
+    pub fn default_map(
+        overrides: &Overrides,
+        map: Option<&HeightMapArray>,
+    ) -> Result<Self, BuildError> {
         let scene_file = SceneFile {
             file: super::source::DEFAULT_SCENE.into(),
             dir: ".".into(),
         };
-        Self::from_str_with(DEFAULT_SCENE, scene_file, "default".into(), overrides)
+        Self::from_str_map(DEFAULT_SCENE, scene_file, "default".into(), overrides, map)
     }
 }
 
@@ -794,6 +871,7 @@ impl MicroSceneSpec {
             .surface
             .heightfield
             .as_ref()
+            .filter(|h| h.array.is_none())
             .and_then(|h| h.file.as_ref())
         {
             files.push(("surface.heightfield.file".into(), f.clone()));
@@ -1152,6 +1230,23 @@ fn check_size(scene_file: &SceneFile, [lx, ly]: [f64; 2]) -> Result<DVec2, Scene
     Ok(DVec2::new(lx, ly))
 }
 
+/// SHA-256 (lower-case hex) of a height map given as an array: its
+/// dimensions and heights, little-endian (`u64` nx, ny; `f64` heights).
+fn array_sha256(grid: &heightfield_io::HeightGrid) -> String {
+    use sha2::Digest as _;
+    let mut hasher = sha2::Sha256::new();
+    hasher.update((grid.nx as u64).to_le_bytes());
+    hasher.update((grid.ny as u64).to_le_bytes());
+    for z in &grid.h {
+        hasher.update(z.to_le_bytes());
+    }
+    hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
 impl HeightFieldSpec {
     /// Synthesise or load the field; `size`: the checked `[surface] size`, if given.
     fn build(
@@ -1278,7 +1373,11 @@ impl HeightFieldSpec {
             "gaussian fields",
         )?;
         Self::refuse(scene_file, "seed", self.seed.is_some(), "gaussian fields")?;
-        let path = scene_file.dir.join(file);
+        // An array is named as given, not as a path in the scene's folder.
+        let path = match self.array {
+            Some(_) => PathBuf::from(file),
+            None => scene_file.dir.join(file),
+        };
         let format = Format::of(&path);
         let scale = match self.height_scale {
             Some(s) => Self::length(scene_file, "height_scale", s)?,
@@ -1301,15 +1400,19 @@ impl HeightFieldSpec {
             );
             scene_file.check_memory(&key("file"), &what, bytes)
         };
-        let (read_bytes, declared) =
-            heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
-        if let Some((nx, ny)) = declared {
-            check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
+        let grid = if let Some(grid) = &self.array {
+            heightfield_io::check(grid.clone()).map_err(file_error)?
         } else {
-            let what = format!("{}: reading the text height map", path.display());
-            scene_file.check_memory(&key("file"), &what, read_bytes)?;
-        }
-        let grid = heightfield_io::read(&path).map_err(file_error)?;
+            let (read_bytes, declared) =
+                heightfield_io::read_memory_bytes(&path).map_err(file_error)?;
+            if let Some((nx, ny)) = declared {
+                check(read_bytes.max(HeightField::memory_bytes(nx, ny)), (nx, ny))?;
+            } else {
+                let what = format!("{}: reading the text height map", path.display());
+                scene_file.check_memory(&key("file"), &what, read_bytes)?;
+            }
+            heightfield_io::read(&path).map_err(file_error)?
+        };
         let (nx, ny) = (grid.nx, grid.ny);
         check(HeightField::memory_bytes(nx, ny), (nx, ny))?;
         let size = self.map_size(scene_file, (nx, ny), size)?;

@@ -87,16 +87,22 @@ pub fn parallel_batches<T: Send>(
     let mut b0 = 0;
     while b0 < n_batches {
         let b1 = (b0 + chunk).min(n_batches);
-        let parts: Vec<T> = (b0..b1)
+        // A cancelled run (crate::interrupt::cancelled) stops between
+        // batches; its caller discards what was consumed.
+        let parts: Option<Vec<T>> = (b0..b1)
             .into_par_iter()
             .map(|b| {
+                if crate::interrupt::cancelled() {
+                    return None;
+                }
                 let range = b * BATCH..((b + 1) * BATCH).min(photons);
                 let n = range.end - range.start;
                 let t = trace(range);
                 progress(n);
-                t
+                Some(t)
             })
             .collect();
+        let Some(parts) = parts else { return };
         for (b, part) in (b0..b1).zip(parts) {
             consume(b, part);
         }
@@ -168,6 +174,9 @@ pub fn parallel_batches_ordered<E: Clone + Send + Sync, H: Clone + Send + Sync, 
             .map_init(
                 || (scratch(), Vec::with_capacity(PIECE)),
                 |(s, local), piece| {
+                    if crate::interrupt::cancelled() {
+                        return Vec::new();
+                    }
                     local.clear();
                     local.extend(piece.iter().map(|&i| entries[i as usize].clone()));
                     let h = local.iter().map(|e| trace(e, s)).collect();
@@ -176,6 +185,10 @@ pub fn parallel_batches_ordered<E: Clone + Send + Sync, H: Clone + Send + Sync, 
                 },
             )
             .collect();
+        // A cancelled run stops here, its pieces incomplete.
+        if crate::interrupt::cancelled() {
+            return;
+        }
         // Where each photon's history is in `pieces`.
         let mut at = vec![0_u32; sorted.len()];
         for (k, &i) in sorted.iter().enumerate() {
