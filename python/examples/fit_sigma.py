@@ -80,8 +80,7 @@ def scene_text(sigma: float, photons: int, seed: int) -> str:
 def inplane(result) -> tuple[np.ndarray, np.ndarray]:
     """The in-plane BRDF (1/sr) and its standard error of every incidence,
     as one flat vector each (incidences one after another)."""
-    ip = result.inplane
-    return np.ravel(ip.brdf), np.ravel(ip.brdf_stderr)
+    return np.ravel(result.inplane), np.ravel(result.inplane_stderr)
 
 
 def brdf_in_process(sigma: float, photons: int, seed: int):

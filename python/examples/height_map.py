@@ -62,9 +62,9 @@ slope = np.sqrt(np.mean(np.diff(heights, axis=1, append=heights[:, :1]) ** 2
                         + np.diff(heights, axis=0, append=heights[:1, :]) ** 2)) / pixel
 print(f"numpy: sigma {np.sqrt(np.mean(heights**2)):.6f}, RMS slope {slope:.4f} "
       f"(2 sigma / tau = {2 * args.sigma / args.tau:.4f})")
-print(f"roks.stats: sigma {s.sigma:.6f}, tau {s.tau:.3f}, RMS slope {s.rms_slope:.4f}")
-if abs(s.sigma - args.sigma) > 1e-6 * args.sigma:
-    sys.exit(f"roks.stats gives sigma {s.sigma}, the array {args.sigma}")
+print(f"roks.stats: sigma {s['sigma']:.6f}, tau {s['tau']:.3f}, RMS slope {s['rms_slope']:.4f}")
+if abs(s["sigma"] - args.sigma) > 1e-6 * args.sigma:
+    sys.exit(f"roks.stats gives sigma {s['sigma']}, the array {args.sigma}")
 
 r = roks.brdf(scene)
 for i, theta in enumerate(r.theta_deg):

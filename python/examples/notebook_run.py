@@ -40,12 +40,11 @@ R, dR = result.reflectance, result.reflectance_stderr
 for i, theta in enumerate(result.theta_deg):
     print(f"theta {theta:4.0f} deg: R = {R[i, 0, 0]:.4f} +- {dR[i, 0, 0]:.1e}")
 
-# --- cell 4: the in-plane BRDF of each incidence
-ip = result.inplane
+# --- cell 4: the in-plane BRDF of each incidence, (incidence, azimuth, wavelength, exit angle)
 fig, ax = plt.subplots(figsize=(6, 4))
 for i, theta in enumerate(result.theta_deg):
-    b, se = ip.brdf[i, 0, 0], ip.brdf_stderr[i, 0, 0]
-    ax.errorbar(ip.theta_o_deg, b, yerr=se, fmt=".-", ms=3, lw=0.8, label=f"{theta:g} deg")
+    b, se = result.inplane[i, 0, 0], result.inplane_stderr[i, 0, 0]
+    ax.errorbar(result.inplane_theta_deg, b, yerr=se, fmt=".-", ms=3, lw=0.8, label=f"{theta:g} deg")
 ax.set_xlabel("theta_o (deg, negative: towards the source)")
 ax.set_ylabel("BRDF (1/sr)")
 ax.set_yscale("log")
@@ -54,4 +53,4 @@ ax.set_title(f"{scene.name}: in-plane BRDF, {args.photons} photons per angle")
 fig.tight_layout()
 fig.savefig(args.out, dpi=100)
 print(f"wrote {args.out}: in-plane BRDF of {len(result.theta_deg)} incidences, "
-      f"largest {np.nanmax(ip.brdf):.3g} 1/sr")
+      f"largest {np.nanmax(result.inplane):.3g} 1/sr")
