@@ -167,3 +167,35 @@ def test_read_columns_any_header(tmp_path):
     cols = read_columns(p)
     assert list(cols) == ["a", "b"] and cols["b"].tolist() == [2.5, 1e-3]
     assert math.isclose(cols["a"].sum(), 4.0)
+
+
+def test_roks_load_agrees_with_these_readers(brdf_runs):
+    """`roks.load` (the module's result type, roks's own reader) against
+    these readers, written apart from it, on the same folders: every array
+    the same to the bit, on the result tree's axes."""
+    roks = pytest.importorskip("roks")
+    for name in ("plain", "mueller", "stokes"):
+        d = brdf_runs / name
+        r, t = roks.load(d), BrdfResult.load(d)
+        assert r.shape[:3] == (len(t.summary.incidence), 1, 1)
+        assert r.shape[3] == t.brdf.grid.n_cells
+        for i, e in enumerate(t.summary.incidence):
+            assert r.theta_deg[i] == e.theta_deg and r.phi_deg[0] == e.phi_deg
+            assert r.reflectance[i, 0, 0] == e.reflectance
+            assert r.reflectance_stderr[i, 0, 0] == e.reflectance_stderr
+            b = t.brdf.at(e.theta_deg)
+            for col in ("brdf", "brdf_stderr", "fraction"):
+                assert np.array_equal(getattr(r, col)[i, 0, 0], getattr(b, col)), (name, col)
+            ip = t.inplane.at(e.theta_deg)
+            assert np.array_equal(r.inplane[i, 0, 0], ip.brdf) and np.array_equal(r.inplane_theta_deg, ip.theta_o_deg)
+            assert np.array_equal(r.inplane_stderr[i, 0, 0], ip.brdf_stderr)
+        for col in ("theta_deg", "phi_deg", "theta_lo_deg", "theta_hi_deg", "phi_lo_deg", "phi_hi_deg",
+                    "solid_angle_sr", "projected_solid_angle_sr"):
+            assert np.array_equal(getattr(r.cells, col), getattr(b, col)), col
+        polar = {"mueller": (r.mueller, r.mueller_stderr), "stokes": (r.stokes, r.stokes_stderr)}.get(name)
+        if polar is None:
+            assert r.mueller is None and r.stokes is None and t.polar is None
+        else:
+            n = t.polar.values.shape[1]
+            assert np.array_equal(polar[0].reshape(-1, n), t.polar.values)
+            assert np.array_equal(polar[1].reshape(-1, n), t.polar.stderr)
