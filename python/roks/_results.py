@@ -79,7 +79,7 @@ def _description(summary: dict[str, Any]) -> Description:
     pol = r.pop("polarisation")
     run = Run(
         theta_deg=tuple(r["theta_deg"]),
-        phi_deg=tuple(r["phi_deg"]),
+        phi_deg=tuple(np.atleast_1d(r["phi_deg"]).tolist()),  # a number when the run has one azimuth
         wavelengths_um=tuple(r.get("wavelengths_um") or ()),
         photons_per_incidence=r["photons_per_incidence"],
         seed=r["seed"],
@@ -184,7 +184,7 @@ class BrdfResult:
     @property
     def phi_deg(self) -> np.ndarray:
         """Axis 1: the light azimuths (degrees)."""
-        return np.array(self.summary["run"]["phi_deg"], dtype=float)
+        return np.atleast_1d(np.array(self.summary["run"]["phi_deg"], dtype=float))  # summary.json: a number for one
 
     @property
     def wavelengths_um(self) -> np.ndarray:
