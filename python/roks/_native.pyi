@@ -2,7 +2,22 @@
 Rust source: python/src/lib.rs). Use the package `roks`, which wraps it
 with numpy."""
 
-from typing import Callable, Optional
+from typing import Callable, Optional, final
+
+__all__ = [
+    "__version__",
+    "RoksError",
+    "SceneError",
+    "InputError",
+    "OptionError",
+    "OutputError",
+    "MicroScene",
+    "ObjectScene",
+    "BrdfResult",
+    "TraceResult",
+    "main",
+    "is_trace_folder",
+]
 
 __version__: str
 
@@ -21,8 +36,9 @@ class OptionError(InputError):
 class OutputError(RoksError):
     """An output that cannot be written where asked."""
 
-Progress = Optional[Callable[[int, int], None]]
+_Progress = Optional[Callable[[int, int], None]]
 
+@final
 class MicroScene:
     @staticmethod
     def load(
@@ -44,9 +60,10 @@ class MicroScene:
         self,
         threads: Optional[int] = None,
         stats_resolution: Optional[int] = None,
-        progress: Progress = None,
+        progress: _Progress = None,
     ) -> BrdfResult: ...
 
+@final
 class ObjectScene:
     @staticmethod
     def load(path: str, args: list[str] = ...) -> ObjectScene: ...
@@ -54,8 +71,9 @@ class ObjectScene:
     def name(self) -> str: ...
     @property
     def file(self) -> str: ...
-    def trace(self, threads: Optional[int] = None, progress: Progress = None) -> TraceResult: ...
+    def trace(self, threads: Optional[int] = None, progress: _Progress = None) -> TraceResult: ...
 
+@final
 class BrdfResult:
     @staticmethod
     def read(dir: str) -> BrdfResult: ...
@@ -68,6 +86,7 @@ class BrdfResult:
     def files(self) -> list[tuple[str, bytes]]: ...
     def write(self, out: str, force: bool = False) -> None: ...
 
+@final
 class TraceResult:
     @staticmethod
     def read(dir: str) -> TraceResult: ...
