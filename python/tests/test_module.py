@@ -305,3 +305,34 @@ def test_the_console_command_is_the_binarys_command_line(roks_bin, tmp_path):
     # Bad input: the same line and status.
     a, b = cli(exe, "brdf", "--seed", "-1"), cli(roks_bin, "brdf", "--seed", "-1")
     assert (a.returncode, a.stderr) == (b.returncode, b.stderr) == (2, b.stderr)
+
+
+def test_exports_and_fits_are_the_command_lines(roks_bin, tmp_path):
+    args = ["--photons", "4096", "--theta", "20,50", "--stats-resolution", "16", "-q"]
+    p = cli(roks_bin, "brdf", *args, "--export", "zemax", "--out", str(tmp_path / "cli"))
+    assert p.returncode == 0, p.stderr
+    traced = roks.brdf(roks.Scene.load().override(photons=4096, theta_deg=[20, 50]), stats_resolution=16)
+    e = traced.export("zemax")
+    # As `roks brdf --export zemax` makes it, with its checks as values.
+    assert e.files == {"brdf.bsdf": (tmp_path / "cli/brdf.bsdf").read_bytes()}
+    assert [c.theta_i_deg for c in e.checks] == [20.0, 50.0]
+    assert all(c.table == pytest.approx(r, abs=0) for c, r in zip(e.checks, traced.reflectance.ravel()))
+    # A loaded result as `roks export-brdf` makes it, written where asked.
+    loaded = roks.load(tmp_path / "cli")
+    loaded.export("zemax", tmp_path / "py.bsdf")
+    p = cli(roks_bin, "export-brdf", str(tmp_path / "cli"), "--format", "zemax",
+            "--out", str(tmp_path / "cli.bsdf"), "-q")
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "py.bsdf").read_bytes() == (tmp_path / "cli.bsdf").read_bytes()
+    with pytest.raises(roks.OptionError, match="--format"):
+        loaded.export("nonsense")
+    # A fit: the JSON roks fit-model writes, as a value.
+    fit = loaded.fit_model("abg")
+    p = cli(roks_bin, "fit-model", str(tmp_path / "cli"), "--model", "abg", "-q")
+    assert p.returncode == 0, p.stderr
+    assert fit.results["fit_abg.json"] == json.loads((tmp_path / "cli/fit_abg.json").read_text())
+    assert not (tmp_path / "cli/fit_abg.png").exists() or fit.files["fit_abg.png"]
+    traced_fit = traced.fit_model("abg")
+    a, b = traced_fit.results["fit_abg.json"], fit.results["fit_abg.json"]
+    a.pop("table"), b.pop("table")
+    assert a == b
