@@ -303,11 +303,11 @@ fn run<R: Send>(
     let finished = AtomicBool::new(false);
     std::thread::scope(|s| {
         let handle = s.spawn(|| {
-            let r = work(&control, &|n| {
+            // Set when the work ends, by a return or a panic.
+            let _end = Finished(&finished);
+            work(&control, &|n| {
                 done.fetch_add(n, Ordering::Relaxed);
-            });
-            finished.store(true, Ordering::Release);
-            r
+            })
         });
         let mut shown = 0;
         let stop = |e: PyErr| {
@@ -347,6 +347,15 @@ fn run<R: Send>(
             )),
         }
     })
+}
+
+/// Sets its flag when dropped: a run's end, returned or panicked.
+struct Finished<'a>(&'a AtomicBool);
+
+impl Drop for Finished<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Release);
+    }
 }
 
 /// Wait for a cancelled run to end.
@@ -557,8 +566,8 @@ fn export_values(
         (Some(folder), Some(scene), _) => {
             let photons = r.result.run().photon_range();
             let comment = api::export_comment(&scene.name, photons.end - photons.start);
-            let export = export_folder(folder, &[a.format], &comment, &scene.surfaces())
-                .map_err(input)?;
+            let export =
+                export_folder(folder, &[a.format], &comment, &scene.surfaces()).map_err(input)?;
             (export, PathBuf::from("brdf.csv"))
         }
         (_, _, Some(dir)) => {
@@ -593,7 +602,11 @@ fn export_values(
 
 /// The files and lines of `roks fit-model --model MODEL ARGS` on `r`'s
 /// table, nothing written.
-fn fit(r: &BrdfResult, model: &str, args: Vec<String>) -> PyResult<(Vec<(String, Vec<u8>)>, Vec<String>)> {
+fn fit(
+    r: &BrdfResult,
+    model: &str,
+    args: Vec<String>,
+) -> PyResult<(Vec<(String, Vec<u8>)>, Vec<String>)> {
     use roks::fit_model::material::MaterialOptions;
     use roks::fit_model::one::{Request, RunError};
     let mut temp = None;
@@ -644,7 +657,9 @@ fn fit(r: &BrdfResult, model: &str, args: Vec<String>) -> PyResult<(Vec<(String,
         .files
         .iter()
         .map(|(p, b)| {
-            let name = p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            let name = p
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
             (name, b.clone())
         })
         .collect();
