@@ -281,6 +281,209 @@ fn write_folder(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::{Duration, Instant};
+
+    /// A height-field scene reading `map.txt` beside it.
+    const MAP_SCENE: &str = r#"
+name = "measured"
+[materials.metal]
+kind = "lambertian"
+albedo = 0.8
+[surface]
+material = "metal"
+heightfield = { file = "map.txt", pixel = 0.25 }
+[light]
+photons = 4096
+theta_deg = [20]
+"#;
+
+    fn temp_dir(tag: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("roks-api-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// A 16 x 12 map of heights that a text file holds exactly.
+    fn grid() -> HeightGrid {
+        let (nx, ny) = (16, 12);
+        let h = (0..nx * ny)
+            .map(|k| ((k * 37 % 23) as f64 - 11.0) * 0.0125)
+            .collect();
+        HeightGrid { nx, ny, h }
+    }
+
+    fn brdf_column(scene: &MicroScene) -> Vec<f64> {
+        let options = BrdfOptions {
+            stats_resolution: Some(16),
+            ..BrdfOptions::default()
+        };
+        let r = BrdfJob::new(scene, &options)
+            .unwrap()
+            .trace(&|_| {})
+            .unwrap();
+        r.brdf().unwrap().column("brdf").unwrap().to_vec()
+    }
+
+    #[test]
+    fn a_height_map_array_is_its_file() {
+        let dir = temp_dir("array");
+        let g = grid();
+        let text: String =
+            g.h.chunks(g.nx)
+                .map(|row| row.iter().map(|z| format!("{z:?} ")).collect::<String>() + "\n")
+                .collect();
+        std::fs::write(dir.join("map.txt"), text).unwrap();
+        std::fs::write(dir.join("s.toml"), MAP_SCENE).unwrap();
+        let o = Overrides::default();
+        let from_file = load_micro(Some(&dir.join("s.toml")), &o).unwrap();
+        // Scene text: map.txt resolves against the base dir.
+        let source = MicroSource::Text {
+            text: MAP_SCENE,
+            base_dir: &dir,
+        };
+        let from_text = load_micro_from(&source, &o, None).unwrap();
+        assert_eq!(from_text.scene_file.file, SCENE_TEXT);
+        let map = HeightMapArray {
+            grid: g.clone(),
+            pixel: 0.25,
+        };
+        let from_array = load_micro_from(&source, &o, Some(&map)).unwrap();
+        let traced = brdf_column(&from_file);
+        assert_eq!(brdf_column(&from_text), traced);
+        assert_eq!(brdf_column(&from_array), traced);
+        // Mirrored, it is another surface.
+        let mut m = map.clone();
+        m.grid.h =
+            g.h.chunks(g.nx)
+                .flat_map(|r| r.iter().rev().copied())
+                .collect();
+        let mirrored = load_micro_from(&source, &o, Some(&m)).unwrap();
+        assert_ne!(brdf_column(&mirrored), traced);
+        // Checked as the file's key is, the array named in place of it.
+        m.grid = HeightGrid {
+            nx: 3,
+            ny: 1,
+            h: vec![0.0; 3],
+        };
+        let e = load_micro_from(&source, &o, Some(&m)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "<scene text>: surface.heightfield.file: <height map array>: 3 x 1 heights: need at least 2 x 2"
+        );
+        m.grid = g.clone();
+        m.grid.h[17] = f64::NAN;
+        let e = load_micro_from(&source, &o, Some(&m)).unwrap_err();
+        assert!(
+            e.to_string()
+                .ends_with("<height map array>: height at row 1, column 1 is not finite"),
+            "{e}"
+        );
+        let e = load_micro_from(&MicroSource::Default, &o, Some(&map)).unwrap_err();
+        assert!(e.to_string().starts_with("<default scene>: "), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_threads_of_a_run_do_not_change_its_result() {
+        let o = Overrides {
+            photons: Some(3 * 4096),
+            theta_deg: Some(vec![40.0]),
+            ..Overrides::default()
+        };
+        let scene = load_micro(None, &o).unwrap();
+        let options = BrdfOptions {
+            stats_resolution: Some(16),
+            ..BrdfOptions::default()
+        };
+        let run = |threads| {
+            let control = Control {
+                threads: Some(threads),
+                cancel: None,
+            };
+            let r = BrdfJob::new(&scene, &options)
+                .unwrap()
+                .trace_with(&control, &|_| {})
+                .unwrap();
+            r.brdf().unwrap().column("brdf").unwrap().to_vec()
+        };
+        assert_eq!(run(1), run(3));
+        let zero = Control {
+            threads: Some(0),
+            cancel: None,
+        };
+        let e = zero.run(|| Ok(())).unwrap_err();
+        assert!(e.to_string().starts_with("--threads: "), "{e}");
+    }
+
+    /// Cancel `control`'s token after `after`, and time the run from then.
+    fn stopped_within<R: Send>(
+        control: &Control,
+        after: Duration,
+        run: impl FnOnce() -> Result<R, Error> + Send,
+    ) -> (Result<R, Error>, Duration) {
+        let token = control.cancel.clone().unwrap();
+        std::thread::scope(|s| {
+            let t = s.spawn(move || {
+                std::thread::sleep(after);
+                token.cancel();
+                Instant::now()
+            });
+            let r = run();
+            let end = Instant::now();
+            let cancelled = t.join().unwrap();
+            (r, end.saturating_duration_since(cancelled))
+        })
+    }
+
+    #[test]
+    fn a_cancelled_micro_run_stops_within_a_second() {
+        let o = Overrides {
+            photons: Some(200_000_000),
+            theta_deg: Some(vec![30.0]),
+            ..Overrides::default()
+        };
+        let scene = load_micro(None, &o).unwrap();
+        let options = BrdfOptions {
+            stats_resolution: Some(16),
+            ..BrdfOptions::default()
+        };
+        let control = Control {
+            threads: Some(2),
+            cancel: Some(Cancel::new()),
+        };
+        let job = BrdfJob::new(&scene, &options).unwrap();
+        let (r, latency) = stopped_within(&control, Duration::from_millis(300), || {
+            job.trace_with(&control, &|_| {})
+        });
+        assert!(matches!(r, Err(Error::Interrupted)), "{r:?}");
+        assert!(latency < Duration::from_secs(1), "{latency:?}");
+        assert_eq!(
+            Error::Interrupted.to_string(),
+            "interrupted: nothing written"
+        );
+        assert!(!Error::Interrupted.is_input());
+    }
+
+    #[test]
+    fn a_cancelled_object_run_stops_within_a_second() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let scene = load_object(&root.join("scenes/cylinder-cavity.toml"), None).unwrap();
+        let options = TraceOptions {
+            photons: Some(100_000_000),
+            ..TraceOptions::default()
+        };
+        let control = Control {
+            threads: Some(2),
+            cancel: Some(Cancel::new()),
+        };
+        let job = TraceJob::new(&scene, &options).unwrap();
+        let (r, latency) = stopped_within(&control, Duration::from_millis(300), || {
+            job.trace_with(&control, &|_| {})
+        });
+        assert!(matches!(r, Err(Error::Interrupted)), "{r:?}");
+        assert!(latency < Duration::from_secs(1), "{latency:?}");
+    }
 
     #[test]
     fn grids_for_statistics() {

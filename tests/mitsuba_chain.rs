@@ -72,7 +72,7 @@ fn python() -> Option<PathBuf> {
         && Command::new(&py)
             .args([
                 "-c",
-                "import mitsuba, drjit, numpy, matplotlib, pytest, roks_tools",
+                "import mitsuba, drjit, numpy, matplotlib, pytest, roks_tools, roks._native",
             ])
             .output()
             .is_ok_and(|o| o.status.success());
@@ -81,12 +81,12 @@ fn python() -> Option<PathBuf> {
         Some(py)
     } else if required {
         panic!(
-            "ROKS_REQUIRE_MITSUBA=1 but {} cannot import mitsuba, pytest and roks_tools: run scripts/setup_venv.sh",
+            "ROKS_REQUIRE_MITSUBA=1 but {} cannot import mitsuba, pytest, roks_tools and roks: run scripts/setup_venv.sh",
             py.display()
         );
     } else {
         eprintln!(
-            "mitsuba_chain: skipped: {} cannot import mitsuba, pytest and roks_tools (run scripts/setup_venv.sh)",
+            "mitsuba_chain: skipped: {} cannot import mitsuba, pytest, roks_tools and roks (run scripts/setup_venv.sh)",
             py.display()
         );
         None

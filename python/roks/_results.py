@@ -151,6 +151,54 @@ class Selection:
     """(cells, 4) when tallied."""
 
 
+@dataclasses.dataclass(frozen=True)
+class ExportCheck:
+    """The read-back check of one exported file at one incidence: the
+    file's reflectance beside the table's (and the table's standard
+    error)."""
+
+    what: str
+    """The format, with the wavelength or channel (`zemax (0.55 um)`)."""
+    theta_i_deg: float
+    phi_i_deg: float | None
+    table: float
+    file: float
+    table_stderr: float
+
+    @property
+    def sigmas(self) -> float:
+        """|file - table| in standard errors of the table."""
+        d = abs(self.file - self.table)
+        return d / self.table_stderr if self.table_stderr > 0 else (0.0 if d == 0 else float("inf"))
+
+
+@dataclasses.dataclass(frozen=True)
+class Export:
+    """An export of a BRDF table (`BrdfResult.export`)."""
+
+    format: str
+    files: dict[str, bytes]
+    """The files, by their names beside brdf.csv."""
+    checks: list[ExportCheck]
+    notices: list[str]
+    """The notes and warnings the command line prints."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelFit:
+    """A model fitted to a BRDF table (`BrdfResult.fit_model`)."""
+
+    model: str
+    results: dict[str, Any]
+    """The JSON documents `roks fit-model` writes, by file name
+    (`fit_abg.json`: parameters, the verdict, warnings; `fit_summary.json`
+    for "all")."""
+    lines: list[str]
+    """The lines the command line prints: warnings, then the verdict."""
+    files: dict[str, bytes]
+    """Every file `roks fit-model` would write (JSON, plot, OpticStudio text)."""
+
+
 class BrdfResult:
     """The result of a BRDF run of a micro scene (`roks.brdf`), or read
     back from its folder (`roks.load`): the same arrays either way.
@@ -371,6 +419,61 @@ class BrdfResult:
             mueller=None if mu is None else mu[i, j, k].copy(),
             stokes=None if st is None else st[i, j, k].copy(),
         )
+
+    # -- exports and fits ------------------------------------------------
+    def export(
+        self,
+        format: str,
+        path: str | os.PathLike[str] | None = None,
+        force: bool = False,
+        grid: str | None = None,
+        rgb: bool = False,
+    ) -> "Export":
+        """The table exported in `format` ("zemax", "merl", "rgl",
+        "pbsdf"; as `roks brdf --export` for a traced result, `roks
+        export-brdf` for a loaded one), each file read back by its reader
+        and its reflectance checked against the table's. Written to `path`
+        when given (one file, or a folder of per-wavelength files), after
+        the checks of `--out`. `grid` is `--grid` (Zemax), `rgb` `--rgb`
+        (RGL). Raises roks.InputError when the format cannot hold the
+        table."""
+        args: list[str] = []
+        if grid is not None:
+            args += ["--grid", grid]
+        if rgb:
+            args.append("--rgb")
+        files, checks, notices = self._native.export(
+            format, None if path is None else str(path), force, args
+        )
+        return Export(
+            format=format,
+            files=dict(files),
+            checks=[ExportCheck(*c) for c in checks],
+            notices=list(notices),
+        )
+
+    def fit_model(
+        self,
+        model: str,
+        n: float | None = None,
+        k: float | None = None,
+        reflectance: float | None = None,
+        wavelength_um: float | None = None,
+    ) -> "ModelFit":
+        """An analytic BRDF model fitted to the table, as `roks fit-model
+        --model MODEL` fits it ("abg", "harvey", "ggx", ... or "all"),
+        writing nothing: the fitted parameters, the fit's verdict and its
+        warnings as values. `n`, `k`, `reflectance`, `wavelength_um` are
+        its options `--n`, `--k`, `--reflectance`, `--wavelength`."""
+        args: list[str] = []
+        for flag, v in (("--n", n), ("--k", k), ("--reflectance", reflectance),
+                        ("--wavelength", wavelength_um)):
+            if v is not None:
+                args.append(f"{flag}={float(v)!r}")
+        files, lines = self._native.fit_model(model, args)
+        files = dict(files)
+        docs = {name: json.loads(b) for name, b in files.items() if name.endswith(".json")}
+        return ModelFit(model=model, results=docs, lines=list(lines), files=files)
 
     # -- files -----------------------------------------------------------
     def file(self, name: str) -> bytes | None:

@@ -206,7 +206,11 @@ impl MicroScene {
         let result = run(py, threads, total, progress.as_ref(), move |c, p| {
             job.trace_with(c, p)
         })?;
-        Ok(BrdfResult { result })
+        Ok(BrdfResult {
+            result,
+            scene: Some(self.scene.clone()),
+            dir: None,
+        })
     }
 }
 
@@ -299,11 +303,11 @@ fn run<R: Send>(
     let finished = AtomicBool::new(false);
     std::thread::scope(|s| {
         let handle = s.spawn(|| {
-            let r = work(&control, &|n| {
+            // Set when the work ends, by a return or a panic.
+            let _end = Finished(&finished);
+            work(&control, &|n| {
                 done.fetch_add(n, Ordering::Relaxed);
-            });
-            finished.store(true, Ordering::Release);
-            r
+            })
         });
         let mut shown = 0;
         let stop = |e: PyErr| {
@@ -345,6 +349,15 @@ fn run<R: Send>(
     })
 }
 
+/// Sets its flag when dropped: a run's end, returned or panicked.
+struct Finished<'a>(&'a AtomicBool);
+
+impl Drop for Finished<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Release);
+    }
+}
+
 /// Wait for a cancelled run to end.
 fn handle_wait(finished: &AtomicBool) {
     while !finished.load(Ordering::Acquire) {
@@ -368,10 +381,14 @@ fn columns(py: Python<'_>, t: &api::Table) -> Columns {
     (names, values)
 }
 
-/// A BRDF result: traced, or read back from its folder.
+/// A BRDF result: traced (with its scene), or read back from its folder.
 #[pyclass(frozen, module = "roks._native")]
 struct BrdfResult {
     result: api::BrdfResult,
+    /// The traced scene (for an export's NDF); None when read back.
+    scene: Option<Arc<api::MicroScene>>,
+    /// The folder it was read from; None when traced.
+    dir: Option<PathBuf>,
 }
 
 #[pymethods]
@@ -380,7 +397,97 @@ impl BrdfResult {
     #[staticmethod]
     fn read(py: Python<'_>, dir: PathBuf) -> PyResult<Self> {
         let result = py.detach(|| api::BrdfResult::read(&dir)).map_err(py_err)?;
-        Ok(Self { result })
+        Ok(Self {
+            result,
+            scene: None,
+            dir: Some(dir),
+        })
+    }
+
+    /// The export of the table in `format` (`roks export-brdf --format`;
+    /// `args`: its further options, `--grid`, `--scene`, `--rgb`): a traced
+    /// result as `roks brdf --export` makes it, a read one as `roks
+    /// export-brdf` does, read back and judged. Written to `out` when given
+    /// (one file, or a folder of several, checked as `--out` is). Returns
+    /// (files as (name, bytes), checks as (what, theta_i_deg, phi_i_deg,
+    /// table reflectance, file reflectance, table stderr), notices as the
+    /// lines the command line prints).
+    #[pyo3(signature = (format, out=None, force=false, args=Vec::new()))]
+    fn export(
+        &self,
+        py: Python<'_>,
+        format: &str,
+        out: Option<PathBuf>,
+        force: bool,
+        args: Vec<String>,
+    ) -> PyResult<ExportValues> {
+        let dir = self.dir.clone().unwrap_or_else(|| PathBuf::from("."));
+        let mut argv = vec![
+            dir.display().to_string(),
+            "--format".into(),
+            format.into(),
+            "--out".into(),
+            out.as_ref()
+                .map_or_else(|| "-".into(), |o| o.display().to_string()),
+        ];
+        argv.extend(args);
+        let a = match parse("export-brdf", None, argv)? {
+            Command::ExportBrdf(a) => a,
+            _ => unreachable!("roks export-brdf parses as export-brdf"),
+        };
+        let export = py
+            .detach(|| export_values(self, &a, out.as_deref(), force))
+            .map_err(py_err)?;
+        let files = export
+            .files
+            .iter()
+            .map(|f| (f.file_name.clone(), PyBytes::new(py, &f.bytes).unbind()))
+            .collect();
+        let checks = export
+            .checks
+            .iter()
+            .flat_map(|j| {
+                j.checks.iter().map(|c| {
+                    (
+                        j.what.clone(),
+                        c.theta_i_deg,
+                        c.phi_i_deg,
+                        c.table,
+                        c.file,
+                        c.table_stderr,
+                    )
+                })
+            })
+            .collect();
+        let notices = export
+            .notices
+            .iter()
+            .filter_map(|n| n.line(false))
+            .collect();
+        Ok((files, checks, notices))
+    }
+
+    /// Fit the analytic model `model` (`roks fit-model --model`; `args`:
+    /// its further options, `--n`, `--k`, `--reflectance`, `--wavelength`)
+    /// to the table, writing nothing: returns the files `roks fit-model`
+    /// would write, as (name, bytes), and the lines it prints (the verdict,
+    /// warnings). A traced result is fitted from its `brdf.csv` and
+    /// `summary.json` in a temporary folder (named in the JSON's `table`).
+    #[pyo3(signature = (model, args=Vec::new()))]
+    fn fit_model(
+        &self,
+        py: Python<'_>,
+        model: &str,
+        args: Vec<String>,
+    ) -> PyResult<(Vec<(String, Py<PyBytes>)>, Vec<String>)> {
+        let (files, lines) = py.detach(|| fit(self, model, args))?;
+        Ok((
+            files
+                .into_iter()
+                .map(|(n, b)| (n, PyBytes::new(py, &b).unbind()))
+                .collect(),
+            lines,
+        ))
     }
 
     /// The folder's file `name` (`summary.json`, `brdf.csv`, ...), if it
@@ -431,6 +538,136 @@ impl BrdfResult {
         py.detach(|| self.result.write(&out, force)).map_err(py_err)
     }
 }
+
+/// An export's files, checks and notices ([`BrdfResult::export`]).
+type ExportValues = (
+    Vec<(String, Py<PyBytes>)>,
+    Vec<(String, f64, Option<f64>, f64, f64, f64)>,
+    Vec<String>,
+);
+
+/// The export of `r` as `a` asks, written to `out` when given.
+fn export_values(
+    r: &BrdfResult,
+    a: &roks::cli::export_brdf::ExportBrdfArgs,
+    out: Option<&Path>,
+    force: bool,
+) -> Result<roks::export::exporter::Export, api::Error> {
+    use roks::export::folder::{EXPORT_MARKER, ExportMarker, FolderExport, export_folder};
+    use roks::outdir::check::{check_out_dir, check_out_file_as};
+    let input = |e: roks::export::exporter::ExportError| {
+        if e.is_input() {
+            api::Error::Input(e.to_string())
+        } else {
+            api::Error::Io(anyhow::Error::msg(e.to_string()))
+        }
+    };
+    let (export, csv) = match (r.result.traced(), &r.scene, &r.dir) {
+        (Some(folder), Some(scene), _) => {
+            let photons = r.result.run().photon_range();
+            let comment = api::export_comment(&scene.name, photons.end - photons.start);
+            let export =
+                export_folder(folder, &[a.format], &comment, &scene.surfaces()).map_err(input)?;
+            (export, PathBuf::from("brdf.csv"))
+        }
+        (_, _, Some(dir)) => {
+            let request = FolderExport {
+                dir,
+                format: a.format,
+                grid: a.grid,
+                scene: a.scene.as_deref(),
+                rgb: a.rgb,
+            };
+            let export = request.export(request.writes_folder()).map_err(input)?;
+            (export, request.csv())
+        }
+        _ => unreachable!("a result is traced with its scene, or read from a folder"),
+    };
+    let Some(out) = out else {
+        return Ok(export);
+    };
+    let reads = r.dir.iter().map(|d| d.join("brdf.csv")).collect::<Vec<_>>();
+    if export.files.len() > 1 {
+        check_out_dir(out, "--out", &reads, force)?;
+        let mut written = export.named_files();
+        let marker = ExportMarker::new(a.format, &csv, &export).text();
+        written.push((EXPORT_MARKER.to_owned(), marker.into_bytes()));
+        roks::outdir::write::write_folder(out, &written, "export-brdf")?;
+    } else if let Some(file) = export.files.first() {
+        check_out_file_as("--out", out, &reads, a.format.file_kind(), force)?;
+        roks::outdir::write::write_file(out, &file.bytes)?;
+    }
+    Ok(export)
+}
+
+/// The files and lines of `roks fit-model --model MODEL ARGS` on `r`'s
+/// table, nothing written.
+fn fit(
+    r: &BrdfResult,
+    model: &str,
+    args: Vec<String>,
+) -> PyResult<(Vec<(String, Vec<u8>)>, Vec<String>)> {
+    use roks::fit_model::material::MaterialOptions;
+    use roks::fit_model::one::{Request, RunError};
+    let mut temp = None;
+    let dir = match &r.dir {
+        Some(d) => d.clone(),
+        None => {
+            let d = std::env::temp_dir().join(format!(
+                "roks-fit-{}-{}",
+                std::process::id(),
+                FIT_DIRS.fetch_add(1, Ordering::Relaxed)
+            ));
+            std::fs::create_dir_all(&d).map_err(|e| RoksError::new_err(e.to_string()))?;
+            for name in ["brdf.csv", "summary.json"] {
+                let bytes = r.result.file(name).unwrap_or_default();
+                std::fs::write(d.join(name), bytes)
+                    .map_err(|e| RoksError::new_err(e.to_string()))?;
+            }
+            temp = Some(d.clone());
+            d
+        }
+    };
+    let mut argv = vec![dir.display().to_string(), "--model".into(), model.into()];
+    argv.extend(args);
+    let a = match parse("fit-model", None, argv)? {
+        Command::FitModel(a) => a,
+        _ => unreachable!("roks fit-model parses as fit-model"),
+    };
+    let request = Request {
+        dir: a.dir,
+        model: a.model,
+        out: None,
+        material: MaterialOptions {
+            n: a.n,
+            k: a.k,
+            reflectance: a.reflectance,
+        },
+        wavelength: a.wavelength,
+    };
+    let report = request.run();
+    if let Some(d) = temp {
+        let _ = std::fs::remove_dir_all(d);
+    }
+    let report = report.map_err(|e| match e {
+        RunError::Input(m) => InputError::new_err(m),
+        RunError::Other(e) => RoksError::new_err(format!("{e:#}")),
+    })?;
+    let files = report
+        .files
+        .iter()
+        .map(|(p, b)| {
+            let name = p
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            (name, b.clone())
+        })
+        .collect();
+    Ok((files, report.lines(false).to_vec()))
+}
+
+/// Temporary folders of fits made so far (their names).
+static FIT_DIRS: AtomicU64 = AtomicU64::new(0);
 
 /// An object scene's result: traced, or read back from its folder.
 #[pyclass(frozen, module = "roks._native")]

@@ -102,29 +102,27 @@ def test_brdf_in_process_writes_the_command_lines_folder(roks_bin, tmp_path, opt
     assert_same_folder(tmp_path / "again", tmp_path / "cli")
 
 
-def test_object_trace_in_process_writes_the_command_lines_folder(roks_bin, tmp_path):
-    scene = roks.Scene.load(REPO / "scenes/cylinder-cavity.toml").override(photons=1000)
+def test_object_trace_in_process_writes_the_command_lines_folder(roks_bin, tmp_path, monkeypatch):
+    # The scene named as the command line is given it (summary.json and
+    # the pictures name it).
+    monkeypatch.chdir(REPO)
+    scene = roks.Scene.load("scenes/cylinder-cavity.toml").override(photons=1000)
     assert scene.is_object
     result = roks.trace(scene, threads=2)
     result.write(tmp_path / "py")
     p = cli(
         roks_bin, "trace", "scenes/cylinder-cavity.toml", "--photons", "1000",
-        "--out", str(tmp_path / "cli"), "-q", cwd=REPO,
+        "--out", str(tmp_path / "cli"), "-q",
     )
     assert p.returncode == 0, p.stderr
-    # The scene is named as given: the module was given the absolute path.
-    a = json.loads((tmp_path / "py/summary.json").read_text())
-    b = json.loads((tmp_path / "cli/summary.json").read_text())
-    assert a["scene"] == str(REPO / "scenes/cylinder-cavity.toml")
-    assert b["scene"] == "scenes/cylinder-cavity.toml"
-    (tmp_path / "py/summary.json").write_text(
-        (tmp_path / "py/summary.json").read_text().replace(a["scene"], b["scene"])
-    )
     assert_same_folder(tmp_path / "py", tmp_path / "cli")
     back = roks.load(tmp_path / "cli")
-    assert isinstance(back, roks.TraceResult)
+    assert isinstance(back, roks.TraceResult) and not back.traced and result.traced
+    assert set(back.reflectance) == set(result.reflectance)
     for k, v in result.reflectance.items():
         np.testing.assert_array_equal(back.reflectance[k], v)
+    with pytest.raises(roks.OptionError, match="roks.brdf takes micro scenes"):
+        roks.brdf(scene)
 
 
 def test_the_shapes_follow_the_result_tree():
@@ -196,7 +194,7 @@ theta_deg = [20]
 
 
 def test_tracing_releases_the_gil():
-    scene = roks.Scene.load().override(photons=200_000, theta_deg=[30])
+    scene = roks.Scene.load().override(photons=1_000_000, theta_deg=[30])
     counts = [0]
     stop = threading.Event()
 
@@ -305,3 +303,34 @@ def test_the_console_command_is_the_binarys_command_line(roks_bin, tmp_path):
     # Bad input: the same line and status.
     a, b = cli(exe, "brdf", "--seed", "-1"), cli(roks_bin, "brdf", "--seed", "-1")
     assert (a.returncode, a.stderr) == (b.returncode, b.stderr) == (2, b.stderr)
+
+
+def test_exports_and_fits_are_the_command_lines(roks_bin, tmp_path):
+    args = ["--photons", "4096", "--theta", "20,50", "--stats-resolution", "16", "-q"]
+    p = cli(roks_bin, "brdf", *args, "--export", "zemax", "--out", str(tmp_path / "cli"))
+    assert p.returncode == 0, p.stderr
+    traced = roks.brdf(roks.Scene.load().override(photons=4096, theta_deg=[20, 50]), stats_resolution=16)
+    e = traced.export("zemax")
+    # As `roks brdf --export zemax` makes it, with its checks as values.
+    assert e.files == {"brdf.bsdf": (tmp_path / "cli/brdf.bsdf").read_bytes()}
+    assert [c.theta_i_deg for c in e.checks] == [20.0, 50.0]
+    assert all(c.table == pytest.approx(r, abs=0) for c, r in zip(e.checks, traced.reflectance.ravel()))
+    # A loaded result as `roks export-brdf` makes it, written where asked.
+    loaded = roks.load(tmp_path / "cli")
+    loaded.export("zemax", tmp_path / "py.bsdf")
+    p = cli(roks_bin, "export-brdf", str(tmp_path / "cli"), "--format", "zemax",
+            "--out", str(tmp_path / "cli.bsdf"), "-q")
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "py.bsdf").read_bytes() == (tmp_path / "cli.bsdf").read_bytes()
+    with pytest.raises(roks.OptionError, match="--format"):
+        loaded.export("nonsense")
+    # A fit: the JSON roks fit-model writes, as a value.
+    fit = loaded.fit_model("abg")
+    p = cli(roks_bin, "fit-model", str(tmp_path / "cli"), "--model", "abg", "-q")
+    assert p.returncode == 0, p.stderr
+    assert fit.results["fit_abg.json"] == json.loads((tmp_path / "cli/fit_abg.json").read_text())
+    assert not (tmp_path / "cli/fit_abg.png").exists() or fit.files["fit_abg.png"]
+    traced_fit = traced.fit_model("abg")
+    a, b = traced_fit.results["fit_abg.json"], fit.results["fit_abg.json"]
+    a.pop("table"), b.pop("table")
+    assert a == b
