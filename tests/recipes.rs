@@ -15,7 +15,9 @@
 //! `PATH`, and small work through the variables the recipes read with their
 //! defaults: `ROKS_PHOTONS` (photons per angle or beam position) and
 //! `ROKS_SPP` (samples per pixel of a render). `ROKS_BIN` names the same
-//! binary for the Python tools. Lines that begin with
+//! binary for the Python tools, and `ROKS_REPO` the repository (for the
+//! scripts a recipe runs, `${ROKS_REPO:-.}/python/examples/x.py`: the
+//! current folder when a reader runs it from a clone). Lines that begin with
 //! `cargo install` or `pip install` are not run (installing is the reader's
 //! step, not the test's). A failing command fails the test, naming the
 //! file, the line of the command and the command.
@@ -195,6 +197,7 @@ fn run(r: &Recipe, dir: &Path, python: Option<&Path>) -> Result<(), String> {
         .current_dir(dir)
         .env("PATH", std::env::join_paths(path).expect("PATH"))
         .env("ROKS_BIN", &roks)
+        .env("ROKS_REPO", root())
         .env("ROKS_PHOTONS", PHOTONS)
         .env("ROKS_SPP", SPP)
         .env("MPLBACKEND", "Agg")
