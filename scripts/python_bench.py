@@ -10,7 +10,10 @@ in-process first in even batches and the command first in odd ones, so that
 the load of a shared, noisy machine falls on both alike. Prints the median
 and mean time of a run of each route, the command's time without its folder
 read, and the ratios of the medians (overall, and the median of the ratios
-taken batch by batch).
+taken batch by batch). `--stats-resolution N` gives both routes the
+surface statistics' grid (default 512, as the command line's default: at
+4,096 photons the statistics of the 512 x 512 height map are most of a
+run's time; 16 leaves the tracing).
 
     .venv/bin/python scripts/python_bench.py                     # the wheel's roks command
     .venv/bin/python scripts/python_bench.py --roks target/release/roks
@@ -35,17 +38,18 @@ PHOTONS = 4096
 THETA = 60.0
 
 
-def in_process(scene) -> float:
+def in_process(scene, stats: int | None) -> float:
     t = time.perf_counter()
-    r = roks.brdf(scene)
+    r = roks.brdf(scene, stats_resolution=stats)
     _ = r.reflectance, r.brdf  # the arrays a caller reads
     return time.perf_counter() - t
 
 
-def by_command(binary: str, out: Path) -> tuple[float, float]:
+def by_command(binary: str, out: Path, stats: int | None) -> tuple[float, float]:
     """(run and read, run alone) seconds of one `roks brdf` process."""
+    extra = [] if stats is None else ["--stats-resolution", str(stats)]
     t = time.perf_counter()
-    subprocess.run([binary, "brdf", "--photons", str(PHOTONS), "--theta", f"{THETA:g}", "--out", str(out),
+    subprocess.run([binary, "brdf", "--photons", str(PHOTONS), "--theta", f"{THETA:g}", *extra, "--out", str(out),
                     "--force", "-q"], check=True)
     ran = time.perf_counter() - t
     r = roks.load(out)
@@ -59,7 +63,10 @@ def main() -> int:
     ap.add_argument("--batch", type=int, default=10, help="runs of one route in a row (default 10)")
     ap.add_argument("--roks", help="the command line (default: the `roks` command beside this Python, "
                                    "else $ROKS_BIN, else roks on PATH)")
+    ap.add_argument("--stats-resolution", type=int, help="the surface statistics' grid of both routes "
+                                                          "(default: the command line's, 512)")
     args = ap.parse_args()
+    stats = args.stats_resolution
     binary = args.roks or shutil.which("roks", path=str(Path(sys.executable).parent)) \
         or os.environ.get("ROKS_BIN") or shutil.which("roks")
     if binary is None:
@@ -68,13 +75,13 @@ def main() -> int:
     scene = roks.Scene.load().override(photons=PHOTONS, theta_deg=[THETA])
     version = subprocess.run([binary, "--version"], capture_output=True, text=True, check=True).stdout.strip()
     print(f"python_bench: {args.runs} runs of {PHOTONS} photons at {THETA:g} deg each way, batches of "
-          f"{args.batch}; module {roks.__file__}; command {binary} ({version}); {os.cpu_count()} cores, "
+          f"{args.batch}, statistics grid {stats or 512}; module {roks.__file__}; command {binary} ({version}); {os.cpu_count()} cores, "
           f"{platform.processor() or platform.machine()}, Python {platform.python_version()}")
 
-    in_process(scene)  # warm-up: page in the module and the scene
+    in_process(scene, stats)  # warm-up: page in the module and the scene
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
-        by_command(binary, out)
+        by_command(binary, out, stats)
         inp: list[float] = []
         cmd: list[float] = []
         cmd_run: list[float] = []
@@ -86,9 +93,9 @@ def main() -> int:
             c: list[tuple[float, float]] = []
             for first in ([0, 1] if b % 2 == 0 else [1, 0]):
                 if first == 0:
-                    a = [in_process(scene) for _ in range(n)]
+                    a = [in_process(scene, stats) for _ in range(n)]
                 else:
-                    c = [by_command(binary, out) for _ in range(n)]
+                    c = [by_command(binary, out, stats) for _ in range(n)]
             inp += a
             cmd += [x for x, _ in c]
             cmd_run += [y for _, y in c]
