@@ -128,13 +128,15 @@ def main() -> int:
     ap.add_argument("--truth", type=float, default=1.0, help="the sigma of the measurement (default 1.0)")
     ap.add_argument("--roks", help="the command line to time (default: the `roks` command installed "
                                    "beside this Python, else $ROKS_BIN, else roks on PATH)")
+    ap.add_argument("--data-seed", type=int, default=1007,
+                    help="photon seed of the measurement (its instrument noise: this + 1); default 1007")
     ap.add_argument("--no-command", action="store_true", help="skip the fit through the command line")
     args = ap.parse_args()
 
     # The measurement: 4x the model's photons, its own photon seed, plus instrument noise.
-    meas = brdf_in_process(args.truth, 4 * args.photons, seed=1007)
+    meas = brdf_in_process(args.truth, 4 * args.photons, seed=args.data_seed)
     b, se = inplane(meas)
-    noise = np.random.default_rng(11).normal(0.0, INSTRUMENT, b.shape)
+    noise = np.random.default_rng(args.data_seed + 1).normal(0.0, INSTRUMENT, b.shape)
     measured = b * (1 + noise)
     var_measured = se**2 + (INSTRUMENT * b) ** 2
 
