@@ -164,8 +164,8 @@ def test_a_numpy_height_map_is_the_same_map_read_from_its_file(tmp_path):
     text = """
 name = "measured"
 [materials.metal]
-kind = "lambertian"
-albedo = 0.8
+n = 1.015
+k = 6.627
 [surface]
 material = "metal"
 heightfield = { file = "map.txt", pixel = 0.25 }
