@@ -34,8 +34,9 @@ fi
 if "$venv/bin/python" -m pip show --quiet roks_tools >/dev/null 2>&1; then
     "$venv/bin/python" -m pip uninstall --quiet --yes roks_tools
 fi
+# pip builds and reinstalls a local folder every time (it cannot know what
+# changed in it).
 "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "$repo/python${extras:+[$extras]}"
-"$venv/bin/python" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$repo/python"
 "$venv/bin/python" - <<'PY'
 import warnings
 import numpy, matplotlib, roks, roks_tools

@@ -287,8 +287,8 @@ mod tests {
     const MAP_SCENE: &str = r#"
 name = "measured"
 [materials.metal]
-kind = "lambertian"
-albedo = 0.8
+n = 1.015
+k = 6.627
 [surface]
 material = "metal"
 heightfield = { file = "map.txt", pixel = 0.25 }

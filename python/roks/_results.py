@@ -74,13 +74,21 @@ class Description:
     """Wall-clock time of the run."""
 
 
+def _axis(v: Any) -> tuple[float, ...]:
+    """An axis of summary.json's run: a list, or one number (one light
+    azimuth is written as a number), or absent."""
+    if v is None:
+        return ()
+    return tuple(float(x) for x in np.atleast_1d(np.asarray(v, dtype=float)))
+
+
 def _description(summary: dict[str, Any]) -> Description:
     r = dict(summary["run"])
     pol = r.pop("polarisation")
     run = Run(
-        theta_deg=tuple(r["theta_deg"]),
-        phi_deg=tuple(np.atleast_1d(r["phi_deg"]).tolist()),  # a number when the run has one azimuth
-        wavelengths_um=tuple(r.get("wavelengths_um") or ()),
+        theta_deg=_axis(r["theta_deg"]),
+        phi_deg=_axis(r["phi_deg"]),
+        wavelengths_um=_axis(r.get("wavelengths_um")),
         photons_per_incidence=r["photons_per_incidence"],
         seed=r["seed"],
         launch=r["launch"],
@@ -227,18 +235,18 @@ class BrdfResult:
     @property
     def theta_deg(self) -> np.ndarray:
         """Axis 0: the incidence angles (degrees)."""
-        return np.array(self.summary["run"]["theta_deg"], dtype=float)
+        return np.array(_axis(self.summary["run"]["theta_deg"]))
 
     @property
     def phi_deg(self) -> np.ndarray:
         """Axis 1: the light azimuths (degrees)."""
-        return np.atleast_1d(np.array(self.summary["run"]["phi_deg"], dtype=float))  # summary.json: a number for one
+        return np.array(_axis(self.summary["run"]["phi_deg"]))
 
     @property
     def wavelengths_um(self) -> np.ndarray:
         """Axis 2: the wavelengths (µm); empty for a monochrome run, whose
         axis 2 has one entry."""
-        return np.array(self.summary["run"].get("wavelengths_um") or [], dtype=float)
+        return np.array(_axis(self.summary["run"].get("wavelengths_um")))
 
     @property
     def shape(self) -> tuple[int, int, int, int]:
