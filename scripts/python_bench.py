@@ -75,8 +75,9 @@ def main() -> int:
     scene = roks.Scene.load().override(photons=PHOTONS, theta_deg=[THETA])
     version = subprocess.run([binary, "--version"], capture_output=True, text=True, check=True).stdout.strip()
     print(f"python_bench: {args.runs} runs of {PHOTONS} photons at {THETA:g} deg each way, batches of "
-          f"{args.batch}, statistics grid {stats or 512}; module {roks.__file__}; command {binary} ({version}); {os.cpu_count()} cores, "
-          f"{platform.processor() or platform.machine()}, Python {platform.python_version()}")
+          f"{args.batch}, statistics grid {stats or 512}; module {roks.__file__}; command {binary} ({version}); "
+          f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}, "
+          f"Python {platform.python_version()}, load average {os.getloadavg()[0]:.1f}")
 
     in_process(scene, stats)  # warm-up: page in the module and the scene
     with tempfile.TemporaryDirectory() as tmp:
