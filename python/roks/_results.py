@@ -481,7 +481,9 @@ class BrdfResult:
         files, lines = self._native.fit_model(model, args)
         files = dict(files)
         docs = {name: json.loads(b) for name, b in files.items() if name.endswith(".json")}
-        return ModelFit(model=model, results=docs, lines=list(lines), files=files)
+        # Nothing was written: the command line's `wrote ...` line goes.
+        lines = [line for line in lines if not line.startswith("wrote ")]
+        return ModelFit(model=model, results=docs, lines=lines, files=files)
 
     # -- files -----------------------------------------------------------
     def file(self, name: str) -> bytes | None:
