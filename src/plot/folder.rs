@@ -33,7 +33,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::mueller::MuellerKind;
-use super::{HemisphereMap, LinePlot, MapScale, MuellerMaps, Series};
+use super::{Grid, HemisphereMap, LinePlot, MapScale, MuellerMaps, Panel, Series};
 use crate::outdir::file::{ResultFile, ResultPattern};
 use crate::output::number_label;
 use crate::output::polar_csv::MuellerFile;
@@ -55,7 +55,10 @@ enum Picture {
 impl Picture {
     fn png(&self) -> anyhow::Result<Vec<u8>> {
         match self {
-            Self::Line(p) => p.to_png(LINE_SIZE.0, LINE_SIZE.1),
+            Self::Line(p) => {
+                let (w, h) = p.size(LINE_SIZE.0, LINE_SIZE.1);
+                p.to_png(w, h)
+            }
             Self::Map(m) => m.to_png(),
             Self::Mueller(m) => m.to_png(),
         }
@@ -366,15 +369,11 @@ fn inplane_plot(s: &BrdfSummary, rows: &[InplaneRow], lanes: usize, photons: &st
         e.2 += r.brdf_stderr;
     }
     let l = lanes as f64;
+    let keys: Vec<(f64, Option<f64>)> = curves.iter().map(|c| c.0).collect();
     let series = curves
         .into_iter()
-        .map(|((theta, phi), bins)| Series {
-            label: match phi {
-                Some(phi) => format!("θi = {theta}°, φi = {phi}°"),
-                None => format!("θi = {theta}°"),
-            },
-            points: bins
-                .values()
+        .map(|(_, bins)| {
+            bins.values()
                 .map(|&(x, b, e)| {
                     if b == 0.0 && e == 0.0 {
                         (x, f64::NAN, 0.0)
@@ -382,7 +381,7 @@ fn inplane_plot(s: &BrdfSummary, rows: &[InplaneRow], lanes: usize, photons: &st
                         (x, b / l, 2.0 * e / l)
                     }
                 })
-                .collect(),
+                .collect()
         })
         .collect();
     let spectral = if lanes > 1 {
@@ -390,22 +389,170 @@ fn inplane_plot(s: &BrdfSummary, rows: &[InplaneRow], lanes: usize, photons: &st
     } else {
         String::new()
     };
+    let (series, grid, note) = per_incidence(&keys, series);
     LinePlot {
         title: format!(
-            "{}: BRDF in the plane of incidence ({photons}{spectral})",
+            "{}: BRDF in the plane of incidence ({photons}{spectral}{note})",
             s.name
         ),
         x_label: "θo (deg): negative toward the light, positive on the specular side".into(),
         y_label: "BRDF (1/sr), error bars 2 standard errors".into(),
         log_y: true,
         series,
+        grid,
     }
 }
 
+/// At most this many incidences share a panel of `inplane.png` (or of a
+/// spectral run's `reflectance.png`): more make a tangle of crossing
+/// curves and error bars.
+pub const PER_PANEL: usize = 5;
+
+/// Small multiples of curves per incidence and light azimuth: the grid's
+/// columns and, row-major, per panel its azimuth (`None`: the run has one)
+/// and the indices of its incidences.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Multiples {
+    /// Columns: one per light azimuth.
+    pub columns: usize,
+    /// Per panel: its light azimuth and its incidences (indices into the
+    /// run's incidence angles, in order).
+    pub panels: Vec<(Option<f64>, Vec<usize>)>,
+}
+
+/// The small multiples of `incidences` curves at each of `azimuths`
+/// (degrees; empty or one: a run of one azimuth): a column per azimuth and
+/// a row per group of at most [`PER_PANEL`] consecutive incidences (groups
+/// as even as can be: 7 incidences are 4 and 3). `None` when every curve
+/// fits one panel (one azimuth, at most [`PER_PANEL`] incidences).
+#[must_use]
+pub fn multiples(incidences: usize, azimuths: &[f64]) -> Option<Multiples> {
+    if incidences <= PER_PANEL && azimuths.len() <= 1 {
+        return None;
+    }
+    let groups = incidences.div_ceil(PER_PANEL).max(1);
+    let (size, extra) = (incidences / groups, incidences % groups);
+    let mut start = 0;
+    let mut rows = Vec::new();
+    for g in 0..groups {
+        let n = size + usize::from(g < extra);
+        rows.push((start..start + n).collect::<Vec<usize>>());
+        start += n;
+    }
+    let columns: Vec<Option<f64>> = if azimuths.len() > 1 {
+        azimuths.iter().map(|&p| Some(p)).collect()
+    } else {
+        vec![None]
+    };
+    Some(Multiples {
+        columns: columns.len(),
+        panels: rows
+            .iter()
+            .flat_map(|r| columns.iter().map(move |&p| (p, r.clone())))
+            .collect(),
+    })
+}
+
+/// Curves per incidence and light azimuth (`keys`: `(θi, φi)`, `φi`
+/// `None` for a run of one azimuth; `points`: each curve's) as the series
+/// of a [`LinePlot`], each in the colour of its incidence (the same in
+/// every panel), with its [`Grid`] of [`multiples`] and what the title
+/// adds to say so (`""` for a single panel).
+fn per_incidence(
+    keys: &[(f64, Option<f64>)],
+    mut points: Vec<Vec<(f64, f64, f64)>>,
+) -> (Vec<Series>, Option<Grid>, String) {
+    let mut thetas: Vec<f64> = Vec::new();
+    let mut phis: Vec<f64> = Vec::new();
+    for &(t, p) in keys {
+        if !thetas.contains(&t) {
+            thetas.push(t);
+        }
+        if let Some(p) = p.filter(|p| !phis.contains(p)) {
+            phis.push(p);
+        }
+    }
+    let colour = |t: f64| thetas.iter().position(|&x| x == t);
+    let Some(m) = multiples(thetas.len(), &phis) else {
+        let series = keys
+            .iter()
+            .zip(points)
+            .map(|(&(theta, phi), pts)| Series {
+                colour: colour(theta),
+                ..Series::new(
+                    match phi {
+                        Some(phi) => format!("θi = {theta}°, φi = {phi}°"),
+                        None => format!("θi = {theta}°"),
+                    },
+                    pts,
+                )
+            })
+            .collect();
+        return (series, None, String::new());
+    };
+    let mut series = Vec::new();
+    let mut panels = Vec::new();
+    for (phi, group) in &m.panels {
+        let start = series.len();
+        let ts: Vec<f64> = group.iter().map(|&k| thetas[k]).collect();
+        for &t in &ts {
+            let Some(k) = keys
+                .iter()
+                .position(|&(kt, kp)| kt == t && (phi.is_none() || kp == *phi))
+            else {
+                continue;
+            };
+            series.push(Series {
+                colour: colour(t),
+                ..Series::new(format!("θi = {t}°"), std::mem::take(&mut points[k]))
+            });
+        }
+        let mut title = Vec::new();
+        if let Some(p) = phi {
+            title.push(format!("φi = {p}°"));
+        }
+        if m.panels.len() > m.columns {
+            let list: Vec<String> = ts.iter().map(|t| format!("{t}°")).collect();
+            title.push(format!("θi = {}", list.join(", ")));
+        }
+        panels.push(Panel {
+            title: title.join(": "),
+            series: start..series.len(),
+        });
+    }
+    let rows = m.panels.len() / m.columns;
+    let mut note = Vec::new();
+    if rows > 1 {
+        note.push(format!(
+            "{} incidences in {rows} rows of at most {PER_PANEL}",
+            thetas.len()
+        ));
+    }
+    if m.columns > 1 {
+        note.push("a column per light azimuth φi".to_owned());
+    }
+    let note = format!("; small multiples: {}", note.join(", "));
+    (
+        series,
+        Some(Grid {
+            columns: m.columns,
+            panels,
+        }),
+        note,
+    )
+}
+
 /// `reflectance.png` of a micro run: the directional-hemispherical
-/// reflectance against the incidence angle, error bars of 2 standard errors.
+/// reflectance against the incidence angle, error bars of 2 standard
+/// errors, one curve per light azimuth; a spectral run of two or more
+/// wavelengths: against the wavelength, one curve per incidence (and
+/// azimuth; small multiples as `inplane.png`'s), from `summary.json`'s
+/// `spectrum` (the mean over the wavelengths would hide the spectrum).
 fn micro_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
     let lanes = s.run.wavelengths_um.len();
+    if lanes > 1 {
+        return spectral_reflectance(s, photons);
+    }
     let label = if lanes > 0 {
         format!("mean over {lanes} wavelengths")
     } else {
@@ -421,20 +568,57 @@ fn micro_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
             .run
             .phi_deg
             .iter()
-            .map(|&phi| Series {
-                label: if s.run.phi_deg.len() > 1 {
-                    format!("{label}, φi = {phi}°")
-                } else {
-                    label.clone()
-                },
-                points: s
-                    .incidence
-                    .iter()
-                    .filter(|i| i.phi_deg == phi)
-                    .map(|i| (i.theta_deg, i.reflectance, 2.0 * i.reflectance_stderr))
-                    .collect(),
+            .map(|&phi| {
+                Series::new(
+                    if s.run.phi_deg.len() > 1 {
+                        format!("{label}, φi = {phi}°")
+                    } else {
+                        label.clone()
+                    },
+                    s.incidence
+                        .iter()
+                        .filter(|i| i.phi_deg == phi)
+                        .map(|i| (i.theta_deg, i.reflectance, 2.0 * i.reflectance_stderr))
+                        .collect(),
+                )
             })
             .collect(),
+        grid: None,
+    }
+}
+
+/// `reflectance.png` of a spectral run: per incidence (and azimuth) its
+/// reflectance against the wavelength, error bars of 2 standard errors.
+fn spectral_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
+    let several = s.run.phi_deg.len() > 1;
+    let keys: Vec<(f64, Option<f64>)> = s
+        .incidence
+        .iter()
+        .map(|i| (i.theta_deg, several.then_some(i.phi_deg)))
+        .collect();
+    let points = s
+        .incidence
+        .iter()
+        .map(|i| {
+            i.spectrum
+                .iter()
+                .flatten()
+                .map(|w| (w.wavelength_um, w.reflectance, 2.0 * w.reflectance_stderr))
+                .collect()
+        })
+        .collect();
+    let (series, grid, note) = per_incidence(&keys, points);
+    LinePlot {
+        title: format!(
+            "{}: reflectance against wavelength ({photons}{note})",
+            s.name
+        ),
+        x_label: "vacuum wavelength λ (µm)".into(),
+        y_label: "reflectance (fraction of the incident power), error bars 2 standard errors"
+            .into(),
+        log_y: false,
+        series,
+        grid,
     }
 }
 
@@ -482,9 +666,9 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
                     p[r.start].diameter
                 )
             };
-            Series {
+            Series::new(
                 label,
-                points: p[r.clone()]
+                p[r.clone()]
                     .iter()
                     .map(|q| {
                         let d = sub(q.position, first);
@@ -495,7 +679,7 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
                         )
                     })
                     .collect(),
-            }
+            )
         })
         .collect();
     let (lo, hi) = p
@@ -522,6 +706,7 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
         y_label: "reflectance (fraction of the beam's flux), error bars 2 standard errors".into(),
         log_y: lo > 0.0 && hi > 20.0 * lo,
         series,
+        grid: None,
     }
 }
 
