@@ -813,4 +813,169 @@ mod tests {
         }
         assert!(p.title.contains("1000 photons") && !p.title.contains("3000"));
     }
+
+    /// The small multiples of `inplane.png`: ten incidences at two light
+    /// azimuths are four panels, a column per azimuth and a row per five
+    /// incidences; five incidences at one azimuth stay one panel; seven
+    /// are split 4 + 3.
+    #[test]
+    fn panels_of_small_multiples() {
+        let m = multiples(10, &[0.0, 90.0]).unwrap();
+        assert_eq!(m.columns, 2);
+        let (a, b): (Vec<usize>, Vec<usize>) = ((0..5).collect(), (5..10).collect());
+        assert_eq!(
+            m.panels,
+            [
+                (Some(0.0), a.clone()),
+                (Some(90.0), a),
+                (Some(0.0), b.clone()),
+                (Some(90.0), b)
+            ]
+        );
+        assert_eq!(multiples(5, &[0.0]), None);
+        assert_eq!(multiples(5, &[]), None);
+        let m = multiples(7, &[30.0]).unwrap();
+        assert_eq!(m.columns, 1);
+        assert_eq!(m.panels, [(None, vec![0, 1, 2, 3]), (None, vec![4, 5, 6])]);
+        let m = multiples(2, &[0.0, 45.0, 90.0]).unwrap();
+        assert_eq!(m.columns, 3);
+        assert_eq!(m.panels.len(), 3);
+        assert!(m.panels.iter().all(|p| p.1 == [0, 1]));
+    }
+
+    /// A run's summary (`summary.json`'s text) at incidences `thetas` and
+    /// azimuths `phis`, with wavelengths `lanes` (each incidence's spectrum
+    /// `R(λ) = λ + θi / 1000`, standard error `λ / 100`).
+    fn summary(thetas: &[f64], phis: &[f64], lanes: &[f64]) -> BrdfSummary {
+        let mut run = crate::scene::micro::MicroScene::default_scene().brdf_run();
+        run.photons = 1000;
+        run.theta_deg = thetas.to_vec();
+        run.phi_deg = crate::transport::brdf::Azimuths(phis.to_vec());
+        run.wavelengths_um = lanes.to_vec();
+        let mut incidence = Vec::new();
+        for &t in thetas {
+            for &p in phis {
+                let spectrum: Vec<String> = lanes
+                    .iter()
+                    .map(|&w| {
+                        format!(
+                            r#"{{"lost":0,"lost_cap":0,"lost_numeric":0,"lost_walls":0,"reflectance":{},"reflectance_stderr":{},"wavelength_um":{w}}}"#,
+                            w + t / 1000.0,
+                            w / 100.0
+                        )
+                    })
+                    .collect();
+                let spectrum = if lanes.is_empty() {
+                    String::new()
+                } else {
+                    format!(r#","spectrum":[{}]"#, spectrum.join(","))
+                };
+                incidence.push(format!(
+                    r#"{{"capped_photons":0,"intersection_tests":1,"lost":0,"lost_cap":0,"lost_numeric":0,"lost_walls":0,"mean_bounces":1,"numeric_guard_photons":0,"phi_deg":{p},"photons":1000,"reflectance":0.5,"reflectance_by_bounces":[0.5],"reflectance_stderr":0.01,"seconds":1,"segments":1,"segments_per_second":1,"tests_per_segment":1,"theta_deg":{t}{spectrum}}}"#
+                ));
+            }
+        }
+        let text = format!(
+            r#"{{"content":{{"files":{{}},"scene_sha256":"0"}},"edges":"periodic","incidence":[{}],
+            "name":"s","run":{},"scene":"s.toml","seconds":1,
+            "surface":{{"height_map_resolution":4,"max_height":0,"mean_height":0,"min_height":0,"rms_slope":0,"sigma":0,"sigma_over_tau":null,"tau":null}},
+            "version":"0"}}"#,
+            incidence.join(","),
+            serde_json::to_string(&run).unwrap()
+        );
+        serde_json::from_str(&text).unwrap()
+    }
+
+    /// `inplane.png` of ten incidences at two azimuths: four titled panels
+    /// of five curves, each incidence in the same colour in both columns
+    /// (its place among the incidences), the title saying so.
+    #[test]
+    fn inplane_of_ten_incidences_at_two_azimuths() {
+        let thetas: Vec<f64> = vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0];
+        let s = summary(&thetas, &[0.0, 90.0], &[]);
+        let mut rows = Vec::new();
+        for &t in &thetas {
+            for p in [0.0, 90.0] {
+                for x in [-10.0, 0.0, 10.0] {
+                    rows.push(InplaneRow {
+                        theta_i_deg: t,
+                        phi_i_deg: Some(p),
+                        theta_o_deg: x,
+                        brdf: 1.0 + t + p,
+                        brdf_stderr: 0.1,
+                    });
+                }
+            }
+        }
+        let plot = inplane_plot(&s, &rows, 1, "1000 photons per incidence");
+        assert_eq!(
+            plot.title,
+            "s: BRDF in the plane of incidence (1000 photons per incidence; small multiples: \
+             10 incidences in 2 rows of at most 5, a column per light azimuth φi)"
+        );
+        let grid = plot.grid.as_ref().expect("small multiples");
+        assert_eq!(grid.columns, 2);
+        let titles: Vec<&str> = grid.panels.iter().map(|p| p.title.as_str()).collect();
+        assert_eq!(
+            titles,
+            [
+                "φi = 0°: θi = 0°, 10°, 20°, 30°, 40°",
+                "φi = 90°: θi = 0°, 10°, 20°, 30°, 40°",
+                "φi = 0°: θi = 50°, 60°, 70°, 80°, 85°",
+                "φi = 90°: θi = 50°, 60°, 70°, 80°, 85°",
+            ]
+        );
+        for (k, p) in grid.panels.iter().enumerate() {
+            assert_eq!(p.series.len(), 5);
+            let phi = if k % 2 == 0 { 0.0 } else { 90.0 };
+            for (j, i) in p.series.clone().enumerate() {
+                let theta = thetas[5 * (k / 2) + j];
+                assert_eq!(plot.series[i].label, format!("θi = {theta}°"));
+                // Its own data, in its incidence's colour.
+                assert_eq!(plot.series[i].points[0].1, 1.0 + theta + phi);
+                assert_eq!(
+                    plot.series_colour(i),
+                    crate::plot::line::PALETTE[5 * (k / 2) + j]
+                );
+            }
+        }
+        let png = plot.to_png(1100, 640).unwrap();
+        assert!(image::load_from_memory(&png).is_ok());
+        assert_eq!(plot.size(1100, 640), (1400, 680));
+    }
+
+    /// A spectral run's `reflectance.png`: per incidence its reflectance
+    /// against the wavelength from `summary.json`'s spectrum (not the mean
+    /// over the wavelengths), error bars of 2 standard errors; one
+    /// wavelength: against incidence as before.
+    #[test]
+    fn spectral_reflectance_is_drawn_per_wavelength() {
+        let lanes = [0.4, 0.5, 0.6, 0.7];
+        let s = summary(&[0.0, 30.0, 60.0], &[0.0], &lanes);
+        let p = micro_reflectance(&s, "x");
+        assert!(
+            p.title.starts_with("s: reflectance against wavelength"),
+            "{}",
+            p.title
+        );
+        assert!(p.x_label.contains("wavelength") && p.grid.is_none());
+        let labels: Vec<&str> = p.series.iter().map(|s| s.label.as_str()).collect();
+        assert_eq!(labels, ["θi = 0°", "θi = 30°", "θi = 60°"]);
+        for (s, t) in p.series.iter().zip([0.0, 30.0, 60.0]) {
+            let expect: Vec<(f64, f64, f64)> = lanes
+                .iter()
+                .map(|&w| (w, w + t / 1000.0, 2.0 * (w / 100.0)))
+                .collect();
+            assert_eq!(s.points, expect);
+        }
+        // Ten incidences at two azimuths: small multiples as inplane.png's.
+        let thetas: Vec<f64> = (0..10).map(|k| f64::from(k) * 8.0).collect();
+        let p = micro_reflectance(&summary(&thetas, &[0.0, 90.0], &lanes), "x");
+        let g = p.grid.as_ref().unwrap();
+        assert_eq!((g.columns, g.panels.len(), p.series.len()), (2, 4, 20));
+        // One wavelength: reflectance against incidence.
+        let p = micro_reflectance(&summary(&[0.0, 30.0], &[0.0], &[0.5]), "x");
+        assert!(p.title.contains("against incidence"));
+        assert_eq!(p.series[0].points, [(0.0, 0.5, 0.02), (30.0, 0.5, 0.02)]);
+    }
 }

@@ -732,4 +732,50 @@ mod tests {
             assert_eq!(u.len(), labels.len(), "{labels:?}");
         }
     }
+
+    /// Small multiples: the panels of a 2 x 2 grid sit side by side and
+    /// row under row, none overlapping another or its legend; each series
+    /// is drawn in the colour it names (else its place in its panel); the
+    /// picture grows to 700 pixels per column and 320 per row.
+    #[test]
+    fn grid_of_panels() {
+        let mut p = plot(series(8, vec![(0.0, 1.0, 0.1), (1.0, 2.0, 0.1)]), true);
+        p.series[5].colour = Some(7);
+        p.series[6].mark = Mark::Points;
+        p.grid = Some(Grid {
+            columns: 2,
+            panels: (0..4)
+                .map(|k| Panel {
+                    title: format!("panel {k}"),
+                    series: 2 * k..2 * k + 2,
+                })
+                .collect(),
+        });
+        assert_eq!(p.size(1100, 640), (1400, 680));
+        assert_eq!(
+            p.panels().iter().map(|s| s.len()).collect::<Vec<_>>(),
+            [2; 4]
+        );
+        let l = p.layout(1400, 680);
+        assert_eq!(l.panels.len(), 4);
+        let (a, b, c) = (l.panels[0].0, l.panels[1].0, l.panels[2].0);
+        assert!(b.x0 >= 700 && a.x1 <= 700 && a.y0 == b.y0);
+        assert!(c.y0 >= a.y1 && c.x0 == a.x0);
+        let rects: Vec<Rect> = l.panels.iter().flat_map(|(c, g)| [*c, *g]).collect();
+        for (i, r) in rects.iter().enumerate() {
+            for o in &rects[..i] {
+                assert!(!r.overlaps(o), "{r:?} on {o:?}");
+            }
+        }
+        assert_eq!(p.series_colour(4), PALETTE[0]);
+        assert_eq!(p.series_colour(5), PALETTE[7]);
+        assert_eq!(p.series_colour(3), PALETTE[1]);
+        let png = p.to_png(1400, 680).unwrap();
+        let img = image::load_from_memory(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (1400, 680));
+        // Without a grid, as before: one panel per ten curves, its place's colour.
+        let q = plot(series(12, vec![(0.0, 1.0, 0.0)]), false);
+        assert_eq!(q.size(1100, 640), (1100, 640));
+        assert_eq!(q.series_colour(11), PALETTE[1]);
+    }
 }

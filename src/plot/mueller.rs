@@ -150,6 +150,25 @@ impl MuellerMaps {
             .reduce(f64::max)
     }
 
+    /// The label of the top of panel `k`'s bar: its top, three significant
+    /// digits, with the panel's largest value when that is above it
+    /// (`0.172 (max 0.654)`); `every value 0` when they all are.
+    #[must_use]
+    pub fn panel_top_label(&self, k: usize) -> String {
+        let Some(max) = self.panel_max(k) else {
+            return "no value".into();
+        };
+        if max == 0.0 {
+            return "every value 0".into();
+        }
+        let (_, top) = self.panel_range(k);
+        if max > top {
+            format!("{} (max {})", significant(top), significant(max))
+        } else {
+            significant(top)
+        }
+    }
+
     /// The picture's height (pixels).
     fn height(&self) -> u32 {
         match self.kind {
@@ -391,19 +410,13 @@ impl MuellerMaps {
                 [(x0 - 1, y0 - 1), (x1 + 1, y1 + 1)],
                 BLACK.stroke_width(1),
             ))?;
-            let (_, top) = self.panel_range(k);
-            let f = TickFormat::for_ticks(&[0.0, top], false);
             let y = y1 + 11;
             root.draw(&Text::new("0", (x0, y), text(12, HPos::Left)))?;
-            root.draw(&Text::new(f.label(top), (x1, y), text(12, HPos::Right)))?;
-            if let Some(max) = self.panel_max(k).filter(|&m| m > top) {
-                let g = TickFormat::for_ticks(&[top, max], false);
-                root.draw(&Text::new(
-                    format!("max {}", g.label(max)),
-                    ((x0 + x1) / 2, y),
-                    text(12, HPos::Center),
-                ))?;
-            }
+            root.draw(&Text::new(
+                self.panel_top_label(k),
+                (x1, y),
+                text(12, HPos::Right),
+            ))?;
         }
         let lines = [
             (14, "standard error"),
@@ -447,6 +460,17 @@ fn draw_no_light_key(root: &Root<'_>) -> Result<(), super::DrawError> {
         text(13, HPos::Left),
     ))?;
     Ok(())
+}
+
+/// `v` (positive) to three significant digits: fixed from 1e-3 to below
+/// 1e5, else exponent form.
+fn significant(v: f64) -> String {
+    if (1e-3..1e5).contains(&v) {
+        let d = (2 - v.log10().floor() as i32).max(0) as usize;
+        format!("{v:.d$}")
+    } else {
+        format!("{v:.2e}")
+    }
 }
 
 /// The picture being drawn on.
@@ -519,5 +543,63 @@ mod tests {
         assert_eq!(at(0, 1), diverging(0.5));
         assert_eq!(at(1, 1), diverging(1.0));
         assert_eq!(at(0, 0), viridis(1.0)); // constant m00: the top of its scale
+    }
+
+    /// The standard errors' panels each have their own scale, from 0 to
+    /// the 98th percentile of their own values: a panel of errors 100
+    /// times smaller than another's still spans the whole scale (on the
+    /// shared scale it was one dark colour); a constant panel is its top
+    /// colour; an all-zero one says so.
+    #[test]
+    fn error_panels_each_have_their_own_scale() {
+        let grid = CarlsonGrid::new(6).unwrap();
+        let n = grid.n_cells();
+        // m00: relative errors 0.5; m01: 0 .. 0.01 rising with the cell;
+        // m11: 0 .. 1; m22: 0.003 everywhere; the rest 0.
+        let mut values = vec![vec![0.0; n]; 16];
+        values[0] = vec![0.5; n];
+        values[1] = (0..n).map(|c| 0.01 * c as f64 / (n - 1) as f64).collect();
+        values[5] = (0..n).map(|c| c as f64 / (n - 1) as f64).collect();
+        values[10] = vec![0.003; n];
+        let maps = MuellerMaps {
+            title: "t".into(),
+            grid,
+            values: values.clone(),
+            kind: MuellerKind::Errors,
+            theta_i_deg: 0.0,
+            phi_i_deg: 0.0,
+        };
+        for k in 0..16 {
+            let mut v = values[k].clone();
+            v.sort_by(f64::total_cmp);
+            let p98 = v[((n - 1) as f64 * 0.98).round() as usize];
+            let top = if p98 > 0.0 { p98 } else { 1.0 };
+            assert_eq!(maps.panel_range(k), (0.0, top), "panel {k}");
+        }
+        assert_eq!(maps.panel_range(10), (0.0, 0.003));
+        assert_eq!(maps.panel_top_label(10), "0.00300");
+        assert_eq!(maps.panel_top_label(2), "every value 0");
+        assert_eq!(
+            maps.panel_top_label(5),
+            format!("{:.3} (max 1.00)", maps.panel_range(5).1)
+        );
+        let img = image::load_from_memory(&maps.to_png().unwrap())
+            .unwrap()
+            .to_rgb8();
+        assert_eq!((img.width(), img.height()), (W, H_ERRORS));
+        let at = |k: usize| {
+            let (cx, cy) = maps.centre(k / 4, k % 4);
+            let d = 0.5 * R * std::f64::consts::FRAC_1_SQRT_2;
+            img.get_pixel((cx - d) as u32, (cy + d) as u32).0
+        };
+        // The constant panels: the top of their scales (m00, m22), or its
+        // bottom (all zero).
+        assert_eq!(at(0), viridis(1.0));
+        assert_eq!(at(10), viridis(1.0));
+        assert_eq!(at(2), viridis(0.0));
+        // Each panel's bar runs the whole scale.
+        let (x0, y0, x1, _) = maps.panel_bar(5);
+        assert_eq!(img.get_pixel(x0 as u32, y0 as u32 + 2).0, viridis(0.0));
+        assert_eq!(img.get_pixel(x1 as u32, y0 as u32 + 2).0, viridis(1.0));
     }
 }
