@@ -614,8 +614,8 @@ fn spectral_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
             s.name
         ),
         x_label: "vacuum wavelength λ (µm)".into(),
-        y_label: "reflectance (fraction of the incident power), error bars 2 standard errors"
-            .into(),
+        // Short enough for a panel of small multiples.
+        y_label: "reflectance (fraction), 2-sigma error bars".into(),
         log_y: false,
         series,
         grid,

@@ -134,7 +134,7 @@ impl LinePlot {
             return g.panels.iter().map(|p| p.series.clone()).collect();
         }
         if self.series.is_empty() {
-            return vec![0..0];
+            return std::iter::once(0..0).collect();
         }
         let n = PALETTE.len();
         (0..self.series.len())

@@ -569,8 +569,8 @@ mod tests {
             theta_i_deg: 0.0,
             phi_i_deg: 0.0,
         };
-        for k in 0..16 {
-            let mut v = values[k].clone();
+        for (k, v) in values.iter().enumerate() {
+            let mut v = v.clone();
             v.sort_by(f64::total_cmp);
             let p98 = v[((n - 1) as f64 * 0.98).round() as usize];
             let top = if p98 > 0.0 { p98 } else { 1.0 };
