@@ -1,13 +1,15 @@
 //! The plot of a fit: the table's BRDF and the model's, cell by cell, in
 //! the plane of incidence (top) and across it through the specular
 //! direction (bottom), for up to three incidences (the first, middle and
-//! last: six curves, six colours of the palette).
+//! last, [`shown`]; the titles name them and those left out). Each
+//! incidence has one colour: its table as points with error bars, the
+//! model fitted to it as a line.
 
 use glam::DVec3;
 
 use super::{CellRule, FitResult, Model};
 use crate::optics::brdf_table::BrdfTable;
-use crate::plot::{LinePlot, Series};
+use crate::plot::{LinePlot, Mark, Series};
 
 /// Samples along each cut (one per 0.25 degree).
 const SAMPLES: usize = 712;
@@ -38,16 +40,49 @@ fn cut_cells(
     out.into_iter().map(|(f, x, n)| (f, x / n as f64)).collect()
 }
 
-/// PNG bytes of the plot of `fits` of `model` to `table` (`title` on top).
-///
-/// # Errors
-/// If plotting fails.
-pub fn png(
+/// The incidences a fit's plot shows, as indices into the `n` fitted
+/// (in increasing order): all of up to three, else the first, the middle
+/// and the last.
+#[must_use]
+pub fn shown(n: usize) -> Vec<usize> {
+    if n <= 3 {
+        (0..n).collect()
+    } else {
+        (0..3).map(|k| k * (n - 1) / 2).collect()
+    }
+}
+
+/// What the titles say of the incidences shown (`thetas`: every fitted
+/// incidence angle in degrees, in order; `shown`: the indices drawn).
+fn shown_text(thetas: &[f64], shown: &[usize]) -> String {
+    let list = |ks: &mut dyn Iterator<Item = usize>| {
+        ks.map(|k| format!("{}°", thetas[k]))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let drawn = list(&mut shown.iter().copied());
+    if shown.len() == thetas.len() {
+        format!("θi = {drawn}")
+    } else {
+        let left = list(&mut (0..thetas.len()).filter(|k| !shown.contains(k)));
+        format!(
+            "θi = {drawn} of the {} fitted; not shown: {left}",
+            thetas.len()
+        )
+    }
+}
+
+/// The two plots of `fits` of `model` to `table` (`title` first in their
+/// titles): in the plane of incidence and across it. Per incidence shown
+/// (the `k`-th), the table (points with error bars) and the model (a
+/// line) in the same colour, palette index `k`.
+#[must_use]
+pub fn plots(
     table: &BrdfTable,
     model: &dyn Model,
     fits: &[FitResult],
     title: &str,
-) -> anyhow::Result<Vec<u8>> {
+) -> [LinePlot; 2] {
     // (incidence, internal parameters) of every incidence fitted.
     let mut all: Vec<(usize, &[f64])> = fits
         .iter()
@@ -58,16 +93,17 @@ pub fn png(
         })
         .collect();
     all.sort_by_key(|p| p.0);
-    let n = all.len();
-    let chosen: Vec<(usize, &[f64])> = if n <= 3 {
-        all
-    } else {
-        (0..3).map(|k| all[k * (n - 1) / 2]).collect()
-    };
+    let picked = shown(all.len());
+    let thetas: Vec<f64> = all
+        .iter()
+        .map(|&(i, _)| table.incidence(i).theta_deg)
+        .collect();
+    let which = shown_text(&thetas, &picked);
+    let chosen: Vec<(usize, &[f64])> = picked.iter().map(|&k| all[k]).collect();
     let half = std::f64::consts::FRAC_PI_2 * (1.0 - 1e-9);
     let cut = |across: bool| {
         let mut series = Vec::new();
-        for &(i, q) in &chosen {
+        for (k, &(i, q)) in chosen.iter().enumerate() {
             let inc = table.incidence(i);
             let (t, phi_i) = (inc.theta_deg.to_radians(), inc.phi_i_deg.to_radians());
             let spec = DVec3::new(-t.sin(), 0.0, t.cos());
@@ -95,32 +131,52 @@ pub fn png(
                 model_pts.push((x, rule.average(|d| model.brdf(q, t, d)), 0.0));
             }
             series.push(Series {
-                label: format!("table {} deg", inc.theta_deg),
-                points: table_pts,
+                colour: Some(k),
+                mark: Mark::Points,
+                ..Series::new(format!("table, θi = {}°", inc.theta_deg), table_pts)
             });
             series.push(Series {
-                label: format!("fit {} deg", inc.theta_deg),
-                points: model_pts,
+                colour: Some(k),
+                mark: Mark::Line,
+                ..Series::new(format!("fit, θi = {}°", inc.theta_deg), model_pts)
             });
         }
         series
     };
-    let top = LinePlot {
-        title: format!("{title}: plane of incidence"),
-        x_label: "theta_o (deg, + on the specular side)".into(),
-        y_label: "BRDF (1/sr)".into(),
-        log_y: true,
-        series: cut(false),
-    }
-    .to_png(900, 520)?;
-    let bottom = LinePlot {
-        title: format!("{title}: across it, through the specular direction"),
-        x_label: "angle from the specular direction across the plane of incidence (deg)".into(),
-        y_label: "BRDF (1/sr)".into(),
-        log_y: true,
-        series: cut(true),
-    }
-    .to_png(900, 520)?;
+    [
+        LinePlot {
+            title: format!("{title}: plane of incidence ({which})"),
+            x_label: "theta_o (deg, + on the specular side)".into(),
+            y_label: "BRDF (1/sr)".into(),
+            log_y: true,
+            series: cut(false),
+            grid: None,
+        },
+        LinePlot {
+            title: format!("{title}: across it, through the specular direction ({which})"),
+            x_label: "angle from the specular direction across the plane of incidence (deg)".into(),
+            y_label: "BRDF (1/sr)".into(),
+            log_y: true,
+            series: cut(true),
+            grid: None,
+        },
+    ]
+}
+
+/// PNG bytes of the plot of `fits` of `model` to `table` (`title` on top):
+/// [`plots`] one above the other.
+///
+/// # Errors
+/// If plotting fails.
+pub fn png(
+    table: &BrdfTable,
+    model: &dyn Model,
+    fits: &[FitResult],
+    title: &str,
+) -> anyhow::Result<Vec<u8>> {
+    let [top, bottom] = plots(table, model, fits, title);
+    let top = top.to_png(900, 520)?;
+    let bottom = bottom.to_png(900, 520)?;
     let a = image::load_from_memory(&top)?.to_rgb8();
     let b = image::load_from_memory(&bottom)?.to_rgb8();
     let mut both = image::RgbImage::new(a.width(), a.height() + b.height());
@@ -129,4 +185,71 @@ pub fn png(
     let mut bytes = std::io::Cursor::new(Vec::new());
     both.write_to(&mut bytes, image::ImageFormat::Png)?;
     Ok(crate::outdir::kind::mark_png(bytes.into_inner()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tally::CarlsonGrid;
+
+    /// Which incidences are drawn, and the titles say so.
+    #[test]
+    fn the_titles_name_the_incidences_shown() {
+        assert_eq!(shown(2), [0, 1]);
+        assert_eq!(shown(3), [0, 1, 2]);
+        assert_eq!(shown(5), [0, 2, 4]);
+        assert_eq!(shown(4), [0, 1, 3]);
+        let t = [0.0, 20.0, 40.0, 60.0, 80.0];
+        assert_eq!(
+            shown_text(&t, &shown(5)),
+            "θi = 0°, 40°, 80° of the 5 fitted; not shown: 20°, 60°"
+        );
+        assert_eq!(shown_text(&t[..2], &shown(2)), "θi = 0°, 20°");
+    }
+
+    /// An ABg fit to a table of five incidences: three drawn, each table
+    /// (points with error bars) and its fitted model (a line) in one
+    /// colour, the three colours distinct; the titles say which; the PNG
+    /// decodes at 900 x 1040.
+    #[test]
+    fn each_fit_has_the_colour_of_its_table() {
+        let thetas = [0.0, 20.0, 40.0, 60.0, 80.0];
+        let truth = [0.01f64.ln(), 0.004f64.ln(), 1.7];
+        let blocks = super::super::synthetic(
+            &super::super::abg::Abg,
+            |_| truth.to_vec(),
+            &thetas,
+            8,
+            0.03,
+            5,
+        );
+        let table = BrdfTable::from_blocks(CarlsonGrid::new(8).unwrap(), blocks, "s").unwrap();
+        let obs = super::super::observations(&table, None);
+        let fits = super::super::abg::fit(&table, &obs).unwrap();
+        for plot in plots(&table, &super::super::abg::Abg, &fits, "ABg") {
+            assert!(
+                plot.title
+                    .ends_with("(θi = 0°, 40°, 80° of the 5 fitted; not shown: 20°, 60°)"),
+                "{}",
+                plot.title
+            );
+            assert_eq!(plot.series.len(), 6);
+            let mut colours = Vec::new();
+            for (k, pair) in plot.series.chunks(2).enumerate() {
+                let theta = thetas[2 * k];
+                assert_eq!(pair[0].label, format!("table, θi = {theta}°"));
+                assert_eq!(pair[1].label, format!("fit, θi = {theta}°"));
+                assert_eq!((pair[0].mark, pair[1].mark), (Mark::Points, Mark::Line));
+                let (a, b) = (plot.series_colour(2 * k), plot.series_colour(2 * k + 1));
+                assert_eq!(a, b, "{theta}");
+                colours.push(a);
+            }
+            assert!(
+                colours[0] != colours[1] && colours[1] != colours[2] && colours[0] != colours[2]
+            );
+        }
+        let png = png(&table, &super::super::abg::Abg, &fits, "ABg").unwrap();
+        let img = image::load_from_memory(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (900, 1040));
+    }
 }

@@ -33,7 +33,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::mueller::MuellerKind;
-use super::{HemisphereMap, LinePlot, MapScale, MuellerMaps, Series};
+use super::{Grid, HemisphereMap, LinePlot, MapScale, MuellerMaps, Panel, Series};
 use crate::outdir::file::{ResultFile, ResultPattern};
 use crate::output::number_label;
 use crate::output::polar_csv::MuellerFile;
@@ -55,7 +55,10 @@ enum Picture {
 impl Picture {
     fn png(&self) -> anyhow::Result<Vec<u8>> {
         match self {
-            Self::Line(p) => p.to_png(LINE_SIZE.0, LINE_SIZE.1),
+            Self::Line(p) => {
+                let (w, h) = p.size(LINE_SIZE.0, LINE_SIZE.1);
+                p.to_png(w, h)
+            }
             Self::Map(m) => m.to_png(),
             Self::Mueller(m) => m.to_png(),
         }
@@ -366,15 +369,11 @@ fn inplane_plot(s: &BrdfSummary, rows: &[InplaneRow], lanes: usize, photons: &st
         e.2 += r.brdf_stderr;
     }
     let l = lanes as f64;
+    let keys: Vec<(f64, Option<f64>)> = curves.iter().map(|c| c.0).collect();
     let series = curves
         .into_iter()
-        .map(|((theta, phi), bins)| Series {
-            label: match phi {
-                Some(phi) => format!("θi = {theta}°, φi = {phi}°"),
-                None => format!("θi = {theta}°"),
-            },
-            points: bins
-                .values()
+        .map(|(_, bins)| {
+            bins.values()
                 .map(|&(x, b, e)| {
                     if b == 0.0 && e == 0.0 {
                         (x, f64::NAN, 0.0)
@@ -382,7 +381,7 @@ fn inplane_plot(s: &BrdfSummary, rows: &[InplaneRow], lanes: usize, photons: &st
                         (x, b / l, 2.0 * e / l)
                     }
                 })
-                .collect(),
+                .collect()
         })
         .collect();
     let spectral = if lanes > 1 {
@@ -390,22 +389,170 @@ fn inplane_plot(s: &BrdfSummary, rows: &[InplaneRow], lanes: usize, photons: &st
     } else {
         String::new()
     };
+    let (series, grid, note) = per_incidence(&keys, series);
     LinePlot {
         title: format!(
-            "{}: BRDF in the plane of incidence ({photons}{spectral})",
+            "{}: BRDF in the plane of incidence ({photons}{spectral}{note})",
             s.name
         ),
         x_label: "θo (deg): negative toward the light, positive on the specular side".into(),
         y_label: "BRDF (1/sr), error bars 2 standard errors".into(),
         log_y: true,
         series,
+        grid,
     }
 }
 
+/// At most this many incidences share a panel of `inplane.png` (or of a
+/// spectral run's `reflectance.png`): more make a tangle of crossing
+/// curves and error bars.
+pub const PER_PANEL: usize = 5;
+
+/// Small multiples of curves per incidence and light azimuth: the grid's
+/// columns and, row-major, per panel its azimuth (`None`: the run has one)
+/// and the indices of its incidences.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Multiples {
+    /// Columns: one per light azimuth.
+    pub columns: usize,
+    /// Per panel: its light azimuth and its incidences (indices into the
+    /// run's incidence angles, in order).
+    pub panels: Vec<(Option<f64>, Vec<usize>)>,
+}
+
+/// The small multiples of `incidences` curves at each of `azimuths`
+/// (degrees; empty or one: a run of one azimuth): a column per azimuth and
+/// a row per group of at most [`PER_PANEL`] consecutive incidences (groups
+/// as even as can be: 7 incidences are 4 and 3). `None` when every curve
+/// fits one panel (one azimuth, at most [`PER_PANEL`] incidences).
+#[must_use]
+pub fn multiples(incidences: usize, azimuths: &[f64]) -> Option<Multiples> {
+    if incidences <= PER_PANEL && azimuths.len() <= 1 {
+        return None;
+    }
+    let groups = incidences.div_ceil(PER_PANEL).max(1);
+    let (size, extra) = (incidences / groups, incidences % groups);
+    let mut start = 0;
+    let mut rows = Vec::new();
+    for g in 0..groups {
+        let n = size + usize::from(g < extra);
+        rows.push((start..start + n).collect::<Vec<usize>>());
+        start += n;
+    }
+    let columns: Vec<Option<f64>> = if azimuths.len() > 1 {
+        azimuths.iter().map(|&p| Some(p)).collect()
+    } else {
+        vec![None]
+    };
+    Some(Multiples {
+        columns: columns.len(),
+        panels: rows
+            .iter()
+            .flat_map(|r| columns.iter().map(move |&p| (p, r.clone())))
+            .collect(),
+    })
+}
+
+/// Curves per incidence and light azimuth (`keys`: `(θi, φi)`, `φi`
+/// `None` for a run of one azimuth; `points`: each curve's) as the series
+/// of a [`LinePlot`], each in the colour of its incidence (the same in
+/// every panel), with its [`Grid`] of [`multiples`] and what the title
+/// adds to say so (`""` for a single panel).
+fn per_incidence(
+    keys: &[(f64, Option<f64>)],
+    mut points: Vec<Vec<(f64, f64, f64)>>,
+) -> (Vec<Series>, Option<Grid>, String) {
+    let mut thetas: Vec<f64> = Vec::new();
+    let mut phis: Vec<f64> = Vec::new();
+    for &(t, p) in keys {
+        if !thetas.contains(&t) {
+            thetas.push(t);
+        }
+        if let Some(p) = p.filter(|p| !phis.contains(p)) {
+            phis.push(p);
+        }
+    }
+    let colour = |t: f64| thetas.iter().position(|&x| x == t);
+    let Some(m) = multiples(thetas.len(), &phis) else {
+        let series = keys
+            .iter()
+            .zip(points)
+            .map(|(&(theta, phi), pts)| Series {
+                colour: colour(theta),
+                ..Series::new(
+                    match phi {
+                        Some(phi) => format!("θi = {theta}°, φi = {phi}°"),
+                        None => format!("θi = {theta}°"),
+                    },
+                    pts,
+                )
+            })
+            .collect();
+        return (series, None, String::new());
+    };
+    let mut series = Vec::new();
+    let mut panels = Vec::new();
+    for (phi, group) in &m.panels {
+        let start = series.len();
+        let ts: Vec<f64> = group.iter().map(|&k| thetas[k]).collect();
+        for &t in &ts {
+            let Some(k) = keys
+                .iter()
+                .position(|&(kt, kp)| kt == t && (phi.is_none() || kp == *phi))
+            else {
+                continue;
+            };
+            series.push(Series {
+                colour: colour(t),
+                ..Series::new(format!("θi = {t}°"), std::mem::take(&mut points[k]))
+            });
+        }
+        let mut title = Vec::new();
+        if let Some(p) = phi {
+            title.push(format!("φi = {p}°"));
+        }
+        if m.panels.len() > m.columns {
+            let list: Vec<String> = ts.iter().map(|t| format!("{t}°")).collect();
+            title.push(format!("θi = {}", list.join(", ")));
+        }
+        panels.push(Panel {
+            title: title.join(": "),
+            series: start..series.len(),
+        });
+    }
+    let rows = m.panels.len() / m.columns;
+    let mut note = Vec::new();
+    if rows > 1 {
+        note.push(format!(
+            "{} incidences in {rows} rows of at most {PER_PANEL}",
+            thetas.len()
+        ));
+    }
+    if m.columns > 1 {
+        note.push("a column per light azimuth φi".to_owned());
+    }
+    let note = format!("; small multiples: {}", note.join(", "));
+    (
+        series,
+        Some(Grid {
+            columns: m.columns,
+            panels,
+        }),
+        note,
+    )
+}
+
 /// `reflectance.png` of a micro run: the directional-hemispherical
-/// reflectance against the incidence angle, error bars of 2 standard errors.
+/// reflectance against the incidence angle, error bars of 2 standard
+/// errors, one curve per light azimuth; a spectral run of two or more
+/// wavelengths: against the wavelength, one curve per incidence (and
+/// azimuth; small multiples as `inplane.png`'s), from `summary.json`'s
+/// `spectrum` (the mean over the wavelengths would hide the spectrum).
 fn micro_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
     let lanes = s.run.wavelengths_um.len();
+    if lanes > 1 {
+        return spectral_reflectance(s, photons);
+    }
     let label = if lanes > 0 {
         format!("mean over {lanes} wavelengths")
     } else {
@@ -421,20 +568,57 @@ fn micro_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
             .run
             .phi_deg
             .iter()
-            .map(|&phi| Series {
-                label: if s.run.phi_deg.len() > 1 {
-                    format!("{label}, φi = {phi}°")
-                } else {
-                    label.clone()
-                },
-                points: s
-                    .incidence
-                    .iter()
-                    .filter(|i| i.phi_deg == phi)
-                    .map(|i| (i.theta_deg, i.reflectance, 2.0 * i.reflectance_stderr))
-                    .collect(),
+            .map(|&phi| {
+                Series::new(
+                    if s.run.phi_deg.len() > 1 {
+                        format!("{label}, φi = {phi}°")
+                    } else {
+                        label.clone()
+                    },
+                    s.incidence
+                        .iter()
+                        .filter(|i| i.phi_deg == phi)
+                        .map(|i| (i.theta_deg, i.reflectance, 2.0 * i.reflectance_stderr))
+                        .collect(),
+                )
             })
             .collect(),
+        grid: None,
+    }
+}
+
+/// `reflectance.png` of a spectral run: per incidence (and azimuth) its
+/// reflectance against the wavelength, error bars of 2 standard errors.
+fn spectral_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
+    let several = s.run.phi_deg.len() > 1;
+    let keys: Vec<(f64, Option<f64>)> = s
+        .incidence
+        .iter()
+        .map(|i| (i.theta_deg, several.then_some(i.phi_deg)))
+        .collect();
+    let points = s
+        .incidence
+        .iter()
+        .map(|i| {
+            i.spectrum
+                .iter()
+                .flatten()
+                .map(|w| (w.wavelength_um, w.reflectance, 2.0 * w.reflectance_stderr))
+                .collect()
+        })
+        .collect();
+    let (series, grid, note) = per_incidence(&keys, points);
+    LinePlot {
+        title: format!(
+            "{}: reflectance against wavelength ({photons}{note})",
+            s.name
+        ),
+        x_label: "vacuum wavelength λ (µm)".into(),
+        // Short enough for a panel of small multiples.
+        y_label: "reflectance (fraction), 2-sigma error bars".into(),
+        log_y: false,
+        series,
+        grid,
     }
 }
 
@@ -482,9 +666,9 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
                     p[r.start].diameter
                 )
             };
-            Series {
+            Series::new(
                 label,
-                points: p[r.clone()]
+                p[r.clone()]
                     .iter()
                     .map(|q| {
                         let d = sub(q.position, first);
@@ -495,7 +679,7 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
                         )
                     })
                     .collect(),
-            }
+            )
         })
         .collect();
     let (lo, hi) = p
@@ -522,6 +706,7 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
         y_label: "reflectance (fraction of the beam's flux), error bars 2 standard errors".into(),
         log_y: lo > 0.0 && hi > 20.0 * lo,
         series,
+        grid: None,
     }
 }
 
@@ -627,5 +812,170 @@ mod tests {
             assert!(l.contains('(') && l.contains(')'), "{l}");
         }
         assert!(p.title.contains("1000 photons") && !p.title.contains("3000"));
+    }
+
+    /// The small multiples of `inplane.png`: ten incidences at two light
+    /// azimuths are four panels, a column per azimuth and a row per five
+    /// incidences; five incidences at one azimuth stay one panel; seven
+    /// are split 4 + 3.
+    #[test]
+    fn panels_of_small_multiples() {
+        let m = multiples(10, &[0.0, 90.0]).unwrap();
+        assert_eq!(m.columns, 2);
+        let (a, b): (Vec<usize>, Vec<usize>) = ((0..5).collect(), (5..10).collect());
+        assert_eq!(
+            m.panels,
+            [
+                (Some(0.0), a.clone()),
+                (Some(90.0), a),
+                (Some(0.0), b.clone()),
+                (Some(90.0), b)
+            ]
+        );
+        assert_eq!(multiples(5, &[0.0]), None);
+        assert_eq!(multiples(5, &[]), None);
+        let m = multiples(7, &[30.0]).unwrap();
+        assert_eq!(m.columns, 1);
+        assert_eq!(m.panels, [(None, vec![0, 1, 2, 3]), (None, vec![4, 5, 6])]);
+        let m = multiples(2, &[0.0, 45.0, 90.0]).unwrap();
+        assert_eq!(m.columns, 3);
+        assert_eq!(m.panels.len(), 3);
+        assert!(m.panels.iter().all(|p| p.1 == [0, 1]));
+    }
+
+    /// A run's summary (`summary.json`'s text) at incidences `thetas` and
+    /// azimuths `phis`, with wavelengths `lanes` (each incidence's spectrum
+    /// `R(λ) = λ + θi / 1000`, standard error `λ / 100`).
+    fn summary(thetas: &[f64], phis: &[f64], lanes: &[f64]) -> BrdfSummary {
+        let mut run = crate::scene::micro::MicroScene::default_scene().brdf_run();
+        run.photons = 1000;
+        run.theta_deg = thetas.to_vec();
+        run.phi_deg = crate::transport::brdf::Azimuths(phis.to_vec());
+        run.wavelengths_um = lanes.to_vec();
+        let mut incidence = Vec::new();
+        for &t in thetas {
+            for &p in phis {
+                let spectrum: Vec<String> = lanes
+                    .iter()
+                    .map(|&w| {
+                        format!(
+                            r#"{{"lost":0,"lost_cap":0,"lost_numeric":0,"lost_walls":0,"reflectance":{},"reflectance_stderr":{},"wavelength_um":{w}}}"#,
+                            w + t / 1000.0,
+                            w / 100.0
+                        )
+                    })
+                    .collect();
+                let spectrum = if lanes.is_empty() {
+                    String::new()
+                } else {
+                    format!(r#","spectrum":[{}]"#, spectrum.join(","))
+                };
+                incidence.push(format!(
+                    r#"{{"capped_photons":0,"intersection_tests":1,"lost":0,"lost_cap":0,"lost_numeric":0,"lost_walls":0,"mean_bounces":1,"numeric_guard_photons":0,"phi_deg":{p},"photons":1000,"reflectance":0.5,"reflectance_by_bounces":[0.5],"reflectance_stderr":0.01,"seconds":1,"segments":1,"segments_per_second":1,"tests_per_segment":1,"theta_deg":{t}{spectrum}}}"#
+                ));
+            }
+        }
+        let text = format!(
+            r#"{{"content":{{"files":{{}},"scene_sha256":"0"}},"edges":"periodic","incidence":[{}],
+            "name":"s","run":{},"scene":"s.toml","seconds":1,
+            "surface":{{"height_map_resolution":4,"max_height":0,"mean_height":0,"min_height":0,"rms_slope":0,"sigma":0,"sigma_over_tau":null,"tau":null}},
+            "version":"0"}}"#,
+            incidence.join(","),
+            serde_json::to_string(&run).unwrap()
+        );
+        serde_json::from_str(&text).unwrap()
+    }
+
+    /// `inplane.png` of ten incidences at two azimuths: four titled panels
+    /// of five curves, each incidence in the same colour in both columns
+    /// (its place among the incidences), the title saying so.
+    #[test]
+    fn inplane_of_ten_incidences_at_two_azimuths() {
+        let thetas: Vec<f64> = vec![0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0];
+        let s = summary(&thetas, &[0.0, 90.0], &[]);
+        let mut rows = Vec::new();
+        for &t in &thetas {
+            for p in [0.0, 90.0] {
+                for x in [-10.0, 0.0, 10.0] {
+                    rows.push(InplaneRow {
+                        theta_i_deg: t,
+                        phi_i_deg: Some(p),
+                        theta_o_deg: x,
+                        brdf: 1.0 + t + p,
+                        brdf_stderr: 0.1,
+                    });
+                }
+            }
+        }
+        let plot = inplane_plot(&s, &rows, 1, "1000 photons per incidence");
+        assert_eq!(
+            plot.title,
+            "s: BRDF in the plane of incidence (1000 photons per incidence; small multiples: \
+             10 incidences in 2 rows of at most 5, a column per light azimuth φi)"
+        );
+        let grid = plot.grid.as_ref().expect("small multiples");
+        assert_eq!(grid.columns, 2);
+        let titles: Vec<&str> = grid.panels.iter().map(|p| p.title.as_str()).collect();
+        assert_eq!(
+            titles,
+            [
+                "φi = 0°: θi = 0°, 10°, 20°, 30°, 40°",
+                "φi = 90°: θi = 0°, 10°, 20°, 30°, 40°",
+                "φi = 0°: θi = 50°, 60°, 70°, 80°, 85°",
+                "φi = 90°: θi = 50°, 60°, 70°, 80°, 85°",
+            ]
+        );
+        for (k, p) in grid.panels.iter().enumerate() {
+            assert_eq!(p.series.len(), 5);
+            let phi = if k % 2 == 0 { 0.0 } else { 90.0 };
+            for (j, i) in p.series.clone().enumerate() {
+                let theta = thetas[5 * (k / 2) + j];
+                assert_eq!(plot.series[i].label, format!("θi = {theta}°"));
+                // Its own data, in its incidence's colour.
+                assert_eq!(plot.series[i].points[0].1, 1.0 + theta + phi);
+                assert_eq!(
+                    plot.series_colour(i),
+                    crate::plot::line::PALETTE[5 * (k / 2) + j]
+                );
+            }
+        }
+        let png = plot.to_png(1100, 640).unwrap();
+        assert!(image::load_from_memory(&png).is_ok());
+        assert_eq!(plot.size(1100, 640), (1400, 680));
+    }
+
+    /// A spectral run's `reflectance.png`: per incidence its reflectance
+    /// against the wavelength from `summary.json`'s spectrum (not the mean
+    /// over the wavelengths), error bars of 2 standard errors; one
+    /// wavelength: against incidence as before.
+    #[test]
+    fn spectral_reflectance_is_drawn_per_wavelength() {
+        let lanes = [0.4, 0.5, 0.6, 0.7];
+        let s = summary(&[0.0, 30.0, 60.0], &[0.0], &lanes);
+        let p = micro_reflectance(&s, "x");
+        assert!(
+            p.title.starts_with("s: reflectance against wavelength"),
+            "{}",
+            p.title
+        );
+        assert!(p.x_label.contains("wavelength") && p.grid.is_none());
+        let labels: Vec<&str> = p.series.iter().map(|s| s.label.as_str()).collect();
+        assert_eq!(labels, ["θi = 0°", "θi = 30°", "θi = 60°"]);
+        for (s, t) in p.series.iter().zip([0.0, 30.0, 60.0]) {
+            let expect: Vec<(f64, f64, f64)> = lanes
+                .iter()
+                .map(|&w| (w, w + t / 1000.0, 2.0 * (w / 100.0)))
+                .collect();
+            assert_eq!(s.points, expect);
+        }
+        // Ten incidences at two azimuths: small multiples as inplane.png's.
+        let thetas: Vec<f64> = (0..10).map(|k| f64::from(k) * 8.0).collect();
+        let p = micro_reflectance(&summary(&thetas, &[0.0, 90.0], &lanes), "x");
+        let g = p.grid.as_ref().unwrap();
+        assert_eq!((g.columns, g.panels.len(), p.series.len()), (2, 4, 20));
+        // One wavelength: reflectance against incidence.
+        let p = micro_reflectance(&summary(&[0.0, 30.0], &[0.0], &[0.5]), "x");
+        assert!(p.title.contains("against incidence"));
+        assert_eq!(p.series[0].points, [(0.0, 0.5, 0.02), (30.0, 0.5, 0.02)]);
     }
 }

@@ -1,7 +1,10 @@
 //! Line plots with error bars ([`LinePlot`]): one distinct colour per
 //! curve (or, past [`PALETTE`]'s ten, a panel per ten curves), the legend
 //! in a column beside the data, no line across a point without a value,
-//! unique tick labels.
+//! unique tick labels; or small multiples ([`Grid`]): titled panels on a
+//! grid, on the same axes, each curve in the colour it names (so one
+//! quantity keeps its colour from panel to panel, and a model's line the
+//! colour of the table it was fitted to).
 
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
@@ -18,6 +21,56 @@ pub struct Series {
     pub label: String,
     /// Points, in the order they are joined.
     pub points: Vec<(f64, f64, f64)>,
+    /// Its colour, an index into [`PALETTE`] (taken modulo its length);
+    /// `None`: its place in its panel.
+    pub colour: Option<usize>,
+    /// How it is drawn.
+    pub mark: Mark,
+}
+
+impl Series {
+    /// A curve of `points` drawn as [`Mark::LinePoints`] in the colour of
+    /// its place in its panel.
+    #[must_use]
+    pub fn new(label: impl Into<String>, points: Vec<(f64, f64, f64)>) -> Self {
+        Self {
+            label: label.into(),
+            points,
+            colour: None,
+            mark: Mark::LinePoints,
+        }
+    }
+}
+
+/// How a [`Series`] is drawn (its legend entry likewise).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mark {
+    /// Points with their error bars, joined by a line.
+    LinePoints,
+    /// Points with their error bars, not joined: measured (tabulated) data.
+    Points,
+    /// A line only: a model's curve.
+    Line,
+}
+
+/// One panel of a [`LinePlot`] of small multiples: its title and the
+/// series it draws (a range of [`LinePlot::series`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Panel {
+    /// Title, above the panel's chart.
+    pub title: String,
+    /// Its series.
+    pub series: std::ops::Range<usize>,
+}
+
+/// Small multiples: panels on a grid of `columns` columns, row by row,
+/// all on the same axes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    /// Columns of the grid (at least 1).
+    pub columns: usize,
+    /// The panels, row-major.
+    pub panels: Vec<Panel>,
 }
 
 /// A line plot with error bars.
@@ -33,6 +86,8 @@ pub struct LinePlot {
     pub log_y: bool,
     /// Curves.
     pub series: Vec<Series>,
+    /// Small multiples; `None`: one panel per ten curves, in a column.
+    pub grid: Option<Grid>,
 }
 
 /// Curve colours (Tableau 10): ten colours far apart; a plot of more curves
@@ -52,6 +107,8 @@ pub const PALETTE: [RGBColor; 10] = [
 
 /// Height of the title strip (pixels).
 const TITLE_H: i32 = 40;
+/// Height of a small multiple's own title strip (pixels).
+const PANEL_TITLE_H: i32 = 22;
 /// Pixels per legend entry.
 const LEGEND_ROW: i32 = 20;
 /// Labels per axis (at most).
@@ -69,26 +126,81 @@ pub struct Layout {
 }
 
 impl LinePlot {
-    /// The series of each panel: at most [`PALETTE`]'s length each (one
-    /// panel for an empty plot).
+    /// The range of [`Self::series`] of each panel: the grid's panels, or
+    /// at most [`PALETTE`]'s length each (one panel for an empty plot).
     #[must_use]
-    pub fn panels(&self) -> Vec<&[Series]> {
-        if self.series.is_empty() {
-            return vec![&self.series[..]];
+    pub fn panel_ranges(&self) -> Vec<std::ops::Range<usize>> {
+        if let Some(g) = &self.grid {
+            return g.panels.iter().map(|p| p.series.clone()).collect();
         }
-        self.series.chunks(PALETTE.len()).collect()
+        if self.series.is_empty() {
+            return std::iter::once(0..0).collect();
+        }
+        let n = PALETTE.len();
+        (0..self.series.len())
+            .step_by(n)
+            .map(|a| a..(a + n).min(self.series.len()))
+            .collect()
     }
 
-    /// The colour of series `k` (distinct within a panel).
+    /// The series of each panel.
+    #[must_use]
+    pub fn panels(&self) -> Vec<&[Series]> {
+        self.panel_ranges()
+            .into_iter()
+            .map(|r| &self.series[r])
+            .collect()
+    }
+
+    /// The colour of the `k`-th series of a panel (distinct within it).
     #[must_use]
     pub fn colour(k: usize) -> RGBColor {
         PALETTE[k % PALETTE.len()]
+    }
+
+    /// The colour series `k` of [`Self::series`] is drawn in: its own
+    /// [`Series::colour`], else that of its place in its panel.
+    #[must_use]
+    pub fn series_colour(&self, k: usize) -> RGBColor {
+        if let Some(c) = self.series[k].colour {
+            return Self::colour(c);
+        }
+        let start = self
+            .panel_ranges()
+            .into_iter()
+            .find(|r| r.contains(&k))
+            .map_or(0, |r| r.start);
+        Self::colour(k - start)
+    }
+
+    /// Columns and rows of the panels.
+    fn shape(&self) -> (usize, usize) {
+        let n = self.panel_ranges().len().max(1);
+        let columns = self.grid.as_ref().map_or(1, |g| g.columns.clamp(1, n));
+        (columns, n.div_ceil(columns))
+    }
+
+    /// The size (pixels) a picture of this plot is drawn at, from the size
+    /// of a plain one (`width x height`): a grid of small multiples gets
+    /// at least 700 pixels per column and 320 per row.
+    #[must_use]
+    pub fn size(&self, width: u32, height: u32) -> (u32, u32) {
+        if self.grid.is_none() {
+            return (width, height);
+        }
+        let (c, r) = self.shape();
+        (
+            width.max(700 * c as u32),
+            height.max(TITLE_H as u32 + 320 * r as u32),
+        )
     }
 
     /// Where the charts and legends go on a picture of `width x height`.
     #[must_use]
     pub fn layout(&self, width: u32, height: u32) -> Layout {
         let (w, h) = (width as i32, height as i32);
+        let (columns, rows) = self.shape();
+        let (cw, ph) = (w / columns as i32, (h - TITLE_H) / rows as i32);
         let longest = self
             .series
             .iter()
@@ -98,23 +210,28 @@ impl LinePlot {
         let legend_w = if self.series.is_empty() {
             0
         } else {
-            (longest * 8 + 50).max(110).min(w / 3)
+            (longest * 8 + 50).max(110).min(cw / 3)
         };
-        let panels = self.panels();
-        let ph = (h - TITLE_H) / panels.len() as i32;
-        let panels = (0..panels.len() as i32)
+        // A panel's own title takes a strip above its chart.
+        let strip = if self.grid.is_some() {
+            PANEL_TITLE_H
+        } else {
+            0
+        };
+        let panels = (0..self.panel_ranges().len() as i32)
             .map(|k| {
-                let y0 = TITLE_H + k * ph;
+                let (col, row) = (k % columns as i32, k / columns as i32);
+                let (x0, y0) = (col * cw, TITLE_H + row * ph);
                 let chart = Rect {
-                    x0: 0,
-                    y0,
-                    x1: w - legend_w,
+                    x0,
+                    y0: y0 + strip,
+                    x1: x0 + cw - legend_w,
                     y1: y0 + ph,
                 };
                 let legend = Rect {
-                    x0: w - legend_w,
-                    y0,
-                    x1: w,
+                    x0: x0 + cw - legend_w,
+                    y0: y0 + strip,
+                    x1: x0 + cw,
                     y1: y0 + ph,
                 };
                 (chart, legend)
@@ -250,7 +367,27 @@ impl LinePlot {
         let ticks = self.axis_ticks();
         let layout = self.layout(width, height);
         let mut first = 0;
-        for (series, (chart_r, legend_r)) in self.panels().into_iter().zip(&layout.panels) {
+        let titles: Vec<&str> = self
+            .grid
+            .as_ref()
+            .map(|g| g.panels.iter().map(|p| p.title.as_str()).collect())
+            .unwrap_or_default();
+        for (k, (range, (chart_r, legend_r))) in self
+            .panel_ranges()
+            .into_iter()
+            .zip(&layout.panels)
+            .enumerate()
+        {
+            if let Some(t) = titles.get(k) {
+                root.draw(&Text::new(
+                    (*t).to_owned(),
+                    (
+                        (chart_r.x0 + legend_r.x1) / 2,
+                        chart_r.y0 - PANEL_TITLE_H / 2 + 2,
+                    ),
+                    centred(15),
+                ))?;
+            }
             let area = root.clone().shrink(
                 (chart_r.x0, chart_r.y0),
                 (
@@ -275,8 +412,10 @@ impl LinePlot {
                 .axis_desc_style(("sans-serif", 14))
                 .draw()?;
             draw_ticks(&root, &mut chart, ((x0, x1), (y0, y1)), &ticks)?;
-            self.draw_curves(&mut chart, series)?;
-            draw_legend(&root, legend_r, series)?;
+            let colours: Vec<RGBColor> = range.clone().map(|i| self.series_colour(i)).collect();
+            let series = &self.series[range];
+            self.draw_curves(&mut chart, series, &colours)?;
+            draw_legend(&root, legend_r, series, &colours)?;
             first += series.len();
         }
         debug_assert_eq!(first, self.series.len());
@@ -296,20 +435,26 @@ impl LinePlot {
         Ok(())
     }
 
-    /// Draw each of `series` (one panel's) in its colour: its runs of
-    /// points joined, the points, their error bars.
+    /// Draw each of `series` (one panel's) in its colour (`colours`, one
+    /// per series) as its [`Mark`] says: its runs of points joined, the
+    /// points, their error bars.
     fn draw_curves(
         &self,
         chart: &mut Chart<'_, '_>,
         series: &[Series],
+        colours: &[RGBColor],
     ) -> Result<(), super::DrawError> {
-        for (k, s) in series.iter().enumerate() {
-            let colour = Self::colour(k);
+        for (s, &colour) in series.iter().zip(colours) {
             for run in self.segments(s) {
-                chart.draw_series(LineSeries::new(
-                    run.iter().map(|p| (p.0, p.1)),
-                    colour.stroke_width(2),
-                ))?;
+                if s.mark != Mark::Points {
+                    chart.draw_series(LineSeries::new(
+                        run.iter().map(|p| (p.0, p.1)),
+                        colour.stroke_width(2),
+                    ))?;
+                }
+                if s.mark == Mark::Line {
+                    continue;
+                }
                 chart.draw_series(
                     run.iter()
                         .map(|p| Circle::new((p.0, p.1), 3, colour.filled())),
@@ -386,27 +531,38 @@ fn draw_ticks(
     Ok(())
 }
 
-/// Draw the legend of `series` (one panel's) in its own column `legend_r`
-/// of `root`: per curve its line and point in its colour, and its label.
+/// Draw the legend of `series` (one panel's, in `colours`) in its own
+/// column `legend_r` of `root`: per curve its line and point (as its
+/// [`Mark`] draws it) in its colour, and its label.
 fn draw_legend(
     root: &DrawingArea<BitMapBackend<'_>, Shift>,
     legend_r: &Rect,
     series: &[Series],
+    colours: &[RGBColor],
 ) -> Result<(), super::DrawError> {
     use plotters::style::text_anchor::{HPos, Pos, VPos};
     let label = ("sans-serif", 14)
         .into_font()
         .color(&BLACK)
         .pos(Pos::new(HPos::Left, VPos::Center));
-    for (k, s) in series.iter().enumerate() {
-        let colour = LinePlot::colour(k);
+    for (k, (s, &colour)) in series.iter().zip(colours).enumerate() {
         let y = legend_r.y0 + 20 + LEGEND_ROW * k as i32;
         let x = legend_r.x0 + 6;
-        root.draw(&PathElement::new(
-            vec![(x, y), (x + 24, y)],
-            colour.stroke_width(2),
-        ))?;
-        root.draw(&Circle::new((x + 12, y), 3, colour.filled()))?;
+        if s.mark != Mark::Points {
+            root.draw(&PathElement::new(
+                vec![(x, y), (x + 24, y)],
+                colour.stroke_width(2),
+            ))?;
+        }
+        if s.mark != Mark::Line {
+            root.draw(&Circle::new((x + 12, y), 3, colour.filled()))?;
+        }
+        if s.mark == Mark::Points {
+            root.draw(&PathElement::new(
+                vec![(x + 12, y - 7), (x + 12, y + 7)],
+                colour.stroke_width(1),
+            ))?;
+        }
         root.draw(&Text::new(s.label.clone(), (x + 32, y), label.clone()))?;
     }
     Ok(())
@@ -418,10 +574,7 @@ mod tests {
 
     fn series(n: usize, points: Vec<(f64, f64, f64)>) -> Vec<Series> {
         (0..n)
-            .map(|k| Series {
-                label: format!("θi = {} deg", 10 * k),
-                points: points.clone(),
-            })
+            .map(|k| Series::new(format!("θi = {} deg", 10 * k), points.clone()))
             .collect()
     }
 
@@ -432,6 +585,7 @@ mod tests {
             y_label: "y (1/sr)".into(),
             log_y,
             series,
+            grid: None,
         }
     }
 
@@ -577,5 +731,51 @@ mod tests {
             u.dedup();
             assert_eq!(u.len(), labels.len(), "{labels:?}");
         }
+    }
+
+    /// Small multiples: the panels of a 2 x 2 grid sit side by side and
+    /// row under row, none overlapping another or its legend; each series
+    /// is drawn in the colour it names (else its place in its panel); the
+    /// picture grows to 700 pixels per column and 320 per row.
+    #[test]
+    fn grid_of_panels() {
+        let mut p = plot(series(8, vec![(0.0, 1.0, 0.1), (1.0, 2.0, 0.1)]), true);
+        p.series[5].colour = Some(7);
+        p.series[6].mark = Mark::Points;
+        p.grid = Some(Grid {
+            columns: 2,
+            panels: (0..4)
+                .map(|k| Panel {
+                    title: format!("panel {k}"),
+                    series: 2 * k..2 * k + 2,
+                })
+                .collect(),
+        });
+        assert_eq!(p.size(1100, 640), (1400, 680));
+        assert_eq!(
+            p.panels().iter().map(|s| s.len()).collect::<Vec<_>>(),
+            [2; 4]
+        );
+        let l = p.layout(1400, 680);
+        assert_eq!(l.panels.len(), 4);
+        let (a, b, c) = (l.panels[0].0, l.panels[1].0, l.panels[2].0);
+        assert!(b.x0 >= 700 && a.x1 <= 700 && a.y0 == b.y0);
+        assert!(c.y0 >= a.y1 && c.x0 == a.x0);
+        let rects: Vec<Rect> = l.panels.iter().flat_map(|(c, g)| [*c, *g]).collect();
+        for (i, r) in rects.iter().enumerate() {
+            for o in &rects[..i] {
+                assert!(!r.overlaps(o), "{r:?} on {o:?}");
+            }
+        }
+        assert_eq!(p.series_colour(4), PALETTE[0]);
+        assert_eq!(p.series_colour(5), PALETTE[7]);
+        assert_eq!(p.series_colour(3), PALETTE[1]);
+        let png = p.to_png(1400, 680).unwrap();
+        let img = image::load_from_memory(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (1400, 680));
+        // Without a grid, as before: one panel per ten curves, its place's colour.
+        let q = plot(series(12, vec![(0.0, 1.0, 0.0)]), false);
+        assert_eq!(q.size(1100, 640), (1100, 640));
+        assert_eq!(q.series_colour(11), PALETTE[1]);
     }
 }

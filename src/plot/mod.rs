@@ -25,7 +25,7 @@ pub mod mueller;
 pub mod surface;
 
 pub use hemisphere::{HemisphereMap, MapScale, NO_VALUE, viridis};
-pub use line::{LinePlot, Series};
+pub use line::{Grid, LinePlot, Mark, Panel, Series};
 pub use mueller::MuellerMaps;
 pub use surface::SurfacePicture;
 

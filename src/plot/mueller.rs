@@ -14,6 +14,12 @@ use crate::tally::CarlsonGrid;
 const W: u32 = 1100;
 const H: u32 = 1060;
 const PANEL: i32 = 240;
+/// The standard errors' picture: taller, a scale bar under each disc.
+const H_ERRORS: u32 = 1180;
+const ROW_ERRORS: i32 = 270;
+/// The scale bar under a disc of the standard errors: its width and
+/// height, and its top below the disc's bottom (pixels).
+const PANEL_BAR: (i32, i32, i32) = (160, 10, 8);
 const TOP: i32 = 90;
 const LEFT: i32 = 20;
 const R: f64 = 100.0;
@@ -53,8 +59,10 @@ pub enum MuellerKind {
     /// `m_ij / m00` on a diverging scale symmetric about 0 over the largest
     /// magnitude; the `m00` panel the BRDF on a log scale (4 decades).
     Normalised,
-    /// The standard errors of `m_ij / m00` on a linear scale from 0; the
-    /// `m00` panel its relative standard error on the same scale.
+    /// The standard errors of `m_ij / m00`, and in the `m00` panel its
+    /// relative standard error, each panel on its own linear scale from 0
+    /// ([`MuellerMaps::panel_range`]) with its own bar: errors differ by
+    /// element, and a shared scale left most panels one colour.
     Errors,
 }
 
@@ -83,9 +91,8 @@ pub struct MuellerMaps {
 impl MuellerMaps {
     /// The shared scale `(lo, hi)` of the 15 normalised panels: symmetric
     /// about 0 over their largest magnitude; or of the errors: from 0 to the
-    /// 98th percentile of the 15 normalised elements' errors (a few cells
-    /// of two or three photons would otherwise darken every other; larger
-    /// errors take the top colour, as the bar says).
+    /// 98th percentile of the 15 normalised elements' errors (the errors'
+    /// panels are drawn each on its own scale, [`Self::panel_range`]).
     #[must_use]
     pub fn range(&self) -> (f64, f64) {
         let mut v: Vec<f64> = self.values[1..]
@@ -109,9 +116,70 @@ impl MuellerMaps {
         }
     }
 
+    /// The scale `(lo, hi)` of panel `k` (element `k`, row-major): of
+    /// the normalised elements the shared [`Self::range`]; of the errors
+    /// the panel's own, from 0 to the 98th percentile of its values (a few
+    /// cells of two or three photons would otherwise darken every other;
+    /// larger errors take the top colour, as its bar says), `(0, 1)` when
+    /// they are all 0 or none has a value.
+    #[must_use]
+    pub fn panel_range(&self, k: usize) -> (f64, f64) {
+        if self.kind == MuellerKind::Normalised {
+            return self.range();
+        }
+        let mut v: Vec<f64> = self.values[k]
+            .iter()
+            .filter(|v| v.is_finite())
+            .map(|v| v.abs())
+            .collect();
+        let top = if v.is_empty() {
+            0.0
+        } else {
+            let at = ((v.len() - 1) as f64 * 0.98).round() as usize;
+            *v.select_nth_unstable_by(at, f64::total_cmp).1
+        };
+        (0.0, if top > 0.0 { top } else { 1.0 })
+    }
+
+    /// The largest value of panel `k` (`None`: no value).
+    fn panel_max(&self, k: usize) -> Option<f64> {
+        self.values[k]
+            .iter()
+            .filter(|v| v.is_finite())
+            .map(|v| v.abs())
+            .reduce(f64::max)
+    }
+
+    /// The label of the top of panel `k`'s bar: its top, three significant
+    /// digits, with the panel's largest value when that is above it
+    /// (`0.172 (max 0.654)`); `every value 0` when they all are.
+    #[must_use]
+    pub fn panel_top_label(&self, k: usize) -> String {
+        let Some(max) = self.panel_max(k) else {
+            return "no value".into();
+        };
+        if max == 0.0 {
+            return "every value 0".into();
+        }
+        let (_, top) = self.panel_range(k);
+        if max > top {
+            format!("{} (max {})", significant(top), significant(max))
+        } else {
+            significant(top)
+        }
+    }
+
+    /// The picture's height (pixels).
+    fn height(&self) -> u32 {
+        match self.kind {
+            MuellerKind::Normalised => H,
+            MuellerKind::Errors => H_ERRORS,
+        }
+    }
+
     /// The colour of every cell of element `k` (`None`: no value).
     fn colours(&self, k: usize) -> Vec<Option<[u8; 3]>> {
-        let (lo, hi) = self.range();
+        let (lo, hi) = self.panel_range(k);
         if k == 0 && self.kind == MuellerKind::Normalised {
             let top = self.values[0]
                 .iter()
@@ -135,28 +203,56 @@ impl MuellerMaps {
     }
 
     /// Centre of panel `(i, j)` (pixels).
-    fn centre(i: usize, j: usize) -> (f64, f64) {
+    fn centre(&self, i: usize, j: usize) -> (f64, f64) {
+        let row = match self.kind {
+            MuellerKind::Normalised => PANEL,
+            MuellerKind::Errors => ROW_ERRORS,
+        };
         (
             f64::from(LEFT + PANEL * j as i32 + PANEL / 2),
-            f64::from(TOP + PANEL * i as i32 + PANEL / 2 + 8),
+            f64::from(TOP + row * i as i32 + PANEL / 2 + 8),
         )
     }
 
-    /// Render to PNG bytes (1100 x 1060 pixels).
+    /// The scale bar under panel `k` of the errors: `(x0, y0, x1, y1)`,
+    /// pixels, inclusive.
+    fn panel_bar(&self, k: usize) -> (i32, i32, i32, i32) {
+        let (cx, cy) = self.centre(k / 4, k % 4);
+        let (w, h, below) = PANEL_BAR;
+        let (x0, y0) = (cx as i32 - w / 2, (cy + R) as i32 + below);
+        (x0, y0, x0 + w, y0 + h)
+    }
+
+    /// Render to PNG bytes (1100 x 1060 pixels; the errors 1100 x 1180).
     ///
     /// # Errors
     /// If drawing or encoding fails.
     pub fn to_png(&self) -> anyhow::Result<Vec<u8>> {
         register_font();
-        let mut buf = vec![255u8; (W * H * 3) as usize];
+        let h = self.height();
+        let mut buf = vec![255u8; (W * h * 3) as usize];
         let mut empty = false;
         for k in 0..16 {
             let c = self.colours(k);
             empty |= c.iter().any(Option::is_none);
-            let (cx, cy) = Self::centre(k / 4, k % 4);
+            let (cx, cy) = self.centre(k / 4, k % 4);
             paint_disc(&mut buf, W, (cx, cy, R), &self.grid, &c);
+            if self.kind == MuellerKind::Errors {
+                let (x0, y0, x1, y1) = self.panel_bar(k);
+                for x in x0..=x1 {
+                    let c = viridis(f64::from(x - x0) / f64::from(x1 - x0));
+                    for y in y0..=y1 {
+                        let at = 3 * (y as u32 * W + x as u32) as usize;
+                        buf[at..at + 3].copy_from_slice(&c);
+                    }
+                }
+            }
         }
         for y in BAR.0..=BAR.1 {
+            if self.kind == MuellerKind::Errors {
+                // Each panel has its own bar.
+                break;
+            }
             let t = f64::from(BAR.1 - y) / f64::from(BAR.1 - BAR.0);
             let c = match self.kind {
                 MuellerKind::Normalised => diverging(t),
@@ -177,11 +273,11 @@ impl MuellerMaps {
         }
         self.overlay(&mut buf, empty)
             .map_err(|e| anyhow::anyhow!("Mueller maps: {e}"))?;
-        encode_png(W, H, buf)
+        encode_png(W, h, buf)
     }
 
     fn overlay(&self, buf: &mut [u8], empty: bool) -> Result<(), super::DrawError> {
-        let root = BitMapBackend::with_buffer(buf, (W, H)).into_drawing_area();
+        let root = BitMapBackend::with_buffer(buf, (W, self.height())).into_drawing_area();
         self.draw_heading(&root)?;
         self.draw_panel_frames(&root)?;
         self.draw_colour_bar(&root, empty)?;
@@ -205,7 +301,7 @@ impl MuellerMaps {
                 "row i: outgoing Stokes component, column j: incident; panels m_ij / m00, m00 itself: BRDF (1/sr, log, 4 decades)"
             }
             MuellerKind::Errors => {
-                "standard errors of m_ij / m00 (from each element's covariance with m00); m00 panel: relative error of m00"
+                "standard errors of m_ij / m00 (from each element's covariance with m00); m00 panel: relative error of m00; each panel on its own linear scale (its bar)"
             }
         };
         root.draw(&Text::new(
@@ -232,7 +328,7 @@ impl MuellerMaps {
         let (s, c) = (self.phi_i_deg + 180.0).to_radians().sin_cos();
         for k in 0..16 {
             let (i, j) = (k / 4, k % 4);
-            let (cx, cy) = Self::centre(i, j);
+            let (cx, cy) = self.centre(i, j);
             root.draw(&Circle::new(
                 (cx.round() as i32, cy.round() as i32),
                 R as i32,
@@ -257,29 +353,18 @@ impl MuellerMaps {
         Ok(())
     }
 
-    /// The colour bar's frame, labels and ticks, and (`empty`: some cell
-    /// has no light) the key of the cells without a value.
+    /// The colour bar's frame, labels and ticks (of the errors: each
+    /// panel's, [`Self::draw_panel_bars`]), and (`empty`: some cell has no
+    /// light) the key of the cells without a value.
     fn draw_colour_bar(&self, root: &Root<'_>, empty: bool) -> Result<(), super::DrawError> {
+        if self.kind == MuellerKind::Errors {
+            return self.draw_panel_bars(root, empty);
+        }
         root.draw(&Rectangle::new(
             [(BAR_X - 1, BAR.0 - 1), (BAR_X + 24, BAR.1 + 1)],
             BLACK.stroke_width(1),
         ))?;
-        let label = match self.kind {
-            MuellerKind::Normalised => "m_ij / m00",
-            MuellerKind::Errors => "standard error",
-        };
-        if self.kind == MuellerKind::Errors {
-            root.draw(&Text::new(
-                "top: 98th percentile",
-                (BAR_X + 12, BAR.0 - 60),
-                text(12, HPos::Center),
-            ))?;
-            root.draw(&Text::new(
-                "and above",
-                (BAR_X + 12, BAR.0 - 46),
-                text(12, HPos::Center),
-            ))?;
-        }
+        let label = "m_ij / m00";
         root.draw(&Text::new(
             label,
             (BAR_X + 12, BAR.0 - 28),
@@ -309,22 +394,82 @@ impl MuellerMaps {
             ))?;
         }
         if empty {
-            root.draw(&Rectangle::new(
-                [(BAR_X - 1, BAR.1 + 39), (BAR_X + 22, BAR.1 + 62)],
-                BLACK.stroke_width(1),
-            ))?;
-            root.draw(&Text::new(
-                "no light:",
-                (BAR_X, BAR.1 + 76),
-                text(13, HPos::Left),
-            ))?;
-            root.draw(&Text::new(
-                "undefined",
-                (BAR_X, BAR.1 + 92),
-                text(13, HPos::Left),
-            ))?;
+            draw_no_light_key(root)?;
         }
         Ok(())
+    }
+
+    /// The errors' scales: under each panel its bar's frame and its ends'
+    /// labels (0 and the panel's top, with the panel's largest value when
+    /// above it); beside the grid what the bars are, and (`empty`) the key
+    /// of the cells without a value.
+    fn draw_panel_bars(&self, root: &Root<'_>, empty: bool) -> Result<(), super::DrawError> {
+        for k in 0..16 {
+            let (x0, y0, x1, y1) = self.panel_bar(k);
+            root.draw(&Rectangle::new(
+                [(x0 - 1, y0 - 1), (x1 + 1, y1 + 1)],
+                BLACK.stroke_width(1),
+            ))?;
+            let y = y1 + 11;
+            root.draw(&Text::new("0", (x0, y), text(12, HPos::Left)))?;
+            root.draw(&Text::new(
+                self.panel_top_label(k),
+                (x1, y),
+                text(12, HPos::Right),
+            ))?;
+        }
+        let lines = [
+            (14, "standard error"),
+            (12, "linear scale,"),
+            (12, "each panel its"),
+            (12, "own (its bar):"),
+            (12, "0 to its 98th"),
+            (12, "percentile; larger"),
+            (12, "errors in the"),
+            (12, "top colour"),
+        ];
+        for (k, (size, l)) in lines.iter().enumerate() {
+            root.draw(&Text::new(
+                *l,
+                (BAR_X + 12, BAR.0 + 16 * k as i32),
+                text(*size, HPos::Center),
+            ))?;
+        }
+        if empty {
+            draw_no_light_key(root)?;
+        }
+        Ok(())
+    }
+}
+
+/// The key of the cells without a value (its stripes painted by
+/// [`MuellerMaps::to_png`]).
+fn draw_no_light_key(root: &Root<'_>) -> Result<(), super::DrawError> {
+    root.draw(&Rectangle::new(
+        [(BAR_X - 1, BAR.1 + 39), (BAR_X + 22, BAR.1 + 62)],
+        BLACK.stroke_width(1),
+    ))?;
+    root.draw(&Text::new(
+        "no light:",
+        (BAR_X, BAR.1 + 76),
+        text(13, HPos::Left),
+    ))?;
+    root.draw(&Text::new(
+        "undefined",
+        (BAR_X, BAR.1 + 92),
+        text(13, HPos::Left),
+    ))?;
+    Ok(())
+}
+
+/// `v` (positive) to three significant digits: fixed from 1e-3 to below
+/// 1e5, else exponent form.
+fn significant(v: f64) -> String {
+    if (1e-3..1e5).contains(&v) {
+        let d = (2 - v.log10().floor() as i32).max(0) as usize;
+        format!("{v:.d$}")
+    } else {
+        format!("{v:.2e}")
     }
 }
 
@@ -391,12 +536,70 @@ mod tests {
             .to_rgb8();
         // Half way out along phi = 225 degrees (clear of the markers).
         let at = |i: usize, j: usize| {
-            let (cx, cy) = MuellerMaps::centre(i, j);
+            let (cx, cy) = maps.centre(i, j);
             let d = 0.5 * R * std::f64::consts::FRAC_1_SQRT_2;
             img.get_pixel((cx - d) as u32, (cy + d) as u32).0
         };
         assert_eq!(at(0, 1), diverging(0.5));
         assert_eq!(at(1, 1), diverging(1.0));
         assert_eq!(at(0, 0), viridis(1.0)); // constant m00: the top of its scale
+    }
+
+    /// The standard errors' panels each have their own scale, from 0 to
+    /// the 98th percentile of their own values: a panel of errors 100
+    /// times smaller than another's still spans the whole scale (on the
+    /// shared scale it was one dark colour); a constant panel is its top
+    /// colour; an all-zero one says so.
+    #[test]
+    fn error_panels_each_have_their_own_scale() {
+        let grid = CarlsonGrid::new(6).unwrap();
+        let n = grid.n_cells();
+        // m00: relative errors 0.5; m01: 0 .. 0.01 rising with the cell;
+        // m11: 0 .. 1; m22: 0.003 everywhere; the rest 0.
+        let mut values = vec![vec![0.0; n]; 16];
+        values[0] = vec![0.5; n];
+        values[1] = (0..n).map(|c| 0.01 * c as f64 / (n - 1) as f64).collect();
+        values[5] = (0..n).map(|c| c as f64 / (n - 1) as f64).collect();
+        values[10] = vec![0.003; n];
+        let maps = MuellerMaps {
+            title: "t".into(),
+            grid,
+            values: values.clone(),
+            kind: MuellerKind::Errors,
+            theta_i_deg: 0.0,
+            phi_i_deg: 0.0,
+        };
+        for (k, v) in values.iter().enumerate() {
+            let mut v = v.clone();
+            v.sort_by(f64::total_cmp);
+            let p98 = v[((n - 1) as f64 * 0.98).round() as usize];
+            let top = if p98 > 0.0 { p98 } else { 1.0 };
+            assert_eq!(maps.panel_range(k), (0.0, top), "panel {k}");
+        }
+        assert_eq!(maps.panel_range(10), (0.0, 0.003));
+        assert_eq!(maps.panel_top_label(10), "0.00300");
+        assert_eq!(maps.panel_top_label(2), "every value 0");
+        assert_eq!(
+            maps.panel_top_label(5),
+            format!("{:.3} (max 1.00)", maps.panel_range(5).1)
+        );
+        let img = image::load_from_memory(&maps.to_png().unwrap())
+            .unwrap()
+            .to_rgb8();
+        assert_eq!((img.width(), img.height()), (W, H_ERRORS));
+        let at = |k: usize| {
+            let (cx, cy) = maps.centre(k / 4, k % 4);
+            let d = 0.5 * R * std::f64::consts::FRAC_1_SQRT_2;
+            img.get_pixel((cx - d) as u32, (cy + d) as u32).0
+        };
+        // The constant panels: the top of their scales (m00, m22), or its
+        // bottom (all zero).
+        assert_eq!(at(0), viridis(1.0));
+        assert_eq!(at(10), viridis(1.0));
+        assert_eq!(at(2), viridis(0.0));
+        // Each panel's bar runs the whole scale.
+        let (x0, y0, x1, _) = maps.panel_bar(5);
+        assert_eq!(img.get_pixel(x0 as u32, y0 as u32 + 2).0, viridis(0.0));
+        assert_eq!(img.get_pixel(x1 as u32, y0 as u32 + 2).0, viridis(1.0));
     }
 }
