@@ -38,6 +38,7 @@ fn main() -> ExitCode {
         Command::ExportBrdf(a) => export_brdf::execute(a),
         Command::FitModel(a) => fit_model::execute(a),
         Command::Plot(a) => plot::execute(a),
+        Command::Report(a) => roks::cli::report::execute(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -39,6 +39,7 @@ pub mod merge;
 pub mod messages;
 pub mod plot;
 pub mod render;
+pub mod report;
 pub mod stats;
 pub mod trace;
 
