@@ -76,6 +76,9 @@ for (const f of spec.folders) {
     if (!drawn) fail(f.name, 'view ' + v + ' not drawn');
     await page.locator('#view-' + v).screenshot({ path: path.join(spec.shots, f.name + '-' + v + '.png') });
   }
+  // A folder with fits draws each model over its table.
+  const fits = await page.evaluate(() => !!document.querySelector('#plot-fits .scatterlayer .trace'));
+  if (f.name === 'mueller' && !fits) fail(f.name, 'the fit is not drawn over its table');
   let hover = null;
   if (f.hover) {
     const rows = csv(fs.readFileSync(path.join(f.dir, 'brdf.csv'), 'utf8'));
