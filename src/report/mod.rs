@@ -88,6 +88,7 @@ pub fn brdf(result: &BrdfResult) -> Result<String, Error> {
     let inplane = result.inplane()?;
     let mut data = json!({
         "kind": "brdf",
+        "material": material(result.summary()),
         "summary": without_times(summary),
         "shape": result.shape(),
         "theta": result.theta_deg(),
@@ -158,6 +159,30 @@ pub fn trace(result: &TraceResult) -> Result<String, Error> {
         });
     }
     Ok(page(&title(&data), &data))
+}
+
+/// The substrate material of the run's scene, in words (`gold: measured
+/// n, k at 21 wavelengths`), when the scene file its summary names still
+/// loads and holds the run's content (the same hash); `None` otherwise.
+fn material(summary: &crate::output::summary::BrdfSummary) -> Option<String> {
+    use crate::optics::material::Reflectance;
+    let source = crate::scene::source::SceneSource::from_recorded(&summary.scene);
+    let scene = crate::api::load_micro(source.path(), &crate::api::Overrides::default()).ok()?;
+    if scene.content != summary.content {
+        return None;
+    }
+    let s = &scene.surface;
+    let name = scene.material_names.get(s.substrate_material)?;
+    let what = match s.materials.get(s.substrate_material)? {
+        Reflectance::Constant(r) => format!("constant reflectance {r}"),
+        Reflectance::Fresnel { n, k } => format!("Fresnel, n = {n}, k = {k}"),
+        Reflectance::Table(_) => "reflectance against incidence, from a table".into(),
+        Reflectance::Spectral(m) => format!(
+            "one model per wavelength ({} in the scene)",
+            m.lanes().len()
+        ),
+    };
+    Some(format!("{name}: {what}"))
 }
 
 /// The exports and fits among `names`, with each fit's document (its

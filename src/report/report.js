@@ -56,7 +56,7 @@ function draw(D) {
   }
   function table(head, rows) {
     const t = el('table');
-    t.append(el('tr', {}, ...head.map((h) => el('th', { text: h }))));
+    if (head.some((h) => h)) t.append(el('tr', {}, ...head.map((h) => el('th', { text: h }))));
     for (const r of rows) {
       t.append(el('tr', {}, ...r.map((c, i) => el('td', { class: typeof c === 'number' || i > 0 ? '' : 'key', text: short(c) }))));
     }
@@ -224,7 +224,7 @@ function draw(D) {
     const summaryAt = (i, j) => S.incidence[i * NP + j];
     describe([
       ['scene', S.name], ['scene file', S.scene], ['content sha256', S.content.scene_sha256],
-      ['photons per incidence', run.photons_per_incidence], ['seed', run.seed], ['material', S.material || 'as the scene file says (its hash above)'],
+      ['photons per incidence', run.photons_per_incidence], ['seed', run.seed], ['substrate material', D.material || 'in the scene file of the hash above (not found with that content here)'],
       ['incidence angles (deg)', run.theta_deg.join(', ')], ['light azimuths (deg)', run.phi_deg.join(', ')],
       ['wavelengths (µm)', wl.length ? wl.join(', ') : 'monochrome'],
       ['launch', run.launch], ['symmetry', run.symmetry], ['polarisation', JSON.stringify(run.polarisation)],
@@ -409,7 +409,7 @@ function draw(D) {
       const P = D.polar.columns;
       const mueller = D.polar.kind === 'mueller';
       const el4 = mueller ? [0, 1, 2, 3].flatMap((i) => [0, 1, 2, 3].map((j) => 'm' + i + j)) : ['s0', 's1', 's2', 's3'].filter((n) => P[n]);
-      const ps = section('polarisation', mueller ? 'The Mueller matrix, m_ij / m00' : 'The Stokes vector', mueller ? 'Each element normalised by m00, with its standard error below, each map on its own colour scale; the degree of polarisation for unpolarised light is sqrt(m10² + m20² + m30²) / m00.' : 'Each element normalised by s0, each map on its own colour scale.');
+      const ps = section('polarisation', mueller ? 'The Mueller matrix, m_ij / m00' : 'The Stokes vector', mueller ? 'Each element normalised by m00, with its standard error below, each map on its own colour scale; the degree of polarisation for unpolarised light is sqrt(m10² + m20² + m30²) / m00.' : 'Each element normalised by s0, with the standard errors of s0 ... s3 below, each map on its own colour scale; the degree of polarisation is stokes.csv\'s dop.');
       const g1 = el('div', { class: 'grid4', id: 'polar-values' }), g2 = el('div', { class: 'grid4', id: 'polar-stderr' });
       ps.append(g1, el('h3', { text: 'standard errors' }), g2, el('h3', { text: 'degree of polarisation' }), plotDiv('dop'));
       el4.forEach((n) => { g1.append(plotDiv('polar-' + n, 'cellplot')); g2.append(plotDiv('polar-se-' + n, 'cellplot')); });
@@ -422,12 +422,17 @@ function draw(D) {
         el4.forEach((n) => {
           const norm = n === first ? (k) => at(n, k) : (k) => (at(first, k) > 0 ? at(n, k) / at(first, k) : null);
           Plotly.react('plot-polar-' + n, [discHeatmap(grid, norm, { colorscale: n === first ? 'Viridis' : 'RdBu', zmid: n === first ? undefined : 0 })], discLayout(n === first ? n + ' (1/sr)' : n + '/' + first), { staticPlot: true });
-          const sen = n === first ? n + '_stderr' : n + '_' + first + '_stderr';
+          // Mueller: the errors of m_ij/m00 (mueller.csv has them); Stokes:
+          // those of s_i themselves (stokes.csv has no others).
+          const ratio = mueller && n !== first;
+          const sen = ratio ? n + '_' + first + '_stderr' : n + '_stderr';
           const sev = P[sen] ? (k) => P[sen][off + k] : (k) => null;
-          Plotly.react('plot-polar-se-' + n, [discHeatmap(grid, sev, { colorscale: 'Viridis' })], discLayout('std. error of ' + (n === first ? n : n + '/' + first)), { staticPlot: true });
+          Plotly.react('plot-polar-se-' + n, [discHeatmap(grid, sev, { colorscale: 'Viridis' })], discLayout('std. error of ' + (ratio ? n + '/' + first : n + ' (1/sr)')), { staticPlot: true });
         });
         const lin = mueller ? ['m10', 'm20', 'm30'] : ['s1', 's2', 's3'];
-        const dop = (k) => (at(first, k) > 0 ? Math.hypot(...lin.filter((n) => P[n]).map((n) => at(n, k))) / at(first, k) : null);
+        const dop = P.dop
+          ? (k) => (at(first, k) > 0 ? at('dop', k) : null)
+          : (k) => (at(first, k) > 0 ? Math.hypot(...lin.filter((n) => P[n]).map((n) => at(n, k))) / at(first, k) : null);
         Plotly.react('plot-dop', [discHeatmap(grid, dop, { colorscale: 'Viridis' })], Object.assign(discLayout('degree of polarisation'), { height: 420 }), CONFIG);
       };
     }
