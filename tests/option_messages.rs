@@ -991,6 +991,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--stats-resolution",
             "--shard",
             "--export",
+            "--report",
             "--quiet",
             "--help"
         ]
@@ -1007,6 +1008,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--no-polarisation",
             "--wavelengths",
             "--shard",
+            "--report",
             "--quiet",
             "--help"
         ]

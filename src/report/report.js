@@ -364,7 +364,7 @@ function draw(D) {
     // Spectral: reflectance against wavelength, colours.
     let drawSpectrum = () => {};
     if (wl.length) {
-      const sp = section('spectrum', 'Reflectance against wavelength', 'One curve per incidence (± one standard error); the swatch is the colour of the reflected light under D65 (sRGB), from summary.json' + (D.colour ? ', and the map below the colour of each cell, from colour.csv.' : '.'));
+      const sp = section('spectrum', 'Reflectance against wavelength', 'One curve per incidence (± one standard error); the swatch is the colour of the reflected light under D65 (sRGB), from summary.json' + (D.colour ? ', and the map below the hue of each cell (its colour at full brightness), from colour.csv.' : '.'));
       const sw = el('div', { class: 'controls', id: 'swatches' });
       sp.append(plotDiv('spectrum'), sw);
       if (D.colour) sp.append(plotDiv('colour'));
@@ -389,16 +389,16 @@ function draw(D) {
       const p = picked();
       const cols = D.colour;
       const names = Object.keys(cols);
-      const rgbNames = ['srgb_r', 'srgb_g', 'srgb_b'].filter((n) => names.includes(n));
+      // colour.csv's linear sRGB (r, g, b) of each cell, scaled so that its
+      // largest channel is 1 (the hue at full brightness), encoded as sRGB.
+      const rgbNames = ['r', 'g', 'b'].filter((n) => names.includes(n));
       const off = (p.i * NP + p.j) * NC;
       const enc = (x) => Math.round(255 * Math.min(1, Math.max(0, x <= 0.0031308 ? 12.92 * x : 1.055 * Math.pow(x, 1 / 2.4) - 0.055)));
-      let colours;
-      if (rgbNames.length === 3) {
-        const m = Math.max(1e-300, ...range(NC).map((k) => Math.max(...rgbNames.map((n) => cols[n][off + k]))));
-        colours = range(NC).map((k) => 'rgb(' + rgbNames.map((n) => enc(cols[n][off + k] / m)).join(',') + ')');
-      } else {
-        colours = range(NC).map(() => '#888');
-      }
+      const colours = range(NC).map((k) => {
+        const rgb = rgbNames.map((n) => cols[n][off + k]);
+        const m = Math.max(...rgb);
+        return rgb.length === 3 && m > 0 ? 'rgb(' + rgb.map((x) => enc(x / m)).join(',') + ')' : '#fff';
+      });
       const c = D.cell;
       Plotly.react('plot-colour', [{ type: 'barpolar', base: c.theta_lo_deg, r: range(NC).map((k) => c.theta_hi_deg[k] - c.theta_lo_deg[k]), theta: range(NC).map((k) => (c.phi_lo_deg[k] + c.phi_hi_deg[k]) / 2), width: range(NC).map((k) => c.phi_hi_deg[k] - c.phi_lo_deg[k]), marker: { color: colours, line: { width: 0 } }, hoverinfo: 'none' }], POLAR_LAYOUT, CONFIG);
     }
