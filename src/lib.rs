@@ -162,6 +162,7 @@ pub mod outdir;
 pub mod output;
 pub mod plot;
 pub mod render;
+pub mod report;
 pub mod scene;
 pub mod shard;
 pub mod tally;

@@ -477,7 +477,7 @@ fn no_subcommand_names_them_then_shows_the_usage() {
     assert_eq!(
         lines.next(),
         Some(
-            "roks: missing subcommand: one of brdf, stats, trace, fit, export-mesh, export-heightfield, render, merge, export-brdf, fit-model, plot"
+            "roks: missing subcommand: one of brdf, stats, trace, fit, export-mesh, export-heightfield, render, merge, export-brdf, fit-model, plot, report"
         )
     );
     assert!(err.contains("Usage: roks <COMMAND>"), "{err}");
@@ -991,6 +991,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--stats-resolution",
             "--shard",
             "--export",
+            "--report",
             "--quiet",
             "--help"
         ]
@@ -1007,6 +1008,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--no-polarisation",
             "--wavelengths",
             "--shard",
+            "--report",
             "--quiet",
             "--help"
         ]

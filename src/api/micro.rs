@@ -229,7 +229,16 @@ impl BrdfResult {
     /// [`Error::Input`] for a file that is missing or does not fit (one
     /// line naming it), [`Error::Io`] for a folder that cannot be read.
     pub fn read(dir: &Path) -> Result<Self, Error> {
-        let files = read_folder(dir)?;
+        Self::from_files(dir, read_folder(dir)?)
+    }
+
+    /// The result folder `dir` whose `files` (name, bytes) are given, not
+    /// yet written (`roks merge --report`), read back as [`read`](Self::read)
+    /// reads it from disk; `dir` only names its files in messages.
+    ///
+    /// # Errors
+    /// As [`read`](Self::read).
+    pub fn from_files(dir: &Path, files: Vec<(String, Vec<u8>)>) -> Result<Self, Error> {
         let file = |name: &str| {
             files
                 .iter()
@@ -402,6 +411,21 @@ impl BrdfResult {
                 .iter()
                 .find(|(n, _)| n == name)
                 .map(|(_, b)| b.clone()),
+        }
+    }
+
+    /// The names of the folder's files (a read result's, or a traced
+    /// result's tables), in the folder's order.
+    #[must_use]
+    pub fn file_names(&self) -> Vec<String> {
+        match &self.traced {
+            Some(t) => t
+                .folder
+                .files(Vec::new())
+                .into_iter()
+                .map(|(n, _)| n)
+                .collect(),
+            None => self.files.iter().map(|(n, _)| n.clone()).collect(),
         }
     }
 

@@ -277,7 +277,16 @@ impl TraceResult {
     /// [`Error::Input`] for a file that is missing or does not fit,
     /// [`Error::Io`] for a folder that cannot be read.
     pub fn read(dir: &Path) -> Result<Self, Error> {
-        let files = read_folder(dir)?;
+        Self::from_files(dir, read_folder(dir)?)
+    }
+
+    /// The result folder `dir` whose `files` (name, bytes) are given, not
+    /// yet written (`--report`), read back as [`read`](Self::read) reads it
+    /// from disk; `dir` only names its files in messages.
+    ///
+    /// # Errors
+    /// As [`read`](Self::read).
+    pub fn from_files(dir: &Path, files: Vec<(String, Vec<u8>)>) -> Result<Self, Error> {
         let name = ResultFile::Summary.path_in(dir).display().to_string();
         let (_, text) = files
             .iter()

@@ -8,8 +8,8 @@
 use clap::{Parser, Subcommand};
 
 use super::{
-    brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, plot, render, stats,
-    trace,
+    brdf, export_brdf, export_heightfield, export_mesh, fit, fit_model, merge, plot, render,
+    report, stats, trace,
 };
 
 /// Monte Carlo reflection of light from rough surfaces (geometric optics), after ROKS-RG.
@@ -131,6 +131,14 @@ pub enum Command {
     /// the scene file still gives the run's surface; an object folder's
     /// reflectance.png. Works on shard and merged folders alike.
     Plot(plot::PlotArgs),
+    /// Write the interactive report of a result folder: one HTML file.
+    ///
+    /// Reads the result folder DIR of `roks brdf`, `roks trace` or `roks
+    /// merge` and writes DIR/report.html (or --out FILE): the run, its
+    /// tables and pictures as interactive plots (Plotly.js, inside the
+    /// file), opened offline in any current browser. See
+    /// docs/src/report.md.
+    Report(report::ReportArgs),
 }
 
 impl Command {
@@ -149,6 +157,7 @@ impl Command {
             Self::ExportBrdf(_) => "export-brdf",
             Self::FitModel(_) => "fit-model",
             Self::Plot(_) => "plot",
+            Self::Report(_) => "report",
         }
     }
 }

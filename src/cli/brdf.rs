@@ -83,6 +83,10 @@ pub struct BrdfArgs {
         action = ArgAction::Set
     )]
     pub export: Vec<BrdfFormat>,
+    /// Also write DIR/report.html, the interactive report of the folder
+    /// (as `roks report DIR` makes it).
+    #[arg(long)]
+    pub report: bool,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -157,7 +161,11 @@ pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
     for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
         eprintln!("{line}");
     }
-    write_folder(&out, &result.files(exports.named_files())?, "brdf")?;
+    let mut files = result.files(exports.named_files())?;
+    if a.report {
+        crate::report::add_brdf(&out, &mut files)?;
+    }
+    write_folder(&out, &files, "brdf")?;
     if !a.quiet {
         eprint!(
             "{}",

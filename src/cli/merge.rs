@@ -39,6 +39,10 @@ pub struct MergeArgs {
         action = clap::ArgAction::Set
     )]
     pub export: Vec<BrdfFormat>,
+    /// Also write OUT/report.html, the interactive report of the merged
+    /// folder (the same file as the whole run's `--report`).
+    #[arg(long)]
+    pub report: bool,
     /// No table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -70,9 +74,12 @@ pub fn execute(a: MergeArgs) -> Result<(), Failure> {
     for line in exports.notices.iter().filter_map(|n| n.line(a.quiet)) {
         eprintln!("{line}");
     }
-    let files = merged
+    let mut files = merged
         .files(exports.named_files())
         .map_err(anyhow::Error::msg)?;
+    if a.report {
+        crate::report::add_brdf(&a.out, &mut files)?;
+    }
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         let random = None;
@@ -96,7 +103,10 @@ impl From<MergeError> for Failure {
 /// `roks merge` of `roks trace` shards: the folder of the single run.
 fn merge_trace(a: &MergeArgs) -> Result<(), Failure> {
     let merged = merge::merge_trace(&a.dirs)?;
-    let files = merged.files().map_err(anyhow::Error::msg)?;
+    let mut files = merged.files().map_err(anyhow::Error::msg)?;
+    if a.report {
+        crate::report::add_trace(&a.out, &mut files)?;
+    }
     write_folder(&a.out, &files, "merge")?;
     if !a.quiet {
         let m = &merged.merged;

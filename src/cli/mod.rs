@@ -39,6 +39,7 @@ pub mod merge;
 pub mod messages;
 pub mod plot;
 pub mod render;
+pub mod report;
 pub mod stats;
 pub mod trace;
 
@@ -85,6 +86,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> u8 {
         Command::ExportBrdf(a) => export_brdf::execute(a),
         Command::FitModel(a) => fit_model::execute(a),
         Command::Plot(a) => plot::execute(a),
+        Command::Report(a) => report::execute(a),
     };
     match result {
         Ok(()) => 0,

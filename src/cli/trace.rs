@@ -41,6 +41,11 @@ pub struct TraceArgs {
     /// summary.json (this block's sums) and tallies.json, for `roks merge`.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<Shard>,
+    /// Also write DIR/report.html, the interactive report of the folder
+    /// (as `roks report DIR` makes it; not for a shard: report the merged
+    /// folder).
+    #[arg(long)]
+    pub report: bool,
     /// No progress bar and no table on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -59,6 +64,11 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
         no_polarisation: a.no_polarisation,
         shard: a.shard,
     };
+    if a.report && a.shard.is_some() {
+        return Err(Failure::Input(
+            "--report: not for a shard (its folder holds no reflectance.csv); report the folder of `roks merge`".into(),
+        ));
+    }
     let job = TraceJob::new(&scene, &options)?;
     crate::api::set_threads(a.tracing.threads)?;
     let file = &scene.scene_file.file;
@@ -77,7 +87,11 @@ pub fn execute(a: TraceArgs) -> Result<(), Failure> {
     let traced = job.trace(&|n| bar.inc(n));
     bar.finish_and_clear();
     let traced = traced?;
-    write_folder(&out, traced.files(), "trace")?;
+    let mut files = traced.files().to_vec();
+    if a.report {
+        crate::report::add_trace(&out, &mut files)?;
+    }
+    write_folder(&out, &files, "trace")?;
     if let (false, Some((run, result))) = (a.quiet, traced.traced()) {
         eprint!("{}", TraceReport { run, result });
         eprintln!(

@@ -28,6 +28,8 @@ pub enum Kind {
     Fit,
     /// A picture (PNG).
     Picture,
+    /// The interactive report of the folder (`report.html`).
+    Report,
     /// The record of the files roks wrote ([`super::record`]).
     Record,
 }
@@ -85,13 +87,15 @@ pub enum ResultFile {
     AbgFred,
     /// `fit_summary.json`: the ranking of `fit-model --model all`.
     FitRanking,
+    /// `report.html`: the interactive report of the folder.
+    Report,
     /// `.roks-files.json`: the record of the files roks wrote.
     Record,
 }
 
 impl ResultFile {
     /// Every fixed-name file.
-    pub const ALL: [Self; 26] = [
+    pub const ALL: [Self; 27] = [
         Self::Summary,
         Self::Brdf,
         Self::Inplane,
@@ -117,6 +121,7 @@ impl ResultFile {
         Self::HarveyFred,
         Self::AbgFred,
         Self::FitRanking,
+        Self::Report,
         Self::Record,
     ];
 
@@ -154,6 +159,7 @@ impl ResultFile {
             Self::HarveyFred => "fit_harvey_fred.txt",
             Self::AbgFred => "fit_abg_fred.txt",
             Self::FitRanking => "fit_summary.json",
+            Self::Report => "report.html",
             Self::Record => ".roks-files.json",
         }
     }
@@ -180,6 +186,7 @@ impl ResultFile {
             | Self::AbgFred
             | Self::FitRanking => Kind::Fit,
             Self::SurfacePicture | Self::InplanePicture | Self::ReflectancePicture => Kind::Picture,
+            Self::Report => Kind::Report,
             Self::Record => Kind::Record,
         }
     }
@@ -197,6 +204,7 @@ impl ResultFile {
                 Some(FileKind::Png)
             }
             Self::FitRanking => Some(FileKind::FitJson),
+            Self::Report => Some(FileKind::Report),
             Self::AbgOpticStudio | Self::HarveyFred | Self::AbgFred => Some(FileKind::FitText),
             _ => None,
         }

@@ -1,0 +1,120 @@
+// Drives headless Chromium (Debian's /usr/bin/chromium) over roks's
+// report.html files: run by tests/report_browser.rs with a spec file.
+//
+//   node check.mjs SPEC.json
+//
+// SPEC: { "shots": DIR, "folders": [{ "name", "dir", "views": [...],
+// "hover": true|false }] }. For each folder's DIR/report.html, opened from
+// the file: no console error, no page error, no request but the file
+// itself; every view in `views` drawn (a Plotly plot with its SVG or
+// canvas, or a table); a screenshot of each view in SHOTS/NAME-VIEW.png;
+// with `hover`, the last incidence, azimuth and wavelength picked, a cell
+// of the hemisphere map hovered with the mouse, and the value and standard
+// error the page shows equal to brdf.csv's, as printed (read here from the
+// file, independently of the page). Prints one JSON line per folder and
+// exits 1 on the first failure.
+import { chromium } from 'playwright-core';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { pathToFileURL } from 'node:url';
+
+const spec = JSON.parse(fs.readFileSync(process.argv[2], 'utf8'));
+fs.mkdirSync(spec.shots, { recursive: true });
+const userData = fs.mkdtempSync(path.join(os.tmpdir(), 'roks-chromium-'));
+const browser = await chromium.launchPersistentContext(userData, {
+  executablePath: process.env.ROKS_CHROMIUM || '/usr/bin/chromium',
+  headless: true,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update', '--disable-sync', '--enable-unsafe-swiftshader'],
+  viewport: { width: 1280, height: 900 },
+});
+let failed = false;
+function fail(folder, what) {
+  console.log(JSON.stringify({ folder, error: what }));
+  failed = true;
+}
+
+// The rows of a CSV text as objects of strings (the printed digits).
+function csv(text) {
+  const lines = text.split('\n').filter((l) => l.length);
+  const head = lines[0].split(',');
+  return lines.slice(1).map((l) => Object.fromEntries(l.split(',').map((v, i) => [head[i], v])));
+}
+function distinct(rows, key) {
+  return rows[0][key] === undefined ? [undefined] : [...new Set(rows.map((r) => r[key]))];
+}
+
+for (const f of spec.folders) {
+  const file = path.resolve(f.dir, 'report.html');
+  const url = pathToFileURL(file).href;
+  const page = await browser.newPage();
+  const errors = [];
+  const requests = [];
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('request', (r) => { if (r.url() !== url) requests.push(r.url()); });
+  await page.route('**/*', (route) => (route.request().url() === url ? route.continue() : route.abort()));
+  const t0 = Date.now();
+  await page.goto(url);
+  try {
+    const broken = new Promise((_, reject) => page.on('pageerror', reject));
+    await Promise.race([page.waitForSelector('body[data-ready="1"]', { timeout: 120000 }), broken]);
+  } catch (e) {
+    fail(f.name, 'the page never got ready: ' + errors.join(' | '));
+    continue;
+  }
+  const loadMs = Date.now() - t0;
+  const views = (await page.getAttribute('body', 'data-views')).split(' ');
+  for (const v of f.views) {
+    if (!views.includes(v)) { fail(f.name, 'view ' + v + ' missing; the page has ' + views.join(' ')); continue; }
+    const drawn = await page.evaluate((v) => {
+      const s = document.getElementById('view-' + v);
+      const plots = [...s.querySelectorAll('.js-plotly-plot')];
+      const ok = plots.length > 0 && plots.every((p) => p.querySelector('.main-svg') && (p.querySelector('.plot *, .gl-container canvas, canvas, .barlayer *, .heatmaplayer *, .scatterlayer *')));
+      return ok || (plots.length === 0 && !!s.querySelector('table, img, p'));
+    }, v);
+    if (!drawn) fail(f.name, 'view ' + v + ' not drawn');
+    await page.locator('#view-' + v).screenshot({ path: path.join(spec.shots, f.name + '-' + v + '.png') });
+  }
+  // A folder with fits draws each model over its table.
+  const fits = await page.evaluate(() => !!document.querySelector('#plot-fits .scatterlayer .trace'));
+  if (f.name === 'mueller' && !fits) fail(f.name, 'the fit is not drawn over its table');
+  let hover = null;
+  if (f.hover) {
+    const rows = csv(fs.readFileSync(path.join(f.dir, 'brdf.csv'), 'utf8'));
+    const thetas = distinct(rows, 'theta_i_deg'), phis = distinct(rows, 'phi_i_deg'), wls = distinct(rows, 'wavelength_um');
+    // Pick the last of each, as a user does.
+    for (const [id, n] of [['pick-theta', thetas.length], ['pick-phi', phis.length], ['pick-wl', wls.length]]) {
+      await page.selectOption('#' + id, String(n - 1));
+    }
+    const block = rows.filter((r) => r.theta_i_deg === thetas.at(-1) && r.phi_i_deg === phis.at(-1) && r.wavelength_um === wls.at(-1));
+    // Hover a cell well off the pole with the mouse.
+    const bars = page.locator('#plot-hemisphere .barlayer path');
+    const n = await bars.count();
+    const target = bars.nth(Math.floor((n * 2) / 3));
+    await page.locator('#plot-hemisphere').scrollIntoViewIfNeeded();
+    const box = await target.boundingBox();
+    await page.mouse.move(box.x + box.width / 2 - 3, box.y + box.height / 2 - 3);
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2, { steps: 4 });
+    await page.waitForFunction(() => document.getElementById('hemisphere-hover').dataset.cell !== undefined, null, { timeout: 10000 });
+    const shown = await page.evaluate(() => ({ ...document.getElementById('hemisphere-hover').dataset, text: document.getElementById('hemisphere-hover').textContent }));
+    const row = block[+shown.cell];
+    hover = { cell: +shown.cell, shown: shown.value, csv: row.brdf, stderr: shown.stderr, csv_stderr: row.brdf_stderr, text: shown.text };
+    if (shown.value !== row.brdf || shown.stderr !== row.brdf_stderr) fail(f.name, 'hovered cell ' + shown.cell + ' shows ' + shown.value + ' ± ' + shown.stderr + ', brdf.csv says ' + row.brdf + ' ± ' + row.brdf_stderr);
+    if (!shown.text.includes(row.brdf)) fail(f.name, 'the hover text does not show the value: ' + shown.text);
+    // The other controls redraw without error.
+    await page.selectOption('#hemi-scale', '1');
+    await page.check('#hemi-relerr');
+    await page.uncheck('#hemi-empty');
+    await page.locator('#view-hemisphere').screenshot({ path: path.join(spec.shots, f.name + '-hemisphere-picked.png') });
+  }
+  if (errors.length) fail(f.name, 'console errors: ' + errors.join(' | '));
+  if (requests.length) fail(f.name, requests.length + ' requests besides the file: ' + requests.slice(0, 5).join(' '));
+  const bytes = fs.statSync(file).size;
+  console.log(JSON.stringify({ folder: f.name, bytes, load_ms: loadMs, views: views.length, hover }));
+  await page.close();
+}
+console.log(JSON.stringify({ browser: browser.browser() ? browser.browser().version() : 'chromium' }));
+await browser.close();
+fs.rmSync(userData, { recursive: true, force: true });
+process.exit(failed ? 1 : 0);
