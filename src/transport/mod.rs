@@ -5,6 +5,7 @@
 //! * [`micro`]: one history in a micro surface (specular reflections, weights, roulette).
 //! * [`launch`]: where photons enter the micro period (random or lattice).
 //! * [`order`]: the order a batch's photons are traced in (Morton order of entry points).
+//! * [`wavefront`]: the wavefront kernel: a wave of photons advanced stage by stage, four lanes at a time.
 //! * [`brdf`]: the BRDF generator (`roks brdf`).
 //! * [`wall`]: the wall models of objects (micro descent, BRDF table, ideal, specular).
 //! * [`object`]: histories through a 3-D object (`roks trace`).
@@ -21,6 +22,7 @@ pub mod micro;
 pub mod object;
 pub mod order;
 pub mod rng;
+pub mod wavefront;
 pub mod wall;
 
 use rand::RngExt;

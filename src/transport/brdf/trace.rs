@@ -23,7 +23,13 @@ use crate::transport::carrier::{Carrier, LaneCarrier, Polarised};
 use crate::transport::launch::{Lattices, Launch};
 use crate::transport::micro::trace;
 use crate::transport::order;
+use crate::transport::micro::History as MicroHistory;
 use crate::transport::rng::photon_rng;
+use crate::transport::wavefront::{Kernel, WAVE, trace_wave};
+
+/// Bytes of histories the wavefront kernel holds at a time for scoring in
+/// photon order ([`BrdfRun::trace_ordered`]).
+const WAVE_HELD_BYTES: usize = 256 << 10;
 
 impl BrdfRun {
     /// Trace the photons `photons` (a range of photon indices that starts
@@ -315,11 +321,53 @@ impl BrdfRun {
             // score each photon in turn, batch by batch.
             let batch = |range: std::ops::Range<u64>| {
                 let mut scratch = Scratch::new(surface);
-                self.score_batch(locator, inplane, phi, spare, |score| {
-                    for n in range {
-                        let e = entry(n);
-                        let (h, tests) = history(&e, &mut scratch);
-                        score(e.replicate, &h, tests);
+                self.score_batch(locator, inplane, phi, spare, |score| match self.kernel {
+                    Kernel::Scalar => {
+                        for n in range {
+                            let e = entry(n);
+                            let (h, tests) = history(&e, &mut scratch);
+                            score(e.replicate, &h, tests);
+                        }
+                    }
+                    Kernel::Wavefront => {
+                        // Chunks of the batch traced as one wave each, then
+                        // scored in photon order (at most about 256 KiB of
+                        // histories held).
+                        let chunk = (WAVE_HELD_BYTES / std::mem::size_of::<MicroHistory<C>>())
+                            .clamp(WAVE, 1024);
+                        let mut held: Vec<Option<(MicroHistory<C>, u64)>> = Vec::new();
+                        let mut entries = Vec::with_capacity(chunk);
+                        let mut n = range.start;
+                        while n < range.end {
+                            let m = (range.end - n).min(chunk as u64);
+                            entries.clear();
+                            entries.extend((n..n + m).map(&entry));
+                            held.clear();
+                            held.resize(entries.len(), None);
+                            trace_wave(
+                                surface,
+                                entries.len(),
+                                |k| {
+                                    let e = &entries[k];
+                                    let start = DVec3::new(
+                                        e.u * surface.size.x,
+                                        e.v * surface.size.y,
+                                        surface.top,
+                                    );
+                                    (start, e.rng.clone())
+                                },
+                                dir,
+                                launch,
+                                &self.controls,
+                                &mut scratch,
+                                |k, h, tests| held[k] = Some((h, tests)),
+                            );
+                            for (e, h) in entries.iter().zip(&held) {
+                                let (h, tests) = h.as_ref().expect("every photon of a wave ends");
+                                score(e.replicate, h, *tests);
+                            }
+                            n += m;
+                        }
                     }
                 })
             };
