@@ -581,7 +581,7 @@ mod tests {
         let tight = Controls {
             max_bounces: 2,
             max_segments: 3,
-            roulette_weight: 0.3,
+            roulette_weight: 0.9,
         };
         let mut ended = std::collections::BTreeSet::new();
         for s in &surfaces {
