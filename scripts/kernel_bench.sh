@@ -58,7 +58,8 @@ run() {
     local out=$WORK/out-$label
     rm -rf "$out"
     local t
-    t=$( { /usr/bin/time -f "%e %M" "$exe" "$@" --out "$out" -q >/dev/null 2>/dev/null; } 2>&1 | tail -1)
+    /usr/bin/time -f "%e %M" -o "$WORK/time.txt" "$exe" "$@" --out "$out" -q >/dev/null 2>&1
+    t=$(tail -1 "$WORK/time.txt")
     local rate
     rate=$(python3 -c 'import json,sys
 s=json.load(open(sys.argv[1]))

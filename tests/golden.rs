@@ -415,7 +415,14 @@ fn the_kernels_agree_on_spectral_realisations_and_azimuths() {
         (
             "spectral",
             "scenes/gold-spectral.toml",
-            &["--theta", "40", "--photons", "6000", "--polarisation", "stokes"],
+            &[
+                "--theta",
+                "40",
+                "--photons",
+                "6000",
+                "--polarisation",
+                "stokes",
+            ],
         ),
         (
             "realisations",

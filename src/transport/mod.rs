@@ -22,8 +22,8 @@ pub mod micro;
 pub mod object;
 pub mod order;
 pub mod rng;
-pub mod wavefront;
 pub mod wall;
+pub mod wavefront;
 
 use rand::RngExt;
 use rayon::prelude::*;

@@ -166,8 +166,7 @@ impl<C: Carrier> Slots<C> {
             ($($f:ident),*) => { $( self.$f[to] = self.$f[from].clone(); )* };
         }
         mv!(
-            id, px, py, pz, dx, dy, dz, w, rng, standing, bounces, segments, crossings, tests,
-            step
+            id, px, py, pz, dx, dy, dz, w, rng, standing, bounces, segments, crossings, tests, step
         );
     }
 
@@ -512,11 +511,7 @@ mod tests {
     ) -> (Vec<String>, Vec<String>) {
         let th = theta_deg.to_radians();
         let dir = DVec3::new(th.sin(), 0.0, -th.cos());
-        let launch = C::launch(
-            [1.0, 0.3, 0.2, 0.1],
-            hemisphere_reference(dir, 0.0),
-            lanes,
-        );
+        let launch = C::launch([1.0, 0.3, 0.2, 0.1], hemisphere_reference(dir, 0.0), lanes);
         let start = |k: usize| {
             let mut rng = photon_rng(5, k as u64);
             let (u, v): (f64, f64) = (rng.random(), rng.random());

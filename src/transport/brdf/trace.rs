@@ -21,9 +21,9 @@ use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{InPlaneTally, Locator, Merge, PolarTally};
 use crate::transport::carrier::{Carrier, LaneCarrier, Polarised};
 use crate::transport::launch::{Lattices, Launch};
+use crate::transport::micro::History as MicroHistory;
 use crate::transport::micro::trace;
 use crate::transport::order;
-use crate::transport::micro::History as MicroHistory;
 use crate::transport::rng::photon_rng;
 use crate::transport::wavefront::{Kernel, WAVE, trace_wave};
 
