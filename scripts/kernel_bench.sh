@@ -12,6 +12,7 @@
 #   scripts/kernel_bench.sh                  # 5 rounds, 1e6 photons (default scene)
 #   ROUNDS=3 PHOTONS=200000 scripts/kernel_bench.sh
 #   SHARED_TARGET=/path/target scripts/kernel_bench.sh   # one target dir, built in turn
+#   NO_BUILD=1 CASES=default scripts/kernel_bench.sh      # binaries already in $WORK
 #
 # The new binary runs twice per round: `--kernel scalar` and
 # `--kernel wavefront` (the older binaries have no `--kernel`).
@@ -102,6 +103,15 @@ for label in ["old", "base", "scalar", "wavefront"]:
 EOF
 }
 
-case_ default_60deg brdf --theta 60 --photons "$PHOTONS" --threads "$THREADS" --stats-resolution 64
-case_ gaussian_rough_60deg brdf "$ROOT/scenes/gaussian-rough.toml" --theta 60 \
-    --photons "$FIELD_PHOTONS" --threads "$THREADS" --stats-resolution 64
+for c in ${CASES:-default gaussian}; do
+    case $c in
+    default)
+        case_ default_60deg brdf --theta 60 --photons "$PHOTONS" --threads "$THREADS" \
+            --stats-resolution 64
+        ;;
+    gaussian)
+        case_ gaussian_rough_60deg brdf "$ROOT/scenes/gaussian-rough.toml" --theta 60 \
+            --photons "$FIELD_PHOTONS" --threads "$THREADS" --stats-resolution 64
+        ;;
+    esac
+done

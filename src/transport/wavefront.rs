@@ -47,11 +47,11 @@
 //! height field's descent are data-dependent loops of different lengths per
 //! photon (the measured split is in `docs/src/performance.md`).
 //!
-//! What stays on the scalar kernel: surfaces large enough for the Morton
-//! order ([`super::order::pays`]: over 1 MiB of geometry), whose photons
-//! are traced piece by piece in that order by
-//! [`super::parallel_batches_ordered`]; the two kernels give the same bits
-//! there as well, since the scalar kernel traces them.
+//! Surfaces large enough for the Morton order ([`super::order::pays`]:
+//! over 1 MiB of geometry) are traced by it too, a piece of the order
+//! (1024 photons) at a time ([`super::parallel_batches_ordered`]). What
+//! stays on the scalar kernel: the micro descents of `roks trace`'s walls
+//! ([`super::wall`]), one history at a time inside an object history.
 
 use glam::DVec3;
 use wide::f64x4;
