@@ -180,12 +180,23 @@ fn cases(dir: &Path) -> Vec<(&'static str, Vec<String>)> {
     ]
 }
 
-/// Run every case; `case -> file -> (length, hash)`.
-fn measure() -> BTreeMap<String, BTreeMap<String, (usize, u64)>> {
-    let tmp = std::env::temp_dir().join(format!("roks-golden-{}", std::process::id()));
+/// Run every case; `case -> file -> (length, hash)`. With `kernel`, the
+/// `roks brdf` cases only, each with `--kernel KERNEL`.
+fn measure(kernel: Option<&str>) -> BTreeMap<String, BTreeMap<String, (usize, u64)>> {
+    let tmp = std::env::temp_dir().join(format!(
+        "roks-golden-{}-{}",
+        std::process::id(),
+        kernel.unwrap_or("default")
+    ));
     std::fs::create_dir_all(&tmp).unwrap();
     let mut got = BTreeMap::new();
     for (name, mut args) in cases(&tmp) {
+        if let Some(k) = kernel {
+            if args[0] != "brdf" {
+                continue;
+            }
+            args.extend(["--kernel".to_string(), k.to_string()]);
+        }
         let out = tmp.join(name);
         args.extend(["--out".to_string(), out.to_string_lossy().into_owned()]);
         let o = Command::new(env!("CARGO_BIN_EXE_roks"))
@@ -213,7 +224,7 @@ fn measure() -> BTreeMap<String, BTreeMap<String, (usize, u64)>> {
         files.insert("summary.json".to_string(), (summary.len(), fnv1a(&summary)));
         got.insert(name.to_string(), files);
     }
-    shard_case(&tmp, &mut got);
+    shard_case(&tmp, kernel, &mut got);
     std::fs::remove_dir_all(&tmp).ok();
     got
 }
@@ -241,7 +252,11 @@ fn tallies_physics(dir: &Path) -> Vec<u8> {
 
 /// The default scene in two shards (`--shard 0/2`, `--shard 1/2`) merged by
 /// `roks merge`: each shard's `tallies.json` and the merged folder's files.
-fn shard_case(tmp: &Path, got: &mut BTreeMap<String, BTreeMap<String, (usize, u64)>>) {
+fn shard_case(
+    tmp: &Path,
+    kernel: Option<&str>,
+    got: &mut BTreeMap<String, BTreeMap<String, (usize, u64)>>,
+) {
     let scene = micro_scene(tmp, "default", &[("bands = 32", "bands = 8")]);
     let run = |args: &[String]| {
         let o = Command::new(env!("CARGO_BIN_EXE_roks"))
@@ -257,7 +272,7 @@ fn shard_case(tmp: &Path, got: &mut BTreeMap<String, BTreeMap<String, (usize, u6
     };
     let dirs: Vec<PathBuf> = (0..2).map(|i| tmp.join(format!("shard{i}"))).collect();
     for (i, d) in dirs.iter().enumerate() {
-        let args: Vec<String> = [
+        let mut args: Vec<String> = [
             "brdf",
             &scene,
             "--threads",
@@ -277,6 +292,9 @@ fn shard_case(tmp: &Path, got: &mut BTreeMap<String, BTreeMap<String, (usize, u6
         .iter()
         .map(|s| (*s).to_string())
         .collect();
+        if let Some(k) = kernel {
+            args.extend(["--kernel".to_string(), k.to_string()]);
+        }
         run(&args);
     }
     let merged = tmp.join("shards_merged");
@@ -302,7 +320,7 @@ fn shard_case(tmp: &Path, got: &mut BTreeMap<String, BTreeMap<String, (usize, u6
 
 #[test]
 fn outputs_match_the_recorded_hashes() {
-    let got = measure();
+    let got = measure(None);
     let text: String = got
         .iter()
         .flat_map(|(case, files)| {
@@ -328,6 +346,136 @@ fn outputs_match_the_recorded_hashes() {
         "outputs moved (rerun with ROKS_BLESS=1 only if that is meant):\n{}",
         differ.join("\n")
     );
+}
+
+/// The wavefront kernel (`--kernel wavefront`) writes the recorded bytes
+/// of every `roks brdf` case: bumps with random and lattice launches and
+/// mirror symmetry, Fresnel with Mueller tallies, a height field,
+/// reflecting and absorbing edges, CSG bodies, and shards merged.
+#[test]
+fn the_wavefront_kernel_writes_the_recorded_bytes() {
+    let got = measure(Some("wavefront"));
+    let recorded = std::fs::read_to_string(root().join(HASHES)).unwrap();
+    let mut compared = 0;
+    for line in recorded.lines() {
+        let mut w = line.split(' ');
+        let (case, file) = (w.next().unwrap(), w.next().unwrap());
+        let Some(files) = got.get(case) else {
+            continue;
+        };
+        let (len, h) = files
+            .get(file)
+            .unwrap_or_else(|| panic!("{case}: no {file}"));
+        assert_eq!(
+            format!("{case} {file} {len} {h:016x}"),
+            line,
+            "the wavefront kernel moved {case} {file}"
+        );
+        compared += 1;
+    }
+    assert_eq!(
+        compared,
+        got.values().map(BTreeMap::len).sum::<usize>(),
+        "a case without recorded hashes"
+    );
+    assert!(got.contains_key("default_shards") && got.len() == 8);
+}
+
+/// Every file of a `roks brdf` result folder `out` but the pictures, and
+/// `summary.json` without the machine's figures: name -> bytes.
+fn folder_physics(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut files: BTreeMap<String, Vec<u8>> = std::fs::read_dir(out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|f| f.ends_with(".csv"))
+        .map(|f| {
+            let bytes = cli_common::read(out, &f);
+            (f, bytes)
+        })
+        .collect();
+    files.insert("summary.json".into(), summary_physics(out));
+    files
+}
+
+/// The two kernels write the same bytes for the features the recorded
+/// cases leave out: spectral lanes (Stokes vectors per wavelength), surface
+/// realisations, several light azimuths, and a lattice launch on a height
+/// field.
+#[test]
+fn the_kernels_agree_on_spectral_realisations_and_azimuths() {
+    let tmp = std::env::temp_dir().join(format!("roks-kernels-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let default = micro_scene(&tmp, "default", &[("bands = 32", "bands = 8")]);
+    let field = micro_scene(
+        &tmp,
+        "gaussian",
+        &[("resolution = 1024", "resolution = 128")],
+    );
+    let cases: [(&str, &str, &[&str]); 4] = [
+        (
+            "spectral",
+            "scenes/gold-spectral.toml",
+            &[
+                "--theta",
+                "40",
+                "--photons",
+                "6000",
+                "--polarisation",
+                "stokes",
+            ],
+        ),
+        (
+            "realisations",
+            "scenes/gaussian-ensemble.toml",
+            &["--theta", "60", "--photons", "65536"],
+        ),
+        (
+            "azimuths",
+            &default,
+            &["--theta", "30,70", "--phi", "0,45,90", "--photons", "8000"],
+        ),
+        (
+            "field_lattice",
+            &field,
+            &["--theta", "50", "--photons", "8192", "--launch", "lattice"],
+        ),
+    ];
+    for (name, scene, extra) in cases {
+        let by_kernel: Vec<BTreeMap<String, Vec<u8>>> = ["scalar", "wavefront"]
+            .iter()
+            .map(|kernel| {
+                let out = tmp.join(format!("{name}-{kernel}"));
+                let o = Command::new(env!("CARGO_BIN_EXE_roks"))
+                    .args(["brdf", scene, "--threads", "2", "-q"])
+                    .args(["--stats-resolution", "64", "--kernel", kernel])
+                    .args(extra)
+                    .arg("--out")
+                    .arg(&out)
+                    .current_dir(root())
+                    .output()
+                    .expect("run roks");
+                assert!(
+                    o.status.success(),
+                    "{name} {kernel}: {}",
+                    String::from_utf8_lossy(&o.stderr)
+                );
+                folder_physics(&out)
+            })
+            .collect();
+        assert!(by_kernel[0].len() >= 3, "{name}: {:?}", by_kernel[0].keys());
+        assert_eq!(
+            by_kernel[0].keys().collect::<Vec<_>>(),
+            by_kernel[1].keys().collect::<Vec<_>>(),
+            "{name}"
+        );
+        for (f, bytes) in &by_kernel[0] {
+            assert!(
+                *bytes == by_kernel[1][f],
+                "{name}: {f} differs between the kernels"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&tmp).ok();
 }
 
 #[test]

@@ -13,6 +13,7 @@ use crate::export::exporter::BrdfFormat;
 use crate::outdir::{check::result_dir, write::write_folder};
 use crate::tally::{PolarTally, Symmetry};
 use crate::transport::launch::Launch;
+use crate::transport::wavefront::Kernel;
 
 /// The options of `roks brdf`.
 #[derive(Args, Debug)]
@@ -44,6 +45,11 @@ pub struct BrdfArgs {
     /// photons a multiple of 16).
     #[arg(long)]
     pub launch: Option<Launch>,
+    /// The kernel that traces the histories: scalar (one photon at a time)
+    /// or wavefront (a wave of photons stage by stage, in SIMD lanes); both
+    /// give the same bits.
+    #[arg(long, default_value = "scalar")]
+    pub kernel: Kernel,
     /// Fold mirror images in the plane of incidence into the Carlson cells
     /// (overrides [tally] symmetry): none, or mirror (only for surfaces whose
     /// statistics are mirror symmetric; halves the variance off the plane).
@@ -128,7 +134,8 @@ impl BrdfArgs {
 /// # Errors
 /// Bad input (scene, options, memory), or a failed write.
 pub fn execute(a: BrdfArgs) -> Result<(), Failure> {
-    let scene = a.scene()?;
+    let mut scene = a.scene()?;
+    scene.run.kernel = a.kernel;
     let run = scene.brdf_run();
     crate::export::folder::check_run(&a.export, &run)?;
     let options = BrdfOptions {

@@ -1203,6 +1203,7 @@ fn brdf_run_of(
         inplane_step_deg: tally.inplane_step_deg,
         inplane_width_deg: tally.inplane_width_deg,
         symmetry: tally.symmetry,
+        kernel: crate::transport::wavefront::Kernel::default(),
         controls: Controls {
             max_bounces: transport.max_bounces,
             roulette_weight: transport.roulette_weight,

@@ -20,7 +20,7 @@ use crate::micro::{Edges, Event, Facet, MAX_CROSSINGS, MicroSurface, Scratch, Sk
 /// is asked, at every further crossing, for whole periods the flight passes
 /// above everything (ordinary flights cross fewer, and are traced exactly as
 /// before).
-const SKIP_AFTER: u32 = 64;
+pub(crate) const SKIP_AFTER: u32 = 64;
 
 /// Limits of a history.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

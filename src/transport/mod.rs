@@ -5,6 +5,7 @@
 //! * [`micro`]: one history in a micro surface (specular reflections, weights, roulette).
 //! * [`launch`]: where photons enter the micro period (random or lattice).
 //! * [`order`]: the order a batch's photons are traced in (Morton order of entry points).
+//! * [`wavefront`]: the wavefront kernel: a wave of photons advanced stage by stage, four lanes at a time.
 //! * [`brdf`]: the BRDF generator (`roks brdf`).
 //! * [`wall`]: the wall models of objects (micro descent, BRDF table, ideal, specular).
 //! * [`object`]: histories through a 3-D object (`roks trace`).
@@ -22,6 +23,7 @@ pub mod object;
 pub mod order;
 pub mod rng;
 pub mod wall;
+pub mod wavefront;
 
 use rand::RngExt;
 use rayon::prelude::*;
@@ -129,8 +131,9 @@ const PIECE: usize = 1024;
 /// [`parallel_batches`]'s for any thread count.
 ///
 /// `entry(n)` gives photon `n`'s Morton code and what its history starts
-/// from (`E`: its stream and entry point); `trace(entry, scratch)` its
-/// history, with a scratch from `scratch()` per rayon job (reused over its
+/// from (`E`: its stream and entry point); `trace(entries, scratch, out)`
+/// pushes the histories of a piece's entries onto `out`, in their order,
+/// with a scratch from `scratch()` per rayon job (reused over its
 /// pieces); `score(range, visit)` a batch's tally, where `visit(f)` calls
 /// `f(entry, history)` for the batch's photons in index order; `consume` and
 /// `progress` as for [`parallel_batches`]. Chunks hold
@@ -142,7 +145,7 @@ pub fn parallel_batches_ordered<E: Clone + Send + Sync, H: Clone + Send + Sync, 
     tally_bytes: u64,
     entry: impl Fn(u64) -> (u16, E) + Sync,
     scratch: impl Fn() -> S + Sync,
-    trace: impl Fn(&E, &mut S) -> H + Sync,
+    trace: impl Fn(&[E], &mut S, &mut Vec<H>) + Sync,
     score: impl Fn(std::ops::Range<u64>, &dyn Fn(&mut dyn FnMut(&E, &H))) -> T + Sync,
     mut consume: impl FnMut(u64, T),
     progress: &(dyn Fn(u64) + Sync),
@@ -179,7 +182,9 @@ pub fn parallel_batches_ordered<E: Clone + Send + Sync, H: Clone + Send + Sync, 
                     }
                     local.clear();
                     local.extend(piece.iter().map(|&i| entries[i as usize].clone()));
-                    let h = local.iter().map(|e| trace(e, s)).collect();
+                    let mut h = Vec::with_capacity(local.len());
+                    trace(local, s, &mut h);
+                    assert_eq!(h.len(), local.len(), "a history per photon");
                     progress(piece.len() as u64);
                     h
                 },
@@ -264,7 +269,12 @@ mod tests {
             // Codes that scatter the photons over the Morton order.
             |n| ((n.wrapping_mul(40_503) % 65_536) as u16, n),
             || (),
-            |&n, ()| Words::<N>(std::array::from_fn(|k| n * 7 + k as u64)),
+            |es: &[u64], (), out: &mut Vec<Words<N>>| {
+                out.extend(
+                    es.iter()
+                        .map(|&n| Words::<N>(std::array::from_fn(|k| n * 7 + k as u64))),
+                );
+            },
             |range, visit| {
                 let mut got = Vec::new();
                 visit(&mut |&n, h: &Words<N>| {

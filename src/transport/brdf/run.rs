@@ -13,6 +13,7 @@ use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{CarlsonGrid, InPlaneTally, Merge, PolarTally, Symmetry};
 use crate::transport::launch::Launch;
 use crate::transport::micro::Controls;
+use crate::transport::wavefront::Kernel;
 
 /// Bytes per in-plane bin and incidence of a run's result files beside its
 /// tallies (`inplane.csv` as text, and read back for `inplane.png`), for
@@ -65,6 +66,11 @@ pub struct BrdfRun {
     pub symmetry: Symmetry,
     /// Incidence polar angles (degrees).
     pub theta_deg: Vec<f64>,
+    /// The kernel that traces the histories (`--kernel`). Never written to
+    /// the files (both kernels give the same bits; a run read back has the
+    /// default, scalar).
+    #[serde(skip)]
+    pub kernel: Kernel,
     /// Vacuum wavelengths (µm, strictly increasing) of a spectral run, each
     /// carried by every photon ([`crate::transport::carrier::LaneCarrier::Spectrum`]); empty for a monochrome run.
     pub wavelengths_um: Vec<f64>,

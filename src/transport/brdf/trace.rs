@@ -21,9 +21,15 @@ use crate::tally::sum::{DyadicSum, Node};
 use crate::tally::{InPlaneTally, Locator, Merge, PolarTally};
 use crate::transport::carrier::{Carrier, LaneCarrier, Polarised};
 use crate::transport::launch::{Lattices, Launch};
+use crate::transport::micro::History as MicroHistory;
 use crate::transport::micro::trace;
 use crate::transport::order;
 use crate::transport::rng::photon_rng;
+use crate::transport::wavefront::{Kernel, WAVE, trace_wave};
+
+/// Bytes of histories the wavefront kernel holds at a time for scoring in
+/// photon order ([`BrdfRun::trace_ordered`]).
+const WAVE_HELD_BYTES: usize = 256 << 10;
 
 impl BrdfRun {
     /// Trace the photons `photons` (a range of photon indices that starts
@@ -310,16 +316,61 @@ impl BrdfRun {
             );
             (h, scratch.tests - tests)
         };
+        // The histories of `entries` by the wavefront kernel, into `held`
+        // (one per entry, in the entries' order) with the tests each took.
+        let wave = |entries: &[Entry],
+                    scratch: &mut Scratch,
+                    held: &mut Vec<Option<(MicroHistory<C>, u64)>>| {
+            held.clear();
+            held.resize(entries.len(), None);
+            trace_wave(
+                surface,
+                entries.len(),
+                |k| {
+                    let e = &entries[k];
+                    let start = DVec3::new(e.u * surface.size.x, e.v * surface.size.y, surface.top);
+                    (start, e.rng.clone())
+                },
+                dir,
+                launch,
+                &self.controls,
+                scratch,
+                |k, h, tests| held[k] = Some((h, tests)),
+            );
+        };
         if !ordered {
             // A small surface stays in the caches in any order: trace and
             // score each photon in turn, batch by batch.
             let batch = |range: std::ops::Range<u64>| {
                 let mut scratch = Scratch::new(surface);
-                self.score_batch(locator, inplane, phi, spare, |score| {
-                    for n in range {
-                        let e = entry(n);
-                        let (h, tests) = history(&e, &mut scratch);
-                        score(e.replicate, &h, tests);
+                self.score_batch(locator, inplane, phi, spare, |score| match self.kernel {
+                    Kernel::Scalar => {
+                        for n in range {
+                            let e = entry(n);
+                            let (h, tests) = history(&e, &mut scratch);
+                            score(e.replicate, &h, tests);
+                        }
+                    }
+                    Kernel::Wavefront => {
+                        // Chunks of the batch traced as one wave each, then
+                        // scored in photon order (at most about 256 KiB of
+                        // histories held).
+                        let chunk = (WAVE_HELD_BYTES / std::mem::size_of::<MicroHistory<C>>())
+                            .clamp(WAVE, 1024);
+                        let mut held: Vec<Option<(MicroHistory<C>, u64)>> = Vec::new();
+                        let mut entries = Vec::with_capacity(chunk);
+                        let mut n = range.start;
+                        while n < range.end {
+                            let m = (range.end - n).min(chunk as u64);
+                            entries.clear();
+                            entries.extend((n..n + m).map(&entry));
+                            wave(&entries, &mut scratch, &mut held);
+                            for (e, h) in entries.iter().zip(&held) {
+                                let (h, tests) = h.as_ref().expect("every photon of a wave ends");
+                                score(e.replicate, h, *tests);
+                            }
+                            n += m;
+                        }
                     }
                 })
             };
@@ -338,8 +389,17 @@ impl BrdfRun {
                 let e = entry(n);
                 (order::morton(e.u, e.v), e)
             },
-            || Scratch::new(surface),
-            history,
+            || (Scratch::new(surface), Vec::new()),
+            |entries: &[Entry], (scratch, held), out| match self.kernel {
+                Kernel::Scalar => out.extend(entries.iter().map(|e| history(e, scratch))),
+                Kernel::Wavefront => {
+                    wave(entries, scratch, held);
+                    out.extend(
+                        held.drain(..)
+                            .map(|h| h.expect("every photon of a wave ends")),
+                    );
+                }
+            },
             |_, visit| {
                 self.score_batch(locator, inplane, phi, spare, |score| {
                     visit(&mut |e, (h, tests)| score(e.replicate, h, *tests));
@@ -400,8 +460,8 @@ mod tests {
     use crate::scene::micro::{DEFAULT_SCENE, MicroScene};
     use crate::tally::Symmetry;
 
-    /// Tracing in Morton order and in index order gives the same tallies,
-    /// bit for bit, for the scalar weight, Stokes vectors and Mueller
+    /// Tracing in Morton order and in index order, with either kernel,
+    /// gives the same tallies, bit for bit, for the scalar weight, Stokes vectors and Mueller
     /// columns, random and lattice launches, with mirror symmetry, and a
     /// partial last batch.
     #[test]
@@ -444,12 +504,24 @@ mod tests {
             run.symmetry = symmetry;
             run.polarisation.tally = tally;
             run.polarisation.transport = tally != PolarTally::None;
-            let nodes = |ordered| {
+            let nodes = |ordered, kernel| {
+                let mut run = run.clone();
+                run.kernel = kernel;
                 run.run_nodes_in(&scene.surface, 60.0, 0, 0..run.photons, ordered, &|_| {})
             };
-            let (by_index, by_morton) = (nodes(false), nodes(true));
+            let by_index = nodes(false, Kernel::Scalar);
             assert!(by_index[0][0].value.photons > 0);
-            assert_eq!(by_index, by_morton, "{tally:?} {launch:?} {symmetry:?}");
+            for (ordered, kernel) in [
+                (true, Kernel::Scalar),
+                (false, Kernel::Wavefront),
+                (true, Kernel::Wavefront),
+            ] {
+                assert_eq!(
+                    by_index,
+                    nodes(ordered, kernel),
+                    "{tally:?} {launch:?} {symmetry:?} {ordered} {kernel:?}"
+                );
+            }
         }
     }
 }
