@@ -985,6 +985,7 @@ fn shared_options_keep_their_place_in_the_help() {
             "--phi",
             "--wavelengths",
             "--launch",
+            "--kernel",
             "--symmetry",
             "--polarisation",
             "--no-polarisation",
