@@ -1025,8 +1025,12 @@ fn shared_options_keep_their_place_in_the_help() {
         help.contains("[possible values: none, stokes, mueller]"),
         "{help}"
     );
+    assert!(
+        help.contains("[possible values: scalar, wavefront]"),
+        "{help}"
+    );
     assert!(!help.contains("Possible values:"), "{help}");
-    assert_eq!(help.matches("possible values").count(), 3, "{help}");
+    assert_eq!(help.matches("possible values").count(), 4, "{help}");
     let trace = String::from_utf8(roks(&["trace", "--help"]).stdout).unwrap();
     assert!(
         trace.contains("Photons per beam position (overrides each source's `photons`)"),

@@ -69,8 +69,10 @@ pub const WAVE: usize = 64;
 pub enum Kernel {
     /// One photon at a time ([`super::micro::trace`]), the reference.
     #[default]
+    #[value(help = None::<&str>)]
     Scalar,
     /// Stages over a wave of photons in structure-of-arrays form ([`trace_wave`]).
+    #[value(help = None::<&str>)]
     Wavefront,
 }
 
