@@ -115,6 +115,14 @@ pub fn load_micro_from(
     })
 }
 
+/// Whether the result folder `dir` holds an object run (`roks trace`:
+/// `reflectance.csv` and no `brdf.csv`), else a micro run (`roks brdf`).
+#[must_use]
+pub fn is_trace_folder(dir: &Path) -> bool {
+    use crate::outdir::file::ResultFile;
+    !ResultFile::Brdf.path_in(dir).exists() && ResultFile::Reflectance.path_in(dir).exists()
+}
+
 /// The comment the exported tables of a run carry (`roks brdf --export`,
 /// `roks merge --export`): `scene NAME, N photons per angle`.
 #[must_use]

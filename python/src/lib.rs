@@ -27,6 +27,7 @@ use pyo3::types::PyBytes;
 
 use roks::api;
 use roks::cli::args::{Cli, Command};
+use roks::outdir::file::ResultFile;
 
 create_exception!(
     _native,
@@ -368,6 +369,14 @@ fn handle_wait(finished: &AtomicBool) {
 /// Column names and their values (little-endian f64 bytes each).
 type Columns = (Vec<String>, Vec<Py<PyBytes>>);
 
+/// The CSV file `name` (its `bytes`) as columns; a table that cannot be
+/// read raises [`InputError`] with the reader's line.
+fn table_columns(py: Python<'_>, name: &str, bytes: &[u8]) -> PyResult<Columns> {
+    let t = api::Table::parse(&String::from_utf8_lossy(bytes), name)
+        .map_err(|e| InputError::new_err(e.to_string()))?;
+    Ok(columns(py, &t))
+}
+
 fn columns(py: Python<'_>, t: &api::Table) -> Columns {
     let names = t.names().to_vec();
     let values = names
@@ -500,12 +509,10 @@ impl BrdfResult {
     /// The CSV file `name` of the folder as columns: (names, values as
     /// little-endian f64 bytes); None when the folder has no such file.
     fn table(&self, py: Python<'_>, name: &str) -> PyResult<Option<Columns>> {
-        let Some(bytes) = self.result.file(name) else {
-            return Ok(None);
-        };
-        let t = api::Table::parse(&String::from_utf8_lossy(&bytes), name)
-            .map_err(|e| InputError::new_err(e.to_string()))?;
-        Ok(Some(columns(py, &t)))
+        self.result
+            .file(name)
+            .map(|bytes| table_columns(py, name, &bytes))
+            .transpose()
     }
 
     /// The shape [incidences, azimuths, wavelengths (1: monochrome), cells].
@@ -568,7 +575,7 @@ fn export_values(
             let comment = api::export_comment(&scene.name, photons.end - photons.start);
             let export =
                 export_folder(folder, &[a.format], &comment, &scene.surfaces()).map_err(input)?;
-            (export, PathBuf::from("brdf.csv"))
+            (export, PathBuf::from(ResultFile::Brdf.name()))
         }
         (_, _, Some(dir)) => {
             let request = FolderExport {
@@ -586,7 +593,11 @@ fn export_values(
     let Some(out) = out else {
         return Ok(export);
     };
-    let reads = r.dir.iter().map(|d| d.join("brdf.csv")).collect::<Vec<_>>();
+    let reads = r
+        .dir
+        .iter()
+        .map(|d| ResultFile::Brdf.path_in(d))
+        .collect::<Vec<_>>();
     if export.files.len() > 1 {
         check_out_dir(out, "--out", &reads, force)?;
         let mut written = export.named_files();
@@ -619,7 +630,7 @@ fn fit(
                 FIT_DIRS.fetch_add(1, Ordering::Relaxed)
             ));
             std::fs::create_dir_all(&d).map_err(|e| RoksError::new_err(e.to_string()))?;
-            for name in ["brdf.csv", "summary.json"] {
+            for name in [ResultFile::Brdf.name(), ResultFile::Summary.name()] {
                 let bytes = r.result.file(name).unwrap_or_default();
                 std::fs::write(d.join(name), bytes)
                     .map_err(|e| RoksError::new_err(e.to_string()))?;
@@ -696,12 +707,11 @@ impl TraceResult {
     /// The CSV file `name` as columns, as [`BrdfResult::table`].
     fn table(&self, py: Python<'_>, name: &str) -> PyResult<Option<Columns>> {
         let files = self.result.files();
-        let Some((_, bytes)) = files.iter().find(|(n, _)| n == name) else {
-            return Ok(None);
-        };
-        let t = api::Table::parse(&String::from_utf8_lossy(bytes), name)
-            .map_err(|e| InputError::new_err(e.to_string()))?;
-        Ok(Some(columns(py, &t)))
+        files
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, bytes)| table_columns(py, name, bytes))
+            .transpose()
     }
 
     /// Whether the result was traced in this process.
@@ -737,11 +747,7 @@ fn main(py: Python<'_>, argv: Vec<String>) -> u8 {
 /// Whether `dir` holds the result of `roks trace` (else of `roks brdf`).
 #[pyfunction]
 fn is_trace_folder(dir: PathBuf) -> bool {
-    is_trace(&dir)
-}
-
-fn is_trace(dir: &Path) -> bool {
-    !dir.join("brdf.csv").exists() && dir.join("reflectance.csv").exists()
+    api::is_trace_folder(&dir)
 }
 
 #[pymodule]
