@@ -69,6 +69,10 @@ impl Model for Abg {
         let (a, b) = (q[0].exp(), q[1].exp());
         vec![(a, a), (b, b), (q[2], 1.0)]
     }
+
+    fn internal(&self, values: &[f64]) -> Vec<f64> {
+        vec![values[0].ln(), values[1].ln(), values[2]]
+    }
 }
 
 /// Fit ABg to every incidence of `table` on its own.

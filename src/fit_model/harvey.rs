@@ -53,6 +53,10 @@ impl Model for Harvey {
         let (b0, l) = (q[0].exp(), q[1].exp());
         vec![(b0, b0), (l, l), (q[2], 1.0)]
     }
+
+    fn internal(&self, values: &[f64]) -> Vec<f64> {
+        vec![values[0].ln(), values[1].ln(), values[2]]
+    }
 }
 
 /// Fit Harvey-Shack to every incidence of `table` on its own.

@@ -133,6 +133,10 @@ impl Model for Microfacet {
         let a = q[0].exp();
         vec![(a, a)]
     }
+
+    fn internal(&self, values: &[f64]) -> Vec<f64> {
+        vec![values[0].ln()]
+    }
 }
 
 /// Fit `model`'s `alpha` to every incidence of `table` together.

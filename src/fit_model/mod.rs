@@ -39,6 +39,7 @@ pub mod one;
 pub mod plot;
 pub mod ranking;
 pub mod run;
+pub mod saved;
 
 pub use ranking::{Judgement, rank};
 
@@ -134,6 +135,14 @@ impl CellRule {
             .map(|(d, w)| w * f(*d))
             .sum()
     }
+
+    /// The cell average of `model`'s BRDF (sr⁻¹) at internal parameters
+    /// `q` for incidence `theta_i` (radians): what a fit compares with the
+    /// table's cell, the one evaluation of a model over a cell (the fit,
+    /// its plot and the report's overlay, [`saved`], all take it).
+    pub fn model_average(&self, model: &dyn Model, q: &[f64], theta_i: f64) -> f64 {
+        self.average(|d| model.brdf(q, theta_i, d))
+    }
 }
 
 /// One cell of the table as the fit sees it.
@@ -216,11 +225,15 @@ pub trait Model: Sync {
     /// The model's parameters from the internal ones, and the derivative of
     /// each with respect to its internal parameter (for the errors).
     fn physical(&self, q: &[f64]) -> Vec<(f64, f64)>;
+    /// The internal parameters of the model's parameters `values` (in the
+    /// order of [`Model::names`]): the inverse of [`Model::physical`], for
+    /// a fit read back from its JSON ([`saved`]).
+    fn internal(&self, values: &[f64]) -> Vec<f64>;
 }
 
 /// The cell average of `model` at `q` for cell `o`.
 fn cell_model(model: &dyn Model, q: &[f64], o: &Observation) -> f64 {
-    o.rule.average(|d| model.brdf(q, o.theta_i, d))
+    o.rule.model_average(model, q, o.theta_i)
 }
 
 /// Levenberg-Marquardt's view of the weighted residuals.
@@ -837,7 +850,7 @@ pub fn synthetic(
                 let (band, cell) = grid.band_cell(flat);
                 let proj = grid.projected_solid_angle(band, cell);
                 let rule = CellRule::new(&grid, flat, 0.0);
-                let exact = proj * rule.average(|d| model.brdf(&q, t.to_radians(), d));
+                let exact = proj * rule.model_average(model, &q, t.to_radians());
                 let se = rel * exact;
                 f.push((exact + se * gauss()).max(0.0));
                 e.push(se);

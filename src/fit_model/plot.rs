@@ -128,7 +128,7 @@ pub fn plots(
                 let e = table.fraction_stderrs(i)[flat] / proj;
                 table_pts.push((x, f, e));
                 let rule = CellRule::new(grid, flat, phi_i);
-                model_pts.push((x, rule.average(|d| model.brdf(q, t, d)), 0.0));
+                model_pts.push((x, rule.model_average(model, q, t), 0.0));
             }
             series.push(Series {
                 colour: Some(k),

@@ -20,7 +20,8 @@
 //! per azimuth.
 //!
 //! An object folder (`summary.json` of `roks trace`): `reflectance.png`,
-//! reflectance against beam position.
+//! reflectance against beam position (a spectral run: against wavelength,
+//! one curve per beam position).
 //!
 //! Titles give the photons per incidence (or per beam position) and, for a
 //! spectral run, that the same photons carry every wavelength. The surface
@@ -624,8 +625,12 @@ fn spectral_reflectance(s: &BrdfSummary, photons: &str) -> LinePlot {
 
 /// `reflectance.png` of an object run: reflectance against beam position,
 /// one curve per run of consecutive positions on a line at equal steps with
-/// one beam (a sweep), x the distance from its first position.
+/// one beam (a sweep), x the distance from its first position; a spectral
+/// run of two or more wavelengths: [`object_spectral_reflectance`].
 fn object_reflectance(s: &TraceSummary) -> LinePlot {
+    if s.wavelengths_um.len() > 1 {
+        return object_spectral_reflectance(s);
+    }
     let p = &s.sources;
     // Split into sweeps: same direction, diameter, photons and step.
     let mut runs: Vec<std::ops::Range<usize>> = Vec::new();
@@ -707,6 +712,99 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
         log_y: lo > 0.0 && hi > 20.0 * lo,
         series,
         grid: None,
+    }
+}
+
+/// What the titles of an object run say of its photons: per position
+/// (one number when every position has the same), and for a spectral run
+/// that they carry every wavelength.
+fn object_photons(s: &TraceSummary) -> String {
+    let photons: Vec<u64> = s.sources.iter().map(|q| q.photons).collect();
+    let per = if photons.windows(2).all(|w| w[0] == w[1]) {
+        format!(
+            "{} photons per position",
+            photons.first().copied().unwrap_or(0)
+        )
+    } else {
+        format!("photons per position as in {}", ResultFile::Summary)
+    };
+    match s.wavelengths_um.len() {
+        0 | 1 => per,
+        l => format!("{per}, each carrying all {l} wavelengths"),
+    }
+}
+
+/// A beam position's place and point in a legend: `position 2 (3.8, 0, 10)`
+/// (coordinates to 4 decimals, trailing zeros dropped).
+fn position_label(k: usize, p: [f64; 3]) -> String {
+    let c = |x: f64| {
+        let s = format!("{x:.4}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        if s == "-0" {
+            "0".to_owned()
+        } else {
+            s.to_owned()
+        }
+    };
+    format!("position {} ({}, {}, {})", k + 1, c(p[0]), c(p[1]), c(p[2]))
+}
+
+/// `reflectance.png` of a spectral object run: per beam position its
+/// reflectance against the wavelength, from `summary.json`'s `spectrum`
+/// (each position's mean over the wavelengths would hide the spectrum),
+/// error bars of 2 standard errors; more than [`PER_PANEL`] positions:
+/// small multiples of at most [`PER_PANEL`] consecutive positions a panel
+/// (as [`multiples`] groups incidences), two columns past three rows.
+fn object_spectral_reflectance(s: &TraceSummary) -> LinePlot {
+    let p = &s.sources;
+    let series: Vec<Series> = p
+        .iter()
+        .enumerate()
+        .map(|(k, q)| {
+            Series::new(
+                position_label(k, q.position),
+                q.spectrum
+                    .iter()
+                    .flatten()
+                    .map(|w| (w.wavelength_um, w.reflectance, 2.0 * w.reflectance_stderr))
+                    .collect(),
+            )
+        })
+        .collect();
+    let (grid, note) = match multiples(p.len(), &[]) {
+        None => (None, String::new()),
+        Some(m) => {
+            let panels: Vec<Panel> = m
+                .panels
+                .iter()
+                .map(|(_, ks)| {
+                    let (a, b) = (ks[0], ks[ks.len() - 1]);
+                    Panel {
+                        title: format!("positions {}–{}", a + 1, b + 1),
+                        series: a..b + 1,
+                    }
+                })
+                .collect();
+            let note = format!(
+                "; small multiples: {} positions in {} panels of at most {PER_PANEL}",
+                p.len(),
+                panels.len()
+            );
+            let columns = if panels.len() > 3 { 2 } else { 1 };
+            (Some(Grid { columns, panels }), note)
+        }
+    };
+    LinePlot {
+        title: format!(
+            "{}: reflectance against wavelength per beam position ({}{note})",
+            s.name,
+            object_photons(s)
+        ),
+        x_label: "vacuum wavelength λ (µm)".into(),
+        y_label: "reflectance (fraction of the beam's flux), 2-sigma error bars".into(),
+        log_y: false,
+        series,
+        grid,
     }
 }
 
@@ -977,5 +1075,86 @@ mod tests {
         let p = micro_reflectance(&summary(&[0.0, 30.0], &[0.0], &[0.5]), "x");
         assert!(p.title.contains("against incidence"));
         assert_eq!(p.series[0].points, [(0.0, 0.5, 0.02), (30.0, 0.5, 0.02)]);
+    }
+
+    /// `summary.json` of a `roks trace` run of `positions` beam positions at
+    /// `lanes` wavelengths: at position k and wavelength w the reflectance
+    /// `w / 10 + k / 100` with standard error `w / 1000` (the means over the
+    /// wavelengths are the entry's own, as the tracer writes them).
+    fn trace_summary(positions: usize, lanes: &[f64]) -> TraceSummary {
+        let sources: Vec<serde_json::Value> = (0..positions)
+            .map(|k| {
+                let r = |w: f64| w / 10.0 + k as f64 / 100.0;
+                let spectrum: Vec<serde_json::Value> = lanes
+                    .iter()
+                    .map(|&w| {
+                        serde_json::json!({"absorbed": {}, "absorbed_stderr": {}, "emissivity": 1.0 - r(w),
+                            "lost": 0.0, "missed": 0.0, "reflectance": r(w), "reflectance_stderr": w / 1000.0, "wavelength_um": w})
+                    })
+                    .collect();
+                let n = lanes.len().max(1) as f64;
+                let mut v = serde_json::json!({"absorbed": {}, "absorbed_stderr": {}, "diameter": 2.0, "direction": [0.0, 0.0, -1.0],
+                    "lost": 0.0, "mean_bounces": 1.0, "missed": 0.0, "photons": 1000, "position": [0.1 * k as f64, 0.0, 10.0],
+                    "reflectance": if lanes.is_empty() { r(0.0) } else { lanes.iter().map(|&w| r(w)).sum::<f64>() / n }, "reflectance_stderr": 0.01, "seconds": 1.0, "segments": 1});
+                if !lanes.is_empty() {
+                    v["spectrum"] = serde_json::json!(spectrum);
+                }
+                v
+            })
+            .collect();
+        serde_json::from_value(
+            serde_json::json!({"name": "cavity", "scene": "c.toml", "seconds": 1.0, "seed": 1,
+            "sources": sources, "version": "0", "wavelengths_um": lanes}),
+        )
+        .unwrap()
+    }
+
+    /// A spectral `roks trace` run's `reflectance.png`: per beam position
+    /// its reflectance against the wavelength, the summary's spectrum
+    /// (not the mean over the wavelengths), error bars of 2 standard
+    /// errors, the title saying so; many positions: small multiples of at
+    /// most five; a monochrome run: against beam position as before.
+    #[test]
+    fn spectral_trace_reflectance_is_drawn_per_wavelength() {
+        let lanes = [3.0, 3.5, 4.0, 8.0];
+        let s = trace_summary(4, &lanes);
+        let p = object_reflectance(&s);
+        assert_eq!(
+            p.title,
+            "cavity: reflectance against wavelength per beam position (1000 photons per position, each carrying all 4 wavelengths)"
+        );
+        assert!(p.x_label.contains("wavelength") && p.grid.is_none());
+        assert_eq!(p.series.len(), 4);
+        for (k, series) in p.series.iter().enumerate() {
+            let spectrum = s.sources[k].spectrum.as_ref().unwrap();
+            let want: Vec<(f64, f64, f64)> = spectrum
+                .iter()
+                .map(|w| (w.wavelength_um, w.reflectance, 2.0 * w.reflectance_stderr))
+                .collect();
+            assert_eq!(series.points, want);
+            assert_eq!(series.points[3].1, 0.8 + k as f64 / 100.0);
+            assert_eq!(series.points[0].2, 2.0 * 0.003);
+        }
+        assert_eq!(p.series[1].label, "position 2 (0.1, 0, 10)");
+        assert!(image::load_from_memory(&p.to_png(1100, 640).unwrap()).is_ok());
+        // Twelve positions: three panels of four, in one column.
+        let p = object_reflectance(&trace_summary(12, &lanes));
+        let g = p.grid.as_ref().unwrap();
+        assert_eq!((g.columns, g.panels.len(), p.series.len()), (1, 3, 12));
+        assert_eq!(g.panels[2].title, "positions 9–12");
+        assert!(
+            p.title
+                .ends_with("small multiples: 12 positions in 3 panels of at most 5)")
+        );
+        // Monochrome: against beam position, one sweep.
+        let p = object_reflectance(&trace_summary(4, &[]));
+        assert!(
+            p.title
+                .starts_with("cavity: reflectance against beam position"),
+            "{}",
+            p.title
+        );
+        assert_eq!(p.series.len(), 1);
+        assert_eq!(p.series[0].points[2].1, 0.02);
     }
 }

@@ -129,6 +129,17 @@ pub fn brdf(result: &BrdfResult) -> Result<String, Error> {
     let mut names = result.file_names();
     names.sort();
     data["products"] = products(&names, &|n| result.file(n));
+    if let Some(fits) = data["products"]["fits"].as_array_mut() {
+        for f in fits.iter_mut() {
+            if !ResultPattern::FitJson.matches(f["name"].as_str().unwrap_or("")) {
+                continue;
+            }
+            match overlay(result, &brdf, &f["doc"]) {
+                Ok(o) => f["overlay"] = o,
+                Err(why) => f["not_drawn"] = json!(why),
+            }
+        }
+    }
     if let Some(png) = result.file(ResultFile::SurfacePicture.name()) {
         data["surface_png"] = json!(base64(&png));
     }
@@ -204,6 +215,104 @@ fn products(names: &[String], file: &dyn Fn(&str) -> Option<Vec<u8>>) -> Value {
         }
     }
     json!({ "exports": exports, "fits": fits })
+}
+
+/// Significant digits of the model values a report holds: far below any
+/// table's standard error, and 3 to 4 bytes a value less than all 17 once
+/// compressed (docs/src/report.md: Size).
+const MODEL_DIGITS: usize = 6;
+
+/// `x` to [`MODEL_DIGITS`] significant digits.
+fn model_digits(x: f64) -> f64 {
+    format!("{x:.prec$e}", prec = MODEL_DIGITS - 1)
+        .parse()
+        .unwrap_or(x)
+}
+
+/// The fitted model of the fit document `doc` (a `fit_<model>.json` of the
+/// folder) over the table `brdf` of `result` it was fitted to: per fitted
+/// incidence its cells' values and its in-plane bins' values
+/// ([`SavedFit::cells`], [`SavedFit::inplane`], to [`MODEL_DIGITS`]
+/// digits), with the wavelength's index (`lane`) and the incidences'
+/// (`theta`) in the run's tree.
+///
+/// # Errors
+/// Why the model is not drawn, in words: a document that is not a fit of
+/// this table (another wavelength, incidences or reflectance), or a
+/// material that cannot be rebuilt.
+///
+/// [`SavedFit::cells`]: crate::fit_model::saved::SavedFit::cells
+/// [`SavedFit::inplane`]: crate::fit_model::saved::SavedFit::inplane
+fn overlay(result: &BrdfResult, brdf: &Table, doc: &Value) -> Result<Value, String> {
+    use crate::fit_model::saved::{SavedFit, material_again};
+    let run = result.run();
+    let summary = result.summary();
+    let wl = result.wavelengths_um();
+    let lane = match doc["wavelength_um"].as_f64() {
+        None if wl.is_empty() => 0,
+        None => return Err("fitted to a table of one wavelength; this run is spectral".into()),
+        Some(w) => wl
+            .iter()
+            .position(|&x| x == w)
+            .ok_or_else(|| format!("fitted at {w} µm, not one of this run's wavelengths"))?,
+    };
+    if run.phi_deg.len() != 1 {
+        return Err("this run has several light azimuths; a fit has one".into());
+    }
+    let saved = SavedFit::from_doc(doc, &|words, kind| {
+        if words.starts_with("scene ") && material(summary).is_none() {
+            return Err(format!(
+                "its material is the scene's, and {} is not found with the run's content",
+                summary.scene
+            ));
+        }
+        material_again(words, Path::new(""), kind, Some(&summary.scene), wl, lane)
+    })?;
+    let [_, np, nl, nc] = result.shape();
+    let fraction = column(brdf, "fraction").map_err(|e| e.to_string())?;
+    let mut theta = Vec::new();
+    let (mut cells, mut inplane) = (Vec::new(), Vec::new());
+    let grid = run.grid();
+    let tally = run.inplane();
+    for (k, (t, _)) in saved.sets.iter().enumerate() {
+        let i = run
+            .theta_deg
+            .iter()
+            .position(|x| x == t)
+            .ok_or_else(|| format!("fitted at θi = {t}°, not one of this run's incidences"))?;
+        // The table the fit read: its reflectance over the cells fitted
+        // (every cell when none was left out) is this table's.
+        let block = ((i * np) * nl + lane) * nc;
+        let here: f64 = fraction[block..block + nc].iter().sum();
+        let fitted = doc["fits"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter(|f| f["cells_left_out"].as_u64() == Some(0))
+            .flat_map(|f| f["reflectance"].as_array().into_iter().flatten())
+            .find(|r| r["theta_i_deg"].as_f64() == Some(*t))
+            .and_then(|r| r["table"].as_f64());
+        if let Some(r) = fitted.filter(|r| (r - here).abs() > 1e-8 * here.abs()) {
+            return Err(format!(
+                "fitted to a table of reflectance {r} at θi = {t}°; this one's is {here}: another table"
+            ));
+        }
+        theta.push(i);
+        cells.extend(
+            saved
+                .cells(k, &grid, run.phi_deg[0])
+                .into_iter()
+                .map(model_digits),
+        );
+        inplane.extend(saved.inplane(k, &tally).into_iter().map(model_digits));
+    }
+    Ok(json!({
+        "model": saved.kind.name(),
+        "lane": lane,
+        "theta": theta,
+        "cells": cells,
+        "inplane": inplane,
+    }))
 }
 
 /// The page's title: the scene's name and the kind of result.

@@ -111,7 +111,8 @@ function draw(D) {
   function hemisphereTraces(cells, values, opts) {
     const c = cells.c;
     const full = [], empty = [];
-    for (let k = 0; k < cells.n; k++) (values[k] > 0 ? full : empty).push(k);
+    const shown = opts.diverging ? (x) => Number.isFinite(x) : (x) => x > 0;
+    for (let k = 0; k < cells.n; k++) (shown(values[k]) ? full : empty).push(k);
     const colour = full.map((k) => (opts.log ? Math.log10(values[k]) : values[k]));
     const bar = (ks) => ({
       type: 'barpolar',
@@ -126,6 +127,7 @@ function draw(D) {
     const t = bar(full);
     t.marker.color = colour;
     t.marker.colorscale = 'Viridis';
+    if (opts.diverging) Object.assign(t.marker, { colorscale: 'RdBu', reversescale: true, cmin: -opts.range, cmax: opts.range });
     t.marker.colorbar = { title: { text: opts.unit }, thickness: 14 };
     const traces = [t];
     if (opts.empty && empty.length) {
@@ -221,6 +223,41 @@ function draw(D) {
     run.phi_deg = D.phi;
     const cells = new Cells(D.cell);
     const block = (i, j, l) => ((i * NP + j) * NL + l);
+    // The fitted models drawn over their tables (fit_<model>.json of the
+    // folder, evaluated by roks per Carlson cell and in-plane bin), each
+    // with its own dash in the in-plane curves.
+    const MODELS = D.products.fits.filter((f) => f.overlay);
+    const DASHES = ['dash', 'dot', 'dashdot', 'longdash'];
+    // The model `f`'s values at the picked incidence i, azimuth j and
+    // wavelength l (`what`: 'cells' or 'inplane', `n` values each), or
+    // null where it was not fitted.
+    function modelAt(f, i, j, l, what, n) {
+      const o = f.overlay;
+      const q = o.theta.indexOf(i);
+      if (j !== 0 || l !== o.lane || q < 0) return null;
+      return o[what].slice(q * n, (q + 1) * n);
+    }
+    function where(f) {
+      const o = f.overlay;
+      return 'θi ' + o.theta.map((i) => deg(run.theta_deg[i])).join(', ') + (wl.length ? ' at ' + wl[o.lane] + ' µm' : '');
+    }
+    // A cell's projected solid angle (sr) from its bounds.
+    function proj(k) {
+      const c = D.cell, r = Math.PI / 180;
+      const a = Math.cos(c.theta_lo_deg[k] * r), b = Math.cos(c.theta_hi_deg[k] * r);
+      return ((c.phi_hi_deg[k] - c.phi_lo_deg[k]) * r * (a * a - b * b)) / 2;
+    }
+    // (table - model) / std. error per cell, as the fit weighs it: a cell
+    // no photon left through has the error of one photon, 1 / (N proj).
+    function residuals(v, se, m, n) {
+      return v.map((x, k) => {
+        const s = se[k] > 0 ? se[k] : n > 0 ? 1 / (n * proj(k)) : 0;
+        return s > 0 ? (x - m[k]) / s : null;
+      });
+    }
+    function fmtModel(x) {
+      return x.toExponential(5).replace('e+', 'e');
+    }
     const summaryAt = (i, j) => S.incidence[i * NP + j];
     describe([
       ['scene', S.name], ['scene file', S.scene], ['content sha256', S.content.scene_sha256],
@@ -264,9 +301,21 @@ function draw(D) {
     hc.append(select('hemi-scale', 'scale', ['log', 'linear'], drawHemisphere));
     hc.append(checkbox('hemi-relerr', 'relative error instead of the BRDF', false, drawHemisphere));
     hc.append(checkbox('hemi-empty', 'mark the cells no photon left through', true, drawHemisphere));
+    if (MODELS.length) {
+      hc.append(select('hemi-show', 'show', ['table', 'fitted model', '(table − model) / std. error'], drawHemisphere));
+      hc.append(select('hemi-model', 'model', MODELS.map((f) => f.overlay.model + ' (' + f.name + ')'), drawHemisphere));
+    }
     hemi.append(hc);
+    const hemiNote = el('p', { class: 'note', id: 'hemisphere-note' });
     const hover = el('div', { class: 'hover', id: 'hemisphere-hover' });
-    hemi.append(hover, plotDiv('hemisphere'));
+    hemi.append(hemiNote, hover, plotDiv('hemisphere'));
+    // The model picked for the map and its cells at the picked block.
+    function hemiModel() {
+      if (!MODELS.length) return { f: null, m: null, show: 0 };
+      const p = picked();
+      const f = MODELS[val('hemi-model')];
+      return { f, m: modelAt(f, p.i, p.j, p.l, 'cells', NC), show: val('hemi-show') };
+    }
     function cellValues(b) {
       const off = b * NC;
       return { v: D.brdf.slice(off, off + NC), se: D.se.slice(off, off + NC) };
@@ -281,19 +330,53 @@ function draw(D) {
       hover.dataset.block = String(b);
       hover.dataset.value = fmt(v[k]);
       hover.dataset.stderr = fmt(se[k]);
-      hover.textContent = 'θ ' + short(D.cell.theta_deg[k]) + '° [' + short(D.cell.theta_lo_deg[k]) + ', ' + short(D.cell.theta_hi_deg[k]) + '], φ ' +
+      let text = 'θ ' + short(D.cell.theta_deg[k]) + '° [' + short(D.cell.theta_lo_deg[k]) + ', ' + short(D.cell.theta_hi_deg[k]) + '], φ ' +
         short(D.cell.phi_deg[k]) + '°: BRDF ' + fmt(v[k]) + ' ± ' + fmt(se[k]) + ' 1/sr' + (v[k] > 0 ? ', relative error ' + (100 * rel).toFixed(2) + ' %' : ', no photon');
+      const { f, m } = hemiModel();
+      delete hover.dataset.model;
+      delete hover.dataset.residual;
+      if (m) {
+        hover.dataset.model = fmtModel(m[k]);
+        text += '; ' + f.overlay.model + ' model ' + fmtModel(m[k]) + ' 1/sr';
+        const res = residuals(v, se, m, summaryAt(p.i, p.j).photons)[k];
+        if (Number.isFinite(res)) {
+          hover.dataset.residual = res.toFixed(2);
+          text += ', (table − model) / std. error ' + res.toFixed(2);
+        }
+      }
+      hover.textContent = text;
     }
     window.roksHover = showHover;
     function drawHemisphere() {
       const p = picked();
       const { v, se } = cellValues(block(p.i, p.j, p.l));
       const relerr = checked('hemi-relerr');
-      const values = relerr ? v.map((x, k) => (x > 0 ? se[k] / x : 0)) : v;
-      const log = val('hemi-scale') === 0;
-      const unit = (log ? 'log10 ' : '') + (relerr ? 'relative error' : 'BRDF (1/sr)');
+      let values = relerr ? v.map((x, k) => (x > 0 ? se[k] / x : 0)) : v;
+      let log = val('hemi-scale') === 0;
+      let unit = (log ? 'log10 ' : '') + (relerr ? 'relative error' : 'BRDF (1/sr)');
+      const opts = { empty: checked('hemi-empty') };
+      const { f, m, show } = hemiModel();
+      hemiNote.textContent = '';
+      if (show && !m) {
+        hemiNote.textContent = f.overlay.model + ' was fitted at ' + where(f) + (NP > 1 ? ' (first light azimuth)' : '') + ', not at the picked incidence and wavelength: the table is shown.';
+      } else if (show === 1) {
+        values = m;
+        unit = (log ? 'log10 ' : '') + f.overlay.model + ' model BRDF (1/sr)';
+        hemiNote.textContent = 'The ' + f.overlay.model + ' model fitted to this table (' + f.name + '), its average over each Carlson cell as the fit compares it with the table\'s; hover a cell for both.';
+      } else if (show === 2) {
+        values = residuals(v, se, m, summaryAt(p.i, p.j).photons);
+        const mags = values.filter((x) => Number.isFinite(x)).map(Math.abs).sort((a, b) => a - b);
+        opts.range = Math.max(3, mags.length ? mags[Math.floor(0.98 * (mags.length - 1))] : 3);
+        opts.diverging = true;
+        opts.empty = false;
+        log = false;
+        unit = '(table − ' + f.overlay.model + ') / std. error';
+        hemiNote.textContent = 'Red: the table above the model, blue: below, in standard errors (a cell no photon left through: the error of one photon, as the fit weighs it); the colour scale ends at ±' + short(opts.range) + ' (98 % of the cells within).';
+      }
+      opts.log = log;
+      opts.unit = unit;
       const gd = document.getElementById('plot-hemisphere');
-      Plotly.react(gd, hemisphereTraces(cells, values, { log, unit, empty: checked('hemi-empty') }), POLAR_LAYOUT, CONFIG);
+      Plotly.react(gd, hemisphereTraces(cells, values, opts), POLAR_LAYOUT, CONFIG);
       if (!gd.dataset.hooked) {
         gd.on('plotly_hover', (e) => { const pt = e.points[0]; if (pt && pt.customdata !== undefined) showHover(pt.customdata); });
         gd.dataset.hooked = '1';
@@ -324,7 +407,8 @@ function draw(D) {
     }
 
     // In-plane curves.
-    const inp = section('inplane', 'The BRDF in the plane of incidence', 'Pick one or a few incidences (Ctrl-click); the band is ± one standard error. θo is signed: positive on the specular side.');
+    const inp = section('inplane', 'The BRDF in the plane of incidence', 'Pick one or a few incidences (Ctrl-click); the band is ± one standard error. θo is signed: positive on the specular side.' +
+      (MODELS.length ? ' Dashed, in its table\'s colour: each model fitted to the table (' + MODELS.map((f, fi) => f.overlay.model + ' ' + ['- -', '···', '-·-', '— —'][fi % 4]).join(', ') + '), averaged over the same in-plane bins.' : ''));
     const nin = D.inplane.brdf.length / (NT * NP * NL);
     const ic = el('div', { class: 'controls' });
     ic.append(select('inplane-theta', 'incidences', run.theta_deg.map(deg), drawInplane, true));
@@ -344,6 +428,10 @@ function draw(D) {
         traces.push({ x: th, y: lo, mode: 'lines', line: { width: 0 }, hoverinfo: 'skip', showlegend: false });
         traces.push({ x: th, y: hi, mode: 'lines', line: { width: 0 }, fill: 'tonexty', fillcolor: colour + '40', hoverinfo: 'skip', showlegend: false });
         traces.push({ x: th, y: b.map((x) => (x > 0 ? x : null)), mode: 'lines', name: 'θi ' + deg(run.theta_deg[i]), line: { color: colour } });
+        MODELS.forEach((f, fi) => {
+          const m = modelAt(f, i, p.j, p.l, 'inplane', nin);
+          if (m) traces.push({ x: th, y: m, mode: 'lines', name: 'θi ' + deg(run.theta_deg[i]) + ': ' + f.overlay.model + ' model', line: { color: colour, dash: DASHES[fi % DASHES.length], width: 1.5 } });
+        });
       });
       const log = val('inplane-scale') === 0;
       Plotly.react('plot-inplane', traces, { height: 440, xaxis: { title: { text: 'θo (deg)' } }, yaxis: { title: { text: 'BRDF (1/sr)' }, type: log ? 'log' : 'linear' }, margin: { t: 20 } }, CONFIG);
@@ -411,23 +499,30 @@ function draw(D) {
       const el4 = mueller ? [0, 1, 2, 3].flatMap((i) => [0, 1, 2, 3].map((j) => 'm' + i + j)) : ['s0', 's1', 's2', 's3'].filter((n) => P[n]);
       const ps = section('polarisation', mueller ? 'The Mueller matrix, m_ij / m00' : 'The Stokes vector', mueller ? 'Each element normalised by m00, with its standard error below, each map on its own colour scale; the degree of polarisation for unpolarised light is sqrt(m10² + m20² + m30²) / m00.' : 'Each element normalised by s0, with the standard errors of s0 ... s3 below, each map on its own colour scale; the degree of polarisation is stokes.csv\'s dop.');
       const g1 = el('div', { class: 'grid4', id: 'polar-values' }), g2 = el('div', { class: 'grid4', id: 'polar-stderr' });
+      const first = mueller ? 'm00' : 's0';
+      ps.append(el('div', { class: 'controls' }, select('polar-scale', first + ' and its standard error', ['log', 'linear'], () => drawPolar())));
       ps.append(g1, el('h3', { text: 'standard errors' }), g2, el('h3', { text: 'degree of polarisation' }), plotDiv('dop'));
       el4.forEach((n) => { g1.append(plotDiv('polar-' + n, 'cellplot')); g2.append(plotDiv('polar-se-' + n, 'cellplot')); });
       const grid = discGrid(cells, 61);
-      const first = mueller ? 'm00' : 's0';
       drawPolar = () => {
         const p = picked();
         const off = block(p.i, p.j, p.l) * NC;
         const at = (n, k) => P[n][off + k];
+        // m00 (s0) and its error on a log scale (log10; empty cells blank)
+        // or a linear one; every m_ij / m00 linear, each on its own scale.
+        const log = val('polar-scale') === 0;
+        const scaled = (f) => (log ? (k) => { const x = f(k); return x > 0 ? Math.log10(x) : null; } : f);
+        const lg = log ? 'log10 ' : '';
         el4.forEach((n) => {
-          const norm = n === first ? (k) => at(n, k) : (k) => (at(first, k) > 0 ? at(n, k) / at(first, k) : null);
-          Plotly.react('plot-polar-' + n, [discHeatmap(grid, norm, { colorscale: n === first ? 'Viridis' : 'RdBu', zmid: n === first ? undefined : 0 })], discLayout(n === first ? n + ' (1/sr)' : n + '/' + first), { staticPlot: true });
+          const norm = n === first ? scaled((k) => at(n, k)) : (k) => (at(first, k) > 0 ? at(n, k) / at(first, k) : null);
+          Plotly.react('plot-polar-' + n, [discHeatmap(grid, norm, { colorscale: n === first ? 'Viridis' : 'RdBu', zmid: n === first ? undefined : 0 })], discLayout(n === first ? lg + n + ' (1/sr)' : n + '/' + first), { staticPlot: true });
           // Mueller: the errors of m_ij/m00 (mueller.csv has them); Stokes:
           // those of s_i themselves (stokes.csv has no others).
           const ratio = mueller && n !== first;
           const sen = ratio ? n + '_' + first + '_stderr' : n + '_stderr';
-          const sev = P[sen] ? (k) => P[sen][off + k] : (k) => null;
-          Plotly.react('plot-polar-se-' + n, [discHeatmap(grid, sev, { colorscale: 'Viridis' })], discLayout('std. error of ' + (ratio ? n + '/' + first : n + ' (1/sr)')), { staticPlot: true });
+          const raw = P[sen] ? (k) => P[sen][off + k] : (k) => null;
+          const sev = n === first ? scaled(raw) : raw;
+          Plotly.react('plot-polar-se-' + n, [discHeatmap(grid, sev, { colorscale: 'Viridis' })], discLayout((n === first ? lg : '') + 'std. error of ' + (ratio ? n + '/' + first : n + ' (1/sr)')), { staticPlot: true });
         });
         const lin = mueller ? ['m10', 'm20', 'm30'] : ['s1', 's2', 's3'];
         const dop = P.dop
@@ -469,6 +564,8 @@ function draw(D) {
       pr.fits.forEach((f, q) => {
         const d = f.doc || {};
         s.append(el('p', { class: /NOT OK/.test(d.verdict || '') ? 'bad' : 'ok', text: f.name + ': ' + (d.verdict || (d.advice || 'no verdict')) }));
+        if (f.overlay) s.append(el('p', { class: 'note', text: 'The ' + f.overlay.model + ' model is drawn over its table (' + where(f) + ') in the hemisphere map (show: fitted model, or (table − model) / std. error) and, dashed, in the in-plane curves.' }));
+        if (f.not_drawn) s.append(el('p', { class: 'bad', text: 'The model of ' + f.name + ' is not drawn over the table: ' + f.not_drawn + '.' }));
         const rows = (d.fits || []).flatMap((fit) => fit.reflectance || []);
         if (rows.length) {
           const colour = PALETTE[q % 10];
@@ -504,14 +601,38 @@ function draw(D) {
     const n = R.reflectance.length;
     const label = range(n).map((k) => '(' + [R.x[k], R.y[k], R.z[k]].map(short).join(', ') + ')' + (R.wavelength_um ? ' ' + R.wavelength_um[k] + ' µm' : ''));
     {
-      const s = section('beam', 'Reflectance per beam position');
+      const spectral = (S.wavelengths_um || []).length > 1;
+      const s = section('beam', spectral ? 'Reflectance per beam position and wavelength' : 'Reflectance per beam position',
+        spectral ? 'Each wavelength\'s reflectance (summary.json\'s spectrum, ± one standard error): against the wavelength for the beam positions picked (Ctrl-click), or against the beam position, one curve per wavelength.' : '');
+      const where = (q) => 'position ' + (q + 1) + ' (' + S.sources[q].position.map(short).join(', ') + ')';
+      if (spectral) {
+        const np = S.sources.length;
+        const c = el('div', { class: 'controls' });
+        c.append(select('beam-x', 'against', ['wavelength', 'beam position'], drawBeam));
+        c.append(select('beam-positions', 'beam positions', S.sources.map((_, q) => where(q)), drawBeam, true));
+        s.append(c);
+        // The first, middle and last positions at first.
+        [...new Set([0, Math.floor((np - 1) / 2), np - 1])].forEach((q) => { document.getElementById('beam-positions').options[q].selected = true; });
+      }
       s.append(plotDiv('beam'));
-      const series = R.wavelength_um ? [...new Set(R.wavelength_um)] : [null];
-      const traces = series.map((w, q) => {
-        const ks = range(n).filter((k) => w === null || R.wavelength_um[k] === w);
-        return { x: ks.map((k) => '(' + [R.x[k], R.y[k], R.z[k]].map(short).join(', ') + ')'), y: ks.map((k) => R.reflectance[k]), error_y: { type: 'data', array: ks.map((k) => R.reflectance_stderr[k]) }, mode: 'lines+markers', name: w === null ? 'reflectance' : w + ' µm', line: { color: PALETTE[q % 10] } };
-      });
-      Plotly.react('plot-beam', traces, { height: 420, xaxis: { title: { text: 'beam position (x, y, z)' } }, yaxis: { title: { text: 'reflectance' } }, margin: { t: 20 } }, CONFIG);
+      function drawBeam() {
+        if (spectral && val('beam-x') === 0) {
+          const chosen = [...document.getElementById('beam-positions').selectedOptions].map((o) => +o.value);
+          const traces = chosen.map((q, c) => {
+            const sp = S.sources[q].spectrum || [];
+            return { x: sp.map((w) => w.wavelength_um), y: sp.map((w) => w.reflectance), error_y: { type: 'data', array: sp.map((w) => w.reflectance_stderr) }, mode: 'lines+markers', name: where(q), line: { color: PALETTE[c % 10] } };
+          });
+          Plotly.react('plot-beam', traces, { height: 420, xaxis: { title: { text: 'wavelength (µm)' } }, yaxis: { title: { text: 'reflectance' } }, margin: { t: 20 } }, CONFIG);
+          return;
+        }
+        const series = R.wavelength_um ? [...new Set(R.wavelength_um)] : [null];
+        const traces = series.map((w, q) => {
+          const ks = range(n).filter((k) => w === null || R.wavelength_um[k] === w);
+          return { x: ks.map((k) => '(' + [R.x[k], R.y[k], R.z[k]].map(short).join(', ') + ')'), y: ks.map((k) => R.reflectance[k]), error_y: { type: 'data', array: ks.map((k) => R.reflectance_stderr[k]) }, mode: 'lines+markers', name: w === null ? 'reflectance' : w + ' µm', line: { color: PALETTE[q % 10] } };
+        });
+        Plotly.react('plot-beam', traces, { height: 420, xaxis: { title: { text: 'beam position (x, y, z)' } }, yaxis: { title: { text: 'reflectance' } }, margin: { t: 20 } }, CONFIG);
+      }
+      drawBeam();
       s.append(table(['beam position', 'reflectance', 'std. error'], range(n).map((k) => [label[k], R.reflectance[k], R.reflectance_stderr[k]])));
     }
     {
