@@ -181,3 +181,157 @@ fn roks_report_writes_what_report_wrote_and_keeps_foreign_files() {
     assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
     std::fs::remove_dir_all(&t).unwrap();
 }
+
+/// The data a report holds (script#roks-data: gzip, then base64).
+fn report_data(html: &[u8]) -> serde_json::Value {
+    use std::io::Read as _;
+    let html = String::from_utf8_lossy(html);
+    let start = html.find("id=\"roks-data\">").unwrap() + "id=\"roks-data\">".len();
+    let text = &html[start..start + html[start..].find('<').unwrap()];
+    const ABC: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut bytes = Vec::new();
+    let (mut acc, mut bits) = (0u32, 0);
+    for c in text.trim().bytes().filter(|&c| c != b'=') {
+        acc = (acc << 6) | ABC.iter().position(|&a| a == c).unwrap() as u32;
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            bytes.push((acc >> bits) as u8);
+        }
+    }
+    let mut json = String::new();
+    flate2::read::GzDecoder::new(&bytes[..])
+        .read_to_string(&mut json)
+        .unwrap();
+    serde_json::from_str(&json).unwrap()
+}
+
+/// The report's entry of the fit file `name`.
+fn fit_entry<'a>(data: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
+    data["products"]["fits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["name"] == name)
+        .unwrap_or_else(|| panic!("no {name} in the report"))
+}
+
+/// `|a - b| <= rel |b|`, said.
+fn close(a: f64, b: f64, rel: f64, what: &str) {
+    assert!((a - b).abs() <= rel * b.abs(), "{what}: {a} vs {b}");
+}
+
+/// The fitted models the report draws over their table are the models the
+/// fit evaluated: at the cells of `largest_residuals` of fit_abg.json and
+/// fit_ggx.json (`model`: the fit's own cell average at its own
+/// parameters) the report's value agrees to its 6 significant digits;
+/// per incidence the report's cells integrate (Σ value x projected solid
+/// angle) to the fit's `reflectance[].model`. ABg edited to g = 0 is the
+/// constant A / (B + 1) in every cell and in-plane bin, exactly. A fit
+/// document whose table is not this folder's is not drawn, and the report
+/// says why.
+#[test]
+fn fitted_models_are_drawn_as_the_fit_evaluates_them() {
+    let t = tmp("models");
+    let d = t.join("run");
+    let s = d.display().to_string();
+    ok(&[
+        "brdf",
+        "--photons",
+        "8192",
+        "--theta",
+        "0,40",
+        "--stats-resolution",
+        "32",
+        "-q",
+        "--out",
+        &s,
+    ]);
+    ok(&["fit-model", &s, "--model", "abg", "-q"]);
+    // GGX's material: the default scene's substrate, rebuilt by the report.
+    ok(&["fit-model", &s, "--model", "ggx", "-q"]);
+    ok(&["report", &s, "-q"]);
+    let data = report_data(&read(&d, "report.html"));
+    let csv = String::from_utf8(read(&d, "brdf.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let nc = data["shape"][3].as_u64().unwrap() as usize;
+    let thetas: Vec<f64> = serde_json::from_value(data["theta"].clone()).unwrap();
+    // Rounding to 6 significant digits: at most half a unit of the sixth.
+    let digits = 5e-6 * (1.0 + 1e-12);
+    for name in ["fit_abg.json", "fit_ggx.json"] {
+        let doc: serde_json::Value = serde_json::from_slice(&read(&d, name)).unwrap();
+        let f = fit_entry(&data, name);
+        let o = &f["overlay"];
+        assert!(o.is_object(), "{name} is not drawn: {}", f["not_drawn"]);
+        assert_eq!(o["theta"], serde_json::json!([0, 1]));
+        let cells: Vec<f64> = serde_json::from_value(o["cells"].clone()).unwrap();
+        assert_eq!(cells.len(), 2 * nc);
+        let mut checked = 0;
+        for fit in doc["fits"].as_array().unwrap() {
+            for r in fit["largest_residuals"].as_array().unwrap() {
+                let ti = r["theta_i_deg"].as_f64().unwrap();
+                let i = thetas.iter().position(|&x| x == ti).unwrap();
+                let flat = rows[i * nc..(i + 1) * nc]
+                    .iter()
+                    .position(|row| {
+                        row[col("band")] == r["band"].as_f64().unwrap()
+                            && row[col("cell")] == r["cell"].as_f64().unwrap()
+                    })
+                    .unwrap();
+                let want = r["model"].as_f64().unwrap();
+                close(cells[i * nc + flat], want, digits, name);
+                checked += 1;
+            }
+            for r in fit["reflectance"].as_array().unwrap() {
+                let ti = r["theta_i_deg"].as_f64().unwrap();
+                let i = thetas.iter().position(|&x| x == ti).unwrap();
+                let sum: f64 = (0..nc)
+                    .map(|k| cells[i * nc + k] * rows[i * nc + k][col("projected_solid_angle_sr")])
+                    .sum();
+                close(sum, r["model"].as_f64().unwrap(), 1e-5, name);
+            }
+        }
+        assert!(checked >= 10, "{name}: {checked} cells checked");
+    }
+
+    // ABg at g = 0: A / (B + 1) everywhere, cells and in-plane bins.
+    let mut doc: serde_json::Value = serde_json::from_slice(&read(&d, "fit_abg.json")).unwrap();
+    for fit in doc["fits"].as_array_mut().unwrap() {
+        fit["parameters"][2]["value"] = serde_json::json!(0.0);
+    }
+    let (a0, b0) = (
+        doc["fits"][0]["parameters"][0]["value"].as_f64().unwrap(),
+        doc["fits"][0]["parameters"][1]["value"].as_f64().unwrap(),
+    );
+    std::fs::write(d.join("fit_abg.json"), doc.to_string()).unwrap();
+    ok(&["report", &s, "-q"]);
+    let data = report_data(&read(&d, "report.html"));
+    let o = &fit_entry(&data, "fit_abg.json")["overlay"];
+    let cells: Vec<f64> = serde_json::from_value(o["cells"].clone()).unwrap();
+    let inplane: Vec<f64> = serde_json::from_value(o["inplane"].clone()).unwrap();
+    let nin = inplane.len() / 2;
+    assert_eq!(nin, data["inplane"]["brdf"].as_array().unwrap().len() / 2);
+    for (k, v) in cells[..nc].iter().chain(&inplane[..nin]).enumerate() {
+        close(*v, a0 / (b0 + 1.0), digits, &format!("g = 0, value {k}"));
+    }
+    // The fit of another table (its reflectance is not this one's).
+    doc["fits"][0]["reflectance"][0]["table"] = serde_json::json!(0.5);
+    std::fs::write(d.join("fit_abg.json"), doc.to_string()).unwrap();
+    ok(&["report", &s, "-q"]);
+    let data = report_data(&read(&d, "report.html"));
+    let f = fit_entry(&data, "fit_abg.json");
+    assert!(f["overlay"].is_null());
+    let why = f["not_drawn"].as_str().unwrap();
+    assert!(
+        why.starts_with("fitted to a table of reflectance 0.5 at θi = 0°; this one's is "),
+        "{why}"
+    );
+    assert!(fit_entry(&data, "fit_ggx.json")["overlay"].is_object());
+    std::fs::remove_dir_all(&t).unwrap();
+}

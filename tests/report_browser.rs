@@ -3,15 +3,21 @@
 //! tests/report/package.json and package-lock.json, installed by `npm ci`
 //! in tests/report) through `tests/report/check.mjs`.
 //!
-//! Six folders are made with this build's `roks` (few photons): a
+//! Seven folders are made with this build's `roks` (few photons): a
 //! monochrome run, a spectral one (with colour.csv), a Mueller one with an
 //! ABg fit, an ensemble of two surface realisations, a run at two light
-//! azimuths (the anisotropy figure), and an object trace with its far
-//! field. For each report.html, opened from the file: no console error, no
-//! request but the file itself, every view drawn (and screenshotted into
-//! the folder this test prints), and, after another incidence, azimuth and
-//! wavelength are picked, the hovered cell's value and standard error equal
-//! to brdf.csv's as printed.
+//! azimuths (the anisotropy figure), an object trace with its far field,
+//! and a spectral object trace (23 wavelengths). For each report.html,
+//! opened from the file: no console error, no request but the file itself,
+//! every view drawn (and screenshotted into the folder this test prints),
+//! and, after another incidence, azimuth and wavelength are picked, the
+//! hovered cell's value and standard error equal to brdf.csv's as printed.
+//! The Mueller folder's ABg model is drawn over its table: dashed in the
+//! in-plane curves in the table's colour, and in the hemisphere map, where
+//! hovering the cell of fit_abg.json's largest residual shows the model
+//! value fit-model wrote for it; its m00 map is on a log scale. The
+//! spectral trace's beam view draws summary.json's spectra against the
+//! wavelength.
 //!
 //! Without node, chromium or tests/report/node_modules the test says why
 //! and passes, unless `ROKS_REQUIRE_BROWSER=1` (set by .ci/run) makes that
@@ -124,6 +130,20 @@ fn every_view_draws_offline_and_shows_the_tables_digits() {
         "-q",
         "--report",
     ]);
+    let radiator = root
+        .join("scenes/radiator-spectral.toml")
+        .display()
+        .to_string();
+    ok(&[
+        "trace",
+        &radiator,
+        "--photons",
+        "1024",
+        "--out",
+        &dir("trace-spectral"),
+        "-q",
+        "--report",
+    ]);
 
     let common = [
         "description",
@@ -142,10 +162,11 @@ fn every_view_draws_offline_and_shows_the_tables_digits() {
         "folders": [
             { "name": "mono", "dir": dir("mono"), "views": with(&[]), "hover": true },
             { "name": "spectral", "dir": dir("spectral"), "views": with(&["spectrum"]), "hover": true },
-            { "name": "mueller", "dir": dir("mueller"), "views": with(&["polarisation"]), "hover": true },
+            { "name": "mueller", "dir": dir("mueller"), "views": with(&["polarisation"]), "hover": true, "fit": "abg", "mueller": true },
             { "name": "realisations", "dir": dir("realisations"), "views": with(&["spread"]), "hover": true },
             { "name": "azimuths", "dir": dir("azimuths"), "views": with(&["spread"]), "hover": true },
             { "name": "trace", "dir": dir("trace"), "views": ["description", "beam", "absorbed", "farfield"], "hover": false },
+            { "name": "trace-spectral", "dir": dir("trace-spectral"), "views": ["description", "beam", "absorbed", "farfield"], "hover": false, "spectral_trace": true },
         ],
     });
     let spec_file = t.join("spec.json");
@@ -177,6 +198,7 @@ fn every_view_draws_offline_and_shows_the_tables_digits() {
         "realisations",
         "azimuths",
         "trace",
+        "trace-spectral",
     ] {
         assert!(
             stdout.contains(&format!("{{\"folder\":\"{name}\",\"bytes\"")),
@@ -184,6 +206,9 @@ fn every_view_draws_offline_and_shows_the_tables_digits() {
         );
     }
     assert_eq!(stdout.matches("\"hover\":{\"cell\"").count(), 5);
+    // The model hovered in the Mueller folder, the spectra of the trace.
+    assert_eq!(stdout.matches("\"model\":{\"cell\"").count(), 1);
+    assert_eq!(stdout.matches("\"model\":{\"positions\"").count(), 1);
     // The mueller folder's fit is drawn over its table.
     assert!(shots.join("mueller-products.png").is_file());
 }

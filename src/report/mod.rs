@@ -131,7 +131,8 @@ pub fn brdf(result: &BrdfResult) -> Result<String, Error> {
     data["products"] = products(&names, &|n| result.file(n));
     if let Some(fits) = data["products"]["fits"].as_array_mut() {
         for f in fits.iter_mut() {
-            if !ResultPattern::FitJson.matches(f["name"].as_str().unwrap_or("")) {
+            let name = f["name"].as_str().unwrap_or("");
+            if name == ResultFile::FitRanking.name() || !ResultPattern::FitJson.matches(name) {
                 continue;
             }
             match overlay(result, &brdf, &f["doc"]) {

@@ -4,15 +4,20 @@
 //   node check.mjs SPEC.json
 //
 // SPEC: { "shots": DIR, "folders": [{ "name", "dir", "views": [...],
-// "hover": true|false }] }. For each folder's DIR/report.html, opened from
+// "hover": true|false, "fit": MODEL (a folder with fit_MODEL.json),
+// "mueller": true, "spectral_trace": true }] }. For each folder's DIR/report.html, opened from
 // the file: no console error, no page error, no request but the file
 // itself; every view in `views` drawn (a Plotly plot with its SVG or
 // canvas, or a table); a screenshot of each view in SHOTS/NAME-VIEW.png;
 // with `hover`, the last incidence, azimuth and wavelength picked, a cell
 // of the hemisphere map hovered with the mouse, and the value and standard
 // error the page shows equal to brdf.csv's, as printed (read here from the
-// file, independently of the page). Prints one JSON line per folder and
-// exits 1 on the first failure.
+// file, independently of the page); with `fit`, the model drawn over its
+// table (in-plane, dashed, in the table's colour; the hemisphere map's
+// model cell hovered shows fit_MODEL.json's value for it); with `mueller`,
+// m00 on a log scale; with `spectral_trace`, the beam view against the
+// wavelength equal to summary.json's spectra. Prints one JSON line per
+// folder and exits 1 after every folder if any check failed.
 import { chromium } from 'playwright-core';
 import fs from 'node:fs';
 import os from 'node:os';
@@ -108,10 +113,86 @@ for (const f of spec.folders) {
     await page.uncheck('#hemi-empty');
     await page.locator('#view-hemisphere').screenshot({ path: path.join(spec.shots, f.name + '-hemisphere-picked.png') });
   }
+  // A folder with a fit (`fit`: the model): the model drawn over its
+  // table, dashed in the in-plane curves in its table's colour, and in the
+  // hemisphere map, where the hovered cell shows the model's value, equal
+  // (to the report's 6 digits) to the one fit-model wrote for that cell.
+  let model = null;
+  if (f.fit) {
+    const doc = JSON.parse(fs.readFileSync(path.join(f.dir, 'fit_' + f.fit + '.json'), 'utf8'));
+    const rows = csv(fs.readFileSync(path.join(f.dir, 'brdf.csv'), 'utf8'));
+    const thetas = distinct(rows, 'theta_i_deg');
+    for (const id of ['pick-phi', 'pick-wl']) await page.selectOption('#' + id, '0');
+    await page.selectOption('#pick-theta', '0');
+    await page.uncheck('#hemi-relerr');
+    const inplane = await page.evaluate((m) => {
+      const data = document.getElementById('plot-inplane').data;
+      const dashed = data.filter((t) => t.line && t.line.dash === 'dash' && t.name.endsWith(': ' + m + ' model'));
+      const table = data.find((t) => t.name === dashed[0]?.name.split(':')[0]);
+      return { dashed: dashed.length, colour: dashed[0]?.line.color, table: table?.line.color, points: dashed[0]?.y.filter((y) => y > 0).length };
+    }, f.fit);
+    if (!(inplane.dashed >= 1 && inplane.points > 10)) fail(f.name, 'no dashed ' + f.fit + ' model in the in-plane curves: ' + JSON.stringify(inplane));
+    if (inplane.colour !== inplane.table) fail(f.name, 'the in-plane model is not in its table\'s colour: ' + JSON.stringify(inplane));
+    // The fit's largest residual off the pole (band >= 4): its cell.
+    const r = doc.fits.flatMap((x) => x.largest_residuals).find((x) => x.band >= 4);
+    const ti = thetas.findIndex((t) => +t === r.theta_i_deg);
+    const block = rows.filter((x) => x.theta_i_deg === thetas[ti]);
+    const flat = block.findIndex((x) => +x.band === r.band && +x.cell === r.cell);
+    await page.selectOption('#pick-theta', String(ti));
+    await page.selectOption('#hemi-show', '1');
+    await page.evaluate(() => { delete document.getElementById('hemisphere-hover').dataset.cell; });
+    const bar = page.locator('#plot-hemisphere .barlayer path').nth(flat);
+    await page.locator('#plot-hemisphere').scrollIntoViewIfNeeded();
+    const box = await bar.boundingBox();
+    await page.mouse.move(box.x + box.width / 2 - 3, box.y + box.height / 2 - 3);
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2, { steps: 4 });
+    await page.waitForFunction(() => document.getElementById('hemisphere-hover').dataset.cell !== undefined, null, { timeout: 10000 });
+    const shown = await page.evaluate(() => ({ ...document.getElementById('hemisphere-hover').dataset, text: document.getElementById('hemisphere-hover').textContent }));
+    model = { cell: +shown.cell, want_cell: flat, shown: shown.model, fit: r.model, residual: shown.residual, text: shown.text };
+    if (+shown.cell !== flat) fail(f.name, 'hovered cell ' + shown.cell + ', not the residual\'s cell ' + flat);
+    else if (!(Math.abs(+shown.model - r.model) <= 5.000001e-6 * Math.abs(r.model))) fail(f.name, 'the model shows ' + shown.model + ' in cell ' + flat + ', fit-model wrote ' + r.model);
+    if (!shown.text.includes(f.fit + ' model ' + shown.model)) fail(f.name, 'the hover text does not show the model: ' + shown.text);
+    await page.locator('#view-hemisphere').screenshot({ path: path.join(spec.shots, f.name + '-hemisphere-model.png') });
+    await page.selectOption('#hemi-show', '2');
+    await page.locator('#view-hemisphere').screenshot({ path: path.join(spec.shots, f.name + '-hemisphere-residual.png') });
+    await page.locator('#view-inplane').screenshot({ path: path.join(spec.shots, f.name + '-inplane-model.png') });
+  }
+  // A Mueller folder: m00 on a log scale (its colours log10 of
+  // mueller.csv's m00 in the picked block), m_ij / m00 linear.
+  if (f.mueller) {
+    const z = await page.evaluate(() => {
+      const gd = document.getElementById('plot-polar-m00');
+      const zs = gd.data[0].z.flat().filter((x) => x !== null);
+      return { title: gd.layout.title.text, min: Math.min(...zs), max: Math.max(...zs), other: document.getElementById('plot-polar-m01').layout.title.text };
+    });
+    const p = await page.evaluate(() => [+document.getElementById('pick-theta').value]);
+    const rows = csv(fs.readFileSync(path.join(f.dir, 'mueller.csv'), 'utf8'));
+    const th = distinct(rows, 'theta_i_deg')[p[0]];
+    const m00 = rows.filter((x) => x.theta_i_deg === th).map((x) => +x.m00).filter((x) => x > 0);
+    const [lo, hi] = [Math.log10(Math.min(...m00)), Math.log10(Math.max(...m00))];
+    if (z.title !== 'log10 m00 (1/sr)' || z.other !== 'm01/m00' || z.min < lo - 1e-12 || z.max > hi + 1e-12 || z.max < lo) fail(f.name, 'm00 is not on a log scale: ' + JSON.stringify({ z, lo, hi }));
+    await page.locator('#view-polarisation').screenshot({ path: path.join(spec.shots, f.name + '-polarisation-log.png') });
+  }
+  // A spectral trace: each beam position's reflectance against the
+  // wavelength, summary.json's spectrum.
+  if (f.spectral_trace) {
+    const summary = JSON.parse(fs.readFileSync(path.join(f.dir, 'summary.json'), 'utf8'));
+    const drawn = await page.evaluate(() => {
+      const gd = document.getElementById('plot-beam');
+      return { x: gd.layout.xaxis.title.text, traces: gd.data.map((t) => ({ name: t.name, x: t.x, y: t.y })), picked: [...document.getElementById('beam-positions').selectedOptions].map((o) => +o.value) };
+    });
+    if (drawn.x !== 'wavelength (µm)' || drawn.traces.length !== drawn.picked.length || !drawn.picked.length) fail(f.name, 'the beam view is not against wavelength: ' + JSON.stringify(drawn).slice(0, 300));
+    drawn.picked.forEach((q, c) => {
+      const sp = summary.sources[q].spectrum;
+      const t = drawn.traces[c];
+      if (JSON.stringify(t.x) !== JSON.stringify(sp.map((w) => w.wavelength_um)) || JSON.stringify(t.y) !== JSON.stringify(sp.map((w) => w.reflectance))) fail(f.name, 'position ' + q + ': the curve is not summary.json\'s spectrum');
+    });
+    model = { positions: drawn.picked, wavelengths: drawn.traces[0]?.x.length };
+  }
   if (errors.length) fail(f.name, 'console errors: ' + errors.join(' | '));
   if (requests.length) fail(f.name, requests.length + ' requests besides the file: ' + requests.slice(0, 5).join(' '));
   const bytes = fs.statSync(file).size;
-  console.log(JSON.stringify({ folder: f.name, bytes, load_ms: loadMs, views: views.length, hover }));
+  console.log(JSON.stringify({ folder: f.name, bytes, load_ms: loadMs, views: views.length, hover, model }));
   await page.close();
 }
 console.log(JSON.stringify({ browser: browser.browser() ? browser.browser().version() : 'chromium' }));
