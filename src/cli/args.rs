@@ -51,7 +51,8 @@ pub enum Command {
     /// (x,y,z,reflectance,reflectance_stderr) and, with [tally] farfield = true,
     /// DIR/farfield.csv (and DIR/farfield_stokes.csv with [tally]
     /// polarisation = "stokes"), and DIR/reflectance.png (reflectance against
-    /// beam position). DIR defaults to out/<scene name>/.
+    /// beam position; a spectral run: against wavelength, per beam
+    /// position). DIR defaults to out/<scene name>/.
     Trace(trace::TraceArgs),
     /// Fit micro-scene parameters to a measured in-plane BRDF.
     ///

@@ -17,7 +17,7 @@ use serde_json::Value;
 
 use super::material::{MaterialOptions, material};
 use super::microfacet::{Distribution, Microfacet};
-use super::{CellRule, GL3, Model, ModelKind, abg, harvey};
+use super::{CellRule, Model, ModelKind, abg, harvey};
 use crate::optics::material::Reflectance;
 use crate::tally::{CarlsonGrid, InPlaneTally};
 
@@ -157,14 +157,26 @@ impl SavedFit {
     }
 }
 
+/// Points of the 4-point Gauss-Legendre rule on `[0, 1]` and their
+/// weights: an even rule, with no point at the middle of the interval.
+const GL4: [(f64, f64); 4] = [
+    (0.069_431_844_202_973_71, 0.173_927_422_568_726_9),
+    (0.330_009_478_207_571_9, 0.326_072_577_431_273_1),
+    (0.669_990_521_792_428_1, 0.326_072_577_431_273_1),
+    (0.930_568_155_797_026_3, 0.173_927_422_568_726_9),
+];
+
 /// The average of `model`'s BRDF (sr⁻¹) at internal parameters `q` and
 /// incidence `theta_i` (radians) over bin `bin` of the in-plane detector
 /// `tally` (`theta_p` between the bin's edges, `|psi|` up to the half
 /// width; see [`crate::tally::inplane`]), uniform in projected solid angle
-/// as the detector counts it: 3 x 3 Gauss-Legendre in `(theta_p, psi)`
+/// as the detector counts it: 4 x 4 Gauss-Legendre in `(theta_p, psi)`
 /// with the weight `cos² psi cos theta_p` of `cos theta d omega`,
-/// normalised. Directions in the model's frame: the light on the `+x`
-/// side, the specular side `-x`.
+/// normalised. The rule has no point at the bin's centre, where the
+/// specular direction of a whole-degree incidence falls: a model that
+/// peaks there without bound (ABg with `B` near 0) is averaged, not
+/// taken at its pole. Directions in the model's frame: the light on the
+/// `+x` side, the specular side `-x`.
 ///
 /// # Panics
 /// If `bin >= tally.n_bins()`.
@@ -180,9 +192,9 @@ pub fn inplane_average(
     let (lo, hi) = (lo.to_radians(), hi.to_radians());
     let w = tally.half_width_deg().to_radians();
     let (mut sum, mut weight) = (0.0, 0.0);
-    for &(u, wu) in &GL3 {
+    for &(u, wu) in &GL4 {
         let tp = lo + u * (hi - lo);
-        for &(v, wv) in &GL3 {
+        for &(v, wv) in &GL4 {
             let psi = -w + v * 2.0 * w;
             let c = psi.cos();
             let x = wu * wv * c * c * tp.cos();
@@ -299,8 +311,8 @@ mod tests {
             let (lo, hi) = (lo.to_radians(), hi.to_radians());
             let w = 2.5f64.to_radians();
             let mut s = 0.0;
-            for &(u, wu) in &GL3 {
-                for &(v, wv) in &GL3 {
+            for &(u, wu) in &GL4 {
+                for &(v, wv) in &GL4 {
                     let (tp, psi) = (lo + u * (hi - lo), -w + v * 2.0 * w);
                     s += wu * wv * psi.cos().powi(2) * tp.cos();
                 }
@@ -309,5 +321,10 @@ mod tests {
             let exact = tally.projected_solid_angle(bin);
             assert!((s / exact - 1.0).abs() < 1e-9, "{bin}: {s} {exact}");
         }
+        let sum: f64 = GL4.iter().map(|p| p.1).sum();
+        assert!((sum - 1.0).abs() < 1e-15);
+        // Exact for x^7 on [0, 1]: 1/8.
+        let x7: f64 = GL4.iter().map(|&(x, w)| w * x.powi(7)).sum();
+        assert!((x7 - 0.125).abs() < 1e-15, "{x7}");
     }
 }

@@ -127,7 +127,7 @@ function draw(D) {
     const t = bar(full);
     t.marker.color = colour;
     t.marker.colorscale = 'Viridis';
-    if (opts.diverging) Object.assign(t.marker, { colorscale: 'RdBu', reversescale: true, cmin: -opts.range, cmax: opts.range });
+    if (opts.diverging) Object.assign(t.marker, { colorscale: 'RdBu', cmin: -opts.range, cmax: opts.range });
     t.marker.colorbar = { title: { text: opts.unit }, thickness: 14 };
     const traces = [t];
     if (opts.empty && empty.length) {
