@@ -606,6 +606,44 @@ mod tests {
         }
     }
 
+    /// The band of [`Locator`]'s bucket guesses is the band of
+    /// [`CarlsonGrid::locate`] on every edge, a few ulps either side of it,
+    /// every bucket boundary and either side of it, the pole, past the
+    /// pole and near the horizon, for grids up to past the buckets'
+    /// resolution (5000 bands: several corrections a lookup).
+    #[test]
+    fn locator_bands_are_the_grid_bands() {
+        for m in (1..=300).chain([500, 1000, 2000, 5000]) {
+            let g = CarlsonGrid::new(m).unwrap();
+            let l = Locator::new(g);
+            let k = g.k();
+            let check = |mu: f64| {
+                if mu > 0.0 {
+                    let want = g.band_of_mu(mu, |j| (k - j * (j + 1)) as f64 / k as f64);
+                    assert_eq!(l.band_of_mu(mu), want, "M {m} mu {mu:e}");
+                }
+            };
+            let near = |mu: f64| {
+                let (mut up, mut down) = (mu, mu);
+                for _ in 0..3 {
+                    check(up);
+                    check(down);
+                    (up, down) = (up.next_up(), down.next_down());
+                }
+            };
+            for band in 1..=m {
+                near(g.mu_edges(band).0);
+            }
+            let buckets = l.guess.len();
+            for b in 0..=buckets {
+                near(b as f64 / buckets as f64);
+            }
+            for mu in [1.0, 1.0 + 1e-12, 1.5, 1e300, 5e-324, 1e-300, 1e-9] {
+                check(mu);
+            }
+        }
+    }
+
     #[test]
     fn zero_bands_rejected() {
         assert!(CarlsonGrid::new(0).is_none());
