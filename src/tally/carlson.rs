@@ -336,15 +336,18 @@ fn cell_of_xy(band: usize, y: f64, x: f64) -> usize {
     let n = 4 * band;
     let per_radian = n as f64 * (1.0 / TAU);
     // Cells from the edge below cell 0, shifted by n to be positive (in
-    // [n/2, 3n/2 + 1/2]), so truncation is the floor.
+    // [n/2, 3n/2 + 1/2]), so truncation is the floor. Truncated to i64, not
+    // usize: the same integer for these values, and fewer instructions
+    // (x86-64 has no unsigned conversion).
     let v = atan2_approx(y, x) * per_radian + (0.5 + n as f64);
-    let k = v as usize;
+    let k = v as i64;
     let frac = v - k as f64;
     // 1e-9 cells covers the rounding of v and per_radian (n <= 4000:
     // ulp(6000) = 9e-13).
     let guard = ATAN_GUARD * per_radian + 1e-9;
     if frac > guard && frac < 1.0 - guard {
-        if k >= n { k - n } else { k }
+        let n = n as i64;
+        (if k >= n { k - n } else { k }) as usize
     } else {
         CarlsonGrid::cell_of_phi(band, y.atan2(x))
     }
@@ -352,14 +355,32 @@ fn cell_of_xy(band: usize, y: f64, x: f64) -> usize {
 
 /// A [`CarlsonGrid`] with its band edges tabulated: the same cells as
 /// [`CarlsonGrid::locate`] and [`CarlsonGrid::cells_of`] without their
-/// divisions, for scoring many photons.
+/// divisions and square root, for scoring many photons.
+///
+/// The band of `mu` starts from a guess read from a table of `mu`'s
+/// buckets (the band of the bucket's top) and is corrected against the
+/// same once-rounded edges as [`CarlsonGrid::locate`]'s closed-form guess
+/// (`CarlsonGrid::band_of_mu`), whose corrections end on the one band
+/// holding `mu` from any start: the same band for every input. With at least
+/// two buckets per band's width in `mu` the correction is at most one step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Locator {
     grid: CarlsonGrid,
     /// `mu_bot` of band `j` at `j` for `j = 0..=M` ([`CarlsonGrid::mu_edges`];
     /// 1 at 0, the top of band 1).
     mu_bot: Vec<f64>,
+    /// Per bucket `b` of `mu` (`[b, b + 1) / buckets`), the band of its top
+    /// `(b + 1) / buckets`: the band of smallest index that meets it.
+    guess: Vec<u32>,
+    /// Buckets per unit of `mu` (`guess.len()`, as `f64`).
+    per_mu: f64,
 }
+
+/// Most buckets of a [`Locator`]'s band guesses (16 KiB of guesses): the
+/// narrowest band, band 1, is `2 / K` wide in `mu`, so up to 1024 bands'
+/// worth of `K` the guess is at most one band off (M = 32: 4096 buckets
+/// for 1056).
+const MAX_BUCKETS: usize = 4096;
 
 impl Locator {
     /// The locator of `grid`.
@@ -367,7 +388,20 @@ impl Locator {
     pub fn new(grid: CarlsonGrid) -> Self {
         let mut mu_bot = vec![1.0];
         mu_bot.extend((1..=grid.bands).map(|j| grid.mu_edges(j).0));
-        Self { grid, mu_bot }
+        let buckets = (2 * grid.k()).next_power_of_two().clamp(64, MAX_BUCKETS);
+        let guess = (1..=buckets)
+            .map(|b| {
+                let top = b as f64 / buckets as f64;
+                let band = grid.band_of_mu(top, |j| mu_bot[j]);
+                u32::try_from(band).unwrap_or(u32::MAX)
+            })
+            .collect();
+        Self {
+            grid,
+            mu_bot,
+            guess,
+            per_mu: buckets as f64,
+        }
     }
 
     /// The grid.
@@ -380,11 +414,30 @@ impl Locator {
     #[must_use]
     #[inline]
     pub fn locate(&self, dir: DVec3) -> Option<usize> {
-        if !dir.is_finite() || dir.z <= 0.0 {
+        // Finite and upward: `v - v` is 0 for a finite `v`, NaN otherwise.
+        let finite = (dir.x - dir.x) + (dir.y - dir.y) + (dir.z - dir.z) == 0.0;
+        if !(finite && dir.z > 0.0) {
             return None;
         }
-        let band = self.grid.band_of_mu(dir.z, |j| self.mu_bot[j]);
+        let band = self.band_of_mu(dir.z);
         Some(flat_index(band, cell_of_xy(band, dir.y, dir.x)))
+    }
+
+    /// `CarlsonGrid::band_of_mu` of finite `mu > 0` from the bucket's guess.
+    #[inline]
+    fn band_of_mu(&self, mu: f64) -> usize {
+        let last = self.guess.len() - 1;
+        // mu > 0, so the truncation is the floor; mu >= 1 is the last bucket.
+        let bucket = ((mu * self.per_mu) as i64).min(last as i64) as usize;
+        let mut j = (self.guess[bucket] as usize).clamp(1, self.grid.bands);
+        // Correct against the edges, as `CarlsonGrid::band_of_mu`.
+        while j < self.grid.bands && mu < self.mu_bot[j] {
+            j += 1;
+        }
+        while j > 1 && mu >= self.mu_bot[j - 1] {
+            j -= 1;
+        }
+        j
     }
 
     /// [`CarlsonGrid::cells_of`].
@@ -549,6 +602,44 @@ mod tests {
                 DVec3::new(0.0, 0.0, -1.0),
             ] {
                 check(d);
+            }
+        }
+    }
+
+    /// The band of [`Locator`]'s bucket guesses is the band of
+    /// [`CarlsonGrid::locate`] on every edge, a few ulps either side of it,
+    /// every bucket boundary and either side of it, the pole, past the
+    /// pole and near the horizon, for grids up to past the buckets'
+    /// resolution (5000 bands: several corrections a lookup).
+    #[test]
+    fn locator_bands_are_the_grid_bands() {
+        for m in (1..=300).chain([500, 1000, 2000, 5000]) {
+            let g = CarlsonGrid::new(m).unwrap();
+            let l = Locator::new(g);
+            let k = g.k();
+            let check = |mu: f64| {
+                if mu > 0.0 {
+                    let want = g.band_of_mu(mu, |j| (k - j * (j + 1)) as f64 / k as f64);
+                    assert_eq!(l.band_of_mu(mu), want, "M {m} mu {mu:e}");
+                }
+            };
+            let near = |mu: f64| {
+                let (mut up, mut down) = (mu, mu);
+                for _ in 0..3 {
+                    check(up);
+                    check(down);
+                    (up, down) = (up.next_up(), down.next_down());
+                }
+            };
+            for band in 1..=m {
+                near(g.mu_edges(band).0);
+            }
+            let buckets = l.guess.len();
+            for b in 0..=buckets {
+                near(b as f64 / buckets as f64);
+            }
+            for mu in [1.0, 1.0 + 1e-12, 1.5, 1e300, 5e-324, 1e-300, 1e-9] {
+                check(mu);
             }
         }
     }

@@ -34,7 +34,8 @@ impl BrdfRun {
         let (cells, share) = grid.cells_of(out);
         let (mirrored, mshare) = match self.symmetry {
             Symmetry::Mirror => grid.cells_of(symmetry::mirror_at(out, sin_cos_phi)),
-            Symmetry::None => (cells, share),
+            // Its own cells: the whole weight once (no comparison needed).
+            Symmetry::None => return [(cells, share * w), (cells, 0.0)],
         };
         if mirrored == cells {
             [(cells, share * w), (cells, 0.0)]
@@ -58,19 +59,8 @@ impl BrdfRun {
     ) -> Bins {
         // The direction's cells once, for every wavelength.
         let shares = self.cell_weights(locator, out, 1.0, sin_cos_phi);
-        // The (cell, share) pairs the weight is scored into.
-        let mut hits = [(0, 0.0); 8];
-        let mut n_hits = 0;
-        for (cs, share) in shares.iter().filter(|h| h.1 != 0.0) {
-            for &c in cs.as_slice() {
-                hits[n_hits] = (c, *share);
-                n_hits += 1;
-            }
-        }
         Bins {
             shares,
-            hits,
-            n_hits,
             inplane: inplane.locate(out),
             bounces: (bounces as usize).min(BOUNCE_BINS - 1),
         }
@@ -188,10 +178,6 @@ struct Bins {
     /// Its Carlson cells and their shares of weight 1, as
     /// [`BrdfRun::cell_weights`] gives them (the mirrored half second).
     shares: [(crate::tally::carlson::Cells, f64); 2],
-    /// The cells of `shares` with a non-zero share, flattened: `(cell, share)`.
-    hits: [(usize, f64); 8],
-    /// Entries of `hits` used.
-    n_hits: usize,
     /// Its in-plane bin, if any.
     inplane: Option<usize>,
     /// Its reflection-count bin.
@@ -199,9 +185,15 @@ struct Bins {
 }
 
 impl Bins {
-    /// The `(cell, share)` pairs scored.
-    fn hits(&self) -> &[(usize, f64)] {
-        &self.hits[..self.n_hits]
+    /// The `(cell, share)` pairs scored: the cells of `shares` with a
+    /// non-zero share, in order (made as they are used, not stored: a
+    /// history's bins are built once and read once or twice).
+    #[inline]
+    fn hits(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.shares
+            .iter()
+            .filter(|h| h.1 != 0.0)
+            .flat_map(|(cells, share)| cells.as_slice().iter().map(move |&c| (c, *share)))
     }
 }
 
@@ -221,7 +213,7 @@ fn score_counts<C: Carrier>(t: &mut BrdfTallies, h: &History<C>, tests: u64) {
 #[inline]
 fn score_all_lanes(sums: &mut LaneSums, bins: &Bins, w: &[f64]) {
     sums.reflected.score(0, w);
-    for &(c, share) in bins.hits() {
+    for (c, share) in bins.hits() {
         sums.carlson.score_scaled(c, share, w);
     }
     if let Some(c) = bins.inplane {
@@ -239,7 +231,7 @@ fn score_weight(t: &mut BrdfTallies, bins: &Bins, weight: f64) {
     // the weight: the same products as `cell_weights(.., weight, ..)`, bit
     // for bit (a zero product adds nothing to the non-negative sums).
     if weight != 0.0 {
-        for &(c, share) in bins.hits() {
+        for (c, share) in bins.hits() {
             t.carlson.score(c, share * weight);
         }
     }
@@ -338,8 +330,13 @@ fn score_polar<const K: usize>(
             1.0
         }
     });
-    let hemisphere: [f64; K] = std::array::from_fn(|i| both[i] * c[i]);
-    p.score_slot(0, replicate, &hemisphere);
+    if mirror {
+        let hemisphere: [f64; K] = std::array::from_fn(|i| both[i] * c[i]);
+        p.score_slot(0, replicate, &hemisphere);
+    } else {
+        // Every factor is 1: the components themselves, the same bits.
+        p.score_slot(0, replicate, c);
+    }
     // The first half is the photon's own cells, the second its mirror image
     // (weight 0: in the same cells as the first, which then has the whole weight).
     let same = halves[1].1 == 0.0;
@@ -347,12 +344,12 @@ fn score_polar<const K: usize>(
         if *w == 0.0 {
             continue;
         }
-        let signs: [f64; K] = match (half, same) {
-            (1, _) => std::array::from_fn(|i| mirror_sign(K, i)),
-            (_, true) => both,
-            _ => [1.0; K],
+        let values: [f64; K] = match (half, same) {
+            (1, _) => std::array::from_fn(|i| mirror_sign(K, i) * w * c[i]),
+            (_, true) => std::array::from_fn(|i| both[i] * w * c[i]),
+            // `1 * w * c` is `w * c`, bit for bit.
+            _ => std::array::from_fn(|i| w * c[i]),
         };
-        let values: [f64; K] = std::array::from_fn(|i| signs[i] * w * c[i]);
         for &cell in cells.as_slice() {
             p.score_slot(1 + cell, replicate, &values);
         }
