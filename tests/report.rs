@@ -221,13 +221,78 @@ fn close(a: f64, b: f64, rel: f64, what: &str) {
     assert!((a - b).abs() <= rel * b.abs(), "{what}: {a} vs {b}");
 }
 
+/// The report `data` of the folder `dir` draws the model of its fit file
+/// `name` at the wavelength of index `lane`: at the cells of the fit's
+/// `largest_residuals` its values are the fit's `model` (to the report's 6
+/// significant digits), and per incidence they integrate (Σ value x
+/// projected solid angle) to the fit's `reflectance[].model`.
+fn agrees_with_the_fit(dir: &Path, data: &serde_json::Value, name: &str, lane: usize) {
+    let csv = String::from_utf8(read(dir, "brdf.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let [nt, np, nl, nc]: [usize; 4] = serde_json::from_value(data["shape"].clone()).unwrap();
+    assert_eq!(rows.len(), nt * np * nl * nc);
+    let thetas: Vec<f64> = serde_json::from_value(data["theta"].clone()).unwrap();
+    let digits = 5e-6 * (1.0 + 1e-12);
+    let doc: serde_json::Value = serde_json::from_slice(&read(dir, name)).unwrap();
+    let f = fit_entry(data, name);
+    let o = &f["overlay"];
+    assert!(o.is_object(), "{name} is not drawn: {}", f["not_drawn"]);
+    assert_eq!(o["lane"], lane, "{name}");
+    let fitted: Vec<usize> = serde_json::from_value(o["theta"].clone()).unwrap();
+    let cells: Vec<f64> = serde_json::from_value(o["cells"].clone()).unwrap();
+    assert_eq!(cells.len(), fitted.len() * nc);
+    // The rows of brdf.csv of incidence i at the fit's wavelength, and the
+    // report's values there.
+    let block = |i: usize| {
+        let b = (i * np * nl + lane) * nc;
+        &rows[b..b + nc]
+    };
+    let model = |i: usize| {
+        let q = fitted.iter().position(|&x| x == i).unwrap();
+        &cells[q * nc..(q + 1) * nc]
+    };
+    let mut checked = 0;
+    for fit in doc["fits"].as_array().unwrap() {
+        for r in fit["largest_residuals"].as_array().unwrap() {
+            let ti = r["theta_i_deg"].as_f64().unwrap();
+            let i = thetas.iter().position(|&x| x == ti).unwrap();
+            let flat = block(i)
+                .iter()
+                .position(|row| {
+                    row[col("band")] == r["band"].as_f64().unwrap()
+                        && row[col("cell")] == r["cell"].as_f64().unwrap()
+                })
+                .unwrap();
+            // The fit's table value: this cell's (the block is right).
+            let table = r["table"].as_f64().unwrap();
+            close(block(i)[flat][col("brdf")], table, 1e-8, name);
+            close(model(i)[flat], r["model"].as_f64().unwrap(), digits, name);
+            checked += 1;
+        }
+        for r in fit["reflectance"].as_array().unwrap() {
+            let ti = r["theta_i_deg"].as_f64().unwrap();
+            let i = thetas.iter().position(|&x| x == ti).unwrap();
+            let sum: f64 = (0..nc)
+                .map(|k| model(i)[k] * block(i)[k][col("projected_solid_angle_sr")])
+                .sum();
+            close(sum, r["model"].as_f64().unwrap(), 1e-5, name);
+        }
+    }
+    assert!(checked >= 10, "{name}: {checked} cells checked");
+}
+
 /// The fitted models the report draws over their table are the models the
-/// fit evaluated: at the cells of `largest_residuals` of fit_abg.json and
-/// fit_ggx.json (`model`: the fit's own cell average at its own
-/// parameters) the report's value agrees to its 6 significant digits;
-/// per incidence the report's cells integrate (Σ value x projected solid
-/// angle) to the fit's `reflectance[].model`. ABg edited to g = 0 is the
-/// constant A / (B + 1) in every cell and in-plane bin, exactly. A fit
+/// fit evaluated ([`agrees_with_the_fit`]): ABg and GGX (its material the
+/// default scene's, rebuilt) of a monochrome table, and ABg of a spectral
+/// table at its second wavelength; `largest_residuals[].model` is the
+/// fit's own cell average at its own parameters. ABg edited to g = 0 is
+/// the constant A / (B + 1) in every cell and in-plane bin, exactly. A fit
 /// document whose table is not this folder's is not drawn, and the report
 /// says why.
 #[test]
@@ -252,54 +317,12 @@ fn fitted_models_are_drawn_as_the_fit_evaluates_them() {
     ok(&["fit-model", &s, "--model", "ggx", "-q"]);
     ok(&["report", &s, "-q"]);
     let data = report_data(&read(&d, "report.html"));
-    let csv = String::from_utf8(read(&d, "brdf.csv")).unwrap();
-    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<f64>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
-        .collect();
     let nc = data["shape"][3].as_u64().unwrap() as usize;
-    let thetas: Vec<f64> = serde_json::from_value(data["theta"].clone()).unwrap();
     // Rounding to 6 significant digits: at most half a unit of the sixth.
     let digits = 5e-6 * (1.0 + 1e-12);
     for name in ["fit_abg.json", "fit_ggx.json"] {
-        let doc: serde_json::Value = serde_json::from_slice(&read(&d, name)).unwrap();
-        let f = fit_entry(&data, name);
-        let o = &f["overlay"];
-        assert!(o.is_object(), "{name} is not drawn: {}", f["not_drawn"]);
-        assert_eq!(o["theta"], serde_json::json!([0, 1]));
-        let cells: Vec<f64> = serde_json::from_value(o["cells"].clone()).unwrap();
-        assert_eq!(cells.len(), 2 * nc);
-        let mut checked = 0;
-        for fit in doc["fits"].as_array().unwrap() {
-            for r in fit["largest_residuals"].as_array().unwrap() {
-                let ti = r["theta_i_deg"].as_f64().unwrap();
-                let i = thetas.iter().position(|&x| x == ti).unwrap();
-                let flat = rows[i * nc..(i + 1) * nc]
-                    .iter()
-                    .position(|row| {
-                        row[col("band")] == r["band"].as_f64().unwrap()
-                            && row[col("cell")] == r["cell"].as_f64().unwrap()
-                    })
-                    .unwrap();
-                let want = r["model"].as_f64().unwrap();
-                close(cells[i * nc + flat], want, digits, name);
-                checked += 1;
-            }
-            for r in fit["reflectance"].as_array().unwrap() {
-                let ti = r["theta_i_deg"].as_f64().unwrap();
-                let i = thetas.iter().position(|&x| x == ti).unwrap();
-                let sum: f64 = (0..nc)
-                    .map(|k| cells[i * nc + k] * rows[i * nc + k][col("projected_solid_angle_sr")])
-                    .sum();
-                close(sum, r["model"].as_f64().unwrap(), 1e-5, name);
-            }
-        }
-        assert!(checked >= 10, "{name}: {checked} cells checked");
+        agrees_with_the_fit(&d, &data, name, 0);
     }
-
     // ABg at g = 0: A / (B + 1) everywhere, cells and in-plane bins.
     let mut doc: serde_json::Value = serde_json::from_slice(&read(&d, "fit_abg.json")).unwrap();
     for fit in doc["fits"].as_array_mut().unwrap() {
@@ -333,5 +356,39 @@ fn fitted_models_are_drawn_as_the_fit_evaluates_them() {
         "{why}"
     );
     assert!(fit_entry(&data, "fit_ggx.json")["overlay"].is_object());
+
+    // A spectral table fitted at its second wavelength: drawn there.
+    let d = t.join("spectral");
+    let s = d.display().to_string();
+    ok(&[
+        "brdf",
+        "--photons",
+        "8192",
+        "--theta",
+        "0,40",
+        "--wavelengths",
+        "0.4,0.5,0.6",
+        "--stats-resolution",
+        "32",
+        "-q",
+        "--out",
+        &s,
+    ]);
+    ok(&[
+        "fit-model",
+        &s,
+        "--model",
+        "abg",
+        "--wavelength",
+        "0.5",
+        "-q",
+    ]);
+    ok(&["report", &s, "-q"]);
+    agrees_with_the_fit(
+        &d,
+        &report_data(&read(&d, "report.html")),
+        "fit_abg.json",
+        1,
+    );
     std::fs::remove_dir_all(&t).unwrap();
 }
