@@ -110,6 +110,9 @@ impl BrdfRun {
             interleaved.is_none() || lanes[0].replicates.is_some() || lanes[0].polar.is_some();
         let mut weights = [0.0; MAX_WAVELENGTHS];
         let mirror = self.symmetry == Symmetry::Mirror;
+        // One wavelength with the intensity sums alone (the usual run): its
+        // weight straight into its tallies, what the loop below does then.
+        let plain = n_lanes == 1 && lanes[0].replicates.is_none() && lanes[0].polar.is_none();
         let mut score = |replicate: usize, h: &History<C>, tests: u64| {
             score_counts(&mut lanes[0], h, tests);
             // By reference: a spectral carrier is large.
@@ -119,6 +122,10 @@ impl BrdfRun {
                     weight: carried,
                 } => {
                     let bins = self.filter(locator, inplane, *out, h.bounces, sin_cos_phi);
+                    if plain {
+                        score_weight(&mut lanes[0], &bins, carried.lane(0).weight_for(&incident));
+                        return;
+                    }
                     let reference = lanes[0]
                         .polar
                         .is_some()
