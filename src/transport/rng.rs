@@ -22,10 +22,36 @@ pub fn splitmix64(mut z: u64) -> u64 {
 #[must_use]
 #[inline]
 pub fn photon_rng(seed: u64, index: u64) -> Pcg64Mcg {
-    let a = splitmix64(seed);
-    let hi = splitmix64(a ^ index);
-    let lo = splitmix64(hi ^ a.rotate_left(17));
-    Pcg64Mcg::new((u128::from(hi) << 64) | u128::from(lo))
+    Streams::new(seed).photon(index)
+}
+
+/// The photon streams of one seed: [`photon_rng`] with the seed's own
+/// mixing done once, not once a photon (the same streams).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Streams {
+    /// `splitmix64(seed)`.
+    mixed: u64,
+}
+
+impl Streams {
+    /// The streams of `seed`.
+    #[must_use]
+    #[inline]
+    pub fn new(seed: u64) -> Self {
+        Self {
+            mixed: splitmix64(seed),
+        }
+    }
+
+    /// The stream of photon `index`: `photon_rng(seed, index)`.
+    #[must_use]
+    #[inline]
+    pub fn photon(&self, index: u64) -> Pcg64Mcg {
+        let a = self.mixed;
+        let hi = splitmix64(a ^ index);
+        let lo = splitmix64(hi ^ a.rotate_left(17));
+        Pcg64Mcg::new((u128::from(hi) << 64) | u128::from(lo))
+    }
 }
 
 #[cfg(test)]
@@ -42,6 +68,28 @@ mod tests {
         assert_eq!(x, y);
         assert_ne!(x, z);
         assert_ne!(x, w);
+    }
+
+    /// The streams of [`Streams`] are [`photon_rng`]'s, against the
+    /// mixing written out (the definition before `Streams`).
+    #[test]
+    fn streams_are_the_photon_streams() {
+        for seed in [0, 1, 7, u64::MAX, 0x5eed_1234_5678_9abc] {
+            let streams = Streams::new(seed);
+            for index in [0, 1, 2, 4095, 1 << 40, u64::MAX] {
+                let a = splitmix64(seed);
+                let hi = splitmix64(a ^ index);
+                let lo = splitmix64(hi ^ a.rotate_left(17));
+                let mut want = Pcg64Mcg::new((u128::from(hi) << 64) | u128::from(lo));
+                let mut got = streams.photon(index);
+                let mut old = photon_rng(seed, index);
+                for _ in 0..4 {
+                    let w: u64 = want.random();
+                    assert_eq!(got.random::<u64>(), w);
+                    assert_eq!(old.random::<u64>(), w);
+                }
+            }
+        }
     }
 
     #[test]

@@ -110,6 +110,9 @@ impl BrdfRun {
             interleaved.is_none() || lanes[0].replicates.is_some() || lanes[0].polar.is_some();
         let mut weights = [0.0; MAX_WAVELENGTHS];
         let mirror = self.symmetry == Symmetry::Mirror;
+        // One wavelength with the intensity sums alone (the usual run): its
+        // weight straight into its tallies, what the loop below does then.
+        let plain = n_lanes == 1 && lanes[0].replicates.is_none() && lanes[0].polar.is_none();
         let mut score = |replicate: usize, h: &History<C>, tests: u64| {
             score_counts(&mut lanes[0], h, tests);
             // By reference: a spectral carrier is large.
@@ -119,6 +122,10 @@ impl BrdfRun {
                     weight: carried,
                 } => {
                     let bins = self.filter(locator, inplane, *out, h.bounces, sin_cos_phi);
+                    if plain {
+                        score_weight(&mut lanes[0], &bins, carried.lane(0).weight_for(&incident));
+                        return;
+                    }
                     let reference = lanes[0]
                         .polar
                         .is_some()
@@ -189,11 +196,14 @@ impl Bins {
     /// non-zero share, in order (made as they are used, not stored: a
     /// history's bins are built once and read once or twice).
     #[inline]
-    fn hits(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
-        self.shares
-            .iter()
-            .filter(|h| h.1 != 0.0)
-            .flat_map(|(cells, share)| cells.as_slice().iter().map(move |&c| (c, *share)))
+    fn for_each_hit(&self, mut f: impl FnMut(usize, f64)) {
+        for (cells, share) in &self.shares {
+            if *share != 0.0 {
+                for &c in cells.as_slice() {
+                    f(c, *share);
+                }
+            }
+        }
     }
 }
 
@@ -213,9 +223,7 @@ fn score_counts<C: Carrier>(t: &mut BrdfTallies, h: &History<C>, tests: u64) {
 #[inline]
 fn score_all_lanes(sums: &mut LaneSums, bins: &Bins, w: &[f64]) {
     sums.reflected.score(0, w);
-    for (c, share) in bins.hits() {
-        sums.carlson.score_scaled(c, share, w);
-    }
+    bins.for_each_hit(|c, share| sums.carlson.score_scaled(c, share, w));
     if let Some(c) = bins.inplane {
         sums.inplane.score(c, w);
     }
@@ -231,9 +239,7 @@ fn score_weight(t: &mut BrdfTallies, bins: &Bins, weight: f64) {
     // the weight: the same products as `cell_weights(.., weight, ..)`, bit
     // for bit (a zero product adds nothing to the non-negative sums).
     if weight != 0.0 {
-        for (c, share) in bins.hits() {
-            t.carlson.score(c, share * weight);
-        }
+        bins.for_each_hit(|c, share| t.carlson.score(c, share * weight));
     }
     if let Some(c) = bins.inplane {
         t.inplane.score(c, weight);

@@ -24,7 +24,7 @@ use crate::transport::launch::{Lattices, Launch};
 use crate::transport::micro::History as MicroHistory;
 use crate::transport::micro::trace;
 use crate::transport::order;
-use crate::transport::rng::photon_rng;
+use crate::transport::rng::Streams;
 use crate::transport::wavefront::{Kernel, WAVE, trace_wave};
 
 /// Bytes of histories the wavefront kernel holds at a time for scoring in
@@ -284,9 +284,10 @@ impl BrdfRun {
         let launch = C::launch(incident, hemisphere_reference(dir, phi), self.lane_count());
         // Photon n's stream (after the entry draws) and entry point.
         let (first, last) = (photons.start, photons.end);
+        let streams = Streams::new(seed);
         let entry = |n: u64| {
             let g = first + n;
-            let mut rng = photon_rng(seed, g);
+            let mut rng = streams.photon(g);
             let (mut u, mut v): (f64, f64) = (rng.random(), rng.random());
             let mut replicate = 0;
             if let Some(lattices) = &lattices {
