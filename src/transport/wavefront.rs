@@ -255,44 +255,58 @@ pub fn trace_wave<C: Carrier>(
             next += 1;
             live += 1;
         }
-        // Search: the next event of every live flight.
-        for s in 0..live {
-            if w.segments[s] >= controls.max_segments {
-                end(&mut w, s, End::Capped);
-                continue;
-            }
-            w.segments[s] += 1;
-            let (p, d) = (w.p(s), w.d(s));
-            let tests = scratch.tests;
-            let event = surface.next_event(p, d, w.standing[s], scratch);
-            w.tests[s] += scratch.tests - tests;
-            w.step[s] = Step::Flying;
-            match event {
-                Event::Top { .. } => {
-                    end(&mut w, s, End::Escaped);
+        // Search: the next event of every live flight, four slots at a
+        // time (MicroSurface::next_events4: the start of each search in
+        // lanes, then each lane's grid walk).
+        let mut s0 = 0;
+        while s0 < live {
+            let lanes_here = (live - s0).min(4);
+            let mut active = [false; 4];
+            let (mut o, mut d, mut on) = ([DVec3::ZERO; 4], [DVec3::ZERO; 4], [None; 4]);
+            for k in 0..lanes_here {
+                let s = s0 + k;
+                if w.segments[s] >= controls.max_segments {
+                    end(&mut w, s, End::Capped);
+                    continue;
                 }
-                Event::Trapped => end(&mut w, s, End::Capped),
-                Event::Moved { at } => {
-                    w.set_p(s, at);
-                    w.standing[s] = None;
-                    w.crossings[s] += 1;
-                    if w.crossings[s] >= MAX_CROSSINGS {
-                        end(&mut w, s, End::Capped);
+                w.segments[s] += 1;
+                active[k] = true;
+                (o[k], d[k], on[k]) = (w.p(s), w.d(s), w.standing[s]);
+            }
+            let mut tests = [0_u64; 4];
+            let events = surface.next_events4(o, d, on, active, scratch, &mut tests);
+            for k in (0..lanes_here).filter(|&k| active[k]) {
+                let s = s0 + k;
+                w.tests[s] += tests[k];
+                w.step[s] = Step::Flying;
+                match events[k] {
+                    Event::Top { .. } => {
+                        end(&mut w, s, End::Escaped);
+                    }
+                    Event::Trapped => end(&mut w, s, End::Capped),
+                    Event::Moved { at } => {
+                        w.set_p(s, at);
+                        w.standing[s] = None;
+                        w.crossings[s] += 1;
+                        if w.crossings[s] >= MAX_CROSSINGS {
+                            end(&mut w, s, End::Capped);
+                        }
+                    }
+                    Event::Hit { t, facet } => {
+                        if w.bounces[s] >= controls.max_bounces {
+                            end(&mut w, s, End::Capped);
+                        } else {
+                            w.t[s] = t;
+                            w.facet[s] = facet;
+                            w.step[s] = Step::Hit;
+                        }
+                    }
+                    Event::Side { t, axis, upper } => {
+                        side(surface, controls, &mut w, s, t, axis, upper, &mut end);
                     }
                 }
-                Event::Hit { t, facet } => {
-                    if w.bounces[s] >= controls.max_bounces {
-                        end(&mut w, s, End::Capped);
-                    } else {
-                        w.t[s] = t;
-                        w.facet[s] = facet;
-                        w.step[s] = Step::Hit;
-                    }
-                }
-                Event::Side { t, axis, upper } => {
-                    side(surface, controls, &mut w, s, t, axis, upper, &mut end);
-                }
             }
+            s0 += 4;
         }
         // Advance: p += t d at the hits (four lanes at a time; the others
         // keep their position bit for bit).
