@@ -8,9 +8,12 @@
 //! 1. **launch** (refill): free slots take the next photons of the run, so
 //!    the wave stays full while photons are left (their entry points from
 //!    their own streams, computed before the wave, as the scalar kernel's);
-//! 2. **search**: the next event of each live photon's flight
-//!    ([`MicroSurface::next_event`], one lane at a time), with the ends that
-//!    need no arithmetic (escape, caps, periodic sides, walls) settled here;
+//! 2. **search**: the next event of each live photon's flight, four slots
+//!    at a time ([`MicroSurface::next_events4`]: on a bump surface the
+//!    start of each search, `1 / d`, the period's exit and the substrate
+//!    plane, in `wide::f64x4` lanes with masks and blends; then each lane's
+//!    grid walk and quadric records on their own), with the ends that need
+//!    no arithmetic (escape, caps, periodic sides, walls) settled here;
 //! 3. **advance**: the hit points `p + t d`, four lanes at a time
 //!    (`wide::f64x4`);
 //! 4. **normal**: the facet's normal and material at each hit
@@ -42,10 +45,16 @@
 //! square root and a division per photon and round; `wide` picks its
 //! instructions at compile time (SSE2 on the baseline x86-64 target, two
 //! `f64x2` halves; AVX with `-C target-cpu`), needs no `unsafe` in this
-//! crate, and the binary runs on every x86-64 machine. The search and the
-//! normal stay scalar per lane: the grid walk, the quadric tests and the
-//! height field's descent are data-dependent loops of different lengths per
-//! photon (the measured split is in `docs/src/performance.md`).
+//! crate, and the binary runs on every x86-64 machine. The grid walk, the
+//! quadric tests, the height field's descent and the normal stay scalar per
+//! lane: they are data-dependent loops of different lengths per photon.
+//! Measured (`docs/src/performance.md`, 2026-12-06): the search's start in
+//! lanes takes 4 mispredicted branches a segment off the wavefront kernel
+//! and adds 150 instructions (the loads into lanes and back), the same
+//! wall-clock; a branch-free quadric test (every root computed, the answer
+//! selected) took 1.7 mispredictions off but added 380 instructions, as
+//! the compiler turns selects of floats back into branches, and was
+//! dropped.
 //!
 //! Surfaces large enough for the Morton order ([`super::order::pays`]:
 //! over 1 MiB of geometry) are traced by it too, a piece of the order
