@@ -218,20 +218,18 @@ const GRID_CELLS_PER_SOLID: usize = 64;
 /// ... unless the grid has fewer cells than this.
 const MIN_GRID_CELLS: usize = 4096;
 
-/// The `f32` nearest above or at `z` (`-inf` stays `-inf`).
+/// The `f32` nearest above or at `z` (`-inf` stays `-inf`), without
+/// data-dependent branches.
 #[inline(always)]
 pub(super) fn f32_up(z: f64) -> f32 {
     let r = z as f32;
-    if f64::from(r) >= z || r.is_nan() {
-        r
-    } else if r == 0.0 {
-        f32::from_bits(1)
-    } else if r > 0.0 {
-        f32::from_bits(r.to_bits() + 1)
-    } else {
-        // Negative (or -inf): one step toward zero.
-        f32::from_bits(r.to_bits() - 1)
-    }
+    let bits = r.to_bits();
+    // Rounded down (never for NaN): one step up, i.e. away from zero when
+    // positive (+0 included: the least positive f32, z being positive), toward
+    // zero when negative (-inf included).
+    let down = u32::from(f64::from(r) < z);
+    let step = 1_u32.wrapping_sub((bits >> 31) << 1);
+    f32::from_bits(bits.wrapping_add(down.wrapping_mul(step)))
 }
 
 impl Grid {
@@ -611,6 +609,53 @@ mod tests {
             }
         }
         assert!(checked > 1000, "{checked}");
+    }
+
+    /// The branch-free `f32_up` gives the bits of the branching one it
+    /// replaced (kept here as the reference), for every class of input.
+    #[test]
+    fn f32_up_without_branches_is_the_branching_one() {
+        fn reference(z: f64) -> f32 {
+            let r = z as f32;
+            if f64::from(r) >= z || r.is_nan() {
+                r
+            } else if r == 0.0 {
+                f32::from_bits(1)
+            } else if r > 0.0 {
+                f32::from_bits(r.to_bits() + 1)
+            } else {
+                f32::from_bits(r.to_bits() - 1)
+            }
+        }
+        let mut z = vec![
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MAX,
+            -f64::MAX,
+            f64::MIN_POSITIVE,
+            1e-300,
+            -1e-300,
+            1e-46,
+            -1e-46,
+            f64::from(f32::MAX),
+            f64::from(f32::MAX) * (1.0 + 1e-12),
+            -f64::from(f32::MAX) * (1.0 + 1e-12),
+        ];
+        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            z.push(f64::from_bits(x));
+            // Heights of a scene's scale, either sign.
+            z.push((x >> 11) as f64 / (1_u64 << 53) as f64 * 20.0 - 5.0);
+        }
+        for z in z {
+            assert_eq!(f32_up(z).to_bits(), reference(z).to_bits(), "{z:e}");
+        }
     }
 
     #[test]

@@ -8,9 +8,12 @@
 //! 1. **launch** (refill): free slots take the next photons of the run, so
 //!    the wave stays full while photons are left (their entry points from
 //!    their own streams, computed before the wave, as the scalar kernel's);
-//! 2. **search**: the next event of each live photon's flight
-//!    ([`MicroSurface::next_event`], one lane at a time), with the ends that
-//!    need no arithmetic (escape, caps, periodic sides, walls) settled here;
+//! 2. **search**: the next event of each live photon's flight, four slots
+//!    at a time ([`MicroSurface::next_events4`]: on a bump surface the
+//!    start of each search, `1 / d`, the period's exit and the substrate
+//!    plane, in `wide::f64x4` lanes with masks and blends; then each lane's
+//!    grid walk and quadric records on their own), with the ends that need
+//!    no arithmetic (escape, caps, periodic sides, walls) settled here;
 //! 3. **advance**: the hit points `p + t d`, four lanes at a time
 //!    (`wide::f64x4`);
 //! 4. **normal**: the facet's normal and material at each hit
@@ -42,10 +45,16 @@
 //! square root and a division per photon and round; `wide` picks its
 //! instructions at compile time (SSE2 on the baseline x86-64 target, two
 //! `f64x2` halves; AVX with `-C target-cpu`), needs no `unsafe` in this
-//! crate, and the binary runs on every x86-64 machine. The search and the
-//! normal stay scalar per lane: the grid walk, the quadric tests and the
-//! height field's descent are data-dependent loops of different lengths per
-//! photon (the measured split is in `docs/src/performance.md`).
+//! crate, and the binary runs on every x86-64 machine. The grid walk, the
+//! quadric tests, the height field's descent and the normal stay scalar per
+//! lane: they are data-dependent loops of different lengths per photon.
+//! Measured (`docs/src/performance.md`, 2026-12-06): the search's start in
+//! lanes takes 4 mispredicted branches a segment off the wavefront kernel
+//! and adds 150 instructions (the loads into lanes and back), the same
+//! wall-clock; a branch-free quadric test (every root computed, the answer
+//! selected) took 1.7 mispredictions off but added 380 instructions, as
+//! the compiler turns selects of floats back into branches, and was
+//! dropped.
 //!
 //! Surfaces large enough for the Morton order ([`super::order::pays`]:
 //! over 1 MiB of geometry) are traced by it too, a piece of the order
@@ -255,44 +264,58 @@ pub fn trace_wave<C: Carrier>(
             next += 1;
             live += 1;
         }
-        // Search: the next event of every live flight.
-        for s in 0..live {
-            if w.segments[s] >= controls.max_segments {
-                end(&mut w, s, End::Capped);
-                continue;
-            }
-            w.segments[s] += 1;
-            let (p, d) = (w.p(s), w.d(s));
-            let tests = scratch.tests;
-            let event = surface.next_event(p, d, w.standing[s], scratch);
-            w.tests[s] += scratch.tests - tests;
-            w.step[s] = Step::Flying;
-            match event {
-                Event::Top { .. } => {
-                    end(&mut w, s, End::Escaped);
+        // Search: the next event of every live flight, four slots at a
+        // time (MicroSurface::next_events4: the start of each search in
+        // lanes, then each lane's grid walk).
+        let mut s0 = 0;
+        while s0 < live {
+            let lanes_here = (live - s0).min(4);
+            let mut active = [false; 4];
+            let (mut o, mut d, mut on) = ([DVec3::ZERO; 4], [DVec3::ZERO; 4], [None; 4]);
+            for k in 0..lanes_here {
+                let s = s0 + k;
+                if w.segments[s] >= controls.max_segments {
+                    end(&mut w, s, End::Capped);
+                    continue;
                 }
-                Event::Trapped => end(&mut w, s, End::Capped),
-                Event::Moved { at } => {
-                    w.set_p(s, at);
-                    w.standing[s] = None;
-                    w.crossings[s] += 1;
-                    if w.crossings[s] >= MAX_CROSSINGS {
-                        end(&mut w, s, End::Capped);
+                w.segments[s] += 1;
+                active[k] = true;
+                (o[k], d[k], on[k]) = (w.p(s), w.d(s), w.standing[s]);
+            }
+            let mut tests = [0_u64; 4];
+            let events = surface.next_events4(o, d, on, active, scratch, &mut tests);
+            for k in (0..lanes_here).filter(|&k| active[k]) {
+                let s = s0 + k;
+                w.tests[s] += tests[k];
+                w.step[s] = Step::Flying;
+                match events[k] {
+                    Event::Top { .. } => {
+                        end(&mut w, s, End::Escaped);
+                    }
+                    Event::Trapped => end(&mut w, s, End::Capped),
+                    Event::Moved { at } => {
+                        w.set_p(s, at);
+                        w.standing[s] = None;
+                        w.crossings[s] += 1;
+                        if w.crossings[s] >= MAX_CROSSINGS {
+                            end(&mut w, s, End::Capped);
+                        }
+                    }
+                    Event::Hit { t, facet } => {
+                        if w.bounces[s] >= controls.max_bounces {
+                            end(&mut w, s, End::Capped);
+                        } else {
+                            w.t[s] = t;
+                            w.facet[s] = facet;
+                            w.step[s] = Step::Hit;
+                        }
+                    }
+                    Event::Side { t, axis, upper } => {
+                        side(surface, controls, &mut w, s, t, axis, upper, &mut end);
                     }
                 }
-                Event::Hit { t, facet } => {
-                    if w.bounces[s] >= controls.max_bounces {
-                        end(&mut w, s, End::Capped);
-                    } else {
-                        w.t[s] = t;
-                        w.facet[s] = facet;
-                        w.step[s] = Step::Hit;
-                    }
-                }
-                Event::Side { t, axis, upper } => {
-                    side(surface, controls, &mut w, s, t, axis, upper, &mut end);
-                }
             }
+            s0 += 4;
         }
         // Advance: p += t d at the hits (four lanes at a time; the others
         // keep their position bit for bit).
