@@ -1263,7 +1263,9 @@ mod tests {
                     0 => p.x = 0.0,
                     1 => p.y = s.size.y,
                     2 => (p.x, p.y) = (s.size.x, 0.0),
-                    3 => p.z = 0.0,
+                    // On the substrate, or a rounding above it (where only
+                    // the flight's standing keeps it from the plane).
+                    3 => p.z = [0.0, 1e-13][k % 2],
                     _ => {}
                 }
                 let mut dir = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
@@ -1276,7 +1278,7 @@ mod tests {
                 }
                 o[k] = p;
                 d[k] = dir.normalize();
-                standing[k] = (p.z == 0.0).then_some(substrate);
+                standing[k] = (p.z < 1e-9).then_some(substrate);
                 live[k] = (round + 3 * k) % 5 != 0;
             }
             let mut tests = [0_u64; 4];
