@@ -38,7 +38,7 @@
 //! for bit, for every carrier (scalar weight, Stokes vector, Mueller
 //! columns, spectral lanes), surface (bumps, bodies, height fields) and
 //! launch (random, lattice). The tests of this module and
-//! `tests/kernels.rs` compare the two kernels' histories and result folders.
+//! `tests/golden.rs` compare the two kernels' histories and result folders.
 //!
 //! Why `wide` ([`wide::f64x4`]) and not run-time dispatch (`pulp`,
 //! `multiversion`): the stages done in lanes are a few multiplies, adds, a
