@@ -535,6 +535,63 @@ bands = 16
         "{stderr}"
     );
     assert!(stderr.contains("rank model"), "{stderr}");
+    same_fit_from_values(&out, &stderr);
+}
+
+/// The fit of a result given as values (its `brdf.csv` and `summary.json`
+/// as text, nothing read from a folder: a result traced in-process, as the
+/// Python module fits it) is `roks fit-model DIR --model all`'s (whose
+/// stderr is `cli_stderr`), byte for byte: each model's JSON but for its
+/// `table` (the bare `brdf.csv`), each plot, OpticStudio's rows but for
+/// their name (`roks`, no folder), and every line but the `wrote` one.
+fn same_fit_from_values(out: &Path, cli_stderr: &str) {
+    use roks::fit_model::material::MaterialOptions;
+    use roks::fit_model::one::{ModelChoice, Request, TableTexts};
+    let text = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+    let request = Request {
+        dir: PathBuf::new(),
+        texts: Some(TableTexts {
+            csv: text("brdf.csv"),
+            summary: Some(text("summary.json")),
+        }),
+        model: ModelChoice::All,
+        out: None,
+        material: MaterialOptions::default(),
+        wavelength: None,
+    };
+    let report = request.run().unwrap();
+    let files: std::collections::BTreeMap<String, &[u8]> = report
+        .files
+        .iter()
+        .map(|(p, b)| (p.display().to_string(), b.as_slice()))
+        .collect();
+    let table = |dir: &Path| {
+        let csv = dir.join("brdf.csv").display().to_string();
+        format!("\"table\": {}", serde_json::to_string(&csv).unwrap())
+    };
+    for m in ["abg", "harvey", "ggx", "beckmann"] {
+        let cli = text(&format!("fit_{m}.json")).replace(&table(out), &table(Path::new("")));
+        let given = std::str::from_utf8(files[&format!("fit_{m}.json")]).unwrap();
+        assert!(given.contains("\"table\": \"brdf.csv\""), "{given}");
+        assert_eq!(given, cli, "fit_{m}.json");
+        let png = std::fs::read(out.join(format!("fit_{m}.png"))).unwrap();
+        assert!(
+            files[&format!("fit_{m}.png")] == png.as_slice(),
+            "fit_{m}.png"
+        );
+    }
+    let name = format!("! Name {}\n", out.file_name().unwrap().to_str().unwrap());
+    let cli = text("fit_abg_opticstudio.txt").replace(&name, "! Name roks\n");
+    assert_eq!(
+        std::str::from_utf8(files["fit_abg_opticstudio.txt"]).unwrap(),
+        cli
+    );
+    let not_wrote = |l: &&str| !l.starts_with("wrote ");
+    let given: Vec<&str> = report.lines(false).iter().map(String::as_str).collect();
+    let given: Vec<&str> = given.into_iter().filter(not_wrote).collect();
+    let cli: Vec<&str> = cli_stderr.lines().filter(not_wrote).collect();
+    assert_eq!(given, cli);
+    assert!(files.contains_key("fit_summary.json"));
 }
 
 /// A flat mirror's table (all the light in the specular cell, or the four

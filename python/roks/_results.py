@@ -472,7 +472,10 @@ class BrdfResult:
         --model MODEL` fits it ("abg", "harvey", "ggx", ... or "all"),
         writing nothing: the fitted parameters, the fit's verdict and its
         warnings as values. `n`, `k`, `reflectance`, `wavelength_um` are
-        its options `--n`, `--k`, `--reflectance`, `--wavelength`."""
+        its options `--n`, `--k`, `--reflectance`, `--wavelength`. A
+        traced result is fitted from its `brdf.csv` and `summary.json` as
+        values: its JSON's `table` is `brdf.csv`, OpticStudio's rows are
+        named `roks`."""
         args: list[str] = []
         for flag, v in (("--n", n), ("--k", k), ("--reflectance", reflectance),
                         ("--wavelength", wavelength_um)):

@@ -89,10 +89,22 @@ fn parse(command: &str, scene: Option<&str>, args: Vec<String>) -> PyResult<Comm
         .map_err(OptionError::new_err)
 }
 
+// The scene classes' `name` and `file` are fields read by pyo3's own
+// getters (`#[pyo3(get)]`), copied from the scene when it is loaded: a
+// class has one `#[pymethods]` block (pyo3 without its
+// `multiple-pymethods` feature), which does not expand a shared macro.
+
 /// A micro scene, built and checked (immutable).
 #[pyclass(frozen, module = "roks._native")]
 struct MicroScene {
     scene: Arc<api::MicroScene>,
+    /// The scene's name (`name` key, else the file's stem; `default`,
+    /// `scene` for text).
+    #[pyo3(get)]
+    name: String,
+    /// The scene file as messages name it.
+    #[pyo3(get)]
+    file: String,
 }
 
 #[pymethods]
@@ -154,21 +166,10 @@ impl MicroScene {
             .detach(|| api::load_micro_from(&source, &overrides, map.as_ref()))
             .map_err(py_err)?;
         Ok(Self {
+            name: scene.name.clone(),
+            file: scene.scene_file.file.clone(),
             scene: Arc::new(scene),
         })
-    }
-
-    /// The scene's name (`name` key, else the file's stem; `default`,
-    /// `scene` for text).
-    #[getter]
-    fn name(&self) -> String {
-        self.scene.name.clone()
-    }
-
-    /// The scene file as messages name it.
-    #[getter]
-    fn file(&self) -> String {
-        self.scene.scene_file.file.clone()
     }
 
     /// The surface statistics (`roks stats --json`) on a `resolution` x
@@ -220,6 +221,12 @@ impl MicroScene {
 struct ObjectScene {
     scene: Arc<api::ObjectScene>,
     options: api::TraceOptions,
+    /// The scene's name.
+    #[pyo3(get)]
+    name: String,
+    /// The scene file as messages name it.
+    #[pyo3(get)]
+    file: String,
 }
 
 #[pymethods]
@@ -247,21 +254,11 @@ impl ObjectScene {
         // The options' checks, before any run.
         api::TraceJob::new(&scene, &options).map_err(py_err)?;
         Ok(Self {
+            name: scene.name.clone(),
+            file: scene.scene_file.file.clone(),
             scene: Arc::new(scene),
             options,
         })
-    }
-
-    /// The scene's name.
-    #[getter]
-    fn name(&self) -> String {
-        self.scene.name.clone()
-    }
-
-    /// The scene file as messages name it.
-    #[getter]
-    fn file(&self) -> String {
-        self.scene.scene_file.file.clone()
     }
 
     /// Trace the scene (`roks trace`) on `threads` worker threads;
@@ -481,7 +478,9 @@ impl BrdfResult {
     /// to the table, writing nothing: returns the files `roks fit-model`
     /// would write, as (name, bytes), and the lines it prints (the verdict,
     /// warnings). A traced result is fitted from its `brdf.csv` and
-    /// `summary.json` in a temporary folder (named in the JSON's `table`).
+    /// `summary.json` as values, nothing written: its files are named by
+    /// their bare names (the JSON's `table`: `brdf.csv`), and OpticStudio's
+    /// rows are named `roks` (a folder's fit: the folder's name).
     #[pyo3(signature = (model, args=Vec::new()))]
     fn fit_model(
         &self,
@@ -612,41 +611,37 @@ fn export_values(
 }
 
 /// The files and lines of `roks fit-model --model MODEL ARGS` on `r`'s
-/// table, nothing written.
+/// table, nothing written: a read result's folder, a traced result's
+/// `brdf.csv` and `summary.json` as values (named by their bare names).
 fn fit(
     r: &BrdfResult,
     model: &str,
     args: Vec<String>,
 ) -> PyResult<(Vec<(String, Vec<u8>)>, Vec<String>)> {
     use roks::fit_model::material::MaterialOptions;
-    use roks::fit_model::one::{Request, RunError};
-    let mut temp = None;
-    let dir = match &r.dir {
-        Some(d) => d.clone(),
-        None => {
-            let d = std::env::temp_dir().join(format!(
-                "roks-fit-{}-{}",
-                std::process::id(),
-                FIT_DIRS.fetch_add(1, Ordering::Relaxed)
-            ));
-            std::fs::create_dir_all(&d).map_err(|e| RoksError::new_err(e.to_string()))?;
-            for name in [ResultFile::Brdf.name(), ResultFile::Summary.name()] {
-                let bytes = r.result.file(name).unwrap_or_default();
-                std::fs::write(d.join(name), bytes)
-                    .map_err(|e| RoksError::new_err(e.to_string()))?;
-            }
-            temp = Some(d.clone());
-            d
-        }
-    };
-    let mut argv = vec![dir.display().to_string(), "--model".into(), model.into()];
+    use roks::fit_model::one::{Request, RunError, TableTexts};
+    let shown = r.dir.as_deref().unwrap_or(Path::new("."));
+    let mut argv = vec![shown.display().to_string(), "--model".into(), model.into()];
     argv.extend(args);
     let a = match parse("fit-model", None, argv)? {
         Command::FitModel(a) => a,
         _ => unreachable!("roks fit-model parses as fit-model"),
     };
+    let text = |name: &str| {
+        r.result.file(name).map(|bytes| {
+            String::from_utf8(bytes).map_err(|e| RoksError::new_err(format!("{name}: {e}")))
+        })
+    };
+    let texts = match r.dir {
+        Some(_) => None,
+        None => Some(TableTexts {
+            csv: text(ResultFile::Brdf.name()).unwrap_or_else(|| Ok(String::new()))?,
+            summary: text(ResultFile::Summary.name()).transpose()?,
+        }),
+    };
     let request = Request {
-        dir: a.dir,
+        dir: r.dir.clone().unwrap_or_default(),
+        texts,
         model: a.model,
         out: None,
         material: MaterialOptions {
@@ -656,11 +651,7 @@ fn fit(
         },
         wavelength: a.wavelength,
     };
-    let report = request.run();
-    if let Some(d) = temp {
-        let _ = std::fs::remove_dir_all(d);
-    }
-    let report = report.map_err(|e| match e {
+    let report = request.run().map_err(|e| match e {
         RunError::Input(m) => InputError::new_err(m),
         RunError::Other(e) => RoksError::new_err(format!("{e:#}")),
     })?;
@@ -676,9 +667,6 @@ fn fit(
         .collect();
     Ok((files, report.lines(false).to_vec()))
 }
-
-/// Temporary folders of fits made so far (their names).
-static FIT_DIRS: AtomicU64 = AtomicU64::new(0);
 
 /// An object scene's result: traced, or read back from its folder.
 #[pyclass(frozen, module = "roks._native")]

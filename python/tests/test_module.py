@@ -334,3 +334,11 @@ def test_exports_and_fits_are_the_command_lines(roks_bin, tmp_path):
     a, b = traced_fit.results["fit_abg.json"], fit.results["fit_abg.json"]
     a.pop("table"), b.pop("table")
     assert a == b
+    # Fitted from its files as values, nothing written: the command line's
+    # bytes, the table named by its bare name, the same lines.
+    table = json.dumps(str(tmp_path / "cli/brdf.csv"))
+    cli_json = (tmp_path / "cli/fit_abg.json").read_text()
+    assert traced_fit.files["fit_abg.json"].decode() == cli_json.replace(
+        f'"table": {table}', '"table": "brdf.csv"')
+    assert traced_fit.files["fit_abg.png"] == fit.files["fit_abg.png"]
+    assert traced_fit.lines == fit.lines

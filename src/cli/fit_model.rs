@@ -84,6 +84,7 @@ impl From<RunError> for Failure {
 pub fn execute(a: FitModelArgs) -> Result<(), Failure> {
     let request = Request {
         dir: a.dir,
+        texts: None,
         model: a.model,
         out: a.out,
         material: MaterialOptions {

@@ -82,12 +82,28 @@ pub enum OutputKind {
     Text,
 }
 
+/// The text of a result's `brdf.csv` and `summary.json`, given as values
+/// ([`Request::texts`]) rather than read from its folder.
+#[derive(Debug, Clone)]
+pub struct TableTexts {
+    /// The text of `brdf.csv`.
+    pub csv: String,
+    /// The text of `summary.json` (`None`: the result has none).
+    pub summary: Option<String>,
+}
+
 /// One `roks fit-model` run: the options as given.
 #[derive(Debug, Clone)]
 pub struct Request {
     /// The result folder of `roks brdf` (with `brdf.csv`, and
-    /// `summary.json` for the photons and the scene).
+    /// `summary.json` for the photons and the scene). With
+    /// [`texts`](Self::texts) nothing is read from it: it only names the
+    /// files in messages, in the JSON's `table` and as the outputs' folder
+    /// (an empty path: their bare names, `brdf.csv`, `fit_abg.json`).
     pub dir: PathBuf,
+    /// The table and summary as values (a result traced in-process), read
+    /// by the same parsers as the folder's files; `None`: read `dir`.
+    pub texts: Option<TableTexts>,
     /// The model(s).
     pub model: ModelChoice,
     /// The model's JSON (default `dir/fit_<model>.json`); one model only.

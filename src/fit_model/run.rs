@@ -10,6 +10,7 @@
 //! [`ModelChoice::All`] fits every model and adds
 //! `RESULT_DIR/fit_summary.json`, the models ranked ([`super::rank`]).
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use super::material::material;
@@ -20,6 +21,8 @@ use super::ranking::{FitSummary, ranked, ranking_lines};
 use super::{FitResult, ModelKind, observations};
 use crate::optics::brdf_table::{BrdfTable, BrdfTables};
 use crate::outdir::file::ResultFile;
+use crate::output::brdf_csv::BrdfTableError;
+use crate::output::brdf_csv::reader::read_text;
 
 /// What a run made: the files (not yet written) and what to print.
 #[derive(Debug)]
@@ -107,7 +110,7 @@ impl Request {
     /// # Errors
     /// `dir` is not a folder, or `out` with [`ModelChoice::All`].
     pub fn outputs(&self) -> Result<Vec<(PathBuf, OutputKind)>, RunError> {
-        if !self.dir.is_dir() {
+        if self.texts.is_none() && !self.dir.is_dir() {
             return Err(RunError::Input(format!(
                 "{}: not a folder (expected the result folder of `roks brdf`, with brdf.csv)",
                 self.dir.display()
@@ -131,27 +134,36 @@ impl Request {
         Ok(all)
     }
 
-    /// The table, the scene and photons of `summary.json`, the wavelength.
+    /// The table, the scene and photons of `summary.json`, the wavelength:
+    /// from [`Request::texts`], else from the files of `dir`.
     fn load(&self) -> Result<Loaded, RunError> {
-        let input = RunError::Input;
+        let input = |e: BrdfTableError| RunError::Input(e.to_string());
         let csv = self.csv();
         let summary_path = self.summary_path();
-        let mut tables = BrdfTables::load(&csv).map_err(|e| input(e.to_string()))?;
+        let csv_text = match &self.texts {
+            Some(t) => Cow::Borrowed(t.csv.as_str()),
+            None => Cow::Owned(read_text(&csv).map_err(input)?.1),
+        };
+        let mut tables = BrdfTables::parse(&csv_text, &csv.display().to_string()).map_err(input)?;
+        drop(csv_text);
         tables
             .require_one_azimuth("roks fit-model (its models are isotropic)")
-            .map_err(|e| input(e.to_string()))?;
+            .map_err(|e| RunError::Input(e.to_string()))?;
+        let summary_text = match &self.texts {
+            Some(t) => t.summary.as_deref().map(Cow::Borrowed),
+            None if summary_path.exists() => {
+                Some(Cow::Owned(read_text(&summary_path).map_err(input)?.1))
+            }
+            None => None,
+        };
         let mut scene = None;
         let mut photons: Option<Vec<u64>> = None;
-        if summary_path.exists() {
-            tables = tables
-                .with_summary(&summary_path)
-                .map_err(|e| input(e.to_string()))?;
-            // Checked by with_summary: the same run. Its scene and photons.
-            let text =
-                crate::limits::read_text_capped(&summary_path, crate::limits::max_data_bytes())
-                    .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
-            let summary: crate::output::summary::BrdfSummary = serde_json::from_str(&text)
-                .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
+        if let Some(text) = summary_text {
+            let name = summary_path.display().to_string();
+            tables = tables.with_summary_text(&text, &name).map_err(input)?;
+            // Checked by with_summary_text: the same run. Its scene and photons.
+            let summary: crate::output::summary::BrdfSummary =
+                serde_json::from_str(&text).map_err(|e| RunError::Input(format!("{name}: {e}")))?;
             let mut by_angle: Vec<(f64, u64)> = summary
                 .incidence
                 .iter()
