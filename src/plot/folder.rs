@@ -691,15 +691,7 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
         .iter()
         .map(|q| q.reflectance)
         .fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(v), b.max(v)));
-    let photons: Vec<u64> = p.iter().map(|q| q.photons).collect();
-    let per = if photons.windows(2).all(|w| w[0] == w[1]) {
-        format!(
-            "{} photons per position",
-            photons.first().copied().unwrap_or(0)
-        )
-    } else {
-        format!("photons per position as in {}", ResultFile::Summary)
-    };
+    let per = photons_per_position(s);
     let what = match s.wavelengths_um.len() {
         0 => "reflectance".to_owned(),
         l => format!("reflectance (mean over {l} wavelengths)"),
@@ -715,19 +707,25 @@ fn object_reflectance(s: &TraceSummary) -> LinePlot {
     }
 }
 
-/// What the titles of an object run say of its photons: per position
-/// (one number when every position has the same), and for a spectral run
-/// that they carry every wavelength.
-fn object_photons(s: &TraceSummary) -> String {
+/// The photons of an object run's beam positions, for a title: one number
+/// when every position has the same, else a pointer to the summary.
+fn photons_per_position(s: &TraceSummary) -> String {
     let photons: Vec<u64> = s.sources.iter().map(|q| q.photons).collect();
-    let per = if photons.windows(2).all(|w| w[0] == w[1]) {
+    if photons.windows(2).all(|w| w[0] == w[1]) {
         format!(
             "{} photons per position",
             photons.first().copied().unwrap_or(0)
         )
     } else {
         format!("photons per position as in {}", ResultFile::Summary)
-    };
+    }
+}
+
+/// What the titles of an object run say of its photons: per position
+/// (one number when every position has the same), and for a spectral run
+/// that they carry every wavelength.
+fn object_photons(s: &TraceSummary) -> String {
+    let per = photons_per_position(s);
     match s.wavelengths_um.len() {
         0 | 1 => per,
         l => format!("{per}, each carrying all {l} wavelengths"),
