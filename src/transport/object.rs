@@ -46,7 +46,7 @@ use crate::tally::sum::BATCH;
 
 use super::carrier::{Carrier, Polarised, Spectral, SpectralPolarised};
 use super::micro::Controls;
-use super::rng::photon_rng;
+use super::rng::Streams;
 use super::wall::{Interaction, WallModel};
 use crate::micro::Scratch;
 use crate::object::Object;
@@ -664,8 +664,11 @@ impl ObjectRun {
         let mut absorbed = vec![0.0; n_surfaces * lanes];
         let mut is_touched = vec![false; n_surfaces];
         let mut touched: Vec<usize> = Vec::new();
+        // The seed is mixed once for the batch; photon `n` of beam position
+        // `position` draws from stream `(position << 40) | n` as before.
+        let streams = Streams::new(self.seed);
         for n in photons {
-            let mut rng = photon_rng(self.seed, (position << 40) | n);
+            let mut rng = streams.photon((position << 40) | n);
             let p = beam.start(rng.random(), rng.random());
             if object.in_solid(p) {
                 for t in &mut lane_tallies {
