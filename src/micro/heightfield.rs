@@ -190,6 +190,9 @@ struct Level {
     max: Vec<f64>,
 }
 
+/// Most levels of a hierarchy (one per bit of a square index).
+const LEVELS_MAX: usize = usize::BITS as usize;
+
 /// Nodes of one [`TiledLevels`] tile: 4 x 4, one 64-byte cache line.
 const TILE: usize = 4;
 
@@ -209,8 +212,12 @@ struct Tile([f32; TILE * TILE]);
 struct TiledLevels {
     /// The tiles of level 1, then level 2, ...
     tiles: Vec<Tile>,
-    /// Per level `L >= 1` (`at[L - 1]`): its first tile, tiles along x.
-    at: Vec<(usize, usize)>,
+    /// Per level `L >= 1` (`at[L - 1]`): its first tile, tiles along x (a
+    /// fixed array, so that the walk's reads need no bounds check: a level
+    /// is below `usize::BITS`).
+    at: [(usize, usize); LEVELS_MAX],
+    /// Levels stored (the top level's index).
+    levels: usize,
 }
 
 impl TiledLevels {
@@ -218,8 +225,8 @@ impl TiledLevels {
     /// tile padding beyond a level's nodes holds `+inf` (never read).
     fn new(levels: &[Level]) -> Self {
         let mut tiles = Vec::new();
-        let mut at = Vec::with_capacity(levels.len());
-        for lv in levels {
+        let mut at = [(0, 0); LEVELS_MAX];
+        for (level, lv) in levels.iter().enumerate() {
             let (w, h) = (lv.w, lv.max.len() / lv.w);
             let (tw, th) = (w.div_ceil(TILE), h.div_ceil(TILE));
             let first = tiles.len();
@@ -229,15 +236,19 @@ impl TiledLevels {
                 tiles[first + (nj / TILE) * tw + ni / TILE].0[(nj % TILE) * TILE + ni % TILE] =
                     m as f32;
             }
-            at.push((first, tw));
+            at[level] = (first, tw);
         }
-        Self { tiles, at }
+        Self {
+            tiles,
+            at,
+            levels: levels.len(),
+        }
     }
 
     /// The `f32` maximum of node `(ni, nj)` of `level` (>= 1).
     #[inline(always)]
     fn max(&self, level: usize, ni: usize, nj: usize) -> f32 {
-        let (first, tw) = self.at[level - 1];
+        let (first, tw) = self.at[(level - 1) % LEVELS_MAX];
         self.tiles[first + (nj / TILE) * tw + ni / TILE].0[(nj % TILE) * TILE + ni % TILE]
     }
 }
@@ -599,7 +610,7 @@ impl HeightField {
             dv: d.y / self.pitch.y,
         };
         let inv = (1.0 / ray.du, 1.0 / ray.dv);
-        let top = self.tiled.at.len();
+        let top = self.tiled.levels;
         // A flight leaving the surface is below every node holding its start:
         // begin at its square instead of descending to it.
         let mut level = if standing.is_some() { 0 } else { top };
@@ -631,7 +642,7 @@ impl HeightField {
             }
             // Down the hierarchy to the first node the flight passes above
             // (skipped), or to the square (tested). Each level visited is a step.
-            let (t_exit, exit_u) = loop {
+            let exit = loop {
                 if level == 0 {
                     break self.node_exit(&ray, inv, 0, (i, bi), (j, bj), t);
                 }
@@ -639,7 +650,7 @@ impl HeightField {
                     let (ni, nj) = (i >> level, j >> level);
                     if descending {
                         let exit = self.node_exit(&ray, inv, level, (i, bi), (j, bj), t);
-                        if self.passes_above(level, ni, nj, ray.z_at(exit.0)) {
+                        if self.passes_above(level, ni, nj, ray.z_at(exit.t)) {
                             break exit;
                         }
                     } else if self.passes_above(level, ni, nj, z) {
@@ -655,6 +666,12 @@ impl HeightField {
                     return FieldEvent::Trapped;
                 }
             };
+            let NodeExit {
+                t: t_exit,
+                exit_u,
+                u: (u0, u1),
+                v: (v0, v1),
+            } = exit;
             if level > 0 {
                 // The flight passes above the whole node: skip it.
                 f_carried = None;
@@ -685,8 +702,6 @@ impl HeightField {
             // the walk always advances.
             let base = (bi, bj);
             let (from_i, from_j) = (i, j);
-            let (u0, u1) = node_span(i, level, self.nx);
-            let (v0, v1) = node_span(j, level, self.ny);
             if exit_u {
                 (i, bi) = step(i, bi, u0, u1, ray.du > 0.0, self.nx);
                 let k = floor_i64(ray.ov + t * ray.dv) - bj;
@@ -699,9 +714,8 @@ impl HeightField {
             // Nodes of the levels above the highest bit in which the square's
             // indices changed still hold it.
             let moved = (from_i ^ i) | (from_j ^ j);
-            known &= u64::MAX
-                .checked_shl(usize::BITS - moved.leading_zeros())
-                .unwrap_or(0);
+            // (`moved` < 2^63: a shift of at most 63; 0 when nothing moved.)
+            known &= u64::MAX << (usize::BITS - moved.leading_zeros());
             if (bi, bj) != base {
                 known = 0;
                 // Into the next period: the flight's travel is bounded in periods.
@@ -724,8 +738,8 @@ impl HeightField {
     }
 
     /// Where the flight leaves, from `t` on, the node of `level` holding
-    /// square `(i, j)` (with the period bases `bi`, `bj`): `(t_exit,
-    /// exit_u)`, `exit_u` when it leaves through a side `u = const` (also on a
+    /// square `(i, j)` (with the period bases `bi`, `bj`), with the node's
+    /// squares; `exit_u` when it leaves through a side `u = const` (also on a
     /// tie). `inv`: `(1 / du, 1 / dv)`.
     #[inline(always)]
     fn node_exit(
@@ -736,7 +750,7 @@ impl HeightField {
         (i, bi): (usize, i64),
         (j, bj): (usize, i64),
         t: f64,
-    ) -> (f64, bool) {
+    ) -> NodeExit {
         let (u0, u1) = node_span(i, level, self.nx);
         let (v0, v1) = node_span(j, level, self.ny);
         // Where the flight leaves [lo, hi) along one axis (infinite if parallel).
@@ -751,7 +765,12 @@ impl HeightField {
         };
         let tu = leave(ray.du, ray.ou, inv_u, side(u0, bi), side(u1, bi));
         let tv = leave(ray.dv, ray.ov, inv_v, side(v0, bj), side(v1, bj));
-        (tu.min(tv).max(t), tu <= tv)
+        NodeExit {
+            t: tu.min(tv).max(t),
+            exit_u: tu <= tv,
+            u: (u0, u1),
+            v: (v0, v1),
+        }
     }
 
     /// Whether a flight whose lowest height over node `(ni, nj)` of `level`
@@ -993,6 +1012,18 @@ fn surface_height(c: [f64; 4], a: f64, b: f64) -> f64 {
     } else {
         h00 + (h11 - h01) * a + (h01 - h00) * b
     }
+}
+
+/// Where a flight leaves a node ([`HeightField::node_exit`]).
+#[derive(Clone, Copy, Debug)]
+struct NodeExit {
+    /// Distance at the exit (units of `|d|`), at least the flight's `t`.
+    t: f64,
+    /// It leaves through a side `u = const` (also on a tie), else `v = const`.
+    exit_u: bool,
+    /// The node's squares `[u0, u1)` along x and `[v0, v1)` along y, of the period.
+    u: (usize, usize),
+    v: (usize, usize),
 }
 
 /// A flight in grid units: `u = x / px`, `v = y / py`, same `t`.
