@@ -136,19 +136,21 @@ impl BrdfRun {
                         score_all_lanes(sums, &bins, w);
                     }
                     for (l, t) in lanes.iter_mut().enumerate().filter(|_| by_lane) {
-                        let carried = carried.lane(l);
-                        let weight = carried.weight_for(&incident);
-                        if interleaved.is_none() {
-                            score_weight(t, &bins, weight);
-                        }
-                        if let Some(r) = &mut t.replicates {
-                            let n_bins = (grid.n_cells(), inplane.n_bins());
-                            score_replicate(r, replicate, &bins, weight, n_bins);
-                        }
-                        if let (Some(p), Some(reference)) = (&mut t.polar, reference) {
-                            let k = carried.components(*out, reference, &mut components);
-                            score_polarisation(p, &components[..k], &bins, mirror, replicate);
-                        }
+                        // By reference: no copy of a monochrome carrier.
+                        carried.with_lane(l, |carried| {
+                            let weight = carried.weight_for(&incident);
+                            if interleaved.is_none() {
+                                score_weight(t, &bins, weight);
+                            }
+                            if let Some(r) = &mut t.replicates {
+                                let n_bins = (grid.n_cells(), inplane.n_bins());
+                                score_replicate(r, replicate, &bins, weight, n_bins);
+                            }
+                            if let (Some(p), Some(reference)) = (&mut t.polar, reference) {
+                                let k = carried.components(*out, reference, &mut components);
+                                score_polarisation(p, &components[..k], &bins, mirror, replicate);
+                            }
+                        });
                     }
                 }
                 Fate::Absorbed => {}
@@ -328,6 +330,22 @@ fn score_polar<const K: usize>(
     mirror: bool,
     replicate: usize,
 ) {
+    if !mirror {
+        // Without the symmetry (the usual run) every factor below is 1 and
+        // the second half has weight 0: the hemisphere slot gets the
+        // components themselves and the photon's cells `w * c`, the same
+        // products as the general path (`1 * w * c` is `w * c`, bit for bit).
+        debug_assert_eq!(halves[1].1, 0.0, "one set of cells without the symmetry");
+        p.score_slot(0, replicate, c);
+        let (cells, w) = &halves[0];
+        if *w != 0.0 {
+            let values: [f64; K] = std::array::from_fn(|i| w * c[i]);
+            for &cell in cells.as_slice() {
+                p.score_slot(1 + cell, replicate, &values);
+            }
+        }
+        return;
+    }
     // Factor of a component whose two halves share a bin.
     let both: [f64; K] = std::array::from_fn(|i| {
         if mirror && mirror_sign(K, i) < 0.0 {

@@ -301,12 +301,11 @@ impl BrdfRun {
                 replicate,
             }
         };
-        // A history and the intersection tests it took.
-        let history = |e: &Entry, scratch: &mut Scratch| {
+        // A history (its intersection tests counted in `scratch.tests`).
+        let history_only = |e: &Entry, scratch: &mut Scratch| {
             let start = DVec3::new(e.u * surface.size.x, e.v * surface.size.y, surface.top);
             let mut rng = e.rng.clone();
-            let tests = scratch.tests;
-            let h = trace(
+            trace(
                 surface,
                 start,
                 dir,
@@ -314,7 +313,12 @@ impl BrdfRun {
                 &self.controls,
                 &mut rng,
                 scratch,
-            );
+            )
+        };
+        // A history and the intersection tests it took.
+        let history = |e: &Entry, scratch: &mut Scratch| {
+            let tests = scratch.tests;
+            let h = history_only(e, scratch);
             (h, scratch.tests - tests)
         };
         // The histories of `entries` by the wavefront kernel, into `held`
@@ -348,8 +352,12 @@ impl BrdfRun {
                     Kernel::Scalar => {
                         for n in range {
                             let e = entry(n);
-                            let (h, tests) = history(&e, &mut scratch);
-                            score(e.replicate, &h, tests);
+                            // The history scored where it was made (no
+                            // move into a pair: a Mueller history is a
+                            // `memcpy` of 200 bytes).
+                            let tests = scratch.tests;
+                            let h = history_only(&e, &mut scratch);
+                            score(e.replicate, &h, scratch.tests - tests);
                         }
                     }
                     Kernel::Wavefront => {

@@ -65,6 +65,14 @@ pub trait Carrier: Copy + Send + Sync + std::fmt::Debug {
     /// What wavelength `l` (`< lanes()`) carries.
     fn lane(&self, l: usize) -> Self::Lane;
 
+    /// `f` of what wavelength `l` carries ([`Carrier::lane`]), by reference:
+    /// a monochrome carrier hands itself without a copy (a Mueller carrier
+    /// is 152 bytes, a copy a `memcpy` call per scored photon).
+    #[inline]
+    fn with_lane<R>(&self, l: usize, f: impl FnOnce(&Self::Lane) -> R) -> R {
+        f(&self.lane(l))
+    }
+
     /// Intensity for roulette and bookkeeping (see the module docs).
     fn intensity(&self) -> f64;
 
@@ -351,6 +359,10 @@ impl<const N: usize> Carrier for Polarised<N> {
     fn lane(&self, _: usize) -> Self {
         *self
     }
+    #[inline]
+    fn with_lane<R>(&self, _: usize, f: impl FnOnce(&Self) -> R) -> R {
+        f(self)
+    }
 
     fn launch(incident: Stokes, reference: DVec3, _: usize) -> Self {
         let mut rows = [[0.0; N]; 4];
@@ -481,11 +493,16 @@ impl<const N: usize> Carrier for Polarised<N> {
 
     #[inline]
     fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize {
-        let mut rows = self.rows;
-        rotate_rows(&mut rows, rotation(d, self.x, to));
-        // Row-major m_ij for N = 4; the Stokes vector for N = 1.
-        for (o, v) in out.iter_mut().zip(rows.iter().flatten()) {
-            *o = *v;
+        // Row-major m_ij for N = 4; the Stokes vector for N = 1: rows 0
+        // and 3 as they are, rows 1 and 2 turned ([`rotate_rows`]'s
+        // products and sums), written in place without a copy of the rows.
+        let (c2, s2) = rotation(d, self.x, to);
+        let [r0, r1, r2, r3] = &self.rows;
+        for j in 0..N {
+            out[j] = r0[j];
+            out[N + j] = c2 * r1[j] + s2 * r2[j];
+            out[2 * N + j] = -s2 * r1[j] + c2 * r2[j];
+            out[3 * N + j] = r3[j];
         }
         4 * N
     }
