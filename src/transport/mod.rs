@@ -48,9 +48,6 @@ pub struct History<F> {
     pub segments: u32,
 }
 
-/// Photons per batch ([`crate::tally::sum::BATCH`]): the unit of parallel
-/// work and of summation order.
-
 /// Most bytes of batch tallies [`parallel_batches`] and [`parallel_batches_ordered`] hold at a
 /// time, as whole chunks of batches (see [`pending_batches`]).
 const PENDING_BYTES: usize = 8 << 20;

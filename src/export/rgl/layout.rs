@@ -7,8 +7,8 @@
 //! (in `[-180, 180]` degrees) as a parameter, interpolated linearly between
 //! the nodes (clamped outside them), and `reduction = rint(360 / (phi_last
 //! - phi_first))`. Mitsuba 3 also reads reductions 2 (a half turn of `wi`
-//! and `wo` when `wi.y >= 0`) and 4 (mirrors when `wi.x >= 0`, `wi.y >=
-//! 0`); pbrt-v4 refuses any reduction but 1 ("reduction N (!= 1) not
+//! and `wo` when `wi.y >= 0`) and 4 (mirrors when `wi.x >= 0` and
+//! `wi.y >= 0`); pbrt-v4 refuses any reduction but 1 ("reduction N (!= 1) not
 //! supported"). So roks writes every anisotropic file over the whole
 //! circle, nodes from -180 to 180 degrees (reduction 1), and fills the
 //! part of the circle a run did not trace from the symmetry the run's set
