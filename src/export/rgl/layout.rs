@@ -5,8 +5,8 @@
 //! The reader treats a file of at most two `phi_i` nodes as isotropic;
 //! otherwise it takes the azimuth of the light `phi_i = atan2(wi.y, wi.x)`
 //! (in `[-180, 180]` degrees) as a parameter, interpolated linearly between
-//! the nodes (clamped outside them), and `reduction = rint(360 / (phi_last
-//! - phi_first))`. Mitsuba 3 also reads reductions 2 (a half turn of `wi`
+//! the nodes (clamped outside them), and
+//! `reduction = rint(360 / (phi_last - phi_first))`. Mitsuba 3 also reads reductions 2 (a half turn of `wi`
 //! and `wo` when `wi.y >= 0`) and 4 (mirrors when `wi.x >= 0` and
 //! `wi.y >= 0`); pbrt-v4 refuses any reduction but 1 ("reduction N (!= 1) not
 //! supported"). So roks writes every anisotropic file over the whole
