@@ -95,31 +95,6 @@ impl QuadricRecord {
         }
     }
 
-    /// The discriminants `b² - a c` of the flight `o + t d` against four
-    /// records, in lanes: the same operations as [`Self::entry`], so the
-    /// same bits.
-    #[inline(always)]
-    pub(super) fn disc4(recs: [&Self; 4], o: DVec3, d: DVec3) -> wide::f64x4 {
-        use wide::f64x4;
-        macro_rules! col {
-            ($($f:tt).+) => {
-                f64x4::new([recs[0].$($f).+, recs[1].$($f).+, recs[2].$($f).+, recs[3].$($f).+])
-            };
-        }
-        let qx = f64x4::splat(o.x) - col!(origin.x);
-        let qy = f64x4::splat(o.y) - col!(origin.y);
-        let qz = f64x4::splat(o.z) - col!(origin.z);
-        let (gx, gy, gz) = (col!(diag.x), col!(diag.y), col!(diag.z));
-        let (lz, k) = (col!(lin_z), col!(k));
-        let (dx, dy, dz) = (f64x4::splat(d.x), f64x4::splat(d.y), f64x4::splat(d.z));
-        let (mqx, mqy, mqz) = (gx * qx, gy * qy, gz * qz);
-        let (mdx, mdy, mdz) = (gx * dx, gy * dy, gz * dz);
-        let a = dx * mdx + dy * mdy + dz * mdz;
-        let b = (dx * mqx + dy * mqy + dz * mqz) + f64x4::splat(0.5) * (lz * dz);
-        let c = (qx * mqx + qy * mqy + qz * mqz) + lz * qz + k;
-        b * b - a * c
-    }
-
     /// The unit normal at `p` facing the flight along `d`, as
     /// [`crate::geometry::quadric::Quadric::facing_normal`] gives it for the
     /// same quadric (the same arithmetic, its zero cross and horizontal
@@ -194,8 +169,6 @@ pub(super) struct Grid {
     pub(super) ids: Vec<RecordId>,
     /// Record index of every solid (`u32::MAX` for solids not in the grid).
     pub(super) record_of: Vec<u32>,
-    /// EXPERIMENT r47: filter candidates in lanes.
-    pub(super) lanes: bool,
 }
 
 impl Grid {
@@ -306,7 +279,6 @@ impl Grid {
             records,
             ids,
             record_of,
-            lanes: std::env::var("ROKS_R47_LANES").is_ok_and(|v| v == "1"),
         }
     }
 }
@@ -338,12 +310,9 @@ impl Shape {
             .filter(|s| s.is_finite() && *s > 0.0)
             .collect();
         sides.sort_by(f64::total_cmp);
-        let target = sides.get(sides.len() / 2).map_or(size.max_element(), |s| {
-            s / std::env::var("ROKS_R47_DIV")
-                .ok()
-                .and_then(|v| v.parse::<f64>().ok())
-                .unwrap_or(5.0)
-        });
+        let target = sides
+            .get(sides.len() / 2)
+            .map_or(size.max_element(), |s| s / 5.0);
         // But no finer than GRID_CELLS_PER_SOLID cells a solid (at least
         // MIN_GRID_CELLS in all): small sparse bumps would otherwise get up
         // to 2048² cells, nearly all empty, which take memory to build and

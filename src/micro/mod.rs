@@ -816,52 +816,36 @@ impl Solids {
                 // above it when above; only at `low` the exact height decides.
                 let low = grid::f32_up(z_low);
                 let (lo, hi) = (gc.start as usize, gc.end as usize);
-                if g.lanes {
-                    self.cell_in_lanes(
-                        ray,
-                        standing,
-                        standing_rec,
-                        stamp,
-                        q,
-                        near,
-                        lo,
-                        hi,
-                        z_low,
-                        low,
-                    );
-                } else {
-                    for (it, &exact) in g.items[lo..hi].iter().zip(&g.exact[lo..hi]) {
-                        if it.z_up < low || (it.z_up == low && exact < z_low) {
-                            break;
+                for (it, &exact) in g.items[lo..hi].iter().zip(&g.exact[lo..hi]) {
+                    if it.z_up < low || (it.z_up == low && exact < z_low) {
+                        break;
+                    }
+                    let r = it.rec as usize;
+                    if stamp[r] == q {
+                        continue;
+                    }
+                    stamp[r] = q;
+                    if r < n_records {
+                        near.tests += 1;
+                        if let Some((t, ill)) = g.records[r].entry(o, d, near.t, r == standing_rec)
+                        {
+                            let id = g.ids[r];
+                            let (solid, surface) = (id.solid as usize, id.surface as usize);
+                            // Polish the distance where it is used (see Quadric::refine_root).
+                            near.t = if ill {
+                                self.refine(solid, surface, o, d, t)
+                            } else {
+                                t
+                            };
+                            near.hit = Some((solid, surface));
                         }
-                        let r = it.rec as usize;
-                        if stamp[r] == q {
-                            continue;
-                        }
-                        stamp[r] = q;
-                        if r < n_records {
-                            near.tests += 1;
-                            if let Some((t, ill)) =
-                                g.records[r].entry(o, d, near.t, r == standing_rec)
-                            {
-                                let id = g.ids[r];
-                                let (solid, surface) = (id.solid as usize, id.surface as usize);
-                                // Polish the distance where it is used (see Quadric::refine_root).
-                                near.t = if ill {
-                                    self.refine(solid, surface, o, d, t)
-                                } else {
-                                    t
-                                };
-                                near.hit = Some((solid, surface));
-                            }
-                        } else {
-                            let solid = g.ids[r].solid as usize;
-                            if let Some(e) =
-                                self.body_entry(solid, ray, near.t, standing, &mut near.tests)
-                            {
-                                near.t = e.t;
-                                near.hit = Some((solid, e.surface));
-                            }
+                    } else {
+                        let solid = g.ids[r].solid as usize;
+                        if let Some(e) =
+                            self.body_entry(solid, ray, near.t, standing, &mut near.tests)
+                        {
+                            near.t = e.t;
+                            near.hit = Some((solid, e.surface));
                         }
                     }
                 }
@@ -874,86 +858,6 @@ impl Solids {
                 None => break,
             }
         }
-    }
-}
-
-impl Solids {
-    /// EXPERIMENT r47: one cell's list, candidates filtered four at a time
-    /// by their discriminant (exact bits), then tested in order.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn cell_in_lanes(
-        &self,
-        ray: &Ray,
-        standing: Option<Facet>,
-        standing_rec: usize,
-        stamp: &mut [u32],
-        q: u32,
-        near: &mut Nearest,
-        lo: usize,
-        hi: usize,
-        z_low: f64,
-        low: f32,
-    ) {
-        let (o, d) = (ray.o, ray.d);
-        let g = &self.grid;
-        let n_records = g.records.len();
-        let mut batch = [0_usize; 4];
-        let mut nb = 0;
-        let flush = |batch: &[usize; 4], nb: usize, near: &mut Nearest| {
-            if nb == 0 {
-                return;
-            }
-            let recs = std::array::from_fn(|k| &g.records[batch[if k < nb { k } else { 0 }]]);
-            let disc = grid::QuadricRecord::disc4(recs, o, d).to_array();
-            for k in 0..nb {
-                let r = batch[k];
-                near.tests += 1;
-                // a > 0 for every record met by a flight (diag > 0, |d| = 1);
-                // the standing record's test uses c = 0: not filtered.
-                #[allow(clippy::neg_cmp_op_on_partial_ord)]
-                if !(disc[k] > 0.0) && r != standing_rec {
-                    continue;
-                }
-                if let Some((t, ill)) = g.records[r].entry(o, d, near.t, r == standing_rec) {
-                    let id = g.ids[r];
-                    let (solid, surface) = (id.solid as usize, id.surface as usize);
-                    near.t = if ill {
-                        self.refine(solid, surface, o, d, t)
-                    } else {
-                        t
-                    };
-                    near.hit = Some((solid, surface));
-                }
-            }
-        };
-        for (it, &exact) in g.items[lo..hi].iter().zip(&g.exact[lo..hi]) {
-            if it.z_up < low || (it.z_up == low && exact < z_low) {
-                break;
-            }
-            let r = it.rec as usize;
-            if stamp[r] == q {
-                continue;
-            }
-            stamp[r] = q;
-            if r < n_records {
-                batch[nb] = r;
-                nb += 1;
-                if nb == 4 {
-                    flush(&batch, nb, near);
-                    nb = 0;
-                }
-            } else {
-                flush(&batch, nb, near);
-                nb = 0;
-                let solid = g.ids[r].solid as usize;
-                if let Some(e) = self.body_entry(solid, ray, near.t, standing, &mut near.tests) {
-                    near.t = e.t;
-                    near.hit = Some((solid, e.surface));
-                }
-            }
-        }
-        flush(&batch, nb, near);
     }
 }
 
