@@ -543,7 +543,8 @@ bands = 16
 /// Python module fits it) is `roks fit-model DIR --model all`'s (whose
 /// stderr is `cli_stderr`), byte for byte: each model's JSON but for its
 /// `table` (the bare `brdf.csv`), each plot, OpticStudio's rows but for
-/// their name (`roks`, no folder), and every line but the `wrote` one.
+/// their name (the scene's `name`, no folder), and every line but the
+/// `wrote` one.
 fn same_fit_from_values(out: &Path, cli_stderr: &str) {
     use roks::fit_model::material::MaterialOptions;
     use roks::fit_model::one::{ModelChoice, Request, TableTexts};
@@ -580,8 +581,13 @@ fn same_fit_from_values(out: &Path, cli_stderr: &str) {
             "fit_{m}.png"
         );
     }
+    // Named after the folder by the CLI, after the scene's `name` when
+    // given as values (no folder).
+    let summary: serde_json::Value = serde_json::from_str(&text("summary.json")).unwrap();
+    let scene = summary["name"].as_str().unwrap();
+    assert_ne!(scene, out.file_name().unwrap().to_str().unwrap());
     let name = format!("! Name {}\n", out.file_name().unwrap().to_str().unwrap());
-    let cli = text("fit_abg_opticstudio.txt").replace(&name, "! Name roks\n");
+    let cli = text("fit_abg_opticstudio.txt").replace(&name, &format!("! Name {scene}\n"));
     assert_eq!(
         std::str::from_utf8(files["fit_abg_opticstudio.txt"]).unwrap(),
         cli

@@ -191,6 +191,8 @@ pub(crate) type MaterialOf<'a> = dyn Fn(ModelKind) -> Result<(Reflectance, Strin
 /// What every model's fit reads.
 pub(crate) struct Context<'a> {
     pub(crate) req: &'a Request,
+    /// The scene's `name` in `summary.json` (`None`: no summary).
+    pub(crate) scene_name: Option<&'a str>,
     pub(crate) csv: &'a Path,
     pub(crate) table: &'a BrdfTable,
     pub(crate) obs: &'a Observations,
@@ -258,7 +260,7 @@ pub(crate) fn fit_one(
     let text = serde_json::to_string_pretty(&doc)? + "\n";
     let mut files = Vec::new();
     if let Some(p) = &paths.opticstudio {
-        let body = opticstudio(ctx.req, &m.fits, &judgement, &warnings);
+        let body = opticstudio(ctx, &m.fits, &judgement, &warnings);
         files.push((p.clone(), body.into_bytes()));
     }
     files.push((paths.png.clone(), png));
@@ -274,17 +276,20 @@ pub(crate) fn fit_one(
     })
 }
 
-/// The text of OpticStudio's ABg rows of `fits`.
+/// The text of OpticStudio's ABg rows of `fits`, named after the result
+/// folder, else (a result given as values) after the scene's `name`, else
+/// `roks`.
 fn opticstudio(
-    req: &Request,
+    ctx: &Context<'_>,
     fits: &[FitResult],
     judgement: &Judgement,
     warnings: &[String],
 ) -> String {
-    let name = req
-        .dir
-        .file_name()
-        .map_or_else(|| "roks".into(), |s| s.to_string_lossy().into_owned());
+    let req = ctx.req;
+    let name = req.dir.file_name().map_or_else(
+        || ctx.scene_name.unwrap_or("roks").to_owned(),
+        |s| s.to_string_lossy().into_owned(),
+    );
     let rows = abg::opticstudio_rows(fits);
     abg::opticstudio_text(
         &name,

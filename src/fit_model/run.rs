@@ -51,8 +51,10 @@ impl Report {
 /// The table to fit and what `summary.json` says of its run.
 struct Loaded {
     tables: BrdfTables,
-    /// The scene named in `summary.json`.
+    /// The scene file named in `summary.json`.
     scene: Option<String>,
+    /// The scene's `name` in `summary.json`.
+    name: Option<String>,
     /// The photons of each incidence, by increasing angle.
     photons: Option<Vec<u64>>,
     wavelengths: Vec<f64>,
@@ -157,6 +159,7 @@ impl Request {
             None => None,
         };
         let mut scene = None;
+        let mut scene_name = None;
         let mut photons: Option<Vec<u64>> = None;
         if let Some(text) = summary_text {
             let name = summary_path.display().to_string();
@@ -172,12 +175,14 @@ impl Request {
             by_angle.sort_by(|x, y| x.0.total_cmp(&y.0));
             photons = Some(by_angle.into_iter().map(|p| p.1).collect());
             scene = Some(summary.scene);
+            scene_name = Some(summary.name);
         }
         let wavelengths = tables.wavelengths_um().to_vec();
         let lane = self.lane(&tables, &csv)?;
         Ok(Loaded {
             tables,
             scene,
+            name: scene_name,
             photons,
             wavelengths,
             lane,
@@ -248,6 +253,7 @@ impl Request {
         let csv = self.csv();
         let ctx = Context {
             req: self,
+            scene_name: loaded.name.as_deref(),
             csv: &csv,
             table,
             obs: &obs,
