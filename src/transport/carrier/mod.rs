@@ -347,10 +347,19 @@ fn reflect_polarised<C: Carrier>(
 /// `rows` (component-major, see [`Polarised`]): [`rotate`](crate::optics::polarisation::rotate)
 /// column by column, the same products and sums.
 #[inline]
-fn rotate_rows<const N: usize>(rows: &mut [[f64; N]; 4], (c2, s2): (f64, f64)) {
+fn rotate_rows<const N: usize>(rows: &mut [[f64; N]; 4], turn: (f64, f64)) {
     let (r1, r2) = (rows[1], rows[2]);
-    rows[1] = std::array::from_fn(|j| c2 * r1[j] + s2 * r2[j]);
-    rows[2] = std::array::from_fn(|j| -s2 * r1[j] + c2 * r2[j]);
+    for j in 0..N {
+        (rows[1][j], rows[2][j]) = turned(turn, r1[j], r2[j]);
+    }
+}
+
+/// Entries `a` of row 1 and `b` of row 2 turned by `(c2, s2) = (cos 2ψ,
+/// sin 2ψ)`: `(c2 a + s2 b, -s2 a + c2 b)`, the one formula of
+/// [`rotate_rows`] and [`Polarised::components`].
+#[inline(always)]
+fn turned((c2, s2): (f64, f64), a: f64, b: f64) -> (f64, f64) {
+    (c2 * a + s2 * b, -s2 * a + c2 * b)
 }
 
 impl<const N: usize> Carrier for Polarised<N> {
@@ -494,14 +503,14 @@ impl<const N: usize> Carrier for Polarised<N> {
     #[inline]
     fn components(&self, d: DVec3, to: DVec3, out: &mut [f64; 16]) -> usize {
         // Row-major m_ij for N = 4; the Stokes vector for N = 1: rows 0
-        // and 3 as they are, rows 1 and 2 turned ([`rotate_rows`]'s
-        // products and sums), written in place without a copy of the rows.
-        let (c2, s2) = rotation(d, self.x, to);
+        // and 3 as they are, rows 1 and 2 turned ([`turned`], as
+        // [`rotate_rows`] turns them), written in place without a copy of
+        // the rows.
+        let turn = rotation(d, self.x, to);
         let [r0, r1, r2, r3] = &self.rows;
         for j in 0..N {
             out[j] = r0[j];
-            out[N + j] = c2 * r1[j] + s2 * r2[j];
-            out[2 * N + j] = -s2 * r1[j] + c2 * r2[j];
+            (out[N + j], out[2 * N + j]) = turned(turn, r1[j], r2[j]);
             out[3 * N + j] = r3[j];
         }
         4 * N
