@@ -298,20 +298,17 @@ fn agrees_with_the_fit(dir: &Path, data: &serde_json::Value, name: &str, lane: u
 #[test]
 fn fitted_models_are_drawn_as_the_fit_evaluates_them() {
     let t = tmp("models");
-    let d = t.join("run");
-    let s = d.display().to_string();
-    ok(&[
-        "brdf",
-        "--photons",
-        "8192",
-        "--theta",
-        "0,40",
-        "--stats-resolution",
-        "32",
-        "-q",
-        "--out",
-        &s,
-    ]);
+    // A small run of the default scene into `t/name`, with `extra` options.
+    let traced = |name: &str, extra: &[&str]| {
+        let d = t.join(name);
+        let s = d.display().to_string();
+        let mut args = vec!["brdf", "--photons", "8192", "--theta", "0,40"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--stats-resolution", "32", "-q", "--out", &s]);
+        ok(&args);
+        (d, s)
+    };
+    let (d, s) = traced("run", &[]);
     ok(&["fit-model", &s, "--model", "abg", "-q"]);
     // GGX's material: the default scene's substrate, rebuilt by the report.
     ok(&["fit-model", &s, "--model", "ggx", "-q"]);
@@ -358,22 +355,7 @@ fn fitted_models_are_drawn_as_the_fit_evaluates_them() {
     assert!(fit_entry(&data, "fit_ggx.json")["overlay"].is_object());
 
     // A spectral table fitted at its second wavelength: drawn there.
-    let d = t.join("spectral");
-    let s = d.display().to_string();
-    ok(&[
-        "brdf",
-        "--photons",
-        "8192",
-        "--theta",
-        "0,40",
-        "--wavelengths",
-        "0.4,0.5,0.6",
-        "--stats-resolution",
-        "32",
-        "-q",
-        "--out",
-        &s,
-    ]);
+    let (d, s) = traced("spectral", &["--wavelengths", "0.4,0.5,0.6"]);
     ok(&[
         "fit-model",
         &s,
